@@ -1,0 +1,84 @@
+//! Syntax tree of an `.ls` header, as the grammar builds it. Spans are byte
+//! offsets into the header text.
+
+use crate::lexer::Span;
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Expr {
+    Num(f64, Span),
+    Var(String, Span),
+    Call(String, Vec<Expr>, Span),
+    Unary(UnOp, Box<Expr>, Span),
+    Binary(BinOp, Box<Expr>, Box<Expr>, Span),
+}
+
+impl Expr {
+    pub fn span(&self) -> Span {
+        match self {
+            Expr::Num(_, s)
+            | Expr::Var(_, s)
+            | Expr::Call(_, _, s)
+            | Expr::Unary(_, _, s)
+            | Expr::Binary(_, _, _, s) => *s,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UnOp {
+    Neg,
+    Not,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BinOp {
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Pow,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+    Eq,
+    Ne,
+    And,
+    Or,
+}
+
+/// A module as written: a symbol with optional parameter expressions.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Module {
+    pub sym: char,
+    pub params: Vec<Expr>,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Production {
+    pub left: Vec<Module>,
+    pub pred: Module,
+    pub right: Vec<Module>,
+    pub cond: Option<Expr>,
+    pub succ: Vec<Module>,
+    pub prob: Option<Expr>,
+    /// Span of the whole line, for runtime errors.
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Setting {
+    DerivationLength(Expr, Span),
+    Define(String, Expr, Span),
+    Seed(Expr, Span),
+    Ignore(Vec<Module>, Span),
+    Consider(Vec<Module>, Span),
+}
+
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Header {
+    pub settings: Vec<Setting>,
+    pub productions: Vec<Production>,
+    pub homomorphism: Vec<Production>,
+}

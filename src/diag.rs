@@ -1,0 +1,230 @@
+//! Errors and their rendering: `lsgen: FILE:LINE:COL: error: message`, then
+//! the source line and a caret under the spot.
+
+use std::fmt;
+
+/// Line starts of a text, for offset -> line:column (starlark's CodeMap idea).
+pub struct CodeMap<'a> {
+    text: &'a str,
+    line_starts: Vec<usize>,
+    /// Line number of the text's first line (the header starts at 1).
+    first_line: usize,
+}
+
+impl<'a> CodeMap<'a> {
+    pub fn new(text: &'a str) -> Self {
+        let mut line_starts = vec![0];
+        line_starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
+        CodeMap {
+            text,
+            line_starts,
+            first_line: 1,
+        }
+    }
+
+    /// Location of byte `offset`: line and column (both 1-based, column in
+    /// characters) plus the text of that line.
+    pub fn locate(&self, offset: usize) -> (usize, usize, &'a str) {
+        let offset = offset.min(self.text.len());
+        let idx = match self.line_starts.binary_search(&offset) {
+            Ok(i) => i,
+            Err(i) => i - 1,
+        };
+        let start = self.line_starts[idx];
+        let end = self.text[start..]
+            .find('\n')
+            .map_or(self.text.len(), |e| start + e);
+        let line = &self.text[start..end];
+        let line = line.strip_suffix('\r').unwrap_or(line);
+        let col = self.text[start..offset].chars().count() + 1;
+        (self.first_line + idx, col, line)
+    }
+}
+
+/// A located error: where, and the source line to show.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Location {
+    pub path: String,
+    pub line: usize,
+    pub col: usize,
+    /// The source line (possibly an excerpt) and the 1-based column of the
+    /// caret within it.
+    pub snippet: String,
+    pub caret_col: usize,
+}
+
+impl Location {
+    pub fn from_map(path: &str, map: &CodeMap, offset: usize) -> Location {
+        let (line, col, text) = map.locate(offset);
+        let (snippet, caret_col) = excerpt(text, col);
+        Location {
+            path: path.to_string(),
+            line,
+            col,
+            snippet,
+            caret_col,
+        }
+    }
+}
+
+/// Cut a very long line down to a window around the column.
+pub fn excerpt(line: &str, col: usize) -> (String, usize) {
+    const BEFORE: usize = 60;
+    const AFTER: usize = 60;
+    let n = line.chars().count();
+    if n <= BEFORE + AFTER + 20 {
+        return (line.to_string(), col);
+    }
+    let from = col.saturating_sub(BEFORE + 1);
+    let to = (col + AFTER).min(n);
+    let mut s = String::new();
+    let mut caret = col - from;
+    if from > 0 {
+        s.push_str("...");
+        caret += 3;
+    }
+    s.extend(line.chars().skip(from).take(to - from));
+    if to < n {
+        s.push_str("...");
+    }
+    (s, caret)
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// Bad input, runtime error, I/O failure: exit 1.
+    Failure,
+    /// The command line is wrong: exit 2.
+    Usage,
+    /// Output pipe closed by the reader: quiet success.
+    BrokenPipe,
+}
+
+#[derive(Debug)]
+pub struct Error {
+    pub kind: Kind,
+    pub message: String,
+    pub location: Option<Location>,
+    /// Context without a line, e.g. the file name of an I/O error.
+    pub subject: Option<String>,
+}
+
+pub type Result<T> = std::result::Result<T, Error>;
+
+impl Error {
+    pub fn new(message: impl Into<String>) -> Error {
+        Error {
+            kind: Kind::Failure,
+            message: message.into(),
+            location: None,
+            subject: None,
+        }
+    }
+
+    pub fn at(location: Location, message: impl Into<String>) -> Error {
+        Error {
+            location: Some(location),
+            ..Error::new(message)
+        }
+    }
+
+    pub fn usage(message: impl Into<String>) -> Error {
+        Error {
+            kind: Kind::Usage,
+            ..Error::new(message)
+        }
+    }
+
+    /// An I/O error about `subject` (a file name, "standard output", ...).
+    pub fn io(subject: impl Into<String>, what: &str, e: std::io::Error) -> Error {
+        let kind = if e.kind() == std::io::ErrorKind::BrokenPipe {
+            Kind::BrokenPipe
+        } else {
+            Kind::Failure
+        };
+        Error {
+            kind,
+            message: format!("{what}: {}", io_message(&e)),
+            location: None,
+            subject: Some(subject.into()),
+        }
+    }
+
+    pub fn exit_code(&self) -> i32 {
+        match self.kind {
+            Kind::Failure => 1,
+            Kind::Usage => 2,
+            Kind::BrokenPipe => 0,
+        }
+    }
+}
+
+/// The OS message without Rust's " (os error N)" suffix.
+fn io_message(e: &std::io::Error) -> String {
+    let s = e.to_string();
+    match s.find(" (os error") {
+        Some(i) => s[..i].to_string(),
+        None => s,
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match (&self.location, &self.subject) {
+            (Some(l), _) => {
+                writeln!(
+                    f,
+                    "lsgen: {}:{}:{}: error: {}",
+                    l.path, l.line, l.col, self.message
+                )?;
+                writeln!(f, "{}", l.snippet)?;
+                let pad: String = l
+                    .snippet
+                    .chars()
+                    .take(l.caret_col.saturating_sub(1))
+                    .map(|c| if c == '\t' { '\t' } else { ' ' })
+                    .collect();
+                writeln!(f, "{pad}^")
+            }
+            (None, Some(s)) => writeln!(f, "lsgen: {s}: error: {}", self.message),
+            (None, None) => writeln!(f, "lsgen: error: {}", self.message),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn locate_lines_and_columns() {
+        let text = "ab\ncdé f\n\nx";
+        let m = CodeMap::new(text);
+        assert_eq!(m.locate(0), (1, 1, "ab"));
+        assert_eq!(m.locate(3), (2, 1, "cdé f"));
+        // 'f' is at byte 8 (é is two bytes), column 5
+        assert_eq!(m.locate(8), (2, 5, "cdé f"));
+        assert_eq!(m.locate(10), (3, 1, ""));
+        assert_eq!(m.locate(11), (4, 1, "x"));
+        assert_eq!(m.locate(99), (4, 2, "x"));
+    }
+
+    #[test]
+    fn render_with_caret() {
+        let m = CodeMap::new("F -> G\n\tA(x) -> B(y)\n");
+        let e = Error::at(Location::from_map("p.ls", &m, 17), "unknown identifier `y`");
+        assert_eq!(
+            e.to_string(),
+            "lsgen: p.ls:2:11: error: unknown identifier `y`\n\tA(x) -> B(y)\n\t         ^\n"
+        );
+    }
+
+    #[test]
+    fn long_lines_are_excerpted() {
+        let line = "F".repeat(10_000);
+        let (s, c) = excerpt(&line, 5000);
+        assert!(s.len() < 200);
+        assert_eq!(s.chars().nth(c - 1), Some('F'));
+        assert!(s.starts_with("...") && s.ends_with("..."));
+    }
+}

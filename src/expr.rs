@@ -1,0 +1,540 @@
+//! Expressions compiled once to a flat stack code, evaluated per module.
+//!
+//! Parameters are read from numbered slots; constants from `define:` are
+//! folded in at compile time, and so is any sub-expression without a
+//! parameter or a random draw. Every arithmetic result is checked: a
+//! division by zero, an overflow or a NaN stops the run with the span of
+//! the operation.
+
+use crate::ast::{BinOp, Expr, UnOp};
+use crate::lexer::Span;
+use crate::random::Random;
+use std::collections::HashMap;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Func1 {
+    Sin,
+    Cos,
+    Tan,
+    Asin,
+    Acos,
+    Atan,
+    Sqrt,
+    Exp,
+    Log,
+    Floor,
+    Ceil,
+    Trunc,
+    Abs,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Func2 {
+    Min,
+    Max,
+    Atan2,
+}
+
+impl Func1 {
+    fn apply(self, x: f64) -> f64 {
+        match self {
+            Func1::Sin => x.to_radians().sin(),
+            Func1::Cos => x.to_radians().cos(),
+            Func1::Tan => x.to_radians().tan(),
+            Func1::Asin => x.asin().to_degrees(),
+            Func1::Acos => x.acos().to_degrees(),
+            Func1::Atan => x.atan().to_degrees(),
+            Func1::Sqrt => x.sqrt(),
+            Func1::Exp => x.exp(),
+            Func1::Log => x.ln(),
+            Func1::Floor => x.floor(),
+            Func1::Ceil => x.ceil(),
+            Func1::Trunc => x.trunc(),
+            Func1::Abs => x.abs(),
+        }
+    }
+}
+
+impl Func2 {
+    fn apply(self, a: f64, b: f64) -> f64 {
+        match self {
+            Func2::Min => a.min(b),
+            Func2::Max => a.max(b),
+            Func2::Atan2 => a.atan2(b).to_degrees(),
+        }
+    }
+}
+
+/// Functions by name with their arity.
+fn lookup_function(name: &str) -> Option<(Fun, usize)> {
+    use Func1::*;
+    use Func2::*;
+    Some(match name {
+        "sin" => (Fun::F1(Sin), 1),
+        "cos" => (Fun::F1(Cos), 1),
+        "tan" => (Fun::F1(Tan), 1),
+        "asin" => (Fun::F1(Asin), 1),
+        "acos" => (Fun::F1(Acos), 1),
+        "atan" => (Fun::F1(Atan), 1),
+        "sqrt" => (Fun::F1(Sqrt), 1),
+        "exp" => (Fun::F1(Exp), 1),
+        "log" => (Fun::F1(Log), 1),
+        "floor" => (Fun::F1(Floor), 1),
+        "ceil" => (Fun::F1(Ceil), 1),
+        "trunc" => (Fun::F1(Trunc), 1),
+        "abs" => (Fun::F1(Abs), 1),
+        "min" => (Fun::F2(Min), 2),
+        "max" => (Fun::F2(Max), 2),
+        "atan2" => (Fun::F2(Atan2), 2),
+        "ran" => (Fun::Ran, 1),
+        "nran" => (Fun::Nran, 2),
+        _ => return None,
+    })
+}
+
+enum Fun {
+    F1(Func1),
+    F2(Func2),
+    Ran,
+    Nran,
+}
+
+/// One instruction. Operations that can fail carry the index of their span.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Op {
+    Const(f64),
+    Load(u32),
+    Neg,
+    Not,
+    Add(u32),
+    Sub(u32),
+    Mul(u32),
+    Div(u32),
+    Pow(u32),
+    Lt,
+    Le,
+    Gt,
+    Ge,
+    Eq,
+    Ne,
+    And,
+    Or,
+    F1(Func1, u32),
+    F2(Func2, u32),
+    Ran(u32),
+    Nran(u32),
+}
+
+/// A compiled expression.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Code {
+    ops: Vec<Op>,
+    spans: Vec<Span>,
+    /// Span of the whole expression.
+    pub span: Span,
+}
+
+/// A failed evaluation: what, and where in the header text.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EvalError {
+    pub span: Span,
+    pub message: String,
+}
+
+/// A compile error: unknown identifier, unknown function, wrong arity, or a
+/// constant sub-expression that fails.
+pub type CompileError = EvalError;
+
+/// Names visible to an expression.
+pub struct Scope<'a> {
+    /// Formal parameters and their slots.
+    pub params: &'a HashMap<String, u32>,
+    /// Constants from `define:`.
+    pub consts: &'a HashMap<String, f64>,
+}
+
+impl Code {
+    pub fn compile(e: &Expr, scope: &Scope) -> Result<Code, CompileError> {
+        let mut c = Code {
+            ops: Vec::new(),
+            spans: Vec::new(),
+            span: e.span(),
+        };
+        c.emit(e, scope)?;
+        Ok(c)
+    }
+
+    /// The value, if the expression needs no parameter and no draw.
+    pub fn constant(&self) -> Option<f64> {
+        match self.ops.as_slice() {
+            [Op::Const(v)] => Some(*v),
+            _ => None,
+        }
+    }
+
+    /// Does evaluating this expression draw random numbers?
+    pub fn uses_random(&self) -> bool {
+        self.ops
+            .iter()
+            .any(|o| matches!(o, Op::Ran(_) | Op::Nran(_)))
+    }
+
+    fn span_index(&mut self, s: Span) -> u32 {
+        self.spans.push(s);
+        (self.spans.len() - 1) as u32
+    }
+
+    fn emit(&mut self, e: &Expr, scope: &Scope) -> Result<(), CompileError> {
+        let start = self.ops.len();
+        match e {
+            Expr::Num(v, _) => self.ops.push(Op::Const(*v)),
+            Expr::Var(name, span) => {
+                if let Some(&slot) = scope.params.get(name) {
+                    self.ops.push(Op::Load(slot));
+                } else if let Some(&v) = scope.consts.get(name) {
+                    self.ops.push(Op::Const(v));
+                } else {
+                    return Err(EvalError {
+                        span: *span,
+                        message: format!("unknown identifier `{name}`"),
+                    });
+                }
+            }
+            Expr::Call(name, args, span) => {
+                let Some((fun, arity)) = lookup_function(name) else {
+                    return Err(EvalError {
+                        span: (span.0, span.0 + name.len()),
+                        message: format!("unknown function `{name}`"),
+                    });
+                };
+                if args.len() != arity {
+                    return Err(EvalError {
+                        span: *span,
+                        message: format!(
+                            "function `{name}` takes {arity} argument{}, not {}",
+                            if arity == 1 { "" } else { "s" },
+                            args.len()
+                        ),
+                    });
+                }
+                for a in args {
+                    self.emit(a, scope)?;
+                }
+                let si = self.span_index(*span);
+                self.ops.push(match fun {
+                    Fun::F1(f) => Op::F1(f, si),
+                    Fun::F2(f) => Op::F2(f, si),
+                    Fun::Ran => Op::Ran(si),
+                    Fun::Nran => Op::Nran(si),
+                });
+            }
+            Expr::Unary(op, a, _) => {
+                self.emit(a, scope)?;
+                self.ops.push(match op {
+                    UnOp::Neg => Op::Neg,
+                    UnOp::Not => Op::Not,
+                });
+            }
+            Expr::Binary(op, a, b, span) => {
+                self.emit(a, scope)?;
+                self.emit(b, scope)?;
+                let si = self.span_index(*span);
+                self.ops.push(match op {
+                    BinOp::Add => Op::Add(si),
+                    BinOp::Sub => Op::Sub(si),
+                    BinOp::Mul => Op::Mul(si),
+                    BinOp::Div => Op::Div(si),
+                    BinOp::Pow => Op::Pow(si),
+                    BinOp::Lt => Op::Lt,
+                    BinOp::Le => Op::Le,
+                    BinOp::Gt => Op::Gt,
+                    BinOp::Ge => Op::Ge,
+                    BinOp::Eq => Op::Eq,
+                    BinOp::Ne => Op::Ne,
+                    BinOp::And => Op::And,
+                    BinOp::Or => Op::Or,
+                });
+            }
+        }
+        self.fold(start)
+    }
+
+    /// Fold the code emitted since `start` to one constant when it reads no
+    /// parameter and draws nothing.
+    fn fold(&mut self, start: usize) -> Result<(), CompileError> {
+        let tail = &self.ops[start..];
+        if tail.len() == 1
+            || tail
+                .iter()
+                .any(|o| matches!(o, Op::Load(_) | Op::Ran(_) | Op::Nran(_)))
+        {
+            return Ok(());
+        }
+        let sub = Code {
+            ops: tail.to_vec(),
+            spans: self.spans.clone(),
+            span: self.span,
+        };
+        let v = sub.eval(&[], &mut Vec::new(), &mut Random::new(0))?;
+        self.ops.truncate(start);
+        self.ops.push(Op::Const(v));
+        Ok(())
+    }
+
+    /// Evaluate with parameters in `slots`; `stack` is scratch space reused
+    /// between calls.
+    #[inline]
+    pub fn eval(
+        &self,
+        slots: &[f64],
+        stack: &mut Vec<f64>,
+        rng: &mut Random,
+    ) -> Result<f64, EvalError> {
+        if let [Op::Const(v)] = self.ops.as_slice() {
+            return Ok(*v);
+        }
+        stack.clear();
+        for op in &self.ops {
+            match *op {
+                Op::Const(v) => stack.push(v),
+                Op::Load(s) => stack.push(slots[s as usize]),
+                Op::Neg => {
+                    let a = stack.last_mut().unwrap();
+                    *a = -*a;
+                }
+                Op::Not => {
+                    let a = stack.last_mut().unwrap();
+                    *a = if *a == 0.0 { 1.0 } else { 0.0 };
+                }
+                Op::Lt => bin(stack, |a, b| bool_f(a < b)),
+                Op::Le => bin(stack, |a, b| bool_f(a <= b)),
+                Op::Gt => bin(stack, |a, b| bool_f(a > b)),
+                Op::Ge => bin(stack, |a, b| bool_f(a >= b)),
+                Op::Eq => bin(stack, |a, b| bool_f(a == b)),
+                Op::Ne => bin(stack, |a, b| bool_f(a != b)),
+                Op::And => bin(stack, |a, b| bool_f(a != 0.0 && b != 0.0)),
+                Op::Or => bin(stack, |a, b| bool_f(a != 0.0 || b != 0.0)),
+                Op::Add(si) => self.checked(stack, si, |a, b| a + b)?,
+                Op::Sub(si) => self.checked(stack, si, |a, b| a - b)?,
+                Op::Mul(si) => self.checked(stack, si, |a, b| a * b)?,
+                Op::Pow(si) => self.checked(stack, si, f64::powf)?,
+                Op::Div(si) => {
+                    if *stack.last().unwrap() == 0.0 {
+                        return Err(self.fail(si, "division by zero"));
+                    }
+                    self.checked(stack, si, |a, b| a / b)?
+                }
+                Op::F1(f, si) => {
+                    let a = stack.last_mut().unwrap();
+                    let r = f.apply(*a);
+                    if !r.is_finite() {
+                        return Err(self.fail(si, &format!("{} is undefined here", self.name_at(si))));
+                    }
+                    *a = r;
+                }
+                Op::F2(f, si) => self.checked(stack, si, |a, b| f.apply(a, b))?,
+                Op::Ran(si) => {
+                    let a = stack.last_mut().unwrap();
+                    let r = *a * rng.uniform();
+                    if !r.is_finite() {
+                        return Err(self.fail(si, "ran() is undefined here"));
+                    }
+                    *a = r;
+                }
+                Op::Nran(si) => {
+                    let sd = stack.pop().unwrap();
+                    let mean = stack.last_mut().unwrap();
+                    let r = rng.normal(*mean, sd);
+                    if !r.is_finite() {
+                        return Err(self.fail(si, "nran() is undefined here"));
+                    }
+                    *mean = r;
+                }
+            }
+        }
+        debug_assert_eq!(stack.len(), 1);
+        Ok(stack[0])
+    }
+
+    fn name_at(&self, si: u32) -> &'static str {
+        match self.ops.iter().find_map(|o| match o {
+            Op::F1(f, s) if *s == si => Some(*f),
+            _ => None,
+        }) {
+            Some(Func1::Sqrt) => "sqrt",
+            Some(Func1::Log) => "log",
+            Some(Func1::Exp) => "exp",
+            Some(Func1::Asin) => "asin",
+            Some(Func1::Acos) => "acos",
+            Some(Func1::Tan) => "tan",
+            _ => "the function",
+        }
+    }
+
+    #[inline]
+    fn checked(
+        &self,
+        stack: &mut Vec<f64>,
+        si: u32,
+        f: impl Fn(f64, f64) -> f64,
+    ) -> Result<(), EvalError> {
+        let b = stack.pop().unwrap();
+        let a = stack.last_mut().unwrap();
+        let r = f(*a, b);
+        if !r.is_finite() {
+            return Err(self.fail(
+                si,
+                if r.is_nan() {
+                    "result is not a number"
+                } else {
+                    "result overflows a 64-bit float"
+                },
+            ));
+        }
+        *a = r;
+        Ok(())
+    }
+
+    fn fail(&self, si: u32, msg: &str) -> EvalError {
+        EvalError {
+            span: self.spans[si as usize],
+            message: msg.to_string(),
+        }
+    }
+}
+
+#[inline]
+fn bool_f(b: bool) -> f64 {
+    if b {
+        1.0
+    } else {
+        0.0
+    }
+}
+
+#[inline]
+fn bin(stack: &mut Vec<f64>, f: impl Fn(f64, f64) -> f64) {
+    let b = stack.pop().unwrap();
+    let a = stack.last_mut().unwrap();
+    *a = f(*a, b);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::parse::parse_expr;
+
+    fn eval_with(src: &str, names: &[(&str, f64)]) -> Result<f64, EvalError> {
+        let e = parse_expr(src).expect("parses");
+        let params: HashMap<String, u32> = names
+            .iter()
+            .enumerate()
+            .map(|(i, (n, _))| (n.to_string(), i as u32))
+            .collect();
+        let consts: HashMap<String, f64> = [("R".to_string(), 1.5)].into_iter().collect();
+        let code = Code::compile(
+            &e,
+            &Scope {
+                params: &params,
+                consts: &consts,
+            },
+        )?;
+        let slots: Vec<f64> = names.iter().map(|(_, v)| *v).collect();
+        code.eval(&slots, &mut Vec::new(), &mut Random::new(1))
+    }
+
+    fn ev(src: &str) -> f64 {
+        eval_with(src, &[("x", 2.0), ("y", 3.0)]).unwrap()
+    }
+
+    #[test]
+    fn arithmetic_and_precedence() {
+        assert_eq!(ev("1 + 2 * 3"), 7.0);
+        assert_eq!(ev("(1 + 2) * 3"), 9.0);
+        assert_eq!(ev("x*2 + y"), 7.0);
+        assert_eq!(ev("2^3^2"), 512.0);
+        assert_eq!(ev("-2^2"), -4.0);
+        assert_eq!(ev("-x"), -2.0);
+        assert_eq!(ev("10 - 4 - 3"), 3.0);
+        assert_eq!(ev("12 / 3 / 2"), 2.0);
+        assert_eq!(ev(".5 + 1e-3"), 0.501);
+        assert_eq!(ev("R * 2"), 3.0);
+    }
+
+    #[test]
+    fn comparisons_and_logic() {
+        assert_eq!(ev("x < y"), 1.0);
+        assert_eq!(ev("x >= y"), 0.0);
+        assert_eq!(ev("x = 2"), 1.0);
+        assert_eq!(ev("x == 2 && y != 3"), 0.0);
+        assert_eq!(ev("x == 2 || y != 3"), 1.0);
+        assert_eq!(ev("x == 2 & y == 3"), 1.0);
+        assert_eq!(ev("x == 1 | y == 3"), 1.0);
+        assert_eq!(ev("!(x < y)"), 0.0);
+        assert_eq!(ev("1 + 1 < 3"), 1.0);
+    }
+
+    #[test]
+    fn functions_in_degrees() {
+        assert!((ev("sin(30)") - 0.5).abs() < 1e-12);
+        assert!((ev("cos(60)") - 0.5).abs() < 1e-12);
+        assert!((ev("atan(1)") - 45.0).abs() < 1e-12);
+        assert!((ev("atan2(1, 1)") - 45.0).abs() < 1e-12);
+        assert_eq!(ev("sqrt(16) + abs(-2) + floor(2.7) + ceil(2.1) + trunc(-2.7)"), 9.0);
+        assert_eq!(ev("min(x, y) + max(x, y)"), 5.0);
+        assert!((ev("log(exp(2))") - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn random_functions_stay_in_range() {
+        for _ in 0..10 {
+            let v = ev("ran(5)");
+            assert!((0.0..5.0).contains(&v));
+        }
+        assert!(ev("nran(10, 0)") == 10.0);
+    }
+
+    #[test]
+    fn errors_are_located() {
+        let e = eval_with("x / (y - 3)", &[("x", 1.0), ("y", 3.0)]).unwrap_err();
+        assert_eq!(e.message, "division by zero");
+        assert_eq!(e.span, (0, 11));
+        let e = eval_with("1 + z", &[]).unwrap_err();
+        assert_eq!(e.message, "unknown identifier `z`");
+        assert_eq!(e.span, (4, 5));
+        let e = eval_with("foo(1)", &[]).unwrap_err();
+        assert_eq!(e.message, "unknown function `foo`");
+        let e = eval_with("sin(1, 2)", &[]).unwrap_err();
+        assert!(e.message.contains("takes 1 argument"), "{}", e.message);
+        let e = eval_with("sqrt(x)", &[("x", -1.0)]).unwrap_err();
+        assert!(e.message.contains("sqrt"), "{}", e.message);
+        let e = eval_with("x * 1e308 * 10", &[("x", 1.0)]).unwrap_err();
+        assert!(e.message.contains("overflow"), "{}", e.message);
+    }
+
+    #[test]
+    fn constants_fold() {
+        let e = parse_expr("2 * R + 1").unwrap();
+        let p = HashMap::new();
+        let c: HashMap<String, f64> = [("R".to_string(), 2.0)].into_iter().collect();
+        let code = Code::compile(
+            &e,
+            &Scope {
+                params: &p,
+                consts: &c,
+            },
+        )
+        .unwrap();
+        assert_eq!(code.constant(), Some(5.0));
+        // constant division by zero is found at compile time
+        let e = parse_expr("1 / 0").unwrap();
+        assert!(Code::compile(
+            &e,
+            &Scope {
+                params: &p,
+                consts: &c
+            }
+        )
+        .is_err());
+    }
+}

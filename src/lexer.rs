@@ -1,0 +1,636 @@
+//! Lexer for the header of an `.ls` file (settings, productions, homomorphism).
+//!
+//! The language has two lexical modes. In *module* mode (predecessors,
+//! contexts, successors, `ignore:` lists) every non-blank character is a
+//! symbol of its own: `F+F` is three tokens. In *expression* mode (inside a
+//! module's parentheses, after `:` and in numeric settings) the usual
+//! identifiers, numbers and operators apply. Two logos lexers share one
+//! position and are morphed into each other as the mode changes; keywords are
+//! recognised at the start of a line. The axiom is not lexed here: it is
+//! streamed by [`crate::axiom`].
+
+use logos::Logos;
+
+/// Byte span in the header text.
+pub type Span = (usize, usize);
+
+/// A token handed to the LALRPOP grammar.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Tok<'a> {
+    Nl,
+    KwDerivationLength,
+    KwDefine,
+    KwSeed,
+    KwIgnore,
+    KwConsider,
+    KwProductions,
+    KwHomomorphism,
+    Sym(char),
+    Num(f64),
+    Ident(&'a str),
+    LParen,
+    RParen,
+    Comma,
+    Colon,
+    Arrow,
+    Lt,
+    Gt,
+    Le,
+    Ge,
+    EqEq,
+    Ne,
+    Assign,
+    AndAnd,
+    OrOr,
+    Bang,
+    Plus,
+    Minus,
+    Star,
+    Slash,
+    Caret,
+}
+
+impl std::fmt::Display for Tok<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = match self {
+            Tok::Nl => "end of line",
+            Tok::KwDerivationLength => "`derivation length:`",
+            Tok::KwDefine => "`define:`",
+            Tok::KwSeed => "`seed:`",
+            Tok::KwIgnore => "`ignore:`",
+            Tok::KwConsider => "`consider:`",
+            Tok::KwProductions => "`productions:`",
+            Tok::KwHomomorphism => "`homomorphism:`",
+            Tok::Sym(c) => return write!(f, "symbol `{c}`"),
+            Tok::Num(n) => return write!(f, "number `{n}`"),
+            Tok::Ident(s) => return write!(f, "identifier `{s}`"),
+            Tok::LParen => "`(`",
+            Tok::RParen => "`)`",
+            Tok::Comma => "`,`",
+            Tok::Colon => "`:`",
+            Tok::Arrow => "`->`",
+            Tok::Lt => "`<`",
+            Tok::Gt => "`>`",
+            Tok::Le => "`<=`",
+            Tok::Ge => "`>=`",
+            Tok::EqEq => "`==`",
+            Tok::Ne => "`!=`",
+            Tok::Assign => "`=`",
+            Tok::AndAnd => "`&&`",
+            Tok::OrOr => "`||`",
+            Tok::Bang => "`!`",
+            Tok::Plus => "`+`",
+            Tok::Minus => "`-`",
+            Tok::Star => "`*`",
+            Tok::Slash => "`/`",
+            Tok::Caret => "`^`",
+        };
+        f.write_str(s)
+    }
+}
+
+/// What went wrong while lexing, with the span it covers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LexError {
+    pub span: Span,
+    pub message: String,
+}
+
+/// Tokens of module mode.
+#[derive(Logos, Debug, Clone, Copy, PartialEq)]
+#[logos(skip r"[ \t\r\f]+")]
+enum ModTok {
+    #[token("\n")]
+    Nl,
+    #[regex(r"/\*([^*]|\*+[^*/])*\*+/", allow_greedy = true)]
+    Comment,
+    #[token("/*")]
+    OpenComment,
+    #[token("(")]
+    LParen,
+    #[token(")")]
+    RParen,
+    #[token(",")]
+    Comma,
+    #[token(":")]
+    Colon,
+    #[token("->")]
+    #[token("-->")]
+    Arrow,
+    #[token("<")]
+    Lt,
+    #[token(">")]
+    Gt,
+    #[regex(r"[^\s\p{Cc}(),:<>]")]
+    Sym,
+    #[regex(r"[\x00-\x08\x0E-\x1F\x7F\u{80}-\u{84}\u{86}-\u{9F}]")]
+    Control,
+}
+
+/// Tokens of expression mode.
+#[derive(Logos, Debug, Clone, Copy, PartialEq)]
+#[logos(skip r"[ \t\r\f]+")]
+enum ExprTok {
+    #[token("\n")]
+    Nl,
+    #[regex(r"/\*([^*]|\*+[^*/])*\*+/", allow_greedy = true)]
+    Comment,
+    #[token("/*")]
+    OpenComment,
+    #[regex(r"[0-9]+(\.[0-9]*)?([eE][+-]?[0-9]+)?")]
+    #[regex(r"\.[0-9]+([eE][+-]?[0-9]+)?")]
+    Num,
+    #[regex(r"[A-Za-z_][A-Za-z0-9_]*")]
+    Ident,
+    #[token("(")]
+    LParen,
+    #[token(")")]
+    RParen,
+    #[token(",")]
+    Comma,
+    #[token(":")]
+    Colon,
+    #[token("->")]
+    #[token("-->")]
+    Arrow,
+    #[token("<")]
+    Lt,
+    #[token(">")]
+    Gt,
+    #[token("<=")]
+    Le,
+    #[token(">=")]
+    Ge,
+    #[token("==")]
+    EqEq,
+    #[token("!=")]
+    Ne,
+    #[token("=")]
+    Assign,
+    #[token("&&")]
+    #[token("&")]
+    AndAnd,
+    #[token("||")]
+    #[token("|")]
+    OrOr,
+    #[token("!")]
+    Bang,
+    #[token("+")]
+    Plus,
+    #[token("-")]
+    Minus,
+    #[token("*")]
+    Star,
+    #[token("/")]
+    Slash,
+    #[token("^")]
+    Caret,
+}
+
+enum Inner<'a> {
+    Mod(logos::Lexer<'a, ModTok>),
+    Expr(logos::Lexer<'a, ExprTok>),
+    /// Transitional state while morphing.
+    Gone,
+}
+
+/// Keywords recognised at the start of a line, with the mode that follows.
+const KEYWORDS: &[(&str, Tok<'static>, bool)] = &[
+    ("derivation length:", Tok::KwDerivationLength, true),
+    ("define:", Tok::KwDefine, true),
+    ("seed:", Tok::KwSeed, true),
+    ("ignore:", Tok::KwIgnore, false),
+    ("consider:", Tok::KwConsider, false),
+    ("productions:", Tok::KwProductions, false),
+    ("homomorphism:", Tok::KwHomomorphism, false),
+];
+
+/// Is `line` (from its first non-blank byte) a keyword line? Returns the
+/// keyword's byte length. Keywords are matched case-insensitively, so cpfg's
+/// `Derivation length:` works, and inner runs of blanks are allowed.
+pub fn match_keyword(rest: &str, keyword: &str) -> Option<usize> {
+    let mut r = rest.char_indices().peekable();
+    let mut end = 0;
+    for kc in keyword.chars() {
+        if kc == ' ' {
+            // one or more blanks
+            let mut n = 0;
+            while let Some(&(_, c)) = r.peek() {
+                if c == ' ' || c == '\t' {
+                    r.next();
+                    n += 1;
+                } else {
+                    break;
+                }
+            }
+            if n == 0 {
+                return None;
+            }
+            continue;
+        }
+        match r.next() {
+            Some((i, c)) if c.eq_ignore_ascii_case(&kc) => end = i + c.len_utf8(),
+            _ => return None,
+        }
+    }
+    Some(end)
+}
+
+/// The mode-switching lexer over the header text.
+pub struct Lexer<'a> {
+    src: &'a str,
+    inner: Inner<'a>,
+    /// At the start of a line: check for keywords.
+    line_start: bool,
+    /// Last token emitted was a newline (or nothing yet): collapse blank lines.
+    after_nl: bool,
+    /// In expression mode: parenthesis depth, and whether depth 0 returns to
+    /// module mode (a module's parameter list) or not (condition, probability,
+    /// numeric setting).
+    depth: u32,
+    return_at_zero: bool,
+    done: bool,
+}
+
+impl<'a> Lexer<'a> {
+    pub fn new(src: &'a str) -> Self {
+        Lexer {
+            src,
+            inner: Inner::Mod(ModTok::lexer(src)),
+            line_start: true,
+            after_nl: true,
+            depth: 0,
+            return_at_zero: false,
+            done: false,
+        }
+    }
+
+    /// A lexer for a lone expression (an axiom parameter, a test).
+    pub fn new_expr(src: &'a str) -> Self {
+        Lexer {
+            src,
+            inner: Inner::Expr(ExprTok::lexer(src)),
+            line_start: false,
+            after_nl: true,
+            depth: 0,
+            return_at_zero: false,
+            done: false,
+        }
+    }
+
+    fn pos(&self) -> usize {
+        match &self.inner {
+            Inner::Mod(l) => l.span().end,
+            Inner::Expr(l) => l.span().end,
+            Inner::Gone => unreachable!("lexer used while morphing"),
+        }
+    }
+
+    fn bump(&mut self, n: usize) {
+        match &mut self.inner {
+            Inner::Mod(l) => l.bump(n),
+            Inner::Expr(l) => l.bump(n),
+            Inner::Gone => unreachable!("lexer used while morphing"),
+        }
+    }
+
+    fn to_expr(&mut self) {
+        if let Inner::Mod(l) = std::mem::replace(&mut self.inner, Inner::Gone) {
+            self.inner = Inner::Expr(l.morph());
+        } else {
+            unreachable!("to_expr from expression mode")
+        }
+    }
+
+    fn to_mod(&mut self) {
+        if let Inner::Expr(l) = std::mem::replace(&mut self.inner, Inner::Gone) {
+            self.inner = Inner::Mod(l.morph());
+        } else {
+            unreachable!("to_mod from module mode")
+        }
+    }
+
+    fn ensure_mod(&mut self) {
+        if matches!(self.inner, Inner::Expr(_)) {
+            self.to_mod();
+        }
+    }
+
+    /// At the start of a line: skip blanks and look for a keyword.
+    fn keyword(&mut self) -> Option<(usize, Tok<'a>, usize)> {
+        let pos = self.pos();
+        let rest = &self.src[pos..];
+        let blank = rest.len() - rest.trim_start_matches([' ', '\t', '\r']).len();
+        let rest = &rest[blank..];
+        for (kw, tok, expr) in KEYWORDS {
+            if let Some(len) = match_keyword(rest, kw) {
+                self.bump(blank + len);
+                self.ensure_mod();
+                if *expr {
+                    self.to_expr();
+                    self.depth = 0;
+                    self.return_at_zero = false;
+                }
+                return Some((pos + blank, tok.clone(), pos + blank + len));
+            }
+        }
+        None
+    }
+
+    fn newline(&mut self) {
+        self.ensure_mod();
+        self.depth = 0;
+        self.return_at_zero = false;
+        self.line_start = true;
+    }
+}
+
+pub type Spanned<'a> = Result<(usize, Tok<'a>, usize), LexError>;
+
+impl<'a> Iterator for Lexer<'a> {
+    type Item = Spanned<'a>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        loop {
+            if self.done {
+                return None;
+            }
+            if self.line_start {
+                self.line_start = false;
+                if let Some(t) = self.keyword() {
+                    self.after_nl = false;
+                    return Some(Ok(t));
+                }
+            }
+            let (tok, span) = match &mut self.inner {
+                Inner::Mod(l) => match l.next() {
+                    None => (None, l.span()),
+                    Some(t) => (Some(t.map(Left)), l.span()),
+                },
+                Inner::Expr(l) => match l.next() {
+                    None => (None, l.span()),
+                    Some(t) => (Some(t.map(Right)), l.span()),
+                },
+                Inner::Gone => unreachable!("lexer used while morphing"),
+            };
+            let (s, e) = (span.start, span.end);
+            let Some(tok) = tok else {
+                self.done = true;
+                // Terminate the last line so the grammar sees whole lines.
+                if !self.after_nl {
+                    self.after_nl = true;
+                    return Some(Ok((self.src.len(), Tok::Nl, self.src.len())));
+                }
+                return None;
+            };
+            let tok = match tok {
+                Err(()) => {
+                    let text = &self.src[s..e.max(s + 1).min(self.src.len())];
+                    let c = text.chars().next().unwrap_or('?');
+                    return Some(Err(LexError {
+                        span: (s, s + c.len_utf8()),
+                        message: format!("unexpected character `{}`", c.escape_default()),
+                    }));
+                }
+                Ok(t) => t,
+            };
+            let out = match tok {
+                Left(ModTok::Nl) | Right(ExprTok::Nl) => {
+                    self.newline();
+                    if self.after_nl {
+                        continue;
+                    }
+                    self.after_nl = true;
+                    return Some(Ok((s, Tok::Nl, e)));
+                }
+                Left(ModTok::Comment) | Right(ExprTok::Comment) => {
+                    // A comment spanning lines still ends the line it began on
+                    // only if it contains a newline; treat that as a newline.
+                    if self.src[s..e].contains('\n') {
+                        self.newline();
+                        self.line_start = false;
+                        if !self.after_nl {
+                            self.after_nl = true;
+                            return Some(Ok((s, Tok::Nl, s)));
+                        }
+                    }
+                    continue;
+                }
+                Left(ModTok::OpenComment) | Right(ExprTok::OpenComment) => {
+                    return Some(Err(LexError {
+                        span: (s, e),
+                        message: "unterminated comment: `/*` without `*/`".into(),
+                    }));
+                }
+                Left(ModTok::Control) => {
+                    let c = self.src[s..].chars().next().unwrap_or('?');
+                    return Some(Err(LexError {
+                        span: (s, e),
+                        message: format!(
+                            "control character `{}` cannot be a symbol",
+                            c.escape_default()
+                        ),
+                    }));
+                }
+                Left(ModTok::Sym) => Tok::Sym(self.src[s..e].chars().next().unwrap()),
+                Left(ModTok::LParen) => {
+                    self.to_expr();
+                    self.depth = 1;
+                    self.return_at_zero = true;
+                    Tok::LParen
+                }
+                Left(ModTok::RParen) => Tok::RParen,
+                Left(ModTok::Comma) => Tok::Comma,
+                Left(ModTok::Colon) => {
+                    self.to_expr();
+                    self.depth = 0;
+                    self.return_at_zero = false;
+                    Tok::Colon
+                }
+                Left(ModTok::Arrow) => Tok::Arrow,
+                Left(ModTok::Lt) => Tok::Lt,
+                Left(ModTok::Gt) => Tok::Gt,
+                Right(ExprTok::Num) => match self.src[s..e].parse::<f64>() {
+                    Ok(v) if v.is_finite() => Tok::Num(v),
+                    _ => {
+                        return Some(Err(LexError {
+                            span: (s, e),
+                            message: format!("number `{}` is out of range", &self.src[s..e]),
+                        }))
+                    }
+                },
+                Right(ExprTok::Ident) => Tok::Ident(&self.src[s..e]),
+                Right(ExprTok::LParen) => {
+                    self.depth += 1;
+                    Tok::LParen
+                }
+                Right(ExprTok::RParen) => {
+                    self.depth = self.depth.saturating_sub(1);
+                    if self.depth == 0 && self.return_at_zero {
+                        self.to_mod();
+                        self.return_at_zero = false;
+                    }
+                    Tok::RParen
+                }
+                Right(ExprTok::Comma) => Tok::Comma,
+                Right(ExprTok::Colon) => Tok::Colon,
+                Right(ExprTok::Arrow) => {
+                    if self.depth == 0 {
+                        self.to_mod();
+                    }
+                    Tok::Arrow
+                }
+                Right(ExprTok::Lt) => Tok::Lt,
+                Right(ExprTok::Gt) => Tok::Gt,
+                Right(ExprTok::Le) => Tok::Le,
+                Right(ExprTok::Ge) => Tok::Ge,
+                Right(ExprTok::EqEq) => Tok::EqEq,
+                Right(ExprTok::Ne) => Tok::Ne,
+                Right(ExprTok::Assign) => Tok::Assign,
+                Right(ExprTok::AndAnd) => Tok::AndAnd,
+                Right(ExprTok::OrOr) => Tok::OrOr,
+                Right(ExprTok::Bang) => Tok::Bang,
+                Right(ExprTok::Plus) => Tok::Plus,
+                Right(ExprTok::Minus) => Tok::Minus,
+                Right(ExprTok::Star) => Tok::Star,
+                Right(ExprTok::Slash) => Tok::Slash,
+                Right(ExprTok::Caret) => Tok::Caret,
+            };
+            self.after_nl = false;
+            return Some(Ok((s, out, e)));
+        }
+    }
+}
+
+use Either::{Left, Right};
+enum Either<A, B> {
+    Left(A),
+    Right(B),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn toks(src: &str) -> Vec<Tok<'_>> {
+        Lexer::new(src).map(|t| t.unwrap().1).collect()
+    }
+
+    #[test]
+    fn module_mode_makes_every_char_a_symbol() {
+        assert_eq!(
+            toks("productions:\nF -> F+F--F\n"),
+            vec![
+                Tok::KwProductions,
+                Tok::Nl,
+                Tok::Sym('F'),
+                Tok::Arrow,
+                Tok::Sym('F'),
+                Tok::Sym('+'),
+                Tok::Sym('F'),
+                Tok::Sym('-'),
+                Tok::Sym('-'),
+                Tok::Sym('F'),
+                Tok::Nl
+            ]
+        );
+    }
+
+    #[test]
+    fn parameters_and_conditions_are_expressions() {
+        assert_eq!(
+            toks("A(x,y) : y <= 3 -> A(x*2, x+y)"),
+            vec![
+                Tok::Sym('A'),
+                Tok::LParen,
+                Tok::Ident("x"),
+                Tok::Comma,
+                Tok::Ident("y"),
+                Tok::RParen,
+                Tok::Colon,
+                Tok::Ident("y"),
+                Tok::Le,
+                Tok::Num(3.0),
+                Tok::Arrow,
+                Tok::Sym('A'),
+                Tok::LParen,
+                Tok::Ident("x"),
+                Tok::Star,
+                Tok::Num(2.0),
+                Tok::Comma,
+                Tok::Ident("x"),
+                Tok::Plus,
+                Tok::Ident("y"),
+                Tok::RParen,
+                Tok::Nl
+            ]
+        );
+    }
+
+    #[test]
+    fn keywords_case_insensitive_and_blank_lines_collapse() {
+        assert_eq!(
+            toks("\n\nDerivation  length: 4\n\n\nseed: 7\n"),
+            vec![
+                Tok::KwDerivationLength,
+                Tok::Num(4.0),
+                Tok::Nl,
+                Tok::KwSeed,
+                Tok::Num(7.0),
+                Tok::Nl
+            ]
+        );
+    }
+
+    #[test]
+    fn turtle_symbols_and_long_arrow() {
+        let t = toks("X --> F[+X]&^\\/|$!'.;%#~@_?*{}");
+        assert_eq!(t[0], Tok::Sym('X'));
+        assert_eq!(t[1], Tok::Arrow);
+        let syms: String = t[2..t.len() - 1]
+            .iter()
+            .map(|t| match t {
+                Tok::Sym(c) => *c,
+                other => panic!("not a symbol: {other:?}"),
+            })
+            .collect();
+        assert_eq!(syms, "F[+X]&^\\/|$!'.;%#~@_?*{}");
+    }
+
+    #[test]
+    fn comments_are_skipped_and_unterminated_is_an_error() {
+        assert_eq!(
+            toks("F /* a comment */ -> G /* x */\n"),
+            vec![Tok::Sym('F'), Tok::Arrow, Tok::Sym('G'), Tok::Nl]
+        );
+        let errs: Vec<_> = Lexer::new("F -> G /* never closed")
+            .filter_map(|t| t.err())
+            .collect();
+        assert_eq!(errs.len(), 1);
+        assert_eq!(errs[0].span, (7, 9));
+        assert!(errs[0].message.contains("unterminated comment"));
+    }
+
+    #[test]
+    fn numbers() {
+        assert_eq!(
+            toks("define: a = .5 + 1e-3 * 2.5E2"),
+            vec![
+                Tok::KwDefine,
+                Tok::Ident("a"),
+                Tok::Assign,
+                Tok::Num(0.5),
+                Tok::Plus,
+                Tok::Num(1e-3),
+                Tok::Star,
+                Tok::Num(250.0),
+                Tok::Nl
+            ]
+        );
+    }
+
+    #[test]
+    fn unicode_symbols() {
+        assert_eq!(toks("Ω → αβ")[0], Tok::Sym('Ω'));
+    }
+}

@@ -1,0 +1,13 @@
+//! lsgen: a streaming L-system rewriter.
+//!
+//! The pipeline, one module per stage:
+//! [`input`] splits an `.ls` file into header and axiom stream ->
+//! [`lexer`] -> grammar ([`parse`]) -> [`rules`] (compiled productions) ->
+//! [`engine`] (derivation steps through temp files) -> [`output`].
+
+pub mod ast;
+pub mod diag;
+pub mod expr;
+pub mod lexer;
+pub mod parse;
+pub mod random;
