@@ -104,7 +104,7 @@ pub enum Kind {
 pub struct Error {
     pub kind: Kind,
     pub message: String,
-    pub location: Option<Location>,
+    pub location: Option<Box<Location>>,
     /// Context without a line, e.g. the file name of an I/O error.
     pub subject: Option<String>,
 }
@@ -123,7 +123,7 @@ impl Error {
 
     pub fn at(location: Location, message: impl Into<String>) -> Error {
         Error {
-            location: Some(location),
+            location: Some(Box::new(location)),
             ..Error::new(message)
         }
     }

@@ -328,7 +328,9 @@ impl Code {
                     let a = stack.last_mut().unwrap();
                     let r = f.apply(*a);
                     if !r.is_finite() {
-                        return Err(self.fail(si, &format!("{} is undefined here", self.name_at(si))));
+                        return Err(
+                            self.fail(si, &format!("{} is undefined here", self.name_at(si)))
+                        );
                     }
                     *a = r;
                 }
@@ -480,7 +482,10 @@ mod tests {
         assert!((ev("cos(60)") - 0.5).abs() < 1e-12);
         assert!((ev("atan(1)") - 45.0).abs() < 1e-12);
         assert!((ev("atan2(1, 1)") - 45.0).abs() < 1e-12);
-        assert_eq!(ev("sqrt(16) + abs(-2) + floor(2.7) + ceil(2.1) + trunc(-2.7)"), 9.0);
+        assert_eq!(
+            ev("sqrt(16) + abs(-2) + floor(2.7) + ceil(2.1) + trunc(-2.7)"),
+            9.0
+        );
         assert_eq!(ev("min(x, y) + max(x, y)"), 5.0);
         assert!((ev("log(exp(2))") - 2.0).abs() < 1e-12);
     }

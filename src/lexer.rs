@@ -294,7 +294,7 @@ impl<'a> Lexer<'a> {
         }
     }
 
-    fn to_expr(&mut self) {
+    fn enter_expr(&mut self) {
         if let Inner::Mod(l) = std::mem::replace(&mut self.inner, Inner::Gone) {
             self.inner = Inner::Expr(l.morph());
         } else {
@@ -302,7 +302,7 @@ impl<'a> Lexer<'a> {
         }
     }
 
-    fn to_mod(&mut self) {
+    fn enter_mod(&mut self) {
         if let Inner::Expr(l) = std::mem::replace(&mut self.inner, Inner::Gone) {
             self.inner = Inner::Mod(l.morph());
         } else {
@@ -312,7 +312,7 @@ impl<'a> Lexer<'a> {
 
     fn ensure_mod(&mut self) {
         if matches!(self.inner, Inner::Expr(_)) {
-            self.to_mod();
+            self.enter_mod();
         }
     }
 
@@ -327,7 +327,7 @@ impl<'a> Lexer<'a> {
                 self.bump(blank + len);
                 self.ensure_mod();
                 if *expr {
-                    self.to_expr();
+                    self.enter_expr();
                     self.depth = 0;
                     self.return_at_zero = false;
                 }
@@ -434,7 +434,7 @@ impl<'a> Iterator for Lexer<'a> {
                 }
                 Left(ModTok::Sym) => Tok::Sym(self.src[s..e].chars().next().unwrap()),
                 Left(ModTok::LParen) => {
-                    self.to_expr();
+                    self.enter_expr();
                     self.depth = 1;
                     self.return_at_zero = true;
                     Tok::LParen
@@ -442,7 +442,7 @@ impl<'a> Iterator for Lexer<'a> {
                 Left(ModTok::RParen) => Tok::RParen,
                 Left(ModTok::Comma) => Tok::Comma,
                 Left(ModTok::Colon) => {
-                    self.to_expr();
+                    self.enter_expr();
                     self.depth = 0;
                     self.return_at_zero = false;
                     Tok::Colon
@@ -467,7 +467,7 @@ impl<'a> Iterator for Lexer<'a> {
                 Right(ExprTok::RParen) => {
                     self.depth = self.depth.saturating_sub(1);
                     if self.depth == 0 && self.return_at_zero {
-                        self.to_mod();
+                        self.enter_mod();
                         self.return_at_zero = false;
                     }
                     Tok::RParen
@@ -476,7 +476,7 @@ impl<'a> Iterator for Lexer<'a> {
                 Right(ExprTok::Colon) => Tok::Colon,
                 Right(ExprTok::Arrow) => {
                     if self.depth == 0 {
-                        self.to_mod();
+                        self.enter_mod();
                     }
                     Tok::Arrow
                 }

@@ -6,8 +6,15 @@
 //! [`engine`] (derivation steps through temp files) -> [`output`].
 
 pub mod ast;
+pub mod axiom;
+pub mod cli;
+pub mod codec;
 pub mod diag;
+pub mod engine;
 pub mod expr;
+pub mod input;
 pub mod lexer;
+pub mod output;
 pub mod parse;
 pub mod random;
+pub mod rules;

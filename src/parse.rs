@@ -80,11 +80,7 @@ fn describe_expected(expected: &[String]) -> String {
     match names.len() {
         0 => String::new(),
         1 => format!("expected {}", names[0]),
-        n if n <= 6 => format!(
-            "expected {} or {}",
-            names[..n - 1].join(", "),
-            names[n - 1]
-        ),
+        n if n <= 6 => format!("expected {} or {}", names[..n - 1].join(", "), names[n - 1]),
         _ => String::new(),
     }
 }
@@ -92,7 +88,9 @@ fn describe_expected(expected: &[String]) -> String {
 fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str) -> UserError {
     match e {
         ParseError::User { error } => error,
-        ParseError::InvalidToken { location } => UserError::new((location, location), "invalid token"),
+        ParseError::InvalidToken { location } => {
+            UserError::new((location, location), "invalid token")
+        }
         ParseError::UnrecognizedEof { location, expected } => {
             let exp = describe_expected(&expected);
             let loc = text[..location.min(text.len())].trim_end().len();
@@ -120,7 +118,10 @@ fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str) -> UserError {
                 }
                 t => format!("unexpected {t}"),
             };
-            let msg = if exp.is_empty() || matches!(tok, Tok::Gt | Tok::Lt) || what.contains("out of place") {
+            let msg = if exp.is_empty()
+                || matches!(tok, Tok::Gt | Tok::Lt)
+                || what.contains("out of place")
+            {
                 what
             } else {
                 format!("{what}, {exp}")
@@ -158,7 +159,9 @@ C -> F(R)
     fn parses_the_reference_header() {
         let h = parse_header(ABOP_110).unwrap();
         assert_eq!(h.settings.len(), 3);
-        assert!(matches!(&h.settings[1], Setting::Define(n, Expr::Num(v, _), _) if n == "R" && *v == 1.456));
+        assert!(
+            matches!(&h.settings[1], Setting::Define(n, Expr::Num(v, _), _) if n == "R" && *v == 1.456)
+        );
         assert_eq!(h.productions.len(), 4);
         assert_eq!(h.homomorphism.len(), 1);
         let p = &h.productions[1];
@@ -171,7 +174,8 @@ C -> F(R)
 
     #[test]
     fn contexts_and_probability() {
-        let h = parse_header("productions:\nA(x) B < C(y) > [D(z)]E : x < z -> C(y+1) : 0.5\n").unwrap();
+        let h = parse_header("productions:\nA(x) B < C(y) > [D(z)]E : x < z -> C(y+1) : 0.5\n")
+            .unwrap();
         let p = &h.productions[0];
         assert_eq!(p.left.iter().map(|m| m.sym).collect::<String>(), "AB");
         assert_eq!(p.pred.sym, 'C');
@@ -194,7 +198,11 @@ C -> F(R)
         assert!(e.message.contains("unexpected `>`"), "{}", e.message);
         assert_eq!(e.span, (20, 21));
         let e = parse_header("productions:\nA B -> C\n").unwrap_err();
-        assert!(e.message.contains("predecessor is one module"), "{}", e.message);
+        assert!(
+            e.message.contains("predecessor is one module"),
+            "{}",
+            e.message
+        );
         let e = parse_header("productions:\nF -> F\nderivation length: 3\n").unwrap_err();
         assert!(e.message.contains("out of place"), "{}", e.message);
         let e = parse_header("productions:\nA(x -> B\n").unwrap_err();

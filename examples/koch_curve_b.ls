@@ -1,0 +1,10 @@
+/* Quadratic Koch curve variant, ABOP figure 1.9b (p. 10).
+   n = 4, delta = 90 degrees. */
+derivation length: 4
+define: delta = 90
+
+productions:
+F -> FF-F-F-F-FF
+
+axiom:
+F-F-F-F

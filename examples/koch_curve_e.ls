@@ -1,0 +1,10 @@
+/* Quadratic Koch curve variant, ABOP figure 1.9e (p. 10).
+   n = 5, delta = 90 degrees. */
+derivation length: 5
+define: delta = 90
+
+productions:
+F -> F-FF--F-F
+
+axiom:
+F-F-F-F

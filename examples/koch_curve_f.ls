@@ -1,0 +1,10 @@
+/* Quadratic Koch curve variant, ABOP figure 1.9f (p. 10).
+   n = 4, delta = 90 degrees. */
+derivation length: 4
+define: delta = 90
+
+productions:
+F -> F-F+F-F-F
+
+axiom:
+F-F-F-F

@@ -1,0 +1,11 @@
+/* Von Koch snowflake, the construction of ABOP figure 1.1 (p. 2) written as
+   an L-system (initiator = triangle, generator = F+F--F+F).
+   delta = 60 degrees.  After n steps the string has exactly 7*4^n symbols. */
+derivation length: 4
+define: delta = 60
+
+productions:
+F -> F+F--F+F
+
+axiom:
+F--F--F

@@ -1,0 +1,10 @@
+/* Bracketed OL-system plant, ABOP figure 1.24b (p. 25).
+   n = 5, delta = 20 degrees. */
+derivation length: 5
+define: delta = 20
+
+productions:
+F -> F[+F]F[-F][F]
+
+axiom:
+F

@@ -1,0 +1,11 @@
+/* Bracketed OL-system plant, ABOP figure 1.24f (p. 25).
+   n = 5, delta = 22.5 degrees. */
+derivation length: 5
+define: delta = 22.5
+
+productions:
+X -> F-[[X]+X]+F[+FX]-X
+F -> FF
+
+axiom:
+X

@@ -1,0 +1,10 @@
+/* Quadratic Koch island (Mandelbrot), ABOP figure 1.7a (p. 9).
+   n = 2, delta = 90 degrees. */
+derivation length: 2
+define: delta = 90
+
+productions:
+F -> F+FF-FF-F-F+F+FF-F-F+F+FF+FF-F
+
+axiom:
+F-F-F-F

@@ -1,0 +1,366 @@
+//! Command line: parse arguments, load the L-system, derive, write.
+
+use crate::axiom::AxiomReader;
+use crate::diag::{Error, Kind};
+use crate::engine::{Deriver, Limits, Origin, Out, Pass};
+use crate::input::{split_header, Input};
+use crate::output::Output;
+use crate::parse::{locate, parse_header};
+use crate::random::Random;
+use crate::rules::{compile, System};
+use clap::Parser;
+use std::fs::File;
+use std::io::{self, Seek, SeekFrom, Write};
+use std::path::PathBuf;
+
+/// Derivation length when neither the file nor `-n` gives one.
+pub const DEFAULT_DERIVATION_LENGTH: u64 = 1;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "lsgen",
+    version,
+    about = "Derive an L-system and print the resulting string",
+    long_about = "Reads an L-system (.ls) file, derives N generations and writes the final \
+                  string on one line. The axiom is read as a stream and generations live in \
+                  temporary files, so strings may be far larger than memory."
+)]
+pub struct Args {
+    /// The .ls file; standard input when absent or `-`.
+    pub file: Option<PathBuf>,
+
+    /// Write the string to FILE (put in place only when complete).
+    #[arg(short, long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+
+    /// Number of derivation steps (overrides `derivation length:`).
+    #[arg(short = 'n', long, value_name = "N")]
+    pub derivation_length: Option<u64>,
+
+    /// Seed of the random generator (overrides `seed:`).
+    #[arg(long, value_name = "S")]
+    pub seed: Option<u64>,
+
+    /// Do not apply the homomorphism productions.
+    #[arg(long)]
+    pub no_homomorphism: bool,
+
+    /// Parse and check the file, derive nothing.
+    #[arg(long)]
+    pub check: bool,
+
+    /// Read the axiom from FILE (`-` for standard input) instead of the
+    /// file's `axiom:` section; it holds modules only, no comments.
+    #[arg(long, value_name = "FILE")]
+    pub axiom: Option<PathBuf>,
+
+    /// Stop with an error when a generation exceeds N modules, or N bytes
+    /// with a suffix: 500M (modules), 2GB, 512MiB, 10kB.
+    #[arg(long, value_name = "N", value_parser = parse_limit)]
+    pub max_length: Option<Limits>,
+
+    /// Directory for the temporary generation files (default: $TMPDIR).
+    #[arg(long, value_name = "DIR")]
+    pub tmpdir: Option<PathBuf>,
+
+    /// Report the seed and each generation's length on standard error.
+    #[arg(short, long)]
+    pub verbose: bool,
+}
+
+/// `--max-length`: a module count (`1000000`, `5M`, `2G`) or a byte size
+/// (`10kB`, `512MiB`, `2GB`, `1TB`).
+pub fn parse_limit(s: &str) -> Result<Limits, String> {
+    let t = s.trim();
+    let split = t
+        .find(|c: char| !c.is_ascii_digit() && c != '_')
+        .unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let n: u64 = num
+        .replace('_', "")
+        .parse()
+        .map_err(|_| format!("`{s}` is not a length: use e.g. 1000000, 5M, 2GB, 512MiB"))?;
+    let mul = |m: u64| {
+        n.checked_mul(m)
+            .ok_or_else(|| format!("`{s}` is too large"))
+    };
+    let mut l = Limits::default();
+    match unit {
+        "" => l.modules = n,
+        "k" | "K" => l.modules = mul(1_000)?,
+        "M" => l.modules = mul(1_000_000)?,
+        "G" => l.modules = mul(1_000_000_000)?,
+        "B" => l.bytes = n,
+        "kB" | "KB" => l.bytes = mul(1_000)?,
+        "MB" => l.bytes = mul(1_000_000)?,
+        "GB" => l.bytes = mul(1_000_000_000)?,
+        "TB" => l.bytes = mul(1_000_000_000_000)?,
+        "KiB" => l.bytes = mul(1 << 10)?,
+        "MiB" => l.bytes = mul(1 << 20)?,
+        "GiB" => l.bytes = mul(1 << 30)?,
+        "TiB" => l.bytes = mul(1 << 40)?,
+        _ => {
+            return Err(format!(
+                "unknown unit `{unit}`: modules take k, M, G; bytes take B, kB, MB, GB, TB, KiB, MiB, GiB, TiB"
+            ))
+        }
+    }
+    Ok(l)
+}
+
+/// Parse the command line and run; returns the exit status.
+pub fn main_exit_code() -> i32 {
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) => {
+            let _ = e.print();
+            return match e.kind() {
+                clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => 0,
+                _ => 2,
+            };
+        }
+    };
+    match run(&args) {
+        Ok(()) => 0,
+        Err(e) => {
+            if e.kind != Kind::BrokenPipe {
+                let _ = io::stderr().write_all(e.to_string().as_bytes());
+            }
+            e.exit_code()
+        }
+    }
+}
+
+fn open_input(path: Option<&PathBuf>) -> Result<Input, Error> {
+    match path {
+        None => Ok(Input::new(Box::new(io::stdin()), "<stdin>")),
+        Some(p) if p.as_os_str() == "-" => Ok(Input::new(Box::new(io::stdin()), "<stdin>")),
+        Some(p) => {
+            let name = p.display().to_string();
+            let f = File::open(p).map_err(|e| Error::io(name.clone(), "cannot open", e))?;
+            if f.metadata().map(|m| m.is_dir()).unwrap_or(false) {
+                return Err(Error::io(
+                    name,
+                    "cannot read",
+                    io::Error::from(io::ErrorKind::IsADirectory),
+                ));
+            }
+            Ok(Input::new(Box::new(f), name))
+        }
+    }
+}
+
+pub fn run(args: &Args) -> Result<(), Error> {
+    let file_is_stdin = args.file.as_ref().is_none_or(|p| p.as_os_str() == "-");
+    let axiom_is_stdin = args.axiom.as_ref().is_some_and(|p| p.as_os_str() == "-");
+    if file_is_stdin && axiom_is_stdin {
+        return Err(Error::usage(
+            "the L-system and `--axiom -` cannot both come from standard input",
+        ));
+    }
+    let mut input = open_input(args.file.as_ref())?;
+    let split = split_header(&mut input)?;
+    let path = input.name.clone();
+    let header = parse_header(&split.header).map_err(|e| locate(&path, &split.header, e))?;
+    let system = compile(&header).map_err(|e| locate(&path, &split.header, e))?;
+    if !split.has_axiom && args.axiom.is_none() {
+        return Err(missing_axiom(&path, &split.header));
+    }
+    if args.check {
+        // Read the axiom too, so its errors are reported.
+        let mut al = system.alphabet;
+        let (mut reader, _) = axiom_reader(args, input, &split, &system.consts)?;
+        let mut p = Vec::new();
+        let mut rng = Random::new(0);
+        while reader.next(&mut al, &mut p, &mut rng)?.is_some() {}
+        if args.verbose {
+            eprintln!(
+                "lsgen: {path}: ok: {} productions, {} homomorphism productions",
+                system.productions.prods.len(),
+                system.homomorphism.prods.len()
+            );
+        }
+        return Ok(());
+    }
+    let steps = args
+        .derivation_length
+        .or(system.derivation_length)
+        .unwrap_or(DEFAULT_DERIVATION_LENGTH);
+    let seed = args.seed.or(system.seed).unwrap_or_else(Random::fresh_seed);
+    if args.verbose {
+        eprintln!("lsgen: seed {seed}");
+    }
+    let mut output = match &args.output {
+        Some(p) => Output::file(p)?,
+        None => Output::stdout(),
+    };
+    derive(args, input, &split, &path, system, steps, seed, &mut output)?;
+    output.commit()
+}
+
+fn missing_axiom(path: &str, header: &str) -> Error {
+    let end = header.trim_end().len();
+    let mut e = locate(
+        path,
+        header,
+        crate::parse::UserError::new(
+            (end, end),
+            "missing `axiom:`: the axiom comes last, after the productions",
+        ),
+    );
+    if header.trim().is_empty() {
+        e.message = "empty L-system: no `axiom:` found".into();
+    }
+    e
+}
+
+fn axiom_reader<'c>(
+    args: &Args,
+    input: Input,
+    split: &crate::input::Split,
+    consts: &'c std::collections::HashMap<String, f64>,
+) -> Result<(AxiomReader<'c>, bool), Error> {
+    match &args.axiom {
+        Some(p) => {
+            let inp = open_input(Some(p))?;
+            Ok((AxiomReader::new(inp, false, 1, 1, consts), false))
+        }
+        None => Ok((
+            AxiomReader::new(input, true, split.axiom_line, split.axiom_col, consts),
+            true,
+        )),
+    }
+}
+
+fn tempfile(dir: &Option<PathBuf>) -> Result<File, Error> {
+    let r = match dir {
+        Some(d) => tempfile::tempfile_in(d),
+        None => tempfile::tempfile(),
+    };
+    r.map_err(|e| {
+        Error::io(
+            dir.as_ref().map_or_else(
+                || std::env::temp_dir().display().to_string(),
+                |d| d.display().to_string(),
+            ),
+            "cannot create a temporary file",
+            e,
+        )
+    })
+}
+
+fn rewind(f: &mut File) -> Result<(), Error> {
+    f.set_len(0)
+        .and_then(|_| f.seek(SeekFrom::Start(0)).map(|_| ()))
+        .map_err(|e| Error::io("temporary file", "cannot write", e))
+}
+
+#[allow(clippy::too_many_arguments)]
+fn derive(
+    args: &Args,
+    input: Input,
+    split: &crate::input::Split,
+    path: &str,
+    system: System,
+    steps: u64,
+    seed: u64,
+    output: &mut Output,
+) -> Result<(), Error> {
+    let System {
+        alphabet,
+        productions,
+        homomorphism,
+        consts,
+        ..
+    } = system;
+    let hom = !args.no_homomorphism && !homomorphism.is_empty();
+    let passes = steps + u64::from(hom);
+    let limits = args.max_length.unwrap_or_default();
+    let out_name = output.name();
+    let mut d = Deriver::new(
+        alphabet,
+        Random::new(seed),
+        Origin {
+            path,
+            header: &split.header,
+        },
+    );
+    let verbose = |what: &str, (m, b): (u64, u64)| {
+        if args.verbose {
+            eprintln!("lsgen: {what}: {m} modules, {b} bytes");
+        }
+    };
+
+    // Generation 0: the axiom.
+    let (mut reader, _) = axiom_reader(args, input, split, &consts)?;
+    let mut cur = if passes == 0 {
+        None
+    } else {
+        Some(tempfile(&args.tmpdir)?)
+    };
+    let mut other: Option<File> = None;
+    {
+        let tmp_name = "temporary file";
+        let (w, name, text): (&mut dyn Write, &str, bool) = match &mut cur {
+            Some(f) => (f, tmp_name, false),
+            None => (output.writer(), &out_name, true),
+        };
+        let mut out = Out::new(w, name, text, limits);
+        let mut params = Vec::new();
+        while let Some(key) = reader.next(&mut d.alphabet, &mut params, &mut d.rng)? {
+            out.module(key, &params, &d.alphabet);
+            out.maybe_flush()?;
+        }
+        verbose("axiom", out.finish()?);
+    }
+    drop(reader);
+
+    // The steps, then the homomorphism.
+    for i in 1..=passes {
+        let (table, pass) = if i <= steps {
+            (&productions, Pass::Step(i))
+        } else {
+            (&homomorphism, Pass::Homomorphism)
+        };
+        let src = cur.take().expect("a generation to read");
+        let last = i == passes;
+        let mut dst = if last {
+            None
+        } else {
+            Some(match other.take() {
+                Some(mut f) => {
+                    rewind(&mut f)?;
+                    f
+                }
+                None => tempfile(&args.tmpdir)?,
+            })
+        };
+        {
+            let (w, name, text): (&mut dyn Write, &str, bool) = match &mut dst {
+                Some(f) => (f, "temporary file", false),
+                None => (output.writer(), &out_name, true),
+            };
+            let mut out = Out::new(w, name, text, limits);
+            d.pass(table, &src, &mut out, pass)?;
+            verbose(&pass.to_string(), out.finish()?);
+        }
+        other = Some(src);
+        cur = dst;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn limits() {
+        assert_eq!(parse_limit("1000").unwrap().modules, 1000);
+        assert_eq!(parse_limit("5M").unwrap().modules, 5_000_000);
+        assert_eq!(parse_limit("2GB").unwrap().bytes, 2_000_000_000);
+        assert_eq!(parse_limit("512MiB").unwrap().bytes, 512 << 20);
+        assert!(parse_limit("12 parsecs").is_err());
+        assert!(parse_limit("").is_err());
+    }
+}

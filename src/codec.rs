@@ -1,0 +1,136 @@
+//! The two string formats.
+//!
+//! *Binary* (between steps, in temp files): a module is its key as LEB128
+//! followed by its parameters as little-endian f64. Keys 0..=127 are the
+//! ASCII symbols without parameters, so the key *is* the character and a
+//! bracketed D0L string is stored exactly as its text. Other keys (non-ASCII
+//! symbols, modules with parameters) are numbered from 128 by the alphabet.
+//!
+//! *Text* (the output): the symbol, then `(p1,p2,...)` with each number in
+//! the shortest form that reads back to the same f64.
+
+/// Longest encoded module: 5 key bytes + 255 parameters.
+pub const MAX_ARITY: usize = 255;
+pub const MAX_MODULE_BYTES: usize = 5 + 8 * MAX_ARITY;
+
+#[inline]
+pub fn put_key(out: &mut Vec<u8>, mut key: u32) {
+    while key >= 0x80 {
+        out.push((key as u8) | 0x80);
+        key >>= 7;
+    }
+    out.push(key as u8);
+}
+
+/// Decode a key at the start of `b`: (key, bytes used). `b` must hold a
+/// whole key (callers keep MAX_MODULE_BYTES available).
+#[inline]
+pub fn get_key(b: &[u8]) -> (u32, usize) {
+    let first = b[0];
+    if first < 0x80 {
+        return (first as u32, 1);
+    }
+    let mut key = (first & 0x7f) as u32;
+    let mut shift = 7;
+    let mut i = 1;
+    loop {
+        let byte = b[i];
+        key |= ((byte & 0x7f) as u32) << shift;
+        i += 1;
+        if byte < 0x80 {
+            return (key, i);
+        }
+        shift += 7;
+    }
+}
+
+#[inline]
+pub fn put_params(out: &mut Vec<u8>, params: &[f64]) {
+    for p in params {
+        out.extend_from_slice(&p.to_le_bytes());
+    }
+}
+
+#[inline]
+pub fn get_param(b: &[u8], i: usize) -> f64 {
+    f64::from_le_bytes(b[8 * i..8 * i + 8].try_into().unwrap())
+}
+
+/// Append `v` in the shortest form that reads back to the same f64:
+/// `2`, `0.5`, `1.4142135623730951`, `1e-7`, `-0`.
+#[inline]
+pub fn put_number(out: &mut Vec<u8>, v: f64, buf: &mut ryu::Buffer) {
+    let s = buf.format_finite(v).as_bytes();
+    match s {
+        [head @ .., b'.', b'0'] => out.extend_from_slice(head),
+        _ => {
+            // ryu writes `1e-7` and `1.5e16`; nothing to trim.
+            out.extend_from_slice(s)
+        }
+    }
+}
+
+/// Append a module as text.
+#[inline]
+pub fn put_text_module(out: &mut Vec<u8>, sym_text: &[u8], params: &[f64], buf: &mut ryu::Buffer) {
+    out.extend_from_slice(sym_text);
+    if let Some((first, rest)) = params.split_first() {
+        out.push(b'(');
+        put_number(out, *first, buf);
+        for p in rest {
+            out.push(b',');
+            put_number(out, *p, buf);
+        }
+        out.push(b')');
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn num(v: f64) -> String {
+        let mut o = Vec::new();
+        put_number(&mut o, v, &mut ryu::Buffer::new());
+        String::from_utf8(o).unwrap()
+    }
+
+    #[test]
+    fn shortest_round_trip_numbers() {
+        assert_eq!(num(2.0), "2");
+        assert_eq!(num(0.5), "0.5");
+        assert_eq!(num(2f64.sqrt()), "1.4142135623730951");
+        assert_eq!(num(1e-7), "1e-7");
+        assert_eq!(num(-3.0), "-3");
+        assert_eq!(num(-0.0), "-0");
+        assert_eq!(num(1e16), "1e16");
+        assert_eq!(num(123456.0), "123456");
+        assert_eq!(num(1.5e300), "1.5e300");
+        assert_eq!(num(0.1 + 0.2), "0.30000000000000004");
+        for v in [
+            1e-300,
+            3.25e-9,
+            1.0 / 3.0,
+            6.02e23,
+            f64::MAX,
+            f64::MIN_POSITIVE,
+        ] {
+            assert_eq!(num(v).parse::<f64>().unwrap(), v);
+        }
+    }
+
+    #[test]
+    fn keys_round_trip() {
+        for k in [0u32, 5, 127, 128, 300, 16383, 16384, 1 << 21, u32::MAX] {
+            let mut o = Vec::new();
+            put_key(&mut o, k);
+            o.extend_from_slice(&[0; 8]);
+            let (d, n) = get_key(&o);
+            assert_eq!(d, k);
+            assert_eq!(n, o.len() - 8);
+        }
+        let mut o = Vec::new();
+        put_key(&mut o, b'F' as u32);
+        assert_eq!(o, b"F");
+    }
+}

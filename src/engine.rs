@@ -1,0 +1,728 @@
+//! The streaming rewriter. One derivation step reads a generation from a
+//! temp file (binary format, see [`crate::codec`]) and writes the next one
+//! to another temp file, or, on the last pass, as text to the output.
+//!
+//! Memory does not grow with the string: the main reader and the look-ahead
+//! reader each hold one buffer; left contexts keep the last k considered
+//! modules per open branch; right contexts are matched by a second reader
+//! over the same file, so skipping a branch of any size costs time, not
+//! memory.
+
+use crate::codec::{self, MAX_MODULE_BYTES};
+use crate::diag::{CodeMap, Error, Location};
+use crate::expr::EvalError;
+use crate::random::Random;
+use crate::rules::{Alphabet, Item, KeyRules, Pat, Production, RPat, Table, CLOSE, OPEN};
+use std::fs::File;
+use std::io::{self, Write};
+use std::os::unix::fs::FileExt;
+
+const OUT_CHUNK: usize = 1 << 20;
+
+/// Limits on the size of any generation (`--max-length`).
+#[derive(Clone, Copy, Debug)]
+pub struct Limits {
+    pub modules: u64,
+    pub bytes: u64,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            modules: u64::MAX,
+            bytes: u64::MAX,
+        }
+    }
+}
+
+/// A buffered sink for one generation, binary or text.
+pub struct Out<'w> {
+    buf: Vec<u8>,
+    w: &'w mut dyn Write,
+    name: &'w str,
+    text: bool,
+    modules: u64,
+    written: u64,
+    ryu: ryu::Buffer,
+    limits: Limits,
+}
+
+impl<'w> Out<'w> {
+    pub fn new(w: &'w mut dyn Write, name: &'w str, text: bool, limits: Limits) -> Out<'w> {
+        Out {
+            buf: Vec::with_capacity(OUT_CHUNK + MAX_MODULE_BYTES * 4),
+            w,
+            name,
+            text,
+            modules: 0,
+            written: 0,
+            ryu: ryu::Buffer::new(),
+            limits,
+        }
+    }
+
+    /// Copy a module given in binary form.
+    #[inline]
+    pub fn raw(&mut self, key: u32, bytes: &[u8], al: &Alphabet) {
+        self.modules += 1;
+        if !self.text || key < 128 {
+            self.buf.extend_from_slice(bytes);
+        } else {
+            let (_, kl) = codec::get_key(bytes);
+            let body = &bytes[kl..];
+            self.buf.extend_from_slice(al.text(key));
+            let n = al.arity(key);
+            if n > 0 {
+                self.buf.push(b'(');
+                for i in 0..n {
+                    if i > 0 {
+                        self.buf.push(b',');
+                    }
+                    codec::put_number(&mut self.buf, codec::get_param(body, i), &mut self.ryu);
+                }
+                self.buf.push(b')');
+            }
+        }
+    }
+
+    #[inline]
+    pub fn constant(&mut self, bin: &[u8], text: &[u8], modules: u64) {
+        self.modules += modules;
+        self.buf
+            .extend_from_slice(if self.text { text } else { bin });
+    }
+
+    #[inline]
+    pub fn module(&mut self, key: u32, params: &[f64], al: &Alphabet) {
+        self.modules += 1;
+        if self.text {
+            codec::put_text_module(&mut self.buf, al.text(key), params, &mut self.ryu);
+        } else {
+            codec::put_key(&mut self.buf, key);
+            codec::put_params(&mut self.buf, params);
+        }
+    }
+
+    #[inline]
+    pub fn maybe_flush(&mut self) -> Result<(), Error> {
+        if self.buf.len() >= OUT_CHUNK {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self) -> Result<(), Error> {
+        self.written += self.buf.len() as u64;
+        if self.modules > self.limits.modules {
+            return Err(Error::new(format!(
+                "the string grew past --max-length ({} modules)",
+                self.limits.modules
+            )));
+        }
+        if self.written > self.limits.bytes {
+            return Err(Error::new(format!(
+                "the string grew past --max-length ({} bytes)",
+                self.limits.bytes
+            )));
+        }
+        self.w
+            .write_all(&self.buf)
+            .map_err(|e| Error::io(self.name, "cannot write", e))?;
+        self.buf.clear();
+        Ok(())
+    }
+
+    /// Flush everything; returns (modules, bytes) written.
+    pub fn finish(mut self) -> Result<(u64, u64), Error> {
+        if self.text {
+            self.buf.push(b'\n');
+        }
+        self.flush()?;
+        self.w
+            .flush()
+            .map_err(|e| Error::io(self.name, "cannot write", e))?;
+        Ok((self.modules, self.written))
+    }
+}
+
+/// A buffered reader at file offsets (pread), so two can share one file.
+pub struct PosReader<'f> {
+    file: &'f File,
+    buf: Vec<u8>,
+    /// File offset of `buf[0]`.
+    start: u64,
+    pos: usize,
+    end: usize,
+}
+
+impl<'f> PosReader<'f> {
+    pub fn new(file: &'f File, capacity: usize) -> Self {
+        PosReader {
+            file,
+            buf: vec![0; capacity.max(2 * MAX_MODULE_BYTES)],
+            start: 0,
+            pos: 0,
+            end: 0,
+        }
+    }
+
+    #[inline]
+    pub fn offset(&self) -> u64 {
+        self.start + self.pos as u64
+    }
+
+    /// Move to file offset `off`, keeping the buffer if it covers `off`.
+    #[inline]
+    pub fn seek(&mut self, off: u64) {
+        if off >= self.start && off <= self.start + self.end as u64 {
+            self.pos = (off - self.start) as usize;
+        } else {
+            self.start = off;
+            self.pos = 0;
+            self.end = 0;
+        }
+    }
+
+    #[cold]
+    fn refill(&mut self) -> io::Result<()> {
+        self.buf.copy_within(self.pos..self.end, 0);
+        self.start += self.pos as u64;
+        self.end -= self.pos;
+        self.pos = 0;
+        while self.end < self.buf.len() {
+            let n = match self
+                .file
+                .read_at(&mut self.buf[self.end..], self.start + self.end as u64)
+            {
+                Ok(n) => n,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e),
+            };
+            if n == 0 {
+                break;
+            }
+            self.end += n;
+        }
+        Ok(())
+    }
+
+    /// The next module: (key, start, end) with its bytes at
+    /// `self.bytes(start, end)`.
+    #[inline]
+    pub fn next_module(&mut self, al: &Alphabet) -> io::Result<Option<(u32, usize, usize)>> {
+        if self.end - self.pos < MAX_MODULE_BYTES {
+            self.refill()?;
+            if self.pos == self.end {
+                return Ok(None);
+            }
+        }
+        let s = self.pos;
+        let b = self.buf[s];
+        if b < 0x80 {
+            self.pos += 1;
+            return Ok(Some((b as u32, s, s + 1)));
+        }
+        let (key, kl) = codec::get_key(&self.buf[s..]);
+        let e = s + kl + 8 * al.arity(key);
+        self.pos = e;
+        Ok(Some((key, s, e)))
+    }
+
+    #[inline]
+    pub fn bytes(&self, s: usize, e: usize) -> &[u8] {
+        &self.buf[s..e]
+    }
+}
+
+/// Left context: the last k considered modules of each open branch.
+struct LeftContext {
+    k: usize,
+    depth: usize,
+    levels: Vec<Ring>,
+}
+
+#[derive(Clone, Default)]
+struct Ring {
+    keys: Vec<u32>,
+    params: Vec<Vec<f64>>,
+    /// Index of the most recent entry.
+    head: usize,
+    len: usize,
+}
+
+impl Ring {
+    fn with_capacity(k: usize) -> Ring {
+        Ring {
+            keys: vec![0; k],
+            params: vec![Vec::new(); k],
+            head: 0,
+            len: 0,
+        }
+    }
+
+    fn copy_from(&mut self, other: &Ring) {
+        self.keys.copy_from_slice(&other.keys);
+        for (a, b) in self.params.iter_mut().zip(&other.params) {
+            a.clear();
+            a.extend_from_slice(b);
+        }
+        self.head = other.head;
+        self.len = other.len;
+    }
+}
+
+impl LeftContext {
+    fn new(k: usize) -> Self {
+        LeftContext {
+            k,
+            depth: 0,
+            levels: vec![Ring::with_capacity(k)],
+        }
+    }
+
+    fn open(&mut self) {
+        self.depth += 1;
+        if self.levels.len() <= self.depth {
+            self.levels.push(Ring::with_capacity(self.k));
+        }
+        let (parents, children) = self.levels.split_at_mut(self.depth);
+        children[0].copy_from(&parents[self.depth - 1]);
+    }
+
+    fn close(&mut self) {
+        self.depth = self.depth.saturating_sub(1);
+    }
+
+    fn push(&mut self, key: u32, params: &[u8], arity: usize) {
+        let k = self.k;
+        let r = &mut self.levels[self.depth];
+        r.head = (r.head + 1) % k;
+        r.keys[r.head] = key;
+        let p = &mut r.params[r.head];
+        p.clear();
+        p.extend((0..arity).map(|i| codec::get_param(params, i)));
+        r.len = (r.len + 1).min(k);
+    }
+
+    /// Does the ring end with `pat`? Binds its parameters into `slots`.
+    fn matches(&self, pat: &[Pat], slots: &mut [f64]) -> bool {
+        let r = &self.levels[self.depth];
+        if pat.len() > r.len {
+            return false;
+        }
+        let k = self.k;
+        for (j, p) in pat.iter().rev().enumerate() {
+            let idx = (r.head + k - j) % k;
+            if r.keys[idx] != p.key {
+                return false;
+            }
+            let vals = &r.params[idx];
+            slots[p.slot as usize..p.slot as usize + vals.len()].copy_from_slice(vals);
+        }
+        true
+    }
+}
+
+/// Where a pass's errors point and what they call the pass.
+pub struct Origin<'a> {
+    pub path: &'a str,
+    pub header: &'a str,
+}
+
+impl Origin<'_> {
+    fn locate(&self, offset: usize) -> Location {
+        Location::from_map(self.path, &CodeMap::new(self.header), offset)
+    }
+}
+
+/// State shared by the passes of one derivation.
+pub struct Deriver<'a> {
+    pub alphabet: Alphabet,
+    pub rng: Random,
+    pub origin: Origin<'a>,
+    slots: Vec<f64>,
+    vals: Vec<f64>,
+    stack: Vec<f64>,
+    cand: Vec<(u32, f64)>,
+    cand_slots: Vec<f64>,
+}
+
+/// What one pass is: a numbered step or the homomorphism.
+#[derive(Clone, Copy)]
+pub enum Pass {
+    Step(u64),
+    Homomorphism,
+}
+
+impl std::fmt::Display for Pass {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Pass::Step(n) => write!(f, "step {n}"),
+            Pass::Homomorphism => f.write_str("the homomorphism"),
+        }
+    }
+}
+
+struct StepState<'f> {
+    peek: Option<PosReader<'f>>,
+    left: Option<LeftContext>,
+    depth: i64,
+    /// Production that last left a `[` open, for unbalanced output.
+    last_opener: Option<u32>,
+}
+
+impl<'a> Deriver<'a> {
+    pub fn new(alphabet: Alphabet, rng: Random, origin: Origin<'a>) -> Self {
+        Deriver {
+            alphabet,
+            rng,
+            origin,
+            slots: Vec::new(),
+            vals: Vec::new(),
+            stack: Vec::new(),
+            cand: Vec::new(),
+            cand_slots: Vec::new(),
+        }
+    }
+
+    fn eval_error(&self, e: EvalError, pass: Pass) -> Error {
+        Error::at(
+            self.origin.locate(e.span.0),
+            format!("{} (in {pass})", e.message),
+        )
+    }
+
+    /// One pass: rewrite the generation in `input` into `out`.
+    pub fn pass(
+        &mut self,
+        table: &Table,
+        input: &File,
+        out: &mut Out,
+        pass: Pass,
+    ) -> Result<(), Error> {
+        let max_slots = table.prods.iter().map(|p| p.nslots).max().unwrap_or(0);
+        self.slots.resize(max_slots.max(1), 0.0);
+        let mut st = StepState {
+            peek: table.has_right.then(|| PosReader::new(input, 1 << 16)),
+            left: (table.max_left > 0).then(|| LeftContext::new(table.max_left)),
+            depth: 0,
+            last_opener: None,
+        };
+        let mut rd = PosReader::new(input, 1 << 20);
+        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        while let Some((key, s, e)) = rd.next_module(&self.alphabet).map_err(read_err)? {
+            let end_off = rd.offset();
+            let bytes = rd.bytes(s, e);
+            let applied = match table.get(key) {
+                Some(kr) => self.apply(table, kr, key, bytes, end_off, &mut st, out, pass)?,
+                None => false,
+            };
+            if !applied {
+                if table.check_balance {
+                    if key == OPEN {
+                        st.depth += 1;
+                    } else if key == CLOSE {
+                        st.depth -= 1;
+                    }
+                }
+                out.raw(key, bytes, &self.alphabet);
+            }
+            if let Some(left) = &mut st.left {
+                if key == OPEN {
+                    left.open();
+                } else if key == CLOSE {
+                    left.close();
+                } else if !self.alphabet.ignored(key) {
+                    let (_, kl) = codec::get_key(bytes);
+                    left.push(key, &bytes[kl..], self.alphabet.arity(key));
+                }
+            }
+            out.maybe_flush()?;
+        }
+        if st.depth != 0 {
+            let p = &table.prods[st.last_opener.unwrap_or(0) as usize];
+            return Err(Error::at(
+                self.origin.locate(p.span.0),
+                format!(
+                    "unbalanced brackets: {pass} leaves a `[` open, produced by this production"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Try the productions of `key`; emit the chosen successor.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn apply(
+        &mut self,
+        table: &Table,
+        kr: &KeyRules,
+        key: u32,
+        bytes: &[u8],
+        end_off: u64,
+        st: &mut StepState,
+        out: &mut Out,
+        pass: Pass,
+    ) -> Result<bool, Error> {
+        // Predecessor parameters into the first slots.
+        let arity = self.alphabet.arity(key);
+        if arity > 0 {
+            let (_, kl) = codec::get_key(bytes);
+            for i in 0..arity {
+                self.slots[i] = codec::get_param(&bytes[kl..], i);
+            }
+        }
+        let mut chosen = None;
+        if !kr.context.is_empty() {
+            chosen = self.choose(table, &kr.context, kr.context_stochastic, end_off, st, pass)?;
+        }
+        if chosen.is_none() && !kr.free.is_empty() {
+            chosen = self.choose(table, &kr.free, kr.free_stochastic, end_off, st, pass)?;
+        }
+        let Some(pi) = chosen else {
+            return Ok(false);
+        };
+        let p = &table.prods[pi as usize];
+        if table.check_balance {
+            if st.depth + p.depth_min < 0 {
+                return Err(Error::at(
+                    self.origin.locate(p.span.0),
+                    format!(
+                        "unbalanced brackets: this production closes a `]` without `[` in {pass}"
+                    ),
+                ));
+            }
+            st.depth += p.depth_delta;
+            if p.depth_delta > 0 {
+                st.last_opener = Some(pi);
+            }
+        }
+        self.emit(p, out, pass)?;
+        Ok(true)
+    }
+
+    /// Does production `p` match here (contexts and condition)?
+    #[inline]
+    fn matches(
+        &mut self,
+        p: &Production,
+        end_off: u64,
+        st: &mut StepState,
+        pass: Pass,
+    ) -> Result<bool, Error> {
+        if !p.left.is_empty() && !st.left.as_ref().unwrap().matches(&p.left, &mut self.slots) {
+            return Ok(false);
+        }
+        if !p.right.is_empty() {
+            let peek = st.peek.as_mut().unwrap();
+            let ok = match_right(peek, &self.alphabet, end_off, &p.right, &mut self.slots)
+                .map_err(|e| Error::io("temporary file", "cannot read", e))?;
+            if !ok {
+                return Ok(false);
+            }
+        }
+        match &p.cond {
+            None => Ok(true),
+            Some(c) => match c.eval(&self.slots, &mut self.stack, &mut self.rng) {
+                Ok(v) => Ok(v != 0.0),
+                Err(e) => Err(self.eval_error(e, pass)),
+            },
+        }
+    }
+
+    fn choose(
+        &mut self,
+        table: &Table,
+        list: &[u32],
+        stochastic: bool,
+        end_off: u64,
+        st: &mut StepState,
+        pass: Pass,
+    ) -> Result<Option<u32>, Error> {
+        if !stochastic {
+            for &pi in list {
+                if self.matches(&table.prods[pi as usize], end_off, st, pass)? {
+                    return Ok(Some(pi));
+                }
+            }
+            return Ok(None);
+        }
+        // Weighted choice among all matching productions.
+        self.cand.clear();
+        self.cand_slots.clear();
+        let mut total = 0.0;
+        for &pi in list {
+            let p = &table.prods[pi as usize];
+            if !self.matches(p, end_off, st, pass)? {
+                continue;
+            }
+            let w = match &p.prob {
+                None => 1.0,
+                Some(c) => c
+                    .eval(&self.slots, &mut self.stack, &mut self.rng)
+                    .map_err(|e| self.eval_error(e, pass))?,
+            };
+            if w < 0.0 {
+                return Err(Error::at(
+                    self.origin.locate(p.prob.as_ref().unwrap().span.0),
+                    format!("a probability cannot be negative ({w}, in {pass})"),
+                ));
+            }
+            if w > 0.0 {
+                total += w;
+                self.cand.push((pi, w));
+                self.cand_slots.extend_from_slice(&self.slots[..p.nslots]);
+            }
+        }
+        let pick = match self.cand.len() {
+            0 => return Ok(None),
+            1 => 0,
+            n => {
+                let mut u = self.rng.uniform() * total;
+                let mut i = 0;
+                while i < n - 1 {
+                    u -= self.cand[i].1;
+                    if u < 0.0 {
+                        break;
+                    }
+                    i += 1;
+                }
+                i
+            }
+        };
+        // Restore the chosen production's bindings.
+        let pi = self.cand[pick].0;
+        let off: usize = self.cand[..pick]
+            .iter()
+            .map(|(q, _)| table.prods[*q as usize].nslots)
+            .sum();
+        let n = table.prods[pi as usize].nslots;
+        self.slots[..n].copy_from_slice(&self.cand_slots[off..off + n]);
+        Ok(Some(pi))
+    }
+
+    #[inline]
+    fn emit(&mut self, p: &Production, out: &mut Out, pass: Pass) -> Result<(), Error> {
+        for item in &p.succ {
+            match item {
+                Item::Const { bin, text, modules } => out.constant(bin, text, *modules),
+                Item::Module { key, params } => {
+                    self.vals.clear();
+                    for c in params.iter() {
+                        match c.eval(&self.slots, &mut self.stack, &mut self.rng) {
+                            Ok(v) => self.vals.push(v),
+                            Err(e) => return Err(self.eval_error(e, pass)),
+                        }
+                    }
+                    out.module(*key, &self.vals, &self.alphabet);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Match a right context starting at file offset `pos` (just after the
+/// predecessor), binding parameters into `slots`.
+pub fn match_right(
+    peek: &mut PosReader,
+    al: &Alphabet,
+    pos: u64,
+    pat: &[RPat],
+    slots: &mut [f64],
+) -> io::Result<bool> {
+    let Some((&first, rest)) = pat.split_first() else {
+        return Ok(true);
+    };
+    match first {
+        RPat::Module(p) => {
+            let mut pos = pos;
+            loop {
+                peek.seek(pos);
+                let Some((key, s, e)) = peek.next_module(al)? else {
+                    return Ok(false);
+                };
+                let next = peek.offset();
+                if key == OPEN {
+                    // A branch the pattern does not ask for: skip it whole.
+                    match skip_branch(peek, al, next)? {
+                        Some(after) => pos = after,
+                        None => return Ok(false),
+                    }
+                    continue;
+                }
+                if key == CLOSE {
+                    return Ok(false);
+                }
+                if al.ignored(key) {
+                    pos = next;
+                    continue;
+                }
+                if key != p.key {
+                    return Ok(false);
+                }
+                let bytes = peek.bytes(s, e);
+                let (_, kl) = codec::get_key(bytes);
+                for i in 0..al.arity(key) {
+                    slots[p.slot as usize + i] = codec::get_param(&bytes[kl..], i);
+                }
+                return match_right(peek, al, next, rest, slots);
+            }
+        }
+        RPat::Open => {
+            // Step over ignored modules to the first `[`, then try each of
+            // the consecutive branches there.
+            let mut pos = pos;
+            loop {
+                peek.seek(pos);
+                let Some((key, _, _)) = peek.next_module(al)? else {
+                    return Ok(false);
+                };
+                let next = peek.offset();
+                if key == OPEN {
+                    if match_right(peek, al, next, rest, slots)? {
+                        return Ok(true);
+                    }
+                    match skip_branch(peek, al, next)? {
+                        Some(after) => pos = after,
+                        None => return Ok(false),
+                    }
+                    // Only a directly following branch is another candidate.
+                    peek.seek(pos);
+                    match peek.next_module(al)? {
+                        Some((k, _, _)) if k == OPEN => continue,
+                        _ => return Ok(false),
+                    }
+                }
+                if key != CLOSE && al.ignored(key) {
+                    pos = next;
+                    continue;
+                }
+                return Ok(false);
+            }
+        }
+        RPat::Close => match skip_branch(peek, al, pos)? {
+            Some(after) => match_right(peek, al, after, rest, slots),
+            None => Ok(false),
+        },
+    }
+}
+
+/// From inside a branch at `pos`, the offset just after the `]` that closes
+/// it; None if the string ends first.
+fn skip_branch(peek: &mut PosReader, al: &Alphabet, pos: u64) -> io::Result<Option<u64>> {
+    peek.seek(pos);
+    let mut depth = 0u64;
+    while let Some((key, _, _)) = peek.next_module(al)? {
+        if key == OPEN {
+            depth += 1;
+        } else if key == CLOSE {
+            if depth == 0 {
+                return Ok(Some(peek.offset()));
+            }
+            depth -= 1;
+        }
+    }
+    Ok(None)
+}

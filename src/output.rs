@@ -1,0 +1,110 @@
+//! Where the final string goes: standard output, or `-o FILE` written to an
+//! unnamed temp file in FILE's directory and put in place only on success,
+//! so a failed or killed run never leaves a partial file or clobbers one.
+
+use crate::diag::Error;
+use std::fs::File;
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+
+pub enum Output {
+    Stdout(io::Stdout),
+    /// A regular file, written beside its final name.
+    Atomic {
+        file: File,
+        path: PathBuf,
+        dir: PathBuf,
+    },
+    /// An existing non-regular file (a device, a FIFO): written in place.
+    Direct(File),
+}
+
+impl Output {
+    pub fn stdout() -> Output {
+        Output::Stdout(io::stdout())
+    }
+
+    pub fn file(path: &Path) -> Result<Output, Error> {
+        let name = path.display().to_string();
+        if let Ok(meta) = std::fs::metadata(path) {
+            if meta.is_dir() {
+                return Err(Error::io(
+                    name,
+                    "cannot write",
+                    io::Error::from(io::ErrorKind::IsADirectory),
+                ));
+            }
+            if !meta.is_file() {
+                let f = std::fs::OpenOptions::new()
+                    .write(true)
+                    .open(path)
+                    .map_err(|e| Error::io(name, "cannot write", e))?;
+                return Ok(Output::Direct(f));
+            }
+        }
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        // O_TMPFILE on Linux: the file has no name until it is complete.
+        let file = tempfile::tempfile_in(&dir).map_err(|e| Error::io(name, "cannot write", e))?;
+        Ok(Output::Atomic {
+            file,
+            path: path.to_path_buf(),
+            dir,
+        })
+    }
+
+    pub fn name(&self) -> String {
+        match self {
+            Output::Stdout(_) => "standard output".into(),
+            Output::Atomic { path, .. } => path.display().to_string(),
+            Output::Direct(_) => "output".into(),
+        }
+    }
+
+    pub fn writer(&mut self) -> &mut dyn Write {
+        match self {
+            Output::Stdout(s) => s,
+            Output::Atomic { file, .. } | Output::Direct(file) => file,
+        }
+    }
+
+    /// Put a complete file in place. Not calling this discards the output.
+    pub fn commit(self) -> Result<(), Error> {
+        let Output::Atomic { file, path, dir } = self else {
+            return Ok(());
+        };
+        let name = path.display().to_string();
+        file.sync_all()
+            .map_err(|e| Error::io(name.clone(), "cannot write", e))?;
+        link_into_place(&file, &dir, &path).map_err(|e| Error::io(name, "cannot write", e))
+    }
+}
+
+/// Give the unnamed file a temporary name in `dir` (linkat through
+/// /proc/self/fd), then rename it over `path` atomically.
+fn link_into_place(file: &File, dir: &Path, path: &Path) -> io::Result<()> {
+    use rustix::fs::{linkat, AtFlags, CWD};
+    use std::os::fd::AsRawFd;
+    let proc_path = format!("/proc/self/fd/{}", file.as_raw_fd());
+    for attempt in 0..100u32 {
+        let tmp = dir.join(format!(
+            ".lsgen-{}-{}-{attempt}.tmp",
+            std::process::id(),
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.subsec_nanos())
+        ));
+        match linkat(CWD, proc_path.as_str(), CWD, &tmp, AtFlags::SYMLINK_FOLLOW) {
+            Ok(()) => {
+                return std::fs::rename(&tmp, path).inspect_err(|_| {
+                    let _ = std::fs::remove_file(&tmp);
+                });
+            }
+            Err(e) if e == rustix::io::Errno::EXIST => continue,
+            Err(e) => return Err(e.into()),
+        }
+    }
+    Err(io::Error::from(io::ErrorKind::AlreadyExists))
+}

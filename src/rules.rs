@@ -1,0 +1,586 @@
+//! From syntax tree to compiled rules: the alphabet of module keys, the
+//! productions with their expressions compiled and their successors turned
+//! into byte templates, and a table that finds a module's productions by key
+//! in O(1).
+
+use crate::ast::{self, Expr, Setting};
+use crate::codec::{self, MAX_ARITY};
+use crate::expr::{Code, Scope};
+use crate::lexer::Span;
+use crate::parse::UserError;
+use crate::random::Random;
+use std::collections::{HashMap, HashSet};
+
+pub const OPEN: u32 = b'[' as u32;
+pub const CLOSE: u32 = b']' as u32;
+
+/// Which symbols contexts see.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum Filter {
+    #[default]
+    All,
+    Ignore(HashSet<char>),
+    Consider(HashSet<char>),
+}
+
+impl Filter {
+    fn ignores(&self, c: char) -> bool {
+        if c == '[' || c == ']' {
+            return false;
+        }
+        match self {
+            Filter::All => false,
+            Filter::Ignore(s) => s.contains(&c),
+            Filter::Consider(s) => !s.contains(&c),
+        }
+    }
+}
+
+/// Every module kind (symbol, number of parameters) gets a key. Keys below
+/// 128 are the ASCII symbols without parameters, equal to their byte.
+pub struct Alphabet {
+    sym: Vec<char>,
+    arity: Vec<u16>,
+    text: Vec<Box<[u8]>>,
+    ignored: Vec<bool>,
+    map: HashMap<(char, u16), u32>,
+    filter: Filter,
+}
+
+impl Alphabet {
+    pub fn new(filter: Filter) -> Alphabet {
+        let mut a = Alphabet {
+            sym: Vec::new(),
+            arity: Vec::new(),
+            text: Vec::new(),
+            ignored: Vec::new(),
+            map: HashMap::new(),
+            filter,
+        };
+        for b in 0u8..128 {
+            let c = b as char;
+            a.sym.push(c);
+            a.arity.push(0);
+            a.text.push(vec![b].into_boxed_slice());
+            a.ignored.push(a.filter.ignores(c));
+        }
+        a
+    }
+
+    /// The key of `sym` with `arity` parameters, made on first use.
+    pub fn intern(&mut self, sym: char, arity: usize) -> Result<u32, String> {
+        if arity > MAX_ARITY {
+            return Err(format!(
+                "a module has at most {MAX_ARITY} parameters, this one has {arity}"
+            ));
+        }
+        if arity == 0 && sym.is_ascii() {
+            return Ok(sym as u32);
+        }
+        let arity = arity as u16;
+        if let Some(&k) = self.map.get(&(sym, arity)) {
+            return Ok(k);
+        }
+        let k = self.sym.len() as u32;
+        self.sym.push(sym);
+        self.arity.push(arity);
+        let mut t = [0u8; 4];
+        self.text.push(
+            sym.encode_utf8(&mut t)
+                .as_bytes()
+                .to_vec()
+                .into_boxed_slice(),
+        );
+        self.ignored.push(self.filter.ignores(sym));
+        self.map.insert((sym, arity), k);
+        Ok(k)
+    }
+
+    #[inline]
+    pub fn arity(&self, key: u32) -> usize {
+        self.arity[key as usize] as usize
+    }
+    #[inline]
+    pub fn text(&self, key: u32) -> &[u8] {
+        &self.text[key as usize]
+    }
+    #[inline]
+    pub fn symbol(&self, key: u32) -> char {
+        self.sym[key as usize]
+    }
+    /// Is this key passed over when matching contexts?
+    #[inline]
+    pub fn ignored(&self, key: u32) -> bool {
+        self.ignored[key as usize]
+    }
+    pub fn len(&self) -> usize {
+        self.sym.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.sym.is_empty()
+    }
+}
+
+/// A context module to match: its key and the slot of its first parameter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pat {
+    pub key: u32,
+    pub slot: u32,
+}
+
+/// An element of a right context.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RPat {
+    Module(Pat),
+    /// `[`: enter a lateral branch.
+    Open,
+    /// `]`: skip the rest of the current branch.
+    Close,
+}
+
+/// Part of a successor.
+#[derive(Clone, Debug)]
+pub enum Item {
+    /// A run of modules known at load time, in both formats.
+    Const {
+        bin: Box<[u8]>,
+        text: Box<[u8]>,
+        modules: u64,
+    },
+    /// A module whose parameters are computed.
+    Module { key: u32, params: Box<[Code]> },
+}
+
+#[derive(Clone, Debug)]
+pub struct Production {
+    pub key: u32,
+    /// Slots: predecessor parameters, then left context, then right context.
+    pub nslots: usize,
+    pub left: Vec<Pat>,
+    pub right: Vec<RPat>,
+    pub cond: Option<Code>,
+    pub prob: Option<Code>,
+    pub succ: Vec<Item>,
+    /// Where the production starts in the header, for runtime errors.
+    pub span: Span,
+    /// Bracket depth change of the successor, and its lowest prefix.
+    pub depth_delta: i64,
+    pub depth_min: i64,
+}
+
+impl Production {
+    pub fn has_context(&self) -> bool {
+        !self.left.is_empty() || !self.right.is_empty()
+    }
+}
+
+/// The productions of one key, in file order, split by kind.
+#[derive(Clone, Debug, Default)]
+pub struct KeyRules {
+    /// Context-sensitive productions: a match beats every context-free one.
+    pub context: Vec<u32>,
+    pub free: Vec<u32>,
+    pub context_stochastic: bool,
+    pub free_stochastic: bool,
+}
+
+#[derive(Debug, Default)]
+pub struct Table {
+    pub prods: Vec<Production>,
+    by_key: Vec<Option<KeyRules>>,
+    /// Longest left context.
+    pub max_left: usize,
+    pub has_right: bool,
+    /// Some successor is not bracket-balanced: check each step's output.
+    pub check_balance: bool,
+}
+
+impl Table {
+    #[inline]
+    pub fn get(&self, key: u32) -> Option<&KeyRules> {
+        self.by_key.get(key as usize).and_then(Option::as_ref)
+    }
+    pub fn is_empty(&self) -> bool {
+        self.prods.is_empty()
+    }
+    pub fn has_context(&self) -> bool {
+        self.max_left > 0 || self.has_right
+    }
+}
+
+pub struct System {
+    pub alphabet: Alphabet,
+    pub productions: Table,
+    pub homomorphism: Table,
+    pub derivation_length: Option<u64>,
+    pub seed: Option<u64>,
+    pub consts: HashMap<String, f64>,
+}
+
+type R<T> = Result<T, UserError>;
+
+fn err<T>(span: Span, msg: impl Into<String>) -> R<T> {
+    Err(UserError::new(span, msg))
+}
+
+fn compile_code(e: &Expr, params: &HashMap<String, u32>, consts: &HashMap<String, f64>) -> R<Code> {
+    Code::compile(e, &Scope { params, consts }).map_err(|e| UserError::new(e.span, e.message))
+}
+
+/// Evaluate a setting's expression: constants only.
+fn constant(e: &Expr, consts: &HashMap<String, f64>, rng: &mut Random) -> R<f64> {
+    let code = compile_code(e, &HashMap::new(), consts)?;
+    code.eval(&[], &mut Vec::new(), rng)
+        .map_err(|e| UserError::new(e.span, e.message))
+}
+
+fn whole_number(e: &Expr, consts: &HashMap<String, f64>, what: &str) -> R<u64> {
+    let v = constant(e, consts, &mut Random::new(0))?;
+    if v < 0.0 || v.fract() != 0.0 || v > 9.007_199_254_740_992e15 {
+        return err(
+            e.span(),
+            format!("{what} must be a whole number from 0 to 2^53, not {v}"),
+        );
+    }
+    Ok(v as u64)
+}
+
+fn symbols(mods: &[ast::Module]) -> R<HashSet<char>> {
+    let mut s = HashSet::new();
+    for m in mods {
+        if !m.params.is_empty() {
+            return err(m.span, "list symbols here, without parameters");
+        }
+        s.insert(m.sym);
+    }
+    Ok(s)
+}
+
+/// Compile a parsed header. `seed` is the command line's, which wins over
+/// the file's; `rng` is used by `define:` expressions that call `ran`.
+pub fn compile(h: &ast::Header) -> R<System> {
+    let mut derivation_length = None;
+    let mut seed = None;
+    let mut filter: Option<(Filter, Span)> = None;
+    let mut consts: HashMap<String, f64> = HashMap::new();
+    let mut define_rng = None;
+    for s in &h.settings {
+        match s {
+            Setting::DerivationLength(e, span) => {
+                if derivation_length.is_some() {
+                    return err(*span, "`derivation length:` is set twice");
+                }
+                derivation_length = Some(whole_number(e, &consts, "the derivation length")?);
+            }
+            Setting::Seed(e, span) => {
+                if seed.is_some() {
+                    return err(*span, "`seed:` is set twice");
+                }
+                seed = Some(whole_number(e, &consts, "the seed")?);
+            }
+            Setting::Define(name, e, span) => {
+                if consts.contains_key(name) {
+                    return err(*span, format!("`{name}` is defined twice"));
+                }
+                // `ran` in a define draws from a generator of its own,
+                // seeded from `seed:` if it came first.
+                let rng = define_rng.get_or_insert_with(|| Random::new(seed.unwrap_or(0)));
+                let v = constant(e, &consts, rng)?;
+                consts.insert(name.clone(), v);
+            }
+            Setting::Ignore(m, span) | Setting::Consider(m, span) => {
+                let set = symbols(m)?;
+                let f = if matches!(s, Setting::Ignore(..)) {
+                    Filter::Ignore(set)
+                } else {
+                    Filter::Consider(set)
+                };
+                match (&mut filter, f) {
+                    (None, f) => filter = Some((f, *span)),
+                    (Some((Filter::Ignore(a), _)), Filter::Ignore(b))
+                    | (Some((Filter::Consider(a), _)), Filter::Consider(b)) => a.extend(b),
+                    (Some(_), _) => {
+                        return err(
+                            *span,
+                            "`ignore:` and `consider:` cannot both be used: pick one",
+                        )
+                    }
+                }
+            }
+        }
+    }
+    let mut alphabet = Alphabet::new(filter.map(|f| f.0).unwrap_or_default());
+    let productions = compile_table(&h.productions, &mut alphabet, &consts)?;
+    let homomorphism = compile_table(&h.homomorphism, &mut alphabet, &consts)?;
+    Ok(System {
+        alphabet,
+        productions,
+        homomorphism,
+        derivation_length,
+        seed,
+        consts,
+    })
+}
+
+fn compile_table(
+    prods: &[ast::Production],
+    alphabet: &mut Alphabet,
+    consts: &HashMap<String, f64>,
+) -> R<Table> {
+    let mut t = Table::default();
+    for p in prods {
+        let cp = compile_production(p, alphabet, consts)?;
+        t.max_left = t.max_left.max(cp.left.len());
+        t.has_right |= !cp.right.is_empty();
+        t.check_balance |= cp.depth_delta != 0 || cp.depth_min < 0;
+        let key = cp.key as usize;
+        if t.by_key.len() <= key {
+            t.by_key.resize(key + 1, None);
+        }
+        let kr = t.by_key[key].get_or_insert_with(KeyRules::default);
+        let idx = t.prods.len() as u32;
+        if cp.has_context() {
+            kr.context.push(idx);
+            kr.context_stochastic |= cp.prob.is_some();
+        } else {
+            kr.free.push(idx);
+            kr.free_stochastic |= cp.prob.is_some();
+        }
+        t.prods.push(cp);
+    }
+    Ok(t)
+}
+
+fn bind_formals(m: &ast::Module, names: &mut HashMap<String, u32>, nslots: &mut usize) -> R<u32> {
+    let first = *nslots as u32;
+    for e in &m.params {
+        match e {
+            Expr::Var(name, span) => {
+                if names.insert(name.clone(), *nslots as u32).is_some() {
+                    return err(*span, format!("parameter `{name}` is bound twice"));
+                }
+                *nslots += 1;
+            }
+            other => return err(
+                other.span(),
+                "a formal parameter must be a name (values go in the successor or the condition)",
+            ),
+        }
+    }
+    Ok(first)
+}
+
+fn compile_production(
+    p: &ast::Production,
+    alphabet: &mut Alphabet,
+    consts: &HashMap<String, f64>,
+) -> R<Production> {
+    let intern = |a: &mut Alphabet, m: &ast::Module| {
+        a.intern(m.sym, m.params.len())
+            .map_err(|e| UserError::new(m.span, e))
+    };
+    if matches!(p.pred.sym, '[' | ']') {
+        return err(p.pred.span, "brackets cannot be rewritten");
+    }
+    let mut names = HashMap::new();
+    let mut nslots = 0;
+    let key = intern(alphabet, &p.pred)?;
+    bind_formals(&p.pred, &mut names, &mut nslots)?;
+    let mut left = Vec::new();
+    for m in &p.left {
+        if matches!(m.sym, '[' | ']') {
+            return err(m.span, "a left context cannot hold brackets: branches to the left are skipped by the matcher");
+        }
+        let k = intern(alphabet, m)?;
+        let slot = bind_formals(m, &mut names, &mut nslots)?;
+        left.push(Pat { key: k, slot });
+    }
+    let mut right = Vec::new();
+    for m in &p.right {
+        match m.sym {
+            '[' | ']' if !m.params.is_empty() => {
+                return err(m.span, "a bracket takes no parameters")
+            }
+            '[' => right.push(RPat::Open),
+            ']' => right.push(RPat::Close),
+            _ => {
+                let k = intern(alphabet, m)?;
+                let slot = bind_formals(m, &mut names, &mut nslots)?;
+                right.push(RPat::Module(Pat { key: k, slot }));
+            }
+        }
+    }
+    let cond = p
+        .cond
+        .as_ref()
+        .map(|e| compile_code(e, &names, consts))
+        .transpose()?;
+    let prob = p
+        .prob
+        .as_ref()
+        .map(|e| compile_code(e, &names, consts))
+        .transpose()?;
+    if let Some(w) = prob.as_ref().and_then(Code::constant) {
+        if w < 0.0 {
+            return err(
+                prob.as_ref().unwrap().span,
+                format!("a probability cannot be negative ({w})"),
+            );
+        }
+    }
+    let (succ, depth_delta, depth_min) = compile_successor(&p.succ, alphabet, &names, consts)?;
+    Ok(Production {
+        key,
+        nslots,
+        left,
+        right,
+        cond,
+        prob,
+        succ,
+        span: p.span,
+        depth_delta,
+        depth_min,
+    })
+}
+
+/// Successor to items: runs of modules whose parameters are all constant
+/// become precomputed bytes.
+fn compile_successor(
+    succ: &[ast::Module],
+    alphabet: &mut Alphabet,
+    names: &HashMap<String, u32>,
+    consts: &HashMap<String, f64>,
+) -> R<(Vec<Item>, i64, i64)> {
+    let mut items = Vec::new();
+    let (mut bin, mut text, mut n) = (Vec::new(), Vec::new(), 0u64);
+    let mut depth = 0i64;
+    let mut min = 0i64;
+    let mut ryu = ryu::Buffer::new();
+    for m in succ {
+        let key = alphabet
+            .intern(m.sym, m.params.len())
+            .map_err(|e| UserError::new(m.span, e))?;
+        if m.params.is_empty() {
+            match m.sym {
+                '[' => depth += 1,
+                ']' => {
+                    depth -= 1;
+                    min = min.min(depth);
+                }
+                _ => {}
+            }
+        }
+        let codes = m
+            .params
+            .iter()
+            .map(|e| compile_code(e, names, consts))
+            .collect::<R<Vec<Code>>>()?;
+        let values: Option<Vec<f64>> = codes.iter().map(Code::constant).collect();
+        match values {
+            Some(vals) => {
+                codec::put_key(&mut bin, key);
+                codec::put_params(&mut bin, &vals);
+                codec::put_text_module(&mut text, alphabet.text(key), &vals, &mut ryu);
+                n += 1;
+            }
+            None => {
+                if n > 0 {
+                    items.push(Item::Const {
+                        bin: std::mem::take(&mut bin).into_boxed_slice(),
+                        text: std::mem::take(&mut text).into_boxed_slice(),
+                        modules: n,
+                    });
+                    n = 0;
+                }
+                items.push(Item::Module {
+                    key,
+                    params: codes.into_boxed_slice(),
+                });
+            }
+        }
+    }
+    if n > 0 {
+        items.push(Item::Const {
+            bin: bin.into_boxed_slice(),
+            text: text.into_boxed_slice(),
+            modules: n,
+        });
+    }
+    Ok((items, depth, min))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::parse::parse_header;
+
+    fn sys(src: &str) -> Result<System, UserError> {
+        compile(&parse_header(src).unwrap())
+    }
+
+    #[test]
+    fn keys() {
+        let mut a = Alphabet::new(Filter::All);
+        assert_eq!(a.intern('F', 0).unwrap(), b'F' as u32);
+        let k = a.intern('F', 1).unwrap();
+        assert!(k >= 128);
+        assert_eq!(a.intern('F', 1).unwrap(), k);
+        let o = a.intern('Ω', 0).unwrap();
+        assert_eq!(a.text(o), "Ω".as_bytes());
+        assert_eq!(a.arity(k), 1);
+    }
+
+    #[test]
+    fn constant_successors_are_precompiled() {
+        let s = sys("define: R = 2\nproductions:\nF -> F(R)[+F]G(1,R*3)\n").unwrap();
+        let p = &s.productions.prods[0];
+        assert_eq!(p.succ.len(), 1);
+        match &p.succ[0] {
+            Item::Const { text, modules, .. } => {
+                assert_eq!(std::str::from_utf8(text).unwrap(), "F(2)[+F]G(1,6)");
+                assert_eq!(*modules, 6);
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!((p.depth_delta, p.depth_min), (0, 0));
+        assert!(!s.productions.check_balance);
+    }
+
+    #[test]
+    fn lookup_by_key_and_kinds() {
+        let s = sys("productions:\nA < B -> C\nB -> D\nB -> E : 2\n").unwrap();
+        let kr = s.productions.get(b'B' as u32).unwrap();
+        assert_eq!(kr.context, vec![0]);
+        assert_eq!(kr.free, vec![1, 2]);
+        assert!(kr.free_stochastic && !kr.context_stochastic);
+        assert!(s.productions.get(b'A' as u32).is_none());
+        assert_eq!(s.productions.max_left, 1);
+    }
+
+    #[test]
+    fn compile_errors() {
+        let e = sys("productions:\nA(x) -> B(y)\n").err().unwrap();
+        assert_eq!(e.message, "unknown identifier `y`");
+        let e = sys("define: a = 1\ndefine: a = 2\n").err().unwrap();
+        assert!(e.message.contains("defined twice"));
+        let e = sys("ignore: +\nconsider: F\n").err().unwrap();
+        assert!(e.message.contains("cannot both"));
+        let e = sys("productions:\nA -> B : -1\n").err().unwrap();
+        assert!(e.message.contains("negative"));
+        let e = sys("productions:\nA(x) : z > 1 -> B\n").err().unwrap();
+        assert!(e.message.contains("unknown identifier `z`"));
+        let e = sys("productions:\nA(1) -> B\n").err().unwrap();
+        assert!(e.message.contains("formal parameter"));
+        let e = sys("productions:\nA(x) < B(x) -> B\n").err().unwrap();
+        assert!(e.message.contains("bound twice"));
+        let e = sys("derivation length: 2.5\n").err().unwrap();
+        assert!(e.message.contains("whole number"));
+    }
+
+    #[test]
+    fn unbalanced_successor_is_flagged() {
+        let s = sys("productions:\nA -> ]B[\n").unwrap();
+        assert!(s.productions.check_balance);
+        assert_eq!(s.productions.prods[0].depth_min, -1);
+    }
+}

@@ -1,0 +1,139 @@
+#!/usr/bin/env python3
+"""Regenerate tests/expected/ from examples/*.ls with the reference rewriter.
+
+Usage (from the repository root):
+    python3 tests/tools/gen_expected.py          # write all files + README.md
+    python3 tests/tools/gen_expected.py --check  # only compare, exit 1 on any difference
+
+Each expected file is tests/expected/NAME.nN.txt: the output of
+examples/NAME.ls after N derivation steps (homomorphism applied if the file
+has one), on one line, newline-terminated.
+"""
+
+import os
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, HERE)
+
+import ref  # noqa: E402
+
+# example name -> derivation lengths to record
+MANIFEST = {
+    "algae": list(range(0, 16)),
+    "signal": [1, 2, 3, 6, 7],
+    "koch_snowflake": [0, 1, 2, 3, 4, 5],
+    "koch_island": [0, 1, 2, 3],
+    "quadratic_koch_island": [1, 2],
+    "quadratic_snowflake": [1, 4],
+    "islands_and_lakes": [1, 2],
+    "koch_curve_a": [4],
+    "koch_curve_b": [4],
+    "koch_curve_c": [3],
+    "koch_curve_d": [4],
+    "koch_curve_e": [5],
+    "koch_curve_f": [4],
+    "dragon_curve": [1, 2, 10],
+    "sierpinski_gasket": [1, 2, 6],
+    "hilbert3d": [1, 2, 3],
+    "plant_a": [1, 5],
+    "plant_b": [1, 5],
+    "plant_c": [1, 4],
+    "plant_d": [1, 2, 7],
+    "plant_e": [1, 2, 7],
+    "plant_f": [1, 2, 5],
+    "stochastic_plant": [0],
+    "parametric": [0, 1, 2, 3, 4, 5, 6],
+    "parametric_context": [1],
+    "monopodial_tree": [1, 3, 10],
+    "sympodial_tree": [1, 3, 10],
+    "ternary_tree": [1, 2, 6],
+    "row_of_trees": [1, 2, 10],
+    "context_brackets": [1],
+    "context_plant_a": [1, 2, 3, 30],
+    "context_plant_b": [1, 2, 3, 4, 30],
+    "context_plant_c": [1, 2, 3, 26],
+    "context_plant_d": [1, 2, 3, 24],
+    "context_plant_e": [1, 2, 3, 12, 26],
+}
+
+README_HEAD = """\
+# Expected outputs
+
+Each `NAME.nN.txt` is the exact output of `examples/NAME.ls` after `N`
+derivation steps (the file's homomorphism, if any, applied once at the end),
+on one line, newline-terminated.  Numbers are formatted like Rust's `ryu`
+crate without the trailing `.0`.
+
+These files are produced by `tests/tools/ref.py`, an independent Python
+reference rewriter (it shares no code with lsgen).  Regenerate all of them,
+and this README, with
+
+    python3 tests/tools/gen_expected.py
+
+or check that they are up to date with
+
+    python3 tests/tools/gen_expected.py --check
+
+A single file is regenerated with the command listed next to it (run from
+the repository root).  `python3 tests/tools/check_ref.py` runs the
+reference's own sanity checks (hand-derived strings, Fibonacci lengths,
+7*4^n for the snowflake, ...).
+
+| file | bytes | command |
+| --- | --- | --- |
+"""
+
+
+def main(argv):
+    check = "--check" in argv
+    outdir = os.path.join(ROOT, "tests", "expected")
+    os.makedirs(outdir, exist_ok=True)
+    rows = []
+    bad = 0
+    for name in sorted(MANIFEST):
+        src = os.path.join(ROOT, "examples", name + ".ls")
+        for n in MANIFEST[name]:
+            text = ref.run_file(src, n) + "\n"
+            fname = "%s.n%d.txt" % (name, n)
+            path = os.path.join(outdir, fname)
+            cmd = "python3 tests/tools/ref.py examples/%s.ls -n %d > tests/expected/%s" % (
+                name,
+                n,
+                fname,
+            )
+            rows.append("| `%s` | %d | `%s` |\n" % (fname, len(text), cmd))
+            if check:
+                try:
+                    with open(path, encoding="utf-8") as f:
+                        old = f.read()
+                except FileNotFoundError:
+                    old = None
+                if old != text:
+                    print("differs: %s" % fname)
+                    bad += 1
+            else:
+                with open(path, "w", encoding="utf-8", newline="\n") as f:
+                    f.write(text)
+    readme = README_HEAD + "".join(rows)
+    readme_path = os.path.join(outdir, "README.md")
+    if check:
+        try:
+            with open(readme_path, encoding="utf-8") as f:
+                if f.read() != readme:
+                    print("differs: README.md")
+                    bad += 1
+        except FileNotFoundError:
+            print("missing: README.md")
+            bad += 1
+        print("%d expected files checked, %d differ" % (len(rows), bad))
+        return 1 if bad else 0
+    with open(readme_path, "w", encoding="utf-8", newline="\n") as f:
+        f.write(readme)
+    print("wrote %d expected files and README.md" % len(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
