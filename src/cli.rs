@@ -194,8 +194,81 @@ pub fn run(args: &Args) -> Result<(), Error> {
         Some(p) => Output::file(p)?,
         None => Output::stdout(),
     };
-    derive(args, input, &split, &path, system, steps, seed, &mut output)?;
+    let mut system = system;
+    let consts = std::mem::take(&mut system.consts);
+    let (reader, _) = axiom_reader(args, input, &split, &consts)?;
+    let out_name = output.name();
+    let settings = Settings {
+        steps,
+        seed,
+        homomorphism: !args.no_homomorphism,
+        limits: args.max_length.unwrap_or_default(),
+        tmpdir: args.tmpdir.clone(),
+        verbose: args.verbose,
+    };
+    derive(
+        &settings,
+        reader,
+        &split.header,
+        &path,
+        system,
+        output.writer(),
+        &out_name,
+    )?;
     output.commit()
+}
+
+/// How to derive, once the file is loaded.
+pub struct Settings {
+    pub steps: u64,
+    pub seed: u64,
+    pub homomorphism: bool,
+    pub limits: Limits,
+    pub tmpdir: Option<PathBuf>,
+    pub verbose: bool,
+}
+
+/// Load an L-system from `src` and derive it in full into a byte vector
+/// (temp files are still used between steps): for tests and fuzzing.
+/// `steps`/`seed` override the file's settings.
+pub fn derive_bytes(
+    src: &[u8],
+    steps: Option<u64>,
+    seed: Option<u64>,
+    limits: Limits,
+) -> Result<Vec<u8>, Error> {
+    let mut input = Input::new(Box::new(io::Cursor::new(src.to_vec())), "<input>");
+    let split = split_header(&mut input)?;
+    let path = input.name.clone();
+    let header = parse_header(&split.header).map_err(|e| locate(&path, &split.header, e))?;
+    let system = compile(&header).map_err(|e| locate(&path, &split.header, e))?;
+    if !split.has_axiom {
+        return Err(missing_axiom(&path, &split.header));
+    }
+    let settings = Settings {
+        steps: steps
+            .or(system.derivation_length)
+            .unwrap_or(DEFAULT_DERIVATION_LENGTH),
+        seed: seed.or(system.seed).unwrap_or(0),
+        homomorphism: true,
+        limits,
+        tmpdir: None,
+        verbose: false,
+    };
+    let mut system = system;
+    let consts = std::mem::take(&mut system.consts);
+    let reader = AxiomReader::new(input, true, split.axiom_line, split.axiom_col, &consts);
+    let mut out = Vec::new();
+    derive(
+        &settings,
+        reader,
+        &split.header,
+        &path,
+        system,
+        &mut out,
+        "output",
+    )?;
+    Ok(out)
 }
 
 fn missing_axiom(path: &str, header: &str) -> Error {
@@ -255,55 +328,49 @@ fn rewind(f: &mut File) -> Result<(), Error> {
         .map_err(|e| Error::io("temporary file", "cannot write", e))
 }
 
-#[allow(clippy::too_many_arguments)]
 fn derive(
-    args: &Args,
-    input: Input,
-    split: &crate::input::Split,
+    settings: &Settings,
+    mut reader: AxiomReader,
+    header: &str,
     path: &str,
     system: System,
-    steps: u64,
-    seed: u64,
-    output: &mut Output,
+    output: &mut dyn Write,
+    out_name: &str,
 ) -> Result<(), Error> {
+    let Settings {
+        steps,
+        seed,
+        limits,
+        ref tmpdir,
+        ..
+    } = *settings;
     let System {
         alphabet,
         productions,
         homomorphism,
-        consts,
         ..
     } = system;
-    let hom = !args.no_homomorphism && !homomorphism.is_empty();
+    let hom = settings.homomorphism && !homomorphism.is_empty();
     let passes = steps + u64::from(hom);
-    let limits = args.max_length.unwrap_or_default();
-    let out_name = output.name();
-    let mut d = Deriver::new(
-        alphabet,
-        Random::new(seed),
-        Origin {
-            path,
-            header: &split.header,
-        },
-    );
+    let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
     let verbose = |what: &str, (m, b): (u64, u64)| {
-        if args.verbose {
+        if settings.verbose {
             eprintln!("lsgen: {what}: {m} modules, {b} bytes");
         }
     };
 
     // Generation 0: the axiom.
-    let (mut reader, _) = axiom_reader(args, input, split, &consts)?;
     let mut cur = if passes == 0 {
         None
     } else {
-        Some(tempfile(&args.tmpdir)?)
+        Some(tempfile(tmpdir)?)
     };
     let mut other: Option<File> = None;
     {
         let tmp_name = "temporary file";
         let (w, name, text): (&mut dyn Write, &str, bool) = match &mut cur {
             Some(f) => (f, tmp_name, false),
-            None => (output.writer(), &out_name, true),
+            None => (&mut *output, out_name, true),
         };
         let mut out = Out::new(w, name, text, limits);
         let mut params = Vec::new();
@@ -332,13 +399,13 @@ fn derive(
                     rewind(&mut f)?;
                     f
                 }
-                None => tempfile(&args.tmpdir)?,
+                None => tempfile(tmpdir)?,
             })
         };
         {
             let (w, name, text): (&mut dyn Write, &str, bool) = match &mut dst {
                 Some(f) => (f, "temporary file", false),
-                None => (output.writer(), &out_name, true),
+                None => (&mut *output, out_name, true),
             };
             let mut out = Out::new(w, name, text, limits);
             d.pass(table, &src, &mut out, pass)?;

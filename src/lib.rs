@@ -18,3 +18,4 @@ pub mod output;
 pub mod parse;
 pub mod random;
 pub mod rules;
+pub use cli::derive_bytes;
