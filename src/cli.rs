@@ -108,8 +108,33 @@ pub fn parse_limit(s: &str) -> Result<Limits, String> {
     Ok(l)
 }
 
-/// Parse the command line and run; returns the exit status.
+/// Parse the command line and run on a thread with a large stack (the
+/// parser and compiler recurse on nested expressions); returns the exit
+/// status. A bug shows as one line, not a backtrace.
 pub fn main_exit_code() -> i32 {
+    std::panic::set_hook(Box::new(|info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        let at = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        eprintln!("lsgen: internal error: {msg}{at} (please report this)");
+    }));
+    std::thread::Builder::new()
+        .name("lsgen".into())
+        .stack_size(256 << 20)
+        .spawn(main_on_thread)
+        .ok()
+        .and_then(|t| t.join().ok())
+        .unwrap_or(70)
+}
+
+fn main_on_thread() -> i32 {
     let args = match Args::try_parse() {
         Ok(a) => a,
         Err(e) => {

@@ -250,7 +250,14 @@ pub struct Lexer<'a> {
     depth: u32,
     return_at_zero: bool,
     done: bool,
+    /// Tokens of the current expression, to bound the parser's and the
+    /// compiler's recursion on absurd input.
+    expr_tokens: usize,
 }
+
+/// Longest expression (in tokens) and deepest parenthesis nesting accepted.
+pub const MAX_EXPR_TOKENS: usize = 10_000;
+pub const MAX_PAREN_DEPTH: u32 = 256;
 
 impl<'a> Lexer<'a> {
     pub fn new(src: &'a str) -> Self {
@@ -262,6 +269,7 @@ impl<'a> Lexer<'a> {
             depth: 0,
             return_at_zero: false,
             done: false,
+            expr_tokens: 0,
         }
     }
 
@@ -275,6 +283,7 @@ impl<'a> Lexer<'a> {
             depth: 0,
             return_at_zero: false,
             done: false,
+            expr_tokens: 0,
         }
     }
 
@@ -295,6 +304,7 @@ impl<'a> Lexer<'a> {
     }
 
     fn enter_expr(&mut self) {
+        self.expr_tokens = 0;
         if let Inner::Mod(l) = std::mem::replace(&mut self.inner, Inner::Gone) {
             self.inner = Inner::Expr(l.morph());
         } else {
@@ -394,6 +404,15 @@ impl<'a> Iterator for Lexer<'a> {
                 }
                 Ok(t) => t,
             };
+            if let Right(_) = tok {
+                self.expr_tokens += 1;
+                if self.expr_tokens > MAX_EXPR_TOKENS {
+                    return Some(Err(LexError {
+                        span: (s, e),
+                        message: format!("expression too long (over {MAX_EXPR_TOKENS} tokens)"),
+                    }));
+                }
+            }
             let out = match tok {
                 Left(ModTok::Nl) | Right(ExprTok::Nl) => {
                     self.newline();
@@ -462,6 +481,14 @@ impl<'a> Iterator for Lexer<'a> {
                 Right(ExprTok::Ident) => Tok::Ident(&self.src[s..e]),
                 Right(ExprTok::LParen) => {
                     self.depth += 1;
+                    if self.depth > MAX_PAREN_DEPTH {
+                        return Some(Err(LexError {
+                            span: (s, e),
+                            message: format!(
+                                "parentheses nested too deeply (over {MAX_PAREN_DEPTH})"
+                            ),
+                        }));
+                    }
                     Tok::LParen
                 }
                 Right(ExprTok::RParen) => {
@@ -627,6 +654,16 @@ mod tests {
                 Tok::Nl
             ]
         );
+    }
+
+    #[test]
+    fn absurd_expressions_are_refused() {
+        let deep = format!("seed: {}1", "(".repeat(1000));
+        let errs: Vec<_> = Lexer::new(&deep).filter_map(|t| t.err()).collect();
+        assert!(errs[0].message.contains("nested too deeply"));
+        let long = format!("seed: {}", "1+".repeat(20_000));
+        let errs: Vec<_> = Lexer::new(&long).filter_map(|t| t.err()).collect();
+        assert!(errs[0].message.contains("too long"));
     }
 
     #[test]
