@@ -153,6 +153,51 @@ impl<'a> AxiomReader<'a> {
         }
     }
 
+    /// A run of plain modules at the read position: ASCII symbols without
+    /// parameters, whose binary form is their own byte. `f` receives the
+    /// run (possibly empty) before it is consumed. This is the fast path
+    /// for long axioms; [`AxiomReader::next`] handles everything else.
+    pub fn plain_run(&mut self, f: impl FnOnce(&[u8])) -> Result<(), Error> {
+        let avail = self.input.fill(64)?;
+        let n = avail.len();
+        let mut i = 0;
+        while i < n && PLAIN[avail[i] as usize] {
+            if avail[i] == b'/' && self.comments && avail.get(i + 1).is_none_or(|&b| b == b'*') {
+                break;
+            }
+            i += 1;
+        }
+        // The last symbol may take parameters (`F(`, `F (`) or sit at the
+        // end of what is buffered: leave it to the general path.
+        if i > 0 && (i == n || avail[i] == b'(' || avail[i].is_ascii_whitespace()) {
+            i -= 1;
+        }
+        let run = &avail[..i];
+        // Brackets: stop before a `]` that closes nothing (reported by the
+        // general path).
+        let mut depth = self.depth;
+        let mut end = run.len();
+        for (j, &b) in run.iter().enumerate() {
+            if b == b'[' {
+                if depth == 0 {
+                    self.first_open = (self.line, self.col + j);
+                }
+                depth += 1;
+            } else if b == b']' {
+                if depth == 0 {
+                    end = j;
+                    break;
+                }
+                depth -= 1;
+            }
+        }
+        self.depth = depth;
+        f(&run[..end]);
+        self.col += end;
+        self.input.consume(end);
+        Ok(())
+    }
+
     /// The next module: its key, with its parameters in `params`.
     pub fn next(
         &mut self,
@@ -336,6 +381,17 @@ impl<'a> AxiomReader<'a> {
     }
 }
 
+/// Bytes that are a whole module on their own when no `(` follows.
+static PLAIN: [bool; 256] = {
+    let mut t = [false; 256];
+    let mut b = 0x21;
+    while b < 0x7f {
+        t[b] = !matches!(b as u8, b'(' | b')' | b',' | b':' | b'<' | b'>');
+        b += 1;
+    }
+    t
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -352,8 +408,14 @@ mod tests {
         let mut out = Vec::new();
         let mut p = Vec::new();
         let mut rng = Random::new(0);
-        while let Some(k) = r.next(&mut al, &mut p, &mut rng)? {
-            out.push((al.symbol(k), p.clone()));
+        loop {
+            let mut run = Vec::new();
+            r.plain_run(|b| run.extend_from_slice(b))?;
+            out.extend(run.iter().map(|&b| (b as char, vec![])));
+            match r.next(&mut al, &mut p, &mut rng)? {
+                Some(k) => out.push((al.symbol(k), p.clone())),
+                None => break,
+            }
         }
         Ok(out)
     }
@@ -374,6 +436,19 @@ mod tests {
                 (']', vec![]),
             ]
         );
+    }
+
+    #[test]
+    fn long_plain_runs_with_brackets() {
+        let src = format!("{}[+F]{}G(1)", "F".repeat(100_000), "-".repeat(70_000));
+        let m = read(&src).unwrap();
+        assert_eq!(m.len(), 170_005);
+        assert_eq!(m[100_000], ('[', vec![]));
+        assert_eq!(m.last().unwrap(), &('G', vec![1.0]));
+        let e = read(&format!("{}]", "F".repeat(100_000))).unwrap_err();
+        assert_eq!(e.location.unwrap().col, 100_001);
+        let e = read("[[F]").unwrap_err();
+        assert!(e.message.contains("1:1 is never closed"), "{}", e.message);
     }
 
     #[test]

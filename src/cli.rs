@@ -197,7 +197,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let (mut reader, _) = axiom_reader(args, input, &split, &system.consts)?;
         let mut p = Vec::new();
         let mut rng = Random::new(0);
-        while reader.next(&mut al, &mut p, &mut rng)?.is_some() {}
+        loop {
+            reader.plain_run(|_| {})?;
+            if reader.next(&mut al, &mut p, &mut rng)?.is_none() {
+                break;
+            }
+        }
         if args.verbose {
             eprintln!(
                 "lsgen: {path}: ok: {} productions, {} homomorphism productions",
@@ -399,8 +404,12 @@ fn derive(
         };
         let mut out = Out::new(w, name, text, limits);
         let mut params = Vec::new();
-        while let Some(key) = reader.next(&mut d.alphabet, &mut params, &mut d.rng)? {
-            out.module(key, &params, &d.alphabet);
+        loop {
+            reader.plain_run(|run| out.plain(run))?;
+            match reader.next(&mut d.alphabet, &mut params, &mut d.rng)? {
+                Some(key) => out.module(key, &params, &d.alphabet),
+                None => break,
+            }
             out.maybe_flush()?;
         }
         verbose("axiom", out.finish()?);

@@ -85,6 +85,14 @@ impl<'w> Out<'w> {
         }
     }
 
+    /// Plain modules: ASCII symbols without parameters, one byte each in
+    /// both formats.
+    #[inline]
+    pub fn plain(&mut self, run: &[u8]) {
+        self.modules += run.len() as u64;
+        self.buf.extend_from_slice(run);
+    }
+
     #[inline]
     pub fn constant(&mut self, bin: &[u8], text: &[u8], modules: u64) {
         self.modules += modules;
@@ -363,8 +371,89 @@ impl std::fmt::Display for Pass {
     }
 }
 
+/// The next considered modules right of the current one, read once per
+/// module for all bracket-free right contexts.
+#[derive(Default)]
+struct RightCache {
+    /// Offset the cache was filled from (u64::MAX: empty).
+    at: u64,
+    keys: Vec<u32>,
+    /// Start of each module's parameters in `params`.
+    starts: Vec<usize>,
+    params: Vec<f64>,
+}
+
+impl RightCache {
+    fn fill(
+        &mut self,
+        peek: &mut PosReader,
+        al: &Alphabet,
+        pos: u64,
+        want: usize,
+    ) -> io::Result<()> {
+        self.at = pos;
+        self.keys.clear();
+        self.starts.clear();
+        self.params.clear();
+        let mut pos = pos;
+        while self.keys.len() < want {
+            peek.seek(pos);
+            let Some((key, s, e)) = peek.next_module(al)? else {
+                break;
+            };
+            let next = peek.offset();
+            if key == OPEN {
+                match skip_branch(peek, al, next)? {
+                    Some(after) => pos = after,
+                    None => break,
+                }
+                continue;
+            }
+            if key == CLOSE {
+                break;
+            }
+            pos = next;
+            if al.ignored(key) {
+                continue;
+            }
+            self.keys.push(key);
+            self.starts.push(self.params.len());
+            let bytes = peek.bytes(s, e);
+            let (_, kl) = codec::get_key(bytes);
+            for i in 0..al.arity(key) {
+                self.params.push(codec::get_param(&bytes[kl..], i));
+            }
+        }
+        Ok(())
+    }
+
+    fn matches(&self, pat: &[RPat], al: &Alphabet, slots: &mut [f64]) -> bool {
+        if pat.len() > self.keys.len() {
+            return false;
+        }
+        for (i, r) in pat.iter().enumerate() {
+            let RPat::Module(p) = r else {
+                unreachable!("bracket in a simple right context")
+            };
+            if self.keys[i] != p.key {
+                return false;
+            }
+        }
+        for (i, r) in pat.iter().enumerate() {
+            if let RPat::Module(p) = r {
+                let n = al.arity(p.key);
+                let s = self.starts[i];
+                slots[p.slot as usize..p.slot as usize + n].copy_from_slice(&self.params[s..s + n]);
+            }
+        }
+        true
+    }
+}
+
 struct StepState<'f> {
     peek: Option<PosReader<'f>>,
+    right: RightCache,
+    max_right_simple: usize,
     left: Option<LeftContext>,
     depth: i64,
     /// Production that last left a `[` open, for unbalanced output.
@@ -404,6 +493,11 @@ impl<'a> Deriver<'a> {
         self.slots.resize(max_slots.max(1), 0.0);
         let mut st = StepState {
             peek: table.has_right.then(|| PosReader::new(input, 1 << 16)),
+            right: RightCache {
+                at: u64::MAX,
+                ..RightCache::default()
+            },
+            max_right_simple: table.max_right_simple,
             left: (table.max_left > 0).then(|| LeftContext::new(table.max_left)),
             depth: 0,
             last_opener: None,
@@ -514,7 +608,17 @@ impl<'a> Deriver<'a> {
         if !p.left.is_empty() && !st.left.as_ref().unwrap().matches(&p.left, &mut self.slots) {
             return Ok(false);
         }
-        if !p.right.is_empty() {
+        if p.right_simple {
+            if st.right.at != end_off {
+                let peek = st.peek.as_mut().unwrap();
+                st.right
+                    .fill(peek, &self.alphabet, end_off, st.max_right_simple)
+                    .map_err(|e| Error::io("temporary file", "cannot read", e))?;
+            }
+            if !st.right.matches(&p.right, &self.alphabet, &mut self.slots) {
+                return Ok(false);
+            }
+        } else if !p.right.is_empty() {
             let peek = st.peek.as_mut().unwrap();
             let ok = match_right(peek, &self.alphabet, end_off, &p.right, &mut self.slots)
                 .map_err(|e| Error::io("temporary file", "cannot read", e))?;

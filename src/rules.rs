@@ -158,6 +158,9 @@ pub struct Production {
     pub nslots: usize,
     pub left: Vec<Pat>,
     pub right: Vec<RPat>,
+    /// The right context has no brackets: it is matched against the cached
+    /// list of the next considered modules.
+    pub right_simple: bool,
     pub cond: Option<Code>,
     pub prob: Option<Code>,
     pub succ: Vec<Item>,
@@ -191,6 +194,8 @@ pub struct Table {
     /// Longest left context.
     pub max_left: usize,
     pub has_right: bool,
+    /// Longest bracket-free right context.
+    pub max_right_simple: usize,
     /// Some successor is not bracket-balanced: check each step's output.
     pub check_balance: bool,
 }
@@ -332,6 +337,9 @@ fn compile_table(
         let cp = compile_production(p, alphabet, consts)?;
         t.max_left = t.max_left.max(cp.left.len());
         t.has_right |= !cp.right.is_empty();
+        if cp.right_simple {
+            t.max_right_simple = t.max_right_simple.max(cp.right.len());
+        }
         t.check_balance |= cp.depth_delta != 0 || cp.depth_min < 0;
         let key = cp.key as usize;
         if t.by_key.len() <= key {
@@ -429,11 +437,13 @@ fn compile_production(
         }
     }
     let (succ, depth_delta, depth_min) = compile_successor(&p.succ, alphabet, &names, consts)?;
+    let right_simple = !right.is_empty() && right.iter().all(|r| matches!(r, RPat::Module(_)));
     Ok(Production {
         key,
         nslots,
         left,
         right,
+        right_simple,
         cond,
         prob,
         succ,
