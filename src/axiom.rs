@@ -157,7 +157,7 @@ impl<'a> AxiomReader<'a> {
     /// parameters, whose binary form is their own byte. `f` receives the
     /// run (possibly empty) before it is consumed. This is the fast path
     /// for long axioms; [`AxiomReader::next`] handles everything else.
-    pub fn plain_run(&mut self, f: impl FnOnce(&[u8])) -> Result<(), Error> {
+    pub fn plain_run<T>(&mut self, f: impl FnOnce(&[u8]) -> T) -> Result<T, Error> {
         let avail = self.input.fill(64)?;
         let n = avail.len();
         let mut i = 0;
@@ -192,10 +192,10 @@ impl<'a> AxiomReader<'a> {
             }
         }
         self.depth = depth;
-        f(&run[..end]);
+        let r = f(&run[..end]);
         self.col += end;
         self.input.consume(end);
-        Ok(())
+        Ok(r)
     }
 
     /// The next module: its key, with its parameters in `params`.

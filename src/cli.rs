@@ -352,6 +352,35 @@ fn tempfile(dir: &Option<PathBuf>) -> Result<File, Error> {
     })
 }
 
+/// The sink for a generation: the temp file `dst` (binary, with a bracket
+/// index if asked) or, without one, the output (text).
+fn sink<'a>(
+    dst: &'a mut Option<File>,
+    output: &'a mut dyn Write,
+    out_name: &'a str,
+    limits: Limits,
+    indexed: bool,
+) -> Result<Out<'a>, Error> {
+    Ok(match dst {
+        Some(f) => {
+            let index = if indexed {
+                Some(
+                    f.try_clone()
+                        .map_err(|e| Error::io("temporary file", "cannot write", e))?,
+                )
+            } else {
+                None
+            };
+            let out = Out::new(f, "temporary file", false, limits);
+            match index {
+                Some(i) => out.with_index(i),
+                None => out,
+            }
+        }
+        None => Out::new(output, out_name, true, limits),
+    })
+}
+
 fn rewind(f: &mut File) -> Result<(), Error> {
     f.set_len(0)
         .and_then(|_| f.seek(SeekFrom::Start(0)).map(|_| ()))
@@ -381,6 +410,8 @@ fn derive(
         ..
     } = system;
     let hom = settings.homomorphism && !homomorphism.is_empty();
+    // Right contexts skip branches in O(1) through a bracket index.
+    let indexed = productions.has_right || (hom && homomorphism.has_right);
     let passes = steps + u64::from(hom);
     let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
     let verbose = |what: &str, (m, b): (u64, u64)| {
@@ -397,17 +428,12 @@ fn derive(
     };
     let mut other: Option<File> = None;
     {
-        let tmp_name = "temporary file";
-        let (w, name, text): (&mut dyn Write, &str, bool) = match &mut cur {
-            Some(f) => (f, tmp_name, false),
-            None => (&mut *output, out_name, true),
-        };
-        let mut out = Out::new(w, name, text, limits);
+        let mut out = sink(&mut cur, output, out_name, limits, indexed)?;
         let mut params = Vec::new();
         loop {
-            reader.plain_run(|run| out.plain(run))?;
+            reader.plain_run(|run| out.plain(run))??;
             match reader.next(&mut d.alphabet, &mut params, &mut d.rng)? {
-                Some(key) => out.module(key, &params, &d.alphabet),
+                Some(key) => out.module(key, &params, &d.alphabet)?,
                 None => break,
             }
             out.maybe_flush()?;
@@ -424,8 +450,7 @@ fn derive(
             (&homomorphism, Pass::Homomorphism)
         };
         let src = cur.take().expect("a generation to read");
-        let last = i == passes;
-        let mut dst = if last {
+        let mut dst = if i == passes {
             None
         } else {
             Some(match other.take() {
@@ -437,12 +462,8 @@ fn derive(
             })
         };
         {
-            let (w, name, text): (&mut dyn Write, &str, bool) = match &mut dst {
-                Some(f) => (f, "temporary file", false),
-                None => (&mut *output, out_name, true),
-            };
-            let mut out = Out::new(w, name, text, limits);
-            d.pass(table, &src, &mut out, pass)?;
+            let mut out = sink(&mut dst, output, out_name, limits, indexed)?;
+            d.pass(table, &src, indexed, &mut out, pass)?;
             verbose(&pass.to_string(), out.finish()?);
         }
         other = Some(src);

@@ -12,7 +12,7 @@ use crate::codec::{self, MAX_MODULE_BYTES};
 use crate::diag::{CodeMap, Error, Location};
 use crate::expr::EvalError;
 use crate::random::Random;
-use crate::rules::{Alphabet, Item, KeyRules, Pat, Production, RPat, Table, CLOSE, OPEN};
+use crate::rules::{Alphabet, ConstRun, Item, KeyRules, Pat, Production, RPat, Table, CLOSE, OPEN};
 use std::fs::File;
 use std::io::{self, Write};
 use std::os::unix::fs::FileExt;
@@ -39,8 +39,12 @@ impl Default for Limits {
 pub struct Out<'w> {
     buf: Vec<u8>,
     w: &'w mut dyn Write,
+    /// Bracket index mode: each `[` carries the offset just past its `]`,
+    /// patched in the buffer or, once flushed, in `file`.
+    indexed: Option<File>,
+    opens: Vec<u64>,
     name: &'w str,
-    text: bool,
+    pub text: bool,
     modules: u64,
     written: u64,
     ryu: ryu::Buffer,
@@ -52,6 +56,8 @@ impl<'w> Out<'w> {
         Out {
             buf: Vec::with_capacity(OUT_CHUNK + MAX_MODULE_BYTES * 4),
             w,
+            indexed: None,
+            opens: Vec::new(),
             name,
             text,
             modules: 0,
@@ -61,11 +67,55 @@ impl<'w> Out<'w> {
         }
     }
 
+    /// Write a bracket index: `file` is the file this sink writes to.
+    pub fn with_index(mut self, file: File) -> Self {
+        self.indexed = Some(file);
+        self
+    }
+
+    #[inline]
+    fn open(&mut self) {
+        if self.indexed.is_some() {
+            self.opens.push(self.written + self.buf.len() as u64);
+            self.buf.push(b'[');
+            self.buf.extend_from_slice(&[0; 8]);
+        } else {
+            self.buf.push(b'[');
+        }
+    }
+
+    #[inline]
+    fn close(&mut self) -> Result<(), Error> {
+        self.buf.push(b']');
+        if let Some(file) = &self.indexed {
+            let Some(at) = self.opens.pop() else {
+                return Ok(()); // unbalanced: reported by the balance check
+            };
+            let end = (self.written + self.buf.len() as u64).to_le_bytes();
+            if at >= self.written {
+                let i = (at - self.written) as usize + 1;
+                self.buf[i..i + 8].copy_from_slice(&end);
+            } else {
+                file.write_all_at(&end, at + 1)
+                    .map_err(|e| Error::io(self.name, "cannot write", e))?;
+            }
+        }
+        Ok(())
+    }
+
     /// Copy a module given in binary form.
     #[inline]
-    pub fn raw(&mut self, key: u32, bytes: &[u8], al: &Alphabet) {
+    pub fn raw(&mut self, key: u32, bytes: &[u8], al: &Alphabet) -> Result<(), Error> {
         self.modules += 1;
-        if !self.text || key < 128 {
+        if key < 128 {
+            if key == OPEN {
+                self.open();
+            } else if key == CLOSE {
+                self.close()?;
+            } else {
+                self.buf.push(key as u8);
+            }
+        } else if !self.text {
             self.buf.extend_from_slice(bytes);
         } else {
             let (_, kl) = codec::get_key(bytes);
@@ -83,25 +133,66 @@ impl<'w> Out<'w> {
                 self.buf.push(b')');
             }
         }
+        Ok(())
     }
 
     /// Plain modules: ASCII symbols without parameters, one byte each in
     /// both formats.
     #[inline]
-    pub fn plain(&mut self, run: &[u8]) {
+    pub fn plain(&mut self, run: &[u8]) -> Result<(), Error> {
+        if self.indexed.is_none() {
+            self.modules += run.len() as u64;
+            self.buf.extend_from_slice(run);
+            return Ok(());
+        }
         self.modules += run.len() as u64;
-        self.buf.extend_from_slice(run);
+        for &b in run {
+            match b {
+                b'[' => self.open(),
+                b']' => self.close()?,
+                _ => self.buf.push(b),
+            }
+        }
+        Ok(())
     }
 
     #[inline]
-    pub fn constant(&mut self, bin: &[u8], text: &[u8], modules: u64) {
-        self.modules += modules;
-        self.buf
-            .extend_from_slice(if self.text { text } else { bin });
+    pub fn constant(&mut self, c: &ConstRun) -> Result<(), Error> {
+        self.modules += c.modules;
+        if self.text {
+            self.buf.extend_from_slice(&c.text);
+        } else if self.indexed.is_none() {
+            self.buf.extend_from_slice(&c.bin);
+        } else {
+            let base = self.buf.len();
+            self.buf.extend_from_slice(&c.ibin);
+            for &(at, open) in c.brackets.iter() {
+                let abs = self.written + (base + at as usize) as u64;
+                if open {
+                    self.opens.push(abs);
+                } else if let Some(o) = self.opens.pop() {
+                    let end = (abs + 1).to_le_bytes();
+                    if o >= self.written {
+                        let i = (o - self.written) as usize + 1;
+                        self.buf[i..i + 8].copy_from_slice(&end);
+                    } else {
+                        self.indexed
+                            .as_ref()
+                            .unwrap()
+                            .write_all_at(&end, o + 1)
+                            .map_err(|e| Error::io(self.name, "cannot write", e))?;
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 
     #[inline]
-    pub fn module(&mut self, key: u32, params: &[f64], al: &Alphabet) {
+    pub fn module(&mut self, key: u32, params: &[f64], al: &Alphabet) -> Result<(), Error> {
+        if key == OPEN || key == CLOSE {
+            return self.raw(key, &[key as u8], al);
+        }
         self.modules += 1;
         if self.text {
             codec::put_text_module(&mut self.buf, al.text(key), params, &mut self.ryu);
@@ -109,6 +200,7 @@ impl<'w> Out<'w> {
             codec::put_key(&mut self.buf, key);
             codec::put_params(&mut self.buf, params);
         }
+        Ok(())
     }
 
     #[inline]
@@ -156,6 +248,8 @@ impl<'w> Out<'w> {
 /// A buffered reader at file offsets (pread), so two can share one file.
 pub struct PosReader<'f> {
     file: &'f File,
+    /// The file has a bracket index (see [`Out::with_index`]).
+    indexed: bool,
     buf: Vec<u8>,
     /// File offset of `buf[0]`.
     start: u64,
@@ -164,9 +258,10 @@ pub struct PosReader<'f> {
 }
 
 impl<'f> PosReader<'f> {
-    pub fn new(file: &'f File, capacity: usize) -> Self {
+    pub fn new(file: &'f File, capacity: usize, indexed: bool) -> Self {
         PosReader {
             file,
+            indexed,
             buf: vec![0; capacity.max(2 * MAX_MODULE_BYTES)],
             start: 0,
             pos: 0,
@@ -227,8 +322,9 @@ impl<'f> PosReader<'f> {
         let s = self.pos;
         let b = self.buf[s];
         if b < 0x80 {
-            self.pos += 1;
-            return Ok(Some((b as u32, s, s + 1)));
+            let n = if b == b'[' && self.indexed { 9 } else { 1 };
+            self.pos += n;
+            return Ok(Some((b as u32, s, s + n)));
         }
         let (key, kl) = codec::get_key(&self.buf[s..]);
         let e = s + kl + 8 * al.arity(key);
@@ -236,9 +332,135 @@ impl<'f> PosReader<'f> {
         Ok(Some((key, s, e)))
     }
 
+    /// The buffered bytes from the read position (refilled when short).
+    #[inline]
+    pub fn window(&mut self) -> io::Result<&[u8]> {
+        if self.end - self.pos < MAX_MODULE_BYTES {
+            self.refill()?;
+        }
+        Ok(&self.buf[self.pos..self.end])
+    }
+
+    #[inline]
+    pub fn advance(&mut self, n: usize) {
+        self.pos += n;
+    }
+
     #[inline]
     pub fn bytes(&self, s: usize, e: usize) -> &[u8] {
         &self.buf[s..e]
+    }
+
+    /// For a `[` read at `s` (next module at `next`): the offset just past
+    /// its `]`, from the index or by scanning.
+    #[inline]
+    fn branch_end(&mut self, al: &Alphabet, s: usize, next: u64) -> io::Result<Option<u64>> {
+        if self.indexed {
+            Ok(Some(u64::from_le_bytes(
+                self.buf[s + 1..s + 9].try_into().unwrap(),
+            )))
+        } else {
+            skip_branch(self, al, next)
+        }
+    }
+}
+
+static ASCII: [u8; 128] = {
+    let mut t = [0u8; 128];
+    let mut i = 0;
+    while i < 128 {
+        t[i] = i as u8;
+        i += 1;
+    }
+    t
+};
+
+/// The D0L fast path: for each ASCII symbol without parameters, what a
+/// step does to it when that needs no decision (no context, no condition,
+/// no probability, a constant successor). Bytes it cannot handle stop the
+/// run and go through the general path.
+struct ByteTable<'t> {
+    /// None: take the general path.
+    succ: [Option<FastSucc<'t>>; 128],
+}
+
+/// A successor for the byte table. Short ones are padded to 16 bytes and
+/// copied with one fixed-size copy, then the buffer is cut back.
+#[derive(Clone, Copy)]
+struct FastSucc<'t> {
+    small: [u8; 16],
+    len: usize,
+    long: &'t [u8],
+    modules: u64,
+}
+
+impl<'t> FastSucc<'t> {
+    fn new(bytes: &'t [u8], modules: u64) -> Self {
+        let mut small = [0; 16];
+        if bytes.len() <= 16 {
+            small[..bytes.len()].copy_from_slice(bytes);
+        }
+        FastSucc {
+            small,
+            len: bytes.len(),
+            long: bytes,
+            modules,
+        }
+    }
+}
+
+impl<'t> ByteTable<'t> {
+    fn new(table: &'t Table, text: bool) -> Self {
+        let mut succ: [Option<FastSucc>; 128] =
+            std::array::from_fn(|b| Some(FastSucc::new(&ASCII[b..b + 1], 1)));
+        for (b, slot) in succ.iter_mut().enumerate() {
+            let Some(kr) = table.get(b as u32) else {
+                continue;
+            };
+            let first = kr.free.first().map(|&i| &table.prods[i as usize]);
+            *slot = match first {
+                Some(p) if kr.context.is_empty() && !kr.free_stochastic && p.cond.is_none() => {
+                    match p.succ.as_slice() {
+                        [] => Some(FastSucc::new(&[], 0)),
+                        [Item::Const(c)] => Some(FastSucc::new(
+                            if text { &c.text } else { &c.bin },
+                            c.modules,
+                        )),
+                        _ => None,
+                    }
+                }
+                _ => None,
+            };
+        }
+        ByteTable { succ }
+    }
+
+    /// Rewrite the leading bytes of `input` it can handle; returns how many.
+    #[inline]
+    fn run(&self, input: &[u8], out: &mut Out) -> usize {
+        let mut n = 0;
+        let buf = &mut out.buf;
+        for &b in input {
+            if b >= 0x80 {
+                break;
+            }
+            let Some(f) = &self.succ[b as usize] else {
+                break;
+            };
+            if f.len <= 16 {
+                let at = buf.len();
+                buf.extend_from_slice(&f.small);
+                buf.truncate(at + f.len);
+            } else {
+                buf.extend_from_slice(f.long);
+            }
+            out.modules += f.modules;
+            n += 1;
+            if buf.len() >= OUT_CHUNK {
+                break;
+            }
+        }
+        n
     }
 }
 
@@ -403,7 +625,7 @@ impl RightCache {
             };
             let next = peek.offset();
             if key == OPEN {
-                match skip_branch(peek, al, next)? {
+                match peek.branch_end(al, s, next)? {
                     Some(after) => pos = after,
                     None => break,
                 }
@@ -486,13 +708,16 @@ impl<'a> Deriver<'a> {
         &mut self,
         table: &Table,
         input: &File,
+        indexed: bool,
         out: &mut Out,
         pass: Pass,
     ) -> Result<(), Error> {
         let max_slots = table.prods.iter().map(|p| p.nslots).max().unwrap_or(0);
         self.slots.resize(max_slots.max(1), 0.0);
         let mut st = StepState {
-            peek: table.has_right.then(|| PosReader::new(input, 1 << 16)),
+            peek: table
+                .has_right
+                .then(|| PosReader::new(input, 1 << 16, indexed)),
             right: RightCache {
                 at: u64::MAX,
                 ..RightCache::default()
@@ -502,9 +727,23 @@ impl<'a> Deriver<'a> {
             depth: 0,
             last_opener: None,
         };
-        let mut rd = PosReader::new(input, 1 << 20);
+        let mut rd = PosReader::new(input, 1 << 20, indexed);
         let read_err = |e| Error::io("temporary file", "cannot read", e);
-        while let Some((key, s, e)) = rd.next_module(&self.alphabet).map_err(read_err)? {
+        let fast = (!indexed && !table.has_context() && !table.check_balance)
+            .then(|| ByteTable::new(table, out.text));
+        loop {
+            if let Some(fast) = &fast {
+                let window = rd.window().map_err(read_err)?;
+                let used = fast.run(window, out);
+                rd.advance(used);
+                out.maybe_flush()?;
+                if used > 0 {
+                    continue;
+                }
+            }
+            let Some((key, s, e)) = rd.next_module(&self.alphabet).map_err(read_err)? else {
+                break;
+            };
             let end_off = rd.offset();
             let bytes = rd.bytes(s, e);
             let applied = match table.get(key) {
@@ -519,7 +758,7 @@ impl<'a> Deriver<'a> {
                         st.depth -= 1;
                     }
                 }
-                out.raw(key, bytes, &self.alphabet);
+                out.raw(key, bytes, &self.alphabet)?;
             }
             if let Some(left) = &mut st.left {
                 if key == OPEN {
@@ -710,7 +949,7 @@ impl<'a> Deriver<'a> {
     fn emit(&mut self, p: &Production, out: &mut Out, pass: Pass) -> Result<(), Error> {
         for item in &p.succ {
             match item {
-                Item::Const { bin, text, modules } => out.constant(bin, text, *modules),
+                Item::Const(c) => out.constant(c)?,
                 Item::Module { key, params } => {
                     self.vals.clear();
                     for c in params.iter() {
@@ -719,7 +958,7 @@ impl<'a> Deriver<'a> {
                             Err(e) => return Err(self.eval_error(e, pass)),
                         }
                     }
-                    out.module(*key, &self.vals, &self.alphabet);
+                    out.module(*key, &self.vals, &self.alphabet)?;
                 }
             }
         }
@@ -750,7 +989,7 @@ pub fn match_right(
                 let next = peek.offset();
                 if key == OPEN {
                     // A branch the pattern does not ask for: skip it whole.
-                    match skip_branch(peek, al, next)? {
+                    match peek.branch_end(al, s, next)? {
                         Some(after) => pos = after,
                         None => return Ok(false),
                     }
@@ -788,7 +1027,12 @@ pub fn match_right(
                     if match_right(peek, al, next, rest, slots)? {
                         return Ok(true);
                     }
-                    match skip_branch(peek, al, next)? {
+                    // The recursion moved the buffer: read the `[` again.
+                    peek.seek(pos);
+                    let Some((_, s, _)) = peek.next_module(al)? else {
+                        return Ok(false);
+                    };
+                    match peek.branch_end(al, s, next)? {
                         Some(after) => pos = after,
                         None => return Ok(false),
                     }
@@ -818,8 +1062,14 @@ pub fn match_right(
 fn skip_branch(peek: &mut PosReader, al: &Alphabet, pos: u64) -> io::Result<Option<u64>> {
     peek.seek(pos);
     let mut depth = 0u64;
-    while let Some((key, _, _)) = peek.next_module(al)? {
+    while let Some((key, s, _)) = peek.next_module(al)? {
         if key == OPEN {
+            if peek.indexed {
+                // Jump over the nested branch.
+                let end = u64::from_le_bytes(peek.buf[s + 1..s + 9].try_into().unwrap());
+                peek.seek(end);
+                continue;
+            }
             depth += 1;
         } else if key == CLOSE {
             if depth == 0 {

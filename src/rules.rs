@@ -138,15 +138,65 @@ pub enum RPat {
     Close,
 }
 
+/// Modules known at load time, precomputed in each format.
+#[derive(Clone, Debug, Default)]
+pub struct ConstRun {
+    pub bin: Box<[u8]>,
+    /// Binary with bracket index: each `[` followed by 8 bytes that will
+    /// hold the offset just past its `]`.
+    pub ibin: Box<[u8]>,
+    /// Offsets of the brackets in `ibin` (true: `[`).
+    pub brackets: Box<[(u32, bool)]>,
+    pub text: Box<[u8]>,
+    pub modules: u64,
+}
+
+/// Builds a [`ConstRun`] module by module.
+#[derive(Default)]
+struct ConstBuilder {
+    bin: Vec<u8>,
+    ibin: Vec<u8>,
+    brackets: Vec<(u32, bool)>,
+    text: Vec<u8>,
+    modules: u64,
+}
+
+impl ConstBuilder {
+    fn push(&mut self, key: u32, vals: &[f64], al: &Alphabet, ryu: &mut ryu::Buffer) {
+        codec::put_key(&mut self.bin, key);
+        codec::put_params(&mut self.bin, vals);
+        if key == OPEN || key == CLOSE {
+            self.brackets.push((self.ibin.len() as u32, key == OPEN));
+        }
+        codec::put_key(&mut self.ibin, key);
+        if key == OPEN {
+            self.ibin.extend_from_slice(&[0; 8]);
+        }
+        codec::put_params(&mut self.ibin, vals);
+        codec::put_text_module(&mut self.text, al.text(key), vals, ryu);
+        self.modules += 1;
+    }
+
+    fn take(&mut self) -> Option<ConstRun> {
+        if self.modules == 0 {
+            return None;
+        }
+        let b = std::mem::take(self);
+        Some(ConstRun {
+            bin: b.bin.into(),
+            ibin: b.ibin.into(),
+            brackets: b.brackets.into(),
+            text: b.text.into(),
+            modules: b.modules,
+        })
+    }
+}
+
 /// Part of a successor.
 #[derive(Clone, Debug)]
 pub enum Item {
-    /// A run of modules known at load time, in both formats.
-    Const {
-        bin: Box<[u8]>,
-        text: Box<[u8]>,
-        modules: u64,
-    },
+    /// A run of modules known at load time, in every format.
+    Const(ConstRun),
     /// A module whose parameters are computed.
     Module { key: u32, params: Box<[Code]> },
 }
@@ -462,7 +512,7 @@ fn compile_successor(
     consts: &HashMap<String, f64>,
 ) -> R<(Vec<Item>, i64, i64)> {
     let mut items = Vec::new();
-    let (mut bin, mut text, mut n) = (Vec::new(), Vec::new(), 0u64);
+    let mut run = ConstBuilder::default();
     let mut depth = 0i64;
     let mut min = 0i64;
     let mut ryu = ryu::Buffer::new();
@@ -487,20 +537,10 @@ fn compile_successor(
             .collect::<R<Vec<Code>>>()?;
         let values: Option<Vec<f64>> = codes.iter().map(Code::constant).collect();
         match values {
-            Some(vals) => {
-                codec::put_key(&mut bin, key);
-                codec::put_params(&mut bin, &vals);
-                codec::put_text_module(&mut text, alphabet.text(key), &vals, &mut ryu);
-                n += 1;
-            }
+            Some(vals) => run.push(key, &vals, alphabet, &mut ryu),
             None => {
-                if n > 0 {
-                    items.push(Item::Const {
-                        bin: std::mem::take(&mut bin).into_boxed_slice(),
-                        text: std::mem::take(&mut text).into_boxed_slice(),
-                        modules: n,
-                    });
-                    n = 0;
+                if let Some(c) = run.take() {
+                    items.push(Item::Const(c));
                 }
                 items.push(Item::Module {
                     key,
@@ -509,12 +549,8 @@ fn compile_successor(
             }
         }
     }
-    if n > 0 {
-        items.push(Item::Const {
-            bin: bin.into_boxed_slice(),
-            text: text.into_boxed_slice(),
-            modules: n,
-        });
+    if let Some(c) = run.take() {
+        items.push(Item::Const(c));
     }
     Ok((items, depth, min))
 }
@@ -546,9 +582,11 @@ mod tests {
         let p = &s.productions.prods[0];
         assert_eq!(p.succ.len(), 1);
         match &p.succ[0] {
-            Item::Const { text, modules, .. } => {
-                assert_eq!(std::str::from_utf8(text).unwrap(), "F(2)[+F]G(1,6)");
-                assert_eq!(*modules, 6);
+            Item::Const(c) => {
+                assert_eq!(std::str::from_utf8(&c.text).unwrap(), "F(2)[+F]G(1,6)");
+                assert_eq!(c.modules, 6);
+                assert_eq!(&*c.brackets, &[(10, true), (21, false)]);
+                assert_eq!(c.ibin.len(), c.bin.len() + 8);
             }
             other => panic!("{other:?}"),
         }
