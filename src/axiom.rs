@@ -4,7 +4,7 @@
 //! `define:` constants.
 
 use crate::codec::MAX_ARITY;
-use crate::diag::{Error, Location};
+use crate::diag::{excerpt, Error, Location};
 use crate::expr::{Code, Scope};
 use crate::input::Input;
 use crate::parse::parse_expr;
@@ -24,9 +24,12 @@ pub struct AxiomReader<'a> {
     consts: &'a HashMap<String, f64>,
     text: Vec<u8>,
     stack: Vec<f64>,
-    /// Bracket depth, and where the outermost open `[` was.
+    /// Bracket depth, and where the outermost open `[` was (line, column,
+    /// stream offset).
     depth: u64,
-    first_open: (usize, usize),
+    first_open: (usize, usize, u64),
+    /// Where the last module started, for errors at the end of input.
+    last: (usize, usize, u64),
 }
 
 impl<'a> AxiomReader<'a> {
@@ -46,7 +49,8 @@ impl<'a> AxiomReader<'a> {
             text: Vec::new(),
             stack: Vec::new(),
             depth: 0,
-            first_open: (0, 0),
+            first_open: (0, 0, 0),
+            last: (line, col, 0),
         }
     }
 
@@ -57,7 +61,17 @@ impl<'a> AxiomReader<'a> {
     }
 
     fn error_at(&mut self, at: u64, line: usize, col: usize, msg: impl Into<String>) -> Error {
-        let (snippet, caret_col) = self.input.excerpt_at(at);
+        let (snippet, caret_col) = if self.input.holds(at) {
+            self.input.excerpt_at(at)
+        } else {
+            // Only a parameter list outgrows the buffer's history: quote
+            // its start, the spot being its `(`.
+            let head: String = String::from_utf8_lossy(&self.text)
+                .chars()
+                .take(60)
+                .collect();
+            (format!("({head}..."), 1)
+        };
         Error::at(
             Location {
                 path: self.input.name.clone(),
@@ -158,6 +172,7 @@ impl<'a> AxiomReader<'a> {
     /// run (possibly empty) before it is consumed. This is the fast path
     /// for long axioms; [`AxiomReader::next`] handles everything else.
     pub fn plain_run<T>(&mut self, f: impl FnOnce(&[u8]) -> T) -> Result<T, Error> {
+        let base = self.input.offset();
         let avail = self.input.fill(64)?;
         let n = avail.len();
         let mut i = 0;
@@ -180,7 +195,7 @@ impl<'a> AxiomReader<'a> {
         for (j, &b) in run.iter().enumerate() {
             if b == b'[' {
                 if depth == 0 {
-                    self.first_open = (self.line, self.col + j);
+                    self.first_open = (self.line, self.col + j, base + j as u64);
                 }
                 depth += 1;
             } else if b == b']' {
@@ -208,14 +223,19 @@ impl<'a> AxiomReader<'a> {
         params.clear();
         if !self.skip_blank()? {
             if self.depth > 0 {
-                let (l, c) = self.first_open;
-                return Err(self.error_here(format!(
-                    "unbalanced brackets: the `[` at {l}:{c} is never closed"
-                )));
+                let (l, c, at) = self.first_open;
+                let msg = format!("unbalanced brackets: the `[` at {l}:{c} is never closed");
+                if self.input.holds(at) {
+                    return Err(self.error_at(at, l, c, msg));
+                }
+                // Point at the last module instead, which is still buffered.
+                let (l, c, at) = self.last;
+                return Err(self.error_at(at, l, c, msg));
             }
             return Ok(None);
         }
         let (line, col, at) = (self.line, self.col, self.input.offset());
+        self.last = (line, col, at);
         let (sym, n) = self.peek_char()?.expect("skip_blank saw a byte");
         match sym {
             '(' | ')' | ',' | ':' | '<' | '>' => {
@@ -244,7 +264,7 @@ impl<'a> AxiomReader<'a> {
         match sym {
             '[' if params.is_empty() => {
                 if self.depth == 0 {
-                    self.first_open = (line, col);
+                    self.first_open = (line, col, at);
                 }
                 self.depth += 1;
             }
@@ -333,7 +353,15 @@ impl<'a> AxiomReader<'a> {
                 format!("a module has at most {MAX_ARITY} parameters"),
             ));
         }
-        let raw = String::from_utf8_lossy(&self.text).into_owned();
+        let raw = match std::str::from_utf8(&self.text) {
+            Ok(r) => r.to_string(),
+            Err(e) => {
+                let good = e.valid_up_to();
+                let prefix = String::from_utf8_lossy(&self.text[..good]);
+                let c = col + prefix.chars().count();
+                return Err(self.error_at(at + good as u64, line, c, "invalid UTF-8"));
+            }
+        };
         let t = raw.trim();
         // Fast path: a plain number.
         if !t.is_empty()
@@ -354,7 +382,22 @@ impl<'a> AxiomReader<'a> {
         let located = |s: &mut Self, off: usize, msg: String| {
             let prefix = &t[..off.min(t.len())];
             let c = col + lead + prefix.chars().count();
-            s.error_at(at + (lead + off) as u64, line, c, msg)
+            let spot = at + (lead + off) as u64;
+            if s.input.holds(spot) && s.input.holds(at) {
+                return s.error_at(spot, line, c, msg);
+            }
+            // The text has scrolled out of the buffer: quote the parameter.
+            let (snippet, caret_col) = excerpt(&raw, lead + prefix.chars().count() + 1);
+            Error::at(
+                Location {
+                    path: s.input.name.clone(),
+                    line,
+                    col: c,
+                    snippet,
+                    caret_col,
+                },
+                msg,
+            )
         };
         let e = match parse_expr(t) {
             Ok(e) => e,

@@ -13,6 +13,9 @@ use std::fs::File;
 use std::io::{self, Seek, SeekFrom, Write};
 use std::path::PathBuf;
 
+/// Most derivation steps accepted (as for `derivation length:`).
+pub const MAX_STEPS: u64 = 1 << 53;
+
 /// Derivation length when neither the file nor `-n` gives one.
 pub const DEFAULT_DERIVATION_LENGTH: u64 = 1;
 
@@ -34,7 +37,8 @@ pub struct Args {
     pub output: Option<PathBuf>,
 
     /// Number of derivation steps (overrides `derivation length:`).
-    #[arg(short = 'n', long, value_name = "N")]
+    #[arg(short = 'n', long, value_name = "N",
+          value_parser = clap::value_parser!(u64).range(..=MAX_STEPS))]
     pub derivation_length: Option<u64>,
 
     /// Seed of the random generator (overrides `seed:`).

@@ -70,6 +70,16 @@ pub fn put_number(out: &mut Vec<u8>, v: f64, buf: &mut ryu::Buffer) {
     }
 }
 
+/// A number as lsgen prints it, for messages.
+pub fn number_string(v: f64) -> String {
+    if !v.is_finite() {
+        return v.to_string();
+    }
+    let mut o = Vec::new();
+    put_number(&mut o, v, &mut ryu::Buffer::new());
+    String::from_utf8(o).unwrap_or_default()
+}
+
 /// Append a module as text.
 #[inline]
 pub fn put_text_module(out: &mut Vec<u8>, sym_text: &[u8], params: &[f64], buf: &mut ryu::Buffer) {

@@ -678,8 +678,10 @@ struct StepState<'f> {
     max_right_simple: usize,
     left: Option<LeftContext>,
     depth: i64,
-    /// Production that last left a `[` open, for unbalanced output.
+    /// Productions that last opened or closed more than they matched, to
+    /// blame for unbalanced output.
     last_opener: Option<u32>,
+    last_closer: Option<u32>,
 }
 
 impl<'a> Deriver<'a> {
@@ -726,6 +728,7 @@ impl<'a> Deriver<'a> {
             left: (table.max_left > 0).then(|| LeftContext::new(table.max_left)),
             depth: 0,
             last_opener: None,
+            last_closer: None,
         };
         let mut rd = PosReader::new(input, 1 << 20, indexed);
         let read_err = |e| Error::io("temporary file", "cannot read", e);
@@ -756,6 +759,9 @@ impl<'a> Deriver<'a> {
                         st.depth += 1;
                     } else if key == CLOSE {
                         st.depth -= 1;
+                        if st.depth < 0 {
+                            return Err(self.unbalanced(table, st.last_closer, pass));
+                        }
                     }
                 }
                 out.raw(key, bytes, &self.alphabet)?;
@@ -782,6 +788,14 @@ impl<'a> Deriver<'a> {
             ));
         }
         Ok(())
+    }
+
+    fn unbalanced(&self, table: &Table, culprit: Option<u32>, pass: Pass) -> Error {
+        let p = &table.prods[culprit.unwrap_or(0) as usize];
+        Error::at(
+            self.origin.locate(p.span.0),
+            format!("unbalanced brackets: {pass} produces a `]` without `[`, from this production"),
+        )
     }
 
     /// Try the productions of `key`; emit the chosen successor.
@@ -819,16 +833,14 @@ impl<'a> Deriver<'a> {
         let p = &table.prods[pi as usize];
         if table.check_balance {
             if st.depth + p.depth_min < 0 {
-                return Err(Error::at(
-                    self.origin.locate(p.span.0),
-                    format!(
-                        "unbalanced brackets: this production closes a `]` without `[` in {pass}"
-                    ),
-                ));
+                return Err(self.unbalanced(table, Some(pi), pass));
             }
             st.depth += p.depth_delta;
             if p.depth_delta > 0 {
                 st.last_opener = Some(pi);
+            }
+            if p.depth_delta < 0 || p.depth_min < 0 {
+                st.last_closer = Some(pi);
             }
         }
         self.emit(p, out, pass)?;

@@ -79,6 +79,11 @@ impl Input {
         self.base + self.pos as u64
     }
 
+    /// Is stream offset `at` still in the buffer (so it can be quoted)?
+    pub fn holds(&self, at: u64) -> bool {
+        at >= self.base && at <= self.base + self.end as u64
+    }
+
     /// The line around stream offset `at` (which must be near the read
     /// position), with the 1-based caret column in that excerpt.
     pub fn excerpt_at(&mut self, at: u64) -> (String, usize) {
@@ -97,7 +102,7 @@ impl Input {
         let line = line.strip_suffix('\r').unwrap_or(&line);
         let col = before.chars().count() + 1;
         let (s, c) = excerpt(line, col);
-        if lo == 0 && self.base > 0 {
+        if lo == 0 && self.base > 0 && !s.starts_with("...") {
             (format!("...{s}"), c + 3)
         } else {
             (s, c)
@@ -141,7 +146,13 @@ pub fn split_header(input: &mut Input) -> Result<Split, Error> {
                 .take_while(|&&b| b == b' ' || b == b'\t' || b == b'\r')
                 .count();
             let probe_len = avail.len().min(blank + 16);
-            if let Ok(probe) = std::str::from_utf8(&avail[blank..probe_len]) {
+            let probe = &avail[blank..probe_len];
+            // The probe may end inside a character: keep its valid prefix.
+            let probe = match std::str::from_utf8(probe) {
+                Ok(p) => p,
+                Err(e) => std::str::from_utf8(&probe[..e.valid_up_to()]).unwrap_or(""),
+            };
+            {
                 if let Some(kl) = match_keyword(probe, "axiom:") {
                     let col = String::from_utf8_lossy(&avail[..blank + kl])
                         .chars()

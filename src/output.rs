@@ -16,7 +16,7 @@ pub enum Output {
         dir: PathBuf,
     },
     /// An existing non-regular file (a device, a FIFO): written in place.
-    Direct(File),
+    Direct(File, PathBuf),
 }
 
 impl Output {
@@ -39,7 +39,7 @@ impl Output {
                     .write(true)
                     .open(path)
                     .map_err(|e| Error::io(name, "cannot write", e))?;
-                return Ok(Output::Direct(f));
+                return Ok(Output::Direct(f, path.to_path_buf()));
             }
         }
         let dir = match path.parent() {
@@ -59,14 +59,14 @@ impl Output {
         match self {
             Output::Stdout(_) => "standard output".into(),
             Output::Atomic { path, .. } => path.display().to_string(),
-            Output::Direct(_) => "output".into(),
+            Output::Direct(_, path) => path.display().to_string(),
         }
     }
 
     pub fn writer(&mut self) -> &mut dyn Write {
         match self {
             Output::Stdout(s) => s,
-            Output::Atomic { file, .. } | Output::Direct(file) => file,
+            Output::Atomic { file, .. } | Output::Direct(file, _) => file,
         }
     }
 

@@ -294,7 +294,10 @@ fn whole_number(e: &Expr, consts: &HashMap<String, f64>, what: &str) -> R<u64> {
     if v < 0.0 || v.fract() != 0.0 || v > 9.007_199_254_740_992e15 {
         return err(
             e.span(),
-            format!("{what} must be a whole number from 0 to 2^53, not {v}"),
+            format!(
+                "{what} must be a whole number from 0 to 2^53, not {}",
+                crate::codec::number_string(v)
+            ),
         );
     }
     Ok(v as u64)
