@@ -142,10 +142,16 @@ fn main_on_thread() -> i32 {
     let args = match Args::try_parse() {
         Ok(a) => a,
         Err(e) => {
-            let _ = e.print();
             return match e.kind() {
-                clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => 0,
-                _ => 2,
+                clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => {
+                    let _ = e.print();
+                    0
+                }
+                _ => {
+                    // Usage errors read like every other error: `lsgen: error: ...`.
+                    let _ = write!(io::stderr(), "lsgen: {}", e.render());
+                    2
+                }
             };
         }
     };

@@ -1,0 +1,1390 @@
+//! The command line of the real `lsgen` binary: every flag, standard input
+//! and output, exit statuses, the error format, broken pipes.
+
+use std::io::{Read, Write};
+use std::path::Path;
+use std::process::{Command, Stdio};
+use tempfile::TempDir;
+
+const BIN: &str = env!("CARGO_BIN_EXE_lsgen");
+const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+
+/// One finished run of lsgen.
+struct Run {
+    code: i32,
+    stdout: Vec<u8>,
+    stderr: String,
+    what: String,
+}
+
+impl Run {
+    fn out(&self) -> String {
+        String::from_utf8(self.stdout.clone()).expect("lsgen output is not UTF-8")
+    }
+
+    /// Exit 0, nothing on stderr; returns stdout.
+    fn ok(&self) -> String {
+        assert_eq!(
+            self.code, 0,
+            "{} exited with {}:\n{}",
+            self.what, self.code, self.stderr
+        );
+        assert!(
+            self.stderr.is_empty(),
+            "{} wrote to stderr:\n{}",
+            self.what,
+            self.stderr
+        );
+        self.out()
+    }
+
+    /// Exit `code`, nothing on stdout; returns stderr.
+    fn fails(&self, code: i32) -> &str {
+        assert_eq!(
+            self.code,
+            code,
+            "{} exited with {} (want {code}); stdout {:?}, stderr:\n{}",
+            self.what,
+            self.code,
+            String::from_utf8_lossy(&self.stdout),
+            self.stderr
+        );
+        assert!(
+            self.stdout.is_empty(),
+            "{} failed but wrote to stdout: {:?}",
+            self.what,
+            String::from_utf8_lossy(&self.stdout)
+        );
+        &self.stderr
+    }
+
+    /// Exit 1 with exactly one `lsgen: ...: error: ...` report.
+    fn one_error(&self) -> &str {
+        let e = self.fails(1);
+        assert!(e.starts_with("lsgen: "), "{}: stderr {e:?}", self.what);
+        assert_eq!(
+            e.matches(": error: ").count(),
+            1,
+            "{}: want exactly one error, got:\n{e}",
+            self.what
+        );
+        e
+    }
+}
+
+/// Run lsgen in `dir` with `args`, feeding `stdin` (none: /dev/null).
+fn run_in(dir: &Path, args: &[&str], stdin: Option<&[u8]>) -> Run {
+    let mut child = Command::new(BIN)
+        .args(args)
+        .current_dir(dir)
+        .stdin(if stdin.is_some() {
+            Stdio::piped()
+        } else {
+            Stdio::null()
+        })
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("cannot run lsgen");
+    let writer = stdin.map(|data| {
+        let mut pipe = child.stdin.take().unwrap();
+        let data = data.to_vec();
+        // lsgen may stop reading early (on an error): ignore EPIPE.
+        std::thread::spawn(move || {
+            let _ = pipe.write_all(&data);
+        })
+    });
+    let out = child.wait_with_output().expect("cannot wait for lsgen");
+    if let Some(w) = writer {
+        w.join().unwrap();
+    }
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    let what = format!("`lsgen {}`", args.join(" "));
+    assert_no_crash(&what, out.status, &stderr);
+    let code = out.status.code().unwrap();
+    Run {
+        code,
+        stdout: out.stdout,
+        stderr,
+        what,
+    }
+}
+
+/// No panic (raw, or through lsgen's "internal error" hook), no signal.
+fn assert_no_crash(what: &str, status: std::process::ExitStatus, stderr: &str) {
+    assert!(
+        !stderr.contains("panicked")
+            && !stderr.contains("RUST_BACKTRACE")
+            && !stderr.contains("internal error"),
+        "{what} panicked:\n{stderr}"
+    );
+    let code = status
+        .code()
+        .unwrap_or_else(|| panic!("{what} was killed by a signal: {status:?}"));
+    assert_ne!(code, 70, "{what} exited 70 (internal error):\n{stderr}");
+    assert_ne!(code, 101, "{what} exited 101 (a panic):\n{stderr}");
+}
+
+/// Run lsgen from the repository root (so `examples/...` paths work).
+fn run(args: &[&str]) -> Run {
+    run_in(Path::new(ROOT), args, None)
+}
+
+fn run_stdin(args: &[&str], stdin: &[u8]) -> Run {
+    run_in(Path::new(ROOT), args, Some(stdin))
+}
+
+fn example(name: &str) -> String {
+    Path::new(ROOT)
+        .join("examples")
+        .join(format!("{name}.ls"))
+        .display()
+        .to_string()
+}
+
+fn read_example(name: &str) -> Vec<u8> {
+    std::fs::read(example(name)).unwrap()
+}
+
+fn expected(name: &str, n: u64) -> String {
+    let p = Path::new(ROOT)
+        .join("tests/expected")
+        .join(format!("{name}.n{n}.txt"));
+    std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("cannot read {}: {e}", p.display()))
+}
+
+/// A fresh directory holding `files`.
+fn dir_with(files: &[(&str, &str)]) -> TempDir {
+    let d = tempfile::tempdir().unwrap();
+    for (name, text) in files {
+        std::fs::write(d.path().join(name), text).unwrap();
+    }
+    d
+}
+
+/// Sorted names of the entries of `dir` (hidden ones included).
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    v.sort();
+    v
+}
+
+/// A parametric system that divides by zero in step 2 (line 3, column 20).
+const DIV_AT_STEP_2: &str = "productions:\n\
+                             A(x) : x > 0 -> A(x-1)\n\
+                             A(x) : x <= 0 -> B(1/x)\n\
+                             axiom:\n\
+                             A(1)\n";
+
+const DOUBLING: &str = "productions:\nF -> FF\naxiom: F\n";
+
+// ---------------------------------------------------------------- stdin
+
+#[test]
+fn reads_the_system_from_stdin_without_file_argument() {
+    let out = run_stdin(&["-n", "5"], &read_example("algae")).ok();
+    assert_eq!(out, expected("algae", 5));
+}
+
+#[test]
+fn reads_the_system_from_stdin_with_dash() {
+    let out = run_stdin(&["-n", "5", "-"], &read_example("algae")).ok();
+    assert_eq!(out, expected("algae", 5));
+    let out = run_stdin(&["-"], &read_example("parametric")).ok();
+    assert_eq!(out, "F(1.456)B(1)A(8,7)\n");
+}
+
+#[test]
+fn errors_in_stdin_are_reported_as_stdin() {
+    let r = run_stdin(&[], b"productions:\nA(x) -> B(y)\naxiom:\nA(1)\n");
+    assert_eq!(
+        r.fails(1),
+        "lsgen: <stdin>:2:11: error: unknown identifier `y`\nA(x) -> B(y)\n          ^\n"
+    );
+}
+
+#[test]
+fn empty_stdin_is_an_error() {
+    let r = run_stdin(&[], b"");
+    let e = r.one_error();
+    assert!(e.contains("<stdin>") && e.contains("axiom"), "{e}");
+}
+
+// ---------------------------------------------------------------- -o
+
+#[test]
+fn output_file_holds_exactly_the_output_and_stdout_is_empty() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("out.txt");
+    let out_s = out.display().to_string();
+    for flag in ["-o", "--output"] {
+        let r = run(&[flag, &out_s, "examples/plant_a.ls"]);
+        assert_eq!(r.ok(), "", "-o must not write to stdout");
+        assert_eq!(
+            std::fs::read_to_string(&out).unwrap(),
+            expected("plant_a", 5)
+        );
+        assert_eq!(
+            listing(d.path()),
+            ["out.txt"],
+            "stray files beside the output"
+        );
+    }
+}
+
+#[test]
+fn output_file_relative_to_the_working_directory() {
+    let d = dir_with(&[("p.ls", DOUBLING)]);
+    let r = run_in(d.path(), &["-n", "3", "-o", "result", "p.ls"], None);
+    assert_eq!(r.ok(), "");
+    assert_eq!(
+        std::fs::read_to_string(d.path().join("result")).unwrap(),
+        "FFFFFFFF\n"
+    );
+    assert_eq!(listing(d.path()), ["p.ls", "result"]);
+}
+
+#[test]
+fn output_file_replaces_an_existing_file_on_success() {
+    let d = dir_with(&[
+        ("p.ls", DOUBLING),
+        ("out.txt", "old contents, longer than the new\n"),
+    ]);
+    let r = run_in(d.path(), &["-n", "2", "-o", "out.txt", "p.ls"], None);
+    assert_eq!(r.ok(), "");
+    assert_eq!(
+        std::fs::read_to_string(d.path().join("out.txt")).unwrap(),
+        "FFFF\n"
+    );
+    assert_eq!(listing(d.path()), ["out.txt", "p.ls"]);
+}
+
+#[test]
+fn output_file_is_untouched_when_the_run_fails() {
+    let old = "precious old contents\n";
+    let d = dir_with(&[("p.ls", DIV_AT_STEP_2), ("out.txt", old)]);
+    // Step 1 succeeds (and the failure only happens while writing step 2).
+    let r = run_in(d.path(), &["-n", "1"], Some(DIV_AT_STEP_2.as_bytes()));
+    assert_eq!(r.ok(), "A(0)\n");
+    let r = run_in(d.path(), &["-n", "2", "-o", "out.txt", "p.ls"], None);
+    assert_eq!(
+        r.fails(1),
+        "lsgen: p.ls:3:20: error: division by zero (in step 2)\n\
+         A(x) : x <= 0 -> B(1/x)\n                   ^\n"
+    );
+    assert_eq!(
+        std::fs::read_to_string(d.path().join("out.txt")).unwrap(),
+        old
+    );
+    assert_eq!(
+        listing(d.path()),
+        ["out.txt", "p.ls"],
+        "stray files left behind"
+    );
+}
+
+#[test]
+fn output_file_is_not_created_when_the_run_fails() {
+    let d = dir_with(&[("p.ls", DIV_AT_STEP_2)]);
+    let r = run_in(d.path(), &["-n", "2", "-o", "new.txt", "p.ls"], None);
+    r.one_error();
+    assert_eq!(listing(d.path()), ["p.ls"], "stray files left behind");
+    // A parse error, too.
+    let d = dir_with(&[("p.ls", "productions:\nF -> G(x)\naxiom: F\n")]);
+    let r = run_in(d.path(), &["-o", "new.txt", "p.ls"], None);
+    r.one_error();
+    assert_eq!(listing(d.path()), ["p.ls"], "stray files left behind");
+}
+
+#[test]
+fn output_file_is_untouched_when_max_length_stops_the_run() {
+    let d = dir_with(&[("p.ls", DOUBLING), ("out.txt", "old\n")]);
+    let r = run_in(
+        d.path(),
+        &["-n", "10", "--max-length", "100", "-o", "out.txt", "p.ls"],
+        None,
+    );
+    assert!(r.one_error().contains("--max-length"));
+    assert_eq!(
+        std::fs::read_to_string(d.path().join("out.txt")).unwrap(),
+        "old\n"
+    );
+    assert_eq!(listing(d.path()), ["out.txt", "p.ls"]);
+}
+
+#[test]
+fn output_into_a_missing_directory_fails() {
+    let d = tempfile::tempdir().unwrap();
+    let target = d.path().join("no/such/dir/out.txt");
+    let t = target.display().to_string();
+    let r = run(&["-o", &t, "examples/algae.ls"]);
+    let e = r.one_error();
+    assert!(e.starts_with(&format!("lsgen: {t}: error: ")), "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
+    assert!(listing(d.path()).is_empty());
+}
+
+#[test]
+fn output_to_a_device_is_written_in_place() {
+    if !Path::new("/dev/null").exists() {
+        return;
+    }
+    let r = run(&["-o", "/dev/null", "examples/plant_a.ls"]);
+    assert_eq!(r.ok(), "");
+}
+
+/// Run lsgen with its standard output on /dev/full (every write fails).
+fn run_to_dev_full(args: &[&str]) -> Option<(i32, String)> {
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .ok()?;
+    let out = Command::new(BIN)
+        .args(args)
+        .current_dir(ROOT)
+        .stdin(Stdio::null())
+        .stdout(Stdio::from(full))
+        .stderr(Stdio::piped())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_no_crash(&format!("{args:?} > /dev/full"), out.status, &stderr);
+    Some((out.status.code().unwrap(), stderr))
+}
+
+#[test]
+fn write_errors_on_stdout_are_reported() {
+    for n in ["0", "3", "25"] {
+        let Some((code, e)) = run_to_dev_full(&["-n", n, "examples/algae.ls"]) else {
+            return; // no /dev/full here
+        };
+        assert_eq!(code, 1, "-n {n}: {e}");
+        assert!(
+            e.starts_with("lsgen: standard output: error: cannot write"),
+            "-n {n}: {e}"
+        );
+        assert_eq!(e.lines().count(), 1, "{e}");
+    }
+}
+
+#[test]
+fn write_errors_on_an_output_device_name_it() {
+    if !Path::new("/dev/full").exists() {
+        return;
+    }
+    let r = run(&["-o", "/dev/full", "examples/algae.ls"]);
+    let e = r.one_error();
+    assert!(
+        e.starts_with("lsgen: /dev/full: error: cannot write"),
+        "{e}"
+    );
+}
+
+// ---------------------------------------------------------------- -n
+
+#[test]
+fn n_overrides_the_derivation_length_of_the_file() {
+    // parametric.ls says `derivation length: 4`.
+    assert_eq!(
+        run(&["examples/parametric.ls"]).ok(),
+        expected("parametric", 4)
+    );
+    for n in [0u64, 2, 6] {
+        let ns = n.to_string();
+        assert_eq!(
+            run(&["-n", &ns, "examples/parametric.ls"]).ok(),
+            expected("parametric", n)
+        );
+        assert_eq!(
+            run(&["--derivation-length", &ns, "examples/parametric.ls"]).ok(),
+            expected("parametric", n)
+        );
+    }
+}
+
+#[test]
+fn n_zero_prints_the_axiom() {
+    assert_eq!(
+        run(&["-n", "0", "examples/koch_snowflake.ls"]).ok(),
+        "F--F--F\n"
+    );
+    // The homomorphism still applies after zero steps.
+    assert_eq!(
+        run(&["-n", "0", "examples/sierpinski_gasket.ls"]).ok(),
+        "F\n"
+    );
+    assert_eq!(
+        run(&[
+            "-n",
+            "0",
+            "--no-homomorphism",
+            "examples/sierpinski_gasket.ls"
+        ])
+        .ok(),
+        "R\n"
+    );
+}
+
+#[test]
+fn huge_n_does_not_crash() {
+    // Accepting the number and running (for ever) or rejecting it with a
+    // clean error are both fine; a crash is not.
+    let d = dir_with(&[("p.ls", "homomorphism:\nF -> G\naxiom: F\n")]);
+    let mut child = Command::new(BIN)
+        .args(["-n", "18446744073709551615", "p.ls"])
+        .current_dir(d.path())
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(3);
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        if std::time::Instant::now() > deadline {
+            // Still deriving: not a crash.
+            child.kill().unwrap();
+            child.wait().unwrap();
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_no_crash("-n u64::MAX", out.status, &stderr);
+    let code = out.status.code().unwrap();
+    assert!(code == 1 || code == 2, "exit {code}: {stderr}");
+    assert!(stderr.starts_with("lsgen: "), "{stderr}");
+}
+
+// ---------------------------------------------------------------- --seed
+
+#[test]
+fn seed_flag_overrides_the_seed_setting() {
+    // stochastic_plant.ls says `seed: 42`.
+    let file_seed = run(&["examples/stochastic_plant.ls"]).ok();
+    assert_eq!(
+        run(&["--seed", "42", "examples/stochastic_plant.ls"]).ok(),
+        file_seed
+    );
+    let s7 = run(&["--seed", "7", "examples/stochastic_plant.ls"]).ok();
+    assert_ne!(
+        s7, file_seed,
+        "--seed 7 gave the output of the file's seed 42"
+    );
+}
+
+#[test]
+fn same_seed_same_output() {
+    for seed in ["0", "1", "18446744073709551615"] {
+        let a = run(&["--seed", seed, "examples/stochastic_plant.ls"]).ok();
+        let b = run(&["--seed", seed, "examples/stochastic_plant.ls"]).ok();
+        assert_eq!(a, b, "two runs with --seed {seed} differ");
+        assert!(a.starts_with('F') && a.ends_with('\n'));
+    }
+}
+
+#[test]
+fn different_seeds_different_outputs() {
+    let outs: Vec<String> = (1..=5)
+        .map(|s| run(&["--seed", &s.to_string(), "examples/stochastic_plant.ls"]).ok())
+        .collect();
+    for i in 0..outs.len() {
+        for j in i + 1..outs.len() {
+            assert_ne!(
+                outs[i],
+                outs[j],
+                "--seed {} and --seed {} agree",
+                i + 1,
+                j + 1
+            );
+        }
+    }
+}
+
+#[test]
+fn seed_reported_by_verbose_reproduces_an_unseeded_run() {
+    let src = "productions:\nF -> F[+F]F : 1\nF -> F[-F]F : 1\nF -> FF : 1\naxiom: F\n";
+    let d = dir_with(&[("s.ls", src)]);
+    let r = run_in(d.path(), &["-v", "-n", "4", "s.ls"], None);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let seed = r
+        .stderr
+        .lines()
+        .find_map(|l| l.strip_prefix("lsgen: seed "))
+        .unwrap_or_else(|| panic!("no seed reported:\n{}", r.stderr))
+        .trim()
+        .to_string();
+    let again = run_in(d.path(), &["--seed", &seed, "-n", "4", "s.ls"], None).ok();
+    assert_eq!(again, r.out());
+}
+
+// ---------------------------------------------------------------- --no-homomorphism
+
+#[test]
+fn no_homomorphism_keeps_the_symbols() {
+    assert_eq!(
+        run(&["-n", "1", "examples/sierpinski_gasket.ls"]).ok(),
+        "F-F-F\n"
+    );
+    assert_eq!(
+        run(&[
+            "-n",
+            "1",
+            "--no-homomorphism",
+            "examples/sierpinski_gasket.ls"
+        ])
+        .ok(),
+        "L-R-L\n"
+    );
+    assert_eq!(
+        run(&["--no-homomorphism", "examples/parametric.ls"]).ok(),
+        "CB(1)A(8,7)\n"
+    );
+    // Without a homomorphism section the flag changes nothing.
+    assert_eq!(
+        run(&["--no-homomorphism", "examples/plant_a.ls"]).ok(),
+        expected("plant_a", 5)
+    );
+}
+
+// ---------------------------------------------------------------- --check
+
+#[test]
+fn check_is_silent_on_every_example() {
+    let mut names: Vec<_> = std::fs::read_dir(Path::new(ROOT).join("examples"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ls"))
+        .collect();
+    names.sort();
+    assert!(!names.is_empty());
+    for p in names {
+        let r = run(&["--check", &p.display().to_string()]);
+        assert_eq!(r.ok(), "", "--check printed something for {}", p.display());
+    }
+}
+
+#[test]
+fn check_derives_nothing() {
+    // Dividing by zero in step 2 is a runtime error, not a check error.
+    let d = dir_with(&[("p.ls", DIV_AT_STEP_2)]);
+    assert_eq!(run_in(d.path(), &["--check", "p.ls"], None).ok(), "");
+    // Nor does it need a temp dir or write an output file.
+    let r = run_in(
+        d.path(),
+        &[
+            "--check",
+            "-o",
+            "out.txt",
+            "--tmpdir",
+            "/no/such/dir",
+            "p.ls",
+        ],
+        None,
+    );
+    assert_eq!(r.ok(), "");
+    assert_eq!(listing(d.path()), ["p.ls"]);
+}
+
+#[test]
+fn check_reports_errors_in_the_productions() {
+    let d = dir_with(&[("p.ls", "productions:\nA(x) -> B(y)\naxiom:\nA(1)\n")]);
+    let r = run_in(d.path(), &["--check", "p.ls"], None);
+    assert_eq!(
+        r.fails(1),
+        "lsgen: p.ls:2:11: error: unknown identifier `y`\nA(x) -> B(y)\n          ^\n"
+    );
+}
+
+#[test]
+fn check_reports_errors_in_the_axiom() {
+    let d = dir_with(&[("p.ls", "productions:\nF -> FF\naxiom:\nF+F)F\n")]);
+    let r = run_in(d.path(), &["--check", "p.ls"], None);
+    assert_eq!(
+        r.fails(1),
+        "lsgen: p.ls:4:4: error: `)` is reserved and cannot be a symbol\nF+F)F\n   ^\n"
+    );
+    // Errors far into the axiom, too.
+    let d = dir_with(&[("p.ls", "productions:\nF -> FF\naxiom: F\nF\nF[F\n")]);
+    let r = run_in(d.path(), &["--check", "p.ls"], None);
+    let e = r.one_error();
+    assert!(e.contains("unbalanced brackets"), "{e}");
+}
+
+#[test]
+fn check_reads_the_axiom_file() {
+    let d = dir_with(&[
+        ("p.ls", DOUBLING),
+        ("good.txt", "F+F\n"),
+        ("bad.txt", "F)\n"),
+    ]);
+    let r = run_in(d.path(), &["--check", "--axiom", "good.txt", "p.ls"], None);
+    assert_eq!(r.ok(), "");
+    let r = run_in(d.path(), &["--check", "--axiom", "bad.txt", "p.ls"], None);
+    assert_eq!(
+        r.fails(1),
+        "lsgen: bad.txt:1:2: error: `)` is reserved and cannot be a symbol\nF)\n ^\n"
+    );
+    let r = run_in(d.path(), &["--check", "--axiom", "-", "p.ls"], Some(b"F(1"));
+    let e = r.one_error();
+    assert!(e.starts_with("lsgen: <stdin>:1:2: error: "), "{e}");
+}
+
+// ---------------------------------------------------------------- --axiom
+
+#[test]
+fn axiom_file_replaces_the_axiom() {
+    let d = dir_with(&[("a.txt", "B(2)A(4,4)\n"), ("b.txt", "A(1,4)\n")]);
+    let p = example("parametric");
+    let r = run_in(d.path(), &["--axiom", "a.txt", &p], None);
+    assert_eq!(r.ok(), "F(1.456)B(1)A(8,7)\n");
+    // A(1,4) -> B(1)A(0.25,0) -> B(0)A(0.5,0.25) -> CA(1,0.75) -> CA(2,1.75)
+    let r = run_in(d.path(), &["--axiom", "b.txt", &p], None);
+    assert_eq!(r.ok(), "F(1.456)A(2,1.75)\n");
+}
+
+#[test]
+fn axiom_from_stdin() {
+    let r = run_stdin(&["--axiom", "-", "-n", "2", "examples/plant_a.ls"], b"F+F");
+    assert_eq!(
+        r.ok(),
+        "F[+F]F[-F]F[+F[+F]F[-F]F]F[+F]F[-F]F[-F[+F]F[-F]F]F[+F]F[-F]F+\
+         F[+F]F[-F]F[+F[+F]F[-F]F]F[+F]F[-F]F[-F[+F]F[-F]F]F[+F]F[-F]F\n"
+    );
+    // An empty axiom is an empty string.
+    let r = run_stdin(&["--axiom", "-", "examples/plant_a.ls"], b"");
+    assert_eq!(r.ok(), "\n");
+}
+
+#[test]
+fn axiom_flag_allows_a_file_without_axiom() {
+    let d = dir_with(&[("p.ls", "productions:\nF -> FF\n")]);
+    let r = run_in(
+        d.path(),
+        &["--axiom", "-", "-n", "2", "p.ls"],
+        Some(b"F+F\n"),
+    );
+    assert_eq!(r.ok(), "FFFF+FFFF\n");
+    let r = run_in(d.path(), &["--check", "--axiom", "-", "p.ls"], Some(b"F\n"));
+    assert_eq!(r.ok(), "");
+    // Without --axiom the axiom is missing.
+    let r = run_in(d.path(), &["p.ls"], None);
+    assert_eq!(
+        r.fails(1),
+        "lsgen: p.ls:2:8: error: missing `axiom:`: the axiom comes last, after the productions\n\
+         F -> FF\n       ^\n"
+    );
+}
+
+#[test]
+fn axiom_and_system_cannot_both_be_stdin() {
+    for args in [&["--axiom", "-"][..], &["--axiom", "-", "-"][..]] {
+        let r = run_stdin(args, &read_example("algae"));
+        let e = r.fails(2);
+        assert!(e.starts_with("lsgen: "), "{e}");
+    }
+}
+
+#[test]
+fn missing_axiom_file_fails() {
+    let d = dir_with(&[("p.ls", DOUBLING)]);
+    let r = run_in(d.path(), &["--axiom", "nope.txt", "p.ls"], None);
+    let e = r.one_error();
+    assert!(e.starts_with("lsgen: nope.txt: error: "), "{e}");
+}
+
+/// `lsgen -n A --no-homomorphism p.ls | lsgen -n B --axiom - p.ls`
+fn chained(file: &str, a: u64, b: u64) -> String {
+    let first = run(&["-n", &a.to_string(), "--no-homomorphism", file]).ok();
+    run_stdin(
+        &["-n", &b.to_string(), "--axiom", "-", file],
+        first.as_bytes(),
+    )
+    .ok()
+}
+
+#[test]
+fn chaining_through_axiom_equals_one_long_run() {
+    for name in [
+        "parametric",
+        "plant_a",
+        "dragon_curve",
+        "context_plant_a",
+        "context_plant_d",
+        "signal",
+        "parametric_context",
+        "sierpinski_gasket",
+        "row_of_trees",
+        "monopodial_tree",
+    ] {
+        let file = example(name);
+        let whole = run(&["-n", "5", &file]).ok();
+        assert_eq!(
+            chained(&file, 3, 2),
+            whole,
+            "{name}: 3 + 2 steps != 5 steps"
+        );
+    }
+    // The expected files agree, and bigger splits work.
+    let file = example("context_plant_b");
+    assert_eq!(chained(&file, 17, 13), expected("context_plant_b", 30));
+    let file = example("dragon_curve");
+    assert_eq!(chained(&file, 9, 1), expected("dragon_curve", 10));
+}
+
+// ---------------------------------------------------------------- --max-length
+
+#[test]
+fn max_length_in_modules() {
+    // algae after 10 steps: 144 modules.
+    assert_eq!(
+        run(&["-n", "10", "--max-length", "144", "examples/algae.ls"]).ok(),
+        expected("algae", 10)
+    );
+    let r = run(&["-n", "10", "--max-length", "143", "examples/algae.ls"]);
+    let e = r.one_error();
+    assert!(e.contains("--max-length"), "{e}");
+    let r = run(&["-n", "10", "--max-length", "100", "examples/algae.ls"]);
+    assert!(r.one_error().contains("--max-length"));
+    // Suffixes for modules.
+    for ok in ["1k", "5M", "2G", "1_000"] {
+        assert_eq!(
+            run(&["-n", "10", "--max-length", ok, "examples/algae.ls"]).ok(),
+            expected("algae", 10),
+            "--max-length {ok}"
+        );
+    }
+}
+
+#[test]
+fn max_length_in_bytes() {
+    for ok in ["1kB", "1KiB", "2MB", "1GiB", "1000B"] {
+        assert_eq!(
+            run(&["-n", "10", "--max-length", ok, "examples/algae.ls"]).ok(),
+            expected("algae", 10),
+            "--max-length {ok}"
+        );
+    }
+    for bad in ["100B", "50B"] {
+        let r = run(&["-n", "10", "--max-length", bad, "examples/algae.ls"]);
+        let e = r.one_error();
+        assert!(e.contains("--max-length"), "--max-length {bad}: {e}");
+    }
+}
+
+#[test]
+fn max_length_stops_a_runaway_system_early() {
+    // Without the limit this would be 2^60 modules.
+    let d = dir_with(&[("p.ls", DOUBLING)]);
+    let started = std::time::Instant::now();
+    let r = run_in(d.path(), &["-n", "60", "--max-length", "1M", "p.ls"], None);
+    assert!(r.one_error().contains("--max-length"));
+    assert!(started.elapsed().as_secs() < 60);
+}
+
+#[test]
+fn max_length_rejects_bad_values() {
+    for bad in ["12parsecs", "", "abc", "-5", "5X"] {
+        let r = run(&["--max-length", bad, "examples/algae.ls"]);
+        r.fails(2);
+    }
+}
+
+// ---------------------------------------------------------------- --tmpdir
+
+#[test]
+fn tmpdir_is_used_and_left_clean() {
+    let t = tempfile::tempdir().unwrap();
+    let ts = t.path().display().to_string();
+    assert_eq!(
+        run(&["--tmpdir", &ts, "examples/plant_d.ls"]).ok(),
+        expected("plant_d", 7)
+    );
+    assert!(listing(t.path()).is_empty(), "temp files left in --tmpdir");
+}
+
+#[test]
+fn missing_tmpdir_is_a_clear_error() {
+    let t = tempfile::tempdir().unwrap();
+    let missing = t.path().join("does-not-exist");
+    let ms = missing.display().to_string();
+    let r = run(&["--tmpdir", &ms, "-n", "3", "examples/algae.ls"]);
+    let e = r.one_error();
+    assert!(e.starts_with(&format!("lsgen: {ms}: error: ")), "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
+}
+
+// ---------------------------------------------------------------- -v
+
+#[test]
+fn verbose_reports_seed_and_lengths_on_stderr() {
+    let quiet = run(&["-n", "4", "--seed", "5", "examples/algae.ls"]).ok();
+    for flag in ["-v", "--verbose"] {
+        let r = run(&[flag, "-n", "4", "--seed", "5", "examples/algae.ls"]);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        assert_eq!(r.out(), quiet, "{flag} changed stdout");
+        let lines: Vec<&str> = r.stderr.lines().collect();
+        assert!(lines.iter().all(|l| l.starts_with("lsgen: ")), "{lines:?}");
+        assert!(
+            lines.iter().any(|l| l.contains("seed 5")),
+            "no seed: {lines:?}"
+        );
+        // a, ab, aba, abaab, abaababa
+        for (step, modules) in [(1, 2), (2, 3), (3, 5), (4, 8)] {
+            let want = format!("step {step}: {modules} modules");
+            assert!(
+                lines.iter().any(|l| l.contains(&want)),
+                "no `{want}` in {lines:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn verbose_reports_the_file_seed() {
+    let r = run(&["-v", "examples/stochastic_plant.ls"]);
+    assert_eq!(r.code, 0);
+    assert_eq!(r.out(), run(&["examples/stochastic_plant.ls"]).ok());
+    assert!(
+        r.stderr.lines().any(|l| l == "lsgen: seed 42"),
+        "{}",
+        r.stderr
+    );
+}
+
+#[test]
+fn verbose_with_output_file_keeps_stdout_empty() {
+    let d = dir_with(&[("p.ls", DOUBLING)]);
+    let r = run_in(d.path(), &["-v", "-n", "3", "-o", "o.txt", "p.ls"], None);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.is_empty());
+    assert!(r.stderr.contains("step 3: 8 modules"), "{}", r.stderr);
+    assert_eq!(
+        std::fs::read_to_string(d.path().join("o.txt")).unwrap(),
+        "FFFFFFFF\n"
+    );
+}
+
+// ---------------------------------------------------------------- help, version, usage errors
+
+#[test]
+fn help_and_version_exit_zero() {
+    for flag in ["--help", "-h"] {
+        let r = run(&[flag]);
+        let out = r.ok();
+        assert!(out.contains("Usage:"), "{out}");
+        for opt in [
+            "--output",
+            "--derivation-length",
+            "--seed",
+            "--no-homomorphism",
+            "--check",
+            "--axiom",
+            "--max-length",
+            "--tmpdir",
+            "--verbose",
+        ] {
+            assert!(out.contains(opt), "{flag} does not mention {opt}");
+        }
+    }
+    for flag in ["--version", "-V"] {
+        let out = run(&[flag]).ok();
+        assert_eq!(out, format!("lsgen {}\n", env!("CARGO_PKG_VERSION")));
+    }
+}
+
+#[test]
+fn usage_errors_exit_2() {
+    let algae = "examples/algae.ls";
+    let cases: &[&[&str]] = &[
+        &["--bogus", algae],
+        &["-x", algae],
+        &["-n", "abc", algae],
+        &["-n", "-1", algae],
+        &["-n", "1.5", algae],
+        &["-n", "18446744073709551616", algae],
+        &["-n"],
+        &["--seed", "x", algae],
+        &["--seed", "-3", algae],
+        &["--max-length", "lots", algae],
+        &[algae, algae],
+        &["-o"],
+    ];
+    for args in cases {
+        let r = run(args);
+        let e = r.fails(2);
+        assert!(e.contains("error"), "{args:?}: {e}");
+    }
+}
+
+#[test]
+fn missing_input_file_exits_1() {
+    let d = tempfile::tempdir().unwrap();
+    let r = run_in(d.path(), &["missing.ls"], None);
+    let e = r.one_error();
+    assert!(e.starts_with("lsgen: missing.ls: error: "), "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
+    assert!(e.contains("No such file or directory"), "{e}");
+}
+
+#[test]
+fn directory_as_input_exits_1() {
+    let d = tempfile::tempdir().unwrap();
+    let ds = d.path().display().to_string();
+    let r = run(&[&ds]);
+    let e = r.one_error();
+    assert!(e.starts_with(&format!("lsgen: {ds}: error: ")), "{e}");
+}
+
+// ---------------------------------------------------------------- broken pipe
+
+#[test]
+fn broken_pipe_is_a_quiet_success() {
+    // algae after 30 steps: 1.3 million modules, far beyond a pipe buffer.
+    let mut child = Command::new(BIN)
+        .args(["-n", "30", "examples/algae.ls"])
+        .current_dir(ROOT)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdout = child.stdout.take().unwrap();
+    let mut head = [0u8; 16];
+    stdout.read_exact(&mut head).unwrap();
+    assert_eq!(&head, b"abaababaabaababa");
+    drop(stdout);
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "stderr: {stderr}");
+    assert_eq!(stderr, "", "a broken pipe must be silent");
+}
+
+#[test]
+fn broken_pipe_when_printing_the_axiom() {
+    // n = 0: the axiom is streamed straight to the output.
+    let mut big = b"productions:\nF -> G\naxiom:\n".to_vec();
+    big.extend(std::iter::repeat_n(b'F', 4 << 20));
+    let d = tempfile::tempdir().unwrap();
+    std::fs::write(d.path().join("big.ls"), &big).unwrap();
+    let mut child = Command::new(BIN)
+        .args(["-n", "0", "big.ls"])
+        .current_dir(d.path())
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdout = child.stdout.take().unwrap();
+    let mut head = [0u8; 4];
+    stdout.read_exact(&mut head).unwrap();
+    assert_eq!(&head, b"FFFF");
+    drop(stdout);
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "stderr: {stderr}");
+    assert_eq!(stderr, "");
+}
+
+// ---------------------------------------------------------------- file syntax
+
+#[test]
+fn shebang_line_is_skipped() {
+    let src = "#!/usr/bin/env lsgen\nproductions:\nF -> F+F\naxiom: F\n";
+    let d = dir_with(&[("p.ls", src)]);
+    assert_eq!(
+        run_in(d.path(), &["-n", "2", "p.ls"], None).ok(),
+        "F+F+F+F\n"
+    );
+    // Line numbers still count the #! line.
+    let src = "#!/usr/bin/env lsgen\nproductions:\nF -> G(x)\naxiom: F\n";
+    let d = dir_with(&[("p.ls", src)]);
+    let r = run_in(d.path(), &["p.ls"], None);
+    assert_eq!(
+        r.fails(1),
+        "lsgen: p.ls:3:8: error: unknown identifier `x`\nF -> G(x)\n       ^\n"
+    );
+}
+
+#[test]
+fn long_arrow_works() {
+    let src = "productions:\nF --> F-F\nA(x) : x > 0 --> A(x-1)F\naxiom: F A(2)\n";
+    let d = dir_with(&[("p.ls", src)]);
+    assert_eq!(
+        run_in(d.path(), &["-n", "2", "p.ls"], None).ok(),
+        "F-F-F-FA(0)FF-F\n"
+    );
+}
+
+#[test]
+fn capitalised_keywords_work() {
+    let src = "Derivation length: 3\nDefine: k = 2\nSeed: 1\nProductions:\n\
+               A(x) -> A(x*k)\nHomomorphism:\nA(x) -> B(x)\nAxiom: A(1)\n";
+    let d = dir_with(&[("p.ls", src)]);
+    assert_eq!(run_in(d.path(), &["p.ls"], None).ok(), "B(8)\n");
+    let src = "DERIVATION LENGTH: 2\nPRODUCTIONS:\nF -> FF\nAXIOM:\nF\n";
+    let d = dir_with(&[("p.ls", src)]);
+    assert_eq!(run_in(d.path(), &["p.ls"], None).ok(), "FFFF\n");
+}
+
+#[test]
+fn default_derivation_length_is_one_step() {
+    assert_eq!(lsgen::cli::DEFAULT_DERIVATION_LENGTH, 1);
+    let d = dir_with(&[("p.ls", "productions:\nF -> F+F\naxiom: F\n")]);
+    assert_eq!(run_in(d.path(), &["p.ls"], None).ok(), "F+F\n");
+    assert_eq!(
+        run_stdin(&[], b"productions:\na -> ab\nb -> a\naxiom: a\n").ok(),
+        "ab\n"
+    );
+}
+
+#[test]
+fn crlf_line_endings_work() {
+    let d = dir_with(&[(
+        "p.ls",
+        "derivation length: 2\r\nproductions:\r\nF -> FF\r\naxiom: F\r\n",
+    )]);
+    assert_eq!(run_in(d.path(), &["p.ls"], None).ok(), "FFFF\n");
+}
+
+// ---------------------------------------------------------------- numbers and round trips
+
+#[test]
+fn numbers_are_printed_in_shortest_form() {
+    let src = "productions:\nA -> B(0.5)B(1e-7)B(2.0)B(-0)\naxiom: A\n";
+    let d = dir_with(&[("p.ls", src)]);
+    assert_eq!(
+        run_in(d.path(), &["p.ls"], None).ok(),
+        "B(0.5)B(1e-7)B(2)B(-0)\n"
+    );
+    let src = "productions:\nA -> B(1/2, 4/2, 0.1+0.2, 1/3, -3, 1e16, 123456)\naxiom: A\n";
+    let d = dir_with(&[("p.ls", src)]);
+    assert_eq!(
+        run_in(d.path(), &["p.ls"], None).ok(),
+        "B(0.5,2,0.30000000000000004,0.3333333333333333,-3,1e16,123456)\n"
+    );
+}
+
+/// `lsgen --axiom OUT -n 0` reproduces OUT byte for byte.
+fn assert_round_trip(out: &str, file: &str, what: &str) {
+    let d = dir_with(&[("out.txt", out)]);
+    let again = run_in(d.path(), &["-n", "0", "--axiom", "out.txt", file], None).ok();
+    assert!(
+        again == out,
+        "{what}: reading the output back changes it:\n{out}\n{again}"
+    );
+    let again = run_stdin(&["-n", "0", "--axiom", "-", file], out.as_bytes()).ok();
+    assert!(
+        again == out,
+        "{what}: reading the output back from stdin changes it"
+    );
+}
+
+#[test]
+fn output_read_back_as_axiom_reproduces_itself() {
+    let src = "productions:\n\
+               A(x) -> Ω(x/3)[+ß(x*1e20)]é(-x)B(x*0, -(x*0), 1e-7, 0.1+0.2)\n\
+               B(a,b,c,d) -> 中(a,b,c,d)\n\
+               axiom: A(1) Ω(2.5) A(5e-324)\n";
+    let d = dir_with(&[("u.ls", src)]);
+    let u = d.path().join("u.ls").display().to_string();
+    let out1 = run_in(d.path(), &["-n", "1", "u.ls"], None).ok();
+    assert!(
+        out1.contains("Ω(0.3333333333333333)[+ß(1e20)]é(-1)"),
+        "{out1}"
+    );
+    assert!(out1.contains("B(0,-0,1e-7,0.30000000000000004)"), "{out1}");
+    assert_round_trip(&out1, &u, "unicode, n=1");
+    let out2 = run_in(d.path(), &["-n", "2", "u.ls"], None).ok();
+    assert!(out2.contains("中(0,-0,1e-7,0.30000000000000004)"), "{out2}");
+    assert_round_trip(&out2, &u, "unicode, n=2");
+    for (name, n) in [
+        ("monopodial_tree", "4"),
+        ("ternary_tree", "3"),
+        ("row_of_trees", "6"),
+        ("parametric", "5"),
+        ("stochastic_plant", "5"),
+        ("context_plant_c", "26"),
+    ] {
+        let file = example(name);
+        let out = run(&["-n", n, &file]).ok();
+        assert_round_trip(&out, &file, name);
+    }
+}
+
+// ---------------------------------------------------------------- the error format
+
+/// Run `src` as `p.ls` in a fresh directory (with `args` before the file).
+fn run_source(src: &str, args: &[&str]) -> Run {
+    let d = dir_with(&[("p.ls", src)]);
+    let mut all = args.to_vec();
+    all.push("p.ls");
+    run_in(d.path(), &all, None)
+}
+
+/// The full stderr of a failing run, checked to be exactly `want`.
+fn assert_error(src: &str, args: &[&str], want: &str) {
+    let r = run_source(src, args);
+    let got = r.fails(1);
+    assert!(
+        got == want,
+        "for\n{src}\nwant stderr:\n{want}\ngot:\n{got}\n(debug: {got:?})"
+    );
+    // --check finds the same error, unless it is a runtime one.
+    let r = run_source(src, &["--check"]);
+    if want.contains("(in step") || want.contains("(in the homomorphism)") {
+        assert_eq!(r.ok(), "", "--check derives nothing");
+    } else {
+        assert_eq!(r.fails(1), want, "--check reports a different error");
+    }
+}
+
+#[test]
+fn error_unknown_identifier_in_a_successor() {
+    assert_error(
+        "productions:\nA(x) -> B(y)\naxiom:\nA(1)\n",
+        &[],
+        "lsgen: p.ls:2:11: error: unknown identifier `y`\nA(x) -> B(y)\n          ^\n",
+    );
+}
+
+#[test]
+fn error_division_by_zero_at_step_2() {
+    assert_error(
+        DIV_AT_STEP_2,
+        &["-n", "2"],
+        "lsgen: p.ls:3:20: error: division by zero (in step 2)\n\
+         A(x) : x <= 0 -> B(1/x)\n                   ^\n",
+    );
+}
+
+#[test]
+fn error_division_by_zero_after_a_tab_and_unicode() {
+    // The caret line keeps the tab so it lines up under the source.
+    assert_error(
+        "productions:\n\tΩ(x) -> Ω(x/0)\naxiom: Ω(2)\n",
+        &[],
+        "lsgen: p.ls:2:12: error: division by zero (in step 1)\n\
+         \tΩ(x) -> Ω(x/0)\n\t          ^\n",
+    );
+}
+
+#[test]
+fn error_in_the_homomorphism() {
+    assert_error(
+        "derivation length: 2\nproductions:\nA(x) -> A(x-1)\nhomomorphism:\nA(x) -> B(1/x)\naxiom: A(2)\n",
+        &[],
+        "lsgen: p.ls:5:11: error: division by zero (in the homomorphism)\n\
+         A(x) -> B(1/x)\n          ^\n",
+    );
+}
+
+#[test]
+fn error_unterminated_comment() {
+    assert_error(
+        "productions:\nF -> FF /* oops\naxiom:\nF\n",
+        &[],
+        "lsgen: p.ls:2:9: error: unterminated comment: `/*` without `*/`\n\
+         F -> FF /* oops\n        ^\n",
+    );
+}
+
+#[test]
+fn error_unterminated_comment_in_the_axiom() {
+    assert_error(
+        "productions:\nF -> FF\naxiom:\nF F /* never closed\nF\n",
+        &[],
+        "lsgen: p.ls:4:5: error: unterminated comment: `/*` without `*/`\n\
+         F F /* never closed\n    ^\n",
+    );
+}
+
+#[test]
+fn error_bad_axiom_character() {
+    assert_error(
+        "productions:\nF -> FF\naxiom:\nF+F)F\n",
+        &[],
+        "lsgen: p.ls:4:4: error: `)` is reserved and cannot be a symbol\nF+F)F\n   ^\n",
+    );
+    // Columns count characters, not bytes.
+    assert_error(
+        "productions:\nF -> FF\naxiom: Ωé)\n",
+        &[],
+        "lsgen: p.ls:3:10: error: `)` is reserved and cannot be a symbol\naxiom: Ωé)\n         ^\n",
+    );
+}
+
+#[test]
+fn error_empty_parameter_in_the_axiom() {
+    assert_error(
+        "productions:\nF -> FF\n\tAXIOM:\tF\n  G(1,)\n",
+        &[],
+        "lsgen: p.ls:4:7: error: empty parameter\n  G(1,)\n      ^\n",
+    );
+}
+
+#[test]
+fn error_header_syntax() {
+    assert_error(
+        "productions:\nF < -> G\naxiom: F\n",
+        &[],
+        "lsgen: p.ls:2:5: error: unexpected `->`, expected a symbol\nF < -> G\n    ^\n",
+    );
+    assert_error(
+        "derivation length: 2.5\naxiom: F\n",
+        &[],
+        "lsgen: p.ls:1:20: error: the derivation length must be a whole number from 0 to 2^53, not 2.5\n\
+         derivation length: 2.5\n                   ^\n",
+    );
+}
+
+/// The snippet and caret lines of a located error, checked to point at
+/// the character `at`.
+fn caret_points_at(e: &str, at: char) {
+    let lines: Vec<&str> = e.lines().collect();
+    assert_eq!(lines.len(), 3, "{e:?}");
+    let caret = lines[2].chars().count() - 1;
+    assert!(lines[2].ends_with('^'), "{e:?}");
+    assert_eq!(
+        lines[1].chars().nth(caret),
+        Some(at),
+        "caret misplaced: {e:?}"
+    );
+}
+
+#[test]
+fn error_excerpt_of_a_long_axiom_line() {
+    // `)` at column 7 + 1000 + 1.
+    let src = format!("productions:\nF -> G\naxiom: {})FF\n", "F".repeat(1000));
+    let r = run_source(&src, &[]);
+    let e = r.one_error();
+    assert!(
+        e.starts_with("lsgen: p.ls:3:1008: error: `)` is reserved"),
+        "{e}"
+    );
+    caret_points_at(e, ')');
+    let snippet = e.lines().nth(1).unwrap();
+    assert!(
+        snippet.starts_with("...F") && snippet.len() < 200,
+        "{snippet}"
+    );
+}
+
+#[test]
+fn error_excerpt_of_a_very_long_axiom_line() {
+    let src = format!("productions:\nF -> G\naxiom: {})FF\n", "F".repeat(200_000));
+    let r = run_source(&src, &[]);
+    let e = r.one_error();
+    assert!(
+        e.starts_with("lsgen: p.ls:3:200008: error: `)` is reserved"),
+        "{e}"
+    );
+    caret_points_at(e, ')');
+    let snippet = e.lines().nth(1).unwrap();
+    assert!(snippet.starts_with("...F"), "{snippet}");
+}
+
+#[test]
+fn error_excerpt_deep_into_a_long_axiom() {
+    let src = format!(
+        "productions:\nF -> G\naxiom:\n{}ΩF)\n",
+        "F\n".repeat(100_000)
+    );
+    let r = run_source(&src, &[]);
+    assert_eq!(
+        r.fails(1),
+        "lsgen: p.ls:100004:3: error: `)` is reserved and cannot be a symbol\nΩF)\n  ^\n"
+    );
+}
+
+#[test]
+fn error_excerpt_of_a_very_long_axiom_parameter() {
+    // The bad parameter `y` is followed by 200000 blanks before its `)`.
+    let src = format!("productions:\nF -> G\naxiom: F(y{})\n", " ".repeat(200_000));
+    let r = run_source(&src, &[]);
+    let e = r.one_error();
+    assert!(
+        e.starts_with("lsgen: p.ls:3:10: error: unknown identifier `y`\n"),
+        "{e}"
+    );
+    caret_points_at(e, 'y');
+}
+
+#[test]
+fn bad_inputs_give_one_error_and_never_panic() {
+    let cases: &[&[u8]] = &[
+        b"",
+        b"\n\n",
+        b"productions:\nF -> FF\n",
+        b"axiom",
+        b"derivation length: -1\naxiom: F\n",
+        b"derivation length: 1e30\naxiom: F\n",
+        b"seed: -5\naxiom: F\n",
+        b"define: x = 1/0\naxiom: F\n",
+        b"define: x = y\naxiom: F\n",
+        b"define: x\naxiom: F\n",
+        b"productions:\nF -> G : -1\naxiom: F\n",
+        b"productions:\nF(x,x) -> G(x)\naxiom: F(1,2)\n",
+        b"productions:\nF -> G(foo(1))\naxiom: F\n",
+        b"productions:\nF -> G(sqrt(-1))\naxiom: F\n",
+        b"productions:\nF -> G(1e308*10)\naxiom: F\n",
+        b"productions:\nF(x) -> F(x*1e300)\naxiom: F(1e300)\n",
+        b"productions:\nF -> G\naxiom: F(1e999)\n",
+        b"productions:\nF -> G\naxiom: F(\n",
+        b"productions:\nF -> G\naxiom: F(1,,2)\n",
+        b"productions:\nF -> G\naxiom: F(y)\n",
+        b"ignore: (\naxiom: F\n",
+        b"productions:\nF -> \xff\naxiom: F\n",
+        b"productions:\nF -> G\naxiom: F\xff\n",
+        b"productions:\nF -> G\x00\naxiom: F\n",
+        b"productions:\nF -> G\naxiom: F\x01\n",
+        b"productions:\nF -> G\naxiom: ]\n",
+        b"productions:\nF -> ]\naxiom: F\n",
+        b"productions:\nF -> F[F\naxiom: F\n",
+        b"productions:\nF -> G\naxiom: [[[[F\n",
+        b"productions:\nF -> G(\naxiom: F\n",
+        b"productions:\n-> G\naxiom: F\n",
+        b"productions:\nA B -> C\naxiom: F\n",
+        b"productions:\nF -> G\nproductions:\nF -> G\naxiom: F\n",
+        b"productions:\nF -> G\naxiom: F\naxiom: F\n",
+        b"productions:\nF -> G(1%2)\naxiom: F\n",
+        b"/* never closed\nproductions:\nF -> G\naxiom: F\n",
+        b"productions:\nF -> FF\naxiom: F /* never closed\n",
+    ];
+    for src in cases {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::write(d.path().join("p.ls"), src).unwrap();
+        for args in [&["-n", "3", "p.ls"][..], &["--check", "p.ls"][..]] {
+            let r = run_in(d.path(), args, None);
+            let shown = String::from_utf8_lossy(src);
+            if args[0] == "--check" && r.code == 0 {
+                continue; // a runtime error: --check derives nothing
+            }
+            assert_eq!(r.code, 1, "{args:?} on {shown:?}: stderr {:?}", r.stderr);
+            let e = r.one_error();
+            assert!(
+                e.starts_with("lsgen: p.ls:") || e.starts_with("lsgen: p.ls: "),
+                "{shown:?}: {e:?}"
+            );
+            let first = e.lines().next().unwrap();
+            if first.starts_with("lsgen: p.ls:") && !first.starts_with("lsgen: p.ls: ") {
+                // Located: three lines, the last a caret.
+                assert_eq!(e.lines().count(), 3, "{shown:?}: {e:?}");
+                assert!(e.ends_with("^\n"), "{shown:?}: {e:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn an_error_run_never_writes_stdout() {
+    // Even when the failure comes after the first steps have run.
+    let r = run_source(DIV_AT_STEP_2, &["-n", "5"]);
+    r.one_error();
+}
