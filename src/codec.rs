@@ -56,16 +56,83 @@ pub fn get_param(b: &[u8], i: usize) -> f64 {
     f64::from_le_bytes(b[8 * i..8 * i + 8].try_into().unwrap())
 }
 
-/// Append `v` in the shortest form that reads back to the same f64:
-/// `2`, `0.5`, `1.4142135623730951`, `1e-7`, `-0`.
-#[inline]
-pub fn put_number(out: &mut Vec<u8>, v: f64, buf: &mut ryu::Buffer) {
-    let s = buf.format_finite(v).as_bytes();
-    match s {
-        [head @ .., b'.', b'0'] => out.extend_from_slice(head),
-        _ => {
-            // ryu writes `1e-7` and `1.5e16`; nothing to trim.
-            out.extend_from_slice(s)
+/// Number printer: ryu's shortest round-trip digits without a trailing
+/// `.0`, with a small direct-mapped cache, since the parameters of an
+/// L-system string repeat a lot (the same lengths and angles everywhere).
+pub struct NumFmt {
+    ryu: ryu::Buffer,
+    cache: Box<[CacheEntry]>,
+}
+
+#[derive(Clone, Copy)]
+struct CacheEntry {
+    bits: u64,
+    len: u8,
+    text: [u8; 24],
+}
+
+const CACHE_BITS: u32 = 12;
+
+impl Default for NumFmt {
+    fn default() -> Self {
+        NumFmt::new()
+    }
+}
+
+impl NumFmt {
+    pub fn new() -> NumFmt {
+        NumFmt {
+            ryu: ryu::Buffer::new(),
+            // len 0 marks an empty slot (no number prints as nothing).
+            cache: vec![
+                CacheEntry {
+                    bits: 0,
+                    len: 0,
+                    text: [0; 24]
+                };
+                1 << CACHE_BITS
+            ]
+            .into_boxed_slice(),
+        }
+    }
+
+    /// Append `v` in the shortest form that reads back to the same f64:
+    /// `2`, `0.5`, `1.4142135623730951`, `1e-7`, `-0`.
+    #[inline]
+    pub fn put(&mut self, out: &mut Vec<u8>, v: f64) {
+        let bits = v.to_bits();
+        let slot = (bits.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - CACHE_BITS)) as usize;
+        let e = &mut self.cache[slot];
+        if e.len != 0 && e.bits == bits {
+            out.extend_from_slice(&e.text[..e.len as usize]);
+            return;
+        }
+        let s = self.ryu.format_finite(v).as_bytes();
+        // ryu writes `2.0`, `1e-7`, `1.5e16`: only a trailing `.0` goes.
+        let s = match s {
+            [head @ .., b'.', b'0'] => head,
+            _ => s,
+        };
+        out.extend_from_slice(s);
+        if s.len() <= 24 {
+            e.bits = bits;
+            e.len = s.len() as u8;
+            e.text[..s.len()].copy_from_slice(s);
+        }
+    }
+
+    /// Append a module as text.
+    #[inline]
+    pub fn module(&mut self, out: &mut Vec<u8>, sym_text: &[u8], params: &[f64]) {
+        out.extend_from_slice(sym_text);
+        if let Some((first, rest)) = params.split_first() {
+            out.push(b'(');
+            self.put(out, *first);
+            for p in rest {
+                out.push(b',');
+                self.put(out, *p);
+            }
+            out.push(b')');
         }
     }
 }
@@ -76,23 +143,8 @@ pub fn number_string(v: f64) -> String {
         return v.to_string();
     }
     let mut o = Vec::new();
-    put_number(&mut o, v, &mut ryu::Buffer::new());
+    NumFmt::new().put(&mut o, v);
     String::from_utf8(o).unwrap_or_default()
-}
-
-/// Append a module as text.
-#[inline]
-pub fn put_text_module(out: &mut Vec<u8>, sym_text: &[u8], params: &[f64], buf: &mut ryu::Buffer) {
-    out.extend_from_slice(sym_text);
-    if let Some((first, rest)) = params.split_first() {
-        out.push(b'(');
-        put_number(out, *first, buf);
-        for p in rest {
-            out.push(b',');
-            put_number(out, *p, buf);
-        }
-        out.push(b')');
-    }
 }
 
 #[cfg(test)]
@@ -100,9 +152,24 @@ mod tests {
     use super::*;
 
     fn num(v: f64) -> String {
-        let mut o = Vec::new();
-        put_number(&mut o, v, &mut ryu::Buffer::new());
-        String::from_utf8(o).unwrap()
+        number_string(v)
+    }
+
+    #[test]
+    fn cache_gives_the_same_text() {
+        let mut f = NumFmt::new();
+        let mut a = Vec::new();
+        for i in 0..20_000 {
+            let v = (i % 5000) as f64 * 0.37 - 100.0;
+            let before = a.len();
+            f.put(&mut a, v);
+            assert_eq!(std::str::from_utf8(&a[before..]).unwrap(), number_string(v));
+        }
+        // Colliding slots are replaced, not mixed up.
+        let mut b = Vec::new();
+        f.put(&mut b, 0.0);
+        f.put(&mut b, -0.0);
+        assert_eq!(b, b"0-0");
     }
 
     #[test]

@@ -47,7 +47,7 @@ pub struct Out<'w> {
     pub text: bool,
     modules: u64,
     written: u64,
-    ryu: ryu::Buffer,
+    num: codec::NumFmt,
     limits: Limits,
 }
 
@@ -62,7 +62,7 @@ impl<'w> Out<'w> {
             text,
             modules: 0,
             written: 0,
-            ryu: ryu::Buffer::new(),
+            num: codec::NumFmt::new(),
             limits,
         }
     }
@@ -128,7 +128,7 @@ impl<'w> Out<'w> {
                     if i > 0 {
                         self.buf.push(b',');
                     }
-                    codec::put_number(&mut self.buf, codec::get_param(body, i), &mut self.ryu);
+                    self.num.put(&mut self.buf, codec::get_param(body, i));
                 }
                 self.buf.push(b')');
             }
@@ -195,7 +195,7 @@ impl<'w> Out<'w> {
         }
         self.modules += 1;
         if self.text {
-            codec::put_text_module(&mut self.buf, al.text(key), params, &mut self.ryu);
+            self.num.module(&mut self.buf, al.text(key), params);
         } else {
             codec::put_key(&mut self.buf, key);
             codec::put_params(&mut self.buf, params);

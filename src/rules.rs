@@ -162,7 +162,7 @@ struct ConstBuilder {
 }
 
 impl ConstBuilder {
-    fn push(&mut self, key: u32, vals: &[f64], al: &Alphabet, ryu: &mut ryu::Buffer) {
+    fn push(&mut self, key: u32, vals: &[f64], al: &Alphabet, num: &mut codec::NumFmt) {
         codec::put_key(&mut self.bin, key);
         codec::put_params(&mut self.bin, vals);
         if key == OPEN || key == CLOSE {
@@ -173,7 +173,7 @@ impl ConstBuilder {
             self.ibin.extend_from_slice(&[0; 8]);
         }
         codec::put_params(&mut self.ibin, vals);
-        codec::put_text_module(&mut self.text, al.text(key), vals, ryu);
+        num.module(&mut self.text, al.text(key), vals);
         self.modules += 1;
     }
 
@@ -368,8 +368,9 @@ pub fn compile(h: &ast::Header) -> R<System> {
         }
     }
     let mut alphabet = Alphabet::new(filter.map(|f| f.0).unwrap_or_default());
-    let productions = compile_table(&h.productions, &mut alphabet, &consts)?;
-    let homomorphism = compile_table(&h.homomorphism, &mut alphabet, &consts)?;
+    let mut num = codec::NumFmt::new();
+    let productions = compile_table(&h.productions, &mut alphabet, &consts, &mut num)?;
+    let homomorphism = compile_table(&h.homomorphism, &mut alphabet, &consts, &mut num)?;
     Ok(System {
         alphabet,
         productions,
@@ -384,10 +385,11 @@ fn compile_table(
     prods: &[ast::Production],
     alphabet: &mut Alphabet,
     consts: &HashMap<String, f64>,
+    num: &mut codec::NumFmt,
 ) -> R<Table> {
     let mut t = Table::default();
     for p in prods {
-        let cp = compile_production(p, alphabet, consts)?;
+        let cp = compile_production(p, alphabet, consts, num)?;
         t.max_left = t.max_left.max(cp.left.len());
         t.has_right |= !cp.right.is_empty();
         if cp.right_simple {
@@ -435,6 +437,7 @@ fn compile_production(
     p: &ast::Production,
     alphabet: &mut Alphabet,
     consts: &HashMap<String, f64>,
+    num: &mut codec::NumFmt,
 ) -> R<Production> {
     let intern = |a: &mut Alphabet, m: &ast::Module| {
         a.intern(m.sym, m.params.len())
@@ -489,7 +492,7 @@ fn compile_production(
             );
         }
     }
-    let (succ, depth_delta, depth_min) = compile_successor(&p.succ, alphabet, &names, consts)?;
+    let (succ, depth_delta, depth_min) = compile_successor(&p.succ, alphabet, &names, consts, num)?;
     let right_simple = !right.is_empty() && right.iter().all(|r| matches!(r, RPat::Module(_)));
     Ok(Production {
         key,
@@ -513,12 +516,12 @@ fn compile_successor(
     alphabet: &mut Alphabet,
     names: &HashMap<String, u32>,
     consts: &HashMap<String, f64>,
+    num: &mut codec::NumFmt,
 ) -> R<(Vec<Item>, i64, i64)> {
     let mut items = Vec::new();
     let mut run = ConstBuilder::default();
     let mut depth = 0i64;
     let mut min = 0i64;
-    let mut ryu = ryu::Buffer::new();
     for m in succ {
         let key = alphabet
             .intern(m.sym, m.params.len())
@@ -540,7 +543,7 @@ fn compile_successor(
             .collect::<R<Vec<Code>>>()?;
         let values: Option<Vec<f64>> = codes.iter().map(Code::constant).collect();
         match values {
-            Some(vals) => run.push(key, &vals, alphabet, &mut ryu),
+            Some(vals) => run.push(key, &vals, alphabet, num),
             None => {
                 if let Some(c) = run.take() {
                     items.push(Item::Const(c));
