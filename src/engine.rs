@@ -464,90 +464,114 @@ impl<'t> ByteTable<'t> {
     }
 }
 
-/// Left context: the last k considered modules of each open branch.
+/// Left context: the last k considered modules of each open branch, in
+/// flat arrays (k slots per nesting level). Only the parameters of keys that
+/// some left context asks for are kept, up to their largest arity.
 struct LeftContext {
     k: usize,
+    /// Parameters kept per slot.
+    width: usize,
+    /// Keys whose parameters are kept (indexed by key).
+    wanted: Vec<bool>,
     depth: usize,
-    levels: Vec<Ring>,
-}
-
-#[derive(Clone, Default)]
-struct Ring {
     keys: Vec<u32>,
-    params: Vec<Vec<f64>>,
-    /// Index of the most recent entry.
-    head: usize,
-    len: usize,
-}
-
-impl Ring {
-    fn with_capacity(k: usize) -> Ring {
-        Ring {
-            keys: vec![0; k],
-            params: vec![Vec::new(); k],
-            head: 0,
-            len: 0,
-        }
-    }
-
-    fn copy_from(&mut self, other: &Ring) {
-        self.keys.copy_from_slice(&other.keys);
-        for (a, b) in self.params.iter_mut().zip(&other.params) {
-            a.clear();
-            a.extend_from_slice(b);
-        }
-        self.head = other.head;
-        self.len = other.len;
-    }
+    params: Vec<f64>,
+    /// Per level: index of the most recent slot, and how many are filled.
+    head: Vec<usize>,
+    len: Vec<usize>,
 }
 
 impl LeftContext {
-    fn new(k: usize) -> Self {
+    fn new(table: &Table, al: &Alphabet) -> Self {
+        let k = table.max_left;
+        let mut wanted = Vec::new();
+        let mut width = 0;
+        for p in &table.prods {
+            for pat in &p.left {
+                let n = al.arity(pat.key);
+                if n > 0 {
+                    let key = pat.key as usize;
+                    if wanted.len() <= key {
+                        wanted.resize(key + 1, false);
+                    }
+                    wanted[key] = true;
+                    width = width.max(n);
+                }
+            }
+        }
         LeftContext {
             k,
+            width,
+            wanted,
             depth: 0,
-            levels: vec![Ring::with_capacity(k)],
+            keys: vec![u32::MAX; k],
+            params: vec![0.0; k * width],
+            head: vec![k - 1],
+            len: vec![0],
         }
     }
 
     fn open(&mut self) {
+        let (k, w, d) = (self.k, self.width, self.depth);
         self.depth += 1;
-        if self.levels.len() <= self.depth {
-            self.levels.push(Ring::with_capacity(self.k));
+        if self.head.len() <= self.depth {
+            self.head.push(0);
+            self.len.push(0);
+            self.keys.resize(self.keys.len() + k, u32::MAX);
+            self.params.resize(self.params.len() + k * w, 0.0);
         }
-        let (parents, children) = self.levels.split_at_mut(self.depth);
-        children[0].copy_from(&parents[self.depth - 1]);
+        self.head[d + 1] = self.head[d];
+        self.len[d + 1] = self.len[d];
+        self.keys.copy_within(d * k..(d + 1) * k, (d + 1) * k);
+        if w > 0 {
+            self.params
+                .copy_within(d * k * w..(d + 1) * k * w, (d + 1) * k * w);
+        }
     }
 
     fn close(&mut self) {
         self.depth = self.depth.saturating_sub(1);
     }
 
+    #[inline]
     fn push(&mut self, key: u32, params: &[u8], arity: usize) {
-        let k = self.k;
-        let r = &mut self.levels[self.depth];
-        r.head = (r.head + 1) % k;
-        r.keys[r.head] = key;
-        let p = &mut r.params[r.head];
-        p.clear();
-        p.extend((0..arity).map(|i| codec::get_param(params, i)));
-        r.len = (r.len + 1).min(k);
+        let (k, d) = (self.k, self.depth);
+        let h = &mut self.head[d];
+        *h = if *h + 1 == k { 0 } else { *h + 1 };
+        let slot = d * k + *h;
+        self.keys[slot] = key;
+        if self.wanted.get(key as usize).copied().unwrap_or(false) {
+            let w = self.width;
+            for i in 0..arity {
+                self.params[slot * w + i] = codec::get_param(params, i);
+            }
+        }
+        let l = &mut self.len[d];
+        if *l < k {
+            *l += 1;
+        }
     }
 
-    /// Does the ring end with `pat`? Binds its parameters into `slots`.
-    fn matches(&self, pat: &[Pat], slots: &mut [f64]) -> bool {
-        let r = &self.levels[self.depth];
-        if pat.len() > r.len {
+    /// Does the current level end with `pat`? Binds its parameters.
+    fn matches(&self, pat: &[Pat], al: &Alphabet, slots: &mut [f64]) -> bool {
+        let (k, d) = (self.k, self.depth);
+        if pat.len() > self.len[d] {
             return false;
         }
-        let k = self.k;
-        for (j, p) in pat.iter().rev().enumerate() {
-            let idx = (r.head + k - j) % k;
-            if r.keys[idx] != p.key {
+        let base = d * k;
+        let mut idx = self.head[d];
+        for p in pat.iter().rev() {
+            let slot = base + idx;
+            if self.keys[slot] != p.key {
                 return false;
             }
-            let vals = &r.params[idx];
-            slots[p.slot as usize..p.slot as usize + vals.len()].copy_from_slice(vals);
+            let n = al.arity(p.key);
+            if n > 0 {
+                let w = self.width;
+                slots[p.slot as usize..p.slot as usize + n]
+                    .copy_from_slice(&self.params[slot * w..slot * w + n]);
+            }
+            idx = if idx == 0 { k - 1 } else { idx - 1 };
         }
         true
     }
@@ -725,7 +749,7 @@ impl<'a> Deriver<'a> {
                 ..RightCache::default()
             },
             max_right_simple: table.max_right_simple,
-            left: (table.max_left > 0).then(|| LeftContext::new(table.max_left)),
+            left: (table.max_left > 0).then(|| LeftContext::new(table, &self.alphabet)),
             depth: 0,
             last_opener: None,
             last_closer: None,
@@ -856,7 +880,13 @@ impl<'a> Deriver<'a> {
         st: &mut StepState,
         pass: Pass,
     ) -> Result<bool, Error> {
-        if !p.left.is_empty() && !st.left.as_ref().unwrap().matches(&p.left, &mut self.slots) {
+        if !p.left.is_empty()
+            && !st
+                .left
+                .as_ref()
+                .unwrap()
+                .matches(&p.left, &self.alphabet, &mut self.slots)
+        {
             return Ok(false);
         }
         if p.right_simple {
