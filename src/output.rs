@@ -78,7 +78,15 @@ impl Output {
         let name = path.display().to_string();
         file.sync_all()
             .map_err(|e| Error::io(name.clone(), "cannot write", e))?;
-        link_into_place(&file, &dir, &path).map_err(|e| Error::io(name, "cannot write", e))
+        match link_into_place(&file, &dir, &path) {
+            Ok(()) => Ok(()),
+            // No O_TMPFILE here (tempfile fell back to a deleted named file,
+            // which cannot be linked again): copy into a named temp file.
+            Err(e) if e.raw_os_error() == Some(rustix::io::Errno::NOENT.raw_os_error()) => {
+                copy_into_place(file, &dir, &path).map_err(|e| Error::io(name, "cannot write", e))
+            }
+            Err(e) => Err(Error::io(name, "cannot write", e)),
+        }
     }
 }
 
@@ -107,4 +115,15 @@ fn link_into_place(file: &File, dir: &Path, path: &Path) -> io::Result<()> {
         }
     }
     Err(io::Error::from(io::ErrorKind::AlreadyExists))
+}
+
+fn copy_into_place(mut file: File, dir: &Path, path: &Path) -> io::Result<()> {
+    use std::io::{Seek, SeekFrom};
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".lsgen-")
+        .tempfile_in(dir)?;
+    file.seek(SeekFrom::Start(0))?;
+    io::copy(&mut file, tmp.as_file_mut())?;
+    tmp.as_file().sync_all()?;
+    tmp.persist(path).map(|_| ()).map_err(|e| e.error)
 }
