@@ -1,0 +1,598 @@
+//! A catalogue of malformed inputs. Each case runs the real binary on an
+//! `.ls` file in a fresh temp dir with `-o out.txt` and checks the error
+//! contract:
+//!
+//! * exit status 1, no panic, no backtrace, nothing on stdout;
+//! * exactly one line on stderr starting with `lsgen: `, and it is
+//!   `lsgen: PATH:LINE:COL: error: MESSAGE` at the expected place with the
+//!   expected words in the message;
+//! * then the source line (or an excerpt with `...`), then whitespace and a
+//!   `^` that sits under the character at LINE:COL;
+//! * `out.txt` does not exist and the temp dir holds no new file.
+//!
+//! Cases that lsgen gets wrong are kept, marked
+//! `#[ignore = "lsgen bug: ..."]`; cases for bugs since fixed say so.
+
+mod faults_support;
+
+use faults_support::{listing, lsgen, run, run_with_stdin, tempdir, Run};
+use std::path::Path;
+
+struct Case {
+    src: Vec<u8>,
+    /// Acceptable positions; empty: anywhere (the caret check still applies).
+    at: Vec<(usize, usize)>,
+    /// Words the message must contain.
+    msg: Vec<&'static str>,
+    /// Extra files in the temp dir, and extra arguments (`{dir}` is the temp
+    /// dir).
+    files: Vec<(&'static str, Vec<u8>)>,
+    args: Vec<String>,
+    /// The file the error must name (default `in.ls`).
+    err_file: &'static str,
+    /// The input may also be accepted, with exactly this output.
+    ok_output: Option<Vec<u8>>,
+    /// Feed the input (or, with `--axiom -`, the axiom) on standard input;
+    /// the error then names `<stdin>`.
+    stdin: Option<Vec<u8>>,
+}
+
+/// An input that must fail at LINE:COL with MSG in the message.
+fn err(src: impl Into<Vec<u8>>, line: usize, col: usize, msg: &'static str) -> Case {
+    Case {
+        src: src.into(),
+        at: vec![(line, col)],
+        msg: vec![msg],
+        files: Vec::new(),
+        args: Vec::new(),
+        err_file: "in.ls",
+        ok_output: None,
+        stdin: None,
+    }
+}
+
+/// An input that must fail somewhere (an implementation limit) with MSG, or
+/// be accepted with output `ok`.
+fn err_or_ok(src: impl Into<Vec<u8>>, msg: &'static str, ok: &str) -> Case {
+    Case {
+        at: Vec::new(),
+        ok_output: Some(ok.as_bytes().to_vec()),
+        ..err(src, 0, 0, msg)
+    }
+}
+
+impl Case {
+    fn or_at(mut self, line: usize, col: usize) -> Case {
+        self.at.push((line, col));
+        self
+    }
+    /// More words the message must contain.
+    fn also(mut self, words: &'static str) -> Case {
+        self.msg.push(words);
+        self
+    }
+    /// Read the axiom from a file `ax.txt` holding `text`; the error is
+    /// expected in that file.
+    fn axiom_file(mut self, text: impl Into<Vec<u8>>) -> Case {
+        self.files.push(("ax.txt", text.into()));
+        self.args.push("--axiom".into());
+        self.args.push("{dir}/ax.txt".into());
+        self.err_file = "ax.txt";
+        self
+    }
+
+    /// Read the L-system from standard input (`lsgen - -o out.txt`).
+    fn on_stdin(mut self) -> Case {
+        self.stdin = Some(std::mem::take(&mut self.src));
+        self.err_file = "<stdin>";
+        self
+    }
+
+    /// Read the axiom from standard input (`--axiom -`), holding `text`.
+    fn axiom_from_stdin(mut self, text: impl Into<Vec<u8>>) -> Case {
+        self.stdin = Some(text.into());
+        self.args.push("--axiom".into());
+        self.args.push("-".into());
+        self.err_file = "<stdin>";
+        self
+    }
+
+    fn check(self) {
+        let dir = tempdir();
+        let d = dir.path();
+        let input = d.join("in.ls");
+        std::fs::write(&input, &self.src).unwrap();
+        for (name, bytes) in &self.files {
+            std::fs::write(d.join(name), bytes).unwrap();
+        }
+        let before = listing(d);
+        let out = d.join("out.txt");
+        let mut cmd = lsgen();
+        // Standard input holds the L-system unless it holds `--axiom -`.
+        if self.stdin.is_some() && self.args.is_empty() {
+            cmd.arg("-");
+        } else {
+            cmd.arg(&input);
+        }
+        cmd.arg("-o").arg(&out);
+        for a in &self.args {
+            cmd.arg(a.replace("{dir}", &d.display().to_string()));
+        }
+        let r = match &self.stdin {
+            Some(bytes) => run_with_stdin(&mut cmd, bytes.clone()),
+            None => run(&mut cmd),
+        };
+        r.assert_no_crash();
+        if r.code() == Some(0) {
+            if let Some(want) = &self.ok_output {
+                assert!(r.stderr.is_empty(), "stderr: {}", r.stderr);
+                let got = std::fs::read(&out).expect("accepted, so out.txt exists");
+                assert!(got == *want, "accepted with the wrong output");
+                let mut after = listing(d);
+                after.remove("out.txt");
+                assert_eq!(after, before, "files left in the temp dir");
+                return;
+            }
+        }
+        let err_path = if self.err_file == "<stdin>" {
+            std::path::PathBuf::from("<stdin>")
+        } else {
+            d.join(self.err_file)
+        };
+        let err_src = if let Some(bytes) = &self.stdin {
+            bytes.clone()
+        } else if self.err_file == "in.ls" {
+            self.src.clone()
+        } else {
+            self.files
+                .iter()
+                .find(|(n, _)| *n == self.err_file)
+                .unwrap()
+                .1
+                .clone()
+        };
+        check_error(&r, &err_path, &err_src, &self.at, &self.msg);
+        assert!(
+            r.stdout.is_empty(),
+            "stdout: {}",
+            String::from_utf8_lossy(&r.stdout)
+        );
+        assert!(!out.exists(), "out.txt was created by a failing run");
+        assert_eq!(listing(d), before, "files left in the temp dir");
+    }
+}
+
+/// Line `line` (1-based) of `src`, decoded as lsgen shows it.
+fn source_line(src: &[u8], line: usize) -> Option<String> {
+    let raw = src.split(|&b| b == b'\n').nth(line - 1)?;
+    let s = String::from_utf8_lossy(raw);
+    Some(s.strip_suffix('\r').unwrap_or(&s).to_string())
+}
+
+fn check_error(r: &Run, path: &Path, src: &[u8], at: &[(usize, usize)], msg: &[&str]) {
+    let head = r.assert_one_error();
+    let lines: Vec<&str> = r.stderr.lines().collect();
+    let show = || {
+        // Long lines are cut for the failure message.
+        r.stderr
+            .lines()
+            .map(|l| l.chars().take(300).collect::<String>())
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    assert_eq!(
+        lines.len(),
+        3,
+        "expected an error line, a source line and a caret line:\n{}",
+        show()
+    );
+    assert_eq!(lines[0], head, "the error comes first:\n{}", show());
+    let prefix = format!("lsgen: {}:", path.display());
+    let rest = head
+        .strip_prefix(&prefix)
+        .unwrap_or_else(|| panic!("error does not name {}:\n{}", path.display(), show()));
+    let (line, rest) = rest.split_once(':').expect("LINE:");
+    let (col, rest) = rest.split_once(':').expect("COL:");
+    let line: usize = line.parse().unwrap_or_else(|_| panic!("LINE: {}", show()));
+    let col: usize = col.parse().unwrap_or_else(|_| panic!("COL: {}", show()));
+    let message = rest
+        .strip_prefix(" error: ")
+        .unwrap_or_else(|| panic!("no ` error: `:\n{}", show()));
+    for words in msg {
+        assert!(
+            message.contains(words),
+            "message should contain {words:?}:\n{}",
+            show()
+        );
+    }
+    assert!(line >= 1 && col >= 1, "{}", show());
+    if !at.is_empty() {
+        assert!(
+            at.contains(&(line, col)),
+            "expected the error at {at:?}, got {line}:{col}:\n{}",
+            show()
+        );
+    }
+    let caret = lines[2];
+    assert!(
+        caret.ends_with('^')
+            && caret[..caret.len() - 1]
+                .chars()
+                .all(|c| c == ' ' || c == '\t'),
+        "third line should be blanks and a caret:\n{}",
+        show()
+    );
+    let snippet = lines[1];
+    let text = source_line(src, line)
+        .unwrap_or_else(|| panic!("line {line} is past the end of the input:\n{}", show()));
+    let core = snippet.strip_prefix("...").unwrap_or(snippet);
+    let core = core.strip_suffix("...").unwrap_or(core);
+    assert!(
+        text.contains(core),
+        "the second line is not (an excerpt of) source line {line}:\n{}",
+        show()
+    );
+    let pad = caret.chars().count() - 1;
+    let under_caret = snippet.chars().nth(pad);
+    let at_col = text.chars().nth(col - 1);
+    assert_eq!(
+        under_caret,
+        at_col,
+        "the caret is not under the character at {line}:{col}:\n{}",
+        show()
+    );
+}
+
+macro_rules! cases {
+    ($( $(#[$attr:meta])* $name:ident => $case:expr; )*) => {
+        $(
+            #[test]
+            $(#[$attr])*
+            fn $name() {
+                $case.check();
+            }
+        )*
+        /// Every case of the catalogue, by name.
+        const CASES: &[&str] = &[$(stringify!($name)),*];
+    };
+}
+
+const TEN_MB: usize = 10_000_000;
+
+cases! {
+    // --- comments, settings, structure -------------------------------------
+    unterminated_comment_in_header =>
+        err("productions:\nF -> F /* open\naxiom: F\n", 2, 8, "unterminated comment");
+    unterminated_comment_in_axiom =>
+        err("productions:\nF -> FF\naxiom: F /* open\nG\n", 3, 10, "unterminated comment");
+    // Not a keyword: before `productions:` the line cannot start a setting.
+    unknown_setting_before_productions =>
+        err("derivation lenght: 3\nproductions:\nF -> FF\naxiom: F\n", 1, 1, "unexpected symbol `d`");
+    // Among productions it reads as `derivationlenght : 3` (modules and a
+    // condition) with the arrow missing at the end of the line.
+    unknown_setting_parsed_as_production =>
+        err("productions:\nF -> FF\nderivation lenght: 3\naxiom: F\n", 3, 21, "expected `->`");
+    missing_axiom =>
+        err("productions:\nF -> FF\n", 2, 8, "missing `axiom:`");
+    missing_axiom_after_comment =>
+        err("/* nothing */\n\n", 1, 14, "missing `axiom:`");
+    empty_file => err("", 1, 1, "empty L-system");
+    blank_file => err("\n  \n\n", 1, 1, "empty L-system");
+    settings_after_productions =>
+        err("productions:\nF -> F\nderivation length: 3\naxiom: F\n", 3, 1, "out of place");
+    productions_twice =>
+        err("productions:\nF -> FF\nproductions:\nG -> H\naxiom: F\n", 3, 1, "out of place");
+    homomorphism_before_productions =>
+        err("homomorphism:\nF -> G\nproductions:\nF -> H\naxiom: F\n", 3, 1, "out of place");
+    seed_twice => err("seed: 1\nseed: 2\naxiom: F\n", 2, 1, "set twice");
+    derivation_length_fraction =>
+        err("derivation length: 2.5\naxiom: F\n", 1, 20, "whole number");
+    derivation_length_negative =>
+        err("derivation length: -1\naxiom: F\n", 1, 20, "whole number");
+    derivation_length_unknown_name =>
+        err("derivation length: n\naxiom: F\n", 1, 20, "unknown identifier `n`");
+    seed_fraction => err("seed: 3.5\naxiom: F\n", 1, 7, "whole number");
+    duplicate_define => err("define: a = 1\ndefine: a = 2\naxiom: F\n", 2, 1, "defined twice");
+    ignore_and_consider =>
+        err("ignore: +\nconsider: F\naxiom: F\n", 2, 1, "cannot both be used");
+    ignore_with_parameters => err("ignore: F(1)\naxiom: F\n", 1, 9, "without parameters");
+
+    // --- numbers -----------------------------------------------------------
+    bad_number_trailing_e =>
+        err("define: a = 1e\naxiom: F\n", 1, 14, "unexpected identifier `e`");
+    bad_number_two_points =>
+        err("define: a = 1.2.3\naxiom: F\n", 1, 16, "unexpected number");
+    bad_number_in_axiom_trailing_e => err("axiom: F(1e)\n", 1, 11, "unexpected identifier `e`");
+    bad_number_in_axiom_two_points => err("axiom: F(1.2.3)\n", 1, 13, "unexpected number");
+    number_out_of_range_in_header =>
+        err("define: a = 1e309\naxiom: F\n", 1, 13, "out of range");
+    number_out_of_range_in_axiom => err("axiom: F(1e309)\n", 1, 10, "out of range");
+
+    // --- parentheses -------------------------------------------------------
+    unclosed_paren_in_successor =>
+        err("productions:\nA -> B(1\naxiom: F\n", 2, 9, "unexpected end of line");
+    extra_paren_in_successor =>
+        err("productions:\nA -> B(1))\naxiom: F\n", 2, 10, "unexpected `)`");
+    unclosed_paren_in_predecessor =>
+        err("productions:\nA(x -> B\naxiom: F\n", 2, 5, "unexpected `->`");
+    unclosed_paren_in_axiom =>
+        err("productions:\nA -> B\naxiom: F(1\n", 3, 9, "never closed");
+    extra_paren_in_axiom => err("axiom: F(1))\n", 1, 12, "`)` is reserved");
+    unclosed_paren_in_multiline_axiom_parameters =>
+        err("axiom: F(1,\n 2, 3 +)\n", 2, 8, "unexpected end of input");
+    empty_parameter_in_axiom => err("axiom: F(1,)\n", 1, 12, "empty parameter");
+
+    // --- reserved characters as axiom symbols ------------------------------
+    reserved_rparen_in_axiom =>
+        err("productions:\nA -> B\naxiom: FF)\n", 3, 10, "`)` is reserved");
+    reserved_comma_in_axiom =>
+        err("productions:\nA -> B\naxiom: FF,\n", 3, 10, "`,` is reserved");
+    reserved_colon_in_axiom =>
+        err("productions:\nA -> B\naxiom: FF:\n", 3, 10, "`:` is reserved");
+    reserved_lt_in_axiom =>
+        err("productions:\nA -> B\naxiom: FF<\n", 3, 10, "`<` is reserved");
+    reserved_gt_in_axiom =>
+        err("productions:\nA -> B\naxiom: FF>\n", 3, 10, "`>` is reserved");
+    reserved_lparen_first_in_axiom => err("axiom: (F\n", 1, 8, "`(` is reserved");
+
+    // --- productions -------------------------------------------------------
+    missing_arrow => err("productions:\nF FF\naxiom: F\n", 2, 5, "expected `->`");
+    stray_gt_in_successor =>
+        err("productions:\nF -> F > G\naxiom: F\n", 2, 8, "unexpected `>`");
+    stray_lt_in_successor =>
+        err("productions:\nF -> F < G\naxiom: F\n", 2, 8, "unexpected `<`");
+    predecessor_with_two_modules =>
+        err("productions:\nA B -> C\naxiom: A\n", 2, 3, "a predecessor is one module");
+    formal_parameter_not_a_name =>
+        err("productions:\nA(1) -> B\naxiom: A\n", 2, 3, "formal parameter must be a name");
+    parameter_bound_twice =>
+        err("productions:\nA(x, x) -> B\naxiom: A\n", 2, 6, "bound twice");
+    // Either occurrence of `x` is a fair place to point at.
+    parameter_bound_twice_across_a_context =>
+        err("productions:\nA(x) < B(x) -> B\naxiom: A\n", 2, 10, "bound twice").or_at(2, 3);
+    brackets_cannot_be_rewritten =>
+        err("productions:\n[ -> F\naxiom: F\n", 2, 1, "brackets cannot be rewritten");
+    bracket_in_left_context =>
+        err("productions:\nF [ < A -> B\naxiom: F\n", 2, 3, "left context cannot hold brackets");
+    bracket_with_parameters_in_right_context =>
+        err("productions:\nA > [(1)B -> C\naxiom: F\n", 2, 5, "bracket takes no parameters");
+
+    // --- names, functions --------------------------------------------------
+    undefined_identifier_in_condition =>
+        err("productions:\nA(x) : y > 1 -> B\naxiom: A(1)\n", 2, 8, "unknown identifier `y`");
+    condition_on_parameter_the_predecessor_lacks =>
+        err("productions:\nA : x > 1 -> B\naxiom: A\n", 2, 5, "unknown identifier `x`");
+    condition_on_context_parameter_missing =>
+        err("productions:\nA < B(x) : y > 1 -> B\naxiom: A\n", 2, 12, "unknown identifier `y`");
+    undefined_identifier_in_successor =>
+        err("productions:\nA(x) -> B(y)\naxiom: A(1)\n", 2, 11, "unknown identifier `y`");
+    undefined_identifier_in_probability =>
+        err("productions:\nA(x) -> B : q\naxiom: A(1)\n", 2, 13, "unknown identifier `q`");
+    undefined_identifier_in_define =>
+        err("define: a = b\ndefine: b = 1\naxiom: F\n", 1, 13, "unknown identifier `b`");
+    undefined_identifier_in_axiom =>
+        err("axiom: F(1,\n 2, q)\n", 2, 5, "unknown identifier `q`");
+    unknown_function =>
+        err("productions:\nA(x) -> B(foo(x))\naxiom: A(1)\n", 2, 11, "unknown function `foo`");
+    wrong_arity_too_many =>
+        err("productions:\nA(x) -> B(sin(x, 2))\naxiom: A(1)\n", 2, 11, "takes 1 argument, not 2");
+    wrong_arity_too_few =>
+        err("productions:\nA(x) -> B(atan2(x))\naxiom: A(1)\n", 2, 11, "takes 2 arguments, not 1");
+
+    // --- probabilities -----------------------------------------------------
+    negative_probability_constant =>
+        err("productions:\nA -> B : -1\nA -> C : 1\naxiom: A\n", 2, 10, "cannot be negative");
+    negative_probability_at_runtime =>
+        err("productions:\nA(x) -> B : x\nA(x) -> C : 1\naxiom: A(-2)\n", 2, 13, "cannot be negative").also("-2").also("step 1");
+
+    // --- arithmetic --------------------------------------------------------
+    division_by_zero_in_step_3 =>
+        err("derivation length: 5\nproductions:\nA(x) -> A(x-1) B(10/x)\naxiom: A(2)\n", 3, 18, "division by zero").also("step 3");
+    division_by_zero_in_condition_in_step_3 =>
+        err("derivation length: 4\nproductions:\nA(x) : 1/x > 0 -> A(x-1)\naxiom: A(2)\n", 3, 8, "division by zero").also("step 3");
+    division_by_zero_with_context_in_step_3 =>
+        err("derivation length: 4\nproductions:\nB(y) < A(x) : 1/(x-y) > 0 -> A(x-1)\naxiom: B(0) A(2)\n", 3, 15, "division by zero").also("step 3");
+    division_by_zero_in_homomorphism =>
+        err("derivation length: 2\nproductions:\nA(x) -> A(x-1)\nhomomorphism:\nA(x) -> F(1/x)\naxiom: A(2)\n", 5, 11, "division by zero").also("homomorphism");
+    division_by_zero_constant =>
+        err("productions:\nA -> B : 1\nA -> C : 1 / 0\naxiom: A\n", 3, 10, "division by zero");
+    division_by_zero_in_probability =>
+        err("productions:\nA(x) -> B : 1/x\nA(x) -> C : 1\naxiom: A(0)\n", 2, 13, "division by zero").also("step 1");
+    exp_overflow_in_step_3 =>
+        err("derivation length: 3\nproductions:\nA(x) -> A(x*10) B(exp(x))\naxiom: A(10)\n", 3, 19, "exp").also("step 3");
+    log_of_zero_in_step_3 =>
+        err("derivation length: 3\nproductions:\nA(x) -> A(x-1) B(log(x))\naxiom: A(2)\n", 3, 18, "log").also("step 3");
+    power_not_a_number =>
+        err("productions:\nA(x) -> B(x^(1/3))\naxiom: A(-8)\n", 2, 11, "not a number").also("step 1");
+    division_by_zero_in_axiom => err("axiom: F(2, 1/0)\n", 1, 13, "division by zero");
+    sqrt_of_negative_in_step_3 =>
+        err("derivation length: 5\nproductions:\nA(x) -> A(x-1) B(sqrt(x))\naxiom: A(1)\n", 3, 18, "sqrt").also("step 3");
+    sqrt_of_negative_constant =>
+        err("define: a = sqrt(-1)\naxiom: F\n", 1, 13, "sqrt is undefined");
+    overflow_at_runtime =>
+        err("derivation length: 5\nproductions:\nA(x) -> A(x*1e300)\naxiom: A(10)\n", 3, 11, "overflow").also("step 2");
+    overflow_constant =>
+        err("define: a = 1e300 * 1e300\naxiom: F\n", 1, 13, "overflows");
+
+    // --- brackets ----------------------------------------------------------
+    // lsgen af84e48 reported this at 4:1, a line past the end of the file,
+    // with an empty source line.
+    unclosed_bracket_in_axiom =>
+        err("productions:\nF -> FF\naxiom: F[F\n", 3, 9, "never closed").or_at(3, 11);
+    unclosed_bracket_in_axiom_without_final_newline =>
+        err("productions:\nF -> FF\naxiom: F[F", 3, 9, "never closed").or_at(3, 11);
+    unopened_bracket_in_axiom =>
+        err("productions:\nF -> FF\naxiom: F]F\n", 3, 9, "`]` without `[`");
+    step_produces_unopened_bracket =>
+        err("productions:\nA -> ]\naxiom: F A\n", 2, 1, "`]` without `[`").also("step 1");
+    step_produces_unclosed_bracket =>
+        err("productions:\nA -> [\naxiom: F A\n", 2, 1, "unbalanced brackets").also("`[`").also("step 1");
+    step_3_produces_unclosed_bracket =>
+        err("derivation length: 3\nproductions:\nA -> B\nB -> C\nC -> [\naxiom: F A\n", 5, 1, "unbalanced brackets").also("`[`").also("step 3");
+    // A `]` produced inside a branch closes it early; lsgen af84e48 called
+    // the extra `]` "a `[` left open" and blamed `X -> Y` on line 2.
+    step_produces_unopened_bracket_inside_branch =>
+        err("productions:\nX -> Y\nA -> ]\naxiom: [A]\n", 3, 1, "`]` without `[`");
+
+    // --- encoding and odd characters ---------------------------------------
+    invalid_utf8_in_header =>
+        err(&b"productions:\nF -> F\xff\naxiom: F\n"[..], 2, 7, "invalid UTF-8");
+    invalid_utf8_in_header_comment =>
+        err(&b"/* \xff */\nproductions:\nF -> FF\naxiom: F\n"[..], 1, 4, "invalid UTF-8");
+    invalid_utf8_in_axiom =>
+        err(&b"productions:\nF -> FF\naxiom: F\xffF\n"[..], 3, 9, "invalid UTF-8");
+    invalid_utf8_in_axiom_second_line =>
+        err(&b"productions:\nF -> FF\naxiom: FF\n F\xc3(\n"[..], 4, 3, "invalid UTF-8");
+    invalid_utf8_in_axiom_parameter =>
+        err(&b"productions:\nF -> FF\naxiom: F(\xff)\n"[..], 3, 10, "invalid UTF-8");
+    control_character_in_header =>
+        err("productions:\nF -> F\u{1}F\naxiom: F\n", 2, 7, "control character");
+    control_character_in_predecessor =>
+        err("productions:\nF\u{2} -> FF\naxiom: F\n", 2, 2, "control character");
+    control_character_in_axiom =>
+        err("productions:\nF -> FF\naxiom: A\u{1}\n", 3, 9, "control character");
+    nul_in_axiom => err("productions:\nF -> FF\naxiom: A\0\n", 3, 9, "control character");
+    delete_in_axiom => err("productions:\nF -> FF\naxiom: A\u{7f}\n", 3, 9, "control character");
+
+    // --- columns and lines: tabs, CRLF, wide characters, comments ----------
+    crlf_line_endings =>
+        err("productions:\r\nF -> F>\r\naxiom: F\r\n", 2, 7, "unexpected `>`");
+    crlf_line_endings_in_axiom =>
+        err("productions:\r\nF -> FF\r\naxiom: F)\r\n", 3, 9, "`)` is reserved");
+    columns_count_characters =>
+        err("productions:\nΩ -> αβ>\naxiom: F\n", 2, 8, "unexpected `>`");
+    tabs_in_header => err("productions:\n\tF -> F\t>\naxiom: F\n", 2, 9, "unexpected `>`");
+    tabs_in_axiom => err("productions:\nF -> G\n\taxiom:\tF\t)\n", 3, 11, "`)` is reserved");
+    shebang_line_counts =>
+        err("#!/usr/bin/env lsgen\nproductions:\nF -> F>\naxiom: F\n", 3, 7, "unexpected `>`");
+    axiom_inside_header_comment_is_skipped =>
+        err("/* header\naxiom: not this\n*/\naxiom: X)\n", 4, 9, "`)` is reserved");
+    axiom_lines_after_comments =>
+        err("#!/bin/lsgen\naxiom: X /* a\nb\n*/ Y\n\n  Z ,\n", 6, 5, "`,` is reserved");
+
+    // --- arity limits ------------------------------------------------------
+    too_many_parameters_in_axiom =>
+        err(format!("productions:\nF -> FF\naxiom: A({})\n", vec!["1"; 256].join(",")), 3, 520, "at most 255 parameters");
+    too_many_parameters_in_successor =>
+        err(format!("productions:\nF -> G({})\naxiom: F\n", vec!["1"; 256].join(",")), 2, 6, "at most 255 parameters");
+    too_many_parameters_in_predecessor =>
+        err(format!("productions:\nF({}) -> G\naxiom: F\n",
+            (0..256).map(|i| format!("x{i}")).collect::<Vec<_>>().join(",")), 2, 1, "at most 255 parameters");
+
+    // --- `--axiom FILE` ----------------------------------------------------
+    axiom_file_with_reserved_character =>
+        err("productions:\nF -> FF\naxiom: F\n", 1, 4, "`)` is reserved").axiom_file("F F)\n");
+    axiom_file_with_unclosed_paren =>
+        err("productions:\nF -> FF\naxiom: F\n", 2, 4, "never closed").axiom_file("F\nF F(1,\n");
+
+    // --- standard input ----------------------------------------------------
+    error_in_standard_input =>
+        err("productions:\nF -> FF\naxiom: F)\n", 3, 9, "`)` is reserved").on_stdin();
+    error_in_axiom_from_standard_input =>
+        err("productions:\nF -> FF\naxiom: F\n", 1, 4, "never closed").axiom_from_stdin("F F(1,\n");
+
+    // --- huge lines --------------------------------------------------------
+    // 10 MB axiom line, error at its very end (lsgen af84e48 quoted it as
+    // `......FFF)`, with a doubled ellipsis).
+    long_axiom_line_error_at_end =>
+        err(format!("productions:\nF -> FF\naxiom: {})\n", "F".repeat(TEN_MB)), 3, TEN_MB + 8, "`)` is reserved");
+    long_header_line_error_at_end =>
+        err(format!("productions:\nF -> F /* {} */ >\naxiom: F\n", "x".repeat(TEN_MB)), 2, TEN_MB + 15, "unexpected `>`");
+    long_header_expression =>
+        err_or_ok(format!("define: x = {}1\naxiom: F(x)\n", "1+".repeat(TEN_MB / 2)), "", "F(5000001)\n");
+    #[ignore = "slow: a 10 MB successor of 10^7 modules takes ~6 s and 500 MB in a debug build"]
+    long_header_successor_line_error_at_end =>
+        err(format!("productions:\nF -> {}>\naxiom: F\n", "F".repeat(TEN_MB)), 2, TEN_MB + 6, "unexpected `>`");
+    // An unclosed `(` found far behind the read position (lsgen af84e48
+    // quoted the text near the read position, the caret under a `1`).
+    unclosed_paren_far_back_in_axiom =>
+        err(format!("axiom: F({}\n", "1".repeat(200_000)), 1, 9, "");
+
+    // --- deep nesting: a clear error or the right result, never a crash ----
+    deep_parens_in_define =>
+        err_or_ok(format!("define: x = {}1{}\naxiom: F(x)\n", "(".repeat(100_000), ")".repeat(100_000)), "", "F(1)\n");
+    deep_parens_in_successor =>
+        err_or_ok(format!("productions:\nA(y) -> B({}y{})\naxiom: A(1)\n", "(".repeat(100_000), ")".repeat(100_000)), "", "B(1)\n");
+    deep_unclosed_parens_in_define =>
+        err(format!("define: x = {}1\naxiom: F(x)\n", "(".repeat(100_000)), 0, 0, "").or_any();
+    // (lsgen af84e48 quoted `...)))...` with the caret under a `)`.)
+    deep_parens_in_axiom =>
+        err_or_ok(format!("axiom: F({}1{})\n", "(".repeat(100_000), ")".repeat(100_000)), "", "F(1)\n");
+    deep_unary_minus_chain =>
+        err_or_ok(format!("define: x = {}1\naxiom: F(x)\n", "-".repeat(100_000)), "", "F(1)\n");
+    long_sum_in_successor =>
+        err_or_ok(format!("productions:\nA(y) -> B({}y)\naxiom: A(1)\n", "y+".repeat(100_000)), "", "B(100001)\n");
+}
+
+impl Case {
+    /// Any position (the caret must still be under the right character).
+    fn or_any(mut self) -> Case {
+        self.at.clear();
+        self
+    }
+}
+
+#[test]
+fn catalogue_has_at_least_45_cases() {
+    assert!(CASES.len() >= 45, "only {} cases", CASES.len());
+}
+
+/// A valid file that lsgen must accept: the `axiom:` line is found even when
+/// the bytes after the keyword are multi-byte characters.
+/// (lsgen af84e48 rejected it: `unexpected symbol `a`` at 1:1, because
+/// input::split_header decoded a 16-byte probe ending inside a character.)
+#[test]
+fn axiom_line_with_multibyte_symbols_is_accepted() {
+    let dir = tempdir();
+    let input = dir.path().join("in.ls");
+    std::fs::write(&input, "productions:\nα -> β\naxiom: ααααα\n").unwrap();
+    let r = run(lsgen().arg(&input));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
+    assert_eq!(String::from_utf8_lossy(&r.stdout), "βββββ\n");
+}
+
+/// The same file with one character fewer is accepted (the probe then ends
+/// on a character boundary): a control for the case above.
+#[test]
+fn axiom_line_with_four_multibyte_symbols_is_accepted() {
+    let dir = tempdir();
+    let input = dir.path().join("in.ls");
+    std::fs::write(&input, "productions:\nα -> β\naxiom: αααα\n").unwrap();
+    let r = run(lsgen().arg(&input));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
+    assert_eq!(String::from_utf8_lossy(&r.stdout), "ββββ\n");
+}
+
+/// Usage errors exit with status 2, create nothing, and do not panic.
+#[test]
+fn usage_errors_exit_2() {
+    let dir = tempdir();
+    let d = dir.path();
+    let input = d.join("in.ls");
+    std::fs::write(&input, "productions:\nF -> FF\naxiom: F\n").unwrap();
+    let out = d.join("out.txt");
+    let bad: &[&[&str]] = &[
+        &["--no-such-flag"],
+        &["-n", "many"],
+        &["-n", "-3"],
+        &["--max-length", "12parsecs"],
+        &["--max-length", "99999999999999999999TB"],
+        &["--seed"],
+    ];
+    for args in bad {
+        let r = run(lsgen().arg(&input).arg("-o").arg(&out).args(*args));
+        r.assert_no_crash();
+        assert_eq!(r.code(), Some(2), "{args:?}: stderr:\n{}", r.stderr);
+        assert!(!r.stderr.is_empty(), "{args:?}: no message");
+    }
+    // Both the L-system and the axiom from standard input.
+    let r = run(lsgen().args(["-", "--axiom", "-", "-o"]).arg(&out));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(2), "stderr:\n{}", r.stderr);
+    assert!(r.stderr.starts_with("lsgen: "), "stderr:\n{}", r.stderr);
+    assert!(!out.exists());
+    let names = listing(d);
+    assert_eq!(names.len(), 1, "{names:?}");
+}
