@@ -366,6 +366,7 @@ fn tempfile(dir: &Option<PathBuf>) -> Result<File, Error> {
 /// index if asked) or, without one, the output (text).
 fn sink<'a>(
     dst: &'a mut Option<File>,
+    tmp_name: &'a str,
     output: &'a mut dyn Write,
     out_name: &'a str,
     limits: Limits,
@@ -376,12 +377,12 @@ fn sink<'a>(
             let index = if indexed {
                 Some(
                     f.try_clone()
-                        .map_err(|e| Error::io("temporary file", "cannot write", e))?,
+                        .map_err(|e| Error::io(tmp_name, "cannot write", e))?,
                 )
             } else {
                 None
             };
-            let out = Out::new(f, "temporary file", false, limits);
+            let out = Out::new(f, tmp_name, false, limits);
             match index {
                 Some(i) => out.with_index(i),
                 None => out,
@@ -430,6 +431,10 @@ fn derive(
         }
     };
 
+    let tmp_name = format!(
+        "temporary file in {}",
+        tmpdir.clone().unwrap_or_else(std::env::temp_dir).display()
+    );
     // Generation 0: the axiom.
     let mut cur = if passes == 0 {
         None
@@ -438,7 +443,7 @@ fn derive(
     };
     let mut other: Option<File> = None;
     {
-        let mut out = sink(&mut cur, output, out_name, limits, indexed)?;
+        let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, indexed)?;
         let mut params = Vec::new();
         loop {
             reader.plain_run(|run| out.plain(run))??;
@@ -472,7 +477,7 @@ fn derive(
             })
         };
         {
-            let mut out = sink(&mut dst, output, out_name, limits, indexed)?;
+            let mut out = sink(&mut dst, &tmp_name, output, out_name, limits, indexed)?;
             d.pass(table, &src, indexed, &mut out, pass)?;
             verbose(&pass.to_string(), out.finish()?);
         }

@@ -132,6 +132,11 @@ pub fn split_header(input: &mut Input) -> Result<Split, Error> {
         if avail.is_empty() {
             break;
         }
+        if line_no == 1 && header.is_empty() && avail.starts_with(b"\xEF\xBB\xBF") {
+            // A UTF-8 byte-order mark.
+            input.consume(3);
+            continue;
+        }
         if line_no == 1 && avail.starts_with(b"#!") {
             // An executable script's interpreter line.
             let n = line_len(input)?;

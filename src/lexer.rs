@@ -426,8 +426,8 @@ impl<'a> Iterator for Lexer<'a> {
                     // A comment spanning lines still ends the line it began on
                     // only if it contains a newline; treat that as a newline.
                     if self.src[s..e].contains('\n') {
+                        // What follows the comment starts a line of its own.
                         self.newline();
-                        self.line_start = false;
                         if !self.after_nl {
                             self.after_nl = true;
                             return Some(Ok((s, Tok::Nl, s)));

@@ -14,6 +14,9 @@ pub enum Output {
         file: File,
         path: PathBuf,
         dir: PathBuf,
+        /// Permissions the new file gets: the replaced file's, or the
+        /// default for a new file (0666 less the umask).
+        mode: u32,
     },
     /// An existing non-regular file (a device, a FIFO): written in place.
     Direct(File, PathBuf),
@@ -42,6 +45,11 @@ impl Output {
                 return Ok(Output::Direct(f, path.to_path_buf()));
             }
         }
+        use std::os::unix::fs::PermissionsExt;
+        let mode = match std::fs::metadata(path) {
+            Ok(m) => m.permissions().mode() & 0o7777,
+            Err(_) => 0o666 & !umask(),
+        };
         let dir = match path.parent() {
             Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
             _ => PathBuf::from("."),
@@ -52,6 +60,7 @@ impl Output {
             file,
             path: path.to_path_buf(),
             dir,
+            mode,
         })
     }
 
@@ -72,18 +81,37 @@ impl Output {
 
     /// Put a complete file in place. Not calling this discards the output.
     pub fn commit(self) -> Result<(), Error> {
-        let Output::Atomic { file, path, dir } = self else {
+        let Output::Atomic {
+            file,
+            path,
+            dir,
+            mode,
+        } = self
+        else {
             return Ok(());
         };
         let name = path.display().to_string();
-        file.sync_all()
-            .map_err(|e| Error::io(name.clone(), "cannot write", e))?;
-        match link_into_place(&file, &dir, &path) {
+        {
+            use std::os::unix::fs::PermissionsExt;
+            file.set_permissions(std::fs::Permissions::from_mode(mode))
+                .and_then(|_| file.sync_all())
+                .map_err(|e| Error::io(name.clone(), "cannot write", e))?;
+        }
+        let result = Self::put_in_place(file, &dir, &path, &name);
+        // Make the rename durable.
+        if let Ok(d) = File::open(&dir) {
+            let _ = d.sync_all();
+        }
+        result
+    }
+
+    fn put_in_place(file: File, dir: &Path, path: &Path, name: &str) -> Result<(), Error> {
+        match link_into_place(&file, dir, path) {
             Ok(()) => Ok(()),
             // No O_TMPFILE here (tempfile fell back to a deleted named file,
             // which cannot be linked again): copy into a named temp file.
             Err(e) if e.raw_os_error() == Some(rustix::io::Errno::NOENT.raw_os_error()) => {
-                copy_into_place(file, &dir, &path).map_err(|e| Error::io(name, "cannot write", e))
+                copy_into_place(file, dir, path).map_err(|e| Error::io(name, "cannot write", e))
             }
             Err(e) => Err(Error::io(name, "cannot write", e)),
         }
@@ -117,6 +145,18 @@ fn link_into_place(file: &File, dir: &Path, path: &Path) -> io::Result<()> {
     Err(io::Error::from(io::ErrorKind::AlreadyExists))
 }
 
+/// The process umask, read from /proc (022 if it cannot be read).
+fn umask() -> u32 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("Umask:"))
+                .and_then(|v| u32::from_str_radix(v.trim(), 8).ok())
+        })
+        .unwrap_or(0o022)
+}
+
 fn copy_into_place(mut file: File, dir: &Path, path: &Path) -> io::Result<()> {
     use std::io::{Seek, SeekFrom};
     let mut tmp = tempfile::Builder::new()
@@ -124,6 +164,8 @@ fn copy_into_place(mut file: File, dir: &Path, path: &Path) -> io::Result<()> {
         .tempfile_in(dir)?;
     file.seek(SeekFrom::Start(0))?;
     io::copy(&mut file, tmp.as_file_mut())?;
+    tmp.as_file()
+        .set_permissions(file.metadata()?.permissions())?;
     tmp.as_file().sync_all()?;
     tmp.persist(path).map(|_| ()).map_err(|e| e.error)
 }

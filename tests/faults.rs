@@ -122,7 +122,6 @@ fn output_may_replace_the_input_itself() {
 }
 
 #[test]
-#[ignore = "lsgen bug: replacing an existing 0600 file leaves a 0644 file (the new file gets default permissions; a private output becomes world-readable)"]
 fn replacing_keeps_the_permissions_of_the_existing_file() {
     use std::os::unix::fs::PermissionsExt;
     let dir = tempdir();
