@@ -204,7 +204,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if args.check {
         // Read the axiom too, so its errors are reported.
         let mut al = system.alphabet;
-        let (mut reader, _) = axiom_reader(args, input, &split, &system.consts)?;
+        let mut reader = axiom_reader(args, input, &split, &system.consts)?;
         let mut p = Vec::new();
         let mut rng = Random::new(0);
         loop {
@@ -236,7 +236,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     };
     let mut system = system;
     let consts = std::mem::take(&mut system.consts);
-    let (reader, _) = axiom_reader(args, input, &split, &consts)?;
+    let reader = axiom_reader(args, input, &split, &consts)?;
     let out_name = output.name();
     let settings = Settings {
         steps,
@@ -327,22 +327,18 @@ fn missing_axiom(path: &str, header: &str) -> Error {
     e
 }
 
+/// The axiom: the file's `axiom:` section (comments allowed), or the
+/// `--axiom` stream (plain module text).
 fn axiom_reader<'c>(
     args: &Args,
     input: Input,
     split: &crate::input::Split,
     consts: &'c std::collections::HashMap<String, f64>,
-) -> Result<(AxiomReader<'c>, bool), Error> {
-    match &args.axiom {
-        Some(p) => {
-            let inp = open_input(Some(p))?;
-            Ok((AxiomReader::new(inp, false, 1, 1, consts), false))
-        }
-        None => Ok((
-            AxiomReader::new(input, true, split.axiom_line, split.axiom_col, consts),
-            true,
-        )),
-    }
+) -> Result<AxiomReader<'c>, Error> {
+    Ok(match &args.axiom {
+        Some(p) => AxiomReader::new(open_input(Some(p))?, false, 1, 1, consts),
+        None => AxiomReader::new(input, true, split.axiom_line, split.axiom_col, consts),
+    })
 }
 
 fn tempfile(dir: &Option<PathBuf>) -> Result<File, Error> {
