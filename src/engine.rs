@@ -311,7 +311,7 @@ impl<'f> PosReader<'f> {
 
     /// The next module: (key, start, end) with its bytes at
     /// `self.bytes(start, end)`.
-    #[inline]
+    #[inline(always)]
     pub fn next_module(&mut self, al: &Alphabet) -> io::Result<Option<(u32, usize, usize)>> {
         if self.end - self.pos < MAX_MODULE_BYTES {
             self.refill()?;
