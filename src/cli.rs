@@ -194,10 +194,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         ));
     }
     let mut input = open_input(args.file.as_ref())?;
-    let split = split_header(&mut input)?;
-    let path = input.name.clone();
-    let header = parse_header(&split.header).map_err(|e| locate(&path, &split.header, e))?;
-    let system = compile(&header).map_err(|e| locate(&path, &split.header, e))?;
+    let (split, path, system) = load(&mut input)?;
     if !split.has_axiom && args.axiom.is_none() {
         return Err(missing_axiom(&path, &split.header));
     }
@@ -278,10 +275,7 @@ pub fn derive_bytes(
     limits: Limits,
 ) -> Result<Vec<u8>, Error> {
     let mut input = Input::new(Box::new(io::Cursor::new(src.to_vec())), "<input>");
-    let split = split_header(&mut input)?;
-    let path = input.name.clone();
-    let header = parse_header(&split.header).map_err(|e| locate(&path, &split.header, e))?;
-    let system = compile(&header).map_err(|e| locate(&path, &split.header, e))?;
+    let (split, path, system) = load(&mut input)?;
     if !split.has_axiom {
         return Err(missing_axiom(&path, &split.header));
     }
@@ -309,6 +303,16 @@ pub fn derive_bytes(
         "output",
     )?;
     Ok(out)
+}
+
+/// Read the header from `input` (leaving it at the axiom), parse and
+/// compile it. Returns the split, the input's name and the system.
+fn load(input: &mut Input) -> Result<(crate::input::Split, String, System), Error> {
+    let split = split_header(input)?;
+    let path = input.name.clone();
+    let header = parse_header(&split.header).map_err(|e| locate(&path, &split.header, e))?;
+    let system = compile(&header).map_err(|e| locate(&path, &split.header, e))?;
+    Ok((split, path, system))
 }
 
 fn missing_axiom(path: &str, header: &str) -> Error {
