@@ -290,8 +290,20 @@ impl Code {
         stack: &mut Vec<f64>,
         rng: &mut Random,
     ) -> Result<f64, EvalError> {
-        if let [Op::Const(v)] = self.ops.as_slice() {
-            return Ok(*v);
+        // The shapes most successors and conditions have, without the stack.
+        match *self.ops.as_slice() {
+            [Op::Const(v)] => return Ok(v),
+            [Op::Load(s)] => return Ok(slots[s as usize]),
+            [Op::Load(a), Op::Const(c), op] if is_binary(op) => {
+                return self.binary(op, slots[a as usize], c)
+            }
+            [Op::Const(c), Op::Load(b), op] if is_binary(op) => {
+                return self.binary(op, c, slots[b as usize])
+            }
+            [Op::Load(a), Op::Load(b), op] if is_binary(op) => {
+                return self.binary(op, slots[a as usize], slots[b as usize])
+            }
+            _ => {}
         }
         stack.clear();
         for op in &self.ops {
@@ -306,23 +318,23 @@ impl Code {
                     let a = stack.last_mut().unwrap();
                     *a = if *a == 0.0 { 1.0 } else { 0.0 };
                 }
-                Op::Lt => bin(stack, |a, b| bool_f(a < b)),
-                Op::Le => bin(stack, |a, b| bool_f(a <= b)),
-                Op::Gt => bin(stack, |a, b| bool_f(a > b)),
-                Op::Ge => bin(stack, |a, b| bool_f(a >= b)),
-                Op::Eq => bin(stack, |a, b| bool_f(a == b)),
-                Op::Ne => bin(stack, |a, b| bool_f(a != b)),
-                Op::And => bin(stack, |a, b| bool_f(a != 0.0 && b != 0.0)),
-                Op::Or => bin(stack, |a, b| bool_f(a != 0.0 || b != 0.0)),
-                Op::Add(si) => self.checked(stack, si, |a, b| a + b)?,
-                Op::Sub(si) => self.checked(stack, si, |a, b| a - b)?,
-                Op::Mul(si) => self.checked(stack, si, |a, b| a * b)?,
-                Op::Pow(si) => self.checked(stack, si, f64::powf)?,
-                Op::Div(si) => {
-                    if *stack.last().unwrap() == 0.0 {
-                        return Err(self.fail(si, "division by zero"));
-                    }
-                    self.checked(stack, si, |a, b| a / b)?
+                Op::Lt
+                | Op::Le
+                | Op::Gt
+                | Op::Ge
+                | Op::Eq
+                | Op::Ne
+                | Op::And
+                | Op::Or
+                | Op::Add(_)
+                | Op::Sub(_)
+                | Op::Mul(_)
+                | Op::Div(_)
+                | Op::Pow(_)
+                | Op::F2(..) => {
+                    let b = stack.pop().unwrap();
+                    let a = stack.last_mut().unwrap();
+                    *a = self.binary(*op, *a, b)?;
                 }
                 Op::F1(f, si) => {
                     let a = stack.last_mut().unwrap();
@@ -334,7 +346,6 @@ impl Code {
                     }
                     *a = r;
                 }
-                Op::F2(f, si) => self.checked(stack, si, |a, b| f.apply(a, b))?,
                 Op::Ran(si) => {
                     let a = stack.last_mut().unwrap();
                     let r = *a * rng.uniform();
@@ -373,28 +384,44 @@ impl Code {
         }
     }
 
-    #[inline]
-    fn checked(
-        &self,
-        stack: &mut Vec<f64>,
-        si: u32,
-        f: impl Fn(f64, f64) -> f64,
-    ) -> Result<(), EvalError> {
-        let b = stack.pop().unwrap();
-        let a = stack.last_mut().unwrap();
-        let r = f(*a, b);
-        if !r.is_finite() {
-            return Err(self.fail(
+    /// A binary operation, checked: division by zero, NaN and overflow are
+    /// errors at the operation's span.
+    #[inline(always)]
+    fn binary(&self, op: Op, a: f64, b: f64) -> Result<f64, EvalError> {
+        let (r, si) = match op {
+            Op::Lt => return Ok(bool_f(a < b)),
+            Op::Le => return Ok(bool_f(a <= b)),
+            Op::Gt => return Ok(bool_f(a > b)),
+            Op::Ge => return Ok(bool_f(a >= b)),
+            Op::Eq => return Ok(bool_f(a == b)),
+            Op::Ne => return Ok(bool_f(a != b)),
+            Op::And => return Ok(bool_f(a != 0.0 && b != 0.0)),
+            Op::Or => return Ok(bool_f(a != 0.0 || b != 0.0)),
+            Op::Add(si) => (a + b, si),
+            Op::Sub(si) => (a - b, si),
+            Op::Mul(si) => (a * b, si),
+            Op::Pow(si) => (a.powf(b), si),
+            Op::Div(si) => {
+                if b == 0.0 {
+                    return Err(self.fail(si, "division by zero"));
+                }
+                (a / b, si)
+            }
+            Op::F2(f, si) => (f.apply(a, b), si),
+            _ => unreachable!("not a binary operation: {op:?}"),
+        };
+        if r.is_finite() {
+            Ok(r)
+        } else {
+            Err(self.fail(
                 si,
                 if r.is_nan() {
                     "result is not a number"
                 } else {
                     "result overflows a 64-bit float"
                 },
-            ));
+            ))
         }
-        *a = r;
-        Ok(())
     }
 
     fn fail(&self, si: u32, msg: &str) -> EvalError {
@@ -405,6 +432,14 @@ impl Code {
     }
 }
 
+#[inline(always)]
+fn is_binary(op: Op) -> bool {
+    !matches!(
+        op,
+        Op::Const(_) | Op::Load(_) | Op::Neg | Op::Not | Op::F1(..) | Op::Ran(_) | Op::Nran(_)
+    )
+}
+
 #[inline]
 fn bool_f(b: bool) -> f64 {
     if b {
@@ -412,13 +447,6 @@ fn bool_f(b: bool) -> f64 {
     } else {
         0.0
     }
-}
-
-#[inline]
-fn bin(stack: &mut Vec<f64>, f: impl Fn(f64, f64) -> f64) {
-    let b = stack.pop().unwrap();
-    let a = stack.last_mut().unwrap();
-    *a = f(*a, b);
 }
 
 #[cfg(test)]
