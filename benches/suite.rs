@@ -1,0 +1,1016 @@
+//! The lsgen benchmark suite.
+//!
+//! ```text
+//! cargo bench --bench suite                 # 10^6 .. 10^9 output modules
+//! cargo bench --bench suite -- --quick      # 10^6 and 10^7 only (about a minute)
+//! cargo bench --bench suite -- --max 1e8    # stop at 10^8
+//! cargo bench --bench suite -- --only koch_snowflake,plant_d
+//! ```
+//!
+//! It builds nothing itself: it runs the release binary of lsgen (the one
+//! cargo builds for `cargo bench`) as a child process on each workload of
+//! `benches/workloads/*.ls`, for each size, choosing `-n` so that the final
+//! string is close to the size. Each run writes a real file (`-o`) in a
+//! scratch directory that also holds the temporary generations (`--tmpdir`);
+//! files are deleted right after each run.
+//!
+//! Measured per run: wall time of the child (`std::time::Instant` around
+//! spawn and wait), its user+system time and peak RSS (GNU `time -f`, the
+//! child's rusage), the final module count (from `lsgen -v`) and the size
+//! of the output file. The I/O floor is measured in the same run, right
+//! after each lsgen run: this program re-invokes itself as a child
+//! (`suite --floor BYTES PATH`) to write as many bytes as lsgen's output
+//! into a new file in the same directory, a 1 MiB buffer at a time with
+//! `File::write_all`, then `sync_all` (lsgen also syncs its output before
+//! putting it in place). ratio = lsgen seconds / floor seconds.
+//!
+//! The Markdown report goes to standard output and to
+//! `target/bench-results.md`; progress goes to standard error.
+//!
+//! Run without `--bench` (as `cargo test --benches` does) it only checks
+//! that every workload file parses (`lsgen --check`).
+
+use std::collections::BTreeMap;
+use std::ffi::OsString;
+use std::fmt::Write as _;
+use std::fs::{self, File};
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode, Stdio};
+use std::time::Instant;
+
+/// Nominal sizes: output modules of the final string.
+const SIZES: [u64; 4] = [1_000_000, 10_000_000, 100_000_000, 1_000_000_000];
+
+/// Repetitions of a run (the best is kept) by expected output size; the
+/// I/O floor, cheap, is always measured at least 3 times.
+fn default_reps(approx: u64) -> u32 {
+    match approx {
+        0..=20_000_000 => 3,
+        20_000_001..=200_000_000 => 2,
+        _ => 1,
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Class {
+    /// Context-free, deterministic, no parameters (bracketed or not).
+    D0l,
+    Parametric,
+    Stochastic,
+    Context,
+    Homomorphism,
+}
+
+impl Class {
+    fn label(self) -> &'static str {
+        match self {
+            Class::D0l => "D0L",
+            Class::Parametric => "parametric",
+            Class::Stochastic => "stochastic",
+            Class::Context => "context",
+            Class::Homomorphism => "homomorphism",
+        }
+    }
+
+    /// Throughput target in modules/s, and whether it is stated by the
+    /// issue (false: assumed here).
+    fn speed_target(self) -> (f64, bool) {
+        match self {
+            Class::D0l => (300e6, true),
+            Class::Parametric | Class::Stochastic | Class::Context => (30e6, true),
+            Class::Homomorphism => (30e6, false),
+        }
+    }
+
+    /// Maximum ratio to the I/O floor, where the issue sets one.
+    fn floor_target(self) -> Option<f64> {
+        match self {
+            Class::D0l => Some(3.0),
+            _ => None,
+        }
+    }
+}
+
+/// Peak RSS target (KiB), for every workload.
+const RSS_TARGET_KIB: u64 = 16 * 1024;
+
+struct Workload {
+    name: &'static str,
+    class: Class,
+    /// The L-system, in benches/workloads/.
+    file: &'static str,
+    /// Setup, not timed: an L-system in benches/workloads/ whose output
+    /// becomes the `--axiom` of the timed run.
+    axiom_gen: Option<&'static str>,
+    /// With `axiom_gen`: the fixed `-n` of the timed run.
+    steps: u64,
+    /// Per size of [`SIZES`]: the `-n` (of the timed run, or of the axiom
+    /// generator) and the approximate final module count it gives (used
+    /// only to predict time and disk use; the table shows the real count).
+    plan: [(u64, u64); 4],
+}
+
+const WORKLOADS: &[Workload] = &[
+    Workload {
+        name: "koch_snowflake",
+        class: Class::D0l,
+        file: "koch_snowflake.ls",
+        axiom_gen: None,
+        steps: 0,
+        plan: [
+            (9, 1_835_008),
+            (10, 7_340_032),
+            (12, 117_440_512),
+            (14, 1_879_048_192),
+        ],
+    },
+    Workload {
+        name: "dragon_curve",
+        class: Class::D0l,
+        file: "dragon_curve.ls",
+        axiom_gen: None,
+        steps: 0,
+        plan: [
+            (18, 1_048_574),
+            (21, 8_388_606),
+            (25, 134_217_726),
+            (28, 1_073_741_822),
+        ],
+    },
+    Workload {
+        name: "plant_d (bracketed)",
+        class: Class::D0l,
+        file: "plant_d.ls",
+        axiom_gen: None,
+        steps: 0,
+        plan: [
+            (11, 1_147_356),
+            (13, 10_346_712),
+            (15, 93_202_356),
+            (17, 839_000_000),
+        ],
+    },
+    Workload {
+        name: "parametric_tree",
+        class: Class::Parametric,
+        file: "parametric_tree.ls",
+        axiom_gen: None,
+        steps: 0,
+        plan: [
+            (11, 885_731),
+            (13, 7_971_611),
+            (16, 143_489_066),
+            (18, 1_000_000_000),
+        ],
+    },
+    Workload {
+        name: "stochastic_plant",
+        class: Class::Stochastic,
+        file: "stochastic_plant.ls",
+        axiom_gen: None,
+        steps: 0,
+        plan: [
+            (10, 779_316),
+            (12, 10_436_326),
+            (14, 139_839_656),
+            (16, 1_870_000_000),
+        ],
+    },
+    Workload {
+        name: "context_signal (ignore:, 1 step)",
+        class: Class::Context,
+        file: "context_signal.ls",
+        axiom_gen: Some("signal_axiom.ls"),
+        steps: 1,
+        plan: [
+            (11, 1_328_584),
+            (13, 11_957_416),
+            (15, 107_616_000),
+            (17, 968_500_000),
+        ],
+    },
+    Workload {
+        name: "context_signal (ignore:, 3 steps)",
+        class: Class::Context,
+        file: "context_signal.ls",
+        axiom_gen: Some("signal_axiom.ls"),
+        steps: 3,
+        plan: [
+            (11, 1_751_000),
+            (13, 15_766_000),
+            (15, 141_900_000),
+            (17, 1_277_000_000),
+        ],
+    },
+    Workload {
+        name: "skip_branches (A > B)",
+        class: Class::Context,
+        file: "skip_branches.ls",
+        axiom_gen: Some("skip_axiom.ls"),
+        steps: 1,
+        plan: [
+            (11, 797_158),
+            (13, 7_174_453),
+            (15, 64_570_081),
+            (18, 1_743_392_200),
+        ],
+    },
+    Workload {
+        name: "koch_homomorphism",
+        class: Class::Homomorphism,
+        file: "koch_homomorphism.ls",
+        axiom_gen: None,
+        steps: 0,
+        plan: [
+            (8, 655_360),
+            (10, 10_485_760),
+            (12, 167_772_160),
+            (13, 671_088_640),
+        ],
+    },
+];
+
+struct Options {
+    max: u64,
+    only: Option<Vec<String>>,
+    reps: Option<u32>,
+    cap_secs: f64,
+    dir: Option<PathBuf>,
+    command: String,
+}
+
+const USAGE: &str = "\
+usage: cargo bench --bench suite [-- OPTIONS]
+  --quick          sizes 10^6 and 10^7 only (same as --max 1e7)
+  --max SIZE       largest size, e.g. 1e8 (default 1e9)
+  --only A,B       only the workloads whose name starts with A or B
+  --reps N         repetitions of every run, the best kept (default: 3 up to
+                   2e7 modules, 2 up to 2e8, 1 above)
+  --cap-secs S     skip a size predicted to take longer than S seconds (default 180)
+  --dir DIR        scratch directory for outputs and temp files (default $TMPDIR)
+  --floor BYTES PATH   (internal) write BYTES bytes to PATH: the I/O floor";
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("--floor") {
+        return floor_mode(&args[1..]);
+    }
+    let bench_mode = args.iter().any(|a| a == "--bench");
+    let opts = match parse_options(&args) {
+        Ok(o) => o,
+        Err(e) if e == "help" => {
+            println!("{USAGE}");
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            eprintln!("suite: {e}\n{USAGE}");
+            return ExitCode::from(2);
+        }
+    };
+    let bin = match lsgen_binary() {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("suite: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let result = if bench_mode {
+        run_suite(&bin, &opts)
+    } else {
+        check_workloads(&bin)
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("suite: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn parse_size(s: &str) -> Result<u64, String> {
+    let t = s.replace('_', "").replace("10^", "1e");
+    t.parse::<u64>()
+        .ok()
+        .or_else(|| {
+            t.parse::<f64>()
+                .ok()
+                .filter(|f| f.is_finite() && *f >= 1.0)
+                .map(|f| f.round() as u64)
+        })
+        .ok_or_else(|| format!("`{s}` is not a size (e.g. 1e8)"))
+}
+
+fn parse_options(args: &[String]) -> Result<Options, String> {
+    let mut o = Options {
+        max: SIZES[SIZES.len() - 1],
+        only: None,
+        reps: None,
+        cap_secs: 180.0,
+        dir: None,
+        command: "cargo bench --bench suite".to_string(),
+    };
+    let mut shown = Vec::new();
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let mut value = |name: &str| {
+            it.next()
+                .cloned()
+                .ok_or_else(|| format!("{name} needs a value"))
+        };
+        match a.as_str() {
+            // Passed by `cargo bench`; a bare word is cargo's name filter.
+            "--bench" => continue,
+            "--quick" => o.max = 10_000_000,
+            "--max" => {
+                let v = value(a)?;
+                o.max = parse_size(&v)?;
+                shown.push(format!("--max {v}"));
+                continue;
+            }
+            "--only" => {
+                let v = value(a)?;
+                o.only = Some(v.split(',').map(str::to_string).collect());
+                shown.push(format!("--only {v}"));
+                continue;
+            }
+            "--reps" => {
+                let v = value(a)?;
+                let n: u32 = v.parse().map_err(|_| format!("bad --reps `{v}`"))?;
+                o.reps = Some(n.max(1));
+                shown.push(format!("--reps {v}"));
+                continue;
+            }
+            "--cap-secs" => {
+                let v = value(a)?;
+                o.cap_secs = v.parse().map_err(|_| format!("bad --cap-secs `{v}`"))?;
+                shown.push(format!("--cap-secs {v}"));
+                continue;
+            }
+            "--dir" => {
+                let v = value(a)?;
+                o.dir = Some(PathBuf::from(&v));
+                shown.push(format!("--dir {v}"));
+                continue;
+            }
+            "-h" | "--help" => return Err("help".into()),
+            other => return Err(format!("unknown argument `{other}`")),
+        }
+        shown.push(a.clone());
+    }
+    if !shown.is_empty() {
+        o.command = format!("{} -- {}", o.command, shown.join(" "));
+    }
+    Ok(o)
+}
+
+/// The lsgen binary: the one cargo built for this bench (release profile
+/// under `cargo bench`), else target/release/lsgen, built if missing.
+fn lsgen_binary() -> Result<PathBuf, String> {
+    if let Some(p) = option_env!("CARGO_BIN_EXE_lsgen") {
+        if Path::new(p).exists() {
+            return Ok(PathBuf::from(p));
+        }
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let p = root.join("target/release/lsgen");
+    if !p.exists() {
+        let st = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()))
+            .args(["build", "--release", "--bin", "lsgen"])
+            .current_dir(root)
+            .status()
+            .map_err(|e| format!("cannot run cargo build: {e}"))?;
+        if !st.success() || !p.exists() {
+            return Err("cargo build --release failed".into());
+        }
+    }
+    Ok(p)
+}
+
+fn workload_path(file: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("benches/workloads")
+        .join(file)
+}
+
+/// Test mode: every workload file must parse.
+fn check_workloads(bin: &Path) -> Result<(), String> {
+    let mut files: Vec<&str> = WORKLOADS.iter().map(|w| w.file).collect();
+    files.extend(WORKLOADS.iter().filter_map(|w| w.axiom_gen));
+    for f in files {
+        let out = Command::new(bin)
+            .arg(workload_path(f))
+            .arg("--check")
+            .output()
+            .map_err(|e| format!("cannot run {}: {e}", bin.display()))?;
+        if !out.status.success() {
+            return Err(format!(
+                "{f}: {}",
+                String::from_utf8_lossy(&out.stderr).trim()
+            ));
+        }
+    }
+    println!(
+        "suite: workload files ok; run the benchmarks with `cargo bench --bench suite` \
+         (`-- --quick` for a short run)"
+    );
+    Ok(())
+}
+
+/// `--floor BYTES PATH`: write BYTES bytes to a new file PATH, 1 MiB at a
+/// time, and sync it. Timed by the parent, like lsgen.
+fn floor_mode(args: &[String]) -> ExitCode {
+    let (Some(bytes), Some(path)) = (args.first(), args.get(1)) else {
+        eprintln!("suite: --floor BYTES PATH");
+        return ExitCode::from(2);
+    };
+    let Ok(mut left) = bytes.parse::<u64>() else {
+        eprintln!("suite: bad byte count `{bytes}`");
+        return ExitCode::from(2);
+    };
+    let buf = vec![b'F'; 1 << 20];
+    let r = File::create(path).and_then(|mut f| {
+        while left > 0 {
+            let k = left.min(buf.len() as u64) as usize;
+            f.write_all(&buf[..k])?;
+            left -= k as u64;
+        }
+        f.sync_all()
+    });
+    match r {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("suite: {path}: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// One timed lsgen run.
+#[derive(Clone, Default)]
+struct Run {
+    wall: f64,
+    cpu: Option<f64>,
+    rss_kib: Option<u64>,
+    final_modules: u64,
+    /// All generations written, the axiom (generation 0) included.
+    all_modules: u64,
+    bytes: u64,
+}
+
+/// A row of the table.
+struct Row {
+    workload: &'static str,
+    class: Class,
+    size: u64,
+    n_label: String,
+    run: Run,
+    floor: f64,
+}
+
+struct Skip {
+    workload: &'static str,
+    size: u64,
+    why: String,
+}
+
+fn run_suite(bin: &Path, o: &Options) -> Result<(), String> {
+    let gnu_time = find_gnu_time();
+    if gnu_time.is_none() {
+        eprintln!("suite: GNU time (/usr/bin/time) not found: no peak RSS or cpu time");
+    }
+    let base = o.dir.clone().unwrap_or_else(std::env::temp_dir);
+    let scratch = base.join(format!("lsgen-bench-{}", std::process::id()));
+    fs::create_dir_all(&scratch).map_err(|e| format!("{}: {e}", scratch.display()))?;
+    let header = describe(bin, o, &scratch, gnu_time.is_some());
+    eprint!("{header}");
+    // Run a copy: a concurrent `cargo build` must not swap the binary mid-run.
+    let copy = scratch.join("lsgen");
+    let res = fs::copy(bin, &copy)
+        .map_err(|e| format!("cannot copy {}: {e}", bin.display()))
+        .and_then(|_| run_all(&copy, o, &scratch, gnu_time.as_deref()));
+    let _ = fs::remove_dir_all(&scratch);
+    let (rows, skips) = res?;
+    let mut md = header;
+    md.push_str(&table(&rows, &skips));
+    print!("{md}");
+    let target = Path::new(env!("CARGO_MANIFEST_DIR")).join("target");
+    let _ = fs::create_dir_all(&target);
+    let path = target.join("bench-results.md");
+    fs::write(&path, &md).map_err(|e| format!("{}: {e}", path.display()))?;
+    eprintln!("suite: written to {}", path.display());
+    Ok(())
+}
+
+fn selected(o: &Options, w: &Workload) -> bool {
+    o.only
+        .as_ref()
+        .is_none_or(|v| v.iter().any(|p| w.name.starts_with(p.as_str())))
+}
+
+fn run_all(
+    bin: &Path,
+    o: &Options,
+    scratch: &Path,
+    gnu_time: Option<&Path>,
+) -> Result<(Vec<Row>, Vec<Skip>), String> {
+    let mut rows = Vec::new();
+    let mut skips = Vec::new();
+    let out = scratch.join("out.txt");
+    let floor_out = scratch.join("floor.txt");
+    let axiom = scratch.join("axiom.txt");
+    for w in WORKLOADS.iter().filter(|w| selected(o, w)) {
+        let mut prev: Option<(f64, f64)> = None; // (modules/s, bytes/module)
+        for (i, &size) in SIZES.iter().enumerate() {
+            if size > o.max {
+                break;
+            }
+            let (n, approx) = w.plan[i];
+            // Predict time and disk use from the previous size.
+            if let Some((speed, bpm)) = prev {
+                let secs = approx as f64 / speed;
+                if secs > o.cap_secs {
+                    skips.push(Skip {
+                        workload: w.name,
+                        size,
+                        why: format!(
+                            "predicted {secs:.0} s (at {:.1} M modules/s) > cap {:.0} s",
+                            speed / 1e6,
+                            o.cap_secs
+                        ),
+                    });
+                    break;
+                }
+                let need = (approx as f64 * bpm * 4.0) as u64;
+                if let Some(free) = free_bytes(scratch) {
+                    if need > free {
+                        skips.push(Skip {
+                            workload: w.name,
+                            size,
+                            why: format!(
+                                "needs about {} GB of disk, {} GB free",
+                                need / 1_000_000_000,
+                                free / 1_000_000_000
+                            ),
+                        });
+                        break;
+                    }
+                }
+            }
+            let reps = o.reps.unwrap_or_else(|| default_reps(approx));
+            let mut args: Vec<OsString> = vec![workload_path(w.file).into()];
+            let n_label = if let Some(gen) = w.axiom_gen {
+                eprintln!("suite: {} 1e{}: setup: axiom -n {n}", w.name, log10(size));
+                let setup: Vec<OsString> = vec![
+                    workload_path(gen).into(),
+                    "-n".into(),
+                    n.to_string().into(),
+                    "-o".into(),
+                    axiom.clone().into(),
+                    "--tmpdir".into(),
+                    scratch.into(),
+                ];
+                let st = Command::new(bin)
+                    .args(&setup)
+                    .stdout(Stdio::null())
+                    .status()
+                    .map_err(|e| format!("cannot run {}: {e}", bin.display()))?;
+                if !st.success() {
+                    return Err(format!("{}: axiom generation failed", w.name));
+                }
+                args.extend(["--axiom".into(), axiom.clone().into()]);
+                args.extend(["-n".into(), w.steps.to_string().into()]);
+                format!("{} (axiom -n {n})", w.steps)
+            } else {
+                args.extend(["-n".into(), n.to_string().into()]);
+                n.to_string()
+            };
+            args.extend([
+                "-o".into(),
+                out.clone().into(),
+                "--tmpdir".into(),
+                scratch.into(),
+                "-v".into(),
+            ]);
+            let mut best: Option<Run> = None;
+            let mut best_floor = f64::INFINITY;
+            for rep in 0..reps {
+                let r = run_lsgen(bin, &args, &out, gnu_time)?;
+                let _ = fs::remove_file(&out);
+                let mut f = f64::INFINITY;
+                for _ in 0..3u32.div_ceil(reps) {
+                    f = f.min(run_floor(r.bytes, &floor_out)?);
+                    let _ = fs::remove_file(&floor_out);
+                }
+                eprintln!(
+                    "suite: {} 1e{} [{}/{reps}]: n {n_label}: {} modules, {} bytes, {:.3} s \
+                     ({:.1} M/s), rss {} KiB; floor {:.3} s",
+                    w.name,
+                    log10(size),
+                    rep + 1,
+                    r.final_modules,
+                    r.bytes,
+                    r.wall,
+                    r.final_modules as f64 / r.wall / 1e6,
+                    r.rss_kib.map_or("?".into(), |k| k.to_string()),
+                    f
+                );
+                best_floor = best_floor.min(f);
+                if best.as_ref().is_none_or(|b| r.wall < b.wall) {
+                    best = Some(r);
+                }
+            }
+            let _ = fs::remove_file(&axiom);
+            let run = best.expect("at least one repetition");
+            prev = Some((
+                run.final_modules as f64 / run.wall,
+                run.bytes as f64 / run.final_modules.max(1) as f64,
+            ));
+            rows.push(Row {
+                workload: w.name,
+                class: w.class,
+                size,
+                n_label,
+                run,
+                floor: best_floor,
+            });
+        }
+    }
+    Ok((rows, skips))
+}
+
+fn log10(size: u64) -> u32 {
+    size.ilog10()
+}
+
+fn find_gnu_time() -> Option<PathBuf> {
+    let p = PathBuf::from("/usr/bin/time");
+    let ok = Command::new(&p)
+        .args(["-f", "%M", "-o", "/dev/null", "true"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    ok.then_some(p)
+}
+
+fn run_lsgen(
+    bin: &Path,
+    args: &[OsString],
+    out: &Path,
+    gnu_time: Option<&Path>,
+) -> Result<Run, String> {
+    let time_file = out.with_extension("time");
+    let mut cmd = match gnu_time {
+        Some(t) => {
+            let mut c = Command::new(t);
+            c.args(["-f", "%U %S %M", "-o"]).arg(&time_file).arg(bin);
+            c
+        }
+        None => Command::new(bin),
+    };
+    cmd.args(args).stdin(Stdio::null()).stdout(Stdio::null());
+    let t0 = Instant::now();
+    let child = cmd
+        .stderr(Stdio::piped())
+        .output()
+        .map_err(|e| format!("cannot run {}: {e}", bin.display()))?;
+    let wall = t0.elapsed().as_secs_f64();
+    let stderr = String::from_utf8_lossy(&child.stderr);
+    if !child.status.success() {
+        return Err(format!("lsgen {:?} failed: {}", args, stderr.trim()));
+    }
+    let mut run = Run {
+        wall,
+        ..Run::default()
+    };
+    // `lsgen: step 3: 448 modules, 448 bytes`, one line per generation.
+    let mut last_bytes = 0;
+    for line in stderr.lines() {
+        let Some(rest) = line.rsplit(": ").next() else {
+            continue;
+        };
+        let mut words = rest.split_whitespace();
+        if let (Some(m), Some("modules,"), Some(b), Some("bytes")) =
+            (words.next(), words.next(), words.next(), words.next())
+        {
+            if let (Ok(m), Ok(b)) = (m.parse::<u64>(), b.parse::<u64>()) {
+                run.all_modules += m;
+                run.final_modules = m;
+                last_bytes = b;
+            }
+        }
+    }
+    run.bytes = fs::metadata(out)
+        .map_err(|e| format!("{}: {e}", out.display()))?
+        .len();
+    if run.bytes != last_bytes {
+        eprintln!(
+            "suite: warning: output has {} bytes, lsgen -v said {last_bytes}",
+            run.bytes
+        );
+    }
+    if gnu_time.is_some() {
+        let t = fs::read_to_string(&time_file).unwrap_or_default();
+        let _ = fs::remove_file(&time_file);
+        let v: Vec<&str> = t
+            .lines()
+            .last()
+            .unwrap_or_default()
+            .split_whitespace()
+            .collect();
+        if let [u, s, m] = v[..] {
+            run.cpu = u
+                .parse::<f64>()
+                .ok()
+                .zip(s.parse::<f64>().ok())
+                .map(|(u, s)| u + s);
+            run.rss_kib = m.parse().ok();
+        }
+    }
+    Ok(run)
+}
+
+fn run_floor(bytes: u64, path: &Path) -> Result<f64, String> {
+    let me = std::env::current_exe().map_err(|e| format!("current_exe: {e}"))?;
+    let t0 = Instant::now();
+    let st = Command::new(me)
+        .arg("--floor")
+        .arg(bytes.to_string())
+        .arg(path)
+        .status()
+        .map_err(|e| format!("cannot run the floor: {e}"))?;
+    let secs = t0.elapsed().as_secs_f64();
+    if !st.success() {
+        return Err("the I/O floor run failed".into());
+    }
+    Ok(secs)
+}
+
+/// Free bytes in the file system of `dir`, from `df -Pk`.
+fn free_bytes(dir: &Path) -> Option<u64> {
+    let out = Command::new("df").arg("-Pk").arg(dir).output().ok()?;
+    let s = String::from_utf8_lossy(&out.stdout);
+    let kib: u64 = s.lines().nth(1)?.split_whitespace().nth(3)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+fn command_line(prog: &str, args: &[&str]) -> Option<String> {
+    let out = Command::new(prog).args(args).output().ok()?;
+    out.status
+        .success()
+        .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
+}
+
+/// The report's header: date, command, machine, method.
+fn describe(bin: &Path, o: &Options, scratch: &Path, gnu_time: bool) -> String {
+    let cpuinfo = fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let model = cpuinfo
+        .lines()
+        .find(|l| l.starts_with("model name"))
+        .and_then(|l| l.split(':').nth(1))
+        .map_or("unknown".into(), |s| s.trim().to_string());
+    let meminfo = fs::read_to_string("/proc/meminfo").unwrap_or_default();
+    let mem_gib = meminfo
+        .lines()
+        .find(|l| l.starts_with("MemTotal:"))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|k| k.parse::<f64>().ok())
+        .map_or("unknown".into(), |k| format!("{:.1} GiB", k / 1048576.0));
+    let nproc = command_line("nproc", &[]).unwrap_or_else(|| "?".into());
+    let kernel = command_line("uname", &["-sr"]).unwrap_or_else(|| "?".into());
+    let rustc = command_line("rustc", &["--version"]).unwrap_or_else(|| "?".into());
+    let date = command_line("date", &["-u", "+%Y-%m-%d %H:%M UTC"]).unwrap_or_default();
+    let load = fs::read_to_string("/proc/loadavg")
+        .ok()
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_default();
+    let root = env!("CARGO_MANIFEST_DIR");
+    let rev = command_line("git", &["-C", root, "rev-parse", "--short", "HEAD"])
+        .map(|r| {
+            let dirty = command_line("git", &["-C", root, "status", "--porcelain", "src"])
+                .is_some_and(|s| !s.is_empty());
+            if dirty {
+                format!("{r} + uncommitted changes in src/")
+            } else {
+                r
+            }
+        })
+        .unwrap_or_else(|| "?".into());
+    let fs_type = command_line("df", &["-PT", &scratch.display().to_string()])
+        .and_then(|s| {
+            let l = s.lines().nth(1)?.to_string();
+            let v: Vec<&str> = l.split_whitespace().collect();
+            Some(format!("{} on {}", v.get(1)?, v.first()?))
+        })
+        .unwrap_or_else(|| "?".into());
+    let mut s = String::new();
+    let _ = writeln!(s, "## lsgen benchmark suite\n");
+    let _ = writeln!(s, "- command: `{}`", o.command);
+    let _ = writeln!(s, "- date: {date}");
+    let _ = writeln!(
+        s,
+        "- machine: {nproc} CPUs (nproc), {model}, {mem_gib} RAM, {kernel}, {rustc}"
+    );
+    let _ = writeln!(s, "- load average at start: {load}");
+    let _ = writeln!(
+        s,
+        "- lsgen: `{}` (git {rev}), copied to the scratch directory at start",
+        bin.display()
+    );
+    let _ = writeln!(
+        s,
+        "- output: a real file, `-o {dir}/out.txt`, temp generations in `--tmpdir {dir}` \
+         ({fs_type}); deleted after each run",
+        dir = scratch.display()
+    );
+    let _ = writeln!(
+        s,
+        "- wall: elapsed time of the child process, best of {}; cpu = user + system time{}",
+        o.reps.map_or(
+            "3 runs up to 2·10^7 modules, 2 up to 2·10^8, 1 above".into(),
+            |r| { format!("{r} runs") }
+        ),
+        if gnu_time {
+            "; peak RSS = maxrss of lsgen (GNU `time -f %M`)"
+        } else {
+            " and peak RSS unavailable (no GNU time)"
+        }
+    );
+    let _ = writeln!(
+        s,
+        "- I/O floor: `suite --floor BYTES PATH` as a child process: writes the same number \
+         of bytes as lsgen's output to a new file in the same directory, 1 MiB \
+         `File::write_all` at a time, then `sync_all` (lsgen syncs its output too), best \
+         of at least 3 after each lsgen run; × floor = lsgen wall / floor wall"
+    );
+    let _ = writeln!(
+        s,
+        "- all generations: modules written over the whole derivation (axiom included); \
+         M/s = final modules / wall (by cpu: / cpu, when cpu ≥ 0.05 s); \
+         MB/s = output bytes / wall\n"
+    );
+    s
+}
+
+fn sci(size: u64) -> String {
+    format!("10^{}", log10(size))
+}
+
+fn verdicts(r: &Row) -> String {
+    let mut v = Vec::new();
+    let speed = r.run.final_modules as f64 / r.run.wall;
+    let (target, stated) = r.class.speed_target();
+    let mark = if stated { "" } else { " (assumed)" };
+    if speed >= target {
+        v.push(format!("≥{:.0} M/s{mark}: met", target / 1e6));
+    } else {
+        // On a loaded machine wall time can exceed cpu time by far: say so.
+        let by_cpu = r
+            .run
+            .cpu
+            .filter(|&c| c >= 0.05)
+            .map(|c| r.run.final_modules as f64 / c);
+        let note = match by_cpu {
+            Some(c) if c >= target => " but met by cpu time",
+            _ => "",
+        };
+        v.push(format!(
+            "≥{:.0} M/s{mark}: **missed** ({:.0}%){note}",
+            target / 1e6,
+            speed / target * 100.0
+        ));
+    }
+    if let Some(t) = r.class.floor_target() {
+        let ratio = r.run.wall / r.floor;
+        if ratio <= t {
+            v.push(format!("≤{t:.0}× floor: met"));
+        } else {
+            v.push(format!("≤{t:.0}× floor: **missed** ({ratio:.1}×)"));
+        }
+    }
+    if let Some(k) = r.run.rss_kib {
+        if k <= RSS_TARGET_KIB {
+            v.push("RSS ≤16 MiB: met".into());
+        } else {
+            v.push(format!(
+                "RSS ≤16 MiB: **missed** ({:.1} MiB)",
+                k as f64 / 1024.0
+            ));
+        }
+    }
+    v.join("; ")
+}
+
+fn table(rows: &[Row], skips: &[Skip]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| workload | class | size | -n | final modules | all generations | output bytes | \
+         wall s | cpu s | M modules/s | (by cpu) | MB/s | peak RSS MiB | floor s | × floor | \
+         targets |"
+    );
+    let _ = writeln!(
+        s,
+        "|---|---|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|---|"
+    );
+    for r in rows {
+        let run = &r.run;
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {} | {:.3} | {} | {:.1} | {} | {:.1} | {} | {:.3} | {:.2} | {} |",
+            r.workload,
+            r.class.label(),
+            sci(r.size),
+            r.n_label,
+            group(run.final_modules),
+            group(run.all_modules),
+            group(run.bytes),
+            run.wall,
+            run.cpu.map_or("?".into(), |c| format!("{c:.2}")),
+            run.final_modules as f64 / run.wall / 1e6,
+            run.cpu
+                .filter(|&c| c >= 0.05)
+                .map_or("—".into(), |c| format!(
+                    "{:.1}",
+                    run.final_modules as f64 / c / 1e6
+                )),
+            run.bytes as f64 / run.wall / 1e6,
+            run.rss_kib
+                .map_or("?".into(), |k| format!("{:.1}", k as f64 / 1024.0)),
+            r.floor,
+            run.wall / r.floor,
+            verdicts(r),
+        );
+    }
+    if !skips.is_empty() {
+        let _ = writeln!(s, "\nNot run (and no larger size of that workload):\n");
+        for k in skips {
+            let _ = writeln!(s, "- {} at {}: {}", k.workload, sci(k.size), k.why);
+        }
+    }
+    // Scaling: modules/s per size, and over all generations written.
+    let mut by: BTreeMap<usize, Vec<&Row>> = BTreeMap::new();
+    for r in rows {
+        let i = WORKLOADS
+            .iter()
+            .position(|w| w.name == r.workload)
+            .unwrap_or(0);
+        by.entry(i).or_default().push(r);
+    }
+    let _ = writeln!(
+        s,
+        "\nScaling: M final modules/s (ns per module of all generations) per size; \
+         flat = the ns per module of all generations at the largest size is within \
+         1.5× of the best size ≥ 10^7 (in brackets: largest / best).\n"
+    );
+    let _ = writeln!(s, "| workload | 10^6 | 10^7 | 10^8 | 10^9 | flat? |");
+    let _ = writeln!(s, "|---|--:|--:|--:|--:|---|");
+    for rs in by.values() {
+        let mut cells = vec![String::from("—"); SIZES.len()];
+        for r in rs {
+            if let Some(i) = SIZES.iter().position(|&z| z == r.size) {
+                cells[i] = format!(
+                    "{:.1} ({:.2})",
+                    r.run.final_modules as f64 / r.run.wall / 1e6,
+                    r.run.wall * 1e9 / r.run.all_modules.max(1) as f64
+                );
+            }
+        }
+        // Cost linear in the generations written: the wall time per module
+        // of all generations at the largest size is within 1.5x of the best
+        // size >= 10^7 (smaller ones pay the start-up).
+        let costs: Vec<f64> = rs
+            .iter()
+            .filter(|r| r.size >= 10_000_000)
+            .map(|r| r.run.wall / r.run.all_modules.max(1) as f64)
+            .collect();
+        let flat = match costs.last() {
+            Some(&last) if costs.len() >= 2 => {
+                let best = costs.iter().cloned().fold(f64::INFINITY, f64::min);
+                if last <= best * 1.5 {
+                    format!("yes ({:.2}×)", last / best)
+                } else {
+                    format!("**no** ({:.2}×)", last / best)
+                }
+            }
+            _ => "—".to_string(),
+        };
+        let _ = writeln!(s, "| {} | {} | {flat} |", rs[0].workload, cells.join(" | "));
+    }
+    s
+}
+
+/// 1234567 -> 1 234 567 (thin groups, readable in Markdown).
+fn group(n: u64) -> String {
+    let d = n.to_string();
+    let mut out = String::new();
+    for (i, c) in d.chars().enumerate() {
+        if i > 0 && (d.len() - i) % 3 == 0 {
+            out.push('\u{202f}');
+        }
+        out.push(c);
+    }
+    out
+}
