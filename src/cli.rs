@@ -457,6 +457,39 @@ fn derive(
     }
     drop(reader);
 
+    // Deterministic context-free byte systems: depth first, no temp files.
+    let plan = crate::dfs::Plan::new(
+        &productions,
+        hom.then_some(&homomorphism),
+        &d.alphabet,
+        steps,
+    );
+    if let (Some(plan), Some(src)) = (plan, &cur) {
+        if settings.verbose || limits.modules != u64::MAX || limits.bytes != u64::MAX {
+            let (hist, other) = crate::dfs::histogram(src, &d.alphabet)?;
+            let lengths = plan.lengths(&hist, other, steps);
+            crate::dfs::check_limits(&lengths, limits)?;
+            let shown = if hom {
+                lengths.len()
+            } else {
+                lengths.len() - 1
+            };
+            for (i, n) in lengths[..shown].iter().enumerate() {
+                verbose(&Pass::Step(i as u64 + 1).to_string(), (*n, *n));
+            }
+        }
+        let mut none = None;
+        let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
+        plan.expand(src, &d.alphabet, steps, &mut out)?;
+        let last = if hom {
+            Pass::Homomorphism
+        } else {
+            Pass::Step(steps)
+        };
+        verbose(&last.to_string(), out.finish()?);
+        return Ok(());
+    }
+
     // The steps, then the homomorphism.
     for i in 1..=passes {
         let (table, pass) = if i <= steps {

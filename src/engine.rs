@@ -136,6 +136,13 @@ impl<'w> Out<'w> {
         Ok(())
     }
 
+    /// Text or binary known to hold `modules` modules, in this sink's format.
+    #[inline]
+    pub fn extend(&mut self, bytes: &[u8], modules: u64) {
+        self.modules += modules;
+        self.buf.extend_from_slice(bytes);
+    }
+
     /// Plain modules: ASCII symbols without parameters, one byte each in
     /// both formats.
     #[inline]
@@ -259,6 +266,10 @@ pub struct PosReader<'f> {
 
 impl<'f> PosReader<'f> {
     pub fn new(file: &'f File, capacity: usize, indexed: bool) -> Self {
+        // No bigger than the file: many steps over a short string must not
+        // pay for a large buffer each time.
+        let len = file.metadata().map_or(u64::MAX, |m| m.len());
+        let capacity = capacity.min(usize::try_from(len).unwrap_or(usize::MAX));
         PosReader {
             file,
             indexed,

@@ -1,0 +1,301 @@
+//! Depth-first expansion for deterministic context-free byte systems.
+//!
+//! When every production that can apply is decided by its symbol alone (no
+//! context, no condition, no probability, a constant successor of ASCII
+//! symbols without parameters; a D0L system such as Koch or the bracketed
+//! plants), the string after n steps is the concatenation, over the axiom,
+//! of each symbol's own expansion. So the final string can be written
+//! directly, depth first, with a stack of at most n frames and no temporary
+//! generations. The expansions of each symbol for the last few steps (up to
+//! 4 KiB each) are precomputed, so most of the output is copied in blocks.
+//! The homomorphism, if it is as simple, is folded into those blocks.
+//!
+//! The result is byte-identical to the step-by-step engine (the tests
+//! compare both), and generation lengths are computed exactly by dynamic
+//! programming, for `--verbose` and `--max-length`.
+
+use crate::diag::Error;
+use crate::engine::{Limits, Out, PosReader};
+use crate::rules::{Alphabet, Item, Table};
+use std::fs::File;
+
+/// Deepest derivation expanded depth first (the stack holds one frame per
+/// step).
+pub const MAX_STEPS: u64 = 1 << 16;
+/// Largest precomputed expansion, and the budget for all of them.
+const BLOCK: usize = 4096;
+const BUDGET: usize = 4 << 20;
+/// Most steps precomputed per symbol.
+const MAX_LEVELS: usize = 64;
+
+/// The rules as byte maps, if the system qualifies.
+pub struct Plan<'t> {
+    /// Successor of each ASCII symbol (binary = ASCII text); None: no rule.
+    succ: [Option<&'t [u8]>; 128],
+    /// Text written for each symbol at the end (its homomorphism image, or
+    /// itself), with its module count.
+    leaf: [(&'t [u8], u64); 128],
+}
+
+static ASCII: [u8; 128] = {
+    let mut t = [0u8; 128];
+    let mut i = 0;
+    while i < 128 {
+        t[i] = i as u8;
+        i += 1;
+    }
+    t
+};
+
+/// A successor known at load time: binary, text, modules.
+type Run<'t> = (&'t [u8], &'t [u8], u64);
+
+/// The successor of `key` if the table decides it by symbol alone:
+/// Some(None) no rule, Some(Some(run)) a constant run, None: not simple.
+fn simple(table: &Table, key: u32) -> Option<Option<Run<'_>>> {
+    let Some(kr) = table.get(key) else {
+        return Some(None);
+    };
+    let p = &table.prods[*kr.free.first()? as usize];
+    if !kr.context.is_empty() || kr.free_stochastic || p.cond.is_some() {
+        return None;
+    }
+    match p.succ.as_slice() {
+        [] => Some(Some((&[], &[], 0))),
+        [Item::Const(c)] => Some(Some((&c.bin, &c.text, c.modules))),
+        _ => None,
+    }
+}
+
+impl<'t> Plan<'t> {
+    /// A plan for `steps` steps of `prods` then `hom` (if given), or None
+    /// when the system needs the step-by-step engine.
+    pub fn new(
+        prods: &'t Table,
+        hom: Option<&'t Table>,
+        al: &Alphabet,
+        steps: u64,
+    ) -> Option<Self> {
+        if steps == 0 || steps > MAX_STEPS || prods.has_context() || prods.check_balance {
+            return None;
+        }
+        if hom.is_some_and(|h| h.has_context() || h.check_balance) {
+            return None;
+        }
+        // Rules only for ASCII symbols without parameters: other keys (from
+        // the axiom) are copied as they are.
+        for key in 128..al.len() as u32 {
+            if prods.get(key).is_some() || hom.is_some_and(|h| h.get(key).is_some()) {
+                return None;
+            }
+        }
+        let mut succ = [None; 128];
+        let mut leaf: [(&[u8], u64); 128] = std::array::from_fn(|b| (&ASCII[b..b + 1], 1));
+        for b in 0..128u32 {
+            match simple(prods, b)? {
+                None => {}
+                Some((bin, _, _)) if bin.iter().all(|&x| x < 0x80) => succ[b as usize] = Some(bin),
+                Some(_) => return None,
+            }
+            if let Some(h) = hom {
+                if let Some((_, text, n)) = simple(h, b)? {
+                    leaf[b as usize] = (text, n);
+                }
+            }
+        }
+        Some(Plan { succ, leaf })
+    }
+
+    /// Exact length (modules) of each generation 1..=steps, from how many
+    /// of each symbol generation 0 holds (`other`: modules with keys >= 128).
+    pub fn lengths(&self, hist: &[u64; 128], other: u64, steps: u64) -> Vec<u64> {
+        let mut cnt = [1u128; 128];
+        let mut out = Vec::with_capacity(steps as usize);
+        for _ in 0..steps {
+            let prev = cnt;
+            for (n, succ) in cnt.iter_mut().zip(&self.succ) {
+                if let Some(s) = succ {
+                    *n = s
+                        .iter()
+                        .fold(0u128, |acc, &c| acc.saturating_add(prev[c as usize]));
+                }
+            }
+            let total = (0..128).fold(other as u128, |acc, b| {
+                acc.saturating_add((hist[b] as u128).saturating_mul(cnt[b]))
+            });
+            out.push(u64::try_from(total).unwrap_or(u64::MAX));
+        }
+        out
+    }
+
+    /// Write the expansion of generation 0 (`input`, binary) after `steps`
+    /// steps, homomorphism applied, as text into `out`.
+    pub fn expand(
+        &self,
+        input: &File,
+        al: &Alphabet,
+        steps: u64,
+        out: &mut Out,
+    ) -> Result<(), Error> {
+        let cache = self.precompute();
+        let steps = steps as usize;
+        let mut rd = PosReader::new(input, 1 << 16, false);
+        let mut stack: Vec<(&[u8], usize)> = Vec::new();
+        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        while let Some((key, s, e)) = rd.next_module(al).map_err(read_err)? {
+            if key >= 128 {
+                out.raw(key, rd.bytes(s, e), al)?;
+                out.maybe_flush()?;
+                continue;
+            }
+            // Expand `key` by `steps` steps; frame i of the stack is a
+            // successor being walked at depth i + 1.
+            if self.emit(key as u8, steps, &cache, out) {
+                out.maybe_flush()?;
+                continue;
+            }
+            stack.push((self.succ[key as usize].unwrap(), 0));
+            while let Some(top) = stack.last_mut() {
+                let (slice, pos) = *top;
+                if pos == slice.len() {
+                    stack.pop();
+                    continue;
+                }
+                top.1 += 1;
+                let left = steps - stack.len();
+                let c = slice[pos];
+                if !self.emit(c, left, &cache, out) {
+                    stack.push((self.succ[c as usize].unwrap(), 0));
+                }
+                out.maybe_flush()?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Write symbol `b` expanded by `k` steps if it is a leaf at that depth
+    /// (no rule, or precomputed); false if it must be walked.
+    #[inline]
+    fn emit(&self, b: u8, k: usize, cache: &Cache, out: &mut Out) -> bool {
+        let b = b as usize;
+        if self.succ[b].is_none() {
+            let (text, n) = self.leaf[b];
+            out.extend(text, n);
+            return true;
+        }
+        match cache.levels[b].get(k) {
+            Some(&(start, end, n)) => {
+                out.extend(&cache.bytes[start..end], n);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Expansions of each symbol for 0, 1, 2, ... steps while they fit a
+    /// block (and the budget).
+    fn precompute(&self) -> Cache {
+        let mut c = Cache {
+            bytes: Vec::new(),
+            levels: std::array::from_fn(|_| Vec::new()),
+        };
+        for b in 0..128 {
+            let (text, n) = self.leaf[b];
+            let start = c.bytes.len();
+            c.bytes.extend_from_slice(text);
+            c.levels[b].push((start, c.bytes.len(), n));
+        }
+        for k in 1..MAX_LEVELS {
+            let mut grew = false;
+            for b in 0..128 {
+                let Some(s) = self.succ[b] else { continue };
+                if c.levels[b].len() != k {
+                    continue;
+                }
+                // Every symbol of the successor needs its k-1 expansion.
+                let mut len = 0;
+                let mut ok = true;
+                for &x in s {
+                    let x = x as usize;
+                    let r = if self.succ[x].is_none() {
+                        c.levels[x][0]
+                    } else if let Some(&r) = c.levels[x].get(k - 1) {
+                        r
+                    } else {
+                        ok = false;
+                        break;
+                    };
+                    len += r.1 - r.0;
+                    if len > BLOCK {
+                        ok = false;
+                        break;
+                    }
+                }
+                if !ok || c.bytes.len() + len > BUDGET {
+                    continue;
+                }
+                let start = c.bytes.len();
+                let mut n = 0u64;
+                for &x in s {
+                    let x = x as usize;
+                    let (rs, re, rn) = if self.succ[x].is_none() {
+                        c.levels[x][0]
+                    } else {
+                        c.levels[x][k - 1]
+                    };
+                    c.bytes.extend_from_within(rs..re);
+                    n += rn;
+                }
+                c.levels[b].push((start, c.bytes.len(), n));
+                grew = true;
+            }
+            if !grew {
+                break;
+            }
+        }
+        c
+    }
+}
+
+struct Cache {
+    bytes: Vec<u8>,
+    /// Per symbol, per number of steps: (start, end, modules) in `bytes`.
+    levels: [Vec<(usize, usize, u64)>; 128],
+}
+
+/// Count generation 0's symbols for [`Plan::lengths`].
+pub fn histogram(input: &File, al: &Alphabet) -> Result<([u64; 128], u64), Error> {
+    let mut hist = [0u64; 128];
+    let mut other = 0;
+    let mut rd = PosReader::new(input, 1 << 16, false);
+    while let Some((key, _, _)) = rd
+        .next_module(al)
+        .map_err(|e| Error::io("temporary file", "cannot read", e))?
+    {
+        match hist.get_mut(key as usize) {
+            Some(h) => *h += 1,
+            None => other += 1,
+        }
+    }
+    Ok((hist, other))
+}
+
+/// Check the generation lengths against `--max-length` (bytes: each module
+/// of an intermediate generation is one byte).
+pub fn check_limits(lengths: &[u64], limits: Limits) -> Result<(), Error> {
+    for &n in lengths {
+        if n > limits.modules {
+            return Err(Error::new(format!(
+                "the string grew past --max-length ({} modules)",
+                limits.modules
+            )));
+        }
+        if n > limits.bytes {
+            return Err(Error::new(format!(
+                "the string grew past --max-length ({} bytes)",
+                limits.bytes
+            )));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,94 @@
+//! The depth-first expansion of D0L systems (src/dfs.rs) must print exactly
+//! what the step-by-step engine prints, and report the same lengths.
+
+use std::process::Command;
+
+const BIN: &str = env!("CARGO_BIN_EXE_lsgen");
+
+fn run(src: &str, args: &[&str]) -> (String, String, i32) {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("p.ls");
+    std::fs::write(&p, src).unwrap();
+    let out = Command::new(BIN).args(args).arg(&p).output().unwrap();
+    (
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+        out.status.code().unwrap_or(-1),
+    )
+}
+
+/// The same system, forced onto the step-by-step engine by a context
+/// production for a symbol that never occurs.
+fn stepwise(src: &str) -> String {
+    src.replacen(
+        "productions:\n",
+        "productions:\n\u{2603} < \u{2603} -> \u{2603}\n",
+        1,
+    )
+}
+
+fn without_seed_line(s: &str) -> String {
+    s.lines()
+        .filter(|l| !l.starts_with("lsgen: seed"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[test]
+fn depth_first_equals_stepwise_on_the_d0l_examples() {
+    for (name, n) in [
+        ("koch_snowflake", "6"),
+        ("dragon_curve", "12"),
+        ("plant_a", "4"),
+        ("plant_d", "7"),
+        ("plant_f", "5"),
+        ("sierpinski_gasket", "7"),
+        ("hilbert3d", "3"),
+        ("algae", "20"),
+    ] {
+        let src = std::fs::read_to_string(format!("examples/{name}.ls")).unwrap();
+        let (a, ea, ca) = run(&src, &["-n", n, "-v"]);
+        let (b, eb, cb) = run(&stepwise(&src), &["-n", n, "-v"]);
+        assert_eq!((ca, cb), (0, 0), "{name}: {ea}{eb}");
+        assert!(a == b, "{name}: outputs differ");
+        assert_eq!(
+            without_seed_line(&ea),
+            without_seed_line(&eb),
+            "{name}: lengths"
+        );
+    }
+}
+
+#[test]
+fn homomorphism_deletion_unicode_and_parameters_in_the_axiom() {
+    let src =
+        "productions:\nF -> F+G\nG -> \nhomomorphism:\n+ -> Ω(1)\nF -> FF\naxiom: F A(2) ΩF[F]\n";
+    for n in ["0", "1", "2", "5"] {
+        let (a, ea, _) = run(src, &["-n", n]);
+        let (b, eb, _) = run(&stepwise(src), &["-n", n]);
+        assert_eq!(a, b, "n={n}: {ea}{eb}");
+    }
+    let (a, _, _) = run(src, &["-n", "1"]);
+    assert_eq!(a, "FFΩ(1)GA(2)ΩFFΩ(1)G[FFΩ(1)G]\n");
+}
+
+#[test]
+fn many_steps_of_a_non_growing_system() {
+    let src = "productions:\nA -> B\nB -> CA\nC -> \naxiom: A[B]\n";
+    for n in ["1000", "1001", "66000"] {
+        let (a, _, _) = run(src, &["-n", n]);
+        let (b, _, _) = run(&stepwise(src), &["-n", n]);
+        assert_eq!(a, b, "n={n}");
+    }
+}
+
+#[test]
+fn max_length_is_checked_before_writing() {
+    let (out, err, code) = run(
+        "productions:\nF -> FF\naxiom: F\n",
+        &["-n", "40", "--max-length", "1M"],
+    );
+    assert_eq!(code, 1);
+    assert!(out.is_empty());
+    assert!(err.contains("--max-length (1000000 modules)"), "{err}");
+}
