@@ -489,7 +489,7 @@ mod tests {
         assert_eq!(m[100_000], ('[', vec![]));
         assert_eq!(m.last().unwrap(), &('G', vec![1.0]));
         let e = read(&format!("{}]", "F".repeat(100_000))).unwrap_err();
-        assert_eq!(e.location.unwrap().col, 100_001);
+        assert_eq!(e.location.clone().unwrap().col, 100_001);
         let e = read("[[F]").unwrap_err();
         assert!(e.message.contains("1:1 is never closed"), "{}", e.message);
     }
@@ -497,7 +497,7 @@ mod tests {
     #[test]
     fn errors_are_located() {
         let e = read("F\nFF)").unwrap_err();
-        let l = e.location.unwrap();
+        let l = e.location.clone().unwrap();
         assert_eq!((l.line, l.col), (2, 3));
         assert!(e.message.contains("reserved"));
         assert_eq!(l.snippet, "FF)");
@@ -510,7 +510,7 @@ mod tests {
         let e = read("F(1/0)").unwrap_err();
         assert_eq!(e.message, "division by zero");
         let e = read("F(x)").unwrap_err();
-        let l = e.location.unwrap();
+        let l = e.location.clone().unwrap();
         assert_eq!((l.line, l.col), (1, 3));
         let e = read("F /* open").unwrap_err();
         assert!(e.message.contains("unterminated comment"));
@@ -528,6 +528,6 @@ mod tests {
         // The second F is read, then the bad byte is met looking for `(`.
         let e = r.next(&mut al, &mut p, &mut rng).unwrap_err();
         assert_eq!(e.message, "invalid UTF-8");
-        assert_eq!(e.location.unwrap().col, 3);
+        assert_eq!(e.location.clone().unwrap().col, 3);
     }
 }

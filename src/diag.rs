@@ -100,39 +100,55 @@ pub enum Kind {
     BrokenPipe,
 }
 
+/// An error, boxed so that `Result<T, Error>` stays two words wide in the
+/// hot loop; its fields are reached through `Deref`.
 #[derive(Debug)]
-pub struct Error {
+pub struct Error(Box<ErrorInner>);
+
+#[derive(Debug)]
+pub struct ErrorInner {
     pub kind: Kind,
     pub message: String,
-    pub location: Option<Box<Location>>,
+    pub location: Option<Location>,
     /// Context without a line, e.g. the file name of an I/O error.
     pub subject: Option<String>,
+}
+
+impl std::ops::Deref for Error {
+    type Target = ErrorInner;
+    fn deref(&self) -> &ErrorInner {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Error {
+    fn deref_mut(&mut self) -> &mut ErrorInner {
+        &mut self.0
+    }
 }
 
 pub type Result<T> = std::result::Result<T, Error>;
 
 impl Error {
     pub fn new(message: impl Into<String>) -> Error {
-        Error {
+        Error(Box::new(ErrorInner {
             kind: Kind::Failure,
             message: message.into(),
             location: None,
             subject: None,
-        }
+        }))
     }
 
     pub fn at(location: Location, message: impl Into<String>) -> Error {
-        Error {
-            location: Some(Box::new(location)),
-            ..Error::new(message)
-        }
+        let mut e = Error::new(message);
+        e.location = Some(location);
+        e
     }
 
     pub fn usage(message: impl Into<String>) -> Error {
-        Error {
-            kind: Kind::Usage,
-            ..Error::new(message)
-        }
+        let mut e = Error::new(message);
+        e.kind = Kind::Usage;
+        e
     }
 
     /// An I/O error about `subject` (a file name, "standard output", ...).
@@ -142,12 +158,12 @@ impl Error {
         } else {
             Kind::Failure
         };
-        Error {
+        Error(Box::new(ErrorInner {
             kind,
             message: format!("{what}: {}", io_message(&e)),
             location: None,
             subject: Some(subject.into()),
-        }
+        }))
     }
 
     pub fn exit_code(&self) -> i32 {

@@ -421,9 +421,15 @@ impl<'t> FastSucc<'t> {
 }
 
 impl<'t> ByteTable<'t> {
-    fn new(table: &'t Table, text: bool) -> Self {
+    /// `brackets`: may `[` and `]` be copied here? Not when the step tracks
+    /// branches (left contexts) or writes a bracket index.
+    fn new(table: &'t Table, text: bool, brackets: bool) -> Self {
         let mut succ: [Option<FastSucc>; 128] =
             std::array::from_fn(|b| Some(FastSucc::new(&ASCII[b..b + 1], 1)));
+        if !brackets {
+            succ[OPEN as usize] = None;
+            succ[CLOSE as usize] = None;
+        }
         for (b, slot) in succ.iter_mut().enumerate() {
             let Some(kr) = table.get(b as u32) else {
                 continue;
@@ -433,10 +439,9 @@ impl<'t> ByteTable<'t> {
                 Some(p) if kr.context.is_empty() && !kr.free_stochastic && p.cond.is_none() => {
                     match p.succ.as_slice() {
                         [] => Some(FastSucc::new(&[], 0)),
-                        [Item::Const(c)] => Some(FastSucc::new(
-                            if text { &c.text } else { &c.bin },
-                            c.modules,
-                        )),
+                        [Item::Const(c)] if brackets || c.brackets.is_empty() => Some(
+                            FastSucc::new(if text { &c.text } else { &c.bin }, c.modules),
+                        ),
                         _ => None,
                     }
                 }
@@ -446,18 +451,51 @@ impl<'t> ByteTable<'t> {
         ByteTable { succ }
     }
 
-    /// Rewrite the leading bytes of `input` it can handle; returns how many.
+    /// Rewrite the leading bytes of `input` it can handle; returns how many
+    /// bytes it used. Modules that left contexts consider are recorded in
+    /// `left`; brackets open and close its levels and the output's bracket
+    /// index (`indexed`: the input's `[` carry 8 index bytes).
     #[inline]
-    fn run(&self, input: &[u8], out: &mut Out) -> usize {
-        let mut n = 0;
-        let buf = &mut out.buf;
-        for &b in input {
+    fn run(
+        &self,
+        input: &[u8],
+        out: &mut Out,
+        mut left: Option<&mut LeftContext>,
+        al: &Alphabet,
+        indexed: bool,
+    ) -> Result<usize, Error> {
+        let mut i = 0;
+        while i < input.len() {
+            let b = input[i];
             if b >= 0x80 {
                 break;
             }
             let Some(f) = &self.succ[b as usize] else {
+                if b == b'[' {
+                    let n = if indexed { 9 } else { 1 };
+                    if i + n > input.len() {
+                        break;
+                    }
+                    out.modules += 1;
+                    out.open();
+                    if let Some(left) = &mut left {
+                        left.open();
+                    }
+                    i += n;
+                    continue;
+                }
+                if b == b']' {
+                    out.modules += 1;
+                    out.close()?;
+                    if let Some(left) = &mut left {
+                        left.close();
+                    }
+                    i += 1;
+                    continue;
+                }
                 break;
             };
+            let buf = &mut out.buf;
             if f.len <= 16 {
                 let at = buf.len();
                 buf.extend_from_slice(&f.small);
@@ -466,12 +504,17 @@ impl<'t> ByteTable<'t> {
                 buf.extend_from_slice(f.long);
             }
             out.modules += f.modules;
-            n += 1;
-            if buf.len() >= OUT_CHUNK {
+            if let Some(left) = &mut left {
+                if !al.ignored(b as u32) {
+                    left.push(b as u32, &[], 0);
+                }
+            }
+            i += 1;
+            if out.buf.len() >= OUT_CHUNK {
                 break;
             }
         }
-        n
+        Ok(i)
     }
 }
 
@@ -542,6 +585,13 @@ impl LeftContext {
 
     fn close(&mut self) {
         self.depth = self.depth.saturating_sub(1);
+    }
+
+    /// The nearest considered module to the left, if any.
+    #[inline(always)]
+    fn last_key(&self) -> Option<u32> {
+        let d = self.depth;
+        (self.len[d] > 0).then(|| self.keys[d * self.k + self.head[d]])
     }
 
     #[inline]
@@ -767,12 +817,19 @@ impl<'a> Deriver<'a> {
         };
         let mut rd = PosReader::new(input, 1 << 20, indexed);
         let read_err = |e| Error::io("temporary file", "cannot read", e);
-        let fast = (!indexed && !table.has_context() && !table.check_balance)
-            .then(|| ByteTable::new(table, out.text));
+        // Bytes that need no decision take the table; with contexts, keys
+        // that have context productions and brackets still go the long way.
+        let fast = (!table.check_balance).then(|| {
+            ByteTable::new(
+                table,
+                out.text,
+                !indexed && st.left.is_none() && out.indexed.is_none(),
+            )
+        });
         loop {
             if let Some(fast) = &fast {
                 let window = rd.window().map_err(read_err)?;
-                let used = fast.run(window, out);
+                let used = fast.run(window, out, st.left.as_mut(), &self.alphabet, indexed)?;
                 rd.advance(used);
                 out.maybe_flush()?;
                 if used > 0 {
@@ -882,6 +939,31 @@ impl<'a> Deriver<'a> {
         Ok(true)
     }
 
+    /// A cheap first look: do the nearest context modules already differ?
+    /// (Fills the right-context cache on first use for this module.)
+    #[inline(always)]
+    fn surely_not(&self, p: &Production, end_off: u64, st: &mut StepState) -> Result<bool, Error> {
+        if let (Some(pat), Some(left)) = (p.left.last(), &st.left) {
+            if left.last_key() != Some(pat.key) {
+                return Ok(true);
+            }
+        }
+        if p.right_simple {
+            if st.right.at != end_off {
+                let peek = st.peek.as_mut().unwrap();
+                st.right
+                    .fill(peek, &self.alphabet, end_off, st.max_right_simple)
+                    .map_err(|e| Error::io("temporary file", "cannot read", e))?;
+            }
+            if let (Some(RPat::Module(pat)), first) = (p.right.first(), st.right.keys.first()) {
+                if first != Some(&pat.key) {
+                    return Ok(true);
+                }
+            }
+        }
+        Ok(false)
+    }
+
     /// Does production `p` match here (contexts and condition)?
     #[inline]
     fn matches(
@@ -938,7 +1020,11 @@ impl<'a> Deriver<'a> {
     ) -> Result<Option<u32>, Error> {
         if !stochastic {
             for &pi in list {
-                if self.matches(&table.prods[pi as usize], end_off, st, pass)? {
+                let p = &table.prods[pi as usize];
+                if self.surely_not(p, end_off, st)? {
+                    continue;
+                }
+                if self.matches(p, end_off, st, pass)? {
                     return Ok(Some(pi));
                 }
             }

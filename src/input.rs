@@ -293,7 +293,7 @@ mod tests {
             "t.ls",
         );
         let e = split_header(&mut i).err().unwrap();
-        let l = e.location.unwrap();
+        let l = e.location.clone().unwrap();
         assert_eq!((l.line, l.col), (2, 6));
         assert_eq!(e.message, "invalid UTF-8");
     }
