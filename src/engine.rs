@@ -1036,7 +1036,7 @@ impl<'a> Deriver<'a> {
         let mut total = 0.0;
         for &pi in list {
             let p = &table.prods[pi as usize];
-            if !self.matches(p, end_off, st, pass)? {
+            if self.surely_not(p, end_off, st)? || !self.matches(p, end_off, st, pass)? {
                 continue;
             }
             let w = match &p.prob {
