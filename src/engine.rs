@@ -87,18 +87,28 @@ impl<'w> Out<'w> {
     #[inline]
     fn close(&mut self) -> Result<(), Error> {
         self.buf.push(b']');
-        if let Some(file) = &self.indexed {
-            let Some(at) = self.opens.pop() else {
-                return Ok(()); // unbalanced: reported by the balance check
-            };
-            let end = (self.written + self.buf.len() as u64).to_le_bytes();
-            if at >= self.written {
-                let i = (at - self.written) as usize + 1;
-                self.buf[i..i + 8].copy_from_slice(&end);
-            } else {
-                file.write_all_at(&end, at + 1)
-                    .map_err(|e| Error::io(self.name, "cannot write", e))?;
-            }
+        if self.indexed.is_some() {
+            let end = self.written + self.buf.len() as u64;
+            self.patch(end)?;
+        }
+        Ok(())
+    }
+
+    /// The `]` ending just before offset `end` closes the last open `[`:
+    /// write `end` into that `[`'s index bytes, in the buffer or, once
+    /// flushed, in the file.
+    #[inline]
+    fn patch(&mut self, end: u64) -> Result<(), Error> {
+        let Some(at) = self.opens.pop() else {
+            return Ok(()); // unbalanced: reported by the balance check
+        };
+        let end = end.to_le_bytes();
+        if at >= self.written {
+            let i = (at - self.written) as usize + 1;
+            self.buf[i..i + 8].copy_from_slice(&end);
+        } else if let Some(file) = &self.indexed {
+            file.write_all_at(&end, at + 1)
+                .map_err(|e| Error::io(self.name, "cannot write", e))?;
         }
         Ok(())
     }
@@ -177,18 +187,8 @@ impl<'w> Out<'w> {
                 let abs = self.written + (base + at as usize) as u64;
                 if open {
                     self.opens.push(abs);
-                } else if let Some(o) = self.opens.pop() {
-                    let end = (abs + 1).to_le_bytes();
-                    if o >= self.written {
-                        let i = (o - self.written) as usize + 1;
-                        self.buf[i..i + 8].copy_from_slice(&end);
-                    } else {
-                        self.indexed
-                            .as_ref()
-                            .unwrap()
-                            .write_all_at(&end, o + 1)
-                            .map_err(|e| Error::io(self.name, "cannot write", e))?;
-                    }
+                } else {
+                    self.patch(abs + 1)?;
                 }
             }
         }
