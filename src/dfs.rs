@@ -15,7 +15,7 @@
 //! programming, for `--verbose` and `--max-length`.
 
 use crate::diag::Error;
-use crate::engine::{Limits, Out, PosReader};
+use crate::engine::{Limits, Out, PosReader, ASCII};
 use crate::rules::{Alphabet, Item, Table};
 use std::fs::File;
 
@@ -36,16 +36,6 @@ pub struct Plan<'t> {
     /// itself), with its module count.
     leaf: [(&'t [u8], u64); 128],
 }
-
-static ASCII: [u8; 128] = {
-    let mut t = [0u8; 128];
-    let mut i = 0;
-    while i < 128 {
-        t[i] = i as u8;
-        i += 1;
-    }
-    t
-};
 
 /// A successor known at load time: binary, text, modules.
 type Run<'t> = (&'t [u8], &'t [u8], u64);

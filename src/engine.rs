@@ -376,7 +376,8 @@ impl<'f> PosReader<'f> {
     }
 }
 
-static ASCII: [u8; 128] = {
+/// Each ASCII byte, so a symbol can be copied as a one-byte slice.
+pub(crate) static ASCII: [u8; 128] = {
     let mut t = [0u8; 128];
     let mut i = 0;
     while i < 128 {
@@ -769,6 +770,24 @@ struct StepState<'f> {
     last_closer: Option<u32>,
 }
 
+impl StepState<'_> {
+    /// The next considered modules right of the module ending at `end_off`
+    /// (read once per module).
+    #[inline]
+    fn right_of(&mut self, end_off: u64, al: &Alphabet) -> Result<&RightCache, Error> {
+        if self.right.at != end_off {
+            let peek = self
+                .peek
+                .as_mut()
+                .expect("a look-ahead reader for right contexts");
+            self.right
+                .fill(peek, al, end_off, self.max_right_simple)
+                .map_err(|e| Error::io("temporary file", "cannot read", e))?;
+        }
+        Ok(&self.right)
+    }
+}
+
 impl<'a> Deriver<'a> {
     pub fn new(alphabet: Alphabet, rng: Random, origin: Origin<'a>) -> Self {
         Deriver {
@@ -949,13 +968,8 @@ impl<'a> Deriver<'a> {
             }
         }
         if p.right_simple {
-            if st.right.at != end_off {
-                let peek = st.peek.as_mut().unwrap();
-                st.right
-                    .fill(peek, &self.alphabet, end_off, st.max_right_simple)
-                    .map_err(|e| Error::io("temporary file", "cannot read", e))?;
-            }
-            if let (Some(RPat::Module(pat)), first) = (p.right.first(), st.right.keys.first()) {
+            let right = st.right_of(end_off, &self.alphabet)?;
+            if let (Some(RPat::Module(pat)), first) = (p.right.first(), right.keys.first()) {
                 if first != Some(&pat.key) {
                     return Ok(true);
                 }
@@ -983,13 +997,8 @@ impl<'a> Deriver<'a> {
             return Ok(false);
         }
         if p.right_simple {
-            if st.right.at != end_off {
-                let peek = st.peek.as_mut().unwrap();
-                st.right
-                    .fill(peek, &self.alphabet, end_off, st.max_right_simple)
-                    .map_err(|e| Error::io("temporary file", "cannot read", e))?;
-            }
-            if !st.right.matches(&p.right, &self.alphabet, &mut self.slots) {
+            let right = st.right_of(end_off, &self.alphabet)?;
+            if !right.matches(&p.right, &self.alphabet, &mut self.slots) {
                 return Ok(false);
             }
         } else if !p.right.is_empty() {
