@@ -129,13 +129,12 @@ pub fn main_exit_code() -> i32 {
             .unwrap_or_default();
         eprintln!("lsgen: internal error: {msg}{at} (please report this)");
     }));
-    std::thread::Builder::new()
+    let worker = std::thread::Builder::new()
         .name("lsgen".into())
         .stack_size(256 << 20)
-        .spawn(main_on_thread)
-        .ok()
-        .and_then(|t| t.join().ok())
-        .unwrap_or(70)
+        .spawn(main_on_thread);
+    crate::output::leave_termination_signals_to_other_threads();
+    worker.ok().and_then(|t| t.join().ok()).unwrap_or(70)
 }
 
 fn main_on_thread() -> i32 {

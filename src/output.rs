@@ -97,7 +97,9 @@ impl Output {
                 .and_then(|_| file.sync_all())
                 .map_err(|e| Error::io(name.clone(), "cannot write", e))?;
         }
-        let result = Self::put_in_place(file, &dir, &path, &name);
+        // Ctrl-C (or SIGTERM) while the file gets its name would leave a
+        // named temp file behind: hold such signals until it is in place.
+        let result = with_signals_held(|| Self::put_in_place(file, &dir, &path, &name));
         // Make the rename durable.
         if let Ok(d) = File::open(&dir) {
             let _ = d.sync_all();
@@ -168,4 +170,39 @@ fn copy_into_place(mut file: File, dir: &Path, path: &Path) -> io::Result<()> {
         .set_permissions(file.metadata()?.permissions())?;
     tmp.as_file().sync_all()?;
     tmp.persist(path).map(|_| ()).map_err(|e| e.error)
+}
+
+/// The signals that end a run from outside (SIGKILL aside).
+fn termination_signals() -> libc::sigset_t {
+    // SAFETY: sigemptyset/sigaddset only write the set we own.
+    unsafe {
+        let mut set: libc::sigset_t = std::mem::zeroed();
+        libc::sigemptyset(&mut set);
+        for s in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP, libc::SIGQUIT] {
+            libc::sigaddset(&mut set, s);
+        }
+        set
+    }
+}
+
+/// Run `f` with termination signals held for this thread; one that arrives
+/// meanwhile takes effect when `f` is done.
+fn with_signals_held<T>(f: impl FnOnce() -> T) -> T {
+    let set = termination_signals();
+    // SAFETY: pthread_sigmask changes this thread's mask only; the old mask
+    // is restored below.
+    let mut old: libc::sigset_t = unsafe { std::mem::zeroed() };
+    unsafe { libc::pthread_sigmask(libc::SIG_BLOCK, &set, &mut old) };
+    let r = f();
+    unsafe { libc::pthread_sigmask(libc::SIG_SETMASK, &old, std::ptr::null_mut()) };
+    r
+}
+
+/// Let termination signals reach only the other threads (the worker): the
+/// main thread, which only waits, must not take them while the worker
+/// holds them.
+pub fn leave_termination_signals_to_other_threads() {
+    let set = termination_signals();
+    // SAFETY: changes this thread's signal mask only.
+    unsafe { libc::pthread_sigmask(libc::SIG_BLOCK, &set, std::ptr::null_mut()) };
 }

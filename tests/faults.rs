@@ -212,7 +212,6 @@ fn output_on_a_file_system_without_o_tmpfile() {
 /// Without O_TMPFILE the complete output is copied into a named temp file
 /// at the end; SIGINT during that copy must not leave it behind.
 #[test]
-#[ignore = "lsgen bug: without O_TMPFILE, SIGINT (or SIGTERM; SIGKILL inevitably) during the final copy leaves a partial `.lsgen-XXXXXX` file (mode 0600) next to the output; lsgen has no signal handler to remove it"]
 fn sigint_during_the_final_copy_without_o_tmpfile() {
     let shim_dir = tempdir();
     let Some(shim) = build_no_tmpfile_shim(shim_dir.path()) else {
