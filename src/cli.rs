@@ -465,16 +465,16 @@ fn derive(
     );
     if let (Some(plan), Some(src)) = (plan, &cur) {
         if settings.verbose || limits.modules != u64::MAX || limits.bytes != u64::MAX {
-            let (hist, other) = crate::dfs::histogram(src, &d.alphabet)?;
-            let lengths = plan.lengths(&hist, other, steps);
-            crate::dfs::check_limits(&lengths, limits)?;
+            let census = crate::dfs::census(src, &d.alphabet)?;
+            let lengths = plan.lengths(&census, steps);
+            crate::dfs::check_limits(&lengths, limits, !hom)?;
             let shown = if hom {
                 lengths.len()
             } else {
                 lengths.len() - 1
             };
-            for (i, n) in lengths[..shown].iter().enumerate() {
-                verbose(&Pass::Step(i as u64 + 1).to_string(), (*n, *n));
+            for (i, &len) in lengths[..shown].iter().enumerate() {
+                verbose(&Pass::Step(i as u64 + 1).to_string(), len);
             }
         }
         let mut none = None;

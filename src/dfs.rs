@@ -96,9 +96,15 @@ impl<'t> Plan<'t> {
         Some(Plan { succ, leaf })
     }
 
-    /// Exact length (modules) of each generation 1..=steps, from how many
-    /// of each symbol generation 0 holds (`other`: modules with keys >= 128).
-    pub fn lengths(&self, hist: &[u64; 128], other: u64, steps: u64) -> Vec<u64> {
+    /// Exact length of each generation 1..=steps, as (modules, bytes in the
+    /// binary format), from generation 0's census. Modules with keys >= 128
+    /// have no rule here, so they pass through every step unchanged.
+    pub fn lengths(&self, census: &Census, steps: u64) -> Vec<(u64, u64)> {
+        let Census {
+            hist,
+            other,
+            other_bytes,
+        } = *census;
         let mut cnt = [1u128; 128];
         let mut out = Vec::with_capacity(steps as usize);
         for _ in 0..steps {
@@ -110,10 +116,15 @@ impl<'t> Plan<'t> {
                         .fold(0u128, |acc, &c| acc.saturating_add(prev[c as usize]));
                 }
             }
-            let total = (0..128).fold(other as u128, |acc, b| {
+            // ASCII modules are one byte each.
+            let ascii = (0..128).fold(0u128, |acc, b| {
                 acc.saturating_add((hist[b] as u128).saturating_mul(cnt[b]))
             });
-            out.push(u64::try_from(total).unwrap_or(u64::MAX));
+            let wide = |x: u128| u64::try_from(x).unwrap_or(u64::MAX);
+            out.push((
+                wide(ascii.saturating_add(other as u128)),
+                wide(ascii.saturating_add(other_bytes as u128)),
+            ));
         }
         out
     }
@@ -253,34 +264,54 @@ struct Cache {
     levels: [Vec<(usize, usize, u64)>; 128],
 }
 
-/// Count generation 0's symbols for [`Plan::lengths`].
-pub fn histogram(input: &File, al: &Alphabet) -> Result<([u64; 128], u64), Error> {
-    let mut hist = [0u64; 128];
-    let mut other = 0;
+/// What generation 0 holds: how many of each ASCII symbol, and how many
+/// other modules (with their size in bytes).
+pub struct Census {
+    pub hist: [u64; 128],
+    pub other: u64,
+    pub other_bytes: u64,
+}
+
+/// Count generation 0's modules for [`Plan::lengths`].
+pub fn census(input: &File, al: &Alphabet) -> Result<Census, Error> {
+    let mut c = Census {
+        hist: [0; 128],
+        other: 0,
+        other_bytes: 0,
+    };
     let mut rd = PosReader::new(input, 1 << 16, false);
-    while let Some((key, _, _)) = rd
+    while let Some((key, s, e)) = rd
         .next_module(al)
         .map_err(|e| Error::io("temporary file", "cannot read", e))?
     {
-        match hist.get_mut(key as usize) {
+        match c.hist.get_mut(key as usize) {
             Some(h) => *h += 1,
-            None => other += 1,
+            None => {
+                c.other += 1;
+                c.other_bytes += (e - s) as u64;
+            }
         }
     }
-    Ok((hist, other))
+    Ok(c)
 }
 
-/// Check the generation lengths against `--max-length` (bytes: each module
-/// of an intermediate generation is one byte).
-pub fn check_limits(lengths: &[u64], limits: Limits) -> Result<(), Error> {
-    for &n in lengths {
+/// Check the generation lengths against `--max-length`, as the step engine
+/// would: modules for every generation; bytes for those written in binary
+/// (all but the last, which is text, unless a homomorphism follows it; the
+/// text is checked as it is written).
+pub fn check_limits(
+    lengths: &[(u64, u64)],
+    limits: Limits,
+    last_is_text: bool,
+) -> Result<(), Error> {
+    for (i, &(n, bytes)) in lengths.iter().enumerate() {
         if n > limits.modules {
             return Err(Error::new(format!(
                 "the string grew past --max-length ({} modules)",
                 limits.modules
             )));
         }
-        if n > limits.bytes {
+        if bytes > limits.bytes && !(last_is_text && i + 1 == lengths.len()) {
             return Err(Error::new(format!(
                 "the string grew past --max-length ({} bytes)",
                 limits.bytes

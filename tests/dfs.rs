@@ -92,3 +92,22 @@ fn max_length_is_checked_before_writing() {
     assert!(out.is_empty());
     assert!(err.contains("--max-length (1000000 modules)"), "{err}");
 }
+
+#[test]
+fn lengths_and_byte_limits_count_wide_modules_as_the_step_engine_does() {
+    // Modules with parameters or non-ASCII symbols pass through unchanged
+    // but take several bytes each in the intermediate format.
+    let src = "productions:\nF -> GGGGGGGGGG\nG ->\naxiom:\nA(1)A(1)éA(1)A(1)A(1)F\n";
+    for args in [
+        &["-n", "2", "-v"][..],
+        &["-n", "2", "--max-length", "55B"],
+        &["-n", "2", "--max-length", "60B"],
+        &["-n", "2", "--max-length", "14"],
+        &["-n", "1", "--max-length", "20B", "--no-homomorphism"],
+    ] {
+        let (a, ea, ca) = run(src, args);
+        let (b, eb, cb) = run(&stepwise(src), args);
+        assert_eq!((a, ca), (b, cb), "{args:?}: {ea}{eb}");
+        assert_eq!(without_seed_line(&ea), without_seed_line(&eb), "{args:?}");
+    }
+}
