@@ -489,6 +489,18 @@ fn derive(
         return Ok(());
     }
 
+    // Deterministic context-free systems with parameters: depth first too,
+    // unless generation lengths are asked for (-v, --max-length).
+    let quiet = !settings.verbose && limits.modules == u64::MAX && limits.bytes == u64::MAX;
+    let plan = crate::dfs::ParamPlan::new(&productions, hom.then_some(&homomorphism), steps);
+    if let (Some(plan), Some(src), true) = (plan, &cur, quiet) {
+        let mut none = None;
+        let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
+        plan.expand(src, &d.alphabet, &d.origin, steps, &mut out)?;
+        out.finish()?;
+        return Ok(());
+    }
+
     // The steps, then the homomorphism.
     for i in 1..=passes {
         let (table, pass) = if i <= steps {

@@ -15,7 +15,7 @@
 //! programming, for `--verbose` and `--max-length`.
 
 use crate::diag::Error;
-use crate::engine::{Limits, Out, PosReader, ASCII};
+use crate::engine::{Limits, Origin, Out, Pass, PosReader, ASCII};
 use crate::rules::{Alphabet, Item, Table};
 use std::fs::File;
 
@@ -319,4 +319,231 @@ pub fn check_limits(
         }
     }
     Ok(())
+}
+
+/// Depth-first expansion of deterministic context-free systems with
+/// parameters and conditions (no context, no probability, no `ran`/`nran`):
+/// a module's future depends only on itself, so the final string is each
+/// axiom module's expansion in turn. One level of modules is kept per step
+/// on the current path; nothing goes through temporary files.
+///
+/// A module that no production matches stays the same for the remaining
+/// steps (same symbol, same parameters, same conditions), so it is written
+/// at once.
+pub struct ParamPlan<'t> {
+    prods: &'t Table,
+    hom: Option<&'t Table>,
+}
+
+/// Modules of one generation along the current path.
+#[derive(Default)]
+struct Level {
+    keys: Vec<u32>,
+    starts: Vec<usize>,
+    params: Vec<f64>,
+    pos: usize,
+}
+
+impl Level {
+    fn clear(&mut self) {
+        self.keys.clear();
+        self.starts.clear();
+        self.params.clear();
+        self.pos = 0;
+    }
+
+    fn push(&mut self, key: u32, params: &[f64]) {
+        self.keys.push(key);
+        self.starts.push(self.params.len());
+        self.params.extend_from_slice(params);
+    }
+
+    /// Append a run of modules given in binary form.
+    fn push_bin(&mut self, mut bin: &[u8], al: &Alphabet) {
+        while !bin.is_empty() {
+            let (key, kl) = crate::codec::get_key(bin);
+            let n = al.arity(key);
+            self.keys.push(key);
+            self.starts.push(self.params.len());
+            for i in 0..n {
+                self.params.push(crate::codec::get_param(&bin[kl..], i));
+            }
+            bin = &bin[kl + 8 * n..];
+        }
+    }
+
+    fn module(&self, i: usize, al: &Alphabet) -> (u32, &[f64]) {
+        let key = self.keys[i];
+        let s = self.starts[i];
+        (key, &self.params[s..s + al.arity(key)])
+    }
+}
+
+fn deterministic_free(t: &Table) -> bool {
+    !t.has_context()
+        && !t.check_balance
+        && t.prods.iter().all(|p| {
+            p.prob.is_none()
+                && !p.cond.as_ref().is_some_and(|c| c.uses_random())
+                && p.succ.iter().all(|i| match i {
+                    Item::Const(_) => true,
+                    Item::Module { params, .. } => params.iter().all(|c| !c.uses_random()),
+                })
+        })
+}
+
+impl<'t> ParamPlan<'t> {
+    pub fn new(prods: &'t Table, hom: Option<&'t Table>, steps: u64) -> Option<Self> {
+        let ok = (1..=MAX_STEPS).contains(&steps)
+            && deterministic_free(prods)
+            && hom.is_none_or(deterministic_free);
+        ok.then_some(ParamPlan { prods, hom })
+    }
+
+    /// The production applying to (key, params), if any.
+    fn choose(
+        table: &Table,
+        key: u32,
+        params: &[f64],
+        stack: &mut Vec<f64>,
+        rng: &mut crate::random::Random,
+        origin: &Origin,
+        pass: Pass,
+    ) -> Result<Option<u32>, Error> {
+        let Some(kr) = table.get(key) else {
+            return Ok(None);
+        };
+        for &pi in &kr.free {
+            match &table.prods[pi as usize].cond {
+                None => return Ok(Some(pi)),
+                Some(c) => match c.eval(params, stack, rng) {
+                    Ok(v) if v != 0.0 => return Ok(Some(pi)),
+                    Ok(_) => {}
+                    Err(e) => return Err(eval_error(origin, e, pass)),
+                },
+            }
+        }
+        Ok(None)
+    }
+
+    /// Write generation 0 (`input`) expanded by `steps` steps, homomorphism
+    /// applied, as text into `out`.
+    pub fn expand(
+        &self,
+        input: &File,
+        al: &Alphabet,
+        origin: &Origin,
+        steps: u64,
+        out: &mut Out,
+    ) -> Result<(), Error> {
+        let n = steps as usize;
+        let mut levels: Vec<Level> = (0..=n.min(64)).map(|_| Level::default()).collect();
+        let mut stack = Vec::new();
+        let mut vals = Vec::new();
+        let mut rng = crate::random::Random::new(0); // never drawn from
+        let mut rd = PosReader::new(input, 1 << 16, false);
+        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        while let Some((_, s, e)) = rd.next_module(al).map_err(read_err)? {
+            let bytes = rd.bytes(s, e);
+            levels[0].clear();
+            levels[0].push_bin(bytes, al);
+            let mut j = 0;
+            loop {
+                if levels[j].pos == levels[j].keys.len() {
+                    if j == 0 {
+                        break;
+                    }
+                    j -= 1;
+                    continue;
+                }
+                let i = levels[j].pos;
+                levels[j].pos += 1;
+                let chosen = if j == n {
+                    None
+                } else {
+                    let (k, p) = levels[j].module(i, al);
+                    let pass = Pass::Step(j as u64 + 1);
+                    Self::choose(self.prods, k, p, &mut stack, &mut rng, origin, pass)?
+                };
+                let Some(pi) = chosen else {
+                    let (k, p) = levels[j].module(i, al);
+                    self.leaf(k, p, al, origin, out, &mut stack, &mut vals, &mut rng)?;
+                    out.maybe_flush()?;
+                    continue;
+                };
+                // Evaluate the successor into the next level.
+                if levels.len() <= j + 1 {
+                    levels.push(Level::default());
+                }
+                let (cur, next) = levels.split_at_mut(j + 1);
+                let (_, p) = cur[j].module(i, al);
+                let next = &mut next[0];
+                next.clear();
+                let pass = Pass::Step(j as u64 + 1);
+                for item in &self.prods.prods[pi as usize].succ {
+                    match item {
+                        Item::Const(c) => next.push_bin(&c.bin, al),
+                        Item::Module { key, params } => {
+                            vals.clear();
+                            for c in params.iter() {
+                                vals.push(
+                                    c.eval(p, &mut stack, &mut rng)
+                                        .map_err(|e| eval_error(origin, e, pass))?,
+                                );
+                            }
+                            next.push(*key, &vals);
+                        }
+                    }
+                }
+                j += 1;
+            }
+        }
+        Ok(())
+    }
+
+    /// Write a module of the last generation, through the homomorphism.
+    #[allow(clippy::too_many_arguments)]
+    fn leaf(
+        &self,
+        key: u32,
+        params: &[f64],
+        al: &Alphabet,
+        origin: &Origin,
+        out: &mut Out,
+        stack: &mut Vec<f64>,
+        vals: &mut Vec<f64>,
+        rng: &mut crate::random::Random,
+    ) -> Result<(), Error> {
+        let pass = Pass::Homomorphism;
+        let chosen = match self.hom {
+            Some(h) => Self::choose(h, key, params, stack, rng, origin, pass)?.map(|pi| (h, pi)),
+            None => None,
+        };
+        let Some((h, pi)) = chosen else {
+            return out.module(key, params, al);
+        };
+        for item in &h.prods[pi as usize].succ {
+            match item {
+                Item::Const(c) => out.constant(c)?,
+                Item::Module { key, params: codes } => {
+                    vals.clear();
+                    for c in codes.iter() {
+                        vals.push(
+                            c.eval(params, stack, rng)
+                                .map_err(|e| eval_error(origin, e, pass))?,
+                        );
+                    }
+                    out.module(*key, vals, al)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn eval_error(origin: &Origin, e: crate::expr::EvalError, pass: Pass) -> Error {
+    Error::at(
+        origin.locate(e.span.0),
+        format!("{} (in {pass})", e.message),
+    )
 }

@@ -646,7 +646,7 @@ pub struct Origin<'a> {
 }
 
 impl Origin<'_> {
-    fn locate(&self, offset: usize) -> Location {
+    pub(crate) fn locate(&self, offset: usize) -> Location {
         Location::from_map(self.path, &CodeMap::new(self.header), offset)
     }
 }

@@ -111,3 +111,40 @@ fn lengths_and_byte_limits_count_wide_modules_as_the_step_engine_does() {
         assert_eq!(without_seed_line(&ea), without_seed_line(&eb), "{args:?}");
     }
 }
+
+#[test]
+fn parametric_systems_depth_first_equal_stepwise() {
+    for (name, n) in [
+        ("parametric", "6"),
+        ("monopodial_tree", "8"),
+        ("sympodial_tree", "8"),
+        ("ternary_tree", "5"),
+        ("row_of_trees", "6"),
+    ] {
+        let src = std::fs::read_to_string(format!("examples/{name}.ls")).unwrap();
+        let (a, ea, ca) = run(&src, &["-n", n]);
+        let (b, eb, cb) = run(&stepwise(&src), &["-n", n]);
+        assert_eq!((ca, cb), (0, 0), "{name}: {ea}{eb}");
+        assert!(a == b, "{name}: outputs differ");
+        // -v takes the step engine too.
+        let (c, _, _) = run(&src, &["-n", n, "-v"]);
+        assert!(a == c, "{name}: -v output differs");
+    }
+    // Conditions, a module no production matches, deletion, brackets,
+    // a parametric homomorphism.
+    let src = "define: R = 1.5\nproductions:\nA(x) : x < 3 -> A(x+1)[B(x*R)]\nA(x) : x >= 3 -> C(x)\nB(y) : y > 2 ->\nhomomorphism:\nC(z) -> F(z/2)\nB(y) -> G(y,y^2)\naxiom: A(0) D(7) A(2.5)\n";
+    for n in ["1", "2", "3", "4", "7"] {
+        let (a, ea, _) = run(src, &["-n", n]);
+        let (b, eb, _) = run(&stepwise(src), &["-n", n]);
+        assert_eq!(a, b, "n={n}: {ea}{eb}");
+    }
+}
+
+#[test]
+fn runtime_errors_in_depth_first_parametric_expansion() {
+    let src = "productions:\nA(x) -> A(x-1)B(1/x)\naxiom: A(2)\n";
+    let (out, err, code) = run(src, &["-n", "4"]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(err.contains("division by zero (in step 3)"), "{err}");
+    assert_eq!(err.lines().filter(|l| l.starts_with("lsgen: ")).count(), 1);
+}

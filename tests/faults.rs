@@ -14,11 +14,11 @@ use std::thread;
 use std::time::{Duration, Instant};
 
 /// `F -> FF`: generation n has 2^n modules.
-/// `F -> FF` with an always-true condition: the same strings, but it keeps the
-/// step-by-step engine with its temporary generations (a plain D0L system is
-/// expanded depth first, without them, and far faster than these tests stop
-/// it).
-const DOUBLING: &str = "productions:\nF : 1 -> FF\naxiom: F\n";
+/// `F -> FF`, plus a context production for a symbol that never occurs: the
+/// same strings, but it keeps the step-by-step engine with its temporary
+/// generations (deterministic context-free systems are expanded depth first,
+/// without them, and far faster than these tests stop them).
+const DOUBLING: &str = "productions:\nF -> FF\n\u{2603} < \u{2603} -> \u{2603}\naxiom: F\n";
 const OLD: &str = "old contents\n";
 
 fn write(dir: &Path, name: &str, text: impl AsRef<[u8]>) -> PathBuf {
