@@ -37,26 +37,6 @@ pub struct Plan<'t> {
     leaf: [(&'t [u8], u64); 128],
 }
 
-/// A successor known at load time: binary, text, modules.
-type Run<'t> = (&'t [u8], &'t [u8], u64);
-
-/// The successor of `key` if the table decides it by symbol alone:
-/// Some(None) no rule, Some(Some(run)) a constant run, None: not simple.
-fn simple(table: &Table, key: u32) -> Option<Option<Run<'_>>> {
-    let Some(kr) = table.get(key) else {
-        return Some(None);
-    };
-    let p = &table.prods[*kr.free.first()? as usize];
-    if !kr.context.is_empty() || kr.free_stochastic || p.cond.is_some() {
-        return None;
-    }
-    match p.succ.as_slice() {
-        [] => Some(Some((&[], &[], 0))),
-        [Item::Const(c)] => Some(Some((&c.bin, &c.text, c.modules))),
-        _ => None,
-    }
-}
-
 impl<'t> Plan<'t> {
     /// A plan for `steps` steps of `prods` then `hom` (if given), or None
     /// when the system needs the step-by-step engine.
@@ -82,14 +62,14 @@ impl<'t> Plan<'t> {
         let mut succ = [None; 128];
         let mut leaf: [(&[u8], u64); 128] = std::array::from_fn(|b| (&ASCII[b..b + 1], 1));
         for b in 0..128u32 {
-            match simple(prods, b)? {
+            match prods.fixed(b)? {
                 None => {}
-                Some((bin, _, _)) if bin.iter().all(|&x| x < 0x80) => succ[b as usize] = Some(bin),
+                Some(f) if f.bin.iter().all(|&x| x < 0x80) => succ[b as usize] = Some(f.bin),
                 Some(_) => return None,
             }
             if let Some(h) = hom {
-                if let Some((_, text, n)) = simple(h, b)? {
-                    leaf[b as usize] = (text, n);
+                if let Some(f) = h.fixed(b)? {
+                    leaf[b as usize] = (f.text, f.modules);
                 }
             }
         }
@@ -305,18 +285,13 @@ pub fn check_limits(
     last_is_text: bool,
 ) -> Result<(), Error> {
     for (i, &(n, bytes)) in lengths.iter().enumerate() {
-        if n > limits.modules {
-            return Err(Error::new(format!(
-                "the string grew past --max-length ({} modules)",
-                limits.modules
-            )));
-        }
-        if bytes > limits.bytes && !(last_is_text && i + 1 == lengths.len()) {
-            return Err(Error::new(format!(
-                "the string grew past --max-length ({} bytes)",
-                limits.bytes
-            )));
-        }
+        // The last text generation's bytes are checked as it is written.
+        let bytes = if last_is_text && i + 1 == lengths.len() {
+            0
+        } else {
+            bytes
+        };
+        limits.check(n, bytes)?;
     }
     Ok(())
 }

@@ -26,6 +26,25 @@ pub struct Limits {
     pub bytes: u64,
 }
 
+impl Limits {
+    /// Is a generation of `modules` modules and `bytes` bytes too long?
+    pub fn check(&self, modules: u64, bytes: u64) -> Result<(), Error> {
+        if modules > self.modules {
+            return Err(Error::new(format!(
+                "the string grew past --max-length ({} modules)",
+                self.modules
+            )));
+        }
+        if bytes > self.bytes {
+            return Err(Error::new(format!(
+                "the string grew past --max-length ({} bytes)",
+                self.bytes
+            )));
+        }
+        Ok(())
+    }
+}
+
 impl Default for Limits {
     fn default() -> Self {
         Limits {
@@ -220,18 +239,7 @@ impl<'w> Out<'w> {
 
     fn flush(&mut self) -> Result<(), Error> {
         self.written += self.buf.len() as u64;
-        if self.modules > self.limits.modules {
-            return Err(Error::new(format!(
-                "the string grew past --max-length ({} modules)",
-                self.limits.modules
-            )));
-        }
-        if self.written > self.limits.bytes {
-            return Err(Error::new(format!(
-                "the string grew past --max-length ({} bytes)",
-                self.limits.bytes
-            )));
-        }
+        self.limits.check(self.modules, self.written)?;
         self.w
             .write_all(&self.buf)
             .map_err(|e| Error::io(self.name, "cannot write", e))?;
@@ -432,19 +440,10 @@ impl<'t> ByteTable<'t> {
             succ[CLOSE as usize] = None;
         }
         for (b, slot) in succ.iter_mut().enumerate() {
-            let Some(kr) = table.get(b as u32) else {
-                continue;
-            };
-            let first = kr.free.first().map(|&i| &table.prods[i as usize]);
-            *slot = match first {
-                Some(p) if kr.context.is_empty() && !kr.free_stochastic && p.cond.is_none() => {
-                    match p.succ.as_slice() {
-                        [] => Some(FastSucc::new(&[], 0)),
-                        [Item::Const(c)] if brackets || c.brackets.is_empty() => Some(
-                            FastSucc::new(if text { &c.text } else { &c.bin }, c.modules),
-                        ),
-                        _ => None,
-                    }
+            *slot = match table.fixed(b as u32) {
+                Some(None) => continue, // no rule: copied
+                Some(Some(f)) if brackets || !f.brackets => {
+                    Some(FastSucc::new(if text { f.text } else { f.bin }, f.modules))
                 }
                 _ => None,
             };

@@ -250,7 +250,46 @@ pub struct Table {
     pub check_balance: bool,
 }
 
+/// A rewriting that needs no decision: the successor of a key whose first
+/// context-free production always applies (no context production for the
+/// key, no condition, no probability) and is known at load time.
+pub struct Fixed<'t> {
+    pub bin: &'t [u8],
+    pub text: &'t [u8],
+    pub modules: u64,
+    /// The successor holds `[` or `]`.
+    pub brackets: bool,
+}
+
 impl Table {
+    /// How `key` is rewritten if no decision is needed: `Some(None)` it has
+    /// no production (copied), `Some(Some(f))` always `f`, `None` it needs
+    /// the general path.
+    pub fn fixed(&self, key: u32) -> Option<Option<Fixed<'_>>> {
+        let Some(kr) = self.get(key) else {
+            return Some(None);
+        };
+        let p = &self.prods[*kr.free.first()? as usize];
+        if !kr.context.is_empty() || kr.free_stochastic || p.cond.is_some() {
+            return None;
+        }
+        match p.succ.as_slice() {
+            [] => Some(Some(Fixed {
+                bin: &[],
+                text: &[],
+                modules: 0,
+                brackets: false,
+            })),
+            [Item::Const(c)] => Some(Some(Fixed {
+                bin: &c.bin,
+                text: &c.text,
+                modules: c.modules,
+                brackets: !c.brackets.is_empty(),
+            })),
+            _ => None,
+        }
+    }
+
     #[inline]
     pub fn get(&self, key: u32) -> Option<&KeyRules> {
         self.by_key.get(key as usize).and_then(Option::as_ref)
