@@ -172,10 +172,7 @@ pub fn split_header(input: &mut Input) -> Result<Split, Error> {
         let mut stop = None;
         while i < lim {
             let b = avail[i];
-            if header.len() + i >= MAX_HEADER {
-                stop = Some(Stop::TooLong);
-                break;
-            }
+            let here = (line, col);
             let mut n = 1;
             match b {
                 b'\n' => {
@@ -227,6 +224,11 @@ pub fn split_header(input: &mut Input) -> Result<Split, Error> {
                         break;
                     }
                 }
+            }
+            if header.len() + i + n > MAX_HEADER {
+                (line, col) = here;
+                stop = Some(Stop::TooLong);
+                break;
             }
             // Columns count characters: every byte here starts one, except
             // the second of `/*` and `*/`.
@@ -365,6 +367,26 @@ mod tests {
         let l = e.location.clone().unwrap();
         assert_eq!((l.line, l.col), (1, 1));
         assert!(e.message.contains("NUL"), "{}", e.message);
+    }
+
+    #[test]
+    fn header_of_exactly_the_limit_is_accepted() {
+        let line = format!("/* {} */\n", ".".repeat(57));
+        assert_eq!(line.len(), 64);
+        let mut src = line.repeat(MAX_HEADER / 64).into_bytes();
+        src.extend_from_slice(b"axiom: F");
+        let mut i = Input::new(Box::new(io::Cursor::new(src.clone())), "t.ls");
+        let s = split_header(&mut i).unwrap();
+        assert_eq!(s.header.len(), MAX_HEADER);
+        assert_eq!((s.axiom_line, s.axiom_col), (MAX_HEADER / 64 + 1, 7));
+        // One byte more is refused, at the byte past the limit: the
+        // newline (column 64) of the last comment line.
+        src.insert(0, b' ');
+        let mut i = Input::new(Box::new(io::Cursor::new(src)), "t.ls");
+        let e = split_header(&mut i).err().unwrap();
+        let l = e.location.clone().unwrap();
+        assert_eq!((l.line, l.col), (MAX_HEADER / 64, 64));
+        assert!(e.message.contains("too long"), "{}", e.message);
     }
 
     #[test]
