@@ -30,6 +30,9 @@ pub struct AxiomReader<'a> {
     first_open: (usize, usize, u64),
     /// Where the last module started, for errors at the end of input.
     last: (usize, usize, u64),
+    /// Has a byte-order mark at the very start of the stream been looked
+    /// for (an `--axiom` file may start with one, as an .ls file may)?
+    started: bool,
 }
 
 impl<'a> AxiomReader<'a> {
@@ -51,7 +54,17 @@ impl<'a> AxiomReader<'a> {
             depth: 0,
             first_open: (0, 0, 0),
             last: (line, col, 0),
+            started: false,
         }
+    }
+
+    /// Skip a UTF-8 byte-order mark at the start of the stream.
+    fn start(&mut self) -> Result<(), Error> {
+        self.started = true;
+        if self.input.offset() == 0 && self.input.fill(3)?.starts_with(b"\xEF\xBB\xBF") {
+            self.input.consume(3);
+        }
+        Ok(())
     }
 
     /// An error at the current read position.
@@ -132,6 +145,12 @@ impl<'a> AxiomReader<'a> {
                                 self.line += 1;
                                 self.col = 1;
                             }
+                            [0, ..] => return Err(self.error_here(NUL_MSG)),
+                            [b, ..] if *b >= 0x80 => {
+                                // Checked as in the header: text only.
+                                let n = self.peek_char()?.map_or(1, |(_, n)| n);
+                                self.advance(n);
+                            }
                             _ => self.advance(1),
                         }
                     }
@@ -172,6 +191,9 @@ impl<'a> AxiomReader<'a> {
     /// run (possibly empty) before it is consumed. This is the fast path
     /// for long axioms; [`AxiomReader::next`] handles everything else.
     pub fn plain_run<T>(&mut self, f: impl FnOnce(&[u8]) -> T) -> Result<T, Error> {
+        if !self.started {
+            self.start()?;
+        }
         let base = self.input.offset();
         let avail = self.input.fill(64)?;
         let n = avail.len();
@@ -182,11 +204,11 @@ impl<'a> AxiomReader<'a> {
             }
             i += 1;
         }
-        // The last symbol may take parameters (`F(`, `F (`) or sit at the
-        // end of what is buffered: leave it to the general path.
-        if i > 0 && (i == n || avail[i] == b'(' || avail[i].is_ascii_whitespace()) {
-            i -= 1;
-        }
+        // The last symbol may take parameters, after blanks and comments
+        // too (`F(1)`, `F (1)`, `F/* c */(1)`, `F\u{a0}(1)`), or sit at the
+        // end of what is buffered: leave it to the general path, which
+        // applies the one rule of the language.
+        i = i.saturating_sub(1);
         let run = &avail[..i];
         // Brackets: stop before a `]` that closes nothing (reported by the
         // general path).
@@ -221,6 +243,9 @@ impl<'a> AxiomReader<'a> {
         rng: &mut Random,
     ) -> Result<Option<u32>, Error> {
         params.clear();
+        if !self.started {
+            self.start()?;
+        }
         if !self.skip_blank()? {
             if self.depth > 0 {
                 let (l, c, at) = self.first_open;
@@ -287,16 +312,22 @@ impl<'a> AxiomReader<'a> {
             .map_err(|m| self.error_at(at, line, col, m))
     }
 
-    /// Read `( p, p, ... )` at the read position.
+    /// Read `( p, p, ... )` at the read position. Comments inside are
+    /// skipped whole, so a `,` or `)` in them separates nothing.
     fn read_params(&mut self, params: &mut Vec<f64>, rng: &mut Random) -> Result<(), Error> {
         let (line, col, at) = (self.line, self.col, self.input.offset());
         self.advance(1);
         let mut depth = 0usize;
         self.text.clear();
         let mut piece_start = (self.line, self.col, self.input.offset());
+        // Where an open comment started.
+        let mut comment: Option<(usize, usize, u64)> = None;
         loop {
-            let avail = self.input.fill(1)?;
+            let avail = self.input.fill(2)?;
             let Some(&b) = avail.first() else {
+                if let Some((l, c, a)) = comment {
+                    return Err(self.error_at(a, l, c, "unterminated comment: `/*` without `*/`"));
+                }
                 return Err(self.error_at(
                     at,
                     line,
@@ -304,7 +335,28 @@ impl<'a> AxiomReader<'a> {
                     "unbalanced parentheses: `(` is never closed",
                 ));
             };
+            let next = avail.get(1).copied();
             match b {
+                0 => return Err(self.error_here(NUL_MSG)),
+                b'\n' => {
+                    // Kept, so that places in the text can be found again.
+                    self.text.push(b'\n');
+                    self.input.consume(1);
+                    self.line += 1;
+                    self.col = 1;
+                    continue;
+                }
+                b'*' if comment.is_some() && next == Some(b'/') => {
+                    comment = None;
+                    self.text.push(b'*');
+                    self.advance(1);
+                }
+                _ if comment.is_some() => {}
+                b'/' if self.comments && next == Some(b'*') => {
+                    comment = Some((self.line, self.col, self.input.offset()));
+                    self.text.push(b'/');
+                    self.advance(1);
+                }
                 b'(' => depth += 1,
                 b')' if depth > 0 => depth -= 1,
                 b')' | b',' if depth == 0 => {
@@ -317,15 +369,9 @@ impl<'a> AxiomReader<'a> {
                     piece_start = (self.line, self.col, self.input.offset());
                     continue;
                 }
-                b'\n' => {
-                    self.text.push(b' ');
-                    self.input.consume(1);
-                    self.line += 1;
-                    self.col = 1;
-                    continue;
-                }
                 _ => {}
             }
+            let b = self.input.available()[0];
             self.text.push(b);
             self.advance(1);
             if self.text.len() > MAX_PARAM_TEXT {
@@ -357,9 +403,9 @@ impl<'a> AxiomReader<'a> {
             Ok(r) => r.to_string(),
             Err(e) => {
                 let good = e.valid_up_to();
-                let prefix = String::from_utf8_lossy(&self.text[..good]);
-                let c = col + prefix.chars().count();
-                return Err(self.error_at(at + good as u64, line, c, "invalid UTF-8"));
+                let prefix = String::from_utf8_lossy(&self.text[..good]).into_owned();
+                let (l, c, _, _) = place(&prefix, good, line, col);
+                return Err(self.error_at(at + good as u64, l, c, "invalid UTF-8"));
             }
         };
         let t = raw.trim();
@@ -380,18 +426,18 @@ impl<'a> AxiomReader<'a> {
         }
         let lead = raw.len() - raw.trim_start().len();
         let located = |s: &mut Self, off: usize, msg: String| {
-            let prefix = &t[..off.min(t.len())];
-            let c = col + lead + prefix.chars().count();
-            let spot = at + (lead + off) as u64;
+            let k = lead + off.min(t.len());
+            let (l, c, text_line, caret) = place(&raw, k, line, col);
+            let spot = at + k as u64;
             if s.input.holds(spot) && s.input.holds(at) {
-                return s.error_at(spot, line, c, msg);
+                return s.error_at(spot, l, c, msg);
             }
             // The text has scrolled out of the buffer: quote the parameter.
-            let (snippet, caret_col) = excerpt(&raw, lead + prefix.chars().count() + 1);
+            let (snippet, caret_col) = excerpt(text_line, caret);
             Error::at(
                 Location {
                     path: s.input.name.clone(),
-                    line,
+                    line: l,
                     col: c,
                     snippet,
                     caret_col,
@@ -399,7 +445,9 @@ impl<'a> AxiomReader<'a> {
                 msg,
             )
         };
-        let e = match parse_expr(t) {
+        // The expression lexer ends a line at a newline; here newlines
+        // are blanks.
+        let e = match parse_expr(&t.replace('\n', " ")) {
             Ok(e) => e,
             Err(e) => return Err(located(self, e.span.0, e.message)),
         };
@@ -422,6 +470,29 @@ impl<'a> AxiomReader<'a> {
             Err(e) => Err(located(self, e.span.0, e.message)),
         }
     }
+}
+
+const NUL_MSG: &str = "NUL byte: the input is not text";
+
+/// Where byte `k` of a parameter's text is, the text starting at
+/// `line`:`col`: its line and column in the file, the text's line that
+/// holds it (without its line end) and the 1-based column in that.
+fn place(text: &str, k: usize, line: usize, col: usize) -> (usize, usize, &str, usize) {
+    let k = k.min(text.len());
+    let before = &text[..k];
+    let lines = before.matches('\n').count();
+    let from = before.rfind('\n').map_or(0, |i| i + 1);
+    let to = text[from..].find('\n').map_or(text.len(), |i| from + i);
+    let text_line = text[from..to].strip_suffix('\r').unwrap_or(&text[from..to]);
+    let in_line = text[from..k.min(from + text_line.len()).max(from)]
+        .chars()
+        .count();
+    let c = if lines == 0 {
+        col + in_line
+    } else {
+        in_line + 1
+    };
+    (line + lines, c, text_line, in_line + 1)
 }
 
 /// Bytes that are a whole module on their own when no `(` follows.
@@ -514,6 +585,89 @@ mod tests {
         assert_eq!((l.line, l.col), (1, 3));
         let e = read("F /* open").unwrap_err();
         assert!(e.message.contains("unterminated comment"));
+    }
+
+    #[test]
+    fn comments_in_parameter_lists() {
+        let m = read("F(1 /* a, b) */)G F(1, /* a,\n b */ 2) H(/*)*/3)").unwrap();
+        assert_eq!(
+            m,
+            vec![
+                ('F', vec![1.0]),
+                ('G', vec![]),
+                ('F', vec![1.0, 2.0]),
+                ('H', vec![3.0]),
+            ]
+        );
+        let e = read("F(1 /* open, 2)").unwrap_err();
+        assert!(e.message.contains("unterminated comment"), "{}", e.message);
+        assert_eq!(e.location.clone().unwrap().col, 5);
+    }
+
+    #[test]
+    fn parameters_attach_across_blanks_and_comments_anywhere() {
+        for src in [
+            "GF/* c */(1)",
+            "GF\u{a0}(1)",
+            "GF\u{b}(1)",
+            "GF \n (1)",
+            "GF(1)",
+        ] {
+            assert_eq!(
+                read(src).unwrap(),
+                vec![('G', vec![]), ('F', vec![1.0])],
+                "{src:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn multi_line_parameters_are_located() {
+        let e = read("F\nF(1 +\n  x)").unwrap_err();
+        let l = e.location.clone().unwrap();
+        assert_eq!((l.line, l.col), (3, 3));
+        assert_eq!((l.snippet.as_str(), l.caret_col), ("  x)", 3));
+        // The end of the text, just after the `+`.
+        let e = read("F(1,\r\n 2 /* c\n */ +)").unwrap_err();
+        let l = e.location.clone().unwrap();
+        assert_eq!((l.line, l.col), (3, 6));
+    }
+
+    #[test]
+    fn invalid_utf8_and_nul_in_comments() {
+        let input = Input::new(
+            Box::new(std::io::Cursor::new(b"F /* \xff */ G".to_vec())),
+            "a",
+        );
+        let consts = HashMap::new();
+        let mut r = AxiomReader::new(input, true, 1, 1, &consts);
+        let mut al = Alphabet::new(Filter::All);
+        let (mut p, mut rng) = (Vec::new(), Random::new(0));
+        let e = loop {
+            match r.next(&mut al, &mut p, &mut rng) {
+                Ok(_) => continue,
+                Err(e) => break e,
+            }
+        };
+        assert_eq!(e.message, "invalid UTF-8");
+        assert_eq!(e.location.clone().unwrap().col, 6);
+        let e = read("F /* \0 */").unwrap_err();
+        assert!(e.message.contains("NUL"), "{}", e.message);
+    }
+
+    #[test]
+    fn byte_order_mark_at_the_start_is_skipped() {
+        let input = Input::new(
+            Box::new(std::io::Cursor::new(b"\xEF\xBB\xBFF".to_vec())),
+            "a",
+        );
+        let consts = HashMap::new();
+        let mut r = AxiomReader::new(input, false, 1, 1, &consts);
+        let mut al = Alphabet::new(Filter::All);
+        let (mut p, mut rng) = (Vec::new(), Random::new(0));
+        let k = r.next(&mut al, &mut p, &mut rng).unwrap().unwrap();
+        assert_eq!(al.symbol(k), 'F');
+        assert!(r.next(&mut al, &mut p, &mut rng).unwrap().is_none());
     }
 
     #[test]

@@ -36,6 +36,9 @@ impl<'a> CodeMap<'a> {
             .map_or(self.text.len(), |e| start + e);
         let line = &self.text[start..end];
         let line = line.strip_suffix('\r').unwrap_or(line);
+        // The `\r` of a CRLF line end is not a column: an error at the end
+        // of the line sits just after its last character.
+        let offset = offset.min(start + line.len());
         let col = self.text[start..offset].chars().count() + 1;
         (self.first_line + idx, col, line)
     }
@@ -193,19 +196,44 @@ impl fmt::Display for Error {
                     "lsgen: {}:{}:{}: error: {}",
                     l.path, l.line, l.col, self.message
                 )?;
-                writeln!(f, "{}", l.snippet)?;
-                let pad: String = l
+                // Control characters (a NUL, a stray `\r`) are shown as
+                // U+FFFD, as undecodable bytes are: never sent raw.
+                let shown: String = l
                     .snippet
                     .chars()
-                    .take(l.caret_col.saturating_sub(1))
-                    .map(|c| if c == '\t' { '\t' } else { ' ' })
+                    .map(|c| {
+                        if c.is_control() && c != '\t' {
+                            '\u{FFFD}'
+                        } else {
+                            c
+                        }
+                    })
                     .collect();
-                writeln!(f, "{pad}^")
+                writeln!(f, "{shown}")?;
+                writeln!(f, "{}^", caret_pad(&l.snippet, l.caret_col))
             }
             (None, Some(s)) => writeln!(f, "lsgen: {s}: error: {}", self.message),
             (None, None) => writeln!(f, "lsgen: error: {}", self.message),
         }
     }
+}
+
+/// The blanks that put a caret under character `caret_col` (1-based) of
+/// `snippet` on a terminal: a tab for a tab, else as many spaces as the
+/// character is wide (two for CJK and emoji, none for a combining mark).
+pub fn caret_pad(snippet: &str, caret_col: usize) -> String {
+    use unicode_width::UnicodeWidthChar;
+    let mut pad = String::new();
+    for c in snippet.chars().take(caret_col.saturating_sub(1)) {
+        if c == '\t' {
+            pad.push('\t');
+        } else {
+            // Control characters (no width) are counted as one column.
+            let w = c.width().unwrap_or(1);
+            pad.extend(std::iter::repeat_n(' ', w));
+        }
+    }
+    pad
 }
 
 #[cfg(test)]
@@ -232,6 +260,26 @@ mod tests {
         assert_eq!(
             e.to_string(),
             "lsgen: p.ls:2:11: error: unknown identifier `y`\n\tA(x) -> B(y)\n\t         ^\n"
+        );
+    }
+
+    #[test]
+    fn crlf_line_end_is_not_a_column() {
+        let m = CodeMap::new("ab\r\ncd\r\n");
+        assert_eq!(m.locate(2), (1, 3, "ab"));
+        assert_eq!(m.locate(3), (1, 3, "ab"));
+        assert_eq!(m.locate(7), (2, 3, "cd"));
+    }
+
+    #[test]
+    fn caret_under_wide_and_combining_characters() {
+        // 漢 and 😀 are two columns wide, e\u{301} is one column.
+        assert_eq!(caret_pad("漢😀e\u{301}\tx", 6), "     \t");
+        let m = CodeMap::new("漢字 -> F>\n");
+        let e = Error::at(Location::from_map("p.ls", &m, 11), "unexpected `>`");
+        assert_eq!(
+            e.to_string(),
+            "lsgen: p.ls:1:8: error: unexpected `>`\n漢字 -> F>\n         ^\n"
         );
     }
 

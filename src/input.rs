@@ -3,7 +3,6 @@
 //! for [`crate::axiom`] to read module by module, so it may be gigabytes long.
 
 use crate::diag::{excerpt, Error, Location};
-use crate::lexer::match_keyword;
 use std::io::{self, Read};
 
 /// A byte stream with look-ahead and enough history to quote the current
@@ -120,98 +119,186 @@ pub struct Split {
     pub axiom_col: usize,
 }
 
-/// Read the header: lines up to the one that starts with `axiom:` (outside
-/// a comment). The stream is left just after the keyword.
+/// Most bytes read before `axiom:`: the header is held in memory and
+/// parsed as a whole, so its size is bounded (the axiom is not).
+pub const MAX_HEADER: usize = 64 << 20;
+
+/// Bytes of look-ahead the header scanner wants (`axiom:`, a UTF-8
+/// character, `/*`).
+const LOOK: usize = 8;
+
+/// What stopped the header scan.
+enum Stop {
+    Axiom(usize),
+    Bad(&'static str),
+    TooLong,
+}
+
+/// Read the header: everything up to `axiom:` at the start of a line (only
+/// blanks and comments before it on its line, outside a comment). The
+/// stream is left just after the keyword.
+///
+/// The bytes are checked as they are read: NUL, invalid UTF-8 (comments
+/// included) and a header over [`MAX_HEADER`] stop the read at once with
+/// a located error, so `lsgen /dev/zero` or an unclosed `/*` fed forever
+/// fail fast in bounded memory.
 pub fn split_header(input: &mut Input) -> Result<Split, Error> {
     let mut header: Vec<u8> = Vec::new();
+    if input.fill(3)?.starts_with(b"\xEF\xBB\xBF") {
+        // A UTF-8 byte-order mark.
+        input.consume(3);
+    }
+    // An executable script's interpreter line is skipped (but checked).
+    let mut shebang = input.fill(2)?.starts_with(b"#!");
+    // Header bytes of that line, dropped at the end.
+    let mut shebang_len = 0;
     let mut in_comment = false;
-    let mut line_no = 1;
+    // Only blanks and comments since the last line break: `axiom:` may
+    // come next. A comment that spans lines ends a line, as in the lexer.
+    let mut line_start = true;
+    let (mut line, mut col) = (1usize, 1usize);
     loop {
-        // At a line start: is it the axiom line?
-        let avail = input.fill(256)?;
+        let avail = input.fill(LOOK)?;
         if avail.is_empty() {
             break;
         }
-        if line_no == 1 && header.is_empty() && avail.starts_with(b"\xEF\xBB\xBF") {
-            // A UTF-8 byte-order mark.
-            input.consume(3);
-            continue;
-        }
-        if line_no == 1 && avail.starts_with(b"#!") {
-            // An executable script's interpreter line.
-            let n = line_len(input)?;
-            input.consume(n);
-            header.push(b'\n');
-            line_no += 1;
-            continue;
-        }
-        if !in_comment {
-            let blank = avail
-                .iter()
-                .take_while(|&&b| b == b' ' || b == b'\t' || b == b'\r')
-                .count();
-            let probe_len = avail.len().min(blank + 16);
-            let probe = &avail[blank..probe_len];
-            // The probe may end inside a character: keep its valid prefix.
-            let probe = match std::str::from_utf8(probe) {
-                Ok(p) => p,
-                Err(e) => std::str::from_utf8(&probe[..e.valid_up_to()]).unwrap_or(""),
-            };
-            {
-                if let Some(kl) = match_keyword(probe, "axiom:") {
-                    let col = String::from_utf8_lossy(&avail[..blank + kl])
-                        .chars()
-                        .count()
-                        + 1;
-                    input.consume(blank + kl);
-                    return finish(input, header, true, line_no, col);
+        // Look at bytes with LOOK bytes after them, or all near the end.
+        let lim = if avail.len() >= LOOK {
+            avail.len() - LOOK + 1
+        } else {
+            avail.len()
+        };
+        let mut i = 0;
+        let mut stop = None;
+        while i < lim {
+            let b = avail[i];
+            let here = (line, col);
+            let mut n = 1;
+            match b {
+                b'\n' => {
+                    if shebang {
+                        shebang_len = header.len() + i;
+                    }
+                    line += 1;
+                    col = 0;
+                    line_start = true;
+                    shebang = false;
+                }
+                0 => {
+                    stop = Some(Stop::Bad("NUL byte: the input is not text"));
+                    break;
+                }
+                _ if shebang => {}
+                b'/' if !in_comment && avail.get(i + 1) == Some(&b'*') => {
+                    in_comment = true;
+                    n = 2;
+                }
+                b'*' if in_comment && avail.get(i + 1) == Some(&b'/') => {
+                    in_comment = false;
+                    n = 2;
+                }
+                _ if in_comment => {}
+                b' ' | b'\t' | b'\r' | 0x0B | 0x0C => {}
+                b'a' | b'A' if line_start && avail[i..].len() >= 6 => {
+                    if avail[i..i + 6].eq_ignore_ascii_case(b"axiom:") {
+                        stop = Some(Stop::Axiom(6));
+                        break;
+                    }
+                    line_start = false;
+                }
+                _ if b < 0x80 => line_start = false,
+                _ => {}
+            }
+            if b >= 0x80 {
+                // A whole character, checked.
+                n = utf8_len(b);
+                match avail.get(i..i + n).map(std::str::from_utf8) {
+                    Some(Ok(s)) if n > 0 => {
+                        let c = s.chars().next().unwrap_or(' ');
+                        if !in_comment && !shebang && !c.is_whitespace() {
+                            line_start = false;
+                        }
+                    }
+                    _ => {
+                        stop = Some(Stop::Bad("invalid UTF-8"));
+                        break;
+                    }
                 }
             }
+            if header.len() + i + n > MAX_HEADER {
+                (line, col) = here;
+                stop = Some(Stop::TooLong);
+                break;
+            }
+            // Columns count characters: every byte here starts one, except
+            // the second of `/*` and `*/`.
+            col += if n == 2 && b < 0x80 { 2 } else { 1 };
+            i += n;
         }
-        // An ordinary header line: keep it, tracking comments.
-        let n = line_len(input)?;
-        let line = &input.available()[..n];
-        let mut i = 0;
-        while i + 1 < line.len() {
-            if !in_comment && line[i] == b'/' && line[i + 1] == b'*' {
-                in_comment = true;
-                i += 2;
-            } else if in_comment && line[i] == b'*' && line[i + 1] == b'/' {
-                in_comment = false;
-                i += 2;
-            } else {
-                i += 1;
+        let need = header.len() + i;
+        if need > header.capacity() {
+            // Double, but never past the limit.
+            let cap = (header.capacity() * 2).clamp(need, MAX_HEADER.max(need));
+            header.reserve_exact(cap - header.len());
+        }
+        header.extend_from_slice(&avail[..i]);
+        input.consume(i);
+        match stop {
+            None => continue,
+            Some(Stop::Axiom(kl)) => {
+                input.consume(kl);
+                return finish(input, header, shebang_len, true, line, col + kl);
+            }
+            Some(Stop::Bad(msg)) => return Err(header_error(input, line, col, msg)),
+            Some(Stop::TooLong) => {
+                return Err(header_error(
+                    input,
+                    line,
+                    col,
+                    "the part before `axiom:` is too long (over 64 MiB); is `axiom:` missing?",
+                ))
             }
         }
-        header.extend_from_slice(line);
-        input.consume(n);
-        line_no += 1;
     }
-    finish(input, header, false, line_no, 1)
+    finish(input, header, shebang_len, false, line, 1)
 }
 
-/// Length of the current line including its newline, reading as needed.
-fn line_len(input: &mut Input) -> Result<usize, Error> {
-    let mut want = 256;
-    loop {
-        let avail = input.fill(want)?;
-        if let Some(i) = avail.iter().position(|&b| b == b'\n') {
-            return Ok(i + 1);
-        }
-        if avail.len() < want {
-            return Ok(avail.len()); // end of stream
-        }
-        want = avail.len() * 2;
+/// Length of the UTF-8 sequence a lead byte announces (0: not a lead byte).
+fn utf8_len(b: u8) -> usize {
+    match b {
+        b if b < 0x80 => 1,
+        b if b >> 5 == 0b110 => 2,
+        b if b >> 4 == 0b1110 => 3,
+        b if b >> 3 == 0b11110 => 4,
+        _ => 0,
     }
+}
+
+/// An error at the read position of the header, at `line`:`col`.
+fn header_error(input: &mut Input, line: usize, col: usize, msg: &str) -> Error {
+    let at = input.offset();
+    let (snippet, caret_col) = input.excerpt_at(at);
+    Error::at(
+        Location {
+            path: input.name.clone(),
+            line,
+            col,
+            snippet,
+            caret_col,
+        },
+        msg,
+    )
 }
 
 fn finish(
-    input: &Input,
-    header: Vec<u8>,
+    input: &mut Input,
+    mut header: Vec<u8>,
+    shebang_len: usize,
     has_axiom: bool,
     axiom_line: usize,
     axiom_col: usize,
 ) -> Result<Split, Error> {
+    header.drain(..shebang_len);
     match String::from_utf8(header) {
         Ok(header) => Ok(Split {
             header,
@@ -219,28 +306,8 @@ fn finish(
             axiom_line,
             axiom_col,
         }),
-        Err(e) => {
-            let good = e.utf8_error().valid_up_to();
-            let bytes = e.into_bytes();
-            let prefix = String::from_utf8_lossy(&bytes[..good]);
-            let line = prefix.matches('\n').count() + 1;
-            let line_start = prefix.rfind('\n').map_or(0, |i| i + 1);
-            let col = prefix[line_start..].chars().count() + 1;
-            let rest = &bytes[line_start..];
-            let end = rest.iter().position(|&b| b == b'\n').unwrap_or(rest.len());
-            let text = String::from_utf8_lossy(&rest[..end]).into_owned();
-            let (snippet, caret_col) = excerpt(&text, col);
-            Err(Error::at(
-                Location {
-                    path: input.name.clone(),
-                    line,
-                    col,
-                    snippet,
-                    caret_col,
-                },
-                "invalid UTF-8",
-            ))
-        }
+        // Checked while reading: cannot happen.
+        Err(_) => Err(header_error(input, axiom_line, 1, "invalid UTF-8")),
     }
 }
 
@@ -266,7 +333,7 @@ mod tests {
     #[test]
     fn splits_at_axiom() {
         let (s, rest) = split("#!/usr/bin/env lsgen\nproductions:\nF -> FF\n  Axiom: F+F\nF\n");
-        assert_eq!(s.header, "\nproductions:\nF -> FF\n");
+        assert_eq!(s.header, "\nproductions:\nF -> FF\n  ");
         assert!(s.has_axiom);
         assert_eq!((s.axiom_line, s.axiom_col), (4, 9));
         assert_eq!(rest, " F+F\nF\n");
@@ -277,6 +344,49 @@ mod tests {
         let (s, rest) = split("/* header\naxiom: not this\n*/\naxiom: X");
         assert_eq!(s.header, "/* header\naxiom: not this\n*/\n");
         assert_eq!(rest, " X");
+    }
+
+    #[test]
+    fn axiom_after_comments_on_its_line() {
+        let (s, rest) = split("F -> G\n/* c */ axiom: X");
+        assert!(s.has_axiom);
+        assert_eq!((s.axiom_line, s.axiom_col), (2, 15));
+        assert_eq!(rest, " X");
+        let (s, rest) = split("F -> G /* a\nb */ \u{a0}Axiom: X");
+        assert!(s.has_axiom);
+        assert_eq!((s.axiom_line, s.axiom_col), (2, 13));
+        assert_eq!(rest, " X");
+        let (s, _) = split("F -> G /* a */ axiom: X");
+        assert!(!s.has_axiom);
+    }
+
+    #[test]
+    fn nul_is_refused_at_once() {
+        let mut i = Input::new(Box::new(io::repeat(0)), "zero");
+        let e = split_header(&mut i).err().unwrap();
+        let l = e.location.clone().unwrap();
+        assert_eq!((l.line, l.col), (1, 1));
+        assert!(e.message.contains("NUL"), "{}", e.message);
+    }
+
+    #[test]
+    fn header_of_exactly_the_limit_is_accepted() {
+        let line = format!("/* {} */\n", ".".repeat(57));
+        assert_eq!(line.len(), 64);
+        let mut src = line.repeat(MAX_HEADER / 64).into_bytes();
+        src.extend_from_slice(b"axiom: F");
+        let mut i = Input::new(Box::new(io::Cursor::new(src.clone())), "t.ls");
+        let s = split_header(&mut i).unwrap();
+        assert_eq!(s.header.len(), MAX_HEADER);
+        assert_eq!((s.axiom_line, s.axiom_col), (MAX_HEADER / 64 + 1, 7));
+        // One byte more is refused, at the byte past the limit: the
+        // newline (column 64) of the last comment line.
+        src.insert(0, b' ');
+        let mut i = Input::new(Box::new(io::Cursor::new(src)), "t.ls");
+        let e = split_header(&mut i).err().unwrap();
+        let l = e.location.clone().unwrap();
+        assert_eq!((l.line, l.col), (MAX_HEADER / 64, 64));
+        assert!(e.message.contains("too long"), "{}", e.message);
     }
 
     #[test]

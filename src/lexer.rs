@@ -98,7 +98,7 @@ pub struct LexError {
 
 /// Tokens of module mode.
 #[derive(Logos, Debug, Clone, Copy, PartialEq)]
-#[logos(skip r"[ \t\r\f]+")]
+#[logos(skip r"[\s&&[^\n]]+")]
 enum ModTok {
     #[token("\n")]
     Nl,
@@ -129,7 +129,7 @@ enum ModTok {
 
 /// Tokens of expression mode.
 #[derive(Logos, Debug, Clone, Copy, PartialEq)]
-#[logos(skip r"[ \t\r\f]+")]
+#[logos(skip r"[\s&&[^\n]]+")]
 enum ExprTok {
     #[token("\n")]
     Nl,
@@ -327,11 +327,21 @@ impl<'a> Lexer<'a> {
     }
 
     /// At the start of a line: skip blanks and look for a keyword.
+    /// Blanks and comments may come before the keyword (a comment that
+    /// spans lines starts a new line, handled by the caller as a newline).
     fn keyword(&mut self) -> Option<(usize, Tok<'a>, usize)> {
         let pos = self.pos();
-        let rest = &self.src[pos..];
-        let blank = rest.len() - rest.trim_start_matches([' ', '\t', '\r']).len();
-        let rest = &rest[blank..];
+        let mut blank = 0;
+        loop {
+            let rest = &self.src[pos + blank..];
+            let t = rest.trim_start_matches(|c: char| c != '\n' && c.is_whitespace());
+            blank += rest.len() - t.len();
+            match t.strip_prefix("/*").and_then(|c| c.find("*/")) {
+                Some(end) if !t[..end + 4].contains('\n') => blank += end + 4,
+                _ => break,
+            }
+        }
+        let rest = &self.src[pos + blank..];
         for (kw, tok, expr) in KEYWORDS {
             if let Some(len) = match_keyword(rest, kw) {
                 self.bump(blank + len);
@@ -499,7 +509,14 @@ impl<'a> Iterator for Lexer<'a> {
                     }
                     Tok::RParen
                 }
-                Right(ExprTok::Comma) => Tok::Comma,
+                Right(ExprTok::Comma) => {
+                    if self.depth == 1 && self.return_at_zero {
+                        // The next parameter of a module: its own budget,
+                        // so a long list meets the arity limit instead.
+                        self.expr_tokens = 0;
+                    }
+                    Tok::Comma
+                }
                 Right(ExprTok::Colon) => Tok::Colon,
                 Right(ExprTok::Arrow) => {
                     if self.depth == 0 {
@@ -664,6 +681,53 @@ mod tests {
         let long = format!("seed: {}", "1+".repeat(20_000));
         let errs: Vec<_> = Lexer::new(&long).filter_map(|t| t.err()).collect();
         assert!(errs[0].message.contains("too long"));
+    }
+
+    #[test]
+    fn keywords_after_comments_on_their_line() {
+        assert_eq!(
+            toks("/* c */ derivation length: 3\n\u{a0}/* d */\t/**/ productions:\n"),
+            vec![
+                Tok::KwDerivationLength,
+                Tok::Num(3.0),
+                Tok::Nl,
+                Tok::KwProductions,
+                Tok::Nl
+            ]
+        );
+        // A comment spanning lines ends the line it began on.
+        assert_eq!(
+            toks("seed: 1 /* a\nb */ productions:\n"),
+            vec![
+                Tok::KwSeed,
+                Tok::Num(1.0),
+                Tok::Nl,
+                Tok::KwProductions,
+                Tok::Nl
+            ]
+        );
+    }
+
+    #[test]
+    fn unicode_blanks_separate_tokens() {
+        assert_eq!(
+            toks("F\u{a0}\u{b}(1)\u{2003}->\u{85}G"),
+            vec![
+                Tok::Sym('F'),
+                Tok::LParen,
+                Tok::Num(1.0),
+                Tok::RParen,
+                Tok::Arrow,
+                Tok::Sym('G'),
+                Tok::Nl
+            ]
+        );
+    }
+
+    #[test]
+    fn each_parameter_has_its_own_token_budget() {
+        let many = format!("F -> G({}1)", "1,".repeat(MAX_EXPR_TOKENS));
+        assert!(Lexer::new(&many).all(|t| t.is_ok()));
     }
 
     #[test]

@@ -108,8 +108,15 @@ fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str) -> UserError {
             expected,
         } => {
             let exp = describe_expected(&expected);
+            // After a comparison, in an expression: `1 < x < 3`.
+            let in_expr = expected.iter().any(|e| e == "\"+\"");
             let what = match &tok {
                 Tok::Nl => "unexpected end of line".to_string(),
+                Tok::Gt | Tok::Lt | Tok::Le | Tok::Ge | Tok::EqEq | Tok::Ne | Tok::Assign
+                    if in_expr =>
+                {
+                    format!("unexpected {tok}: comparisons do not chain; write `a < x && x < b`")
+                }
                 Tok::Gt => "unexpected `>`: contexts are written only left of the arrow (`lc < pred > rc -> succ`)".to_string(),
                 Tok::Lt => "unexpected `<`: contexts are written only left of the arrow (`lc < pred > rc -> succ`)".to_string(),
                 Tok::KwProductions | Tok::KwHomomorphism | Tok::KwDerivationLength
@@ -121,6 +128,7 @@ fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str) -> UserError {
             let msg = if exp.is_empty()
                 || matches!(tok, Tok::Gt | Tok::Lt)
                 || what.contains("out of place")
+                || what.contains("do not chain")
             {
                 what
             } else {
@@ -205,6 +213,11 @@ C -> F(R)
         );
         let e = parse_header("productions:\nF -> F\nderivation length: 3\n").unwrap_err();
         assert!(e.message.contains("out of place"), "{}", e.message);
+        let e = parse_header("productions:\nA(x) : 1 < x < 3 -> B\n").unwrap_err();
+        assert!(e.message.contains("do not chain"), "{}", e.message);
+        assert_eq!(e.span, (26, 27));
+        let e = parse_header("productions:\nA(x) -> B(x == 1 >= 0)\n").unwrap_err();
+        assert!(e.message.contains("do not chain"), "{}", e.message);
         let e = parse_header("productions:\nA(x -> B\n").unwrap_err();
         assert!(e.message.contains("unexpected"), "{}", e.message);
     }

@@ -166,11 +166,72 @@ impl Case {
 fn source_line(src: &[u8], line: usize) -> Option<String> {
     let raw = src.split(|&b| b == b'\n').nth(line - 1)?;
     let s = String::from_utf8_lossy(raw);
-    Some(s.strip_suffix('\r').unwrap_or(&s).to_string())
+    // Control characters are shown as U+FFFD, as undecodable bytes are.
+    Some(
+        s.strip_suffix('\r')
+            .unwrap_or(&s)
+            .chars()
+            .map(|c| {
+                if c.is_control() && c != '\t' {
+                    '\u{FFFD}'
+                } else {
+                    c
+                }
+            })
+            .collect(),
+    )
+}
+
+/// Terminal columns of a character, for the few kinds the catalogue uses
+/// (a hand-made table, independent of lsgen's): combining accents take
+/// none, CJK ideographs, Hangul, fullwidth forms and emoji take two.
+fn columns(c: char) -> usize {
+    match c as u32 {
+        0x0300..=0x036F => 0,
+        0x1100..=0x115F
+        | 0x2E80..=0x303E
+        | 0x3041..=0x33FF
+        | 0x3400..=0x4DBF
+        | 0x4E00..=0x9FFF
+        | 0xAC00..=0xD7A3
+        | 0xF900..=0xFAFF
+        | 0xFF00..=0xFF60
+        | 0x1F300..=0x1F64F
+        | 0x1F900..=0x1F9FF => 2,
+        _ => 1,
+    }
+}
+
+/// The characters of `snippet` that a caret line of `pad` sits under: the
+/// pad must be exactly the blanks (a tab for a tab) of the characters
+/// before one of them (several when some take no column); `None` is the
+/// spot just past the end.
+fn chars_under_caret(snippet: &str, pad: &str) -> Vec<Option<char>> {
+    let mut want = String::new();
+    let mut under = Vec::new();
+    for c in snippet.chars() {
+        if want == pad {
+            under.push(Some(c));
+        }
+        if c == '\t' {
+            want.push('\t');
+        } else {
+            want.extend(std::iter::repeat_n(' ', columns(c)));
+        }
+    }
+    if want == pad {
+        under.push(None);
+    }
+    under
 }
 
 fn check_error(r: &Run, path: &Path, src: &[u8], at: &[(usize, usize)], msg: &[&str]) {
     let head = r.assert_one_error();
+    assert!(
+        !r.stderr.contains('\r'),
+        "a carriage return on stderr: {:?}",
+        r.stderr
+    );
     let lines: Vec<&str> = r.stderr.lines().collect();
     let show = || {
         // Long lines are cut for the failure message.
@@ -232,12 +293,10 @@ fn check_error(r: &Run, path: &Path, src: &[u8], at: &[(usize, usize)], msg: &[&
         "the second line is not (an excerpt of) source line {line}:\n{}",
         show()
     );
-    let pad = caret.chars().count() - 1;
-    let under_caret = snippet.chars().nth(pad);
+    let under_caret = chars_under_caret(snippet, &caret[..caret.len() - 1]);
     let at_col = text.chars().nth(col - 1);
-    assert_eq!(
-        under_caret,
-        at_col,
+    assert!(
+        under_caret.contains(&at_col),
         "the caret is not under the character at {line}:{col}:\n{}",
         show()
     );
@@ -478,6 +537,63 @@ cases! {
     too_many_parameters_in_predecessor =>
         err(format!("productions:\nF({}) -> G\naxiom: F\n",
             (0..256).map(|i| format!("x{i}")).collect::<Vec<_>>().join(",")), 2, 1, "at most 255 parameters");
+
+    // --- issue 9: the reader -----------------------------------------------
+    // (4) The header is checked as it is read: a NUL stops it at once, and
+    // so does a header over 64 MiB = 2^26 bytes: 2^23 lines of 8 bytes fill
+    // it, so the error is at the start of line 2^23 + 1 (lsgen 9bc7f68 read
+    // on until memory ran out).
+    nul_in_header_on_stdin => err(vec![0u8; 1 << 20], 1, 1, "NUL").on_stdin();
+    nul_in_header_comment => err(&b"/* a\0 */\naxiom: F\n"[..], 1, 5, "NUL");
+    header_over_64_mib =>
+        err("F -> FF\n".repeat((1 << 23) + 1000), (1 << 23) + 1, 1, "too long");
+    // (11) A comment before a keyword on its line (lsgen 9bc7f68: `1:9:
+    // unexpected symbol 'd'`); the error below is in the axiom, so the
+    // keywords were read.
+    comment_before_keywords =>
+        err("/* c */ derivation length: 1\n/* c */ productions:\nF -> FF\naxiom: F)\n", 4, 9, "`)` is reserved");
+    // (12) `axiom:` after a comment on its line, and after a comment that
+    // ends on it.
+    comment_before_axiom =>
+        err("productions:\nF -> FF\n/* c */ axiom: F)\n", 3, 17, "`)` is reserved");
+    comment_ending_on_the_axiom_line =>
+        err("productions:\nF -> FF\n/* a\nb */ axiom: F)\n", 4, 14, "`)` is reserved");
+    // (13) A `,` or `)` in a comment in an axiom parameter list separates
+    // nothing: the error is the one after it.
+    comma_and_paren_in_comment_in_axiom_parameters =>
+        err("axiom: F(1 /* a, b) */)G F(1, /* a, b */ 2) F(x)\n", 1, 47, "unknown identifier `x`");
+    // (14) `(` attaches to the symbol after a comment or any blank, at
+    // every place in the axiom (lsgen 9bc7f68: "`(` is reserved" here).
+    parameters_after_comment_and_blanks_in_axiom =>
+        err("axiom: GF/* c */(1) GF\u{a0}(2) GF\u{b}(3) GF(q)\n", 1, 38, "unknown identifier `q`");
+    // (15) A multi-line parameter list: the error on the line it is on
+    // (lsgen 9bc7f68 said 2:9).
+    multi_line_axiom_parameter =>
+        err("axiom:\nF(1 +\n  x)\n", 3, 3, "unknown identifier `x`");
+    // (16) CRLF: an error at the end of a line is just after its last
+    // character (lsgen 9bc7f68: 2:10), and no `\r` is printed.
+    crlf_error_at_end_of_line =>
+        err("productions:\r\nA -> B(1\r\naxiom: F\r\n", 2, 9, "unexpected end of line");
+    crlf_invalid_utf8_in_header_comment =>
+        err(&b"/* \xff */\r\nproductions:\r\nF -> FF\r\naxiom: F\r\n"[..], 1, 4, "invalid UTF-8");
+    // (17) The caret under the spot after wide and combining characters:
+    // 漢字 and 😀 take two columns each, e + U+0301 one.
+    caret_after_wide_characters =>
+        err("productions:\n漢字 -> F>\naxiom: F\n", 2, 8, "unexpected `>`");
+    caret_after_emoji_and_combining_mark =>
+        err("productions:\n😀😀e\u{301} -> F>\naxiom: F\n", 2, 10, "unexpected `>`");
+    caret_after_combining_marks =>
+        err("productions:\ne\u{301}e\u{301} -> F>\naxiom: F\n", 2, 10, "unexpected `>`");
+    // (19) Misleading messages.
+    chained_comparison_in_condition =>
+        err("productions:\nA(x) : 1 < x < 3 -> B\naxiom: A(2)\n", 2, 14, "comparisons do not chain");
+    six_thousand_parameters_in_successor =>
+        err(format!("productions:\nF -> G({})\naxiom: F\n", vec!["1"; 6000].join(",")), 2, 6, "at most 255 parameters");
+    // (23) Invalid UTF-8 in an axiom comment is refused as in the header.
+    invalid_utf8_in_axiom_comment =>
+        err(&b"productions:\nF -> FF\naxiom: F /* \xff */\n"[..], 3, 13, "invalid UTF-8");
+    nul_in_axiom_comment =>
+        err(&b"productions:\nF -> FF\naxiom: F /* \0 */\n"[..], 3, 13, "NUL");
 
     // --- `--axiom FILE` ----------------------------------------------------
     axiom_file_with_reserved_character =>

@@ -1388,3 +1388,205 @@ fn an_error_run_never_writes_stdout() {
     let r = run_source(DIV_AT_STEP_2, &["-n", "5"]);
     r.one_error();
 }
+
+// ------------------------------------------------ the reader (issue 9)
+
+/// (4) Inputs that never reach `axiom:` fail fast and in bounded memory:
+/// the header is checked as it is read (NUL, invalid UTF-8) and refused
+/// past 64 MiB. Run under `ulimit -v` (lsgen's own worker stack reserves
+/// 256 MiB of address space); lsgen 9bc7f68 ran out of memory on each.
+#[test]
+fn endless_headers_fail_fast_in_bounded_memory() {
+    let cases: &[(&str, &[&str])] = &[
+        ("\"$0\" /dev/zero", &["/dev/zero:1:1: error: NUL"]),
+        (
+            "yes 'F -> FF' | \"$0\" -",
+            &["<stdin>:8388609:1: error: ", "too long"],
+        ),
+        // An unclosed comment: "/*x\n" (4 bytes), then 2^25 - 2 lines of
+        // "x\n" fill 2^26 bytes: the limit is at the start of line 2^25.
+        (
+            "{ printf '/*x\\n'; yes x; } | \"$0\" -",
+            &["<stdin>:33554432:1: error: ", "too long"],
+        ),
+        // NUL or invalid UTF-8 within a few bytes (usually on line 1).
+        ("\"$0\" /dev/urandom", &["/dev/urandom:", "error: "]),
+    ];
+    for (script, want) in cases {
+        let started = std::time::Instant::now();
+        let out = Command::new("sh")
+            .arg("-c")
+            .arg(format!("ulimit -v 700000; {script}"))
+            .arg(BIN)
+            .stdin(Stdio::null())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_no_crash(script, out.status, &stderr);
+        assert_eq!(out.status.code(), Some(1), "{script}: {stderr}");
+        assert!(out.stdout.is_empty(), "{script}");
+        let first = stderr.lines().next().unwrap_or("");
+        for w in *want {
+            assert!(first.contains(w), "{script}: want {w:?} in {stderr}");
+        }
+        assert!(
+            ["NUL", "invalid UTF-8", "too long"]
+                .iter()
+                .any(|m| first.contains(m)),
+            "{script}: {stderr}"
+        );
+        assert!(
+            started.elapsed() < std::time::Duration::from_secs(30),
+            "{script} took {:?}",
+            started.elapsed()
+        );
+    }
+}
+
+/// (11, 12) Keywords, `axiom:` included, may follow comments on their
+/// line, or a comment that ends on it.
+#[test]
+fn keywords_after_comments_on_their_line() {
+    let src = "/* c */ derivation length: 3\n/* c */ productions:\nF -> FG\n/* h */ homomorphism:\nG -> H\n/* a */ axiom: F\n";
+    // F -> FG -> FGG -> FGGG, then G -> H.
+    assert_eq!(run_stdin(&["-"], src.as_bytes()).ok(), "FHHH\n");
+    let src = "productions:\nF -> FG /* a\n*/ axiom: F\n";
+    assert_eq!(run_stdin(&["-"], src.as_bytes()).ok(), "FG\n");
+    let src = "productions:\nF -> FG\n/* a\nb */ axiom: F\n";
+    assert_eq!(run_stdin(&["-"], src.as_bytes()).ok(), "FG\n");
+}
+
+/// (13) A `,` or `)` in a comment in a parameter list: the same in the
+/// axiom as in a successor.
+#[test]
+fn comments_in_parameter_lists_of_the_axiom_as_in_successors() {
+    let list = "F(1 /* a, b */)G F(1, /* a, b) */ 2) H(/* ( */ 3 /*)*/)";
+    let want = "F(1)GF(1,2)H(3)\n";
+    let axiom = format!("axiom: {list}\n");
+    assert_eq!(run_stdin(&["-", "-n", "0"], axiom.as_bytes()).ok(), want);
+    let succ = format!("productions:\nA -> {list}\naxiom: A\n");
+    assert_eq!(run_stdin(&["-"], succ.as_bytes()).ok(), want);
+}
+
+/// (14) One rule for the axiom, a successor and `--axiom`: blanks (any
+/// Unicode white space) and, where comments exist, comments may stand
+/// between a symbol and its `(`, wherever the module is.
+#[test]
+fn parameters_attach_after_blanks_and_comments_everywhere() {
+    for sep in [
+        "", " ", "\t", "\u{a0}", "\u{b}", "\u{c}", "\u{2003}", "/* c */",
+    ] {
+        let modules = format!("GF{sep}(1)F{sep}(2)");
+        let want = "GF(1)F(2)\n";
+        let axiom = format!("axiom: {modules}\n");
+        let r = run_stdin(&["-", "-n", "0"], axiom.as_bytes());
+        assert_eq!(r.ok(), want, "axiom, {sep:?}");
+        let succ = format!("productions:\nA -> {modules}\naxiom: A\n");
+        let r = run_stdin(&["-"], succ.as_bytes());
+        assert_eq!(r.ok(), want, "successor, {sep:?}");
+        if !sep.contains("/*") {
+            // `--axiom` text has no comments.
+            let d = dir_with(&[("p.ls", "axiom: X\n"), ("ax.txt", &modules)]);
+            let r = run_in(d.path(), &["p.ls", "-n", "0", "--axiom", "ax.txt"], None);
+            assert_eq!(r.ok(), want, "--axiom, {sep:?}");
+        }
+    }
+    // A newline too, in the axiom (a successor ends at the line's end).
+    let r = run_stdin(&["-", "-n", "0"], b"axiom: GF\n  (1)\n");
+    assert_eq!(r.ok(), "GF(1)\n");
+}
+
+/// (15) Property: in random multi-line axioms (blanks, CRLF, comments and
+/// line breaks inside parameter lists), an unknown name is reported at its
+/// own line and column, with the caret under it. The expected place is
+/// counted while the text is built.
+#[test]
+fn errors_in_random_multi_line_axioms_are_located() {
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = move |n: u64| {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state % n
+    };
+    for case in 0..150 {
+        let mut text = String::from("productions:\nF -> FF\naxiom:");
+        let mut bad_at = None;
+        let n_modules = 1 + next(6);
+        let bad_module = next(n_modules);
+        let blank = |k: u64| ["", " ", "\n", "\r\n", "\t", " /* a, b)\n */ ", "\n\n  "][k as usize];
+        for m in 0..n_modules {
+            text.push_str(blank(next(7)));
+            text.push("FGAB+-&^".as_bytes()[next(8) as usize] as char);
+            let n_params = if m == bad_module {
+                1 + next(4)
+            } else {
+                next(3)
+            };
+            if n_params == 0 {
+                continue;
+            }
+            text.push_str(blank(next(7)));
+            text.push('(');
+            let bad_param = next(n_params);
+            for p in 0..n_params {
+                if p > 0 {
+                    text.push_str(blank(next(7)));
+                    text.push(',');
+                }
+                let terms = 1 + next(3);
+                let bad_term = next(terms);
+                for t in 0..terms {
+                    text.push_str(blank(next(7)));
+                    if t > 0 {
+                        text.push_str(["+", "*", "-"][next(3) as usize]);
+                        text.push_str(blank(next(7)));
+                    }
+                    if m == bad_module && p == bad_param && t == bad_term {
+                        let line = text.matches('\n').count() + 1;
+                        let start = text.rfind('\n').map_or(0, |i| i + 1);
+                        let col = text[start..].chars().count() + 1;
+                        bad_at = Some((line, col));
+                        text.push('q');
+                    } else {
+                        text.push_str(["1", "2.5", "(3)", "4e1"][next(4) as usize]);
+                    }
+                }
+            }
+            text.push_str(blank(next(7)));
+            text.push(')');
+        }
+        text.push('\n');
+        let (line, col) = bad_at.unwrap();
+        let r = run_stdin(&["-"], text.as_bytes());
+        let e = r.one_error();
+        let head = format!("lsgen: <stdin>:{line}:{col}: error: unknown identifier `q`");
+        assert!(
+            e.starts_with(&head),
+            "case {case}: {text:?}\nwant {head}\ngot {e}"
+        );
+        let lines: Vec<&str> = e.lines().collect();
+        assert_eq!(lines.len(), 3, "case {case}: {e}");
+        let src_line = text.split('\n').nth(line - 1).unwrap();
+        let src_line = src_line.strip_suffix('\r').unwrap_or(src_line);
+        assert_eq!(lines[1], src_line, "case {case}: {text:?}");
+        let pad: String = src_line
+            .chars()
+            .take(col - 1)
+            .map(|c| if c == '\t' { '\t' } else { ' ' })
+            .collect();
+        assert_eq!(lines[2], format!("{pad}^"), "case {case}: {text:?}");
+    }
+}
+
+/// (23) A byte-order mark at the start of an `--axiom` file is skipped, as
+/// at the start of an .ls file (lsgen 9bc7f68 read it as a U+FEFF module).
+#[test]
+fn byte_order_mark_in_an_axiom_file_is_skipped() {
+    let d = dir_with(&[
+        ("p.ls", "\u{feff}productions:\nF -> G\naxiom: X\n"),
+        ("ax.txt", "\u{feff}F(1)F"),
+    ]);
+    let r = run_in(d.path(), &["p.ls", "--axiom", "ax.txt"], None);
+    assert_eq!(r.ok(), "F(1)G\n");
+}
