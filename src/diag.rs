@@ -90,6 +90,13 @@ pub fn excerpt(line: &str, col: usize) -> (String, usize) {
     (s, caret)
 }
 
+/// Write `text` to standard error. A closed or full standard error is not
+/// an error of the run: a failure is ignored (`eprint!` would panic).
+pub fn eprint(text: &str) {
+    use std::io::Write;
+    let _ = std::io::stderr().write_all(text.as_bytes());
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
     /// Bad input, runtime error, I/O failure: exit 1.
