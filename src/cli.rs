@@ -121,6 +121,18 @@ pub fn main_exit_code() -> i32 {
     // killing the process.
     // SAFETY: setting a signal's disposition to SIG_IGN.
     unsafe { libc::signal(libc::SIGXFSZ, libc::SIG_IGN) };
+    install_panic_hook();
+    let worker = std::thread::Builder::new()
+        .name("lsgen".into())
+        .stack_size(256 << 20)
+        .spawn(main_on_thread);
+    crate::output::leave_termination_signals_to_other_threads();
+    worker.ok().and_then(|t| t.join().ok()).unwrap_or(70)
+}
+
+/// Report a panic (a bug) as one line on standard error, never panicking
+/// again, also when standard error cannot be written.
+pub fn install_panic_hook() {
     std::panic::set_hook(Box::new(|info| {
         let msg = info
             .payload()
@@ -137,12 +149,6 @@ pub fn main_exit_code() -> i32 {
             "lsgen: internal error: {msg}{at} (please report this)\n"
         ));
     }));
-    let worker = std::thread::Builder::new()
-        .name("lsgen".into())
-        .stack_size(256 << 20)
-        .spawn(main_on_thread);
-    crate::output::leave_termination_signals_to_other_threads();
-    worker.ok().and_then(|t| t.join().ok()).unwrap_or(70)
 }
 
 fn main_on_thread() -> i32 {
