@@ -1231,7 +1231,7 @@ fn sigkill_between_link_and_rename_leaves_a_name_the_next_run_removes() {
             "-o",
             "/dev/null",
             "-e",
-            "inject=rename,renameat,renameat2:delay_enter=5000000",
+            "inject=/^rename:delay_enter=5000000",
         ])
         .arg(env!("CARGO_BIN_EXE_lsgen"))
         .arg(&input)
@@ -1266,6 +1266,29 @@ fn sigkill_between_link_and_rename_leaves_a_name_the_next_run_removes() {
     assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
     assert_eq!(fs::read(&out).unwrap(), doubled(3));
     assert_listing(d, &["in.ls", "out.txt"]);
+    // A new file is linked straight to its name: no rename, no window (the
+    // delayed rename would take 5 s).
+    let fresh = d.join("fresh.txt");
+    let start = Instant::now();
+    let r = run(Command::new("strace")
+        .args([
+            "-f",
+            "-o",
+            "/dev/null",
+            "-e",
+            "inject=/^rename:delay_enter=5000000",
+        ])
+        .arg(env!("CARGO_BIN_EXE_lsgen"))
+        .arg(&input)
+        .args(["-n", "3", "-o"])
+        .arg(&fresh));
+    assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
+    assert!(
+        start.elapsed() < Duration::from_secs(4),
+        "a rename was made"
+    );
+    assert_eq!(fs::read(&fresh).unwrap(), doubled(3));
+    assert_listing(d, &["fresh.txt", "in.ls", "out.txt"]);
 }
 
 // --- (l) resource limits and unwritable streams ------------------------------------
