@@ -70,10 +70,9 @@ fn closed_at_start(fd: i32) -> bool {
 /// The error for writing to a closed standard output.
 pub fn check_stdout_open() -> Result<(), Error> {
     if closed_at_start(1) {
-        return Err(Error::io(
+        return Err(fail(
             "standard output",
-            "cannot write (standard output is closed)",
-            io::Error::from_raw_os_error(libc::EBADF),
+            "cannot write: Bad file descriptor (closed when lsgen started)",
         ));
     }
     Ok(())
