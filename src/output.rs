@@ -169,7 +169,8 @@ fn check_not_a_directory_name(p: &Path, name: &str) -> Result<(), Error> {
 /// `p` is `/proc/PID/fd/N` (or `/proc/PID/task/TID/fd/N`, reached through
 /// `/dev/fd`, `/proc/self`, ...): whether PID is this process, and N.
 fn proc_fd(p: &Path) -> Option<(bool, i32)> {
-    let fd: i32 = p.file_name()?.to_str()?.parse().ok()?;
+    let fd: u32 = p.file_name()?.to_str()?.parse().ok()?;
+    let fd = i32::try_from(fd).ok()?;
     let dir = fs::canonicalize(parent_dir(p)).ok()?;
     let parts: Vec<&[u8]> = dir.iter().map(|c| c.as_bytes()).collect();
     let numeric = |s: &[u8]| !s.is_empty() && s.iter().all(u8::is_ascii_digit);
