@@ -7,7 +7,8 @@
 #   fuzz/run.sh derive tmin fuzz/artifacts/derive/crash-...   # minimise
 #
 # TARGET is `parse` or `derive` (fuzz/fuzz_targets/). RUNS defaults to
-# 1000000 (0 = until stopped or a crash). The script installs cargo-fuzz if
+# 1000000 (0 = until stopped or a crash: libFuzzer's -runs=-1; its own
+# -runs=0 would only replay the corpus). The script installs cargo-fuzz if
 # missing, seeds fuzz/corpus/TARGET/ from examples/*.ls and runs with the
 # dictionary fuzz/ls.dict. Crashes land in fuzz/artifacts/TARGET/.
 #
@@ -19,6 +20,9 @@
 # the derive target about 4x slower (~2,700 vs ~11,000 exec/s here). Set
 # SANITIZER=address (or another cargo-fuzz -s value) to fuzz with one. Each
 # sanitizer builds in its own dir, fuzz/target/san-$SANITIZER/.
+#
+# FUZZ_DRY_RUN=1 prints the libFuzzer flags (one a line) instead of running
+# (tests/fuzz_script.rs).
 set -euo pipefail
 
 here=$(cd "$(dirname "$0")" && pwd)
@@ -42,10 +46,12 @@ if [ -z "${TMPDIR:-}" ] && [ -d /dev/shm ] && [ -w /dev/shm ]; then
     export TMPDIR=/dev/shm
 fi
 
-if ! cargo fuzz --version >/dev/null 2>&1; then
-    echo "fuzz/run.sh: installing cargo-fuzz" >&2
-    cargo install --locked cargo-fuzz
-fi
+need_cargo_fuzz() {
+    if ! cargo fuzz --version >/dev/null 2>&1; then
+        echo "fuzz/run.sh: installing cargo-fuzz" >&2
+        cargo install --locked cargo-fuzz
+    fi
+}
 
 sanitizer=${SANITIZER:-none}
 build_flags=(
@@ -56,12 +62,31 @@ build_flags=(
 if [ "${1:-}" = tmin ]; then
     file=${2:?usage: fuzz/run.sh TARGET tmin FILE}
     shift 2
+    need_cargo_fuzz
     exec cargo fuzz tmin "${build_flags[@]}" "$target" "$file" -- \
         -timeout=10 -rss_limit_mb=2048 "$@"
 fi
 
 runs=${1:-1000000}
 [ $# -gt 0 ] && shift
+# libFuzzer: -runs=0 replays the corpus and stops; -runs=-1 runs until
+# stopped.
+[ "$runs" = 0 ] && runs=-1
+
+fuzzer_flags=(
+    -dict="$here/ls.dict"
+    -runs="$runs"
+    -max_len=4096
+    -timeout=10
+    -rss_limit_mb=2048
+    -print_final_stats=1
+    "$@"
+)
+if [ -n "${FUZZ_DRY_RUN:-}" ]; then
+    printf '%s\n' "${fuzzer_flags[@]}"
+    exit 0
+fi
+need_cargo_fuzz
 
 # Seed corpus: the examples. The derive target reads its first byte as the
 # run settings (steps = byte & 7 % 5, bit 3 = keep the file's seed), so its
@@ -80,11 +105,4 @@ for f in examples/*.ls; do
     fi
 done
 
-exec cargo fuzz run "${build_flags[@]}" "$target" "$corpus" -- \
-    -dict="$here/ls.dict" \
-    -runs="$runs" \
-    -max_len=4096 \
-    -timeout=10 \
-    -rss_limit_mb=2048 \
-    -print_final_stats=1 \
-    "$@"
+exec cargo fuzz run "${build_flags[@]}" "$target" "$corpus" -- "${fuzzer_flags[@]}"

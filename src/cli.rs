@@ -32,7 +32,8 @@ pub struct Args {
     /// The .ls file; standard input when absent or `-`.
     pub file: Option<PathBuf>,
 
-    /// Write the string to FILE (put in place only when complete).
+    /// Write the string to FILE (`-`: standard output); a regular file is
+    /// put in place only when complete, through symbolic links.
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
 
@@ -116,6 +117,22 @@ pub fn parse_limit(s: &str) -> Result<Limits, String> {
 /// parser and compiler recurse on nested expressions); returns the exit
 /// status. A bug shows as one line, not a backtrace.
 pub fn main_exit_code() -> i32 {
+    // Past `ulimit -f`, a write fails with EFBIG (reported) instead of
+    // killing the process.
+    // SAFETY: setting a signal's disposition to SIG_IGN.
+    unsafe { libc::signal(libc::SIGXFSZ, libc::SIG_IGN) };
+    install_panic_hook();
+    let worker = std::thread::Builder::new()
+        .name("lsgen".into())
+        .stack_size(256 << 20)
+        .spawn(main_on_thread);
+    crate::output::leave_termination_signals_to_other_threads();
+    worker.ok().and_then(|t| t.join().ok()).unwrap_or(70)
+}
+
+/// Report a panic (a bug) as one line on standard error, never panicking
+/// again, also when standard error cannot be written.
+pub fn install_panic_hook() {
     std::panic::set_hook(Box::new(|info| {
         let msg = info
             .payload()
@@ -127,14 +144,11 @@ pub fn main_exit_code() -> i32 {
             .location()
             .map(|l| format!(" at {}:{}", l.file(), l.line()))
             .unwrap_or_default();
-        eprintln!("lsgen: internal error: {msg}{at} (please report this)");
+        // Never eprintln! here: a panic in the hook aborts.
+        crate::diag::eprint(&format!(
+            "lsgen: internal error: {msg}{at} (please report this)\n"
+        ));
     }));
-    let worker = std::thread::Builder::new()
-        .name("lsgen".into())
-        .stack_size(256 << 20)
-        .spawn(main_on_thread);
-    crate::output::leave_termination_signals_to_other_threads();
-    worker.ok().and_then(|t| t.join().ok()).unwrap_or(70)
 }
 
 fn main_on_thread() -> i32 {
@@ -143,8 +157,22 @@ fn main_on_thread() -> i32 {
         Err(e) => {
             return match e.kind() {
                 clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => {
-                    let _ = e.print();
-                    0
+                    // A failed write (`--version > /dev/full`, stdout closed)
+                    // is an error; a closed pipe is not.
+                    let printed = crate::output::check_stdout_open().and_then(|()| {
+                        e.print()
+                            .and_then(|()| io::stdout().flush())
+                            .map_err(|e| Error::io("standard output", "cannot write", e))
+                    });
+                    match printed {
+                        Ok(()) => 0,
+                        Err(e) => {
+                            if e.kind != Kind::BrokenPipe {
+                                crate::diag::eprint(&e.to_string());
+                            }
+                            e.exit_code()
+                        }
+                    }
                 }
                 _ => {
                     // Usage errors read like every other error: `lsgen: error: ...`.
@@ -158,7 +186,7 @@ fn main_on_thread() -> i32 {
         Ok(()) => 0,
         Err(e) => {
             if e.kind != Kind::BrokenPipe {
-                let _ = io::stderr().write_all(e.to_string().as_bytes());
+                crate::diag::eprint(&e.to_string());
             }
             e.exit_code()
         }
@@ -210,11 +238,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
             }
         }
         if args.verbose {
-            eprintln!(
-                "lsgen: {path}: ok: {} productions, {} homomorphism productions",
+            crate::diag::eprint(&format!(
+                "lsgen: {path}: ok: {} productions, {} homomorphism productions\n",
                 system.productions.prods.len(),
                 system.homomorphism.prods.len()
-            );
+            ));
         }
         return Ok(());
     }
@@ -224,11 +252,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .unwrap_or(DEFAULT_DERIVATION_LENGTH);
     let seed = args.seed.or(system.seed).unwrap_or_else(Random::fresh_seed);
     if args.verbose {
-        eprintln!("lsgen: seed {seed}");
+        crate::diag::eprint(&format!("lsgen: seed {seed}\n"));
     }
     let mut output = match &args.output {
         Some(p) => Output::file(p)?,
-        None => Output::stdout(),
+        None => Output::stdout()?,
     };
     let mut system = system;
     let consts = std::mem::take(&mut system.consts);
@@ -426,7 +454,7 @@ fn derive(
     let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
     let verbose = |what: &str, (m, b): (u64, u64)| {
         if settings.verbose {
-            eprintln!("lsgen: {what}: {m} modules, {b} bytes");
+            crate::diag::eprint(&format!("lsgen: {what}: {m} modules, {b} bytes\n"));
         }
     };
 

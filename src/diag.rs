@@ -93,6 +93,13 @@ pub fn excerpt(line: &str, col: usize) -> (String, usize) {
     (s, caret)
 }
 
+/// Write `text` to standard error. A closed or full standard error is not
+/// an error of the run: a failure is ignored (`eprint!` would panic).
+pub fn eprint(text: &str) {
+    use std::io::Write;
+    let _ = std::io::stderr().write_all(text.as_bytes());
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
     /// Bad input, runtime error, I/O failure: exit 1.
@@ -180,6 +187,9 @@ impl Error {
 
 /// The OS message without Rust's " (os error N)" suffix.
 fn io_message(e: &std::io::Error) -> String {
+    if e.raw_os_error() == Some(libc::EFBIG) {
+        return "File too large (past `ulimit -f`, or the file system's largest file)".into();
+    }
     let s = e.to_string();
     match s.find(" (os error") {
         Some(i) => s[..i].to_string(),

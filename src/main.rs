@@ -1,3 +1,14 @@
 fn main() {
     std::process::exit(lsgen::cli::main_exit_code());
 }
+
+/// Runs before Rust's runtime, which quietly gives closed standard
+/// descriptors /dev/null: lsgen must know that standard output was closed.
+#[used]
+#[link_section = ".init_array"]
+static NOTE_CLOSED_STANDARD_FDS: extern "C" fn() = {
+    extern "C" fn note() {
+        lsgen::output::note_closed_standard_fds();
+    }
+    note
+};

@@ -1,74 +1,272 @@
-//! Where the final string goes: standard output, or `-o FILE` written to an
-//! unnamed temp file in FILE's directory and put in place only on success,
-//! so a failed or killed run never leaves a partial file or clobbers one.
+//! Where the final string goes: standard output; a stream (`-o` naming a
+//! device, a FIFO, `/dev/stdout`, `/dev/fd/N`); or a regular file, written
+//! to an unnamed temp file in its directory and put in place only on
+//! success, so a failed or killed run never leaves a partial file or
+//! clobbers one. `-o` follows symbolic links: the link's target is replaced
+//! and the link kept, as the shell's `>` writes through it.
 
 use crate::diag::Error;
-use std::fs::File;
+use std::fs::{self, File};
 use std::io::{self, Write};
+use std::os::unix::ffi::OsStrExt;
+use std::os::unix::fs::{MetadataExt, OpenOptionsExt, PermissionsExt};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU8, Ordering};
 
 pub enum Output {
     Stdout(io::Stdout),
     /// A regular file, written beside its final name.
     Atomic {
         file: File,
+        /// The final name: the target of `-o`'s symbolic link(s), if any.
         path: PathBuf,
         dir: PathBuf,
         /// Permissions the new file gets: the replaced file's, or the
         /// default for a new file (0666 less the umask).
         mode: u32,
+        /// `-o` as given, for messages.
+        name: String,
     },
-    /// An existing non-regular file (a device, a FIFO): written in place.
-    Direct(File, PathBuf),
+    /// A stream: a device, a FIFO, or one of lsgen's own open files
+    /// (`/dev/stdout`, `/dev/fd/N`): written in place.
+    Direct(File, String),
+}
+
+/// Bit n set: standard file descriptor n was closed when lsgen started.
+static CLOSED_AT_START: AtomicU8 = AtomicU8::new(0);
+
+/// Note which standard descriptors are closed (`>&-`, `2>&-`) and give
+/// them /dev/null, so that no file lsgen opens takes their number (a
+/// diagnostic would land in it); output for a closed standard output is
+/// then an error, not silently discarded. Rust's runtime also gives them
+/// /dev/null before `main`, so the binary calls this earlier, from an
+/// `.init_array` constructor (src/main.rs).
+pub fn note_closed_standard_fds() {
+    let mut closed = 0u8;
+    for fd in 0..3 {
+        // SAFETY: F_GETFD only queries the descriptor.
+        if unsafe { libc::fcntl(fd, libc::F_GETFD) } != -1 {
+            continue;
+        }
+        closed |= 1 << fd;
+        // SAFETY: open/dup2/close on descriptors this function owns; open
+        // takes the lowest free number, normally `fd` itself.
+        unsafe {
+            let got = libc::open(c"/dev/null".as_ptr(), libc::O_RDWR);
+            if got >= 0 && got != fd {
+                libc::dup2(got, fd);
+                libc::close(got);
+            }
+        }
+    }
+    CLOSED_AT_START.store(closed, Ordering::Relaxed);
+}
+
+/// Standard file descriptor `fd` was closed when lsgen started.
+fn closed_at_start(fd: i32) -> bool {
+    (0..3).contains(&fd) && CLOSED_AT_START.load(Ordering::Relaxed) & (1 << fd) != 0
+}
+
+/// The error for writing to a closed standard output.
+pub fn check_stdout_open() -> Result<(), Error> {
+    if closed_at_start(1) {
+        return Err(fail(
+            "standard output",
+            "cannot write: Bad file descriptor (closed when lsgen started)",
+        ));
+    }
+    Ok(())
+}
+
+/// An error about `-o NAME` with a message of our own.
+fn fail(name: &str, message: impl Into<String>) -> Error {
+    let mut e = Error::new(message);
+    e.subject = Some(name.to_string());
+    e
+}
+
+/// Where `-o` leads, its symbolic links followed.
+enum Target {
+    /// One of lsgen's own file descriptors (`/dev/stdout`, `/dev/fd/N`,
+    /// `/proc/self/fd/N`).
+    Fd(i32),
+    /// An existing file that is not a regular file, or another process's
+    /// descriptor under /proc: opened and written in place.
+    Stream(PathBuf),
+    /// A regular file, existing or not: replaced atomically.
+    File(PathBuf),
+}
+
+/// Symbolic links followed before giving up (Linux's own limit).
+const MAX_LINKS: usize = 40;
+
+/// Follow `path`'s symbolic links (the last component's; the kernel follows
+/// those in the directories) to what `-o` writes.
+fn resolve(path: &Path, name: &str) -> Result<Target, Error> {
+    let mut p = path.to_path_buf();
+    for _ in 0..MAX_LINKS {
+        check_not_a_directory_name(&p, name)?;
+        // /proc's fd links are not real paths (`pipe:[123]`, a deleted
+        // file, another mount namespace): write to the descriptor.
+        match proc_fd(&p) {
+            Some((true, fd)) => return Ok(Target::Fd(fd)),
+            Some((false, _)) => return Ok(Target::Stream(p)),
+            None => {}
+        }
+        match fs::symlink_metadata(&p) {
+            Ok(m) if m.file_type().is_symlink() => {
+                let to =
+                    fs::read_link(&p).map_err(|e| Error::io(name, "cannot read the link", e))?;
+                // A relative target is relative to the link's directory.
+                p = match p.parent() {
+                    Some(d) => d.join(to),
+                    None => to,
+                };
+            }
+            Ok(m) if m.is_dir() => {
+                return Err(fail(
+                    name,
+                    "cannot write: is a directory; -o takes a file name",
+                ))
+            }
+            Ok(m) if !m.is_file() => return Ok(Target::Stream(p)),
+            Ok(_) => return Ok(Target::File(p)),
+            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(Target::File(p)),
+            Err(e) => {
+                return Err(Error::io(
+                    name,
+                    &format!("cannot create a file in {}", parent_dir(&p).display()),
+                    e,
+                ))
+            }
+        }
+    }
+    Err(Error::io(
+        name,
+        "cannot write",
+        io::Error::from_raw_os_error(libc::ELOOP),
+    ))
+}
+
+/// `-o dir/` (or `.`, `..`): a name that can only be a directory.
+fn check_not_a_directory_name(p: &Path, name: &str) -> Result<(), Error> {
+    let b = p.as_os_str().as_bytes();
+    let dir_like =
+        b.ends_with(b"/") || b == b"." || b == b".." || b.ends_with(b"/.") || b.ends_with(b"/..");
+    if !dir_like {
+        return Ok(());
+    }
+    Err(fail(
+        name,
+        match fs::metadata(p) {
+            Ok(m) if m.is_dir() => "cannot write: is a directory; -o takes a file name",
+            Ok(_) => "cannot write: not a directory, but the name ends with `/`",
+            Err(_) => "cannot write: no such directory, and -o takes a file name, not a directory",
+        },
+    ))
+}
+
+/// `p` is `/proc/PID/fd/N` (or `/proc/PID/task/TID/fd/N`, reached through
+/// `/dev/fd`, `/proc/self`, ...): whether PID is this process, and N.
+fn proc_fd(p: &Path) -> Option<(bool, i32)> {
+    let fd: u32 = p.file_name()?.to_str()?.parse().ok()?;
+    let fd = i32::try_from(fd).ok()?;
+    let dir = fs::canonicalize(parent_dir(p)).ok()?;
+    let parts: Vec<&[u8]> = dir.iter().map(|c| c.as_bytes()).collect();
+    let numeric = |s: &[u8]| !s.is_empty() && s.iter().all(u8::is_ascii_digit);
+    let pid = match parts.as_slice() {
+        [b"/", b"proc", pid, b"fd"] if numeric(pid) => *pid,
+        [b"/", b"proc", pid, b"task", tid, b"fd"] if numeric(pid) && numeric(tid) => *pid,
+        _ => return None,
+    };
+    let me = fs::read_link("/proc/self").ok()?;
+    Some((me.as_os_str().as_bytes() == pid, fd))
+}
+
+/// The directory a path's last component is in (`.` for a bare name).
+fn parent_dir(p: &Path) -> &Path {
+    match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
+/// A new descriptor for this process's open file `fd`, sharing its offset.
+fn dup_fd(fd: i32) -> io::Result<File> {
+    use std::os::fd::FromRawFd;
+    if closed_at_start(fd) {
+        return Err(io::Error::from_raw_os_error(libc::EBADF));
+    }
+    // SAFETY: F_DUPFD_CLOEXEC returns a new descriptor we then own.
+    let new = unsafe { libc::fcntl(fd, libc::F_DUPFD_CLOEXEC, 0) };
+    if new < 0 {
+        return Err(io::Error::last_os_error());
+    }
+    // SAFETY: `new` is open and owned by nothing else.
+    Ok(unsafe { File::from_raw_fd(new) })
 }
 
 impl Output {
-    pub fn stdout() -> Output {
-        Output::Stdout(io::stdout())
+    pub fn stdout() -> Result<Output, Error> {
+        check_stdout_open()?;
+        Ok(Output::Stdout(io::stdout()))
     }
 
+    /// `-o PATH`: `-` is standard output.
     pub fn file(path: &Path) -> Result<Output, Error> {
-        let name = path.display().to_string();
-        if let Ok(meta) = std::fs::metadata(path) {
-            if meta.is_dir() {
-                return Err(Error::io(
-                    name,
-                    "cannot write",
-                    io::Error::from(io::ErrorKind::IsADirectory),
-                ));
-            }
-            if !meta.is_file() {
-                let f = std::fs::OpenOptions::new()
-                    .write(true)
-                    .open(path)
-                    .map_err(|e| Error::io(name, "cannot write", e))?;
-                return Ok(Output::Direct(f, path.to_path_buf()));
-            }
+        if path.as_os_str() == "-" {
+            return Output::stdout();
         }
-        use std::os::unix::fs::PermissionsExt;
-        let mode = match std::fs::metadata(path) {
-            Ok(m) => m.permissions().mode() & 0o7777,
+        let name = path.display().to_string();
+        let p = match resolve(path, &name)? {
+            Target::Fd(fd) => {
+                if fd == 1 {
+                    check_stdout_open()?;
+                }
+                let f = dup_fd(fd).map_err(|e| Error::io(&name, "cannot write", e))?;
+                return Ok(Output::Direct(f, name));
+            }
+            Target::Stream(p) => {
+                let f = fs::OpenOptions::new()
+                    .write(true)
+                    .open(&p)
+                    .map_err(|e| Error::io(&name, "cannot write", e))?;
+                // Another process's regular file: start it afresh, as `>`.
+                if f.metadata().is_ok_and(|m| m.is_file()) {
+                    f.set_len(0)
+                        .map_err(|e| Error::io(&name, "cannot write", e))?;
+                }
+                return Ok(Output::Direct(f, name));
+            }
+            Target::File(p) => p,
+        };
+        let mode = match fs::metadata(&p) {
+            Ok(m) => m.mode() & 0o7777,
             Err(_) => 0o666 & !umask(),
         };
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
+        let dir = parent_dir(&p).to_path_buf();
+        remove_leftovers(&dir);
         // O_TMPFILE on Linux: the file has no name until it is complete.
-        let file = tempfile::tempfile_in(&dir).map_err(|e| Error::io(name, "cannot write", e))?;
+        let file = tempfile::tempfile_in(&dir).map_err(|e| {
+            Error::io(
+                &name,
+                &format!("cannot create a file in {}", dir.display()),
+                e,
+            )
+        })?;
         Ok(Output::Atomic {
             file,
-            path: path.to_path_buf(),
+            path: p,
             dir,
             mode,
+            name,
         })
     }
 
     pub fn name(&self) -> String {
         match self {
             Output::Stdout(_) => "standard output".into(),
-            Output::Atomic { path, .. } => path.display().to_string(),
-            Output::Direct(_, path) => path.display().to_string(),
+            Output::Atomic { name, .. } | Output::Direct(_, name) => name.clone(),
         }
     }
 
@@ -86,17 +284,14 @@ impl Output {
             path,
             dir,
             mode,
+            name,
         } = self
         else {
             return Ok(());
         };
-        let name = path.display().to_string();
-        {
-            use std::os::unix::fs::PermissionsExt;
-            file.set_permissions(std::fs::Permissions::from_mode(mode))
-                .and_then(|_| file.sync_all())
-                .map_err(|e| Error::io(name.clone(), "cannot write", e))?;
-        }
+        file.set_permissions(fs::Permissions::from_mode(mode))
+            .and_then(|_| file.sync_all())
+            .map_err(|e| Error::io(&name, "cannot write", e))?;
         // Ctrl-C (or SIGTERM) while the file gets its name would leave a
         // named temp file behind: hold such signals until it is in place.
         let result = with_signals_held(|| Self::put_in_place(file, &dir, &path, &name));
@@ -112,7 +307,7 @@ impl Output {
             Ok(()) => Ok(()),
             // No O_TMPFILE here (tempfile fell back to a deleted named file,
             // which cannot be linked again): copy into a named temp file.
-            Err(e) if e.raw_os_error() == Some(rustix::io::Errno::NOENT.raw_os_error()) => {
+            Err(e) if e.raw_os_error() == Some(libc::ENOENT) => {
                 copy_into_place(file, dir, path).map_err(|e| Error::io(name, "cannot write", e))
             }
             Err(e) => Err(Error::io(name, "cannot write", e)),
@@ -120,27 +315,115 @@ impl Output {
     }
 }
 
-/// Give the unnamed file a temporary name in `dir` (linkat through
-/// /proc/self/fd), then rename it over `path` atomically.
+// Named temp files beside the output: `.lsgen-PID-START-NANOS-K.tmp`, PID
+// and START (its start time in clock ticks since boot, /proc/PID/stat field
+// 22) naming the run that made it. A run that is killed (SIGKILL) while one
+// exists leaves it; later runs writing into that directory remove those
+// whose process no longer runs (see `remove_leftovers`).
+
+const TEMP_PREFIX: &str = ".lsgen-";
+const TEMP_SUFFIX: &str = ".tmp";
+
+/// Start time of process `pid` (field 22 of /proc/PID/stat); None if no
+/// such process, Err if that cannot be told.
+fn process_start(pid: u32) -> io::Result<Option<u64>> {
+    let stat = match fs::read(format!("/proc/{pid}/stat")) {
+        Ok(s) => s,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(e),
+    };
+    // The command name (field 2) is in parentheses and may hold anything.
+    let after = stat
+        .iter()
+        .rposition(|&b| b == b')')
+        .map(|i| &stat[i + 1..])
+        .ok_or_else(|| io::Error::other("unreadable /proc stat"))?;
+    std::str::from_utf8(after)
+        .ok()
+        .and_then(|s| s.split_ascii_whitespace().nth(22 - 3))
+        .and_then(|s| s.parse().ok())
+        .map(Some)
+        .ok_or_else(|| io::Error::other("unreadable /proc stat"))
+}
+
+/// This process's temp file name for attempt `k`.
+fn temp_name(k: u32) -> String {
+    let pid = std::process::id();
+    let start = process_start(pid).ok().flatten().unwrap_or(0);
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    format!("{TEMP_PREFIX}{pid}-{start}-{nanos}-{k}{TEMP_SUFFIX}")
+}
+
+/// PID and START of a name made by `temp_name`.
+fn parse_temp_name(name: &[u8]) -> Option<(u32, u64)> {
+    let s = std::str::from_utf8(name).ok()?;
+    let s = s.strip_prefix(TEMP_PREFIX)?.strip_suffix(TEMP_SUFFIX)?;
+    let parts: Vec<&str> = s.split('-').collect();
+    let [pid, start, nanos, k] = parts.as_slice() else {
+        return None;
+    };
+    let digits = |x: &str| !x.is_empty() && x.bytes().all(|b| b.is_ascii_digit());
+    if !(digits(nanos) && digits(k)) {
+        return None;
+    }
+    Some((pid.parse().ok()?, start.parse().ok()?))
+}
+
+/// Remove the temp files of killed lsgen runs from `dir`: regular files of
+/// ours named by `temp_name` whose process is gone (no such PID, or a PID
+/// now used by a process started at another time). Nothing when /proc
+/// cannot tell; errors are ignored.
+fn remove_leftovers(dir: &Path) {
+    if !matches!(process_start(std::process::id()), Ok(Some(_))) {
+        return;
+    }
+    let Ok(entries) = fs::read_dir(dir) else {
+        return;
+    };
+    // SAFETY: geteuid cannot fail.
+    let uid = unsafe { libc::geteuid() };
+    for entry in entries.flatten() {
+        let Some((pid, start)) = parse_temp_name(entry.file_name().as_bytes()) else {
+            continue;
+        };
+        match process_start(pid) {
+            Ok(None) => {}
+            Ok(Some(s)) if s != start => {}
+            _ => continue,
+        }
+        let p = entry.path();
+        if fs::symlink_metadata(&p).is_ok_and(|m| m.is_file() && m.uid() == uid) {
+            let _ = fs::remove_file(&p);
+        }
+    }
+}
+
+/// Give the unnamed file its name (linkat through /proc/self/fd): straight
+/// away when `path` does not exist yet, else under a temporary name in
+/// `dir` that is then renamed over `path` atomically.
 fn link_into_place(file: &File, dir: &Path, path: &Path) -> io::Result<()> {
     use rustix::fs::{linkat, AtFlags, CWD};
+    use rustix::io::Errno;
     use std::os::fd::AsRawFd;
     let proc_path = format!("/proc/self/fd/{}", file.as_raw_fd());
+    match linkat(CWD, proc_path.as_str(), CWD, path, AtFlags::SYMLINK_FOLLOW) {
+        Ok(()) => return Ok(()),
+        Err(e) if e == Errno::EXIST => {}
+        Err(e) => return Err(e.into()),
+    }
+    // A kill -9 between linkat and rename leaves the temp name behind, for
+    // a later run to remove.
     for attempt in 0..100u32 {
-        let tmp = dir.join(format!(
-            ".lsgen-{}-{}-{attempt}.tmp",
-            std::process::id(),
-            std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map_or(0, |d| d.subsec_nanos())
-        ));
+        let tmp = dir.join(temp_name(attempt));
         match linkat(CWD, proc_path.as_str(), CWD, &tmp, AtFlags::SYMLINK_FOLLOW) {
             Ok(()) => {
-                return std::fs::rename(&tmp, path).inspect_err(|_| {
-                    let _ = std::fs::remove_file(&tmp);
+                return fs::rename(&tmp, path).inspect_err(|_| {
+                    let _ = fs::remove_file(&tmp);
                 });
             }
-            Err(e) if e == rustix::io::Errno::EXIST => continue,
+            Err(e) if e == Errno::EXIST => continue,
             Err(e) => return Err(e.into()),
         }
     }
@@ -149,7 +432,7 @@ fn link_into_place(file: &File, dir: &Path, path: &Path) -> io::Result<()> {
 
 /// The process umask, read from /proc (022 if it cannot be read).
 fn umask() -> u32 {
-    std::fs::read_to_string("/proc/self/status")
+    fs::read_to_string("/proc/self/status")
         .ok()
         .and_then(|s| {
             s.lines()
@@ -159,17 +442,38 @@ fn umask() -> u32 {
         .unwrap_or(0o022)
 }
 
+/// Copy the complete output into a named temp file in `dir` and rename it
+/// over `path`. A kill -9 during the copy leaves the temp file behind, for
+/// a later run to remove.
 fn copy_into_place(mut file: File, dir: &Path, path: &Path) -> io::Result<()> {
     use std::io::{Seek, SeekFrom};
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".lsgen-")
-        .tempfile_in(dir)?;
-    file.seek(SeekFrom::Start(0))?;
-    io::copy(&mut file, tmp.as_file_mut())?;
-    tmp.as_file()
-        .set_permissions(file.metadata()?.permissions())?;
-    tmp.as_file().sync_all()?;
-    tmp.persist(path).map(|_| ()).map_err(|e| e.error)
+    let (tmp, mut out) = (|| {
+        for attempt in 0..100u32 {
+            let tmp = dir.join(temp_name(attempt));
+            match fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .mode(0o600)
+                .open(&tmp)
+            {
+                Ok(f) => return Ok((tmp, f)),
+                Err(e) if e.kind() == io::ErrorKind::AlreadyExists => continue,
+                Err(e) => return Err(e),
+            }
+        }
+        Err(io::Error::from(io::ErrorKind::AlreadyExists))
+    })()?;
+    let r = (|| {
+        file.seek(SeekFrom::Start(0))?;
+        io::copy(&mut file, &mut out)?;
+        out.set_permissions(file.metadata()?.permissions())?;
+        out.sync_all()?;
+        fs::rename(&tmp, path)
+    })();
+    if r.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    r
 }
 
 /// The signals that end a run from outside (SIGKILL aside).

@@ -336,6 +336,23 @@ fn output_to_a_device_is_written_in_place() {
     assert_eq!(r.ok(), "");
 }
 
+/// `-o -` is standard output (lsgen before this wrote a file named `-`).
+#[test]
+fn output_dash_is_standard_output() {
+    let d = tempfile::tempdir().unwrap();
+    let algae = example("algae");
+    let r = run_in(d.path(), &["-n", "5", "-o", "-", &algae], None);
+    assert_eq!(r.ok(), expected("algae", 5));
+    assert!(listing(d.path()).is_empty(), "{:?}", listing(d.path()));
+    // `./-` is still a file of that name.
+    let r = run_in(d.path(), &["-n", "5", "-o", "./-", &algae], None);
+    assert_eq!(r.ok(), "");
+    assert_eq!(
+        std::fs::read_to_string(d.path().join("-")).unwrap(),
+        expected("algae", 5)
+    );
+}
+
 /// Run lsgen with its standard output on /dev/full (every write fails).
 fn run_to_dev_full(args: &[&str]) -> Option<(i32, String)> {
     let full = std::fs::OpenOptions::new()
@@ -896,6 +913,35 @@ fn help_and_version_exit_zero() {
     for flag in ["--version", "-V"] {
         let out = run(&[flag]).ok();
         assert_eq!(out, format!("lsgen {}\n", env!("CARGO_PKG_VERSION")));
+    }
+}
+
+/// `--version`/`--help` whose text cannot be written fail with a message
+/// (lsgen before this exited 0); a closed pipe is still a quiet success.
+#[test]
+fn help_and_version_report_write_errors() {
+    for flag in ["--version", "--help"] {
+        let Some((code, e)) = run_to_dev_full(&[flag]) else {
+            return; // no /dev/full here
+        };
+        assert_eq!(code, 1, "{flag} > /dev/full: {e}");
+        assert_eq!(
+            e, "lsgen: standard output: error: cannot write: No space left on device\n",
+            "{flag}"
+        );
+        // A pipe nobody reads any more.
+        let mut child = Command::new(BIN)
+            .arg(flag)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take());
+        let out = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{flag} | closed: {stderr}");
+        assert_eq!(stderr, "", "{flag} | closed");
     }
 }
 
