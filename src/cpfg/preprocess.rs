@@ -996,6 +996,17 @@ impl Pp<'_> {
 
     fn open(&mut self, name: String, path: PathBuf, text: String) -> Res<()> {
         let id = self.files.len() as u32;
+        if text.len() >= u32::MAX as usize {
+            // Offsets are 32-bit.
+            let f = SourceFile::new(name, path, String::new()).expect("empty file");
+            return Err(PpError {
+                at: f.location_src(0),
+                kind: PpErrorKind::Limit {
+                    what: "file too large",
+                    limit: u32::MAX as usize - 1,
+                },
+            });
+        }
         let f = SourceFile::new(name, path, text).map_err(|at| PpError {
             at,
             kind: PpErrorKind::UnterminatedComment,
@@ -1974,6 +1985,7 @@ impl Pp<'_> {
             toks: &ex,
             i: 0,
             end,
+            depth: 0,
         };
         let r = p.comma(true);
         let r = r.and_then(|v| match p.toks.get(p.i) {
@@ -2048,7 +2060,12 @@ struct ExprParser<'a> {
     toks: &'a [(E, Pos)],
     i: usize,
     end: Pos,
+    /// Recursion depth (parentheses, unary operators, `?:`).
+    depth: usize,
 }
+
+/// Deepest `#if` nesting of parentheses, unary operators and `?:`.
+const MAX_EXPR_DEPTH: usize = 128;
 
 impl ExprParser<'_> {
     fn peek_op(&self) -> Option<&'static str> {
@@ -2071,11 +2088,21 @@ impl ExprParser<'_> {
         Ok(v)
     }
 
+    fn enter(&mut self) -> Result<(), (String, Pos)> {
+        self.depth += 1;
+        if self.depth > MAX_EXPR_DEPTH {
+            let m = format!("`#if` expression nested too deeply (limit {MAX_EXPR_DEPTH})");
+            return Err((m, self.pos()));
+        }
+        Ok(())
+    }
+
     fn cond(&mut self, ev: bool) -> ERes {
         let c = self.binary(0, ev)?;
         if self.peek_op() != Some("?") {
             return Ok(c);
         }
+        self.enter()?;
         self.i += 1;
         let a = self.comma(ev && c != 0)?;
         if self.peek_op() != Some(":") {
@@ -2086,9 +2113,11 @@ impl ExprParser<'_> {
         }
         self.i += 1;
         let b = self.cond(ev && c == 0)?;
+        self.depth -= 1;
         Ok(if c != 0 { a } else { b })
     }
 
+    /// Operators of precedence `level` and higher (0 is `||`).
     fn binary(&mut self, level: usize, ev: bool) -> ERes {
         const LEVELS: &[&[&str]] = &[
             &["||"],
@@ -2102,11 +2131,16 @@ impl ExprParser<'_> {
             &["+", "-"],
             &["*", "/", "%"],
         ];
-        if level == LEVELS.len() {
-            return self.unary(ev);
-        }
-        let mut a = self.binary(level + 1, ev)?;
-        while let Some(op) = self.peek_op().filter(|o| LEVELS[level].contains(o)) {
+        // Precedence climbing: operators of level >= `level`, left to right.
+        let mut a = self.unary(ev)?;
+        loop {
+            let Some(op) = self.peek_op() else { break };
+            let Some(p) = LEVELS.iter().position(|l| l.contains(&op)) else {
+                break;
+            };
+            if p < level {
+                break;
+            }
             let at = self.pos();
             self.i += 1;
             let ev_b = match op {
@@ -2114,7 +2148,7 @@ impl ExprParser<'_> {
                 "&&" => ev && a != 0,
                 _ => ev,
             };
-            let b = self.binary(level + 1, ev_b)?;
+            let b = self.binary(p + 1, ev_b)?;
             a = match op {
                 "||" => (a != 0 || b != 0) as i64,
                 "&&" => (a != 0 && b != 0) as i64,
@@ -2146,6 +2180,13 @@ impl ExprParser<'_> {
     }
 
     fn unary(&mut self, ev: bool) -> ERes {
+        self.enter()?;
+        let r = self.unary_inner(ev);
+        self.depth -= 1;
+        r
+    }
+
+    fn unary_inner(&mut self, ev: bool) -> ERes {
         let Some((tok, at)) = self.toks.get(self.i).copied() else {
             return Err(("`#if` expression ends too early".into(), self.end));
         };

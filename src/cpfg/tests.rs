@@ -152,6 +152,11 @@ fn no_recursive_self_expansion() {
     assert_eq!(text("#define X Y\n#define Y X\nX Y\n"), "\n\nX Y\n");
     // C's classic example: the inner `f` is painted blue.
     assert_eq!(text("#define f(x) x f\nf(1)(2)\n"), "\n1 f(2)\n");
+    // A function-like name produced by a macro takes its `(` from the text.
+    assert_eq!(
+        text("#define G F\n#define F(x) <x>\nG(1) G\n"),
+        "\n\n<1> F\n"
+    );
     // But a macro may appear again in its own argument.
     assert_eq!(text("#define g(x) [x]\ng(g(1))\n"), "\n[[1]]\n");
 }
@@ -506,6 +511,19 @@ fn bad_if_expressions() {
         assert_eq!(place(&e), ("m.l", 1, *col), "{src}: {e}");
         assert!(e.message().contains(msg), "{src}: {e}");
     }
+    // Deep nesting is an error, not a stack overflow.
+    for deep in [
+        format!("#if {}1{}\n", "(".repeat(100_000), ")".repeat(100_000)),
+        format!("#if {}1\n", "-".repeat(100_000)),
+        format!("#if {}1\n", "1?1:".repeat(100_000)),
+    ] {
+        let e = err(&deep);
+        assert!(e.message().contains("nested too deeply"), "{e}");
+        assert_eq!(place(&e).1, 1);
+    }
+    // 120 levels are fine.
+    let ok = format!("#if {}1{}\nyes\n#endif\n", "(".repeat(120), ")".repeat(120));
+    assert_eq!(text(&ok), "\nyes\n\n");
     // Through a macro: the error points at the macro's use.
     let e = err("#define BAD 1/0\n#if 1 + BAD\n#endif\n");
     assert_eq!(place(&e), ("m.l", 2, 9));
