@@ -2133,8 +2133,7 @@ impl ExprParser<'_> {
         ];
         // Precedence climbing: operators of level >= `level`, left to right.
         let mut a = self.unary(ev)?;
-        loop {
-            let Some(op) = self.peek_op() else { break };
+        while let Some(op) = self.peek_op() {
             let Some(p) = LEVELS.iter().position(|l| l.contains(&op)) else {
                 break;
             };
