@@ -549,6 +549,11 @@ impl SourceMap {
         }
     }
 
+    #[cfg(test)]
+    pub(crate) fn pieces(&self) -> usize {
+        self.segs.len()
+    }
+
     /// A located error position (with the source line) for byte `offset`.
     pub fn location(&self, offset: usize) -> Location {
         let [at, _, _] = self.resolve(offset);
@@ -668,8 +673,9 @@ fn text_of<'a>(files: &'a [SourceFile], t: &'a Tok) -> &'a str {
     match &t.own {
         Some(s) => s,
         None => {
+            let c = &files[t.at.file as usize].clean;
             let o = t.at.off as usize;
-            &files[t.at.file as usize].clean[o..o + t.len as usize]
+            c.get(o..(o + t.len as usize).min(c.len())).unwrap_or("")
         }
     }
 }
@@ -885,7 +891,7 @@ impl Pp<'_> {
         let out = self.text.len();
         if let Some(l) = self.segs.last() {
             let same = l.kind == kind
-                && l.b == b
+                && (kind == SegKind::Text || l.b == b)
                 && l.a.file == a.file
                 && match kind {
                     SegKind::Fixed | SegKind::Synth => l.a == a,

@@ -717,3 +717,15 @@ fn read_file_reads_utf8_and_refuses_others() {
     let o = preprocess(&main, "#include \"a.h\"\nA\n", &read_file).unwrap();
     assert_eq!(o.text, "\nB\n");
 }
+
+#[test]
+fn map_size_does_not_grow_with_plain_text() {
+    // One piece per run of copied text, not one per module.
+    let axiom = "F(1)[+F(2)]-F ".repeat(10_000);
+    let o = run(&format!("#define X 1\nAxiom: {axiom}\nA --> B\n")).unwrap();
+    assert!(o.map.pieces() <= 4, "{} pieces", o.map.pieces());
+    let f = o.text.rfind("F(1)").unwrap();
+    let at = o.map.locate(f);
+    assert_eq!((at.line, at.col), (2, 8 + 14 * 9_999));
+    assert_eq!(loc_of(&o, "B", 0), l("m.l", 3, 7));
+}
