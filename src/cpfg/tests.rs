@@ -729,3 +729,31 @@ fn map_size_does_not_grow_with_plain_text() {
     assert_eq!((at.line, at.col), (2, 8 + 14 * 9_999));
     assert_eq!(loc_of(&o, "B", 0), l("m.l", 3, 7));
 }
+
+#[test]
+fn untaken_elif_is_not_evaluated_and_undef_needs_a_name() {
+    assert_eq!(text("#if 1\na\n#elif 1/0\nb\n#endif\n"), "\na\n\n\n\n");
+    assert_eq!(
+        text("#if 0\n#elif 1\nb\n#elif 1/0\n#endif\n"),
+        "\n\nb\n\n\n"
+    );
+    let e = err("#undef\n");
+    assert!(matches!(e.kind, PpErrorKind::InvalidDirective(_)), "{e}");
+    let e = err("#undef 3\n");
+    assert_eq!(place(&e), ("m.l", 1, 8));
+    // A quote inside a string is text.
+    assert_eq!(
+        text("#define X 1\nprintf(\"it's X\\n\", X);\n"),
+        "\nprintf(\"it's X\\n\", 1);\n"
+    );
+}
+
+#[test]
+fn warning_rendering() {
+    let o = run("A\n\t#(1)F\n").unwrap();
+    assert_eq!(
+        o.warnings[0].to_string(),
+        "lsgen: m.l:2:2: warning: `#` followed by a symbol is taken as a module, \
+         not a directive\n\t#(1)F\n\t^\n"
+    );
+}
