@@ -18,8 +18,11 @@
 //! and leading TABs byte for byte, every directive line and every line of a
 //! skipped `#if` group becomes an empty line (as `vlabcpp` makes it), a
 //! `/* */` comment becomes a space followed by the newlines it contained,
-//! and only `\`-newline splices and newlines inside a macro call's argument
-//! list disappear.
+//! and the newlines that `\`-newline splices, a macro call over several
+//! lines or an `#include` line take away are written after the line, before
+//! the next one, as `vlabcpp` resynchronises its line numbers. So a TAB line
+//! continues the statement before it exactly when it does in cpfg, and line
+//! N of the output is line N of the file outside included text.
 
 pub mod preprocess;
 

@@ -52,8 +52,15 @@
 //! text (16 MiB), the `#include` nesting (32 files), the nesting of macro
 //! argument expansions (64 levels), and the total number of tokens produced
 //! by macro expansion in one run (2^21, which stops a "macro bomb" such as
-//! `#define B A A` / `#define C B B` / ...). Output lines and original lines
-//! need not correspond (splices, includes, calls spanning lines): use
+//! `#define B A A` / `#define C B B` / ...).
+//!
+//! # Lines
+//!
+//! Like `vlabcpp`, the output keeps each file's line numbers: a directive or
+//! skipped line becomes an empty line, and newlines removed by splices,
+//! macro calls over several lines, comments inside directives or an
+//! `#include` line are written before the next line. Included text is
+//! inserted in place, so lines after an include are shifted: use
 //! [`SourceMap`] to go back.
 
 use crate::diag::{excerpt, Location};
@@ -772,6 +779,8 @@ struct Frame {
     file: u32,
     /// Start of the next line in the file's cleaned text.
     pos: usize,
+    /// Newlines written for this file so far (for line sync).
+    emitted: usize,
 }
 
 struct Cond {
@@ -933,6 +942,35 @@ impl Pp<'_> {
         };
         self.push_seg(kind, p, p);
         self.text.push('\n');
+        self.count_newlines(1);
+    }
+
+    fn count_newlines(&mut self, n: usize) {
+        if let Some(fr) = self.frames.last_mut() {
+            fr.emitted += n;
+        }
+    }
+
+    /// Line sync, as `vlabcpp` keeps it: before the line at `pos`, write the
+    /// newlines that splices, calls over several lines, comments in
+    /// directives or an `#include` line left out, so that output line N of
+    /// a file's own text is its line N.
+    fn sync_lines(&mut self, file: u32, pos: usize) {
+        let f = &self.files[file as usize];
+        let src = f.src_offset(pos);
+        let want = f.line_starts.partition_point(|&s| s <= src) - 1;
+        let have = self.frames.last().map_or(want, |fr| fr.emitted);
+        if have < want {
+            let p = Pos {
+                file,
+                off: pos as u32,
+            };
+            self.push_seg(SegKind::Fixed, p, p);
+            for _ in have..want {
+                self.text.push('\n');
+            }
+            self.count_newlines(want - have);
+        }
     }
 
     fn emit(&mut self, t: &Tok) -> Res<()> {
@@ -968,6 +1006,7 @@ impl Pp<'_> {
                     for _ in 0..n {
                         self.text.push('\n');
                     }
+                    self.count_newlines(n as usize);
                     from = o + 1;
                 }
                 let p = Pos {
@@ -1018,7 +1057,11 @@ impl Pp<'_> {
             kind: PpErrorKind::UnterminatedComment,
         })?;
         self.files.push(f);
-        self.frames.push(Frame { file: id, pos: 0 });
+        self.frames.push(Frame {
+            file: id,
+            pos: 0,
+            emitted: 0,
+        });
         Ok(())
     }
 
@@ -1041,6 +1084,8 @@ impl Pp<'_> {
                 self.frames.pop();
                 continue;
             }
+            self.sync_lines(file, pos);
+            let f = &self.files[file as usize];
             let b = f.clean.as_bytes();
             let eol = f.clean[pos..].find('\n').map_or(len, |e| pos + e);
             let mut i = pos;

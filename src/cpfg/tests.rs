@@ -83,7 +83,8 @@ fn crlf_input_becomes_lf_and_maps_to_the_right_columns() {
 
 #[test]
 fn line_continuation_joins_lines() {
-    assert_eq!(text("#define LONG 1 +\\\n 2\nLONG\n"), "\n1 + 2\n");
+    // The newline lost to the splice follows the line (line sync).
+    assert_eq!(text("#define LONG 1 +\\\n 2\nLONG\n"), "\n\n1 + 2\n");
     // In ordinary text too, even inside a name; CR LF after the backslash.
     let o = run("AB\\\r\nCD E\n").unwrap();
     assert_eq!(o.text, "ABCD E\n");
@@ -106,7 +107,7 @@ fn comments_are_spaces_and_keep_their_newlines() {
     // continues the directive.
     assert_eq!(
         text("#define X 1 /* two\nlines */ + 2\nprintf(\"X /* %d\", X) // c\n"),
-        "\nprintf(\"X /* %d\", 1 + 2)  \n"
+        "\n\nprintf(\"X /* %d\", 1 + 2)  \n"
     );
 }
 
@@ -164,7 +165,7 @@ fn no_recursive_self_expansion() {
 #[test]
 fn macro_call_spanning_lines() {
     let o = run("#define F(a,b) a b\nF(1,\n2) X\nY\n").unwrap();
-    assert_eq!(o.text, "\n1 2 X\nY\n");
+    assert_eq!(o.text, "\n1 2 X\n\nY\n");
     assert_eq!(loc_of(&o, "X", 0), l("m.l", 3, 4));
     assert_eq!(loc_of(&o, "Y", 0), l("m.l", 4, 1));
     assert_eq!(loc_of(&o, "2", 0), l("m.l", 3, 1));
@@ -304,7 +305,8 @@ fn include_relative_to_the_including_file() {
         ("dir/sub/../c.h", "D"),
     ];
     let o = preprocess(Path::new("m.l"), "#include \"dir/a.h\"\nA\n", &mem(&files)).unwrap();
-    assert_eq!(o.text, "\nC\nD\nB\n");
+    // The #include line's newline comes back after the included text.
+    assert_eq!(o.text, "\nC\nD\n\nB\n");
     assert_eq!(loc_of(&o, "C", 0), l("dir/sub/b.h", 1, 1));
     assert_eq!(loc_of(&o, "D", 0), l("dir/sub/../c.h", 1, 1));
     assert_eq!(loc_of(&o, "B", 0), l("m.l", 2, 1));
@@ -715,7 +717,7 @@ fn read_file_reads_utf8_and_refuses_others() {
     std::fs::write(&p, "#define A B\n").unwrap();
     let main = dir.path().join("m.l");
     let o = preprocess(&main, "#include \"a.h\"\nA\n", &read_file).unwrap();
-    assert_eq!(o.text, "\nB\n");
+    assert_eq!(o.text, "\n\nB\n");
 }
 
 #[test]
@@ -756,4 +758,37 @@ fn warning_rendering() {
         "lsgen: m.l:2:2: warning: `#` followed by a symbol is taken as a module, \
          not a directive\n\t#(1)F\n\t^\n"
     );
+}
+
+#[test]
+fn line_sync_as_vlabcpp() {
+    // Output line N is source line N in a file without includes, whatever
+    // splices, calls over several lines and comments in directives remove.
+    let src = "L1 \\\nL1b\n#define F(a,b) a+b /* c\nc */\nL5 F(1,\n2)\nL7 /* x\n*/ L8\n#if 0\nx\n#endif\nL12\n";
+    let o = text(src);
+    for (i, line) in o.lines().enumerate() {
+        if let Some(w) = line
+            .split_whitespace()
+            .next()
+            .filter(|w| w.starts_with('L'))
+        {
+            assert_eq!(w, format!("L{}", i + 1), "{o:?}");
+        }
+    }
+    assert_eq!(o.lines().count(), 12, "{o:?}");
+    assert!(o.contains("L5 1+2\n") && o.contains("\n L8\n"), "{o:?}");
+    // So a TAB line after a call over several lines does not continue the
+    // statement, as in cpfg.
+    assert_eq!(
+        text("#define F(a,b) a b\nF(1,\n2) X\n\tY\n"),
+        "\n1 2 X\n\n\tY\n"
+    );
+    // Nor after an empty included file.
+    let o = preprocess(
+        Path::new("m.l"),
+        "A\n#include \"e.h\"\n\tB\n",
+        &mem(&[("e.h", "")]),
+    )
+    .unwrap();
+    assert_eq!(o.text, "A\n\n\tB\n");
 }
