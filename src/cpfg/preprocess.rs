@@ -43,7 +43,10 @@
 //! - A file that includes itself, directly or through others, is an error
 //!   even when include guards would stop the recursion.
 //! - Unsigned arithmetic is not distinguished in `#if` (`u` suffixes are
-//!   accepted and ignored).
+//!   accepted and ignored); parentheses, unary operators and `?:` nest at
+//!   most 128 deep.
+//! - `'` starts a character constant as in C (cpfg has no `'` module); one
+//!   not closed on its line is an error (`vlabcpp` reports it too).
 //!
 //! # Limits
 //!
