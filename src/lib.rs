@@ -9,6 +9,7 @@ pub mod ast;
 pub mod axiom;
 pub mod cli;
 pub mod codec;
+pub mod cpfg;
 pub mod dfs;
 pub mod diag;
 pub mod engine;
