@@ -20,3 +20,4 @@ pub mod parse;
 pub mod random;
 pub mod rules;
 pub use cli::derive_bytes;
+pub mod turtle;
