@@ -39,6 +39,9 @@ struct Args {
     /// Width change of ! and # without a parameter
     #[arg(long, allow_negative_numbers = true)]
     width_increment: Option<f64>,
+    /// Factor applied to every width when drawn
+    #[arg(long)]
+    width_scale: Option<f64>,
     /// Colour index change of ' ; , without a parameter
     #[arg(long, allow_negative_numbers = true)]
     colour_increment: Option<f64>,
@@ -90,6 +93,7 @@ fn options(a: Args) -> Result<Options, Error> {
         ("step", num(a.step)),
         ("width", num(a.width)),
         ("width increment", num(a.width_increment)),
+        ("width scale", num(a.width_scale)),
         ("colour increment", num(a.colour_increment)),
         ("tropism", a.tropism.clone()),
         ("elasticity", num(a.elasticity)),

@@ -35,6 +35,9 @@ pub struct BBox {
     pub min: (f64, f64),
     pub max: (f64, f64),
     pub any: bool,
+    /// Largest coordinate magnitude seen: projected extents far below it
+    /// are rounding noise (a line seen end-on).
+    pub reach: f64,
 }
 
 impl BBox {
@@ -44,10 +47,12 @@ impl BBox {
             min: (f64::INFINITY, f64::INFINITY),
             max: (f64::NEG_INFINITY, f64::NEG_INFINITY),
             any: false,
+            reach: 0.0,
         }
     }
     #[inline]
     fn add(&mut self, p: V3, r: f64) {
+        self.reach = self.reach.max(p[0].abs()).max(p[1].abs()).max(p[2].abs());
         let (u, v) = self.proj.project(p);
         let r = r.max(0.0);
         self.min.0 = self.min.0.min(u - r);
@@ -101,7 +106,9 @@ impl Layout {
         } else {
             ((0.0, 0.0), (0.0, 0.0))
         };
-        let (bw, bh) = (max.0 - min.0, max.1 - min.1);
+        let noise = b.reach * 1e-9;
+        let flat = |x: f64| if x <= noise { 0.0 } else { x };
+        let (bw, bh) = (flat(max.0 - min.0), flat(max.1 - min.1));
         let inner = (size as f64 - 2.0 * margin).max(1.0);
         let big = bw.max(bh);
         let scale = if big > 0.0 && big.is_finite() {
@@ -479,7 +486,7 @@ impl<'w> Obj<'w> {
     }
 
     fn material(&mut self, colour: i64) -> io::Result<()> {
-        let m = colour.rem_euclid(self.palette_len);
+        let m = colour.clamp(0, self.palette_len - 1);
         if self.material != Some(m) {
             writeln!(self.out, "usemtl c{m}")?;
             self.material = Some(m);

@@ -67,6 +67,7 @@ pub struct Turtle {
     sin_a: f64,
     step: f64,
     width_inc: f64,
+    width_scale: f64,
     colour_inc: f64,
     tropism: V3,
     elasticity: f64,
@@ -100,6 +101,7 @@ impl Turtle {
             sin_a: a.sin(),
             step: v.step,
             width_inc: v.width_increment,
+            width_scale: v.width_scale,
             colour_inc: v.colour_increment,
             tropism: v.tropism,
             elasticity: v.elasticity,
@@ -196,7 +198,7 @@ impl Turtle {
             'F' | 'G' => {
                 let from = self.forward(p);
                 let to = self.s.pos;
-                sink.segment(from, to, self.s.width, self.colour())?;
+                sink.segment(from, to, self.s.width * self.width_scale, self.colour())?;
                 if sym == 'F' {
                     self.vertex(to);
                 }
@@ -284,7 +286,10 @@ impl Turtle {
     fn at_module(&mut self, sym: char, p: &[f64], sink: &mut dyn Sink) -> Result<(), ModErr> {
         match sym {
             'o' | 'O' => {
-                let d = p.first().copied().unwrap_or(self.s.width);
+                let d = p
+                    .first()
+                    .copied()
+                    .unwrap_or(self.s.width * self.width_scale);
                 sink.dot(self.s.pos, d, self.colour(), sym == 'O')?;
             }
             'v' => self.level(),

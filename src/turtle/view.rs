@@ -24,6 +24,9 @@ pub struct View {
     pub step: f64,
     pub width: f64,
     pub width_increment: f64,
+    /// Every width is multiplied by this when drawn (cpfg models often
+    /// give widths in pixels: this brings them to the model's units).
+    pub width_scale: f64,
     pub colour: f64,
     pub colour_increment: f64,
     pub tropism: [f64; 3],
@@ -40,6 +43,7 @@ impl Default for View {
             step: 1.0,
             width: 1.0,
             width_increment: 0.0,
+            width_scale: 1.0,
             colour: 0.0,
             colour_increment: 1.0,
             tropism: [0.0, 1.0, 0.0],
@@ -73,6 +77,7 @@ pub enum Setting {
     Step(f64),
     Width(f64),
     WidthIncrement(f64),
+    WidthScale(f64),
     Colour(f64),
     ColourIncrement(f64),
     Tropism([f64; 3]),
@@ -88,6 +93,7 @@ pub const NAMES: &[&str] = &[
     "step",
     "width",
     "width increment",
+    "width scale",
     "colour",
     "colour increment",
     "tropism",
@@ -224,6 +230,7 @@ pub fn parse_setting(text: &str) -> Result<Setting, SettingError> {
         "step" => Setting::Step(one(&w)?),
         "width" => Setting::Width(non_negative(one(&w)?)?),
         "width increment" => Setting::WidthIncrement(one(&w)?),
+        "width scale" => Setting::WidthScale(non_negative(one(&w)?)?),
         "colour" => Setting::Colour(one(&w)?),
         "colour increment" => Setting::ColourIncrement(one(&w)?),
         "elasticity" => Setting::Elasticity(one(&w)?),
@@ -287,6 +294,7 @@ impl View {
             Setting::Step(v) => self.step = v,
             Setting::Width(v) => self.width = v,
             Setting::WidthIncrement(v) => self.width_increment = v,
+            Setting::WidthScale(v) => self.width_scale = v,
             Setting::Colour(v) => self.colour = v,
             Setting::ColourIncrement(v) => self.colour_increment = v,
             Setting::Tropism(v) => self.tropism = v,
@@ -297,11 +305,12 @@ impl View {
         }
     }
 
-    /// The colour of index `i` (rounded, taken modulo the palette's length).
+    /// The colour of index `i`: indices past either end of the palette
+    /// take its first or last colour.
     pub fn colour_of(&self, i: i64) -> Rgb {
-        let n = self.palette.len().max(1) as i64;
+        let last = self.palette.len().saturating_sub(1) as i64;
         self.palette
-            .get(i.rem_euclid(n) as usize)
+            .get(i.clamp(0, last) as usize)
             .copied()
             .unwrap_or([0, 0, 0])
     }
