@@ -4,7 +4,7 @@
    The book's rules  * < + > * -> -  and  * < - > * -> +  (any context)
    are written context-free here: in lsgen * is an ordinary symbol. */
 view: angle = 22.5
-view: width = 0.45
+view: width = 0.19
 view: palette = #33691e
 derivation length: 30
 define: delta = 22.5

@@ -4,7 +4,7 @@
    The book's rules  * < + > * -> -  and  * < - > * -> +  (any context)
    are written context-free here: in lsgen * is an ordinary symbol. */
 view: angle = 25.75
-view: width = 0.45
+view: width = 0.36
 view: palette = #33691e
 derivation length: 24
 define: delta = 25.75

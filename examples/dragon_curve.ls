@@ -3,7 +3,7 @@
    are separate (non-drawing) symbols l and r, the usual node-rewriting form
    that draws the same curve. */
 view: angle = 90
-view: width = 0.2
+view: width = 0.16
 view: palette = #b71c1c
 derivation length: 10
 define: delta = 90

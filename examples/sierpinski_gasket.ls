@@ -3,7 +3,7 @@
    The book's edges Fl and Fr are written L and R; the homomorphism turns
    both into a drawn edge F after the last step. */
 view: angle = 60
-view: width = 0.25
+view: width = 0.21
 view: palette = #4a148c
 derivation length: 6
 define: delta = 60

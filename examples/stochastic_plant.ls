@@ -3,7 +3,7 @@
    made here for renderers.  Each step picks one of the three F productions
    with probabilities 0.33 / 0.33 / 0.34; the seed makes runs repeatable. */
 view: angle = 20
-view: width = 0.6
+view: width = 0.2
 view: palette = #33691e
 derivation length: 5
 define: delta = 20

@@ -3,7 +3,7 @@
    stochastic_plant.ls (n = 5, delta = 20 degrees), standing 70 units
    apart.  Another seed gives another row, always the same for one seed. */
 view: angle = 20
-view: width = 0.8
+view: width = 1.0
 view: palette = #33691e
 derivation length: 5
 seed: 7

@@ -286,9 +286,17 @@ fn decode_png(data: &[u8]) -> (u32, u32, Vec<u8>) {
     let mut r = d.read_info().unwrap();
     let mut buf = vec![0; r.output_buffer_size()];
     let info = r.next_frame(&mut buf).unwrap();
-    assert_eq!(info.color_type, png::ColorType::Rgba);
     buf.truncate(info.buffer_size());
-    (info.width, info.height, buf)
+    // As RGBA, whatever was written.
+    let px = match info.color_type {
+        png::ColorType::Rgba => buf,
+        png::ColorType::Rgb => buf
+            .chunks(3)
+            .flat_map(|c| [c[0], c[1], c[2], 255])
+            .collect(),
+        t => panic!("unexpected colour type {t:?}"),
+    };
+    (info.width, info.height, px)
 }
 
 #[test]
@@ -337,10 +345,15 @@ fn png_matches_the_svg() {
             (x0, y0, x1, y1)
         );
     }
-    // A background option is honoured.
-    a.extend(["--background", "#000000"]);
-    let (_, _, px) = decode_png(&ok(&turtle(&a, &string)));
+    // A background option is honoured; `none` is transparent.
+    let mut b = a.clone();
+    b.extend(["--background", "#000000"]);
+    let (_, _, px) = decode_png(&ok(&turtle(&b, &string)));
     assert_eq!(&px[..4], &[0, 0, 0, 255]);
+    a.extend(["--background", "none"]);
+    let (_, _, px) = decode_png(&ok(&turtle(&a, &string)));
+    assert_eq!(px[3], 0);
+    assert!(px.chunks(4).any(|p| p[3] > 100), "nothing drawn");
 }
 
 #[test]

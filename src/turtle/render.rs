@@ -376,8 +376,30 @@ impl Png {
 
     pub fn finish(mut self, out: &mut dyn Write) -> io::Result<()> {
         self.stroke_run();
-        let data = self.pixmap.encode_png().map_err(io::Error::other)?;
-        out.write_all(&data)?;
+        // Opaque pictures are written as RGB, and every PNG with the best
+        // compression: the gallery's files stay small.
+        let (w, h) = (self.pixmap.width(), self.pixmap.height());
+        let opaque = self.view.background.is_some();
+        let mut data = Vec::with_capacity((w * h * 4) as usize);
+        for p in self.pixmap.pixels() {
+            let c = p.demultiply();
+            data.extend_from_slice(&[c.red(), c.green(), c.blue()]);
+            if !opaque {
+                data.push(c.alpha());
+            }
+        }
+        let mut enc = png::Encoder::new(&mut *out, w, h);
+        enc.set_color(if opaque {
+            png::ColorType::Rgb
+        } else {
+            png::ColorType::Rgba
+        });
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_compression(png::Compression::Best);
+        enc.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
+        let mut writer = enc.write_header().map_err(png_err)?;
+        writer.write_image_data(&data).map_err(png_err)?;
+        writer.finish().map_err(png_err)?;
         out.flush()
     }
 }
@@ -441,6 +463,13 @@ impl Sink for Png {
             );
         }
         Ok(())
+    }
+}
+
+fn png_err(e: png::EncodingError) -> io::Error {
+    match e {
+        png::EncodingError::IoError(e) => e,
+        e => io::Error::other(e),
     }
 }
 
