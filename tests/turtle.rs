@@ -399,6 +399,10 @@ fn malformed_input_is_located_and_leaves_no_output() {
         (b"F[F]]F", "lsgen-turtle: <stdin>:4: error: unmatched `]`\n"),
         (b"{F}}", "lsgen-turtle: <stdin>:3: error: unmatched `}`\n"),
         (b"F\xffF", "lsgen-turtle: <stdin>:1: error: invalid UTF-8\n"),
+        (
+            b"F(1e308)F(1e308)",
+            "lsgen-turtle: <stdin>:8: error: the turtle moved out of range (overflow)\n",
+        ),
     ] {
         let r = turtle(&["-o", o], input);
         assert_eq!(r.status.code(), Some(1));
@@ -445,6 +449,7 @@ fn bad_view_settings() {
         &["-f", "gif"],
         &["-o", "x.gif"],
         &["--size", "0"],
+        &["--size", "8193"],
         &["--palette", "red"],
         &["--tropism", "0 1"],
         &["--width", "-1"],

@@ -58,7 +58,7 @@ struct Args {
     #[arg(long, value_name = "DIRECTION", allow_hyphen_values = true)]
     view: Option<String>,
     /// Longer side of the picture in pixels (SVG and PNG)
-    #[arg(long, default_value_t = 800, value_parser = clap::value_parser!(u32).range(16..=16384))]
+    #[arg(long, default_value_t = 800, value_parser = clap::value_parser!(u32).range(16..=8192))]
     size: u32,
     /// Background colour "#rrggbb" or "none"
     #[arg(long)]

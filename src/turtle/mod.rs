@@ -41,6 +41,9 @@ pub fn interpret<R: Read>(
             Err(ModErr::Fault(Fault::UnmatchedClose(c))) => {
                 return Err(r.error_at(r.last_at, format!("unmatched `{c}`")));
             }
+            Err(ModErr::Fault(Fault::Overflow)) => {
+                return Err(r.error_at(r.last_at, "the turtle moved out of range (overflow)"))
+            }
             Err(ModErr::Fault(Fault::TooDeep)) => {
                 return Err(r.error_at(r.last_at, "branches or polygons nested too deeply"))
             }

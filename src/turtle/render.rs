@@ -3,6 +3,7 @@
 
 use super::state::{cross, dot, norm, Sink, V3};
 use super::view::{Direction, Rgb, View};
+use crate::codec::NumFmt;
 use std::io::{self, Write};
 
 /// Orthographic projection to screen coordinates (u right, v up).
@@ -95,7 +96,7 @@ pub struct Layout {
 }
 
 /// Largest `--size` accepted.
-pub const MAX_SIZE: u32 = 16384;
+pub const MAX_SIZE: u32 = 8192;
 
 impl Layout {
     pub fn new(b: &BBox, size: u32) -> Layout {
@@ -476,8 +477,19 @@ fn png_err(e: png::EncodingError) -> io::Error {
 /// Sides of a `--cylinders` tube.
 const SIDES: usize = 8;
 
+/// Append `v` as lsgen prints numbers (shortest round trip).
+fn put_num(fmt: &mut NumFmt, out: &mut Vec<u8>, v: f64) {
+    if v.is_finite() {
+        fmt.put(out, v);
+    } else {
+        let _ = write!(out, "{v}");
+    }
+}
+
 pub struct Obj<'w> {
     out: io::BufWriter<&'w mut dyn Write>,
+    fmt: NumFmt,
+    line: Vec<u8>,
     palette_len: i64,
     cylinders: bool,
     /// Vertices written so far (OBJ indices are 1-based).
@@ -500,6 +512,8 @@ impl<'w> Obj<'w> {
         }
         Ok(Obj {
             out,
+            fmt: NumFmt::new(),
+            line: Vec::with_capacity(128),
             palette_len: view.palette.len().max(1) as i64,
             cylinders,
             vertices: 0,
@@ -509,7 +523,14 @@ impl<'w> Obj<'w> {
     }
 
     fn v(&mut self, p: V3) -> io::Result<u64> {
-        writeln!(self.out, "v {} {} {}", p[0], p[1], p[2])?;
+        self.line.clear();
+        self.line.push(b'v');
+        for x in p {
+            self.line.push(b' ');
+            put_num(&mut self.fmt, &mut self.line, x);
+        }
+        self.line.push(b'\n');
+        self.out.write_all(&self.line)?;
         self.vertices += 1;
         Ok(self.vertices)
     }
@@ -636,36 +657,57 @@ pub fn mtl(view: &View) -> String {
 /// (`sphere ...` for `@O`).
 pub struct Segments<'w> {
     out: io::BufWriter<&'w mut dyn Write>,
+    fmt: NumFmt,
+    line: Vec<u8>,
 }
 
 impl<'w> Segments<'w> {
     pub fn new(out: &'w mut dyn Write) -> Segments<'w> {
         Segments {
             out: io::BufWriter::with_capacity(1 << 16, out),
+            fmt: NumFmt::new(),
+            line: Vec::with_capacity(256),
         }
     }
     pub fn finish(mut self) -> io::Result<()> {
         self.out.flush()
     }
+    fn nums(&mut self, v: &[f64]) {
+        for &x in v {
+            self.line.push(b' ');
+            put_num(&mut self.fmt, &mut self.line, x);
+        }
+    }
+    fn emit(&mut self) -> io::Result<()> {
+        self.line.push(b'\n');
+        let r = self.out.write_all(&self.line);
+        self.line.clear();
+        r
+    }
 }
 
 impl Sink for Segments<'_> {
     fn segment(&mut self, a: V3, b: V3, width: f64, colour: i64) -> io::Result<()> {
-        writeln!(
-            self.out,
-            "{} {} {} {} {} {} {} {}",
-            a[0], a[1], a[2], b[0], b[1], b[2], width, colour
-        )
+        self.line.clear();
+        put_num(&mut self.fmt, &mut self.line, a[0]);
+        self.nums(&[a[1], a[2], b[0], b[1], b[2], width]);
+        let _ = write!(self.line, " {colour}");
+        self.emit()
     }
     fn polygon(&mut self, points: &[V3], colour: i64) -> io::Result<()> {
-        write!(self.out, "polygon {colour}")?;
+        self.line.clear();
+        let _ = write!(self.line, "polygon {colour}");
         for p in points {
-            write!(self.out, " {} {} {}", p[0], p[1], p[2])?;
+            self.nums(p);
         }
-        writeln!(self.out)
+        self.emit()
     }
     fn dot(&mut self, c: V3, d: f64, colour: i64, sphere: bool) -> io::Result<()> {
-        let k = if sphere { "sphere" } else { "dot" };
-        writeln!(self.out, "{k} {} {} {} {} {}", c[0], c[1], c[2], d, colour)
+        self.line.clear();
+        self.line
+            .extend_from_slice(if sphere { b"sphere" } else { b"dot" });
+        self.nums(&[c[0], c[1], c[2], d]);
+        let _ = write!(self.line, " {colour}");
+        self.emit()
     }
 }

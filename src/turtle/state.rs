@@ -80,6 +80,8 @@ pub struct Turtle {
 pub enum Fault {
     UnmatchedClose(char),
     TooDeep,
+    /// A move took the turtle past the largest number.
+    Overflow,
 }
 
 impl Turtle {
@@ -181,11 +183,15 @@ impl Turtle {
         self.s.u = cross(self.s.l, self.s.h);
     }
 
-    fn forward(&mut self, p: &[f64]) -> V3 {
+    fn forward(&mut self, p: &[f64]) -> Result<V3, ModErr> {
         let d = p.first().copied().unwrap_or(self.step);
         let from = self.s.pos;
-        self.s.pos = add(from, self.s.h, d);
-        from
+        let to = add(from, self.s.h, d);
+        if !(to[0].is_finite() && to[1].is_finite() && to[2].is_finite()) {
+            return Err(ModErr::Fault(Fault::Overflow));
+        }
+        self.s.pos = to;
+        Ok(from)
     }
 
     /// Interpret one module.
@@ -196,7 +202,7 @@ impl Turtle {
         }
         match sym {
             'F' | 'G' => {
-                let from = self.forward(p);
+                let from = self.forward(p)?;
                 let to = self.s.pos;
                 sink.segment(from, to, self.s.width * self.width_scale, self.colour())?;
                 if sym == 'F' {
@@ -205,7 +211,7 @@ impl Turtle {
                 self.bend();
             }
             'f' | 'g' => {
-                self.forward(p);
+                self.forward(p)?;
                 if sym == 'f' {
                     self.vertex(self.s.pos);
                 }
