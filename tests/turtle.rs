@@ -279,6 +279,14 @@ fn views_project_3d_models() {
     assert!(t[1] > t[3] && t[0] == t[2], "top {t:?}"); // -Z is up seen from above
     assert_eq!(seg("90 0"), side);
     assert_eq!(seg("0,90"), top);
+    // --twist turns the picture on the screen: F (up) becomes a line to
+    // the left for +90, as + would turn it.
+    let twisted = text(ok(&turtle(
+        &["--twist", "90", "--size", "100", "--width", "0"],
+        b"F",
+    )));
+    let p = pts(&twisted);
+    assert!(p[0] > p[2] && (p[1] - p[3]).abs() < 1e-9, "twist {p:?}");
 }
 
 fn decode_png(data: &[u8]) -> (u32, u32, Vec<u8>) {

@@ -57,6 +57,9 @@ struct Args {
     /// Projection: front, side, top, or "AZIMUTH ELEVATION" in degrees
     #[arg(long, value_name = "DIRECTION", allow_hyphen_values = true)]
     view: Option<String>,
+    /// Turn the picture on the screen, degrees counter-clockwise
+    #[arg(long, allow_negative_numbers = true)]
+    twist: Option<f64>,
     /// Longer side of the picture in pixels (SVG and PNG)
     #[arg(long, default_value_t = 800, value_parser = clap::value_parser!(u32).range(16..=8192))]
     size: u32,
@@ -99,6 +102,7 @@ fn options(a: Args) -> Result<Options, Error> {
         ("elasticity", num(a.elasticity)),
         ("palette", a.palette.clone()),
         ("direction", a.view.as_ref().map(|s| s.replace(',', " "))),
+        ("twist", num(a.twist)),
         ("background", a.background.clone()),
     ] {
         if let Some(value) = value {

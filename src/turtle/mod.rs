@@ -179,7 +179,7 @@ pub fn run(o: &Options) -> Result<(), Error> {
             out.commit()
         }
         Format::Svg | Format::Png => {
-            let proj = render::Projection::new(o.view.direction);
+            let proj = render::Projection::new(o.view.direction, o.view.twist);
             let mut bbox = render::BBox::new(proj);
             // Pass 1: the bounding box (standard input is spooled meanwhile).
             let second: Box<dyn Read> = match &src {

@@ -16,13 +16,26 @@ pub struct Projection {
 impl Projection {
     /// Seen from azimuth `az` about Y (0: from +Z, 90: from +X) and
     /// elevation `el` (90: from above).
-    pub fn new(d: Direction) -> Projection {
+    /// elevation `el` (90: from above), the picture then turned by `twist`
+    /// degrees counter-clockwise.
+    pub fn new(d: Direction, twist: f64) -> Projection {
         let (sa, ca) = d.azimuth.to_radians().sin_cos();
         let (se, ce) = d.elevation.to_radians().sin_cos();
         let right = [ca, 0.0, -sa];
         let toward = [sa * ce, se, ca * ce];
         let up = cross(toward, right);
-        Projection { right, up }
+        let (st, ct) = twist.to_radians().sin_cos();
+        let mix = |a: V3, ka: f64, b: V3, kb: f64| {
+            [
+                a[0] * ka + b[0] * kb,
+                a[1] * ka + b[1] * kb,
+                a[2] * ka + b[2] * kb,
+            ]
+        };
+        Projection {
+            right: mix(right, ct, up, -st),
+            up: mix(right, st, up, ct),
+        }
     }
     #[inline]
     pub fn project(&self, p: V3) -> (f64, f64) {

@@ -33,6 +33,9 @@ pub struct View {
     pub elasticity: f64,
     pub palette: Vec<Rgb>,
     pub direction: Direction,
+    /// Degrees the picture is turned (counter-clockwise) on the screen,
+    /// after the projection (cpfg's `twist:`, there in tenths of a degree).
+    pub twist: f64,
     pub background: Option<Rgb>,
 }
 
@@ -53,6 +56,7 @@ impl Default for View {
                 azimuth: 0.0,
                 elevation: 0.0,
             },
+            twist: 0.0,
             background: Some([255, 255, 255]),
         }
     }
@@ -84,6 +88,7 @@ pub enum Setting {
     Elasticity(f64),
     Palette(Vec<Rgb>),
     Direction(Direction),
+    Twist(f64),
     Background(Option<Rgb>),
 }
 
@@ -100,6 +105,7 @@ pub const NAMES: &[&str] = &[
     "elasticity",
     "palette",
     "direction",
+    "twist",
     "background",
 ];
 
@@ -262,6 +268,7 @@ pub fn parse_setting(text: &str) -> Result<Setting, SettingError> {
             e.span = (e.span.0 + vstart, e.span.1 + vstart);
             e
         })?),
+        "twist" => Setting::Twist(one(&w)?),
         "background" => match w.as_slice() {
             [(_, n)] if n.eq_ignore_ascii_case("none") => Setting::Background(None),
             [(a, s)] => Setting::Background(Some(colour(*a, s)?)),
@@ -301,6 +308,7 @@ impl View {
             Setting::Elasticity(v) => self.elasticity = v,
             Setting::Palette(v) => self.palette = v,
             Setting::Direction(v) => self.direction = v,
+            Setting::Twist(v) => self.twist = v,
             Setting::Background(v) => self.background = v,
         }
     }
