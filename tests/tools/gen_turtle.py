@@ -2,7 +2,8 @@
 """Regenerate tests/expected/turtle/ with the reference turtle (turtle.py).
 
 Usage (from the repository root, after `cargo build`):
-    python3 tests/tools/gen_turtle.py
+    python3 tests/tools/gen_turtle.py            # write the files
+    python3 tests/tools/gen_turtle.py --check    # compare only, exit 1 on a difference
 
 For each case, the module string comes from lsgen (`lsgen -n N MODEL.ls`,
 itself checked against tests/tools/ref.py), and the expected segment list
@@ -34,6 +35,8 @@ CASES = [
 
 
 def main():
+    check = "--check" in sys.argv[1:]
+    bad = 0
     lsgen = os.path.join(ROOT, "target", "debug", "lsgen")
     out_dir = os.path.join(ROOT, "tests", "expected", "turtle")
     os.makedirs(out_dir, exist_ok=True)
@@ -43,9 +46,18 @@ def main():
                               capture_output=True, text=True).stdout
         lines = turtle.interpret(text, turtle.view_settings(model), [])
         path = os.path.join(out_dir, "%s.n%d.txt" % (name, n))
+        data = "".join(line + "\n" for line in lines)
+        if check:
+            old = open(path).read() if os.path.exists(path) else None
+            if old != data:
+                print(path, "differs")
+                bad += 1
+            continue
         with open(path, "w") as f:
-            f.write("".join(line + "\n" for line in lines))
+            f.write(data)
         print(path, len(lines), "lines")
+    if bad:
+        sys.exit(1)
 
 
 if __name__ == "__main__":
