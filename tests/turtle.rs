@@ -522,3 +522,24 @@ fn every_example_draws_with_its_own_view() {
         assert!(svg.ends_with("</svg>\n"), "{ls}");
     }
 }
+
+#[test]
+fn lsgen_skips_view_lines_anywhere_in_the_header() {
+    let dir = tempfile::tempdir().unwrap();
+    let ls = dir.path().join("v.ls");
+    std::fs::write(
+        &ls,
+        "VIEW: angle = 90 /* upper case, comment after */\nderivation length: 2\n\
+         view: palette = #2e7d32 #795548\nproductions:\n  view: step = 2\nF -> F+F\n\
+         view: direction = 30 20\nhomomorphism:\nview: width = 0.5\naxiom: F\n",
+    )
+    .unwrap();
+    // Hand derivation: F -> F+F -> F+F+F+F.
+    assert_eq!(derive(&[ls.to_str().unwrap()]), b"F+F+F+F\n");
+    let o = Command::new(LSGEN)
+        .arg("--check")
+        .arg(&ls)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

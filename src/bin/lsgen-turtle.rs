@@ -148,6 +148,16 @@ fn report(e: &Error) {
 }
 
 fn main() {
+    std::panic::set_hook(Box::new(|info| {
+        let at = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        let _ = writeln!(
+            std::io::stderr(),
+            "lsgen-turtle: internal error{at} (please report this)"
+        );
+    }));
     let code = match Args::try_parse() {
         Err(e) => match e.kind() {
             clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => {

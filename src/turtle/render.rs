@@ -155,6 +155,14 @@ fn hex(c: Rgb) -> String {
     format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
 }
 
+/// The colour of index `i` from formatted palette entries, clamped to the
+/// palette as [`View::colour_of`] does.
+fn pick(hex: &[String], i: i64) -> &str {
+    let last = hex.len().saturating_sub(1) as i64;
+    hex.get(i.clamp(0, last) as usize)
+        .map_or("#000000", |s| s.as_str())
+}
+
 /// Append `x` with two decimals, trailing zeros cut.
 fn num2(out: &mut Vec<u8>, x: f64) {
     let r = (x * 100.0).round();
@@ -212,7 +220,8 @@ impl Run {
 pub struct Svg<'w> {
     out: &'w mut dyn Write,
     layout: Layout,
-    view: View,
+    /// The palette as `#rrggbb`, formatted once.
+    hex: Vec<String>,
     run: Run,
     buf: Vec<u8>,
 }
@@ -238,7 +247,7 @@ impl<'w> Svg<'w> {
         Ok(Svg {
             out,
             layout,
-            view: view.clone(),
+            hex: view.palette.iter().map(|&c| hex(c)).collect(),
             run: Run::new(),
             buf: Vec::with_capacity(1 << 16),
         })
@@ -280,8 +289,10 @@ impl Sink for Svg<'_> {
             self.buf.push(b' ');
         } else {
             self.close_run();
-            let c = hex(self.view.colour_of(colour));
-            let _ = write!(self.buf, "<polyline stroke=\"{c}\" stroke-width=\"");
+            let _ = write!(self.buf, "<polyline stroke=\"");
+            self.buf
+                .extend_from_slice(pick(&self.hex, colour).as_bytes());
+            self.buf.extend_from_slice(b"\" stroke-width=\"");
             num2(&mut self.buf, (width * self.layout.scale).max(0.0));
             self.buf.extend_from_slice(b"\" points=\"");
             self.point(a);
@@ -301,7 +312,7 @@ impl Sink for Svg<'_> {
     }
     fn polygon(&mut self, points: &[V3], colour: i64) -> io::Result<()> {
         self.close_run();
-        let c = hex(self.view.colour_of(colour));
+        let c = pick(&self.hex, colour);
         let _ = write!(self.buf, "<polygon fill=\"{c}\" stroke=\"none\" points=\"");
         for (i, &p) in points.iter().enumerate() {
             if i > 0 {
@@ -314,7 +325,7 @@ impl Sink for Svg<'_> {
     }
     fn dot(&mut self, centre: V3, d: f64, colour: i64, _: bool) -> io::Result<()> {
         self.close_run();
-        let c = hex(self.view.colour_of(colour));
+        let c = pick(&self.hex, colour);
         let (x, y) = self.layout.px(centre);
         let _ = write!(self.buf, "<circle fill=\"{c}\" stroke=\"none\" cx=\"");
         num2(&mut self.buf, x);
