@@ -54,7 +54,7 @@ struct State {
 }
 
 /// Deepest branch nesting accepted (each level is one saved state).
-pub const MAX_DEPTH: usize = 1 << 24;
+pub const MAX_DEPTH: usize = 1 << 20;
 
 pub struct Turtle {
     s: State,
