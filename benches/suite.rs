@@ -489,11 +489,13 @@ fn run_suite(bin: &Path, o: &Options) -> Result<(), String> {
     let copy = scratch.join("lsgen");
     let res = fs::copy(bin, &copy)
         .map_err(|e| format!("cannot copy {}: {e}", bin.display()))
-        .and_then(|_| run_all(&copy, o, &scratch, gnu_time.as_deref()));
+        .and_then(|_| run_all(&copy, o, &scratch, gnu_time.as_deref()))
+        .and_then(|r| Ok((r, run_turtle(&copy, o, &scratch, gnu_time.as_deref())?)));
     let _ = fs::remove_dir_all(&scratch);
-    let (rows, skips) = res?;
+    let ((rows, skips), turtle) = res?;
     let mut md = header;
     md.push_str(&table(&rows, &skips));
+    md.push_str(&turtle);
     print!("{md}");
     let target = Path::new(env!("CARGO_MANIFEST_DIR")).join("target");
     let _ = fs::create_dir_all(&target);
@@ -638,6 +640,138 @@ fn run_all(
         }
     }
     Ok((rows, skips))
+}
+
+/// lsgen-turtle rows: a 10^7-module string (plant_d, n = 13, derived
+/// once, untimed, into a file) drawn to SVG and to PNG at the default size.
+const TURTLE_ROWS: [(&str, &str); 2] = [
+    ("turtle_svg (plant_d, 10^7 modules)", "svg"),
+    ("turtle_png (plant_d, 10^7 modules)", "png"),
+];
+
+fn turtle_binary() -> Result<PathBuf, String> {
+    if let Some(p) = option_env!("CARGO_BIN_EXE_lsgen-turtle") {
+        if Path::new(p).exists() {
+            return Ok(PathBuf::from(p));
+        }
+    }
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/release/lsgen-turtle");
+    if p.exists() {
+        Ok(p)
+    } else {
+        Err("no lsgen-turtle binary: cargo build --release".into())
+    }
+}
+
+fn run_turtle(
+    lsgen: &Path,
+    o: &Options,
+    scratch: &Path,
+    gnu_time: Option<&Path>,
+) -> Result<String, String> {
+    let rows: Vec<_> = TURTLE_ROWS
+        .iter()
+        .filter(|(name, _)| {
+            o.only
+                .as_ref()
+                .is_none_or(|v| v.iter().any(|p| name.starts_with(p.as_str())))
+        })
+        .collect();
+    if rows.is_empty() || o.max < 10_000_000 {
+        return Ok(String::new());
+    }
+    let turtle = scratch.join("lsgen-turtle");
+    fs::copy(turtle_binary()?, &turtle).map_err(|e| format!("cannot copy lsgen-turtle: {e}"))?;
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/plant_d.ls");
+    let string = scratch.join("string.txt");
+    eprintln!("suite: turtle: setup: lsgen -n 13 examples/plant_d.ls");
+    let st = Command::new(lsgen)
+        .arg(&model)
+        .args(["-n", "13", "-o"])
+        .arg(&string)
+        .status()
+        .map_err(|e| format!("cannot run lsgen: {e}"))?;
+    if !st.success() {
+        return Err("turtle: string generation failed".into());
+    }
+    let text = fs::read(&string).map_err(|e| format!("{}: {e}", string.display()))?;
+    let modules = text.iter().filter(|&&b| b != b'\n').count() as u64;
+    drop(text);
+    let mut md = String::from(
+        "\n### lsgen-turtle\n\n\
+         The string is derived once into a file (untimed); each run reads it twice \
+         (bounding box, then drawing) and writes the picture with `-o` at the default \
+         `--size 800`.\n\n\
+         | row | modules | wall s | M modules/s | cpu s | peak RSS MiB | output bytes |\n\
+         |---|--:|--:|--:|--:|--:|--:|\n",
+    );
+    for (name, ext) in rows {
+        let out = scratch.join(format!("out.{ext}"));
+        let time_file = scratch.join("turtle.time");
+        let reps = o.reps.unwrap_or(3);
+        let mut best: Option<(f64, Option<f64>, Option<u64>, u64)> = None;
+        for rep in 0..reps {
+            let mut cmd = match gnu_time {
+                Some(t) => {
+                    let mut c = Command::new(t);
+                    c.args(["-f", "%U %S %M", "-o"])
+                        .arg(&time_file)
+                        .arg(&turtle);
+                    c
+                }
+                None => Command::new(&turtle),
+            };
+            cmd.arg(&string).arg("--ls").arg(&model).arg("-o").arg(&out);
+            let t0 = Instant::now();
+            let r = cmd
+                .stdin(Stdio::null())
+                .output()
+                .map_err(|e| format!("cannot run lsgen-turtle: {e}"))?;
+            let wall = t0.elapsed().as_secs_f64();
+            if !r.status.success() {
+                return Err(format!(
+                    "lsgen-turtle failed: {}",
+                    String::from_utf8_lossy(&r.stderr).trim()
+                ));
+            }
+            let bytes = fs::metadata(&out).map(|m| m.len()).unwrap_or(0);
+            let _ = fs::remove_file(&out);
+            let t = fs::read_to_string(&time_file).unwrap_or_default();
+            let v: Vec<&str> = t
+                .lines()
+                .last()
+                .unwrap_or_default()
+                .split_whitespace()
+                .collect();
+            let (cpu, rss) = match v[..] {
+                [u, s, m] => (
+                    u.parse::<f64>()
+                        .ok()
+                        .zip(s.parse::<f64>().ok())
+                        .map(|(u, s)| u + s),
+                    m.parse::<u64>().ok(),
+                ),
+                _ => (None, None),
+            };
+            eprintln!(
+                "suite: {name} [{}/{reps}]: {wall:.3} s, rss {} KiB, {bytes} bytes",
+                rep + 1,
+                rss.map_or("?".into(), |k| k.to_string())
+            );
+            if best.as_ref().is_none_or(|b| wall < b.0) {
+                best = Some((wall, cpu, rss, bytes));
+            }
+        }
+        let (wall, cpu, rss, bytes) = best.expect("at least one repetition");
+        let _ = writeln!(
+            md,
+            "| {name} | {modules} | {wall:.3} | {:.1} | {} | {} | {bytes} |",
+            modules as f64 / wall / 1e6,
+            cpu.map_or("?".into(), |c| format!("{c:.3}")),
+            rss.map_or("?".into(), |k| format!("{:.1}", k as f64 / 1024.0)),
+        );
+    }
+    Ok(md)
 }
 
 fn log10(size: u64) -> u32 {

@@ -3,6 +3,7 @@
    context G[H]M.  Each production below tests one rule of context
    matching; the ones marked "no" must not apply.  After one step:
    aBc[de][sg[hi[jk]l]mno] */
+view: step = 1   /* letters only: nothing is drawn */
 derivation length: 1
 
 productions:

@@ -3,6 +3,9 @@
    n = 26, delta = 25.75 degrees.  Contexts skip + - F (ignore).
    The book's rules  * < + > * -> -  and  * < - > * -> +  (any context)
    are written context-free here: in lsgen * is an ordinary symbol. */
+view: angle = 25.75
+view: width = 0.18
+view: palette = #33691e
 derivation length: 26
 define: delta = 25.75
 ignore: +-F

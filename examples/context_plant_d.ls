@@ -3,6 +3,9 @@
    n = 24, delta = 25.75 degrees.  Contexts skip + - F (ignore).
    The book's rules  * < + > * -> -  and  * < - > * -> +  (any context)
    are written context-free here: in lsgen * is an ordinary symbol. */
+view: angle = 25.75
+view: width = 0.36
+view: palette = #33691e
 derivation length: 24
 define: delta = 25.75
 ignore: +-F

@@ -3,6 +3,9 @@
    n = 26, delta = 22.5 degrees.  Contexts skip + - F (ignore).
    The book's rules  * < + > * -> -  and  * < - > * -> +  (any context)
    are written context-free here: in lsgen * is an ordinary symbol. */
+view: angle = 22.5
+view: width = 0.15
+view: palette = #33691e
 derivation length: 26
 define: delta = 22.5
 ignore: +-F

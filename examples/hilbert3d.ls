@@ -1,6 +1,10 @@
 /* Three-dimensional extension of Hilbert's space-filling curve,
-   ABOP figure 1.25 (p. 20).  n = 2, delta = 90 degrees.
+   ABOP figure 1.19 (p. 20).  n = 2, delta = 90 degrees.
    & ^ pitch, \ / roll, | turn around. */
+view: angle = 90
+view: width = 0.08
+view: palette = #0d47a1
+view: direction = 30 25
 derivation length: 2
 define: delta = 90
 

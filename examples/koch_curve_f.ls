@@ -1,5 +1,8 @@
 /* Quadratic Koch curve variant, ABOP figure 1.9f (p. 10).
    n = 4, delta = 90 degrees. */
+view: angle = 90
+view: width = 0.12
+view: palette = #1a237e
 derivation length: 4
 define: delta = 90
 

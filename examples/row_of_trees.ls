@@ -2,6 +2,10 @@
    a Koch-like curve whose edges are split unevenly (ratio p : q); the
    second parameter t delays the growth of the newer segments.
    delta = 86 degrees.  The book's condition t=0 is written t == 0. */
+view: angle = 86
+view: twist = -90   /* the book's curve runs to the right */
+view: width = 0.005
+view: palette = #33691e
 derivation length: 10
 define: delta = 86
 define: c = 1

@@ -2,6 +2,9 @@
    n = 6, delta = 60 degrees.
    The book's edges Fl and Fr are written L and R; the homomorphism turns
    both into a drawn edge F after the last step. */
+view: angle = 60
+view: width = 0.21
+view: palette = #4a148c
 derivation length: 6
 define: delta = 60
 

@@ -2,6 +2,9 @@
    The book does not give the angle for this figure; delta = 20 is a choice
    made here for renderers.  Each step picks one of the three F productions
    with probabilities 0.33 / 0.33 / 0.34; the seed makes runs repeatable. */
+view: angle = 20
+view: width = 0.2
+view: palette = #33691e
 derivation length: 5
 define: delta = 20
 seed: 42

@@ -2,6 +2,9 @@
    Table of figure 2.7: (a) r2 = 0.7, a1 = 5, a2 = 65; (b) r2 = 0.7,
    a1 = 10, a2 = 60; (c) r2 = 0.8, a1 = 20, a2 = 50; (d) r2 = 0.8,
    a1 = 35, a2 = 35 (r1 = 0.9 throughout). */
+view: width scale = 0.02   /* !(w) gives widths in cpfg's pixels */
+view: palette = #4e342e
+view: direction = 0 10
 derivation length: 10
 define: r1 = 0.9     /* contraction ratio 1 */
 define: r2 = 0.7     /* contraction ratio 2 */

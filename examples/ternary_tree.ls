@@ -1,7 +1,12 @@
 /* Ternary branching tree, ABOP figure 2.8a (p. 60), n = 6.
-   The book also bends the branches by tropism (T = 0,-1,0, e = 0.22);
-   that is the renderer's business.  Old segments keep elongating (F) and
+   The book bends the branches by tropism (T = 0,-1,0, e = 0.22): the
+   view lines below hand T and e to lsgen-turtle.  Old segments keep elongating (F) and
    thickening (!) every step. */
+view: tropism = 0 -1 0
+view: elasticity = 0.22
+view: width scale = 1.5
+view: palette = #4e342e
+view: direction = 0 0
 derivation length: 6
 define: d1 = 94.74   /* divergence angle 1 */
 define: d2 = 132.63  /* divergence angle 2 */

@@ -357,6 +357,27 @@ impl<'a> Lexer<'a> {
         None
     }
 
+    /// A `view:` line holds lsgen-turtle's view settings: checked by the
+    /// same parser, then skipped up to the end of the line (or a comment).
+    fn view_line(&mut self) -> Result<(), LexError> {
+        let pos = self.pos();
+        let rest = &self.src[pos..];
+        let blank = rest.len() - rest.trim_start_matches([' ', '\t', '\r']).len();
+        let Some(kl) = match_keyword(&rest[blank..], "view:") else {
+            return Ok(());
+        };
+        let at = pos + blank + kl;
+        let end = crate::turtle::view::setting_end(&self.src[at..]);
+        if let Err(e) = crate::turtle::view::parse_setting(&self.src[at..at + end]) {
+            return Err(LexError {
+                span: (at + e.span.0, at + e.span.1.max(e.span.0 + 1).min(end)),
+                message: e.message,
+            });
+        }
+        self.bump(blank + kl + end);
+        Ok(())
+    }
+
     fn newline(&mut self) {
         self.ensure_mod();
         self.depth = 0;
@@ -377,6 +398,9 @@ impl<'a> Iterator for Lexer<'a> {
             }
             if self.line_start {
                 self.line_start = false;
+                if let Err(e) = self.view_line() {
+                    return Some(Err(e));
+                }
                 if let Some(t) = self.keyword() {
                     self.after_nl = false;
                     return Some(Ok(t));

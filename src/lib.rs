@@ -21,3 +21,4 @@ pub mod parse;
 pub mod random;
 pub mod rules;
 pub use cli::derive_bytes;
+pub mod turtle;

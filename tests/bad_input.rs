@@ -638,6 +638,14 @@ cases! {
         err_or_ok(format!("define: x = {}1\naxiom: F(x)\n", "-".repeat(100_000)), "", "F(1)\n");
     long_sum_in_successor =>
         err_or_ok(format!("productions:\nA(y) -> B({}y)\naxiom: A(1)\n", "y+".repeat(100_000)), "", "B(100001)\n");
+
+    // --- view: lines (lsgen-turtle's settings, checked by lsgen) -----------
+    view_unknown_setting =>
+        err("view: angel = 25\nproductions:\nF -> FF\naxiom: F\n", 1, 7, "unknown view setting `angel`");
+    view_bad_number =>
+        err("productions:\n  view: step = 1x /* c */\nF -> FF\naxiom: F\n", 2, 16, "`1x` is not a number");
+    view_bad_colour =>
+        err("view: palette = #2e7d32 green\naxiom: F\n", 1, 25, "not a colour");
 }
 
 impl Case {

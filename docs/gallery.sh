@@ -1,0 +1,16 @@
+#!/bin/sh
+# Regenerate the README gallery: docs/gallery/*.png from examples/*.ls.
+# Run from the repository root:  sh docs/gallery.sh
+# Each picture is one pipe, as README shows it:
+#   lsgen examples/NAME.ls | lsgen-turtle --ls examples/NAME.ls --size 400 -o docs/gallery/NAME.png
+set -eu
+cargo build --release --quiet
+bin=target/release
+out=docs/gallery
+mkdir -p "$out"
+for name in plant_a plant_b plant_c plant_d plant_e plant_f bush \
+            context_plant_a context_plant_b context_plant_c context_plant_d context_plant_e \
+            ternary_tree koch_island dragon_curve hilbert3d stochastic_row; do
+    "$bin/lsgen" "examples/$name.ls" |
+        "$bin/lsgen-turtle" --ls "examples/$name.ls" --size 400 -o "$out/$name.png"
+done

@@ -1,0 +1,181 @@
+//! `lsgen-turtle`: draw a module string (lsgen's output) with the 3D turtle
+//! of ABOP / cpfg. The work is in `lsgen::turtle`; this parses the options.
+
+use clap::Parser;
+use lsgen::diag::{Error, Kind};
+use lsgen::turtle::view::{self, View};
+use lsgen::turtle::{run, Format, Options};
+use std::io::Write;
+use std::path::PathBuf;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "lsgen-turtle",
+    version,
+    about = "Draw a module string (lsgen's output) with the 3D turtle of ABOP / cpfg: SVG, PNG, OBJ",
+    after_help = "Example: lsgen examples/plant_a.ls | lsgen-turtle --ls examples/plant_a.ls -o plant_a.png"
+)]
+struct Args {
+    /// The module string; standard input when absent or `-`
+    file: Option<PathBuf>,
+    /// Read the view settings (`view: NAME = VALUE` lines) of this .ls file
+    #[arg(long, value_name = "FILE")]
+    ls: Option<PathBuf>,
+    /// Write to FILE (atomically); the format follows its extension unless -f is given
+    #[arg(short, long, value_name = "FILE")]
+    output: Option<PathBuf>,
+    /// Output format: svg, png, obj or segments (default svg, or -o's extension)
+    #[arg(short, long, value_name = "FORMAT")]
+    format: Option<String>,
+    /// Default turning angle in degrees
+    #[arg(long, allow_negative_numbers = true)]
+    angle: Option<f64>,
+    /// Default step length of F f G g
+    #[arg(long, allow_negative_numbers = true)]
+    step: Option<f64>,
+    /// Initial line width
+    #[arg(long)]
+    width: Option<f64>,
+    /// Width change of ! and # without a parameter
+    #[arg(long, allow_negative_numbers = true)]
+    width_increment: Option<f64>,
+    /// Factor applied to every width when drawn
+    #[arg(long)]
+    width_scale: Option<f64>,
+    /// Colour index change of ' ; , without a parameter
+    #[arg(long, allow_negative_numbers = true)]
+    colour_increment: Option<f64>,
+    /// Tropism vector "X Y Z"
+    #[arg(long, value_name = "X Y Z", allow_hyphen_values = true)]
+    tropism: Option<String>,
+    /// Elasticity (bending by tropism after each F and G)
+    #[arg(long, allow_negative_numbers = true)]
+    elasticity: Option<f64>,
+    /// Colours of indices 0, 1, ...: "#rrggbb #rrggbb ..."
+    #[arg(long)]
+    palette: Option<String>,
+    /// Projection: front, side, top, or "AZIMUTH ELEVATION" in degrees
+    #[arg(long, value_name = "DIRECTION", allow_hyphen_values = true)]
+    view: Option<String>,
+    /// Turn the picture on the screen, degrees counter-clockwise
+    #[arg(long, allow_negative_numbers = true)]
+    twist: Option<f64>,
+    /// Longer side of the picture in pixels (SVG and PNG)
+    #[arg(long, default_value_t = 800, value_parser = clap::value_parser!(u32).range(16..=8192))]
+    size: u32,
+    /// Background colour "#rrggbb" or "none"
+    #[arg(long)]
+    background: Option<String>,
+    /// OBJ: segments as cylinders of the turtle's width
+    #[arg(long)]
+    cylinders: bool,
+}
+
+fn usage(msg: String) -> Error {
+    Error::usage(msg)
+}
+
+fn options(a: Args) -> Result<Options, Error> {
+    let mut v = View::default();
+    if let Some(ls) = &a.ls {
+        let name = ls.display().to_string();
+        let text = std::fs::read(ls).map_err(|e| Error::io(name.clone(), "cannot read", e))?;
+        let text = String::from_utf8_lossy(&text);
+        view::read_ls(&name, &text, &mut v)?;
+    }
+    let set = |v: &mut View, name: &str, value: &str| -> Result<(), Error> {
+        let text = format!(" {name} = {value}");
+        let s = view::parse_setting(&text)
+            .map_err(|e| usage(format!("--{}: {}", name.replace(' ', "-"), e.message)))?;
+        v.apply(s);
+        Ok(())
+    };
+    let num = |x: Option<f64>| x.map(|x| x.to_string());
+    for (name, value) in [
+        ("angle", num(a.angle)),
+        ("step", num(a.step)),
+        ("width", num(a.width)),
+        ("width increment", num(a.width_increment)),
+        ("width scale", num(a.width_scale)),
+        ("colour increment", num(a.colour_increment)),
+        ("tropism", a.tropism.clone()),
+        ("elasticity", num(a.elasticity)),
+        ("palette", a.palette.clone()),
+        ("direction", a.view.as_ref().map(|s| s.replace(',', " "))),
+        ("twist", num(a.twist)),
+        ("background", a.background.clone()),
+    ] {
+        if let Some(value) = value {
+            set(&mut v, name, &value).map_err(|e| {
+                if name == "direction" {
+                    usage(e.message.replace("--direction", "--view"))
+                } else {
+                    e
+                }
+            })?;
+        }
+    }
+    let format = match (&a.format, &a.output) {
+        (Some(f), _) => Format::parse(f)
+            .ok_or_else(|| usage(format!("unknown format `{f}` (svg, png, obj, segments)")))?,
+        (None, Some(p)) => match p.extension().and_then(|e| e.to_str()) {
+            Some(e) => Format::parse(e).ok_or_else(|| {
+                usage(format!(
+                    "cannot tell the format from `{}`: give -f svg|png|obj|segments",
+                    p.display()
+                ))
+            })?,
+            None => Format::Svg,
+        },
+        (None, None) => Format::Svg,
+    };
+    Ok(Options {
+        input: a.file,
+        output: a.output,
+        format,
+        view: v,
+        size: a.size,
+        cylinders: a.cylinders,
+    })
+}
+
+fn report(e: &Error) {
+    if e.kind != Kind::BrokenPipe {
+        let s = e.to_string();
+        let s = s.strip_prefix("lsgen: ").unwrap_or(&s);
+        let _ = write!(std::io::stderr(), "lsgen-turtle: {s}");
+    }
+}
+
+fn main() {
+    std::panic::set_hook(Box::new(|info| {
+        let at = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        let _ = writeln!(
+            std::io::stderr(),
+            "lsgen-turtle: internal error{at} (please report this)"
+        );
+    }));
+    let code = match Args::try_parse() {
+        Err(e) => match e.kind() {
+            clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => {
+                let _ = e.print();
+                0
+            }
+            _ => {
+                let _ = write!(std::io::stderr(), "lsgen-turtle: {}", e.render());
+                2
+            }
+        },
+        Ok(a) => match options(a).and_then(|o| run(&o)) {
+            Ok(()) => 0,
+            Err(e) => {
+                report(&e);
+                e.exit_code()
+            }
+        },
+    };
+    std::process::exit(code);
+}

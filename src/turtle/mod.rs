@@ -1,0 +1,225 @@
+//! `lsgen-turtle`: draw a module string with the 3D turtle of ABOP / cpfg,
+//! as SVG, PNG, OBJ (+ MTL) or a plain segment list.
+//!
+//! [`reader`] streams modules from the input; [`state`] is the turtle;
+//! [`view`] holds the view settings (`view:` lines of an `.ls` file);
+//! [`render`] turns what the turtle draws into the output formats. Memory
+//! is the branch stack and the polygon being built, never the string: SVG
+//! and PNG need the bounding box first, so the input is read twice (a file
+//! is opened again, standard input is spooled to an unnamed temp file).
+
+pub mod reader;
+pub mod render;
+pub mod state;
+pub mod view;
+
+use crate::diag::Error;
+use reader::Reader;
+use state::{Fault, ModErr, Sink, Turtle};
+use std::io::Read;
+use view::View;
+
+/// Drive the turtle over a whole module string, sending geometry to `sink`.
+pub fn interpret<R: Read>(
+    input: R,
+    name: &str,
+    out_name: &str,
+    view: &View,
+    sink: &mut dyn Sink,
+) -> Result<(), Error> {
+    let mut r = Reader::new(input, name);
+    let mut t = Turtle::new(view);
+    loop {
+        let Some(sym) = r.next_module()? else {
+            return Ok(());
+        };
+        let n = r.nparams;
+        let params = r.params;
+        match t.module(sym, &params[..n], sink) {
+            Ok(()) => {}
+            Err(ModErr::Io(e)) => return Err(Error::io(out_name, "cannot write", e)),
+            Err(ModErr::Fault(Fault::UnmatchedClose(c))) => {
+                return Err(r.error_at(r.last_at, format!("unmatched `{c}`")));
+            }
+            Err(ModErr::Fault(Fault::Overflow)) => {
+                return Err(r.error_at(r.last_at, "the turtle moved out of range (overflow)"))
+            }
+            Err(ModErr::Fault(Fault::TooDeep)) => {
+                return Err(r.error_at(r.last_at, "branches or polygons nested too deeply"))
+            }
+        }
+    }
+}
+
+/// Output formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Svg,
+    Png,
+    Obj,
+    Segments,
+}
+
+impl Format {
+    pub fn parse(s: &str) -> Option<Format> {
+        match s.to_ascii_lowercase().as_str() {
+            "svg" => Some(Format::Svg),
+            "png" => Some(Format::Png),
+            "obj" => Some(Format::Obj),
+            "segments" | "txt" => Some(Format::Segments),
+            _ => None,
+        }
+    }
+}
+
+/// What to draw and where; the binary fills it from its options.
+pub struct Options {
+    /// The module string; `None` or `-` for standard input.
+    pub input: Option<std::path::PathBuf>,
+    pub output: Option<std::path::PathBuf>,
+    pub format: Format,
+    pub view: View,
+    pub size: u32,
+    pub cylinders: bool,
+}
+
+/// The input, once or twice.
+enum Source {
+    File(std::path::PathBuf, String),
+    Stdin,
+}
+
+fn open_file(p: &std::path::Path, name: &str) -> Result<std::fs::File, Error> {
+    let f = std::fs::File::open(p).map_err(|e| Error::io(name, "cannot open", e))?;
+    if f.metadata().map(|m| m.is_dir()).unwrap_or(false) {
+        return Err(Error::io(
+            name,
+            "cannot read",
+            std::io::Error::from(std::io::ErrorKind::IsADirectory),
+        ));
+    }
+    Ok(f)
+}
+
+/// Copies what it reads into a spool file (standard input, read twice).
+struct Tee<R: Read> {
+    inner: R,
+    spool: std::fs::File,
+    error: Option<std::io::Error>,
+}
+
+impl<R: Read> Read for Tee<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        use std::io::Write;
+        let n = self.inner.read(buf)?;
+        if let Err(e) = self.spool.write_all(&buf[..n]) {
+            // Report it as a spool failure, not as a read failure.
+            self.error = Some(e);
+            return Ok(0);
+        }
+        Ok(n)
+    }
+}
+
+/// Run `lsgen-turtle`.
+pub fn run(o: &Options) -> Result<(), Error> {
+    use crate::output::Output;
+    use std::io::Seek;
+    let src = match &o.input {
+        Some(p) if p.as_os_str() != "-" => Source::File(p.clone(), p.display().to_string()),
+        _ => Source::Stdin,
+    };
+    let in_name = match &src {
+        Source::File(_, n) => n.clone(),
+        Source::Stdin => "<stdin>".to_string(),
+    };
+    // Open the input first: a missing input must not create the output.
+    let first: Box<dyn Read> = match &src {
+        Source::File(p, n) => Box::new(open_file(p, n)?),
+        Source::Stdin => Box::new(std::io::stdin()),
+    };
+    let mut out = match &o.output {
+        Some(p) => Output::file(p)?,
+        None => Output::stdout()?,
+    };
+    let out_name = out.name();
+    let werr = |e: std::io::Error| Error::io(out_name.clone(), "cannot write", e);
+    match o.format {
+        Format::Segments | Format::Obj => {
+            let mut mtl_out = None;
+            {
+                let w = out.writer();
+                if o.format == Format::Segments {
+                    let mut s = render::Segments::new(w);
+                    interpret(first, &in_name, &out_name, &o.view, &mut s)?;
+                    s.finish().map_err(werr)?;
+                } else {
+                    let mtl_path = o.output.as_ref().map(|p| p.with_extension("mtl"));
+                    let lib = mtl_path
+                        .as_ref()
+                        .and_then(|p| p.file_name())
+                        .map(|n| n.to_string_lossy().into_owned());
+                    let mut s = render::Obj::begin(w, &o.view, lib.as_deref(), o.cylinders)
+                        .map_err(werr)?;
+                    interpret(first, &in_name, &out_name, &o.view, &mut s)?;
+                    s.finish().map_err(werr)?;
+                    if let Some(mp) = mtl_path {
+                        let mut m = Output::file(&mp)?;
+                        let mname = m.name();
+                        m.writer()
+                            .write_all(render::mtl(&o.view).as_bytes())
+                            .map_err(|e| Error::io(mname, "cannot write", e))?;
+                        mtl_out = Some(m);
+                    }
+                }
+            }
+            if let Some(m) = mtl_out {
+                m.commit()?;
+            }
+            out.commit()
+        }
+        Format::Svg | Format::Png => {
+            let proj = render::Projection::new(o.view.direction, o.view.twist);
+            let mut bbox = render::BBox::new(proj);
+            // Pass 1: the bounding box (standard input is spooled meanwhile).
+            let second: Box<dyn Read> = match &src {
+                Source::File(p, n) => {
+                    interpret(first, &in_name, &out_name, &o.view, &mut bbox)?;
+                    Box::new(open_file(p, n)?)
+                }
+                Source::Stdin => {
+                    let spool = tempfile::tempfile()
+                        .map_err(|e| Error::io("temporary file", "cannot create", e))?;
+                    let mut tee = Tee {
+                        inner: first,
+                        spool,
+                        error: None,
+                    };
+                    interpret(&mut tee, &in_name, &out_name, &o.view, &mut bbox)?;
+                    if let Some(e) = tee.error {
+                        return Err(Error::io("temporary file", "cannot write", e));
+                    }
+                    let mut spool = tee.spool;
+                    spool
+                        .rewind()
+                        .map_err(|e| Error::io("temporary file", "cannot read", e))?;
+                    Box::new(std::io::BufReader::with_capacity(1 << 16, spool))
+                }
+            };
+            let layout = render::Layout::new(&bbox, o.size);
+            {
+                let w = out.writer();
+                if o.format == Format::Svg {
+                    let mut s = render::Svg::begin(w, layout, &o.view).map_err(werr)?;
+                    interpret(second, &in_name, &out_name, &o.view, &mut s)?;
+                    s.finish().map_err(werr)?;
+                } else {
+                    let mut s = render::Png::new(layout, &o.view).map_err(werr)?;
+                    interpret(second, &in_name, &out_name, &o.view, &mut s)?;
+                    s.finish(w).map_err(werr)?;
+                }
+            }
+            out.commit()
+        }
+    }
+}

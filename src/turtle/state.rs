@@ -1,0 +1,332 @@
+//! The 3D turtle of ABOP / cpfg. The frame is heading H, left L, up U;
+//! it starts as cpfg's: H = (0,1,0) (up the screen), L = (-1,0,0),
+//! U = (0,0,-1), at the origin. Rotations follow cpfg's `interpret.c`:
+//! `+` turns H towards L, `&` pitches H towards U, `/` rolls L towards U.
+
+use super::view::View;
+use std::io;
+
+pub type V3 = [f64; 3];
+
+#[inline]
+fn add(a: V3, b: V3, k: f64) -> V3 {
+    [a[0] + b[0] * k, a[1] + b[1] * k, a[2] + b[2] * k]
+}
+#[inline]
+pub fn cross(a: V3, b: V3) -> V3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+#[inline]
+pub fn dot(a: V3, b: V3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+#[inline]
+fn scale(a: V3, k: f64) -> V3 {
+    [a[0] * k, a[1] * k, a[2] * k]
+}
+#[inline]
+pub fn norm(a: V3) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// Receives what the turtle draws.
+pub trait Sink {
+    /// A line from `a` to `b`.
+    fn segment(&mut self, a: V3, b: V3, width: f64, colour: i64) -> io::Result<()>;
+    /// A filled polygon.
+    fn polygon(&mut self, points: &[V3], colour: i64) -> io::Result<()>;
+    /// `@o` (a disc facing the viewer) or `@O` (a sphere) of diameter `d`.
+    fn dot(&mut self, centre: V3, d: f64, colour: i64, sphere: bool) -> io::Result<()>;
+}
+
+#[derive(Clone, Copy, Debug)]
+struct State {
+    pos: V3,
+    h: V3,
+    l: V3,
+    u: V3,
+    width: f64,
+    colour: f64,
+}
+
+/// Deepest branch nesting accepted (each level is one saved state).
+pub const MAX_DEPTH: usize = 1 << 20;
+
+pub struct Turtle {
+    s: State,
+    stack: Vec<State>,
+    /// Polygons (`{`), each its vertices; the first `open` are open and
+    /// only the innermost collects. Closed ones keep their buffers for reuse.
+    polygons: Vec<Vec<V3>>,
+    open: usize,
+    cos_a: f64,
+    sin_a: f64,
+    step: f64,
+    width_inc: f64,
+    width_scale: f64,
+    colour_inc: f64,
+    tropism: V3,
+    elasticity: f64,
+    /// The previous module was `@`: this one names a two-character module.
+    at: bool,
+}
+
+/// A misuse of the string that the turtle cannot follow.
+#[derive(Debug, PartialEq)]
+pub enum Fault {
+    UnmatchedClose(char),
+    TooDeep,
+    /// A move took the turtle past the largest number.
+    Overflow,
+}
+
+impl Turtle {
+    pub fn new(v: &View) -> Turtle {
+        let a = v.angle.to_radians();
+        Turtle {
+            s: State {
+                pos: [0.0; 3],
+                h: [0.0, 1.0, 0.0],
+                l: [-1.0, 0.0, 0.0],
+                u: [0.0, 0.0, -1.0],
+                width: v.width,
+                colour: v.colour,
+            },
+            stack: Vec::new(),
+            polygons: Vec::new(),
+            open: 0,
+            cos_a: a.cos(),
+            sin_a: a.sin(),
+            step: v.step,
+            width_inc: v.width_increment,
+            width_scale: v.width_scale,
+            colour_inc: v.colour_increment,
+            tropism: v.tropism,
+            elasticity: v.elasticity,
+            at: false,
+        }
+    }
+
+    /// a' = c a + s b; b' = c b - s a (cpfg's change_dir).
+    #[inline]
+    fn rot(a: &mut V3, b: &mut V3, s: f64, c: f64) {
+        let na = [
+            c * a[0] + s * b[0],
+            c * a[1] + s * b[1],
+            c * a[2] + s * b[2],
+        ];
+        let nb = [
+            c * b[0] - s * a[0],
+            c * b[1] - s * a[1],
+            c * b[2] - s * a[2],
+        ];
+        *a = na;
+        *b = nb;
+    }
+
+    #[inline]
+    fn sincos(&self, p: &[f64]) -> (f64, f64) {
+        match p.first() {
+            Some(&d) => d.to_radians().sin_cos(),
+            None => (self.sin_a, self.cos_a),
+        }
+    }
+
+    fn colour(&self) -> i64 {
+        let c = self.s.colour.round();
+        if c.is_finite() {
+            c.clamp(i64::MIN as f64 / 2.0, i64::MAX as f64 / 2.0) as i64
+        } else {
+            0
+        }
+    }
+
+    /// ABOP fig. 2.8: rotate the frame by e|H x T| about H x T.
+    fn bend(&mut self) {
+        if self.elasticity == 0.0 {
+            return;
+        }
+        let axis = cross(self.s.h, self.tropism);
+        let n = norm(axis);
+        if n < 1e-12 {
+            return;
+        }
+        let k = scale(axis, 1.0 / n);
+        let (sa, ca) = (self.elasticity * n).sin_cos();
+        let r = |v: V3| -> V3 {
+            let kv = cross(k, v);
+            let kd = dot(k, v) * (1.0 - ca);
+            [
+                v[0] * ca + kv[0] * sa + k[0] * kd,
+                v[1] * ca + kv[1] * sa + k[1] * kd,
+                v[2] * ca + kv[2] * sa + k[2] * kd,
+            ]
+        };
+        self.s.h = r(self.s.h);
+        self.s.l = r(self.s.l);
+        self.s.u = r(self.s.u);
+    }
+
+    /// Roll about H so that L is horizontal and U is as close to up as can
+    /// be (`$` of ABOP, `@v` of cpfg).
+    fn level(&mut self) {
+        let l = cross(self.s.h, [0.0, 1.0, 0.0]);
+        let n = norm(l);
+        if n < 1e-12 {
+            return;
+        }
+        self.s.l = scale(l, 1.0 / n);
+        self.s.u = cross(self.s.l, self.s.h);
+    }
+
+    fn forward(&mut self, p: &[f64]) -> Result<V3, ModErr> {
+        let d = p.first().copied().unwrap_or(self.step);
+        let from = self.s.pos;
+        let to = add(from, self.s.h, d);
+        if !(to[0].is_finite() && to[1].is_finite() && to[2].is_finite()) {
+            return Err(ModErr::Fault(Fault::Overflow));
+        }
+        self.s.pos = to;
+        Ok(from)
+    }
+
+    /// Interpret one module.
+    pub fn module(&mut self, sym: char, p: &[f64], sink: &mut dyn Sink) -> Result<(), ModErr> {
+        if self.at {
+            self.at = false;
+            return self.at_module(sym, p, sink);
+        }
+        match sym {
+            'F' | 'G' => {
+                let from = self.forward(p)?;
+                let to = self.s.pos;
+                sink.segment(from, to, self.s.width * self.width_scale, self.colour())?;
+                if sym == 'F' {
+                    self.vertex(to);
+                }
+                self.bend();
+            }
+            'f' | 'g' => {
+                self.forward(p)?;
+                if sym == 'f' {
+                    self.vertex(self.s.pos);
+                }
+            }
+            '+' | '-' => {
+                let (s, c) = self.sincos(p);
+                let s = if sym == '+' { s } else { -s };
+                Self::rot(&mut self.s.h, &mut self.s.l, s, c);
+            }
+            '&' | '^' => {
+                let (s, c) = self.sincos(p);
+                let s = if sym == '&' { s } else { -s };
+                Self::rot(&mut self.s.h, &mut self.s.u, s, c);
+            }
+            '/' | '\\' => {
+                let (s, c) = self.sincos(p);
+                let s = if sym == '/' { s } else { -s };
+                Self::rot(&mut self.s.l, &mut self.s.u, s, c);
+            }
+            '|' => Self::rot(&mut self.s.h, &mut self.s.l, 0.0, -1.0),
+            '$' => self.level(),
+            '[' => {
+                if self.stack.len() >= MAX_DEPTH {
+                    return Err(ModErr::Fault(Fault::TooDeep));
+                }
+                self.stack.push(self.s);
+            }
+            ']' => match self.stack.pop() {
+                Some(s) => self.s = s,
+                None => return Err(ModErr::Fault(Fault::UnmatchedClose(']'))),
+            },
+            '{' => {
+                if self.open >= MAX_DEPTH {
+                    return Err(ModErr::Fault(Fault::TooDeep));
+                }
+                if self.polygons.len() == self.open {
+                    self.polygons.push(Vec::new());
+                }
+                self.polygons[self.open].clear();
+                self.open += 1;
+            }
+            '}' => {
+                if self.open == 0 {
+                    return Err(ModErr::Fault(Fault::UnmatchedClose('}')));
+                }
+                self.open -= 1;
+                let colour = self.colour();
+                let poly = &self.polygons[self.open];
+                if poly.len() >= 3 {
+                    sink.polygon(poly, colour)?;
+                }
+            }
+            '.' => {
+                self.vertex(self.s.pos);
+            }
+            '!' => match p.first() {
+                Some(&w) => self.s.width = w,
+                None => self.s.width -= self.width_inc,
+            },
+            '#' => match p.first() {
+                Some(&w) => self.s.width = w,
+                None => self.s.width += self.width_inc,
+            },
+            '\'' | ';' => match p.first() {
+                Some(&c) => self.s.colour = c,
+                None => self.s.colour += self.colour_inc,
+            },
+            ',' => match p.first() {
+                Some(&c) => self.s.colour = c,
+                None => self.s.colour -= self.colour_inc,
+            },
+            '@' => self.at = p.is_empty(),
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn at_module(&mut self, sym: char, p: &[f64], sink: &mut dyn Sink) -> Result<(), ModErr> {
+        match sym {
+            'o' | 'O' => {
+                let d = p
+                    .first()
+                    .copied()
+                    .unwrap_or(self.s.width * self.width_scale);
+                sink.dot(self.s.pos, d, self.colour(), sym == 'O')?;
+            }
+            'v' => self.level(),
+            'M' if p.len() >= 3 => self.s.pos = [p[0], p[1], p[2]],
+            _ => {}
+        }
+        Ok(())
+    }
+
+    #[inline]
+    fn vertex(&mut self, p: V3) {
+        if self.open > 0 {
+            self.polygons[self.open - 1].push(p);
+        }
+    }
+
+    /// Branches and polygons left open at the end are dropped, as cpfg does.
+    pub fn depth(&self) -> usize {
+        self.stack.len()
+    }
+}
+
+/// Why a module could not be interpreted.
+#[derive(Debug)]
+pub enum ModErr {
+    Fault(Fault),
+    Io(io::Error),
+}
+
+impl From<io::Error> for ModErr {
+    fn from(e: io::Error) -> ModErr {
+        ModErr::Io(e)
+    }
+}

@@ -1,0 +1,447 @@
+//! View settings: how a model is drawn. They travel with the model as
+//! header lines `view: NAME = VALUE` of its `.ls` file, which lsgen checks
+//! with [`parse_setting`] and otherwise ignores; `lsgen-turtle --ls FILE`
+//! reads them and its options override them.
+
+use crate::diag::{CodeMap, Error, Location};
+use crate::lexer::match_keyword;
+
+/// An RGB colour.
+pub type Rgb = [u8; 3];
+
+/// Where the model is looked at from (SVG and PNG projections).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Direction {
+    /// Degrees about the vertical (Y) axis; 0 looks along -Z (front).
+    pub azimuth: f64,
+    /// Degrees above the horizontal plane; 90 looks down (top).
+    pub elevation: f64,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct View {
+    pub angle: f64,
+    pub step: f64,
+    pub width: f64,
+    pub width_increment: f64,
+    /// Every width is multiplied by this when drawn (cpfg models often
+    /// give widths in pixels: this brings them to the model's units).
+    pub width_scale: f64,
+    pub colour: f64,
+    pub colour_increment: f64,
+    pub tropism: [f64; 3],
+    pub elasticity: f64,
+    pub palette: Vec<Rgb>,
+    pub direction: Direction,
+    /// Degrees the picture is turned (counter-clockwise) on the screen,
+    /// after the projection (cpfg's `twist:`, there in tenths of a degree).
+    pub twist: f64,
+    pub background: Option<Rgb>,
+}
+
+impl Default for View {
+    fn default() -> View {
+        View {
+            angle: 45.0,
+            step: 1.0,
+            width: 1.0,
+            width_increment: 0.0,
+            width_scale: 1.0,
+            colour: 0.0,
+            colour_increment: 1.0,
+            tropism: [0.0, 1.0, 0.0],
+            elasticity: 0.0,
+            palette: DEFAULT_PALETTE.to_vec(),
+            direction: Direction {
+                azimuth: 0.0,
+                elevation: 0.0,
+            },
+            twist: 0.0,
+            background: Some([255, 255, 255]),
+        }
+    }
+}
+
+/// Colour indices 0.. when the model gives no palette.
+pub const DEFAULT_PALETTE: [Rgb; 8] = [
+    [0x1b, 0x1b, 0x1b],
+    [0x2e, 0x7d, 0x32],
+    [0x79, 0x55, 0x48],
+    [0xc6, 0x28, 0x28],
+    [0x15, 0x65, 0xc0],
+    [0xf9, 0xa8, 0x25],
+    [0x6a, 0x1b, 0x9a],
+    [0x00, 0x83, 0x8f],
+];
+
+/// One parsed setting.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Setting {
+    Angle(f64),
+    Step(f64),
+    Width(f64),
+    WidthIncrement(f64),
+    WidthScale(f64),
+    Colour(f64),
+    ColourIncrement(f64),
+    Tropism([f64; 3]),
+    Elasticity(f64),
+    Palette(Vec<Rgb>),
+    Direction(Direction),
+    Twist(f64),
+    Background(Option<Rgb>),
+}
+
+/// The names a `view:` line may set.
+pub const NAMES: &[&str] = &[
+    "angle",
+    "step",
+    "width",
+    "width increment",
+    "width scale",
+    "colour",
+    "colour increment",
+    "tropism",
+    "elasticity",
+    "palette",
+    "direction",
+    "twist",
+    "background",
+];
+
+/// A problem in a setting: byte range in the text given and a message.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SettingError {
+    pub span: (usize, usize),
+    pub message: String,
+}
+
+fn err(span: (usize, usize), message: impl Into<String>) -> SettingError {
+    SettingError {
+        span,
+        message: message.into(),
+    }
+}
+
+/// Words of `s` with their byte offsets.
+fn words(s: &str) -> Vec<(usize, &str)> {
+    let mut v = Vec::new();
+    let mut start = None;
+    for (i, c) in s.char_indices() {
+        if c.is_whitespace() {
+            if let Some(st) = start.take() {
+                v.push((st, &s[st..i]));
+            }
+        } else if start.is_none() {
+            start = Some(i);
+        }
+    }
+    if let Some(st) = start {
+        v.push((st, &s[st..]));
+    }
+    v
+}
+
+fn number(at: usize, w: &str) -> Result<f64, SettingError> {
+    match w.parse::<f64>() {
+        Ok(v) if v.is_finite() && !w.starts_with(['i', 'I', 'n', 'N', '+']) => Ok(v),
+        _ => Err(err((at, at + w.len()), format!("`{w}` is not a number"))),
+    }
+}
+
+fn colour(at: usize, w: &str) -> Result<Rgb, SettingError> {
+    let bad = || {
+        err(
+            (at, at + w.len()),
+            format!("`{w}` is not a colour `#rrggbb`"),
+        )
+    };
+    let hex = w.strip_prefix('#').ok_or_else(bad)?;
+    if hex.len() != 6 || !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return Err(bad());
+    }
+    let v = u32::from_str_radix(hex, 16).map_err(|_| bad())?;
+    Ok([(v >> 16) as u8, (v >> 8) as u8, v as u8])
+}
+
+/// Parse a direction: `front`, `side`, `top` or `AZIMUTH ELEVATION` (degrees).
+pub fn parse_direction(s: &str) -> Result<Direction, SettingError> {
+    let w = words(s);
+    let d = |a, e| Direction {
+        azimuth: a,
+        elevation: e,
+    };
+    match w.as_slice() {
+        [(_, n)] if n.eq_ignore_ascii_case("front") => Ok(d(0.0, 0.0)),
+        [(_, n)] if n.eq_ignore_ascii_case("side") => Ok(d(90.0, 0.0)),
+        [(_, n)] if n.eq_ignore_ascii_case("top") => Ok(d(0.0, 90.0)),
+        [(a, x), (b, y)] => {
+            let e = number(*b, y)?;
+            if !(-90.0..=90.0).contains(&e) {
+                return Err(err(
+                    (*b, b + y.len()),
+                    "the elevation is between -90 and 90",
+                ));
+            }
+            Ok(d(number(*a, x)?, e))
+        }
+        _ => Err(err(
+            (0, s.len()),
+            "a direction is `front`, `side`, `top` or `AZIMUTH ELEVATION` in degrees",
+        )),
+    }
+}
+
+/// Parse the text after `view:`: `NAME = VALUE`. Offsets in errors are
+/// relative to `text`.
+pub fn parse_setting(text: &str) -> Result<Setting, SettingError> {
+    let Some(eq) = text.find('=') else {
+        return Err(err(
+            (0, text.len()),
+            "a view setting is `view: NAME = VALUE`",
+        ));
+    };
+    let name = words(&text[..eq])
+        .iter()
+        .map(|(_, w)| w.to_ascii_lowercase())
+        .collect::<Vec<_>>()
+        .join(" ");
+    let name = name.replace("color", "colour");
+    let vstart = eq + 1;
+    let value = &text[vstart..];
+    let w: Vec<(usize, &str)> = words(value)
+        .into_iter()
+        .map(|(i, s)| (i + vstart, s))
+        .collect();
+    let name_words = words(&text[..eq]);
+    let name_span = match (name_words.first(), name_words.last()) {
+        (Some(&(a, _)), Some(&(b, w))) => (a, b + w.len()),
+        _ => (0, eq),
+    };
+    let one = |w: &[(usize, &str)]| -> Result<f64, SettingError> {
+        match w {
+            [(a, x)] => number(*a, x),
+            _ => Err(err((vstart, text.len()), "expected one number")),
+        }
+    };
+    let non_negative = |v: f64| -> Result<f64, SettingError> {
+        if v < 0.0 {
+            Err(err((vstart, text.len()), "must not be negative"))
+        } else {
+            Ok(v)
+        }
+    };
+    Ok(match name.as_str() {
+        "angle" => Setting::Angle(one(&w)?),
+        "step" => Setting::Step(one(&w)?),
+        "width" => Setting::Width(non_negative(one(&w)?)?),
+        "width increment" => Setting::WidthIncrement(one(&w)?),
+        "width scale" => Setting::WidthScale(non_negative(one(&w)?)?),
+        "colour" => Setting::Colour(one(&w)?),
+        "colour increment" => Setting::ColourIncrement(one(&w)?),
+        "elasticity" => Setting::Elasticity(one(&w)?),
+        "tropism" => match w.as_slice() {
+            [(a, x), (b, y), (c, z)] => {
+                Setting::Tropism([number(*a, x)?, number(*b, y)?, number(*c, z)?])
+            }
+            _ => {
+                return Err(err(
+                    (vstart, text.len()),
+                    "a tropism is three numbers `X Y Z`",
+                ))
+            }
+        },
+        "palette" => {
+            if w.is_empty() {
+                return Err(err(
+                    (vstart, text.len()),
+                    "a palette is one or more colours `#rrggbb`",
+                ));
+            }
+            Setting::Palette(
+                w.iter()
+                    .map(|(a, s)| colour(*a, s))
+                    .collect::<Result<_, _>>()?,
+            )
+        }
+        "direction" => Setting::Direction(parse_direction(value).map_err(|mut e| {
+            e.span = (e.span.0 + vstart, e.span.1 + vstart);
+            e
+        })?),
+        "twist" => Setting::Twist(one(&w)?),
+        "background" => match w.as_slice() {
+            [(_, n)] if n.eq_ignore_ascii_case("none") => Setting::Background(None),
+            [(a, s)] => Setting::Background(Some(colour(*a, s)?)),
+            _ => {
+                return Err(err(
+                    (vstart, text.len()),
+                    "a background is `#rrggbb` or `none`",
+                ))
+            }
+        },
+        _ if name.is_empty() => {
+            return Err(err(name_span, "a view setting is `view: NAME = VALUE`"))
+        }
+        _ => {
+            return Err(err(
+                name_span,
+                format!(
+                    "unknown view setting `{name}` (known: {})",
+                    NAMES.join(", ")
+                ),
+            ))
+        }
+    })
+}
+
+impl View {
+    pub fn apply(&mut self, s: Setting) {
+        match s {
+            Setting::Angle(v) => self.angle = v,
+            Setting::Step(v) => self.step = v,
+            Setting::Width(v) => self.width = v,
+            Setting::WidthIncrement(v) => self.width_increment = v,
+            Setting::WidthScale(v) => self.width_scale = v,
+            Setting::Colour(v) => self.colour = v,
+            Setting::ColourIncrement(v) => self.colour_increment = v,
+            Setting::Tropism(v) => self.tropism = v,
+            Setting::Elasticity(v) => self.elasticity = v,
+            Setting::Palette(v) => self.palette = v,
+            Setting::Direction(v) => self.direction = v,
+            Setting::Twist(v) => self.twist = v,
+            Setting::Background(v) => self.background = v,
+        }
+    }
+
+    /// The colour of index `i`: indices past either end of the palette
+    /// take its first or last colour.
+    pub fn colour_of(&self, i: i64) -> Rgb {
+        let last = self.palette.len().saturating_sub(1) as i64;
+        self.palette
+            .get(i.clamp(0, last) as usize)
+            .copied()
+            .unwrap_or([0, 0, 0])
+    }
+}
+
+/// Where a `view:` line's setting text ends: at the end of the line or at
+/// a comment `/*`.
+pub fn setting_end(rest: &str) -> usize {
+    let line = rest.find('\n').unwrap_or(rest.len());
+    rest[..line].find("/*").unwrap_or(line)
+}
+
+/// Read the `view:` lines of an `.ls` file's header (the lines before
+/// `axiom:`, outside comments) into `view`.
+pub fn read_ls(path: &str, text: &str, view: &mut View) -> Result<(), Error> {
+    let map = CodeMap::new(text);
+    let mut in_comment = false;
+    let mut offset = 0;
+    for line in text.split_inclusive('\n') {
+        let start = offset;
+        offset += line.len();
+        if !in_comment {
+            let trimmed = line.trim_start_matches([' ', '\t', '\r']);
+            let blank = line.len() - trimmed.len();
+            if match_keyword(trimmed, "axiom:").is_some() {
+                break;
+            }
+            if let Some(kl) = match_keyword(trimmed, "view:") {
+                let at = start + blank + kl;
+                let rest = &text[at..];
+                let end = setting_end(rest);
+                match parse_setting(&rest[..end]) {
+                    Ok(s) => view.apply(s),
+                    Err(e) => {
+                        return Err(Error::at(
+                            Location::from_map(path, &map, at + e.span.0),
+                            e.message,
+                        ))
+                    }
+                }
+            }
+        }
+        let b = line.as_bytes();
+        let mut i = 0;
+        while i + 1 < b.len() {
+            if !in_comment && b[i] == b'/' && b[i + 1] == b'*' {
+                in_comment = true;
+                i += 2;
+            } else if in_comment && b[i] == b'*' && b[i + 1] == b'/' {
+                in_comment = false;
+                i += 2;
+            } else {
+                i += 1;
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings() {
+        assert_eq!(parse_setting(" angle = 25.7"), Ok(Setting::Angle(25.7)));
+        assert_eq!(
+            parse_setting(" Width  Increment = 0.5 "),
+            Ok(Setting::WidthIncrement(0.5))
+        );
+        assert_eq!(
+            parse_setting(" color increment = 2"),
+            Ok(Setting::ColourIncrement(2.0))
+        );
+        assert_eq!(
+            parse_setting(" tropism = 0 -1 0"),
+            Ok(Setting::Tropism([0.0, -1.0, 0.0]))
+        );
+        assert_eq!(
+            parse_setting(" palette = #2e7d32 #795548"),
+            Ok(Setting::Palette(vec![
+                [0x2e, 0x7d, 0x32],
+                [0x79, 0x55, 0x48]
+            ]))
+        );
+        assert_eq!(
+            parse_setting(" direction = 30 20"),
+            Ok(Setting::Direction(Direction {
+                azimuth: 30.0,
+                elevation: 20.0
+            }))
+        );
+        assert_eq!(
+            parse_setting(" direction = top"),
+            Ok(Setting::Direction(Direction {
+                azimuth: 0.0,
+                elevation: 90.0
+            }))
+        );
+    }
+
+    #[test]
+    fn errors_are_located() {
+        let e = parse_setting(" angel = 3").unwrap_err();
+        assert_eq!(e.span, (1, 6));
+        assert!(e.message.contains("unknown view setting `angel`"));
+        let e = parse_setting(" angle = 2x").unwrap_err();
+        assert_eq!(e.span, (9, 11));
+        let e = parse_setting(" palette = #12345").unwrap_err();
+        assert_eq!(e.span, (11, 17));
+        assert!(parse_setting(" angle 3").is_err());
+        assert!(parse_setting(" angle = inf").is_err());
+        assert!(parse_setting(" width = -1").is_err());
+    }
+
+    #[test]
+    fn reads_header_lines_only() {
+        let text = "/* view: angle = 1\n*/ view: step = 2\nview: angle = 3 /* c */\naxiom:\nview: width = 9\n";
+        let mut v = View::default();
+        read_ls("t.ls", text, &mut v).unwrap();
+        assert_eq!((v.angle, v.step, v.width), (3.0, 1.0, 1.0));
+        let e = read_ls("t.ls", "F\n  view: step = x\n", &mut v).unwrap_err();
+        let l = e.location.clone().unwrap();
+        assert_eq!((l.line, l.col), (2, 16));
+    }
+}

@@ -1,0 +1,545 @@
+//! lsgen-turtle, the real binary: segment lists against the independent
+//! Python turtle (tests/tools/turtle.py, expected files in
+//! tests/expected/turtle/), hand-derived frames, SVG/PNG/OBJ structure,
+//! errors, broken pipes and `-o` atomicity.
+
+use std::io::{Read, Write};
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+
+const LSGEN: &str = env!("CARGO_BIN_EXE_lsgen");
+const TURTLE: &str = env!("CARGO_BIN_EXE_lsgen-turtle");
+const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+
+fn derive(args: &[&str]) -> Vec<u8> {
+    let o = Command::new(LSGEN)
+        .args(args)
+        .current_dir(ROOT)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "lsgen {args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o.stdout
+}
+
+/// lsgen-turtle with `input` on standard input.
+fn turtle(args: &[&str], input: &[u8]) -> Output {
+    let mut c = Command::new(TURTLE)
+        .args(args)
+        .current_dir(ROOT)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = c.stdin.take().unwrap();
+    let data = input.to_vec();
+    let w = std::thread::spawn(move || {
+        let _ = stdin.write_all(&data);
+    });
+    let o = c.wait_with_output().unwrap();
+    w.join().unwrap();
+    o
+}
+
+fn ok(o: &Output) -> Vec<u8> {
+    assert!(
+        o.status.success() && o.stderr.is_empty(),
+        "exit {:?}, stderr:\n{}",
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o.stdout.clone()
+}
+
+fn text(b: Vec<u8>) -> String {
+    String::from_utf8(b).unwrap()
+}
+
+/// Compare two segment lists: same lines, same words, numbers within 1e-6.
+fn same_segments(got: &str, want: &str, what: &str) {
+    let g: Vec<&str> = got.lines().collect();
+    let w: Vec<&str> = want.lines().collect();
+    assert_eq!(g.len(), w.len(), "{what}: line counts differ");
+    for (i, (a, b)) in g.iter().zip(&w).enumerate() {
+        let (aw, bw): (Vec<&str>, Vec<&str>) = (a.split(' ').collect(), b.split(' ').collect());
+        assert_eq!(aw.len(), bw.len(), "{what}: line {}: {a:?} vs {b:?}", i + 1);
+        for (x, y) in aw.iter().zip(&bw) {
+            match (x.parse::<f64>(), y.parse::<f64>()) {
+                (Ok(x), Ok(y)) => assert!(
+                    (x - y).abs() <= 1e-6 * (1.0 + y.abs()),
+                    "{what}: line {}: {a:?} vs {b:?}",
+                    i + 1
+                ),
+                _ => assert_eq!(x, y, "{what}: line {}", i + 1),
+            }
+        }
+    }
+}
+
+#[test]
+fn segments_match_the_reference_turtle() {
+    let dir = Path::new(ROOT).join("tests/expected/turtle");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let path = e.unwrap().path();
+        let name = path.file_name().unwrap().to_str().unwrap().to_string();
+        // NAME.nN.txt
+        let Some((model, rest)) = name.split_once(".n") else {
+            continue;
+        };
+        let steps = rest.trim_end_matches(".txt");
+        let ls = format!("examples/{model}.ls");
+        let string = derive(&["-n", steps, &ls]);
+        let got = text(ok(&turtle(&["--ls", &ls, "-f", "segments"], &string)));
+        let want = std::fs::read_to_string(&path).unwrap();
+        same_segments(&got, &want, &name);
+        n += 1;
+    }
+    assert!(n >= 7, "only {n} expected files");
+}
+
+#[test]
+fn initial_frame_and_rotations_by_hand() {
+    // Heading up the screen (+Y); + turns left (towards -X); & pitches
+    // towards U = -Z; / rolls L towards U; | turns around.
+    let seg = |s: &str| {
+        text(ok(&turtle(
+            &["-f", "segments", "--angle", "90"],
+            s.as_bytes(),
+        )))
+    };
+    assert_eq!(seg("F"), "0 0 0 0 1 0 1 0\n");
+    same_segments(&seg("+F"), "0 0 0 -1 0 0 1 0\n", "+");
+    same_segments(&seg("F(2)-F"), "0 0 0 0 2 0 1 0\n0 2 0 1 2 0 1 0\n", "-");
+    same_segments(&seg("&F"), "0 0 0 0 0 -1 1 0\n", "&");
+    same_segments(&seg("^F"), "0 0 0 0 0 1 1 0\n", "^");
+    // After /, L points along U = -Z: + then turns towards -Z.
+    same_segments(&seg("/+F"), "0 0 0 0 0 -1 1 0\n", "/");
+    same_segments(&seg("\\+F"), "0 0 0 0 0 1 1 0\n", "\\");
+    same_segments(&seg("|F"), "0 0 0 0 -1 0 1 0\n", "|");
+    // Parameters: angle, length, width, colour; f and g move only.
+    same_segments(
+        &seg("+(30)F(2)f!(3);(2)G"),
+        &format!(
+            "0 0 0 -1 {s3} 0 1 0\n-1.5 {a} 0 -2 {b} 0 3 2\n",
+            s3 = 3f64.sqrt(),
+            a = 1.5 * 3f64.sqrt(),
+            b = 2.0 * 3f64.sqrt()
+        ),
+        "parameters",
+    );
+    // Branches restore position, width and colour.
+    same_segments(
+        &seg("[!(5)'F]F"),
+        "0 0 0 0 1 0 5 1\n0 0 0 0 1 0 1 0\n",
+        "[]",
+    );
+    // A polygon: { starts, . and f record vertices (cpfg), F draws and records.
+    same_segments(
+        &seg("{.f+f+f}"),
+        "polygon 0 0 0 0 0 1 0 -1 1 0 -1 0 0\n",
+        "polygon",
+    );
+    // $ levels L: after a pitch and a roll, L is horizontal again, on the
+    // side that puts U upwards (the pitch towards U = -Z turned U down, so
+    // L flips to +X).
+    same_segments(&seg("&(45)/(30)$+F"), "0 0 0 1 0 0 1 0\n", "$");
+    same_segments(&seg("^(45)/(30)$+F"), "0 0 0 -1 0 0 1 0\n", "$");
+    // @o and @O draw dots; other modules are ignored.
+    same_segments(
+        &seg("F@o(2)XYZ@O"),
+        "0 0 0 0 1 0 1 0\ndot 0 1 0 2 0\nsphere 0 1 0 1 0\n",
+        "@o",
+    );
+}
+
+#[test]
+fn view_settings_from_ls_and_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let ls = dir.path().join("m.ls");
+    std::fs::write(
+        &ls,
+        "/* view: angle = 1 */\nview: angle = 90\nview: step = 2\nview: width = 0.5\n\
+         view: tropism = 1 0 0\nderivation length: 1\naxiom: F\nview: step = 7\n",
+    )
+    .unwrap();
+    let ls = ls.to_str().unwrap();
+    let seg = |args: &[&str], s: &str| {
+        let mut a = vec!["-f", "segments", "--ls", ls];
+        a.extend_from_slice(args);
+        text(ok(&turtle(&a, s.as_bytes())))
+    };
+    same_segments(&seg(&[], "+F"), "0 0 0 -2 0 0 0.5 0\n", "from --ls");
+    same_segments(
+        &seg(&["--step", "3", "--width", "2"], "+F"),
+        "0 0 0 -3 0 0 2 0\n",
+        "options",
+    );
+    // Tropism: after each F the heading bends by e|H x T| towards T.
+    let got = seg(&["--elasticity", "0.5"], "FF");
+    let a = 0.5f64; // |H x T| = 1 for H = +Y, T = +X
+    same_segments(
+        &got,
+        &format!(
+            "0 0 0 0 2 0 0.5 0\n0 2 0 {} {} 0 0.5 0\n",
+            2.0 * a.sin(),
+            2.0 + 2.0 * a.cos()
+        ),
+        "tropism",
+    );
+}
+
+fn svg_numbers(svg: &str, attr: &str) -> Vec<f64> {
+    let key = format!(" {attr}=\"");
+    let i = svg.find(&key).unwrap() + key.len();
+    let j = svg[i..].find('"').unwrap();
+    svg[i..i + j]
+        .split([' ', ','])
+        .map(|x| x.parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn svg_merges_segments_and_fills_polygons() {
+    let svg = text(ok(&turtle(
+        &["--angle", "90", "--size", "200"],
+        b"FFF+F[-F]F!(2)F{.F+F+F}",
+    )));
+    assert!(
+        svg.starts_with("<svg xmlns=\"http://www.w3.org/2000/svg\""),
+        "{svg}"
+    );
+    assert!(svg.trim_end().ends_with("</svg>"));
+    // FFF+F[-F] is one polyline of 6 points (the branch starts where it
+    // ends); F after ] starts another, a new width a third, and the
+    // polygon's F+F+F continue it (drawn, as cpfg does).
+    assert_eq!(svg.matches("<polyline").count(), 3, "{svg}");
+    let mut at = 0;
+    for want in [6, 2, 5] {
+        let i = at + svg[at..].find("<polyline").unwrap();
+        assert_eq!(svg_numbers(&svg[i..], "points").len(), 2 * want, "{svg}");
+        at = i + 1;
+    }
+    assert_eq!(svg.matches("<polygon").count(), 1);
+    let vb = svg_numbers(&svg, "viewBox");
+    assert_eq!(vb[0], 0.0);
+    assert_eq!(vb[1], 0.0);
+    assert_eq!(vb[2].max(vb[3]), 200.0);
+    // Every point lies inside the view box.
+    for p in svg.split("points=\"").skip(1) {
+        for xy in p[..p.find('"').unwrap()].split(' ') {
+            let (x, y) = xy.split_once(',').unwrap();
+            let (x, y): (f64, f64) = (x.parse().unwrap(), y.parse().unwrap());
+            assert!(
+                x > 0.0 && x < vb[2] && y > 0.0 && y < vb[3],
+                "{xy} outside {vb:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn svg_from_stdin_equals_svg_from_file() {
+    let string = derive(&["-n", "3", "examples/plant_e.ls"]);
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("s.txt");
+    std::fs::write(&f, &string).unwrap();
+    let args = ["--ls", "examples/plant_e.ls"];
+    let a = ok(&turtle(&args, &string));
+    let mut args2 = args.to_vec();
+    args2.push(f.to_str().unwrap());
+    let b = ok(&turtle(&args2, b""));
+    assert!(a.len() > 1000);
+    assert_eq!(a, b);
+}
+
+#[test]
+fn views_project_3d_models() {
+    // Up the screen in the front view; along -Z seen from the side or top.
+    let seg = |view: &str| {
+        text(ok(&turtle(
+            &["--view", view, "--size", "100", "--width", "0"],
+            b"&(90)F",
+        )))
+    };
+    let front = seg("front");
+    let side = seg("side");
+    let top = seg("top");
+    // front: a degenerate point; side: horizontal line; top: vertical line.
+    let pts = |s: &str| svg_numbers(&s[s.find("<polyline").unwrap()..], "points");
+    let f = pts(&front);
+    assert_eq!((f[0], f[1]), (f[2], f[3]));
+    let s = pts(&side);
+    assert!(s[0] < s[2] && s[1] == s[3], "side {s:?}"); // -Z is to the right seen from +X
+    let t = pts(&top);
+    assert!(t[1] > t[3] && t[0] == t[2], "top {t:?}"); // -Z is up seen from above
+    assert_eq!(seg("90 0"), side);
+    assert_eq!(seg("0,90"), top);
+    // --twist turns the picture on the screen: F (up) becomes a line to
+    // the left for +90, as + would turn it.
+    let twisted = text(ok(&turtle(
+        &["--twist", "90", "--size", "100", "--width", "0"],
+        b"F",
+    )));
+    let p = pts(&twisted);
+    assert!(p[0] > p[2] && (p[1] - p[3]).abs() < 1e-9, "twist {p:?}");
+}
+
+fn decode_png(data: &[u8]) -> (u32, u32, Vec<u8>) {
+    let d = png::Decoder::new(data);
+    let mut r = d.read_info().unwrap();
+    let mut buf = vec![0; r.output_buffer_size()];
+    let info = r.next_frame(&mut buf).unwrap();
+    buf.truncate(info.buffer_size());
+    // As RGBA, whatever was written.
+    let px = match info.color_type {
+        png::ColorType::Rgba => buf,
+        png::ColorType::Rgb => buf
+            .chunks(3)
+            .flat_map(|c| [c[0], c[1], c[2], 255])
+            .collect(),
+        t => panic!("unexpected colour type {t:?}"),
+    };
+    (info.width, info.height, px)
+}
+
+#[test]
+fn png_matches_the_svg() {
+    let string = derive(&["examples/plant_a.ls"]);
+    let args = ["--ls", "examples/plant_a.ls", "--size", "300"];
+    let svg = text(ok(&turtle(&args, &string)));
+    let mut a = args.to_vec();
+    a.extend(["-f", "png"]);
+    let png = ok(&turtle(&a, &string));
+    let (w, h, px) = decode_png(&png);
+    let vb = svg_numbers(&svg, "viewBox");
+    assert_eq!((w as f64, h as f64), (vb[2], vb[3]));
+    // The drawn pixels' box against the SVG's points, widened by the stroke.
+    let sw = svg_numbers(&svg, "stroke-width")[0];
+    let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+    for p in svg.split("points=\"").skip(1) {
+        for xy in p[..p.find('"').unwrap()].split(' ') {
+            let (x, y) = xy.split_once(',').unwrap();
+            let (x, y): (f64, f64) = (x.parse().unwrap(), y.parse().unwrap());
+            (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+        }
+    }
+    let (mut px0, mut py0, mut px1, mut py1) = (u32::MAX, u32::MAX, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let i = ((y * w + x) * 4) as usize;
+            // Background is white; anything darker is drawn.
+            if px[i] < 200 || px[i + 1] < 200 || px[i + 2] < 200 {
+                (px0, py0, px1, py1) = (px0.min(x), py0.min(y), px1.max(x), py1.max(y));
+            }
+        }
+    }
+    assert!(px0 <= px1, "nothing drawn");
+    let tol = sw / 2.0 + 1.5;
+    for (got, want) in [
+        (px0 as f64, x0),
+        (py0 as f64, y0),
+        (px1 as f64 + 1.0, x1),
+        (py1 as f64 + 1.0, y1),
+    ] {
+        assert!(
+            (got - want).abs() <= tol,
+            "png box {:?} vs svg box {:?}",
+            (px0, py0, px1, py1),
+            (x0, y0, x1, y1)
+        );
+    }
+    // A background option is honoured; `none` is transparent.
+    let mut b = a.clone();
+    b.extend(["--background", "#000000"]);
+    let (_, _, px) = decode_png(&ok(&turtle(&b, &string)));
+    assert_eq!(&px[..4], &[0, 0, 0, 255]);
+    a.extend(["--background", "none"]);
+    let (_, _, px) = decode_png(&ok(&turtle(&a, &string)));
+    assert_eq!(px[3], 0);
+    assert!(px.chunks(4).any(|p| p[3] > 100), "nothing drawn");
+}
+
+#[test]
+fn obj_lines_faces_and_materials() {
+    let obj = text(ok(&turtle(
+        &["-f", "obj", "--angle", "90"],
+        b"FF[+F]{.f+f+f}'F",
+    )));
+    let count = |p: &str| obj.lines().filter(|l| l.starts_with(p)).count();
+    // FF continue one line (3 vertices); [+F] 2 vertices; polygon 3; 'F 2.
+    assert_eq!(count("l "), 4, "{obj}");
+    assert_eq!(count("f "), 1, "{obj}");
+    assert_eq!(count("v "), 10, "{obj}");
+    assert!(obj.contains("usemtl c0\n") && obj.contains("usemtl c1\n"));
+    let cyl = text(ok(&turtle(&["-f", "obj", "--cylinders"], b"F!(0.5)F")));
+    assert_eq!(cyl.lines().filter(|l| l.starts_with("f ")).count(), 16);
+    assert_eq!(cyl.lines().filter(|l| l.starts_with("v ")).count(), 32);
+    // -o x.obj writes x.mtl beside it and names it.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.obj");
+    ok(&turtle(&["-o", out.to_str().unwrap()], b"F"));
+    let o = std::fs::read_to_string(&out).unwrap();
+    assert!(o.contains("mtllib x.mtl\n"));
+    let m = std::fs::read_to_string(dir.path().join("x.mtl")).unwrap();
+    assert!(m.contains("newmtl c0\nKd "));
+}
+
+#[test]
+fn malformed_input_is_located_and_leaves_no_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o.png");
+    std::fs::write(&out, b"old").unwrap();
+    let o = out.to_str().unwrap();
+    for (input, msg) in [
+        (
+            &b"FF(1,x)"[..],
+            "lsgen-turtle: <stdin>:5: error: expected a number, found `x`\n",
+        ),
+        (
+            b"F(1",
+            "lsgen-turtle: <stdin>:0: error: parameter list not closed: `(` without `)`\n",
+        ),
+        (b"F[F]]F", "lsgen-turtle: <stdin>:4: error: unmatched `]`\n"),
+        (b"{F}}", "lsgen-turtle: <stdin>:3: error: unmatched `}`\n"),
+        (b"F\xffF", "lsgen-turtle: <stdin>:1: error: invalid UTF-8\n"),
+        (
+            b"F(1e308)F(1e308)",
+            "lsgen-turtle: <stdin>:8: error: the turtle moved out of range (overflow)\n",
+        ),
+    ] {
+        let r = turtle(&["-o", o], input);
+        assert_eq!(r.status.code(), Some(1));
+        assert_eq!(String::from_utf8_lossy(&r.stderr), msg);
+        assert_eq!(std::fs::read(&out).unwrap(), b"old", "output clobbered");
+    }
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert_eq!(names.len(), 1, "temp files left: {names:?}");
+    // A file input names itself.
+    let f = dir.path().join("s.txt");
+    std::fs::write(&f, "F(2)F(").unwrap();
+    let r = turtle(&[f.to_str().unwrap(), "-f", "segments"], b"");
+    assert_eq!(r.status.code(), Some(1));
+    assert!(r.stdout.is_empty() || r.stdout.starts_with(b"0 0 0 0 2 0"));
+    assert_eq!(
+        String::from_utf8_lossy(&r.stderr),
+        format!(
+            "lsgen-turtle: {}:4: error: parameter list not closed: `(` without `)`\n",
+            f.display()
+        )
+    );
+    // A missing input file.
+    let r = turtle(&["/no/such/file", "-o", o], b"");
+    assert_eq!(r.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&r.stderr)
+        .starts_with("lsgen-turtle: /no/such/file: error: cannot open"));
+    assert_eq!(std::fs::read(&out).unwrap(), b"old");
+}
+
+#[test]
+fn bad_view_settings() {
+    let dir = tempfile::tempdir().unwrap();
+    let ls = dir.path().join("m.ls");
+    std::fs::write(&ls, "derivation length: 1\nview: step = two\naxiom: F\n").unwrap();
+    let r = turtle(&["--ls", ls.to_str().unwrap()], b"F");
+    assert_eq!(r.status.code(), Some(1));
+    assert_eq!(
+        String::from_utf8_lossy(&r.stderr),
+        format!("lsgen-turtle: {}:2:14: error: `two` is not a number\nview: step = two\n             ^\n", ls.display())
+    );
+    for args in [
+        &["--view", "sideways"][..],
+        &["--view", "0 100"],
+        &["-f", "gif"],
+        &["-o", "x.gif"],
+        &["--size", "0"],
+        &["--size", "8193"],
+        &["--palette", "red"],
+        &["--tropism", "0 1"],
+        &["--width", "-1"],
+        &["--no-such-flag"],
+    ] {
+        let r = turtle(args, b"F");
+        assert_eq!(
+            r.status.code(),
+            Some(2),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+        assert!(r.stdout.is_empty());
+        assert!(
+            String::from_utf8_lossy(&r.stderr).starts_with("lsgen-turtle: "),
+            "{args:?}"
+        );
+    }
+    assert!(!Path::new(ROOT).join("x.gif").exists());
+}
+
+#[test]
+fn broken_pipe_is_quiet() {
+    // A reader that stops after a few bytes: exit 0, nothing on stderr.
+    let mut c = Command::new(TURTLE)
+        .args(["-f", "segments"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = c.stdin.take().unwrap();
+    let w = std::thread::spawn(move || {
+        let chunk = "F+".repeat(1 << 16);
+        for _ in 0..64 {
+            if stdin.write_all(chunk.as_bytes()).is_err() {
+                break;
+            }
+        }
+    });
+    let mut out = c.stdout.take().unwrap();
+    let mut buf = [0u8; 10];
+    out.read_exact(&mut buf).unwrap();
+    drop(out);
+    let mut err = String::new();
+    c.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    let status = c.wait().unwrap();
+    w.join().unwrap();
+    assert_eq!(status.code(), Some(0), "stderr: {err}");
+    assert_eq!(err, "");
+}
+
+#[test]
+fn every_example_draws_with_its_own_view() {
+    for e in std::fs::read_dir(Path::new(ROOT).join("examples")).unwrap() {
+        let p = e.unwrap().path();
+        let ls = format!("examples/{}", p.file_name().unwrap().to_str().unwrap());
+        let src = std::fs::read_to_string(&p).unwrap();
+        assert!(src.contains("\nview: "), "{ls} has no view settings");
+        let string = derive(&["-n", "2", &ls]);
+        let svg = text(ok(&turtle(&["--ls", &ls, "--size", "50"], &string)));
+        assert!(svg.ends_with("</svg>\n"), "{ls}");
+    }
+}
+
+#[test]
+fn lsgen_skips_view_lines_anywhere_in_the_header() {
+    let dir = tempfile::tempdir().unwrap();
+    let ls = dir.path().join("v.ls");
+    std::fs::write(
+        &ls,
+        "VIEW: angle = 90 /* upper case, comment after */\nderivation length: 2\n\
+         view: palette = #2e7d32 #795548\nproductions:\n  view: step = 2\nF -> F+F\n\
+         view: direction = 30 20\nhomomorphism:\nview: width = 0.5\naxiom: F\n",
+    )
+    .unwrap();
+    // Hand derivation: F -> F+F -> F+F+F+F.
+    assert_eq!(derive(&[ls.to_str().unwrap()]), b"F+F+F+F\n");
+    let o = Command::new(LSGEN)
+        .arg("--check")
+        .arg(&ls)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
