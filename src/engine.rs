@@ -518,9 +518,15 @@ impl<'t> ByteTable<'t> {
     }
 }
 
-/// Left context: the last k considered modules of each open branch, in
-/// flat arrays (k slots per nesting level). Only the parameters of keys that
-/// some left context asks for are kept, up to their largest arity.
+/// Left context: the considered modules on the path from the start of the
+/// string to the current module, as one shared stack. Each open branch
+/// (level) owns a segment at the top of its parent's and keeps at most the
+/// last k of its own modules there (a ring once full); a left context is
+/// read backwards through the current level, then its ancestors. Opening a
+/// branch copies nothing, so memory is the modules kept per level (at most
+/// k each, and no more than the level has) plus O(1) per level: a long
+/// context and deep nesting do not multiply. Only the parameters of keys
+/// that some left context asks for are kept, up to their largest arity.
 struct LeftContext {
     k: usize,
     /// Parameters kept per slot.
@@ -530,9 +536,23 @@ struct LeftContext {
     depth: usize,
     keys: Vec<u32>,
     params: Vec<f64>,
-    /// Per level: index of the most recent slot, and how many are filled.
-    head: Vec<usize>,
-    len: Vec<usize>,
+    /// One per open level (reused as branches open and close).
+    levels: Vec<Level>,
+}
+
+/// No such level.
+const NONE: usize = usize::MAX;
+
+#[derive(Clone, Copy)]
+struct Level {
+    /// Where the level's own modules start in `keys`.
+    start: usize,
+    /// How many it keeps (at most k).
+    cnt: usize,
+    /// Ring index of the most recent one.
+    head: usize,
+    /// Nearest enclosing level that keeps any module, or NONE.
+    up: usize,
 }
 
 impl LeftContext {
@@ -558,71 +578,97 @@ impl LeftContext {
             width,
             wanted,
             depth: 0,
-            keys: vec![u32::MAX; k],
-            params: vec![0.0; k * width],
-            head: vec![k - 1],
-            len: vec![0],
+            keys: Vec::new(),
+            params: Vec::new(),
+            levels: vec![Level {
+                start: 0,
+                cnt: 0,
+                head: 0,
+                up: NONE,
+            }],
         }
     }
 
     fn open(&mut self) {
-        let (k, w, d) = (self.k, self.width, self.depth);
+        let d = self.depth;
+        let cur = self.levels[d];
+        let child = Level {
+            start: self.keys.len(),
+            cnt: 0,
+            head: 0,
+            up: if cur.cnt > 0 { d } else { cur.up },
+        };
         self.depth += 1;
-        if self.head.len() <= self.depth {
-            self.head.push(0);
-            self.len.push(0);
-            self.keys.resize(self.keys.len() + k, u32::MAX);
-            self.params.resize(self.params.len() + k * w, 0.0);
-        }
-        self.head[d + 1] = self.head[d];
-        self.len[d + 1] = self.len[d];
-        self.keys.copy_within(d * k..(d + 1) * k, (d + 1) * k);
-        if w > 0 {
-            self.params
-                .copy_within(d * k * w..(d + 1) * k * w, (d + 1) * k * w);
+        if self.levels.len() <= self.depth {
+            self.levels.push(child);
+        } else {
+            self.levels[self.depth] = child;
         }
     }
 
     fn close(&mut self) {
-        self.depth = self.depth.saturating_sub(1);
+        if self.depth == 0 {
+            return; // unbalanced: reported by the balance check
+        }
+        let start = self.levels[self.depth].start;
+        self.keys.truncate(start);
+        self.params.truncate(start * self.width);
+        self.depth -= 1;
     }
 
     /// The nearest considered module to the left, if any.
     #[inline(always)]
     fn last_key(&self) -> Option<u32> {
-        let d = self.depth;
-        (self.len[d] > 0).then(|| self.keys[d * self.k + self.head[d]])
+        let mut l = self.levels[self.depth];
+        if l.cnt == 0 {
+            if l.up == NONE {
+                return None;
+            }
+            l = self.levels[l.up];
+        }
+        Some(self.keys[l.start + l.head])
     }
 
     #[inline]
     fn push(&mut self, key: u32, params: &[u8], arity: usize) {
-        let (k, d) = (self.k, self.depth);
-        let h = &mut self.head[d];
-        *h = if *h + 1 == k { 0 } else { *h + 1 };
-        let slot = d * k + *h;
-        self.keys[slot] = key;
+        let (k, w) = (self.k, self.width);
+        let l = &mut self.levels[self.depth];
+        let slot = if l.cnt < k {
+            // The level's segment is the top of the stack.
+            l.head = l.cnt;
+            l.cnt += 1;
+            self.keys.push(key);
+            self.params.resize(self.params.len() + w, 0.0);
+            l.start + l.head
+        } else {
+            l.head = if l.head + 1 == k { 0 } else { l.head + 1 };
+            let slot = l.start + l.head;
+            self.keys[slot] = key;
+            slot
+        };
         if self.wanted.get(key as usize).copied().unwrap_or(false) {
-            let w = self.width;
             for i in 0..arity {
                 self.params[slot * w + i] = codec::get_param(params, i);
             }
         }
-        let l = &mut self.len[d];
-        if *l < k {
-            *l += 1;
-        }
     }
 
-    /// Does the current level end with `pat`? Binds its parameters.
+    /// Does the path to the current module end with `pat`? Binds its
+    /// parameters.
     fn matches(&self, pat: &[Pat], al: &Alphabet, slots: &mut [f64]) -> bool {
-        let (k, d) = (self.k, self.depth);
-        if pat.len() > self.len[d] {
-            return false;
-        }
-        let base = d * k;
-        let mut idx = self.head[d];
+        let mut l = self.levels[self.depth];
+        let mut left = l.cnt;
+        let mut idx = l.head;
         for p in pat.iter().rev() {
-            let slot = base + idx;
+            while left == 0 {
+                if l.up == NONE {
+                    return false;
+                }
+                l = self.levels[l.up];
+                left = l.cnt;
+                idx = l.head;
+            }
+            let slot = l.start + idx;
             if self.keys[slot] != p.key {
                 return false;
             }
@@ -632,7 +678,8 @@ impl LeftContext {
                 slots[p.slot as usize..p.slot as usize + n]
                     .copy_from_slice(&self.params[slot * w..slot * w + n]);
             }
-            idx = if idx == 0 { k - 1 } else { idx - 1 };
+            idx = if idx == 0 { l.cnt - 1 } else { idx - 1 };
+            left -= 1;
         }
         true
     }
