@@ -809,6 +809,11 @@ struct StepState<'f> {
     right: RightCache,
     max_right_simple: usize,
     left: Option<LeftContext>,
+    /// A run of ignored modules: from any module end in `skip.0..=skip.1`
+    /// only ignored modules (no bracket) lie before offset `skip.1`, so a
+    /// right context may start there. Keeps right contexts over long
+    /// ignored runs linear.
+    skip: (u64, u64),
     depth: i64,
     /// Productions that last opened or closed more than they matched, to
     /// blame for unbalanced output.
@@ -817,18 +822,46 @@ struct StepState<'f> {
 }
 
 impl StepState<'_> {
+    /// Where the right context of the module ending at `end_off` starts:
+    /// past the ignored modules that follow it. Each ignored run is read
+    /// once per pass, however many of its modules ask.
+    #[inline]
+    fn right_start(&mut self, end_off: u64, al: &Alphabet) -> io::Result<u64> {
+        if self.skip.0 <= end_off && end_off <= self.skip.1 {
+            return Ok(self.skip.1);
+        }
+        let peek = self
+            .peek
+            .as_mut()
+            .expect("a look-ahead reader for right contexts");
+        let mut pos = end_off;
+        loop {
+            peek.seek(pos);
+            match peek.next_module(al)? {
+                Some((key, _, _)) if key != OPEN && key != CLOSE && al.ignored(key) => {
+                    pos = peek.offset();
+                }
+                _ => break,
+            }
+        }
+        self.skip = (end_off, pos);
+        Ok(pos)
+    }
+
     /// The next considered modules right of the module ending at `end_off`
     /// (read once per module).
     #[inline]
     fn right_of(&mut self, end_off: u64, al: &Alphabet) -> Result<&RightCache, Error> {
-        if self.right.at != end_off {
+        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        let start = self.right_start(end_off, al).map_err(read_err)?;
+        if self.right.at != start {
             let peek = self
                 .peek
                 .as_mut()
                 .expect("a look-ahead reader for right contexts");
             self.right
-                .fill(peek, al, end_off, self.max_right_simple)
-                .map_err(|e| Error::io("temporary file", "cannot read", e))?;
+                .fill(peek, al, start, self.max_right_simple)
+                .map_err(read_err)?;
         }
         Ok(&self.right)
     }
@@ -877,6 +910,7 @@ impl<'a> Deriver<'a> {
             max_right_simple: table.max_right_simple,
             left: (table.max_left > 0).then(|| LeftContext::new(table, &self.alphabet)),
             depth: 0,
+            skip: (u64::MAX, 0),
             last_opener: None,
             last_closer: None,
         };
@@ -1048,9 +1082,13 @@ impl<'a> Deriver<'a> {
                 return Ok(false);
             }
         } else if !p.right.is_empty() {
+            // Matching from past the ignored run is the same: every pattern
+            // element passes over ignored modules first.
+            let read_err = |e| Error::io("temporary file", "cannot read", e);
+            let start = st.right_start(end_off, &self.alphabet).map_err(read_err)?;
             let peek = st.peek.as_mut().unwrap();
-            let ok = match_right(peek, &self.alphabet, end_off, &p.right, &mut self.slots)
-                .map_err(|e| Error::io("temporary file", "cannot read", e))?;
+            let ok = match_right(peek, &self.alphabet, start, &p.right, &mut self.slots)
+                .map_err(read_err)?;
             if !ok {
                 return Ok(false);
             }

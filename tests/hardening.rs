@@ -121,3 +121,36 @@ fn left_context_spans_levels_and_forgets_closed_branches() {
     let r = run("productions:\nA B < C -> X\naxiom: A[B[C][D]C]BC[C]\n", &[]);
     assert_eq!(r.ok(), "A[B[X][D]X]BX[C]");
 }
+
+// ------------------------------------- 7: right context over ignored runs
+
+#[test]
+fn right_context_over_a_long_ignored_run_is_linear() {
+    // `ignore: A`: every A sees past the A's to its right, to B (or to the
+    // branch [B]), so every A becomes C. 200,000 A: quadratic matching reads
+    // 2 * 10^10 modules (hours in a debug build); linear takes well under a
+    // second.
+    let n = 200_000;
+    let a = "A".repeat(n);
+    let c = "C".repeat(n);
+    let limit = Duration::from_secs(60);
+    let r = run_with(
+        &format!("ignore: A\nproductions:\nA > B -> C\naxiom:\n{a}B\n"),
+        &[],
+        None,
+        limit,
+    );
+    assert!(r.ok() == format!("{c}B"), "wrong output");
+    // A right context with brackets goes through the general matcher.
+    let r = run_with(
+        &format!("ignore: A\nproductions:\nA > [B] -> C\naxiom:\n{a}[B]\n"),
+        &[],
+        None,
+        limit,
+    );
+    assert!(r.ok() == format!("{c}[B]"), "wrong output");
+    // The run ends at a bracket: A before `]` and A before [D]E see nothing
+    // they ask for.
+    let r = run("ignore: A\nproductions:\nA > B -> C\naxiom: [AA]AA[D]BAAB\n", &[]);
+    assert_eq!(r.ok(), "[AA]CC[D]BCCB");
+}
