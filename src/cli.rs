@@ -477,14 +477,14 @@ fn derive(
                 verbose(&Pass::Step(i as u64 + 1).to_string(), len);
             }
         }
-        let mut none = None;
-        let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
-        plan.expand(src, &d.alphabet, steps, &mut out)?;
         let last = if hom {
             Pass::Homomorphism
         } else {
             Pass::Step(steps)
         };
+        let mut none = None;
+        let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?.for_pass(last);
+        plan.expand(src, &d.alphabet, steps, &mut out)?;
         verbose(&last.to_string(), out.finish()?);
         return Ok(());
     }
@@ -502,7 +502,8 @@ fn derive(
     }
 
     // The steps, then the homomorphism.
-    for i in 1..=passes {
+    let mut i = 1;
+    while i <= passes {
         let (table, pass) = if i <= steps {
             (&productions, Pass::Step(i))
         } else {
@@ -520,15 +521,58 @@ fn derive(
                 None => tempfile(tmpdir)?,
             })
         };
+        let draws = d.rng.draws();
         {
-            let mut out = sink(&mut dst, &tmp_name, output, out_name, limits, indexed)?;
+            let mut out =
+                sink(&mut dst, &tmp_name, output, out_name, limits, indexed)?.for_pass(pass);
             d.pass(table, &src, indexed, &mut out, pass)?;
             verbose(&pass.to_string(), out.finish()?);
         }
+        // A step that drew nothing and left the string as it was is a fixed
+        // point: every later step does the same. Go on with the last pass
+        // (the homomorphism, or the last step, which writes the text).
+        let last = if hom { passes } else { steps };
+        if i < steps && last > i + 1 && d.rng.draws() == draws {
+            if let Some(next) = &dst {
+                if same_contents(&src, next)? {
+                    if settings.verbose {
+                        eprintln!("lsgen: steps {}..{steps}: unchanged (fixed point)", i + 1);
+                    }
+                    other = Some(src);
+                    cur = dst;
+                    i = last;
+                    continue;
+                }
+            }
+        }
         other = Some(src);
         cur = dst;
+        i += 1;
     }
     Ok(())
+}
+
+/// Do two generation files hold the same bytes?
+fn same_contents(a: &File, b: &File) -> Result<bool, Error> {
+    use std::os::unix::fs::FileExt;
+    let read_err = |e| Error::io("temporary file", "cannot read", e);
+    let len = a.metadata().map_err(read_err)?.len();
+    if b.metadata().map_err(read_err)?.len() != len {
+        return Ok(false);
+    }
+    const CHUNK: usize = 1 << 16;
+    let (mut x, mut y) = (vec![0u8; CHUNK], vec![0u8; CHUNK]);
+    let mut off = 0u64;
+    while off < len {
+        let n = CHUNK.min((len - off) as usize);
+        a.read_exact_at(&mut x[..n], off).map_err(read_err)?;
+        b.read_exact_at(&mut y[..n], off).map_err(read_err)?;
+        if x[..n] != y[..n] {
+            return Ok(false);
+        }
+        off += n as u64;
+    }
+    Ok(true)
 }
 
 #[cfg(test)]

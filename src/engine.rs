@@ -27,17 +27,18 @@ pub struct Limits {
 }
 
 impl Limits {
-    /// Is a generation of `modules` modules and `bytes` bytes too long?
-    pub fn check(&self, modules: u64, bytes: u64) -> Result<(), Error> {
+    /// Is a generation of `modules` modules and `bytes` bytes, made by
+    /// `pass`, too long?
+    pub fn check(&self, modules: u64, bytes: u64, pass: Pass) -> Result<(), Error> {
         if modules > self.modules {
             return Err(Error::new(format!(
-                "the string grew past --max-length ({} modules)",
+                "the string grew past --max-length ({} modules) in {pass}",
                 self.modules
             )));
         }
         if bytes > self.bytes {
             return Err(Error::new(format!(
-                "the string grew past --max-length ({} bytes)",
+                "the string grew past --max-length ({} bytes) in {pass}",
                 self.bytes
             )));
         }
@@ -68,6 +69,8 @@ pub struct Out<'w> {
     written: u64,
     num: codec::NumFmt,
     limits: Limits,
+    /// What this generation is, for `--max-length` errors.
+    pass: Pass,
 }
 
 impl<'w> Out<'w> {
@@ -83,7 +86,14 @@ impl<'w> Out<'w> {
             written: 0,
             num: codec::NumFmt::new(),
             limits,
+            pass: Pass::Axiom,
         }
+    }
+
+    /// Name the pass that makes this generation (default: the axiom).
+    pub fn for_pass(mut self, pass: Pass) -> Self {
+        self.pass = pass;
+        self
     }
 
     /// Write a bracket index: `file` is the file this sink writes to.
@@ -238,8 +248,15 @@ impl<'w> Out<'w> {
     }
 
     fn flush(&mut self) -> Result<(), Error> {
+        self.flush_but(0)
+    }
+
+    /// Flush, not counting the last `uncounted` bytes (the text's final
+    /// newline) against `--max-length`.
+    fn flush_but(&mut self, uncounted: u64) -> Result<(), Error> {
         self.written += self.buf.len() as u64;
-        self.limits.check(self.modules, self.written)?;
+        self.limits
+            .check(self.modules, self.written - uncounted, self.pass)?;
         self.w
             .write_all(&self.buf)
             .map_err(|e| Error::io(self.name, "cannot write", e))?;
@@ -247,16 +264,18 @@ impl<'w> Out<'w> {
         Ok(())
     }
 
-    /// Flush everything; returns (modules, bytes) written.
+    /// Flush everything; returns the generation's length: (modules,
+    /// bytes), the bytes without the text's final newline.
     pub fn finish(mut self) -> Result<(u64, u64), Error> {
+        let newline = u64::from(self.text);
         if self.text {
             self.buf.push(b'\n');
         }
-        self.flush()?;
+        self.flush_but(newline)?;
         self.w
             .flush()
             .map_err(|e| Error::io(self.name, "cannot write", e))?;
-        Ok((self.modules, self.written))
+        Ok((self.modules, self.written - newline))
     }
 }
 
@@ -714,6 +733,8 @@ pub struct Deriver<'a> {
 pub enum Pass {
     Step(u64),
     Homomorphism,
+    /// Reading the axiom (generation 0).
+    Axiom,
 }
 
 impl std::fmt::Display for Pass {
@@ -721,6 +742,7 @@ impl std::fmt::Display for Pass {
         match self {
             Pass::Step(n) => write!(f, "step {n}"),
             Pass::Homomorphism => f.write_str("the homomorphism"),
+            Pass::Axiom => f.write_str("the axiom"),
         }
     }
 }

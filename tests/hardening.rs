@@ -84,8 +84,17 @@ impl Run {
         self.stdout.trim_end_matches('\n')
     }
     fn error(&self) -> &str {
-        assert_eq!(self.code, 1, "stdout {:?}, stderr:\n{}", self.stdout, self.stderr);
-        assert_eq!(self.stderr.matches(": error: ").count(), 1, "{}", self.stderr);
+        assert_eq!(
+            self.code, 1,
+            "stdout {:?}, stderr:\n{}",
+            self.stdout, self.stderr
+        );
+        assert_eq!(
+            self.stderr.matches(": error: ").count(),
+            1,
+            "{}",
+            self.stderr
+        );
         &self.stderr
     }
 }
@@ -151,6 +160,152 @@ fn right_context_over_a_long_ignored_run_is_linear() {
     assert!(r.ok() == format!("{c}[B]"), "wrong output");
     // The run ends at a bracket: A before `]` and A before [D]E see nothing
     // they ask for.
-    let r = run("ignore: A\nproductions:\nA > B -> C\naxiom: [AA]AA[D]BAAB\n", &[]);
+    let r = run(
+        "ignore: A\nproductions:\nA > B -> C\naxiom: [AA]AA[D]BAAB\n",
+        &[],
+    );
     assert_eq!(r.ok(), "[AA]CC[D]BCCB");
+}
+
+// ------------------------------------------------------ 8: fixed points
+
+/// The lines of stderr, without the seed.
+fn verbose_lines(r: &Run) -> Vec<&str> {
+    r.stderr
+        .lines()
+        .filter(|l| !l.starts_with("lsgen: seed"))
+        .collect()
+}
+
+#[test]
+fn a_system_that_stops_changing_stops_stepping() {
+    let limit = Duration::from_secs(60);
+    // No productions: the axiom is copied, 2^53 times.
+    let src = "derivation length: 9007199254740992\naxiom: F\n";
+    let r = run_with(src, &[], None, limit);
+    assert_eq!(r.ok(), "F");
+    let r = run_with(src, &["-v"], None, limit);
+    assert_eq!(r.ok(), "F");
+    assert_eq!(
+        verbose_lines(&r),
+        [
+            "lsgen: axiom: 1 modules, 1 bytes",
+            "lsgen: step 1: 1 modules, 1 bytes",
+            "lsgen: steps 2..9007199254740992: unchanged (fixed point)",
+            "lsgen: step 9007199254740992: 1 modules, 1 bytes",
+        ]
+    );
+    // Changes for three steps, then stays; the homomorphism is applied once.
+    // F(0) -> F(1) -> F(2) -> F(3), then no production matches; G -> G.
+    let src = "derivation length: 9007199254740992\nproductions:\n\
+               F(x) : x < 3 -> F(x+1)\nG -> G\nhomomorphism:\nF(x) -> X(x*2)\n\
+               axiom: F(0)G\n";
+    for args in [&[][..], &["-v"], &["--no-homomorphism"]] {
+        let r = run_with(src, args, None, limit);
+        let want = if args.is_empty() || args[0] == "-v" {
+            "X(6)G"
+        } else {
+            "F(3)G"
+        };
+        assert_eq!(r.ok(), want, "{args:?}");
+    }
+    let r = run_with(src, &["-v"], None, limit);
+    assert!(
+        verbose_lines(&r).contains(&"lsgen: steps 5..9007199254740992: unchanged (fixed point)"),
+        "{}",
+        r.stderr
+    );
+}
+
+#[test]
+fn fixed_points_in_the_depth_first_strategies() {
+    // 65,536 steps (the most the depth-first strategies take) over 200,000
+    // modules rewritten to themselves: 1.3 * 10^10 module visits unless a
+    // module that maps to itself is written at once.
+    let limit = Duration::from_secs(60);
+    let n = 200_000;
+    // Byte (D0L) plan: F -> F, G -> GH, H -> "" (H vanishes, G stays G H).
+    let src = format!(
+        "derivation length: 65536\nproductions:\nF -> F\nG -> GH\nH ->\naxiom: {}G\n",
+        "F".repeat(n)
+    );
+    let r = run_with(&src, &[], None, limit);
+    assert!(r.ok() == format!("{}GH", "F".repeat(n)), "wrong output");
+    // Parametric plan: F(x) -> F(x) keeps F(x); A(x) : x < 2 -> A(x+1).
+    let src = format!(
+        "derivation length: 65536\nproductions:\nF(x) -> F(x)\nA(x) : x < 2 -> A(x+1)\n\
+         homomorphism:\nA(x) -> B(x)\naxiom: {}A(0)\n",
+        "F(1)".repeat(n)
+    );
+    let r = run_with(&src, &[], None, limit);
+    assert!(
+        r.ok() == format!("{}B(2)", "F(1)".repeat(n)),
+        "wrong output"
+    );
+}
+
+// ------------------------- 19, 21: --max-length names the step, counts bytes
+
+/// A production that never applies but sends the system through the step
+/// engine (a context production) instead of the depth-first expansion.
+const STEPWISE: &str = "X < Y -> Y\n";
+
+#[test]
+fn max_length_in_bytes_counts_the_string_without_its_newline() {
+    for extra in ["", STEPWISE] {
+        // FFFF is 4 bytes; the newline after it is not part of the string.
+        let src = format!("productions:\n{extra}axiom: FFFF\n");
+        assert_eq!(run(&src, &["-n", "0", "--max-length", "4B"]).ok(), "FFFF");
+        assert_eq!(run(&src, &["-n", "1", "--max-length", "4B"]).ok(), "FFFF");
+        let r = run(&src, &["-n", "0", "--max-length", "3B"]);
+        assert!(
+            r.error().contains("--max-length (3 bytes) in the axiom"),
+            "{}",
+            r.stderr
+        );
+        // F -> FF twice from F: FF (2 bytes), then FFFF (4 bytes).
+        let src = format!("productions:\n{extra}F -> FF\naxiom: F\n");
+        assert_eq!(run(&src, &["-n", "2", "--max-length", "4B"]).ok(), "FFFF");
+        let r = run(&src, &["-n", "2", "--max-length", "3B"]);
+        assert!(
+            r.error().contains("--max-length (3 bytes) in step 2"),
+            "{}",
+            r.stderr
+        );
+        // -v reports the same lengths.
+        let r = run(&src, &["-v", "-n", "2"]);
+        assert!(
+            r.stderr.contains("lsgen: step 2: 4 modules, 4 bytes"),
+            "{}",
+            r.stderr
+        );
+    }
+}
+
+#[test]
+fn max_length_error_names_the_step() {
+    // F -> FF from F: step k has 2^k modules; 2^19 = 524,288 <= 10^6 <
+    // 2^20 = 1,048,576, so step 20 is the first too long.
+    for extra in ["", STEPWISE] {
+        let src = format!("productions:\n{extra}F -> FF\naxiom: F\n");
+        for v in [&[][..], &["-v"]] {
+            let mut args = vec!["-n", "40", "--max-length", "1M"];
+            args.extend_from_slice(v);
+            let r = run(&src, &args);
+            assert!(
+                r.error()
+                    .contains("the string grew past --max-length (1000000 modules) in step 20"),
+                "{extra:?} {v:?}: {}",
+                r.stderr
+            );
+        }
+    }
+    // The homomorphism pass is named too: F -> FFF makes 3 modules.
+    let src = "productions:\nF -> F\nG -> G\nhomomorphism:\nF -> FFF\naxiom: F\n";
+    let r = run(src, &["--max-length", "2"]);
+    assert!(
+        r.error().contains("(2 modules) in the homomorphism"),
+        "{}",
+        r.stderr
+    );
 }
