@@ -440,7 +440,6 @@ fn derive(
     } else {
         Some(tempfile(tmpdir)?)
     };
-    let mut other: Option<File> = None;
     {
         let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, indexed)?;
         let mut params = Vec::new();
@@ -493,21 +492,71 @@ fn derive(
     // unless generation lengths are asked for (-v, --max-length).
     let quiet = !settings.verbose && limits.modules == u64::MAX && limits.bytes == u64::MAX;
     let plan = crate::dfs::ParamPlan::new(&productions, hom.then_some(&homomorphism), steps);
+    // A runtime error found depth first may not be the first one in step
+    // order: then derive again step by step, output discarded, so every
+    // strategy reports the earliest step's first error in string order.
+    let mut depth_first_error = None;
     if let (Some(plan), Some(src), true) = (plan, &cur, quiet) {
         let mut none = None;
         let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
-        plan.expand(src, &d.alphabet, &d.origin, steps, &mut out)?;
-        out.finish()?;
-        return Ok(());
+        match plan
+            .expand(src, &d.alphabet, &d.origin, steps, &mut out)
+            .and_then(|()| out.finish())
+        {
+            Ok(_) => return Ok(()),
+            Err(e) if e.location.is_some() => depth_first_error = Some(e),
+            Err(e) => return Err(e),
+        }
     }
+    let mut discard = io::sink();
+    let output: &mut dyn Write = if depth_first_error.is_some() {
+        &mut discard
+    } else {
+        output
+    };
+    let stepwise = step_passes(
+        &mut d,
+        cur,
+        (&productions, &homomorphism, hom),
+        settings,
+        (output, out_name, &tmp_name),
+        indexed,
+    );
+    match depth_first_error {
+        Some(e) => Err(stepwise.err().unwrap_or(e)),
+        None => stepwise,
+    }
+}
 
-    // The steps, then the homomorphism.
+/// The steps, then the homomorphism, one temp file each, from generation 0
+/// in `cur`.
+fn step_passes(
+    d: &mut Deriver,
+    mut cur: Option<File>,
+    (productions, homomorphism, hom): (&crate::rules::Table, &crate::rules::Table, bool),
+    settings: &Settings,
+    (output, out_name, tmp_name): (&mut dyn Write, &str, &str),
+    indexed: bool,
+) -> Result<(), Error> {
+    let Settings {
+        steps,
+        limits,
+        ref tmpdir,
+        ..
+    } = *settings;
+    let passes = steps + u64::from(hom);
+    let verbose = |what: &str, (m, b): (u64, u64)| {
+        if settings.verbose {
+            eprintln!("lsgen: {what}: {m} modules, {b} bytes");
+        }
+    };
+    let mut other: Option<File> = None;
     let mut i = 1;
     while i <= passes {
         let (table, pass) = if i <= steps {
-            (&productions, Pass::Step(i))
+            (productions, Pass::Step(i))
         } else {
-            (&homomorphism, Pass::Homomorphism)
+            (homomorphism, Pass::Homomorphism)
         };
         let src = cur.take().expect("a generation to read");
         let mut dst = if i == passes {
@@ -524,7 +573,7 @@ fn derive(
         let draws = d.rng.draws();
         {
             let mut out =
-                sink(&mut dst, &tmp_name, output, out_name, limits, indexed)?.for_pass(pass);
+                sink(&mut dst, tmp_name, output, out_name, limits, indexed)?.for_pass(pass);
             d.pass(table, &src, indexed, &mut out, pass)?;
             verbose(&pass.to_string(), out.finish()?);
         }

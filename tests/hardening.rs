@@ -4,7 +4,6 @@
 //! constants). Every test runs the real binary. Expected strings are derived
 //! by hand in the comments, not taken from lsgen.
 
-use std::io::Write;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -308,4 +307,44 @@ fn max_length_error_names_the_step() {
         "{}",
         r.stderr
     );
+}
+
+// ------------------------------------------- 18: one error for every strategy
+
+#[test]
+fn every_strategy_reports_the_earliest_steps_first_error() {
+    // A(2) -> A(1) -> A(1/0): an error in step 2 at line 2. B(0) -> B(1/0):
+    // an error in step 1 at line 3 (col 11, the `/`). Step 1 comes first.
+    let src = "productions:\nA(x) -> A(1/(x-1))\nB(x) -> B(1/x)\naxiom: A(2) B(0)\n";
+    let want = "t.ls:3:11: error: division by zero (in step 1)\nB(x) -> B(1/x)\n          ^\n";
+    // Default: depth first; -v and --max-length: step by step.
+    for args in [
+        &["-n", "2"][..],
+        &["-n", "2", "-v"],
+        &["-n", "2", "--max-length", "1G"],
+    ] {
+        let r = run(src, args);
+        assert!(r.error().ends_with(want), "{args:?}:\n{}", r.stderr);
+        assert!(r.stdout.is_empty(), "{args:?}");
+    }
+    // In the homomorphism against a later module's step: A(1) -> A(0) in
+    // step 1, then the homomorphism divides by 0; C(0) fails in step 1.
+    let src = "productions:\nA(x) -> A(x-1)\nC(x) -> C(1/x)\nhomomorphism:\nA(x) -> B(1/x)\n\
+               axiom: A(1) C(0)\n";
+    let want = "t.ls:3:11: error: division by zero (in step 1)\n";
+    for args in [&["-n", "1"][..], &["-n", "1", "-v"]] {
+        let r = run(src, args);
+        assert!(r.error().contains(want), "{args:?}:\n{}", r.stderr);
+    }
+    // With no step error the homomorphism's is reported, by both.
+    let src = "productions:\nA(x) -> A(x-1)\nhomomorphism:\nA(x) -> B(1/x)\naxiom: A(1) A(2)\n";
+    for args in [&["-n", "1"][..], &["-n", "1", "-v"]] {
+        let r = run(src, args);
+        assert!(
+            r.error()
+                .contains("t.ls:4:11: error: division by zero (in the homomorphism)"),
+            "{args:?}:\n{}",
+            r.stderr
+        );
+    }
 }
