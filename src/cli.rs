@@ -7,7 +7,7 @@ use crate::input::{split_header, Input};
 use crate::output::Output;
 use crate::parse::{locate, parse_header};
 use crate::random::Random;
-use crate::rules::{compile, System};
+use crate::rules::{compile_with, Seeds, System};
 use clap::Parser;
 use std::fs::File;
 use std::io::{self, Seek, SeekFrom, Write};
@@ -193,7 +193,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
         ));
     }
     let mut input = open_input(args.file.as_ref())?;
-    let (split, path, system) = load(&mut input)?;
+    let fresh = Random::fresh_seed();
+    let seeds = Seeds {
+        command_line: args.seed,
+        fallback: fresh,
+    };
+    let (split, path, system) = load(&mut input, seeds)?;
     if !split.has_axiom && args.axiom.is_none() {
         return Err(missing_axiom(&path, &split.header));
     }
@@ -222,7 +227,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .derivation_length
         .or(system.derivation_length)
         .unwrap_or(DEFAULT_DERIVATION_LENGTH);
-    let seed = args.seed.or(system.seed).unwrap_or_else(Random::fresh_seed);
+    let seed = args.seed.or(system.seed).unwrap_or(fresh);
     if args.verbose {
         eprintln!("lsgen: seed {seed}");
     }
@@ -274,7 +279,11 @@ pub fn derive_bytes(
     limits: Limits,
 ) -> Result<Vec<u8>, Error> {
     let mut input = Input::new(Box::new(io::Cursor::new(src.to_vec())), "<input>");
-    let (split, path, system) = load(&mut input)?;
+    let seeds = Seeds {
+        command_line: seed,
+        fallback: 0,
+    };
+    let (split, path, system) = load(&mut input, seeds)?;
     if !split.has_axiom {
         return Err(missing_axiom(&path, &split.header));
     }
@@ -306,11 +315,12 @@ pub fn derive_bytes(
 
 /// Read the header from `input` (leaving it at the axiom), parse and
 /// compile it. Returns the split, the input's name and the system.
-fn load(input: &mut Input) -> Result<(crate::input::Split, String, System), Error> {
+fn load(input: &mut Input, seeds: Seeds) -> Result<(crate::input::Split, String, System), Error> {
     let split = split_header(input)?;
     let path = input.name.clone();
     let header = parse_header(&split.header).map_err(|e| locate(&path, &split.header, e))?;
-    let system = compile(&header).map_err(|e| locate(&path, &split.header, e))?;
+    let system = compile_with(&header, Some(&split.header), seeds)
+        .map_err(|e| locate(&path, &split.header, e))?;
     Ok((split, path, system))
 }
 

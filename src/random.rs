@@ -12,6 +12,14 @@ impl Random {
         Random(ChaCha8Rng::seed_from_u64(seed), 0)
     }
 
+    /// The generator of random constants (`ran` in `define:`): the run's
+    /// seed on stream 1, apart from the derivation's draws (stream 0).
+    pub fn for_constants(seed: u64) -> Random {
+        let mut r = ChaCha8Rng::seed_from_u64(seed);
+        r.set_stream(1);
+        Random(r, 0)
+    }
+
     /// How many draws were made so far (a step that made none and left the
     /// string unchanged is a fixed point).
     #[inline]

@@ -353,14 +353,113 @@ fn symbols(mods: &[ast::Module]) -> R<HashSet<char>> {
     Ok(s)
 }
 
-/// Compile a parsed header. `seed` is the command line's, which wins over
-/// the file's; `rng` is used by `define:` expressions that call `ran`.
+/// 2^53: from there on, a computed whole number may have been rounded
+/// (2^53 + 1 evaluates to 2^53).
+const EXACT_LIMIT: f64 = 9_007_199_254_740_992.0;
+
+/// `seed:`: a whole-number literal is read exactly (0 to 2^64 - 1, from the
+/// source `src` when given); any other expression must give a whole number
+/// below 2^53, where floating point is exact.
+fn seed_value(e: &Expr, consts: &HashMap<String, f64>, src: Option<&str>) -> R<u64> {
+    if let (Expr::Num(_, (a, b)), Some(src)) = (e, src) {
+        if let Some(text) = src.get(*a..*b) {
+            if !text.is_empty() && text.bytes().all(|c| c.is_ascii_digit()) {
+                return text.parse::<u64>().or_else(|_| {
+                    err(
+                        e.span(),
+                        format!(
+                            "the seed must be a whole number from 0 to 18446744073709551615, not {text}"
+                        ),
+                    )
+                });
+            }
+        }
+    }
+    let v = constant(e, consts, &mut Random::new(0))?;
+    if v < 0.0 || v.fract() != 0.0 || v >= EXACT_LIMIT {
+        return err(
+            e.span(),
+            format!(
+                "the seed must be a whole number from 0 to 18446744073709551615 \
+                 (computed: below 2^53; write larger seeds as digits), not {}",
+                crate::codec::number_string(v)
+            ),
+        );
+    }
+    Ok(v as u64)
+}
+
+/// Does `e` draw random numbers, itself or through a random constant?
+fn is_random(e: &Expr, random: &HashSet<String>) -> bool {
+    match e {
+        Expr::Num(..) => false,
+        Expr::Var(name, _) => random.contains(name),
+        Expr::Call(name, args, _) => {
+            name == "ran" || name == "nran" || args.iter().any(|a| is_random(a, random))
+        }
+        Expr::Unary(_, a, _) => is_random(a, random),
+        Expr::Binary(_, a, b, _) => is_random(a, random) || is_random(b, random),
+    }
+}
+
+/// The file's seed, read ahead of the constants (random constants are
+/// drawn with the run's seed, wherever `seed:` stands). None if there is
+/// none or it cannot be read: then the settings report the error in order.
+fn file_seed(h: &ast::Header, src: Option<&str>) -> Option<R<u64>> {
+    let mut consts = HashMap::new();
+    let mut random = HashSet::new();
+    for s in &h.settings {
+        match s {
+            Setting::Define(name, e, _) if is_random(e, &random) => {
+                random.insert(name.clone());
+            }
+            Setting::Define(name, e, _) => {
+                let v = constant(e, &consts, &mut Random::new(0)).ok()?;
+                consts.insert(name.clone(), v);
+            }
+            Setting::Seed(e, _) if is_random(e, &random) => {
+                return Some(err(
+                    e.span(),
+                    "the seed cannot depend on random numbers (`ran`, `nran`)",
+                ));
+            }
+            Setting::Seed(e, _) => return Some(seed_value(e, &consts, src)),
+            _ => {}
+        }
+    }
+    None
+}
+
+/// The seeds a run can have.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Seeds {
+    /// `--seed`, which wins over the file's `seed:`.
+    pub command_line: Option<u64>,
+    /// The seed without either (fresh from the system).
+    pub fallback: u64,
+}
+
+/// Compile a parsed header (no source text: a large `seed:` literal is
+/// read as a number; no `--seed`; fallback seed 0).
 pub fn compile(h: &ast::Header) -> R<System> {
+    compile_with(h, None, Seeds::default())
+}
+
+/// Compile a parsed header whose text is `src`. Random constants (`ran`
+/// and `nran` in `define:`) are drawn in file order from a generator of
+/// their own seeded with the run's seed: `--seed`, else `seed:`, else the
+/// fallback.
+pub fn compile_with(h: &ast::Header, src: Option<&str>, seeds: Seeds) -> R<System> {
     let mut derivation_length = None;
     let mut seed = None;
     let mut filter: Option<(Filter, Span)> = None;
     let mut consts: HashMap<String, f64> = HashMap::new();
-    let mut define_rng = None;
+    let ahead = file_seed(h, src);
+    let run_seed = seeds.command_line.unwrap_or(match &ahead {
+        Some(Ok(s)) => *s,
+        _ => seeds.fallback,
+    });
+    let mut define_rng = Random::for_constants(run_seed);
     for s in &h.settings {
         match s {
             Setting::DerivationLength(e, span) => {
@@ -373,16 +472,17 @@ pub fn compile(h: &ast::Header) -> R<System> {
                 if seed.is_some() {
                     return err(*span, "`seed:` is set twice");
                 }
-                seed = Some(whole_number(e, &consts, "the seed")?);
+                seed = Some(match &ahead {
+                    Some(Ok(v)) => *v,
+                    Some(Err(e)) => return Err(e.clone()),
+                    None => seed_value(e, &consts, src)?,
+                });
             }
             Setting::Define(name, e, span) => {
                 if consts.contains_key(name) {
                     return err(*span, format!("`{name}` is defined twice"));
                 }
-                // `ran` in a define draws from a generator of its own,
-                // seeded from `seed:` if it came first.
-                let rng = define_rng.get_or_insert_with(|| Random::new(seed.unwrap_or(0)));
-                let v = constant(e, &consts, rng)?;
+                let v = constant(e, &consts, &mut define_rng)?;
                 consts.insert(name.clone(), v);
             }
             Setting::Ignore(m, span) | Setting::Consider(m, span) => {

@@ -348,3 +348,164 @@ fn every_strategy_reports_the_earliest_steps_first_error() {
         );
     }
 }
+
+// ------------------------------------------------------------ 20: seeds
+
+/// A system whose output depends on every draw.
+const STOCHASTIC: &str = "derivation length: 3\nproductions:\n\
+                          F -> F[+F] : 1\nF -> F[-F]F : 1\nF -> G : 1\naxiom: F\n";
+
+#[test]
+fn seed_setting_takes_the_full_u64_range_exactly() {
+    for s in [
+        "0",
+        "9007199254740991",
+        "9007199254740993",
+        "18446744073709551615",
+    ] {
+        let file = run(&format!("seed: {s}\n{STOCHASTIC}"), &[]);
+        let flag = run(STOCHASTIC, &["--seed", s]);
+        assert_eq!(file.ok(), flag.ok(), "seed: {s} and --seed {s} differ");
+    }
+    // 2^53 + 1 is not rounded to 2^53.
+    let a = run(STOCHASTIC, &["--seed", "9007199254740993"]);
+    let b = run(STOCHASTIC, &["--seed", "9007199254740992"]);
+    assert_ne!(a.ok(), b.ok());
+    // A computed seed below 2^53 is fine.
+    let a = run(&format!("seed: 6*7\n{STOCHASTIC}"), &[]);
+    assert_eq!(a.ok(), run(STOCHASTIC, &["--seed", "42"]).ok());
+}
+
+#[test]
+fn the_seed_verbose_prints_can_be_written_as_seed_setting() {
+    let r = run(STOCHASTIC, &["-v"]);
+    let seed = r
+        .stderr
+        .lines()
+        .find_map(|l| l.strip_prefix("lsgen: seed "))
+        .expect("no seed line")
+        .to_string();
+    let again = run(&format!("seed: {seed}\n{STOCHASTIC}"), &[]);
+    assert_eq!(again.ok(), r.ok(), "seed {seed}");
+}
+
+#[test]
+fn bad_seeds_are_located_errors() {
+    for (seed, what) in [
+        (
+            "18446744073709551616",
+            "from 0 to 18446744073709551615, not 18446744073709551616",
+        ),
+        ("99999999999999999999999", "from 0 to 18446744073709551615"),
+        ("2^53+1", "below 2^53"),
+        ("2^64", "below 2^53"),
+        ("3.5", "not 3.5"),
+        ("-1", "not -1"),
+    ] {
+        let r = run(&format!("define: K = 1\nseed: {seed}\naxiom: F\n"), &[]);
+        let e = r.error();
+        assert!(
+            e.contains("t.ls:2:7: error: the seed must be a whole number"),
+            "{seed}: {e}"
+        );
+        assert!(e.contains(what), "{seed}: {e}");
+    }
+    let r = run("define: R = ran(10)\nseed: floor(R)\naxiom: F\n", &[]);
+    assert!(
+        r.error()
+            .contains("t.ls:2:7: error: the seed cannot depend on random numbers"),
+        "{}",
+        r.stderr
+    );
+}
+
+// ------------------------------------------------------------ 23: ran(x)
+
+/// The parameters of every module of `out` (`F(1)G(2,3)` -> [1, 2, 3]).
+fn params(out: &str) -> Vec<f64> {
+    out.split(['(', ')', ','])
+        .filter_map(|t| t.parse::<f64>().ok())
+        .collect()
+}
+
+#[test]
+fn ran_of_a_negative_number_is_in_x_to_0() {
+    // cpfg's ran(x) is x * drand48(): uniform in (x, 0] for negative x.
+    let src = format!(
+        "productions:\nF -> A(ran(-1))B(ran(2))\naxiom: {}\n",
+        "F".repeat(2000)
+    );
+    let out = run(&src, &["--seed", "3"]);
+    let out = out.ok();
+    assert!(!out.contains("(-0)"), "a -0: {out}");
+    let (mut neg, mut pos) = (Vec::new(), Vec::new());
+    for m in out.split_inclusive(')') {
+        let v: f64 = m[2..m.len() - 1].parse().unwrap();
+        if m.starts_with('A') {
+            neg.push(v);
+        } else {
+            pos.push(v);
+        }
+    }
+    assert_eq!((neg.len(), pos.len()), (2000, 2000));
+    assert!(
+        neg.iter().all(|&v| -1.0 < v && v <= 0.0),
+        "ran(-1) out of (-1, 0]"
+    );
+    assert!(
+        pos.iter().all(|&v| (0.0..2.0).contains(&v)),
+        "ran(2) out of [0, 2)"
+    );
+    // Spread over the range, not a constant.
+    let mean = neg.iter().sum::<f64>() / 2000.0;
+    assert!((mean + 0.5).abs() < 0.05, "mean of ran(-1): {mean}");
+}
+
+// -------------------------------------------------- 24: random constants
+
+/// The uniform draws the README specifies for random constants: ChaCha8
+/// seeded with `seed_from_u64(seed)`, stream 1, top 53 bits / 2^53.
+fn constant_draws(seed: u64, n: usize) -> Vec<f64> {
+    use rand_chacha::rand_core::{Rng, SeedableRng};
+    let mut r = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    r.set_stream(1);
+    (0..n)
+        .map(|_| (r.next_u64() >> 11) as f64 / (1u64 << 53) as f64)
+        .collect()
+}
+
+#[test]
+fn random_constants_follow_the_run_seed_in_file_order() {
+    // `seed:` between the two defines: both are drawn with seed 5, P first.
+    let src = "define: P = ran(1)\nseed: 5\ndefine: Q = ran(1)\naxiom: F(P,Q)\n";
+    let want = constant_draws(5, 2);
+    let got = params(run(src, &["-n", "0"]).ok());
+    assert_eq!(got, want, "seed: 5");
+    // --seed wins over seed:, for constants too.
+    let got = params(run(src, &["-n", "0", "--seed", "6"]).ok());
+    assert_eq!(got, constant_draws(6, 2), "--seed 6");
+    assert_ne!(constant_draws(5, 2), constant_draws(6, 2));
+    // One seed, same constants on every run, wherever `seed:` stands.
+    let before = "seed: 5\ndefine: P = ran(1)\ndefine: Q = ran(1)\naxiom: F(P,Q)\n";
+    let after = "define: P = ran(1)\ndefine: Q = ran(1)\nseed: 5\naxiom: F(P,Q)\n";
+    for s in [before, after] {
+        assert_eq!(params(run(s, &["-n", "0"]).ok()), want, "{s}");
+    }
+    // Without any seed, the fresh seed -v prints reproduces the constants.
+    let free = "define: P = ran(1)\ndefine: Q = ran(1)\naxiom: F(P,Q)\n";
+    let r = run(free, &["-v", "-n", "0"]);
+    let seed: u64 = r
+        .stderr
+        .lines()
+        .find_map(|l| l.strip_prefix("lsgen: seed "))
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert_eq!(params(r.ok()), constant_draws(seed, 2));
+    // The derivation's own draws are another stream: ran(1) in a successor
+    // is not the constant's value.
+    let src = "seed: 5\ndefine: P = ran(1)\nproductions:\nF -> G(P, ran(1))\naxiom: F\n";
+    let got = params(run(src, &[]).ok());
+    assert_eq!(got[0], want[0]);
+    assert_ne!(got[1], want[0]);
+}
