@@ -319,7 +319,7 @@ fn load(input: &mut Input, seeds: Seeds) -> Result<(crate::input::Split, String,
     let split = split_header(input)?;
     let path = input.name.clone();
     let header = parse_header(&split.header).map_err(|e| locate(&path, &split.header, e))?;
-    let system = compile_with(&header, Some(&split.header), seeds)
+    let system = compile_with(header, Some(&split.header), seeds)
         .map_err(|e| locate(&path, &split.header, e))?;
     Ok((split, path, system))
 }

@@ -460,7 +460,7 @@ impl<'t> ParamPlan<'t> {
                 let pass = Pass::Step(j as u64 + 1);
                 for item in &self.prods.prods[pi as usize].succ {
                     match item {
-                        Item::Const(c) => next.push_bin(&c.bin, al),
+                        Item::Const(c) => next.push_bin(c.bin(), al),
                         Item::Module { key, params } => {
                             vals.clear();
                             for c in params.iter() {

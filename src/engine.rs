@@ -206,12 +206,12 @@ impl<'w> Out<'w> {
     pub fn constant(&mut self, c: &ConstRun) -> Result<(), Error> {
         self.modules += c.modules;
         if self.text {
-            self.buf.extend_from_slice(&c.text);
+            self.buf.extend_from_slice(c.text());
         } else if self.indexed.is_none() {
-            self.buf.extend_from_slice(&c.bin);
+            self.buf.extend_from_slice(c.bin());
         } else {
             let base = self.buf.len();
-            self.buf.extend_from_slice(&c.ibin);
+            self.buf.extend_from_slice(c.ibin());
             for &(at, open) in c.brackets.iter() {
                 let abs = self.written + (base + at as usize) as u64;
                 if open {

@@ -161,6 +161,9 @@ impl Code {
             span: e.span(),
         };
         c.emit(e, scope)?;
+        // No spare capacity: a production table may hold millions of these.
+        c.ops.shrink_to_fit();
+        c.spans.shrink_to_fit();
         Ok(c)
     }
 

@@ -138,17 +138,35 @@ pub enum RPat {
     Close,
 }
 
-/// Modules known at load time, precomputed in each format.
+/// Modules known at load time, precomputed in each format, in one
+/// allocation (a production table may hold millions of these).
 #[derive(Clone, Debug, Default)]
 pub struct ConstRun {
-    pub bin: Box<[u8]>,
-    /// Binary with bracket index: each `[` followed by 8 bytes that will
-    /// hold the offset just past its `]`.
-    pub ibin: Box<[u8]>,
+    /// Binary, then binary with bracket index, then text.
+    data: Box<[u8]>,
+    bin_len: u32,
+    ibin_len: u32,
     /// Offsets of the brackets in `ibin` (true: `[`).
     pub brackets: Box<[(u32, bool)]>,
-    pub text: Box<[u8]>,
     pub modules: u64,
+}
+
+impl ConstRun {
+    /// Binary format.
+    #[inline]
+    pub fn bin(&self) -> &[u8] {
+        &self.data[..self.bin_len as usize]
+    }
+    /// Binary with bracket index: each `[` followed by 8 bytes that will
+    /// hold the offset just past its `]`.
+    #[inline]
+    pub fn ibin(&self) -> &[u8] {
+        &self.data[self.bin_len as usize..(self.bin_len + self.ibin_len) as usize]
+    }
+    #[inline]
+    pub fn text(&self) -> &[u8] {
+        &self.data[(self.bin_len + self.ibin_len) as usize..]
+    }
 }
 
 /// Builds a [`ConstRun`] module by module.
@@ -182,11 +200,15 @@ impl ConstBuilder {
             return None;
         }
         let b = std::mem::take(self);
+        let mut data = Vec::with_capacity(b.bin.len() + b.ibin.len() + b.text.len());
+        data.extend_from_slice(&b.bin);
+        data.extend_from_slice(&b.ibin);
+        data.extend_from_slice(&b.text);
         Some(ConstRun {
-            bin: b.bin.into(),
-            ibin: b.ibin.into(),
+            data: data.into(),
+            bin_len: b.bin.len() as u32,
+            ibin_len: b.ibin.len() as u32,
             brackets: b.brackets.into(),
-            text: b.text.into(),
             modules: b.modules,
         })
     }
@@ -201,19 +223,21 @@ pub enum Item {
     Module { key: u32, params: Box<[Code]> },
 }
 
+/// A compiled production. Kept small (boxed slices, boxed expressions): a
+/// table may hold millions.
 #[derive(Clone, Debug)]
 pub struct Production {
     pub key: u32,
     /// Slots: predecessor parameters, then left context, then right context.
     pub nslots: usize,
-    pub left: Vec<Pat>,
-    pub right: Vec<RPat>,
+    pub left: Box<[Pat]>,
+    pub right: Box<[RPat]>,
     /// The right context has no brackets: it is matched against the cached
     /// list of the next considered modules.
     pub right_simple: bool,
-    pub cond: Option<Code>,
-    pub prob: Option<Code>,
-    pub succ: Vec<Item>,
+    pub cond: Option<Box<Code>>,
+    pub prob: Option<Box<Code>>,
+    pub succ: Box<[Item]>,
     /// Where the production starts in the header, for runtime errors.
     pub span: Span,
     /// Bracket depth change of the successor, and its lowest prefix.
@@ -273,7 +297,7 @@ impl Table {
         if !kr.context.is_empty() || kr.free_stochastic || p.cond.is_some() {
             return None;
         }
-        match p.succ.as_slice() {
+        match &*p.succ {
             [] => Some(Some(Fixed {
                 bin: &[],
                 text: &[],
@@ -281,8 +305,8 @@ impl Table {
                 brackets: false,
             })),
             [Item::Const(c)] => Some(Some(Fixed {
-                bin: &c.bin,
-                text: &c.text,
+                bin: c.bin(),
+                text: c.text(),
                 modules: c.modules,
                 brackets: !c.brackets.is_empty(),
             })),
@@ -442,19 +466,20 @@ pub struct Seeds {
 /// Compile a parsed header (no source text: a large `seed:` literal is
 /// read as a number; no `--seed`; fallback seed 0).
 pub fn compile(h: &ast::Header) -> R<System> {
-    compile_with(h, None, Seeds::default())
+    compile_with(h.clone(), None, Seeds::default())
 }
 
 /// Compile a parsed header whose text is `src`. Random constants (`ran`
 /// and `nran` in `define:`) are drawn in file order from a generator of
 /// their own seeded with the run's seed: `--seed`, else `seed:`, else the
 /// fallback.
-pub fn compile_with(h: &ast::Header, src: Option<&str>, seeds: Seeds) -> R<System> {
+/// The syntax tree is consumed production by production.
+pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System> {
     let mut derivation_length = None;
     let mut seed = None;
     let mut filter: Option<(Filter, Span)> = None;
     let mut consts: HashMap<String, f64> = HashMap::new();
-    let ahead = file_seed(h, src);
+    let ahead = file_seed(&h, src);
     let run_seed = seeds.command_line.unwrap_or(match &ahead {
         Some(Ok(s)) => *s,
         _ => seeds.fallback,
@@ -508,8 +533,8 @@ pub fn compile_with(h: &ast::Header, src: Option<&str>, seeds: Seeds) -> R<Syste
     }
     let mut alphabet = Alphabet::new(filter.map(|f| f.0).unwrap_or_default());
     let mut num = codec::NumFmt::new();
-    let productions = compile_table(&h.productions, &mut alphabet, &consts, &mut num)?;
-    let homomorphism = compile_table(&h.homomorphism, &mut alphabet, &consts, &mut num)?;
+    let productions = compile_table(h.productions, &mut alphabet, &consts, &mut num)?;
+    let homomorphism = compile_table(h.homomorphism, &mut alphabet, &consts, &mut num)?;
     Ok(System {
         alphabet,
         productions,
@@ -521,14 +546,16 @@ pub fn compile_with(h: &ast::Header, src: Option<&str>, seeds: Seeds) -> R<Syste
 }
 
 fn compile_table(
-    prods: &[ast::Production],
+    prods: Vec<ast::Production>,
     alphabet: &mut Alphabet,
     consts: &HashMap<String, f64>,
     num: &mut codec::NumFmt,
 ) -> R<Table> {
     let mut t = Table::default();
+    t.prods.reserve_exact(prods.len());
     for p in prods {
-        let cp = compile_production(p, alphabet, consts, num)?;
+        let cp = compile_production(&p, alphabet, consts, num)?;
+        drop(p);
         t.max_left = t.max_left.max(cp.left.len());
         t.has_right |= !cp.right.is_empty();
         if cp.right_simple {
@@ -617,13 +644,17 @@ fn compile_production(
         .cond
         .as_ref()
         .map(|e| compile_code(e, &names, consts))
-        .transpose()?;
+        .transpose()?
+        // A condition folded to a non-zero constant always holds.
+        .filter(|c| c.constant().is_none_or(|v| v == 0.0))
+        .map(Box::new);
     let prob = p
         .prob
         .as_ref()
         .map(|e| compile_code(e, &names, consts))
-        .transpose()?;
-    if let Some(w) = prob.as_ref().and_then(Code::constant) {
+        .transpose()?
+        .map(Box::new);
+    if let Some(w) = prob.as_ref().and_then(|c| c.constant()) {
         if w < 0.0 {
             return err(
                 prob.as_ref().unwrap().span,
@@ -636,12 +667,12 @@ fn compile_production(
     Ok(Production {
         key,
         nslots,
-        left,
-        right,
+        left: left.into(),
+        right: right.into(),
         right_simple,
         cond,
         prob,
-        succ,
+        succ: succ.into(),
         span: p.span,
         depth_delta,
         depth_min,
@@ -728,10 +759,10 @@ mod tests {
         assert_eq!(p.succ.len(), 1);
         match &p.succ[0] {
             Item::Const(c) => {
-                assert_eq!(std::str::from_utf8(&c.text).unwrap(), "F(2)[+F]G(1,6)");
+                assert_eq!(std::str::from_utf8(c.text()).unwrap(), "F(2)[+F]G(1,6)");
                 assert_eq!(c.modules, 6);
                 assert_eq!(&*c.brackets, &[(10, true), (21, false)]);
-                assert_eq!(c.ibin.len(), c.bin.len() + 8);
+                assert_eq!(c.ibin().len(), c.bin().len() + 8);
             }
             other => panic!("{other:?}"),
         }

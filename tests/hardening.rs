@@ -509,3 +509,16 @@ fn random_constants_follow_the_run_seed_in_file_order() {
     assert_eq!(got[0], want[0]);
     assert_ne!(got[1], want[0]);
 }
+
+// ------------------------------------------------ 6: production tables
+
+#[test]
+fn a_large_production_table_fits_a_memory_cap() {
+    // 400,000 lines of `F -> FF` (3.2 MB). lsgen 9bc7f68 needed more than
+    // 740 MiB of address space for it (about 1.1 KB per production, on top
+    // of the 256 MiB worker stack); now about 560 MiB. The first production
+    // applies: F -> FF once.
+    let src = format!("productions:\n{}axiom: F\n", "F -> FF\n".repeat(400_000));
+    let r = run_with(&src, &[], Some(650 * MIB), Duration::from_secs(300));
+    assert_eq!(r.ok(), "FF");
+}
