@@ -82,3 +82,55 @@ pub struct Header {
     pub productions: Vec<Production>,
     pub homomorphism: Vec<Production>,
 }
+
+impl Production {
+    /// Drop the spare capacity the parser's vectors grew with: a file may
+    /// hold millions of productions, and the whole tree is alive until it
+    /// is compiled.
+    pub fn compact(mut self) -> Self {
+        self.pred.compact();
+        for m in self
+            .left
+            .iter_mut()
+            .chain(self.right.iter_mut())
+            .chain(self.succ.iter_mut())
+        {
+            m.compact();
+        }
+        self.left.shrink_to_fit();
+        self.right.shrink_to_fit();
+        self.succ.shrink_to_fit();
+        for e in self.cond.iter_mut().chain(self.prob.iter_mut()) {
+            e.compact();
+        }
+        self
+    }
+}
+
+impl Module {
+    fn compact(&mut self) {
+        for e in &mut self.params {
+            e.compact();
+        }
+        self.params.shrink_to_fit();
+    }
+}
+
+impl Expr {
+    fn compact(&mut self) {
+        match self {
+            Expr::Call(_, args, _) => {
+                for a in args.iter_mut() {
+                    a.compact();
+                }
+                args.shrink_to_fit();
+            }
+            Expr::Unary(_, a, _) => a.compact(),
+            Expr::Binary(_, a, b, _) => {
+                a.compact();
+                b.compact();
+            }
+            Expr::Num(..) | Expr::Var(..) => {}
+        }
+    }
+}

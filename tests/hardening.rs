@@ -521,4 +521,12 @@ fn a_large_production_table_fits_a_memory_cap() {
     let src = format!("productions:\n{}axiom: F\n", "F -> FF\n".repeat(400_000));
     let r = run_with(&src, &[], Some(650 * MIB), Duration::from_secs(300));
     assert_eq!(r.ok(), "FF");
+    // 300,000 conditional parametric productions (7.5 MB): 9bc7f68 needed
+    // more than 940 MiB, now about 740 MiB. F(1) -> F(1)F(1) once.
+    let src = format!(
+        "productions:\n{}axiom: F(1)\n",
+        "F(x) : x > 0 -> F(x)F(x)\n".repeat(300_000)
+    );
+    let r = run_with(&src, &[], Some(850 * MIB), Duration::from_secs(300));
+    assert_eq!(r.ok(), "F(1)F(1)");
 }
