@@ -60,9 +60,10 @@ pub struct Production {
     pub left: Vec<Module>,
     pub pred: Module,
     pub right: Vec<Module>,
-    pub cond: Option<Expr>,
+    /// Boxed, as `prob`: most productions have neither.
+    pub cond: Option<Box<Expr>>,
     pub succ: Vec<Module>,
-    pub prob: Option<Expr>,
+    pub prob: Option<Box<Expr>>,
     /// Span of the whole line, for runtime errors.
     pub span: Span,
 }
