@@ -161,11 +161,11 @@ impl ConstRun {
     /// hold the offset just past its `]`.
     #[inline]
     pub fn ibin(&self) -> &[u8] {
-        &self.data[self.bin_len as usize..(self.bin_len + self.ibin_len) as usize]
+        &self.data[self.bin_len as usize..self.bin_len as usize + self.ibin_len as usize]
     }
     #[inline]
     pub fn text(&self) -> &[u8] {
-        &self.data[(self.bin_len + self.ibin_len) as usize..]
+        &self.data[self.bin_len as usize + self.ibin_len as usize..]
     }
 }
 
