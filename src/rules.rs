@@ -553,9 +553,26 @@ fn compile_table(
 ) -> R<Table> {
     let mut t = Table::default();
     t.prods.reserve_exact(prods.len());
-    for p in prods {
-        let cp = compile_production(&p, alphabet, consts, num)?;
-        drop(p);
+    // The syntax tree is freed as it is compiled: each production's parts
+    // at once, the array itself by halves, so the tree and the table are
+    // not both whole at the same time.
+    let mut prods = prods;
+    let mut i = 0;
+    while i < prods.len() {
+        let cp = compile_production(&prods[i], alphabet, consts, num)?;
+        let p = &mut prods[i];
+        p.pred.params = Vec::new();
+        p.left = Vec::new();
+        p.right = Vec::new();
+        p.succ = Vec::new();
+        p.cond = None;
+        p.prob = None;
+        i += 1;
+        if i >= 1024 && 2 * i >= prods.len() {
+            prods.drain(..i);
+            prods.shrink_to_fit();
+            i = 0;
+        }
         t.max_left = t.max_left.max(cp.left.len());
         t.has_right |= !cp.right.is_empty();
         if cp.right_simple {
