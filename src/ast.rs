@@ -60,9 +60,10 @@ pub struct Production {
     pub left: Vec<Module>,
     pub pred: Module,
     pub right: Vec<Module>,
-    pub cond: Option<Expr>,
+    /// Boxed, as `prob`: most productions have neither.
+    pub cond: Option<Box<Expr>>,
     pub succ: Vec<Module>,
-    pub prob: Option<Expr>,
+    pub prob: Option<Box<Expr>>,
     /// Span of the whole line, for runtime errors.
     pub span: Span,
 }
@@ -81,4 +82,56 @@ pub struct Header {
     pub settings: Vec<Setting>,
     pub productions: Vec<Production>,
     pub homomorphism: Vec<Production>,
+}
+
+impl Production {
+    /// Drop the spare capacity the parser's vectors grew with: a file may
+    /// hold millions of productions, and the whole tree is alive until it
+    /// is compiled.
+    pub fn compact(mut self) -> Self {
+        self.pred.compact();
+        for m in self
+            .left
+            .iter_mut()
+            .chain(self.right.iter_mut())
+            .chain(self.succ.iter_mut())
+        {
+            m.compact();
+        }
+        self.left.shrink_to_fit();
+        self.right.shrink_to_fit();
+        self.succ.shrink_to_fit();
+        for e in self.cond.iter_mut().chain(self.prob.iter_mut()) {
+            e.compact();
+        }
+        self
+    }
+}
+
+impl Module {
+    fn compact(&mut self) {
+        for e in &mut self.params {
+            e.compact();
+        }
+        self.params.shrink_to_fit();
+    }
+}
+
+impl Expr {
+    fn compact(&mut self) {
+        match self {
+            Expr::Call(_, args, _) => {
+                for a in args.iter_mut() {
+                    a.compact();
+                }
+                args.shrink_to_fit();
+            }
+            Expr::Unary(_, a, _) => a.compact(),
+            Expr::Binary(_, a, b, _) => {
+                a.compact();
+                b.compact();
+            }
+            Expr::Num(..) | Expr::Var(..) => {}
+        }
+    }
 }

@@ -7,7 +7,7 @@ use crate::input::{split_header, Input};
 use crate::output::Output;
 use crate::parse::{locate, parse_header};
 use crate::random::Random;
-use crate::rules::{compile, System};
+use crate::rules::{compile_with, Seeds, System};
 use clap::Parser;
 use std::fs::File;
 use std::io::{self, Seek, SeekFrom, Write};
@@ -221,7 +221,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
         ));
     }
     let mut input = open_input(args.file.as_ref())?;
-    let (split, path, system) = load(&mut input)?;
+    let fresh = Random::fresh_seed();
+    let seeds = Seeds {
+        command_line: args.seed,
+        fallback: fresh,
+    };
+    let (split, path, system) = load(&mut input, seeds)?;
     if !split.has_axiom && args.axiom.is_none() {
         return Err(missing_axiom(&path, &split.header));
     }
@@ -250,7 +255,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .derivation_length
         .or(system.derivation_length)
         .unwrap_or(DEFAULT_DERIVATION_LENGTH);
-    let seed = args.seed.or(system.seed).unwrap_or_else(Random::fresh_seed);
+    let seed = args.seed.or(system.seed).unwrap_or(fresh);
     if args.verbose {
         crate::diag::eprint(&format!("lsgen: seed {seed}\n"));
     }
@@ -302,7 +307,11 @@ pub fn derive_bytes(
     limits: Limits,
 ) -> Result<Vec<u8>, Error> {
     let mut input = Input::new(Box::new(io::Cursor::new(src.to_vec())), "<input>");
-    let (split, path, system) = load(&mut input)?;
+    let seeds = Seeds {
+        command_line: seed,
+        fallback: 0,
+    };
+    let (split, path, system) = load(&mut input, seeds)?;
     if !split.has_axiom {
         return Err(missing_axiom(&path, &split.header));
     }
@@ -334,11 +343,12 @@ pub fn derive_bytes(
 
 /// Read the header from `input` (leaving it at the axiom), parse and
 /// compile it. Returns the split, the input's name and the system.
-fn load(input: &mut Input) -> Result<(crate::input::Split, String, System), Error> {
+fn load(input: &mut Input, seeds: Seeds) -> Result<(crate::input::Split, String, System), Error> {
     let split = split_header(input)?;
     let path = input.name.clone();
     let header = parse_header(&split.header).map_err(|e| locate(&path, &split.header, e))?;
-    let system = compile(&header).map_err(|e| locate(&path, &split.header, e))?;
+    let system = compile_with(header, Some(&split.header), seeds)
+        .map_err(|e| locate(&path, &split.header, e))?;
     Ok((split, path, system))
 }
 
@@ -468,7 +478,6 @@ fn derive(
     } else {
         Some(tempfile(tmpdir)?)
     };
-    let mut other: Option<File> = None;
     {
         let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, indexed)?;
         let mut params = Vec::new();
@@ -505,14 +514,14 @@ fn derive(
                 verbose(&Pass::Step(i as u64 + 1).to_string(), len);
             }
         }
-        let mut none = None;
-        let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
-        plan.expand(src, &d.alphabet, steps, &mut out)?;
         let last = if hom {
             Pass::Homomorphism
         } else {
             Pass::Step(steps)
         };
+        let mut none = None;
+        let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?.for_pass(last);
+        plan.expand(src, &d.alphabet, steps, &mut out)?;
         verbose(&last.to_string(), out.finish()?);
         return Ok(());
     }
@@ -521,20 +530,71 @@ fn derive(
     // unless generation lengths are asked for (-v, --max-length).
     let quiet = !settings.verbose && limits.modules == u64::MAX && limits.bytes == u64::MAX;
     let plan = crate::dfs::ParamPlan::new(&productions, hom.then_some(&homomorphism), steps);
+    // A runtime error found depth first may not be the first one in step
+    // order: then derive again step by step, output discarded, so every
+    // strategy reports the earliest step's first error in string order.
+    let mut depth_first_error = None;
     if let (Some(plan), Some(src), true) = (plan, &cur, quiet) {
         let mut none = None;
         let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
-        plan.expand(src, &d.alphabet, &d.origin, steps, &mut out)?;
-        out.finish()?;
-        return Ok(());
+        match plan
+            .expand(src, &d.alphabet, &d.origin, steps, &mut out)
+            .and_then(|()| out.finish())
+        {
+            Ok(_) => return Ok(()),
+            Err(e) if e.location.is_some() => depth_first_error = Some(e),
+            Err(e) => return Err(e),
+        }
     }
+    let mut discard = io::sink();
+    let output: &mut dyn Write = if depth_first_error.is_some() {
+        &mut discard
+    } else {
+        output
+    };
+    let stepwise = step_passes(
+        &mut d,
+        cur,
+        (&productions, &homomorphism, hom),
+        settings,
+        (output, out_name, &tmp_name),
+        indexed,
+    );
+    match depth_first_error {
+        Some(e) => Err(stepwise.err().unwrap_or(e)),
+        None => stepwise,
+    }
+}
 
-    // The steps, then the homomorphism.
-    for i in 1..=passes {
+/// The steps, then the homomorphism, one temp file each, from generation 0
+/// in `cur`.
+fn step_passes(
+    d: &mut Deriver,
+    mut cur: Option<File>,
+    (productions, homomorphism, hom): (&crate::rules::Table, &crate::rules::Table, bool),
+    settings: &Settings,
+    (output, out_name, tmp_name): (&mut dyn Write, &str, &str),
+    indexed: bool,
+) -> Result<(), Error> {
+    let Settings {
+        steps,
+        limits,
+        ref tmpdir,
+        ..
+    } = *settings;
+    let passes = steps + u64::from(hom);
+    let verbose = |what: &str, (m, b): (u64, u64)| {
+        if settings.verbose {
+            crate::diag::eprint(&format!("lsgen: {what}: {m} modules, {b} bytes\n"));
+        }
+    };
+    let mut other: Option<File> = None;
+    let mut i = 1;
+    while i <= passes {
         let (table, pass) = if i <= steps {
-            (&productions, Pass::Step(i))
+            (productions, Pass::Step(i))
         } else {
-            (&homomorphism, Pass::Homomorphism)
+            (homomorphism, Pass::Homomorphism)
         };
         let src = cur.take().expect("a generation to read");
         let mut dst = if i == passes {
@@ -548,15 +608,61 @@ fn derive(
                 None => tempfile(tmpdir)?,
             })
         };
+        let draws = d.rng.draws();
         {
-            let mut out = sink(&mut dst, &tmp_name, output, out_name, limits, indexed)?;
+            let mut out =
+                sink(&mut dst, tmp_name, output, out_name, limits, indexed)?.for_pass(pass);
             d.pass(table, &src, indexed, &mut out, pass)?;
             verbose(&pass.to_string(), out.finish()?);
         }
+        // A step that drew nothing and left the string as it was is a fixed
+        // point: every later step does the same. Go on with the last pass
+        // (the homomorphism, or the last step, which writes the text).
+        let last = if hom { passes } else { steps };
+        if i < steps && last > i + 1 && d.rng.draws() == draws {
+            if let Some(next) = &dst {
+                if same_contents(&src, next)? {
+                    if settings.verbose {
+                        crate::diag::eprint(&format!(
+                            "lsgen: steps {}..{steps}: unchanged (fixed point)\n",
+                            i + 1
+                        ));
+                    }
+                    other = Some(src);
+                    cur = dst;
+                    i = last;
+                    continue;
+                }
+            }
+        }
         other = Some(src);
         cur = dst;
+        i += 1;
     }
     Ok(())
+}
+
+/// Do two generation files hold the same bytes?
+fn same_contents(a: &File, b: &File) -> Result<bool, Error> {
+    use std::os::unix::fs::FileExt;
+    let read_err = |e| Error::io("temporary file", "cannot read", e);
+    let len = a.metadata().map_err(read_err)?.len();
+    if b.metadata().map_err(read_err)?.len() != len {
+        return Ok(false);
+    }
+    const CHUNK: usize = 1 << 16;
+    let (mut x, mut y) = (vec![0u8; CHUNK], vec![0u8; CHUNK]);
+    let mut off = 0u64;
+    while off < len {
+        let n = CHUNK.min((len - off) as usize);
+        a.read_exact_at(&mut x[..n], off).map_err(read_err)?;
+        b.read_exact_at(&mut y[..n], off).map_err(read_err)?;
+        if x[..n] != y[..n] {
+            return Ok(false);
+        }
+        off += n as u64;
+    }
+    Ok(true)
 }
 
 #[cfg(test)]

@@ -64,6 +64,9 @@ impl<'t> Plan<'t> {
         for b in 0..128u32 {
             match prods.fixed(b)? {
                 None => {}
+                // A symbol rewritten to itself stays for every later step
+                // (a fixed point): a leaf, like a symbol without a rule.
+                Some(f) if f.bin == [b as u8] => {}
                 Some(f) if f.bin.iter().all(|&x| x < 0x80) => succ[b as usize] = Some(f.bin),
                 Some(_) => return None,
             }
@@ -291,7 +294,7 @@ pub fn check_limits(
         } else {
             bytes
         };
-        limits.check(n, bytes)?;
+        limits.check(n, bytes, Pass::Step(i as u64 + 1))?;
     }
     Ok(())
 }
@@ -457,7 +460,7 @@ impl<'t> ParamPlan<'t> {
                 let pass = Pass::Step(j as u64 + 1);
                 for item in &self.prods.prods[pi as usize].succ {
                     match item {
-                        Item::Const(c) => next.push_bin(&c.bin, al),
+                        Item::Const(c) => next.push_bin(c.bin(), al),
                         Item::Module { key, params } => {
                             vals.clear();
                             for c in params.iter() {
@@ -469,6 +472,20 @@ impl<'t> ParamPlan<'t> {
                             next.push(*key, &vals);
                         }
                     }
+                }
+                // A module rewritten to itself is a fixed point: the same
+                // production applies at every later step (the system draws
+                // no randomness), so it goes out as it is.
+                let same = next.keys.len() == 1
+                    && cur[j].keys[i] == next.keys[0]
+                    && p.iter()
+                        .zip(&next.params)
+                        .all(|(a, b)| a.to_bits() == b.to_bits());
+                if same {
+                    let (k, p) = levels[j].module(i, al);
+                    self.leaf(k, p, al, origin, out, &mut stack, &mut vals, &mut rng)?;
+                    out.maybe_flush()?;
+                    continue;
                 }
                 j += 1;
             }

@@ -27,17 +27,18 @@ pub struct Limits {
 }
 
 impl Limits {
-    /// Is a generation of `modules` modules and `bytes` bytes too long?
-    pub fn check(&self, modules: u64, bytes: u64) -> Result<(), Error> {
+    /// Is a generation of `modules` modules and `bytes` bytes, made by
+    /// `pass`, too long?
+    pub fn check(&self, modules: u64, bytes: u64, pass: Pass) -> Result<(), Error> {
         if modules > self.modules {
             return Err(Error::new(format!(
-                "the string grew past --max-length ({} modules)",
+                "the string grew past --max-length ({} modules) in {pass}",
                 self.modules
             )));
         }
         if bytes > self.bytes {
             return Err(Error::new(format!(
-                "the string grew past --max-length ({} bytes)",
+                "the string grew past --max-length ({} bytes) in {pass}",
                 self.bytes
             )));
         }
@@ -68,6 +69,8 @@ pub struct Out<'w> {
     written: u64,
     num: codec::NumFmt,
     limits: Limits,
+    /// What this generation is, for `--max-length` errors.
+    pass: Pass,
 }
 
 impl<'w> Out<'w> {
@@ -83,7 +86,14 @@ impl<'w> Out<'w> {
             written: 0,
             num: codec::NumFmt::new(),
             limits,
+            pass: Pass::Axiom,
         }
+    }
+
+    /// Name the pass that makes this generation (default: the axiom).
+    pub fn for_pass(mut self, pass: Pass) -> Self {
+        self.pass = pass;
+        self
     }
 
     /// Write a bracket index: `file` is the file this sink writes to.
@@ -196,12 +206,12 @@ impl<'w> Out<'w> {
     pub fn constant(&mut self, c: &ConstRun) -> Result<(), Error> {
         self.modules += c.modules;
         if self.text {
-            self.buf.extend_from_slice(&c.text);
+            self.buf.extend_from_slice(c.text());
         } else if self.indexed.is_none() {
-            self.buf.extend_from_slice(&c.bin);
+            self.buf.extend_from_slice(c.bin());
         } else {
             let base = self.buf.len();
-            self.buf.extend_from_slice(&c.ibin);
+            self.buf.extend_from_slice(c.ibin());
             for &(at, open) in c.brackets.iter() {
                 let abs = self.written + (base + at as usize) as u64;
                 if open {
@@ -238,8 +248,15 @@ impl<'w> Out<'w> {
     }
 
     fn flush(&mut self) -> Result<(), Error> {
+        self.flush_but(0)
+    }
+
+    /// Flush, not counting the last `uncounted` bytes (the text's final
+    /// newline) against `--max-length`.
+    fn flush_but(&mut self, uncounted: u64) -> Result<(), Error> {
         self.written += self.buf.len() as u64;
-        self.limits.check(self.modules, self.written)?;
+        self.limits
+            .check(self.modules, self.written - uncounted, self.pass)?;
         self.w
             .write_all(&self.buf)
             .map_err(|e| Error::io(self.name, "cannot write", e))?;
@@ -247,16 +264,18 @@ impl<'w> Out<'w> {
         Ok(())
     }
 
-    /// Flush everything; returns (modules, bytes) written.
+    /// Flush everything; returns the generation's length: (modules,
+    /// bytes), the bytes without the text's final newline.
     pub fn finish(mut self) -> Result<(u64, u64), Error> {
+        let newline = u64::from(self.text);
         if self.text {
             self.buf.push(b'\n');
         }
-        self.flush()?;
+        self.flush_but(newline)?;
         self.w
             .flush()
             .map_err(|e| Error::io(self.name, "cannot write", e))?;
-        Ok((self.modules, self.written))
+        Ok((self.modules, self.written - newline))
     }
 }
 
@@ -518,9 +537,15 @@ impl<'t> ByteTable<'t> {
     }
 }
 
-/// Left context: the last k considered modules of each open branch, in
-/// flat arrays (k slots per nesting level). Only the parameters of keys that
-/// some left context asks for are kept, up to their largest arity.
+/// Left context: the considered modules on the path from the start of the
+/// string to the current module, as one shared stack. Each open branch
+/// (level) owns a segment at the top of its parent's and keeps at most the
+/// last k of its own modules there (a ring once full); a left context is
+/// read backwards through the current level, then its ancestors. Opening a
+/// branch copies nothing, so memory is the modules kept per level (at most
+/// k each, and no more than the level has) plus O(1) per level: a long
+/// context and deep nesting do not multiply. Only the parameters of keys
+/// that some left context asks for are kept, up to their largest arity.
 struct LeftContext {
     k: usize,
     /// Parameters kept per slot.
@@ -530,9 +555,23 @@ struct LeftContext {
     depth: usize,
     keys: Vec<u32>,
     params: Vec<f64>,
-    /// Per level: index of the most recent slot, and how many are filled.
-    head: Vec<usize>,
-    len: Vec<usize>,
+    /// One per open level (reused as branches open and close).
+    levels: Vec<Level>,
+}
+
+/// No such level.
+const NONE: usize = usize::MAX;
+
+#[derive(Clone, Copy)]
+struct Level {
+    /// Where the level's own modules start in `keys`.
+    start: usize,
+    /// How many it keeps (at most k).
+    cnt: usize,
+    /// Ring index of the most recent one.
+    head: usize,
+    /// Nearest enclosing level that keeps any module, or NONE.
+    up: usize,
 }
 
 impl LeftContext {
@@ -558,71 +597,97 @@ impl LeftContext {
             width,
             wanted,
             depth: 0,
-            keys: vec![u32::MAX; k],
-            params: vec![0.0; k * width],
-            head: vec![k - 1],
-            len: vec![0],
+            keys: Vec::new(),
+            params: Vec::new(),
+            levels: vec![Level {
+                start: 0,
+                cnt: 0,
+                head: 0,
+                up: NONE,
+            }],
         }
     }
 
     fn open(&mut self) {
-        let (k, w, d) = (self.k, self.width, self.depth);
+        let d = self.depth;
+        let cur = self.levels[d];
+        let child = Level {
+            start: self.keys.len(),
+            cnt: 0,
+            head: 0,
+            up: if cur.cnt > 0 { d } else { cur.up },
+        };
         self.depth += 1;
-        if self.head.len() <= self.depth {
-            self.head.push(0);
-            self.len.push(0);
-            self.keys.resize(self.keys.len() + k, u32::MAX);
-            self.params.resize(self.params.len() + k * w, 0.0);
-        }
-        self.head[d + 1] = self.head[d];
-        self.len[d + 1] = self.len[d];
-        self.keys.copy_within(d * k..(d + 1) * k, (d + 1) * k);
-        if w > 0 {
-            self.params
-                .copy_within(d * k * w..(d + 1) * k * w, (d + 1) * k * w);
+        if self.levels.len() <= self.depth {
+            self.levels.push(child);
+        } else {
+            self.levels[self.depth] = child;
         }
     }
 
     fn close(&mut self) {
-        self.depth = self.depth.saturating_sub(1);
+        if self.depth == 0 {
+            return; // unbalanced: reported by the balance check
+        }
+        let start = self.levels[self.depth].start;
+        self.keys.truncate(start);
+        self.params.truncate(start * self.width);
+        self.depth -= 1;
     }
 
     /// The nearest considered module to the left, if any.
     #[inline(always)]
     fn last_key(&self) -> Option<u32> {
-        let d = self.depth;
-        (self.len[d] > 0).then(|| self.keys[d * self.k + self.head[d]])
+        let mut l = self.levels[self.depth];
+        if l.cnt == 0 {
+            if l.up == NONE {
+                return None;
+            }
+            l = self.levels[l.up];
+        }
+        Some(self.keys[l.start + l.head])
     }
 
     #[inline]
     fn push(&mut self, key: u32, params: &[u8], arity: usize) {
-        let (k, d) = (self.k, self.depth);
-        let h = &mut self.head[d];
-        *h = if *h + 1 == k { 0 } else { *h + 1 };
-        let slot = d * k + *h;
-        self.keys[slot] = key;
+        let (k, w) = (self.k, self.width);
+        let l = &mut self.levels[self.depth];
+        let slot = if l.cnt < k {
+            // The level's segment is the top of the stack.
+            l.head = l.cnt;
+            l.cnt += 1;
+            self.keys.push(key);
+            self.params.resize(self.params.len() + w, 0.0);
+            l.start + l.head
+        } else {
+            l.head = if l.head + 1 == k { 0 } else { l.head + 1 };
+            let slot = l.start + l.head;
+            self.keys[slot] = key;
+            slot
+        };
         if self.wanted.get(key as usize).copied().unwrap_or(false) {
-            let w = self.width;
             for i in 0..arity {
                 self.params[slot * w + i] = codec::get_param(params, i);
             }
         }
-        let l = &mut self.len[d];
-        if *l < k {
-            *l += 1;
-        }
     }
 
-    /// Does the current level end with `pat`? Binds its parameters.
+    /// Does the path to the current module end with `pat`? Binds its
+    /// parameters.
     fn matches(&self, pat: &[Pat], al: &Alphabet, slots: &mut [f64]) -> bool {
-        let (k, d) = (self.k, self.depth);
-        if pat.len() > self.len[d] {
-            return false;
-        }
-        let base = d * k;
-        let mut idx = self.head[d];
+        let mut l = self.levels[self.depth];
+        let mut left = l.cnt;
+        let mut idx = l.head;
         for p in pat.iter().rev() {
-            let slot = base + idx;
+            while left == 0 {
+                if l.up == NONE {
+                    return false;
+                }
+                l = self.levels[l.up];
+                left = l.cnt;
+                idx = l.head;
+            }
+            let slot = l.start + idx;
             if self.keys[slot] != p.key {
                 return false;
             }
@@ -632,7 +697,8 @@ impl LeftContext {
                 slots[p.slot as usize..p.slot as usize + n]
                     .copy_from_slice(&self.params[slot * w..slot * w + n]);
             }
-            idx = if idx == 0 { k - 1 } else { idx - 1 };
+            idx = if idx == 0 { l.cnt - 1 } else { idx - 1 };
+            left -= 1;
         }
         true
     }
@@ -667,6 +733,8 @@ pub struct Deriver<'a> {
 pub enum Pass {
     Step(u64),
     Homomorphism,
+    /// Reading the axiom (generation 0).
+    Axiom,
 }
 
 impl std::fmt::Display for Pass {
@@ -674,6 +742,7 @@ impl std::fmt::Display for Pass {
         match self {
             Pass::Step(n) => write!(f, "step {n}"),
             Pass::Homomorphism => f.write_str("the homomorphism"),
+            Pass::Axiom => f.write_str("the axiom"),
         }
     }
 }
@@ -762,6 +831,11 @@ struct StepState<'f> {
     right: RightCache,
     max_right_simple: usize,
     left: Option<LeftContext>,
+    /// A run of ignored modules: from any module end in `skip.0..=skip.1`
+    /// only ignored modules (no bracket) lie before offset `skip.1`, so a
+    /// right context may start there. Keeps right contexts over long
+    /// ignored runs linear.
+    skip: (u64, u64),
     depth: i64,
     /// Productions that last opened or closed more than they matched, to
     /// blame for unbalanced output.
@@ -770,18 +844,46 @@ struct StepState<'f> {
 }
 
 impl StepState<'_> {
+    /// Where the right context of the module ending at `end_off` starts:
+    /// past the ignored modules that follow it. Each ignored run is read
+    /// once per pass, however many of its modules ask.
+    #[inline]
+    fn right_start(&mut self, end_off: u64, al: &Alphabet) -> io::Result<u64> {
+        if self.skip.0 <= end_off && end_off <= self.skip.1 {
+            return Ok(self.skip.1);
+        }
+        let peek = self
+            .peek
+            .as_mut()
+            .expect("a look-ahead reader for right contexts");
+        let mut pos = end_off;
+        loop {
+            peek.seek(pos);
+            match peek.next_module(al)? {
+                Some((key, _, _)) if key != OPEN && key != CLOSE && al.ignored(key) => {
+                    pos = peek.offset();
+                }
+                _ => break,
+            }
+        }
+        self.skip = (end_off, pos);
+        Ok(pos)
+    }
+
     /// The next considered modules right of the module ending at `end_off`
     /// (read once per module).
     #[inline]
     fn right_of(&mut self, end_off: u64, al: &Alphabet) -> Result<&RightCache, Error> {
-        if self.right.at != end_off {
+        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        let start = self.right_start(end_off, al).map_err(read_err)?;
+        if self.right.at != start {
             let peek = self
                 .peek
                 .as_mut()
                 .expect("a look-ahead reader for right contexts");
             self.right
-                .fill(peek, al, end_off, self.max_right_simple)
-                .map_err(|e| Error::io("temporary file", "cannot read", e))?;
+                .fill(peek, al, start, self.max_right_simple)
+                .map_err(read_err)?;
         }
         Ok(&self.right)
     }
@@ -830,6 +932,7 @@ impl<'a> Deriver<'a> {
             max_right_simple: table.max_right_simple,
             left: (table.max_left > 0).then(|| LeftContext::new(table, &self.alphabet)),
             depth: 0,
+            skip: (u64::MAX, 0),
             last_opener: None,
             last_closer: None,
         };
@@ -1001,9 +1104,13 @@ impl<'a> Deriver<'a> {
                 return Ok(false);
             }
         } else if !p.right.is_empty() {
+            // Matching from past the ignored run is the same: every pattern
+            // element passes over ignored modules first.
+            let read_err = |e| Error::io("temporary file", "cannot read", e);
+            let start = st.right_start(end_off, &self.alphabet).map_err(read_err)?;
             let peek = st.peek.as_mut().unwrap();
-            let ok = match_right(peek, &self.alphabet, end_off, &p.right, &mut self.slots)
-                .map_err(|e| Error::io("temporary file", "cannot read", e))?;
+            let ok = match_right(peek, &self.alphabet, start, &p.right, &mut self.slots)
+                .map_err(read_err)?;
             if !ok {
                 return Ok(false);
             }

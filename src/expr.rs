@@ -161,6 +161,9 @@ impl Code {
             span: e.span(),
         };
         c.emit(e, scope)?;
+        // No spare capacity: a production table may hold millions of these.
+        c.ops.shrink_to_fit();
+        c.spans.shrink_to_fit();
         Ok(c)
     }
 
@@ -348,7 +351,9 @@ impl Code {
                 }
                 Op::Ran(si) => {
                     let a = stack.last_mut().unwrap();
-                    let r = *a * rng.uniform();
+                    // Uniform in [0, x), or (x, 0] for negative x (cpfg's
+                    // x * drand48()); + 0.0 turns a -0 into 0.
+                    let r = *a * rng.uniform() + 0.0;
                     if !r.is_finite() {
                         return Err(self.fail(si, "ran() is undefined here"));
                     }

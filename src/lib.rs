@@ -5,6 +5,10 @@
 //! [`lexer`] -> grammar ([`parse`]) -> [`rules`] (compiled productions) ->
 //! [`engine`] (derivation steps through temp files) -> [`output`].
 
+// Standard error may be closed or full: every diagnostic goes through
+// `diag::eprint`, which never panics (issue 9, item 3).
+#![deny(clippy::print_stderr)]
+
 pub mod ast;
 pub mod axiom;
 pub mod cli;

@@ -5,11 +5,26 @@
 use rand_chacha::rand_core::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-pub struct Random(ChaCha8Rng);
+pub struct Random(ChaCha8Rng, u64);
 
 impl Random {
     pub fn new(seed: u64) -> Random {
-        Random(ChaCha8Rng::seed_from_u64(seed))
+        Random(ChaCha8Rng::seed_from_u64(seed), 0)
+    }
+
+    /// The generator of random constants (`ran` in `define:`): the run's
+    /// seed on stream 1, apart from the derivation's draws (stream 0).
+    pub fn for_constants(seed: u64) -> Random {
+        let mut r = ChaCha8Rng::seed_from_u64(seed);
+        r.set_stream(1);
+        Random(r, 0)
+    }
+
+    /// How many draws were made so far (a step that made none and left the
+    /// string unchanged is a fixed point).
+    #[inline]
+    pub fn draws(&self) -> u64 {
+        self.1
     }
 
     /// A fresh seed from the operating system's randomness (through the
@@ -28,6 +43,7 @@ impl Random {
     /// Uniform in [0, 1): the top 53 bits of one draw.
     #[inline]
     pub fn uniform(&mut self) -> f64 {
+        self.1 += 1;
         (self.0.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
     }
 
@@ -35,6 +51,7 @@ impl Random {
     /// u1 in (0, 1], the low 32 bits u2 in [0, 1).
     #[inline]
     pub fn normal(&mut self, mean: f64, sd: f64) -> f64 {
+        self.1 += 1;
         let x = self.0.next_u64();
         let u1 = ((x >> 32) as f64 + 1.0) / 4294967296.0;
         let u2 = (x & 0xffff_ffff) as f64 / 4294967296.0;

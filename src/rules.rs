@@ -138,17 +138,35 @@ pub enum RPat {
     Close,
 }
 
-/// Modules known at load time, precomputed in each format.
+/// Modules known at load time, precomputed in each format, in one
+/// allocation (a production table may hold millions of these).
 #[derive(Clone, Debug, Default)]
 pub struct ConstRun {
-    pub bin: Box<[u8]>,
-    /// Binary with bracket index: each `[` followed by 8 bytes that will
-    /// hold the offset just past its `]`.
-    pub ibin: Box<[u8]>,
+    /// Binary, then binary with bracket index, then text.
+    data: Box<[u8]>,
+    bin_len: u32,
+    ibin_len: u32,
     /// Offsets of the brackets in `ibin` (true: `[`).
     pub brackets: Box<[(u32, bool)]>,
-    pub text: Box<[u8]>,
     pub modules: u64,
+}
+
+impl ConstRun {
+    /// Binary format.
+    #[inline]
+    pub fn bin(&self) -> &[u8] {
+        &self.data[..self.bin_len as usize]
+    }
+    /// Binary with bracket index: each `[` followed by 8 bytes that will
+    /// hold the offset just past its `]`.
+    #[inline]
+    pub fn ibin(&self) -> &[u8] {
+        &self.data[self.bin_len as usize..self.bin_len as usize + self.ibin_len as usize]
+    }
+    #[inline]
+    pub fn text(&self) -> &[u8] {
+        &self.data[self.bin_len as usize + self.ibin_len as usize..]
+    }
 }
 
 /// Builds a [`ConstRun`] module by module.
@@ -182,11 +200,15 @@ impl ConstBuilder {
             return None;
         }
         let b = std::mem::take(self);
+        let mut data = Vec::with_capacity(b.bin.len() + b.ibin.len() + b.text.len());
+        data.extend_from_slice(&b.bin);
+        data.extend_from_slice(&b.ibin);
+        data.extend_from_slice(&b.text);
         Some(ConstRun {
-            bin: b.bin.into(),
-            ibin: b.ibin.into(),
+            data: data.into(),
+            bin_len: b.bin.len() as u32,
+            ibin_len: b.ibin.len() as u32,
             brackets: b.brackets.into(),
-            text: b.text.into(),
             modules: b.modules,
         })
     }
@@ -201,19 +223,21 @@ pub enum Item {
     Module { key: u32, params: Box<[Code]> },
 }
 
+/// A compiled production. Kept small (boxed slices, boxed expressions): a
+/// table may hold millions.
 #[derive(Clone, Debug)]
 pub struct Production {
     pub key: u32,
     /// Slots: predecessor parameters, then left context, then right context.
     pub nslots: usize,
-    pub left: Vec<Pat>,
-    pub right: Vec<RPat>,
+    pub left: Box<[Pat]>,
+    pub right: Box<[RPat]>,
     /// The right context has no brackets: it is matched against the cached
     /// list of the next considered modules.
     pub right_simple: bool,
-    pub cond: Option<Code>,
-    pub prob: Option<Code>,
-    pub succ: Vec<Item>,
+    pub cond: Option<Box<Code>>,
+    pub prob: Option<Box<Code>>,
+    pub succ: Box<[Item]>,
     /// Where the production starts in the header, for runtime errors.
     pub span: Span,
     /// Bracket depth change of the successor, and its lowest prefix.
@@ -273,7 +297,7 @@ impl Table {
         if !kr.context.is_empty() || kr.free_stochastic || p.cond.is_some() {
             return None;
         }
-        match p.succ.as_slice() {
+        match &*p.succ {
             [] => Some(Some(Fixed {
                 bin: &[],
                 text: &[],
@@ -281,8 +305,8 @@ impl Table {
                 brackets: false,
             })),
             [Item::Const(c)] => Some(Some(Fixed {
-                bin: &c.bin,
-                text: &c.text,
+                bin: c.bin(),
+                text: c.text(),
                 modules: c.modules,
                 brackets: !c.brackets.is_empty(),
             })),
@@ -353,14 +377,114 @@ fn symbols(mods: &[ast::Module]) -> R<HashSet<char>> {
     Ok(s)
 }
 
-/// Compile a parsed header. `seed` is the command line's, which wins over
-/// the file's; `rng` is used by `define:` expressions that call `ran`.
+/// 2^53: from there on, a computed whole number may have been rounded
+/// (2^53 + 1 evaluates to 2^53).
+const EXACT_LIMIT: f64 = 9_007_199_254_740_992.0;
+
+/// `seed:`: a whole-number literal is read exactly (0 to 2^64 - 1, from the
+/// source `src` when given); any other expression must give a whole number
+/// below 2^53, where floating point is exact.
+fn seed_value(e: &Expr, consts: &HashMap<String, f64>, src: Option<&str>) -> R<u64> {
+    if let (Expr::Num(_, (a, b)), Some(src)) = (e, src) {
+        if let Some(text) = src.get(*a..*b) {
+            if !text.is_empty() && text.bytes().all(|c| c.is_ascii_digit()) {
+                return text.parse::<u64>().or_else(|_| {
+                    err(
+                        e.span(),
+                        format!(
+                            "the seed must be a whole number from 0 to 18446744073709551615, not {text}"
+                        ),
+                    )
+                });
+            }
+        }
+    }
+    let v = constant(e, consts, &mut Random::new(0))?;
+    if v < 0.0 || v.fract() != 0.0 || v >= EXACT_LIMIT {
+        return err(
+            e.span(),
+            format!(
+                "the seed must be a whole number from 0 to 18446744073709551615 \
+                 (computed: below 2^53; write larger seeds as digits), not {}",
+                crate::codec::number_string(v)
+            ),
+        );
+    }
+    Ok(v as u64)
+}
+
+/// Does `e` draw random numbers, itself or through a random constant?
+fn is_random(e: &Expr, random: &HashSet<String>) -> bool {
+    match e {
+        Expr::Num(..) => false,
+        Expr::Var(name, _) => random.contains(name),
+        Expr::Call(name, args, _) => {
+            name == "ran" || name == "nran" || args.iter().any(|a| is_random(a, random))
+        }
+        Expr::Unary(_, a, _) => is_random(a, random),
+        Expr::Binary(_, a, b, _) => is_random(a, random) || is_random(b, random),
+    }
+}
+
+/// The file's seed, read ahead of the constants (random constants are
+/// drawn with the run's seed, wherever `seed:` stands). None if there is
+/// none or it cannot be read: then the settings report the error in order.
+fn file_seed(h: &ast::Header, src: Option<&str>) -> Option<R<u64>> {
+    let mut consts = HashMap::new();
+    let mut random = HashSet::new();
+    for s in &h.settings {
+        match s {
+            Setting::Define(name, e, _) if is_random(e, &random) => {
+                random.insert(name.clone());
+            }
+            Setting::Define(name, e, _) => {
+                let v = constant(e, &consts, &mut Random::new(0)).ok()?;
+                consts.insert(name.clone(), v);
+            }
+            Setting::Seed(e, _) if is_random(e, &random) => {
+                return Some(err(
+                    e.span(),
+                    "the seed cannot depend on random numbers (`ran`, `nran`)",
+                ));
+            }
+            Setting::Seed(e, _) => return Some(seed_value(e, &consts, src)),
+            _ => {}
+        }
+    }
+    None
+}
+
+/// The seeds a run can have.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Seeds {
+    /// `--seed`, which wins over the file's `seed:`.
+    pub command_line: Option<u64>,
+    /// The seed without either (fresh from the system).
+    pub fallback: u64,
+}
+
+/// Compile a parsed header (no source text: a large `seed:` literal is
+/// read as a number; no `--seed`; fallback seed 0).
 pub fn compile(h: &ast::Header) -> R<System> {
+    compile_with(h.clone(), None, Seeds::default())
+}
+
+/// Compile a parsed header whose text is `src`. Random constants (`ran`
+/// and `nran` in `define:`) are drawn in file order from a generator of
+/// their own seeded with the run's seed: `--seed`, else `seed:`, else the
+/// fallback.
+/// The syntax tree is consumed production by production.
+pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System> {
     let mut derivation_length = None;
     let mut seed = None;
     let mut filter: Option<(Filter, Span)> = None;
     let mut consts: HashMap<String, f64> = HashMap::new();
-    let mut define_rng = None;
+    let ahead = file_seed(&h, src);
+    let run_seed = seeds.command_line.unwrap_or(match &ahead {
+        Some(Ok(s)) => *s,
+        _ => seeds.fallback,
+    });
+    let mut define_rng = Random::for_constants(run_seed);
     for s in &h.settings {
         match s {
             Setting::DerivationLength(e, span) => {
@@ -373,16 +497,17 @@ pub fn compile(h: &ast::Header) -> R<System> {
                 if seed.is_some() {
                     return err(*span, "`seed:` is set twice");
                 }
-                seed = Some(whole_number(e, &consts, "the seed")?);
+                seed = Some(match &ahead {
+                    Some(Ok(v)) => *v,
+                    Some(Err(e)) => return Err(e.clone()),
+                    None => seed_value(e, &consts, src)?,
+                });
             }
             Setting::Define(name, e, span) => {
                 if consts.contains_key(name) {
                     return err(*span, format!("`{name}` is defined twice"));
                 }
-                // `ran` in a define draws from a generator of its own,
-                // seeded from `seed:` if it came first.
-                let rng = define_rng.get_or_insert_with(|| Random::new(seed.unwrap_or(0)));
-                let v = constant(e, &consts, rng)?;
+                let v = constant(e, &consts, &mut define_rng)?;
                 consts.insert(name.clone(), v);
             }
             Setting::Ignore(m, span) | Setting::Consider(m, span) => {
@@ -408,8 +533,8 @@ pub fn compile(h: &ast::Header) -> R<System> {
     }
     let mut alphabet = Alphabet::new(filter.map(|f| f.0).unwrap_or_default());
     let mut num = codec::NumFmt::new();
-    let productions = compile_table(&h.productions, &mut alphabet, &consts, &mut num)?;
-    let homomorphism = compile_table(&h.homomorphism, &mut alphabet, &consts, &mut num)?;
+    let productions = compile_table(h.productions, &mut alphabet, &consts, &mut num)?;
+    let homomorphism = compile_table(h.homomorphism, &mut alphabet, &consts, &mut num)?;
     Ok(System {
         alphabet,
         productions,
@@ -421,14 +546,33 @@ pub fn compile(h: &ast::Header) -> R<System> {
 }
 
 fn compile_table(
-    prods: &[ast::Production],
+    prods: Vec<ast::Production>,
     alphabet: &mut Alphabet,
     consts: &HashMap<String, f64>,
     num: &mut codec::NumFmt,
 ) -> R<Table> {
     let mut t = Table::default();
-    for p in prods {
-        let cp = compile_production(p, alphabet, consts, num)?;
+    t.prods.reserve_exact(prods.len());
+    // The syntax tree is freed as it is compiled: each production's parts
+    // at once, the array itself by halves, so the tree and the table are
+    // not both whole at the same time.
+    let mut prods = prods;
+    let mut i = 0;
+    while i < prods.len() {
+        let cp = compile_production(&prods[i], alphabet, consts, num)?;
+        let p = &mut prods[i];
+        p.pred.params = Vec::new();
+        p.left = Vec::new();
+        p.right = Vec::new();
+        p.succ = Vec::new();
+        p.cond = None;
+        p.prob = None;
+        i += 1;
+        if i >= 1024 && 2 * i >= prods.len() {
+            prods.drain(..i);
+            prods.shrink_to_fit();
+            i = 0;
+        }
         t.max_left = t.max_left.max(cp.left.len());
         t.has_right |= !cp.right.is_empty();
         if cp.right_simple {
@@ -517,13 +661,17 @@ fn compile_production(
         .cond
         .as_ref()
         .map(|e| compile_code(e, &names, consts))
-        .transpose()?;
+        .transpose()?
+        // A condition folded to a non-zero constant always holds.
+        .filter(|c| c.constant().is_none_or(|v| v == 0.0))
+        .map(Box::new);
     let prob = p
         .prob
         .as_ref()
         .map(|e| compile_code(e, &names, consts))
-        .transpose()?;
-    if let Some(w) = prob.as_ref().and_then(Code::constant) {
+        .transpose()?
+        .map(Box::new);
+    if let Some(w) = prob.as_ref().and_then(|c| c.constant()) {
         if w < 0.0 {
             return err(
                 prob.as_ref().unwrap().span,
@@ -536,12 +684,12 @@ fn compile_production(
     Ok(Production {
         key,
         nslots,
-        left,
-        right,
+        left: left.into(),
+        right: right.into(),
         right_simple,
         cond,
         prob,
-        succ,
+        succ: succ.into(),
         span: p.span,
         depth_delta,
         depth_min,
@@ -628,10 +776,10 @@ mod tests {
         assert_eq!(p.succ.len(), 1);
         match &p.succ[0] {
             Item::Const(c) => {
-                assert_eq!(std::str::from_utf8(&c.text).unwrap(), "F(2)[+F]G(1,6)");
+                assert_eq!(std::str::from_utf8(c.text()).unwrap(), "F(2)[+F]G(1,6)");
                 assert_eq!(c.modules, 6);
                 assert_eq!(&*c.brackets, &[(10, true), (21, false)]);
-                assert_eq!(c.ibin.len(), c.bin.len() + 8);
+                assert_eq!(c.ibin().len(), c.bin().len() + 8);
             }
             other => panic!("{other:?}"),
         }

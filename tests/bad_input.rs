@@ -472,6 +472,15 @@ cases! {
         err("derivation length: 5\nproductions:\nA(x) -> A(x*1e300)\naxiom: A(10)\n", 3, 11, "overflow").also("step 2");
     overflow_constant =>
         err("define: a = 1e300 * 1e300\naxiom: F\n", 1, 13, "overflows");
+    // Issue 9: seeds are read exactly; the depth-first expansion would meet
+    // A's step-2 error before B's step-1 error.
+    seed_above_u64 =>
+        err("seed: 18446744073709551616\naxiom: F\n", 1, 7, "from 0 to 18446744073709551615");
+    seed_computed_at_2_53_or_more => err("seed: 2^53+1\naxiom: F\n", 1, 7, "below 2^53");
+    seed_from_a_random_constant =>
+        err("define: R = ran(9)\nseed: R\naxiom: F\n", 2, 7, "cannot depend on random");
+    earliest_steps_first_error =>
+        err("derivation length: 2\nproductions:\nA(x) -> A(1/(x-1))\nB(x) -> B(1/x)\naxiom: A(2) B(0)\n", 4, 11, "division by zero").also("step 1");
 
     // --- brackets ----------------------------------------------------------
     // lsgen af84e48 reported this at 4:1, a line past the end of the file,

@@ -1,0 +1,532 @@
+//! Issue 9, engine items: resource limits (left-context memory, production
+//! tables, right contexts over ignored runs, fixed points) and semantics
+//! (canonical runtime errors, seeds, `--max-length`, `ran`, random
+//! constants). Every test runs the real binary. Expected strings are derived
+//! by hand in the comments, not taken from lsgen.
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_lsgen");
+
+struct Run {
+    code: i32,
+    stdout: String,
+    stderr: String,
+}
+
+/// Run lsgen on `src` (given as a file) with `args`; `mem_kib` caps the
+/// address space (`ulimit -v`), `limit` is a generous wall-clock limit after
+/// which the run is killed and the test fails.
+fn run_with(src: &str, args: &[&str], mem_kib: Option<u64>, limit: Duration) -> Run {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("t.ls");
+    std::fs::write(&file, src).unwrap();
+    let mut cmd = Command::new("sh");
+    let cap = mem_kib.map_or(String::new(), |k| format!("ulimit -v {k}; "));
+    cmd.arg("-c")
+        .arg(format!("{cap}exec \"$0\" \"$@\""))
+        .arg(BIN)
+        .args(args)
+        .arg(&file)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    let mut child = cmd.spawn().expect("cannot run lsgen");
+    let start = Instant::now();
+    let mut out = child.stdout.take().unwrap();
+    let mut err = child.stderr.take().unwrap();
+    let t_out = std::thread::spawn(move || {
+        let mut v = Vec::new();
+        std::io::Read::read_to_end(&mut out, &mut v).unwrap();
+        v
+    });
+    let t_err = std::thread::spawn(move || {
+        let mut v = Vec::new();
+        std::io::Read::read_to_end(&mut err, &mut v).unwrap();
+        v
+    });
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("lsgen {args:?} did not finish within {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let stdout = String::from_utf8(t_out.join().unwrap()).unwrap();
+    let stderr = String::from_utf8_lossy(&t_err.join().unwrap()).into_owned();
+    let code = status
+        .code()
+        .unwrap_or_else(|| panic!("lsgen {args:?} killed by a signal: {status:?}\n{stderr}"));
+    assert!(
+        !stderr.contains("panicked") && !stderr.contains("internal error"),
+        "{stderr}"
+    );
+    Run {
+        code,
+        stdout,
+        stderr,
+    }
+}
+
+fn run(src: &str, args: &[&str]) -> Run {
+    run_with(src, args, None, Duration::from_secs(120))
+}
+
+impl Run {
+    fn ok(&self) -> &str {
+        assert_eq!(self.code, 0, "stderr:\n{}", self.stderr);
+        self.stdout.trim_end_matches('\n')
+    }
+    fn error(&self) -> &str {
+        assert_eq!(
+            self.code, 1,
+            "stdout {:?}, stderr:\n{}",
+            self.stdout, self.stderr
+        );
+        assert_eq!(
+            self.stderr.matches(": error: ").count(),
+            1,
+            "{}",
+            self.stderr
+        );
+        &self.stderr
+    }
+}
+
+const MIB: u64 = 1024;
+
+// ------------------------------------------------ 5: left-context memory
+
+#[test]
+fn long_left_context_under_deep_nesting_runs_in_bounded_memory() {
+    // A 100,000-module left context; the axiom is 100,000 A, then B inside
+    // 20,000 nested branches. B's left context steps over the `[`s and is
+    // the 100,000 A: B becomes C. Keeping k slots per level would need
+    // 100,000 x 20,000 slots (about 8 GB).
+    let (k, d) = (100_000, 20_000);
+    let a = "A".repeat(k);
+    let src = format!(
+        "productions:\n{a} < B -> C\naxiom:\n{a}{}B{}\n",
+        "[".repeat(d),
+        "]".repeat(d)
+    );
+    let r = run_with(&src, &[], Some(512 * MIB), Duration::from_secs(120));
+    let want = format!("{a}{}C{}", "[".repeat(d), "]".repeat(d));
+    assert!(r.ok() == want, "wrong output (len {})", r.stdout.len());
+}
+
+#[test]
+fn left_context_spans_levels_and_forgets_closed_branches() {
+    // `A B < C`: the C in [C] (depth 2) sees B (depth 1) then A (depth 0);
+    // the C after [C][D] skips both branches and sees B A too; at depth 0,
+    // B C sees B, then A over the skipped branch; the last [C]'s parent is
+    // that C, so its path ends B C, not A B. Hand-derived.
+    let r = run("productions:\nA B < C -> X\naxiom: A[B[C][D]C]BC[C]\n", &[]);
+    assert_eq!(r.ok(), "A[B[X][D]X]BX[C]");
+}
+
+// ------------------------------------- 7: right context over ignored runs
+
+#[test]
+fn right_context_over_a_long_ignored_run_is_linear() {
+    // `ignore: A`: every A sees past the A's to its right, to B (or to the
+    // branch [B]), so every A becomes C. 200,000 A: quadratic matching reads
+    // 2 * 10^10 modules (hours in a debug build); linear takes well under a
+    // second.
+    let n = 200_000;
+    let a = "A".repeat(n);
+    let c = "C".repeat(n);
+    let limit = Duration::from_secs(60);
+    let r = run_with(
+        &format!("ignore: A\nproductions:\nA > B -> C\naxiom:\n{a}B\n"),
+        &[],
+        None,
+        limit,
+    );
+    assert!(r.ok() == format!("{c}B"), "wrong output");
+    // A right context with brackets goes through the general matcher.
+    let r = run_with(
+        &format!("ignore: A\nproductions:\nA > [B] -> C\naxiom:\n{a}[B]\n"),
+        &[],
+        None,
+        limit,
+    );
+    assert!(r.ok() == format!("{c}[B]"), "wrong output");
+    // The run ends at a bracket: A before `]` and A before [D]E see nothing
+    // they ask for.
+    let r = run(
+        "ignore: A\nproductions:\nA > B -> C\naxiom: [AA]AA[D]BAAB\n",
+        &[],
+    );
+    assert_eq!(r.ok(), "[AA]CC[D]BCCB");
+}
+
+// ------------------------------------------------------ 8: fixed points
+
+/// The lines of stderr, without the seed.
+fn verbose_lines(r: &Run) -> Vec<&str> {
+    r.stderr
+        .lines()
+        .filter(|l| !l.starts_with("lsgen: seed"))
+        .collect()
+}
+
+#[test]
+fn a_system_that_stops_changing_stops_stepping() {
+    let limit = Duration::from_secs(60);
+    // No productions: the axiom is copied, 2^53 times.
+    let src = "derivation length: 9007199254740992\naxiom: F\n";
+    let r = run_with(src, &[], None, limit);
+    assert_eq!(r.ok(), "F");
+    let r = run_with(src, &["-v"], None, limit);
+    assert_eq!(r.ok(), "F");
+    assert_eq!(
+        verbose_lines(&r),
+        [
+            "lsgen: axiom: 1 modules, 1 bytes",
+            "lsgen: step 1: 1 modules, 1 bytes",
+            "lsgen: steps 2..9007199254740992: unchanged (fixed point)",
+            "lsgen: step 9007199254740992: 1 modules, 1 bytes",
+        ]
+    );
+    // Changes for three steps, then stays; the homomorphism is applied once.
+    // F(0) -> F(1) -> F(2) -> F(3), then no production matches; G -> G.
+    let src = "derivation length: 9007199254740992\nproductions:\n\
+               F(x) : x < 3 -> F(x+1)\nG -> G\nhomomorphism:\nF(x) -> X(x*2)\n\
+               axiom: F(0)G\n";
+    for args in [&[][..], &["-v"], &["--no-homomorphism"]] {
+        let r = run_with(src, args, None, limit);
+        let want = if args.is_empty() || args[0] == "-v" {
+            "X(6)G"
+        } else {
+            "F(3)G"
+        };
+        assert_eq!(r.ok(), want, "{args:?}");
+    }
+    let r = run_with(src, &["-v"], None, limit);
+    assert!(
+        verbose_lines(&r).contains(&"lsgen: steps 5..9007199254740992: unchanged (fixed point)"),
+        "{}",
+        r.stderr
+    );
+}
+
+#[test]
+fn fixed_points_in_the_depth_first_strategies() {
+    // 65,536 steps (the most the depth-first strategies take) over 200,000
+    // modules rewritten to themselves: 1.3 * 10^10 module visits unless a
+    // module that maps to itself is written at once.
+    let limit = Duration::from_secs(60);
+    let n = 200_000;
+    // Byte (D0L) plan: F -> F, G -> GH, H -> "" (H vanishes, G stays G H).
+    let src = format!(
+        "derivation length: 65536\nproductions:\nF -> F\nG -> GH\nH ->\naxiom: {}G\n",
+        "F".repeat(n)
+    );
+    let r = run_with(&src, &[], None, limit);
+    assert!(r.ok() == format!("{}GH", "F".repeat(n)), "wrong output");
+    // Parametric plan: F(x) -> F(x) keeps F(x); A(x) : x < 2 -> A(x+1).
+    let src = format!(
+        "derivation length: 65536\nproductions:\nF(x) -> F(x)\nA(x) : x < 2 -> A(x+1)\n\
+         homomorphism:\nA(x) -> B(x)\naxiom: {}A(0)\n",
+        "F(1)".repeat(n)
+    );
+    let r = run_with(&src, &[], None, limit);
+    assert!(
+        r.ok() == format!("{}B(2)", "F(1)".repeat(n)),
+        "wrong output"
+    );
+}
+
+// ------------------------- 19, 21: --max-length names the step, counts bytes
+
+/// A production that never applies but sends the system through the step
+/// engine (a context production) instead of the depth-first expansion.
+const STEPWISE: &str = "X < Y -> Y\n";
+
+#[test]
+fn max_length_in_bytes_counts_the_string_without_its_newline() {
+    for extra in ["", STEPWISE] {
+        // FFFF is 4 bytes; the newline after it is not part of the string.
+        let src = format!("productions:\n{extra}axiom: FFFF\n");
+        assert_eq!(run(&src, &["-n", "0", "--max-length", "4B"]).ok(), "FFFF");
+        assert_eq!(run(&src, &["-n", "1", "--max-length", "4B"]).ok(), "FFFF");
+        let r = run(&src, &["-n", "0", "--max-length", "3B"]);
+        assert!(
+            r.error().contains("--max-length (3 bytes) in the axiom"),
+            "{}",
+            r.stderr
+        );
+        // F -> FF twice from F: FF (2 bytes), then FFFF (4 bytes).
+        let src = format!("productions:\n{extra}F -> FF\naxiom: F\n");
+        assert_eq!(run(&src, &["-n", "2", "--max-length", "4B"]).ok(), "FFFF");
+        let r = run(&src, &["-n", "2", "--max-length", "3B"]);
+        assert!(
+            r.error().contains("--max-length (3 bytes) in step 2"),
+            "{}",
+            r.stderr
+        );
+        // -v reports the same lengths.
+        let r = run(&src, &["-v", "-n", "2"]);
+        assert!(
+            r.stderr.contains("lsgen: step 2: 4 modules, 4 bytes"),
+            "{}",
+            r.stderr
+        );
+    }
+}
+
+#[test]
+fn max_length_error_names_the_step() {
+    // F -> FF from F: step k has 2^k modules; 2^19 = 524,288 <= 10^6 <
+    // 2^20 = 1,048,576, so step 20 is the first too long.
+    for extra in ["", STEPWISE] {
+        let src = format!("productions:\n{extra}F -> FF\naxiom: F\n");
+        for v in [&[][..], &["-v"]] {
+            let mut args = vec!["-n", "40", "--max-length", "1M"];
+            args.extend_from_slice(v);
+            let r = run(&src, &args);
+            assert!(
+                r.error()
+                    .contains("the string grew past --max-length (1000000 modules) in step 20"),
+                "{extra:?} {v:?}: {}",
+                r.stderr
+            );
+        }
+    }
+    // The homomorphism pass is named too: F -> FFF makes 3 modules.
+    let src = "productions:\nF -> F\nG -> G\nhomomorphism:\nF -> FFF\naxiom: F\n";
+    let r = run(src, &["--max-length", "2"]);
+    assert!(
+        r.error().contains("(2 modules) in the homomorphism"),
+        "{}",
+        r.stderr
+    );
+}
+
+// ------------------------------------------- 18: one error for every strategy
+
+#[test]
+fn every_strategy_reports_the_earliest_steps_first_error() {
+    // A(2) -> A(1) -> A(1/0): an error in step 2 at line 2. B(0) -> B(1/0):
+    // an error in step 1 at line 3 (col 11, the `/`). Step 1 comes first.
+    let src = "productions:\nA(x) -> A(1/(x-1))\nB(x) -> B(1/x)\naxiom: A(2) B(0)\n";
+    let want = "t.ls:3:11: error: division by zero (in step 1)\nB(x) -> B(1/x)\n          ^\n";
+    // Default: depth first; -v and --max-length: step by step.
+    for args in [
+        &["-n", "2"][..],
+        &["-n", "2", "-v"],
+        &["-n", "2", "--max-length", "1G"],
+    ] {
+        let r = run(src, args);
+        assert!(r.error().ends_with(want), "{args:?}:\n{}", r.stderr);
+        assert!(r.stdout.is_empty(), "{args:?}");
+    }
+    // In the homomorphism against a later module's step: A(1) -> A(0) in
+    // step 1, then the homomorphism divides by 0; C(0) fails in step 1.
+    let src = "productions:\nA(x) -> A(x-1)\nC(x) -> C(1/x)\nhomomorphism:\nA(x) -> B(1/x)\n\
+               axiom: A(1) C(0)\n";
+    let want = "t.ls:3:11: error: division by zero (in step 1)\n";
+    for args in [&["-n", "1"][..], &["-n", "1", "-v"]] {
+        let r = run(src, args);
+        assert!(r.error().contains(want), "{args:?}:\n{}", r.stderr);
+    }
+    // With no step error the homomorphism's is reported, by both.
+    let src = "productions:\nA(x) -> A(x-1)\nhomomorphism:\nA(x) -> B(1/x)\naxiom: A(1) A(2)\n";
+    for args in [&["-n", "1"][..], &["-n", "1", "-v"]] {
+        let r = run(src, args);
+        assert!(
+            r.error()
+                .contains("t.ls:4:11: error: division by zero (in the homomorphism)"),
+            "{args:?}:\n{}",
+            r.stderr
+        );
+    }
+}
+
+// ------------------------------------------------------------ 20: seeds
+
+/// A system whose output depends on every draw.
+const STOCHASTIC: &str = "derivation length: 3\nproductions:\n\
+                          F -> F[+F] : 1\nF -> F[-F]F : 1\nF -> G : 1\naxiom: F\n";
+
+#[test]
+fn seed_setting_takes_the_full_u64_range_exactly() {
+    for s in [
+        "0",
+        "9007199254740991",
+        "9007199254740993",
+        "18446744073709551615",
+    ] {
+        let file = run(&format!("seed: {s}\n{STOCHASTIC}"), &[]);
+        let flag = run(STOCHASTIC, &["--seed", s]);
+        assert_eq!(file.ok(), flag.ok(), "seed: {s} and --seed {s} differ");
+    }
+    // 2^53 + 1 is not rounded to 2^53.
+    let a = run(STOCHASTIC, &["--seed", "9007199254740993"]);
+    let b = run(STOCHASTIC, &["--seed", "9007199254740992"]);
+    assert_ne!(a.ok(), b.ok());
+    // A computed seed below 2^53 is fine.
+    let a = run(&format!("seed: 6*7\n{STOCHASTIC}"), &[]);
+    assert_eq!(a.ok(), run(STOCHASTIC, &["--seed", "42"]).ok());
+}
+
+#[test]
+fn the_seed_verbose_prints_can_be_written_as_seed_setting() {
+    let r = run(STOCHASTIC, &["-v"]);
+    let seed = r
+        .stderr
+        .lines()
+        .find_map(|l| l.strip_prefix("lsgen: seed "))
+        .expect("no seed line")
+        .to_string();
+    let again = run(&format!("seed: {seed}\n{STOCHASTIC}"), &[]);
+    assert_eq!(again.ok(), r.ok(), "seed {seed}");
+}
+
+#[test]
+fn bad_seeds_are_located_errors() {
+    for (seed, what) in [
+        (
+            "18446744073709551616",
+            "from 0 to 18446744073709551615, not 18446744073709551616",
+        ),
+        ("99999999999999999999999", "from 0 to 18446744073709551615"),
+        ("2^53+1", "below 2^53"),
+        ("2^64", "below 2^53"),
+        ("3.5", "not 3.5"),
+        ("-1", "not -1"),
+    ] {
+        let r = run(&format!("define: K = 1\nseed: {seed}\naxiom: F\n"), &[]);
+        let e = r.error();
+        assert!(
+            e.contains("t.ls:2:7: error: the seed must be a whole number"),
+            "{seed}: {e}"
+        );
+        assert!(e.contains(what), "{seed}: {e}");
+    }
+    let r = run("define: R = ran(10)\nseed: floor(R)\naxiom: F\n", &[]);
+    assert!(
+        r.error()
+            .contains("t.ls:2:7: error: the seed cannot depend on random numbers"),
+        "{}",
+        r.stderr
+    );
+}
+
+// ------------------------------------------------------------ 23: ran(x)
+
+/// The parameters of every module of `out` (`F(1)G(2,3)` -> [1, 2, 3]).
+fn params(out: &str) -> Vec<f64> {
+    out.split(['(', ')', ','])
+        .filter_map(|t| t.parse::<f64>().ok())
+        .collect()
+}
+
+#[test]
+fn ran_of_a_negative_number_is_in_x_to_0() {
+    // cpfg's ran(x) is x * drand48(): uniform in (x, 0] for negative x.
+    let src = format!(
+        "productions:\nF -> A(ran(-1))B(ran(2))\naxiom: {}\n",
+        "F".repeat(2000)
+    );
+    let out = run(&src, &["--seed", "3"]);
+    let out = out.ok();
+    assert!(!out.contains("(-0)"), "a -0: {out}");
+    let (mut neg, mut pos) = (Vec::new(), Vec::new());
+    for m in out.split_inclusive(')') {
+        let v: f64 = m[2..m.len() - 1].parse().unwrap();
+        if m.starts_with('A') {
+            neg.push(v);
+        } else {
+            pos.push(v);
+        }
+    }
+    assert_eq!((neg.len(), pos.len()), (2000, 2000));
+    assert!(
+        neg.iter().all(|&v| -1.0 < v && v <= 0.0),
+        "ran(-1) out of (-1, 0]"
+    );
+    assert!(
+        pos.iter().all(|&v| (0.0..2.0).contains(&v)),
+        "ran(2) out of [0, 2)"
+    );
+    // Spread over the range, not a constant.
+    let mean = neg.iter().sum::<f64>() / 2000.0;
+    assert!((mean + 0.5).abs() < 0.05, "mean of ran(-1): {mean}");
+}
+
+// -------------------------------------------------- 24: random constants
+
+/// The uniform draws the README specifies for random constants: ChaCha8
+/// seeded with `seed_from_u64(seed)`, stream 1, top 53 bits / 2^53.
+fn constant_draws(seed: u64, n: usize) -> Vec<f64> {
+    use rand_chacha::rand_core::{Rng, SeedableRng};
+    let mut r = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    r.set_stream(1);
+    (0..n)
+        .map(|_| (r.next_u64() >> 11) as f64 / (1u64 << 53) as f64)
+        .collect()
+}
+
+#[test]
+fn random_constants_follow_the_run_seed_in_file_order() {
+    // `seed:` between the two defines: both are drawn with seed 5, P first.
+    let src = "define: P = ran(1)\nseed: 5\ndefine: Q = ran(1)\naxiom: F(P,Q)\n";
+    let want = constant_draws(5, 2);
+    let got = params(run(src, &["-n", "0"]).ok());
+    assert_eq!(got, want, "seed: 5");
+    // --seed wins over seed:, for constants too.
+    let got = params(run(src, &["-n", "0", "--seed", "6"]).ok());
+    assert_eq!(got, constant_draws(6, 2), "--seed 6");
+    assert_ne!(constant_draws(5, 2), constant_draws(6, 2));
+    // One seed, same constants on every run, wherever `seed:` stands.
+    let before = "seed: 5\ndefine: P = ran(1)\ndefine: Q = ran(1)\naxiom: F(P,Q)\n";
+    let after = "define: P = ran(1)\ndefine: Q = ran(1)\nseed: 5\naxiom: F(P,Q)\n";
+    for s in [before, after] {
+        assert_eq!(params(run(s, &["-n", "0"]).ok()), want, "{s}");
+    }
+    // Without any seed, the fresh seed -v prints reproduces the constants.
+    let free = "define: P = ran(1)\ndefine: Q = ran(1)\naxiom: F(P,Q)\n";
+    let r = run(free, &["-v", "-n", "0"]);
+    let seed: u64 = r
+        .stderr
+        .lines()
+        .find_map(|l| l.strip_prefix("lsgen: seed "))
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert_eq!(params(r.ok()), constant_draws(seed, 2));
+    // The derivation's own draws are another stream: ran(1) in a successor
+    // is not the constant's value.
+    let src = "seed: 5\ndefine: P = ran(1)\nproductions:\nF -> G(P, ran(1))\naxiom: F\n";
+    let got = params(run(src, &[]).ok());
+    assert_eq!(got[0], want[0]);
+    assert_ne!(got[1], want[0]);
+}
+
+// ------------------------------------------------ 6: production tables
+
+#[test]
+fn a_large_production_table_fits_a_memory_cap() {
+    // 400,000 lines of `F -> FF` (3.2 MB). lsgen 9bc7f68 needed more than
+    // 740 MiB of address space for it (about 1.1 KB per production, on top
+    // of the 256 MiB worker stack); now about 560 MiB. The first production
+    // applies: F -> FF once.
+    let src = format!("productions:\n{}axiom: F\n", "F -> FF\n".repeat(400_000));
+    let r = run_with(&src, &[], Some(650 * MIB), Duration::from_secs(300));
+    assert_eq!(r.ok(), "FF");
+    // 300,000 conditional parametric productions (7.5 MB): 9bc7f68 needed
+    // more than 940 MiB, now about 740 MiB. F(1) -> F(1)F(1) once.
+    let src = format!(
+        "productions:\n{}axiom: F(1)\n",
+        "F(x) : x > 0 -> F(x)F(x)\n".repeat(300_000)
+    );
+    let r = run_with(&src, &[], Some(850 * MIB), Duration::from_secs(300));
+    assert_eq!(r.ok(), "F(1)F(1)");
+}
