@@ -216,5 +216,9 @@ check(
     "A(1)F[C]B(6)+[A(9)]A(3)B(4)",
 )
 
+# The structural features (docs/structural.md): ref.py's own hand-derived
+# self-test.
+check("ref.py --self-test failures", ref.self_test(), 0)
+
 print("%d passed, %d failed" % (passed, failed))
 sys.exit(1 if failed else 0)
