@@ -1151,3 +1151,305 @@ pub fn derive_text_stats(
     });
     (r, sys.stats())
 }
+
+/// Hand-derived checks of the structural features (docs/structural.md).
+/// Run with `cargo test --test differential reference::`.
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand_chacha::rand_core::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// (what, .ls text, steps, expected): the hand-derived cases of
+    /// `tests/tools/ref.py --self-test`.
+    const CASES: &[(&str, &str, u64, &str)] = &[
+        ("groups cycle", "groups: 1 1 2\nproductions:\nA -> A\nproductions 1:\nA -> AB\nproductions 2:\nA -> A[+B]\nB -> BB\naxiom: A\n", 1, "AB"),
+        ("groups cycle 2", "groups: 1 1 2\nproductions:\nA -> A\nproductions 1:\nA -> AB\nproductions 2:\nA -> A[+B]\nB -> BB\naxiom: A\n", 2, "ABB"),
+        ("groups cycle 3", "groups: 1 1 2\nproductions:\nA -> A\nproductions 1:\nA -> AB\nproductions 2:\nA -> A[+B]\nB -> BB\naxiom: A\n", 3, "A[+B]BBBB"),
+        ("groups cycle 4", "groups: 1 1 2\nproductions:\nA -> A\nproductions 1:\nA -> AB\nproductions 2:\nA -> A[+B]\nB -> BB\naxiom: A\n", 4, "AB[+B]BBBB"),
+        ("groups fallback", "groups: 1\nproductions:\nA -> X\nB -> Y\nproductions 1:\nA -> Z\naxiom: AB\n", 1, "ZY"),
+        ("groups fallback on a failed condition", "groups: 1\nproductions:\nA(x) -> A(x+1)\nproductions 1:\nA(x) : x > 1 -> Z(x)\naxiom: A(0)A(2)\n", 2, "A(2)Z(2)"),
+        ("group expression", "group: 1 + (step > 2)\nproductions 1:\nA -> AB\nproductions 2:\nA -> AC\naxiom: A\n", 3, "ACBB"),
+        ("productions 0 is group 0", "productions 0:\nA -> AB\naxiom: A\n", 2, "ABB"),
+        ("step", "productions:\nA(x) -> A(x+step)\naxiom: A(0)\n", 3, "A(6)"),
+        ("step in a condition", "productions:\nB : step == 2 -> C\naxiom: BB\n", 2, "CC"),
+        ("step in a condition, other step", "productions:\nB : step == 2 -> C\naxiom: BB\n", 1, "BB"),
+        ("a constant hides step", "define: step = 10\nproductions:\nA(x) -> A(x+step)\naxiom: A(0)\n", 2, "A(20)"),
+        ("a formal parameter hides step", "productions:\nA(step) -> A(step*2)\naxiom: A(3)\n", 2, "A(12)"),
+        ("step in the homomorphism is n", "productions:\nA(x) -> A(x+step)\nhomomorphism:\nA(x) -> B(x,step)\naxiom: A(0)\n", 2, "B(3,2)"),
+        ("step in the homomorphism, n = 0", "productions:\nA(x) -> A(x+step)\nhomomorphism:\nA(x) -> B(x,step)\naxiom: A(0)\n", 0, "B(0,0)"),
+        ("decomposition, axiom untouched", "productions:\nA -> IA\ndecomposition:\nI -> FF\naxiom: IA\n", 0, "IA"),
+        ("decomposition step 1", "productions:\nA -> IA\ndecomposition:\nI -> FF\naxiom: IA\n", 1, "FFFFA"),
+        ("decomposition step 2", "productions:\nA -> IA\ndecomposition:\nI -> FF\naxiom: IA\n", 2, "FFFFFFA"),
+        ("decomposition depth 1", "productions:\nA -> LA\ndecomposition:\nL -> [+P][-P]\nP -> [F]\naxiom: A\n", 1, "[+P][-P]A"),
+        ("decomposition depth 1, next step", "productions:\nA -> LA\ndecomposition:\nL -> [+P][-P]\nP -> [F]\naxiom: A\n", 2, "[+[F]][-[F]][+P][-P]A"),
+        ("decomposition depth 2", "productions:\nA -> LA\ndecomposition:\nmaximum depth: 2\nL -> [+P][-P]\nP -> [F]\naxiom: A\n", 1, "[+[F]][-[F]]A"),
+        ("decomposition limit", "productions:\nZ -> X\ndecomposition: warnings\nmaximum depth: 3\nX -> XY\naxiom: Z\n", 1, "XYYY"),
+        ("decomposition with step, step 1", "productions:\nA -> AL\ndecomposition:\nL : step > 1 -> F(step)\naxiom: A\n", 1, "AL"),
+        ("decomposition with step, step 2", "productions:\nA -> AL\ndecomposition:\nL : step > 1 -> F(step)\naxiom: A\n", 2, "AF(2)F(2)"),
+        ("cut: manual 6.4, step 1", "productions:\nD(a) : a < 20 -> D(a+1)\nD(a) : a >= 20 -> %\naxiom: A[+D(19)F]B\n", 1, "A[+D(20)F]B"),
+        ("cut: % produced in step 2", "productions:\nD(a) : a < 20 -> D(a+1)\nD(a) : a >= 20 -> %\naxiom: A[+D(19)F]B\n", 2, "A[+%F]B"),
+        ("cut: % cuts in step 3", "productions:\nD(a) : a < 20 -> D(a+1)\nD(a) : a >= 20 -> %\naxiom: A[+D(19)F]B\n", 3, "A[+]B"),
+        ("cut at top level", "axiom: AB%C[D]E\n", 1, "AB"),
+        ("cut in a branch", "axiom: A[B%C[D]E]F\n", 1, "A[B]F"),
+        ("cut: n = 0 cuts nothing", "axiom: A[B%C[D]E]F\n", 0, "A[B%C[D]E]F"),
+        ("a rewritten % is no cut", "productions:\n% -> X\naxiom: A%B\n", 1, "AXB"),
+        ("%(x) is no cut", "axiom: A%(1)B\n", 1, "A%(1)B"),
+        ("contexts see the cut part", "productions:\nB > %C -> Y\naxiom: AB%C\n", 1, "AY"),
+        ("cut modules are not evaluated", "productions:\nC(x) -> D(1/x)\naxiom: %C(0)\n", 1, ""),
+        ("decomposition of % prevents the cut", "decomposition:\n% -> G\naxiom: A%B\n", 1, "AGB"),
+        ("% from decomposition cuts next step", "productions:\nA -> K\ndecomposition:\nK -> %\naxiom: [AE]B\n", 1, "[%E]B"),
+        ("% from decomposition cuts next step 2", "productions:\nA -> K\ndecomposition:\nK -> %\naxiom: [AE]B\n", 2, "[]B"),
+        ("the homomorphism never cuts", "homomorphism:\nA -> F\nB -> %C\naxiom: A%B\n", 0, "F%%C"),
+        ("homomorphism depth 2", "homomorphism:\nmaximum depth: 2\nF -> G P(0,0)\nG > P(x,y) : y > 3 -> f\naxiom: F P(1,5) F P(1,2)\n", 0, "fP(0,0)P(1,5)GP(0,0)P(1,2)"),
+        ("homomorphism depth 1", "homomorphism:\nF -> G P(0,0)\nG > P(x,y) : y > 3 -> f\naxiom: F P(1,5) F P(1,2)\n", 0, "GP(0,0)P(1,5)GP(0,0)P(1,2)"),
+        ("homomorphism limit", "homomorphism: no warnings\nseed: 4\nmaximum depth: 3\nX -> XY\naxiom: X\n", 0, "XYYY"),
+    ];
+
+    /// Refused when loaded (with a part of the message).
+    const BAD: &[(&str, &str, &str)] = &[
+        (
+            "decomposition with a left context",
+            "decomposition:\nA < L -> X\naxiom: L\n",
+            "has no context",
+        ),
+        (
+            "decomposition with a right context",
+            "decomposition:\nL > A -> X\naxiom: L\n",
+            "has no context",
+        ),
+        (
+            "decomposition after homomorphism",
+            "homomorphism:\nA -> B\ndecomposition:\nL -> X\naxiom: L\n",
+            "comes before `homomorphism:`",
+        ),
+        (
+            "productions after decomposition",
+            "decomposition:\nL -> X\nproductions:\nA -> B\naxiom: L\n",
+            "productions after decomposition",
+        ),
+        (
+            "second decomposition",
+            "decomposition:\nL -> X\ndecomposition:\nK -> X\naxiom: L\n",
+            "second `decomposition:`",
+        ),
+        (
+            "maximum depth 0",
+            "decomposition:\nmaximum depth: 0\nL -> X\naxiom: L\n",
+            "maximum depth must be",
+        ),
+        (
+            "negative maximum depth",
+            "homomorphism:\nmaximum depth: -1\nL -> X\naxiom: L\n",
+            "maximum depth must be",
+        ),
+        (
+            "fractional maximum depth",
+            "homomorphism:\nmaximum depth: 2.5\nL -> X\naxiom: L\n",
+            "maximum depth must be",
+        ),
+        (
+            "maximum depth too large",
+            "homomorphism:\nmaximum depth: 10001\nL -> X\naxiom: L\n",
+            "maximum depth must be",
+        ),
+        (
+            "maximum depth twice",
+            "homomorphism:\nmaximum depth: 2\nmaximum depth: 2\naxiom: L\n",
+            "comes once",
+        ),
+        (
+            "maximum depth after a production",
+            "homomorphism:\nL -> X\nmaximum depth: 2\naxiom: L\n",
+            "comes once",
+        ),
+        (
+            "maximum depth in the settings",
+            "maximum depth: 2\naxiom: L\n",
+            "belongs to",
+        ),
+        (
+            "maximum depth in productions",
+            "productions:\nmaximum depth: 2\naxiom: L\n",
+            "belongs to",
+        ),
+        (
+            "seed in decomposition",
+            "decomposition:\nseed: 2\nL -> X\naxiom: L\n",
+            "no `seed:` here",
+        ),
+        (
+            "bad warnings word",
+            "homomorphism: maybe\nL -> X\naxiom: L\n",
+            "expected `warnings`",
+        ),
+        (
+            "negative group",
+            "groups: 1\nproductions -1:\nA -> B\naxiom: A\n",
+            "production group must be",
+        ),
+        (
+            "fractional group",
+            "groups: 1\nproductions 1.5:\nA -> B\naxiom: A\n",
+            "production group must be",
+        ),
+        (
+            "group too large",
+            "groups: 70000\nproductions 70000:\nA -> B\naxiom: A\n",
+            "production group must be",
+        ),
+        (
+            "group declared twice",
+            "groups: 2\nproductions 2:\nA -> B\nproductions 2:\nA -> C\naxiom: A\n",
+            "group 2 is declared twice",
+        ),
+        (
+            "group 0 declared twice",
+            "productions:\nA -> B\nproductions 0:\nA -> C\naxiom: A\n",
+            "group 0 is declared twice",
+        ),
+        (
+            "decomposition group",
+            "decomposition 1:\nL -> X\naxiom: L\n",
+            "has no groups",
+        ),
+        (
+            "unknown group in a schedule",
+            "groups: 1 3\nproductions 1:\nA -> B\naxiom: A\n",
+            "unknown group 3",
+        ),
+        (
+            "empty schedule",
+            "groups:\nproductions:\nA -> B\naxiom: A\n",
+            "`groups:` takes",
+        ),
+        (
+            "schedule with a name",
+            "groups: 1 x\nproductions 1:\nA -> B\naxiom: A\n",
+            "`groups:` takes",
+        ),
+        (
+            "both schedules",
+            "groups: 1\ngroup: 1\nproductions 1:\nA -> B\naxiom: A\n",
+            "not both",
+        ),
+        (
+            "random group",
+            "group: ran(3)\nproductions 1:\nA -> B\naxiom: A\n",
+            "cannot use ran",
+        ),
+        (
+            "unused group",
+            "productions 1:\nA -> B\naxiom: A\n",
+            "never used",
+        ),
+        ("step in define", "define: x = step\naxiom: A\n", "`step`"),
+        ("step in the axiom", "axiom: A(step)\n", "`step`"),
+    ];
+
+    /// Refused while deriving.
+    const BAD_AT_RUN: &[(&str, &str, u64)] = &[
+        (
+            "group expression names no group",
+            "group: step\nproductions 1:\nA -> B\naxiom: A\n",
+            2,
+        ),
+        (
+            "group expression not whole",
+            "group: step / 2\nproductions 1:\nA -> B\naxiom: A\n",
+            1,
+        ),
+    ];
+
+    fn derive(src: &str, steps: u64, seed: u64) -> R<String> {
+        System::load(src)?
+            .derive(Some(steps), Some(seed), usize::MAX)
+            .map(|s| format_string(&s))
+    }
+
+    #[test]
+    fn hand_derived_strings() {
+        let mut failures = Vec::new();
+        for (what, src, n, want) in CASES {
+            match derive(src, *n, 0) {
+                Ok(got) if got == *want => {}
+                got => failures.push(format!("{what} (n={n}): got {got:?}, want {want:?}")),
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    #[test]
+    fn bad_input_is_refused() {
+        let mut failures = Vec::new();
+        for (what, src, part) in BAD {
+            // The reference reads the axiom when deriving.
+            match System::load(src).and_then(|s| s.derive(Some(0), Some(0), usize::MAX)) {
+                Err(e) if e.contains(part) => {}
+                Err(e) => failures.push(format!("{what}: wrong error {e:?}, want {part:?}")),
+                Ok(_) => failures.push(format!("{what}: accepted")),
+            }
+        }
+        for (what, src, n) in BAD_AT_RUN {
+            match System::load(src).map(|s| s.derive(Some(*n), Some(0), usize::MAX)) {
+                Ok(Err(e)) if e.contains("group: gives") => {}
+                other => failures.push(format!("{what}: {:?}", other.map(|r| r.is_ok()))),
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    /// The i-th uniform of `ChaCha8Rng::seed_from_u64(seed)`, computed
+    /// here from rand_chacha (README: the top 53 bits of one draw / 2^53).
+    fn u(seed: u64, i: usize) -> String {
+        let mut r = ChaCha8Rng::seed_from_u64(seed);
+        let mut x = 0;
+        for _ in 0..=i {
+            x = r.next_u64();
+        }
+        format_number((x >> 11) as f64 / (1u64 << 53) as f64)
+    }
+
+    #[test]
+    fn decomposition_draws_right_after_its_module() {
+        // Fused into the step: A1's successor, its decomposition, then A2.
+        let src = "productions:\nA -> B(ran(1))\ndecomposition:\nB(x) -> C(x, ran(1))\naxiom: AA\n";
+        let want = format!("C({},{})C({},{})", u(5, 0), u(5, 1), u(5, 2), u(5, 3));
+        assert_eq!(derive(src, 1, 5).unwrap(), want);
+    }
+
+    #[test]
+    fn cut_modules_make_no_draws() {
+        let src = "productions:\nB -> X(ran(1))\nA -> Y(ran(1))\naxiom: [%B]A\n";
+        assert_eq!(derive(src, 1, 6).unwrap(), format!("[]Y({})", u(6, 0)));
+    }
+
+    #[test]
+    fn group_zero_draws_after_the_steps_group() {
+        // Group 1's condition draws first (and fails), then group 0's successor.
+        let src = "groups: 1\nproductions:\nA -> Y(ran(1))\nproductions 1:\nA : ran(1) > 2 -> X\naxiom: A\n";
+        assert_eq!(derive(src, 1, 7).unwrap(), format!("Y({})", u(7, 1)));
+    }
+
+    #[test]
+    fn homomorphism_seed_is_its_own_generator() {
+        let own = "seed: 3\nproductions:\nA -> A(ran(1))\nhomomorphism:\nseed: 9\nA(x) -> B(x, ran(1))\naxiom: A\n";
+        let got = System::load(own).unwrap().derive(Some(1), None, usize::MAX);
+        let want = format!("B({},{})", u(3, 0), u(9, 0));
+        assert_eq!(format_string(&got.unwrap()), want);
+        // `--seed` changes the main generator only.
+        let want = format!("B({},{})", u(4, 0), u(9, 0));
+        assert_eq!(derive(own, 1, 4).unwrap(), want);
+        // Without it, the homomorphism continues the main generator.
+        let shared = own.replace("seed: 9\n", "");
+        let want = format!("B({},{})", u(3, 0), u(3, 1));
+        assert_eq!(derive(&shared, 1, 3).unwrap(), want);
+    }
+
+    #[test]
+    fn homomorphism_recursion_draws_depth_first() {
+        let src = "homomorphism:\nmaximum depth: 2\nA -> B(ran(1))C\nB(x) -> D(x, ran(1))\nC -> E(ran(1))\naxiom: A\n";
+        let want = format!("D({},{})E({})", u(2, 0), u(2, 1), u(2, 2));
+        assert_eq!(derive(src, 0, 2).unwrap(), want);
+    }
+}
