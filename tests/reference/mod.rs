@@ -1399,6 +1399,33 @@ mod tests {
         assert!(failures.is_empty(), "{}", failures.join("\n"));
     }
 
+    /// Both references agree on the structural models: every
+    /// `tests/expected/structural/NAME.nN.txt` (written by ref.py) is what
+    /// this reference derives from `tests/structural/NAME.ls`.
+    #[test]
+    fn agrees_with_ref_py_on_the_structural_models() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let dir = root.join("tests/expected/structural");
+        let mut checked = 0;
+        for entry in std::fs::read_dir(&dir).expect("tests/expected/structural") {
+            let file = entry.unwrap().file_name().into_string().unwrap();
+            let Some((name, n)) = file
+                .strip_suffix(".txt")
+                .and_then(|stem| stem.rsplit_once(".n"))
+            else {
+                continue;
+            };
+            let n: u64 = n.parse().unwrap();
+            let src =
+                std::fs::read_to_string(root.join(format!("tests/structural/{name}.ls"))).unwrap();
+            let want = std::fs::read_to_string(dir.join(&file)).unwrap();
+            let got = derive(&src, n, 0).unwrap_or_else(|e| panic!("{file}: {e}"));
+            assert_eq!(format!("{got}\n"), want, "{file}");
+            checked += 1;
+        }
+        assert!(checked >= 20, "only {checked} structural expected files");
+    }
+
     /// The i-th uniform of `ChaCha8Rng::seed_from_u64(seed)`, computed
     /// here from rand_chacha (README: the top 53 bits of one draw / 2^53).
     fn u(seed: u64, i: usize) -> String {
