@@ -1426,6 +1426,31 @@ mod tests {
         assert!(checked >= 20, "only {checked} structural expected files");
     }
 
+    /// Both references agree on random systems with every structural
+    /// feature (written by `tests/tools/gen_cross_cases.py` with ref.py).
+    #[test]
+    fn agrees_with_ref_py_on_random_cases() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/expected/structural/random_cases.txt"
+        );
+        let text = std::fs::read_to_string(path).expect("random_cases.txt");
+        let mut checked = 0;
+        let mut failures = Vec::new();
+        for case in text.split("=== ").skip(1) {
+            let (steps, rest) = case.split_once('\n').unwrap();
+            let (src, want) = rest.split_once("--- expected\n").unwrap();
+            let steps: u64 = steps.parse().unwrap();
+            match derive(src, steps, 0) {
+                Ok(got) if got == want.trim_end_matches('\n') => {}
+                got => failures.push(format!("n={steps}\n{src}got {got:?}, want {want:?}")),
+            }
+            checked += 1;
+        }
+        assert!(checked >= 300, "only {checked} cases");
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
     /// The i-th uniform of `ChaCha8Rng::seed_from_u64(seed)`, computed
     /// here from rand_chacha (README: the top 53 bits of one draw / 2^53).
     fn u(seed: u64, i: usize) -> String {
