@@ -6,6 +6,13 @@
 //! against the specification, not to be fast: every module looks up its
 //! productions by a linear scan, and every context is found by walking the
 //! string from the module outwards.
+//!
+//! It also implements the structural features designed in
+//! `docs/structural.md` (issue 11), which lsgen's parser does not know yet:
+//! production groups and their schedule, the built-in `step`,
+//! decomposition, homomorphism depth and seed, and the cut `%`. Their lines
+//! are taken out of the header here (`split_structure`) before the rest
+//! goes to lsgen's header parser.
 
 use lsgen::ast::{self, Expr, Setting};
 use lsgen::expr::{Code, Scope};
@@ -94,6 +101,9 @@ struct Rule {
     left: Vec<Pattern>,
     right: Vec<RightItem>,
     nslots: usize,
+    /// The slot of the built-in `step`, unless a formal parameter or a
+    /// constant of that name hides it.
+    step_slot: Option<usize>,
     cond: Option<Code>,
     prob: Option<Code>,
     succ: Vec<(char, Vec<Code>)>,
@@ -121,11 +131,31 @@ pub struct Stats {
     pub draws: u64,
 }
 
+/// Which group each step uses.
+enum Schedule {
+    /// Always group 0.
+    None,
+    /// `groups: G1 G2 ...`, cycling.
+    List(Vec<u32>),
+    /// `group: EXPR` of `step` (slot 0, if not hidden by a constant).
+    Expr(Code),
+}
+
 pub struct System {
     stats: Cell<Stats>,
     filter: Filter,
+    /// Group 0.
     rules: Vec<Rule>,
+    /// Groups 1 and up.
+    groups: HashMap<u32, Vec<Rule>>,
+    schedule: Schedule,
+    decomposition: Vec<Rule>,
+    decomposition_depth: usize,
     homomorphism: Vec<Rule>,
+    homomorphism_depth: usize,
+    homomorphism_seed: Option<u64>,
+    /// The value of `step` while rewriting.
+    step: Cell<f64>,
     pub derivation_length: Option<u64>,
     pub seed: Option<u64>,
     consts: HashMap<String, f64>,
@@ -191,6 +221,7 @@ fn compile_rule(p: &ast::Production, consts: &HashMap<String, f64>) -> R<Rule> {
         }
         left.push(formals(m, &mut names)?);
     }
+    let mut step_slot = None;
     let mut right = Vec::new();
     for m in &p.right {
         right.push(match m.sym {
@@ -199,6 +230,10 @@ fn compile_rule(p: &ast::Production, consts: &HashMap<String, f64>) -> R<Rule> {
             ']' => RightItem::Close,
             _ => RightItem::Module(formals(m, &mut names)?),
         });
+    }
+    if !names.contains_key(STEP) && !consts.contains_key(STEP) {
+        step_slot = Some(names.len());
+        names.insert(STEP.to_string(), names.len() as u32);
     }
     let cond = p
         .cond
@@ -224,6 +259,7 @@ fn compile_rule(p: &ast::Production, consts: &HashMap<String, f64>) -> R<Rule> {
         left,
         right,
         nslots: names.len(),
+        step_slot,
         cond,
         prob,
         succ,
@@ -244,10 +280,272 @@ fn split(src: &str) -> R<(&str, &str)> {
     Err("no axiom".into())
 }
 
+/// The name of the built-in step number.
+const STEP: &str = "step";
+/// Limits of `maximum depth:` and of group numbers.
+const MAX_DEPTH: u64 = 10_000;
+const MAX_GROUP: u64 = 65_535;
+
+/// The header with the structural lines taken out, and what they said.
+#[derive(Default)]
+struct Structure {
+    /// Settings, group 0 and the homomorphism, for lsgen's parser.
+    main: String,
+    /// `productions N:` (N >= 1): the production lines of each group.
+    groups: Vec<(u32, String)>,
+    /// The production lines of `decomposition:`, if the section exists.
+    decomposition: Option<String>,
+    decomposition_depth: Option<u64>,
+    homomorphism_depth: Option<u64>,
+    homomorphism_seed: Option<u64>,
+    /// `groups:` numbers, or the text of `group:`.
+    list: Option<Vec<u32>>,
+    expr: Option<String>,
+}
+
+/// Comments replaced by blanks (newlines kept), so that keywords are found
+/// at the start of their lines.
+fn blank_comments(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(at) = rest.find("/*") {
+        let Some(len) = rest[at + 2..].find("*/") else {
+            break; // unterminated: lsgen's parser reports it
+        };
+        out.push_str(&rest[..at]);
+        for c in rest[at..at + 2 + len + 2].chars() {
+            out.push(if c == '\n' { '\n' } else { ' ' });
+        }
+        rest = &rest[at + 2 + len + 2..];
+    }
+    out.push_str(rest);
+    out
+}
+
+/// A whole number in `lo..=hi` written in decimal digits.
+fn whole_text(t: &str, lo: u64, hi: u64, what: &str) -> R<u64> {
+    let t = t.trim();
+    match t.parse::<u64>() {
+        Ok(v) if t.bytes().all(|b| b.is_ascii_digit()) && (lo..=hi).contains(&v) => Ok(v),
+        _ => Err(format!(
+            "{what} must be a whole number from {lo} to {hi}: `{t}`"
+        )),
+    }
+}
+
+/// `NAME [N]: REST` for the three section names.
+fn section_line(low: &str) -> Option<(&'static str, Option<&str>, &str)> {
+    for name in ["productions", "decomposition", "homomorphism"] {
+        let Some(after) = low.strip_prefix(name) else {
+            continue;
+        };
+        let colon = after.find(':')?;
+        let num = after[..colon].trim();
+        if !num.is_empty() && !after.starts_with(char::is_whitespace) {
+            return None;
+        }
+        let rest = after[colon + 1..].trim();
+        if name == "productions" && !rest.is_empty() {
+            return None;
+        }
+        return Some((name, (!num.is_empty()).then_some(num), rest));
+    }
+    None
+}
+
+/// `maximum depth: V` or `seed: V`, with blanks normalized: (key, V).
+fn head_setting(line: &str) -> Option<(String, &str)> {
+    let colon = line.find(':')?;
+    let key = line[..colon]
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+        .to_lowercase();
+    matches!(key.as_str(), "maximum depth" | "seed").then(|| (key, &line[colon + 1..]))
+}
+
+/// Take the structural lines out of `header` (docs/structural.md).
+fn split_structure(header: &str) -> R<Structure> {
+    #[derive(Clone, Copy, PartialEq)]
+    enum Sec {
+        Settings,
+        Group(u32),
+        Decomposition,
+        Homomorphism,
+    }
+    let text = blank_comments(header);
+    let mut st = Structure::default();
+    let mut sec = Sec::Settings;
+    let mut in_head = false;
+    let mut head_seen: Vec<String> = Vec::new();
+    let mut declared: Vec<u32> = Vec::new();
+    let mut seen_decomposition = false;
+    let mut seen_homomorphism = false;
+    for line in text.split_inclusive('\n') {
+        let t = line.trim();
+        let low = t.to_lowercase();
+        if let Some((name, num, rest)) = section_line(&low) {
+            if name == "productions" {
+                if seen_decomposition || seen_homomorphism {
+                    return Err("productions after decomposition/homomorphism".into());
+                }
+                let g = match num {
+                    None => 0,
+                    Some(n) => whole_text(n, 0, MAX_GROUP, "a production group")? as u32,
+                };
+                if declared.contains(&g) {
+                    return Err(format!("group {g} is declared twice"));
+                }
+                declared.push(g);
+                sec = Sec::Group(g);
+                in_head = false;
+                if g == 0 {
+                    st.main.push_str("productions:\n");
+                } else {
+                    st.groups.push((g, String::new()));
+                }
+                continue;
+            }
+            if num.is_some() {
+                return Err(format!("{name} has no groups"));
+            }
+            if !matches!(rest, "" | "warnings" | "no warnings") {
+                return Err(format!(
+                    "expected `warnings` or `no warnings` after `{name}:`"
+                ));
+            }
+            if name == "decomposition" {
+                if seen_decomposition {
+                    return Err("second `decomposition:` section".into());
+                }
+                if seen_homomorphism {
+                    return Err("`decomposition:` comes before `homomorphism:`".into());
+                }
+                seen_decomposition = true;
+                st.decomposition = Some(String::new());
+                sec = Sec::Decomposition;
+            } else {
+                if seen_homomorphism {
+                    return Err("second `homomorphism:` section".into());
+                }
+                seen_homomorphism = true;
+                st.main.push_str("homomorphism:\n");
+                sec = Sec::Homomorphism;
+            }
+            in_head = true;
+            head_seen.clear();
+            continue;
+        }
+        if t.is_empty() {
+            continue;
+        }
+        if let Some((key, value)) = head_setting(t) {
+            match sec {
+                Sec::Decomposition | Sec::Homomorphism => {
+                    if !in_head || head_seen.contains(&key) {
+                        return Err(format!(
+                            "`{key}:` comes once, right after the section keyword"
+                        ));
+                    }
+                    head_seen.push(key.clone());
+                    if key == "maximum depth" {
+                        let d = whole_text(value, 1, MAX_DEPTH, "maximum depth")?;
+                        if sec == Sec::Decomposition {
+                            st.decomposition_depth = Some(d);
+                        } else {
+                            st.homomorphism_depth = Some(d);
+                        }
+                    } else if sec == Sec::Decomposition {
+                        return Err(
+                            "decomposition uses the main random generator: no `seed:` here".into(),
+                        );
+                    } else {
+                        st.homomorphism_seed = Some(whole_text(value, 0, 1 << 53, "seed")?);
+                    }
+                    continue;
+                }
+                _ if key == "maximum depth" => {
+                    return Err(
+                        "`maximum depth:` belongs to `decomposition:` or `homomorphism:`".into(),
+                    );
+                }
+                _ => {} // the main `seed:`
+            }
+        }
+        in_head = false;
+        match sec {
+            Sec::Settings => {
+                let (key, value) = t.split_once(':').unwrap_or((t, ""));
+                let key = key.trim().to_lowercase();
+                if key == "groups" || key == "group" {
+                    if st.list.is_some() || st.expr.is_some() {
+                        return Err("use either `groups:` or `group:`, not both".into());
+                    }
+                    if key == "group" {
+                        st.expr = Some(value.to_string());
+                    } else {
+                        let nums: Vec<&str> = value.split_whitespace().collect();
+                        if nums.is_empty()
+                            || !nums.iter().all(|n| n.bytes().all(|b| b.is_ascii_digit()))
+                        {
+                            return Err(
+                                "`groups:` takes whole group numbers separated by blanks".into()
+                            );
+                        }
+                        let list = nums
+                            .iter()
+                            .map(|n| n.parse::<u32>().map_err(|e| e.to_string()))
+                            .collect::<R<Vec<u32>>>()?;
+                        st.list = Some(list);
+                    }
+                } else {
+                    st.main.push_str(line);
+                }
+            }
+            Sec::Group(0) | Sec::Homomorphism => st.main.push_str(line),
+            Sec::Group(g) => {
+                let group = st
+                    .groups
+                    .iter_mut()
+                    .find(|(n, _)| *n == g)
+                    .expect("declared");
+                group.1.push_str(line);
+            }
+            Sec::Decomposition => st.decomposition.as_mut().expect("section").push_str(line),
+        }
+    }
+    for &g in st.list.iter().flatten() {
+        if !declared.contains(&g) && g != 0 {
+            return Err(format!(
+                "unknown group {g}: there is no `productions {g}:` section"
+            ));
+        }
+    }
+    if st.list.is_none() && st.expr.is_none() {
+        if let Some((g, _)) = st.groups.first() {
+            return Err(format!(
+                "group {g} is never used: add a `groups:` or `group:` setting"
+            ));
+        }
+    }
+    Ok(st)
+}
+
+/// The productions of a section's lines, through lsgen's parser.
+fn section_rules(lines: &str, consts: &HashMap<String, f64>) -> R<Vec<Rule>> {
+    let h = parse_header(&format!("productions:\n{lines}"))
+        .map_err(|e| format!("parse error: {}", e.message))?;
+    h.productions
+        .iter()
+        .map(|p| compile_rule(p, consts))
+        .collect()
+}
+
 impl System {
     pub fn load(src: &str) -> R<System> {
         let (header, axiom_text) = split(src)?;
-        let h = parse_header(header).map_err(|e| format!("parse error: {}", e.message))?;
+        let st = split_structure(header)?;
+        let h = parse_header(&st.main).map_err(|e| format!("parse error: {}", e.message))?;
         let mut consts = HashMap::new();
         let mut derivation_length = None;
         let mut seed = None;
@@ -286,11 +584,45 @@ impl System {
             .iter()
             .map(|p| compile_rule(p, &consts))
             .collect::<R<Vec<_>>>()?;
+        let mut groups = HashMap::new();
+        for (g, lines) in &st.groups {
+            groups.insert(*g, section_rules(lines, &consts)?);
+        }
+        let decomposition = match &st.decomposition {
+            None => Vec::new(),
+            Some(lines) => section_rules(lines, &consts)?,
+        };
+        if decomposition.iter().any(Rule::has_context) {
+            return Err("a decomposition production has no context".into());
+        }
+        let schedule = match (&st.list, &st.expr) {
+            (Some(list), _) => Schedule::List(list.clone()),
+            (None, Some(text)) => {
+                let e = parse_expr(text).map_err(|e| format!("parse error: {}", e.message))?;
+                let mut names = HashMap::new();
+                if !consts.contains_key(STEP) {
+                    names.insert(STEP.to_string(), 0);
+                }
+                let code = compile_expr(&e, &names, &consts)?;
+                if code.uses_random() {
+                    return Err("`group:` cannot use ran or nran".into());
+                }
+                Schedule::Expr(code)
+            }
+            (None, None) => Schedule::None,
+        };
         Ok(System {
             stats: Cell::new(Stats::default()),
             filter,
             rules,
+            groups,
+            schedule,
+            decomposition,
+            decomposition_depth: st.decomposition_depth.unwrap_or(1) as usize,
             homomorphism,
+            homomorphism_depth: st.homomorphism_depth.unwrap_or(1) as usize,
+            homomorphism_seed: st.homomorphism_seed,
+            step: Cell::new(0.0),
             derivation_length,
             seed,
             consts,
@@ -309,16 +641,138 @@ impl System {
         let steps = steps.or(self.derivation_length).unwrap_or(1);
         let mut rng = Random::new(seed.or(self.seed).unwrap_or(0));
         let mut s = self.parse_axiom(&mut rng)?;
-        for _ in 0..steps {
-            s = self.rewrite(&self.rules, &s, &mut rng)?;
+        for k in 1..=steps {
+            self.step.set(k as f64);
+            s = self.derive_step(&s, k, &mut rng)?;
             if s.len() > max_modules {
                 return Err(TOO_LONG.into());
             }
         }
         if !self.homomorphism.is_empty() {
-            s = self.rewrite(&self.homomorphism, &s, &mut rng)?;
+            self.step.set(steps as f64);
+            let mut own = self.homomorphism_seed.map(Random::new);
+            let rng = own.as_mut().unwrap_or(&mut rng);
+            let mut out = Vec::new();
+            for pos in 0..s.len() {
+                self.interpret(&s, pos, &s[pos], 0, rng, &mut out)?;
+                if out.len() > max_modules {
+                    return Err(TOO_LONG.into());
+                }
+            }
+            s = out;
         }
         Ok(s)
+    }
+
+    /// The group step `k` uses.
+    fn group_for(&self, k: u64) -> R<u32> {
+        match &self.schedule {
+            Schedule::None => Ok(0),
+            Schedule::List(list) => Ok(list[((k - 1) % list.len() as u64) as usize]),
+            Schedule::Expr(code) => {
+                let v = eval(code, &[k as f64], &mut Random::new(0))?;
+                if v.fract() != 0.0
+                    || v < 0.0
+                    || (v != 0.0 && !self.groups.contains_key(&(v as u32)))
+                {
+                    return Err(format!(
+                        "group: gives {v} in step {k}, not a declared group"
+                    ));
+                }
+                Ok(v as u32)
+            }
+        }
+    }
+
+    /// Derivation step `k`: for each module, the step's group, then group
+    /// 0; a `%` that nothing rewrites cuts; every result is decomposed.
+    fn derive_step(&self, s: &[Module], k: u64, rng: &mut Random) -> R<Vec<Module>> {
+        let group = match self.group_for(k)? {
+            0 => None,
+            g => Some(&self.groups[&g]),
+        };
+        let mut out = Vec::new();
+        let mut pos = 0;
+        while pos < s.len() {
+            let m = &s[pos];
+            let mut result = None;
+            if let Some(rules) = group {
+                result = self.apply(rules, s, pos, m, rng)?;
+            }
+            if result.is_none() {
+                result = self.apply(&self.rules, s, pos, m, rng)?;
+            }
+            match result {
+                Some(succ) => {
+                    for x in &succ {
+                        self.decompose(x, 0, rng, &mut out)?;
+                    }
+                }
+                None => {
+                    let applied = self.decompose(m, 0, rng, &mut out)?;
+                    if !applied && m.key() == ('%', 0) {
+                        out.pop(); // the cut: drop `%` and the rest of its branch
+                        pos = cut_end(s, pos);
+                        continue;
+                    }
+                }
+            }
+            pos += 1;
+        }
+        Ok(out)
+    }
+
+    /// Decompose `m` (of depth `depth`) into `out`, depth first. Did a
+    /// decomposition production apply to `m` itself?
+    fn decompose(
+        &self,
+        m: &Module,
+        depth: usize,
+        rng: &mut Random,
+        out: &mut Vec<Module>,
+    ) -> R<bool> {
+        if depth >= self.decomposition_depth || self.decomposition.is_empty() {
+            out.push(m.clone());
+            return Ok(false);
+        }
+        match self.apply(&self.decomposition, std::slice::from_ref(m), 0, m, rng)? {
+            None => {
+                out.push(m.clone());
+                Ok(false)
+            }
+            Some(succ) => {
+                for x in &succ {
+                    self.decompose(x, depth + 1, rng, out)?;
+                }
+                Ok(true)
+            }
+        }
+    }
+
+    /// The homomorphism of `m` (of depth `depth`, made from the module at
+    /// `pos`), contexts always around `pos` in `s`.
+    fn interpret(
+        &self,
+        s: &[Module],
+        pos: usize,
+        m: &Module,
+        depth: usize,
+        rng: &mut Random,
+        out: &mut Vec<Module>,
+    ) -> R<()> {
+        if depth >= self.homomorphism_depth {
+            out.push(m.clone());
+            return Ok(());
+        }
+        match self.apply(&self.homomorphism, s, pos, m, rng)? {
+            None => out.push(m.clone()),
+            Some(succ) => {
+                for x in &succ {
+                    self.interpret(s, pos, x, depth + 1, rng, out)?;
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The axiom: symbols, each with an optional parameter list.
@@ -389,35 +843,37 @@ impl System {
         }
     }
 
-    /// One parallel rewriting pass with `rules` over `s`.
-    fn rewrite(&self, rules: &[Rule], s: &[Module], rng: &mut Random) -> R<Vec<Module>> {
-        let mut out = Vec::new();
-        for pos in 0..s.len() {
-            let mine: Vec<&Rule> = rules
-                .iter()
-                .filter(|r| r.pred.key() == s[pos].key())
-                .collect();
-            let context: Vec<&Rule> = mine.iter().copied().filter(|r| r.has_context()).collect();
-            let free: Vec<&Rule> = mine.iter().copied().filter(|r| !r.has_context()).collect();
-            let mut chosen = self.choose(&context, s, pos, rng)?;
-            if chosen.is_none() {
-                chosen = self.choose(&free, s, pos, rng)?;
-            }
-            match chosen {
-                None => out.push(s[pos].clone()),
-                Some((rule, slots)) => {
-                    self.count(rule);
-                    for (sym, codes) in &rule.succ {
-                        let mut params = Vec::new();
-                        for c in codes {
-                            params.push(eval(c, &slots, rng)?);
-                        }
-                        out.push(Module { sym: *sym, params });
-                    }
-                }
-            }
+    /// The successor `rules` give module `m`, contexts taken around `pos`
+    /// in `s` (`m` is `s[pos]` except in the homomorphism's recursion):
+    /// context productions first, then context-free ones.
+    fn apply(
+        &self,
+        rules: &[Rule],
+        s: &[Module],
+        pos: usize,
+        m: &Module,
+        rng: &mut Random,
+    ) -> R<Option<Vec<Module>>> {
+        let mine: Vec<&Rule> = rules.iter().filter(|r| r.pred.key() == m.key()).collect();
+        let context: Vec<&Rule> = mine.iter().copied().filter(|r| r.has_context()).collect();
+        let free: Vec<&Rule> = mine.iter().copied().filter(|r| !r.has_context()).collect();
+        let mut chosen = self.choose(&context, s, pos, m, rng)?;
+        if chosen.is_none() {
+            chosen = self.choose(&free, s, pos, m, rng)?;
         }
-        Ok(out)
+        let Some((rule, slots)) = chosen else {
+            return Ok(None);
+        };
+        self.count(rule);
+        let mut out = Vec::new();
+        for (sym, codes) in &rule.succ {
+            let mut params = Vec::new();
+            for c in codes {
+                params.push(eval(c, &slots, rng)?);
+            }
+            out.push(Module { sym: *sym, params });
+        }
+        Ok(Some(out))
     }
 
     fn count(&self, rule: &Rule) {
@@ -443,12 +899,13 @@ impl System {
         group: &[&'r Rule],
         s: &[Module],
         pos: usize,
+        m: &Module,
         rng: &mut Random,
     ) -> R<Option<(&'r Rule, Vec<f64>)>> {
         let stochastic = group.iter().any(|r| r.prob.is_some());
         if !stochastic {
             for r in group {
-                if let Some(slots) = self.applies(r, s, pos, rng)? {
+                if let Some(slots) = self.applies(r, s, pos, m, rng)? {
                     return Ok(Some((r, slots)));
                 }
             }
@@ -456,7 +913,7 @@ impl System {
         }
         let mut candidates: Vec<(&Rule, Vec<f64>, f64)> = Vec::new();
         for r in group {
-            if let Some(slots) = self.applies(r, s, pos, rng)? {
+            if let Some(slots) = self.applies(r, s, pos, m, rng)? {
                 let w = match &r.prob {
                     None => 1.0,
                     Some(c) => eval(c, &slots, rng)?,
@@ -490,10 +947,21 @@ impl System {
         unreachable!()
     }
 
-    /// Does `r` apply at `pos` (contexts, then condition)? Its slots if so.
-    fn applies(&self, r: &Rule, s: &[Module], pos: usize, rng: &mut Random) -> R<Option<Vec<f64>>> {
+    /// Does `r` apply to `m` at `pos` (contexts, then condition)? Its
+    /// slots if so.
+    fn applies(
+        &self,
+        r: &Rule,
+        s: &[Module],
+        pos: usize,
+        m: &Module,
+        rng: &mut Random,
+    ) -> R<Option<Vec<f64>>> {
         let mut slots = vec![0.0; r.nslots];
-        r.pred.bind(&s[pos], &mut slots);
+        r.pred.bind(m, &mut slots);
+        if let Some(i) = r.step_slot {
+            slots[i] = self.step.get();
+        }
         if !self.left_context(s, pos, &r.left, &mut slots) {
             return Ok(None);
         }
@@ -617,6 +1085,23 @@ impl System {
 /// The message of the error `derive` gives for too long a string.
 pub const TOO_LONG: &str = "the reference gives up: string too long";
 
+/// Where the cut by the `%` at `pos` ends: the closest unmatched `]` after
+/// it (kept), or the end of the string.
+fn cut_end(s: &[Module], pos: usize) -> usize {
+    let mut depth = 0usize;
+    for (j, m) in s.iter().enumerate().skip(pos + 1) {
+        if m.is_open() {
+            depth += 1;
+        } else if m.is_close() {
+            if depth == 0 {
+                return j;
+            }
+            depth -= 1;
+        }
+    }
+    s.len()
+}
+
 /// The index just after the `]` that closes the `[` at `open`.
 fn after_branch(s: &[Module], open: usize) -> usize {
     let mut depth = 0;
@@ -665,4 +1150,358 @@ pub fn derive_text_stats(
         t
     });
     (r, sys.stats())
+}
+
+/// Hand-derived checks of the structural features (docs/structural.md).
+/// Run with `cargo test --test differential reference::`.
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand_chacha::rand_core::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// (what, .ls text, steps, expected): the hand-derived cases of
+    /// `tests/tools/ref.py --self-test`.
+    const CASES: &[(&str, &str, u64, &str)] = &[
+        ("groups cycle", "groups: 1 1 2\nproductions:\nA -> A\nproductions 1:\nA -> AB\nproductions 2:\nA -> A[+B]\nB -> BB\naxiom: A\n", 1, "AB"),
+        ("groups cycle 2", "groups: 1 1 2\nproductions:\nA -> A\nproductions 1:\nA -> AB\nproductions 2:\nA -> A[+B]\nB -> BB\naxiom: A\n", 2, "ABB"),
+        ("groups cycle 3", "groups: 1 1 2\nproductions:\nA -> A\nproductions 1:\nA -> AB\nproductions 2:\nA -> A[+B]\nB -> BB\naxiom: A\n", 3, "A[+B]BBBB"),
+        ("groups cycle 4", "groups: 1 1 2\nproductions:\nA -> A\nproductions 1:\nA -> AB\nproductions 2:\nA -> A[+B]\nB -> BB\naxiom: A\n", 4, "AB[+B]BBBB"),
+        ("groups fallback", "groups: 1\nproductions:\nA -> X\nB -> Y\nproductions 1:\nA -> Z\naxiom: AB\n", 1, "ZY"),
+        ("groups fallback on a failed condition", "groups: 1\nproductions:\nA(x) -> A(x+1)\nproductions 1:\nA(x) : x > 1 -> Z(x)\naxiom: A(0)A(2)\n", 2, "A(2)Z(2)"),
+        ("group expression", "group: 1 + (step > 2)\nproductions 1:\nA -> AB\nproductions 2:\nA -> AC\naxiom: A\n", 3, "ACBB"),
+        ("productions 0 is group 0", "productions 0:\nA -> AB\naxiom: A\n", 2, "ABB"),
+        ("step", "productions:\nA(x) -> A(x+step)\naxiom: A(0)\n", 3, "A(6)"),
+        ("step in a condition", "productions:\nB : step == 2 -> C\naxiom: BB\n", 2, "CC"),
+        ("step in a condition, other step", "productions:\nB : step == 2 -> C\naxiom: BB\n", 1, "BB"),
+        ("a constant hides step", "define: step = 10\nproductions:\nA(x) -> A(x+step)\naxiom: A(0)\n", 2, "A(20)"),
+        ("a formal parameter hides step", "productions:\nA(step) -> A(step*2)\naxiom: A(3)\n", 2, "A(12)"),
+        ("step in the homomorphism is n", "productions:\nA(x) -> A(x+step)\nhomomorphism:\nA(x) -> B(x,step)\naxiom: A(0)\n", 2, "B(3,2)"),
+        ("step in the homomorphism, n = 0", "productions:\nA(x) -> A(x+step)\nhomomorphism:\nA(x) -> B(x,step)\naxiom: A(0)\n", 0, "B(0,0)"),
+        ("decomposition, axiom untouched", "productions:\nA -> IA\ndecomposition:\nI -> FF\naxiom: IA\n", 0, "IA"),
+        ("decomposition step 1", "productions:\nA -> IA\ndecomposition:\nI -> FF\naxiom: IA\n", 1, "FFFFA"),
+        ("decomposition step 2", "productions:\nA -> IA\ndecomposition:\nI -> FF\naxiom: IA\n", 2, "FFFFFFA"),
+        ("decomposition depth 1", "productions:\nA -> LA\ndecomposition:\nL -> [+P][-P]\nP -> [F]\naxiom: A\n", 1, "[+P][-P]A"),
+        ("decomposition depth 1, next step", "productions:\nA -> LA\ndecomposition:\nL -> [+P][-P]\nP -> [F]\naxiom: A\n", 2, "[+[F]][-[F]][+P][-P]A"),
+        ("decomposition depth 2", "productions:\nA -> LA\ndecomposition:\nmaximum depth: 2\nL -> [+P][-P]\nP -> [F]\naxiom: A\n", 1, "[+[F]][-[F]]A"),
+        ("decomposition limit", "productions:\nZ -> X\ndecomposition: warnings\nmaximum depth: 3\nX -> XY\naxiom: Z\n", 1, "XYYY"),
+        ("decomposition with step, step 1", "productions:\nA -> AL\ndecomposition:\nL : step > 1 -> F(step)\naxiom: A\n", 1, "AL"),
+        ("decomposition with step, step 2", "productions:\nA -> AL\ndecomposition:\nL : step > 1 -> F(step)\naxiom: A\n", 2, "AF(2)F(2)"),
+        ("cut: manual 6.4, step 1", "productions:\nD(a) : a < 20 -> D(a+1)\nD(a) : a >= 20 -> %\naxiom: A[+D(19)F]B\n", 1, "A[+D(20)F]B"),
+        ("cut: % produced in step 2", "productions:\nD(a) : a < 20 -> D(a+1)\nD(a) : a >= 20 -> %\naxiom: A[+D(19)F]B\n", 2, "A[+%F]B"),
+        ("cut: % cuts in step 3", "productions:\nD(a) : a < 20 -> D(a+1)\nD(a) : a >= 20 -> %\naxiom: A[+D(19)F]B\n", 3, "A[+]B"),
+        ("cut at top level", "axiom: AB%C[D]E\n", 1, "AB"),
+        ("cut in a branch", "axiom: A[B%C[D]E]F\n", 1, "A[B]F"),
+        ("cut: n = 0 cuts nothing", "axiom: A[B%C[D]E]F\n", 0, "A[B%C[D]E]F"),
+        ("a rewritten % is no cut", "productions:\n% -> X\naxiom: A%B\n", 1, "AXB"),
+        ("%(x) is no cut", "axiom: A%(1)B\n", 1, "A%(1)B"),
+        ("contexts see the cut part", "productions:\nB > %C -> Y\naxiom: AB%C\n", 1, "AY"),
+        ("cut modules are not evaluated", "productions:\nC(x) -> D(1/x)\naxiom: %C(0)\n", 1, ""),
+        ("decomposition of % prevents the cut", "decomposition:\n% -> G\naxiom: A%B\n", 1, "AGB"),
+        ("% from decomposition cuts next step", "productions:\nA -> K\ndecomposition:\nK -> %\naxiom: [AE]B\n", 1, "[%E]B"),
+        ("% from decomposition cuts next step 2", "productions:\nA -> K\ndecomposition:\nK -> %\naxiom: [AE]B\n", 2, "[]B"),
+        ("the homomorphism never cuts", "homomorphism:\nA -> F\nB -> %C\naxiom: A%B\n", 0, "F%%C"),
+        ("homomorphism depth 2", "homomorphism:\nmaximum depth: 2\nF -> G P(0,0)\nG > P(x,y) : y > 3 -> f\naxiom: F P(1,5) F P(1,2)\n", 0, "fP(0,0)P(1,5)GP(0,0)P(1,2)"),
+        ("homomorphism depth 1", "homomorphism:\nF -> G P(0,0)\nG > P(x,y) : y > 3 -> f\naxiom: F P(1,5) F P(1,2)\n", 0, "GP(0,0)P(1,5)GP(0,0)P(1,2)"),
+        ("homomorphism limit", "homomorphism: no warnings\nseed: 4\nmaximum depth: 3\nX -> XY\naxiom: X\n", 0, "XYYY"),
+    ];
+
+    /// Refused when loaded (with a part of the message).
+    const BAD: &[(&str, &str, &str)] = &[
+        (
+            "decomposition with a left context",
+            "decomposition:\nA < L -> X\naxiom: L\n",
+            "has no context",
+        ),
+        (
+            "decomposition with a right context",
+            "decomposition:\nL > A -> X\naxiom: L\n",
+            "has no context",
+        ),
+        (
+            "decomposition after homomorphism",
+            "homomorphism:\nA -> B\ndecomposition:\nL -> X\naxiom: L\n",
+            "comes before `homomorphism:`",
+        ),
+        (
+            "productions after decomposition",
+            "decomposition:\nL -> X\nproductions:\nA -> B\naxiom: L\n",
+            "productions after decomposition",
+        ),
+        (
+            "second decomposition",
+            "decomposition:\nL -> X\ndecomposition:\nK -> X\naxiom: L\n",
+            "second `decomposition:`",
+        ),
+        (
+            "maximum depth 0",
+            "decomposition:\nmaximum depth: 0\nL -> X\naxiom: L\n",
+            "maximum depth must be",
+        ),
+        (
+            "negative maximum depth",
+            "homomorphism:\nmaximum depth: -1\nL -> X\naxiom: L\n",
+            "maximum depth must be",
+        ),
+        (
+            "fractional maximum depth",
+            "homomorphism:\nmaximum depth: 2.5\nL -> X\naxiom: L\n",
+            "maximum depth must be",
+        ),
+        (
+            "maximum depth too large",
+            "homomorphism:\nmaximum depth: 10001\nL -> X\naxiom: L\n",
+            "maximum depth must be",
+        ),
+        (
+            "maximum depth twice",
+            "homomorphism:\nmaximum depth: 2\nmaximum depth: 2\naxiom: L\n",
+            "comes once",
+        ),
+        (
+            "maximum depth after a production",
+            "homomorphism:\nL -> X\nmaximum depth: 2\naxiom: L\n",
+            "comes once",
+        ),
+        (
+            "maximum depth in the settings",
+            "maximum depth: 2\naxiom: L\n",
+            "belongs to",
+        ),
+        (
+            "maximum depth in productions",
+            "productions:\nmaximum depth: 2\naxiom: L\n",
+            "belongs to",
+        ),
+        (
+            "seed in decomposition",
+            "decomposition:\nseed: 2\nL -> X\naxiom: L\n",
+            "no `seed:` here",
+        ),
+        (
+            "bad warnings word",
+            "homomorphism: maybe\nL -> X\naxiom: L\n",
+            "expected `warnings`",
+        ),
+        (
+            "negative group",
+            "groups: 1\nproductions -1:\nA -> B\naxiom: A\n",
+            "production group must be",
+        ),
+        (
+            "fractional group",
+            "groups: 1\nproductions 1.5:\nA -> B\naxiom: A\n",
+            "production group must be",
+        ),
+        (
+            "group too large",
+            "groups: 70000\nproductions 70000:\nA -> B\naxiom: A\n",
+            "production group must be",
+        ),
+        (
+            "group declared twice",
+            "groups: 2\nproductions 2:\nA -> B\nproductions 2:\nA -> C\naxiom: A\n",
+            "group 2 is declared twice",
+        ),
+        (
+            "group 0 declared twice",
+            "productions:\nA -> B\nproductions 0:\nA -> C\naxiom: A\n",
+            "group 0 is declared twice",
+        ),
+        (
+            "decomposition group",
+            "decomposition 1:\nL -> X\naxiom: L\n",
+            "has no groups",
+        ),
+        (
+            "unknown group in a schedule",
+            "groups: 1 3\nproductions 1:\nA -> B\naxiom: A\n",
+            "unknown group 3",
+        ),
+        (
+            "empty schedule",
+            "groups:\nproductions:\nA -> B\naxiom: A\n",
+            "`groups:` takes",
+        ),
+        (
+            "schedule with a name",
+            "groups: 1 x\nproductions 1:\nA -> B\naxiom: A\n",
+            "`groups:` takes",
+        ),
+        (
+            "both schedules",
+            "groups: 1\ngroup: 1\nproductions 1:\nA -> B\naxiom: A\n",
+            "not both",
+        ),
+        (
+            "random group",
+            "group: ran(3)\nproductions 1:\nA -> B\naxiom: A\n",
+            "cannot use ran",
+        ),
+        (
+            "unused group",
+            "productions 1:\nA -> B\naxiom: A\n",
+            "never used",
+        ),
+        ("step in define", "define: x = step\naxiom: A\n", "`step`"),
+        ("step in the axiom", "axiom: A(step)\n", "`step`"),
+    ];
+
+    /// Refused while deriving.
+    const BAD_AT_RUN: &[(&str, &str, u64)] = &[
+        (
+            "group expression names no group",
+            "group: step\nproductions 1:\nA -> B\naxiom: A\n",
+            2,
+        ),
+        (
+            "group expression not whole",
+            "group: step / 2\nproductions 1:\nA -> B\naxiom: A\n",
+            1,
+        ),
+    ];
+
+    fn derive(src: &str, steps: u64, seed: u64) -> R<String> {
+        System::load(src)?
+            .derive(Some(steps), Some(seed), usize::MAX)
+            .map(|s| format_string(&s))
+    }
+
+    #[test]
+    fn hand_derived_strings() {
+        let mut failures = Vec::new();
+        for (what, src, n, want) in CASES {
+            match derive(src, *n, 0) {
+                Ok(got) if got == *want => {}
+                got => failures.push(format!("{what} (n={n}): got {got:?}, want {want:?}")),
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    #[test]
+    fn bad_input_is_refused() {
+        let mut failures = Vec::new();
+        for (what, src, part) in BAD {
+            // The reference reads the axiom when deriving.
+            match System::load(src).and_then(|s| s.derive(Some(0), Some(0), usize::MAX)) {
+                Err(e) if e.contains(part) => {}
+                Err(e) => failures.push(format!("{what}: wrong error {e:?}, want {part:?}")),
+                Ok(_) => failures.push(format!("{what}: accepted")),
+            }
+        }
+        for (what, src, n) in BAD_AT_RUN {
+            match System::load(src).map(|s| s.derive(Some(*n), Some(0), usize::MAX)) {
+                Ok(Err(e)) if e.contains("group: gives") => {}
+                other => failures.push(format!("{what}: {:?}", other.map(|r| r.is_ok()))),
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    /// Both references agree on the structural models: every
+    /// `tests/expected/structural/NAME.nN.txt` (written by ref.py) is what
+    /// this reference derives from `tests/structural/NAME.ls`.
+    #[test]
+    fn agrees_with_ref_py_on_the_structural_models() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let dir = root.join("tests/expected/structural");
+        let mut checked = 0;
+        for entry in std::fs::read_dir(&dir).expect("tests/expected/structural") {
+            let file = entry.unwrap().file_name().into_string().unwrap();
+            let Some((name, n)) = file
+                .strip_suffix(".txt")
+                .and_then(|stem| stem.rsplit_once(".n"))
+            else {
+                continue;
+            };
+            let n: u64 = n.parse().unwrap();
+            let src =
+                std::fs::read_to_string(root.join(format!("tests/structural/{name}.ls"))).unwrap();
+            let want = std::fs::read_to_string(dir.join(&file)).unwrap();
+            let got = derive(&src, n, 0).unwrap_or_else(|e| panic!("{file}: {e}"));
+            assert_eq!(format!("{got}\n"), want, "{file}");
+            checked += 1;
+        }
+        assert!(checked >= 20, "only {checked} structural expected files");
+    }
+
+    /// Both references agree on random systems with every structural
+    /// feature (written by `tests/tools/gen_cross_cases.py` with ref.py).
+    #[test]
+    fn agrees_with_ref_py_on_random_cases() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/expected/structural/random_cases.txt"
+        );
+        let text = std::fs::read_to_string(path).expect("random_cases.txt");
+        let mut checked = 0;
+        let mut failures = Vec::new();
+        for case in text.split("=== ").skip(1) {
+            let (steps, rest) = case.split_once('\n').unwrap();
+            let (src, want) = rest.split_once("--- expected\n").unwrap();
+            let steps: u64 = steps.parse().unwrap();
+            match derive(src, steps, 0) {
+                Ok(got) if got == want.trim_end_matches('\n') => {}
+                got => failures.push(format!("n={steps}\n{src}got {got:?}, want {want:?}")),
+            }
+            checked += 1;
+        }
+        assert!(checked >= 300, "only {checked} cases");
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    /// The i-th uniform of `ChaCha8Rng::seed_from_u64(seed)`, computed
+    /// here from rand_chacha (README: the top 53 bits of one draw / 2^53).
+    fn u(seed: u64, i: usize) -> String {
+        let mut r = ChaCha8Rng::seed_from_u64(seed);
+        let mut x = 0;
+        for _ in 0..=i {
+            x = r.next_u64();
+        }
+        format_number((x >> 11) as f64 / (1u64 << 53) as f64)
+    }
+
+    #[test]
+    fn decomposition_draws_right_after_its_module() {
+        // Fused into the step: A1's successor, its decomposition, then A2.
+        let src = "productions:\nA -> B(ran(1))\ndecomposition:\nB(x) -> C(x, ran(1))\naxiom: AA\n";
+        let want = format!("C({},{})C({},{})", u(5, 0), u(5, 1), u(5, 2), u(5, 3));
+        assert_eq!(derive(src, 1, 5).unwrap(), want);
+    }
+
+    #[test]
+    fn cut_modules_make_no_draws() {
+        let src = "productions:\nB -> X(ran(1))\nA -> Y(ran(1))\naxiom: [%B]A\n";
+        assert_eq!(derive(src, 1, 6).unwrap(), format!("[]Y({})", u(6, 0)));
+    }
+
+    #[test]
+    fn group_zero_draws_after_the_steps_group() {
+        // Group 1's condition draws first (and fails), then group 0's successor.
+        let src = "groups: 1\nproductions:\nA -> Y(ran(1))\nproductions 1:\nA : ran(1) > 2 -> X\naxiom: A\n";
+        assert_eq!(derive(src, 1, 7).unwrap(), format!("Y({})", u(7, 1)));
+    }
+
+    #[test]
+    fn homomorphism_seed_is_its_own_generator() {
+        let own = "seed: 3\nproductions:\nA -> A(ran(1))\nhomomorphism:\nseed: 9\nA(x) -> B(x, ran(1))\naxiom: A\n";
+        let got = System::load(own).unwrap().derive(Some(1), None, usize::MAX);
+        let want = format!("B({},{})", u(3, 0), u(9, 0));
+        assert_eq!(format_string(&got.unwrap()), want);
+        // `--seed` changes the main generator only.
+        let want = format!("B({},{})", u(4, 0), u(9, 0));
+        assert_eq!(derive(own, 1, 4).unwrap(), want);
+        // Without it, the homomorphism continues the main generator.
+        let shared = own.replace("seed: 9\n", "");
+        let want = format!("B({},{})", u(3, 0), u(3, 1));
+        assert_eq!(derive(&shared, 1, 3).unwrap(), want);
+    }
+
+    #[test]
+    fn homomorphism_recursion_draws_depth_first() {
+        let src = "homomorphism:\nmaximum depth: 2\nA -> B(ran(1))C\nB(x) -> D(x, ran(1))\nC -> E(ran(1))\naxiom: A\n";
+        let want = format!("D({},{})E({})", u(2, 0), u(2, 1), u(2, 2));
+        assert_eq!(derive(src, 0, 2).unwrap(), want);
+    }
 }

@@ -216,5 +216,53 @@ check(
     "A(1)F[C]B(6)+[A(9)]A(3)B(4)",
 )
 
+# The structural models (tests/structural/), against strings derived by
+# hand from the cpfg manual's descriptions and docs/structural.md.
+def run_structural(name, n):
+    return ref.run_file(os.path.join(ROOT, "tests", "structural", name + ".ls"), n)
+
+
+STRUCTURAL_BY_HAND = [
+    # cpfg manual 6.4: D(17) reaches 20 in step 3, is % after step 4, cuts in step 5.
+    ("cpfg_cut", 3, "F[+D(4)F]F[-D(20)F]F"),
+    ("cpfg_cut", 4, "F[+D(5)F]F[-%F]F"),
+    ("cpfg_cut", 5, "F[+D(6)F]F[-]F"),
+    # cpfg manual 4.4: the axiom is not decomposed; decomposed parts stay.
+    ("cpfg_decomposition", 0, "LA"),
+    ("cpfg_decomposition", 1, "[+F][-F]I[+F][-F]A"),
+    ("cpfg_decomposition", 2, "[+FF][-FF]I[+FF][-FF]I[+F][-F]A"),
+    # cpfg manual 4.3.2: G sees the original P(x,y), f when y > 3.
+    ("cpfg_homomorphism_depth", 0, "fP(0,0)P(1,5)GP(0,0)P(1,2)"),
+    ("cpfg_homomorphism_depth", 1, "fP(0,0)P(1,6)GP(0,0)P(1,3)"),
+    ("cpfg_homomorphism_depth", 2, "fP(0,0)P(1,7)fP(0,0)P(1,4)"),
+    ("compound_leaf", 1, "I[+F[+[&K]][-[&K]][&K]][-F[+[&K]][-[&K]][&K]]A(2)"),
+    (
+        "compound_leaf",
+        2,
+        "I[+F[+[&K]][-[&K]][&K]][-F[+[&K]][-[&K]][&K]]"
+        "I[+F[+[&K]][-[&K]]F[+[&K]][-[&K]]P][-F[+[&K]][-[&K]]F[+[&K]][-[&K]]P]A(3)",
+    ),
+    ("alternating_tables", 2, "FI[+I[+A][-A]A][-I[+A][-A]A]I[+A][-A]A"),
+    ("alternating_tables", 3, "FI[+I[+RA][-RA]RA][-I[+RA][-RA]RA]I[+RA][-RA]RA"),
+    ("group_expression", 4, "A[-C(4)][+B(3)][-C(2)][+B(1)]"),
+    ("step_number", 5, "F(1)F(2)F(3)F(4)[+B(5)]F(5)[+B(5)]A"),
+    ("shedding_plant", 2, "FI[+S(1)FFL]FI[-S(1)FFL]I[+S(0)FL]I[-S(0)FL]A"),
+    (
+        "shedding_plant",
+        4,
+        "FFFFFFFI[+%FFFFFFFFL]FFFFFFFI[-%FFFFFFFFL]FFFI[+S(2)FFFFL]FFFI[-S(2)FFFFL]"
+        "FI[+S(1)FFL]FI[-S(1)FFL]I[+S(0)FL]I[-S(0)FL]A",
+    ),
+]
+for name, n, want in STRUCTURAL_BY_HAND:
+    check("%s n%d" % (name, n), run_structural(name, n), want)
+# Shedding: after step 5 the two oldest branches are empty, the next two hold %.
+s5 = run_structural("shedding_plant", 5)
+check("shedding_plant n5 cut branches", (s5.count("[+]"), s5.count("[-]"), s5.count("%")), (1, 1, 2))
+
+# The structural features (docs/structural.md): ref.py's own hand-derived
+# self-test.
+check("ref.py --self-test failures", ref.self_test(), 0)
+
 print("%d passed, %d failed" % (passed, failed))
 sys.exit(1 if failed else 0)

@@ -1,5 +1,7 @@
 #!/usr/bin/env python3
-"""Regenerate tests/expected/ from examples/*.ls with the reference rewriter.
+"""Regenerate tests/expected/ from examples/*.ls with the reference rewriter,
+and tests/expected/structural/ from tests/structural/*.ls (the models of
+docs/structural.md, which lsgen does not parse yet).
 
 Usage (from the repository root):
     python3 tests/tools/gen_expected.py          # write all files + README.md
@@ -58,6 +60,38 @@ MANIFEST = {
     "context_plant_e": [1, 2, 3, 12, 26],
 }
 
+# tests/structural/NAME.ls -> derivation lengths (tests/expected/structural/)
+STRUCTURAL_MANIFEST = {
+    "shedding_plant": [3, 4, 5],
+    "compound_leaf": [0, 1, 2, 3],
+    "alternating_tables": [1, 2, 3, 4, 6],
+    "group_expression": [1, 2, 4],
+    "step_number": [0, 3, 4, 5],
+    "cpfg_cut": [3, 4, 5],
+    "cpfg_decomposition": [0, 1, 2],
+    "cpfg_homomorphism_depth": [0, 1, 2],
+}
+
+STRUCTURAL_README_HEAD = """\
+# Expected outputs of the structural models
+
+Each `NAME.nN.txt` is the exact output of `tests/structural/NAME.ls` after
+`N` derivation steps (homomorphism applied), on one line,
+newline-terminated: decomposition, homomorphism depth, the cut `%`,
+production groups and `step`, as designed in `docs/structural.md`.  They
+live in this subdirectory, not in `tests/expected/`, because lsgen does not
+parse these files yet (`tests/examples.rs` runs lsgen on every
+`tests/expected/*.txt`); `tests/structural.rs` will use them.
+
+Produced by `tests/tools/ref.py` (hand-checked in `tests/tools/check_ref.py`);
+regenerate or check all of them with
+
+    python3 tests/tools/gen_expected.py [--check]
+
+| file | bytes | command |
+| --- | --- | --- |
+"""
+
 README_HEAD = """\
 # Expected outputs
 
@@ -86,21 +120,23 @@ reference's own sanity checks (hand-derived strings, Fibonacci lengths,
 """
 
 
-def main(argv):
-    check = "--check" in argv
-    outdir = os.path.join(ROOT, "tests", "expected")
-    os.makedirs(outdir, exist_ok=True)
+def generate(manifest, srcdir, outdir, readme_head, check):
+    """Write (or with check, compare) one directory of expected files and
+    its README; return (files, differing)."""
+    os.makedirs(os.path.join(ROOT, outdir), exist_ok=True)
     rows = []
     bad = 0
-    for name in sorted(MANIFEST):
-        src = os.path.join(ROOT, "examples", name + ".ls")
-        for n in MANIFEST[name]:
+    for name in sorted(manifest):
+        src = os.path.join(ROOT, srcdir, name + ".ls")
+        for n in manifest[name]:
             text = ref.run_file(src, n) + "\n"
             fname = "%s.n%d.txt" % (name, n)
-            path = os.path.join(outdir, fname)
-            cmd = "python3 tests/tools/ref.py examples/%s.ls -n %d > tests/expected/%s" % (
+            path = os.path.join(ROOT, outdir, fname)
+            cmd = "python3 tests/tools/ref.py %s/%s.ls -n %d > %s/%s" % (
+                srcdir,
                 name,
                 n,
+                outdir,
                 fname,
             )
             rows.append("| `%s` | %d | `%s` |\n" % (fname, len(text), cmd))
@@ -111,27 +147,44 @@ def main(argv):
                 except FileNotFoundError:
                     old = None
                 if old != text:
-                    print("differs: %s" % fname)
+                    print("differs: %s/%s" % (outdir, fname))
                     bad += 1
             else:
                 with open(path, "w", encoding="utf-8", newline="\n") as f:
                     f.write(text)
-    readme = README_HEAD + "".join(rows)
-    readme_path = os.path.join(outdir, "README.md")
+    readme = readme_head + "".join(rows)
+    readme_path = os.path.join(ROOT, outdir, "README.md")
     if check:
         try:
             with open(readme_path, encoding="utf-8") as f:
                 if f.read() != readme:
-                    print("differs: README.md")
+                    print("differs: %s/README.md" % outdir)
                     bad += 1
         except FileNotFoundError:
-            print("missing: README.md")
+            print("missing: %s/README.md" % outdir)
             bad += 1
-        print("%d expected files checked, %d differ" % (len(rows), bad))
+    else:
+        with open(readme_path, "w", encoding="utf-8", newline="\n") as f:
+            f.write(readme)
+    return len(rows), bad
+
+
+def main(argv):
+    check = "--check" in argv
+    files, bad = generate(MANIFEST, "examples", "tests/expected", README_HEAD, check)
+    more, more_bad = generate(
+        STRUCTURAL_MANIFEST,
+        "tests/structural",
+        "tests/expected/structural",
+        STRUCTURAL_README_HEAD,
+        check,
+    )
+    files += more
+    bad += more_bad
+    if check:
+        print("%d expected files checked, %d differ" % (files, bad))
         return 1 if bad else 0
-    with open(readme_path, "w", encoding="utf-8", newline="\n") as f:
-        f.write(readme)
-    print("wrote %d expected files and README.md" % len(rows))
+    print("wrote %d expected files and their README.md" % files)
     return 0
 
 

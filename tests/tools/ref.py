@@ -12,8 +12,15 @@ parameters, conditions, homomorphism, and comments.  Stochastic productions
 are parsed, but deriving with them is refused (the reference has no RNG that
 matches lsgen's), except for n = 0.
 
+Also the structural features of docs/structural.md (issue 11): production
+groups (`productions N:`, `groups:` / `group:`), the built-in `step`,
+decomposition (`decomposition:`, `maximum depth:`), homomorphism depth, and
+the cut `%`.  `python3 tests/tools/ref.py --self-test` checks them against
+hand-derived strings.
+
 Usage:
     python3 tests/tools/ref.py FILE.ls [-n STEPS]
+    python3 tests/tools/ref.py --self-test
 
 Prints the final string on one line.  Without -n the file's
 `derivation length:` is used (0 if absent).  The homomorphism, if any, is
@@ -22,6 +29,7 @@ applied once to the result.
 
 import argparse
 import math
+import re
 import sys
 
 # ---------------------------------------------------------------------------
@@ -83,6 +91,10 @@ class LsError(Exception):
     pass
 
 
+def _no_random():
+    raise LsError("ran/nran are not supported by ref.py")
+
+
 def _deg_fn(f):
     return lambda x: f(math.radians(x))
 
@@ -101,6 +113,8 @@ FUNCTIONS = {
     "min": (2, min),
     "max": (2, max),
     "atan2": (2, lambda y, x: math.degrees(math.atan2(y, x))),
+    "ran": (1, lambda x: _no_random()),
+    "nran": (2, lambda m, sd: _no_random()),
 }
 
 
@@ -398,8 +412,15 @@ class LSystem:
         self.seed = None
         self.ignore = None
         self.consider = None
-        self.productions = []
+        self.productions = []  # group 0
+        self.groups = {0: self.productions}  # group number -> productions
+        self.schedule = None  # list of group numbers (`groups:`)
+        self.group_expr = None  # expression AST (`group:`)
+        self.decomposition = None  # list of productions, or None
+        self.decomposition_depth = 1
         self.homomorphism = []
+        self.homomorphism_depth = 1
+        self.homomorphism_seed = None
         self.axiom = []
 
 
@@ -473,11 +494,40 @@ def parse_production(line):
     return Production(lc, pred[0], rc, cond, succ, prob, line.strip())
 
 
+_MAX_DEPTH = 10000
+_MAX_GROUP = 65535
+
+
+def _whole(text, lo, hi, what):
+    t = text.strip()
+    if not t.isdigit() or not lo <= int(t) <= hi:
+        raise LsError("%s must be a whole number from %d to %d: %r" % (what, lo, hi, t))
+    return int(t)
+
+
+def _uses_random(e):
+    if e[0] == "call":
+        return e[1] in ("ran", "nran") or any(_uses_random(a) for a in e[2])
+    if e[0] == "un":
+        return _uses_random(e[2])
+    if e[0] == "bin":
+        return _uses_random(e[2]) or _uses_random(e[3])
+    return False
+
+
+_SECTION = re.compile(r"^(productions|decomposition|homomorphism)(?:\s+([^:]*?))?\s*:\s*(.*)$")
+_SETTING_IN_SECTION = re.compile(r"^(maximum\s+depth|seed)\s*:(.*)$")
+
+
 def parse_ls(text):
     ls = LSystem()
     text = _strip_comments(text)
     lines = text.split("\n")
     section = "settings"
+    current = None  # production list being filled
+    in_head = False  # right after a decomposition/homomorphism keyword
+    head_seen = set()
+    seen = set()  # section names seen
     i = 0
     while i < len(lines):
         line = lines[i].strip()
@@ -485,11 +535,35 @@ def parse_ls(text):
         if not line:
             continue
         low = line.lower()
-        if low == "productions:":
-            section = "productions"
-            continue
-        if low == "homomorphism:":
-            section = "homomorphism"
+        m = _SECTION.match(low)
+        if m and not (m.group(1) == "productions" and m.group(3)):
+            name, num, rest = m.group(1), m.group(2), m.group(3).strip()
+            if name == "productions":
+                if "decomposition" in seen or "homomorphism" in seen:
+                    raise LsError("productions after decomposition/homomorphism: %r" % line)
+                g = 0 if num is None else _whole(num, 0, _MAX_GROUP, "a production group")
+                if g != 0 and g not in ls.groups:
+                    ls.groups[g] = []
+                elif ("productions", g) in seen:
+                    raise LsError("group %d is declared twice" % g)
+                seen.add(("productions", g))
+                section, current, in_head = "productions", ls.groups[g], False
+                continue
+            if num is not None:
+                raise LsError("%s has no groups" % name)
+            if rest not in ("", "warnings", "no warnings"):
+                raise LsError("expected `warnings` or `no warnings` after %s:" % name)
+            if name in seen:
+                raise LsError("second `%s:` section" % name)
+            if name == "decomposition" and "homomorphism" in seen:
+                raise LsError("`decomposition:` comes before `homomorphism:`")
+            seen.add(name)
+            if name == "decomposition":
+                ls.decomposition = []
+                current = ls.decomposition
+            else:
+                current = ls.homomorphism
+            section, in_head, head_seen = name, True, set()
             continue
         if low.startswith("axiom:"):
             rest = line[len("axiom:") :] + "\n" + "\n".join(lines[i:])
@@ -498,7 +572,26 @@ def parse_ls(text):
                 (s, tuple(eval_expr(parse_expr(a), env) for a in args))
                 for s, args in parse_module_list(rest)
             ]
+            _check_groups(ls)
             return ls
+        hm = _SETTING_IN_SECTION.match(low)
+        if hm and section in ("decomposition", "homomorphism"):
+            key = " ".join(hm.group(1).split())
+            if not in_head or key in head_seen:
+                raise LsError("`%s:` comes once, right after the section keyword" % key)
+            head_seen.add(key)
+            value = line[line.index(":") + 1 :]
+            if key == "maximum depth":
+                depth = _whole(value, 1, _MAX_DEPTH, "maximum depth")
+                if section == "decomposition":
+                    ls.decomposition_depth = depth
+                else:
+                    ls.homomorphism_depth = depth
+            elif section == "decomposition":
+                raise LsError("decomposition uses the main random generator: no `seed:` here")
+            else:
+                ls.homomorphism_seed = _whole(value, 0, 2**53, "seed")
+            continue
         if section == "settings":
             key, sep, value = line.partition(":")
             if not sep:
@@ -518,13 +611,41 @@ def parse_ls(text):
                 ls.ignore = set(value.replace(" ", ""))
             elif key == "consider":
                 ls.consider = set(value.replace(" ", ""))
+            elif key in ("groups", "group"):
+                if ls.schedule is not None or ls.group_expr is not None:
+                    raise LsError("use either `groups:` or `group:`, not both")
+                if key == "groups":
+                    nums = value.split()
+                    if not nums or not all(x.isdigit() for x in nums):
+                        raise LsError("`groups:` takes whole group numbers separated by blanks")
+                    ls.schedule = [int(x) for x in nums]
+                else:
+                    ls.group_expr = parse_expr(value)
+                    if _uses_random(ls.group_expr):
+                        raise LsError("`group:` cannot use ran or nran")
+            elif key == "maximum depth":
+                raise LsError("`maximum depth:` belongs to `decomposition:` or `homomorphism:`")
             else:
                 raise LsError("unknown setting %r" % key)
-        elif section == "productions":
-            ls.productions.append(parse_production(line))
         else:
-            ls.homomorphism.append(parse_production(line))
+            if _SETTING_IN_SECTION.match(low) and section == "productions":
+                raise LsError("`maximum depth:` belongs to `decomposition:` or `homomorphism:`")
+            p = parse_production(line)
+            if section == "decomposition" and p.has_context:
+                raise LsError("a decomposition production has no context: %r" % line)
+            in_head = False
+            current.append(p)
     raise LsError("missing 'axiom:'")
+
+
+def _check_groups(ls):
+    for g in ls.schedule or []:
+        if g not in ls.groups:
+            raise LsError("unknown group %d: there is no `productions %d:` section" % (g, g))
+    if ls.schedule is None and ls.group_expr is None:
+        for g in sorted(ls.groups):
+            if g != 0:
+                raise LsError("group %d is never used: add a `groups:` or `group:` setting" % g)
 
 
 # ---------------------------------------------------------------------------
@@ -644,11 +765,21 @@ class Rewriter:
             return False
         return self.match_right(s, match, pos + 1, rc, j + 1, env)
 
-    def try_production(self, p, s, match, i):
-        env = dict(self.ls.defines)
+    def env(self, step):
+        """Names every expression sees: the built-in `step`, hidden by a
+        `define:` constant of that name (and, in a production, by a formal
+        parameter of that name, bound later)."""
+        env = {"step": float(step)}
+        env.update(self.ls.defines)
+        return env
+
+    def try_production(self, p, s, match, i, base, mod=None):
+        """Does p apply to `mod` (default s[i]), with contexts taken around
+        position i of s? The successor if so."""
+        env = dict(base)
         if p.lc is not None and not self.match_left(s, match, i, p.lc, env):
             return None
-        if not self.bind(p.pred, s[i], env):
+        if not self.bind(p.pred, s[i] if mod is None else mod, env):
             return None
         if p.rc is not None and not self.match_right(s, match, i + 1, p.rc, 0, env):
             return None
@@ -656,36 +787,125 @@ class Rewriter:
             return None
         return [(sym, tuple(eval_expr(a, env) for a in args)) for sym, args in p.succ]
 
-    def rewrite(self, s, prods):
+    def choose(self, prods, s, match, i, base, mod=None):
+        """The successor the first applicable production gives (context
+        productions first), or None."""
         if any(p.prob is not None for p in prods):
             raise LsError("stochastic productions are not supported by ref.py")
+        sym = (s[i] if mod is None else mod)[0]
+        for group in ([p for p in prods if p.has_context], [p for p in prods if not p.has_context]):
+            for p in group:
+                if p.pred[0] != sym:
+                    continue
+                result = self.try_production(p, s, match, i, base, mod)
+                if result is not None:
+                    return result
+        return None
+
+    def rewrite(self, s, prods):
+        """One pass of prods over s, without cut or decomposition (kept for
+        check_ref.py and callers of the old interface)."""
         match = self.bracket_map(s)
-        with_ctx = [p for p in prods if p.has_context]
-        without = [p for p in prods if not p.has_context]
+        base = self.env(0)
         out = []
         for i, mod in enumerate(s):
-            result = None
-            for group in (with_ctx, without):
-                for p in group:
-                    if p.pred[0] != mod[0]:
-                        continue
-                    result = self.try_production(p, s, match, i)
-                    if result is not None:
-                        break
-                if result is not None:
-                    break
-            if result is None:
-                out.append(mod)
-            else:
-                out.extend(result)
+            result = self.choose(prods, s, match, i, base)
+            out.extend([mod] if result is None else result)
         return out
 
-    def derive(self, n):
+    def group_for(self, k):
+        ls = self.ls
+        if ls.schedule is not None:
+            return ls.schedule[(k - 1) % len(ls.schedule)]
+        if ls.group_expr is not None:
+            v = eval_expr(ls.group_expr, self.env(k))
+            if v != math.floor(v) or int(v) not in ls.groups:
+                raise LsError("group: gives %s in step %d, not a declared group" % (fmt_num(v), k))
+            return int(v)
+        return 0
+
+    def decompose(self, mod, depth, base):
+        """mod (of depth `depth`) after decomposition, depth first."""
+        prods = self.ls.decomposition
+        if not prods or depth >= self.ls.decomposition_depth:
+            return [mod]
+        result = self.choose(prods, [mod], None, 0, base)
+        if result is None:
+            return [mod]
+        out = []
+        for m in result:
+            out.extend(self.decompose(m, depth + 1, base))
+        return out
+
+    @staticmethod
+    def cut_end(s, i):
+        """Index of the closest unmatched ']' after i, or len(s)."""
+        depth = 0
+        j = i + 1
+        while j < len(s):
+            if s[j][0] == "[":
+                depth += 1
+            elif s[j][0] == "]":
+                if depth == 0:
+                    return j
+                depth -= 1
+            j += 1
+        return j
+
+    def step(self, s, k):
+        """Derivation step k (1-based): the step's group with fallback to
+        group 0, the cut, and decomposition of every result."""
+        g = self.group_for(k)
+        base = self.env(k)
+        match = self.bracket_map(s)
+        out = []
+        i = 0
+        while i < len(s):
+            mod = s[i]
+            result = self.choose(self.ls.groups[g], s, match, i, base)
+            if result is None and g != 0:
+                result = self.choose(self.ls.groups[0], s, match, i, base)
+            if result is None:
+                if mod == ("%", ()) and (
+                    not self.ls.decomposition
+                    or self.choose(self.ls.decomposition, [mod], None, 0, base) is None
+                ):
+                    i = self.cut_end(s, i)
+                    continue
+                result = [mod]
+            for m in result:
+                out.extend(self.decompose(m, 0, base))
+            i += 1
+        return out
+
+    def homomorphism(self, s, n):
+        """The homomorphism, recursively up to its maximum depth; contexts
+        always in s around the original module."""
+        match = self.bracket_map(s)
+        base = self.env(n)
+        out = []
+
+        def expand(mod, i, depth):
+            if depth >= self.ls.homomorphism_depth:
+                out.append(mod)
+                return
+            result = self.choose(self.ls.homomorphism, s, match, i, base, mod)
+            if result is None:
+                out.append(mod)
+                return
+            for m in result:
+                expand(m, i, depth + 1)
+
+        for i, mod in enumerate(s):
+            expand(mod, i, 0)
+        return out
+
+    def derive(self, n, homomorphism=True):
         s = list(self.ls.axiom)
-        for _ in range(n):
-            s = self.rewrite(s, self.ls.productions)
-        if self.ls.homomorphism:
-            s = self.rewrite(s, self.ls.homomorphism)
+        for k in range(1, n + 1):
+            s = self.step(s, k)
+        if self.ls.homomorphism and homomorphism:
+            s = self.homomorphism(s, n)
         return s
 
 
@@ -707,7 +927,165 @@ def run_file(path, n=None):
     return format_string(Rewriter(ls).derive(n))
 
 
+# ---------------------------------------------------------------------------
+# Self-test of the structural features (docs/structural.md), hand-derived
+# ---------------------------------------------------------------------------
+
+# (label, .ls text, steps, expected string)
+SELF_TESTS = [
+    # Groups: the list cycles; a module with nothing in the step's group
+    # falls back to group 0 (here: nothing there either for B in group 1).
+    ("groups cycle", "groups: 1 1 2\nproductions:\nA -> A\nproductions 1:\nA -> AB\n"
+     "productions 2:\nA -> A[+B]\nB -> BB\naxiom: A\n", 1, "AB"),
+    ("groups cycle 2", None, 2, "ABB"),
+    ("groups cycle 3", None, 3, "A[+B]BBBB"),
+    ("groups cycle 4", None, 4, "AB[+B]BBBB"),
+    ("groups fallback", "groups: 1\nproductions:\nA -> X\nB -> Y\nproductions 1:\nA -> Z\n"
+     "axiom: AB\n", 1, "ZY"),
+    ("groups fallback on a failed condition", "groups: 1\nproductions:\nA(x) -> A(x+1)\n"
+     "productions 1:\nA(x) : x > 1 -> Z(x)\naxiom: A(0)A(2)\n", 2, "A(2)Z(2)"),
+    ("group expression", "group: 1 + (step > 2)\nproductions 1:\nA -> AB\n"
+     "productions 2:\nA -> AC\naxiom: A\n", 3, "ACBB"),
+    ("productions 0 is group 0", "productions 0:\nA -> AB\naxiom: A\n", 2, "ABB"),
+    # The step number.
+    ("step", "productions:\nA(x) -> A(x+step)\naxiom: A(0)\n", 3, "A(6)"),
+    ("step in a condition", "productions:\nB : step == 2 -> C\naxiom: BB\n", 2, "CC"),
+    ("step in a condition, other step", None, 1, "BB"),
+    ("a constant hides step", "define: step = 10\nproductions:\nA(x) -> A(x+step)\n"
+     "axiom: A(0)\n", 2, "A(20)"),
+    ("a formal parameter hides step", "productions:\nA(step) -> A(step*2)\naxiom: A(3)\n",
+     2, "A(12)"),
+    ("step in the homomorphism is n", "productions:\nA(x) -> A(x+step)\nhomomorphism:\n"
+     "A(x) -> B(x,step)\naxiom: A(0)\n", 2, "B(3,2)"),
+    ("step in the homomorphism, n = 0", None, 0, "B(0,0)"),
+    # Decomposition: not applied to the axiom; after every step, on
+    # rewritten and copied modules alike.
+    ("decomposition, axiom untouched", "productions:\nA -> IA\ndecomposition:\nI -> FF\n"
+     "axiom: IA\n", 0, "IA"),
+    ("decomposition step 1", None, 1, "FFFFA"),
+    ("decomposition step 2", None, 2, "FFFFFFA"),
+    ("decomposition depth 1", "productions:\nA -> LA\ndecomposition:\nL -> [+P][-P]\n"
+     "P -> [F]\naxiom: A\n", 1, "[+P][-P]A"),
+    ("decomposition depth 1, next step", None, 2, "[+[F]][-[F]][+P][-P]A"),
+    ("decomposition depth 2", "productions:\nA -> LA\ndecomposition:\nmaximum depth: 2\n"
+     "L -> [+P][-P]\nP -> [F]\naxiom: A\n", 1, "[+[F]][-[F]]A"),
+    ("decomposition limit", "productions:\nZ -> X\ndecomposition: warnings\n"
+     "maximum depth: 3\nX -> XY\naxiom: Z\n", 1, "XYYY"),
+    # step 1 keeps L (step > 1 fails); in step 2 the new L and the copied
+    # old L are both decomposed.
+    ("decomposition with step, step 1", "productions:\nA -> AL\ndecomposition:\n"
+     "L : step > 1 -> F(step)\naxiom: A\n", 1, "AL"),
+    ("decomposition with step, step 2", None, 2, "AF(2)F(2)"),
+    # Cut.
+    ("cut: manual 6.4, step 1", "productions:\nD(a) : a < 20 -> D(a+1)\n"
+     "D(a) : a >= 20 -> %\naxiom: A[+D(19)F]B\n", 1, "A[+D(20)F]B"),
+    ("cut: % produced in step 2", None, 2, "A[+%F]B"),
+    ("cut: % cuts in step 3", None, 3, "A[+]B"),
+    ("cut at top level", "axiom: AB%C[D]E\n", 1, "AB"),
+    ("cut in a branch", "axiom: A[B%C[D]E]F\n", 1, "A[B]F"),
+    ("cut: n = 0 cuts nothing", "axiom: A[B%C[D]E]F\n", 0, "A[B%C[D]E]F"),
+    ("a rewritten % is no cut", "productions:\n% -> X\naxiom: A%B\n", 1, "AXB"),
+    ("%(x) is no cut", "axiom: A%(1)B\n", 1, "A%(1)B"),
+    ("contexts see the cut part", "productions:\nB > %C -> Y\naxiom: AB%C\n", 1, "AY"),
+    ("cut modules are not evaluated", "productions:\nC(x) -> D(1/x)\naxiom: %C(0)\n", 1, ""),
+    ("decomposition of % prevents the cut", "decomposition:\n% -> G\naxiom: A%B\n", 1, "AGB"),
+    ("% from decomposition cuts next step", "productions:\nA -> K\ndecomposition:\nK -> %\n"
+     "axiom: [AE]B\n", 1, "[%E]B"),
+    ("% from decomposition cuts next step 2", None, 2, "[]B"),
+    ("the homomorphism never cuts", "homomorphism:\nA -> F\nB -> %C\naxiom: A%B\n", 0, "F%%C"),
+    # Homomorphism depth; contexts in the original string (manual 4.3.2).
+    ("homomorphism depth 2", "homomorphism:\nmaximum depth: 2\nF -> G P(0,0)\n"
+     "G > P(x,y) : y > 3 -> f\naxiom: F P(1,5) F P(1,2)\n", 0, "fP(0,0)P(1,5)GP(0,0)P(1,2)"),
+    ("homomorphism depth 1", "homomorphism:\nF -> G P(0,0)\nG > P(x,y) : y > 3 -> f\n"
+     "axiom: F P(1,5) F P(1,2)\n", 0, "GP(0,0)P(1,5)GP(0,0)P(1,2)"),
+    ("homomorphism limit", "homomorphism: no warnings\nseed: 4\nmaximum depth: 3\n"
+     "X -> XY\naxiom: X\n", 0, "XYYY"),
+]
+
+# (label, .ls text, part of the message): each must be refused when loaded
+SELF_TEST_ERRORS = [
+    ("decomposition with a left context", "decomposition:\nA < L -> X\naxiom: L\n", 'has no context'),
+    ("decomposition with a right context", "decomposition:\nL > A -> X\naxiom: L\n", 'has no context'),
+    ("decomposition after homomorphism", "homomorphism:\nA -> B\ndecomposition:\nL -> X\naxiom: L\n", 'comes before `homomorphism:`'),
+    ("productions after decomposition", "decomposition:\nL -> X\nproductions:\nA -> B\naxiom: L\n", 'productions after decomposition'),
+    ("second decomposition", "decomposition:\nL -> X\ndecomposition:\nK -> X\naxiom: L\n", 'second `decomposition:`'),
+    ("maximum depth 0", "decomposition:\nmaximum depth: 0\nL -> X\naxiom: L\n", 'maximum depth must be'),
+    ("negative maximum depth", "homomorphism:\nmaximum depth: -1\nL -> X\naxiom: L\n", 'maximum depth must be'),
+    ("fractional maximum depth", "homomorphism:\nmaximum depth: 2.5\nL -> X\naxiom: L\n", 'maximum depth must be'),
+    ("maximum depth too large", "homomorphism:\nmaximum depth: 10001\nL -> X\naxiom: L\n", 'maximum depth must be'),
+    ("maximum depth twice", "homomorphism:\nmaximum depth: 2\nmaximum depth: 2\naxiom: L\n", 'comes once'),
+    ("maximum depth after a production", "homomorphism:\nL -> X\nmaximum depth: 2\naxiom: L\n", 'comes once'),
+    ("maximum depth in the settings", "maximum depth: 2\naxiom: L\n", 'belongs to'),
+    ("maximum depth in productions", "productions:\nmaximum depth: 2\naxiom: L\n", 'belongs to'),
+    ("seed in decomposition", "decomposition:\nseed: 2\nL -> X\naxiom: L\n", 'no `seed:` here'),
+    ("bad warnings word", "homomorphism: maybe\nL -> X\naxiom: L\n", 'expected `warnings`'),
+    ("negative group", "groups: 1\nproductions -1:\nA -> B\naxiom: A\n", 'production group must be'),
+    ("fractional group", "groups: 1\nproductions 1.5:\nA -> B\naxiom: A\n", 'production group must be'),
+    ("group too large", "groups: 70000\nproductions 70000:\nA -> B\naxiom: A\n", 'production group must be'),
+    ("group declared twice", "groups: 2\nproductions 2:\nA -> B\nproductions 2:\nA -> C\naxiom: A\n", 'group 2 is declared twice'),
+    ("group 0 declared twice", "productions:\nA -> B\nproductions 0:\nA -> C\naxiom: A\n", 'group 0 is declared twice'),
+    ("decomposition group", "decomposition 1:\nL -> X\naxiom: L\n", 'has no groups'),
+    ("unknown group in a schedule", "groups: 1 3\nproductions 1:\nA -> B\naxiom: A\n", 'unknown group 3'),
+    ("empty schedule", "groups:\nproductions:\nA -> B\naxiom: A\n", '`groups:` takes'),
+    ("schedule with a name", "groups: 1 x\nproductions 1:\nA -> B\naxiom: A\n", '`groups:` takes'),
+    ("both schedules", "groups: 1\ngroup: 1\nproductions 1:\nA -> B\naxiom: A\n", 'not both'),
+    ("random group", "group: ran(3)\nproductions 1:\nA -> B\naxiom: A\n", 'cannot use ran'),
+    ("unused group", "productions 1:\nA -> B\naxiom: A\n", 'never used'),
+    ("step in define", "define: x = step\naxiom: A\n", "unknown name 'step'"),
+    ("step in the axiom", "axiom: A(step)\n", "unknown name 'step'"),
+]
+
+# (label, .ls text, steps): refused while deriving
+SELF_TEST_RUNTIME_ERRORS = [
+    ("group expression names no group", "group: step\nproductions 1:\nA -> B\naxiom: A\n", 2),
+    ("group expression not whole", "group: step / 2\nproductions 1:\nA -> B\naxiom: A\n", 1),
+]
+
+
+def self_test():
+    """Run the hand-derived checks; return the number of failures."""
+    failures = 0
+    text = None
+    for label, src, n, want in SELF_TESTS:
+        text = src if src is not None else text
+        try:
+            got = format_string(Rewriter(parse_ls(text)).derive(n))
+        except LsError as e:
+            got = "error: %s" % e
+        if got != want:
+            failures += 1
+            print("FAIL %s (n=%d)\n  got:  %s\n  want: %s" % (label, n, got, want))
+    for label, src, fragment in SELF_TEST_ERRORS:
+        try:
+            parse_ls(src)
+        except LsError as e:
+            if fragment in str(e):
+                continue
+            print("FAIL %s: wrong error: %s" % (label, e))
+        else:
+            print("FAIL %s: accepted" % label)
+        failures += 1
+    for label, src, n in SELF_TEST_RUNTIME_ERRORS:
+        ls = parse_ls(src)
+        try:
+            Rewriter(ls).derive(n)
+        except LsError as e:
+            if "group: gives" in str(e):
+                continue
+            print("FAIL %s: wrong error: %s" % (label, e))
+        else:
+            print("FAIL %s: derived" % label)
+        failures += 1
+    total = len(SELF_TESTS) + len(SELF_TEST_ERRORS) + len(SELF_TEST_RUNTIME_ERRORS)
+    print("self-test: %d passed, %d failed" % (total - failures, failures))
+    return failures
+
+
 def main(argv=None):
+    if argv is None:
+        argv = sys.argv[1:]
+    if argv == ["--self-test"]:
+        return 1 if self_test() else 0
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("file")
     ap.add_argument("-n", type=int, default=None, help="number of derivation steps")
