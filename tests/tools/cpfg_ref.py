@@ -1592,6 +1592,13 @@ class Deriver:
                 c.value = float(v)
 
     def try_prod(self, p, seq, k, S, left, right):
+        try:
+            return self._try_prod(p, seq, k, S, left, right)
+        except CpfgError as e:
+            e.where = e.where or p.where
+            raise
+
+    def _try_prod(self, p, seq, k, S, left, right):
         """PredDiff, RconDiff, LconDiff, CondDiff in cpfg's order."""
         if not self.pred_match(p.pred, seq, k):
             return False
@@ -1614,8 +1621,12 @@ class Deriver:
         return self.rt.eval(p.cond) != 0
 
     def successor(self, p):
-        self.rt.run(p.post)
-        return [(sym, tuple(f32(self.rt.eval(e)) for e in params)) for sym, params in p.succ]
+        try:
+            self.rt.run(p.post)
+            return [(sym, tuple(f32(self.rt.eval(e)) for e in params)) for sym, params in p.succ]
+        except CpfgError as e:
+            e.where = e.where or p.where
+            raise
 
     # -- decomposition ---------------------------------------------------
     def decompose(self, seq, k, S, left, right, depth, out):
@@ -1815,6 +1826,16 @@ def self_test():
     check("unseeded", Rand48(0).next(), 11 / 2.0 ** 48)
     # seed48({7, 0, 155}) state
     check("seed48", Rand48.from_xsubi(7, 0, 155).x, (155 << 32) | 7)
+    # values printed once by glibc's drand48/erand48 (gcc, Debian) for
+    # comparison: unseeded, after seed48({7, 0, 155}), from {0x330E, 0, 0}
+    r = Rand48(0)
+    check("glibc unseeded", (r.next(), r.next()), (3.907985046680551e-14, 0.0009853946746503084))
+    r = Randomness(7).main
+    check("glibc seed48", (r.next(), r.next()), (0.5162368105493655, 0.4207841637977232))
+    r = Randomness(0)
+    check("glibc erand48", (r.ran(1), r.ran(1)), (0.17082803610628972, 0.7499019804849638))
+    r.srand(42)
+    check("srand(42)", r.ran(1), 0.7445250000610066)
     check("%g", fmt_g(f32(16777217.0)), "1.67772e+07")
     check("%g -0", fmt_g(-0.0), "-0")
     check("f32 0.1", fmt_g(f32(0.1) * 3), "0.3")
