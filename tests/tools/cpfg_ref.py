@@ -1137,7 +1137,8 @@ class Parser:
                     if nt[1] in FUNCTIONS or nt[1] in UNSUPPORTED_FUNCTIONS or nt[1] in STATEMENT_WORDS:
                         raise self.err("%s is reserved" % nt[1], nt)
                     if nt[1] in self.tables[0]:
-                        warn("formal parameter %s bound twice" % nt[1], nt[2])
+                        # SymbolTableAdd: an error in cpfg
+                        raise self.err("multiple definition of formal parameter %s" % nt[1], nt)
                     cell = Cell(nt[1])
                     self.tables[0][nt[1]] = cell
                     cells.append(cell)
