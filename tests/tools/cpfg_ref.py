@@ -297,7 +297,7 @@ class Preprocessor:
         def active():
             return not cond or cond[-1][1]
 
-        def flush(upto):
+        def flush():
             if chunk:
                 self.emit_chunk(chunk, fname, chunk_start)
                 del chunk[:]
@@ -316,10 +316,10 @@ class Preprocessor:
                         chunk_start = lineno
                     chunk.append(line)
                 else:
-                    flush(lineno)
+                    flush()
                     self.lines.append(("", where))
                 continue
-            flush(lineno)
+            flush()
             name = m.group(1) or ""
             rest = stripped[m.end():]
             if name in ("ifdef", "ifndef"):
@@ -374,7 +374,7 @@ class Preprocessor:
             else:
                 raise CpfgError("unknown directive #%s" % name, where)
             self.lines.append(("", where))
-        flush(len(lines) + 1)
+        flush()
         if cond:
             raise CpfgError("unterminated #if", (fname, len(lines)))
 
@@ -792,15 +792,15 @@ class Lexer:
             if state == "EXPRESSION":
                 m = NAME_RE.match(s, i)
                 if m:
-                    name = m.group()
-                    if re.match(r"[0-9]", s[i - 1:i] or " "):
-                        pass
-                    out.append(("NAME", name, w))
+                    out.append(("NAME", m.group(), w))
                     i = m.end()
                     continue
                 m = STR_RE.match(s, i)
                 if m:
-                    out.append(("STRING", m.group()[1:-1], w))
+                    # lsys_input.l ProcessString: \n \t \r, \x is x
+                    body = re.sub(r"\\(.)", lambda e: {"n": "\n", "t": "\t", "r": "\r"}.get(
+                        e.group(1), e.group(1)), m.group()[1:-1], flags=re.S)
+                    out.append(("STRING", body, w))
                     i = m.end()
                     continue
                 m = REAL_RE.match(s, i)
@@ -1007,7 +1007,7 @@ class Parser:
                 setattr(ls, attr, block)
             elif k == "AXIOM":
                 self.take()
-                ls.axiom = self.modules(formal=False)
+                ls.axiom = self.modules()
                 if not ls.axiom:
                     raise self.err("the axiom is empty")
                 self.expect("EOL", "end of line")
@@ -1105,7 +1105,7 @@ class Parser:
             self.take()
             p.succ = []
         else:
-            p.succ = self.modules(formal=False)
+            p.succ = self.modules()
         if self.peek()[0] == "COLON":
             self.take()
             p.prob = self.expression()
@@ -1152,7 +1152,7 @@ class Parser:
             raise self.err("expected a module")
         return mods
 
-    def modules(self, formal):
+    def modules(self):
         mods = []
         while self.peek()[0] == "SYMBOL":
             t = self.take()
@@ -1398,7 +1398,7 @@ class Runtime:
             if not args or args[0][0] != "str":
                 raise CpfgError("printf needs a format string", e[3])
             vals = [self.eval(a) for a in args[1:]]
-            fmt = args[0][1].replace("\\n", "\n")
+            fmt = args[0][1]
             try:
                 sys.stderr.write(fmt % tuple(vals))
             except (TypeError, ValueError):

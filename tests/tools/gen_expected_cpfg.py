@@ -40,6 +40,7 @@ import ref  # noqa: E402
 # model name (tests/cpfg/NAME.l) -> derivation lengths; None: the file's own
 MANIFEST = {
     "vlab_typical": [0, 1, 2, 3, 4],
+    "vlab_stochastic": [1, 2, 3, 6],
     "preprocessor": [0, 1, 2],
     "layout": [0, 1, 2, 3],
     "null_star": [1, 2],
