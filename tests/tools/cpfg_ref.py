@@ -1703,9 +1703,12 @@ class Deriver:
                 i = nxt
                 continue
             if decomp:
-                ok, _ = self.decompose(S, i, S, i - 1, i + 1, 0, out)
+                # a multi-module decomposition predecessor may span modules
+                # of the old string here; its right context starts after
+                # the first one (ApplyProd passes that pointer)
+                ok, nxt = self.decompose(S, i, S, i - 1, i + 1, 0, out)
                 if ok:
-                    i += 1
+                    i = nxt
                     continue
             if S[i][0] == "%" and not S[i][1]:
                 # cut: drop % and the rest of its branch (the ] stays)

@@ -79,6 +79,7 @@ HAND = {
     ("blocks", 1): "A(1,10,1)A(2,20,1)B(1)[A]",
     ("blocks", 2): "A(1,10,1)T(101,0,1)A(2,20,1)T(101,0,2)B(2)[A][A(3,30,2)]",
     ("stochastic", 1): "F(1)[-F(0)]",
+    ("stochastic", 2): "F(2)[-F(0)][-F(1)]",  # draws 2-6: F(1) [ - F(0) ]
     ("stochastic_seed0", 1): "AB",
     ("stochastic_deterministic", 2): "ABBB",
     ("context_branches", 1): "a2[X][BY]cd1[E]Fg[h1]Ii[k[l]M]nP[q]rS",
