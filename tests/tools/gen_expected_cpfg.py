@@ -53,6 +53,7 @@ MANIFEST = {
     "stochastic_seed0": [1, 4],
     "stochastic_deterministic": [1, 2, 3],
     "stochastic_context": [1, 3, 6],
+    "stochastic_plant": [1, 2, 5],
     "random_functions": [1, 2, 3],
     "context_branches": [1],
     "context_consider": [1],
@@ -222,9 +223,10 @@ for what each model tests and what is uncertain.  Regenerate everything with
 
     python3 tests/tools/gen_expected_cpfg.py
 
-or check with `--check`.  That script also checks that every ABOP twin
-`tests/cpfg/abop/NAME.l` gives the same string as `examples/NAME.ls` under
-`tests/tools/ref.py`.
+or check with `--check`.  That script also checks strings derived by hand,
+that every `tests/cpfg/refused/*.l` is refused with a located error, and
+that every ABOP twin `tests/cpfg/abop/NAME.l` gives the same string as
+`examples/NAME.ls` under `tests/tools/ref.py`.
 
 - `NAME.nN.txt`: `tests/cpfg/NAME.l` after N steps, the homomorphism
   applied; one line, parameters printed with `%g`.
