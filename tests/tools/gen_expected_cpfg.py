@@ -82,6 +82,11 @@ HAND = {
     ("stochastic", 1): "F(1)[-F(0)]",
     ("stochastic", 2): "F(2)[-F(0)][-F(1)]",  # draws 2-6: F(1) [ - F(0) ]
     ("stochastic_seed0", 1): "AB",
+    # glibc's drand48 after seed48({42, 0, 155}): 0.519372 (P2), then for
+    # F [ + F ] F: 0.004657 (P1) 0.020727 0.090408 0.806382 (P3) 0.251763
+    # 0.971018 (P3)
+    ("stochastic_plant", 1): "F[+F]F",
+    ("stochastic_plant", 2): "F[+F]F[-F]F[+F[-F]F]F[-F]F",
     ("stochastic_deterministic", 2): "ABBB",
     ("context_branches", 1): "a2[X][BY]cd1[E]Fg[h1]Ii[k[l]M]nP[q]rS",
     ("context_consider", 1): "a[b]cFd[F[A]]B",
