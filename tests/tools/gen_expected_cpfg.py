@@ -67,7 +67,7 @@ MANIFEST = {
 # the reference must agree with them.
 HAND = {
     ("preprocessor", 1): "[+(45)F(1)]B(1.5)[[+(90)F(0.5)]]F(1)F(2)",
-    ("layout", 1): "AxCAA",
+    ("layout", 1): "AxCAA,;",
     ("null_star", 1): "BBE",
     ("null_star", 2): "BBBBF",
     ("multi_pred", 1): "XD(2)D(12)A(5)A(6)",
