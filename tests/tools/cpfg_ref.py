@@ -1,0 +1,1887 @@
+#!/usr/bin/env python3
+"""Independent reference for cpfg (L-studio / vlab) `.l` files.
+
+A deliberately simple, in-memory implementation of the subset of cpfg that a
+string rewriter can reproduce, written from /work/shared/cpfg-behaviour.md,
+issue 12 and a reading of cpfg's sources (vlab commit 9bf820d: generate.c,
+lsys_input.l, lsys_input.y, utility.c, control.c, interpret.c).  No code is
+shared with lsgen or copied from cpfg.  It judges lsgen's cpfg dialect: the
+expected strings in tests/expected/cpfg/ come from here.
+
+Usage:
+    python3 tests/tools/cpfg_ref.py FILE.l [-n STEPS] [--no-homomorphism]
+    python3 tests/tools/cpfg_ref.py --self-test
+
+Prints the final string on one line (cpfg's own `-str` file wraps lines at 70
+characters; this prints one line, as lsgen does).  Parameters are stored as
+32-bit floats and printed with C's %g.  By default the homomorphism (if any)
+is applied to the derived string, up to its `maximum depth:`; with
+--no-homomorphism the derived string itself is printed (what cpfg saves).
+
+Supported: a C-preprocessor subset (#define object-like and function-like,
+#undef, #include "file", #if/#ifdef/#ifndef/#elif/#else/#endif with integer
+expressions, #error, /* */ and // comments, backslash-newline), the cpfg
+layout (Lsystem:, settings in any order, Start:/StartEach:/EndEach:/End:
+blocks, Axiom:, productions with --> (and lsgen's ->), decomposition,
+homomorphism, endlsystem), newline+TAB continuation, cpfg expressions and
+statements, deterministic and stochastic choice, cpfg context matching,
+the cut symbol %, drand48 seeded as interactive cpfg seeds it, and the
+ran/nran/bran/biran/srand generator.
+
+Refused with an error (a string rewriter cannot do them, or the reference
+does not model them): ?P ?H ?L ?U ?E and any ? module, sub-L-systems
+(?(id,s), $, several Lsystem: blocks), @S, func/curve*/vv*/play/stop/
+fopen/fscanf/..., arrays and define: blocks, ring L-systems, -o> object
+productions, % with parameters, & addresses.
+"""
+
+import argparse
+import math
+import os
+import re
+import struct
+import sys
+
+
+class CpfgError(Exception):
+    def __init__(self, msg, where=None):
+        Exception.__init__(self, msg)
+        self.msg = msg
+        self.where = where
+
+    def __str__(self):
+        if self.where:
+            return "%s:%d: %s" % (self.where[0], self.where[1], self.msg)
+        return self.msg
+
+
+WARNINGS = []
+
+
+def warn(msg, where=None):
+    if where:
+        msg = "%s:%d: %s" % (where[0], where[1], msg)
+    WARNINGS.append(msg)
+    sys.stderr.write("cpfg_ref.py: warning: %s\n" % msg)
+
+
+# ---------------------------------------------------------------------------
+# 32-bit floats and %g
+# ---------------------------------------------------------------------------
+
+
+def f32(v):
+    try:
+        return struct.unpack("<f", struct.pack("<f", v))[0]
+    except OverflowError:
+        return math.copysign(math.inf, v)
+
+
+def fmt_g(v):
+    if math.isnan(v):
+        return "nan"
+    if math.isinf(v):
+        return "inf" if v > 0 else "-inf"
+    return "%g" % v
+
+
+# ---------------------------------------------------------------------------
+# drand48 family (48-bit LCG, a = 0x5DEECE66D, c = 0xB), written from the
+# POSIX description: X' = (a X + c) mod 2^48, result X' / 2^48.
+# ---------------------------------------------------------------------------
+
+A48 = 0x5DEECE66D
+C48 = 0xB
+M48 = (1 << 48) - 1
+
+
+class Rand48:
+    def __init__(self, x):
+        self.x = x & M48
+
+    def next(self):
+        self.x = (A48 * self.x + C48) & M48
+        return self.x / float(1 << 48)
+
+    @staticmethod
+    def from_xsubi(x0, x1, x2):
+        return Rand48(((x2 & 0xFFFF) << 32) | ((x1 & 0xFFFF) << 16) | (x0 & 0xFFFF))
+
+
+class Randomness:
+    """cpfg's two generators.
+
+    main: drand48()'s global state.  Interactive cpfg calls
+    seed48({seed, 0, 155}) when the file's `seed:` is non-zero; otherwise
+    drand48 starts from glibc's unseeded state (X = 0).
+    xsubi: main_xsubi of utility.c, used by ran/nran/bran/biran through
+    erand48; it starts as {0x330E, 0, 0} (as after srand(0)) and srand(x)
+    sets it to {0x330E, x & 0xFFFF, (x >> 16) & 0xFFFF}.
+    """
+
+    def __init__(self, seed):
+        if seed != 0:
+            self.main = Rand48.from_xsubi(seed & 0xFFFF, 0, 155)
+        else:
+            self.main = Rand48(0)
+        self.xsubi = Rand48.from_xsubi(0x330E, 0, 0)
+        # nrand's state: iset starts at 10 (not 0), so the first nran()
+        # before any srand() returns gset (0) * sd + mean = mean.
+        self.iset = 10
+        self.gset = 0.0
+
+    def srand(self, a):
+        self.xsubi = Rand48.from_xsubi(0x330E, a & 0xFFFF, (a >> 16) & 0xFFFF)
+        self.iset = 0
+
+    def ran(self, v):
+        return self.xsubi.next() * v
+
+    def nran(self, mean, sd):
+        if self.iset == 0:
+            while True:
+                v1 = 2.0 * self.xsubi.next() - 1.0
+                v2 = 2.0 * self.xsubi.next() - 1.0
+                rsq = v1 * v1 + v2 * v2
+                if not (rsq >= 1.0 or rsq == 0.0):
+                    break
+            fac = math.sqrt(-2.0 * math.log(rsq) / rsq)
+            self.gset = v1 * fac
+            self.iset = 1
+            return v2 * fac * sd + mean
+        self.iset = 0
+        return self.gset * sd + mean
+
+    def bran(self, a, b):
+        s = a + b
+        if min(a, b) <= 1:
+            lam = min(a, b)
+        else:
+            lam = math.sqrt((2 * a * b - s) / (s - 2))
+        u = a + lam
+        while True:
+            u1 = self.xsubi.next()
+            while u1 == 0:
+                u1 = self.xsubi.next()
+            u2 = self.xsubi.next()
+            while u2 == 0:
+                u2 = self.xsubi.next()
+            v = (1 / lam) * math.log(u1 / (1 - u1))
+            ym = a * math.exp(v)
+            if not (s * math.log(s / (b + ym)) + u * v - math.log(4) < math.log(u1 * u1 * u2)):
+                return ym / (b + ym)
+
+    def biran(self, n, p):
+        j = 0
+        for _ in range(1, n + 1):
+            if self.xsubi.next() <= p:
+                j += 1
+        return float(j)
+
+
+# ---------------------------------------------------------------------------
+# Preprocessor subset
+# ---------------------------------------------------------------------------
+
+PP_TOKEN = re.compile(
+    r"(?P<nl>\n)|(?P<ws>[ \t\r\f\v]+)|(?P<id>[A-Za-z_$][A-Za-z0-9_$]*)"
+    r"|(?P<num>\.?[0-9](?:[eEpP][+-]|[A-Za-z0-9_.])*)"
+    r'|(?P<str>"(?:\\.|[^"\\\n])*")|(?P<other>.)',
+    re.S,
+)
+
+
+class Tok:
+    __slots__ = ("kind", "text", "painted")
+
+    def __init__(self, kind, text, painted=False):
+        self.kind = kind
+        self.text = text
+        self.painted = painted
+
+    def copy(self):
+        return Tok(self.kind, self.text, self.painted)
+
+
+def pp_lex(text):
+    return [Tok(m.lastgroup, m.group()) for m in PP_TOKEN.finditer(text)]
+
+
+class Macro:
+    def __init__(self, params, body):
+        self.params = params  # None for object-like
+        self.body = body
+
+
+def splice_and_strip(text, fname):
+    """Backslash-newline splices (the removed newlines are put back after the
+    joined line) and comments (one space followed by the comment's
+    newlines), keeping the file's line count."""
+    text = text.replace("\r\n", "\n")
+    lines = text.split("\n")
+    out = []
+    i = 0
+    while i < len(lines):
+        cur = lines[i]
+        extra = 0
+        while cur.endswith("\\") and i + 1 < len(lines):
+            cur = cur[:-1] + lines[i + 1]
+            i += 1
+            extra += 1
+        out.append(cur)
+        out.extend([""] * extra)
+        i += 1
+    s = "\n".join(out)
+    res = []
+    i = 0
+    n = len(s)
+    while i < n:
+        c = s[i]
+        if c == '"':
+            j = i + 1
+            while j < n and s[j] != '"' and s[j] != "\n":
+                j += 2 if s[j] == "\\" and j + 1 < n and s[j + 1] != "\n" else 1
+            j = j + 1 if j < n and s[j] == '"' else j
+            res.append(s[i:j])
+            i = j
+        elif s.startswith("/*", i):
+            k = s.find("*/", i + 2)
+            if k < 0:
+                raise CpfgError("unterminated comment", (fname, s.count("\n", 0, i) + 1))
+            res.append(" " + "\n" * s.count("\n", i, k))
+            i = k + 2
+        elif s.startswith("//", i):
+            k = s.find("\n", i)
+            k = n if k < 0 else k
+            res.append(" ")
+            i = k
+        else:
+            res.append(c)
+            i += 1
+    return "".join(res)
+
+
+class Preprocessor:
+    def __init__(self):
+        self.macros = {}
+        self.include_stack = []
+        self.lines = []  # (text, (file, line))
+
+    def run(self, path):
+        self.include(path, None)
+        return self.lines
+
+    def include(self, path, where):
+        real = os.path.realpath(path)
+        if real in self.include_stack:
+            raise CpfgError("#include cycle: %s" % path, where)
+        if len(self.include_stack) >= 32:
+            raise CpfgError("#include nested too deeply", where)
+        try:
+            with open(path, encoding="utf-8") as f:
+                text = f.read()
+        except OSError as e:
+            raise CpfgError("cannot read %s: %s" % (path, e.strerror), where)
+        self.include_stack.append(real)
+        self.process(splice_and_strip(text, path), path)
+        self.include_stack.pop()
+
+    def process(self, text, fname):
+        lines = text.split("\n")
+        if lines and lines[-1] == "" and text.endswith("\n"):
+            lines.pop()
+        cond = []  # [parent_active, active, taken, seen_else]
+        chunk = []
+        chunk_start = 0
+
+        def active():
+            return not cond or cond[-1][1]
+
+        def flush():
+            if chunk:
+                self.emit_chunk(chunk, fname, chunk_start)
+                del chunk[:]
+
+        for idx, line in enumerate(lines):
+            lineno = idx + 1
+            where = (fname, lineno)
+            stripped = line.lstrip(" \t")
+            m = re.match(r"#[ \t]*([A-Za-z_]\w*)?", stripped)
+            is_dir = bool(m) and (m.group(1) is not None or stripped[m.end():].strip() == "")
+            if not is_dir:
+                if stripped.startswith("#") and active():
+                    warn("line taken as a directive in cpfg, kept as text", where)
+                if active():
+                    if not chunk:
+                        chunk_start = lineno
+                    chunk.append(line)
+                else:
+                    flush()
+                    self.lines.append(("", where))
+                continue
+            flush()
+            name = m.group(1) or ""
+            rest = stripped[m.end():]
+            if name in ("ifdef", "ifndef"):
+                ident = rest.strip()
+                if not re.fullmatch(r"[A-Za-z_$][A-Za-z0-9_$]*", ident):
+                    raise CpfgError("#%s needs one name" % name, where)
+                val = (ident in self.macros) == (name == "ifdef")
+                par = active()
+                cond.append([par, par and val, par and val, False])
+            elif name == "if":
+                par = active()
+                val = par and self.eval_if(rest, where) != 0
+                cond.append([par, val, val, False])
+            elif name == "elif":
+                if not cond or cond[-1][3]:
+                    raise CpfgError("#elif without #if", where)
+                c = cond[-1]
+                if c[0] and not c[2]:
+                    v = self.eval_if(rest, where) != 0
+                    c[1] = v
+                    c[2] = v
+                else:
+                    c[1] = False
+            elif name == "else":
+                if not cond or cond[-1][3]:
+                    raise CpfgError("#else without #if", where)
+                c = cond[-1]
+                c[1] = c[0] and not c[2]
+                c[2] = True
+                c[3] = True
+            elif name == "endif":
+                if not cond:
+                    raise CpfgError("#endif without #if", where)
+                cond.pop()
+            elif not active():
+                pass
+            elif name == "define":
+                self.define(rest, where)
+            elif name == "undef":
+                self.macros.pop(rest.strip(), None)
+            elif name == "include":
+                mm = re.fullmatch(r'\s*"([^"]+)"\s*', rest)
+                if not mm:
+                    raise CpfgError('#include needs "file"', where)
+                target = os.path.join(os.path.dirname(fname), mm.group(1))
+                self.include(target, where)
+                continue
+            elif name == "error":
+                raise CpfgError("#error%s" % rest, where)
+            elif name == "":
+                pass
+            else:
+                raise CpfgError("unknown directive #%s" % name, where)
+            self.lines.append(("", where))
+        flush()
+        if cond:
+            raise CpfgError("unterminated #if", (fname, len(lines)))
+
+    def define(self, rest, where):
+        m = re.match(r"[ \t]*([A-Za-z_$][A-Za-z0-9_$]*)", rest)
+        if not m:
+            raise CpfgError("#define needs a name", where)
+        name = m.group(1)
+        body = rest[m.end():]
+        params = None
+        if body.startswith("("):
+            k = body.find(")")
+            if k < 0:
+                raise CpfgError("unterminated macro parameter list", where)
+            plist = body[1:k].strip()
+            params = [p.strip() for p in plist.split(",")] if plist else []
+            for p in params:
+                if not re.fullmatch(r"[A-Za-z_$][A-Za-z0-9_$]*", p):
+                    raise CpfgError("bad macro parameter %r" % p, where)
+            body = body[k + 1:]
+        toks = pp_lex(body.strip(" \t"))
+        if any(t.text == "#" for t in toks) and params is not None:
+            for i, t in enumerate(toks):
+                if t.text == "#":
+                    nxt = [u for u in toks[i + 1:] if u.kind != "ws"]
+                    if nxt and (nxt[0].text == "#" or nxt[0].text in params):
+                        raise CpfgError("# and ## in macros are not supported by the reference", where)
+        self.macros[name] = Macro(params, toks)
+
+    def expand(self, toks, active, where):
+        out = []
+        i = 0
+        while i < len(toks):
+            t = toks[i]
+            if t.kind == "id" and not t.painted and t.text in self.macros:
+                name = t.text
+                if name in active:
+                    p = t.copy()
+                    p.painted = True
+                    out.append(p)
+                    i += 1
+                    continue
+                m = self.macros[name]
+                if m.params is None:
+                    out.extend(self.expand([b.copy() for b in m.body], active | {name}, where))
+                    i += 1
+                    continue
+                j = i + 1
+                nl = 0
+                while j < len(toks) and toks[j].kind in ("ws", "nl"):
+                    nl += toks[j].kind == "nl"
+                    j += 1
+                if j >= len(toks) or toks[j].text != "(":
+                    out.append(t)
+                    i += 1
+                    continue
+                depth = 0
+                args = [[]]
+                k = j + 1
+                while k < len(toks):
+                    tk = toks[k]
+                    if tk.text == "(":
+                        depth += 1
+                    elif tk.text == ")":
+                        if depth == 0:
+                            break
+                        depth -= 1
+                    elif tk.text == "," and depth == 0:
+                        args.append([])
+                        k += 1
+                        continue
+                    if tk.kind == "nl":
+                        nl += 1
+                        tk = Tok("ws", " ")
+                    args[-1].append(tk)
+                    k += 1
+                if k >= len(toks):
+                    raise CpfgError("unterminated call of macro %s" % name, where)
+                args = [[a for a in arg] for arg in args]
+                for a in args:
+                    while a and a[0].kind == "ws":
+                        a.pop(0)
+                    while a and a[-1].kind == "ws":
+                        a.pop()
+                if not m.params and len(args) == 1 and not args[0]:
+                    args = []
+                if len(args) != len(m.params):
+                    raise CpfgError(
+                        "macro %s takes %d argument(s), %d given" % (name, len(m.params), len(args)),
+                        where,
+                    )
+                exp_args = [self.expand(a, active, where) for a in args]
+                body = []
+                for b in m.body:
+                    if b.kind == "id" and b.text in m.params:
+                        body.extend(x.copy() for x in exp_args[m.params.index(b.text)])
+                    else:
+                        body.append(b.copy())
+                out.extend(self.expand(body, active | {name}, where))
+                out.extend(Tok("pnl", "") for _ in range(nl))
+                i = k + 1
+                continue
+            out.append(t)
+            i += 1
+        return out
+
+    def emit_chunk(self, chunk, fname, start):
+        toks = pp_lex("\n".join(chunk) + "\n")
+        out = self.expand(toks, frozenset(), (fname, start))
+        text = []
+        pending = 0
+        for t in out:
+            if t.kind == "pnl":
+                pending += 1
+            elif t.kind == "nl":
+                text.append("\n" * (1 + pending))
+                pending = 0
+            else:
+                text.append(t.text)
+        s = "".join(text)
+        if s.endswith("\n"):
+            s = s[:-1]
+        for k, line in enumerate(s.split("\n")):
+            self.lines.append((line, (fname, start + k)))
+
+    def eval_if(self, text, where):
+        toks = pp_lex(text)
+        res = []
+        i = 0
+        while i < len(toks):
+            t = toks[i]
+            if t.kind == "id" and t.text == "defined":
+                j = i + 1
+                while j < len(toks) and toks[j].kind == "ws":
+                    j += 1
+                paren = j < len(toks) and toks[j].text == "("
+                if paren:
+                    j += 1
+                    while j < len(toks) and toks[j].kind == "ws":
+                        j += 1
+                if j >= len(toks) or toks[j].kind != "id":
+                    raise CpfgError("defined needs a name", where)
+                val = toks[j].text in self.macros
+                j += 1
+                if paren:
+                    while j < len(toks) and toks[j].kind == "ws":
+                        j += 1
+                    if j >= len(toks) or toks[j].text != ")":
+                        raise CpfgError("missing ) after defined", where)
+                    j += 1
+                res.append(Tok("num", "1" if val else "0"))
+                i = j
+                continue
+            res.append(t)
+            i += 1
+        res = self.expand(res, frozenset(), where)
+        items = []
+        i = 0
+        while i < len(res):
+            t = res[i]
+            if t.kind in ("ws", "nl", "pnl"):
+                i += 1
+                continue
+            if t.kind == "id":
+                items.append(("num", 0))
+            elif t.kind == "num":
+                s = t.text.rstrip("uUlL")
+                try:
+                    items.append(("num", int(s, 0) if not re.fullmatch(r"0[0-7]+", s) else int(s, 8)))
+                except ValueError:
+                    raise CpfgError("bad number %r in #if" % t.text, where)
+            else:
+                two = t.text + (res[i + 1].text if i + 1 < len(res) else "")
+                if two in ("&&", "||", "==", "!=", "<=", ">=", "<<", ">>"):
+                    items.append(("op", two))
+                    i += 2
+                    continue
+                items.append(("op", t.text))
+            i += 1
+        return IntExpr(items, where).parse()
+
+
+class IntExpr:
+    BIN = [
+        ("||",),
+        ("&&",),
+        ("|",),
+        ("^",),
+        ("&",),
+        ("==", "!="),
+        ("<", "<=", ">", ">="),
+        ("<<", ">>"),
+        ("+", "-"),
+        ("*", "/", "%"),
+    ]
+
+    def __init__(self, items, where):
+        self.items = items + [("end", None)]
+        self.pos = 0
+        self.where = where
+
+    def peek(self):
+        return self.items[self.pos]
+
+    def take(self):
+        self.pos += 1
+        return self.items[self.pos - 1]
+
+    def parse(self):
+        v = self.cond()
+        if self.peek()[0] != "end":
+            raise CpfgError("bad #if expression", self.where)
+        return v
+
+    def cond(self):
+        c = self.binary(0)
+        if self.peek() == ("op", "?"):
+            self.take()
+            a = self.cond()
+            if self.take() != ("op", ":"):
+                raise CpfgError("bad #if expression", self.where)
+            b = self.cond()
+            return a if c else b
+        return c
+
+    def binary(self, lvl):
+        if lvl == len(self.BIN):
+            return self.unary()
+        v = self.binary(lvl + 1)
+        while self.peek()[0] == "op" and self.peek()[1] in self.BIN[lvl]:
+            op = self.take()[1]
+            w = self.binary(lvl + 1)
+            if op in ("/", "%") and w == 0:
+                raise CpfgError("division by zero in #if", self.where)
+            v = {
+                "||": lambda: int(bool(v) or bool(w)),
+                "&&": lambda: int(bool(v) and bool(w)),
+                "|": lambda: v | w,
+                "^": lambda: v ^ w,
+                "&": lambda: v & w,
+                "==": lambda: int(v == w),
+                "!=": lambda: int(v != w),
+                "<": lambda: int(v < w),
+                "<=": lambda: int(v <= w),
+                ">": lambda: int(v > w),
+                ">=": lambda: int(v >= w),
+                "<<": lambda: v << w,
+                ">>": lambda: v >> w,
+                "+": lambda: v + w,
+                "-": lambda: v - w,
+                "*": lambda: v * w,
+                "/": lambda: int(v / w) if (v < 0) != (w < 0) else v // w,
+                "%": lambda: v - w * (int(v / w) if (v < 0) != (w < 0) else v // w),
+            }[op]()
+        return v
+
+    def unary(self):
+        t = self.take()
+        if t[0] == "num":
+            return t[1]
+        if t == ("op", "("):
+            v = self.cond()
+            if self.take() != ("op", ")"):
+                raise CpfgError("missing ) in #if", self.where)
+            return v
+        if t[0] == "op" and t[1] in "!~-+":
+            v = self.unary()
+            return {"!": int(not v), "~": ~v, "-": -v, "+": v}[t[1]]
+        raise CpfgError("bad #if expression", self.where)
+
+
+# ---------------------------------------------------------------------------
+# cpfg's lexer (lsys_input.l): states SYMBOL and EXPRESSION
+# ---------------------------------------------------------------------------
+
+KEYWORDS = [
+    (re.compile(r"(Lsystem|lsystem):"), "LSTART", "SYMBOL"),
+    (re.compile(r"(seed|Seed):"), "SEED", "EXPRESSION"),
+    (re.compile(r"(D|d)erivation ?(L|l)ength:"), "DLENGTH", "EXPRESSION"),
+    (re.compile(r"(M|m)aximum (D|d)epth:"), "MDEPTH", "EXPRESSION"),
+    (re.compile(r"(consider|Consider):"), "CONSIDER", None),
+    (re.compile(r"(ignore|Ignore):"), "IGNORE", None),
+    (re.compile(r"(axiom|Axiom):"), "AXIOM", None),
+    (re.compile(r"(define|Define):"), "DEFINE", "EXPRESSION"),
+    (re.compile(r"(R|r)ing (L|l)system"), "RING", None),
+    (re.compile(r"(start|Start):"), "STARTBLOCK", "EXPRESSION"),
+    (re.compile(r"(end|End):"), "ENDBLOCK", "EXPRESSION"),
+    (re.compile(r"(start|Start) ?(each|Each):"), "STARTEACH", "EXPRESSION"),
+    (re.compile(r"(end|End) ?(each|Each):"), "ENDEACH", "EXPRESSION"),
+    (re.compile(r"(H|h)omomorphism:?"), "STARTHOMO", None),
+    (re.compile(r"(D|d)ecomposition:?"), "STARTDECOMP", None),
+    (re.compile(r"no warnings"), "NOWARNING", None),
+    (re.compile(r"warnings"), "WARNING", None),
+    (re.compile(r"(E|e)nd(L|l)system"), "END", None),
+]
+
+FUNCTIONS = {
+    "tan": 1, "sin": 1, "cos": 1, "atan": None, "asin": 1, "acos": 1,
+    "atan2": None, "ran": 1, "nran": 2, "bran": 2, "biran": 2, "srand": 1,
+    "exp": 1, "log": 1, "floor": 1, "ceil": 1, "trunc": 1, "fabs": 1,
+    "sign": 1, "sqrt": 1, "printf": None, "fprintf": None,
+}
+UNSUPPORTED_FUNCTIONS = {
+    "func", "play", "curveX", "curveY", "curveZ", "curveGAL", "vvXmin",
+    "vvXmax", "vvYmin", "vvYmax", "vvZmin", "vvZmax", "vvScale", "Display",
+    "SetDerivationLength", "GetDerivationLength", "stop", "fopen", "fclose",
+    "fflush", "fscanf", "inblob", "external", "array",
+}
+STATEMENT_WORDS = {"if", "while", "do", "else"}
+
+NAME_RE = re.compile(r"[a-zA-Z][a-zA-Z0-9_]*")
+REAL_RE = re.compile(r"[0-9]+\.[0-9]*(?:[Ee][-+]?[0-9]+)?|[0-9]*\.[0-9]+(?:[Ee][-+]?[0-9]+)?|[0-9]+")
+STR_RE = re.compile(r'"[^"\n]*["\n]')
+EXPR_OPS = ["-->", "->", "-o>", "<>", "!=", "==", "<=", ">=", "&&", "||",
+            "=", "&", "+", "-", "*", "/", "%", "^", ";", ",", "?", ":",
+            "(", ")", "[", "]", "<", ">", "!", "{", "}"]
+
+
+class Lexer:
+    def __init__(self, lines):
+        self.text = "\n".join(t for t, _ in lines) + "\n"
+        self.origins = [o for _, o in lines] or [("?", 1)]
+        self.line_starts = [0]
+        for i, c in enumerate(self.text):
+            if c == "\n":
+                self.line_starts.append(i + 1)
+
+    def where(self, pos):
+        lo, hi = 0, len(self.line_starts) - 1
+        while lo < hi:
+            mid = (lo + hi + 1) // 2
+            if self.line_starts[mid] <= pos:
+                lo = mid
+            else:
+                hi = mid - 1
+        return self.origins[min(lo, len(self.origins) - 1)]
+
+    def tokens(self):
+        s = self.text
+        n = len(s)
+        i = 0
+        state = "INITIAL"
+        nesting = 0
+        braces = 0  # cpfg's c_expression: open { of blocks
+        out = []
+        while i < n:
+            c = s[i]
+            w = self.where(i)
+            if c in " \t":
+                i += 1
+                continue
+            if c == "\n":
+                if i + 1 < n and s[i + 1] == "\t":
+                    i += 2
+                    continue
+                i += 1
+                if braces == 0:
+                    state = "SYMBOL"
+                    out.append(("EOL", None, w))
+                continue
+            # keywords are active in every state; they win ties
+            best = None
+            for rx, kind, newstate in KEYWORDS:
+                m = rx.match(s, i)
+                if m and (best is None or m.end() > best[0].end()):
+                    best = (m, kind, newstate)
+            other_len = 0
+            if state == "EXPRESSION":
+                m2 = NAME_RE.match(s, i)
+                if m2:
+                    other_len = m2.end() - i
+            if best and best[0].end() - i >= other_len:
+                m, kind, newstate = best
+                out.append((kind, m.group(), w))
+                if newstate:
+                    state = newstate
+                i = m.end()
+                continue
+            if state == "SYMBOL":
+                if s.startswith("-->", i):
+                    out.append(("YIELDS", "-->", w))
+                    i += 3
+                elif s.startswith("-o>", i):
+                    out.append(("OYIELDS", "-o>", w))
+                    i += 3
+                elif s.startswith("->", i):  # lsgen's extension; cpfg has only -->
+                    out.append(("YIELDS", "->", w))
+                    i += 2
+                elif c == "*":
+                    out.append(("NULL", c, w))
+                    i += 1
+                elif c == ")":
+                    out.append(("NULL", c, w))
+                    i += 1
+                elif c == ":":
+                    nesting = 1
+                    state = "EXPRESSION"
+                    out.append(("COLON", c, w))
+                    i += 1
+                elif c == "<":
+                    out.append(("LSEP", c, w))
+                    i += 1
+                elif c == ">":
+                    out.append(("RSEP", c, w))
+                    i += 1
+                elif c == "(":
+                    nesting = 1
+                    state = "EXPRESSION"
+                    out.append(("LPAREN", c, w))
+                    i += 1
+                else:
+                    out.append(("SYMBOL", c, w))
+                    i += 1
+                continue
+            if state == "EXPRESSION":
+                m = NAME_RE.match(s, i)
+                if m:
+                    out.append(("NAME", m.group(), w))
+                    i = m.end()
+                    continue
+                m = STR_RE.match(s, i)
+                if m:
+                    # lsys_input.l ProcessString: \n \t \r, \x is x
+                    body = re.sub(r"\\(.)", lambda e: {"n": "\n", "t": "\t", "r": "\r"}.get(
+                        e.group(1), e.group(1)), m.group()[1:-1], flags=re.S)
+                    out.append(("STRING", body, w))
+                    i = m.end()
+                    continue
+                m = REAL_RE.match(s, i)
+                if m:
+                    j = m.end()
+                    if j < n and s[j] in "eE" and "." not in m.group():
+                        raise CpfgError("cpfg needs a dot in an exponent literal (1.0e6, not 1e6)", w)
+                    out.append(("VALUE", float(m.group()), w))
+                    i = j
+                    continue
+                for op in EXPR_OPS:
+                    if s.startswith(op, i):
+                        break
+                else:
+                    raise CpfgError("unexpected character %r in an expression" % c, w)
+                i += len(op)
+                if op in ("-->", "->"):
+                    state = "SYMBOL"
+                    out.append(("YIELDS", op, w))
+                elif op == "-o>":
+                    state = "SYMBOL"
+                    out.append(("OYIELDS", op, w))
+                elif op == "(":
+                    nesting += 1
+                    out.append(("LPAREN", op, w))
+                elif op == ")":
+                    nesting -= 1
+                    if nesting == 0:
+                        state = "SYMBOL"
+                    out.append(("RPAREN", op, w))
+                elif op == "{":
+                    nesting += 1
+                    braces += 1
+                    out.append(("LBRACE", op, w))
+                elif op == "}":
+                    nesting -= 1
+                    if braces > 0:
+                        braces -= 1
+                    out.append(("RBRACE", op, w))
+                elif op == "<>":
+                    out.append(("OP", "!=", w))
+                elif op == "=":
+                    out.append(("ASSIGN", op, w))
+                elif op == "&":
+                    raise CpfgError("& (address) is not supported", w)
+                elif op in (";", ",", "?", ":", "[", "]"):
+                    out.append(({";": "SEMI", ",": "COMMA", "?": "QUESTION", ":": "COLON",
+                                 "[": "LBRACKET", "]": "RBRACKET"}[op], op, w))
+                else:
+                    out.append(("OP", op, w))
+                continue
+            raise CpfgError("unexpected %r before Lsystem:" % c, w)
+        out.append(("EOF", None, self.where(n - 1)))
+        return out
+
+
+# ---------------------------------------------------------------------------
+# Parser (lsys_input.y, subset)
+# ---------------------------------------------------------------------------
+
+
+class Cell:
+    __slots__ = ("name", "value")
+
+    def __init__(self, name, value=0.0):
+        self.name = name
+        self.value = value
+
+
+class Production:
+    def __init__(self, where):
+        self.where = where
+        self.lc = None  # list of (sym, [Cell]) in file order
+        self.pred = None
+        self.rc = None
+        self.pre = []
+        self.cond = None  # None: always true
+        self.post = []
+        self.succ = []  # list of (sym, [expr])
+        self.prob = None
+
+
+class LSystem:
+    def __init__(self):
+        self.n = 0
+        self.seed = 0
+        self.stochastic = False
+        self.ignore = set()
+        self.consider = None
+        self.start = []
+        self.end = []
+        self.start_each = []
+        self.end_each = []
+        self.axiom = []
+        self.prods = []
+        self.decomp = None  # list of productions or None
+        self.decomp_depth = 1
+        self.decomp_warning = True
+        self.homo = None
+        self.homo_depth = 1
+        self.homo_seed = -1
+        self.homo_warning = True
+
+
+# precedence (lsys_input.y): ?: < || < && < == != < relational < + - < * / %
+# < ^ < unary - < !, all binary operators left-associative.
+BIN_LEVELS = [("||",), ("&&",), ("==", "!="), ("<", "<=", ">", ">="), ("+", "-"),
+              ("*", "/", "%"), ("^",)]
+
+
+class Parser:
+    def __init__(self, toks, rt):
+        self.toks = toks
+        self.pos = 0
+        self.rt = rt  # Runtime, for expressions evaluated while parsing
+        self.globals = {}
+        self.lsys_table = {}
+        self.tables = [self.lsys_table, self.globals]
+        self.ls = LSystem()
+        self.section = "L"
+
+    def peek(self, k=0):
+        return self.toks[min(self.pos + k, len(self.toks) - 1)]
+
+    def take(self):
+        t = self.peek()
+        self.pos += 1
+        return t
+
+    def err(self, msg, t=None):
+        t = t or self.peek()
+        return CpfgError(msg, t[2])
+
+    def expect(self, kind, what=None):
+        t = self.take()
+        if t[0] != kind:
+            shown = t[1] if t[1] is not None else t[0]
+            raise self.err("expected %s, found %r" % (what or kind, shown), t)
+        return t
+
+    def eols(self):
+        while self.peek()[0] == "EOL":
+            self.take()
+
+    # -- names ------------------------------------------------------------
+    def lookup(self, name, t, assign=False):
+        for tab in self.tables:
+            if name in tab:
+                return tab[name]
+        if not assign:
+            warn("identifier %s not previously defined (it is 0)" % name, t[2])
+        cell = Cell(name)
+        self.tables[0][name] = cell
+        return cell
+
+    # -- file -------------------------------------------------------------
+    def parse(self):
+        self.eols()
+        self.expect("LSTART", "Lsystem:")
+        while self.peek()[0] not in ("EOL", "EOF"):
+            self.take()
+        self.expect("EOL", "end of line")
+        ls = self.ls
+        while True:
+            t = self.peek()
+            k = t[0]
+            if k == "EOL":
+                self.take()
+            elif k == "RING":
+                raise self.err("ring L-systems are not supported by the reference")
+            elif k == "SEED":
+                self.take()
+                ls.stochastic = True
+                ls.seed = int(self.rt.eval(self.expression()))
+                self.expect("EOL", "end of line")
+            elif k == "DLENGTH":
+                self.take()
+                ls.n = int(self.rt.eval(self.expression()))
+                self.globals["Q"] = self.rt.q_cell
+                self.rt.z_cell.value = float(ls.n)
+                self.globals["Z"] = self.rt.z_cell
+                self.expect("EOL", "end of line")
+            elif k in ("IGNORE", "CONSIDER"):
+                self.take()
+                chars = []
+                while self.peek()[0] == "SYMBOL":
+                    chars.append(self.take()[1])
+                if not chars:
+                    raise self.err("expected symbols")
+                self.expect("EOL", "end of line")
+                # a later ignore:/consider: line replaces the earlier one
+                if k == "IGNORE":
+                    ls.ignore, ls.consider = set(chars), None
+                else:
+                    ls.ignore, ls.consider = set(), set(chars)
+            elif k == "DEFINE":
+                raise self.err("define: blocks (arrays) are not supported by the reference")
+            elif k in ("STARTBLOCK", "ENDBLOCK", "STARTEACH", "ENDEACH"):
+                self.take()
+                block = self.block()
+                self.expect("EOL", "end of line")
+                attr = {"STARTBLOCK": "start", "ENDBLOCK": "end",
+                        "STARTEACH": "start_each", "ENDEACH": "end_each"}[k]
+                setattr(ls, attr, block)
+            elif k == "AXIOM":
+                self.take()
+                ls.axiom = self.modules()
+                if not ls.axiom:
+                    raise self.err("the axiom is empty")
+                self.expect("EOL", "end of line")
+                break
+            else:
+                raise self.err("expected a setting or Axiom:, found %r" % (t[1] or k))
+        ls.prods = self.productions()
+        if self.peek()[0] == "STARTDECOMP":
+            self.take()
+            if self.peek()[0] in ("WARNING", "NOWARNING"):
+                ls.decomp_warning = self.take()[0] == "WARNING"
+            self.expect("EOL", "end of line")
+            self.eols()
+            if self.peek()[0] == "MDEPTH":
+                self.take()
+                ls.decomp_depth = int(self.rt.eval(self.expression()))
+                self.expect("EOL", "end of line")
+            self.section = "D"
+            ls.decomp = self.productions()
+        if self.peek()[0] == "STARTHOMO":
+            self.take()
+            if self.peek()[0] in ("WARNING", "NOWARNING"):
+                ls.homo_warning = self.take()[0] == "WARNING"
+            self.expect("EOL", "end of line")
+            while True:
+                self.eols()
+                if self.peek()[0] == "SEED":
+                    self.take()
+                    ls.homo_seed = int(self.rt.eval(self.expression()))
+                    self.expect("EOL", "end of line")
+                elif self.peek()[0] == "MDEPTH":
+                    self.take()
+                    ls.homo_depth = int(self.rt.eval(self.expression()))
+                    self.expect("EOL", "end of line")
+                else:
+                    break
+            self.section = "H"
+            ls.homo = self.productions()
+        self.expect("END", "endlsystem")
+        self.eols()
+        t = self.peek()
+        if t[0] == "LSTART":
+            raise self.err("several L-systems in one file (sub-L-systems) are not supported")
+        if t[0] != "EOF":
+            raise self.err("unexpected text after endlsystem")
+        return ls
+
+    def productions(self):
+        prods = []
+        while True:
+            self.eols()
+            if self.peek()[0] in ("STARTDECOMP", "STARTHOMO", "END", "EOF"):
+                return prods
+            prods.append(self.production())
+
+    # -- productions ------------------------------------------------------
+    def production(self):
+        p = Production(self.peek()[2])
+        table = {}
+        self.tables = [table, self.lsys_table, self.globals]
+        first = self.formal_or_null()
+        if self.peek()[0] == "LSEP":
+            self.take()
+            p.lc = first
+            p.pred = self.formal_or_null()
+        else:
+            p.pred = first
+        if p.pred is None:
+            raise self.err("a strict predecessor cannot be *")
+        if self.peek()[0] == "RSEP":
+            self.take()
+            p.rc = self.formal_or_null()
+            if p.rc and p.rc[-1][0] == "=":
+                raise self.err("= cannot end a right context (cpfg crashes)")
+        if self.section == "H" and len(p.pred) > 1:
+            raise self.err("multi-module predecessors in the homomorphism are not supported by the reference")
+        for sym, _ in p.pred:
+            self.check_symbol(sym, p.where)
+        if self.peek()[0] == "COLON":
+            self.take()
+            if self.peek()[0] == "LBRACE":
+                p.pre = self.block()
+            if self.peek() == ("OP", "*", self.peek()[2]) and self.peek(1)[0] in ("YIELDS", "OYIELDS", "LBRACE"):
+                self.take()
+            else:
+                p.cond = self.expression()
+            if self.peek()[0] == "LBRACE":
+                p.post = self.block()
+        t = self.take()
+        if t[0] == "OYIELDS":
+            raise self.err("-o> (object productions) are not supported", t)
+        if t[0] != "YIELDS":
+            raise self.err("expected -->, found %r" % (t[1] or t[0]), t)
+        if self.peek()[0] == "NULL" and self.peek()[1] == "*":
+            self.take()
+            p.succ = []
+        else:
+            p.succ = self.modules()
+        if self.peek()[0] == "COLON":
+            self.take()
+            p.prob = self.expression()
+            if not self.ls.stochastic and self.section == "L":
+                warn("probability given for a deterministic production (no seed:): ignored", p.where)
+        self.expect("EOL", "end of line")
+        self.tables = [self.lsys_table, self.globals]
+        return p
+
+    def check_symbol(self, sym, where):
+        if sym == "?":
+            raise CpfgError("? modules (queries ?P ?H ?L ?U, ?E environment, ?(id,s) "
+                            "sub-L-systems) need a turtle or a simulation: not supported", where)
+        if sym == "$":
+            raise CpfgError("$ (end of a sub-L-system) is not supported", where)
+
+    def formal_or_null(self):
+        if self.peek()[0] == "NULL" and self.peek()[1] == "*":
+            self.take()
+            return None
+        mods = []
+        while self.peek()[0] == "SYMBOL":
+            t = self.take()
+            cells = []
+            if self.peek()[0] == "LPAREN":
+                self.take()
+                while True:
+                    nt = self.expect("NAME", "a formal parameter")
+                    if nt[1] in FUNCTIONS or nt[1] in UNSUPPORTED_FUNCTIONS or nt[1] in STATEMENT_WORDS:
+                        raise self.err("%s is reserved" % nt[1], nt)
+                    if nt[1] in self.tables[0]:
+                        # SymbolTableAdd: an error in cpfg
+                        raise self.err("multiple definition of formal parameter %s" % nt[1], nt)
+                    cell = Cell(nt[1])
+                    self.tables[0][nt[1]] = cell
+                    cells.append(cell)
+                    if self.peek()[0] == "COMMA":
+                        self.take()
+                        continue
+                    break
+                self.expect("RPAREN", ")")
+            mods.append((t[1], cells))
+        if not mods:
+            raise self.err("expected a module")
+        return mods
+
+    def modules(self):
+        mods = []
+        while self.peek()[0] == "SYMBOL":
+            t = self.take()
+            self.check_symbol(t[1], t[2])
+            if t[1] == "S" and mods and mods[-1][0] == "@":
+                raise CpfgError("@S is not supported", t[2])
+            params = []
+            if self.peek()[0] == "LPAREN":
+                self.take()
+                while True:
+                    params.append(self.expression())
+                    if self.peek()[0] == "COMMA":
+                        self.take()
+                        continue
+                    break
+                self.expect("RPAREN", ")")
+                if t[1] == "%":
+                    raise CpfgError("% with parameters is not supported", t[2])
+            mods.append((t[1], params))
+        return mods
+
+    # -- statements -------------------------------------------------------
+    def block(self):
+        self.expect("LBRACE", "{")
+        stmts = []
+        while self.peek()[0] != "RBRACE":
+            stmts.append(self.statement())
+        self.take()
+        return stmts
+
+    def statement(self):
+        t = self.peek()
+        if t[0] == "NAME" and t[1] == "if":
+            self.take()
+            self.expect("LPAREN", "(")
+            c = self.expression()
+            self.expect("RPAREN", ")")
+            a = self.block()
+            b = []
+            if self.peek()[0] == "NAME" and self.peek()[1] == "else":
+                self.take()
+                b = self.block()
+            return ("if", c, a, b)
+        if t[0] == "NAME" and t[1] == "while":
+            self.take()
+            self.expect("LPAREN", "(")
+            c = self.expression()
+            self.expect("RPAREN", ")")
+            return ("while", c, self.block())
+        if t[0] == "NAME" and t[1] == "do":
+            self.take()
+            body = self.block()
+            w = self.expect("NAME", "while")
+            if w[1] != "while":
+                raise self.err("expected while", w)
+            self.expect("LPAREN", "(")
+            c = self.expression()
+            self.expect("RPAREN", ")")
+            self.expect("SEMI", ";")
+            return ("do", c, body)
+        if t[0] == "NAME" and self.peek(1)[0] == "ASSIGN":
+            if t[1] in FUNCTIONS or t[1] in UNSUPPORTED_FUNCTIONS or t[1] in STATEMENT_WORDS:
+                raise self.err("%s is reserved" % t[1])
+            self.take()
+            self.take()
+            cell = self.lookup(t[1], t, assign=True)
+            e = self.expression()
+            self.expect("SEMI", ";")
+            return ("assign", cell, e)
+        if t[0] == "NAME" and self.peek(1)[0] == "LBRACKET":
+            raise self.err("arrays are not supported by the reference")
+        e = self.expression()
+        self.expect("SEMI", ";")
+        return ("expr", e)
+
+    # -- expressions ------------------------------------------------------
+    def expression(self):
+        c = self.binary(0)
+        if self.peek()[0] == "QUESTION":
+            self.take()
+            a = self.expression()
+            self.expect("COLON", ":")
+            b = self.expression()
+            return ("?", c, a, b)
+        return c
+
+    def binary(self, lvl):
+        if lvl == len(BIN_LEVELS):
+            return self.unary()
+        e = self.binary(lvl + 1)
+        while self.peek()[0] == "OP" and self.peek()[1] in BIN_LEVELS[lvl]:
+            op = self.take()[1]
+            e = ("bin", op, e, self.binary(lvl + 1))
+        return e
+
+    def unary(self):
+        t = self.peek()
+        if t[0] == "OP" and t[1] == "-":
+            self.take()
+            # unary minus binds tighter than ^ but looser than !
+            return ("neg", self.unary())
+        if t[0] == "OP" and t[1] == "!":
+            self.take()
+            return ("not", self.unary())
+        return self.atom()
+
+    def atom(self):
+        t = self.take()
+        if t[0] == "VALUE":
+            return ("num", t[1])
+        if t[0] == "STRING":
+            return ("str", t[1])
+        if t[0] == "LPAREN":
+            e = self.expression()
+            self.expect("RPAREN", ")")
+            return e
+        if t[0] == "NAME":
+            name = t[1]
+            if name in UNSUPPORTED_FUNCTIONS:
+                raise self.err("%s is not supported (it needs cpfg's files, "
+                               "curves, view or animation)" % name, t)
+            if name in FUNCTIONS:
+                self.expect("LPAREN", "(")
+                args = []
+                if self.peek()[0] != "RPAREN":
+                    while True:
+                        if name == "fprintf" and not args and self.peek()[0] == "NAME" \
+                                and self.peek()[1] == "stderr":
+                            self.take()
+                            args.append(("str", "<stderr>"))
+                        else:
+                            args.append(self.expression())
+                        if self.peek()[0] == "COMMA":
+                            self.take()
+                            continue
+                        break
+                self.expect("RPAREN", ")")
+                arity = FUNCTIONS[name]
+                if name == "fprintf" and (not args or args[0] != ("str", "<stderr>")):
+                    raise self.err("fprintf is supported only on stderr", t)
+                if arity is not None and len(args) != arity:
+                    raise self.err("%s takes %d argument(s)" % (name, arity), t)
+                if name in ("atan", "atan2") and len(args) not in (1, 2):
+                    raise self.err("%s takes 1 or 2 arguments" % name, t)
+                if name == "atan2":
+                    raise self.err("atan2 is reserved in cpfg but a syntax error there", t)
+                return ("call", name, args, t[2])
+            if name in STATEMENT_WORDS:
+                raise self.err("unexpected %s" % name, t)
+            if self.peek()[0] == "LBRACKET":
+                raise self.err("arrays are not supported by the reference")
+            if self.peek()[0] == "LPAREN":
+                raise self.err("unknown function %s" % name, t)
+            return ("var", self.lookup(name, t))
+        raise self.err("unexpected %r in an expression" % (t[1] if t[1] is not None else t[0]), t)
+
+
+# ---------------------------------------------------------------------------
+# Runtime: expressions, statements, derivation
+# ---------------------------------------------------------------------------
+
+
+def c_int(v):
+    """C's (int) conversion of a double: truncation toward zero."""
+    if math.isnan(v) or math.isinf(v):
+        raise CpfgError("conversion of %r to an integer" % v)
+    return int(v)
+
+
+class Runtime:
+    def __init__(self):
+        self.q_cell = Cell("Q")
+        self.z_cell = Cell("Z")
+        self.rng = None
+
+    def eval(self, e):
+        k = e[0]
+        if k == "num":
+            return e[1]
+        if k == "var":
+            return e[1].value
+        if k == "neg":
+            return -self.eval(e[1])
+        if k == "not":
+            return 1.0 if self.eval(e[1]) == 0 else 0.0
+        if k == "?":
+            c = self.eval(e[1])
+            a = self.eval(e[2])  # cpfg evaluates both branches
+            b = self.eval(e[3])
+            return a if c != 0 else b
+        if k == "str":
+            raise CpfgError("a string used as a number")
+        if k == "call":
+            return self.call(e)
+        op = e[1]
+        a = self.eval(e[2])
+        b = self.eval(e[3])  # no short circuit
+        if op == "||":
+            return 1.0 if (a != 0 or b != 0) else 0.0
+        if op == "&&":
+            return 1.0 if (a != 0 and b != 0) else 0.0
+        if op == "==":
+            return float(a == b)
+        if op == "!=":
+            return float(a != b)
+        if op == "<":
+            return float(a < b)
+        if op == "<=":
+            return float(a <= b)
+        if op == ">":
+            return float(a > b)
+        if op == ">=":
+            return float(a >= b)
+        if op == "+":
+            return a + b
+        if op == "-":
+            return a - b
+        if op == "*":
+            return a * b
+        if op == "/":
+            if b == 0.0:
+                warn("division by 0 (cpfg divides by 1)")
+                b = 1.0
+            return a / b
+        if op == "%":
+            x, y = c_int(a), c_int(b)
+            if y == 0:
+                raise CpfgError("remainder by zero (cpfg crashes)")
+            r = abs(x) % abs(y)
+            return float(-r if x < 0 else r)
+        if op == "^":
+            try:
+                return math.pow(a, b)
+            except (ValueError, OverflowError):
+                return math.nan if a < 0 else math.inf
+        raise CpfgError("bad operator %s" % op)
+
+    def call(self, e):
+        name, args = e[1], e[2]
+        if name in ("printf", "fprintf"):
+            if name == "fprintf":
+                args = args[1:]
+            if not args or args[0][0] != "str":
+                raise CpfgError("printf needs a format string", e[3])
+            vals = [self.eval(a) for a in args[1:]]
+            fmt = args[0][1]
+            try:
+                sys.stderr.write(fmt % tuple(vals))
+            except (TypeError, ValueError):
+                sys.stderr.write(fmt + "\n")
+            return 0.0
+        v = [self.eval(a) for a in args]
+        d = math.radians
+        r = math.degrees
+        try:
+            if name == "sin":
+                return math.sin(d(v[0]))
+            if name == "cos":
+                return math.cos(d(v[0]))
+            if name == "tan":
+                return math.tan(d(v[0]))
+            if name == "asin":
+                return r(math.asin(v[0]))
+            if name == "acos":
+                return r(math.acos(v[0]))
+            if name == "atan":
+                # cpfg stacks only one argument: atan(a, b) is atan(b)
+                return r(math.atan(v[-1]))
+            if name == "exp":
+                return math.exp(v[0])
+            if name == "log":
+                return math.log(v[0])
+            if name == "sqrt":
+                return math.sqrt(v[0])
+        except (ValueError, OverflowError):
+            return math.nan
+        if name == "floor":
+            return float(math.floor(v[0]))
+        if name == "ceil":
+            return float(math.ceil(v[0]))
+        if name == "trunc":
+            return float(math.floor(v[0] + 0.5))
+        if name == "fabs":
+            return abs(v[0])
+        if name == "sign":
+            return 0.0 if v[0] == 0 else (1.0 if v[0] > 0 else -1.0)
+        if name == "ran":
+            return self.rng.ran(v[0])
+        if name == "nran":
+            return self.rng.nran(v[0], v[1])
+        if name == "bran":
+            return self.rng.bran(v[0], v[1])
+        if name == "biran":
+            return self.rng.biran(c_int(v[0]), v[1])
+        if name == "srand":
+            self.rng.srand(c_int(v[0]))
+            return 0.0
+        raise CpfgError("unknown function %s" % name)
+
+    def run(self, stmts):
+        for s in stmts:
+            k = s[0]
+            if k == "assign":
+                s[1].value = self.eval(s[2])
+            elif k == "expr":
+                self.eval(s[1])
+            elif k == "if":
+                self.run(s[2] if self.eval(s[1]) != 0 else s[3])
+            elif k == "while":
+                guard = 0
+                while self.eval(s[1]) != 0:
+                    self.run(s[2])
+                    guard += 1
+                    if guard > 10 ** 7:
+                        raise CpfgError("while loop runs away")
+            elif k == "do":
+                guard = 0
+                while True:
+                    self.run(s[2])
+                    guard += 1
+                    if guard > 10 ** 7:
+                        raise CpfgError("do loop runs away")
+                    if self.eval(s[1]) == 0:
+                        break
+
+
+class Deriver:
+    def __init__(self, ls, rt):
+        self.ls = ls
+        self.rt = rt
+        self.by_first = {}
+        for p in ls.prods:
+            self.by_first.setdefault(p.pred[0][0], []).append(p)
+        self.decomp_first = {}
+        for p in ls.decomp or []:
+            self.decomp_first.setdefault(p.pred[0][0], []).append(p)
+        self.homo_first = {}
+        for p in ls.homo or []:
+            self.homo_first.setdefault(p.pred[0][0], []).append(p)
+
+    # -- context matching on the current string S ------------------------
+    def ignored(self, sym):
+        if self.ls.consider is not None:
+            return sym not in self.ls.consider
+        return sym in self.ls.ignore
+
+    def skipright(self, S, p):
+        """Index of the ']' closing the branch that contains p (or len)."""
+        level = 0
+        n = len(S)
+        while p < n:
+            s = S[p][0]
+            if s == "[":
+                level += 1
+            elif s == "]":
+                if level == 0:
+                    return p
+                level -= 1
+            p += 1
+        return n
+
+    def skipleft(self, S, p):
+        """From a ']' at p: the index just left of its '[' (or -1)."""
+        level = 0
+        q = p - 1
+        while q >= 0:
+            s = S[q][0]
+            if s == "]":
+                level += 1
+            elif s == "[":
+                if level == 0:
+                    return q - 1
+                level -= 1
+            q -= 1
+        return -1
+
+    def rcon(self, S, rc, p):
+        binds = []
+        n = len(S)
+        i = 0
+        while True:
+            pat = rc[i]
+            if pat[0] == "=":
+                p = self.skipright(S, p)
+                i += 1
+                continue
+            if p >= n:
+                return None
+            s = S[p][0]
+            if self.ignored(s):
+                p += 1
+            elif pat[0] != "[" and s == "[":
+                p = self.skipright(S, p + 1) + 1
+            else:
+                if pat[0] != s or len(pat[1]) != len(S[p][1]):
+                    return None
+                binds.append((pat, S[p]))
+                p += 1
+                i += 1
+                if i == len(rc):
+                    return binds
+
+    def lcon(self, S, lc, p):
+        binds = []
+        for pat in reversed(lc):
+            while True:
+                if p < 0:
+                    return None
+                s = S[p][0]
+                if s == "]":
+                    p = self.skipleft(S, p)
+                elif s == "[":
+                    p -= 1
+                elif self.ignored(s):
+                    p -= 1
+                else:
+                    if pat[0] != s or len(pat[1]) != len(S[p][1]):
+                        return None
+                    binds.append((pat, S[p]))
+                    p -= 1
+                    break
+        return binds
+
+    @staticmethod
+    def pred_match(pred, seq, k):
+        if k + len(pred) > len(seq):
+            return False
+        for j, (sym, cells) in enumerate(pred):
+            m = seq[k + j]
+            if m[0] != sym or len(m[1]) != len(cells):
+                return False
+        return True
+
+    @staticmethod
+    def bind(binds):
+        for (sym, cells), mod in binds:
+            for c, v in zip(cells, mod[1]):
+                c.value = float(v)
+
+    def try_prod(self, p, seq, k, S, left, right):
+        try:
+            return self._try_prod(p, seq, k, S, left, right)
+        except CpfgError as e:
+            e.where = e.where or p.where
+            raise
+
+    def _try_prod(self, p, seq, k, S, left, right):
+        """PredDiff, RconDiff, LconDiff, CondDiff in cpfg's order."""
+        if not self.pred_match(p.pred, seq, k):
+            return False
+        rb = []
+        if p.rc is not None:
+            rb = self.rcon(S, p.rc, right)
+            if rb is None:
+                return False
+        lb = []
+        if p.lc is not None:
+            lb = self.lcon(S, p.lc, left)
+            if lb is None:
+                return False
+        self.bind([(pat, seq[k + j]) for j, pat in enumerate(p.pred)])
+        self.bind(rb)
+        self.bind(lb)
+        self.rt.run(p.pre)
+        if p.cond is None:
+            return True
+        return self.rt.eval(p.cond) != 0
+
+    def successor(self, p):
+        try:
+            self.rt.run(p.post)
+            return [(sym, tuple(f32(self.rt.eval(e)) for e in params)) for sym, params in p.succ]
+        except CpfgError as e:
+            e.where = e.where or p.where
+            raise
+
+    # -- decomposition ---------------------------------------------------
+    def decompose(self, seq, k, S, left, right, depth, out):
+        """cpfg's ApplyRecursiveProductions; returns (applied, next k)."""
+        found = None
+        for p in self.decomp_first.get(seq[k][0], []):
+            if self.try_prod(p, seq, k, S, left, right):
+                found = p
+                break
+        D = self.ls.decomp_depth
+        if depth >= D:
+            if D > 0:
+                out.append(seq[k])
+                if found is not None and self.ls.decomp_warning:
+                    warn("maximum depth in a decomposition reached")
+                return True, k + 1
+            return False, k
+        if found is None:
+            if depth == 0:
+                return False, k
+            out.append(seq[k])
+            return True, k + 1
+        res = self.successor(found)
+        j = 0
+        while j < len(res):
+            _, j = self.decompose(res, j, S, left, right, depth + 1, out)
+        return True, k + len(found.pred)
+
+    # -- one derivation step -------------------------------------------------
+    def step(self, S, last):
+        rt = self.rt
+        rt.q_cell.value += 1.0
+        rt.run(self.ls.start_each)
+        out = []
+        n = len(S)
+        i = 0
+        decomp = self.ls.decomp is not None
+        while i < n:
+            cands = self.by_first.get(S[i][0], [])
+            chosen = None
+            if self.ls.stochastic:
+                appl = []
+                total = f32(0.0)
+                for p in cands:
+                    if self.try_prod(p, S, i, S, i - 1, i + len(p.pred)):
+                        prob = f32(rt.eval(p.prob)) if p.prob is not None else 1.0
+                        total = f32(total + prob)
+                        appl.append((p, prob))
+                r = f32(total * rt.rng.main.next())
+                for p, prob in appl:
+                    r = f32(r - prob)
+                    if r <= 0:
+                        chosen = p
+                        break
+            else:
+                for p in cands:
+                    if self.try_prod(p, S, i, S, i - 1, i + len(p.pred)):
+                        chosen = p
+                        break
+            if chosen is not None:
+                res = self.successor(chosen)
+                nxt = i + len(chosen.pred)
+                if decomp:
+                    j = 0
+                    while j < len(res):
+                        ok, j2 = self.decompose(res, j, S, i - 1, nxt, 0, out)
+                        if not ok:
+                            out.append(res[j])
+                            j2 = j + 1
+                        j = j2
+                else:
+                    out.extend(res)
+                i = nxt
+                continue
+            if decomp:
+                # a multi-module decomposition predecessor may span modules
+                # of the old string here; its right context starts after
+                # the first one (ApplyProd passes that pointer)
+                ok, nxt = self.decompose(S, i, S, i - 1, i + 1, 0, out)
+                if ok:
+                    i = nxt
+                    continue
+            if S[i][0] == "%" and not S[i][1]:
+                # cut: drop % and the rest of its branch (the ] stays)
+                j = i + 1
+                level = 1
+                while j < n:
+                    s = S[j][0]
+                    if s == "[":
+                        level += 1
+                    elif s == "]":
+                        level -= 1
+                        if level == 0:
+                            break
+                    j += 1
+                i = j
+                continue
+            out.append(S[i])
+            i += 1
+        rt.run(self.ls.end_each)
+        if last:
+            rt.run(self.ls.end)
+        return out
+
+    # -- homomorphism --------------------------------------------------------
+    def homomorphism(self, S):
+        out = []
+        hx = None
+        if self.ls.homo_seed >= 0:
+            s = self.ls.homo_seed
+            hx = Rand48.from_xsubi(0x330E, s & 0xFFFF, (s >> 16) & 0xFFFF)
+        i = 0
+        while i < len(S):
+            # contexts: the derived string around the module (interpret.c)
+            i = self.homo_apply(S, i, S, i - 1, i + 1, 0, out, hx)
+        return out
+
+    def homo_apply(self, seq, k, S, left, right, depth, out, hx):
+        found = None
+        for p in self.homo_first.get(seq[k][0], []):
+            if self.try_prod(p, seq, k, S, left, right):
+                found = p
+                break
+        if depth >= self.ls.homo_depth:
+            out.append(seq[k])
+            if found is not None and self.ls.homo_warning:
+                warn("maximum depth in a homomorphism reached for module %s" % seq[k][0])
+            return k + 1
+        if found is None:
+            out.append(seq[k])
+            return k + 1
+        rng = self.rt.rng
+        if depth == 0 and hx is not None:
+            saved = rng.xsubi
+            rng.xsubi = hx
+        res = self.successor(found)
+        j = 0
+        while j < len(res):
+            j = self.homo_apply(res, j, S, left, right, depth + 1, out, hx)
+        if depth == 0 and hx is not None:
+            rng.xsubi = saved
+        return k + len(found.pred)
+
+    def derive(self, steps, homomorphism=True):
+        rt = self.rt
+        rt.run(self.ls.start)
+        S = [(sym, tuple(f32(rt.eval(e)) for e in params)) for sym, params in self.ls.axiom]
+        for k in range(1, steps + 1):
+            last = k == steps and k >= self.ls.n
+            S = self.step(S, last)
+        if homomorphism and self.ls.homo:
+            S = self.homomorphism(S)
+        return S
+
+
+def format_string(S):
+    parts = []
+    for sym, vals in S:
+        if vals:
+            parts.append(sym + "(" + ",".join(fmt_g(v) for v in vals) + ")")
+        else:
+            parts.append(sym)
+    return "".join(parts)
+
+
+def load(path):
+    lines = Preprocessor().run(path)
+    rt = Runtime()
+    toks = Lexer(lines).tokens()
+    ls = Parser(toks, rt).parse()
+    rt.rng = Randomness(ls.seed)
+    return ls, rt
+
+
+def run_file(path, n=None, homomorphism=True):
+    ls, rt = load(path)
+    steps = ls.n if n is None else n
+    return format_string(Deriver(ls, rt).derive(steps, homomorphism))
+
+
+# ---------------------------------------------------------------------------
+# Self test: facts that do not depend on the models
+# ---------------------------------------------------------------------------
+
+
+def self_test():
+    ok = True
+
+    def check(what, got, want):
+        nonlocal ok
+        if got != want:
+            ok = False
+            print("FAIL %s: got %r, want %r" % (what, got, want))
+
+    # drand48 after srand48(0) (X = 0x330E): the POSIX LCG by hand.
+    r = Rand48(0x330E)
+    x1 = (0x5DEECE66D * 0x330E + 0xB) % (1 << 48)
+    check("drand48 step", r.next(), x1 / 2.0 ** 48)
+    # unseeded glibc drand48 (X = 0): first X is c = 11
+    check("unseeded", Rand48(0).next(), 11 / 2.0 ** 48)
+    # seed48({7, 0, 155}) state
+    check("seed48", Rand48.from_xsubi(7, 0, 155).x, (155 << 32) | 7)
+    # values printed once by glibc's drand48/erand48 (gcc, Debian) for
+    # comparison: unseeded, after seed48({7, 0, 155}), from {0x330E, 0, 0}
+    r = Rand48(0)
+    check("glibc unseeded", (r.next(), r.next()), (3.907985046680551e-14, 0.0009853946746503084))
+    r = Randomness(7).main
+    check("glibc seed48", (r.next(), r.next()), (0.5162368105493655, 0.4207841637977232))
+    r = Randomness(0)
+    check("glibc erand48", (r.ran(1), r.ran(1)), (0.17082803610628972, 0.7499019804849638))
+    r.srand(42)
+    check("srand(42)", r.ran(1), 0.7445250000610066)
+    check("%g", fmt_g(f32(16777217.0)), "1.67772e+07")
+    check("%g -0", fmt_g(-0.0), "-0")
+    check("f32 0.1", fmt_g(f32(0.1) * 3), "0.3")
+    rt = Runtime()
+    rt.rng = Randomness(0)
+    p = Parser(Lexer([("Lsystem: 1", ("t", 1)), ("derivation length: -2^2", ("t", 2))]).tokens(), rt)
+    p.take()
+    p.take()
+    p.take()
+    p.take()
+    check("-2^2", rt.eval(p.expression()), 4.0)
+    for text, want in [("2^3^2", 64.0), ("2.5 % 2", 0.0), ("-7 % 3", -1.0), ("1/0", 1.0),
+                       ("trunc(2.5)", 3.0), ("trunc(-2.5)", -2.0), ("atan(1, 0)", 0.0),
+                       ("1 ? 2 : 3", 2.0), ("!0 + 1", 2.0), ("3 <> 4", 1.0),
+                       ("sin(90)", 1.0), ("1 + 2 * 3 ^ 2", 19.0), ("undefinedname", 0.0)]:
+        toks = Lexer([("Lsystem: 1", ("t", 1)), ("seed: " + text, ("t", 2))]).tokens()
+        p = Parser(toks, rt)
+        p.pos = 4
+        check(text, rt.eval(p.expression()), want)
+    print("self-test %s" % ("passed" if ok else "FAILED"))
+    return 0 if ok else 1
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("file", nargs="?")
+    ap.add_argument("-n", type=int, default=None, help="number of derivation steps")
+    ap.add_argument("--no-homomorphism", action="store_true")
+    ap.add_argument("--self-test", action="store_true")
+    args = ap.parse_args(argv)
+    if args.self_test:
+        return self_test()
+    if not args.file:
+        ap.error("a file is needed")
+    try:
+        out = run_file(args.file, args.n, not args.no_homomorphism)
+    except CpfgError as e:
+        print("cpfg_ref.py: %s" % e, file=sys.stderr)
+        return 1
+    sys.stdout.write(out + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
