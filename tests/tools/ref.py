@@ -516,6 +516,7 @@ def _uses_random(e):
 
 
 _SECTION = re.compile(r"^(productions|decomposition|homomorphism)(?:\s+([^:]*?))?\s*:\s*(.*)$")
+_VIEW_LINE = re.compile(r"^view\s*:")
 _SETTING_IN_SECTION = re.compile(r"^(maximum\s+depth|seed)\s*:(.*)$")
 
 
@@ -535,6 +536,10 @@ def parse_ls(text):
         if not line:
             continue
         low = line.lower()
+        if _VIEW_LINE.match(low):
+            # lsgen-turtle's view settings: lsgen checks and skips them on
+            # any header line (README, "View settings"); so does this.
+            continue
         m = _SECTION.match(low)
         if m and not (m.group(1) == "productions" and m.group(3)):
             name, num, rest = m.group(1), m.group(2), m.group(3).strip()
