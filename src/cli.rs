@@ -71,6 +71,36 @@ pub struct Args {
     /// Report the seed and each generation's length on standard error.
     #[arg(short, long)]
     pub verbose: bool,
+
+    /// For tests (hidden): force the derivation strategy. `auto` (default)
+    /// picks depth first when the system allows it, `step` always derives
+    /// step by step through temporary files, `dfs` insists on depth first
+    /// and is a usage error (exit 2) when the system or options forbid it.
+    #[arg(long, hide = true, value_name = "auto|step|dfs",
+          value_parser = parse_strategy, default_value = "auto")]
+    pub strategy: Strategy,
+}
+
+/// How the derivation is carried out (`--strategy`, hidden, for tests).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Strategy {
+    /// Depth first when the system allows it, else step by step.
+    #[default]
+    Auto,
+    /// Always step by step.
+    Step,
+    /// Depth first, or a usage error.
+    DepthFirst,
+}
+
+/// `--strategy`: `auto`, `step` or `dfs`.
+pub fn parse_strategy(s: &str) -> Result<Strategy, String> {
+    match s {
+        "auto" => Ok(Strategy::Auto),
+        "step" => Ok(Strategy::Step),
+        "dfs" => Ok(Strategy::DepthFirst),
+        _ => Err(format!("`{s}` is not a strategy: use auto, step or dfs")),
+    }
 }
 
 /// `--max-length`: a module count (`1000000`, `5M`, `2G`) or a byte size
@@ -274,6 +304,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         limits: args.max_length.unwrap_or_default(),
         tmpdir: args.tmpdir.clone(),
         verbose: args.verbose,
+        strategy: args.strategy,
     };
     derive(
         &settings,
@@ -295,6 +326,7 @@ pub struct Settings {
     pub limits: Limits,
     pub tmpdir: Option<PathBuf>,
     pub verbose: bool,
+    pub strategy: Strategy,
 }
 
 /// Load an L-system from `src` and derive it in full into a byte vector
@@ -324,6 +356,7 @@ pub fn derive_bytes(
         limits,
         tmpdir: None,
         verbose: false,
+        strategy: Strategy::Auto,
     };
     let mut system = system;
     let consts = std::mem::take(&mut system.consts);
@@ -461,6 +494,15 @@ fn derive(
     // Right contexts skip branches in O(1) through a bracket index.
     let indexed = productions.has_right || (hom && homomorphism.has_right);
     let passes = steps + u64::from(hom);
+    let strategy = settings.strategy;
+    let not_depth_first = || {
+        Error::usage(
+            "`--strategy dfs`: this system cannot be derived depth first with these options",
+        )
+    };
+    if strategy == Strategy::DepthFirst && passes == 0 {
+        return Err(not_depth_first());
+    }
     let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
     let verbose = |what: &str, (m, b): (u64, u64)| {
         if settings.verbose {
@@ -499,7 +541,8 @@ fn derive(
         hom.then_some(&homomorphism),
         &d.alphabet,
         steps,
-    );
+    )
+    .filter(|_| strategy != Strategy::Step);
     if let (Some(plan), Some(src)) = (plan, &cur) {
         if settings.verbose || limits.modules != u64::MAX || limits.bytes != u64::MAX {
             let census = crate::dfs::census(src, &d.alphabet)?;
@@ -529,7 +572,11 @@ fn derive(
     // Deterministic context-free systems with parameters: depth first too,
     // unless generation lengths are asked for (-v, --max-length).
     let quiet = !settings.verbose && limits.modules == u64::MAX && limits.bytes == u64::MAX;
-    let plan = crate::dfs::ParamPlan::new(&productions, hom.then_some(&homomorphism), steps);
+    let plan = crate::dfs::ParamPlan::new(&productions, hom.then_some(&homomorphism), steps)
+        .filter(|_| strategy != Strategy::Step);
+    if strategy == Strategy::DepthFirst && !(plan.is_some() && quiet) {
+        return Err(not_depth_first());
+    }
     // A runtime error found depth first may not be the first one in step
     // order: then derive again step by step, output discarded, so every
     // strategy reports the earliest step's first error in string order.
