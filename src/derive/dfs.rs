@@ -14,8 +14,8 @@
 //! compare both), and generation lengths are computed exactly by dynamic
 //! programming, for `--verbose` and `--max-length`.
 
+use crate::derive::{Limits, Origin, Out, Pass, PosReader, ASCII};
 use crate::diag::Error;
-use crate::engine::{Limits, Origin, Out, Pass, PosReader, ASCII};
 use crate::rules::{Alphabet, Item, Table};
 use std::fs::File;
 
@@ -339,12 +339,13 @@ impl Level {
     /// Append a run of modules given in binary form.
     fn push_bin(&mut self, mut bin: &[u8], al: &Alphabet) {
         while !bin.is_empty() {
-            let (key, kl) = crate::codec::get_key(bin);
+            let (key, kl) = crate::rules::codec::get_key(bin);
             let n = al.arity(key);
             self.keys.push(key);
             self.starts.push(self.params.len());
             for i in 0..n {
-                self.params.push(crate::codec::get_param(&bin[kl..], i));
+                self.params
+                    .push(crate::rules::codec::get_param(&bin[kl..], i));
             }
             bin = &bin[kl + 8 * n..];
         }
@@ -384,7 +385,7 @@ impl<'t> ParamPlan<'t> {
         key: u32,
         params: &[f64],
         stack: &mut Vec<f64>,
-        rng: &mut crate::random::Random,
+        rng: &mut crate::derive::random::Random,
         origin: &Origin,
         pass: Pass,
     ) -> Result<Option<u32>, Error> {
@@ -418,7 +419,7 @@ impl<'t> ParamPlan<'t> {
         let mut levels: Vec<Level> = (0..=n.min(64)).map(|_| Level::default()).collect();
         let mut stack = Vec::new();
         let mut vals = Vec::new();
-        let mut rng = crate::random::Random::new(0); // never drawn from
+        let mut rng = crate::derive::random::Random::new(0); // never drawn from
         let mut rd = PosReader::new(input, 1 << 16, false);
         let read_err = |e| Error::io("temporary file", "cannot read", e);
         while let Some((_, s, e)) = rd.next_module(al).map_err(read_err)? {
@@ -504,7 +505,7 @@ impl<'t> ParamPlan<'t> {
         out: &mut Out,
         stack: &mut Vec<f64>,
         vals: &mut Vec<f64>,
-        rng: &mut crate::random::Random,
+        rng: &mut crate::derive::random::Random,
     ) -> Result<(), Error> {
         let pass = Pass::Homomorphism;
         let chosen = match self.hom {
@@ -533,7 +534,7 @@ impl<'t> ParamPlan<'t> {
     }
 }
 
-fn eval_error(origin: &Origin, e: crate::expr::EvalError, pass: Pass) -> Error {
+fn eval_error(origin: &Origin, e: crate::rules::expr::EvalError, pass: Pass) -> Error {
     Error::at(
         origin.locate(e.span.0),
         format!("{} (in {pass})", e.message),

@@ -2,9 +2,9 @@
 //! grammar, and lalrpop's `ParseError` is turned into our located error in
 //! one place.
 
-use crate::ast;
 use crate::diag::{CodeMap, Error, Location};
-use crate::lexer::{LexError, Lexer, Span, Tok};
+use crate::lang::ast;
+use crate::lang::lexer::{LexError, Lexer, Span, Tok};
 use lalrpop_util::{lalrpop_mod, ParseError};
 
 lalrpop_mod!(
@@ -145,7 +145,7 @@ fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str) -> UserError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ast::{Expr, Setting};
+    use crate::lang::ast::{Expr, Setting};
 
     const ABOP_110: &str = "/* Parametric example, ABOP section 1.10 */
 derivation length: 4

@@ -1,0 +1,428 @@
+//! The streaming rewriter. One derivation step reads a generation from a
+//! temp file (binary format, see [`crate::rules::codec`]) and writes the next one
+//! to another temp file, or, on the last pass, as text to the output.
+//!
+//! Memory does not grow with the string: the main reader and the look-ahead
+//! reader each hold one buffer; left contexts keep the last k considered
+//! modules per open branch; right contexts are matched by a second reader
+//! over the same file, so skipping a branch of any size costs time, not
+//! memory.
+
+use super::bytetable::ByteTable;
+use super::context::{match_right, LeftContext, RightCache};
+use super::reader::PosReader;
+use super::sink::Out;
+use super::{Origin, Pass};
+use crate::derive::random::Random;
+use crate::diag::Error;
+use crate::rules::codec;
+use crate::rules::expr::EvalError;
+use crate::rules::{Alphabet, Item, KeyRules, Production, RPat, Table, CLOSE, OPEN};
+use std::fs::File;
+use std::io;
+
+/// State shared by the passes of one derivation.
+pub struct Deriver<'a> {
+    pub alphabet: Alphabet,
+    pub rng: Random,
+    pub origin: Origin<'a>,
+    slots: Vec<f64>,
+    vals: Vec<f64>,
+    stack: Vec<f64>,
+    cand: Vec<(u32, f64)>,
+    cand_slots: Vec<f64>,
+}
+
+struct StepState<'f> {
+    peek: Option<PosReader<'f>>,
+    right: RightCache,
+    max_right_simple: usize,
+    left: Option<LeftContext>,
+    /// A run of ignored modules: from any module end in `skip.0..=skip.1`
+    /// only ignored modules (no bracket) lie before offset `skip.1`, so a
+    /// right context may start there. Keeps right contexts over long
+    /// ignored runs linear.
+    skip: (u64, u64),
+    depth: i64,
+    /// Productions that last opened or closed more than they matched, to
+    /// blame for unbalanced output.
+    last_opener: Option<u32>,
+    last_closer: Option<u32>,
+}
+
+impl StepState<'_> {
+    /// Where the right context of the module ending at `end_off` starts:
+    /// past the ignored modules that follow it. Each ignored run is read
+    /// once per pass, however many of its modules ask.
+    #[inline]
+    fn right_start(&mut self, end_off: u64, al: &Alphabet) -> io::Result<u64> {
+        if self.skip.0 <= end_off && end_off <= self.skip.1 {
+            return Ok(self.skip.1);
+        }
+        let peek = self
+            .peek
+            .as_mut()
+            .expect("a look-ahead reader for right contexts");
+        let mut pos = end_off;
+        loop {
+            peek.seek(pos);
+            match peek.next_module(al)? {
+                Some((key, _, _)) if key != OPEN && key != CLOSE && al.ignored(key) => {
+                    pos = peek.offset();
+                }
+                _ => break,
+            }
+        }
+        self.skip = (end_off, pos);
+        Ok(pos)
+    }
+
+    /// The next considered modules right of the module ending at `end_off`
+    /// (read once per module).
+    #[inline]
+    fn right_of(&mut self, end_off: u64, al: &Alphabet) -> Result<&RightCache, Error> {
+        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        let start = self.right_start(end_off, al).map_err(read_err)?;
+        if self.right.at != start {
+            let peek = self
+                .peek
+                .as_mut()
+                .expect("a look-ahead reader for right contexts");
+            self.right
+                .fill(peek, al, start, self.max_right_simple)
+                .map_err(read_err)?;
+        }
+        Ok(&self.right)
+    }
+}
+
+impl<'a> Deriver<'a> {
+    pub fn new(alphabet: Alphabet, rng: Random, origin: Origin<'a>) -> Self {
+        Deriver {
+            alphabet,
+            rng,
+            origin,
+            slots: Vec::new(),
+            vals: Vec::new(),
+            stack: Vec::new(),
+            cand: Vec::new(),
+            cand_slots: Vec::new(),
+        }
+    }
+
+    fn eval_error(&self, e: EvalError, pass: Pass) -> Error {
+        Error::at(
+            self.origin.locate(e.span.0),
+            format!("{} (in {pass})", e.message),
+        )
+    }
+
+    /// One pass: rewrite the generation in `input` into `out`.
+    pub fn pass(
+        &mut self,
+        table: &Table,
+        input: &File,
+        indexed: bool,
+        out: &mut Out,
+        pass: Pass,
+    ) -> Result<(), Error> {
+        let max_slots = table.prods.iter().map(|p| p.nslots).max().unwrap_or(0);
+        self.slots.resize(max_slots.max(1), 0.0);
+        let mut st = StepState {
+            peek: table
+                .has_right
+                .then(|| PosReader::new(input, 1 << 16, indexed)),
+            right: RightCache {
+                at: u64::MAX,
+                ..RightCache::default()
+            },
+            max_right_simple: table.max_right_simple,
+            left: (table.max_left > 0).then(|| LeftContext::new(table, &self.alphabet)),
+            depth: 0,
+            skip: (u64::MAX, 0),
+            last_opener: None,
+            last_closer: None,
+        };
+        let mut rd = PosReader::new(input, 1 << 20, indexed);
+        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        // Bytes that need no decision take the table; with contexts, keys
+        // that have context productions and brackets still go the long way.
+        let fast = (!table.check_balance).then(|| {
+            ByteTable::new(
+                table,
+                out.text,
+                !indexed && st.left.is_none() && out.indexed.is_none(),
+            )
+        });
+        loop {
+            if let Some(fast) = &fast {
+                let window = rd.window().map_err(read_err)?;
+                let used = fast.run(window, out, st.left.as_mut(), &self.alphabet, indexed)?;
+                rd.advance(used);
+                out.maybe_flush()?;
+                if used > 0 {
+                    continue;
+                }
+            }
+            let Some((key, s, e)) = rd.next_module(&self.alphabet).map_err(read_err)? else {
+                break;
+            };
+            let end_off = rd.offset();
+            let bytes = rd.bytes(s, e);
+            let applied = match table.get(key) {
+                Some(kr) => self.apply(table, kr, key, bytes, end_off, &mut st, out, pass)?,
+                None => false,
+            };
+            if !applied {
+                if table.check_balance {
+                    if key == OPEN {
+                        st.depth += 1;
+                    } else if key == CLOSE {
+                        st.depth -= 1;
+                        if st.depth < 0 {
+                            return Err(self.unbalanced(table, st.last_closer, pass));
+                        }
+                    }
+                }
+                out.raw(key, bytes, &self.alphabet)?;
+            }
+            if let Some(left) = &mut st.left {
+                if key == OPEN {
+                    left.open();
+                } else if key == CLOSE {
+                    left.close();
+                } else if !self.alphabet.ignored(key) {
+                    let (_, kl) = codec::get_key(bytes);
+                    left.push(key, &bytes[kl..], self.alphabet.arity(key));
+                }
+            }
+            out.maybe_flush()?;
+        }
+        if st.depth != 0 {
+            let p = &table.prods[st.last_opener.unwrap_or(0) as usize];
+            return Err(Error::at(
+                self.origin.locate(p.span.0),
+                format!(
+                    "unbalanced brackets: {pass} leaves a `[` open, produced by this production"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    fn unbalanced(&self, table: &Table, culprit: Option<u32>, pass: Pass) -> Error {
+        let p = &table.prods[culprit.unwrap_or(0) as usize];
+        Error::at(
+            self.origin.locate(p.span.0),
+            format!("unbalanced brackets: {pass} produces a `]` without `[`, from this production"),
+        )
+    }
+
+    /// Try the productions of `key`; emit the chosen successor.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn apply(
+        &mut self,
+        table: &Table,
+        kr: &KeyRules,
+        key: u32,
+        bytes: &[u8],
+        end_off: u64,
+        st: &mut StepState,
+        out: &mut Out,
+        pass: Pass,
+    ) -> Result<bool, Error> {
+        // Predecessor parameters into the first slots.
+        let arity = self.alphabet.arity(key);
+        if arity > 0 {
+            let (_, kl) = codec::get_key(bytes);
+            for i in 0..arity {
+                self.slots[i] = codec::get_param(&bytes[kl..], i);
+            }
+        }
+        let mut chosen = None;
+        if !kr.context.is_empty() {
+            chosen = self.choose(table, &kr.context, kr.context_stochastic, end_off, st, pass)?;
+        }
+        if chosen.is_none() && !kr.free.is_empty() {
+            chosen = self.choose(table, &kr.free, kr.free_stochastic, end_off, st, pass)?;
+        }
+        let Some(pi) = chosen else {
+            return Ok(false);
+        };
+        let p = &table.prods[pi as usize];
+        if table.check_balance {
+            if st.depth + p.depth_min < 0 {
+                return Err(self.unbalanced(table, Some(pi), pass));
+            }
+            st.depth += p.depth_delta;
+            if p.depth_delta > 0 {
+                st.last_opener = Some(pi);
+            }
+            if p.depth_delta < 0 || p.depth_min < 0 {
+                st.last_closer = Some(pi);
+            }
+        }
+        self.emit(p, out, pass)?;
+        Ok(true)
+    }
+
+    /// A cheap first look: do the nearest context modules already differ?
+    /// (Fills the right-context cache on first use for this module.)
+    #[inline(always)]
+    fn surely_not(&self, p: &Production, end_off: u64, st: &mut StepState) -> Result<bool, Error> {
+        if let (Some(pat), Some(left)) = (p.left.last(), &st.left) {
+            if left.last_key() != Some(pat.key) {
+                return Ok(true);
+            }
+        }
+        if p.right_simple {
+            let right = st.right_of(end_off, &self.alphabet)?;
+            if let (Some(RPat::Module(pat)), first) = (p.right.first(), right.keys.first()) {
+                if first != Some(&pat.key) {
+                    return Ok(true);
+                }
+            }
+        }
+        Ok(false)
+    }
+
+    /// Does production `p` match here (contexts and condition)?
+    #[inline]
+    fn matches(
+        &mut self,
+        p: &Production,
+        end_off: u64,
+        st: &mut StepState,
+        pass: Pass,
+    ) -> Result<bool, Error> {
+        if !p.left.is_empty()
+            && !st
+                .left
+                .as_ref()
+                .unwrap()
+                .matches(&p.left, &self.alphabet, &mut self.slots)
+        {
+            return Ok(false);
+        }
+        if p.right_simple {
+            let right = st.right_of(end_off, &self.alphabet)?;
+            if !right.matches(&p.right, &self.alphabet, &mut self.slots) {
+                return Ok(false);
+            }
+        } else if !p.right.is_empty() {
+            // Matching from past the ignored run is the same: every pattern
+            // element passes over ignored modules first.
+            let read_err = |e| Error::io("temporary file", "cannot read", e);
+            let start = st.right_start(end_off, &self.alphabet).map_err(read_err)?;
+            let peek = st.peek.as_mut().unwrap();
+            let ok = match_right(peek, &self.alphabet, start, &p.right, &mut self.slots)
+                .map_err(read_err)?;
+            if !ok {
+                return Ok(false);
+            }
+        }
+        match &p.cond {
+            None => Ok(true),
+            Some(c) => match c.eval(&self.slots, &mut self.stack, &mut self.rng) {
+                Ok(v) => Ok(v != 0.0),
+                Err(e) => Err(self.eval_error(e, pass)),
+            },
+        }
+    }
+
+    fn choose(
+        &mut self,
+        table: &Table,
+        list: &[u32],
+        stochastic: bool,
+        end_off: u64,
+        st: &mut StepState,
+        pass: Pass,
+    ) -> Result<Option<u32>, Error> {
+        if !stochastic {
+            for &pi in list {
+                let p = &table.prods[pi as usize];
+                if self.surely_not(p, end_off, st)? {
+                    continue;
+                }
+                if self.matches(p, end_off, st, pass)? {
+                    return Ok(Some(pi));
+                }
+            }
+            return Ok(None);
+        }
+        // Weighted choice among all matching productions.
+        self.cand.clear();
+        self.cand_slots.clear();
+        let mut total = 0.0;
+        for &pi in list {
+            let p = &table.prods[pi as usize];
+            if self.surely_not(p, end_off, st)? || !self.matches(p, end_off, st, pass)? {
+                continue;
+            }
+            let w = match &p.prob {
+                None => 1.0,
+                Some(c) => c
+                    .eval(&self.slots, &mut self.stack, &mut self.rng)
+                    .map_err(|e| self.eval_error(e, pass))?,
+            };
+            if w < 0.0 {
+                return Err(Error::at(
+                    self.origin.locate(p.prob.as_ref().unwrap().span.0),
+                    format!("a probability cannot be negative ({w}, in {pass})"),
+                ));
+            }
+            if w > 0.0 {
+                total += w;
+                self.cand.push((pi, w));
+                self.cand_slots.extend_from_slice(&self.slots[..p.nslots]);
+            }
+        }
+        let pick = match self.cand.len() {
+            0 => return Ok(None),
+            1 => 0,
+            n => {
+                let mut u = self.rng.uniform() * total;
+                let mut i = 0;
+                while i < n - 1 {
+                    u -= self.cand[i].1;
+                    if u < 0.0 {
+                        break;
+                    }
+                    i += 1;
+                }
+                i
+            }
+        };
+        // Restore the chosen production's bindings.
+        let pi = self.cand[pick].0;
+        let off: usize = self.cand[..pick]
+            .iter()
+            .map(|(q, _)| table.prods[*q as usize].nslots)
+            .sum();
+        let n = table.prods[pi as usize].nslots;
+        self.slots[..n].copy_from_slice(&self.cand_slots[off..off + n]);
+        Ok(Some(pi))
+    }
+
+    #[inline]
+    fn emit(&mut self, p: &Production, out: &mut Out, pass: Pass) -> Result<(), Error> {
+        for item in &p.succ {
+            match item {
+                Item::Const(c) => out.constant(c)?,
+                Item::Module { key, params } => {
+                    self.vals.clear();
+                    for c in params.iter() {
+                        match c.eval(&self.slots, &mut self.stack, &mut self.rng) {
+                            Ok(v) => self.vals.push(v),
+                            Err(e) => return Err(self.eval_error(e, pass)),
+                        }
+                    }
+                    out.module(*key, &self.vals, &self.alphabet)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
