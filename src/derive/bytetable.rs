@@ -128,7 +128,7 @@ impl<'t> ByteTable<'t> {
             out.modules += f.modules;
             if let Some(left) = &mut left {
                 if !al.ignored(b as u32) {
-                    left.push(b as u32, &[], 0);
+                    left.push(b as u32, &ASCII[b as usize..b as usize + 1], 0);
                 }
             }
             i += 1;

@@ -3,7 +3,7 @@
 //! look-ahead reader over the same generation file.
 
 use super::reader::PosReader;
-use crate::rules::codec;
+use crate::rules::codec::{self, Modules};
 use crate::rules::{Alphabet, Pat, RPat, Table, CLOSE, OPEN};
 use std::io;
 
@@ -118,8 +118,10 @@ impl LeftContext {
         Some(self.keys[l.start + l.head])
     }
 
+    /// Record the considered module `key`, encoded as `module` (key
+    /// included), with `arity` parameters.
     #[inline]
-    pub(crate) fn push(&mut self, key: u32, params: &[u8], arity: usize) {
+    pub(crate) fn push(&mut self, key: u32, module: &[u8], arity: usize) {
         let (k, w) = (self.k, self.width);
         let l = &mut self.levels[self.depth];
         let slot = if l.cnt < k {
@@ -136,9 +138,7 @@ impl LeftContext {
             slot
         };
         if self.wanted.get(key as usize).copied().unwrap_or(false) {
-            for i in 0..arity {
-                self.params[slot * w + i] = codec::get_param(params, i);
-            }
+            codec::read_params(module, &mut self.params[slot * w..slot * w + arity]);
         }
     }
 
@@ -176,17 +176,20 @@ impl LeftContext {
 
 /// The next considered modules right of the current one, read once per
 /// module for all bracket-free right contexts.
-#[derive(Default)]
 pub(crate) struct RightCache {
     /// Offset the cache was filled from (u64::MAX: empty).
     pub(crate) at: u64,
-    pub(crate) keys: Vec<u32>,
-    /// Start of each module's parameters in `params`.
-    pub(crate) starts: Vec<usize>,
-    pub(crate) params: Vec<f64>,
+    pub(crate) modules: Modules,
 }
 
 impl RightCache {
+    pub(crate) fn new() -> Self {
+        RightCache {
+            at: u64::MAX,
+            modules: Modules::default(),
+        }
+    }
+
     pub(crate) fn fill(
         &mut self,
         peek: &mut PosReader,
@@ -195,61 +198,118 @@ impl RightCache {
         want: usize,
     ) -> io::Result<()> {
         self.at = pos;
-        self.keys.clear();
-        self.starts.clear();
-        self.params.clear();
+        self.modules.clear();
         let mut pos = pos;
-        while self.keys.len() < want {
-            peek.seek(pos);
-            let Some((key, s, e)) = peek.next_module(al)? else {
+        while self.modules.len() < want {
+            let Walk::Module {
+                key, s, e, next, ..
+            } = walk_right(peek, al, pos, true)?
+            else {
                 break;
             };
-            let next = peek.offset();
-            if key == OPEN {
-                match peek.branch_end(al, s, next)? {
-                    Some(after) => pos = after,
-                    None => break,
-                }
-                continue;
-            }
-            if key == CLOSE {
-                break;
-            }
             pos = next;
-            if al.ignored(key) {
-                continue;
-            }
-            self.keys.push(key);
-            self.starts.push(self.params.len());
-            let bytes = peek.bytes(s, e);
-            let (_, kl) = codec::get_key(bytes);
-            for i in 0..al.arity(key) {
-                self.params.push(codec::get_param(&bytes[kl..], i));
-            }
+            self.modules
+                .push_encoded(key, peek.bytes(s, e), al.arity(key));
         }
         Ok(())
     }
 
     pub(crate) fn matches(&self, pat: &[RPat], al: &Alphabet, slots: &mut [f64]) -> bool {
-        if pat.len() > self.keys.len() {
+        if pat.len() > self.modules.len() {
             return false;
         }
         for (i, r) in pat.iter().enumerate() {
             let RPat::Module(p) = r else {
                 unreachable!("bracket in a simple right context")
             };
-            if self.keys[i] != p.key {
+            if self.modules.keys[i] != p.key {
                 return false;
             }
         }
         for (i, r) in pat.iter().enumerate() {
             if let RPat::Module(p) = r {
                 let n = al.arity(p.key);
-                let s = self.starts[i];
-                slots[p.slot as usize..p.slot as usize + n].copy_from_slice(&self.params[s..s + n]);
+                let (_, params) = self.modules.get(i, n);
+                slots[p.slot as usize..p.slot as usize + n].copy_from_slice(params);
             }
         }
         true
+    }
+}
+
+/// Where the right-walker stopped.
+pub(crate) enum Walk {
+    /// A considered module at offset `at`, its bytes at `peek.bytes(s, e)`,
+    /// `next` the offset just after it.
+    Module {
+        key: u32,
+        s: usize,
+        e: usize,
+        at: u64,
+        next: u64,
+    },
+    /// A `]`, the end of the string, or (without `skip_branches`) a `[`
+    /// (`open`), at offset `at`.
+    Stop { at: u64, open: bool },
+}
+
+/// The right-walker, the one loop behind every right context: from offset
+/// `pos`, pass over ignored modules and, with `skip_branches`, over whole
+/// branches `[...]` (in O(1) with a bracket index), to the next considered
+/// module of the same branch. A `]` or the end of the string stops it: a
+/// context never runs past the end of its own branch.
+#[inline(always)]
+pub(crate) fn walk_right(
+    peek: &mut PosReader,
+    al: &Alphabet,
+    mut pos: u64,
+    skip_branches: bool,
+) -> io::Result<Walk> {
+    loop {
+        peek.seek(pos);
+        let Some((key, s, e)) = peek.next_module(al)? else {
+            return Ok(Walk::Stop {
+                at: pos,
+                open: false,
+            });
+        };
+        let next = peek.offset();
+        if key == OPEN {
+            if !skip_branches {
+                return Ok(Walk::Stop {
+                    at: pos,
+                    open: true,
+                });
+            }
+            // A branch the pattern does not ask for: skip it whole.
+            match peek.branch_end(al, s, next)? {
+                Some(after) => pos = after,
+                None => {
+                    return Ok(Walk::Stop {
+                        at: pos,
+                        open: false,
+                    })
+                }
+            }
+            continue;
+        }
+        if key == CLOSE {
+            return Ok(Walk::Stop {
+                at: pos,
+                open: false,
+            });
+        }
+        if al.ignored(key) {
+            pos = next;
+            continue;
+        }
+        return Ok(Walk::Module {
+            key,
+            s,
+            e,
+            at: pos,
+            next,
+        });
     }
 }
 
@@ -267,74 +327,53 @@ pub fn match_right(
     };
     match first {
         RPat::Module(p) => {
-            let mut pos = pos;
-            loop {
-                peek.seek(pos);
-                let Some((key, s, e)) = peek.next_module(al)? else {
-                    return Ok(false);
-                };
-                let next = peek.offset();
-                if key == OPEN {
-                    // A branch the pattern does not ask for: skip it whole.
-                    match peek.branch_end(al, s, next)? {
-                        Some(after) => pos = after,
-                        None => return Ok(false),
-                    }
-                    continue;
-                }
-                if key == CLOSE {
-                    return Ok(false);
-                }
-                if al.ignored(key) {
-                    pos = next;
-                    continue;
-                }
-                if key != p.key {
-                    return Ok(false);
-                }
-                let bytes = peek.bytes(s, e);
-                let (_, kl) = codec::get_key(bytes);
-                for i in 0..al.arity(key) {
-                    slots[p.slot as usize + i] = codec::get_param(&bytes[kl..], i);
-                }
-                return match_right(peek, al, next, rest, slots);
+            let Walk::Module {
+                key, s, e, next, ..
+            } = walk_right(peek, al, pos, true)?
+            else {
+                return Ok(false);
+            };
+            if key != p.key {
+                return Ok(false);
             }
+            let n = al.arity(key);
+            codec::read_params(
+                peek.bytes(s, e),
+                &mut slots[p.slot as usize..p.slot as usize + n],
+            );
+            match_right(peek, al, next, rest, slots)
         }
         RPat::Open => {
             // Step over ignored modules to the first `[`, then try each of
             // the consecutive branches there.
-            let mut pos = pos;
+            let Walk::Stop { at, open: true } = walk_right(peek, al, pos, false)? else {
+                return Ok(false);
+            };
+            let mut pos = at;
             loop {
                 peek.seek(pos);
-                let Some((key, _, _)) = peek.next_module(al)? else {
+                if peek.next_module(al)?.is_none() {
+                    return Ok(false);
+                }
+                let next = peek.offset();
+                if match_right(peek, al, next, rest, slots)? {
+                    return Ok(true);
+                }
+                // The recursion moved the buffer: read the `[` again.
+                peek.seek(pos);
+                let Some((_, s, _)) = peek.next_module(al)? else {
                     return Ok(false);
                 };
-                let next = peek.offset();
-                if key == OPEN {
-                    if match_right(peek, al, next, rest, slots)? {
-                        return Ok(true);
-                    }
-                    // The recursion moved the buffer: read the `[` again.
-                    peek.seek(pos);
-                    let Some((_, s, _)) = peek.next_module(al)? else {
-                        return Ok(false);
-                    };
-                    match peek.branch_end(al, s, next)? {
-                        Some(after) => pos = after,
-                        None => return Ok(false),
-                    }
-                    // Only a directly following branch is another candidate.
-                    peek.seek(pos);
-                    match peek.next_module(al)? {
-                        Some((k, _, _)) if k == OPEN => continue,
-                        _ => return Ok(false),
-                    }
+                match peek.branch_end(al, s, next)? {
+                    Some(after) => pos = after,
+                    None => return Ok(false),
                 }
-                if key != CLOSE && al.ignored(key) {
-                    pos = next;
-                    continue;
+                // Only a directly following branch is another candidate.
+                peek.seek(pos);
+                match peek.next_module(al)? {
+                    Some((k, _, _)) if k == OPEN => continue,
+                    _ => return Ok(false),
                 }
-                return Ok(false);
             }
         }
         RPat::Close => match skip_branch(peek, al, pos)? {

@@ -7,6 +7,7 @@
 //! and the right-walker), [`bytetable`] (the D0L byte table).
 
 pub(crate) mod bytetable;
+pub(crate) mod choose;
 pub(crate) mod context;
 pub mod dfs;
 pub mod random;
@@ -36,6 +37,11 @@ pub struct Origin<'a> {
 impl Origin<'_> {
     pub(crate) fn locate(&self, offset: usize) -> Location {
         Location::from_map(self.path, &CodeMap::new(self.header), offset)
+    }
+
+    /// A runtime error of an expression, in `pass`.
+    pub(crate) fn eval_error(&self, e: crate::rules::expr::EvalError, pass: Pass) -> Error {
+        Error::at(self.locate(e.span.0), format!("{} (in {pass})", e.message))
     }
 }
 
@@ -213,7 +219,7 @@ pub fn derive(
         if settings.verbose || limits.modules != u64::MAX || limits.bytes != u64::MAX {
             let census = crate::derive::dfs::census(src, &d.alphabet)?;
             let lengths = plan.lengths(&census, steps);
-            crate::derive::dfs::check_limits(&lengths, limits, !hom)?;
+            limits.check_generations(&lengths, !hom)?;
             let shown = if hom {
                 lengths.len()
             } else {

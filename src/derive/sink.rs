@@ -39,6 +39,28 @@ impl Limits {
     }
 }
 
+impl Limits {
+    /// Check the lengths of generations 1, 2, ... against the limits, as
+    /// the step engine would: modules for every generation; bytes for those
+    /// written in binary (all but the last, which is text, unless a
+    /// homomorphism follows it: the text is checked as it is written).
+    pub fn check_generations(
+        &self,
+        lengths: &[(u64, u64)],
+        last_is_text: bool,
+    ) -> Result<(), Error> {
+        for (i, &(n, bytes)) in lengths.iter().enumerate() {
+            let bytes = if last_is_text && i + 1 == lengths.len() {
+                0
+            } else {
+                bytes
+            };
+            self.check(n, bytes, Pass::Step(i as u64 + 1))?;
+        }
+        Ok(())
+    }
+}
+
 impl Default for Limits {
     fn default() -> Self {
         Limits {

@@ -9,15 +9,14 @@
 //! memory.
 
 use super::bytetable::ByteTable;
-use super::context::{match_right, LeftContext, RightCache};
+use super::choose::{Chooser, Piece};
+use super::context::{match_right, walk_right, LeftContext, RightCache, Walk};
 use super::reader::PosReader;
 use super::sink::Out;
 use super::{Origin, Pass};
 use crate::derive::random::Random;
 use crate::diag::Error;
-use crate::rules::codec;
-use crate::rules::expr::EvalError;
-use crate::rules::{Alphabet, Item, KeyRules, Production, RPat, Table, CLOSE, OPEN};
+use crate::rules::{Alphabet, KeyRules, Production, RPat, Table, CLOSE, OPEN};
 use std::fs::File;
 use std::io;
 
@@ -26,11 +25,7 @@ pub struct Deriver<'a> {
     pub alphabet: Alphabet,
     pub rng: Random,
     pub origin: Origin<'a>,
-    slots: Vec<f64>,
-    vals: Vec<f64>,
-    stack: Vec<f64>,
-    cand: Vec<(u32, f64)>,
-    cand_slots: Vec<f64>,
+    chooser: Chooser,
 }
 
 struct StepState<'f> {
@@ -63,16 +58,9 @@ impl StepState<'_> {
             .peek
             .as_mut()
             .expect("a look-ahead reader for right contexts");
-        let mut pos = end_off;
-        loop {
-            peek.seek(pos);
-            match peek.next_module(al)? {
-                Some((key, _, _)) if key != OPEN && key != CLOSE && al.ignored(key) => {
-                    pos = peek.offset();
-                }
-                _ => break,
-            }
-        }
+        let pos = match walk_right(peek, al, end_off, false)? {
+            Walk::Module { at, .. } | Walk::Stop { at, .. } => at,
+        };
         self.skip = (end_off, pos);
         Ok(pos)
     }
@@ -102,19 +90,8 @@ impl<'a> Deriver<'a> {
             alphabet,
             rng,
             origin,
-            slots: Vec::new(),
-            vals: Vec::new(),
-            stack: Vec::new(),
-            cand: Vec::new(),
-            cand_slots: Vec::new(),
+            chooser: Chooser::default(),
         }
-    }
-
-    fn eval_error(&self, e: EvalError, pass: Pass) -> Error {
-        Error::at(
-            self.origin.locate(e.span.0),
-            format!("{} (in {pass})", e.message),
-        )
     }
 
     /// One pass: rewrite the generation in `input` into `out`.
@@ -126,16 +103,12 @@ impl<'a> Deriver<'a> {
         out: &mut Out,
         pass: Pass,
     ) -> Result<(), Error> {
-        let max_slots = table.prods.iter().map(|p| p.nslots).max().unwrap_or(0);
-        self.slots.resize(max_slots.max(1), 0.0);
+        self.chooser.prepare(table);
         let mut st = StepState {
             peek: table
                 .has_right
                 .then(|| PosReader::new(input, 1 << 16, indexed)),
-            right: RightCache {
-                at: u64::MAX,
-                ..RightCache::default()
-            },
+            right: RightCache::new(),
             max_right_simple: table.max_right_simple,
             left: (table.max_left > 0).then(|| LeftContext::new(table, &self.alphabet)),
             depth: 0,
@@ -192,8 +165,7 @@ impl<'a> Deriver<'a> {
                 } else if key == CLOSE {
                     left.close();
                 } else if !self.alphabet.ignored(key) {
-                    let (_, kl) = codec::get_key(bytes);
-                    left.push(key, &bytes[kl..], self.alphabet.arity(key));
+                    left.push(key, bytes, self.alphabet.arity(key));
                 }
             }
             out.maybe_flush()?;
@@ -232,21 +204,16 @@ impl<'a> Deriver<'a> {
         out: &mut Out,
         pass: Pass,
     ) -> Result<bool, Error> {
-        // Predecessor parameters into the first slots.
-        let arity = self.alphabet.arity(key);
-        if arity > 0 {
-            let (_, kl) = codec::get_key(bytes);
-            for i in 0..arity {
-                self.slots[i] = codec::get_param(&bytes[kl..], i);
-            }
-        }
-        let mut chosen = None;
-        if !kr.context.is_empty() {
-            chosen = self.choose(table, &kr.context, kr.context_stochastic, end_off, st, pass)?;
-        }
-        if chosen.is_none() && !kr.free.is_empty() {
-            chosen = self.choose(table, &kr.free, kr.free_stochastic, end_off, st, pass)?;
-        }
+        let Deriver {
+            alphabet: al,
+            rng,
+            origin,
+            chooser,
+        } = self;
+        chooser.bind_encoded(bytes, al.arity(key));
+        let chosen = chooser.choose(table, kr, rng, origin, pass, |p, slots| {
+            Ok(!surely_not(p, end_off, st, al)? && contexts_match(p, end_off, st, al, slots)?)
+        })?;
         let Some(pi) = chosen else {
             return Ok(false);
         };
@@ -263,166 +230,71 @@ impl<'a> Deriver<'a> {
                 st.last_closer = Some(pi);
             }
         }
-        self.emit(p, out, pass)?;
+        let Deriver {
+            alphabet: al,
+            rng,
+            origin,
+            chooser,
+        } = self;
+        chooser.successor(p, rng, origin, pass, |piece| match piece {
+            Piece::Const(c) => out.constant(c),
+            Piece::Module(key, vals) => out.module(key, vals, al),
+        })?;
         Ok(true)
     }
+}
 
-    /// A cheap first look: do the nearest context modules already differ?
-    /// (Fills the right-context cache on first use for this module.)
-    #[inline(always)]
-    fn surely_not(&self, p: &Production, end_off: u64, st: &mut StepState) -> Result<bool, Error> {
-        if let (Some(pat), Some(left)) = (p.left.last(), &st.left) {
-            if left.last_key() != Some(pat.key) {
+/// A cheap first look: do the nearest context modules already differ?
+/// (Fills the right-context cache on first use for this module.)
+#[inline(always)]
+fn surely_not(
+    p: &Production,
+    end_off: u64,
+    st: &mut StepState,
+    al: &Alphabet,
+) -> Result<bool, Error> {
+    if let (Some(pat), Some(left)) = (p.left.last(), &st.left) {
+        if left.last_key() != Some(pat.key) {
+            return Ok(true);
+        }
+    }
+    if p.right_simple {
+        let right = st.right_of(end_off, al)?;
+        if let (Some(RPat::Module(pat)), first) = (p.right.first(), right.modules.keys.first()) {
+            if first != Some(&pat.key) {
                 return Ok(true);
             }
         }
-        if p.right_simple {
-            let right = st.right_of(end_off, &self.alphabet)?;
-            if let (Some(RPat::Module(pat)), first) = (p.right.first(), right.keys.first()) {
-                if first != Some(&pat.key) {
-                    return Ok(true);
-                }
-            }
-        }
-        Ok(false)
     }
+    Ok(false)
+}
 
-    /// Does production `p` match here (contexts and condition)?
-    #[inline]
-    fn matches(
-        &mut self,
-        p: &Production,
-        end_off: u64,
-        st: &mut StepState,
-        pass: Pass,
-    ) -> Result<bool, Error> {
-        if !p.left.is_empty()
-            && !st
-                .left
-                .as_ref()
-                .unwrap()
-                .matches(&p.left, &self.alphabet, &mut self.slots)
-        {
+/// Do production `p`'s contexts match here? Binds their parameters.
+#[inline]
+fn contexts_match(
+    p: &Production,
+    end_off: u64,
+    st: &mut StepState,
+    al: &Alphabet,
+    slots: &mut [f64],
+) -> Result<bool, Error> {
+    if !p.left.is_empty() && !st.left.as_ref().unwrap().matches(&p.left, al, slots) {
+        return Ok(false);
+    }
+    if p.right_simple {
+        let right = st.right_of(end_off, al)?;
+        if !right.matches(&p.right, al, slots) {
             return Ok(false);
         }
-        if p.right_simple {
-            let right = st.right_of(end_off, &self.alphabet)?;
-            if !right.matches(&p.right, &self.alphabet, &mut self.slots) {
-                return Ok(false);
-            }
-        } else if !p.right.is_empty() {
-            // Matching from past the ignored run is the same: every pattern
-            // element passes over ignored modules first.
-            let read_err = |e| Error::io("temporary file", "cannot read", e);
-            let start = st.right_start(end_off, &self.alphabet).map_err(read_err)?;
-            let peek = st.peek.as_mut().unwrap();
-            let ok = match_right(peek, &self.alphabet, start, &p.right, &mut self.slots)
-                .map_err(read_err)?;
-            if !ok {
-                return Ok(false);
-            }
-        }
-        match &p.cond {
-            None => Ok(true),
-            Some(c) => match c.eval(&self.slots, &mut self.stack, &mut self.rng) {
-                Ok(v) => Ok(v != 0.0),
-                Err(e) => Err(self.eval_error(e, pass)),
-            },
+    } else if !p.right.is_empty() {
+        // Matching from past the ignored run is the same: every pattern
+        // element passes over ignored modules first.
+        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        let start = st.right_start(end_off, al).map_err(read_err)?;
+        let peek = st.peek.as_mut().unwrap();
+        if !match_right(peek, al, start, &p.right, slots).map_err(read_err)? {
+            return Ok(false);
         }
     }
-
-    fn choose(
-        &mut self,
-        table: &Table,
-        list: &[u32],
-        stochastic: bool,
-        end_off: u64,
-        st: &mut StepState,
-        pass: Pass,
-    ) -> Result<Option<u32>, Error> {
-        if !stochastic {
-            for &pi in list {
-                let p = &table.prods[pi as usize];
-                if self.surely_not(p, end_off, st)? {
-                    continue;
-                }
-                if self.matches(p, end_off, st, pass)? {
-                    return Ok(Some(pi));
-                }
-            }
-            return Ok(None);
-        }
-        // Weighted choice among all matching productions.
-        self.cand.clear();
-        self.cand_slots.clear();
-        let mut total = 0.0;
-        for &pi in list {
-            let p = &table.prods[pi as usize];
-            if self.surely_not(p, end_off, st)? || !self.matches(p, end_off, st, pass)? {
-                continue;
-            }
-            let w = match &p.prob {
-                None => 1.0,
-                Some(c) => c
-                    .eval(&self.slots, &mut self.stack, &mut self.rng)
-                    .map_err(|e| self.eval_error(e, pass))?,
-            };
-            if w < 0.0 {
-                return Err(Error::at(
-                    self.origin.locate(p.prob.as_ref().unwrap().span.0),
-                    format!("a probability cannot be negative ({w}, in {pass})"),
-                ));
-            }
-            if w > 0.0 {
-                total += w;
-                self.cand.push((pi, w));
-                self.cand_slots.extend_from_slice(&self.slots[..p.nslots]);
-            }
-        }
-        let pick = match self.cand.len() {
-            0 => return Ok(None),
-            1 => 0,
-            n => {
-                let mut u = self.rng.uniform() * total;
-                let mut i = 0;
-                while i < n - 1 {
-                    u -= self.cand[i].1;
-                    if u < 0.0 {
-                        break;
-                    }
-                    i += 1;
-                }
-                i
-            }
-        };
-        // Restore the chosen production's bindings.
-        let pi = self.cand[pick].0;
-        let off: usize = self.cand[..pick]
-            .iter()
-            .map(|(q, _)| table.prods[*q as usize].nslots)
-            .sum();
-        let n = table.prods[pi as usize].nslots;
-        self.slots[..n].copy_from_slice(&self.cand_slots[off..off + n]);
-        Ok(Some(pi))
-    }
-
-    #[inline]
-    fn emit(&mut self, p: &Production, out: &mut Out, pass: Pass) -> Result<(), Error> {
-        for item in &p.succ {
-            match item {
-                Item::Const(c) => out.constant(c)?,
-                Item::Module { key, params } => {
-                    self.vals.clear();
-                    for c in params.iter() {
-                        match c.eval(&self.slots, &mut self.stack, &mut self.rng) {
-                            Ok(v) => self.vals.push(v),
-                            Err(e) => return Err(self.eval_error(e, pass)),
-                        }
-                    }
-                    out.module(*key, &self.vals, &self.alphabet)?;
-                }
-            }
-        }
-        Ok(())
-    }
+    Ok(true)
 }
