@@ -153,7 +153,7 @@ impl<'a> Deriver<'a> {
                     } else if key == CLOSE {
                         st.depth -= 1;
                         if st.depth < 0 {
-                            return Err(self.unbalanced(table, st.last_closer, pass));
+                            return Err(unbalanced(&self.origin, table, st.last_closer, pass));
                         }
                     }
                 }
@@ -180,14 +180,6 @@ impl<'a> Deriver<'a> {
             ));
         }
         Ok(())
-    }
-
-    fn unbalanced(&self, table: &Table, culprit: Option<u32>, pass: Pass) -> Error {
-        let p = &table.prods[culprit.unwrap_or(0) as usize];
-        Error::at(
-            self.origin.locate(p.span.0),
-            format!("unbalanced brackets: {pass} produces a `]` without `[`, from this production"),
-        )
     }
 
     /// Try the productions of `key`; emit the chosen successor.
@@ -220,7 +212,7 @@ impl<'a> Deriver<'a> {
         let p = &table.prods[pi as usize];
         if table.check_balance {
             if st.depth + p.depth_min < 0 {
-                return Err(self.unbalanced(table, Some(pi), pass));
+                return Err(unbalanced(origin, table, Some(pi), pass));
             }
             st.depth += p.depth_delta;
             if p.depth_delta > 0 {
@@ -230,18 +222,21 @@ impl<'a> Deriver<'a> {
                 st.last_closer = Some(pi);
             }
         }
-        let Deriver {
-            alphabet: al,
-            rng,
-            origin,
-            chooser,
-        } = self;
         chooser.successor(p, rng, origin, pass, |piece| match piece {
             Piece::Const(c) => out.constant(c),
             Piece::Module(key, vals) => out.module(key, vals, al),
         })?;
         Ok(true)
     }
+}
+
+/// A step made a `]` without `[`: blame `culprit`.
+fn unbalanced(origin: &Origin, table: &Table, culprit: Option<u32>, pass: Pass) -> Error {
+    let p = &table.prods[culprit.unwrap_or(0) as usize];
+    Error::at(
+        origin.locate(p.span.0),
+        format!("unbalanced brackets: {pass} produces a `]` without `[`, from this production"),
+    )
 }
 
 /// A cheap first look: do the nearest context modules already differ?
