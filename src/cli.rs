@@ -1,13 +1,11 @@
 //! Command line: parse arguments, load the L-system, derive, write.
 
-use crate::api::{load, missing_axiom};
-use crate::derive::random::Random;
-use crate::derive::{derive, Limits, Settings, Strategy};
+pub use crate::api::DEFAULT_DERIVATION_LENGTH;
+use crate::api::{LSystem, Options};
+use crate::derive::{Event, Limits, Pass, Strategy};
 use crate::diag::{Error, Kind};
-use crate::io::axiom::AxiomReader;
 use crate::io::input::Input;
 use crate::io::output::Output;
-use crate::rules::Seeds;
 use clap::Parser;
 use std::fs::File;
 use std::io::{self, Write};
@@ -15,9 +13,6 @@ use std::path::PathBuf;
 
 /// Most derivation steps accepted (as for `derivation length:`).
 pub const MAX_STEPS: u64 = 1 << 53;
-
-/// Derivation length when neither the file nor `-n` gives one.
-pub const DEFAULT_DERIVATION_LENGTH: u64 = 1;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -238,86 +233,80 @@ pub fn run(args: &Args) -> Result<(), Error> {
             "the L-system and `--axiom -` cannot both come from standard input",
         ));
     }
-    let mut input = open_input(args.file.as_ref())?;
-    let fresh = Random::fresh_seed();
-    let seeds = Seeds {
-        command_line: args.seed,
-        fallback: fresh,
-    };
-    let (split, path, system) = load(&mut input, seeds)?;
-    if !split.has_axiom && args.axiom.is_none() {
-        return Err(missing_axiom(&path, &split.header));
+    let input = open_input(args.file.as_ref())?;
+    let mut ls = LSystem::load_named(input, args.seed)?;
+    if args.axiom.is_none() {
+        ls.require_axiom()?;
     }
     if args.check {
         // Read the axiom too, so its errors are reported.
-        let mut al = system.alphabet;
-        let mut reader = axiom_reader(args, input, &split, &system.consts)?;
-        let mut p = Vec::new();
-        let mut rng = Random::new(0);
-        loop {
-            reader.plain_run(|_| {})?;
-            if reader.next(&mut al, &mut p, &mut rng)?.is_none() {
-                break;
-            }
+        if let Some(p) = &args.axiom {
+            ls.set_axiom(open_input(Some(p))?);
         }
+        ls.check()?;
         if args.verbose {
+            let (prods, hom) = ls.counts();
             crate::diag::eprint(&format!(
-                "lsgen: {path}: ok: {} productions, {} homomorphism productions\n",
-                system.productions.prods.len(),
-                system.homomorphism.prods.len()
+                "lsgen: {}: ok: {prods} productions, {hom} homomorphism productions\n",
+                ls.path()
             ));
         }
         return Ok(());
     }
-    let steps = args
-        .derivation_length
-        .or(system.derivation_length)
-        .unwrap_or(DEFAULT_DERIVATION_LENGTH);
-    let seed = args.seed.or(system.seed).unwrap_or(fresh);
+    let mut options = Options::new()
+        .homomorphism(!args.no_homomorphism)
+        .limits(args.max_length.unwrap_or_default())
+        .strategy(args.strategy);
+    if let Some(n) = args.derivation_length {
+        options = options.steps(n);
+    }
+    if let Some(s) = args.seed {
+        options = options.seed(s);
+    }
+    if let Some(d) = &args.tmpdir {
+        options = options.tmpdir(d);
+    }
     if args.verbose {
-        crate::diag::eprint(&format!("lsgen: seed {seed}\n"));
+        crate::diag::eprint(&format!("lsgen: seed {}\n", ls.seed(&options)));
     }
     let mut output = match &args.output {
         Some(p) => Output::file(p)?,
         None => Output::stdout()?,
     };
-    let mut system = system;
-    let consts = std::mem::take(&mut system.consts);
-    let reader = axiom_reader(args, input, &split, &consts)?;
+    if let Some(p) = &args.axiom {
+        ls.set_axiom(open_input(Some(p))?);
+    }
     let out_name = output.name();
-    let settings = Settings {
-        steps,
-        seed,
-        homomorphism: !args.no_homomorphism,
-        limits: args.max_length.unwrap_or_default(),
-        tmpdir: args.tmpdir.clone(),
-        verbose: args.verbose,
-        strategy: args.strategy,
+    let mut report = |e: &Event| {
+        if !args.verbose {
+            return;
+        }
+        let line = match *e {
+            Event::Generation {
+                pass,
+                modules,
+                bytes,
+            } => {
+                let what = match pass {
+                    Pass::Axiom => "axiom".to_string(),
+                    p => p.to_string(),
+                };
+                format!("lsgen: {what}: {modules} modules, {bytes} bytes\n")
+            }
+            Event::FixedPoint { from, to } => {
+                format!("lsgen: steps {from}..{to}: unchanged (fixed point)\n")
+            }
+        };
+        crate::diag::eprint(&line);
     };
-    derive(
-        &settings,
-        reader,
-        &split.header,
-        &path,
-        system,
+    ls.run(
+        &options,
         output.writer(),
         &out_name,
+        args.verbose,
+        &mut report,
     )?;
     output.commit()
-}
-
-/// The axiom: the file's `axiom:` section (comments allowed), or the
-/// `--axiom` stream (plain module text).
-fn axiom_reader<'c>(
-    args: &Args,
-    input: Input,
-    split: &crate::io::input::Split,
-    consts: &'c std::collections::HashMap<String, f64>,
-) -> Result<AxiomReader<'c>, Error> {
-    Ok(match &args.axiom {
-        Some(p) => AxiomReader::new(open_input(Some(p))?, false, 1, 1, consts),
-        None => AxiomReader::new(input, true, split.axiom_line, split.axiom_col, consts),
-    })
 }
 
 #[cfg(test)]

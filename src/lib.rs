@@ -21,7 +21,9 @@ pub mod lang;
 pub mod rules;
 pub mod turtle;
 
-pub use api::derive_bytes;
+pub use api::{derive_bytes, LSystem, Options, Stats, DEFAULT_DERIVATION_LENGTH};
+pub use derive::{Event, Limits, Pass};
+pub use diag::Error;
 
 // Paths of the flat layout, kept for src/turtle, src/cpfg, the tests and
 // the fuzz targets.

@@ -46,7 +46,7 @@ impl Origin<'_> {
 }
 
 /// What one pass is: a numbered step or the homomorphism.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pass {
     Step(u64),
     Homomorphism,
@@ -77,14 +77,41 @@ pub enum Strategy {
 }
 
 /// How to derive, once the file is loaded.
-pub struct Settings {
+pub(crate) struct Settings {
     pub steps: u64,
     pub seed: u64,
     pub homomorphism: bool,
     pub limits: Limits,
     pub tmpdir: Option<PathBuf>,
-    pub verbose: bool,
+    /// Each generation's length is wanted (by an [`Event`] callback).
+    pub lengths: bool,
     pub strategy: Strategy,
+}
+
+/// What a derivation reports as it goes (see `LSystem::derive_with`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Event {
+    /// A generation is complete: the axiom (generation 0), a step, or the
+    /// homomorphism; its length in modules and in bytes (of the binary
+    /// temporary format for intermediate generations, of the text without
+    /// its final newline for the last).
+    Generation {
+        /// Which generation.
+        pass: Pass,
+        /// Its number of modules.
+        modules: u64,
+        /// Its size in bytes.
+        bytes: u64,
+    },
+    /// Steps `from..=to` leave the string unchanged (a fixed point), so
+    /// they are skipped.
+    FixedPoint {
+        /// First skipped step.
+        from: u64,
+        /// Last step.
+        to: u64,
+    },
 }
 
 fn tempfile(dir: &Option<PathBuf>) -> Result<File, Error> {
@@ -140,15 +167,15 @@ fn rewind(f: &mut File) -> Result<(), Error> {
         .map_err(|e| Error::io("temporary file", "cannot write", e))
 }
 
-pub fn derive(
+pub(crate) fn derive(
     settings: &Settings,
     mut reader: AxiomReader,
     header: &str,
     path: &str,
     system: System,
-    output: &mut dyn Write,
-    out_name: &str,
-) -> Result<(), Error> {
+    (output, out_name): (&mut dyn Write, &str),
+    events: &mut dyn FnMut(&Event),
+) -> Result<(u64, u64), Error> {
     let Settings {
         steps,
         seed,
@@ -176,10 +203,13 @@ pub fn derive(
         return Err(not_depth_first());
     }
     let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
-    let verbose = |what: &str, (m, b): (u64, u64)| {
-        if settings.verbose {
-            crate::diag::eprint(&format!("lsgen: {what}: {m} modules, {b} bytes\n"));
-        }
+    let mut generation = |pass: Pass, (modules, bytes): (u64, u64)| {
+        events(&Event::Generation {
+            pass,
+            modules,
+            bytes,
+        });
+        (modules, bytes)
     };
 
     let tmp_name = format!(
@@ -203,7 +233,10 @@ pub fn derive(
             }
             out.maybe_flush()?;
         }
-        verbose("axiom", out.finish()?);
+        let len = generation(Pass::Axiom, out.finish()?);
+        if passes == 0 {
+            return Ok(len);
+        }
     }
     drop(reader);
 
@@ -216,7 +249,7 @@ pub fn derive(
     )
     .filter(|_| strategy != Strategy::Step);
     if let (Some(plan), Some(src)) = (plan, &cur) {
-        if settings.verbose || limits.modules != u64::MAX || limits.bytes != u64::MAX {
+        if settings.lengths || limits.modules != u64::MAX || limits.bytes != u64::MAX {
             let census = crate::derive::dfs::census(src, &d.alphabet)?;
             let lengths = plan.lengths(&census, steps);
             limits.check_generations(&lengths, !hom)?;
@@ -226,7 +259,7 @@ pub fn derive(
                 lengths.len() - 1
             };
             for (i, &len) in lengths[..shown].iter().enumerate() {
-                verbose(&Pass::Step(i as u64 + 1).to_string(), len);
+                generation(Pass::Step(i as u64 + 1), len);
             }
         }
         let last = if hom {
@@ -237,13 +270,12 @@ pub fn derive(
         let mut none = None;
         let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?.for_pass(last);
         plan.expand(src, &d.alphabet, steps, &mut out)?;
-        verbose(&last.to_string(), out.finish()?);
-        return Ok(());
+        return Ok(generation(last, out.finish()?));
     }
 
     // Deterministic context-free systems with parameters: depth first too,
     // unless generation lengths are asked for (-v, --max-length).
-    let quiet = !settings.verbose && limits.modules == u64::MAX && limits.bytes == u64::MAX;
+    let quiet = !settings.lengths && limits.modules == u64::MAX && limits.bytes == u64::MAX;
     let plan =
         crate::derive::dfs::ParamPlan::new(&productions, hom.then_some(&homomorphism), steps)
             .filter(|_| strategy != Strategy::Step);
@@ -261,7 +293,14 @@ pub fn derive(
             .expand(src, &d.alphabet, &d.origin, steps, &mut out)
             .and_then(|()| out.finish())
         {
-            Ok(_) => return Ok(()),
+            Ok(len) => {
+                let last = if hom {
+                    Pass::Homomorphism
+                } else {
+                    Pass::Step(steps)
+                };
+                return Ok(generation(last, len));
+            }
             Err(e) if e.location.is_some() => depth_first_error = Some(e),
             Err(e) => return Err(e),
         }
@@ -279,6 +318,7 @@ pub fn derive(
         settings,
         (output, out_name, &tmp_name),
         indexed,
+        events,
     );
     match depth_first_error {
         Some(e) => Err(stepwise.err().unwrap_or(e)),
@@ -295,7 +335,8 @@ fn step_passes(
     settings: &Settings,
     (output, out_name, tmp_name): (&mut dyn Write, &str, &str),
     indexed: bool,
-) -> Result<(), Error> {
+    events: &mut dyn FnMut(&Event),
+) -> Result<(u64, u64), Error> {
     let Settings {
         steps,
         limits,
@@ -303,11 +344,7 @@ fn step_passes(
         ..
     } = *settings;
     let passes = steps + u64::from(hom);
-    let verbose = |what: &str, (m, b): (u64, u64)| {
-        if settings.verbose {
-            crate::diag::eprint(&format!("lsgen: {what}: {m} modules, {b} bytes\n"));
-        }
-    };
+    let mut last_len = (0, 0);
     let mut other: Option<File> = None;
     let mut i = 1;
     while i <= passes {
@@ -333,7 +370,13 @@ fn step_passes(
             let mut out =
                 sink(&mut dst, tmp_name, output, out_name, limits, indexed)?.for_pass(pass);
             d.pass(table, &src, indexed, &mut out, pass)?;
-            verbose(&pass.to_string(), out.finish()?);
+            let (modules, bytes) = out.finish()?;
+            events(&Event::Generation {
+                pass,
+                modules,
+                bytes,
+            });
+            last_len = (modules, bytes);
         }
         // A step that drew nothing and left the string as it was is a fixed
         // point: every later step does the same. Go on with the last pass
@@ -342,12 +385,10 @@ fn step_passes(
         if i < steps && last > i + 1 && d.rng.draws() == draws {
             if let Some(next) = &dst {
                 if same_contents(&src, next)? {
-                    if settings.verbose {
-                        crate::diag::eprint(&format!(
-                            "lsgen: steps {}..{steps}: unchanged (fixed point)\n",
-                            i + 1
-                        ));
-                    }
+                    events(&Event::FixedPoint {
+                        from: i + 1,
+                        to: steps,
+                    });
                     other = Some(src);
                     cur = dst;
                     i = last;
@@ -359,7 +400,7 @@ fn step_passes(
         cur = dst;
         i += 1;
     }
-    Ok(())
+    Ok(last_len)
 }
 
 /// Do two generation files hold the same bytes?
