@@ -1,23 +1,18 @@
 //! Command line: parse arguments, load the L-system, derive, write.
 
-use crate::axiom::AxiomReader;
+pub use crate::api::DEFAULT_DERIVATION_LENGTH;
+use crate::api::{LSystem, Options};
+use crate::derive::{Event, Limits, Pass, Strategy};
 use crate::diag::{Error, Kind};
-use crate::engine::{Deriver, Limits, Origin, Out, Pass};
-use crate::input::{split_header, Input};
-use crate::output::Output;
-use crate::parse::{locate, parse_header};
-use crate::random::Random;
-use crate::rules::{compile_with, Seeds, System};
+use crate::io::input::Input;
+use crate::io::output::Output;
 use clap::Parser;
 use std::fs::File;
-use std::io::{self, Seek, SeekFrom, Write};
+use std::io::{self, Write};
 use std::path::PathBuf;
 
 /// Most derivation steps accepted (as for `derivation length:`).
 pub const MAX_STEPS: u64 = 1 << 53;
-
-/// Derivation length when neither the file nor `-n` gives one.
-pub const DEFAULT_DERIVATION_LENGTH: u64 = 1;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -71,6 +66,24 @@ pub struct Args {
     /// Report the seed and each generation's length on standard error.
     #[arg(short, long)]
     pub verbose: bool,
+
+    /// For tests (hidden): force the derivation strategy. `auto` (default)
+    /// picks depth first when the system allows it, `step` always derives
+    /// step by step through temporary files, `dfs` insists on depth first
+    /// and is a usage error (exit 2) when the system or options forbid it.
+    #[arg(long, hide = true, value_name = "auto|step|dfs",
+          value_parser = parse_strategy, default_value = "auto")]
+    pub strategy: Strategy,
+}
+
+/// `--strategy`: `auto`, `step` or `dfs`.
+pub fn parse_strategy(s: &str) -> Result<Strategy, String> {
+    match s {
+        "auto" => Ok(Strategy::Auto),
+        "step" => Ok(Strategy::Step),
+        "dfs" => Ok(Strategy::DepthFirst),
+        _ => Err(format!("`{s}` is not a strategy: use auto, step or dfs")),
+    }
 }
 
 /// `--max-length`: a module count (`1000000`, `5M`, `2G`) or a byte size
@@ -126,7 +139,7 @@ pub fn main_exit_code() -> i32 {
         .name("lsgen".into())
         .stack_size(256 << 20)
         .spawn(main_on_thread);
-    crate::output::leave_termination_signals_to_other_threads();
+    crate::io::output::leave_termination_signals_to_other_threads();
     worker.ok().and_then(|t| t.join().ok()).unwrap_or(70)
 }
 
@@ -159,7 +172,7 @@ fn main_on_thread() -> i32 {
                 clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => {
                     // A failed write (`--version > /dev/full`, stdout closed)
                     // is an error; a closed pipe is not.
-                    let printed = crate::output::check_stdout_open().and_then(|()| {
+                    let printed = crate::io::output::check_stdout_open().and_then(|()| {
                         e.print()
                             .and_then(|()| io::stdout().flush())
                             .map_err(|e| Error::io("standard output", "cannot write", e))
@@ -220,449 +233,80 @@ pub fn run(args: &Args) -> Result<(), Error> {
             "the L-system and `--axiom -` cannot both come from standard input",
         ));
     }
-    let mut input = open_input(args.file.as_ref())?;
-    let fresh = Random::fresh_seed();
-    let seeds = Seeds {
-        command_line: args.seed,
-        fallback: fresh,
-    };
-    let (split, path, system) = load(&mut input, seeds)?;
-    if !split.has_axiom && args.axiom.is_none() {
-        return Err(missing_axiom(&path, &split.header));
+    let input = open_input(args.file.as_ref())?;
+    let mut ls = LSystem::load_named(input, args.seed)?;
+    if args.axiom.is_none() {
+        ls.require_axiom()?;
     }
     if args.check {
         // Read the axiom too, so its errors are reported.
-        let mut al = system.alphabet;
-        let mut reader = axiom_reader(args, input, &split, &system.consts)?;
-        let mut p = Vec::new();
-        let mut rng = Random::new(0);
-        loop {
-            reader.plain_run(|_| {})?;
-            if reader.next(&mut al, &mut p, &mut rng)?.is_none() {
-                break;
-            }
+        if let Some(p) = &args.axiom {
+            ls.set_axiom(open_input(Some(p))?);
         }
+        ls.check()?;
         if args.verbose {
+            let (prods, hom) = ls.counts();
             crate::diag::eprint(&format!(
-                "lsgen: {path}: ok: {} productions, {} homomorphism productions\n",
-                system.productions.prods.len(),
-                system.homomorphism.prods.len()
+                "lsgen: {}: ok: {prods} productions, {hom} homomorphism productions\n",
+                ls.path()
             ));
         }
         return Ok(());
     }
-    let steps = args
-        .derivation_length
-        .or(system.derivation_length)
-        .unwrap_or(DEFAULT_DERIVATION_LENGTH);
-    let seed = args.seed.or(system.seed).unwrap_or(fresh);
+    let mut options = Options::new()
+        .homomorphism(!args.no_homomorphism)
+        .limits(args.max_length.unwrap_or_default())
+        .strategy(args.strategy);
+    if let Some(n) = args.derivation_length {
+        options = options.steps(n);
+    }
+    if let Some(s) = args.seed {
+        options = options.seed(s);
+    }
+    if let Some(d) = &args.tmpdir {
+        options = options.tmpdir(d);
+    }
     if args.verbose {
-        crate::diag::eprint(&format!("lsgen: seed {seed}\n"));
+        crate::diag::eprint(&format!("lsgen: seed {}\n", ls.seed(&options)));
     }
     let mut output = match &args.output {
         Some(p) => Output::file(p)?,
         None => Output::stdout()?,
     };
-    let mut system = system;
-    let consts = std::mem::take(&mut system.consts);
-    let reader = axiom_reader(args, input, &split, &consts)?;
+    if let Some(p) = &args.axiom {
+        ls.set_axiom(open_input(Some(p))?);
+    }
     let out_name = output.name();
-    let settings = Settings {
-        steps,
-        seed,
-        homomorphism: !args.no_homomorphism,
-        limits: args.max_length.unwrap_or_default(),
-        tmpdir: args.tmpdir.clone(),
-        verbose: args.verbose,
+    let mut report = |e: &Event| {
+        if !args.verbose {
+            return;
+        }
+        let line = match *e {
+            Event::Generation {
+                pass,
+                modules,
+                bytes,
+            } => {
+                let what = match pass {
+                    Pass::Axiom => "axiom".to_string(),
+                    p => p.to_string(),
+                };
+                format!("lsgen: {what}: {modules} modules, {bytes} bytes\n")
+            }
+            Event::FixedPoint { from, to } => {
+                format!("lsgen: steps {from}..{to}: unchanged (fixed point)\n")
+            }
+        };
+        crate::diag::eprint(&line);
     };
-    derive(
-        &settings,
-        reader,
-        &split.header,
-        &path,
-        system,
+    ls.run(
+        &options,
         output.writer(),
         &out_name,
+        args.verbose,
+        &mut report,
     )?;
     output.commit()
-}
-
-/// How to derive, once the file is loaded.
-pub struct Settings {
-    pub steps: u64,
-    pub seed: u64,
-    pub homomorphism: bool,
-    pub limits: Limits,
-    pub tmpdir: Option<PathBuf>,
-    pub verbose: bool,
-}
-
-/// Load an L-system from `src` and derive it in full into a byte vector
-/// (temp files are still used between steps): for tests and fuzzing.
-/// `steps`/`seed` override the file's settings.
-pub fn derive_bytes(
-    src: &[u8],
-    steps: Option<u64>,
-    seed: Option<u64>,
-    limits: Limits,
-) -> Result<Vec<u8>, Error> {
-    let mut input = Input::new(Box::new(io::Cursor::new(src.to_vec())), "<input>");
-    let seeds = Seeds {
-        command_line: seed,
-        fallback: 0,
-    };
-    let (split, path, system) = load(&mut input, seeds)?;
-    if !split.has_axiom {
-        return Err(missing_axiom(&path, &split.header));
-    }
-    let settings = Settings {
-        steps: steps
-            .or(system.derivation_length)
-            .unwrap_or(DEFAULT_DERIVATION_LENGTH),
-        seed: seed.or(system.seed).unwrap_or(0),
-        homomorphism: true,
-        limits,
-        tmpdir: None,
-        verbose: false,
-    };
-    let mut system = system;
-    let consts = std::mem::take(&mut system.consts);
-    let reader = AxiomReader::new(input, true, split.axiom_line, split.axiom_col, &consts);
-    let mut out = Vec::new();
-    derive(
-        &settings,
-        reader,
-        &split.header,
-        &path,
-        system,
-        &mut out,
-        "output",
-    )?;
-    Ok(out)
-}
-
-/// Read the header from `input` (leaving it at the axiom), parse and
-/// compile it. Returns the split, the input's name and the system.
-fn load(input: &mut Input, seeds: Seeds) -> Result<(crate::input::Split, String, System), Error> {
-    let split = split_header(input)?;
-    let path = input.name.clone();
-    let header = parse_header(&split.header).map_err(|e| locate(&path, &split.header, e))?;
-    let system = compile_with(header, Some(&split.header), seeds)
-        .map_err(|e| locate(&path, &split.header, e))?;
-    Ok((split, path, system))
-}
-
-fn missing_axiom(path: &str, header: &str) -> Error {
-    let end = header.trim_end().len();
-    let mut e = locate(
-        path,
-        header,
-        crate::parse::UserError::new(
-            (end, end),
-            "missing `axiom:`: the axiom comes last, after the productions",
-        ),
-    );
-    if header.trim().is_empty() {
-        e.message = "empty L-system: no `axiom:` found".into();
-    }
-    e
-}
-
-/// The axiom: the file's `axiom:` section (comments allowed), or the
-/// `--axiom` stream (plain module text).
-fn axiom_reader<'c>(
-    args: &Args,
-    input: Input,
-    split: &crate::input::Split,
-    consts: &'c std::collections::HashMap<String, f64>,
-) -> Result<AxiomReader<'c>, Error> {
-    Ok(match &args.axiom {
-        Some(p) => AxiomReader::new(open_input(Some(p))?, false, 1, 1, consts),
-        None => AxiomReader::new(input, true, split.axiom_line, split.axiom_col, consts),
-    })
-}
-
-fn tempfile(dir: &Option<PathBuf>) -> Result<File, Error> {
-    let r = match dir {
-        Some(d) => tempfile::tempfile_in(d),
-        None => tempfile::tempfile(),
-    };
-    r.map_err(|e| {
-        Error::io(
-            dir.as_ref().map_or_else(
-                || std::env::temp_dir().display().to_string(),
-                |d| d.display().to_string(),
-            ),
-            "cannot create a temporary file",
-            e,
-        )
-    })
-}
-
-/// The sink for a generation: the temp file `dst` (binary, with a bracket
-/// index if asked) or, without one, the output (text).
-fn sink<'a>(
-    dst: &'a mut Option<File>,
-    tmp_name: &'a str,
-    output: &'a mut dyn Write,
-    out_name: &'a str,
-    limits: Limits,
-    indexed: bool,
-) -> Result<Out<'a>, Error> {
-    Ok(match dst {
-        Some(f) => {
-            let index = if indexed {
-                Some(
-                    f.try_clone()
-                        .map_err(|e| Error::io(tmp_name, "cannot write", e))?,
-                )
-            } else {
-                None
-            };
-            let out = Out::new(f, tmp_name, false, limits);
-            match index {
-                Some(i) => out.with_index(i),
-                None => out,
-            }
-        }
-        None => Out::new(output, out_name, true, limits),
-    })
-}
-
-fn rewind(f: &mut File) -> Result<(), Error> {
-    f.set_len(0)
-        .and_then(|_| f.seek(SeekFrom::Start(0)).map(|_| ()))
-        .map_err(|e| Error::io("temporary file", "cannot write", e))
-}
-
-fn derive(
-    settings: &Settings,
-    mut reader: AxiomReader,
-    header: &str,
-    path: &str,
-    system: System,
-    output: &mut dyn Write,
-    out_name: &str,
-) -> Result<(), Error> {
-    let Settings {
-        steps,
-        seed,
-        limits,
-        ref tmpdir,
-        ..
-    } = *settings;
-    let System {
-        alphabet,
-        productions,
-        homomorphism,
-        ..
-    } = system;
-    let hom = settings.homomorphism && !homomorphism.is_empty();
-    // Right contexts skip branches in O(1) through a bracket index.
-    let indexed = productions.has_right || (hom && homomorphism.has_right);
-    let passes = steps + u64::from(hom);
-    let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
-    let verbose = |what: &str, (m, b): (u64, u64)| {
-        if settings.verbose {
-            crate::diag::eprint(&format!("lsgen: {what}: {m} modules, {b} bytes\n"));
-        }
-    };
-
-    let tmp_name = format!(
-        "temporary file in {}",
-        tmpdir.clone().unwrap_or_else(std::env::temp_dir).display()
-    );
-    // Generation 0: the axiom.
-    let mut cur = if passes == 0 {
-        None
-    } else {
-        Some(tempfile(tmpdir)?)
-    };
-    {
-        let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, indexed)?;
-        let mut params = Vec::new();
-        loop {
-            reader.plain_run(|run| out.plain(run))??;
-            match reader.next(&mut d.alphabet, &mut params, &mut d.rng)? {
-                Some(key) => out.module(key, &params, &d.alphabet)?,
-                None => break,
-            }
-            out.maybe_flush()?;
-        }
-        verbose("axiom", out.finish()?);
-    }
-    drop(reader);
-
-    // Deterministic context-free byte systems: depth first, no temp files.
-    let plan = crate::dfs::Plan::new(
-        &productions,
-        hom.then_some(&homomorphism),
-        &d.alphabet,
-        steps,
-    );
-    if let (Some(plan), Some(src)) = (plan, &cur) {
-        if settings.verbose || limits.modules != u64::MAX || limits.bytes != u64::MAX {
-            let census = crate::dfs::census(src, &d.alphabet)?;
-            let lengths = plan.lengths(&census, steps);
-            crate::dfs::check_limits(&lengths, limits, !hom)?;
-            let shown = if hom {
-                lengths.len()
-            } else {
-                lengths.len() - 1
-            };
-            for (i, &len) in lengths[..shown].iter().enumerate() {
-                verbose(&Pass::Step(i as u64 + 1).to_string(), len);
-            }
-        }
-        let last = if hom {
-            Pass::Homomorphism
-        } else {
-            Pass::Step(steps)
-        };
-        let mut none = None;
-        let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?.for_pass(last);
-        plan.expand(src, &d.alphabet, steps, &mut out)?;
-        verbose(&last.to_string(), out.finish()?);
-        return Ok(());
-    }
-
-    // Deterministic context-free systems with parameters: depth first too,
-    // unless generation lengths are asked for (-v, --max-length).
-    let quiet = !settings.verbose && limits.modules == u64::MAX && limits.bytes == u64::MAX;
-    let plan = crate::dfs::ParamPlan::new(&productions, hom.then_some(&homomorphism), steps);
-    // A runtime error found depth first may not be the first one in step
-    // order: then derive again step by step, output discarded, so every
-    // strategy reports the earliest step's first error in string order.
-    let mut depth_first_error = None;
-    if let (Some(plan), Some(src), true) = (plan, &cur, quiet) {
-        let mut none = None;
-        let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
-        match plan
-            .expand(src, &d.alphabet, &d.origin, steps, &mut out)
-            .and_then(|()| out.finish())
-        {
-            Ok(_) => return Ok(()),
-            Err(e) if e.location.is_some() => depth_first_error = Some(e),
-            Err(e) => return Err(e),
-        }
-    }
-    let mut discard = io::sink();
-    let output: &mut dyn Write = if depth_first_error.is_some() {
-        &mut discard
-    } else {
-        output
-    };
-    let stepwise = step_passes(
-        &mut d,
-        cur,
-        (&productions, &homomorphism, hom),
-        settings,
-        (output, out_name, &tmp_name),
-        indexed,
-    );
-    match depth_first_error {
-        Some(e) => Err(stepwise.err().unwrap_or(e)),
-        None => stepwise,
-    }
-}
-
-/// The steps, then the homomorphism, one temp file each, from generation 0
-/// in `cur`.
-fn step_passes(
-    d: &mut Deriver,
-    mut cur: Option<File>,
-    (productions, homomorphism, hom): (&crate::rules::Table, &crate::rules::Table, bool),
-    settings: &Settings,
-    (output, out_name, tmp_name): (&mut dyn Write, &str, &str),
-    indexed: bool,
-) -> Result<(), Error> {
-    let Settings {
-        steps,
-        limits,
-        ref tmpdir,
-        ..
-    } = *settings;
-    let passes = steps + u64::from(hom);
-    let verbose = |what: &str, (m, b): (u64, u64)| {
-        if settings.verbose {
-            crate::diag::eprint(&format!("lsgen: {what}: {m} modules, {b} bytes\n"));
-        }
-    };
-    let mut other: Option<File> = None;
-    let mut i = 1;
-    while i <= passes {
-        let (table, pass) = if i <= steps {
-            (productions, Pass::Step(i))
-        } else {
-            (homomorphism, Pass::Homomorphism)
-        };
-        let src = cur.take().expect("a generation to read");
-        let mut dst = if i == passes {
-            None
-        } else {
-            Some(match other.take() {
-                Some(mut f) => {
-                    rewind(&mut f)?;
-                    f
-                }
-                None => tempfile(tmpdir)?,
-            })
-        };
-        let draws = d.rng.draws();
-        {
-            let mut out =
-                sink(&mut dst, tmp_name, output, out_name, limits, indexed)?.for_pass(pass);
-            d.pass(table, &src, indexed, &mut out, pass)?;
-            verbose(&pass.to_string(), out.finish()?);
-        }
-        // A step that drew nothing and left the string as it was is a fixed
-        // point: every later step does the same. Go on with the last pass
-        // (the homomorphism, or the last step, which writes the text).
-        let last = if hom { passes } else { steps };
-        if i < steps && last > i + 1 && d.rng.draws() == draws {
-            if let Some(next) = &dst {
-                if same_contents(&src, next)? {
-                    if settings.verbose {
-                        crate::diag::eprint(&format!(
-                            "lsgen: steps {}..{steps}: unchanged (fixed point)\n",
-                            i + 1
-                        ));
-                    }
-                    other = Some(src);
-                    cur = dst;
-                    i = last;
-                    continue;
-                }
-            }
-        }
-        other = Some(src);
-        cur = dst;
-        i += 1;
-    }
-    Ok(())
-}
-
-/// Do two generation files hold the same bytes?
-fn same_contents(a: &File, b: &File) -> Result<bool, Error> {
-    use std::os::unix::fs::FileExt;
-    let read_err = |e| Error::io("temporary file", "cannot read", e);
-    let len = a.metadata().map_err(read_err)?.len();
-    if b.metadata().map_err(read_err)?.len() != len {
-        return Ok(false);
-    }
-    const CHUNK: usize = 1 << 16;
-    let (mut x, mut y) = (vec![0u8; CHUNK], vec![0u8; CHUNK]);
-    let mut off = 0u64;
-    while off < len {
-        let n = CHUNK.min((len - off) as usize);
-        a.read_exact_at(&mut x[..n], off).map_err(read_err)?;
-        b.read_exact_at(&mut y[..n], off).map_err(read_err)?;
-        if x[..n] != y[..n] {
-            return Ok(false);
-        }
-        off += n as u64;
-    }
-    Ok(true)
 }
 
 #[cfg(test)]

@@ -122,6 +122,8 @@ pub struct ErrorInner {
     pub location: Option<Location>,
     /// Context without a line, e.g. the file name of an I/O error.
     pub subject: Option<String>,
+    /// The operating system's error behind an I/O failure.
+    pub io: Option<std::io::Error>,
 }
 
 impl std::ops::Deref for Error {
@@ -146,6 +148,7 @@ impl Error {
             message: message.into(),
             location: None,
             subject: None,
+            io: None,
         }))
     }
 
@@ -173,6 +176,7 @@ impl Error {
             message: format!("{what}: {}", io_message(&e)),
             location: None,
             subject: Some(subject.into()),
+            io: Some(e),
         }))
     }
 
@@ -228,6 +232,14 @@ impl fmt::Display for Error {
     }
 }
 
+impl std::error::Error for Error {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.io
+            .as_ref()
+            .map(|e| e as &(dyn std::error::Error + 'static))
+    }
+}
+
 /// The blanks that put a caret under character `caret_col` (1-based) of
 /// `snippet` on a terminal: a tab for a tab, else as many spaces as the
 /// character is wide (two for CJK and emoji, none for a combining mark).
@@ -249,6 +261,24 @@ pub fn caret_pad(snippet: &str, caret_col: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn errors_are_std_errors_and_keep_the_io_source() {
+        fn std_error<E: std::error::Error + Send + Sync + 'static>(_: &E) {}
+        let e = Error::io(
+            "out.txt",
+            "cannot write",
+            std::io::Error::from_raw_os_error(libc::ENOSPC),
+        );
+        std_error(&e);
+        let source = std::error::Error::source(&e).expect("an I/O source");
+        let io = source.downcast_ref::<std::io::Error>().unwrap();
+        assert_eq!(io.raw_os_error(), Some(libc::ENOSPC));
+        assert!(std::error::Error::source(&Error::new("no source")).is_none());
+        // `?` turns it into a boxed error.
+        let boxed: Box<dyn std::error::Error + Send + Sync> = e.into();
+        assert!(boxed.to_string().contains("cannot write"));
+    }
 
     #[test]
     fn locate_lines_and_columns() {

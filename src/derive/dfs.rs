@@ -14,14 +14,17 @@
 //! compare both), and generation lengths are computed exactly by dynamic
 //! programming, for `--verbose` and `--max-length`.
 
+use super::choose::{Chooser, Piece};
+use super::random::Random;
+use crate::derive::{Origin, Out, Pass, PosReader, ASCII};
 use crate::diag::Error;
-use crate::engine::{Limits, Origin, Out, Pass, PosReader, ASCII};
+use crate::rules::codec::Modules;
 use crate::rules::{Alphabet, Item, Table};
 use std::fs::File;
 
 /// Deepest derivation expanded depth first (the stack holds one frame per
 /// step).
-pub const MAX_STEPS: u64 = 1 << 16;
+pub const MAX_DEPTH: u64 = 1 << 16;
 /// Largest precomputed expansion, and the budget for all of them.
 const BLOCK: usize = 4096;
 const BUDGET: usize = 4 << 20;
@@ -46,7 +49,7 @@ impl<'t> Plan<'t> {
         al: &Alphabet,
         steps: u64,
     ) -> Option<Self> {
-        if steps == 0 || steps > MAX_STEPS || prods.has_context() || prods.check_balance {
+        if steps == 0 || steps > MAX_DEPTH || prods.has_context() || prods.check_balance {
             return None;
         }
         if hom.is_some_and(|h| h.has_context() || h.check_balance) {
@@ -278,27 +281,6 @@ pub fn census(input: &File, al: &Alphabet) -> Result<Census, Error> {
     Ok(c)
 }
 
-/// Check the generation lengths against `--max-length`, as the step engine
-/// would: modules for every generation; bytes for those written in binary
-/// (all but the last, which is text, unless a homomorphism follows it; the
-/// text is checked as it is written).
-pub fn check_limits(
-    lengths: &[(u64, u64)],
-    limits: Limits,
-    last_is_text: bool,
-) -> Result<(), Error> {
-    for (i, &(n, bytes)) in lengths.iter().enumerate() {
-        // The last text generation's bytes are checked as it is written.
-        let bytes = if last_is_text && i + 1 == lengths.len() {
-            0
-        } else {
-            bytes
-        };
-        limits.check(n, bytes, Pass::Step(i as u64 + 1))?;
-    }
-    Ok(())
-}
-
 /// Depth-first expansion of deterministic context-free systems with
 /// parameters and conditions (no context, no probability, no `ran`/`nran`):
 /// a module's future depends only on itself, so the final string is each
@@ -313,47 +295,28 @@ pub struct ParamPlan<'t> {
     hom: Option<&'t Table>,
 }
 
-/// Modules of one generation along the current path.
+/// Modules of one generation along the current path, and the next one to
+/// expand.
 #[derive(Default)]
 struct Level {
-    keys: Vec<u32>,
-    starts: Vec<usize>,
-    params: Vec<f64>,
+    modules: Modules,
     pos: usize,
 }
 
 impl Level {
     fn clear(&mut self) {
-        self.keys.clear();
-        self.starts.clear();
-        self.params.clear();
+        self.modules.clear();
         self.pos = 0;
-    }
-
-    fn push(&mut self, key: u32, params: &[f64]) {
-        self.keys.push(key);
-        self.starts.push(self.params.len());
-        self.params.extend_from_slice(params);
     }
 
     /// Append a run of modules given in binary form.
     fn push_bin(&mut self, mut bin: &[u8], al: &Alphabet) {
         while !bin.is_empty() {
-            let (key, kl) = crate::codec::get_key(bin);
-            let n = al.arity(key);
-            self.keys.push(key);
-            self.starts.push(self.params.len());
-            for i in 0..n {
-                self.params.push(crate::codec::get_param(&bin[kl..], i));
-            }
-            bin = &bin[kl + 8 * n..];
+            let (key, kl) = crate::rules::codec::get_key(bin);
+            let len = kl + 8 * al.arity(key);
+            self.modules.push_encoded(key, &bin[..len], al.arity(key));
+            bin = &bin[len..];
         }
-    }
-
-    fn module(&self, i: usize, al: &Alphabet) -> (u32, &[f64]) {
-        let key = self.keys[i];
-        let s = self.starts[i];
-        (key, &self.params[s..s + al.arity(key)])
     }
 }
 
@@ -372,36 +335,27 @@ fn deterministic_free(t: &Table) -> bool {
 
 impl<'t> ParamPlan<'t> {
     pub fn new(prods: &'t Table, hom: Option<&'t Table>, steps: u64) -> Option<Self> {
-        let ok = (1..=MAX_STEPS).contains(&steps)
+        let ok = (1..=MAX_DEPTH).contains(&steps)
             && deterministic_free(prods)
             && hom.is_none_or(deterministic_free);
         ok.then_some(ParamPlan { prods, hom })
     }
 
-    /// The production applying to (key, params), if any.
+    /// The production of `table` applying to (key, params), if any, with
+    /// the parameters bound in `ch`.
     fn choose(
         table: &Table,
-        key: u32,
-        params: &[f64],
-        stack: &mut Vec<f64>,
-        rng: &mut crate::random::Random,
+        (key, params): (u32, &[f64]),
+        ch: &mut Chooser,
+        rng: &mut Random,
         origin: &Origin,
         pass: Pass,
     ) -> Result<Option<u32>, Error> {
         let Some(kr) = table.get(key) else {
             return Ok(None);
         };
-        for &pi in &kr.free {
-            match &table.prods[pi as usize].cond {
-                None => return Ok(Some(pi)),
-                Some(c) => match c.eval(params, stack, rng) {
-                    Ok(v) if v != 0.0 => return Ok(Some(pi)),
-                    Ok(_) => {}
-                    Err(e) => return Err(eval_error(origin, e, pass)),
-                },
-            }
-        }
-        Ok(None)
+        ch.bind(params);
+        ch.choose(table, kr, rng, origin, pass, |_, _| Ok(true))
     }
 
     /// Write generation 0 (`input`) expanded by `steps` steps, homomorphism
@@ -416,9 +370,12 @@ impl<'t> ParamPlan<'t> {
     ) -> Result<(), Error> {
         let n = steps as usize;
         let mut levels: Vec<Level> = (0..=n.min(64)).map(|_| Level::default()).collect();
-        let mut stack = Vec::new();
-        let mut vals = Vec::new();
-        let mut rng = crate::random::Random::new(0); // never drawn from
+        let mut ch = Chooser::default();
+        ch.prepare(self.prods);
+        if let Some(h) = self.hom {
+            ch.prepare(h);
+        }
+        let mut rng = Random::new(0); // never drawn from
         let mut rd = PosReader::new(input, 1 << 16, false);
         let read_err = |e| Error::io("temporary file", "cannot read", e);
         while let Some((_, s, e)) = rd.next_module(al).map_err(read_err)? {
@@ -427,7 +384,7 @@ impl<'t> ParamPlan<'t> {
             levels[0].push_bin(bytes, al);
             let mut j = 0;
             loop {
-                if levels[j].pos == levels[j].keys.len() {
+                if levels[j].pos == levels[j].modules.len() {
                     if j == 0 {
                         break;
                     }
@@ -436,54 +393,43 @@ impl<'t> ParamPlan<'t> {
                 }
                 let i = levels[j].pos;
                 levels[j].pos += 1;
-                let chosen = if j == n {
-                    None
-                } else {
-                    let (k, p) = levels[j].module(i, al);
-                    let pass = Pass::Step(j as u64 + 1);
-                    Self::choose(self.prods, k, p, &mut stack, &mut rng, origin, pass)?
-                };
-                let Some(pi) = chosen else {
-                    let (k, p) = levels[j].module(i, al);
-                    self.leaf(k, p, al, origin, out, &mut stack, &mut vals, &mut rng)?;
-                    out.maybe_flush()?;
-                    continue;
-                };
-                // Evaluate the successor into the next level.
                 if levels.len() <= j + 1 {
                     levels.push(Level::default());
                 }
                 let (cur, next) = levels.split_at_mut(j + 1);
-                let (_, p) = cur[j].module(i, al);
+                let (k, p) = cur[j].modules.get(i, al.arity(cur[j].modules.keys[i]));
+                let pass = Pass::Step(j as u64 + 1);
+                let chosen = if j == n {
+                    None
+                } else {
+                    Self::choose(self.prods, (k, p), &mut ch, &mut rng, origin, pass)?
+                };
+                let Some(pi) = chosen else {
+                    self.leaf((k, p), al, origin, out, &mut ch, &mut rng)?;
+                    out.maybe_flush()?;
+                    continue;
+                };
+                // Evaluate the successor into the next level.
                 let next = &mut next[0];
                 next.clear();
-                let pass = Pass::Step(j as u64 + 1);
-                for item in &self.prods.prods[pi as usize].succ {
-                    match item {
-                        Item::Const(c) => next.push_bin(c.bin(), al),
-                        Item::Module { key, params } => {
-                            vals.clear();
-                            for c in params.iter() {
-                                vals.push(
-                                    c.eval(p, &mut stack, &mut rng)
-                                        .map_err(|e| eval_error(origin, e, pass))?,
-                                );
-                            }
-                            next.push(*key, &vals);
-                        }
+                let prod = &self.prods.prods[pi as usize];
+                ch.successor(prod, &mut rng, origin, pass, |piece| {
+                    match piece {
+                        Piece::Const(c) => next.push_bin(c.bin(), al),
+                        Piece::Module(key, vals) => next.modules.push(key, vals),
                     }
-                }
+                    Ok(())
+                })?;
                 // A module rewritten to itself is a fixed point: the same
                 // production applies at every later step (the system draws
                 // no randomness), so it goes out as it is.
-                let same = next.keys.len() == 1
-                    && cur[j].keys[i] == next.keys[0]
+                let same = next.modules.len() == 1
+                    && k == next.modules.keys[0]
                     && p.iter()
-                        .zip(&next.params)
+                        .zip(&next.modules.params)
                         .all(|(a, b)| a.to_bits() == b.to_bits());
                 if same {
-                    let (k, p) = levels[j].module(i, al);
-                    self.leaf(k, p, al, origin, out, &mut stack, &mut vals, &mut rng)?;
+                    self.leaf((k, p), al, origin, out, &mut ch, &mut rng)?;
                     out.maybe_flush()?;
                     continue;
                 }
@@ -494,48 +440,32 @@ impl<'t> ParamPlan<'t> {
     }
 
     /// Write a module of the last generation, through the homomorphism.
-    #[allow(clippy::too_many_arguments)]
     fn leaf(
         &self,
-        key: u32,
-        params: &[f64],
+        (key, params): (u32, &[f64]),
         al: &Alphabet,
         origin: &Origin,
         out: &mut Out,
-        stack: &mut Vec<f64>,
-        vals: &mut Vec<f64>,
-        rng: &mut crate::random::Random,
+        ch: &mut Chooser,
+        rng: &mut Random,
     ) -> Result<(), Error> {
         let pass = Pass::Homomorphism;
         let chosen = match self.hom {
-            Some(h) => Self::choose(h, key, params, stack, rng, origin, pass)?.map(|pi| (h, pi)),
+            Some(h) => Self::choose(h, (key, params), ch, rng, origin, pass)?.map(|pi| (h, pi)),
             None => None,
         };
         let Some((h, pi)) = chosen else {
             return out.module(key, params, al);
         };
-        for item in &h.prods[pi as usize].succ {
-            match item {
-                Item::Const(c) => out.constant(c)?,
-                Item::Module { key, params: codes } => {
-                    vals.clear();
-                    for c in codes.iter() {
-                        vals.push(
-                            c.eval(params, stack, rng)
-                                .map_err(|e| eval_error(origin, e, pass))?,
-                        );
-                    }
-                    out.module(*key, vals, al)?;
-                }
-            }
-        }
-        Ok(())
+        ch.successor(
+            &h.prods[pi as usize],
+            rng,
+            origin,
+            pass,
+            |piece| match piece {
+                Piece::Const(c) => out.constant(c),
+                Piece::Module(key, vals) => out.module(key, vals, al),
+            },
+        )
     }
-}
-
-fn eval_error(origin: &Origin, e: crate::expr::EvalError, pass: Pass) -> Error {
-    Error::at(
-        origin.locate(e.span.0),
-        format!("{} (in {pass})", e.message),
-    )
 }

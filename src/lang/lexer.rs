@@ -7,7 +7,7 @@
 //! identifiers, numbers and operators apply. Two logos lexers share one
 //! position and are morphed into each other as the mode changes; keywords are
 //! recognised at the start of a line. The axiom is not lexed here: it is
-//! streamed by [`crate::axiom`].
+//! streamed by [`crate::io::axiom`].
 
 use logos::Logos;
 

@@ -56,6 +56,74 @@ pub fn get_param(b: &[u8], i: usize) -> f64 {
     f64::from_le_bytes(b[8 * i..8 * i + 8].try_into().unwrap())
 }
 
+/// The parameter bytes of an encoded module (what follows its key).
+#[inline]
+pub fn body(module: &[u8]) -> &[u8] {
+    let (_, kl) = get_key(module);
+    &module[kl..]
+}
+
+/// Decode the first `out.len()` parameters of the encoded module `module`
+/// (key included) into `out`.
+#[inline]
+pub fn read_params(module: &[u8], out: &mut [f64]) {
+    let b = body(module);
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = get_param(b, i);
+    }
+}
+
+/// Decoded modules in a row (keys with their parameters), reused without
+/// allocating once grown: a generation's path level depth first, the
+/// modules a right context looks at.
+#[derive(Default)]
+pub struct Modules {
+    pub keys: Vec<u32>,
+    /// Where each module's parameters start in `params`.
+    pub starts: Vec<usize>,
+    pub params: Vec<f64>,
+}
+
+impl Modules {
+    pub fn clear(&mut self) {
+        self.keys.clear();
+        self.starts.clear();
+        self.params.clear();
+    }
+
+    #[inline]
+    pub fn push(&mut self, key: u32, params: &[f64]) {
+        self.keys.push(key);
+        self.starts.push(self.params.len());
+        self.params.extend_from_slice(params);
+    }
+
+    /// Append the encoded module `module` (key included) with `arity`
+    /// parameters.
+    #[inline]
+    pub fn push_encoded(&mut self, key: u32, module: &[u8], arity: usize) {
+        self.keys.push(key);
+        self.starts.push(self.params.len());
+        let b = body(module);
+        self.params.extend((0..arity).map(|i| get_param(b, i)));
+    }
+
+    /// Module `i`: its key and its `arity` parameters.
+    #[inline]
+    pub fn get(&self, i: usize, arity: usize) -> (u32, &[f64]) {
+        let s = self.starts[i];
+        (self.keys[i], &self.params[s..s + arity])
+    }
+
+    pub fn len(&self) -> usize {
+        self.keys.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.keys.is_empty()
+    }
+}
+
 /// Number printer: ryu's shortest round-trip digits without a trailing
 /// `.0`, with a small direct-mapped cache, since the parameters of an
 /// L-system string repeat a lot (the same lengths and angles everywhere).

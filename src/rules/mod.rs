@@ -3,13 +3,16 @@
 //! into byte templates, and a table that finds a module's productions by key
 //! in O(1).
 
-use crate::ast::{self, Expr, Setting};
-use crate::codec::{self, MAX_ARITY};
-use crate::expr::{Code, Scope};
-use crate::lexer::Span;
-use crate::parse::UserError;
-use crate::random::Random;
+use crate::derive::random::Random;
+use crate::lang::ast::{self, Expr, Setting};
+use crate::lang::lexer::Span;
+use crate::lang::parse::UserError;
+use codec::MAX_ARITY;
+use expr::{Code, Scope};
 use std::collections::{HashMap, HashSet};
+
+pub mod codec;
+pub mod expr;
 
 pub const OPEN: u32 = b'[' as u32;
 pub const CLOSE: u32 = b']' as u32;
@@ -359,7 +362,7 @@ fn whole_number(e: &Expr, consts: &HashMap<String, f64>, what: &str) -> R<u64> {
             e.span(),
             format!(
                 "{what} must be a whole number from 0 to 2^53, not {}",
-                crate::codec::number_string(v)
+                crate::rules::codec::number_string(v)
             ),
         );
     }
@@ -406,7 +409,7 @@ fn seed_value(e: &Expr, consts: &HashMap<String, f64>, src: Option<&str>) -> R<u
             format!(
                 "the seed must be a whole number from 0 to 18446744073709551615 \
                  (computed: below 2^53; write larger seeds as digits), not {}",
-                crate::codec::number_string(v)
+                crate::rules::codec::number_string(v)
             ),
         );
     }
@@ -751,7 +754,7 @@ fn compile_successor(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::parse::parse_header;
+    use crate::lang::parse::parse_header;
 
     fn sys(src: &str) -> Result<System, UserError> {
         compile(&parse_header(src).unwrap())

@@ -2,9 +2,9 @@
 //! grammar, and lalrpop's `ParseError` is turned into our located error in
 //! one place.
 
-use crate::ast;
 use crate::diag::{CodeMap, Error, Location};
-use crate::lexer::{LexError, Lexer, Span, Tok};
+use crate::lang::ast;
+use crate::lang::lexer::{LexError, Lexer, Span, Tok};
 use lalrpop_util::{lalrpop_mod, ParseError};
 
 lalrpop_mod!(
@@ -110,26 +110,23 @@ fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str) -> UserError {
             let exp = describe_expected(&expected);
             // After a comparison, in an expression: `1 < x < 3`.
             let in_expr = expected.iter().any(|e| e == "\"+\"");
-            let what = match &tok {
-                Tok::Nl => "unexpected end of line".to_string(),
+            // `complete`: the message says all there is; no "expected ...".
+            let (what, complete) = match &tok {
+                Tok::Nl => ("unexpected end of line".to_string(), false),
                 Tok::Gt | Tok::Lt | Tok::Le | Tok::Ge | Tok::EqEq | Tok::Ne | Tok::Assign
                     if in_expr =>
                 {
-                    format!("unexpected {tok}: comparisons do not chain; write `a < x && x < b`")
+                    (format!("unexpected {tok}: comparisons do not chain; write `a < x && x < b`"), true)
                 }
-                Tok::Gt => "unexpected `>`: contexts are written only left of the arrow (`lc < pred > rc -> succ`)".to_string(),
-                Tok::Lt => "unexpected `<`: contexts are written only left of the arrow (`lc < pred > rc -> succ`)".to_string(),
+                Tok::Gt => ("unexpected `>`: contexts are written only left of the arrow (`lc < pred > rc -> succ`)".to_string(), true),
+                Tok::Lt => ("unexpected `<`: contexts are written only left of the arrow (`lc < pred > rc -> succ`)".to_string(), true),
                 Tok::KwProductions | Tok::KwHomomorphism | Tok::KwDerivationLength
                 | Tok::KwDefine | Tok::KwSeed | Tok::KwIgnore | Tok::KwConsider => {
-                    format!("{tok} is out of place: the order is settings, `productions:`, `homomorphism:`, `axiom:`")
+                    (format!("{tok} is out of place: the order is settings, `productions:`, `homomorphism:`, `axiom:`"), true)
                 }
-                t => format!("unexpected {t}"),
+                t => (format!("unexpected {t}"), false),
             };
-            let msg = if exp.is_empty()
-                || matches!(tok, Tok::Gt | Tok::Lt)
-                || what.contains("out of place")
-                || what.contains("do not chain")
-            {
+            let msg = if exp.is_empty() || complete {
                 what
             } else {
                 format!("{what}, {exp}")
@@ -145,7 +142,7 @@ fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str) -> UserError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ast::{Expr, Setting};
+    use crate::lang::ast::{Expr, Setting};
 
     const ABOP_110: &str = "/* Parametric example, ABOP section 1.10 */
 derivation length: 4

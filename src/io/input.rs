@@ -1,6 +1,6 @@
 //! Reading an `.ls` file as a stream: the header (everything before
 //! `axiom:`) is collected for the grammar; the axiom is left in the stream
-//! for [`crate::axiom`] to read module by module, so it may be gigabytes long.
+//! for [`crate::io::axiom`] to read module by module, so it may be gigabytes long.
 
 use crate::diag::{excerpt, Error, Location};
 use std::io::{self, Read};

@@ -1,7 +1,7 @@
 //! Syntax tree of an `.ls` header, as the grammar builds it. Spans are byte
 //! offsets into the header text.
 
-use crate::lexer::Span;
+use crate::lang::lexer::Span;
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Expr {

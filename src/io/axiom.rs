@@ -3,12 +3,12 @@
 //! other parameter text (`F(R*2)`) is parsed as an expression over the
 //! `define:` constants.
 
-use crate::codec::MAX_ARITY;
+use crate::derive::random::Random;
 use crate::diag::{excerpt, Error, Location};
-use crate::expr::{Code, Scope};
-use crate::input::Input;
-use crate::parse::parse_expr;
-use crate::random::Random;
+use crate::io::input::Input;
+use crate::lang::parse::parse_expr;
+use crate::rules::codec::MAX_ARITY;
+use crate::rules::expr::{Code, Scope};
 use crate::rules::Alphabet;
 use std::collections::HashMap;
 

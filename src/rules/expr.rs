@@ -6,9 +6,9 @@
 //! division by zero, an overflow or a NaN stops the run with the span of
 //! the operation.
 
-use crate::ast::{BinOp, Expr, UnOp};
-use crate::lexer::Span;
-use crate::random::Random;
+use crate::derive::random::Random;
+use crate::lang::ast::{BinOp, Expr, UnOp};
+use crate::lang::lexer::Span;
 use std::collections::HashMap;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -457,7 +457,7 @@ fn bool_f(b: bool) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::parse::parse_expr;
+    use crate::lang::parse::parse_expr;
 
     fn eval_with(src: &str, names: &[(&str, f64)]) -> Result<f64, EvalError> {
         let e = parse_expr(src).expect("parses");

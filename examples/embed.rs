@@ -1,0 +1,26 @@
+//! lsgen as a library: derive an L-system from a string, streaming the
+//! result into standard output, and report each generation's length.
+//!
+//! `cargo run --example embed -- 5` derives ABOP's Koch curve 5 steps.
+
+use std::io::Write;
+
+fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+    let steps = match std::env::args().nth(1) {
+        Some(n) => n.parse()?,
+        None => 3,
+    };
+    let mut koch =
+        lsgen::LSystem::parse("/* ABOP fig. 1.7b */\nproductions:\nF -> F+F-F-F+F\naxiom: F\n")?;
+    let options = lsgen::Options::new().steps(steps);
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    let stats = koch.derive_with(&options, &mut out, |event| {
+        if let lsgen::Event::Generation { pass, modules, .. } = event {
+            eprintln!("{pass}: {modules} modules");
+        }
+    })?;
+    out.flush()?;
+    eprintln!("{} modules, {} bytes", stats.modules, stats.bytes);
+    Ok(())
+}

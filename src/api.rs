@@ -1,0 +1,363 @@
+//! The library facade: [`LSystem`], [`Options`], [`Stats`].
+
+use crate::derive::random::Random;
+use crate::derive::{derive, Event, Limits, Settings, Strategy};
+use crate::diag::Error;
+use crate::io::axiom::AxiomReader;
+use crate::io::input::{split_header, Input, Split};
+use crate::lang::parse::{locate, parse_header, UserError};
+use crate::rules::{compile_with, Seeds, System};
+use std::io::{self, Read, Write};
+use std::path::PathBuf;
+
+/// Derivation length when neither the file nor [`Options::steps`] gives one.
+pub const DEFAULT_DERIVATION_LENGTH: u64 = 1;
+
+/// An L-system read from `.ls` text: its header parsed and compiled, its
+/// axiom still to be streamed.
+///
+/// ```
+/// let mut ls = lsgen::LSystem::parse("productions:\nA -> AB\nB -> A\naxiom: A\n")?;
+/// let mut out = Vec::new();
+/// let stats = ls.derive(&lsgen::Options::new().steps(4), &mut out)?;
+/// assert_eq!(out, b"ABAABABA\n");
+/// assert_eq!(stats.modules, 8);
+/// # Ok::<(), lsgen::Error>(())
+/// ```
+pub struct LSystem {
+    path: String,
+    split: Split,
+    /// The rest of the input, at the axiom; None once read.
+    input: Option<Input>,
+    /// The whole text, when parsed from a string: the axiom can be read
+    /// again for another derivation.
+    text: Option<String>,
+    /// `--axiom`: plain module text replacing the file's axiom.
+    axiom: Option<Input>,
+    /// The compiled rules, and the command-line seed their random
+    /// constants were drawn with (None: the file's `seed:` or `fresh`).
+    system: Option<(System, Option<u64>)>,
+    /// The seed used when neither the options nor the file give one.
+    fresh: u64,
+}
+
+/// How to derive. `Options::new()` (or `default()`) takes the file's
+/// settings; each method overrides one.
+#[derive(Clone, Debug)]
+pub struct Options {
+    steps: Option<u64>,
+    seed: Option<u64>,
+    homomorphism: bool,
+    limits: Limits,
+    tmpdir: Option<PathBuf>,
+    strategy: Strategy,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            steps: None,
+            seed: None,
+            homomorphism: true,
+            limits: Limits::default(),
+            tmpdir: None,
+            strategy: Strategy::Auto,
+        }
+    }
+}
+
+impl Options {
+    /// The file's settings: its `derivation length:` (else 1 step), its
+    /// `seed:` (else a fresh seed), the homomorphism applied, no limits,
+    /// temporary files in `$TMPDIR`.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Derive `n` steps (overrides `derivation length:`).
+    pub fn steps(mut self, n: u64) -> Self {
+        self.steps = Some(n);
+        self
+    }
+
+    /// Seed the random generator (overrides `seed:`, also for random
+    /// constants).
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = Some(seed);
+        self
+    }
+
+    /// Apply the homomorphism after the last step (default: yes).
+    pub fn homomorphism(mut self, on: bool) -> Self {
+        self.homomorphism = on;
+        self
+    }
+
+    /// Stop with an error when a generation exceeds these limits.
+    pub fn limits(mut self, limits: Limits) -> Self {
+        self.limits = limits;
+        self
+    }
+
+    /// Directory for the temporary generation files (default: `$TMPDIR`).
+    pub fn tmpdir(mut self, dir: impl Into<PathBuf>) -> Self {
+        self.tmpdir = Some(dir.into());
+        self
+    }
+
+    /// Force a strategy (for tests).
+    #[doc(hidden)]
+    pub fn strategy(mut self, strategy: Strategy) -> Self {
+        self.strategy = strategy;
+        self
+    }
+}
+
+/// What a derivation did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct Stats {
+    /// The seed of the random generator.
+    pub seed: u64,
+    /// Derivation steps asked for.
+    pub steps: u64,
+    /// Modules written.
+    pub modules: u64,
+    /// Bytes written, without the final newline.
+    pub bytes: u64,
+}
+
+impl LSystem {
+    /// Parse an L-system from `.ls` text.
+    pub fn parse(text: &str) -> Result<LSystem, Error> {
+        let mut ls = Self::load_named(
+            Input::new(Box::new(io::Cursor::new(text.to_string())), "<input>"),
+            None,
+        )?;
+        ls.require_axiom()?;
+        ls.text = Some(text.to_string());
+        Ok(ls)
+    }
+
+    /// Parse an L-system from a reader, named `name` in error messages.
+    /// The header is read now; the axiom is streamed by [`derive`], so it
+    /// can be derived once.
+    ///
+    /// [`derive`]: LSystem::derive
+    pub fn from_reader(reader: impl Read + 'static, name: &str) -> Result<LSystem, Error> {
+        let ls = Self::load_named(Input::new(Box::new(reader), name), None)?;
+        ls.require_axiom()?;
+        Ok(ls)
+    }
+
+    /// Read and compile the header from `input` (leaving it at the axiom);
+    /// random constants drawn with `seed` (else the file's or a fresh one).
+    pub(crate) fn load_named(mut input: Input, seed: Option<u64>) -> Result<LSystem, Error> {
+        let fresh = Random::fresh_seed();
+        let split = split_header(&mut input)?;
+        let path = input.name.clone();
+        let system = compile(&path, &split, seed, fresh)?;
+        Ok(LSystem {
+            path,
+            split,
+            input: Some(input),
+            text: None,
+            axiom: None,
+            system: Some((system, seed)),
+            fresh,
+        })
+    }
+
+    /// The input's name, as error messages give it.
+    pub(crate) fn path(&self) -> &str {
+        &self.path
+    }
+
+    /// An error unless the file has an `axiom:` section.
+    pub(crate) fn require_axiom(&self) -> Result<(), Error> {
+        if self.split.has_axiom {
+            return Ok(());
+        }
+        let header = &self.split.header;
+        let end = header.trim_end().len();
+        let mut e = locate(
+            &self.path,
+            header,
+            UserError::new(
+                (end, end),
+                "missing `axiom:`: the axiom comes last, after the productions",
+            ),
+        );
+        if header.trim().is_empty() {
+            e.message = "empty L-system: no `axiom:` found".into();
+        }
+        Err(e)
+    }
+
+    /// Read the axiom from `input` (plain module text, no comments)
+    /// instead of the file's `axiom:` section.
+    pub(crate) fn set_axiom(&mut self, input: Input) {
+        self.axiom = Some(input);
+    }
+
+    /// Numbers of productions and homomorphism productions.
+    pub(crate) fn counts(&self) -> (usize, usize) {
+        self.system.as_ref().map_or((0, 0), |(s, _)| {
+            (s.productions.prods.len(), s.homomorphism.prods.len())
+        })
+    }
+
+    /// The compiled rules for `seed`, and the axiom reader's input.
+    fn take(&mut self, seed: Option<u64>) -> Result<(System, Input, bool, usize, usize), Error> {
+        let system = match self.system.take() {
+            Some((s, with)) if with == seed => s,
+            _ => compile(&self.path, &self.split, seed, self.fresh)?,
+        };
+        if let Some(a) = self.axiom.take() {
+            return Ok((system, a, false, 1, 1));
+        }
+        let input = match (self.input.take(), &self.text) {
+            (Some(i), _) => i,
+            (None, Some(text)) => {
+                let mut i = Input::new(Box::new(io::Cursor::new(text.clone())), "<input>");
+                split_header(&mut i)?;
+                i
+            }
+            (None, None) => return Err(Error::new("the axiom stream was already derived")),
+        };
+        let (line, col) = (self.split.axiom_line, self.split.axiom_col);
+        Ok((system, input, true, line, col))
+    }
+
+    /// Read the axiom, reporting its errors, and derive nothing.
+    pub fn check(&mut self) -> Result<(), Error> {
+        let (mut system, input, comments, line, col) = self.take(None)?;
+        let consts = std::mem::take(&mut system.consts);
+        let mut reader = AxiomReader::new(input, comments, line, col, &consts);
+        let mut p = Vec::new();
+        let mut rng = Random::new(0);
+        loop {
+            reader.plain_run(|_| {})?;
+            if reader
+                .next(&mut system.alphabet, &mut p, &mut rng)?
+                .is_none()
+            {
+                break;
+            }
+        }
+        drop(reader);
+        system.consts = consts;
+        self.system = Some((system, None));
+        Ok(())
+    }
+
+    /// Derive and stream the final string, one line, into `out`.
+    /// Generations in between live in temporary files, so memory does not
+    /// grow with the string.
+    pub fn derive(&mut self, options: &Options, out: impl Write) -> Result<Stats, Error> {
+        self.run(options, out, "output", false, &mut |_| {})
+    }
+
+    /// [`derive`](LSystem::derive), calling `on_event` as each generation
+    /// is complete (with its length) and when a fixed point ends the steps
+    /// early. Asking for every generation's length may take the
+    /// step-by-step strategy where depth first would do.
+    pub fn derive_with(
+        &mut self,
+        options: &Options,
+        out: impl Write,
+        mut on_event: impl FnMut(&Event),
+    ) -> Result<Stats, Error> {
+        self.run(options, out, "output", true, &mut on_event)
+    }
+
+    pub(crate) fn run(
+        &mut self,
+        options: &Options,
+        mut out: impl Write,
+        out_name: &str,
+        lengths: bool,
+        events: &mut dyn FnMut(&Event),
+    ) -> Result<Stats, Error> {
+        let (mut system, input, comments, line, col) = self.take(options.seed)?;
+        let steps = options
+            .steps
+            .or(system.derivation_length)
+            .unwrap_or(DEFAULT_DERIVATION_LENGTH);
+        let seed = options.seed.or(system.seed).unwrap_or(self.fresh);
+        let settings = Settings {
+            steps,
+            seed,
+            homomorphism: options.homomorphism,
+            limits: options.limits,
+            tmpdir: options.tmpdir.clone(),
+            lengths,
+            strategy: options.strategy,
+        };
+        let consts = std::mem::take(&mut system.consts);
+        let reader = AxiomReader::new(input, comments, line, col, &consts);
+        let (modules, bytes) = derive(
+            &settings,
+            reader,
+            &self.split.header,
+            &self.path,
+            system,
+            (&mut out, out_name),
+            events,
+        )?;
+        Ok(Stats {
+            seed,
+            steps,
+            modules,
+            bytes,
+        })
+    }
+
+    /// The seed a derivation with `options` would use.
+    pub fn seed(&self, options: &Options) -> u64 {
+        let file = self.system.as_ref().and_then(|(s, _)| s.seed);
+        options.seed.or(file).unwrap_or(self.fresh)
+    }
+
+    /// Use `seed` when neither the options nor the file give one, instead
+    /// of a fresh one (for reproducible tests and fuzzing).
+    #[doc(hidden)]
+    pub fn with_fallback_seed(mut self, seed: u64) -> Result<Self, Error> {
+        self.fresh = seed;
+        if let Some((_, with)) = self.system.take() {
+            self.system = Some((compile(&self.path, &self.split, with, seed)?, with));
+        }
+        Ok(self)
+    }
+}
+
+/// Parse and compile the header of `split`.
+fn compile(path: &str, split: &Split, seed: Option<u64>, fresh: u64) -> Result<System, Error> {
+    let header = parse_header(&split.header).map_err(|e| locate(path, &split.header, e))?;
+    let seeds = Seeds {
+        command_line: seed,
+        fallback: fresh,
+    };
+    compile_with(header, Some(&split.header), seeds).map_err(|e| locate(path, &split.header, e))
+}
+
+/// Load an L-system from `src` and derive it in full into a byte vector
+/// (temp files are still used between steps): for tests and fuzzing.
+/// `steps`/`seed` override the file's settings; without either seed, 0.
+#[doc(hidden)]
+pub fn derive_bytes(
+    src: &[u8],
+    steps: Option<u64>,
+    seed: Option<u64>,
+    limits: Limits,
+) -> Result<Vec<u8>, Error> {
+    let input = Input::new(Box::new(io::Cursor::new(src.to_vec())), "<input>");
+    let mut ls = LSystem::load_named(input, seed)?.with_fallback_seed(0)?;
+    ls.require_axiom()?;
+    let mut options = Options::new().limits(limits);
+    options.steps = steps;
+    options.seed = seed;
+    let mut out = Vec::new();
+    ls.derive(&options, &mut out)?;
+    Ok(out)
+}

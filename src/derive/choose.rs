@@ -1,0 +1,216 @@
+//! Production choice and successor evaluation, shared by every strategy
+//! (the step engine and depth first): which production of a module's
+//! group wins (conditions, weights, the draw), then the successor's
+//! parameters evaluated left to right.
+
+use super::random::Random;
+use super::{Origin, Pass};
+use crate::diag::Error;
+use crate::rules::{codec, ConstRun, Item, KeyRules, Production, Table};
+
+/// One piece of a successor, in string order.
+pub(crate) enum Piece<'a> {
+    /// A precompiled run of modules without parameter expressions.
+    Const(&'a ConstRun),
+    /// A module with evaluated parameters.
+    Module(u32, &'a [f64]),
+}
+
+/// The reusable buffers of choice and evaluation: nothing is allocated per
+/// module once they have grown.
+#[derive(Default)]
+pub(crate) struct Chooser {
+    /// Formal parameters of the production being tried: the predecessor's
+    /// first, then its contexts'.
+    pub(crate) slots: Vec<f64>,
+    stack: Vec<f64>,
+    vals: Vec<f64>,
+    /// Matching candidates of a weighted group, with their bindings.
+    cand: Vec<(u32, f64)>,
+    cand_slots: Vec<f64>,
+}
+
+impl Chooser {
+    /// Make room for the formal parameters of every production of `table`.
+    pub(crate) fn prepare(&mut self, table: &Table) {
+        let max_slots = table.prods.iter().map(|p| p.nslots).max().unwrap_or(0);
+        if self.slots.len() < max_slots.max(1) {
+            self.slots.resize(max_slots.max(1), 0.0);
+        }
+    }
+
+    /// Bind the predecessor's parameters, decoded from its encoded bytes.
+    #[inline]
+    pub(crate) fn bind_encoded(&mut self, module: &[u8], arity: usize) {
+        if arity > 0 {
+            codec::read_params(module, &mut self.slots[..arity]);
+        }
+    }
+
+    /// Bind the predecessor's parameters.
+    #[inline]
+    pub(crate) fn bind(&mut self, params: &[f64]) {
+        self.slots[..params.len()].copy_from_slice(params);
+    }
+
+    /// The production of `kr` that rewrites the bound module: the context
+    /// group first, then the context-free one (see README, "Choice").
+    /// `contexts(p, slots)` tells whether `p`'s contexts match here,
+    /// binding their parameters into `slots`.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn choose<F>(
+        &mut self,
+        table: &Table,
+        kr: &KeyRules,
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        mut contexts: F,
+    ) -> Result<Option<u32>, Error>
+    where
+        F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    {
+        let mut chosen = None;
+        if !kr.context.is_empty() {
+            let group = (&kr.context[..], kr.context_stochastic);
+            chosen = self.choose_in(table, group, rng, origin, pass, &mut contexts)?;
+        }
+        if chosen.is_none() && !kr.free.is_empty() {
+            let group = (&kr.free[..], kr.free_stochastic);
+            chosen = self.choose_in(table, group, rng, origin, pass, &mut contexts)?;
+        }
+        Ok(chosen)
+    }
+
+    /// Does `p` match: contexts, then its condition?
+    #[inline]
+    fn matches<F>(
+        &mut self,
+        p: &Production,
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        contexts: &mut F,
+    ) -> Result<bool, Error>
+    where
+        F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    {
+        if !contexts(p, &mut self.slots)? {
+            return Ok(false);
+        }
+        match &p.cond {
+            None => Ok(true),
+            Some(c) => match c.eval(&self.slots, &mut self.stack, rng) {
+                Ok(v) => Ok(v != 0.0),
+                Err(e) => Err(origin.eval_error(e, pass)),
+            },
+        }
+    }
+
+    fn choose_in<F>(
+        &mut self,
+        table: &Table,
+        (list, stochastic): (&[u32], bool),
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        contexts: &mut F,
+    ) -> Result<Option<u32>, Error>
+    where
+        F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    {
+        if !stochastic {
+            for &pi in list {
+                if self.matches(&table.prods[pi as usize], rng, origin, pass, contexts)? {
+                    return Ok(Some(pi));
+                }
+            }
+            return Ok(None);
+        }
+        // Weighted choice among all matching productions.
+        self.cand.clear();
+        self.cand_slots.clear();
+        let mut total = 0.0;
+        for &pi in list {
+            let p = &table.prods[pi as usize];
+            if !self.matches(p, rng, origin, pass, contexts)? {
+                continue;
+            }
+            let w = match &p.prob {
+                None => 1.0,
+                Some(c) => c
+                    .eval(&self.slots, &mut self.stack, rng)
+                    .map_err(|e| origin.eval_error(e, pass))?,
+            };
+            if w < 0.0 {
+                return Err(Error::at(
+                    origin.locate(p.prob.as_ref().unwrap().span.0),
+                    format!("a probability cannot be negative ({w}, in {pass})"),
+                ));
+            }
+            if w > 0.0 {
+                total += w;
+                self.cand.push((pi, w));
+                self.cand_slots.extend_from_slice(&self.slots[..p.nslots]);
+            }
+        }
+        let pick = match self.cand.len() {
+            0 => return Ok(None),
+            1 => 0,
+            n => {
+                let mut u = rng.uniform() * total;
+                let mut i = 0;
+                while i < n - 1 {
+                    u -= self.cand[i].1;
+                    if u < 0.0 {
+                        break;
+                    }
+                    i += 1;
+                }
+                i
+            }
+        };
+        // Restore the chosen production's bindings.
+        let pi = self.cand[pick].0;
+        let off: usize = self.cand[..pick]
+            .iter()
+            .map(|(q, _)| table.prods[*q as usize].nslots)
+            .sum();
+        let n = table.prods[pi as usize].nslots;
+        self.slots[..n].copy_from_slice(&self.cand_slots[off..off + n]);
+        Ok(Some(pi))
+    }
+
+    /// Evaluate `p`'s successor with the bound parameters, handing each
+    /// piece to `emit` in string order.
+    #[inline]
+    pub(crate) fn successor<F>(
+        &mut self,
+        p: &Production,
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        mut emit: F,
+    ) -> Result<(), Error>
+    where
+        F: FnMut(Piece) -> Result<(), Error>,
+    {
+        for item in &p.succ {
+            match item {
+                Item::Const(c) => emit(Piece::Const(c))?,
+                Item::Module { key, params } => {
+                    self.vals.clear();
+                    for c in params.iter() {
+                        match c.eval(&self.slots, &mut self.stack, rng) {
+                            Ok(v) => self.vals.push(v),
+                            Err(e) => return Err(origin.eval_error(e, pass)),
+                        }
+                    }
+                    emit(Piece::Module(*key, &self.vals))?;
+                }
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,412 @@
+//! Context matching. Left contexts: the considered modules on the path to
+//! the current one, kept per open branch. Right contexts: walked by the
+//! look-ahead reader over the same generation file.
+
+use super::reader::PosReader;
+use crate::rules::codec::{self, Modules};
+use crate::rules::{Alphabet, Pat, RPat, Table, CLOSE, OPEN};
+use std::io;
+
+/// Left context: the considered modules on the path from the start of the
+/// string to the current module, as one shared stack. Each open branch
+/// (level) owns a segment at the top of its parent's and keeps at most the
+/// last k of its own modules there (a ring once full); a left context is
+/// read backwards through the current level, then its ancestors. Opening a
+/// branch copies nothing, so memory is the modules kept per level (at most
+/// k each, and no more than the level has) plus O(1) per level: a long
+/// context and deep nesting do not multiply. Only the parameters of keys
+/// that some left context asks for are kept, up to their largest arity.
+pub(crate) struct LeftContext {
+    k: usize,
+    /// Parameters kept per slot.
+    width: usize,
+    /// Keys whose parameters are kept (indexed by key).
+    wanted: Vec<bool>,
+    depth: usize,
+    keys: Vec<u32>,
+    params: Vec<f64>,
+    /// One per open level (reused as branches open and close).
+    levels: Vec<Level>,
+}
+
+/// No such level.
+pub(crate) const NONE: usize = usize::MAX;
+
+#[derive(Clone, Copy)]
+pub(crate) struct Level {
+    /// Where the level's own modules start in `keys`.
+    start: usize,
+    /// How many it keeps (at most k).
+    cnt: usize,
+    /// Ring index of the most recent one.
+    head: usize,
+    /// Nearest enclosing level that keeps any module, or NONE.
+    up: usize,
+}
+
+impl LeftContext {
+    pub(crate) fn new(table: &Table, al: &Alphabet) -> Self {
+        let k = table.max_left;
+        let mut wanted = Vec::new();
+        let mut width = 0;
+        for p in &table.prods {
+            for pat in &p.left {
+                let n = al.arity(pat.key);
+                if n > 0 {
+                    let key = pat.key as usize;
+                    if wanted.len() <= key {
+                        wanted.resize(key + 1, false);
+                    }
+                    wanted[key] = true;
+                    width = width.max(n);
+                }
+            }
+        }
+        LeftContext {
+            k,
+            width,
+            wanted,
+            depth: 0,
+            keys: Vec::new(),
+            params: Vec::new(),
+            levels: vec![Level {
+                start: 0,
+                cnt: 0,
+                head: 0,
+                up: NONE,
+            }],
+        }
+    }
+
+    pub(crate) fn open(&mut self) {
+        let d = self.depth;
+        let cur = self.levels[d];
+        let child = Level {
+            start: self.keys.len(),
+            cnt: 0,
+            head: 0,
+            up: if cur.cnt > 0 { d } else { cur.up },
+        };
+        self.depth += 1;
+        if self.levels.len() <= self.depth {
+            self.levels.push(child);
+        } else {
+            self.levels[self.depth] = child;
+        }
+    }
+
+    pub(crate) fn close(&mut self) {
+        if self.depth == 0 {
+            return; // unbalanced: reported by the balance check
+        }
+        let start = self.levels[self.depth].start;
+        self.keys.truncate(start);
+        self.params.truncate(start * self.width);
+        self.depth -= 1;
+    }
+
+    /// The nearest considered module to the left, if any.
+    #[inline(always)]
+    pub(crate) fn last_key(&self) -> Option<u32> {
+        let mut l = self.levels[self.depth];
+        if l.cnt == 0 {
+            if l.up == NONE {
+                return None;
+            }
+            l = self.levels[l.up];
+        }
+        Some(self.keys[l.start + l.head])
+    }
+
+    /// Record the considered module `key`, encoded as `module` (key
+    /// included), with `arity` parameters.
+    #[inline]
+    pub(crate) fn push(&mut self, key: u32, module: &[u8], arity: usize) {
+        let (k, w) = (self.k, self.width);
+        let l = &mut self.levels[self.depth];
+        let slot = if l.cnt < k {
+            // The level's segment is the top of the stack.
+            l.head = l.cnt;
+            l.cnt += 1;
+            self.keys.push(key);
+            self.params.resize(self.params.len() + w, 0.0);
+            l.start + l.head
+        } else {
+            l.head = if l.head + 1 == k { 0 } else { l.head + 1 };
+            let slot = l.start + l.head;
+            self.keys[slot] = key;
+            slot
+        };
+        if self.wanted.get(key as usize).copied().unwrap_or(false) {
+            codec::read_params(module, &mut self.params[slot * w..slot * w + arity]);
+        }
+    }
+
+    /// Does the path to the current module end with `pat`? Binds its
+    /// parameters.
+    pub(crate) fn matches(&self, pat: &[Pat], al: &Alphabet, slots: &mut [f64]) -> bool {
+        let mut l = self.levels[self.depth];
+        let mut left = l.cnt;
+        let mut idx = l.head;
+        for p in pat.iter().rev() {
+            while left == 0 {
+                if l.up == NONE {
+                    return false;
+                }
+                l = self.levels[l.up];
+                left = l.cnt;
+                idx = l.head;
+            }
+            let slot = l.start + idx;
+            if self.keys[slot] != p.key {
+                return false;
+            }
+            let n = al.arity(p.key);
+            if n > 0 {
+                let w = self.width;
+                slots[p.slot as usize..p.slot as usize + n]
+                    .copy_from_slice(&self.params[slot * w..slot * w + n]);
+            }
+            idx = if idx == 0 { l.cnt - 1 } else { idx - 1 };
+            left -= 1;
+        }
+        true
+    }
+}
+
+/// The next considered modules right of the current one, read once per
+/// module for all bracket-free right contexts.
+pub(crate) struct RightCache {
+    /// Offset the cache was filled from (u64::MAX: empty).
+    pub(crate) at: u64,
+    pub(crate) modules: Modules,
+}
+
+impl RightCache {
+    pub(crate) fn new() -> Self {
+        RightCache {
+            at: u64::MAX,
+            modules: Modules::default(),
+        }
+    }
+
+    pub(crate) fn fill(
+        &mut self,
+        peek: &mut PosReader,
+        al: &Alphabet,
+        pos: u64,
+        want: usize,
+    ) -> io::Result<()> {
+        self.at = pos;
+        self.modules.clear();
+        let mut pos = pos;
+        while self.modules.len() < want {
+            let Walk::Module {
+                key, s, e, next, ..
+            } = walk_right(peek, al, pos, true)?
+            else {
+                break;
+            };
+            pos = next;
+            self.modules
+                .push_encoded(key, peek.bytes(s, e), al.arity(key));
+        }
+        Ok(())
+    }
+
+    pub(crate) fn matches(&self, pat: &[RPat], al: &Alphabet, slots: &mut [f64]) -> bool {
+        if pat.len() > self.modules.len() {
+            return false;
+        }
+        for (i, r) in pat.iter().enumerate() {
+            let RPat::Module(p) = r else {
+                unreachable!("bracket in a simple right context")
+            };
+            if self.modules.keys[i] != p.key {
+                return false;
+            }
+        }
+        for (i, r) in pat.iter().enumerate() {
+            if let RPat::Module(p) = r {
+                let n = al.arity(p.key);
+                let (_, params) = self.modules.get(i, n);
+                slots[p.slot as usize..p.slot as usize + n].copy_from_slice(params);
+            }
+        }
+        true
+    }
+}
+
+/// Where the right-walker stopped.
+pub(crate) enum Walk {
+    /// A considered module at offset `at`, its bytes at `peek.bytes(s, e)`,
+    /// `next` the offset just after it.
+    Module {
+        key: u32,
+        s: usize,
+        e: usize,
+        at: u64,
+        next: u64,
+    },
+    /// A `]`, the end of the string, or (without `skip_branches`) a `[`
+    /// (`open`), at offset `at`.
+    Stop { at: u64, open: bool },
+}
+
+/// The right-walker, the one loop behind every right context: from offset
+/// `pos`, pass over ignored modules and, with `skip_branches`, over whole
+/// branches `[...]` (in O(1) with a bracket index), to the next considered
+/// module of the same branch. A `]` or the end of the string stops it: a
+/// context never runs past the end of its own branch.
+#[inline(always)]
+pub(crate) fn walk_right(
+    peek: &mut PosReader,
+    al: &Alphabet,
+    mut pos: u64,
+    skip_branches: bool,
+) -> io::Result<Walk> {
+    loop {
+        peek.seek(pos);
+        let Some((key, s, e)) = peek.next_module(al)? else {
+            return Ok(Walk::Stop {
+                at: pos,
+                open: false,
+            });
+        };
+        let next = peek.offset();
+        if key == OPEN {
+            if !skip_branches {
+                return Ok(Walk::Stop {
+                    at: pos,
+                    open: true,
+                });
+            }
+            // A branch the pattern does not ask for: skip it whole.
+            match peek.branch_end(al, s, next)? {
+                Some(after) => pos = after,
+                None => {
+                    return Ok(Walk::Stop {
+                        at: pos,
+                        open: false,
+                    })
+                }
+            }
+            continue;
+        }
+        if key == CLOSE {
+            return Ok(Walk::Stop {
+                at: pos,
+                open: false,
+            });
+        }
+        if al.ignored(key) {
+            pos = next;
+            continue;
+        }
+        return Ok(Walk::Module {
+            key,
+            s,
+            e,
+            at: pos,
+            next,
+        });
+    }
+}
+
+/// Match a right context starting at file offset `pos` (just after the
+/// predecessor), binding parameters into `slots`.
+pub fn match_right(
+    peek: &mut PosReader,
+    al: &Alphabet,
+    pos: u64,
+    pat: &[RPat],
+    slots: &mut [f64],
+) -> io::Result<bool> {
+    let Some((&first, rest)) = pat.split_first() else {
+        return Ok(true);
+    };
+    match first {
+        RPat::Module(p) => {
+            let Walk::Module {
+                key, s, e, next, ..
+            } = walk_right(peek, al, pos, true)?
+            else {
+                return Ok(false);
+            };
+            if key != p.key {
+                return Ok(false);
+            }
+            let n = al.arity(key);
+            codec::read_params(
+                peek.bytes(s, e),
+                &mut slots[p.slot as usize..p.slot as usize + n],
+            );
+            match_right(peek, al, next, rest, slots)
+        }
+        RPat::Open => {
+            // Step over ignored modules to the first `[`, then try each of
+            // the consecutive branches there.
+            let Walk::Stop { at, open: true } = walk_right(peek, al, pos, false)? else {
+                return Ok(false);
+            };
+            let mut pos = at;
+            loop {
+                peek.seek(pos);
+                if peek.next_module(al)?.is_none() {
+                    return Ok(false);
+                }
+                let next = peek.offset();
+                if match_right(peek, al, next, rest, slots)? {
+                    return Ok(true);
+                }
+                // The recursion moved the buffer: read the `[` again.
+                peek.seek(pos);
+                let Some((_, s, _)) = peek.next_module(al)? else {
+                    return Ok(false);
+                };
+                match peek.branch_end(al, s, next)? {
+                    Some(after) => pos = after,
+                    None => return Ok(false),
+                }
+                // Only a directly following branch is another candidate.
+                peek.seek(pos);
+                match peek.next_module(al)? {
+                    Some((k, _, _)) if k == OPEN => continue,
+                    _ => return Ok(false),
+                }
+            }
+        }
+        RPat::Close => match skip_branch(peek, al, pos)? {
+            Some(after) => match_right(peek, al, after, rest, slots),
+            None => Ok(false),
+        },
+    }
+}
+
+/// From inside a branch at `pos`, the offset just after the `]` that closes
+/// it; None if the string ends first.
+pub(crate) fn skip_branch(
+    peek: &mut PosReader,
+    al: &Alphabet,
+    pos: u64,
+) -> io::Result<Option<u64>> {
+    peek.seek(pos);
+    let mut depth = 0u64;
+    while let Some((key, s, _)) = peek.next_module(al)? {
+        if key == OPEN {
+            if peek.indexed {
+                // Jump over the nested branch.
+                let end = u64::from_le_bytes(peek.buf[s + 1..s + 9].try_into().unwrap());
+                peek.seek(end);
+                continue;
+            }
+            depth += 1;
+        } else if key == CLOSE {
+            if depth == 0 {
+                return Ok(Some(peek.offset()));
+            }
+            depth -= 1;
+        }
+    }
+    Ok(None)
+}

@@ -1,0 +1,427 @@
+//! Deriving: a [`Strategy`] chosen once per run, then either depth first
+//! ([`dfs`]: D0L byte plans and deterministic parametric systems, no temp
+//! files) or step by step ([`step`], one temp file per generation).
+//!
+//! The step engine's parts: [`sink`] (output formats, bracket index,
+//! limits), [`reader`] (buffered pread readers), [`context`] (left contexts
+//! and the right-walker), [`bytetable`] (the D0L byte table).
+
+pub(crate) mod bytetable;
+pub(crate) mod choose;
+pub(crate) mod context;
+pub mod dfs;
+pub mod random;
+pub(crate) mod reader;
+pub mod sink;
+pub(crate) mod step;
+
+pub(crate) use bytetable::ASCII;
+pub use reader::PosReader;
+pub use sink::{Limits, Out};
+pub use step::Deriver;
+
+use crate::diag::{CodeMap, Error, Location};
+use crate::io::axiom::AxiomReader;
+use crate::rules::System;
+use random::Random;
+use std::fs::File;
+use std::io::{self, Seek, SeekFrom, Write};
+use std::path::PathBuf;
+
+/// Where a pass's errors point and what they call the pass.
+pub struct Origin<'a> {
+    pub path: &'a str,
+    pub header: &'a str,
+}
+
+impl Origin<'_> {
+    pub(crate) fn locate(&self, offset: usize) -> Location {
+        Location::from_map(self.path, &CodeMap::new(self.header), offset)
+    }
+
+    /// A runtime error of an expression, in `pass`.
+    pub(crate) fn eval_error(&self, e: crate::rules::expr::EvalError, pass: Pass) -> Error {
+        Error::at(self.locate(e.span.0), format!("{} (in {pass})", e.message))
+    }
+}
+
+/// What one pass is: a numbered step or the homomorphism.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pass {
+    Step(u64),
+    Homomorphism,
+    /// Reading the axiom (generation 0).
+    Axiom,
+}
+
+impl std::fmt::Display for Pass {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Pass::Step(n) => write!(f, "step {n}"),
+            Pass::Homomorphism => f.write_str("the homomorphism"),
+            Pass::Axiom => f.write_str("the axiom"),
+        }
+    }
+}
+
+/// How the derivation is carried out (`--strategy`, hidden, for tests).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Strategy {
+    /// Depth first when the system allows it, else step by step.
+    #[default]
+    Auto,
+    /// Always step by step.
+    Step,
+    /// Depth first, or a usage error.
+    DepthFirst,
+}
+
+/// How to derive, once the file is loaded.
+pub(crate) struct Settings {
+    pub steps: u64,
+    pub seed: u64,
+    pub homomorphism: bool,
+    pub limits: Limits,
+    pub tmpdir: Option<PathBuf>,
+    /// Each generation's length is wanted (by an [`Event`] callback).
+    pub lengths: bool,
+    pub strategy: Strategy,
+}
+
+/// What a derivation reports as it goes (see `LSystem::derive_with`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Event {
+    /// A generation is complete: the axiom (generation 0), a step, or the
+    /// homomorphism; its length in modules and in bytes (of the binary
+    /// temporary format for intermediate generations, of the text without
+    /// its final newline for the last).
+    Generation {
+        /// Which generation.
+        pass: Pass,
+        /// Its number of modules.
+        modules: u64,
+        /// Its size in bytes.
+        bytes: u64,
+    },
+    /// Steps `from..=to` leave the string unchanged (a fixed point), so
+    /// they are skipped.
+    FixedPoint {
+        /// First skipped step.
+        from: u64,
+        /// Last step.
+        to: u64,
+    },
+}
+
+fn tempfile(dir: &Option<PathBuf>) -> Result<File, Error> {
+    let r = match dir {
+        Some(d) => tempfile::tempfile_in(d),
+        None => tempfile::tempfile(),
+    };
+    r.map_err(|e| {
+        Error::io(
+            dir.as_ref().map_or_else(
+                || std::env::temp_dir().display().to_string(),
+                |d| d.display().to_string(),
+            ),
+            "cannot create a temporary file",
+            e,
+        )
+    })
+}
+
+/// The sink for a generation: the temp file `dst` (binary, with a bracket
+/// index if asked) or, without one, the output (text).
+fn sink<'a>(
+    dst: &'a mut Option<File>,
+    tmp_name: &'a str,
+    output: &'a mut dyn Write,
+    out_name: &'a str,
+    limits: Limits,
+    indexed: bool,
+) -> Result<Out<'a>, Error> {
+    Ok(match dst {
+        Some(f) => {
+            let index = if indexed {
+                Some(
+                    f.try_clone()
+                        .map_err(|e| Error::io(tmp_name, "cannot write", e))?,
+                )
+            } else {
+                None
+            };
+            let out = Out::new(f, tmp_name, false, limits);
+            match index {
+                Some(i) => out.with_index(i),
+                None => out,
+            }
+        }
+        None => Out::new(output, out_name, true, limits),
+    })
+}
+
+fn rewind(f: &mut File) -> Result<(), Error> {
+    f.set_len(0)
+        .and_then(|_| f.seek(SeekFrom::Start(0)).map(|_| ()))
+        .map_err(|e| Error::io("temporary file", "cannot write", e))
+}
+
+pub(crate) fn derive(
+    settings: &Settings,
+    mut reader: AxiomReader,
+    header: &str,
+    path: &str,
+    system: System,
+    (output, out_name): (&mut dyn Write, &str),
+    events: &mut dyn FnMut(&Event),
+) -> Result<(u64, u64), Error> {
+    let Settings {
+        steps,
+        seed,
+        limits,
+        ref tmpdir,
+        ..
+    } = *settings;
+    let System {
+        alphabet,
+        productions,
+        homomorphism,
+        ..
+    } = system;
+    let hom = settings.homomorphism && !homomorphism.is_empty();
+    // Right contexts skip branches in O(1) through a bracket index.
+    let indexed = productions.has_right || (hom && homomorphism.has_right);
+    let passes = steps + u64::from(hom);
+    let strategy = settings.strategy;
+    let not_depth_first = || {
+        Error::usage(
+            "`--strategy dfs`: this system cannot be derived depth first with these options",
+        )
+    };
+    if strategy == Strategy::DepthFirst && passes == 0 {
+        return Err(not_depth_first());
+    }
+    let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
+    let mut generation = |pass: Pass, (modules, bytes): (u64, u64)| {
+        events(&Event::Generation {
+            pass,
+            modules,
+            bytes,
+        });
+        (modules, bytes)
+    };
+
+    let tmp_name = format!(
+        "temporary file in {}",
+        tmpdir.clone().unwrap_or_else(std::env::temp_dir).display()
+    );
+    // Generation 0: the axiom.
+    let mut cur = if passes == 0 {
+        None
+    } else {
+        Some(tempfile(tmpdir)?)
+    };
+    {
+        let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, indexed)?;
+        let mut params = Vec::new();
+        loop {
+            reader.plain_run(|run| out.plain(run))??;
+            match reader.next(&mut d.alphabet, &mut params, &mut d.rng)? {
+                Some(key) => out.module(key, &params, &d.alphabet)?,
+                None => break,
+            }
+            out.maybe_flush()?;
+        }
+        let len = generation(Pass::Axiom, out.finish()?);
+        if passes == 0 {
+            return Ok(len);
+        }
+    }
+    drop(reader);
+
+    // Deterministic context-free byte systems: depth first, no temp files.
+    let plan = crate::derive::dfs::Plan::new(
+        &productions,
+        hom.then_some(&homomorphism),
+        &d.alphabet,
+        steps,
+    )
+    .filter(|_| strategy != Strategy::Step);
+    if let (Some(plan), Some(src)) = (plan, &cur) {
+        if settings.lengths || limits.modules != u64::MAX || limits.bytes != u64::MAX {
+            let census = crate::derive::dfs::census(src, &d.alphabet)?;
+            let lengths = plan.lengths(&census, steps);
+            limits.check_generations(&lengths, !hom)?;
+            let shown = if hom {
+                lengths.len()
+            } else {
+                lengths.len() - 1
+            };
+            for (i, &len) in lengths[..shown].iter().enumerate() {
+                generation(Pass::Step(i as u64 + 1), len);
+            }
+        }
+        let last = if hom {
+            Pass::Homomorphism
+        } else {
+            Pass::Step(steps)
+        };
+        let mut none = None;
+        let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?.for_pass(last);
+        plan.expand(src, &d.alphabet, steps, &mut out)?;
+        return Ok(generation(last, out.finish()?));
+    }
+
+    // Deterministic context-free systems with parameters: depth first too,
+    // unless generation lengths are asked for (-v, --max-length).
+    let quiet = !settings.lengths && limits.modules == u64::MAX && limits.bytes == u64::MAX;
+    let plan =
+        crate::derive::dfs::ParamPlan::new(&productions, hom.then_some(&homomorphism), steps)
+            .filter(|_| strategy != Strategy::Step);
+    if strategy == Strategy::DepthFirst && !(plan.is_some() && quiet) {
+        return Err(not_depth_first());
+    }
+    // A runtime error found depth first may not be the first one in step
+    // order: then derive again step by step, output discarded, so every
+    // strategy reports the earliest step's first error in string order.
+    let mut depth_first_error = None;
+    if let (Some(plan), Some(src), true) = (plan, &cur, quiet) {
+        let mut none = None;
+        let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
+        match plan
+            .expand(src, &d.alphabet, &d.origin, steps, &mut out)
+            .and_then(|()| out.finish())
+        {
+            Ok(len) => {
+                let last = if hom {
+                    Pass::Homomorphism
+                } else {
+                    Pass::Step(steps)
+                };
+                return Ok(generation(last, len));
+            }
+            Err(e) if e.location.is_some() => depth_first_error = Some(e),
+            Err(e) => return Err(e),
+        }
+    }
+    let mut discard = io::sink();
+    let output: &mut dyn Write = if depth_first_error.is_some() {
+        &mut discard
+    } else {
+        output
+    };
+    let stepwise = step_passes(
+        &mut d,
+        cur,
+        (&productions, &homomorphism, hom),
+        settings,
+        (output, out_name, &tmp_name),
+        indexed,
+        events,
+    );
+    match depth_first_error {
+        Some(e) => Err(stepwise.err().unwrap_or(e)),
+        None => stepwise,
+    }
+}
+
+/// The steps, then the homomorphism, one temp file each, from generation 0
+/// in `cur`.
+fn step_passes(
+    d: &mut Deriver,
+    mut cur: Option<File>,
+    (productions, homomorphism, hom): (&crate::rules::Table, &crate::rules::Table, bool),
+    settings: &Settings,
+    (output, out_name, tmp_name): (&mut dyn Write, &str, &str),
+    indexed: bool,
+    events: &mut dyn FnMut(&Event),
+) -> Result<(u64, u64), Error> {
+    let Settings {
+        steps,
+        limits,
+        ref tmpdir,
+        ..
+    } = *settings;
+    let passes = steps + u64::from(hom);
+    let mut last_len = (0, 0);
+    let mut other: Option<File> = None;
+    let mut i = 1;
+    while i <= passes {
+        let (table, pass) = if i <= steps {
+            (productions, Pass::Step(i))
+        } else {
+            (homomorphism, Pass::Homomorphism)
+        };
+        let src = cur.take().expect("a generation to read");
+        let mut dst = if i == passes {
+            None
+        } else {
+            Some(match other.take() {
+                Some(mut f) => {
+                    rewind(&mut f)?;
+                    f
+                }
+                None => tempfile(tmpdir)?,
+            })
+        };
+        let draws = d.rng.draws();
+        {
+            let mut out =
+                sink(&mut dst, tmp_name, output, out_name, limits, indexed)?.for_pass(pass);
+            d.pass(table, &src, indexed, &mut out, pass)?;
+            let (modules, bytes) = out.finish()?;
+            events(&Event::Generation {
+                pass,
+                modules,
+                bytes,
+            });
+            last_len = (modules, bytes);
+        }
+        // A step that drew nothing and left the string as it was is a fixed
+        // point: every later step does the same. Go on with the last pass
+        // (the homomorphism, or the last step, which writes the text).
+        let last = if hom { passes } else { steps };
+        if i < steps && last > i + 1 && d.rng.draws() == draws {
+            if let Some(next) = &dst {
+                if same_contents(&src, next)? {
+                    events(&Event::FixedPoint {
+                        from: i + 1,
+                        to: steps,
+                    });
+                    other = Some(src);
+                    cur = dst;
+                    i = last;
+                    continue;
+                }
+            }
+        }
+        other = Some(src);
+        cur = dst;
+        i += 1;
+    }
+    Ok(last_len)
+}
+
+/// Do two generation files hold the same bytes?
+fn same_contents(a: &File, b: &File) -> Result<bool, Error> {
+    use std::os::unix::fs::FileExt;
+    let read_err = |e| Error::io("temporary file", "cannot read", e);
+    let len = a.metadata().map_err(read_err)?.len();
+    if b.metadata().map_err(read_err)?.len() != len {
+        return Ok(false);
+    }
+    const CHUNK: usize = 1 << 16;
+    let (mut x, mut y) = (vec![0u8; CHUNK], vec![0u8; CHUNK]);
+    let mut off = 0u64;
+    while off < len {
+        let n = CHUNK.min((len - off) as usize);
+        a.read_exact_at(&mut x[..n], off).map_err(read_err)?;
+        b.read_exact_at(&mut y[..n], off).map_err(read_err)?;
+        if x[..n] != y[..n] {
+            return Ok(false);
+        }
+        off += n as u64;
+    }
+    Ok(true)
+}

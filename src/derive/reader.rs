@@ -1,0 +1,138 @@
+//! Reading a generation: a buffered reader at file offsets (pread), so the
+//! main reader and the look-ahead reader of right contexts share one file.
+
+use super::context::skip_branch;
+use crate::rules::codec::{self, MAX_MODULE_BYTES};
+use crate::rules::Alphabet;
+use std::fs::File;
+use std::io;
+use std::os::unix::fs::FileExt;
+
+/// A buffered reader at file offsets (pread), so two can share one file.
+pub struct PosReader<'f> {
+    file: &'f File,
+    /// The file has a bracket index (see [`Out::with_index`]).
+    pub(crate) indexed: bool,
+    pub(crate) buf: Vec<u8>,
+    /// File offset of `buf[0]`.
+    start: u64,
+    pos: usize,
+    end: usize,
+}
+
+impl<'f> PosReader<'f> {
+    pub fn new(file: &'f File, capacity: usize, indexed: bool) -> Self {
+        // No bigger than the file: many steps over a short string must not
+        // pay for a large buffer each time.
+        let len = file.metadata().map_or(u64::MAX, |m| m.len());
+        let capacity = capacity.min(usize::try_from(len).unwrap_or(usize::MAX));
+        PosReader {
+            file,
+            indexed,
+            buf: vec![0; capacity.max(2 * MAX_MODULE_BYTES)],
+            start: 0,
+            pos: 0,
+            end: 0,
+        }
+    }
+
+    #[inline]
+    pub fn offset(&self) -> u64 {
+        self.start + self.pos as u64
+    }
+
+    /// Move to file offset `off`, keeping the buffer if it covers `off`.
+    #[inline]
+    pub fn seek(&mut self, off: u64) {
+        if off >= self.start && off <= self.start + self.end as u64 {
+            self.pos = (off - self.start) as usize;
+        } else {
+            self.start = off;
+            self.pos = 0;
+            self.end = 0;
+        }
+    }
+
+    #[cold]
+    pub(crate) fn refill(&mut self) -> io::Result<()> {
+        self.buf.copy_within(self.pos..self.end, 0);
+        self.start += self.pos as u64;
+        self.end -= self.pos;
+        self.pos = 0;
+        while self.end < self.buf.len() {
+            let n = match self
+                .file
+                .read_at(&mut self.buf[self.end..], self.start + self.end as u64)
+            {
+                Ok(n) => n,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e),
+            };
+            if n == 0 {
+                break;
+            }
+            self.end += n;
+        }
+        Ok(())
+    }
+
+    /// The next module: (key, start, end) with its bytes at
+    /// `self.bytes(start, end)`.
+    #[inline(always)]
+    pub fn next_module(&mut self, al: &Alphabet) -> io::Result<Option<(u32, usize, usize)>> {
+        if self.end - self.pos < MAX_MODULE_BYTES {
+            self.refill()?;
+            if self.pos == self.end {
+                return Ok(None);
+            }
+        }
+        let s = self.pos;
+        let b = self.buf[s];
+        if b < 0x80 {
+            let n = if b == b'[' && self.indexed { 9 } else { 1 };
+            self.pos += n;
+            return Ok(Some((b as u32, s, s + n)));
+        }
+        let (key, kl) = codec::get_key(&self.buf[s..]);
+        let e = s + kl + 8 * al.arity(key);
+        self.pos = e;
+        Ok(Some((key, s, e)))
+    }
+
+    /// The buffered bytes from the read position (refilled when short).
+    #[inline]
+    pub fn window(&mut self) -> io::Result<&[u8]> {
+        if self.end - self.pos < MAX_MODULE_BYTES {
+            self.refill()?;
+        }
+        Ok(&self.buf[self.pos..self.end])
+    }
+
+    #[inline]
+    pub fn advance(&mut self, n: usize) {
+        self.pos += n;
+    }
+
+    #[inline]
+    pub fn bytes(&self, s: usize, e: usize) -> &[u8] {
+        &self.buf[s..e]
+    }
+
+    /// For a `[` read at `s` (next module at `next`): the offset just past
+    /// its `]`, from the index or by scanning.
+    #[inline]
+    pub(crate) fn branch_end(
+        &mut self,
+        al: &Alphabet,
+        s: usize,
+        next: u64,
+    ) -> io::Result<Option<u64>> {
+        if self.indexed {
+            Ok(Some(u64::from_le_bytes(
+                self.buf[s + 1..s + 9].try_into().unwrap(),
+            )))
+        } else {
+            skip_branch(self, al, next)
+        }
+    }
+}

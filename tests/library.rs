@@ -1,0 +1,96 @@
+//! lsgen as a library (issue 10): a few lines using `lsgen::...` with `?`
+//! stream a derivation into a Vec and into a file. Expected strings are
+//! derived by hand.
+
+use std::error::Error;
+
+/// The five-line program of the issue.
+fn algae(steps: u64, out: impl std::io::Write) -> Result<lsgen::Stats, Box<dyn Error>> {
+    let mut ls = lsgen::LSystem::parse("productions:\nA -> AB\nB -> A\naxiom: A\n")?;
+    Ok(ls.derive(&lsgen::Options::new().steps(steps), out)?)
+}
+
+#[test]
+fn streams_into_a_vec() -> Result<(), Box<dyn Error>> {
+    let mut v = Vec::new();
+    // A, AB, ABA, ABAAB, ABAABABA
+    let stats = algae(4, &mut v)?;
+    assert_eq!(String::from_utf8(v)?, "ABAABABA\n");
+    assert_eq!((stats.modules, stats.bytes, stats.steps), (8, 8, 4));
+    Ok(())
+}
+
+#[test]
+fn streams_into_a_file() -> Result<(), Box<dyn Error>> {
+    let dir = tempfile::tempdir()?;
+    let path = dir.path().join("out.txt");
+    algae(5, std::fs::File::create(&path)?)?;
+    assert_eq!(std::fs::read_to_string(&path)?, "ABAABABAABAAB\n");
+    Ok(())
+}
+
+#[test]
+fn reader_options_and_events() -> Result<(), Box<dyn Error>> {
+    // Parametric with a homomorphism and a file seed: A(1) -> A(2)B ...
+    let src = "derivation length: 2\nseed: 9\nproductions:\nA(x) -> A(x+1)B\n\
+               homomorphism:\nB -> F\naxiom: A(1)\n";
+    let mut ls = lsgen::LSystem::from_reader(std::io::Cursor::new(src.to_string()), "p.ls")?;
+    let mut out = Vec::new();
+    let mut passes = Vec::new();
+    let stats = ls.derive_with(&lsgen::Options::new(), &mut out, |e| {
+        if let lsgen::Event::Generation { pass, modules, .. } = *e {
+            passes.push((pass.to_string(), modules));
+        }
+    })?;
+    assert_eq!(String::from_utf8(out)?, "A(3)FF\n");
+    assert_eq!(stats.seed, 9);
+    assert_eq!(
+        passes,
+        [
+            ("the axiom".to_string(), 1),
+            ("step 1".to_string(), 2),
+            ("step 2".to_string(), 3),
+            ("the homomorphism".to_string(), 3)
+        ]
+    );
+    // The axiom of a reader is streamed once.
+    assert!(ls.derive(&lsgen::Options::new(), Vec::new()).is_err());
+    Ok(())
+}
+
+#[test]
+fn a_string_derives_again_with_other_options() -> Result<(), Box<dyn Error>> {
+    let src = "productions:\nB -> [C]B\nhomomorphism:\nC -> D\naxiom: AB\n";
+    let mut ls = lsgen::LSystem::parse(src)?;
+    let mut a = Vec::new();
+    ls.derive(&lsgen::Options::new().steps(2), &mut a)?;
+    assert_eq!(a, b"A[D][D]B\n");
+    let mut b = Vec::new();
+    ls.derive(&lsgen::Options::new().steps(2).homomorphism(false), &mut b)?;
+    assert_eq!(b, b"A[C][C]B\n");
+    Ok(())
+}
+
+#[test]
+fn errors_are_located_and_limits_apply() {
+    let e = lsgen::LSystem::parse("productions:\nA -> B(\naxiom: A\n")
+        .err()
+        .expect("a syntax error");
+    assert_eq!(
+        e.location.as_ref().map(|l| (l.line, l.path.as_str())),
+        Some((2, "<input>"))
+    );
+    let mut ls = lsgen::LSystem::parse("productions:\nA -> AA\naxiom: A\n").unwrap();
+    let limits = lsgen::Limits {
+        modules: 100,
+        bytes: u64::MAX,
+    };
+    let e = ls
+        .derive(&lsgen::Options::new().steps(10).limits(limits), Vec::new())
+        .expect_err("past the limit");
+    assert!(
+        e.message.contains("--max-length (100 modules)"),
+        "{}",
+        e.message
+    );
+}
