@@ -71,6 +71,22 @@ pub struct Args {
     /// Report the seed and each generation's length on standard error.
     #[arg(short, long)]
     pub verbose: bool,
+
+    /// For tests: force the derivation strategy (`dfs` fails with exit
+    /// status 2 when the system cannot be expanded depth first).
+    #[arg(long, hide = true, value_enum, default_value_t = Strategy::Auto)]
+    pub strategy: Strategy,
+}
+
+/// How to derive: `--strategy` (hidden, for tests).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Strategy {
+    /// Depth first when the system allows it, else step by step.
+    Auto,
+    /// Always step by step, through temporary files.
+    Step,
+    /// Depth first, or a usage error.
+    Dfs,
 }
 
 /// `--max-length`: a module count (`1000000`, `5M`, `2G`) or a byte size
@@ -274,6 +290,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         limits: args.max_length.unwrap_or_default(),
         tmpdir: args.tmpdir.clone(),
         verbose: args.verbose,
+        strategy: args.strategy,
     };
     derive(
         &settings,
@@ -295,6 +312,7 @@ pub struct Settings {
     pub limits: Limits,
     pub tmpdir: Option<PathBuf>,
     pub verbose: bool,
+    pub strategy: Strategy,
 }
 
 /// Load an L-system from `src` and derive it in full into a byte vector
@@ -324,6 +342,7 @@ pub fn derive_bytes(
         limits,
         tmpdir: None,
         verbose: false,
+        strategy: Strategy::Auto,
     };
     let mut system = system;
     let consts = std::mem::take(&mut system.consts);
@@ -499,7 +518,8 @@ fn derive(
         hom.then_some(&homomorphism),
         &d.alphabet,
         steps,
-    );
+    )
+    .filter(|_| settings.strategy != Strategy::Step);
     if let (Some(plan), Some(src)) = (plan, &cur) {
         if settings.verbose || limits.modules != u64::MAX || limits.bytes != u64::MAX {
             let census = crate::dfs::census(src, &d.alphabet)?;
@@ -529,7 +549,13 @@ fn derive(
     // Deterministic context-free systems with parameters: depth first too,
     // unless generation lengths are asked for (-v, --max-length).
     let quiet = !settings.verbose && limits.modules == u64::MAX && limits.bytes == u64::MAX;
-    let plan = crate::dfs::ParamPlan::new(&productions, hom.then_some(&homomorphism), steps);
+    let plan = crate::dfs::ParamPlan::new(&productions, hom.then_some(&homomorphism), steps)
+        .filter(|_| settings.strategy != Strategy::Step);
+    if settings.strategy == Strategy::Dfs && cur.is_some() && !(plan.is_some() && quiet) {
+        return Err(Error::usage(
+            "--strategy dfs: this system cannot be expanded depth first",
+        ));
+    }
     // A runtime error found depth first may not be the first one in step
     // order: then derive again step by step, output discarded, so every
     // strategy reports the earliest step's first error in string order.
