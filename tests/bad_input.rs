@@ -13,9 +13,9 @@
 //! Cases that lsgen gets wrong are kept, marked
 //! `#[ignore = "lsgen bug: ..."]`; cases for bugs since fixed say so.
 
-mod faults_support;
+mod common;
 
-use faults_support::{listing, lsgen, run, run_with_stdin, tempdir, Run};
+use common::{listing, lsgen, run, run_with_stdin, tempdir, Run};
 use std::path::Path;
 
 struct Case {
