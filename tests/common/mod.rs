@@ -231,10 +231,17 @@ impl Run {
         lines[0]
     }
 
-    /// Exit 1, nothing on stdout, exactly one error; returns stderr whole.
+    /// Exit 1, nothing on stdout, exactly one error, first on stderr;
+    /// returns stderr whole.
     pub fn one_error(&self) -> &str {
         self.fails(1);
         self.assert_one_error();
+        assert!(
+            self.stderr.starts_with("lsgen: "),
+            "{}: stderr {:?}",
+            self.what,
+            self.stderr
+        );
         &self.stderr
     }
 }
