@@ -415,3 +415,42 @@ pub fn dir_with(files: &[(&str, &str)]) -> tempfile::TempDir {
     }
     d
 }
+
+/// The environment variable that rewrites golden files instead of
+/// comparing with them: `LSGEN_BLESS=1 cargo test --test bad_input`.
+pub const BLESS: &str = "LSGEN_BLESS";
+
+/// Compare `got` with the golden file `tests/golden/REL` as a whole; with
+/// `LSGEN_BLESS=1` in the environment, write `got` there instead (review
+/// the change with `git diff` before committing it).
+pub fn assert_golden(rel: &str, got: &str) {
+    let path = Path::new(ROOT).join("tests/golden").join(rel);
+    if std::env::var_os(BLESS).is_some_and(|v| v != "0") {
+        if std::fs::read_to_string(&path).ok().as_deref() != Some(got) {
+            std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+            std::fs::write(&path, got).unwrap_or_else(|e| panic!("write {}: {e}", path.display()));
+        }
+        return;
+    }
+    let want = std::fs::read_to_string(&path).unwrap_or_else(|e| {
+        panic!("tests/golden/{rel}: {e}; got:\n{got}\n(write it with {BLESS}=1 and review it)")
+    });
+    if want != got {
+        let show = |s: &str| {
+            s.lines()
+                .map(|l| {
+                    let l: String = l.chars().take(300).collect();
+                    format!("  |{l}\n")
+                })
+                .collect::<String>()
+        };
+        panic!(
+            "stderr differs from tests/golden/{rel}\nwant:\n{}got:\n{}(debug: want {:?}, got {:?})\n\
+             if the new text is right, rewrite the file with {BLESS}=1 and review the diff",
+            show(&want),
+            show(got),
+            want.chars().take(2000).collect::<String>(),
+            got.chars().take(2000).collect::<String>()
+        );
+    }
+}
