@@ -186,7 +186,7 @@ fn fixed_points_in_the_depth_first_strategies() {
         "derivation length: 65536\nproductions:\nF -> F\nG -> GH\nH ->\naxiom: {}G\n",
         "F".repeat(n)
     );
-    let r = run_with(&src, &[], None, limit);
+    let r = run_with(&src, &["--strategy", "dfs"], None, limit);
     assert!(r.ok() == format!("{}GH", "F".repeat(n)), "wrong output");
     // Parametric plan: F(x) -> F(x) keeps F(x); A(x) : x < 2 -> A(x+1).
     let src = format!(
@@ -194,7 +194,7 @@ fn fixed_points_in_the_depth_first_strategies() {
          homomorphism:\nA(x) -> B(x)\naxiom: {}A(0)\n",
         "F(1)".repeat(n)
     );
-    let r = run_with(&src, &[], None, limit);
+    let r = run_with(&src, &["--strategy", "dfs"], None, limit);
     assert!(
         r.ok() == format!("{}B(2)", "F(1)".repeat(n)),
         "wrong output"
@@ -291,6 +291,8 @@ fn every_strategy_reports_the_earliest_steps_first_error() {
     // Default: depth first; -v and --max-length: step by step.
     for args in [
         &["-n", "2"][..],
+        &["-n", "2", "--strategy", "dfs"],
+        &["-n", "2", "--strategy", "step"],
         &["-n", "2", "-v"],
         &["-n", "2", "--max-length", "1G"],
     ] {
