@@ -8,14 +8,22 @@
 //!   expected words in the message;
 //! * then the source line (or an excerpt with `...`), then whitespace and a
 //!   `^` that sits under the character at LINE:COL;
-//! * `out.txt` does not exist and the temp dir holds no new file.
+//! * `out.txt` does not exist and the temp dir holds no new file;
+//! * the whole of stderr (the temp dir shown as `$DIR`) is the golden file
+//!   `tests/golden/bad_input/NAME.stderr`. After a deliberate change of a
+//!   message, rewrite the files with `LSGEN_BLESS=1 cargo test --test
+//!   bad_input` and review every changed file by eye: LINE:COL and the
+//!   words above are the independent part, the golden file pins the rest.
+//!   A message found wrong is not blessed: its golden file holds the right
+//!   text, written by hand, and the case is `#[ignore]`d as an lsgen bug
+//!   (so never bless with `--ignored`).
 //!
 //! Cases that lsgen gets wrong are kept, marked
 //! `#[ignore = "lsgen bug: ..."]`; cases for bugs since fixed say so.
 
-mod faults_support;
+mod common;
 
-use faults_support::{listing, lsgen, run, run_with_stdin, tempdir, Run};
+use common::{assert_golden, listing, lsgen, run, run_with_stdin, tempdir, Run};
 use std::path::Path;
 
 struct Case {
@@ -97,7 +105,7 @@ impl Case {
         self
     }
 
-    fn check(self) {
+    fn check(self, name: &str) {
         let dir = tempdir();
         let d = dir.path();
         let input = d.join("in.ls");
@@ -159,6 +167,8 @@ impl Case {
         );
         assert!(!out.exists(), "out.txt was created by a failing run");
         assert_eq!(listing(d), before, "files left in the temp dir");
+        let shown = r.stderr.replace(&d.display().to_string(), "$DIR");
+        assert_golden(&format!("bad_input/{name}.stderr"), &shown);
     }
 }
 
@@ -308,7 +318,7 @@ macro_rules! cases {
             #[test]
             $(#[$attr])*
             fn $name() {
-                $case.check();
+                $case.check(stringify!($name));
             }
         )*
         /// Every case of the catalogue, by name.
@@ -359,9 +369,13 @@ cases! {
     // --- numbers -----------------------------------------------------------
     bad_number_trailing_e =>
         err("define: a = 1e\naxiom: F\n", 1, 14, "unexpected identifier `e`");
+    // The message quotes the number as lsgen reads it, `0.3`, not as it
+    // is written: the golden file has the written `.3`.
+    #[ignore = "lsgen bug: `1.2.3` is reported as unexpected number `0.3`, a text not in the file"]
     bad_number_two_points =>
         err("define: a = 1.2.3\naxiom: F\n", 1, 16, "unexpected number");
     bad_number_in_axiom_trailing_e => err("axiom: F(1e)\n", 1, 11, "unexpected identifier `e`");
+    #[ignore = "lsgen bug: `1.2.3` is reported as unexpected number `0.3`, a text not in the file"]
     bad_number_in_axiom_two_points => err("axiom: F(1.2.3)\n", 1, 13, "unexpected number");
     number_out_of_range_in_header =>
         err("define: a = 1e309\naxiom: F\n", 1, 13, "out of range");
@@ -668,6 +682,29 @@ impl Case {
 #[test]
 fn catalogue_has_at_least_45_cases() {
     assert!(CASES.len() >= 45, "only {} cases", CASES.len());
+}
+
+/// Every golden file belongs to a case of the catalogue (a renamed or
+/// removed case leaves none behind), and the failing cases have one.
+#[test]
+fn golden_files_match_the_catalogue() {
+    let dir = Path::new(common::ROOT).join("tests/golden/bad_input");
+    let names = listing(&dir);
+    for n in &names {
+        let case = n
+            .strip_suffix(".stderr")
+            .unwrap_or_else(|| panic!("tests/golden/bad_input/{n}: not NAME.stderr"));
+        assert!(
+            CASES.contains(&case),
+            "tests/golden/bad_input/{n}: no such case"
+        );
+    }
+    assert!(
+        names.len() + 10 >= CASES.len(),
+        "only {} golden files for {} cases",
+        names.len(),
+        CASES.len()
+    );
 }
 
 /// A valid file that lsgen must accept: the `axiom:` line is found even when

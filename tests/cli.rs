@@ -1,128 +1,24 @@
 //! The command line of the real `lsgen` binary: every flag, standard input
 //! and output, exit statuses, the error format, broken pipes.
 
-use std::io::{Read, Write};
+mod common;
+
+use common::{dir_with, example, lsgen, lsgen_in_root, Run, ROOT};
+use std::io::Read;
 use std::path::Path;
-use std::process::{Command, Stdio};
-use tempfile::TempDir;
+use std::process::Stdio;
 
-const BIN: &str = env!("CARGO_BIN_EXE_lsgen");
-const ROOT: &str = env!("CARGO_MANIFEST_DIR");
-
-/// One finished run of lsgen.
-struct Run {
-    code: i32,
-    stdout: Vec<u8>,
-    stderr: String,
-    what: String,
-}
-
-impl Run {
-    fn out(&self) -> String {
-        String::from_utf8(self.stdout.clone()).expect("lsgen output is not UTF-8")
-    }
-
-    /// Exit 0, nothing on stderr; returns stdout.
-    fn ok(&self) -> String {
-        assert_eq!(
-            self.code, 0,
-            "{} exited with {}:\n{}",
-            self.what, self.code, self.stderr
-        );
-        assert!(
-            self.stderr.is_empty(),
-            "{} wrote to stderr:\n{}",
-            self.what,
-            self.stderr
-        );
-        self.out()
-    }
-
-    /// Exit `code`, nothing on stdout; returns stderr.
-    fn fails(&self, code: i32) -> &str {
-        assert_eq!(
-            self.code,
-            code,
-            "{} exited with {} (want {code}); stdout {:?}, stderr:\n{}",
-            self.what,
-            self.code,
-            String::from_utf8_lossy(&self.stdout),
-            self.stderr
-        );
-        assert!(
-            self.stdout.is_empty(),
-            "{} failed but wrote to stdout: {:?}",
-            self.what,
-            String::from_utf8_lossy(&self.stdout)
-        );
-        &self.stderr
-    }
-
-    /// Exit 1 with exactly one `lsgen: ...: error: ...` report.
-    fn one_error(&self) -> &str {
-        let e = self.fails(1);
-        assert!(e.starts_with("lsgen: "), "{}: stderr {e:?}", self.what);
-        assert_eq!(
-            e.matches(": error: ").count(),
-            1,
-            "{}: want exactly one error, got:\n{e}",
-            self.what
-        );
-        e
-    }
-}
-
-/// Run lsgen in `dir` with `args`, feeding `stdin` (none: /dev/null).
+/// Run lsgen in `dir` with `args`, feeding `stdin` (none: /dev/null);
+/// never a crash.
 fn run_in(dir: &Path, args: &[&str], stdin: Option<&[u8]>) -> Run {
-    let mut child = Command::new(BIN)
-        .args(args)
-        .current_dir(dir)
-        .stdin(if stdin.is_some() {
-            Stdio::piped()
-        } else {
-            Stdio::null()
-        })
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("cannot run lsgen");
-    let writer = stdin.map(|data| {
-        let mut pipe = child.stdin.take().unwrap();
-        let data = data.to_vec();
-        // lsgen may stop reading early (on an error): ignore EPIPE.
-        std::thread::spawn(move || {
-            let _ = pipe.write_all(&data);
-        })
-    });
-    let out = child.wait_with_output().expect("cannot wait for lsgen");
-    if let Some(w) = writer {
-        w.join().unwrap();
-    }
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    let what = format!("`lsgen {}`", args.join(" "));
-    assert_no_crash(&what, out.status, &stderr);
-    let code = out.status.code().unwrap();
-    Run {
-        code,
-        stdout: out.stdout,
-        stderr,
-        what,
-    }
-}
-
-/// No panic (raw, or through lsgen's "internal error" hook), no signal.
-fn assert_no_crash(what: &str, status: std::process::ExitStatus, stderr: &str) {
-    assert!(
-        !stderr.contains("panicked")
-            && !stderr.contains("RUST_BACKTRACE")
-            && !stderr.contains("internal error"),
-        "{what} panicked:\n{stderr}"
-    );
-    let code = status
-        .code()
-        .unwrap_or_else(|| panic!("{what} was killed by a signal: {status:?}"));
-    assert_ne!(code, 70, "{what} exited 70 (internal error):\n{stderr}");
-    assert_ne!(code, 101, "{what} exited 101 (a panic):\n{stderr}");
+    let mut cmd = lsgen();
+    cmd.args(args).current_dir(dir);
+    let r = match stdin {
+        Some(data) => common::run_with_stdin(&mut cmd, data),
+        None => common::run(&mut cmd),
+    };
+    r.assert_no_crash();
+    r
 }
 
 /// Run lsgen from the repository root (so `examples/...` paths work).
@@ -132,14 +28,6 @@ fn run(args: &[&str]) -> Run {
 
 fn run_stdin(args: &[&str], stdin: &[u8]) -> Run {
     run_in(Path::new(ROOT), args, Some(stdin))
-}
-
-fn example(name: &str) -> String {
-    Path::new(ROOT)
-        .join("examples")
-        .join(format!("{name}.ls"))
-        .display()
-        .to_string()
 }
 
 fn read_example(name: &str) -> Vec<u8> {
@@ -153,23 +41,9 @@ fn expected(name: &str, n: u64) -> String {
     std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("cannot read {}: {e}", p.display()))
 }
 
-/// A fresh directory holding `files`.
-fn dir_with(files: &[(&str, &str)]) -> TempDir {
-    let d = tempfile::tempdir().unwrap();
-    for (name, text) in files {
-        std::fs::write(d.path().join(name), text).unwrap();
-    }
-    d
-}
-
 /// Sorted names of the entries of `dir` (hidden ones included).
 fn listing(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .collect();
-    v.sort();
-    v
+    common::listing(dir).into_iter().collect()
 }
 
 /// A parametric system that divides by zero in step 2 (line 3, column 20).
@@ -359,17 +233,17 @@ fn run_to_dev_full(args: &[&str]) -> Option<(i32, String)> {
         .write(true)
         .open("/dev/full")
         .ok()?;
-    let out = Command::new(BIN)
-        .args(args)
-        .current_dir(ROOT)
-        .stdin(Stdio::null())
-        .stdout(Stdio::from(full))
-        .stderr(Stdio::piped())
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert_no_crash(&format!("{args:?} > /dev/full"), out.status, &stderr);
-    Some((out.status.code().unwrap(), stderr))
+    let r = common::finish(
+        common::spawn_with(
+            lsgen_in_root().args(args),
+            Stdio::null(),
+            Stdio::from(full),
+            Stdio::piped(),
+        ),
+        common::TIME_LIMIT,
+    );
+    r.assert_no_crash();
+    Some((r.code().unwrap(), r.stderr))
 }
 
 #[test]
@@ -450,14 +324,11 @@ fn huge_n_does_not_crash() {
     // Accepting the number and running (for ever) or rejecting it with a
     // clean error are both fine; a crash is not.
     let d = dir_with(&[("p.ls", "homomorphism:\nF -> G\naxiom: F\n")]);
-    let mut child = Command::new(BIN)
-        .args(["-n", "18446744073709551615", "p.ls"])
-        .current_dir(d.path())
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = common::spawn(
+        lsgen()
+            .args(["-n", "18446744073709551615", "p.ls"])
+            .current_dir(d.path()),
+    );
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(3);
     loop {
         if child.try_wait().unwrap().is_some() {
@@ -471,10 +342,9 @@ fn huge_n_does_not_crash() {
         }
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
-    let out = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_no_crash("-n u64::MAX", out.status, &stderr);
-    let code = out.status.code().unwrap();
+    let r = common::finish(child, common::TIME_LIMIT);
+    r.assert_no_crash();
+    let (code, stderr) = (r.code().unwrap(), &r.stderr);
     assert!(code == 1 || code == 2, "exit {code}: {stderr}");
     assert!(stderr.starts_with("lsgen: "), "{stderr}");
 }
@@ -529,7 +399,7 @@ fn seed_reported_by_verbose_reproduces_an_unseeded_run() {
     let src = "productions:\nF -> F[+F]F : 1\nF -> F[-F]F : 1\nF -> FF : 1\naxiom: F\n";
     let d = dir_with(&[("s.ls", src)]);
     let r = run_in(d.path(), &["-v", "-n", "4", "s.ls"], None);
-    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
     let seed = r
         .stderr
         .lines()
@@ -844,7 +714,7 @@ fn verbose_reports_seed_and_lengths_on_stderr() {
     let quiet = run(&["-n", "4", "--seed", "5", "examples/algae.ls"]).ok();
     for flag in ["-v", "--verbose"] {
         let r = run(&[flag, "-n", "4", "--seed", "5", "examples/algae.ls"]);
-        assert_eq!(r.code, 0, "{}", r.stderr);
+        assert_eq!(r.code(), Some(0), "{}", r.stderr);
         assert_eq!(r.out(), quiet, "{flag} changed stdout");
         let lines: Vec<&str> = r.stderr.lines().collect();
         assert!(lines.iter().all(|l| l.starts_with("lsgen: ")), "{lines:?}");
@@ -866,7 +736,7 @@ fn verbose_reports_seed_and_lengths_on_stderr() {
 #[test]
 fn verbose_reports_the_file_seed() {
     let r = run(&["-v", "examples/stochastic_plant.ls"]);
-    assert_eq!(r.code, 0);
+    assert_eq!(r.code(), Some(0));
     assert_eq!(r.out(), run(&["examples/stochastic_plant.ls"]).ok());
     assert!(
         r.stderr.lines().any(|l| l == "lsgen: seed 42"),
@@ -879,7 +749,7 @@ fn verbose_reports_the_file_seed() {
 fn verbose_with_output_file_keeps_stdout_empty() {
     let d = dir_with(&[("p.ls", DOUBLING)]);
     let r = run_in(d.path(), &["-v", "-n", "3", "-o", "o.txt", "p.ls"], None);
-    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
     assert!(r.stdout.is_empty());
     assert!(r.stderr.contains("step 3: 8 modules"), "{}", r.stderr);
     assert_eq!(
@@ -930,18 +800,11 @@ fn help_and_version_report_write_errors() {
             "{flag}"
         );
         // A pipe nobody reads any more.
-        let mut child = Command::new(BIN)
-            .arg(flag)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
+        let mut child = common::spawn(lsgen().arg(flag));
         drop(child.stdout.take());
-        let out = child.wait_with_output().unwrap();
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(0), "{flag} | closed: {stderr}");
-        assert_eq!(stderr, "", "{flag} | closed");
+        let r = common::finish(child, common::TIME_LIMIT);
+        assert_eq!(r.code(), Some(0), "{flag} | closed: {}", r.stderr);
+        assert_eq!(r.stderr, "", "{flag} | closed");
     }
 }
 
@@ -993,22 +856,15 @@ fn directory_as_input_exits_1() {
 #[test]
 fn broken_pipe_is_a_quiet_success() {
     // algae after 30 steps: 1.3 million modules, far beyond a pipe buffer.
-    let mut child = Command::new(BIN)
-        .args(["-n", "30", "examples/algae.ls"])
-        .current_dir(ROOT)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = common::spawn(lsgen_in_root().args(["-n", "30", "examples/algae.ls"]));
     let mut stdout = child.stdout.take().unwrap();
     let mut head = [0u8; 16];
     stdout.read_exact(&mut head).unwrap();
     assert_eq!(&head, b"abaababaabaababa");
     drop(stdout);
-    let out = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(0), "stderr: {stderr}");
+    let r = common::finish(child, common::TIME_LIMIT);
+    let stderr = &r.stderr;
+    assert_eq!(r.code(), Some(0), "stderr: {stderr}");
     assert_eq!(stderr, "", "a broken pipe must be silent");
 }
 
@@ -1019,22 +875,15 @@ fn broken_pipe_when_printing_the_axiom() {
     big.extend(std::iter::repeat_n(b'F', 4 << 20));
     let d = tempfile::tempdir().unwrap();
     std::fs::write(d.path().join("big.ls"), &big).unwrap();
-    let mut child = Command::new(BIN)
-        .args(["-n", "0", "big.ls"])
-        .current_dir(d.path())
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = common::spawn(lsgen().args(["-n", "0", "big.ls"]).current_dir(d.path()));
     let mut stdout = child.stdout.take().unwrap();
     let mut head = [0u8; 4];
     stdout.read_exact(&mut head).unwrap();
     assert_eq!(&head, b"FFFF");
     drop(stdout);
-    let out = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(0), "stderr: {stderr}");
+    let r = common::finish(child, common::TIME_LIMIT);
+    let stderr = &r.stderr;
+    assert_eq!(r.code(), Some(0), "stderr: {stderr}");
     assert_eq!(stderr, "");
 }
 
@@ -1409,10 +1258,15 @@ fn bad_inputs_give_one_error_and_never_panic() {
         for args in [&["-n", "3", "p.ls"][..], &["--check", "p.ls"][..]] {
             let r = run_in(d.path(), args, None);
             let shown = String::from_utf8_lossy(src);
-            if args[0] == "--check" && r.code == 0 {
+            if args[0] == "--check" && r.code() == Some(0) {
                 continue; // a runtime error: --check derives nothing
             }
-            assert_eq!(r.code, 1, "{args:?} on {shown:?}: stderr {:?}", r.stderr);
+            assert_eq!(
+                r.code(),
+                Some(1),
+                "{args:?} on {shown:?}: stderr {:?}",
+                r.stderr
+            );
             let e = r.one_error();
             assert!(
                 e.starts_with("lsgen: p.ls:") || e.starts_with("lsgen: p.ls: "),
@@ -1460,16 +1314,15 @@ fn endless_headers_fail_fast_in_bounded_memory() {
     ];
     for (script, want) in cases {
         let started = std::time::Instant::now();
-        let out = Command::new("sh")
-            .arg("-c")
-            .arg(format!("ulimit -v 700000; {script}"))
-            .arg(BIN)
-            .stdin(Stdio::null())
-            .output()
-            .unwrap();
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert_no_crash(script, out.status, &stderr);
-        assert_eq!(out.status.code(), Some(1), "{script}: {stderr}");
+        let out = common::run(
+            common::command("sh")
+                .arg("-c")
+                .arg(format!("ulimit -v 700000; {script}"))
+                .arg(common::LSGEN),
+        );
+        out.assert_no_crash();
+        let stderr = &out.stderr;
+        assert_eq!(out.code(), Some(1), "{script}: {stderr}");
         assert!(out.stdout.is_empty(), "{script}");
         let first = stderr.lines().next().unwrap_or("");
         for w in *want {

@@ -8,13 +8,12 @@
 //! steps) and both the original and the shrunk `.ls` text are printed with
 //! both outputs.
 
+mod common;
 mod reference;
 
 use lsgen::engine::Limits;
 use reference::{derive_text, derive_text_stats, format_number, Stats, TOO_LONG};
 use std::fmt::Write as _;
-use std::io::Write as _;
-use std::process::{Command, Stdio};
 
 /// The reference gives up on generations longer than this (the case is
 /// then skipped, and counted).
@@ -673,6 +672,27 @@ fn lsgen_text(src: &str, steps: Option<u64>, seed: Option<u64>) -> Result<String
         .map_err(|e| e.to_string())
 }
 
+/// The real binary forced onto the step-by-step engine (`--strategy
+/// step`), the system on standard input: its output, or its stderr.
+fn lsgen_step_text(src: &str, steps: Option<u64>, seed: Option<u64>) -> Result<String, String> {
+    let mut cmd = common::lsgen();
+    cmd.args([
+        "--strategy",
+        "step",
+        "--seed",
+        &seed.unwrap_or(0).to_string(),
+    ]);
+    if let Some(n) = steps {
+        cmd.args(["-n", &n.to_string()]);
+    }
+    let r = common::run_with_stdin(&mut cmd, src);
+    r.assert_no_crash();
+    match r.code() {
+        Some(0) => Ok(r.out().trim_end_matches('\n').to_string()),
+        _ => Err(r.stderr),
+    }
+}
+
 fn compare(src: &str, steps: Option<u64>, seed: Option<u64>, max_modules: usize) -> Outcome {
     let (expected, stats) = derive_text_stats(src, steps, seed, max_modules);
     if matches!(&expected, Err(e) if e == TOO_LONG) {
@@ -817,10 +837,28 @@ fn check_many(name: &str, cfg: Cfg, count: u64) {
     // How many cases applied a left context, a right context, ... at least once.
     let mut seen = [0usize; 5];
     let mut failures = Vec::new();
+    // derive_bytes expands deterministic context-free systems depth first;
+    // every 4th such case also goes through the step-by-step engine.
+    let context_free = cfg.left == 0 && cfg.right == 0 && !cfg.stochastic && !cfg.random_fns;
+    let mut stepwise = 0;
     for i in 0..count {
         let case = gen_case(cfg, base + i);
         match run(&case) {
             Outcome::Same { error, stats, .. } => {
+                if context_free && i % 4 == 0 {
+                    let (src, n, seed) = (case.text(), case.steps, case.seed);
+                    let (dfs, step) = (lsgen_text(&src, n, seed), lsgen_step_text(&src, n, seed));
+                    match (&dfs, &step) {
+                        (Ok(a), Ok(b)) if a.trim_end_matches('\n') == b => stepwise += 1,
+                        (Err(_), Err(_)) => stepwise += 1,
+                        _ => panic!(
+                            "{name}: case {i}: --strategy step differs from depth first on\n{src}\n\
+                             depth first: {}\nstep by step: {}",
+                            clip(&dfs),
+                            clip(&step)
+                        ),
+                    }
+                }
                 same += 1;
                 errors += usize::from(error);
                 let st = [
@@ -841,7 +879,7 @@ fn check_many(name: &str, cfg: Cfg, count: u64) {
     eprintln!(
         "{name}: {count} cases: {same} identical ({errors} of them errors on both sides), \
          {skipped} skipped as too long, {} mismatches; cases that applied a left context {}, \
-         a right context {}, one with brackets {}, a context with ignore/consider {}, drew a choice {}",
+         a right context {}, one with brackets {}, a context with ignore/consider {}, drew a choice {}; {stepwise} also with --strategy step",
         failures.len(), seen[0], seen[1], seen[2], seen[3], seen[4]
     );
     if !failures.is_empty() {
@@ -852,6 +890,10 @@ fn check_many(name: &str, cfg: Cfg, count: u64) {
         }
         panic!("{msg}");
     }
+    assert!(
+        !context_free || stepwise * 5 >= count as usize,
+        "{name}: only {stepwise} cases compared with --strategy step"
+    );
     assert!(
         skipped * 10 < count as usize,
         "{name}: too many cases skipped ({skipped})"
@@ -1242,7 +1284,8 @@ fn split_derivation_through_the_binary() {
         max_steps: 2,
         ..BASE
     };
-    let dir = std::env::temp_dir();
+    let dir = common::tempdir();
+    let path = dir.path().join("p.ls");
     let mut done = 0;
     for i in 0..80u64 {
         let mut case = gen_case(cfg, 0xA11CE + i);
@@ -1258,32 +1301,17 @@ fn split_derivation_through_the_binary() {
             continue;
         }
         let mid = lsgen_text(&src, Some(a), Some(0)).expect("fewer steps succeed too");
-        let path = dir.join(format!("lsgen-differential-{}-{i}.ls", std::process::id()));
         std::fs::write(&path, &src).unwrap();
-        let mut child = Command::new(env!("CARGO_BIN_EXE_lsgen"))
-            .arg(&path)
-            .args(["-n", &b.to_string(), "--axiom", "-", "--no-homomorphism"])
-            .args(["--seed", "0"])
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("run lsgen");
-        let mut stdin = child.stdin.take().unwrap();
-        let mid_bytes = mid.clone().into_bytes();
-        let writer = std::thread::spawn(move || {
-            let _ = stdin.write_all(&mid_bytes);
-        });
-        let out = child.wait_with_output().unwrap();
-        writer.join().unwrap();
-        let _ = std::fs::remove_file(&path);
-        assert!(
-            out.status.success(),
-            "lsgen failed: {}\n{src}",
-            String::from_utf8_lossy(&out.stderr)
+        let out = common::run_with_stdin(
+            common::lsgen()
+                .arg(&path)
+                .args(["-n", &b.to_string(), "--axiom", "-", "--no-homomorphism"])
+                .args(["--seed", "0"]),
+            mid.clone(),
         );
+        assert!(out.status.success(), "lsgen failed: {}\n{src}", out.stderr);
         assert_eq!(
-            String::from_utf8(out.stdout).unwrap(),
+            out.out(),
             whole,
             "{a}+{b} steps differ from {} steps on\n{src}",
             a + b

@@ -3,36 +3,15 @@
 //! Python reference `tests/tools/ref.py`), plus the headline facts of the
 //! classic examples.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+mod common;
 
-const BIN: &str = env!("CARGO_BIN_EXE_lsgen");
-const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+use common::{lsgen_in_root, run, ROOT};
+use std::path::{Path, PathBuf};
 
 /// Run `lsgen` from the repository root with no standard input; insist on
-/// a clean exit and no panic, and return standard output.
+/// a clean exit, no panic and nothing on stderr, and return standard output.
 fn lsgen_ok(args: &[&str]) -> String {
-    let out = Command::new(BIN)
-        .args(args)
-        .current_dir(ROOT)
-        .stdin(Stdio::null())
-        .output()
-        .expect("cannot run lsgen");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !stderr.contains("panicked") && !stderr.contains("RUST_BACKTRACE"),
-        "lsgen {args:?} panicked:\n{stderr}"
-    );
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "lsgen {args:?} failed:\n{stderr}"
-    );
-    assert!(
-        stderr.is_empty(),
-        "lsgen {args:?} wrote to stderr:\n{stderr}"
-    );
-    String::from_utf8(out.stdout).expect("lsgen output is not UTF-8")
+    run(lsgen_in_root().args(args)).ok()
 }
 
 /// The output line without its newline (and checking there is exactly one).
@@ -97,18 +76,14 @@ fn every_expected_file_matches() {
             "tests/expected/{file}: there is no {example}"
         );
         let want = expected(&name, n);
-        let out = Command::new(BIN)
-            .args(["-n", &n.to_string(), &example])
-            .current_dir(ROOT)
-            .stdin(Stdio::null())
-            .output()
-            .expect("cannot run lsgen");
+        let out = run(lsgen_in_root().args(["-n", &n.to_string(), &example]));
+        out.assert_no_crash();
         let got = String::from_utf8_lossy(&out.stdout);
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        if out.status.code() != Some(0) || !stderr.is_empty() {
+        let stderr = &out.stderr;
+        if out.code() != Some(0) || !stderr.is_empty() {
             failures.push(format!(
                 "tests/expected/{file}: `lsgen -n {n} {example}` exited with {:?}:\n{stderr}",
-                out.status.code()
+                out.code()
             ));
         } else if got != want {
             let at = first_difference(&got, &want);

@@ -2,30 +2,26 @@
 //! signals, full disks, unwritable and unreadable paths, closed pipes,
 //! runaway derivations and size limits. Every test runs the real binary.
 
-mod faults_support;
+mod common;
 
-use faults_support::{assert_listing, finish, listing, lsgen, run, tempdir, Run};
+use common::{
+    assert_listing, finish, listing, lsgen, lsgen_under_sh, run, spawn_with, tempdir, write, Run,
+    Started,
+};
 use std::fs;
 use std::os::unix::fs::MetadataExt;
 use std::os::unix::process::ExitStatusExt;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::thread;
 use std::time::{Duration, Instant};
 
-/// `F -> FF`: generation n has 2^n modules.
-/// `F -> FF`, plus a context production for a symbol that never occurs: the
-/// same strings, but it keeps the step-by-step engine with its temporary
-/// generations (deterministic context-free systems are expanded depth first,
+/// `F -> FF`: generation n has 2^n modules. Tests run it with
+/// [`stepwise`], the step-by-step engine with its temporary generations
+/// (deterministic context-free systems are otherwise expanded depth first,
 /// without them, and far faster than these tests stop them).
-const DOUBLING: &str = "productions:\nF -> FF\n\u{2603} < \u{2603} -> \u{2603}\naxiom: F\n";
+const DOUBLING: &str = "productions:\nF -> FF\naxiom: F\n";
 const OLD: &str = "old contents\n";
-
-fn write(dir: &Path, name: &str, text: impl AsRef<[u8]>) -> PathBuf {
-    let p = dir.join(name);
-    fs::write(&p, text).unwrap();
-    p
-}
 
 fn doubled(n: u32) -> Vec<u8> {
     let mut v = vec![b'F'; 1 << n];
@@ -33,13 +29,16 @@ fn doubled(n: u32) -> Vec<u8> {
     v
 }
 
+/// lsgen forced onto the step-by-step engine (`--strategy step`).
+fn stepwise() -> Command {
+    let mut c = lsgen();
+    c.args(["--strategy", "step"]);
+    c
+}
+
 /// Start lsgen with stdout discarded and stderr captured.
-fn spawn(cmd: &mut Command) -> Child {
-    cmd.stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn lsgen")
+fn spawn(cmd: &mut Command) -> Started {
+    spawn_with(cmd, Stdio::null(), Stdio::null(), Stdio::piped())
 }
 
 /// An error without a source location: one `lsgen: SUBJECT: error: ...`
@@ -67,7 +66,7 @@ fn success_replaces_an_existing_file_atomically() {
     let n = 22;
     let want = doubled(n);
     let mut child = spawn(
-        lsgen()
+        stepwise()
             .arg(&input)
             .arg("-n")
             .arg(n.to_string())
@@ -107,7 +106,7 @@ fn success_creates_a_new_file_and_nothing_else() {
     let d = dir.path();
     let input = write(d, "in.ls", DOUBLING);
     let out = d.join("new.txt");
-    let r = run(lsgen().arg(&input).args(["-n", "5", "-o"]).arg(&out));
+    let r = run(stepwise().arg(&input).args(["-n", "5", "-o"]).arg(&out));
     assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
     assert!(r.stdout.is_empty());
     assert_eq!(fs::read(&out).unwrap(), doubled(5));
@@ -119,7 +118,7 @@ fn output_may_replace_the_input_itself() {
     let dir = tempdir();
     let d = dir.path();
     let input = write(d, "in.ls", DOUBLING);
-    let r = run(lsgen().arg(&input).args(["-n", "3", "-o"]).arg(&input));
+    let r = run(stepwise().arg(&input).args(["-n", "3", "-o"]).arg(&input));
     assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
     assert_eq!(fs::read(&input).unwrap(), doubled(3));
     assert_listing(d, &["in.ls"]);
@@ -133,7 +132,7 @@ fn replacing_keeps_the_permissions_of_the_existing_file() {
     let input = write(d, "in.ls", DOUBLING);
     let out = write(d, "out.txt", OLD);
     fs::set_permissions(&out, fs::Permissions::from_mode(0o600)).unwrap();
-    let r = run(lsgen().arg(&input).args(["-n", "3", "-o"]).arg(&out));
+    let r = run(stepwise().arg(&input).args(["-n", "3", "-o"]).arg(&out));
     assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
     assert_eq!(fs::read(&out).unwrap(), doubled(3));
     let mode = fs::metadata(&out).unwrap().permissions().mode() & 0o7777;
@@ -195,7 +194,7 @@ fn output_on_a_file_system_without_o_tmpfile() {
     let d = dir.path();
     let input = write(d, "in.ls", DOUBLING);
     let out = write(d, "out.txt", OLD);
-    let r = run(lsgen()
+    let r = run(stepwise()
         .env("LD_PRELOAD", &shim)
         .arg(&input)
         .args(["-n", "3", "--tmpdir"])
@@ -224,7 +223,7 @@ fn sigint_during_the_final_copy_without_o_tmpfile() {
     let out = d.join("out.txt");
     // 2^26 bytes of output: the copy takes long enough to be caught.
     let child = spawn(
-        lsgen()
+        stepwise()
             .env("LD_PRELOAD", &shim)
             .arg(&input)
             .args(["-n", "26", "-o"])
@@ -348,7 +347,7 @@ fn stopped_run_leaves_nothing(stop: Stop) {
     let fresh = d.join("fresh.txt");
     for target in [&out, &fresh] {
         let mut child = spawn(
-            lsgen()
+            stepwise()
                 .arg(&input)
                 .args(["-n", "30", "--max-length", "1TB", "--tmpdir"])
                 .arg(tmp.path())
@@ -415,7 +414,7 @@ fn tmpdir_is_empty_after_success_and_after_errors() {
     // Success, to a file and to stdout.
     let input = write(d, "in.ls", DOUBLING);
     let out = d.join("out.txt");
-    let r = run(lsgen()
+    let r = run(stepwise()
         .arg(&input)
         .args(["-n", "12", "--tmpdir"])
         .arg(t)
@@ -423,7 +422,7 @@ fn tmpdir_is_empty_after_success_and_after_errors() {
         .arg(&out));
     assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
     assert_listing(t, &[]);
-    let r = run(lsgen().arg(&input).args(["-n", "12", "--tmpdir"]).arg(t));
+    let r = run(stepwise().arg(&input).args(["-n", "12", "--tmpdir"]).arg(t));
     assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
     assert_eq!(r.stdout, doubled(12));
     assert_listing(t, &[]);
@@ -433,7 +432,12 @@ fn tmpdir_is_empty_after_success_and_after_errors() {
         "bad.ls",
         "derivation length: 8\nproductions:\nF -> FF\nA(x) -> A(x-1) B(sqrt(x))\naxiom: F A(5)\n",
     );
-    let r = run(lsgen().arg(&bad).arg("--tmpdir").arg(t).arg("-o").arg(&out));
+    let r = run(stepwise()
+        .arg(&bad)
+        .arg("--tmpdir")
+        .arg(t)
+        .arg("-o")
+        .arg(&out));
     assert!(
         r.assert_one_error().contains("(in step 7)"),
         "stderr:\n{}",
@@ -442,7 +446,12 @@ fn tmpdir_is_empty_after_success_and_after_errors() {
     assert_listing(t, &[]);
     // An error in the axiom, after the first temporary file exists.
     let bad = write(d, "bad2.ls", "productions:\nF -> FF\naxiom: F F F F(1,\n");
-    let r = run(lsgen().arg(&bad).arg("--tmpdir").arg(t).arg("-o").arg(&out));
+    let r = run(stepwise()
+        .arg(&bad)
+        .arg("--tmpdir")
+        .arg(t)
+        .arg("-o")
+        .arg(&out));
     r.assert_one_error();
     assert_listing(t, &[]);
     // The last runs failed: out.txt is still the first run's.
@@ -465,7 +474,7 @@ fn dev_full_as_output_file_fails_with_a_message() {
     for n in ["3", "22"] {
         let dir = tempdir();
         let input = write(dir.path(), "in.ls", DOUBLING);
-        let r = run(lsgen().arg(&input).args(["-n", n, "-o", "/dev/full"]));
+        let r = run(stepwise().arg(&input).args(["-n", n, "-o", "/dev/full"]));
         let line = r.assert_one_error();
         assert!(line.contains(": error: "), "stderr:\n{}", r.stderr);
         assert!(line.contains("No space left"), "stderr:\n{}", r.stderr);
@@ -481,7 +490,7 @@ fn dev_full_as_output_file_is_named_in_the_message() {
     }
     let dir = tempdir();
     let input = write(dir.path(), "in.ls", DOUBLING);
-    let r = run(lsgen().arg(&input).args(["-n", "3", "-o", "/dev/full"]));
+    let r = run(stepwise().arg(&input).args(["-n", "3", "-o", "/dev/full"]));
     plain_error(&r, "/dev/full");
 }
 
@@ -498,14 +507,12 @@ fn dev_full_as_stdout_fails_with_a_message() {
             .write(true)
             .open("/dev/full")
             .unwrap();
-        let child = lsgen()
-            .arg(&input)
-            .args(["-n", n])
-            .stdin(Stdio::null())
-            .stdout(Stdio::from(full))
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
+        let child = spawn_with(
+            stepwise().arg(&input).args(["-n", n]),
+            Stdio::null(),
+            Stdio::from(full),
+            Stdio::piped(),
+        );
         let r = finish(child, Duration::from_secs(60));
         let line = plain_error(&r, "standard output");
         assert!(line.contains("No space left"), "stderr:\n{}", r.stderr);
@@ -546,7 +553,7 @@ fn small_tmpfs_fills_up_cleanly() {
     let input = write(d, "in.ls", DOUBLING);
     // Temporary generations do not fit.
     let out = d.join("out.txt");
-    let r = run(lsgen()
+    let r = run(stepwise()
         .arg(&input)
         .args(["-n", "22", "--tmpdir"])
         .arg(s)
@@ -558,7 +565,7 @@ fn small_tmpfs_fills_up_cleanly() {
     assert_listing(d, &["in.ls"]);
     // The output does not fit: an existing file there stays as it was.
     let old = write(s, "out.txt", OLD);
-    let r = run(lsgen()
+    let r = run(stepwise()
         .arg(&input)
         .args(["-n", "22", "--tmpdir"])
         .arg(d)
@@ -577,7 +584,7 @@ fn small_tmpfs_fills_up_cleanly() {
 fn output_in_a_missing_directory() {
     let dir = tempdir();
     let input = write(dir.path(), "in.ls", DOUBLING);
-    let r = run(lsgen().arg(&input).args(["-o", "/nonexistent-dir/x"]));
+    let r = run(stepwise().arg(&input).args(["-o", "/nonexistent-dir/x"]));
     let line = plain_error(&r, "/nonexistent-dir/x");
     assert!(line.contains("No such file or directory"), "{line}");
     assert!(!Path::new("/nonexistent-dir").exists());
@@ -590,11 +597,11 @@ fn output_that_is_a_directory_or_below_a_file() {
     let input = write(d, "in.ls", DOUBLING);
     let sub = d.join("sub");
     fs::create_dir(&sub).unwrap();
-    let r = run(lsgen().arg(&input).arg("-o").arg(&sub));
+    let r = run(stepwise().arg(&input).arg("-o").arg(&sub));
     let line = plain_error(&r, &sub.display().to_string());
     assert!(line.contains("directory"), "{line}");
     let below = input.join("x");
-    let r = run(lsgen().arg(&input).arg("-o").arg(&below));
+    let r = run(stepwise().arg(&input).arg("-o").arg(&below));
     plain_error(&r, &below.display().to_string());
     assert_listing(d, &["in.ls", "sub"]);
     assert_listing(&sub, &[]);
@@ -630,7 +637,7 @@ fn axiom_file_that_does_not_exist() {
     let input = write(d, "in.ls", DOUBLING);
     let missing = d.join("missing.txt");
     let out = d.join("out.txt");
-    let r = run(lsgen()
+    let r = run(stepwise()
         .arg(&input)
         .arg("--axiom")
         .arg(&missing)
@@ -647,7 +654,7 @@ fn tmpdir_that_does_not_exist() {
     let input = write(d, "in.ls", DOUBLING);
     let out = d.join("out.txt");
     let missing = d.join("no-such-tmp");
-    let r = run(lsgen()
+    let r = run(stepwise()
         .arg(&input)
         .args(["-n", "3", "--tmpdir"])
         .arg(&missing)
@@ -664,14 +671,12 @@ fn closed_pipe(read_first: usize) {
     let dir = tempdir();
     let input = write(dir.path(), "in.ls", DOUBLING);
     // 4 MiB of output: far more than a pipe holds.
-    let mut child = lsgen()
-        .arg(&input)
-        .args(["-n", "22"])
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = spawn_with(
+        stepwise().arg(&input).args(["-n", "22"]),
+        Stdio::null(),
+        Stdio::piped(),
+        Stdio::piped(),
+    );
     let mut stdout = child.stdout.take().unwrap();
     let mut buf = vec![0; read_first];
     stdout.read_exact(&mut buf).unwrap();
@@ -707,7 +712,7 @@ fn max_length_stops_a_runaway_derivation() {
         let input = write(d, "in.ls", DOUBLING);
         let out = write(d, "out.txt", OLD);
         let start = Instant::now();
-        let r = run(lsgen()
+        let r = run(stepwise()
             .arg(&input)
             .args(["-n", "60", "--max-length", limit, "--tmpdir"])
             .arg(tmp.path())
@@ -727,7 +732,7 @@ fn max_length_stops_a_runaway_derivation() {
 fn max_length_allows_what_fits() {
     let dir = tempdir();
     let input = write(dir.path(), "in.ls", DOUBLING);
-    let r = run(lsgen()
+    let r = run(stepwise()
         .arg(&input)
         .args(["-n", "10", "--max-length", "1024"]));
     assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
@@ -887,12 +892,7 @@ fn run_with_stdout_file(cmd: &mut Command, stdout_file: &Path) -> Run {
         .append(true)
         .open(stdout_file)
         .unwrap();
-    let child = cmd
-        .stdin(Stdio::null())
-        .stdout(Stdio::from(f))
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn lsgen");
+    let child = spawn_with(cmd, Stdio::null(), Stdio::from(f), Stdio::piped());
     finish(child, Duration::from_secs(60))
 }
 
@@ -921,7 +921,7 @@ fn output_naming_our_own_stdout_writes_the_stream() {
         // the output goes after what is there, as the shell would put it.
         let captured = write(d, &format!("stdout{i}.txt"), OLD);
         let r = run_with_stdout_file(
-            lsgen().arg(&input).args(["-n", "4", "-o"]).arg(target),
+            stepwise().arg(&input).args(["-n", "4", "-o"]).arg(target),
             &captured,
         );
         r.assert_no_crash();
@@ -953,7 +953,7 @@ fn output_naming_a_closed_descriptor_fails() {
     let dir = tempdir();
     let d = dir.path();
     let input = write(d, "in.ls", DOUBLING);
-    let r = run(lsgen().arg(&input).args(["-o", "/dev/fd/9"]));
+    let r = run(stepwise().arg(&input).args(["-o", "/dev/fd/9"]));
     let line = plain_error(&r, "/dev/fd/9");
     assert!(line.contains("Bad file descriptor"), "{line}");
     assert_listing(d, &["in.ls"]);
@@ -975,7 +975,7 @@ fn output_to_a_fifo_is_streamed() {
         eprintln!("skipped: mkfifo failed");
         return;
     }
-    let child = spawn(lsgen().arg(&input).args(["-n", "16", "-o"]).arg(&fifo));
+    let child = spawn(stepwise().arg(&input).args(["-n", "16", "-o"]).arg(&fifo));
     let mut got = Vec::new();
     fs::File::open(&fifo)
         .unwrap()
@@ -1014,7 +1014,7 @@ fn output_through_a_symlink_replaces_its_target_and_keeps_the_link() {
         let before = fs::read(&target).unwrap();
         let old = fs::File::open(&target).unwrap();
         let old_ino = old.metadata().unwrap().ino();
-        let r = run(lsgen()
+        let r = run(stepwise()
             .arg(&input)
             .args(["-n", &n.to_string(), "-o"])
             .arg(d.join(link)));
@@ -1037,7 +1037,7 @@ fn output_through_a_symlink_replaces_its_target_and_keeps_the_link() {
     assert_listing(&sub, &["target.txt"]);
     // A failed run leaves the target alone.
     let bad = write(d, "bad.ls", "productions:\nF -> FF\naxiom: F F)\n");
-    let r = run(lsgen().arg(&bad).arg("-o").arg(d.join("rel")));
+    let r = run(stepwise().arg(&bad).arg("-o").arg(d.join("rel")));
     r.assert_one_error();
     assert!(fs::read(&target).unwrap() == doubled(5));
     assert_listing(&sub, &["target.txt"]);
@@ -1051,7 +1051,7 @@ fn output_through_a_dangling_symlink_creates_its_target() {
     let input = write(d, "in.ls", DOUBLING);
     fs::create_dir(d.join("sub")).unwrap();
     std::os::unix::fs::symlink("sub/new.txt", d.join("link")).unwrap();
-    let r = run(lsgen()
+    let r = run(stepwise()
         .arg(&input)
         .args(["-n", "3", "-o"])
         .arg(d.join("link")));
@@ -1074,7 +1074,7 @@ fn output_through_a_symlink_loop_fails() {
     std::os::unix::fs::symlink("b", d.join("a")).unwrap();
     std::os::unix::fs::symlink("a", d.join("b")).unwrap();
     let a = d.join("a");
-    let r = run(lsgen().arg(&input).arg("-o").arg(&a));
+    let r = run(stepwise().arg(&input).arg("-o").arg(&a));
     let line = plain_error(&r, &a.display().to_string());
     assert!(line.contains("symbolic links"), "{line}");
     assert_listing(d, &["a", "b", "in.ls"]);
@@ -1097,9 +1097,10 @@ fn output_named_like_a_directory_is_refused_up_front() {
         let target = format!("{}/{arg}", d.display());
         let start = Instant::now();
         // 2^30 modules: far longer than the test if it were derived.
-        let r = run(lsgen()
-            .arg(&input)
-            .args(["-n", "30", "--max-length", "1TB", "-o", &target]));
+        let r =
+            run(stepwise()
+                .arg(&input)
+                .args(["-n", "30", "--max-length", "1TB", "-o", &target]));
         let line = plain_error(&r, &target);
         assert!(line.contains(want), "-o {arg}: {line}");
         assert!(line.contains("-o") || want == "not a directory", "{line}");
@@ -1156,7 +1157,7 @@ fn leftovers_of_dead_runs_are_removed_by_the_next_run() {
         write(d, name, "keep\n");
     }
     let out = d.join("out.txt");
-    let r = run(lsgen().arg(&input).args(["-n", "3", "-o"]).arg(&out));
+    let r = run(stepwise().arg(&input).args(["-n", "3", "-o"]).arg(&out));
     assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
     assert_eq!(fs::read(&out).unwrap(), doubled(3));
     let mut want = vec!["in.ls", "out.txt", live.as_str()];
@@ -1179,7 +1180,7 @@ fn sigkill_during_the_final_copy_leaves_a_temp_file_the_next_run_removes() {
     let input = write(d, "in.ls", DOUBLING);
     let out = write(d, "out.txt", OLD);
     let mut child = spawn(
-        lsgen()
+        stepwise()
             .env("LD_PRELOAD", &shim)
             .arg(&input)
             .args(["-n", "26", "-o"])
@@ -1207,7 +1208,7 @@ fn sigkill_during_the_final_copy_leaves_a_temp_file_the_next_run_removes() {
     assert_eq!(r.status.signal(), Some(9));
     assert_eq!(fs::read_to_string(&out).unwrap(), OLD, "a partial output");
     // The next run (with or without O_TMPFILE) into the same directory.
-    let r = run(lsgen().arg(&input).args(["-n", "3", "-o"]).arg(&out));
+    let r = run(stepwise().arg(&input).args(["-n", "3", "-o"]).arg(&out));
     assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
     assert_eq!(fs::read(&out).unwrap(), doubled(3));
     assert_listing(d, &["in.ls", "out.txt"]);
@@ -1225,23 +1226,24 @@ fn sigkill_between_link_and_rename_leaves_a_name_the_next_run_removes() {
     let d = dir.path();
     let input = write(d, "in.ls", DOUBLING);
     let out = write(d, "out.txt", OLD);
-    let child = Command::new("strace")
-        .args([
-            "-f",
-            "-o",
-            "/dev/null",
-            "-e",
-            "inject=/^rename:delay_enter=5000000",
-        ])
-        .arg(env!("CARGO_BIN_EXE_lsgen"))
-        .arg(&input)
-        .args(["-n", "12", "-o"])
-        .arg(&out)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run strace");
+    let child = spawn_with(
+        common::command("strace")
+            .args([
+                "-f",
+                "-o",
+                "/dev/null",
+                "-e",
+                "inject=/^rename:delay_enter=5000000",
+            ])
+            .arg(common::LSGEN)
+            .args(["--strategy", "step"])
+            .arg(&input)
+            .args(["-n", "12", "-o"])
+            .arg(&out),
+        Stdio::null(),
+        Stdio::null(),
+        Stdio::piped(),
+    );
     let deadline = Instant::now() + Duration::from_secs(30);
     let mut pid = None;
     while Instant::now() < deadline && pid.is_none() {
@@ -1262,7 +1264,7 @@ fn sigkill_between_link_and_rename_leaves_a_name_the_next_run_removes() {
         .collect();
     assert_eq!(left.len(), 1, "the window was not hit: {left:?}");
     assert_eq!(fs::read_to_string(&out).unwrap(), OLD);
-    let r = run(lsgen().arg(&input).args(["-n", "3", "-o"]).arg(&out));
+    let r = run(stepwise().arg(&input).args(["-n", "3", "-o"]).arg(&out));
     assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
     assert_eq!(fs::read(&out).unwrap(), doubled(3));
     assert_listing(d, &["in.ls", "out.txt"]);
@@ -1270,7 +1272,7 @@ fn sigkill_between_link_and_rename_leaves_a_name_the_next_run_removes() {
     // delayed rename would take 5 s).
     let fresh = d.join("fresh.txt");
     let start = Instant::now();
-    let r = run(Command::new("strace")
+    let r = run(common::command("strace")
         .args([
             "-f",
             "-o",
@@ -1278,7 +1280,8 @@ fn sigkill_between_link_and_rename_leaves_a_name_the_next_run_removes() {
             "-e",
             "inject=/^rename:delay_enter=5000000",
         ])
-        .arg(env!("CARGO_BIN_EXE_lsgen"))
+        .arg(common::LSGEN)
+        .args(["--strategy", "step"])
         .arg(&input)
         .args(["-n", "3", "-o"])
         .arg(&fresh));
@@ -1293,15 +1296,6 @@ fn sigkill_between_link_and_rename_leaves_a_name_the_next_run_removes() {
 
 // --- (l) resource limits and unwritable streams ------------------------------------
 
-/// Run lsgen under `sh -c 'SETUP; exec lsgen ARGS...'`.
-fn lsgen_under_sh(setup: &str) -> Command {
-    let mut c = Command::new("sh");
-    c.arg("-c")
-        .arg(format!("{setup}; exec \"$0\" \"$@\""))
-        .arg(env!("CARGO_BIN_EXE_lsgen"));
-    c
-}
-
 /// `ulimit -f` exceeded: a clear error and exit 1, not death by SIGXFSZ;
 /// the old file stays, no temp file is left.
 #[test]
@@ -1314,6 +1308,7 @@ fn file_size_limit_is_an_error_not_a_signal() {
     // 64 blocks (32 or 64 KiB by the shell's unit) for 1 MiB of output; the
     // temporary generations go to a tmpfs-free --tmpdir, limited too.
     let r = run(lsgen_under_sh("ulimit -f 64")
+        .args(["--strategy", "step"])
         .arg(&input)
         .args(["-n", "20", "--tmpdir"])
         .arg(tmp.path())
@@ -1349,7 +1344,10 @@ fn closed_stdout_is_an_error_when_the_output_goes_there() {
         &["-n", "3", "-o", "-"],
         &["-n", "3", "-o", "/dev/stdout"],
     ] {
-        let r = run(lsgen_under_sh("exec >&-").arg(&input).args(args));
+        let r = run(lsgen_under_sh("exec >&-")
+            .args(["--strategy", "step"])
+            .arg(&input)
+            .args(args));
         let line = plain_error(&r, "standard output");
         assert!(line.contains("closed"), "{args:?}: {line}");
     }
@@ -1360,6 +1358,7 @@ fn closed_stdout_is_an_error_when_the_output_goes_there() {
     }
     let out = d.join("out.txt");
     let r = run(lsgen_under_sh("exec >&-")
+        .args(["--strategy", "step"])
         .arg(&input)
         .args(["-n", "3", "-o"])
         .arg(&out));
@@ -1367,6 +1366,7 @@ fn closed_stdout_is_an_error_when_the_output_goes_there() {
     assert_eq!(fs::read(&out).unwrap(), doubled(3));
     // Standard error closed too, with -v: the file holds only the output.
     let r = run(lsgen_under_sh("exec >&- 2>&-")
+        .args(["--strategy", "step"])
         .arg(&input)
         .args(["-v", "-n", "4", "-o"])
         .arg(&out));
@@ -1407,7 +1407,7 @@ fn unwritable_stderr_changes_nothing() {
     ];
     for (what, open) in stderrs {
         for (file, args, code) in [
-            (&input, &["-v", "-n", "5"][..], 0),
+            (&input, &["--strategy", "step", "-v", "-n", "5"][..], 0),
             (&plain, &["-v", "-n", "5"], 0),
             (&input, &["-v", "--check"], 0),
             (&bad, &["-v", "-n", "5"], 1),
@@ -1415,14 +1415,12 @@ fn unwritable_stderr_changes_nothing() {
             let Some(err) = open() else {
                 continue;
             };
-            let child = lsgen()
-                .arg(file)
-                .args(args)
-                .stdin(Stdio::null())
-                .stdout(Stdio::piped())
-                .stderr(Stdio::from(err))
-                .spawn()
-                .unwrap();
+            let child = spawn_with(
+                lsgen().arg(file).args(args),
+                Stdio::null(),
+                Stdio::piped(),
+                Stdio::from(err),
+            );
             let r = finish(child, Duration::from_secs(60));
             assert_eq!(r.status.signal(), None, "{what} {args:?}: killed");
             assert_eq!(r.code(), Some(code), "{what} {file:?} {args:?}");

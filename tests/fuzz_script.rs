@@ -1,28 +1,20 @@
 //! `fuzz/run.sh`'s libFuzzer flags, through its dry run (nothing is built
 //! or fuzzed).
 
-use std::process::Command;
+mod common;
 
-const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+use common::ROOT;
 
 /// The libFuzzer flags `fuzz/run.sh ARGS` would run with.
 fn flags(args: &[&str]) -> Vec<String> {
-    let out = Command::new("bash")
-        .arg(format!("{ROOT}/fuzz/run.sh"))
-        .args(args)
-        .env("FUZZ_DRY_RUN", "1")
-        .output()
-        .expect("run bash");
-    assert!(
-        out.status.success(),
-        "fuzz/run.sh {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = common::run(
+        common::command("bash")
+            .arg(format!("{ROOT}/fuzz/run.sh"))
+            .args(args)
+            .env("FUZZ_DRY_RUN", "1"),
     );
-    String::from_utf8(out.stdout)
-        .unwrap()
-        .lines()
-        .map(str::to_string)
-        .collect()
+    assert!(out.status.success(), "{}: {}", out.what, out.stderr);
+    out.out().lines().map(str::to_string).collect()
 }
 
 fn runs(args: &[&str]) -> String {

@@ -4,73 +4,36 @@
 //! constants). Every test runs the real binary. Expected strings are derived
 //! by hand in the comments, not taken from lsgen.
 
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+mod common;
 
-const BIN: &str = env!("CARGO_BIN_EXE_lsgen");
+use std::time::Duration;
 
-struct Run {
-    code: i32,
-    stdout: String,
-    stderr: String,
+/// A finished run, with this file's own reading of success: exit 0
+/// whatever standard error holds (-v writes there).
+struct Run(common::Run);
+
+impl std::ops::Deref for Run {
+    type Target = common::Run;
+    fn deref(&self) -> &common::Run {
+        &self.0
+    }
 }
 
-/// Run lsgen on `src` (given as a file) with `args`; `mem_kib` caps the
-/// address space (`ulimit -v`), `limit` is a generous wall-clock limit after
-/// which the run is killed and the test fails.
+/// Run lsgen on `src` (given as a file `t.ls`) with `args`; `mem_kib` caps
+/// the address space (`ulimit -v`), `limit` is a generous wall-clock limit
+/// after which the run is killed and the test fails.
 fn run_with(src: &str, args: &[&str], mem_kib: Option<u64>, limit: Duration) -> Run {
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("t.ls");
-    std::fs::write(&file, src).unwrap();
-    let mut cmd = Command::new("sh");
-    let cap = mem_kib.map_or(String::new(), |k| format!("ulimit -v {k}; "));
-    cmd.arg("-c")
-        .arg(format!("{cap}exec \"$0\" \"$@\""))
-        .arg(BIN)
-        .args(args)
-        .arg(&file)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    let mut child = cmd.spawn().expect("cannot run lsgen");
-    let start = Instant::now();
-    let mut out = child.stdout.take().unwrap();
-    let mut err = child.stderr.take().unwrap();
-    let t_out = std::thread::spawn(move || {
-        let mut v = Vec::new();
-        std::io::Read::read_to_end(&mut out, &mut v).unwrap();
-        v
-    });
-    let t_err = std::thread::spawn(move || {
-        let mut v = Vec::new();
-        std::io::Read::read_to_end(&mut err, &mut v).unwrap();
-        v
-    });
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if start.elapsed() > limit {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("lsgen {args:?} did not finish within {limit:?}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    let stdout = String::from_utf8(t_out.join().unwrap()).unwrap();
-    let stderr = String::from_utf8_lossy(&t_err.join().unwrap()).into_owned();
-    let code = status
-        .code()
-        .unwrap_or_else(|| panic!("lsgen {args:?} killed by a signal: {status:?}\n{stderr}"));
-    assert!(
-        !stderr.contains("panicked") && !stderr.contains("internal error"),
-        "{stderr}"
+    let dir = common::tempdir();
+    let file = common::write(dir.path(), "t.ls", src);
+    let cap = mem_kib.map_or(String::new(), |k| format!("ulimit -v {k}"));
+    let r = common::run_within(
+        common::lsgen_under_sh(if cap.is_empty() { ":" } else { &cap })
+            .args(args)
+            .arg(&file),
+        limit,
     );
-    Run {
-        code,
-        stdout,
-        stderr,
-    }
+    r.assert_no_crash();
+    Run(r)
 }
 
 fn run(src: &str, args: &[&str]) -> Run {
@@ -78,23 +41,18 @@ fn run(src: &str, args: &[&str]) -> Run {
 }
 
 impl Run {
-    fn ok(&self) -> &str {
-        assert_eq!(self.code, 0, "stderr:\n{}", self.stderr);
-        self.stdout.trim_end_matches('\n')
+    /// Exit 0; stdout without its final newline.
+    fn ok(&self) -> String {
+        assert_eq!(self.code(), Some(0), "stderr:\n{}", self.stderr);
+        self.out().trim_end_matches('\n').to_string()
     }
+
+    /// Exit 1, nothing on stdout, one error (-v may add other lines);
+    /// returns stderr.
     fn error(&self) -> &str {
-        assert_eq!(
-            self.code, 1,
-            "stdout {:?}, stderr:\n{}",
-            self.stdout, self.stderr
-        );
-        assert_eq!(
-            self.stderr.matches(": error: ").count(),
-            1,
-            "{}",
-            self.stderr
-        );
-        &self.stderr
+        let e = self.0.fails(1);
+        assert_eq!(e.matches(": error: ").count(), 1, "{e}");
+        e
     }
 }
 
@@ -228,7 +186,7 @@ fn fixed_points_in_the_depth_first_strategies() {
         "derivation length: 65536\nproductions:\nF -> F\nG -> GH\nH ->\naxiom: {}G\n",
         "F".repeat(n)
     );
-    let r = run_with(&src, &[], None, limit);
+    let r = run_with(&src, &["--strategy", "dfs"], None, limit);
     assert!(r.ok() == format!("{}GH", "F".repeat(n)), "wrong output");
     // Parametric plan: F(x) -> F(x) keeps F(x); A(x) : x < 2 -> A(x+1).
     let src = format!(
@@ -236,7 +194,7 @@ fn fixed_points_in_the_depth_first_strategies() {
          homomorphism:\nA(x) -> B(x)\naxiom: {}A(0)\n",
         "F(1)".repeat(n)
     );
-    let r = run_with(&src, &[], None, limit);
+    let r = run_with(&src, &["--strategy", "dfs"], None, limit);
     assert!(
         r.ok() == format!("{}B(2)", "F(1)".repeat(n)),
         "wrong output"
@@ -245,34 +203,47 @@ fn fixed_points_in_the_depth_first_strategies() {
 
 // ------------------------- 19, 21: --max-length names the step, counts bytes
 
-/// A production that never applies but sends the system through the step
-/// engine (a context production) instead of the depth-first expansion.
-const STEPWISE: &str = "X < Y -> Y\n";
+/// Each strategy: the default (depth first for these systems) and the step
+/// engine.
+const STRATEGIES: [&[&str]; 2] = [&[], &["--strategy", "step"]];
+
+fn run_as(strategy: &[&str], src: &str, args: &[&str]) -> Run {
+    run(src, &[strategy, args].concat())
+}
 
 #[test]
 fn max_length_in_bytes_counts_the_string_without_its_newline() {
-    for extra in ["", STEPWISE] {
+    for strategy in STRATEGIES {
         // FFFF is 4 bytes; the newline after it is not part of the string.
-        let src = format!("productions:\n{extra}axiom: FFFF\n");
-        assert_eq!(run(&src, &["-n", "0", "--max-length", "4B"]).ok(), "FFFF");
-        assert_eq!(run(&src, &["-n", "1", "--max-length", "4B"]).ok(), "FFFF");
-        let r = run(&src, &["-n", "0", "--max-length", "3B"]);
+        let src = "productions:\naxiom: FFFF\n";
+        assert_eq!(
+            run_as(strategy, src, &["-n", "0", "--max-length", "4B"]).ok(),
+            "FFFF"
+        );
+        assert_eq!(
+            run_as(strategy, src, &["-n", "1", "--max-length", "4B"]).ok(),
+            "FFFF"
+        );
+        let r = run_as(strategy, src, &["-n", "0", "--max-length", "3B"]);
         assert!(
             r.error().contains("--max-length (3 bytes) in the axiom"),
             "{}",
             r.stderr
         );
         // F -> FF twice from F: FF (2 bytes), then FFFF (4 bytes).
-        let src = format!("productions:\n{extra}F -> FF\naxiom: F\n");
-        assert_eq!(run(&src, &["-n", "2", "--max-length", "4B"]).ok(), "FFFF");
-        let r = run(&src, &["-n", "2", "--max-length", "3B"]);
+        let src = "productions:\nF -> FF\naxiom: F\n";
+        assert_eq!(
+            run_as(strategy, src, &["-n", "2", "--max-length", "4B"]).ok(),
+            "FFFF"
+        );
+        let r = run_as(strategy, src, &["-n", "2", "--max-length", "3B"]);
         assert!(
             r.error().contains("--max-length (3 bytes) in step 2"),
             "{}",
             r.stderr
         );
         // -v reports the same lengths.
-        let r = run(&src, &["-v", "-n", "2"]);
+        let r = run_as(strategy, src, &["-v", "-n", "2"]);
         assert!(
             r.stderr.contains("lsgen: step 2: 4 modules, 4 bytes"),
             "{}",
@@ -285,16 +256,16 @@ fn max_length_in_bytes_counts_the_string_without_its_newline() {
 fn max_length_error_names_the_step() {
     // F -> FF from F: step k has 2^k modules; 2^19 = 524,288 <= 10^6 <
     // 2^20 = 1,048,576, so step 20 is the first too long.
-    for extra in ["", STEPWISE] {
-        let src = format!("productions:\n{extra}F -> FF\naxiom: F\n");
+    for strategy in STRATEGIES {
+        let src = "productions:\nF -> FF\naxiom: F\n";
         for v in [&[][..], &["-v"]] {
             let mut args = vec!["-n", "40", "--max-length", "1M"];
             args.extend_from_slice(v);
-            let r = run(&src, &args);
+            let r = run_as(strategy, src, &args);
             assert!(
                 r.error()
                     .contains("the string grew past --max-length (1000000 modules) in step 20"),
-                "{extra:?} {v:?}: {}",
+                "{strategy:?} {v:?}: {}",
                 r.stderr
             );
         }
@@ -320,6 +291,8 @@ fn every_strategy_reports_the_earliest_steps_first_error() {
     // Default: depth first; -v and --max-length: step by step.
     for args in [
         &["-n", "2"][..],
+        &["-n", "2", "--strategy", "dfs"],
+        &["-n", "2", "--strategy", "step"],
         &["-n", "2", "-v"],
         &["-n", "2", "--max-length", "1G"],
     ] {
@@ -422,7 +395,8 @@ fn bad_seeds_are_located_errors() {
 // ------------------------------------------------------------ 23: ran(x)
 
 /// The parameters of every module of `out` (`F(1)G(2,3)` -> [1, 2, 3]).
-fn params(out: &str) -> Vec<f64> {
+fn params(out: impl AsRef<str>) -> Vec<f64> {
+    let out = out.as_ref();
     out.split(['(', ')', ','])
         .filter_map(|t| t.parse::<f64>().ok())
         .collect()

@@ -3,56 +3,37 @@
 //! tests/expected/turtle/), hand-derived frames, SVG/PNG/OBJ structure,
 //! errors, broken pipes and `-o` atomicity.
 
+mod common;
+
+use common::{lsgen, lsgen_in_root, run, run_with_stdin, Run, ROOT};
 use std::io::{Read, Write};
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::Stdio;
 
-const LSGEN: &str = env!("CARGO_BIN_EXE_lsgen");
-const TURTLE: &str = env!("CARGO_BIN_EXE_lsgen-turtle");
-const ROOT: &str = env!("CARGO_MANIFEST_DIR");
-
+/// lsgen's output for `args` (run from the repository root).
 fn derive(args: &[&str]) -> Vec<u8> {
-    let o = Command::new(LSGEN)
-        .args(args)
-        .current_dir(ROOT)
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "lsgen {args:?}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    o.stdout
+    let r = run(lsgen_in_root().args(args));
+    r.assert_no_crash();
+    assert!(r.status.success(), "{}: {}", r.what, r.stderr);
+    r.stdout
 }
 
 /// lsgen-turtle with `input` on standard input.
-fn turtle(args: &[&str], input: &[u8]) -> Output {
-    let mut c = Command::new(TURTLE)
-        .args(args)
-        .current_dir(ROOT)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stdin = c.stdin.take().unwrap();
-    let data = input.to_vec();
-    let w = std::thread::spawn(move || {
-        let _ = stdin.write_all(&data);
-    });
-    let o = c.wait_with_output().unwrap();
-    w.join().unwrap();
-    o
+fn turtle(args: &[&str], input: &[u8]) -> Run {
+    let r = run_with_stdin(common::turtle().args(args).current_dir(ROOT), input);
+    r.assert_no_crash();
+    r
 }
 
-fn ok(o: &Output) -> Vec<u8> {
+fn ok(r: &Run) -> Vec<u8> {
     assert!(
-        o.status.success() && o.stderr.is_empty(),
-        "exit {:?}, stderr:\n{}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
+        r.status.success() && r.stderr.is_empty(),
+        "{}: exit {:?}, stderr:\n{}",
+        r.what,
+        r.code(),
+        r.stderr
     );
-    o.stdout.clone()
+    r.stdout.clone()
 }
 
 fn text(b: Vec<u8>) -> String {
@@ -414,7 +395,7 @@ fn malformed_input_is_located_and_leaves_no_output() {
     ] {
         let r = turtle(&["-o", o], input);
         assert_eq!(r.status.code(), Some(1));
-        assert_eq!(String::from_utf8_lossy(&r.stderr), msg);
+        assert_eq!(r.stderr, msg);
         assert_eq!(std::fs::read(&out).unwrap(), b"old", "output clobbered");
     }
     let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
@@ -426,7 +407,7 @@ fn malformed_input_is_located_and_leaves_no_output() {
     assert_eq!(r.status.code(), Some(1));
     assert!(r.stdout.is_empty() || r.stdout.starts_with(b"0 0 0 0 2 0"));
     assert_eq!(
-        String::from_utf8_lossy(&r.stderr),
+        r.stderr,
         format!(
             "lsgen-turtle: {}:4: error: parameter list not closed: `(` without `)`\n",
             f.display()
@@ -435,7 +416,8 @@ fn malformed_input_is_located_and_leaves_no_output() {
     // A missing input file.
     let r = turtle(&["/no/such/file", "-o", o], b"");
     assert_eq!(r.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&r.stderr)
+    assert!(r
+        .stderr
         .starts_with("lsgen-turtle: /no/such/file: error: cannot open"));
     assert_eq!(std::fs::read(&out).unwrap(), b"old");
 }
@@ -448,7 +430,7 @@ fn bad_view_settings() {
     let r = turtle(&["--ls", ls.to_str().unwrap()], b"F");
     assert_eq!(r.status.code(), Some(1));
     assert_eq!(
-        String::from_utf8_lossy(&r.stderr),
+        r.stderr,
         format!("lsgen-turtle: {}:2:14: error: `two` is not a number\nview: step = two\n             ^\n", ls.display())
     );
     for args in [
@@ -464,17 +446,9 @@ fn bad_view_settings() {
         &["--no-such-flag"],
     ] {
         let r = turtle(args, b"F");
-        assert_eq!(
-            r.status.code(),
-            Some(2),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&r.stderr)
-        );
+        assert_eq!(r.status.code(), Some(2), "{args:?}: {}", r.stderr);
         assert!(r.stdout.is_empty());
-        assert!(
-            String::from_utf8_lossy(&r.stderr).starts_with("lsgen-turtle: "),
-            "{args:?}"
-        );
+        assert!(r.stderr.starts_with("lsgen-turtle: "), "{args:?}");
     }
     assert!(!Path::new(ROOT).join("x.gif").exists());
 }
@@ -482,13 +456,12 @@ fn bad_view_settings() {
 #[test]
 fn broken_pipe_is_quiet() {
     // A reader that stops after a few bytes: exit 0, nothing on stderr.
-    let mut c = Command::new(TURTLE)
-        .args(["-f", "segments"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut c = common::spawn_with(
+        common::turtle().args(["-f", "segments"]),
+        Stdio::piped(),
+        Stdio::piped(),
+        Stdio::piped(),
+    );
     let mut stdin = c.stdin.take().unwrap();
     let w = std::thread::spawn(move || {
         let chunk = "F+".repeat(1 << 16);
@@ -514,6 +487,9 @@ fn broken_pipe_is_quiet() {
 fn every_example_draws_with_its_own_view() {
     for e in std::fs::read_dir(Path::new(ROOT).join("examples")).unwrap() {
         let p = e.unwrap().path();
+        if p.extension().is_none_or(|x| x != "ls") {
+            continue; // examples/embed.rs: the library example
+        }
         let ls = format!("examples/{}", p.file_name().unwrap().to_str().unwrap());
         let src = std::fs::read_to_string(&p).unwrap();
         assert!(src.contains("\nview: "), "{ls} has no view settings");
@@ -536,10 +512,6 @@ fn lsgen_skips_view_lines_anywhere_in_the_header() {
     .unwrap();
     // Hand derivation: F -> F+F -> F+F+F+F.
     assert_eq!(derive(&[ls.to_str().unwrap()]), b"F+F+F+F\n");
-    let o = Command::new(LSGEN)
-        .arg("--check")
-        .arg(&ls)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = run(lsgen().arg("--check").arg(&ls));
+    assert_eq!(r.ok(), "");
 }
