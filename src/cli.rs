@@ -137,11 +137,29 @@ pub fn main_exit_code() -> i32 {
     install_panic_hook();
     let worker = std::thread::Builder::new()
         .name("lsgen".into())
-        .stack_size(256 << 20)
+        .stack_size(STACK)
         .spawn(main_on_thread);
+    let worker = match worker {
+        Ok(w) => w,
+        Err(e) => {
+            // Typically `ulimit -v` below the stack's reservation: say so
+            // instead of dying silently.
+            crate::diag::eprint(&format!(
+                "lsgen: error: cannot start: {e} (lsgen reserves {} MiB of address space \
+                 for its stack; is `ulimit -v` too low?)\n",
+                STACK >> 20
+            ));
+            return 1;
+        }
+    };
     crate::io::output::leave_termination_signals_to_other_threads();
-    worker.ok().and_then(|t| t.join().ok()).unwrap_or(70)
+    // A panic (a bug) was reported by the hook; exit 70 (EX_SOFTWARE).
+    worker.join().unwrap_or(70)
 }
+
+/// The worker thread's stack: the parser and the expression compiler
+/// recurse on nesting, which the grammar bounds.
+const STACK: usize = 256 << 20;
 
 /// Report a panic (a bug) as one line on standard error, never panicking
 /// again, also when standard error cannot be written.

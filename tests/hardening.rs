@@ -504,3 +504,14 @@ fn a_large_production_table_fits_a_memory_cap() {
     let r = run_with(&src, &[], Some(850 * MIB), Duration::from_secs(300));
     assert_eq!(r.ok(), "F(1)F(1)");
 }
+
+/// Under an address-space cap below the worker thread's stack reservation,
+/// lsgen cannot start: it says so and exits 1 (it used to exit 70 with no
+/// message).
+#[test]
+fn too_little_address_space_to_start_is_reported() {
+    let r = run_with("axiom:\nF\n", &[], Some(100 * MIB), Duration::from_secs(60));
+    let e = r.error();
+    assert!(e.starts_with("lsgen: error: cannot start: "), "{e}");
+    assert!(e.contains("ulimit -v"), "{e}");
+}
