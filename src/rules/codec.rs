@@ -115,6 +115,13 @@ impl Modules {
         (self.keys[i], &self.params[s..s + arity])
     }
 
+    /// Module `i`, its parameters writable.
+    #[inline]
+    pub fn get_mut(&mut self, i: usize, arity: usize) -> (u32, &mut [f64]) {
+        let s = self.starts[i];
+        (self.keys[i], &mut self.params[s..s + arity])
+    }
+
     pub fn len(&self) -> usize {
         self.keys.len()
     }
