@@ -89,6 +89,7 @@ impl Chooser {
     }
 
     #[allow(clippy::too_many_arguments)]
+    #[inline]
     fn choose_in<F>(
         &mut self,
         slots: &mut [f64],

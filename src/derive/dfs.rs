@@ -310,6 +310,7 @@ impl Level {
     }
 
     /// Append a run of modules given in binary form.
+    #[inline]
     fn push_bin(&mut self, mut bin: &[u8], al: &Alphabet) {
         while !bin.is_empty() {
             let (key, kl) = crate::rules::codec::get_key(bin);
@@ -343,6 +344,7 @@ impl<'t> ParamPlan<'t> {
 
     /// The production of `table` applying to (key, params), if any, with
     /// the parameters bound in `ch`.
+    #[inline]
     fn choose(
         table: &Table,
         (key, params): (u32, &mut [f64]),

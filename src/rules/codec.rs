@@ -105,7 +105,9 @@ impl Modules {
         self.keys.push(key);
         self.starts.push(self.params.len());
         let b = body(module);
-        self.params.extend((0..arity).map(|i| get_param(b, i)));
+        for i in 0..arity {
+            self.params.push(get_param(b, i));
+        }
     }
 
     /// Module `i`: its key and its `arity` parameters.
