@@ -168,6 +168,7 @@ impl LSystem {
         })
     }
 
+    #[cfg(feature = "cli")]
     /// The input's name, as error messages give it.
     pub(crate) fn path(&self) -> &str {
         &self.path
@@ -194,12 +195,14 @@ impl LSystem {
         Err(e)
     }
 
+    #[cfg(feature = "cli")]
     /// Read the axiom from `input` (plain module text, no comments)
     /// instead of the file's `axiom:` section.
     pub(crate) fn set_axiom(&mut self, input: Input) {
         self.axiom = Some(input);
     }
 
+    #[cfg(feature = "cli")]
     /// Numbers of productions and homomorphism productions.
     pub(crate) fn counts(&self) -> (usize, usize) {
         self.system.as_ref().map_or((0, 0), |(s, _)| {

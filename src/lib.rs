@@ -1,25 +1,66 @@
-//! lsgen: a streaming L-system rewriter.
+//! lsgen: a streaming L-system rewriter, as a library.
 //!
-//! The pipeline, one folder per stage:
-//! [`io::input`] splits an `.ls` file into header and axiom stream ->
-//! [`lang`] (lexer, grammar, syntax tree) -> [`rules`] (alphabet, compiled
-//! expressions and productions, the binary module format) -> [`derive`] (a
-//! strategy chosen once: depth first, or step by step through temp files)
-//! -> [`io::output`] (atomic output). Errors are rendered by [`diag`].
+//! Parse an L-system ([`LSystem::parse`], [`LSystem::from_reader`]), choose
+//! [`Options`], and [`derive`](LSystem::derive) it into any
+//! [`Write`](std::io::Write): the final string is streamed, generations in
+//! between live in temporary files, so memory does not grow with the
+//! string. [`LSystem::derive_with`] also reports each generation
+//! ([`Event`]). Errors ([`Error`]) carry their location and render as
+//! `FILE:LINE:COL: error: ...`, the source line and a caret.
+//!
+//! ```
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let src = "productions:\nF -> F+F-F-F+F\naxiom: F\n";
+//! let mut koch = lsgen::LSystem::parse(src)?;
+//! let mut out = Vec::new();
+//! koch.derive(&lsgen::Options::new().steps(1), &mut out)?;
+//! assert_eq!(out, b"F+F-F-F+F\n");
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! Inside, one folder per stage of the pipeline: `src/io/input.rs` splits
+//! the `.ls` text into header and axiom stream; `src/lang/` (lexer,
+//! grammar, syntax tree); `src/rules/` (alphabet, compiled expressions and
+//! productions, the binary module format); `src/derive/` (a strategy chosen
+//! once: depth first, or step by step through temporary files; production
+//! choice shared by both); `src/io/` (the streaming axiom reader, atomic
+//! output); `src/diag.rs` (errors and their rendering); `src/cli.rs` (the
+//! `lsgen` command line).
 
 // Standard error may be closed or full: every diagnostic goes through
 // `diag::eprint`, which never panics (issue 9, item 3).
 #![deny(clippy::print_stderr)]
 
 mod api;
+#[cfg(feature = "cli")]
+#[doc(hidden)]
+#[allow(missing_docs)] // internal (tests and fuzzing reach it hidden)
 pub mod cli;
+#[doc(hidden)]
+#[allow(missing_docs)] // internal (tests and fuzzing reach it hidden)
 pub mod cpfg;
-pub mod derive;
+#[allow(missing_docs)] // internal (tests and fuzzing reach it hidden)
+mod derive;
+#[allow(missing_docs)] // partly internal; `Error` is documented
 pub mod diag;
-pub mod io;
-pub mod lang;
+#[allow(missing_docs)] // internal (tests and fuzzing reach it hidden)
+mod io;
+#[allow(missing_docs)] // internal (tests and fuzzing reach it hidden)
+mod lang;
+#[allow(missing_docs)] // internal (tests and fuzzing reach it hidden)
+#[doc(hidden)]
 pub mod rules;
+#[cfg(feature = "turtle")]
+#[doc(hidden)]
+#[allow(missing_docs)] // internal (tests and fuzzing reach it hidden)
 pub mod turtle;
+/// Without the renderer, only the `view:` settings, which lsgen checks.
+#[cfg(not(feature = "turtle"))]
+pub(crate) mod turtle {
+    #[allow(dead_code)]
+    pub mod view;
+}
 
 pub use api::{derive_bytes, LSystem, Options, Stats, DEFAULT_DERIVATION_LENGTH};
 pub use derive::{Event, Limits, Pass};

@@ -6,7 +6,7 @@
 use super::random::Random;
 use super::{Origin, Pass};
 use crate::diag::Error;
-use crate::rules::{codec, ConstRun, Item, KeyRules, Production, Table};
+use crate::rules::{ConstRun, Item, KeyRules, Production, Table};
 
 /// One piece of a successor, in string order.
 pub(crate) enum Piece<'a> {
@@ -17,12 +17,12 @@ pub(crate) enum Piece<'a> {
 }
 
 /// The reusable buffers of choice and evaluation: nothing is allocated per
-/// module once they have grown.
+/// module once they have grown. The formal parameters of the production
+/// being tried (the predecessor's first, then its contexts') are the
+/// caller's `slots`: the step engine binds them there, depth first they
+/// are the module's own parameters, not copied.
 #[derive(Default)]
 pub(crate) struct Chooser {
-    /// Formal parameters of the production being tried: the predecessor's
-    /// first, then its contexts'.
-    pub(crate) slots: Vec<f64>,
     stack: Vec<f64>,
     vals: Vec<f64>,
     /// Matching candidates of a weighted group, with their bindings.
@@ -31,28 +31,6 @@ pub(crate) struct Chooser {
 }
 
 impl Chooser {
-    /// Make room for the formal parameters of every production of `table`.
-    pub(crate) fn prepare(&mut self, table: &Table) {
-        let max_slots = table.prods.iter().map(|p| p.nslots).max().unwrap_or(0);
-        if self.slots.len() < max_slots.max(1) {
-            self.slots.resize(max_slots.max(1), 0.0);
-        }
-    }
-
-    /// Bind the predecessor's parameters, decoded from its encoded bytes.
-    #[inline]
-    pub(crate) fn bind_encoded(&mut self, module: &[u8], arity: usize) {
-        if arity > 0 {
-            codec::read_params(module, &mut self.slots[..arity]);
-        }
-    }
-
-    /// Bind the predecessor's parameters.
-    #[inline]
-    pub(crate) fn bind(&mut self, params: &[f64]) {
-        self.slots[..params.len()].copy_from_slice(params);
-    }
-
     /// The production of `kr` that rewrites the bound module: the context
     /// group first, then the context-free one (see README, "Choice").
     /// `contexts(p, slots)` tells whether `p`'s contexts match here,
@@ -61,6 +39,7 @@ impl Chooser {
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn choose<F>(
         &mut self,
+        slots: &mut [f64],
         table: &Table,
         kr: &KeyRules,
         rng: &mut Random,
@@ -74,11 +53,11 @@ impl Chooser {
         let mut chosen = None;
         if !kr.context.is_empty() {
             let group = (&kr.context[..], kr.context_stochastic);
-            chosen = self.choose_in(table, group, rng, origin, pass, &mut contexts)?;
+            chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
         }
         if chosen.is_none() && !kr.free.is_empty() {
             let group = (&kr.free[..], kr.free_stochastic);
-            chosen = self.choose_in(table, group, rng, origin, pass, &mut contexts)?;
+            chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
         }
         Ok(chosen)
     }
@@ -87,6 +66,7 @@ impl Chooser {
     #[inline]
     fn matches<F>(
         &mut self,
+        slots: &mut [f64],
         p: &Production,
         rng: &mut Random,
         origin: &Origin,
@@ -96,20 +76,23 @@ impl Chooser {
     where
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
-        if !contexts(p, &mut self.slots)? {
+        if !contexts(p, slots)? {
             return Ok(false);
         }
         match &p.cond {
             None => Ok(true),
-            Some(c) => match c.eval(&self.slots, &mut self.stack, rng) {
+            Some(c) => match c.eval(slots, &mut self.stack, rng) {
                 Ok(v) => Ok(v != 0.0),
                 Err(e) => Err(origin.eval_error(e, pass)),
             },
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
     fn choose_in<F>(
         &mut self,
+        slots: &mut [f64],
         table: &Table,
         (list, stochastic): (&[u32], bool),
         rng: &mut Random,
@@ -122,7 +105,8 @@ impl Chooser {
     {
         if !stochastic {
             for &pi in list {
-                if self.matches(&table.prods[pi as usize], rng, origin, pass, contexts)? {
+                let p = &table.prods[pi as usize];
+                if self.matches(slots, p, rng, origin, pass, contexts)? {
                     return Ok(Some(pi));
                 }
             }
@@ -134,13 +118,13 @@ impl Chooser {
         let mut total = 0.0;
         for &pi in list {
             let p = &table.prods[pi as usize];
-            if !self.matches(p, rng, origin, pass, contexts)? {
+            if !self.matches(slots, p, rng, origin, pass, contexts)? {
                 continue;
             }
             let w = match &p.prob {
                 None => 1.0,
                 Some(c) => c
-                    .eval(&self.slots, &mut self.stack, rng)
+                    .eval(slots, &mut self.stack, rng)
                     .map_err(|e| origin.eval_error(e, pass))?,
             };
             if w < 0.0 {
@@ -152,7 +136,7 @@ impl Chooser {
             if w > 0.0 {
                 total += w;
                 self.cand.push((pi, w));
-                self.cand_slots.extend_from_slice(&self.slots[..p.nslots]);
+                self.cand_slots.extend_from_slice(&slots[..p.nslots]);
             }
         }
         let pick = match self.cand.len() {
@@ -178,7 +162,7 @@ impl Chooser {
             .map(|(q, _)| table.prods[*q as usize].nslots)
             .sum();
         let n = table.prods[pi as usize].nslots;
-        self.slots[..n].copy_from_slice(&self.cand_slots[off..off + n]);
+        slots[..n].copy_from_slice(&self.cand_slots[off..off + n]);
         Ok(Some(pi))
     }
 
@@ -187,6 +171,7 @@ impl Chooser {
     #[inline]
     pub(crate) fn successor<F>(
         &mut self,
+        slots: &[f64],
         p: &Production,
         rng: &mut Random,
         origin: &Origin,
@@ -202,7 +187,7 @@ impl Chooser {
                 Item::Module { key, params } => {
                     self.vals.clear();
                     for c in params.iter() {
-                        match c.eval(&self.slots, &mut self.stack, rng) {
+                        match c.eval(slots, &mut self.stack, rng) {
                             Ok(v) => self.vals.push(v),
                             Err(e) => return Err(origin.eval_error(e, pass)),
                         }

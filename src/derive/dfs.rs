@@ -310,6 +310,7 @@ impl Level {
     }
 
     /// Append a run of modules given in binary form.
+    #[inline]
     fn push_bin(&mut self, mut bin: &[u8], al: &Alphabet) {
         while !bin.is_empty() {
             let (key, kl) = crate::rules::codec::get_key(bin);
@@ -343,9 +344,10 @@ impl<'t> ParamPlan<'t> {
 
     /// The production of `table` applying to (key, params), if any, with
     /// the parameters bound in `ch`.
+    #[inline]
     fn choose(
         table: &Table,
-        (key, params): (u32, &[f64]),
+        (key, params): (u32, &mut [f64]),
         ch: &mut Chooser,
         rng: &mut Random,
         origin: &Origin,
@@ -354,8 +356,7 @@ impl<'t> ParamPlan<'t> {
         let Some(kr) = table.get(key) else {
             return Ok(None);
         };
-        ch.bind(params);
-        ch.choose(table, kr, rng, origin, pass, |_, _| Ok(true))
+        ch.choose(params, table, kr, rng, origin, pass, |_, _| Ok(true))
     }
 
     /// Write generation 0 (`input`) expanded by `steps` steps, homomorphism
@@ -371,10 +372,6 @@ impl<'t> ParamPlan<'t> {
         let n = steps as usize;
         let mut levels: Vec<Level> = (0..=n.min(64)).map(|_| Level::default()).collect();
         let mut ch = Chooser::default();
-        ch.prepare(self.prods);
-        if let Some(h) = self.hom {
-            ch.prepare(h);
-        }
         let mut rng = Random::new(0); // never drawn from
         let mut rd = PosReader::new(input, 1 << 16, false);
         let read_err = |e| Error::io("temporary file", "cannot read", e);
@@ -397,12 +394,12 @@ impl<'t> ParamPlan<'t> {
                     levels.push(Level::default());
                 }
                 let (cur, next) = levels.split_at_mut(j + 1);
-                let (k, p) = cur[j].modules.get(i, al.arity(cur[j].modules.keys[i]));
+                let (k, p) = cur[j].modules.get_mut(i, al.arity(cur[j].modules.keys[i]));
                 let pass = Pass::Step(j as u64 + 1);
                 let chosen = if j == n {
                     None
                 } else {
-                    Self::choose(self.prods, (k, p), &mut ch, &mut rng, origin, pass)?
+                    Self::choose(self.prods, (k, &mut *p), &mut ch, &mut rng, origin, pass)?
                 };
                 let Some(pi) = chosen else {
                     self.leaf((k, p), al, origin, out, &mut ch, &mut rng)?;
@@ -413,7 +410,7 @@ impl<'t> ParamPlan<'t> {
                 let next = &mut next[0];
                 next.clear();
                 let prod = &self.prods.prods[pi as usize];
-                ch.successor(prod, &mut rng, origin, pass, |piece| {
+                ch.successor(p, prod, &mut rng, origin, pass, |piece| {
                     match piece {
                         Piece::Const(c) => next.push_bin(c.bin(), al),
                         Piece::Module(key, vals) => next.modules.push(key, vals),
@@ -442,7 +439,7 @@ impl<'t> ParamPlan<'t> {
     /// Write a module of the last generation, through the homomorphism.
     fn leaf(
         &self,
-        (key, params): (u32, &[f64]),
+        (key, params): (u32, &mut [f64]),
         al: &Alphabet,
         origin: &Origin,
         out: &mut Out,
@@ -451,13 +448,16 @@ impl<'t> ParamPlan<'t> {
     ) -> Result<(), Error> {
         let pass = Pass::Homomorphism;
         let chosen = match self.hom {
-            Some(h) => Self::choose(h, (key, params), ch, rng, origin, pass)?.map(|pi| (h, pi)),
+            Some(h) => {
+                Self::choose(h, (key, &mut *params), ch, rng, origin, pass)?.map(|pi| (h, pi))
+            }
             None => None,
         };
         let Some((h, pi)) = chosen else {
             return out.module(key, params, al);
         };
         ch.successor(
+            params,
             &h.prods[pi as usize],
             rng,
             origin,

@@ -48,7 +48,9 @@ impl Origin<'_> {
 /// What one pass is: a numbered step or the homomorphism.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pass {
+    /// Derivation step n (from 1).
     Step(u64),
+    /// The homomorphism, after the last step.
     Homomorphism,
     /// Reading the axiom (generation 0).
     Axiom,

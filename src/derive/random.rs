@@ -27,9 +27,13 @@ impl Random {
         self.1
     }
 
-    /// A fresh seed from the operating system's randomness (through the
-    /// standard library's hash keys), for runs without `seed:`/`--seed`.
+    /// A fresh seed from the operating system's randomness (getrandom),
+    /// for runs without `seed:`/`--seed`; should the system have none, the
+    /// standard library's random hash keys mixed with the time.
     pub fn fresh_seed() -> u64 {
+        if let Ok(seed) = getrandom::u64() {
+            return seed;
+        }
         use std::hash::{BuildHasher, Hasher};
         let mut h = std::collections::hash_map::RandomState::new().build_hasher();
         h.write_u128(

@@ -15,7 +15,10 @@ pub(crate) const OUT_CHUNK: usize = 1 << 20;
 /// Limits on the size of any generation (`--max-length`).
 #[derive(Clone, Copy, Debug)]
 pub struct Limits {
+    /// Most modules in any generation.
     pub modules: u64,
+    /// Most bytes in any generation (of the binary temporary format for
+    /// intermediate generations, of the text for the last).
     pub bytes: u64,
 }
 

@@ -16,6 +16,7 @@ use super::sink::Out;
 use super::{Origin, Pass};
 use crate::derive::random::Random;
 use crate::diag::Error;
+use crate::rules::codec;
 use crate::rules::{Alphabet, KeyRules, Production, RPat, Table, CLOSE, OPEN};
 use std::fs::File;
 use std::io;
@@ -25,6 +26,7 @@ pub struct Deriver<'a> {
     pub alphabet: Alphabet,
     pub rng: Random,
     pub origin: Origin<'a>,
+    slots: Vec<f64>,
     chooser: Chooser,
 }
 
@@ -90,6 +92,7 @@ impl<'a> Deriver<'a> {
             alphabet,
             rng,
             origin,
+            slots: Vec::new(),
             chooser: Chooser::default(),
         }
     }
@@ -103,7 +106,8 @@ impl<'a> Deriver<'a> {
         out: &mut Out,
         pass: Pass,
     ) -> Result<(), Error> {
-        self.chooser.prepare(table);
+        let max_slots = table.prods.iter().map(|p| p.nslots).max().unwrap_or(0);
+        self.slots.resize(max_slots.max(1), 0.0);
         let mut st = StepState {
             peek: table
                 .has_right
@@ -200,10 +204,15 @@ impl<'a> Deriver<'a> {
             alphabet: al,
             rng,
             origin,
+            slots,
             chooser,
         } = self;
-        chooser.bind_encoded(bytes, al.arity(key));
-        let chosen = chooser.choose(table, kr, rng, origin, pass, |p, slots| {
+        // Predecessor parameters into the first slots.
+        let arity = al.arity(key);
+        if arity > 0 {
+            codec::read_params(bytes, &mut slots[..arity]);
+        }
+        let chosen = chooser.choose(slots, table, kr, rng, origin, pass, |p, slots| {
             Ok(!surely_not(p, end_off, st, al)? && contexts_match(p, end_off, st, al, slots)?)
         })?;
         let Some(pi) = chosen else {
@@ -222,7 +231,7 @@ impl<'a> Deriver<'a> {
                 st.last_closer = Some(pi);
             }
         }
-        chooser.successor(p, rng, origin, pass, |piece| match piece {
+        chooser.successor(slots, p, rng, origin, pass, |piece| match piece {
             Piece::Const(c) => out.constant(c),
             Piece::Module(key, vals) => out.module(key, vals, al),
         })?;

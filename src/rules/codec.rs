@@ -105,7 +105,9 @@ impl Modules {
         self.keys.push(key);
         self.starts.push(self.params.len());
         let b = body(module);
-        self.params.extend((0..arity).map(|i| get_param(b, i)));
+        for i in 0..arity {
+            self.params.push(get_param(b, i));
+        }
     }
 
     /// Module `i`: its key and its `arity` parameters.
@@ -113,6 +115,13 @@ impl Modules {
     pub fn get(&self, i: usize, arity: usize) -> (u32, &[f64]) {
         let s = self.starts[i];
         (self.keys[i], &self.params[s..s + arity])
+    }
+
+    /// Module `i`, its parameters writable.
+    #[inline]
+    pub fn get_mut(&mut self, i: usize, arity: usize) -> (u32, &mut [f64]) {
+        let s = self.starts[i];
+        (self.keys[i], &mut self.params[s..s + arity])
     }
 
     pub fn len(&self) -> usize {
