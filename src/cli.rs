@@ -358,15 +358,16 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if args.verbose {
         crate::diag::eprint(&format!("lsgen: seed {}\n", ls.seed(&options)));
     }
-    let mut output = match &args.output {
-        Some(_) if template.is_some() => Output::stdout()?,
-        Some(p) => Output::file(p)?,
-        None => Output::stdout()?,
+    // Frames to files open their own outputs, one per frame.
+    let output = match &args.output {
+        Some(_) if template.is_some() => None,
+        Some(p) => Some(Output::file(p)?),
+        None => Some(Output::stdout()?),
     };
     if let Some(p) = &args.axiom {
         ls.set_axiom(open_input(Some(p))?);
     }
-    let out_name = output.name();
+    let out_name = output.as_ref().map_or_else(String::new, Output::name);
     let mut report = |e: &Event| {
         if !args.verbose {
             return;
@@ -389,37 +390,39 @@ pub fn run(args: &Args) -> Result<(), Error> {
         };
         crate::diag::eprint(&line);
     };
-    if let Some(frames) = args.frames {
-        let mut discard = io::sink();
-        match template {
-            Some(template) => {
-                let mut files = FileFrames { template };
-                let sink = (frames, &mut files as &mut dyn FrameSink);
-                ls.run(
-                    &options,
-                    &mut discard,
-                    "",
-                    args.verbose,
-                    &mut report,
-                    Some(sink),
-                )?;
-            }
-            None => {
-                let mut stream = StreamFrames {
-                    out: output.writer(),
-                    name: out_name.clone(),
-                };
-                let sink = (frames, &mut stream as &mut dyn FrameSink);
-                ls.run(
-                    &options,
-                    &mut discard,
-                    "",
-                    args.verbose,
-                    &mut report,
-                    Some(sink),
-                )?;
-            }
+    let mut output = match output {
+        Some(o) => o,
+        None => {
+            let (frames, template) = args.frames.zip(template).expect("frames to files");
+            let mut files = FileFrames { template };
+            let sink = (frames, &mut files as &mut dyn FrameSink);
+            let mut discard = io::sink();
+            ls.run(
+                &options,
+                &mut discard,
+                "",
+                args.verbose,
+                &mut report,
+                Some(sink),
+            )?;
+            return Ok(());
         }
+    };
+    if let Some(frames) = args.frames {
+        let mut stream = StreamFrames {
+            out: output.writer(),
+            name: out_name.clone(),
+        };
+        let sink = (frames, &mut stream as &mut dyn FrameSink);
+        let mut discard = io::sink();
+        ls.run(
+            &options,
+            &mut discard,
+            "",
+            args.verbose,
+            &mut report,
+            Some(sink),
+        )?;
         return output.commit();
     }
     ls.run(

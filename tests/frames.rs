@@ -193,3 +193,18 @@ fn bad_frame_ranges_are_usage_errors() {
         assert_eq!(r.stdout, b"", "{args:?}");
     }
 }
+
+#[test]
+fn frames_to_files_need_no_standard_output() {
+    let dir = common::tempdir();
+    let r = run(common::lsgen_under_sh("exec >&-")
+        .args(["--frames", "1..2", "-o"])
+        .arg(dir.path().join("a{n}.txt"))
+        .arg(example("algae")));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("a2.txt")).unwrap(),
+        "aba\n"
+    );
+}
