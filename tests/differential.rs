@@ -1528,3 +1528,45 @@ fn chained_runs_equal_one_run_on_the_examples() {
         "the step number changed only {step_matters} examples"
     );
 }
+
+/// The uniform at draw position `p` of `stream` for `seed`, from README's
+/// description of the scheme.
+fn uniform_at(seed: u64, stream: u64, p: u128) -> String {
+    use rand_chacha::rand_core::{Rng, SeedableRng};
+    let mut r = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    r.set_stream(stream);
+    r.set_word_pos(2 * p);
+    format_number((r.next_u64() >> 11) as f64 / (1u64 << 53) as f64)
+}
+
+#[test]
+fn draws_sit_at_their_documented_positions() {
+    // The axiom: stream 0, module index in the axiom, draws in order.
+    let src = "axiom: F(ran(1))[G(ran(1),ran(1))]\n";
+    let d = |i: u128, k: u128| uniform_at(3, 0, k << 59 | i);
+    let want = format!("F({})[G({},{})]\n", d(0, 0), d(2, 0), d(2, 1));
+    assert_eq!(lsgen_text(src, Some(0), Some(3)).unwrap(), want);
+    // Step 5 (`--first-step 4`, 2 steps): stream 5, index in generation 4;
+    // the homomorphism after it: stream 5, region 1.
+    let dir = common::tempdir();
+    let path = dir.path().join("p.ls");
+    std::fs::write(
+        &path,
+        "productions:\nA(x) : x > 0 -> [A(0)]A(ran(1))\nhomomorphism:\nA(x) -> B(x,ran(1))\naxiom: A(1)\n",
+    )
+    .unwrap();
+    let out = binary(
+        &path,
+        &["--seed", "9", "--first-step", "4", "-n", "2"].map(String::from),
+        None,
+    )
+    .unwrap();
+    // Step 4: A(1) -> [A(0)]A(u), u = module 0's draw on stream 4.
+    let u = uniform_at(9, 4, 0);
+    // Step 5: [A(0)]A(u) -> [A(0)][A(0)]A(v), v = module 3's draw on stream 5.
+    let v = uniform_at(9, 5, 3);
+    // Homomorphism: modules 1, 4, 6 of `[A(0)][A(0)]A(v)` draw.
+    let h = |i: u128| uniform_at(9, 5, 1 << 65 | i);
+    let want = format!("[B(0,{})][B(0,{})]B({v},{})\n", h(1), h(4), h(6));
+    assert_eq!(out, want, "u = {u}");
+}
