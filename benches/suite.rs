@@ -490,12 +490,14 @@ fn run_suite(bin: &Path, o: &Options) -> Result<(), String> {
     let res = fs::copy(bin, &copy)
         .map_err(|e| format!("cannot copy {}: {e}", bin.display()))
         .and_then(|_| run_all(&copy, o, &scratch, gnu_time.as_deref()))
-        .and_then(|r| Ok((r, run_turtle(&copy, o, &scratch, gnu_time.as_deref())?)));
+        .and_then(|r| Ok((r, run_turtle(&copy, o, &scratch, gnu_time.as_deref())?)))
+        .and_then(|r| Ok((r, run_frames(&copy, o, &scratch, gnu_time.as_deref())?)));
     let _ = fs::remove_dir_all(&scratch);
-    let ((rows, skips), turtle) = res?;
+    let (((rows, skips), turtle), frames) = res?;
     let mut md = header;
     md.push_str(&table(&rows, &skips));
     md.push_str(&turtle);
+    md.push_str(&frames);
     print!("{md}");
     let target = Path::new(env!("CARGO_MANIFEST_DIR")).join("target");
     let _ = fs::create_dir_all(&target);
@@ -767,6 +769,147 @@ fn run_turtle(
             md,
             "| {name} | {modules} | {wall:.3} | {:.1} | {} | {} | {bytes} |",
             modules as f64 / wall / 1e6,
+            cpu.map_or("?".into(), |c| format!("{c:.3}")),
+            rss.map_or("?".into(), |k| format!("{:.1}", k as f64 / 1024.0)),
+        );
+    }
+    Ok(md)
+}
+
+/// `--frames` rows (issue 13): (row, workload, frames, the last frame's
+/// `-n`). Each writes its frames to files through an `-o` template and is
+/// compared with one run of `-n LAST` (the last frame alone).
+const FRAME_ROWS: [(&str, &str, &str, u64); 3] = [
+    (
+        "frames stochastic_plant 0..12",
+        "stochastic_plant.ls",
+        "0..12",
+        12,
+    ),
+    (
+        "frames stochastic_plant 4..12:4",
+        "stochastic_plant.ls",
+        "4..12:4",
+        12,
+    ),
+    ("frames plant_d 0..13", "plant_d.ls", "0..13", 13),
+];
+
+/// One timed run of `bin ARGS` (stdout discarded): wall s, cpu s, peak
+/// RSS KiB.
+fn timed(
+    bin: &Path,
+    args: &[OsString],
+    time_file: &Path,
+    gnu_time: Option<&Path>,
+) -> Result<(f64, Option<f64>, Option<u64>), String> {
+    let mut cmd = match gnu_time {
+        Some(t) => {
+            let mut c = Command::new(t);
+            c.args(["-f", "%U %S %M", "-o"]).arg(time_file).arg(bin);
+            c
+        }
+        None => Command::new(bin),
+    };
+    cmd.args(args).stdin(Stdio::null()).stdout(Stdio::null());
+    let t0 = Instant::now();
+    let r = cmd
+        .output()
+        .map_err(|e| format!("cannot run {}: {e}", bin.display()))?;
+    let wall = t0.elapsed().as_secs_f64();
+    if !r.status.success() {
+        return Err(format!(
+            "lsgen {args:?} failed: {}",
+            String::from_utf8_lossy(&r.stderr).trim()
+        ));
+    }
+    let t = fs::read_to_string(time_file).unwrap_or_default();
+    let _ = fs::remove_file(time_file);
+    let v: Vec<&str> = t
+        .lines()
+        .last()
+        .unwrap_or_default()
+        .split_whitespace()
+        .collect();
+    Ok(match v[..] {
+        [u, s, m] => (
+            wall,
+            u.parse::<f64>()
+                .ok()
+                .zip(s.parse::<f64>().ok())
+                .map(|(u, s)| u + s),
+            m.parse::<u64>().ok(),
+        ),
+        _ => (wall, None, None),
+    })
+}
+
+fn run_frames(
+    lsgen: &Path,
+    o: &Options,
+    scratch: &Path,
+    gnu_time: Option<&Path>,
+) -> Result<String, String> {
+    let rows: Vec<_> = FRAME_ROWS
+        .iter()
+        .filter(|(name, ..)| {
+            o.only
+                .as_ref()
+                .is_none_or(|v| v.iter().any(|p| name.starts_with(p.as_str())))
+        })
+        .collect();
+    if rows.is_empty() || o.max < 10_000_000 {
+        return Ok(String::new());
+    }
+    let dir = scratch.join("frames");
+    let time_file = scratch.join("frames.time");
+    let mut md = String::from(
+        "\n### Frames\n\n\
+         `--frames` derives once and writes each frame to its own file through an `-o` \
+         template; `-n LAST` is one run for the last frame alone, for comparison.\n\n\
+         | row | frames | bytes of all frames | wall s | `-n LAST` wall s | ratio | cpu s | peak RSS MiB |\n\
+         |---|--:|--:|--:|--:|--:|--:|--:|\n",
+    );
+    for &&(name, file, range, last) in &rows {
+        let reps = o.reps.unwrap_or(3);
+        let tmpdir: OsString = scratch.into();
+        let mut frames_args: Vec<OsString> = vec![workload_path(file).into()];
+        frames_args.extend(["--frames".into(), range.into(), "-o".into()]);
+        frames_args.push(dir.join("f-{n}.txt").into());
+        frames_args.extend(["--tmpdir".into(), tmpdir.clone()]);
+        let out = scratch.join("out.txt");
+        let mut single_args: Vec<OsString> = vec![workload_path(file).into()];
+        single_args.extend(["-n".into(), last.to_string().into(), "-o".into()]);
+        single_args.extend([out.clone().into(), "--tmpdir".into(), tmpdir]);
+        let (mut best, mut best_single) = (None::<(f64, Option<f64>, Option<u64>)>, f64::INFINITY);
+        let (mut count, mut bytes) = (0u64, 0u64);
+        for rep in 0..reps {
+            let _ = fs::remove_dir_all(&dir);
+            fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+            let r = timed(lsgen, &frames_args, &time_file, gnu_time)?;
+            (count, bytes) = (0, 0);
+            for e in fs::read_dir(&dir).map_err(|e| format!("{}: {e}", dir.display()))? {
+                count += 1;
+                bytes += e.and_then(|e| e.metadata()).map_or(0, |m| m.len());
+            }
+            let _ = fs::remove_dir_all(&dir);
+            let single = timed(lsgen, &single_args, &time_file, gnu_time)?.0;
+            let _ = fs::remove_file(&out);
+            eprintln!(
+                "suite: {name} [{}/{reps}]: {count} frames, {bytes} bytes, {:.3} s; -n {last}: {single:.3} s",
+                rep + 1,
+                r.0
+            );
+            best_single = best_single.min(single);
+            if best.is_none_or(|b| r.0 < b.0) {
+                best = Some(r);
+            }
+        }
+        let (wall, cpu, rss) = best.expect("at least one repetition");
+        let _ = writeln!(
+            md,
+            "| {name} | {count} | {bytes} | {wall:.3} | {best_single:.3} | {:.2} | {} | {} |",
+            wall / best_single,
             cpu.map_or("?".into(), |c| format!("{c:.3}")),
             rss.map_or("?".into(), |k| format!("{:.1}", k as f64 / 1024.0)),
         );

@@ -1,7 +1,7 @@
 //! The library facade: [`LSystem`], [`Options`], [`Stats`].
 
 use crate::derive::random::Random;
-use crate::derive::{derive, Event, Limits, Settings, Strategy};
+use crate::derive::{derive, Event, FrameSink, Frames, Limits, Settings, Strategy};
 use crate::diag::Error;
 use crate::io::axiom::AxiomReader;
 use crate::io::input::{split_header, Input, Split};
@@ -51,6 +51,7 @@ pub struct Options {
     limits: Limits,
     tmpdir: Option<PathBuf>,
     strategy: Strategy,
+    first_step: u64,
 }
 
 impl Default for Options {
@@ -62,6 +63,7 @@ impl Default for Options {
             limits: Limits::default(),
             tmpdir: None,
             strategy: Strategy::Auto,
+            first_step: 1,
         }
     }
 }
@@ -102,6 +104,14 @@ impl Options {
     /// Directory for the temporary generation files (default: `$TMPDIR`).
     pub fn tmpdir(mut self, dir: impl Into<PathBuf>) -> Self {
         self.tmpdir = Some(dir.into());
+        self
+    }
+
+    /// The number of the first step (default 1): random draws depend on
+    /// the step number, so deriving 3 steps, then 2 more from the result
+    /// with `first_step(4)`, gives what 5 steps give.
+    pub fn first_step(mut self, k: u64) -> Self {
+        self.first_step = k;
         self
     }
 
@@ -258,7 +268,7 @@ impl LSystem {
     /// Generations in between live in temporary files, so memory does not
     /// grow with the string.
     pub fn derive(&mut self, options: &Options, out: impl Write) -> Result<Stats, Error> {
-        self.run(options, out, "output", false, &mut |_| {})
+        self.run(options, out, "output", false, &mut |_| {}, None)
     }
 
     /// [`derive`](LSystem::derive), calling `on_event` as each generation
@@ -271,7 +281,7 @@ impl LSystem {
         out: impl Write,
         mut on_event: impl FnMut(&Event),
     ) -> Result<Stats, Error> {
-        self.run(options, out, "output", true, &mut on_event)
+        self.run(options, out, "output", true, &mut on_event, None)
     }
 
     pub(crate) fn run(
@@ -281,12 +291,25 @@ impl LSystem {
         out_name: &str,
         lengths: bool,
         events: &mut dyn FnMut(&Event),
+        frames: Option<(Frames, &mut dyn FrameSink)>,
     ) -> Result<Stats, Error> {
+        if options.first_step == 0 {
+            return Err(Error::usage("the first step is step 1 or later"));
+        }
         let (mut system, input, comments, line, col) = self.take(options.seed)?;
-        let steps = options
-            .steps
-            .or(system.derivation_length)
-            .unwrap_or(DEFAULT_DERIVATION_LENGTH);
+        let steps = match &frames {
+            Some((f, _)) => f.last(),
+            None => options
+                .steps
+                .or(system.derivation_length)
+                .unwrap_or(DEFAULT_DERIVATION_LENGTH),
+        };
+        if options.first_step.checked_add(steps).is_none() {
+            return Err(Error::usage(format!(
+                "`--first-step {}` with {steps} steps: step numbers must stay below 2^64 - 1",
+                options.first_step
+            )));
+        }
         let seed = options.seed.or(system.seed).unwrap_or(self.fresh);
         let settings = Settings {
             steps,
@@ -296,6 +319,7 @@ impl LSystem {
             tmpdir: options.tmpdir.clone(),
             lengths,
             strategy: options.strategy,
+            first_step: options.first_step,
         };
         let consts = std::mem::take(&mut system.consts);
         let reader = AxiomReader::new(input, comments, line, col, &consts);
@@ -307,6 +331,7 @@ impl LSystem {
             system,
             (&mut out, out_name),
             events,
+            frames,
         )?;
         Ok(Stats {
             seed,

@@ -2,7 +2,7 @@
 
 pub use crate::api::DEFAULT_DERIVATION_LENGTH;
 use crate::api::{LSystem, Options};
-use crate::derive::{Event, Limits, Pass, Strategy};
+use crate::derive::{Event, FrameSink, Frames, Limits, Pass, Strategy};
 use crate::diag::{Error, Kind};
 use crate::io::input::Input;
 use crate::io::output::Output;
@@ -33,7 +33,7 @@ pub struct Args {
     pub output: Option<PathBuf>,
 
     /// Number of derivation steps (overrides `derivation length:`).
-    #[arg(short = 'n', long, value_name = "N",
+    #[arg(short = 'n', long, value_name = "N", conflicts_with = "frames",
           value_parser = clap::value_parser!(u64).range(..=MAX_STEPS))]
     pub derivation_length: Option<u64>,
 
@@ -63,6 +63,19 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     pub tmpdir: Option<PathBuf>,
 
+    /// The number of this run's first step (default 1): random draws
+    /// depend on it, so `-n 3 --no-homomorphism | -n 2 --first-step 4
+    /// --axiom -` gives what `-n 5` gives.
+    #[arg(long, value_name = "K", default_value_t = 1,
+          value_parser = clap::value_parser!(u64).range(1..))]
+    pub first_step: u64,
+
+    /// Write generations A to B (every K-th with `A..B:K`) from one
+    /// derivation, each as `-n` would print it: one line each, or with
+    /// `-o` one file each, `{n}` in its name the generation number.
+    #[arg(long, value_name = "A..B[:K]", value_parser = parse_frames)]
+    pub frames: Option<Frames>,
+
     /// Report the seed and each generation's length on standard error.
     #[arg(short, long)]
     pub verbose: bool,
@@ -83,6 +96,66 @@ pub fn parse_strategy(s: &str) -> Result<Strategy, String> {
         "step" => Ok(Strategy::Step),
         "dfs" => Ok(Strategy::DepthFirst),
         _ => Err(format!("`{s}` is not a strategy: use auto, step or dfs")),
+    }
+}
+
+/// `--frames`: `A..B` or `A..B:K` (inclusive, A <= B, K >= 1, B at most
+/// 2^53 like `-n`).
+pub fn parse_frames(s: &str) -> Result<Frames, String> {
+    let bad = || format!("`{s}` is not a range of generations: use A..B or A..B:K, e.g. 0..10:2");
+    let (range, every) = match s.split_once(':') {
+        Some((r, k)) => (r, k.trim().parse::<u64>().map_err(|_| bad())?),
+        None => (s, 1),
+    };
+    let (a, b) = range.split_once("..").ok_or_else(bad)?;
+    let from: u64 = a.trim().parse().map_err(|_| bad())?;
+    let to: u64 = b.trim().parse().map_err(|_| bad())?;
+    if from > to {
+        return Err(format!("`{s}`: the first generation comes after the last"));
+    }
+    if every == 0 {
+        return Err(format!("`{s}`: the step between frames must be 1 or more"));
+    }
+    if to > MAX_STEPS {
+        return Err(format!("`{s}`: generations go up to {MAX_STEPS}"));
+    }
+    Ok(Frames { from, to, every })
+}
+
+/// Frames one after the other on one stream, a line each.
+struct StreamFrames<'a> {
+    out: &'a mut dyn Write,
+    name: String,
+}
+
+impl FrameSink for StreamFrames<'_> {
+    fn frame(
+        &mut self,
+        _n: u64,
+        write: &mut dyn FnMut(&mut dyn Write, &str) -> Result<(u64, u64), Error>,
+    ) -> Result<(u64, u64), Error> {
+        write(self.out, &self.name)
+    }
+}
+
+/// Frames in files named by a template (`{n}`: the generation), each
+/// written as `-o` writes.
+struct FileFrames {
+    template: String,
+}
+
+impl FrameSink for FileFrames {
+    fn frame(
+        &mut self,
+        n: u64,
+        write: &mut dyn FnMut(&mut dyn Write, &str) -> Result<(u64, u64), Error>,
+    ) -> Result<(u64, u64), Error> {
+        let path = PathBuf::from(self.template.replace("{n}", &n.to_string()));
+        let mut output = Output::file(&path)?;
+        let name = output.name();
+        let len = write(output.writer(), &name)?;
+        output.commit()?;
+        Ok(len)
     }
 }
 
@@ -281,20 +354,38 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(s) = args.seed {
         options = options.seed(s);
     }
+    options = options.first_step(args.first_step);
+    // `-o` with `--frames` is a template; check it before deriving.
+    let template = match (&args.frames, &args.output) {
+        (Some(_), Some(p)) if p.as_os_str() != "-" => {
+            let t = p
+                .to_str()
+                .ok_or_else(|| Error::usage("`--frames`: the `-o` template must be UTF-8 text"))?;
+            if !t.contains("{n}") {
+                return Err(Error::usage(
+                    "`--frames` with `-o` needs `{n}` (the generation number) in the file name",
+                ));
+            }
+            Some(t.to_string())
+        }
+        _ => None,
+    };
     if let Some(d) = &args.tmpdir {
         options = options.tmpdir(d);
     }
     if args.verbose {
         crate::diag::eprint(&format!("lsgen: seed {}\n", ls.seed(&options)));
     }
-    let mut output = match &args.output {
-        Some(p) => Output::file(p)?,
-        None => Output::stdout()?,
+    // Frames to files open their own outputs, one per frame.
+    let output = match &args.output {
+        Some(_) if template.is_some() => None,
+        Some(p) => Some(Output::file(p)?),
+        None => Some(Output::stdout()?),
     };
     if let Some(p) = &args.axiom {
         ls.set_axiom(open_input(Some(p))?);
     }
-    let out_name = output.name();
+    let out_name = output.as_ref().map_or_else(String::new, Output::name);
     let mut report = |e: &Event| {
         if !args.verbose {
             return;
@@ -317,12 +408,48 @@ pub fn run(args: &Args) -> Result<(), Error> {
         };
         crate::diag::eprint(&line);
     };
+    let mut output = match output {
+        Some(o) => o,
+        None => {
+            let (frames, template) = args.frames.zip(template).expect("frames to files");
+            let mut files = FileFrames { template };
+            let sink = (frames, &mut files as &mut dyn FrameSink);
+            let mut discard = io::sink();
+            ls.run(
+                &options,
+                &mut discard,
+                "",
+                args.verbose,
+                &mut report,
+                Some(sink),
+            )?;
+            return Ok(());
+        }
+    };
+    if let Some(frames) = args.frames {
+        let mut stream = StreamFrames {
+            out: output.writer(),
+            name: out_name.clone(),
+        };
+        let sink = (frames, &mut stream as &mut dyn FrameSink);
+        let mut discard = io::sink();
+        ls.run(
+            &options,
+            &mut discard,
+            "",
+            args.verbose,
+            &mut report,
+            Some(sink),
+        )?;
+        return output.commit();
+    }
     ls.run(
         &options,
         output.writer(),
         &out_name,
         args.verbose,
         &mut report,
+        None,
     )?;
     output.commit()
 }

@@ -1352,3 +1352,221 @@ fn unused_productions_change_nothing() {
         assert_eq!(got.as_ref(), Ok(&plain), "on\n{}", more.text());
     }
 }
+
+// ---------------------------------------------------------------------------
+// Chained runs (issue 13): `-n a --no-homomorphism | -n b --first-step a+1
+// --axiom -` equals `-n a+b`, with the same seed, for every system.
+
+/// The binary on `path` with `args`, the axiom (if any) on standard input.
+fn binary(
+    path: &std::path::Path,
+    args: &[String],
+    stdin: Option<String>,
+) -> Result<String, String> {
+    let mut cmd = common::lsgen();
+    cmd.arg(path).args(args);
+    let r = match stdin {
+        Some(s) => common::run_with_stdin(&mut cmd, s),
+        None => common::run(&mut cmd),
+    };
+    r.assert_no_crash();
+    match r.code() {
+        Some(0) => Ok(r.out()),
+        _ => Err(r.stderr),
+    }
+}
+
+/// Split `a + b` steps of `path` at `a`: (the whole run, the chained run,
+/// the chained run without `--first-step`).
+fn chain(
+    path: &std::path::Path,
+    a: u64,
+    b: u64,
+    seed: u64,
+) -> (
+    Result<String, String>,
+    Result<String, String>,
+    Result<String, String>,
+) {
+    let s = |x: &str| x.to_string();
+    let seed = seed.to_string();
+    let whole = binary(
+        path,
+        &[s("-n"), (a + b).to_string(), s("--seed"), seed.clone()],
+        None,
+    );
+    let Ok(mid) = binary(
+        path,
+        &[
+            s("-n"),
+            a.to_string(),
+            s("--seed"),
+            seed.clone(),
+            s("--no-homomorphism"),
+        ],
+        None,
+    ) else {
+        return (whole, Err("first half failed".into()), Err(String::new()));
+    };
+    let second = |first: u64| {
+        binary(
+            path,
+            &[
+                s("-n"),
+                b.to_string(),
+                s("--seed"),
+                seed.clone(),
+                s("--first-step"),
+                first.to_string(),
+                s("--axiom"),
+                s("-"),
+            ],
+            Some(mid.clone()),
+        )
+    };
+    (whole, second(a + 1), second(1))
+}
+
+#[test]
+fn chained_runs_equal_one_run() {
+    let stochastic = Cfg {
+        params: true,
+        cond: true,
+        stochastic: true,
+        random_fns: true,
+        brackets: true,
+        hom: true,
+        max_steps: 3,
+        ..BASE
+    };
+    let context = Cfg {
+        left: 2,
+        right: 2,
+        right_brackets: true,
+        filter: true,
+        context_share: 0.5,
+        ..stochastic
+    };
+    let parametric = Cfg {
+        stochastic: false,
+        defines: true,
+        ..stochastic
+    };
+    let dir = common::tempdir();
+    let path = dir.path().join("p.ls");
+    for (name, cfg) in [
+        ("stochastic", stochastic),
+        ("context", context),
+        ("parametric", parametric),
+    ] {
+        let (mut done, mut step_matters) = (0, 0);
+        for i in 0..40u64 {
+            let mut case = gen_case(cfg, 0xC4A1 + i);
+            case.settings
+                .retain(|s| !s.starts_with("derivation length"));
+            let src = case.text();
+            std::fs::write(&path, &src).unwrap();
+            let (a, b) = (1 + i % 2, 1 + (i / 2) % 2);
+            let seed = case.seed.unwrap_or(7);
+            let (whole, chained, unnumbered) = chain(&path, a, b, seed);
+            let Ok(whole) = whole else { continue };
+            if whole.len() > 100_000 {
+                continue;
+            }
+            assert_eq!(
+                chained.as_ref(),
+                Ok(&whole),
+                "{name}: {a}+{b} steps differ from {} on\n{src}",
+                a + b
+            );
+            done += 1;
+            step_matters += usize::from(unnumbered.as_ref() != Ok(&whole));
+        }
+        assert!(done >= 25, "{name}: only {done} chained runs checked");
+        // The check can fail: without --first-step the draws differ.
+        if name != "parametric" {
+            assert!(
+                step_matters >= 10,
+                "{name}: the step number changed only {step_matters} outputs"
+            );
+        }
+    }
+}
+
+#[test]
+fn chained_runs_equal_one_run_on_the_examples() {
+    let mut done = 0;
+    let mut step_matters = 0;
+    for entry in std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/examples")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "ls") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        let n: u64 = text
+            .lines()
+            .find_map(|l| l.strip_prefix("derivation length:"))
+            .map_or(1, |v| v.trim().parse().unwrap());
+        let n = n.clamp(2, 8);
+        let a = n / 2;
+        let (whole, chained, unnumbered) = chain(&path, a, n - a, 7);
+        let whole = whole.unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert_eq!(
+            chained.as_ref(),
+            Ok(&whole),
+            "{}: {a}+{} steps",
+            path.display(),
+            n - a
+        );
+        step_matters += usize::from(unnumbered.as_ref() != Ok(&whole));
+        done += 1;
+    }
+    assert!(done >= 30, "only {done} examples");
+    // stochastic_plant and stochastic_row draw.
+    assert!(
+        step_matters >= 2,
+        "the step number changed only {step_matters} examples"
+    );
+}
+
+/// The uniform at draw position `p` of `stream` for `seed`, from README's
+/// description of the scheme.
+fn uniform_at(seed: u64, stream: u64, p: u128) -> String {
+    use rand_chacha::rand_core::{Rng, SeedableRng};
+    let mut r = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    r.set_stream(stream);
+    r.set_word_pos(2 * p);
+    format_number((r.next_u64() >> 11) as f64 / (1u64 << 53) as f64)
+}
+
+#[test]
+fn draws_sit_at_their_documented_positions() {
+    // The axiom: stream 0, module index in the axiom, draws in order.
+    let src = "axiom: F(ran(1))[G(ran(1),ran(1))]\n";
+    let d = |i: u128, k: u128| uniform_at(3, 0, k << 59 | i);
+    let want = format!("F({})[G({},{})]\n", d(0, 0), d(2, 0), d(2, 1));
+    assert_eq!(lsgen_text(src, Some(0), Some(3)).unwrap(), want);
+    // Step 5 (`--first-step 4`, 2 steps): stream 5, index in generation 4;
+    // the homomorphism after it: stream 5, region 1.
+    let dir = common::tempdir();
+    let path = dir.path().join("p.ls");
+    std::fs::write(
+        &path,
+        "productions:\nA(x) : x > 0 -> [A(0)]A(ran(1))\nhomomorphism:\nA(x) -> B(x,ran(1))\naxiom: A(1)\n",
+    )
+    .unwrap();
+    let out = binary(
+        &path,
+        &["--seed", "9", "--first-step", "4", "-n", "2"].map(String::from),
+        None,
+    )
+    .unwrap();
+    // Step 4: A(1) -> [A(0)]A(u), u = module 0's draw on stream 4.
+    let u = uniform_at(9, 4, 0);
+    // Step 5: [A(0)]A(u) -> [A(0)][A(0)]A(v), v = module 3's draw on stream 5.
+    let v = uniform_at(9, 5, 3);
+    // Homomorphism: modules 1, 4, 6 of `[A(0)][A(0)]A(v)` draw.
+    let h = |i: u128| uniform_at(9, 5, 1 << 65 | i);
+    let want = format!("[B(0,{})][B(0,{})]B({v},{})\n", h(1), h(4), h(6));
+    assert_eq!(out, want, "u = {u}");
+}

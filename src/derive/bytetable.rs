@@ -74,7 +74,7 @@ impl<'t> ByteTable<'t> {
     }
 
     /// Rewrite the leading bytes of `input` it can handle; returns how many
-    /// bytes it used. Modules that left contexts consider are recorded in
+    /// bytes and how many modules it used. Modules that left contexts consider are recorded in
     /// `left`; brackets open and close its levels and the output's bracket
     /// index (`indexed`: the input's `[` carry 8 index bytes).
     #[inline]
@@ -85,8 +85,9 @@ impl<'t> ByteTable<'t> {
         mut left: Option<&mut LeftContext>,
         al: &Alphabet,
         indexed: bool,
-    ) -> Result<usize, Error> {
+    ) -> Result<(usize, u64), Error> {
         let mut i = 0;
+        let mut modules = 0;
         while i < input.len() {
             let b = input[i];
             if b >= 0x80 {
@@ -104,6 +105,7 @@ impl<'t> ByteTable<'t> {
                         left.open();
                     }
                     i += n;
+                    modules += 1;
                     continue;
                 }
                 if b == b']' {
@@ -113,6 +115,7 @@ impl<'t> ByteTable<'t> {
                         left.close();
                     }
                     i += 1;
+                    modules += 1;
                     continue;
                 }
                 break;
@@ -132,10 +135,11 @@ impl<'t> ByteTable<'t> {
                 }
             }
             i += 1;
+            modules += 1;
             if out.buf.len() >= OUT_CHUNK {
                 break;
             }
         }
-        Ok(i)
+        Ok((i, modules))
     }
 }

@@ -3,7 +3,7 @@
 //! group wins (conditions, weights, the draw), then the successor's
 //! parameters evaluated left to right.
 
-use super::random::Random;
+use super::random::{Draw, Random};
 use super::{Origin, Pass};
 use crate::diag::Error;
 use crate::rules::{ConstRun, Item, KeyRules, Production, Table};
@@ -143,7 +143,11 @@ impl Chooser {
             0 => return Ok(None),
             1 => 0,
             n => {
-                let mut u = rng.uniform() * total;
+                let u = rng.uniform().map_err(|m| {
+                    let p = &table.prods[self.cand[0].0 as usize];
+                    Error::at(origin.locate(p.span.0), format!("{m} (in {pass})"))
+                })?;
+                let mut u = u * total;
                 let mut i = 0;
                 while i < n - 1 {
                     u -= self.cand[i].1;

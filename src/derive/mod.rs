@@ -23,7 +23,7 @@ pub use step::Deriver;
 use crate::diag::{CodeMap, Error, Location};
 use crate::io::axiom::AxiomReader;
 use crate::rules::System;
-use random::Random;
+use random::{Random, Region};
 use std::fs::File;
 use std::io::{self, Seek, SeekFrom, Write};
 use std::path::PathBuf;
@@ -88,6 +88,41 @@ pub(crate) struct Settings {
     /// Each generation's length is wanted (by an [`Event`] callback).
     pub lengths: bool,
     pub strategy: Strategy,
+    /// The number of this run's first step (`--first-step`, default 1):
+    /// the random draws of step k depend on k.
+    pub first_step: u64,
+}
+
+/// Which generations `--frames A..B:K` writes: `from..=to`, every
+/// `every`-th from `from`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Frames {
+    pub from: u64,
+    pub to: u64,
+    pub every: u64,
+}
+
+impl Frames {
+    /// Is generation `k` a frame?
+    pub fn contains(&self, k: u64) -> bool {
+        k >= self.from && k <= self.to && (k - self.from) % self.every == 0
+    }
+
+    /// The last frame (the derivation goes no further).
+    pub fn last(&self) -> u64 {
+        self.from + (self.to - self.from) / self.every * self.every
+    }
+}
+
+/// Where frames are written: `frame(n, write)` opens frame n's
+/// destination, has `write` fill it (returning its length), and closes it.
+pub trait FrameSink {
+    #[allow(clippy::type_complexity)]
+    fn frame(
+        &mut self,
+        n: u64,
+        write: &mut dyn FnMut(&mut dyn Write, &str) -> Result<(u64, u64), Error>,
+    ) -> Result<(u64, u64), Error>;
 }
 
 /// What a derivation reports as it goes (see `LSystem::derive_with`).
@@ -169,6 +204,7 @@ fn rewind(f: &mut File) -> Result<(), Error> {
         .map_err(|e| Error::io("temporary file", "cannot write", e))
 }
 
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn derive(
     settings: &Settings,
     mut reader: AxiomReader,
@@ -177,14 +213,18 @@ pub(crate) fn derive(
     system: System,
     (output, out_name): (&mut dyn Write, &str),
     events: &mut dyn FnMut(&Event),
+    frames: Option<(Frames, &mut dyn FrameSink)>,
 ) -> Result<(u64, u64), Error> {
     let Settings {
         steps,
         seed,
         limits,
         ref tmpdir,
+        first_step,
         ..
     } = *settings;
+    // The number of the i-th step of this run.
+    let step_no = |i: u64| first_step + (i - 1);
     let System {
         alphabet,
         productions,
@@ -201,7 +241,7 @@ pub(crate) fn derive(
             "`--strategy dfs`: this system cannot be derived depth first with these options",
         )
     };
-    if strategy == Strategy::DepthFirst && passes == 0 {
+    if strategy == Strategy::DepthFirst && (passes == 0 || frames.is_some()) {
         return Err(not_depth_first());
     }
     let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
@@ -219,7 +259,7 @@ pub(crate) fn derive(
         tmpdir.clone().unwrap_or_else(std::env::temp_dir).display()
     );
     // Generation 0: the axiom.
-    let mut cur = if passes == 0 {
+    let mut cur = if passes == 0 && frames.is_none() {
         None
     } else {
         Some(tempfile(tmpdir)?)
@@ -229,6 +269,7 @@ pub(crate) fn derive(
         let mut params = Vec::new();
         loop {
             reader.plain_run(|run| out.plain(run))??;
+            d.rng.set_module(out.modules);
             match reader.next(&mut d.alphabet, &mut params, &mut d.rng)? {
                 Some(key) => out.module(key, &params, &d.alphabet)?,
                 None => break,
@@ -236,11 +277,19 @@ pub(crate) fn derive(
             out.maybe_flush()?;
         }
         let len = generation(Pass::Axiom, out.finish()?);
-        if passes == 0 {
+        if passes == 0 && frames.is_none() {
             return Ok(len);
         }
     }
     drop(reader);
+    if let Some((frames, frame_sink)) = frames {
+        let cur = cur.take().expect("generation 0 in a file");
+        let tables = (&productions, &homomorphism, hom);
+        let names = (frame_sink, tmp_name.as_str());
+        return frame_passes(
+            &mut d, cur, tables, settings, frames, names, indexed, events,
+        );
+    }
 
     // Deterministic context-free byte systems: depth first, no temp files.
     let plan = crate::derive::dfs::Plan::new(
@@ -261,13 +310,13 @@ pub(crate) fn derive(
                 lengths.len() - 1
             };
             for (i, &len) in lengths[..shown].iter().enumerate() {
-                generation(Pass::Step(i as u64 + 1), len);
+                generation(Pass::Step(step_no(i as u64 + 1)), len);
             }
         }
         let last = if hom {
             Pass::Homomorphism
         } else {
-            Pass::Step(steps)
+            Pass::Step(step_no(steps))
         };
         let mut none = None;
         let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?.for_pass(last);
@@ -299,7 +348,7 @@ pub(crate) fn derive(
                 let last = if hom {
                     Pass::Homomorphism
                 } else {
-                    Pass::Step(steps)
+                    Pass::Step(step_no(steps))
                 };
                 return Ok(generation(last, len));
             }
@@ -343,6 +392,7 @@ fn step_passes(
         steps,
         limits,
         ref tmpdir,
+        first_step,
         ..
     } = *settings;
     let passes = steps + u64::from(hom);
@@ -350,9 +400,15 @@ fn step_passes(
     let mut other: Option<File> = None;
     let mut i = 1;
     while i <= passes {
+        // Step i of this run draws on stream `first_step + i - 1`; the
+        // homomorphism on the last step's.
         let (table, pass) = if i <= steps {
-            (productions, Pass::Step(i))
+            let k = first_step + (i - 1);
+            d.rng.start_pass(k, Region::Step);
+            (productions, Pass::Step(k))
         } else {
+            d.rng
+                .start_pass(first_step + steps - 1, Region::Homomorphism);
             (homomorphism, Pass::Homomorphism)
         };
         let src = cur.take().expect("a generation to read");
@@ -388,8 +444,8 @@ fn step_passes(
             if let Some(next) = &dst {
                 if same_contents(&src, next)? {
                     events(&Event::FixedPoint {
-                        from: i + 1,
-                        to: steps,
+                        from: first_step + i,
+                        to: first_step + (steps - 1),
                     });
                     other = Some(src);
                     cur = dst;
@@ -401,6 +457,87 @@ fn step_passes(
         other = Some(src);
         cur = dst;
         i += 1;
+    }
+    Ok(last_len)
+}
+
+/// `--frames`: the steps up to the last frame, one temp file each; each
+/// frame is the homomorphism (or a plain copy) of its generation, written
+/// as text to its own destination, while the steps go on from the
+/// generation itself.
+#[allow(clippy::too_many_arguments)]
+fn frame_passes(
+    d: &mut Deriver,
+    mut cur: File,
+    (productions, homomorphism, hom): (&crate::rules::Table, &crate::rules::Table, bool),
+    settings: &Settings,
+    frames: Frames,
+    (sink_of_frames, tmp_name): (&mut dyn FrameSink, &str),
+    indexed: bool,
+    events: &mut dyn FnMut(&Event),
+) -> Result<(u64, u64), Error> {
+    let Settings {
+        limits,
+        ref tmpdir,
+        first_step,
+        ..
+    } = *settings;
+    let copy = crate::rules::Table::default();
+    let mut last_len = (0, 0);
+    let mut emit = |d: &mut Deriver, gen: &File, k: u64| -> Result<(), Error> {
+        last_len = sink_of_frames.frame(k, &mut |w, name| {
+            let mut none = None;
+            let mut out = sink(&mut none, tmp_name, w, name, limits, false)?;
+            if hom {
+                // The homomorphism of generation k, as `lsgen -n k` applies it.
+                d.rng.start_pass(first_step + k - 1, Region::Homomorphism);
+                let mut out = out.for_pass(Pass::Homomorphism);
+                d.pass(homomorphism, gen, indexed, &mut out, Pass::Homomorphism)?;
+                out.finish()
+            } else {
+                let pass = if k == 0 {
+                    Pass::Axiom
+                } else {
+                    Pass::Step(first_step + (k - 1))
+                };
+                out = out.for_pass(pass);
+                d.pass(&copy, gen, indexed, &mut out, pass)?;
+                out.finish()
+            }
+        })?;
+        Ok(())
+    };
+    if frames.contains(0) {
+        emit(d, &cur, 0)?;
+    }
+    let mut other: Option<File> = None;
+    for i in 1..=frames.last() {
+        let k = first_step + (i - 1);
+        d.rng.start_pass(k, Region::Step);
+        let pass = Pass::Step(k);
+        let mut dst = Some(match other.take() {
+            Some(mut f) => {
+                rewind(&mut f)?;
+                f
+            }
+            None => tempfile(tmpdir)?,
+        });
+        {
+            let mut discard = io::sink();
+            let mut out =
+                sink(&mut dst, tmp_name, &mut discard, "", limits, indexed)?.for_pass(pass);
+            d.pass(productions, &cur, indexed, &mut out, pass)?;
+            let (modules, bytes) = out.finish()?;
+            events(&Event::Generation {
+                pass,
+                modules,
+                bytes,
+            });
+        }
+        other = Some(std::mem::replace(&mut cur, dst.expect("a generation")));
+        if frames.contains(i) {
+            emit(d, &cur, i)?;
+        }
     }
     Ok(last_len)
 }

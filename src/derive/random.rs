@@ -1,30 +1,135 @@
-//! Seeded randomness: ChaCha8 from rand_chacha, seeded with
-//! `ChaCha8Rng::seed_from_u64(seed)`. Every draw is one `next_u64`, so a
-//! seed gives the same string on every run and platform.
+//! Seeded randomness: every draw is a function of (seed, pass, module
+//! index, draw order), so a derivation can be chained or split anywhere
+//! with byte-identical output (README, "Randomness").
+//!
+//! The key is `ChaCha8Rng::seed_from_u64(seed)`, made once per run. A draw
+//! is the 64-bit value at draw position P of a ChaCha stream (words 2P and
+//! 2P+1, little end first, as `next_u64` reads them after
+//! `set_word_pos(2P)`):
+//!
+//! - stream: the step number for a step (`--first-step` numbers them), the
+//!   number of the last step for the homomorphism, 0 for the axiom and the
+//!   random constants;
+//! - P = region·2^65 + draw·2^59 + module, with region 0 for the axiom and
+//!   the steps, 1 for the homomorphism; module the index of the module
+//!   being rewritten in its generation (every module counts, brackets
+//!   included, from 0), draw its draw's order within that module (at most
+//!   [`DRAWS_PER_MODULE`]);
+//! - random constants (`define:`) draw in file order from P = 2·2^65 on
+//!   (region 2, stream 0).
+//!
+//! Modules that draw once each read consecutive positions, so the
+//! generator's buffer is used in order; other jumps cost one
+//! `set_word_pos`.
 
 use rand_chacha::rand_core::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-pub struct Random(ChaCha8Rng, u64);
+/// Most draws one module may make in one pass.
+pub const DRAWS_PER_MODULE: u64 = 64;
+/// Module indices must be below this.
+pub const MODULES_PER_GENERATION: u64 = 1 << 59;
+
+/// Where a pass draws from (the region of the draw position).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Region {
+    /// The axiom (stream 0) and the steps (stream: the step number).
+    Step = 0,
+    /// The homomorphism (stream: the number of the last step).
+    Homomorphism = 1,
+    /// Random constants (stream 0), drawn in order.
+    Constants = 2,
+}
+
+/// Something that yields draws (lsgen's [`Random`]; the tests' reference
+/// has its own).
+pub trait Draw {
+    /// Uniform in [0, 1): the top 53 bits of one draw / 2^53. An error
+    /// message when the module has drawn too often.
+    fn uniform(&mut self) -> Result<f64, &'static str>;
+    /// Normal deviate by Box-Muller from one draw: the high 32 bits give
+    /// u1 in (0, 1], the low 32 bits u2 in [0, 1).
+    fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, &'static str>;
+}
+
+/// The uniform value of a draw.
+#[inline]
+pub fn uniform_of(x: u64) -> f64 {
+    (x >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+/// The normal value of a draw.
+#[inline]
+pub fn normal_of(x: u64, mean: f64, sd: f64) -> f64 {
+    let u1 = ((x >> 32) as f64 + 1.0) / 4294967296.0;
+    let u2 = (x & 0xffff_ffff) as f64 / 4294967296.0;
+    let z = (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos();
+    mean + sd * z
+}
+
+pub const TOO_MANY_DRAWS: &str =
+    "more than 64 random draws for one module (the limit of the random scheme)";
+const TOO_MANY_MODULES: &str = "a generation of 2^59 modules or more cannot draw";
+
+pub struct Random {
+    rng: ChaCha8Rng,
+    /// Draws made so far (a step that made none and left the string
+    /// unchanged is a fixed point).
+    draws: u64,
+    /// The region's first draw position.
+    base: u128,
+    module: u64,
+    draw: u64,
+    /// The draw position `rng` reads next (u128::MAX: unknown).
+    pos: u128,
+    /// Random constants: draws in order, no modules.
+    sequential: bool,
+}
 
 impl Random {
+    /// Keyed with `seed`, at the axiom (stream 0, region 0, module 0).
     pub fn new(seed: u64) -> Random {
-        Random(ChaCha8Rng::seed_from_u64(seed), 0)
+        Random {
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            draws: 0,
+            base: 0,
+            module: 0,
+            draw: 0,
+            pos: 0,
+            sequential: false,
+        }
     }
 
-    /// The generator of random constants (`ran` in `define:`): the run's
-    /// seed on stream 1, apart from the derivation's draws (stream 0).
+    /// The generator of random constants (`ran` in `define:`).
     pub fn for_constants(seed: u64) -> Random {
-        let mut r = ChaCha8Rng::seed_from_u64(seed);
-        r.set_stream(1);
-        Random(r, 0)
+        let mut r = Random::new(seed);
+        r.start_pass(0, Region::Constants);
+        r.sequential = true;
+        r
     }
 
-    /// How many draws were made so far (a step that made none and left the
-    /// string unchanged is a fixed point).
+    /// Start a pass: `stream` and `region` as in the module docs.
+    pub fn start_pass(&mut self, stream: u64, region: Region) {
+        if self.rng.get_stream() != stream {
+            self.rng.set_stream(stream);
+            self.pos = u128::MAX;
+        }
+        self.base = (region as u128) << 65;
+        self.module = 0;
+        self.draw = 0;
+    }
+
+    /// The next draws are for the module at `index` of its generation.
+    #[inline]
+    pub fn set_module(&mut self, index: u64) {
+        self.module = index;
+        self.draw = 0;
+    }
+
+    /// How many draws were made so far.
     #[inline]
     pub fn draws(&self) -> u64 {
-        self.1
+        self.draws
     }
 
     /// A fresh seed from the operating system's randomness (getrandom),
@@ -44,23 +149,46 @@ impl Random {
         h.finish()
     }
 
-    /// Uniform in [0, 1): the top 53 bits of one draw.
+    /// The next draw of the current module.
     #[inline]
-    pub fn uniform(&mut self) -> f64 {
-        self.1 += 1;
-        (self.0.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    fn next(&mut self) -> Result<u64, &'static str> {
+        let p = if self.sequential {
+            self.base + self.draw as u128
+        } else {
+            if self.draw >= DRAWS_PER_MODULE {
+                return Err(TOO_MANY_DRAWS);
+            }
+            if self.module >= MODULES_PER_GENERATION {
+                return Err(TOO_MANY_MODULES);
+            }
+            self.base | (self.draw as u128) << 59 | self.module as u128
+        };
+        self.draw += 1;
+        self.draws += 1;
+        if p != self.pos {
+            if p > self.pos && p - self.pos <= 8 {
+                // A short gap: read past it in the buffer.
+                for _ in 0..(p - self.pos) {
+                    self.rng.next_u64();
+                }
+            } else {
+                self.rng.set_word_pos(2 * p);
+            }
+        }
+        self.pos = p + 1;
+        Ok(self.rng.next_u64())
+    }
+}
+
+impl Draw for Random {
+    #[inline]
+    fn uniform(&mut self) -> Result<f64, &'static str> {
+        self.next().map(uniform_of)
     }
 
-    /// Normal deviate by Box-Muller from one draw: the high 32 bits give
-    /// u1 in (0, 1], the low 32 bits u2 in [0, 1).
     #[inline]
-    pub fn normal(&mut self, mean: f64, sd: f64) -> f64 {
-        self.1 += 1;
-        let x = self.0.next_u64();
-        let u1 = ((x >> 32) as f64 + 1.0) / 4294967296.0;
-        let u2 = (x & 0xffff_ffff) as f64 / 4294967296.0;
-        let z = (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos();
-        mean + sd * z
+    fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, &'static str> {
+        self.next().map(|x| normal_of(x, mean, sd))
     }
 }
 
@@ -68,21 +196,58 @@ impl Random {
 mod tests {
     use super::*;
 
+    /// The draw at position `p` of `stream`, computed the slow way.
+    fn at(seed: u64, stream: u64, p: u128) -> u64 {
+        let mut r = ChaCha8Rng::seed_from_u64(seed);
+        r.set_stream(stream);
+        r.set_word_pos(2 * p);
+        r.next_u64()
+    }
+
     #[test]
-    fn same_seed_same_stream() {
-        let mut a = Random::new(42);
-        let mut b = Random::new(42);
-        for _ in 0..100 {
-            assert_eq!(a.uniform().to_bits(), b.uniform().to_bits());
+    fn draws_are_positions() {
+        let mut r = Random::new(42);
+        r.start_pass(3, Region::Step);
+        // Modules 0, 1, 2, 5, 40 draw once, module 7 three times, in
+        // string order; gaps and returns all land on their positions.
+        for m in [0u64, 1, 2, 5, 7, 40, 1000] {
+            r.set_module(m);
+            let n = if m == 7 { 3 } else { 1 };
+            for d in 0..n {
+                let want = uniform_of(at(42, 3, (d as u128) << 59 | m as u128));
+                assert_eq!(r.uniform().unwrap().to_bits(), want.to_bits(), "{m} {d}");
+            }
         }
+        r.start_pass(3, Region::Homomorphism);
+        r.set_module(2);
+        let want = uniform_of(at(42, 3, 1 << 65 | 2));
+        assert_eq!(r.uniform().unwrap().to_bits(), want.to_bits());
+        let mut c = Random::for_constants(42);
+        for i in 0..3u128 {
+            let want = uniform_of(at(42, 0, 2 << 65 | i));
+            assert_eq!(c.uniform().unwrap().to_bits(), want.to_bits());
+        }
+    }
+
+    #[test]
+    fn draw_bound() {
+        let mut r = Random::new(1);
+        r.set_module(9);
+        for _ in 0..DRAWS_PER_MODULE {
+            r.uniform().unwrap();
+        }
+        assert_eq!(r.uniform(), Err(TOO_MANY_DRAWS));
+        r.set_module(10);
+        assert!(r.uniform().is_ok());
     }
 
     #[test]
     fn uniform_in_range_and_spread() {
         let mut r = Random::new(7);
         let mut sum = 0.0;
-        for _ in 0..10_000 {
-            let u = r.uniform();
+        for m in 0..10_000 {
+            r.set_module(m);
+            let u = r.uniform().unwrap();
             assert!((0.0..1.0).contains(&u));
             sum += u;
         }
@@ -93,7 +258,12 @@ mod tests {
     fn normal_moments() {
         let mut r = Random::new(9);
         let n = 20_000;
-        let xs: Vec<f64> = (0..n).map(|_| r.normal(3.0, 2.0)).collect();
+        let xs: Vec<f64> = (0..n)
+            .map(|m| {
+                r.set_module(m);
+                r.normal(3.0, 2.0).unwrap()
+            })
+            .collect();
         let mean = xs.iter().sum::<f64>() / n as f64;
         let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
         assert!((mean - 3.0).abs() < 0.1, "{mean}");

@@ -121,6 +121,8 @@ impl<'a> Deriver<'a> {
             last_closer: None,
         };
         let mut rd = PosReader::new(input, 1 << 20, indexed);
+        // The index of the module being rewritten, for the random draws.
+        let mut index: u64 = 0;
         let read_err = |e| Error::io("temporary file", "cannot read", e);
         // Bytes that need no decision take the table; with contexts, keys
         // that have context productions and brackets still go the long way.
@@ -134,8 +136,10 @@ impl<'a> Deriver<'a> {
         loop {
             if let Some(fast) = &fast {
                 let window = rd.window().map_err(read_err)?;
-                let used = fast.run(window, out, st.left.as_mut(), &self.alphabet, indexed)?;
+                let (used, modules) =
+                    fast.run(window, out, st.left.as_mut(), &self.alphabet, indexed)?;
                 rd.advance(used);
+                index += modules;
                 out.maybe_flush()?;
                 if used > 0 {
                     continue;
@@ -146,6 +150,8 @@ impl<'a> Deriver<'a> {
             };
             let end_off = rd.offset();
             let bytes = rd.bytes(s, e);
+            self.rng.set_module(index);
+            index += 1;
             let applied = match table.get(key) {
                 Some(kr) => self.apply(table, kr, key, bytes, end_off, &mut st, out, pass)?,
                 None => false,

@@ -6,7 +6,7 @@
 //! division by zero, an overflow or a NaN stops the run with the span of
 //! the operation.
 
-use crate::derive::random::Random;
+use crate::derive::random::{Draw, Random};
 use crate::lang::ast::{BinOp, Expr, UnOp};
 use crate::lang::lexer::Span;
 use std::collections::HashMap;
@@ -287,11 +287,11 @@ impl Code {
     /// Evaluate with parameters in `slots`; `stack` is scratch space reused
     /// between calls.
     #[inline]
-    pub fn eval(
+    pub fn eval<D: Draw + ?Sized>(
         &self,
         slots: &[f64],
         stack: &mut Vec<f64>,
-        rng: &mut Random,
+        rng: &mut D,
     ) -> Result<f64, EvalError> {
         // The shapes most successors and conditions have, without the stack.
         match *self.ops.as_slice() {
@@ -353,7 +353,7 @@ impl Code {
                     let a = stack.last_mut().unwrap();
                     // Uniform in [0, x), or (x, 0] for negative x (cpfg's
                     // x * drand48()); + 0.0 turns a -0 into 0.
-                    let r = *a * rng.uniform() + 0.0;
+                    let r = *a * rng.uniform().map_err(|m| self.fail(si, m))? + 0.0;
                     if !r.is_finite() {
                         return Err(self.fail(si, "ran() is undefined here"));
                     }
@@ -362,7 +362,7 @@ impl Code {
                 Op::Nran(si) => {
                     let sd = stack.pop().unwrap();
                     let mean = stack.last_mut().unwrap();
-                    let r = rng.normal(*mean, sd);
+                    let r = rng.normal(*mean, sd).map_err(|m| self.fail(si, m))?;
                     if !r.is_finite() {
                         return Err(self.fail(si, "nran() is undefined here"));
                     }

@@ -17,7 +17,9 @@
 use lsgen::ast::{self, Expr, Setting};
 use lsgen::expr::{Code, Scope};
 use lsgen::parse::{parse_expr, parse_header};
-use lsgen::random::Random;
+use lsgen::random::{Draw, Random};
+use rand_chacha::rand_core::{Rng as _, SeedableRng as _};
+use rand_chacha::ChaCha8Rng;
 use std::cell::Cell;
 use std::collections::{HashMap, HashSet};
 
@@ -639,10 +641,11 @@ impl System {
         max_modules: usize,
     ) -> R<Vec<Module>> {
         let steps = steps.or(self.derivation_length).unwrap_or(1);
-        let mut rng = Random::new(seed.or(self.seed).unwrap_or(0));
+        let mut rng = Draws::new(seed.or(self.seed).unwrap_or(0));
         let mut s = self.parse_axiom(&mut rng)?;
         for k in 1..=steps {
             self.step.set(k as f64);
+            rng.pass(k, 0);
             s = self.derive_step(&s, k, &mut rng)?;
             if s.len() > max_modules {
                 return Err(TOO_LONG.into());
@@ -650,10 +653,12 @@ impl System {
         }
         if !self.homomorphism.is_empty() {
             self.step.set(steps as f64);
-            let mut own = self.homomorphism_seed.map(Random::new);
+            let mut own = self.homomorphism_seed.map(Draws::new);
             let rng = own.as_mut().unwrap_or(&mut rng);
+            rng.pass(steps, 1);
             let mut out = Vec::new();
             for pos in 0..s.len() {
+                rng.module(pos);
                 self.interpret(&s, pos, &s[pos], 0, rng, &mut out)?;
                 if out.len() > max_modules {
                     return Err(TOO_LONG.into());
@@ -670,7 +675,7 @@ impl System {
             Schedule::None => Ok(0),
             Schedule::List(list) => Ok(list[((k - 1) % list.len() as u64) as usize]),
             Schedule::Expr(code) => {
-                let v = eval(code, &[k as f64], &mut Random::new(0))?;
+                let v = eval(code, &[k as f64], &mut Draws::new(0))?;
                 if v.fract() != 0.0
                     || v < 0.0
                     || (v != 0.0 && !self.groups.contains_key(&(v as u32)))
@@ -686,7 +691,7 @@ impl System {
 
     /// Derivation step `k`: for each module, the step's group, then group
     /// 0; a `%` that nothing rewrites cuts; every result is decomposed.
-    fn derive_step(&self, s: &[Module], k: u64, rng: &mut Random) -> R<Vec<Module>> {
+    fn derive_step(&self, s: &[Module], k: u64, rng: &mut Draws) -> R<Vec<Module>> {
         let group = match self.group_for(k)? {
             0 => None,
             g => Some(&self.groups[&g]),
@@ -695,6 +700,7 @@ impl System {
         let mut pos = 0;
         while pos < s.len() {
             let m = &s[pos];
+            rng.module(pos);
             let mut result = None;
             if let Some(rules) = group {
                 result = self.apply(rules, s, pos, m, rng)?;
@@ -728,7 +734,7 @@ impl System {
         &self,
         m: &Module,
         depth: usize,
-        rng: &mut Random,
+        rng: &mut Draws,
         out: &mut Vec<Module>,
     ) -> R<bool> {
         if depth >= self.decomposition_depth || self.decomposition.is_empty() {
@@ -757,7 +763,7 @@ impl System {
         pos: usize,
         m: &Module,
         depth: usize,
-        rng: &mut Random,
+        rng: &mut Draws,
         out: &mut Vec<Module>,
     ) -> R<()> {
         if depth >= self.homomorphism_depth {
@@ -776,7 +782,7 @@ impl System {
     }
 
     /// The axiom: symbols, each with an optional parameter list.
-    fn parse_axiom(&self, rng: &mut Random) -> R<Vec<Module>> {
+    fn parse_axiom(&self, rng: &mut Draws) -> R<Vec<Module>> {
         let chars: Vec<char> = self.axiom_text.chars().collect();
         let mut out = Vec::new();
         let mut i = 0;
@@ -792,6 +798,7 @@ impl System {
             }
             let sym = chars[i];
             i += 1;
+            rng.module(out.len());
             let mut params = Vec::new();
             skip_blank(&mut i);
             if i < chars.len() && chars[i] == '(' {
@@ -822,7 +829,7 @@ impl System {
         Ok(out)
     }
 
-    fn axiom_param(&self, t: &str, rng: &mut Random) -> R<f64> {
+    fn axiom_param(&self, t: &str, rng: &mut Draws) -> R<f64> {
         if let Ok(v) = t.parse::<f64>() {
             return Ok(v);
         }
@@ -852,7 +859,7 @@ impl System {
         s: &[Module],
         pos: usize,
         m: &Module,
-        rng: &mut Random,
+        rng: &mut Draws,
     ) -> R<Option<Vec<Module>>> {
         let mine: Vec<&Rule> = rules.iter().filter(|r| r.pred.key() == m.key()).collect();
         let context: Vec<&Rule> = mine.iter().copied().filter(|r| r.has_context()).collect();
@@ -900,7 +907,7 @@ impl System {
         s: &[Module],
         pos: usize,
         m: &Module,
-        rng: &mut Random,
+        rng: &mut Draws,
     ) -> R<Option<(&'r Rule, Vec<f64>)>> {
         let stochastic = group.iter().any(|r| r.prob.is_some());
         if !stochastic {
@@ -936,7 +943,7 @@ impl System {
         let mut st = self.stats.get();
         st.draws += 1;
         self.stats.set(st);
-        let mut u = rng.uniform() * total;
+        let mut u = rng.uniform()? * total;
         let last = candidates.len() - 1;
         for (i, (r, slots, w)) in candidates.into_iter().enumerate() {
             u -= w;
@@ -955,7 +962,7 @@ impl System {
         s: &[Module],
         pos: usize,
         m: &Module,
-        rng: &mut Random,
+        rng: &mut Draws,
     ) -> R<Option<Vec<f64>>> {
         let mut slots = vec![0.0; r.nslots];
         r.pred.bind(m, &mut slots);
@@ -1118,7 +1125,72 @@ fn after_branch(s: &[Module], open: usize) -> usize {
     s.len()
 }
 
-fn eval(c: &Code, slots: &[f64], rng: &mut Random) -> R<f64> {
+/// The random scheme of README's "Randomness", written from its text
+/// (not from `src/derive/random.rs`): each draw is computed on its own,
+/// from a freshly keyed generator.
+pub struct Draws {
+    seed: u64,
+    stream: u64,
+    region: u128,
+    module: u64,
+    draw: u64,
+}
+
+impl Draws {
+    pub fn new(seed: u64) -> Draws {
+        Draws {
+            seed,
+            stream: 0,
+            region: 0,
+            module: 0,
+            draw: 0,
+        }
+    }
+
+    /// The pass: `stream`, and region 0 (axiom, steps) or 1 (homomorphism).
+    fn pass(&mut self, stream: u64, region: u128) {
+        self.stream = stream;
+        self.region = region;
+    }
+
+    /// The module being rewritten: its index in its generation.
+    fn module(&mut self, index: usize) {
+        self.module = index as u64;
+        self.draw = 0;
+    }
+
+    /// The draw at position P = region·2^65 + draw·2^59 + module.
+    fn next(&mut self) -> Result<u64, &'static str> {
+        if self.draw >= 64 {
+            return Err("more than 64 random draws for one module");
+        }
+        let p =
+            self.region * (1 << 65) + u128::from(self.draw) * (1 << 59) + u128::from(self.module);
+        self.draw += 1;
+        let mut g = ChaCha8Rng::seed_from_u64(self.seed);
+        g.set_stream(self.stream);
+        g.set_word_pos(2 * p);
+        let lo = u64::from(g.next_u32());
+        let hi = u64::from(g.next_u32());
+        Ok(hi << 32 | lo)
+    }
+}
+
+impl Draw for Draws {
+    fn uniform(&mut self) -> Result<f64, &'static str> {
+        // The top 53 bits / 2^53.
+        Ok((self.next()? >> 11) as f64 / 9007199254740992.0)
+    }
+
+    fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, &'static str> {
+        let x = self.next()?;
+        let u1 = ((x >> 32) as f64 + 1.0) / 4294967296.0;
+        let u2 = (x & 0xffff_ffff) as f64 / 4294967296.0;
+        Ok(mean + sd * ((-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()))
+    }
+}
+
+fn eval(c: &Code, slots: &[f64], rng: &mut Draws) -> R<f64> {
     c.eval(slots, &mut Vec::new(), rng)
         .map_err(|e| format!("eval error: {}", e.message))
 }
@@ -1451,57 +1523,76 @@ mod tests {
         assert!(failures.is_empty(), "{}", failures.join("\n"));
     }
 
-    /// The i-th uniform of `ChaCha8Rng::seed_from_u64(seed)`, computed
-    /// here from rand_chacha (README: the top 53 bits of one draw / 2^53).
-    fn u(seed: u64, i: usize) -> String {
+    /// The uniform of draw `draw` of module `module` in `stream`
+    /// (region 0: steps, 1: the homomorphism), computed here from
+    /// rand_chacha as README describes (the top 53 bits of one draw / 2^53).
+    fn u(seed: u64, (stream, region): (u64, u128), module: u128, draw: u128) -> String {
         let mut r = ChaCha8Rng::seed_from_u64(seed);
-        let mut x = 0;
-        for _ in 0..=i {
-            x = r.next_u64();
-        }
+        r.set_stream(stream);
+        r.set_word_pos(2 * ((region << 65) + (draw << 59) + module));
+        let x = r.next_u64();
         format_number((x >> 11) as f64 / (1u64 << 53) as f64)
     }
 
+    const STEP1: (u64, u128) = (1, 0);
+
     #[test]
     fn decomposition_draws_right_after_its_module() {
-        // Fused into the step: A1's successor, its decomposition, then A2.
+        // Fused into the step: A1's successor, then its decomposition, on
+        // module 0's draws; then A2's on module 1's.
         let src = "productions:\nA -> B(ran(1))\ndecomposition:\nB(x) -> C(x, ran(1))\naxiom: AA\n";
-        let want = format!("C({},{})C({},{})", u(5, 0), u(5, 1), u(5, 2), u(5, 3));
+        let want = format!(
+            "C({},{})C({},{})",
+            u(5, STEP1, 0, 0),
+            u(5, STEP1, 0, 1),
+            u(5, STEP1, 1, 0),
+            u(5, STEP1, 1, 1)
+        );
         assert_eq!(derive(src, 1, 5).unwrap(), want);
     }
 
     #[test]
     fn cut_modules_make_no_draws() {
+        // `A` is module 4 of `[%B]A`.
         let src = "productions:\nB -> X(ran(1))\nA -> Y(ran(1))\naxiom: [%B]A\n";
-        assert_eq!(derive(src, 1, 6).unwrap(), format!("[]Y({})", u(6, 0)));
+        assert_eq!(
+            derive(src, 1, 6).unwrap(),
+            format!("[]Y({})", u(6, STEP1, 4, 0))
+        );
     }
 
     #[test]
     fn group_zero_draws_after_the_steps_group() {
         // Group 1's condition draws first (and fails), then group 0's successor.
         let src = "groups: 1\nproductions:\nA -> Y(ran(1))\nproductions 1:\nA : ran(1) > 2 -> X\naxiom: A\n";
-        assert_eq!(derive(src, 1, 7).unwrap(), format!("Y({})", u(7, 1)));
+        assert_eq!(
+            derive(src, 1, 7).unwrap(),
+            format!("Y({})", u(7, STEP1, 0, 1))
+        );
     }
 
     #[test]
     fn homomorphism_seed_is_its_own_generator() {
         let own = "seed: 3\nproductions:\nA -> A(ran(1))\nhomomorphism:\nseed: 9\nA(x) -> B(x, ran(1))\naxiom: A\n";
         let got = System::load(own).unwrap().derive(Some(1), None, usize::MAX);
-        let want = format!("B({},{})", u(3, 0), u(9, 0));
+        let hom = (1, 1);
+        let want = format!("B({},{})", u(3, STEP1, 0, 0), u(9, hom, 0, 0));
         assert_eq!(format_string(&got.unwrap()), want);
         // `--seed` changes the main generator only.
-        let want = format!("B({},{})", u(4, 0), u(9, 0));
+        let want = format!("B({},{})", u(4, STEP1, 0, 0), u(9, hom, 0, 0));
         assert_eq!(derive(own, 1, 4).unwrap(), want);
-        // Without it, the homomorphism continues the main generator.
+        // Without it, the homomorphism draws from the main key.
         let shared = own.replace("seed: 9\n", "");
-        let want = format!("B({},{})", u(3, 0), u(3, 1));
+        let want = format!("B({},{})", u(3, STEP1, 0, 0), u(3, hom, 0, 0));
         assert_eq!(derive(&shared, 1, 3).unwrap(), want);
     }
 
     #[test]
     fn homomorphism_recursion_draws_depth_first() {
         let src = "homomorphism:\nmaximum depth: 2\nA -> B(ran(1))C\nB(x) -> D(x, ran(1))\nC -> E(ran(1))\naxiom: A\n";
-        let want = format!("D({},{})E({})", u(2, 0), u(2, 1), u(2, 2));
+        // n = 0: the homomorphism of the axiom, on stream 0; all of A's.
+        let h = (0, 1);
+        let want = format!("D({},{})E({})", u(2, h, 0, 0), u(2, h, 0, 1), u(2, h, 0, 2));
         assert_eq!(derive(src, 0, 2).unwrap(), want);
     }
 }

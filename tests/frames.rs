@@ -1,0 +1,210 @@
+//! `--frames A..B[:K]` (issue 13): every asked-for generation from one
+//! derivation, each exactly what `lsgen -n k` prints; to standard output one
+//! per line, or with `-o` to files named by a template.
+
+mod common;
+
+use common::{example, lsgen, run};
+use std::path::Path;
+
+/// `lsgen ARGS FILE` must succeed; its standard output.
+fn ok(args: &[&str], file: &str) -> String {
+    let r = run(lsgen().args(args).arg(file));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(0), "lsgen {args:?} {file}: {}", r.stderr);
+    r.out()
+}
+
+/// The expected string of `tests/expected/NAME.nK.txt` (from the
+/// independent Python reference), with its newline.
+fn expected(name: &str, k: u64) -> String {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/expected")
+        .join(format!("{name}.n{k}.txt"));
+    let mut s = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    if !s.ends_with('\n') {
+        s.push('\n');
+    }
+    s
+}
+
+/// Frames of `name` to standard output equal `-n k` for each frame, with
+/// `extra` options on both sides.
+fn frames_equal_runs(name: &str, range: &str, ks: &[u64], extra: &[&str]) {
+    let file = example(name);
+    let mut args = vec!["--frames", range];
+    args.extend_from_slice(extra);
+    let got = ok(&args, &file);
+    let mut want = String::new();
+    for k in ks {
+        let n = k.to_string();
+        let mut args = vec!["-n", &n];
+        args.extend_from_slice(extra);
+        want.push_str(&ok(&args, &file));
+    }
+    assert_eq!(got.lines().count(), ks.len(), "{name} {range}");
+    assert_eq!(got, want, "{name} --frames {range} {extra:?}");
+}
+
+#[test]
+fn frames_match_the_independent_reference() {
+    // algae: D0L (depth first for -n); parametric: conditions and a
+    // homomorphism applied to each frame; signal: context-sensitive.
+    let cases: &[(&str, &str, &[u64])] = &[
+        (
+            "algae",
+            "0..15",
+            &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15],
+        ),
+        ("algae", "2..13:4", &[2, 6, 10]),
+        ("parametric", "0..6", &[0, 1, 2, 3, 4, 5, 6]),
+        ("signal", "1..7:2", &[1, 3, 5, 7]),
+        ("context_plant_a", "1..3", &[1, 2, 3]),
+    ];
+    for (name, range, ks) in cases {
+        let got = ok(&["--frames", range], &example(name));
+        let lines: Vec<&str> = got.split_inclusive('\n').collect();
+        assert_eq!(lines.len(), ks.len(), "{name} {range}");
+        for (line, &k) in lines.iter().zip(ks.iter()) {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/expected")
+                .join(format!("{name}.n{k}.txt"));
+            if path.exists() {
+                assert_eq!(*line, expected(name, k), "{name} frame {k}");
+            }
+        }
+    }
+}
+
+#[test]
+fn frame_k_is_what_n_k_prints() {
+    // Deterministic, bracketed, parametric with a homomorphism,
+    // context-sensitive, and seeded stochastic systems; with and without
+    // the homomorphism.
+    frames_equal_runs("plant_a", "0..5", &[0, 1, 2, 3, 4, 5], &[]);
+    frames_equal_runs("koch_snowflake", "1..5:2", &[1, 3, 5], &[]);
+    frames_equal_runs("parametric", "0..6:3", &[0, 3, 6], &[]);
+    frames_equal_runs(
+        "parametric",
+        "0..6",
+        &[0, 1, 2, 3, 4, 5, 6],
+        &["--no-homomorphism"],
+    );
+    frames_equal_runs("context_plant_b", "2..12:5", &[2, 7, 12], &[]);
+    frames_equal_runs("signal", "0..7", &[0, 1, 2, 3, 4, 5, 6, 7], &[]);
+    for seed in ["1", "7", "1234567"] {
+        frames_equal_runs(
+            "stochastic_plant",
+            "0..5",
+            &[0, 1, 2, 3, 4, 5],
+            &["--seed", seed],
+        );
+    }
+    frames_equal_runs("stochastic_row", "1..4:3", &[1, 4], &["--seed", "3"]);
+    // A single frame is `-n`.
+    frames_equal_runs("stochastic_plant", "4..4", &[4], &["--seed", "9"]);
+}
+
+#[test]
+fn frames_go_to_files_named_by_the_template() {
+    let dir = common::tempdir();
+    let sub = dir.path().join("frames");
+    std::fs::create_dir(&sub).unwrap();
+    // An existing frame file is replaced.
+    std::fs::write(sub.join("plant-3.txt"), "old\n").unwrap();
+    let template = sub.join("plant-{n}.txt");
+    let file = example("stochastic_plant");
+    let r = run(lsgen()
+        .args(["--frames", "1..5:2", "--seed", "7", "-o"])
+        .arg(&template)
+        .arg(&file));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert_eq!(r.stdout, b"");
+    let mut names: Vec<String> = std::fs::read_dir(&sub)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["plant-1.txt", "plant-3.txt", "plant-5.txt"]);
+    for k in [1, 3, 5] {
+        let got = std::fs::read_to_string(sub.join(format!("plant-{k}.txt"))).unwrap();
+        assert_eq!(
+            got,
+            ok(&["-n", &k.to_string(), "--seed", "7"], &file),
+            "frame {k}"
+        );
+    }
+    // `-o -` is standard output.
+    let out = ok(&["--frames", "0..1", "-o", "-"], &example("algae"));
+    assert_eq!(out, "a\nab\n");
+}
+
+#[test]
+fn a_failing_frame_leaves_no_partial_file() {
+    // Step 3 fails (division by zero): frames 1 and 2 are complete, no
+    // frame 3, no temporary file.
+    let dir = common::tempdir();
+    let ls = dir.path().join("p.ls");
+    std::fs::write(&ls, "productions:\nA(x) -> A(x-1)B(1/x)\naxiom: A(2)\n").unwrap();
+    let r = run(lsgen()
+        .args(["--frames", "1..4", "-o"])
+        .arg(dir.path().join("f{n}.txt"))
+        .arg(&ls));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("division by zero (in step 3)"),
+        "{}",
+        r.stderr
+    );
+    let mut names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["f1.txt", "f2.txt", "p.ls"]);
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("f2.txt")).unwrap(),
+        "A(0)B(1)B(0.5)\n"
+    );
+}
+
+#[test]
+fn bad_frame_ranges_are_usage_errors() {
+    let file = example("algae");
+    for (args, needle) in [
+        (&["--frames", "5..2"][..], "comes after"),
+        (&["--frames", "1..3:0"], "1 or more"),
+        (&["--frames", "1.."], "not a range"),
+        (&["--frames", "..3"], "not a range"),
+        (&["--frames", "a..b"], "not a range"),
+        (&["--frames", "1-3"], "not a range"),
+        (&["--frames", "1..3:x"], "not a range"),
+        (&["--frames", "0..9007199254740993"], "go up to"),
+        (&["--frames", "1..3", "-n", "2"], "cannot be used with"),
+        (&["--frames", "1..3", "-o", "plain.txt"], "{n}"),
+        (&["--first-step", "0"], "first-step"),
+    ] {
+        let r = run(lsgen().args(args).arg(&file));
+        r.assert_no_crash();
+        assert_eq!(r.code(), Some(2), "{args:?}: {}", r.stderr);
+        assert!(r.stderr.contains(needle), "{args:?}: {}", r.stderr);
+        assert_eq!(r.stdout, b"", "{args:?}");
+    }
+}
+
+#[test]
+fn frames_to_files_need_no_standard_output() {
+    let dir = common::tempdir();
+    let r = run(common::lsgen_under_sh("exec >&-")
+        .args(["--frames", "1..2", "-o"])
+        .arg(dir.path().join("a{n}.txt"))
+        .arg(example("algae")));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("a2.txt")).unwrap(),
+        "aba\n"
+    );
+}
