@@ -6,10 +6,11 @@ use crate::derive::{Event, Limits, Pass, Strategy};
 use crate::diag::{Error, Kind};
 use crate::io::input::Input;
 use crate::io::output::Output;
+use crate::io::template::{self, Field, Template, Vars};
 use clap::Parser;
 use std::fs::File;
 use std::io::{self, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Most derivation steps accepted (as for `derivation length:`).
 pub const MAX_STEPS: u64 = 1 << 53;
@@ -24,22 +25,32 @@ pub const MAX_STEPS: u64 = 1 << 53;
                   temporary files, so strings may be far larger than memory."
 )]
 pub struct Args {
-    /// The .ls file; standard input when absent or `-`.
-    pub file: Option<PathBuf>,
+    /// The .ls file(s); standard input when absent or `-`. Several files
+    /// make a batch (see -o and -j).
+    #[arg(value_name = "FILE")]
+    pub files: Vec<PathBuf>,
 
     /// Write the string to FILE (`-`: standard output); a regular file is
-    /// put in place only when complete, through symbolic links.
+    /// put in place only when complete, through symbolic links. A template:
+    /// {stem} (input file name without extension), {seed}, {n}; {{ and }}
+    /// for literal braces. A batch needs one that names each job apart.
     #[arg(short, long, value_name = "FILE")]
-    pub output: Option<PathBuf>,
+    pub output: Option<String>,
 
     /// Number of derivation steps (overrides `derivation length:`).
     #[arg(short = 'n', long, value_name = "N",
           value_parser = clap::value_parser!(u64).range(..=MAX_STEPS))]
     pub derivation_length: Option<u64>,
 
-    /// Seed of the random generator (overrides `seed:`).
-    #[arg(long, value_name = "S")]
-    pub seed: Option<u64>,
+    /// Seed of the random generator (overrides `seed:`); a range A..B
+    /// (inclusive) runs one job per seed.
+    #[arg(long, value_name = "S|A..B", value_parser = parse_seeds)]
+    pub seed: Option<Seeds>,
+
+    /// Run a batch's jobs on N worker threads (default: the number of CPUs).
+    #[arg(short, long, value_name = "N", env = "LSGEN_JOBS",
+          value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub jobs: Option<u32>,
 
     /// Do not apply the homomorphism productions.
     #[arg(long)]
@@ -74,6 +85,38 @@ pub struct Args {
     #[arg(long, hide = true, value_name = "auto|step|dfs",
           value_parser = parse_strategy, default_value = "auto")]
     pub strategy: Strategy,
+}
+
+/// `--seed`: one seed, or an inclusive range `A..B`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Seeds {
+    pub first: u64,
+    pub last: u64,
+}
+
+impl Seeds {
+    /// Number of seeds (at least 1; the full u64 range saturates).
+    fn count(&self) -> u64 {
+        (self.last - self.first).saturating_add(1)
+    }
+}
+
+pub fn parse_seeds(s: &str) -> Result<Seeds, String> {
+    let num = |t: &str| {
+        t.trim()
+            .parse::<u64>()
+            .map_err(|_| format!("`{s}` is not a seed: use a number or a range A..B"))
+    };
+    match s.split_once("..") {
+        None => num(s).map(|v| Seeds { first: v, last: v }),
+        Some((a, b)) => {
+            let (first, last) = (num(a)?, num(b)?);
+            if first > last {
+                return Err(format!("`{s}`: an empty range (the first seed is past the last)"));
+            }
+            Ok(Seeds { first, last })
+        }
+    }
 }
 
 /// `--strategy`: `auto`, `step` or `dfs`.
@@ -206,7 +249,7 @@ fn main_on_thread() -> i32 {
     }
 }
 
-fn open_input(path: Option<&PathBuf>) -> Result<Input, Error> {
+fn open_input(path: Option<&Path>) -> Result<Input, Error> {
     match path {
         None => Ok(Input::new(Box::new(io::stdin()), "<stdin>")),
         Some(p) if p.as_os_str() == "-" => Ok(Input::new(Box::new(io::stdin()), "<stdin>")),
@@ -225,23 +268,230 @@ fn open_input(path: Option<&PathBuf>) -> Result<Input, Error> {
     }
 }
 
+/// One job of a run: an input file and a seed.
+#[derive(Clone, Copy, Debug)]
+struct Job<'a> {
+    file: Option<&'a Path>,
+    seed: Option<u64>,
+}
+
+impl Job<'_> {
+    /// How a batch's messages name the job.
+    fn label(&self, seed: Option<u64>) -> String {
+        let file = self
+            .file
+            .map_or("<stdin>".to_string(), |p| p.display().to_string());
+        match seed.or(self.seed) {
+            Some(s) => format!("{file} (seed {s})"),
+            None => file,
+        }
+    }
+}
+
 pub fn run(args: &Args) -> Result<(), Error> {
-    let file_is_stdin = args.file.as_ref().is_none_or(|p| p.as_os_str() == "-");
+    let files: Vec<Option<&Path>> = if args.files.is_empty() {
+        vec![None]
+    } else {
+        args.files.iter().map(|p| Some(p.as_path())).collect()
+    };
+    let seeds = args.seed.map_or(1, |s| s.count());
+    let total = (files.len() as u64).saturating_mul(seeds);
+    let template = match &args.output {
+        Some(o) => Some(Template::parse(o)?),
+        None => None,
+    };
+    if let Some(t) = &template {
+        // `{n}` (frames) has no value in a plain run: say so before any job.
+        t.expand(&Vars {
+            stem: Some("x"),
+            seed: Some(0),
+            n: None,
+        })?;
+    }
+    if total == 1 {
+        let job = Job {
+            file: files[0],
+            seed: args.seed.map(|s| s.first),
+        };
+        return run_one(args, job, template.as_ref(), false);
+    }
+    check_batch(args, &files, seeds, template.as_ref())?;
+    let jobs = |i: u64| Job {
+        file: files[(i / seeds) as usize],
+        seed: args.seed.map(|s| s.first + i % seeds),
+    };
+    let workers = args
+        .jobs
+        .map(|j| j as u64)
+        .unwrap_or_else(|| {
+            std::thread::available_parallelism().map_or(1, |n| n.get() as u64)
+        })
+        .min(total);
+    let failed = run_batch(total, workers as usize, |i| {
+        let job = jobs(i);
+        run_one(args, job, template.as_ref(), true).map_err(|mut e| {
+            let label = job.label(None);
+            e.message = format!("{} [job {label}]", e.message);
+            e
+        })
+    });
+    if failed.is_empty() {
+        return Ok(());
+    }
+    for (_, e) in &failed {
+        crate::diag::eprint(&e.to_string());
+    }
+    Err(Error::new(format!(
+        "{} of {total} jobs failed",
+        group_digits(failed.len() as u64)
+    )))
+}
+
+/// A batch's usage errors, found before any job runs.
+fn check_batch(
+    args: &Args,
+    files: &[Option<&Path>],
+    seeds: u64,
+    template: Option<&Template>,
+) -> Result<(), Error> {
+    let stdin_file = files.iter().any(|f| f.is_none_or(|p| p.as_os_str() == "-"));
+    if stdin_file {
+        return Err(Error::usage(
+            "standard input can feed one job only: a batch (several files or seeds) needs file names",
+        ));
+    }
+    if args.axiom.as_ref().is_some_and(|p| p.as_os_str() == "-") {
+        return Err(Error::usage(
+            "`--axiom -` can feed one job only: a batch needs an axiom file",
+        ));
+    }
+    let Some(t) = template.filter(|t| !t.is_plain()) else {
+        return Err(Error::usage(
+            "several jobs (files or seeds) need -o with a template, e.g. -o 'out/{stem}-{seed}.txt', so that each has its own file",
+        ));
+    };
+    if seeds > 1 && !t.uses(Field::Seed) {
+        return Err(Error::usage(
+            "a seed range needs `{seed}` in the -o template, so that each seed has its own file",
+        ));
+    }
+    if files.len() > 1 {
+        if !t.uses(Field::Stem) {
+            return Err(Error::usage(
+                "several files need `{stem}` in the -o template, so that each has its own file",
+            ));
+        }
+        let mut stems: Vec<(String, &Path)> = files
+            .iter()
+            .flatten()
+            .map(|p| (template::stem(Some(p)), *p))
+            .collect();
+        stems.sort();
+        for w in stems.windows(2) {
+            if w[0].0 == w[1].0 {
+                return Err(Error::usage(format!(
+                    "{} and {} have the same {{stem}} `{}`: their outputs would collide",
+                    w[0].1.display(),
+                    w[1].1.display(),
+                    w[0].0
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Run jobs `0..total` on `workers` threads; the failures, in job order.
+/// A job that panics (a bug) fails; the others go on.
+fn run_batch(
+    total: u64,
+    workers: usize,
+    job: impl Fn(u64) -> Result<(), Error> + Sync,
+) -> Vec<(u64, Error)> {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    use std::sync::Mutex;
+    let next = AtomicU64::new(0);
+    let failed: Mutex<Vec<(u64, Error)>> = Mutex::new(Vec::new());
+    let work = || loop {
+        let i = next.fetch_add(1, Ordering::Relaxed);
+        if i >= total {
+            break;
+        }
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(i)))
+            .unwrap_or_else(|_| Err(Error::new("internal error (please report this)")));
+        if let Err(e) = r {
+            if let Ok(mut f) = failed.lock() {
+                f.push((i, e));
+            }
+        }
+    };
+    std::thread::scope(|s| {
+        let mut handles = Vec::new();
+        for w in 0..workers {
+            // The parser recurses on nested expressions: big stacks, as
+            // the main thread's.
+            let h = std::thread::Builder::new()
+                .name(format!("lsgen-{w}"))
+                .stack_size(256 << 20)
+                .spawn_scoped(s, work);
+            match h {
+                Ok(h) => handles.push(h),
+                // No thread to be had: the others (or this one) do the work.
+                Err(_) if !handles.is_empty() => break,
+                Err(_) => work(),
+            }
+        }
+        for h in handles {
+            let _ = h.join();
+        }
+    });
+    let mut f = failed.into_inner().unwrap_or_default();
+    f.sort_by_key(|(i, _)| *i);
+    f
+}
+
+/// `n` with a comma between groups of three digits: `18,446,744`.
+pub fn group_digits(n: u64) -> String {
+    let s = n.to_string();
+    let mut out = String::with_capacity(s.len() + s.len() / 3);
+    for (i, c) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i) % 3 == 0 {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// A count for `-v`: grouped digits; `u64::MAX` stands for a count that
+/// does not fit (the depth-first plan saturates), printed as a lower bound.
+pub fn count_string(n: u64) -> String {
+    if n == u64::MAX {
+        format!(">= {}", group_digits(n))
+    } else {
+        group_digits(n)
+    }
+}
+
+/// Run one job: load its file, derive with its seed, write its output.
+/// `batch`: messages name the job.
+fn run_one(args: &Args, job: Job, template: Option<&Template>, batch: bool) -> Result<(), Error> {
+    let file_is_stdin = job.file.is_none_or(|p| p.as_os_str() == "-");
     let axiom_is_stdin = args.axiom.as_ref().is_some_and(|p| p.as_os_str() == "-");
     if file_is_stdin && axiom_is_stdin {
         return Err(Error::usage(
             "the L-system and `--axiom -` cannot both come from standard input",
         ));
     }
-    let input = open_input(args.file.as_ref())?;
-    let mut ls = LSystem::load_named(input, args.seed)?;
+    let input = open_input(job.file)?;
+    let mut ls = LSystem::load_named(input, job.seed)?;
     if args.axiom.is_none() {
         ls.require_axiom()?;
     }
     if args.check {
         // Read the axiom too, so its errors are reported.
         if let Some(p) = &args.axiom {
-            ls.set_axiom(open_input(Some(p))?);
+            ls.set_axiom(open_input(Some(p.as_path()))?);
         }
         ls.check()?;
         if args.verbose {
@@ -260,21 +510,36 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(n) = args.derivation_length {
         options = options.steps(n);
     }
-    if let Some(s) = args.seed {
+    if let Some(s) = job.seed {
         options = options.seed(s);
     }
     if let Some(d) = &args.tmpdir {
         options = options.tmpdir(d);
     }
+    let seed = ls.seed(&options);
+    // In a batch, -v lines name their job.
+    let who = if batch {
+        format!("{}: ", job.label(Some(seed)))
+    } else {
+        String::new()
+    };
     if args.verbose {
-        crate::diag::eprint(&format!("lsgen: seed {}\n", ls.seed(&options)));
+        crate::diag::eprint(&format!("lsgen: {who}seed {seed}\n"));
     }
-    let mut output = match &args.output {
-        Some(p) => Output::file(p)?,
+    let mut output = match template {
+        Some(t) => {
+            let stem = template::stem(job.file);
+            let path = t.expand(&Vars {
+                stem: Some(&stem),
+                seed: Some(seed),
+                n: None,
+            })?;
+            Output::file(&path)?
+        }
         None => Output::stdout()?,
     };
     if let Some(p) = &args.axiom {
-        ls.set_axiom(open_input(Some(p))?);
+        ls.set_axiom(open_input(Some(p.as_path()))?);
     }
     let out_name = output.name();
     let mut report = |e: &Event| {
@@ -291,10 +556,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
                     Pass::Axiom => "axiom".to_string(),
                     p => p.to_string(),
                 };
-                format!("lsgen: {what}: {modules} modules, {bytes} bytes\n")
+                format!(
+                    "lsgen: {who}{what}: {} modules, {} bytes\n",
+                    count_string(modules),
+                    count_string(bytes)
+                )
             }
             Event::FixedPoint { from, to } => {
-                format!("lsgen: steps {from}..{to}: unchanged (fixed point)\n")
+                format!("lsgen: {who}steps {from}..{to}: unchanged (fixed point)\n")
             }
         };
         crate::diag::eprint(&line);

@@ -5,3 +5,4 @@
 pub mod axiom;
 pub mod input;
 pub mod output;
+pub mod template;
