@@ -112,7 +112,9 @@ pub fn parse_seeds(s: &str) -> Result<Seeds, String> {
         Some((a, b)) => {
             let (first, last) = (num(a)?, num(b)?);
             if first > last {
-                return Err(format!("`{s}`: an empty range (the first seed is past the last)"));
+                return Err(format!(
+                    "`{s}`: an empty range (the first seed is past the last)"
+                ));
             }
             Ok(Seeds { first, last })
         }
@@ -323,9 +325,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let workers = args
         .jobs
         .map(|j| j as u64)
-        .unwrap_or_else(|| {
-            std::thread::available_parallelism().map_or(1, |n| n.get() as u64)
-        })
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get() as u64))
         .min(total);
     let failed = run_batch(total, workers as usize, |i| {
         let job = jobs(i);
