@@ -3,9 +3,7 @@
 //! Expected strings come from the in-memory reference (tests/reference) or
 //! are derived by hand.
 
-#[allow(dead_code)]
 mod common;
-#[allow(dead_code)]
 mod reference;
 
 use common::{dir_with, lsgen, run, Run};
