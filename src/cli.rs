@@ -7,10 +7,24 @@ use crate::diag::{Error, Kind};
 use crate::io::input::Input;
 use crate::io::output::Output;
 use crate::io::template::{self, Field, Template, Vars};
-use clap::Parser;
+use clap::{CommandFactory, Parser};
 use std::fs::File;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
+
+/// The end of `--help`: examples, exit codes, where to read more.
+const HELP_FOOTER: &str = "\
+Examples:
+  lsgen -n 5 examples/algae.ls                 derive 5 steps, print the string
+  lsgen -n 7 -o plant.txt examples/plant_d.ls  write to plant.txt (atomically)
+  lsgen -n 5 --seed 1..100 -o 'forest/{stem}-{seed}.txt' examples/stochastic_plant.ls
+                                               100 seeded variants, on all CPUs
+  lsgen --check -v my.ls                       parse and check only
+
+Exit status: 0 success; 1 bad input, a runtime error, an I/O failure, or a
+failed job of a batch; 2 a usage error (bad command line).
+
+The language, the CLI and the design: README.md, or `lsgen --man`.";
 
 /// Most derivation steps accepted (as for `derivation length:`).
 pub const MAX_STEPS: u64 = 1 << 53;
@@ -22,7 +36,8 @@ pub const MAX_STEPS: u64 = 1 << 53;
     about = "Derive an L-system and print the resulting string",
     long_about = "Reads an L-system (.ls) file, derives N generations and writes the final \
                   string on one line. The axiom is read as a stream and generations live in \
-                  temporary files, so strings may be far larger than memory."
+                  temporary files, so strings may be far larger than memory.",
+    after_help = HELP_FOOTER
 )]
 pub struct Args {
     /// The .ls file(s); standard input when absent or `-`. Several files
@@ -77,6 +92,15 @@ pub struct Args {
     /// Report the seed and each generation's length on standard error.
     #[arg(short, long)]
     pub verbose: bool,
+
+    /// Print a completion script for SHELL (bash, zsh, fish, elvish,
+    /// powershell) on standard output, and exit.
+    #[arg(long, value_name = "SHELL", exclusive = true)]
+    pub completions: Option<clap_complete::Shell>,
+
+    /// Print the man page (roff) on standard output, and exit.
+    #[arg(long, exclusive = true)]
+    pub man: bool,
 
     /// For tests (hidden): force the derivation strategy. `auto` (default)
     /// picks depth first when the system allows it, `step` always derives
@@ -240,7 +264,20 @@ fn main_on_thread() -> i32 {
             };
         }
     };
-    match run(&args) {
+    let result = if let Some(shell) = args.completions {
+        let mut text = Vec::new();
+        clap_complete::generate(shell, &mut Args::command(), "lsgen", &mut text);
+        print_stdout(&text)
+    } else if args.man {
+        let mut text = Vec::new();
+        clap_mangen::Man::new(Args::command())
+            .render(&mut text)
+            .map_err(|e| Error::io("the man page", "cannot render", e))
+            .and_then(|()| print_stdout(&text))
+    } else {
+        run(&args)
+    };
+    match result {
         Ok(()) => 0,
         Err(e) => {
             if e.kind != Kind::BrokenPipe {
@@ -249,6 +286,15 @@ fn main_on_thread() -> i32 {
             e.exit_code()
         }
     }
+}
+
+/// Write `text` to standard output (for --completions, --man).
+fn print_stdout(text: &[u8]) -> Result<(), Error> {
+    crate::io::output::check_stdout_open()?;
+    let mut out = io::stdout().lock();
+    out.write_all(text)
+        .and_then(|()| out.flush())
+        .map_err(|e| Error::io("standard output", "cannot write", e))
 }
 
 fn open_input(path: Option<&Path>) -> Result<Input, Error> {
