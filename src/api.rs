@@ -5,6 +5,7 @@ use crate::derive::{derive, Event, Limits, Settings, Strategy};
 use crate::diag::Error;
 use crate::io::axiom::AxiomReader;
 use crate::io::input::{split_header, Input, Split};
+use crate::io::precision::Significant;
 use crate::lang::parse::{locate, parse_header, UserError};
 use crate::rules::{compile_with, Seeds, System};
 use std::io::{self, Read, Write};
@@ -51,6 +52,7 @@ pub struct Options {
     limits: Limits,
     tmpdir: Option<PathBuf>,
     strategy: Strategy,
+    precision: Option<u32>,
 }
 
 impl Default for Options {
@@ -62,6 +64,7 @@ impl Default for Options {
             limits: Limits::default(),
             tmpdir: None,
             strategy: Strategy::Auto,
+            precision: None,
         }
     }
 }
@@ -102,6 +105,14 @@ impl Options {
     /// Directory for the temporary generation files (default: `$TMPDIR`).
     pub fn tmpdir(mut self, dir: impl Into<PathBuf>) -> Self {
         self.tmpdir = Some(dir.into());
+        self
+    }
+
+    /// Print the final string's parameters with `digits` significant
+    /// digits, as C's `%g` (clamped to 1..=17); default: the shortest form
+    /// that reads back to the same number.
+    pub fn precision(mut self, digits: u32) -> Self {
+        self.precision = Some(digits);
         self
     }
 
@@ -296,13 +307,23 @@ impl LSystem {
         };
         let consts = std::mem::take(&mut system.consts);
         let reader = AxiomReader::new(input, comments, line, col, &consts);
+        // --precision: the one place numbers are rewritten, for every
+        // strategy, on the text's way out.
+        let mut significant;
+        let out: &mut dyn Write = match options.precision {
+            Some(p) => {
+                significant = Significant::new(&mut out, p);
+                &mut significant
+            }
+            None => &mut out,
+        };
         let (modules, bytes) = derive(
             &settings,
             reader,
             &self.split.header,
             &self.path,
             system,
-            (&mut out, out_name),
+            (out, out_name),
             events,
         )?;
         Ok(Stats {

@@ -85,6 +85,12 @@ pub struct Args {
     #[arg(long, value_name = "N", value_parser = parse_limit)]
     pub max_length: Option<Limits>,
 
+    /// Print parameters with N significant digits, as C's %g (cpfg prints
+    /// %g, 6 digits); default: the shortest form that reads back exactly.
+    #[arg(long, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(1..=crate::io::precision::MAX_PRECISION as i64))]
+    pub precision: Option<u32>,
+
     /// Directory for the temporary generation files (default: $TMPDIR).
     #[arg(long, value_name = "DIR")]
     pub tmpdir: Option<PathBuf>,
@@ -561,6 +567,9 @@ fn run_one(args: &Args, job: Job, template: Option<&Template>, batch: bool) -> R
     }
     if let Some(d) = &args.tmpdir {
         options = options.tmpdir(d);
+    }
+    if let Some(p) = args.precision {
+        options = options.precision(p);
     }
     let seed = ls.seed(&options);
     // In a batch, -v lines name their job.

@@ -94,3 +94,36 @@ fn help_examples_run() {
         .args(["-n", "5", "examples/algae.ls"]));
     assert_eq!(r.ok(), "abaababaabaab\n");
 }
+
+/// `--precision 3` gives what C's `printf("%.3g")` gives (checked with
+/// Python's `%` operator: 1.05 3.88e+06 1.23e-05 100 -2.5 1e+03), the
+/// exponent written as lsgen writes it; for every strategy.
+#[test]
+fn precision_prints_significant_digits_and_reads_back() {
+    let dir = common::tempdir();
+    let p = common::write(
+        dir.path(),
+        "p.ls",
+        "productions:\nA(x) -> A(x/3)B(x*1234567)\n\
+         axiom: A(3.14159265)C(0.000012345,100,-2.5,999.9)\n",
+    );
+    let p = p.to_str().unwrap();
+    let want = "A(1.05)B(3.88e6)C(1.23e-5,100,-2.5,1e3)\n";
+    for strategy in ["auto", "step", "dfs"] {
+        let r = lsgen_run(&["-n", "1", "--precision", "3", "--strategy", strategy, p]);
+        assert_eq!(r.ok(), want, "--strategy {strategy}");
+    }
+    // The default stays the shortest round-trip form.
+    let r = lsgen_run(&["-n", "1", p]);
+    assert_eq!(
+        r.ok(),
+        "A(1.0471975500000001)B(3878506.6131325504)C(0.000012345,100,-2.5,999.9)\n"
+    );
+    // The output reads back as an axiom: the same numbers.
+    let r = common::run_with_stdin(lsgen().args(["-n", "0", "--axiom", "-", p]), want);
+    assert_eq!(r.ok(), "A(1.05)B(3880000)C(0.0000123,100,-2.5,1000)\n");
+    // Out of range is a usage error.
+    for bad in ["0", "18", "x"] {
+        lsgen_run(&["--precision", bad, p]).fails(2);
+    }
+}
