@@ -178,7 +178,7 @@ mod tests {
     #[test]
     fn like_printf_g() {
         // Expected: C's printf("%.Ng"), exponent in lsgen's form.
-        assert_eq!(g(1.41421, 3), "1.41");
+        assert_eq!(g(5.55555, 3), "5.56");
         assert_eq!(g(1234567.0, 3), "1.23e6");
         assert_eq!(g(0.000012345, 3), "1.23e-5");
         assert_eq!(g(100.0, 3), "100");
