@@ -53,6 +53,7 @@ pub struct Options {
     tmpdir: Option<PathBuf>,
     strategy: Strategy,
     precision: Option<u32>,
+    space: Option<u64>,
 }
 
 impl Default for Options {
@@ -65,6 +66,7 @@ impl Default for Options {
             tmpdir: None,
             strategy: Strategy::Auto,
             precision: None,
+            space: None,
         }
     }
 }
@@ -113,6 +115,14 @@ impl Options {
     /// that reads back to the same number.
     pub fn precision(mut self, digits: u32) -> Self {
         self.precision = Some(digits);
+        self
+    }
+
+    /// Refuse, before writing anything, a final string known in advance
+    /// (depth-first D0L plans) to be larger than `bytes`: the free space
+    /// where it goes.
+    pub fn free_space(mut self, bytes: u64) -> Self {
+        self.space = Some(bytes);
         self
     }
 
@@ -304,6 +314,7 @@ impl LSystem {
             tmpdir: options.tmpdir.clone(),
             lengths,
             strategy: options.strategy,
+            space: options.space,
         };
         let consts = std::mem::take(&mut system.consts);
         let reader = AxiomReader::new(input, comments, line, col, &consts);

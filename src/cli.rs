@@ -395,7 +395,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     Err(Error::new(format!(
         "{} of {total} jobs failed",
-        group_digits(failed.len() as u64)
+        crate::diag::group_digits(failed.len() as u64)
     )))
 }
 
@@ -502,26 +502,13 @@ fn run_batch(
     f
 }
 
-/// `n` with a comma between groups of three digits: `18,446,744`.
-pub fn group_digits(n: u64) -> String {
-    let s = n.to_string();
-    let mut out = String::with_capacity(s.len() + s.len() / 3);
-    for (i, c) in s.chars().enumerate() {
-        if i > 0 && (s.len() - i) % 3 == 0 {
-            out.push(',');
-        }
-        out.push(c);
-    }
-    out
-}
-
 /// A count for `-v`: grouped digits; `u64::MAX` stands for a count that
 /// does not fit (the depth-first plan saturates), printed as a lower bound.
 pub fn count_string(n: u64) -> String {
     if n == u64::MAX {
-        format!(">= {}", group_digits(n))
+        format!(">= {}", crate::diag::group_digits(n))
     } else {
-        group_digits(n)
+        crate::diag::group_digits(n)
     }
 }
 
@@ -593,6 +580,9 @@ fn run_one(args: &Args, job: Job, template: Option<&Template>, batch: bool) -> R
         }
         None => Output::stdout()?,
     };
+    if let Some(space) = output.free_space() {
+        options = options.free_space(space);
+    }
     if let Some(p) = &args.axiom {
         ls.set_axiom(open_input(Some(p.as_path()))?);
     }

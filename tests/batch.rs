@@ -220,3 +220,104 @@ fn verbose_prints_counts_past_u64_as_a_lower_bound() {
     );
     assert!(!r.stderr.contains(" 18446744073709551615"), "{}", r.stderr);
 }
+
+// ---------------------------------------------------------------- runaway guard
+
+const DOUBLING: &str = "productions:\nF -> FF\naxiom: F\n";
+
+#[test]
+fn a_string_larger_than_the_free_space_is_refused_before_writing() {
+    // F -> FF: 2^10 modules and a newline = 1025 bytes, by hand.
+    let d = dir_with(&[("d.ls", DOUBLING), ("out.txt", "old\n")]);
+    let guarded = |free: &str, n: &str| {
+        let r = run(lsgen()
+            .current_dir(d.path())
+            .env("LSGEN_TEST_FREE_BYTES", free)
+            .args(["-n", n, "-o", "out.txt", "d.ls"]));
+        r.assert_no_crash();
+        r
+    };
+    let r = guarded("1024", "10");
+    assert_eq!(
+        r.fails(1),
+        "lsgen: out.txt: error: the final string would be 1,025 bytes, more than the \
+         1,024 bytes free on its file system: nothing written (fewer steps; --max-length \
+         stops any run early)\n"
+    );
+    assert_eq!(read(d.path().join("out.txt")), "old\n");
+    common::assert_listing(d.path(), &["d.ls", "out.txt"]);
+    // Past u64: a lower bound, not a saturated size.
+    let r = guarded("1024", "80");
+    assert!(
+        r.fails(1)
+            .contains("would be more than 18,446,744,073,709,551,615 bytes"),
+        "{}",
+        r.stderr
+    );
+    // Exactly enough room: written.
+    guarded("1025", "10").ok();
+    assert_eq!(read(d.path().join("out.txt")).len(), 1025);
+    common::assert_listing(d.path(), &["d.ls", "out.txt"]);
+}
+
+#[test]
+fn the_homomorphism_counts_in_the_final_size() {
+    // F -> FG, G -> G; homomorphism G -> XYZ. After 3 steps: F G G G, so
+    // F XYZ XYZ XYZ = 10 bytes and a newline, by hand.
+    let src = "productions:\nF -> FG\nhomomorphism:\nG -> XYZ\naxiom: F\n";
+    let d = dir_with(&[("h.ls", src)]);
+    let r = run(lsgen()
+        .current_dir(d.path())
+        .env("LSGEN_TEST_FREE_BYTES", "10")
+        .args(["-n", "3", "-o", "o", "h.ls"]));
+    assert!(
+        r.fails(1)
+            .contains("would be 11 bytes, more than the 10 bytes"),
+        "{}",
+        r.stderr
+    );
+    let r = run(lsgen()
+        .current_dir(d.path())
+        .env("LSGEN_TEST_FREE_BYTES", "11")
+        .args(["-n", "3", "-o", "o", "h.ls"]));
+    r.ok();
+    assert_eq!(read(d.path().join("o")), "FXYZXYZXYZ\n");
+}
+
+/// The real statvfs, on a 64 KiB tmpfs; needs root (to mount), else it
+/// says so and checks nothing.
+#[test]
+fn free_space_guard_on_a_small_tmpfs() {
+    let d = dir_with(&[("d.ls", DOUBLING)]);
+    let mnt = d.path().join("mnt");
+    std::fs::create_dir(&mnt).unwrap();
+    let mounted = std::process::Command::new("mount")
+        .args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"])
+        .arg(&mnt)
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if !mounted {
+        eprintln!("free_space_guard_on_a_small_tmpfs: cannot mount a tmpfs (not root?): skipped");
+        return;
+    }
+    struct Unmount<'a>(&'a Path);
+    impl Drop for Unmount<'_> {
+        fn drop(&mut self) {
+            let _ = std::process::Command::new("umount").arg(self.0).status();
+        }
+    }
+    let _guard = Unmount(&mnt);
+    // 2^16 + 1 bytes do not fit in 64 KiB; 2^15 + 1 do.
+    let r = lsgen_in(d.path(), &["-n", "16", "-o", "mnt/big", "d.ls"]);
+    let err = r.fails(1);
+    assert!(
+        err.starts_with(
+            "lsgen: mnt/big: error: the final string would be 65,537 bytes, more than the "
+        ),
+        "{err}"
+    );
+    common::assert_listing(&mnt, &[]);
+    lsgen_in(d.path(), &["-n", "15", "-o", "mnt/small", "d.ls"]).ok();
+    assert_eq!(std::fs::metadata(mnt.join("small")).unwrap().len(), 32769);
+}

@@ -86,6 +86,10 @@ pub(crate) struct Settings {
     /// Each generation's length is wanted (by an [`Event`] callback).
     pub lengths: bool,
     pub strategy: Strategy,
+    /// Free bytes where the final string goes (a regular file's file
+    /// system), when known: a string known in advance to be larger is
+    /// refused before anything is written.
+    pub space: Option<u64>,
 }
 
 /// What a derivation reports as it goes (see `LSystem::derive_with`).
@@ -249,6 +253,25 @@ pub(crate) fn derive(
     )
     .filter(|_| strategy != Strategy::Step);
     if let (Some(plan), Some(src)) = (plan, &cur) {
+        if let Some(space) = settings.space {
+            let census = crate::derive::dfs::census(src, &d.alphabet)?;
+            let size = plan.final_text_bytes(&census, steps);
+            if size > u128::from(space) {
+                use crate::diag::group_digits;
+                let size = match u64::try_from(size) {
+                    Ok(n) if n != u64::MAX => format!("{} bytes", group_digits(n)),
+                    _ => format!("more than {} bytes", group_digits(u64::MAX)),
+                };
+                let mut e = Error::new(format!(
+                    "the final string would be {size}, more than the {} bytes free on \
+                     its file system: nothing written (fewer steps; --max-length stops \
+                     any run early)",
+                    group_digits(space)
+                ));
+                e.subject = Some(out_name.to_string());
+                return Err(e);
+            }
+        }
         if settings.lengths || limits.modules != u64::MAX || limits.bytes != u64::MAX {
             let census = crate::derive::dfs::census(src, &d.alphabet)?;
             let lengths = plan.lengths(&census, steps);
