@@ -345,6 +345,12 @@ impl LSystem {
         })
     }
 
+    /// The number of steps a derivation with `options` would take.
+    pub(crate) fn steps(&self, options: &Options) -> u64 {
+        let file = self.system.as_ref().and_then(|(s, _)| s.derivation_length);
+        options.steps.or(file).unwrap_or(DEFAULT_DERIVATION_LENGTH)
+    }
+
     /// The seed a derivation with `options` would use.
     pub fn seed(&self, options: &Options) -> u64 {
         let file = self.system.as_ref().and_then(|(s, _)| s.seed);

@@ -99,6 +99,15 @@ pub struct Args {
     #[arg(short, long)]
     pub verbose: bool,
 
+    /// Show progress on standard error even when it is not a terminal
+    /// (default: shown on a terminal, unless -v).
+    #[arg(long, conflicts_with = "quiet")]
+    pub progress: bool,
+
+    /// Show no progress, also on a terminal.
+    #[arg(short, long)]
+    pub quiet: bool,
+
     /// Print a completion script for SHELL (bash, zsh, fish, elvish,
     /// powershell) on standard output, and exit.
     #[arg(long, value_name = "SHELL", exclusive = true)]
@@ -379,14 +388,21 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .map(|j| j as u64)
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get() as u64))
         .min(total);
+    let display = crate::progress::wanted(args.progress, args.quiet, args.verbose)
+        .then(|| crate::progress::Batch::start(total));
     let failed = run_batch(total, workers as usize, |i| {
         let job = jobs(i);
-        run_one(args, job, template.as_ref(), true).map_err(|mut e| {
+        let r = run_one(args, job, template.as_ref(), true).map_err(|mut e| {
             let label = job.label(None);
             e.message = format!("{} [job {label}]", e.message);
             e
-        })
+        });
+        if let Some(d) = &display {
+            d.job_done();
+        }
+        r
     });
+    drop(display);
     if failed.is_empty() {
         return Ok(());
     }
@@ -587,7 +603,23 @@ fn run_one(args: &Args, job: Job, template: Option<&Template>, batch: bool) -> R
         ls.set_axiom(open_input(Some(p.as_path()))?);
     }
     let out_name = output.name();
+    // Progress: one display per run, not per job of a batch.
+    let display = (!batch && crate::progress::wanted(args.progress, args.quiet, args.verbose))
+        .then(|| crate::progress::Derivation::start(ls.steps(&options)));
+    let _installed = display
+        .as_ref()
+        .map(|d| crate::derive::meter::install(d.meter.clone()));
     let mut report = |e: &Event| {
+        if let (
+            Some(d),
+            Event::Generation {
+                pass: Pass::Step(k),
+                ..
+            },
+        ) = (&display, e)
+        {
+            d.done.store(*k, std::sync::atomic::Ordering::Relaxed);
+        }
         if !args.verbose {
             return;
         }
@@ -620,6 +652,8 @@ fn run_one(args: &Args, job: Job, template: Option<&Template>, batch: bool) -> R
         args.verbose,
         &mut report,
     )?;
+    drop(_installed);
+    drop(display);
     output.commit()
 }
 

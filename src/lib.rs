@@ -18,6 +18,7 @@ pub mod derive;
 pub mod diag;
 pub mod io;
 pub mod lang;
+mod progress;
 pub mod rules;
 pub mod turtle;
 

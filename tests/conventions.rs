@@ -127,3 +127,91 @@ fn precision_prints_significant_digits_and_reads_back() {
         lsgen_run(&["--precision", bad, p]).fails(2);
     }
 }
+
+// ---------------------------------------------------------------- progress
+
+/// Run `lsgen ARGS` on a pseudo-terminal (util-linux `script`); what the
+/// terminal showed. None when `script` is missing.
+fn on_a_terminal(args: &str) -> Option<String> {
+    let r = run(common::command("script").current_dir(common::ROOT).args([
+        "-qfc",
+        &format!("{} {args}", common::LSGEN),
+        "/dev/null",
+    ]));
+    if r.code() == Some(127) || r.stderr.contains("No such file") {
+        return None;
+    }
+    assert_eq!(r.code(), Some(0), "script: {}", r.stderr);
+    Some(String::from_utf8_lossy(&r.stdout).into_owned())
+}
+
+#[test]
+fn progress_is_shown_on_a_terminal_and_absent_on_a_pipe() {
+    let dir = common::tempdir();
+    let out = dir.path().join("out.txt");
+    let out = out.to_str().unwrap();
+    // Step by step: the step and the generation's counts.
+    let args = format!("-n 12 --strategy step -o {out} examples/plant_d.ls");
+    let Some(screen) = on_a_terminal(&args) else {
+        eprintln!("no `script`: skipped");
+        return;
+    };
+    assert!(screen.contains("step "), "{screen:?}");
+    assert!(screen.contains("/12: "), "{screen:?}");
+    assert!(screen.contains(" modules, "), "{screen:?}");
+    assert!(screen.contains("modules/s"), "{screen:?}");
+    // Depth first, the final size known: a bar with an ETA.
+    let screen = on_a_terminal(&format!("-n 24 -o {out} examples/dragon_curve.ls")).unwrap();
+    assert!(screen.contains("steps 1..24 ["), "{screen:?}");
+    assert!(screen.contains("ETA"), "{screen:?}");
+    // --quiet: nothing.
+    let screen = on_a_terminal(&format!("-q {args}")).unwrap();
+    assert_eq!(screen, "");
+    // A batch: jobs done of all.
+    let screen = on_a_terminal(&format!(
+        "-n 3 --seed 1..4 -o {}/{{seed}} examples/algae.ls",
+        dir.path().display()
+    ))
+    .unwrap();
+    assert!(screen.contains("jobs: ["), "{screen:?}");
+    assert!(screen.contains("/4"), "{screen:?}");
+    // On a pipe: nothing on stderr.
+    let r = run(lsgen().current_dir(common::ROOT).args([
+        "-n",
+        "12",
+        "--strategy",
+        "step",
+        "-o",
+        out,
+        "examples/plant_d.ls",
+    ]));
+    assert_eq!(r.ok(), "");
+}
+
+#[test]
+fn progress_forced_on_a_pipe_and_on_a_closed_stderr() {
+    let dir = common::tempdir();
+    let out = dir.path().join("out.txt");
+    let out = out.to_str().unwrap();
+    let r = run(lsgen().current_dir(common::ROOT).args([
+        "--progress",
+        "-n",
+        "13",
+        "--strategy",
+        "step",
+        "-o",
+        out,
+        "examples/plant_d.ls",
+    ]));
+    assert_eq!(r.code(), Some(0));
+    assert!(r.stderr.contains("step "), "{:?}", r.stderr);
+    // Closed standard error: no panic, the string written.
+    let r = run(common::lsgen_under_sh("exec 2>&-")
+        .current_dir(common::ROOT)
+        .args(["--progress", "-n", "3", "examples/algae.ls"]));
+    assert_eq!(r.ok(), "abaab\n");
+    let r = run(common::lsgen_under_sh("exec 2>/dev/full")
+        .current_dir(common::ROOT)
+        .args(["--progress", "-n", "3", "examples/algae.ls"]));
+    assert_eq!(r.ok(), "abaab\n");
+}

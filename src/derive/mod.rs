@@ -10,6 +10,7 @@ pub(crate) mod bytetable;
 pub(crate) mod choose;
 pub(crate) mod context;
 pub mod dfs;
+pub mod meter;
 pub mod random;
 pub(crate) mod reader;
 pub mod sink;
@@ -253,6 +254,13 @@ pub(crate) fn derive(
     )
     .filter(|_| strategy != Strategy::Step);
     if let (Some(plan), Some(src)) = (plan, &cur) {
+        if let Some(m) = meter::current() {
+            let census = crate::derive::dfs::census(src, &d.alphabet)?;
+            let size = plan.final_text_bytes(&census, steps);
+            let size = u64::try_from(size).unwrap_or(u64::MAX).max(1);
+            m.final_bytes
+                .store(size, std::sync::atomic::Ordering::Relaxed);
+        }
         if let Some(space) = settings.space {
             let census = crate::derive::dfs::census(src, &d.alphabet)?;
             let size = plan.final_text_bytes(&census, steps);

@@ -86,6 +86,8 @@ pub struct Out<'w> {
     limits: Limits,
     /// What this generation is, for `--max-length` errors.
     pass: Pass,
+    /// A progress display's meter, if one is installed.
+    meter: Option<std::sync::Arc<super::meter::Meter>>,
 }
 
 impl<'w> Out<'w> {
@@ -102,6 +104,7 @@ impl<'w> Out<'w> {
             num: codec::NumFmt::new(),
             limits,
             pass: Pass::Axiom,
+            meter: super::meter::current(),
         }
     }
 
@@ -276,6 +279,9 @@ impl<'w> Out<'w> {
             .write_all(&self.buf)
             .map_err(|e| Error::io(self.name, "cannot write", e))?;
         self.buf.clear();
+        if let Some(m) = &self.meter {
+            m.record(self.modules, self.written);
+        }
         Ok(())
     }
 
