@@ -50,7 +50,7 @@ pub struct Args {
     /// {stem} (input file name without extension), {seed}, {n}; {{ and }}
     /// for literal braces. A batch needs one that names each job apart.
     #[arg(short, long, value_name = "FILE")]
-    pub output: Option<String>,
+    pub output: Option<PathBuf>,
 
     /// Number of derivation steps (overrides `derivation length:`).
     #[arg(short = 'n', long, value_name = "N",
@@ -360,7 +360,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let seeds = args.seed.map_or(1, |s| s.count());
     let total = (files.len() as u64).saturating_mul(seeds);
     let template = match &args.output {
-        Some(o) => Some(Template::parse(o)?),
+        Some(o) => Some(Template::parse_path(o)?),
         None => None,
     };
     if let Some(t) = &template {
@@ -432,6 +432,10 @@ fn check_batch(
         return Err(Error::usage(
             "`--axiom -` can feed one job only: a batch needs an axiom file",
         ));
+    }
+    if args.check {
+        // Nothing is written: no names to tell apart.
+        return Ok(());
     }
     let Some(t) = template.filter(|t| !t.is_plain()) else {
         return Err(Error::usage(

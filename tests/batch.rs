@@ -321,3 +321,31 @@ fn free_space_guard_on_a_small_tmpfs() {
     lsgen_in(d.path(), &["-n", "15", "-o", "mnt/small", "d.ls"]).ok();
     assert_eq!(std::fs::metadata(mnt.join("small")).unwrap().len(), 32769);
 }
+
+#[test]
+fn check_takes_several_files_without_a_template() {
+    let d = dir_with(&[
+        ("a.ls", "productions:\nA -> AB\naxiom: A\n"),
+        ("b.ls", "productions:\nA -> B(\naxiom: A\n"),
+    ]);
+    let r = lsgen_in(d.path(), &["--check", "a.ls", "a.ls"]);
+    assert_eq!(r.ok(), "");
+    let r = lsgen_in(d.path(), &["--check", "a.ls", "b.ls"]);
+    let err = r.fails(1);
+    assert!(err.contains("b.ls:2:"), "{err}");
+    assert!(err.ends_with("lsgen: error: 1 of 2 jobs failed\n"), "{err}");
+}
+
+#[test]
+fn an_output_name_that_is_not_utf8_still_works() {
+    use std::os::unix::ffi::OsStrExt;
+    let d = dir_with(&[("a.ls", "productions:\nA -> AB\naxiom: A\n")]);
+    let name = std::ffi::OsStr::from_bytes(b"out\xff{x}");
+    let r = run(lsgen()
+        .current_dir(d.path())
+        .args(["-n", "2", "-o"])
+        .arg(name)
+        .arg("a.ls"));
+    assert_eq!(r.ok(), "");
+    assert_eq!(read(d.path().join(name)), "ABB\n");
+}

@@ -38,6 +38,8 @@ enum Part {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Template {
     parts: Vec<Part>,
+    /// A name that is not UTF-8: used as it is, no placeholders.
+    raw: Option<PathBuf>,
 }
 
 /// The values a template is expanded with; a `None` field that the template
@@ -50,6 +52,17 @@ pub struct Vars<'a> {
 }
 
 impl Template {
+    /// Parse `-o`'s name; one that is not UTF-8 is a plain name.
+    pub fn parse_path(p: &Path) -> Result<Template, Error> {
+        match p.to_str() {
+            Some(s) => Template::parse(s),
+            None => Ok(Template {
+                parts: Vec::new(),
+                raw: Some(p.to_path_buf()),
+            }),
+        }
+    }
+
     /// Parse `s`; an unknown or unclosed placeholder is a usage error.
     pub fn parse(s: &str) -> Result<Template, Error> {
         let mut parts = Vec::new();
@@ -95,7 +108,7 @@ impl Template {
         if !text.is_empty() {
             parts.push(Part::Text(text));
         }
-        Ok(Template { parts })
+        Ok(Template { parts, raw: None })
     }
 
     /// The template has no placeholder: a plain file name.
@@ -110,6 +123,9 @@ impl Template {
 
     /// The file name for `vars`.
     pub fn expand(&self, vars: &Vars) -> Result<PathBuf, Error> {
+        if let Some(raw) = &self.raw {
+            return Ok(raw.clone());
+        }
         let mut s = String::new();
         for p in &self.parts {
             match p {
@@ -189,6 +205,15 @@ mod tests {
     fn missing_value_is_an_error() {
         let t = Template::parse("f{n}").unwrap();
         assert!(t.expand(&Vars::default()).is_err());
+    }
+
+    #[test]
+    fn a_name_that_is_not_utf8_is_plain() {
+        use std::os::unix::ffi::OsStrExt;
+        let p = Path::new(std::ffi::OsStr::from_bytes(b"out\xff{stem}"));
+        let t = Template::parse_path(p).unwrap();
+        assert!(t.is_plain());
+        assert_eq!(t.expand(&Vars::default()).unwrap(), p);
     }
 
     #[test]
