@@ -174,8 +174,12 @@ fn tick(meter: &Meter, done: &AtomicU64, stop: &AtomicBool, steps: u64) {
                 short_duration(eta as u64)
             ));
         } else {
-            let step = (k + 1).min(steps.max(1));
-            pb.set_prefix(format!("step {step}/{steps}"));
+            if meter.depth_first.load(Ordering::Relaxed) {
+                pb.set_prefix(format!("steps 1..{steps} (depth first)"));
+            } else {
+                let step = (k + 1).min(steps.max(1));
+                pb.set_prefix(format!("step {step}/{steps}"));
+            }
             pb.set_message(format!(
                 "{} modules, {} bytes, {} modules/s",
                 group_digits(modules),

@@ -164,6 +164,12 @@ fn progress_is_shown_on_a_terminal_and_absent_on_a_pipe() {
     let screen = on_a_terminal(&format!("-n 24 -o {out} examples/dragon_curve.ls")).unwrap();
     assert!(screen.contains("steps 1..24 ["), "{screen:?}");
     assert!(screen.contains("ETA"), "{screen:?}");
+    // Depth first with parameters: all steps in one pass, size unknown.
+    let screen = on_a_terminal(&format!(
+        "-n 8 -o {out} benches/workloads/parametric_tree.ls"
+    ))
+    .unwrap();
+    assert!(screen.contains("steps 1..8 (depth first): "), "{screen:?}");
     // --quiet: nothing.
     let screen = on_a_terminal(&format!("-q {args}")).unwrap();
     assert_eq!(screen, "");

@@ -6,7 +6,7 @@
 //! thread ([`install`]), so batch workers each have their own.
 
 use std::cell::RefCell;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 
 #[derive(Debug, Default)]
@@ -18,6 +18,8 @@ pub struct Meter {
     /// The final text's size with its newline, when known in advance
     /// (u64::MAX: larger than that); 0: unknown.
     pub final_bytes: AtomicU64,
+    /// The final string is written depth first, all steps in one pass.
+    pub depth_first: AtomicBool,
 }
 
 impl Meter {

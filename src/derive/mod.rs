@@ -28,6 +28,7 @@ use random::Random;
 use std::fs::File;
 use std::io::{self, Seek, SeekFrom, Write};
 use std::path::PathBuf;
+use std::sync::atomic::Ordering;
 
 /// Where a pass's errors point and what they call the pass.
 pub struct Origin<'a> {
@@ -258,8 +259,8 @@ pub(crate) fn derive(
             let census = crate::derive::dfs::census(src, &d.alphabet)?;
             let size = plan.final_text_bytes(&census, steps);
             let size = u64::try_from(size).unwrap_or(u64::MAX).max(1);
-            m.final_bytes
-                .store(size, std::sync::atomic::Ordering::Relaxed);
+            m.final_bytes.store(size, Ordering::Relaxed);
+            m.depth_first.store(true, Ordering::Relaxed);
         }
         if let Some(space) = settings.space {
             let census = crate::derive::dfs::census(src, &d.alphabet)?;
@@ -318,6 +319,9 @@ pub(crate) fn derive(
     // strategy reports the earliest step's first error in string order.
     let mut depth_first_error = None;
     if let (Some(plan), Some(src), true) = (plan, &cur, quiet) {
+        if let Some(m) = meter::current() {
+            m.depth_first.store(true, Ordering::Relaxed);
+        }
         let mut none = None;
         let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
         match plan
