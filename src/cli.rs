@@ -388,7 +388,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .map(|j| j as u64)
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get() as u64))
         .min(total);
-    let display = crate::progress::wanted(args.progress, args.quiet, args.verbose)
+    let display = crate::progress::wanted(args.progress, args.quiet, args.verbose, false)
         .then(|| crate::progress::Batch::start(total));
     let failed = run_batch(total, workers as usize, |i| {
         let job = jobs(i);
@@ -608,8 +608,10 @@ fn run_one(args: &Args, job: Job, template: Option<&Template>, batch: bool) -> R
     }
     let out_name = output.name();
     // Progress: one display per run, not per job of a batch.
-    let display = (!batch && crate::progress::wanted(args.progress, args.quiet, args.verbose))
-        .then(|| crate::progress::Derivation::start(ls.steps(&options)));
+    let to_stdout = matches!(output, Output::Stdout(_));
+    let display = (!batch
+        && crate::progress::wanted(args.progress, args.quiet, args.verbose, to_stdout))
+    .then(|| crate::progress::Derivation::start(ls.steps(&options)));
     let _installed = display
         .as_ref()
         .map(|d| crate::derive::meter::install(d.meter.clone()));

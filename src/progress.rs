@@ -2,7 +2,7 @@
 //! current generation's modules and bytes with its rate, and a bar with an
 //! ETA when the final size is known in advance (the depth-first D0L plan)
 //! or in a batch (jobs done of all). On when standard error is a terminal
-//! (and -v is not given); `--progress` forces it on, `--quiet` off. It
+//! (and -v is not given, and the string is not printed on the terminal); `--progress` forces it on, `--quiet` off. It
 //! writes through [`crate::diag::eprint`], so a closed or full standard
 //! error is ignored, never a panic.
 
@@ -70,13 +70,15 @@ impl TermLike for Stderr {
 }
 
 /// Whether to show progress: `--progress` / `--quiet`, else when standard
-/// error is a terminal and -v is off.
-pub fn wanted(force_on: bool, force_off: bool, verbose: bool) -> bool {
+/// error is a terminal, -v is off, and the string does not go to a
+/// terminal on standard output (the bar would be drawn into it).
+pub fn wanted(force_on: bool, force_off: bool, verbose: bool, to_stdout: bool) -> bool {
     use std::io::IsTerminal;
     if force_off {
         return false;
     }
-    force_on || (!verbose && io::stderr().is_terminal())
+    force_on
+        || (!verbose && io::stderr().is_terminal() && !(to_stdout && io::stdout().is_terminal()))
 }
 
 fn bar() -> ProgressBar {

@@ -170,6 +170,9 @@ fn progress_is_shown_on_a_terminal_and_absent_on_a_pipe() {
     ))
     .unwrap();
     assert!(screen.contains("steps 1..8 (depth first): "), "{screen:?}");
+    // The string printed on the terminal itself: no bar drawn into it.
+    let screen = on_a_terminal("-n 3 examples/algae.ls").unwrap();
+    assert_eq!(screen, "abaab\r\n");
     // --quiet: nothing.
     let screen = on_a_terminal(&format!("-q {args}")).unwrap();
     assert_eq!(screen, "");
