@@ -376,7 +376,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             file: files[0],
             seed: args.seed.map(|s| s.first),
         };
-        return run_one(args, job, template.as_ref(), false);
+        return run_one(args, job, template.as_ref(), None);
     }
     check_batch(args, &files, seeds, template.as_ref())?;
     let jobs = |i: u64| Job {
@@ -392,8 +392,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .then(|| crate::progress::Batch::start(total));
     let failed = run_batch(total, workers as usize, |i| {
         let job = jobs(i);
-        let r = run_one(args, job, template.as_ref(), true).map_err(|mut e| {
-            let label = job.label(None);
+        let mut seed = None;
+        let r = run_one(args, job, template.as_ref(), Some(&mut seed)).map_err(|mut e| {
+            // The seed the job used, once known (the file's `seed:`, or a
+            // fresh one, without --seed).
+            let label = job.label(seed);
             e.message = format!("{} [job {label}]", e.message);
             e
         });
@@ -533,8 +536,14 @@ pub fn count_string(n: u64) -> String {
 }
 
 /// Run one job: load its file, derive with its seed, write its output.
-/// `batch`: messages name the job.
-fn run_one(args: &Args, job: Job, template: Option<&Template>, batch: bool) -> Result<(), Error> {
+/// `batch`: in a batch, messages name the job, and the seed used is put
+/// there.
+fn run_one(
+    args: &Args,
+    job: Job,
+    template: Option<&Template>,
+    batch: Option<&mut Option<u64>>,
+) -> Result<(), Error> {
     let file_is_stdin = job.file.is_none_or(|p| p.as_os_str() == "-");
     let axiom_is_stdin = args.axiom.as_ref().is_some_and(|p| p.as_os_str() == "-");
     if file_is_stdin && axiom_is_stdin {
@@ -579,6 +588,7 @@ fn run_one(args: &Args, job: Job, template: Option<&Template>, batch: bool) -> R
         options = options.precision(p);
     }
     let seed = ls.seed(&options);
+    let batch = batch.map(|used| *used = Some(seed)).is_some();
     // In a batch, -v lines name their job.
     let who = if batch {
         format!("{}: ", job.label(Some(seed)))

@@ -349,3 +349,25 @@ fn an_output_name_that_is_not_utf8_still_works() {
     assert_eq!(r.ok(), "");
     assert_eq!(read(d.path().join(name)), "ABB\n");
 }
+
+#[test]
+fn a_failing_job_names_the_seed_it_used() {
+    // No --seed: the job's seed is its file's `seed:`.
+    let bad = format!("seed: 42\n{DIV_AT_STEP_2}");
+    let d = dir_with(&[
+        ("bad.ls", bad.as_str()),
+        ("ok.ls", "productions:\nA -> AB\naxiom: A\n"),
+    ]);
+    let r = lsgen_in(
+        d.path(),
+        &["-n", "3", "-o", "{stem}.out", "bad.ls", "ok.ls"],
+    );
+    let err = r.fails(1);
+    assert!(
+        err.starts_with(
+            "lsgen: bad.ls:4:20: error: division by zero (in step 2) [job bad.ls (seed 42)]\n"
+        ),
+        "{err}"
+    );
+    assert_eq!(read(d.path().join("ok.out")), "ABBB\n");
+}
