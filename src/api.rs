@@ -112,7 +112,8 @@ impl Options {
 
     /// Print the final string's parameters with `digits` significant
     /// digits, as C's `%g` (clamped to 1..=17); default: the shortest form
-    /// that reads back to the same number.
+    /// that reads back to the same number. [`Stats::bytes`] and the byte
+    /// limits count the text before this rewriting.
     pub fn precision(mut self, digits: u32) -> Self {
         self.precision = Some(digits);
         self
