@@ -491,6 +491,7 @@ fn run_suite(bin: &Path, o: &Options) -> Result<(), String> {
         .map_err(|e| format!("cannot copy {}: {e}", bin.display()))
         .and_then(|_| run_all(&copy, o, &scratch, gnu_time.as_deref()))
         .and_then(|r| Ok((r, run_turtle(&copy, o, &scratch, gnu_time.as_deref())?)))
+        .and_then(|(r, t)| Ok((r, t + &run_forest(&copy, o, &scratch)?)))
         .and_then(|r| Ok((r, run_frames(&copy, o, &scratch, gnu_time.as_deref())?)));
     let _ = fs::remove_dir_all(&scratch);
     let (((rows, skips), turtle), frames) = res?;
@@ -912,6 +913,68 @@ fn run_frames(
             wall / best_single,
             cpu.map_or("?".into(), |c| format!("{c:.3}")),
             rss.map_or("?".into(), |k| format!("{:.1}", k as f64 / 1024.0)),
+        );
+    }
+    Ok(md)
+}
+
+/// A seed batch (issue 13): a 100-seed forest of stochastic_plant.ls, one
+/// file per seed, at `-j 1` and `-j 2`; target: `-j 2` at least 1.7 times
+/// faster than `-j 1` on a machine with 2 free cores.
+fn run_forest(lsgen: &Path, o: &Options, scratch: &Path) -> Result<String, String> {
+    const NAME: &str = "forest_100_seeds";
+    if o.only
+        .as_ref()
+        .is_some_and(|v| !v.iter().any(|p| NAME.starts_with(p.as_str())))
+    {
+        return Ok(String::new());
+    }
+    let model = workload_path("stochastic_plant.ls");
+    let dir = scratch.join("forest");
+    let mut md = String::from(
+        "\n### Seed batch\n\n\
+         `lsgen -n 10 --seed 1..100 -o 'forest/{seed}.txt' stochastic_plant.ls`: 100 jobs, \
+         one output file each (best wall time of the repetitions).\n\n\
+         | row | jobs | wall s | speed-up over -j 1 | target |\n\
+         |---|--:|--:|--:|---|\n",
+    );
+    let mut serial = None;
+    for j in [1u32, 2] {
+        let reps = o.reps.unwrap_or(3);
+        let mut best = f64::INFINITY;
+        for rep in 0..reps {
+            let _ = fs::remove_dir_all(&dir);
+            fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+            let t0 = Instant::now();
+            let r = Command::new(lsgen)
+                .args(["-n", "10", "--seed", "1..100", "-j", &j.to_string(), "-o"])
+                .arg(dir.join("{seed}.txt"))
+                .arg(&model)
+                .stdin(Stdio::null())
+                .output()
+                .map_err(|e| format!("cannot run lsgen: {e}"))?;
+            let wall = t0.elapsed().as_secs_f64();
+            if !r.status.success() {
+                return Err(format!(
+                    "{NAME} -j {j} failed: {}",
+                    String::from_utf8_lossy(&r.stderr).trim()
+                ));
+            }
+            eprintln!("suite: {NAME} -j {j} [{}/{reps}]: {wall:.3} s", rep + 1);
+            best = best.min(wall);
+        }
+        let _ = fs::remove_dir_all(&dir);
+        let base = *serial.get_or_insert(best);
+        let (speedup, target) = if j == 1 {
+            ("1.00".to_string(), "")
+        } else if base / best >= 1.7 {
+            (format!("{:.2}", base / best), ">= 1.7: met")
+        } else {
+            (format!("{:.2}", base / best), ">= 1.7: MISSED")
+        };
+        let _ = writeln!(
+            md,
+            "| {NAME} -j {j} | 100 | {best:.3} | {speedup} | {target} |"
         );
     }
     Ok(md)

@@ -5,6 +5,7 @@ use crate::derive::{derive, Event, FrameSink, Frames, Limits, Settings, Strategy
 use crate::diag::Error;
 use crate::io::axiom::AxiomReader;
 use crate::io::input::{split_header, Input, Split};
+use crate::io::precision::Significant;
 use crate::lang::parse::{locate, parse_header, UserError};
 use crate::rules::{compile_with, Seeds, System};
 use std::io::{self, Read, Write};
@@ -52,6 +53,8 @@ pub struct Options {
     tmpdir: Option<PathBuf>,
     strategy: Strategy,
     first_step: u64,
+    precision: Option<u32>,
+    space: Option<u64>,
 }
 
 impl Default for Options {
@@ -64,6 +67,8 @@ impl Default for Options {
             tmpdir: None,
             strategy: Strategy::Auto,
             first_step: 1,
+            precision: None,
+            space: None,
         }
     }
 }
@@ -112,6 +117,23 @@ impl Options {
     /// with `first_step(4)`, gives what 5 steps give.
     pub fn first_step(mut self, k: u64) -> Self {
         self.first_step = k;
+        self
+    }
+
+    /// Print the final string's parameters with `digits` significant
+    /// digits, as C's `%g` (clamped to 1..=17); default: the shortest form
+    /// that reads back to the same number. [`Stats::bytes`] and the byte
+    /// limits count the text before this rewriting.
+    pub fn precision(mut self, digits: u32) -> Self {
+        self.precision = Some(digits);
+        self
+    }
+
+    /// Refuse, before writing anything, a final string known in advance
+    /// (depth-first D0L plans) to be larger than `bytes`: the free space
+    /// where it goes.
+    pub fn free_space(mut self, bytes: u64) -> Self {
+        self.space = Some(bytes);
         self
     }
 
@@ -320,16 +342,27 @@ impl LSystem {
             lengths,
             strategy: options.strategy,
             first_step: options.first_step,
+            space: options.space,
         };
         let consts = std::mem::take(&mut system.consts);
         let reader = AxiomReader::new(input, comments, line, col, &consts);
+        // --precision: the one place numbers are rewritten, for every
+        // strategy, on the text's way out.
+        let mut significant;
+        let out: &mut dyn Write = match options.precision {
+            Some(p) => {
+                significant = Significant::new(&mut out, p);
+                &mut significant
+            }
+            None => &mut out,
+        };
         let (modules, bytes) = derive(
             &settings,
             reader,
             &self.split.header,
             &self.path,
             system,
-            (&mut out, out_name),
+            (out, out_name),
             events,
             frames,
         )?;
@@ -339,6 +372,13 @@ impl LSystem {
             modules,
             bytes,
         })
+    }
+
+    /// The number of steps a derivation with `options` would take.
+    #[cfg_attr(not(feature = "cli"), allow(dead_code))] // the progress display's
+    pub(crate) fn steps(&self, options: &Options) -> u64 {
+        let file = self.system.as_ref().and_then(|(s, _)| s.derivation_length);
+        options.steps.or(file).unwrap_or(DEFAULT_DERIVATION_LENGTH)
     }
 
     /// The seed a derivation with `options` would use.

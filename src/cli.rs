@@ -6,10 +6,25 @@ use crate::derive::{Event, FrameSink, Frames, Limits, Pass, Strategy};
 use crate::diag::{Error, Kind};
 use crate::io::input::Input;
 use crate::io::output::Output;
-use clap::Parser;
+use crate::io::template::{self, Field, Template, Vars};
+use clap::{CommandFactory, Parser};
 use std::fs::File;
 use std::io::{self, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+/// The end of `--help`: examples, exit codes, where to read more.
+const HELP_FOOTER: &str = "\
+Examples:
+  lsgen -n 5 examples/algae.ls                 derive 5 steps, print the string
+  lsgen -n 7 -o plant.txt examples/plant_d.ls  write to plant.txt (atomically)
+  lsgen -n 5 --seed 1..100 -o 'forest/{stem}-{seed}.txt' examples/stochastic_plant.ls
+                                               100 seeded variants, on all CPUs
+  lsgen --check -v my.ls                       parse and check only
+
+Exit status: 0 success; 1 bad input, a runtime error, an I/O failure, or a
+failed job of a batch; 2 a usage error (bad command line).
+
+The language, the CLI and the design: README.md, or `lsgen --man`.";
 
 /// Most derivation steps accepted (as for `derivation length:`).
 pub const MAX_STEPS: u64 = 1 << 53;
@@ -21,14 +36,19 @@ pub const MAX_STEPS: u64 = 1 << 53;
     about = "Derive an L-system and print the resulting string",
     long_about = "Reads an L-system (.ls) file, derives N generations and writes the final \
                   string on one line. The axiom is read as a stream and generations live in \
-                  temporary files, so strings may be far larger than memory."
+                  temporary files, so strings may be far larger than memory.",
+    after_help = HELP_FOOTER
 )]
 pub struct Args {
-    /// The .ls file; standard input when absent or `-`.
-    pub file: Option<PathBuf>,
+    /// The .ls file(s); standard input when absent or `-`. Several files
+    /// make a batch (see -o and -j).
+    #[arg(value_name = "FILE")]
+    pub files: Vec<PathBuf>,
 
     /// Write the string to FILE (`-`: standard output); a regular file is
-    /// put in place only when complete, through symbolic links.
+    /// put in place only when complete, through symbolic links. A template:
+    /// {stem} (input file name without extension), {seed}, {n}; {{ and }}
+    /// for literal braces. A batch needs one that names each job apart.
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
 
@@ -37,9 +57,15 @@ pub struct Args {
           value_parser = clap::value_parser!(u64).range(..=MAX_STEPS))]
     pub derivation_length: Option<u64>,
 
-    /// Seed of the random generator (overrides `seed:`).
-    #[arg(long, value_name = "S")]
-    pub seed: Option<u64>,
+    /// Seed of the random generator (overrides `seed:`); a range A..B
+    /// (inclusive) runs one job per seed.
+    #[arg(long, value_name = "S|A..B", value_parser = parse_seeds)]
+    pub seed: Option<Seeds>,
+
+    /// Run a batch's jobs on N worker threads (default: the number of CPUs).
+    #[arg(short, long, value_name = "N", env = "LSGEN_JOBS",
+          value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub jobs: Option<u32>,
 
     /// Do not apply the homomorphism productions.
     #[arg(long)]
@@ -58,6 +84,12 @@ pub struct Args {
     /// with a suffix: 500M (modules), 2GB, 512MiB, 10kB.
     #[arg(long, value_name = "N", value_parser = parse_limit)]
     pub max_length: Option<Limits>,
+
+    /// Print parameters with N significant digits, as C's %g (cpfg prints
+    /// %g, 6 digits); default: the shortest form that reads back exactly.
+    #[arg(long, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(1..=crate::io::precision::MAX_PRECISION as i64))]
+    pub precision: Option<u32>,
 
     /// Directory for the temporary generation files (default: $TMPDIR).
     #[arg(long, value_name = "DIR")]
@@ -80,6 +112,24 @@ pub struct Args {
     #[arg(short, long)]
     pub verbose: bool,
 
+    /// Show progress on standard error even when it is not a terminal
+    /// (default: shown on a terminal, unless -v).
+    #[arg(long, conflicts_with = "quiet")]
+    pub progress: bool,
+
+    /// Show no progress, also on a terminal.
+    #[arg(short, long)]
+    pub quiet: bool,
+
+    /// Print a completion script for SHELL (bash, zsh, fish, elvish,
+    /// powershell) on standard output, and exit.
+    #[arg(long, value_name = "SHELL", exclusive = true)]
+    pub completions: Option<clap_complete::Shell>,
+
+    /// Print the man page (roff) on standard output, and exit.
+    #[arg(long, exclusive = true)]
+    pub man: bool,
+
     /// For tests (hidden): force the derivation strategy. `auto` (default)
     /// picks depth first when the system allows it, `step` always derives
     /// step by step through temporary files, `dfs` insists on depth first
@@ -87,6 +137,40 @@ pub struct Args {
     #[arg(long, hide = true, value_name = "auto|step|dfs",
           value_parser = parse_strategy, default_value = "auto")]
     pub strategy: Strategy,
+}
+
+/// `--seed`: one seed, or an inclusive range `A..B`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Seeds {
+    pub first: u64,
+    pub last: u64,
+}
+
+impl Seeds {
+    /// Number of seeds (at least 1; the full u64 range saturates).
+    fn count(&self) -> u64 {
+        (self.last - self.first).saturating_add(1)
+    }
+}
+
+pub fn parse_seeds(s: &str) -> Result<Seeds, String> {
+    let num = |t: &str| {
+        t.trim()
+            .parse::<u64>()
+            .map_err(|_| format!("`{s}` is not a seed: use a number or a range A..B"))
+    };
+    match s.split_once("..") {
+        None => num(s).map(|v| Seeds { first: v, last: v }),
+        Some((a, b)) => {
+            let (first, last) = (num(a)?, num(b)?);
+            if first > last {
+                return Err(format!(
+                    "`{s}`: an empty range (the first seed is past the last)"
+                ));
+            }
+            Ok(Seeds { first, last })
+        }
+    }
 }
 
 /// `--strategy`: `auto`, `step` or `dfs`.
@@ -140,17 +224,23 @@ impl FrameSink for StreamFrames<'_> {
 
 /// Frames in files named by a template (`{n}`: the generation), each
 /// written as `-o` writes.
-struct FileFrames {
-    template: String,
+struct FileFrames<'a> {
+    template: &'a Template,
+    stem: &'a str,
+    seed: u64,
 }
 
-impl FrameSink for FileFrames {
+impl FrameSink for FileFrames<'_> {
     fn frame(
         &mut self,
         n: u64,
         write: &mut dyn FnMut(&mut dyn Write, &str) -> Result<(u64, u64), Error>,
     ) -> Result<(u64, u64), Error> {
-        let path = PathBuf::from(self.template.replace("{n}", &n.to_string()));
+        let path = self.template.expand(&Vars {
+            stem: Some(self.stem),
+            seed: Some(self.seed),
+            n: Some(n),
+        })?;
         let mut output = Output::file(&path)?;
         let name = output.name();
         let len = write(output.writer(), &name)?;
@@ -286,7 +376,20 @@ fn main_on_thread() -> i32 {
             };
         }
     };
-    match run(&args) {
+    let result = if let Some(shell) = args.completions {
+        let mut text = Vec::new();
+        clap_complete::generate(shell, &mut Args::command(), "lsgen", &mut text);
+        print_stdout(&text)
+    } else if args.man {
+        let mut text = Vec::new();
+        clap_mangen::Man::new(Args::command())
+            .render(&mut text)
+            .map_err(|e| Error::io("the man page", "cannot render", e))
+            .and_then(|()| print_stdout(&text))
+    } else {
+        run(&args)
+    };
+    match result {
         Ok(()) => 0,
         Err(e) => {
             if e.kind != Kind::BrokenPipe {
@@ -297,7 +400,16 @@ fn main_on_thread() -> i32 {
     }
 }
 
-fn open_input(path: Option<&PathBuf>) -> Result<Input, Error> {
+/// Write `text` to standard output (for --completions, --man).
+fn print_stdout(text: &[u8]) -> Result<(), Error> {
+    crate::io::output::check_stdout_open()?;
+    let mut out = io::stdout().lock();
+    out.write_all(text)
+        .and_then(|()| out.flush())
+        .map_err(|e| Error::io("standard output", "cannot write", e))
+}
+
+fn open_input(path: Option<&Path>) -> Result<Input, Error> {
     match path {
         None => Ok(Input::new(Box::new(io::stdin()), "<stdin>")),
         Some(p) if p.as_os_str() == "-" => Ok(Input::new(Box::new(io::stdin()), "<stdin>")),
@@ -316,23 +428,242 @@ fn open_input(path: Option<&PathBuf>) -> Result<Input, Error> {
     }
 }
 
+/// One job of a run: an input file and a seed.
+#[derive(Clone, Copy, Debug)]
+struct Job<'a> {
+    file: Option<&'a Path>,
+    seed: Option<u64>,
+}
+
+impl Job<'_> {
+    /// How a batch's messages name the job.
+    fn label(&self, seed: Option<u64>) -> String {
+        let file = self
+            .file
+            .map_or("<stdin>".to_string(), |p| p.display().to_string());
+        match seed.or(self.seed) {
+            Some(s) => format!("{file} (seed {s})"),
+            None => file,
+        }
+    }
+}
+
 pub fn run(args: &Args) -> Result<(), Error> {
-    let file_is_stdin = args.file.as_ref().is_none_or(|p| p.as_os_str() == "-");
+    let files: Vec<Option<&Path>> = if args.files.is_empty() {
+        vec![None]
+    } else {
+        args.files.iter().map(|p| Some(p.as_path())).collect()
+    };
+    let seeds = args.seed.map_or(1, |s| s.count());
+    let total = (files.len() as u64).saturating_mul(seeds);
+    let template = match &args.output {
+        Some(o) => Some(Template::parse_path(o)?),
+        None => None,
+    };
+    if let Some(t) = &template {
+        // `{n}` numbers frames and has no value in a plain run; frames to
+        // files need it. Say so before any job.
+        let to_stdout = args.output.as_ref().is_some_and(|p| p.as_os_str() == "-");
+        if args.frames.is_some() && !to_stdout && !t.uses(Field::N) {
+            return Err(Error::usage(
+                "`--frames` with `-o` needs `{n}` (the generation number) in the file name",
+            ));
+        }
+        t.expand(&Vars {
+            stem: Some("x"),
+            seed: Some(0),
+            n: args.frames.map(|f| f.from),
+        })?;
+    }
+    if total == 1 {
+        let job = Job {
+            file: files[0],
+            seed: args.seed.map(|s| s.first),
+        };
+        return run_one(args, job, template.as_ref(), None);
+    }
+    check_batch(args, &files, seeds, template.as_ref())?;
+    let jobs = |i: u64| Job {
+        file: files[(i / seeds) as usize],
+        seed: args.seed.map(|s| s.first + i % seeds),
+    };
+    let workers = args
+        .jobs
+        .map(|j| j as u64)
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get() as u64))
+        .min(total);
+    let display = crate::progress::wanted(args.progress, args.quiet, args.verbose, false)
+        .then(|| crate::progress::Batch::start(total));
+    let failed = run_batch(total, workers as usize, |i| {
+        let job = jobs(i);
+        let mut seed = None;
+        let r = run_one(args, job, template.as_ref(), Some(&mut seed)).map_err(|mut e| {
+            // The seed the job used, once known (the file's `seed:`, or a
+            // fresh one, without --seed).
+            let label = job.label(seed);
+            e.message = format!("{} [job {label}]", e.message);
+            e
+        });
+        if let Some(d) = &display {
+            d.job_done();
+        }
+        r
+    });
+    drop(display);
+    if failed.is_empty() {
+        return Ok(());
+    }
+    for (_, e) in &failed {
+        crate::diag::eprint(&e.to_string());
+    }
+    Err(Error::new(format!(
+        "{} of {total} jobs failed",
+        crate::diag::group_digits(failed.len() as u64)
+    )))
+}
+
+/// A batch's usage errors, found before any job runs.
+fn check_batch(
+    args: &Args,
+    files: &[Option<&Path>],
+    seeds: u64,
+    template: Option<&Template>,
+) -> Result<(), Error> {
+    let stdin_file = files.iter().any(|f| f.is_none_or(|p| p.as_os_str() == "-"));
+    if stdin_file {
+        return Err(Error::usage(
+            "standard input can feed one job only: a batch (several files or seeds) needs file names",
+        ));
+    }
+    if args.axiom.as_ref().is_some_and(|p| p.as_os_str() == "-") {
+        return Err(Error::usage(
+            "`--axiom -` can feed one job only: a batch needs an axiom file",
+        ));
+    }
+    if args.check {
+        // Nothing is written: no names to tell apart.
+        return Ok(());
+    }
+    let Some(t) = template.filter(|t| !t.is_plain()) else {
+        return Err(Error::usage(
+            "several jobs (files or seeds) need -o with a template, e.g. -o 'out/{stem}-{seed}.txt', so that each has its own file",
+        ));
+    };
+    if seeds > 1 && !t.uses(Field::Seed) {
+        return Err(Error::usage(
+            "a seed range needs `{seed}` in the -o template, so that each seed has its own file",
+        ));
+    }
+    if files.len() > 1 {
+        if !t.uses(Field::Stem) {
+            return Err(Error::usage(
+                "several files need `{stem}` in the -o template, so that each has its own file",
+            ));
+        }
+        let mut stems: Vec<(String, &Path)> = files
+            .iter()
+            .flatten()
+            .map(|p| (template::stem(Some(p)), *p))
+            .collect();
+        stems.sort();
+        for w in stems.windows(2) {
+            if w[0].0 == w[1].0 {
+                return Err(Error::usage(format!(
+                    "{} and {} have the same {{stem}} `{}`: their outputs would collide",
+                    w[0].1.display(),
+                    w[1].1.display(),
+                    w[0].0
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Run jobs `0..total` on `workers` threads; the failures, in job order.
+/// A job that panics (a bug) fails; the others go on.
+fn run_batch(
+    total: u64,
+    workers: usize,
+    job: impl Fn(u64) -> Result<(), Error> + Sync,
+) -> Vec<(u64, Error)> {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    use std::sync::Mutex;
+    let next = AtomicU64::new(0);
+    let failed: Mutex<Vec<(u64, Error)>> = Mutex::new(Vec::new());
+    let work = || loop {
+        let i = next.fetch_add(1, Ordering::Relaxed);
+        if i >= total {
+            break;
+        }
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(i)))
+            .unwrap_or_else(|_| Err(Error::new("internal error (please report this)")));
+        if let Err(e) = r {
+            if let Ok(mut f) = failed.lock() {
+                f.push((i, e));
+            }
+        }
+    };
+    std::thread::scope(|s| {
+        let mut handles = Vec::new();
+        for w in 0..workers {
+            // The parser recurses on nested expressions: big stacks, as
+            // the main thread's.
+            let h = std::thread::Builder::new()
+                .name(format!("lsgen-{w}"))
+                .stack_size(256 << 20)
+                .spawn_scoped(s, work);
+            match h {
+                Ok(h) => handles.push(h),
+                // No thread to be had: the others (or this one) do the work.
+                Err(_) if !handles.is_empty() => break,
+                Err(_) => work(),
+            }
+        }
+        for h in handles {
+            let _ = h.join();
+        }
+    });
+    let mut f = failed.into_inner().unwrap_or_default();
+    f.sort_by_key(|(i, _)| *i);
+    f
+}
+
+/// A count for `-v`: grouped digits; `u64::MAX` stands for a count that
+/// does not fit (the depth-first plan saturates), printed as a lower bound.
+pub fn count_string(n: u64) -> String {
+    if n == u64::MAX {
+        format!(">= {}", crate::diag::group_digits(n))
+    } else {
+        crate::diag::group_digits(n)
+    }
+}
+
+/// Run one job: load its file, derive with its seed, write its output.
+/// `batch`: in a batch, messages name the job, and the seed used is put
+/// there.
+fn run_one(
+    args: &Args,
+    job: Job,
+    template: Option<&Template>,
+    batch: Option<&mut Option<u64>>,
+) -> Result<(), Error> {
+    let file_is_stdin = job.file.is_none_or(|p| p.as_os_str() == "-");
     let axiom_is_stdin = args.axiom.as_ref().is_some_and(|p| p.as_os_str() == "-");
     if file_is_stdin && axiom_is_stdin {
         return Err(Error::usage(
             "the L-system and `--axiom -` cannot both come from standard input",
         ));
     }
-    let input = open_input(args.file.as_ref())?;
-    let mut ls = LSystem::load_named(input, args.seed)?;
+    let input = open_input(job.file)?;
+    let mut ls = LSystem::load_named(input, job.seed)?;
     if args.axiom.is_none() {
         ls.require_axiom()?;
     }
     if args.check {
         // Read the axiom too, so its errors are reported.
         if let Some(p) = &args.axiom {
-            ls.set_axiom(open_input(Some(p))?);
+            ls.set_axiom(open_input(Some(p.as_path()))?);
         }
         ls.check()?;
         if args.verbose {
@@ -351,42 +682,69 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(n) = args.derivation_length {
         options = options.steps(n);
     }
-    if let Some(s) = args.seed {
+    if let Some(s) = job.seed {
         options = options.seed(s);
     }
     options = options.first_step(args.first_step);
-    // `-o` with `--frames` is a template; check it before deriving.
-    let template = match (&args.frames, &args.output) {
-        (Some(_), Some(p)) if p.as_os_str() != "-" => {
-            let t = p
-                .to_str()
-                .ok_or_else(|| Error::usage("`--frames`: the `-o` template must be UTF-8 text"))?;
-            if !t.contains("{n}") {
-                return Err(Error::usage(
-                    "`--frames` with `-o` needs `{n}` (the generation number) in the file name",
-                ));
-            }
-            Some(t.to_string())
-        }
-        _ => None,
-    };
     if let Some(d) = &args.tmpdir {
         options = options.tmpdir(d);
     }
-    if args.verbose {
-        crate::diag::eprint(&format!("lsgen: seed {}\n", ls.seed(&options)));
+    if let Some(p) = args.precision {
+        options = options.precision(p);
     }
-    // Frames to files open their own outputs, one per frame.
-    let output = match &args.output {
-        Some(_) if template.is_some() => None,
-        Some(p) => Some(Output::file(p)?),
+    let seed = ls.seed(&options);
+    let batch = batch.map(|used| *used = Some(seed)).is_some();
+    // In a batch, -v lines name their job.
+    let who = if batch {
+        format!("{}: ", job.label(Some(seed)))
+    } else {
+        String::new()
+    };
+    if args.verbose {
+        crate::diag::eprint(&format!("lsgen: {who}seed {seed}\n"));
+    }
+    let stem = template::stem(job.file);
+    // Frames to files (`-o` with `{n}`) open their own outputs, one per
+    // frame; everything else has one output.
+    let frame_files = template.filter(|t| args.frames.is_some() && t.uses(Field::N));
+    let output = match template {
+        _ if frame_files.is_some() => None,
+        Some(t) => {
+            let path = t.expand(&Vars {
+                stem: Some(&stem),
+                seed: Some(seed),
+                n: None,
+            })?;
+            Some(Output::file(&path)?)
+        }
         None => Some(Output::stdout()?),
     };
+    if let Some(space) = output.as_ref().and_then(Output::free_space) {
+        options = options.free_space(space);
+    }
     if let Some(p) = &args.axiom {
-        ls.set_axiom(open_input(Some(p))?);
+        ls.set_axiom(open_input(Some(p.as_path()))?);
     }
     let out_name = output.as_ref().map_or_else(String::new, Output::name);
+    // Progress: one display per run, not per job of a batch.
+    let to_stdout = matches!(output, Some(Output::Stdout(_)));
+    let display = (!batch
+        && crate::progress::wanted(args.progress, args.quiet, args.verbose, to_stdout))
+    .then(|| crate::progress::Derivation::start(ls.steps(&options)));
+    let _installed = display
+        .as_ref()
+        .map(|d| crate::derive::meter::install(d.meter.clone()));
     let mut report = |e: &Event| {
+        if let (
+            Some(d),
+            Event::Generation {
+                pass: Pass::Step(k),
+                ..
+            },
+        ) = (&display, e)
+        {
+            d.done.store(*k, std::sync::atomic::Ordering::Relaxed);
+        }
         if !args.verbose {
             return;
         }
@@ -400,10 +758,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
                     Pass::Axiom => "axiom".to_string(),
                     p => p.to_string(),
                 };
-                format!("lsgen: {what}: {modules} modules, {bytes} bytes\n")
+                format!(
+                    "lsgen: {who}{what}: {} modules, {} bytes\n",
+                    count_string(modules),
+                    count_string(bytes)
+                )
             }
             Event::FixedPoint { from, to } => {
-                format!("lsgen: steps {from}..{to}: unchanged (fixed point)\n")
+                format!("lsgen: {who}steps {from}..{to}: unchanged (fixed point)\n")
             }
         };
         crate::diag::eprint(&line);
@@ -411,8 +773,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let mut output = match output {
         Some(o) => o,
         None => {
-            let (frames, template) = args.frames.zip(template).expect("frames to files");
-            let mut files = FileFrames { template };
+            let (frames, template) = args.frames.zip(frame_files).expect("frames to files");
+            let mut files = FileFrames {
+                template,
+                stem: &stem,
+                seed,
+            };
             let sink = (frames, &mut files as &mut dyn FrameSink);
             let mut discard = io::sink();
             ls.run(
@@ -451,6 +817,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
         &mut report,
         None,
     )?;
+    drop(_installed);
+    drop(display);
     output.commit()
 }
 

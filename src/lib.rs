@@ -48,6 +48,8 @@ pub mod diag;
 mod io;
 #[allow(missing_docs)] // internal (tests and fuzzing reach it hidden)
 mod lang;
+#[cfg(feature = "cli")]
+mod progress;
 #[allow(missing_docs)] // internal (tests and fuzzing reach it hidden)
 #[doc(hidden)]
 pub mod rules;

@@ -115,6 +115,30 @@ impl<'t> Plan<'t> {
         out
     }
 
+    /// Size of the final text after `steps` steps and the homomorphism,
+    /// with its newline, from generation 0's census: exact when every
+    /// module is an ASCII symbol, else a lower bound (other modules pass
+    /// unchanged, and count one byte each here). Saturates at u128::MAX.
+    pub fn final_text_bytes(&self, census: &Census, steps: u64) -> u128 {
+        let mut len: [u128; 128] = std::array::from_fn(|b| self.leaf[b].0.len() as u128);
+        for _ in 0..steps {
+            let prev = len;
+            for (n, succ) in len.iter_mut().zip(&self.succ) {
+                if let Some(s) = succ {
+                    *n = s
+                        .iter()
+                        .fold(0u128, |acc, &c| acc.saturating_add(prev[c as usize]));
+                }
+            }
+        }
+        (0..128)
+            .fold(0u128, |acc, b| {
+                acc.saturating_add((census.hist[b] as u128).saturating_mul(len[b]))
+            })
+            .saturating_add(census.other as u128)
+            .saturating_add(1)
+    }
+
     /// Write the expansion of generation 0 (`input`, binary) after `steps`
     /// steps, homomorphism applied, as text into `out`.
     pub fn expand(

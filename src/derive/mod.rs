@@ -10,6 +10,7 @@ pub(crate) mod bytetable;
 pub(crate) mod choose;
 pub(crate) mod context;
 pub mod dfs;
+pub mod meter;
 pub mod random;
 pub(crate) mod reader;
 pub mod sink;
@@ -27,6 +28,7 @@ use random::{Random, Region};
 use std::fs::File;
 use std::io::{self, Seek, SeekFrom, Write};
 use std::path::PathBuf;
+use std::sync::atomic::Ordering;
 
 /// Where a pass's errors point and what they call the pass.
 pub struct Origin<'a> {
@@ -91,6 +93,10 @@ pub(crate) struct Settings {
     /// The number of this run's first step (`--first-step`, default 1):
     /// the random draws of step k depend on k.
     pub first_step: u64,
+    /// Free bytes where the final string goes (a regular file's file
+    /// system), when known: a string known in advance to be larger is
+    /// refused before anything is written.
+    pub space: Option<u64>,
 }
 
 /// Which generations `--frames A..B:K` writes: `from..=to`, every
@@ -300,6 +306,32 @@ pub(crate) fn derive(
     )
     .filter(|_| strategy != Strategy::Step);
     if let (Some(plan), Some(src)) = (plan, &cur) {
+        if let Some(m) = meter::current() {
+            let census = crate::derive::dfs::census(src, &d.alphabet)?;
+            let size = plan.final_text_bytes(&census, steps);
+            let size = u64::try_from(size).unwrap_or(u64::MAX).max(1);
+            m.final_bytes.store(size, Ordering::Relaxed);
+            m.depth_first.store(true, Ordering::Relaxed);
+        }
+        if let Some(space) = settings.space {
+            let census = crate::derive::dfs::census(src, &d.alphabet)?;
+            let size = plan.final_text_bytes(&census, steps);
+            if size > u128::from(space) {
+                use crate::diag::group_digits;
+                let size = match u64::try_from(size) {
+                    Ok(n) if n != u64::MAX => format!("{} bytes", group_digits(n)),
+                    _ => format!("more than {} bytes", group_digits(u64::MAX)),
+                };
+                let mut e = Error::new(format!(
+                    "the final string would be {size}, more than the {} bytes free on \
+                     its file system: nothing written (fewer steps; --max-length stops \
+                     any run early)",
+                    group_digits(space)
+                ));
+                e.subject = Some(out_name.to_string());
+                return Err(e);
+            }
+        }
         if settings.lengths || limits.modules != u64::MAX || limits.bytes != u64::MAX {
             let census = crate::derive::dfs::census(src, &d.alphabet)?;
             let lengths = plan.lengths(&census, steps);
@@ -338,6 +370,9 @@ pub(crate) fn derive(
     // strategy reports the earliest step's first error in string order.
     let mut depth_first_error = None;
     if let (Some(plan), Some(src), true) = (plan, &cur, quiet) {
+        if let Some(m) = meter::current() {
+            m.depth_first.store(true, Ordering::Relaxed);
+        }
         let mut none = None;
         let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
         match plan

@@ -89,6 +89,8 @@ pub struct Out<'w> {
     limits: Limits,
     /// What this generation is, for `--max-length` errors.
     pass: Pass,
+    /// A progress display's meter, if one is installed.
+    meter: Option<std::sync::Arc<super::meter::Meter>>,
 }
 
 impl<'w> Out<'w> {
@@ -105,6 +107,7 @@ impl<'w> Out<'w> {
             num: codec::NumFmt::new(),
             limits,
             pass: Pass::Axiom,
+            meter: super::meter::current(),
         }
     }
 
@@ -279,6 +282,9 @@ impl<'w> Out<'w> {
             .write_all(&self.buf)
             .map_err(|e| Error::io(self.name, "cannot write", e))?;
         self.buf.clear();
+        if let Some(m) = &self.meter {
+            m.record(self.modules, self.written);
+        }
         Ok(())
     }
 

@@ -5,3 +5,5 @@
 pub mod axiom;
 pub mod input;
 pub mod output;
+pub mod precision;
+pub mod template;

@@ -270,6 +270,21 @@ impl Output {
         }
     }
 
+    /// Free bytes for an unprivileged writer on a regular file's file
+    /// system (statvfs); None for streams and standard output. The hidden
+    /// environment variable LSGEN_TEST_FREE_BYTES stands in for statvfs in
+    /// tests.
+    pub fn free_space(&self) -> Option<u64> {
+        let Output::Atomic { file, .. } = self else {
+            return None;
+        };
+        if let Some(v) = std::env::var_os("LSGEN_TEST_FREE_BYTES") {
+            return v.to_str().and_then(|s| s.parse().ok());
+        }
+        let st = rustix::fs::fstatvfs(file).ok()?;
+        Some(st.f_bavail.saturating_mul(st.f_frsize))
+    }
+
     pub fn writer(&mut self) -> &mut dyn Write {
         match self {
             Output::Stdout(s) => s,

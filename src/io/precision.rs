@@ -1,0 +1,208 @@
+//! `--precision N`: the final string's parameters with N significant
+//! digits, as C's `%.Ng` (cpfg prints `%g`, 6 digits), applied in one place
+//! for every strategy: a filter on the text on its way out. Exponents are
+//! written as lsgen writes them by default (`1.23e6`, `1e-5`: no `+`, no
+//! leading zeros), so the output still reads back as an axiom.
+
+use std::fmt::Write as _;
+use std::io::{self, Write};
+
+/// Most significant digits accepted (an f64 holds 17).
+pub const MAX_PRECISION: u32 = 17;
+
+/// Append `v` with `digits` significant digits, `%g` style: scientific when
+/// the exponent is below -4 or at least `digits`, trailing zeros dropped.
+/// `scratch` is reused, so nothing is allocated once it has grown.
+pub fn put_significant(out: &mut Vec<u8>, scratch: &mut String, v: f64, digits: u32) {
+    let p = digits.clamp(1, MAX_PRECISION) as usize;
+    if !v.is_finite() || v == 0.0 {
+        if v == 0.0 && v.is_sign_negative() {
+            out.extend_from_slice(b"-0");
+        } else if v == 0.0 {
+            out.push(b'0');
+        } else {
+            let _ = write!(out, "{v}");
+        }
+        return;
+    }
+    scratch.clear();
+    let _ = write!(scratch, "{:.*e}", p - 1, v);
+    let Some(at) = scratch.find('e') else {
+        out.extend_from_slice(scratch.as_bytes());
+        return;
+    };
+    let exp: i32 = scratch[at + 1..].parse().unwrap_or(0);
+    if exp < -4 || exp >= p as i32 {
+        out.extend_from_slice(trim_zeros(&scratch.as_bytes()[..at]));
+        let _ = write!(out, "e{exp}");
+    } else {
+        scratch.clear();
+        let _ = write!(scratch, "{:.*}", (p as i32 - 1 - exp) as usize, v);
+        out.extend_from_slice(trim_zeros(scratch.as_bytes()));
+    }
+}
+
+/// `1.500` -> `1.5`, `2.000` -> `2`; a number without `.` is left alone.
+fn trim_zeros(s: &[u8]) -> &[u8] {
+    if !s.contains(&b'.') {
+        return s;
+    }
+    let mut end = s.len();
+    while end > 0 && s[end - 1] == b'0' {
+        end -= 1;
+    }
+    if end > 0 && s[end - 1] == b'.' {
+        end -= 1;
+    }
+    &s[..end]
+}
+
+/// A writer that rewrites each parameter of the module text going through
+/// it (the numbers between `(`, `,` and `)`) with `digits` significant
+/// digits. Memory is bounded: a number longer than any lsgen prints is
+/// passed through as it is.
+pub struct Significant<W: Write> {
+    inner: W,
+    digits: u32,
+    in_params: bool,
+    token: Vec<u8>,
+    buf: Vec<u8>,
+    scratch: String,
+}
+
+/// Longest number text held for rewriting.
+const MAX_TOKEN: usize = 64;
+
+impl<W: Write> Significant<W> {
+    pub fn new(inner: W, digits: u32) -> Self {
+        Significant {
+            inner,
+            digits,
+            in_params: false,
+            token: Vec::with_capacity(MAX_TOKEN),
+            buf: Vec::with_capacity(1 << 16),
+            scratch: String::with_capacity(64),
+        }
+    }
+
+    fn emit_token(&mut self) {
+        let parsed = std::str::from_utf8(&self.token)
+            .ok()
+            .and_then(|s| s.parse::<f64>().ok());
+        match parsed {
+            Some(v) if self.token.len() <= MAX_TOKEN => {
+                put_significant(&mut self.buf, &mut self.scratch, v, self.digits)
+            }
+            _ => self.buf.extend_from_slice(&self.token),
+        }
+        self.token.clear();
+    }
+}
+
+impl<W: Write> Write for Significant<W> {
+    fn write(&mut self, data: &[u8]) -> io::Result<usize> {
+        let mut rest = data;
+        while !rest.is_empty() {
+            if !self.in_params {
+                match rest.iter().position(|&b| b == b'(') {
+                    Some(i) => {
+                        self.buf.extend_from_slice(&rest[..=i]);
+                        self.in_params = true;
+                        rest = &rest[i + 1..];
+                    }
+                    None => {
+                        self.buf.extend_from_slice(rest);
+                        rest = &[];
+                    }
+                }
+            } else {
+                let b = rest[0];
+                rest = &rest[1..];
+                match b {
+                    b',' | b')' => {
+                        self.emit_token();
+                        self.buf.push(b);
+                        self.in_params = b == b',';
+                    }
+                    _ if self.token.len() > MAX_TOKEN => {
+                        // Not a number lsgen wrote: pass it on unchanged.
+                        self.buf.extend_from_slice(&self.token);
+                        self.token.clear();
+                        self.buf.push(b);
+                    }
+                    _ => self.token.push(b),
+                }
+            }
+        }
+        if self.buf.len() >= 1 << 16 {
+            self.inner.write_all(&self.buf)?;
+            self.buf.clear();
+        }
+        Ok(data.len())
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        // A number cut by the end of a write is still whole in the token;
+        // only what is complete goes out.
+        self.inner.write_all(&self.buf)?;
+        self.buf.clear();
+        self.inner.flush()
+    }
+}
+
+impl<W: Write> Drop for Significant<W> {
+    fn drop(&mut self) {
+        // Errors here were already reported by the last flush, or the run
+        // failed anyway; nothing may be lost on success, and the sink
+        // flushes before it finishes.
+        if !self.token.is_empty() {
+            let t = std::mem::take(&mut self.token);
+            self.buf.extend_from_slice(&t);
+        }
+        if !self.buf.is_empty() {
+            let _ = self.inner.write_all(&self.buf);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn g(v: f64, p: u32) -> String {
+        let mut o = Vec::new();
+        put_significant(&mut o, &mut String::new(), v, p);
+        String::from_utf8(o).unwrap()
+    }
+
+    #[test]
+    fn like_printf_g() {
+        // Expected: C's printf("%.Ng"), exponent in lsgen's form.
+        assert_eq!(g(5.55555, 3), "5.56");
+        assert_eq!(g(1234567.0, 3), "1.23e6");
+        assert_eq!(g(0.000012345, 3), "1.23e-5");
+        assert_eq!(g(100.0, 3), "100");
+        assert_eq!(g(999.9, 3), "1e3");
+        assert_eq!(g(0.0001, 3), "0.0001");
+        assert_eq!(g(-2.5, 6), "-2.5");
+        assert_eq!(g(9.9996, 4), "10");
+        assert_eq!(g(1.0 / 3.0, 6), "0.333333");
+        assert_eq!(g(-0.0, 6), "-0");
+        assert_eq!(g(0.0, 6), "0");
+        assert_eq!(g(123456.0, 6), "123456");
+        assert_eq!(g(1234567.0, 6), "1.23457e6");
+    }
+
+    #[test]
+    fn filter_rewrites_parameters_only() {
+        let mut out = Vec::new();
+        {
+            let mut w = Significant::new(&mut out, 2);
+            // Split mid-number: the token survives across writes.
+            w.write_all(b"F(1.2345,6)[+(2").unwrap();
+            w.write_all(b"2.7)]A12(0.0001234)\n").unwrap();
+            w.flush().unwrap();
+        }
+        assert_eq!(out, b"F(1.2,6)[+(23)]A12(0.00012)\n");
+    }
+}

@@ -1,0 +1,373 @@
+//! Batches (issue 13): several FILE arguments and seed ranges, `-o`
+//! templates, `-j` workers, and `-v`'s digit grouping; through the binary.
+//! Expected strings come from the in-memory reference (tests/reference) or
+//! are derived by hand.
+
+mod common;
+mod reference;
+
+use common::{dir_with, lsgen, run, Run};
+use std::path::Path;
+
+/// A small stochastic system: each seed gives its own string.
+const STOCHASTIC: &str = "productions:\n\
+                          F -> F[+F]F : 0.3\n\
+                          F -> F[-F] : 0.3\n\
+                          F -> FF : 0.4\n\
+                          axiom: F\n";
+
+/// Divides by zero in step 2 (line 3, column 20).
+const DIV_AT_STEP_2: &str = "productions:\n\
+                             A(x) : x > 0 -> A(x-1)\n\
+                             A(x) : x <= 0 -> B(1/x)\n\
+                             axiom:\n\
+                             A(1)\n";
+
+fn lsgen_in(dir: &Path, args: &[&str]) -> Run {
+    let r = run(lsgen().current_dir(dir).env_remove("LSGEN_JOBS").args(args));
+    r.assert_no_crash();
+    r
+}
+
+fn read(p: impl AsRef<Path>) -> String {
+    std::fs::read_to_string(p.as_ref())
+        .unwrap_or_else(|e| panic!("read {}: {e}", p.as_ref().display()))
+}
+
+#[test]
+fn seed_range_gives_each_seed_its_reference_string_at_every_j() {
+    let d = dir_with(&[("row.ls", STOCHASTIC)]);
+    let mut want = Vec::new();
+    for seed in 1..=12u64 {
+        let w = reference::derive_text(STOCHASTIC, Some(4), Some(seed), 100_000).unwrap();
+        want.push(w);
+    }
+    // Not all the same, or the test would not tell seeds apart.
+    assert!(want.iter().any(|w| *w != want[0]));
+    for j in ["1", "2", "8"] {
+        let out = format!("j{j}/{{stem}}-{{seed}}.txt");
+        std::fs::create_dir(d.path().join(format!("j{j}"))).unwrap();
+        let r = lsgen_in(
+            d.path(),
+            &["-n", "4", "--seed", "1..12", "-j", j, "-o", &out, "row.ls"],
+        );
+        r.ok();
+        let names = common::listing(&d.path().join(format!("j{j}")));
+        assert_eq!(names.len(), 12, "-j {j}: {names:?}");
+        for (i, w) in want.iter().enumerate() {
+            let got = read(d.path().join(format!("j{j}/row-{}.txt", i + 1)));
+            assert_eq!(&got, w, "-j {j}, seed {}", i + 1);
+        }
+    }
+}
+
+#[test]
+fn several_files_take_their_stems() {
+    let d = dir_with(&[
+        ("algae.ls", "productions:\nA -> AB\nB -> A\naxiom: A\n"),
+        ("double.ls", "productions:\nF -> FF\naxiom: F\n"),
+    ]);
+    lsgen_in(
+        d.path(),
+        &["-n", "4", "-o", "{stem}.{{txt}}", "algae.ls", "double.ls"],
+    )
+    .ok();
+    assert_eq!(read(d.path().join("algae.{txt}")), "ABAABABA\n");
+    assert_eq!(read(d.path().join("double.{txt}")), "FFFFFFFFFFFFFFFF\n");
+}
+
+#[test]
+fn one_job_with_a_template_expands_it() {
+    let d = dir_with(&[("algae.ls", "productions:\nA -> AB\nB -> A\naxiom: A\n")]);
+    lsgen_in(
+        d.path(),
+        &["-n", "3", "--seed", "9", "-o", "{stem}-{seed}", "algae.ls"],
+    )
+    .ok();
+    assert_eq!(read(d.path().join("algae-9")), "ABAAB\n");
+}
+
+#[test]
+fn a_failing_member_is_reported_and_the_others_finish() {
+    let d = dir_with(&[
+        ("a.ls", "productions:\nA -> AB\nB -> A\naxiom: A\n"),
+        ("bad.ls", DIV_AT_STEP_2),
+        ("z.ls", "productions:\nF -> FF\naxiom: F\n"),
+    ]);
+    std::fs::create_dir(d.path().join("out")).unwrap();
+    let r = lsgen_in(
+        d.path(),
+        &[
+            "-n",
+            "3",
+            "--seed",
+            "5",
+            "-j",
+            "2",
+            "-o",
+            "out/{stem}.txt",
+            "a.ls",
+            "bad.ls",
+            "z.ls",
+        ],
+    );
+    let err = r.fails(1);
+    assert_eq!(
+        err,
+        "lsgen: bad.ls:3:20: error: division by zero (in step 2) [job bad.ls (seed 5)]\n\
+         A(x) : x <= 0 -> B(1/x)\n\
+         \x20                  ^\n\
+         lsgen: error: 1 of 3 jobs failed\n"
+    );
+    common::assert_listing(&d.path().join("out"), &["a.txt", "z.txt"]);
+    assert_eq!(read(d.path().join("out/a.txt")), "ABAAB\n");
+    assert_eq!(read(d.path().join("out/z.txt")), "FFFFFFFF\n");
+}
+
+#[test]
+fn batch_usage_errors() {
+    let d = dir_with(&[
+        ("a.ls", "productions:\nA -> AB\naxiom: A\n"),
+        ("b.ls", "productions:\nA -> AB\naxiom: A\n"),
+    ]);
+    std::fs::create_dir(d.path().join("sub")).unwrap();
+    std::fs::write(d.path().join("sub/a.ls"), "axiom: A\n").unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (&["a.ls", "b.ls"], "need -o with a template"),
+        (&["--seed", "1..3", "a.ls"], "need -o with a template"),
+        (
+            &["--seed", "1..3", "-o", "-", "a.ls"],
+            "need -o with a template",
+        ),
+        (
+            &["--seed", "1..3", "-o", "{stem}", "a.ls"],
+            "needs `{seed}`",
+        ),
+        (&["-o", "{seed}", "a.ls", "b.ls"], "need `{stem}`"),
+        (&["-o", "{stem}", "a.ls", "sub/a.ls"], "same {stem} `a`"),
+        (&["--seed", "1..2", "-o", "{seed}", "-"], "standard input"),
+        (&["-o", "{stem}.{x}", "a.ls"], "unknown placeholder `{x}`"),
+        (&["-o", "{stem", "a.ls"], "unclosed"),
+        (&["-o", "f{n}", "a.ls"], "`{n}`"),
+        (&["--seed", "5..1", "a.ls"], "empty range"),
+        (&["-j", "0", "a.ls"], "0"),
+    ];
+    for (args, needle) in cases {
+        let r = lsgen_in(d.path(), args);
+        let err = r.fails(2);
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+    common::assert_listing(d.path(), &["a.ls", "b.ls", "sub"]);
+}
+
+#[test]
+fn lsgen_jobs_is_read_from_the_environment() {
+    let d = dir_with(&[("a.ls", "productions:\nA -> AB\naxiom: A\n")]);
+    let r = run(lsgen()
+        .current_dir(d.path())
+        .env("LSGEN_JOBS", "zero")
+        .arg("a.ls"));
+    assert!(r.fails(2).contains("LSGEN_JOBS") || r.stderr.contains("zero"));
+    let r = run(lsgen()
+        .current_dir(d.path())
+        .env("LSGEN_JOBS", "3")
+        .args(["-n", "2", "a.ls"]));
+    assert_eq!(r.ok(), "ABB\n");
+}
+
+#[test]
+fn verbose_groups_digits() {
+    let d = dir_with(&[("d.ls", "productions:\nF -> FF\naxiom: F\n")]);
+    let r = lsgen_in(d.path(), &["-v", "-n", "10", "-o", "out", "d.ls"]);
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("step 10: 1,024 modules, 1,024 bytes\n"),
+        "{}",
+        r.stderr
+    );
+}
+
+#[test]
+fn verbose_prints_counts_past_u64_as_a_lower_bound() {
+    // 2^63 fits, 2^64 does not: its count is a lower bound, never a
+    // saturated value presented as exact. /dev/full stops the writing.
+    let d = dir_with(&[("d.ls", "productions:\nF -> FF\naxiom: F\n")]);
+    let r = lsgen_in(
+        d.path(),
+        &[
+            "-v",
+            "-n",
+            "70",
+            "--strategy",
+            "dfs",
+            "-o",
+            "/dev/full",
+            "d.ls",
+        ],
+    );
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr
+            .contains("step 63: 9,223,372,036,854,775,808 modules"),
+        "{}",
+        r.stderr
+    );
+    assert!(
+        r.stderr
+            .contains("step 64: >= 18,446,744,073,709,551,615 modules"),
+        "{}",
+        r.stderr
+    );
+    assert!(!r.stderr.contains(" 18446744073709551615"), "{}", r.stderr);
+}
+
+// ---------------------------------------------------------------- runaway guard
+
+const DOUBLING: &str = "productions:\nF -> FF\naxiom: F\n";
+
+#[test]
+fn a_string_larger_than_the_free_space_is_refused_before_writing() {
+    // F -> FF: 2^10 modules and a newline = 1025 bytes, by hand.
+    let d = dir_with(&[("d.ls", DOUBLING), ("out.txt", "old\n")]);
+    let guarded = |free: &str, n: &str| {
+        let r = run(lsgen()
+            .current_dir(d.path())
+            .env("LSGEN_TEST_FREE_BYTES", free)
+            .args(["-n", n, "-o", "out.txt", "d.ls"]));
+        r.assert_no_crash();
+        r
+    };
+    let r = guarded("1024", "10");
+    assert_eq!(
+        r.fails(1),
+        "lsgen: out.txt: error: the final string would be 1,025 bytes, more than the \
+         1,024 bytes free on its file system: nothing written (fewer steps; --max-length \
+         stops any run early)\n"
+    );
+    assert_eq!(read(d.path().join("out.txt")), "old\n");
+    common::assert_listing(d.path(), &["d.ls", "out.txt"]);
+    // Past u64: a lower bound, not a saturated size.
+    let r = guarded("1024", "80");
+    assert!(
+        r.fails(1)
+            .contains("would be more than 18,446,744,073,709,551,615 bytes"),
+        "{}",
+        r.stderr
+    );
+    // Exactly enough room: written.
+    guarded("1025", "10").ok();
+    assert_eq!(read(d.path().join("out.txt")).len(), 1025);
+    common::assert_listing(d.path(), &["d.ls", "out.txt"]);
+}
+
+#[test]
+fn the_homomorphism_counts_in_the_final_size() {
+    // F -> FG, G -> G; homomorphism G -> XYZ. After 3 steps: F G G G, so
+    // F XYZ XYZ XYZ = 10 bytes and a newline, by hand.
+    let src = "productions:\nF -> FG\nhomomorphism:\nG -> XYZ\naxiom: F\n";
+    let d = dir_with(&[("h.ls", src)]);
+    let r = run(lsgen()
+        .current_dir(d.path())
+        .env("LSGEN_TEST_FREE_BYTES", "10")
+        .args(["-n", "3", "-o", "o", "h.ls"]));
+    assert!(
+        r.fails(1)
+            .contains("would be 11 bytes, more than the 10 bytes"),
+        "{}",
+        r.stderr
+    );
+    let r = run(lsgen()
+        .current_dir(d.path())
+        .env("LSGEN_TEST_FREE_BYTES", "11")
+        .args(["-n", "3", "-o", "o", "h.ls"]));
+    r.ok();
+    assert_eq!(read(d.path().join("o")), "FXYZXYZXYZ\n");
+}
+
+/// The real statvfs, on a 64 KiB tmpfs; needs root (to mount), else it
+/// says so and checks nothing.
+#[test]
+fn free_space_guard_on_a_small_tmpfs() {
+    let d = dir_with(&[("d.ls", DOUBLING)]);
+    let mnt = d.path().join("mnt");
+    std::fs::create_dir(&mnt).unwrap();
+    let mounted = std::process::Command::new("mount")
+        .args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"])
+        .arg(&mnt)
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if !mounted {
+        eprintln!("free_space_guard_on_a_small_tmpfs: cannot mount a tmpfs (not root?): skipped");
+        return;
+    }
+    struct Unmount<'a>(&'a Path);
+    impl Drop for Unmount<'_> {
+        fn drop(&mut self) {
+            let _ = std::process::Command::new("umount").arg(self.0).status();
+        }
+    }
+    let _guard = Unmount(&mnt);
+    // 2^16 + 1 bytes do not fit in 64 KiB; 2^15 + 1 do.
+    let r = lsgen_in(d.path(), &["-n", "16", "-o", "mnt/big", "d.ls"]);
+    let err = r.fails(1);
+    assert!(
+        err.starts_with(
+            "lsgen: mnt/big: error: the final string would be 65,537 bytes, more than the "
+        ),
+        "{err}"
+    );
+    common::assert_listing(&mnt, &[]);
+    lsgen_in(d.path(), &["-n", "15", "-o", "mnt/small", "d.ls"]).ok();
+    assert_eq!(std::fs::metadata(mnt.join("small")).unwrap().len(), 32769);
+}
+
+#[test]
+fn check_takes_several_files_without_a_template() {
+    let d = dir_with(&[
+        ("a.ls", "productions:\nA -> AB\naxiom: A\n"),
+        ("b.ls", "productions:\nA -> B(\naxiom: A\n"),
+    ]);
+    let r = lsgen_in(d.path(), &["--check", "a.ls", "a.ls"]);
+    assert_eq!(r.ok(), "");
+    let r = lsgen_in(d.path(), &["--check", "a.ls", "b.ls"]);
+    let err = r.fails(1);
+    assert!(err.contains("b.ls:2:"), "{err}");
+    assert!(err.ends_with("lsgen: error: 1 of 2 jobs failed\n"), "{err}");
+}
+
+#[test]
+fn an_output_name_that_is_not_utf8_still_works() {
+    use std::os::unix::ffi::OsStrExt;
+    let d = dir_with(&[("a.ls", "productions:\nA -> AB\naxiom: A\n")]);
+    let name = std::ffi::OsStr::from_bytes(b"out\xff{x}");
+    let r = run(lsgen()
+        .current_dir(d.path())
+        .args(["-n", "2", "-o"])
+        .arg(name)
+        .arg("a.ls"));
+    assert_eq!(r.ok(), "");
+    assert_eq!(read(d.path().join(name)), "ABB\n");
+}
+
+#[test]
+fn a_failing_job_names_the_seed_it_used() {
+    // No --seed: the job's seed is its file's `seed:`.
+    let bad = format!("seed: 42\n{DIV_AT_STEP_2}");
+    let d = dir_with(&[
+        ("bad.ls", bad.as_str()),
+        ("ok.ls", "productions:\nA -> AB\naxiom: A\n"),
+    ]);
+    let r = lsgen_in(
+        d.path(),
+        &["-n", "3", "-o", "{stem}.out", "bad.ls", "ok.ls"],
+    );
+    let err = r.fails(1);
+    assert!(
+        err.starts_with(
+            "lsgen: bad.ls:4:20: error: division by zero (in step 2) [job bad.ls (seed 42)]\n"
+        ),
+        "{err}"
+    );
+    assert_eq!(read(d.path().join("ok.out")), "ABBB\n");
+}
