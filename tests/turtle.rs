@@ -515,3 +515,181 @@ fn lsgen_skips_view_lines_anywhere_in_the_header() {
     let r = run(lsgen().arg("--check").arg(&ls));
     assert_eq!(r.ok(), "");
 }
+
+/// lsgen-turtle under `sh -c 'SETUP; exec lsgen-turtle ARGS...'`, run in
+/// `dir`.
+fn turtle_under_sh(setup: &str, dir: &Path) -> std::process::Command {
+    let mut c = common::command("sh");
+    c.arg("-c")
+        .arg(format!("{setup}; exec \"$0\" \"$@\""))
+        .arg(common::TURTLE)
+        .current_dir(dir);
+    c
+}
+
+#[test]
+fn a_stream_named_as_the_input_is_read_once_and_spooled() {
+    // The reference: the same string on standard input.
+    let want = ok(&turtle(&["-f", "svg"], b"F+F"));
+    assert!(text(want.clone()).contains("<line") || want.len() > 300);
+    // /dev/stdin is a pipe here: opened again, it would be empty.
+    let got = ok(&turtle(&["-f", "svg", "/dev/stdin"], b"F+F"));
+    assert_eq!(text(got), text(want.clone()));
+    // A named FIFO: reading it twice would block for ever.
+    let dir = tempfile::tempdir().unwrap();
+    let r = common::run_within(
+        turtle_under_sh("mkfifo f && (printf 'F+F' > f &)", dir.path()).args(["-f", "svg", "f"]),
+        std::time::Duration::from_secs(20),
+    );
+    r.assert_no_crash();
+    assert_eq!(text(ok(&r)), text(want));
+}
+
+#[test]
+fn obj_materials_only_beside_a_regular_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Streams: no MTL anywhere, no mtllib line.
+    let r = run_with_stdin(
+        common::turtle().args(["-f", "obj"]).current_dir(d),
+        b"F".to_vec(),
+    );
+    assert!(!text(ok(&r)).contains("mtllib"));
+    let r = run_with_stdin(
+        common::turtle()
+            .args(["-f", "obj", "-o", "/dev/stdout"])
+            .current_dir(d),
+        b"F".to_vec(),
+    );
+    assert!(!text(ok(&r)).contains("mtllib"));
+    assert!(!Path::new("/dev/stdout.mtl").exists());
+    let r = run_with_stdin(
+        common::turtle()
+            .args(["-f", "obj", "-o", "/dev/null"])
+            .current_dir(d),
+        b"F".to_vec(),
+    );
+    ok(&r);
+    assert!(!Path::new("/dev/null.mtl").exists());
+    assert_eq!(common::listing(d).len(), 0, "{:?}", common::listing(d));
+    // A link: both files beside its target, named after it.
+    std::fs::create_dir(d.join("sub")).unwrap();
+    std::fs::write(d.join("sub/r2.obj"), "old").unwrap();
+    std::os::unix::fs::symlink("sub/r2.obj", d.join("l2.obj")).unwrap();
+    let r = run_with_stdin(
+        common::turtle().args(["-o", "l2.obj"]).current_dir(d),
+        b"F".to_vec(),
+    );
+    ok(&r);
+    assert!(!d.join("l2.mtl").exists());
+    let obj = std::fs::read_to_string(d.join("sub/r2.obj")).unwrap();
+    assert!(obj.contains("mtllib r2.mtl\n"), "{obj}");
+    assert!(std::fs::read_to_string(d.join("sub/r2.mtl"))
+        .unwrap()
+        .contains("newmtl c0"));
+    common::assert_listing(d, &["l2.obj", "sub"]);
+}
+
+#[test]
+fn closed_full_or_limited_output_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // `>&-`: the picture would be lost; lsgen's rule, exit 1 with a message.
+    let r = run(turtle_under_sh("printf F+F >in; exec <in >&-", d).args(["-f", "svg"]));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr
+            .starts_with("lsgen-turtle: standard output: error: cannot write"),
+        "{}",
+        r.stderr
+    );
+    // --version and --help to a full device.
+    for flag in ["--version", "--help"] {
+        let r = run(turtle_under_sh("exec >/dev/full", d).arg(flag));
+        r.assert_no_crash();
+        assert_eq!(r.code(), Some(1), "{flag}: {}", r.stderr);
+        assert!(r.stderr.contains("No space left"), "{flag}: {}", r.stderr);
+    }
+    // `ulimit -f`: not killed by SIGXFSZ, EFBIG reported, no partial file.
+    let r = run(turtle_under_sh(
+        "awk 'BEGIN{for(i=0;i<20000;i++) printf \"F+\"}' >in; ulimit -f 1; exec <in",
+        d,
+    )
+    .args(["-f", "segments", "-o", "out.txt"]));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(r.stderr.contains("File too large"), "{}", r.stderr);
+    assert!(!d.join("out.txt").exists());
+}
+
+#[test]
+fn ls_is_read_with_lsgens_bounded_header_reader() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let limit = std::time::Duration::from_secs(60);
+    // /dev/zero: NUL at once, at 1:1.
+    let r = common::run_within(
+        common::turtle().args(["--ls", "/dev/zero", "-f", "segments", "/dev/null"]),
+        limit,
+    );
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr
+            .starts_with("lsgen-turtle: /dev/zero:1:1: error: NUL byte"),
+        "{}",
+        r.stderr
+    );
+    // Endless view lines, an endless comment: stop at lsgen's 64 MiB.
+    for feed in ["yes 'view: angle = 3'", "(echo '/*'; yes aaaa)"] {
+        let mut c = common::command("sh");
+        c.arg("-c")
+            .arg(format!("{feed} | \"$0\" \"$@\""))
+            .arg(common::TURTLE)
+            .args(["--ls", "/dev/stdin", "-f", "segments", "/dev/null"])
+            .current_dir(d);
+        let r = common::run_within(&mut c, limit);
+        r.assert_no_crash();
+        assert_eq!(r.code(), Some(1), "{feed}: {}", r.stderr);
+        assert!(r.stderr.contains("too long (over 64 MiB)"), "{}", r.stderr);
+    }
+}
+
+#[test]
+fn view_lines_are_keywords_for_lsgen_and_the_turtle_alike() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A byte-order mark, a comment before `view:`.
+    let ls = common::write(
+        d,
+        "v.ls",
+        "\u{feff}view: angle = 90\n/* c */ view: step = 2\naxiom: F\n",
+    );
+    let ls = ls.to_str().unwrap();
+    assert_eq!(derive(&[ls]), b"F\n");
+    // Hand derivation: + turns left by 90 degrees, F steps 2 along -X.
+    let got = text(ok(&turtle(&["--ls", ls, "-f", "segments"], b"+F")));
+    same_segments(&got, "0 0 0 -2 0 0 1 0\n", "view lines");
+    // An invalid one is an error for both, at the same place.
+    let bad = common::write(d, "b.ls", "/* c */ view: angel = 3\naxiom: F\n");
+    let bad = bad.to_str().unwrap();
+    let r = run(lsgen().arg(bad));
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr.starts_with(&format!(
+            "lsgen: {bad}:1:15: error: unknown view setting `angel`"
+        )),
+        "{}",
+        r.stderr
+    );
+    let r = turtle(&["--ls", bad, "-f", "segments"], b"F");
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr.starts_with(&format!(
+            "lsgen-turtle: {bad}:1:15: error: unknown view setting `angel`"
+        )),
+        "{}",
+        r.stderr
+    );
+}

@@ -263,6 +263,15 @@ impl Output {
         })
     }
 
+    /// The regular file this output will replace, its symbolic links
+    /// followed; `None` for a stream (standard output, a device, a FIFO).
+    pub fn file_path(&self) -> Option<&Path> {
+        match self {
+            Output::Atomic { path, .. } => Some(path),
+            _ => None,
+        }
+    }
+
     pub fn name(&self) -> String {
         match self {
             Output::Stdout(_) => "standard output".into(),

@@ -6,7 +6,7 @@
 //! [`render`] turns what the turtle draws into the output formats. Memory
 //! is the branch stack and the polygon being built, never the string: SVG
 //! and PNG need the bounding box first, so the input is read twice (a file
-//! is opened again, standard input is spooled to an unnamed temp file).
+//! is opened again, any other input is spooled to an unnamed temp file).
 
 pub mod reader;
 pub mod render;
@@ -83,10 +83,12 @@ pub struct Options {
     pub cylinders: bool,
 }
 
-/// The input, once or twice.
+/// The input, once or twice: a regular file is opened again, anything
+/// else (standard input, a FIFO, `<(...)`, a device) is read once and
+/// spooled to an unnamed temp file.
 enum Source {
     File(std::path::PathBuf, String),
-    Stdin,
+    Stream,
 }
 
 fn open_file(p: &std::path::Path, name: &str) -> Result<std::fs::File, Error> {
@@ -125,24 +127,30 @@ impl<R: Read> Read for Tee<R> {
 pub fn run(o: &Options) -> Result<(), Error> {
     use crate::output::Output;
     use std::io::Seek;
-    let src = match &o.input {
-        Some(p) if p.as_os_str() != "-" => Source::File(p.clone(), p.display().to_string()),
-        _ => Source::Stdin,
-    };
-    let in_name = match &src {
-        Source::File(_, n) => n.clone(),
-        Source::Stdin => "<stdin>".to_string(),
-    };
     // Open the input first: a missing input must not create the output.
-    let first: Box<dyn Read> = match &src {
-        Source::File(p, n) => Box::new(open_file(p, n)?),
-        Source::Stdin => Box::new(std::io::stdin()),
+    let (src, in_name, first): (Source, String, Box<dyn Read>) = match &o.input {
+        Some(p) if p.as_os_str() != "-" => {
+            let name = p.display().to_string();
+            let f = open_file(p, &name)?;
+            if f.metadata().is_ok_and(|m| m.is_file()) {
+                (Source::File(p.clone(), name.clone()), name, Box::new(f))
+            } else {
+                // Reading it again would find it empty (or block).
+                (Source::Stream, name, Box::new(f))
+            }
+        }
+        _ => (
+            Source::Stream,
+            "<stdin>".to_string(),
+            Box::new(std::io::stdin()),
+        ),
     };
     let mut out = match &o.output {
         Some(p) => Output::file(p)?,
         None => Output::stdout()?,
     };
     let out_name = out.name();
+    let file_path = out.file_path().map(|p| p.to_path_buf());
     let werr = |e: std::io::Error| Error::io(out_name.clone(), "cannot write", e);
     match o.format {
         Format::Segments | Format::Obj => {
@@ -154,7 +162,9 @@ pub fn run(o: &Options) -> Result<(), Error> {
                     interpret(first, &in_name, &out_name, &o.view, &mut s)?;
                     s.finish().map_err(werr)?;
                 } else {
-                    let mtl_path = o.output.as_ref().map(|p| p.with_extension("mtl"));
+                    // Materials only beside a regular file (the link's
+                    // target, named after it); a stream gets none.
+                    let mtl_path = file_path.map(|p| p.with_extension("mtl"));
                     let lib = mtl_path
                         .as_ref()
                         .and_then(|p| p.file_name())
@@ -181,13 +191,13 @@ pub fn run(o: &Options) -> Result<(), Error> {
         Format::Svg | Format::Png => {
             let proj = render::Projection::new(o.view.direction, o.view.twist);
             let mut bbox = render::BBox::new(proj);
-            // Pass 1: the bounding box (standard input is spooled meanwhile).
+            // Pass 1: the bounding box (a stream is spooled meanwhile).
             let second: Box<dyn Read> = match &src {
                 Source::File(p, n) => {
                     interpret(first, &in_name, &out_name, &o.view, &mut bbox)?;
                     Box::new(open_file(p, n)?)
                 }
-                Source::Stdin => {
+                Source::Stream => {
                     let spool = tempfile::tempfile()
                         .map_err(|e| Error::io("temporary file", "cannot create", e))?;
                     let mut tee = Tee {
