@@ -693,3 +693,53 @@ fn view_lines_are_keywords_for_lsgen_and_the_turtle_alike() {
         r.stderr
     );
 }
+
+/// Width and height of a PNG (its IHDR chunk).
+fn png_size(png: &[u8]) -> (u32, u32) {
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    assert_eq!(&png[12..16], b"IHDR");
+    let be = |b: &[u8]| u32::from_be_bytes([b[0], b[1], b[2], b[3]]);
+    (be(&png[16..20]), be(&png[20..24]))
+}
+
+#[test]
+fn extreme_extents_are_errors_or_laid_out_within_size() {
+    // Extents that overflow: an error at the module that drew past the
+    // range (byte offsets counted by hand), nothing written.
+    for (input, at) in [
+        ("@M(-1e308,0,0)F@M(1e308,0,0)F", 28),
+        ("F(1e308)+(180)F(1e308)F(1e308)", 22),
+    ] {
+        for f in ["svg", "png"] {
+            let r = turtle(&["-f", f], input.as_bytes());
+            assert_eq!(r.code(), Some(1), "{input}: {}", r.stderr);
+            assert!(r.stdout.is_empty(), "{input}");
+            assert_eq!(
+                r.stderr,
+                format!(
+                    "lsgen-turtle: <stdin>:{at}: error: the drawing is too large to lay out \
+                     (its extent overflows)\n"
+                ),
+                "{input}"
+            );
+        }
+    }
+    // Degenerate (tiny) boxes: drawn, finite, within --size.
+    for input in ["@o(1e-320)", "!(1e-320)F(1e-320)", "@O(1e-320)F(0)"] {
+        let svg = text(ok(&turtle(&["-f", "svg"], input.as_bytes())));
+        for bad in ["inf", "NaN"] {
+            assert!(!svg.contains(bad), "{input}: {svg}");
+        }
+        let vb = svg_numbers(&svg, "viewBox");
+        assert!(vb[2] <= 800.0 && vb[3] <= 800.0, "{input}: {vb:?}");
+        let (w, h) = png_size(&ok(&turtle(
+            &["-f", "png", "--size", "100"],
+            input.as_bytes(),
+        )));
+        assert!(w <= 100 && h <= 100, "{input}: {w}x{h}");
+    }
+    // A huge but finite drawing: small plain coordinates.
+    let svg = text(ok(&turtle(&["-f", "svg"], b"F(1e308)+(90)F(1e307)")));
+    let pts = svg_numbers(&svg, "points");
+    assert!(pts.iter().all(|x| x.abs() <= 800.0), "{svg}");
+}

@@ -37,7 +37,15 @@ pub fn interpret<R: Read>(
         let params = r.params;
         match t.module(sym, &params[..n], sink) {
             Ok(()) => {}
-            Err(ModErr::Io(e)) => return Err(Error::io(out_name, "cannot write", e)),
+            Err(ModErr::Io(e)) => {
+                if let Some(o) = e
+                    .get_ref()
+                    .and_then(|x| x.downcast_ref::<render::ExtentOverflow>())
+                {
+                    return Err(r.error_at(r.last_at, o.to_string()));
+                }
+                return Err(Error::io(out_name, "cannot write", e));
+            }
             Err(ModErr::Fault(Fault::UnmatchedClose(c))) => {
                 return Err(r.error_at(r.last_at, format!("unmatched `{c}`")));
             }
