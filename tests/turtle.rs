@@ -745,3 +745,54 @@ fn extreme_extents_are_errors_or_laid_out_within_size() {
     let pts = svg_numbers(&svg, "points");
     assert!(pts.iter().all(|x| x.abs() <= 800.0), "{svg}");
 }
+
+#[test]
+fn unclosed_polygons_long_numbers_and_tropism_overflow_are_named() {
+    let fails = |args: &[&str], input: &[u8], want: &str| {
+        let r = turtle(args, input);
+        assert_eq!(r.code(), Some(1), "{want}: {}", r.stderr);
+        assert_eq!(r.stderr, format!("lsgen-turtle: <stdin>:{want}\n"));
+    };
+    // Offsets counted by hand: the outermost unclosed `{`.
+    fails(
+        &["-f", "svg"],
+        b"F{FF",
+        "1: error: polygon not closed: `{` without `}`",
+    );
+    fails(
+        &["-f", "segments"],
+        b"F{F{F}",
+        "1: error: polygon not closed: `{` without `}`",
+    );
+    // 2^20 vertices are kept, one more is refused at its module.
+    let mut big = b"{".to_vec();
+    big.extend(std::iter::repeat_n(b'.', (1 << 20) + 1));
+    big.push(b'}');
+    fails(
+        &["-f", "segments"],
+        &big,
+        "1048577: error: polygon too large (over 1048576 vertices)",
+    );
+    // 64 characters are a number; 65 are too long.
+    let n64 = format!("F({})", "1".repeat(64));
+    let seg = text(ok(&turtle(&["-f", "segments"], n64.as_bytes())));
+    assert!(seg.starts_with("0 0 0 0 1.111111111111111"), "{seg}");
+    let n65 = format!("F({})", "1".repeat(65));
+    fails(
+        &["-f", "segments"],
+        n65.as_bytes(),
+        "2: error: number too long (over 64 characters)",
+    );
+    fails(
+        &[
+            "-f",
+            "segments",
+            "--tropism",
+            "1e308 1e308 1e308",
+            "--elasticity",
+            "1",
+        ],
+        b"FF",
+        "0: error: the tropism bend overflows (elasticity × |tropism| is too large)",
+    );
+}

@@ -29,10 +29,18 @@ pub fn interpret<R: Read>(
 ) -> Result<(), Error> {
     let mut r = Reader::new(input, name);
     let mut t = Turtle::new(view);
+    // Where the outermost open polygon began.
+    let mut polygon_at = 0;
     loop {
         let Some(sym) = r.next_module()? else {
+            if t.open_polygons() > 0 {
+                return Err(r.error_at(polygon_at, "polygon not closed: `{` without `}`"));
+            }
             return Ok(());
         };
+        if sym == '{' && t.open_polygons() == 0 {
+            polygon_at = r.last_at;
+        }
         let n = r.nparams;
         let params = r.params;
         match t.module(sym, &params[..n], sink) {
@@ -51,6 +59,18 @@ pub fn interpret<R: Read>(
             }
             Err(ModErr::Fault(Fault::Overflow)) => {
                 return Err(r.error_at(r.last_at, "the turtle moved out of range (overflow)"))
+            }
+            Err(ModErr::Fault(Fault::TropismOverflow)) => {
+                return Err(r.error_at(
+                    r.last_at,
+                    "the tropism bend overflows (elasticity × |tropism| is too large)",
+                ))
+            }
+            Err(ModErr::Fault(Fault::PolygonTooLarge)) => {
+                return Err(r.error_at(
+                    r.last_at,
+                    format!("polygon too large (over {} vertices)", state::MAX_VERTICES),
+                ))
             }
             Err(ModErr::Fault(Fault::TooDeep)) => {
                 return Err(r.error_at(r.last_at, "branches or polygons nested too deeply"))
