@@ -590,6 +590,16 @@ fn obj_materials_only_beside_a_regular_file() {
         .unwrap()
         .contains("newmtl c0"));
     common::assert_listing(d, &["l2.obj", "sub"]);
+    // OBJ to a name ending in .mtl: the OBJ, no MTL over it.
+    let r = run_with_stdin(
+        common::turtle()
+            .args(["-f", "obj", "-o", "x.mtl"])
+            .current_dir(d),
+        b"F".to_vec(),
+    );
+    ok(&r);
+    let obj = std::fs::read_to_string(d.join("x.mtl")).unwrap();
+    assert!(obj.contains("\nl ") && !obj.contains("mtllib"), "{obj}");
 }
 
 #[test]

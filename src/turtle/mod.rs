@@ -192,7 +192,11 @@ pub fn run(o: &Options) -> Result<(), Error> {
                 } else {
                     // Materials only beside a regular file (the link's
                     // target, named after it); a stream gets none.
-                    let mtl_path = file_path.map(|p| p.with_extension("mtl"));
+                    // (`-f obj -o x.mtl` would overwrite itself: no MTL.)
+                    let mtl_path = file_path
+                        .as_ref()
+                        .map(|p| p.with_extension("mtl"))
+                        .filter(|m| Some(m) != file_path.as_ref());
                     let lib = mtl_path
                         .as_ref()
                         .and_then(|p| p.file_name())
