@@ -612,7 +612,7 @@ fn closed_full_or_limited_output_is_an_error() {
     assert_eq!(r.code(), Some(1), "{}", r.stderr);
     assert!(
         r.stderr
-            .starts_with("lsgen-turtle: standard output: error: cannot write"),
+            .starts_with("lsgen-turtle: standard output: error: cannot write: Bad file descriptor (closed at startup)"),
         "{}",
         r.stderr
     );

@@ -72,7 +72,7 @@ pub fn check_stdout_open() -> Result<(), Error> {
     if closed_at_start(1) {
         return Err(fail(
             "standard output",
-            "cannot write: Bad file descriptor (closed when lsgen started)",
+            "cannot write: Bad file descriptor (closed at startup)",
         ));
     }
     Ok(())
