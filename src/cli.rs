@@ -293,10 +293,7 @@ pub fn parse_limit(s: &str) -> Result<Limits, String> {
 /// parser and compiler recurse on nested expressions); returns the exit
 /// status. A bug shows as one line, not a backtrace.
 pub fn main_exit_code() -> i32 {
-    // Past `ulimit -f`, a write fails with EFBIG (reported) instead of
-    // killing the process.
-    // SAFETY: setting a signal's disposition to SIG_IGN.
-    unsafe { libc::signal(libc::SIGXFSZ, libc::SIG_IGN) };
+    ignore_sigxfsz();
     install_panic_hook();
     let worker = std::thread::Builder::new()
         .name("lsgen".into())
@@ -318,6 +315,24 @@ pub fn main_exit_code() -> i32 {
     crate::io::output::leave_termination_signals_to_other_threads();
     // A panic (a bug) was reported by the hook; exit 70 (EX_SOFTWARE).
     worker.join().unwrap_or(70)
+}
+
+/// Past `ulimit -f`, a write fails with EFBIG (reported) instead of
+/// killing the process. Both binaries call this first.
+pub fn ignore_sigxfsz() {
+    // SAFETY: setting a signal's disposition to SIG_IGN.
+    unsafe { libc::signal(libc::SIGXFSZ, libc::SIG_IGN) };
+}
+
+/// Print clap's `--help` or `--version` text. A failed write
+/// (`--version > /dev/full`, standard output closed) is an error; a
+/// closed pipe is [`Kind::BrokenPipe`], which callers keep quiet.
+pub fn print_help_or_version(e: &clap::Error) -> Result<(), Error> {
+    crate::io::output::check_stdout_open().and_then(|()| {
+        e.print()
+            .and_then(|()| io::stdout().flush())
+            .map_err(|e| Error::io("standard output", "cannot write", e))
+    })
 }
 
 /// The worker thread's stack: the parser and the expression compiler
@@ -351,14 +366,7 @@ fn main_on_thread() -> i32 {
         Err(e) => {
             return match e.kind() {
                 clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => {
-                    // A failed write (`--version > /dev/full`, stdout closed)
-                    // is an error; a closed pipe is not.
-                    let printed = crate::io::output::check_stdout_open().and_then(|()| {
-                        e.print()
-                            .and_then(|()| io::stdout().flush())
-                            .map_err(|e| Error::io("standard output", "cannot write", e))
-                    });
-                    match printed {
+                    match print_help_or_version(&e) {
                         Ok(()) => 0,
                         Err(e) => {
                             if e.kind != Kind::BrokenPipe {

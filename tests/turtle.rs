@@ -515,3 +515,294 @@ fn lsgen_skips_view_lines_anywhere_in_the_header() {
     let r = run(lsgen().arg("--check").arg(&ls));
     assert_eq!(r.ok(), "");
 }
+
+/// lsgen-turtle under `sh -c 'SETUP; exec lsgen-turtle ARGS...'`, run in
+/// `dir`.
+fn turtle_under_sh(setup: &str, dir: &Path) -> std::process::Command {
+    let mut c = common::command("sh");
+    c.arg("-c")
+        .arg(format!("{setup}; exec \"$0\" \"$@\""))
+        .arg(common::TURTLE)
+        .current_dir(dir);
+    c
+}
+
+#[test]
+fn a_stream_named_as_the_input_is_read_once_and_spooled() {
+    // The reference: the same string on standard input.
+    let want = ok(&turtle(&["-f", "svg"], b"F+F"));
+    assert!(text(want.clone()).contains("<line") || want.len() > 300);
+    // /dev/stdin is a pipe here: opened again, it would be empty.
+    let got = ok(&turtle(&["-f", "svg", "/dev/stdin"], b"F+F"));
+    assert_eq!(text(got), text(want.clone()));
+    // A named FIFO: reading it twice would block for ever.
+    let dir = tempfile::tempdir().unwrap();
+    let r = common::run_within(
+        turtle_under_sh("mkfifo f && (printf 'F+F' > f &)", dir.path()).args(["-f", "svg", "f"]),
+        std::time::Duration::from_secs(20),
+    );
+    r.assert_no_crash();
+    assert_eq!(text(ok(&r)), text(want));
+}
+
+#[test]
+fn obj_materials_only_beside_a_regular_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Streams: no MTL anywhere, no mtllib line. (/dev/*.mtl are only
+    // checked when absent before: another run could have left one.)
+    let stray = ["/dev/stdout.mtl", "/dev/null.mtl"].map(|p| Path::new(p).exists());
+    let r = run_with_stdin(
+        common::turtle().args(["-f", "obj"]).current_dir(d),
+        b"F".to_vec(),
+    );
+    assert!(!text(ok(&r)).contains("mtllib"));
+    let r = run_with_stdin(
+        common::turtle()
+            .args(["-f", "obj", "-o", "/dev/stdout"])
+            .current_dir(d),
+        b"F".to_vec(),
+    );
+    assert!(!text(ok(&r)).contains("mtllib"));
+    assert!(stray[0] || !Path::new("/dev/stdout.mtl").exists());
+    let r = run_with_stdin(
+        common::turtle()
+            .args(["-f", "obj", "-o", "/dev/null"])
+            .current_dir(d),
+        b"F".to_vec(),
+    );
+    ok(&r);
+    assert!(stray[1] || !Path::new("/dev/null.mtl").exists());
+    assert_eq!(common::listing(d).len(), 0, "{:?}", common::listing(d));
+    // A link: both files beside its target, named after it.
+    std::fs::create_dir(d.join("sub")).unwrap();
+    std::fs::write(d.join("sub/r2.obj"), "old").unwrap();
+    std::os::unix::fs::symlink("sub/r2.obj", d.join("l2.obj")).unwrap();
+    let r = run_with_stdin(
+        common::turtle().args(["-o", "l2.obj"]).current_dir(d),
+        b"F".to_vec(),
+    );
+    ok(&r);
+    assert!(!d.join("l2.mtl").exists());
+    let obj = std::fs::read_to_string(d.join("sub/r2.obj")).unwrap();
+    assert!(obj.contains("mtllib r2.mtl\n"), "{obj}");
+    assert!(std::fs::read_to_string(d.join("sub/r2.mtl"))
+        .unwrap()
+        .contains("newmtl c0"));
+    common::assert_listing(d, &["l2.obj", "sub"]);
+    // OBJ to a name ending in .mtl: the OBJ, no MTL over it.
+    let r = run_with_stdin(
+        common::turtle()
+            .args(["-f", "obj", "-o", "x.mtl"])
+            .current_dir(d),
+        b"F".to_vec(),
+    );
+    ok(&r);
+    let obj = std::fs::read_to_string(d.join("x.mtl")).unwrap();
+    assert!(obj.contains("\nl ") && !obj.contains("mtllib"), "{obj}");
+}
+
+#[test]
+fn closed_full_or_limited_output_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // `>&-`: the picture would be lost; lsgen's rule, exit 1 with a message.
+    let r = run(turtle_under_sh("printf F+F >in; exec <in >&-", d).args(["-f", "svg"]));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr
+            .starts_with("lsgen-turtle: standard output: error: cannot write: Bad file descriptor (closed at startup)"),
+        "{}",
+        r.stderr
+    );
+    // --version and --help to a full device.
+    for flag in ["--version", "--help"] {
+        let r = run(turtle_under_sh("exec >/dev/full", d).arg(flag));
+        r.assert_no_crash();
+        assert_eq!(r.code(), Some(1), "{flag}: {}", r.stderr);
+        assert!(r.stderr.contains("No space left"), "{flag}: {}", r.stderr);
+    }
+    // `ulimit -f`: not killed by SIGXFSZ, EFBIG reported, no partial file.
+    let r = run(turtle_under_sh(
+        "awk 'BEGIN{for(i=0;i<20000;i++) printf \"F+\"}' >in; ulimit -f 1; exec <in",
+        d,
+    )
+    .args(["-f", "segments", "-o", "out.txt"]));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(r.stderr.contains("File too large"), "{}", r.stderr);
+    assert!(!d.join("out.txt").exists());
+}
+
+#[test]
+fn ls_is_read_with_lsgens_bounded_header_reader() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let limit = std::time::Duration::from_secs(60);
+    // /dev/zero: NUL at once, at 1:1.
+    let r = common::run_within(
+        common::turtle().args(["--ls", "/dev/zero", "-f", "segments", "/dev/null"]),
+        limit,
+    );
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr
+            .starts_with("lsgen-turtle: /dev/zero:1:1: error: NUL byte"),
+        "{}",
+        r.stderr
+    );
+    // Endless view lines, an endless comment: stop at lsgen's 64 MiB.
+    for feed in ["yes 'view: angle = 3'", "(echo '/*'; yes aaaa)"] {
+        let mut c = common::command("sh");
+        c.arg("-c")
+            .arg(format!("{feed} | \"$0\" \"$@\""))
+            .arg(common::TURTLE)
+            .args(["--ls", "/dev/stdin", "-f", "segments", "/dev/null"])
+            .current_dir(d);
+        let r = common::run_within(&mut c, limit);
+        r.assert_no_crash();
+        assert_eq!(r.code(), Some(1), "{feed}: {}", r.stderr);
+        assert!(r.stderr.contains("too long (over 64 MiB)"), "{}", r.stderr);
+    }
+}
+
+#[test]
+fn view_lines_are_keywords_for_lsgen_and_the_turtle_alike() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A byte-order mark, a comment before `view:`.
+    let ls = common::write(
+        d,
+        "v.ls",
+        "\u{feff}view: angle = 90\n/* c */ view: step = 2\naxiom: F\n",
+    );
+    let ls = ls.to_str().unwrap();
+    assert_eq!(derive(&[ls]), b"F\n");
+    // Hand derivation: + turns left by 90 degrees, F steps 2 along -X.
+    let got = text(ok(&turtle(&["--ls", ls, "-f", "segments"], b"+F")));
+    same_segments(&got, "0 0 0 -2 0 0 1 0\n", "view lines");
+    // An invalid one is an error for both, at the same place.
+    let bad = common::write(d, "b.ls", "/* c */ view: angel = 3\naxiom: F\n");
+    let bad = bad.to_str().unwrap();
+    let r = run(lsgen().arg(bad));
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr.starts_with(&format!(
+            "lsgen: {bad}:1:15: error: unknown view setting `angel`"
+        )),
+        "{}",
+        r.stderr
+    );
+    let r = turtle(&["--ls", bad, "-f", "segments"], b"F");
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr.starts_with(&format!(
+            "lsgen-turtle: {bad}:1:15: error: unknown view setting `angel`"
+        )),
+        "{}",
+        r.stderr
+    );
+}
+
+/// Width and height of a PNG (its IHDR chunk).
+fn png_size(png: &[u8]) -> (u32, u32) {
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    assert_eq!(&png[12..16], b"IHDR");
+    let be = |b: &[u8]| u32::from_be_bytes([b[0], b[1], b[2], b[3]]);
+    (be(&png[16..20]), be(&png[20..24]))
+}
+
+#[test]
+fn extreme_extents_are_errors_or_laid_out_within_size() {
+    // Extents that overflow: an error at the module that drew past the
+    // range (byte offsets counted by hand), nothing written.
+    for (input, at) in [
+        ("@M(-1e308,0,0)F@M(1e308,0,0)F", 28),
+        ("F(1e308)+(180)F(1e308)F(1e308)", 22),
+    ] {
+        for f in ["svg", "png"] {
+            let r = turtle(&["-f", f], input.as_bytes());
+            assert_eq!(r.code(), Some(1), "{input}: {}", r.stderr);
+            assert!(r.stdout.is_empty(), "{input}");
+            assert_eq!(
+                r.stderr,
+                format!(
+                    "lsgen-turtle: <stdin>:{at}: error: the drawing is too large to lay out \
+                     (its extent overflows)\n"
+                ),
+                "{input}"
+            );
+        }
+    }
+    // Degenerate (tiny) boxes: drawn, finite, within --size.
+    for input in ["@o(1e-320)", "!(1e-320)F(1e-320)", "@O(1e-320)F(0)"] {
+        let svg = text(ok(&turtle(&["-f", "svg"], input.as_bytes())));
+        for bad in ["inf", "NaN"] {
+            assert!(!svg.contains(bad), "{input}: {svg}");
+        }
+        let vb = svg_numbers(&svg, "viewBox");
+        assert!(vb[2] <= 800.0 && vb[3] <= 800.0, "{input}: {vb:?}");
+        let (w, h) = png_size(&ok(&turtle(
+            &["-f", "png", "--size", "100"],
+            input.as_bytes(),
+        )));
+        assert!(w <= 100 && h <= 100, "{input}: {w}x{h}");
+    }
+    // A huge but finite drawing: small plain coordinates.
+    let svg = text(ok(&turtle(&["-f", "svg"], b"F(1e308)+(90)F(1e307)")));
+    let pts = svg_numbers(&svg, "points");
+    assert!(pts.iter().all(|x| x.abs() <= 800.0), "{svg}");
+}
+
+#[test]
+fn unclosed_polygons_long_numbers_and_tropism_overflow_are_named() {
+    let fails = |args: &[&str], input: &[u8], want: &str| {
+        let r = turtle(args, input);
+        assert_eq!(r.code(), Some(1), "{want}: {}", r.stderr);
+        assert_eq!(r.stderr, format!("lsgen-turtle: <stdin>:{want}\n"));
+    };
+    // Offsets counted by hand: the outermost unclosed `{`.
+    fails(
+        &["-f", "svg"],
+        b"F{FF",
+        "1: error: polygon not closed: `{` without `}`",
+    );
+    fails(
+        &["-f", "segments"],
+        b"F{F{F}",
+        "1: error: polygon not closed: `{` without `}`",
+    );
+    // 2^20 vertices are kept, one more is refused at its module.
+    let mut big = b"{".to_vec();
+    big.extend(std::iter::repeat_n(b'.', (1 << 20) + 1));
+    big.push(b'}');
+    fails(
+        &["-f", "segments"],
+        &big,
+        "1048577: error: polygon too large (over 1048576 vertices)",
+    );
+    // 64 characters are a number; 65 are too long.
+    let n64 = format!("F({})", "1".repeat(64));
+    let seg = text(ok(&turtle(&["-f", "segments"], n64.as_bytes())));
+    assert!(seg.starts_with("0 0 0 0 1.111111111111111"), "{seg}");
+    let n65 = format!("F({})", "1".repeat(65));
+    fails(
+        &["-f", "segments"],
+        n65.as_bytes(),
+        "2: error: number too long (over 64 characters)",
+    );
+    fails(
+        &[
+            "-f",
+            "segments",
+            "--tropism",
+            "1e308 1e308 1e308",
+            "--elasticity",
+            "1",
+        ],
+        b"FF",
+        "0: error: the tropism bend overflows (elasticity × |tropism| is too large)",
+    );
+}

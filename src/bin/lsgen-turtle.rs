@@ -79,9 +79,13 @@ fn options(a: Args) -> Result<Options, Error> {
     let mut v = View::default();
     if let Some(ls) = &a.ls {
         let name = ls.display().to_string();
-        let text = std::fs::read(ls).map_err(|e| Error::io(name.clone(), "cannot read", e))?;
-        let text = String::from_utf8_lossy(&text);
-        view::read_ls(&name, &text, &mut v)?;
+        let f = std::fs::File::open(ls).map_err(|e| Error::io(name.clone(), "cannot open", e))?;
+        if f.metadata().is_ok_and(|m| m.is_dir()) {
+            let e = std::io::Error::from(std::io::ErrorKind::IsADirectory);
+            return Err(Error::io(name, "cannot read", e));
+        }
+        // lsgen's header reader and lexer: bounded, and the same view lines.
+        view::read_ls(&name, Box::new(f), &mut v)?;
     }
     let set = |v: &mut View, name: &str, value: &str| -> Result<(), Error> {
         let text = format!(" {name} = {value}");
@@ -148,6 +152,8 @@ fn report(e: &Error) {
 }
 
 fn main() {
+    // Shared with lsgen: a write past `ulimit -f` is an error (EFBIG).
+    lsgen::cli::ignore_sigxfsz();
     std::panic::set_hook(Box::new(|info| {
         let at = info
             .location()
@@ -161,8 +167,13 @@ fn main() {
     let code = match Args::try_parse() {
         Err(e) => match e.kind() {
             clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => {
-                let _ = e.print();
-                0
+                match lsgen::cli::print_help_or_version(&e) {
+                    Ok(()) => 0,
+                    Err(e) => {
+                        report(&e);
+                        e.exit_code()
+                    }
+                }
             }
             _ => {
                 let _ = write!(std::io::stderr(), "lsgen-turtle: {}", e.render());
@@ -179,3 +190,15 @@ fn main() {
     };
     std::process::exit(code);
 }
+
+/// Runs before Rust's runtime, which quietly gives closed standard
+/// descriptors /dev/null: as lsgen, lsgen-turtle must know that standard
+/// output was closed (`>&-`) and fail instead of losing the output.
+#[used]
+#[link_section = ".init_array"]
+static NOTE_CLOSED_STANDARD_FDS: extern "C" fn() = {
+    extern "C" fn note() {
+        lsgen::output::note_closed_standard_fds();
+    }
+    note
+};

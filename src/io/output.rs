@@ -72,7 +72,7 @@ pub fn check_stdout_open() -> Result<(), Error> {
     if closed_at_start(1) {
         return Err(fail(
             "standard output",
-            "cannot write: Bad file descriptor (closed when lsgen started)",
+            "cannot write: Bad file descriptor (closed at startup)",
         ));
     }
     Ok(())
@@ -261,6 +261,15 @@ impl Output {
             mode,
             name,
         })
+    }
+
+    /// The regular file this output will replace, its symbolic links
+    /// followed; `None` for a stream (standard output, a device, a FIFO).
+    pub fn file_path(&self) -> Option<&Path> {
+        match self {
+            Output::Atomic { path, .. } => Some(path),
+            _ => None,
+        }
     }
 
     pub fn name(&self) -> String {

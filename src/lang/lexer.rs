@@ -253,6 +253,21 @@ pub struct Lexer<'a> {
     /// Tokens of the current expression, to bound the parser's and the
     /// compiler's recursion on absurd input.
     expr_tokens: usize,
+    /// The settings of the `view:` lines met, when collected.
+    views: Option<Vec<crate::turtle::view::Setting>>,
+}
+
+/// The settings of a header's `view:` lines, in order, found by the lexer
+/// lsgen parses the header with (so lsgen-turtle's `--ls` and lsgen agree
+/// on which lines are view lines). A lexical error of the header is an
+/// error here too.
+pub fn view_settings(src: &str) -> Result<Vec<crate::turtle::view::Setting>, LexError> {
+    let mut l = Lexer::new(src);
+    l.views = Some(Vec::new());
+    for t in l.by_ref() {
+        t?;
+    }
+    Ok(l.views.unwrap_or_default())
 }
 
 /// Longest expression (in tokens) and deepest parenthesis nesting accepted.
@@ -270,6 +285,7 @@ impl<'a> Lexer<'a> {
             return_at_zero: false,
             done: false,
             expr_tokens: 0,
+            views: None,
         }
     }
 
@@ -284,6 +300,7 @@ impl<'a> Lexer<'a> {
             return_at_zero: false,
             done: false,
             expr_tokens: 0,
+            views: None,
         }
     }
 
@@ -326,11 +343,10 @@ impl<'a> Lexer<'a> {
         }
     }
 
-    /// At the start of a line: skip blanks and look for a keyword.
-    /// Blanks and comments may come before the keyword (a comment that
-    /// spans lines starts a new line, handled by the caller as a newline).
-    fn keyword(&mut self) -> Option<(usize, Tok<'a>, usize)> {
-        let pos = self.pos();
+    /// Bytes of blanks and comments at `pos` before a keyword may start
+    /// (a comment that spans lines starts a new line, handled by the
+    /// caller as a newline).
+    fn lead(&self, pos: usize) -> usize {
         let mut blank = 0;
         loop {
             let rest = &self.src[pos + blank..];
@@ -341,6 +357,14 @@ impl<'a> Lexer<'a> {
                 _ => break,
             }
         }
+        blank
+    }
+
+    /// At the start of a line: skip blanks and look for a keyword.
+    /// Blanks and comments may come before the keyword.
+    fn keyword(&mut self) -> Option<(usize, Tok<'a>, usize)> {
+        let pos = self.pos();
+        let blank = self.lead(pos);
         let rest = &self.src[pos + blank..];
         for (kw, tok, expr) in KEYWORDS {
             if let Some(len) = match_keyword(rest, kw) {
@@ -357,22 +381,29 @@ impl<'a> Lexer<'a> {
         None
     }
 
-    /// A `view:` line holds lsgen-turtle's view settings: checked by the
+    /// A `view:` line holds lsgen-turtle's view settings: a keyword like
+    /// the others (blanks and comments may come first), checked by the
     /// same parser, then skipped up to the end of the line (or a comment).
     fn view_line(&mut self) -> Result<(), LexError> {
         let pos = self.pos();
-        let rest = &self.src[pos..];
-        let blank = rest.len() - rest.trim_start_matches([' ', '\t', '\r']).len();
-        let Some(kl) = match_keyword(&rest[blank..], "view:") else {
+        let blank = self.lead(pos);
+        let Some(kl) = match_keyword(&self.src[pos + blank..], "view:") else {
             return Ok(());
         };
         let at = pos + blank + kl;
         let end = crate::turtle::view::setting_end(&self.src[at..]);
-        if let Err(e) = crate::turtle::view::parse_setting(&self.src[at..at + end]) {
-            return Err(LexError {
-                span: (at + e.span.0, at + e.span.1.max(e.span.0 + 1).min(end)),
-                message: e.message,
-            });
+        match crate::turtle::view::parse_setting(&self.src[at..at + end]) {
+            Ok(v) => {
+                if let Some(views) = &mut self.views {
+                    views.push(v);
+                }
+            }
+            Err(e) => {
+                return Err(LexError {
+                    span: (at + e.span.0, at + e.span.1.max(e.span.0 + 1).min(end)),
+                    message: e.message,
+                })
+            }
         }
         self.bump(blank + kl + end);
         Ok(())

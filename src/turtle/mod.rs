@@ -6,7 +6,7 @@
 //! [`render`] turns what the turtle draws into the output formats. Memory
 //! is the branch stack and the polygon being built, never the string: SVG
 //! and PNG need the bounding box first, so the input is read twice (a file
-//! is opened again, standard input is spooled to an unnamed temp file).
+//! is opened again, any other input is spooled to an unnamed temp file).
 
 pub mod reader;
 pub mod render;
@@ -29,20 +29,48 @@ pub fn interpret<R: Read>(
 ) -> Result<(), Error> {
     let mut r = Reader::new(input, name);
     let mut t = Turtle::new(view);
+    // Where the outermost open polygon began.
+    let mut polygon_at = 0;
     loop {
         let Some(sym) = r.next_module()? else {
+            if t.open_polygons() > 0 {
+                return Err(r.error_at(polygon_at, "polygon not closed: `{` without `}`"));
+            }
             return Ok(());
         };
+        if sym == '{' && t.open_polygons() == 0 {
+            polygon_at = r.last_at;
+        }
         let n = r.nparams;
         let params = r.params;
         match t.module(sym, &params[..n], sink) {
             Ok(()) => {}
-            Err(ModErr::Io(e)) => return Err(Error::io(out_name, "cannot write", e)),
+            Err(ModErr::Io(e)) => {
+                if let Some(o) = e
+                    .get_ref()
+                    .and_then(|x| x.downcast_ref::<render::ExtentOverflow>())
+                {
+                    return Err(r.error_at(r.last_at, o.to_string()));
+                }
+                return Err(Error::io(out_name, "cannot write", e));
+            }
             Err(ModErr::Fault(Fault::UnmatchedClose(c))) => {
                 return Err(r.error_at(r.last_at, format!("unmatched `{c}`")));
             }
             Err(ModErr::Fault(Fault::Overflow)) => {
                 return Err(r.error_at(r.last_at, "the turtle moved out of range (overflow)"))
+            }
+            Err(ModErr::Fault(Fault::TropismOverflow)) => {
+                return Err(r.error_at(
+                    r.last_at,
+                    "the tropism bend overflows (elasticity × |tropism| is too large)",
+                ))
+            }
+            Err(ModErr::Fault(Fault::PolygonTooLarge)) => {
+                return Err(r.error_at(
+                    r.last_at,
+                    format!("polygon too large (over {} vertices)", state::MAX_VERTICES),
+                ))
             }
             Err(ModErr::Fault(Fault::TooDeep)) => {
                 return Err(r.error_at(r.last_at, "branches or polygons nested too deeply"))
@@ -83,10 +111,12 @@ pub struct Options {
     pub cylinders: bool,
 }
 
-/// The input, once or twice.
+/// The input, once or twice: a regular file is opened again, anything
+/// else (standard input, a FIFO, `<(...)`, a device) is read once and
+/// spooled to an unnamed temp file.
 enum Source {
     File(std::path::PathBuf, String),
-    Stdin,
+    Stream,
 }
 
 fn open_file(p: &std::path::Path, name: &str) -> Result<std::fs::File, Error> {
@@ -125,24 +155,30 @@ impl<R: Read> Read for Tee<R> {
 pub fn run(o: &Options) -> Result<(), Error> {
     use crate::output::Output;
     use std::io::Seek;
-    let src = match &o.input {
-        Some(p) if p.as_os_str() != "-" => Source::File(p.clone(), p.display().to_string()),
-        _ => Source::Stdin,
-    };
-    let in_name = match &src {
-        Source::File(_, n) => n.clone(),
-        Source::Stdin => "<stdin>".to_string(),
-    };
     // Open the input first: a missing input must not create the output.
-    let first: Box<dyn Read> = match &src {
-        Source::File(p, n) => Box::new(open_file(p, n)?),
-        Source::Stdin => Box::new(std::io::stdin()),
+    let (src, in_name, first): (Source, String, Box<dyn Read>) = match &o.input {
+        Some(p) if p.as_os_str() != "-" => {
+            let name = p.display().to_string();
+            let f = open_file(p, &name)?;
+            if f.metadata().is_ok_and(|m| m.is_file()) {
+                (Source::File(p.clone(), name.clone()), name, Box::new(f))
+            } else {
+                // Reading it again would find it empty (or block).
+                (Source::Stream, name, Box::new(f))
+            }
+        }
+        _ => (
+            Source::Stream,
+            "<stdin>".to_string(),
+            Box::new(std::io::stdin()),
+        ),
     };
     let mut out = match &o.output {
         Some(p) => Output::file(p)?,
         None => Output::stdout()?,
     };
     let out_name = out.name();
+    let file_path = out.file_path().map(|p| p.to_path_buf());
     let werr = |e: std::io::Error| Error::io(out_name.clone(), "cannot write", e);
     match o.format {
         Format::Segments | Format::Obj => {
@@ -154,7 +190,13 @@ pub fn run(o: &Options) -> Result<(), Error> {
                     interpret(first, &in_name, &out_name, &o.view, &mut s)?;
                     s.finish().map_err(werr)?;
                 } else {
-                    let mtl_path = o.output.as_ref().map(|p| p.with_extension("mtl"));
+                    // Materials only beside a regular file (the link's
+                    // target, named after it); a stream gets none.
+                    // (`-f obj -o x.mtl` would overwrite itself: no MTL.)
+                    let mtl_path = file_path
+                        .as_ref()
+                        .map(|p| p.with_extension("mtl"))
+                        .filter(|m| Some(m) != file_path.as_ref());
                     let lib = mtl_path
                         .as_ref()
                         .and_then(|p| p.file_name())
@@ -181,13 +223,13 @@ pub fn run(o: &Options) -> Result<(), Error> {
         Format::Svg | Format::Png => {
             let proj = render::Projection::new(o.view.direction, o.view.twist);
             let mut bbox = render::BBox::new(proj);
-            // Pass 1: the bounding box (standard input is spooled meanwhile).
+            // Pass 1: the bounding box (a stream is spooled meanwhile).
             let second: Box<dyn Read> = match &src {
                 Source::File(p, n) => {
                     interpret(first, &in_name, &out_name, &o.view, &mut bbox)?;
                     Box::new(open_file(p, n)?)
                 }
-                Source::Stdin => {
+                Source::Stream => {
                     let spool = tempfile::tempfile()
                         .map_err(|e| Error::io("temporary file", "cannot create", e))?;
                     let mut tee = Tee {

@@ -9,6 +9,9 @@ pub const MAX_PARAMS: usize = 8;
 
 const BUF: usize = 1 << 16;
 
+/// Longest parameter accepted, in characters.
+pub const MAX_NUMBER: usize = 64;
+
 pub struct Reader<R: Read> {
     inner: R,
     buf: Vec<u8>,
@@ -149,15 +152,17 @@ impl<R: Read> Reader<R> {
             self.skip_blanks()?;
             let at = self.offset();
             // A number: up to 64 bytes of [0-9+-.eE].
-            self.fill(64)?;
+            self.fill(MAX_NUMBER + 1)?;
             let avail = &self.buf[self.pos..self.end];
-            let len = avail
-                .iter()
-                .take(64)
-                .take_while(|&&c| {
-                    c.is_ascii_digit() || matches!(c, b'+' | b'-' | b'.' | b'e' | b'E')
-                })
-                .count();
+            let is_num =
+                |c: &&u8| c.is_ascii_digit() || matches!(c, b'+' | b'-' | b'.' | b'e' | b'E');
+            let len = avail.iter().take(MAX_NUMBER + 1).take_while(is_num).count();
+            if len > MAX_NUMBER {
+                return Err(self.error_at(
+                    at,
+                    format!("number too long (over {MAX_NUMBER} characters)"),
+                ));
+            }
             let text = std::str::from_utf8(&avail[..len]).unwrap_or("");
             let v = match text.parse::<f64>() {
                 Ok(v) if v.is_finite() => v,

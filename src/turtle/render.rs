@@ -64,8 +64,10 @@ impl BBox {
             reach: 0.0,
         }
     }
+    /// Add point `p` with a stroke or dot radius `r`. An extent that is
+    /// no longer a finite number cannot be laid out: [`ExtentOverflow`].
     #[inline]
-    fn add(&mut self, p: V3, r: f64) {
+    fn add(&mut self, p: V3, r: f64) -> io::Result<()> {
         self.reach = self.reach.max(p[0].abs()).max(p[1].abs()).max(p[2].abs());
         let (u, v) = self.proj.project(p);
         let r = r.max(0.0);
@@ -74,24 +76,40 @@ impl BBox {
         self.max.0 = self.max.0.max(u + r);
         self.max.1 = self.max.1.max(v + r);
         self.any = true;
+        let ok = [u, v, r, self.max.0 - self.min.0, self.max.1 - self.min.1];
+        if !ok.iter().all(|x| x.is_finite()) {
+            return Err(io::Error::other(ExtentOverflow));
+        }
+        Ok(())
     }
 }
 
+/// The drawing's extent (or a stroke or dot) is too large for a number:
+/// it cannot be laid out. [`super::interpret`] reports it at the module.
+#[derive(Debug)]
+pub struct ExtentOverflow;
+
+impl std::fmt::Display for ExtentOverflow {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("the drawing is too large to lay out (its extent overflows)")
+    }
+}
+
+impl std::error::Error for ExtentOverflow {}
+
 impl Sink for BBox {
     fn segment(&mut self, a: V3, b: V3, width: f64, _: i64) -> io::Result<()> {
-        self.add(a, width / 2.0);
-        self.add(b, width / 2.0);
-        Ok(())
+        self.add(a, width / 2.0)?;
+        self.add(b, width / 2.0)
     }
     fn polygon(&mut self, points: &[V3], _: i64) -> io::Result<()> {
         for &p in points {
-            self.add(p, 0.0);
+            self.add(p, 0.0)?;
         }
         Ok(())
     }
     fn dot(&mut self, c: V3, d: f64, _: i64, _: bool) -> io::Result<()> {
-        self.add(c, d / 2.0);
-        Ok(())
+        self.add(c, d / 2.0)
     }
 }
 
@@ -125,12 +143,15 @@ impl Layout {
         let (bw, bh) = (flat(max.0 - min.0), flat(max.1 - min.1));
         let inner = (size as f64 - 2.0 * margin).max(1.0);
         let big = bw.max(bh);
-        let scale = if big > 0.0 && big.is_finite() {
+        // A point, or an extent so small that fitting it would overflow
+        // (`@o(1e-320)`): a degenerate box, drawn at scale 1.
+        let scale = if big > 0.0 && big.is_finite() && (inner / big).is_finite() {
             inner / big
         } else {
             1.0
         };
-        let dim = |x: f64| ((x * scale + 2.0 * margin).ceil() as u32).clamp(1, MAX_SIZE);
+        // Never more than --size, whatever the rounding.
+        let dim = |x: f64| ((x * scale + 2.0 * margin).ceil() as u32).clamp(1, size);
         Layout {
             proj: b.proj,
             width: dim(bw),

@@ -56,6 +56,10 @@ struct State {
 /// Deepest branch nesting accepted (each level is one saved state).
 pub const MAX_DEPTH: usize = 1 << 20;
 
+/// Most vertices a polygon (`{ ... }`) may have: it is held in memory
+/// until its `}`.
+pub const MAX_VERTICES: usize = 1 << 20;
+
 pub struct Turtle {
     s: State,
     stack: Vec<State>,
@@ -82,6 +86,10 @@ pub enum Fault {
     TooDeep,
     /// A move took the turtle past the largest number.
     Overflow,
+    /// elasticity × |tropism| is past the largest number.
+    TropismOverflow,
+    /// A polygon with more than [`MAX_VERTICES`] vertices.
+    PolygonTooLarge,
 }
 
 impl Turtle {
@@ -146,14 +154,17 @@ impl Turtle {
     }
 
     /// ABOP fig. 2.8: rotate the frame by e|H x T| about H x T.
-    fn bend(&mut self) {
+    fn bend(&mut self) -> Result<(), ModErr> {
         if self.elasticity == 0.0 {
-            return;
+            return Ok(());
         }
         let axis = cross(self.s.h, self.tropism);
         let n = norm(axis);
+        if !(n.is_finite() && (self.elasticity * n).is_finite()) {
+            return Err(ModErr::Fault(Fault::TropismOverflow));
+        }
         if n < 1e-12 {
-            return;
+            return Ok(());
         }
         let k = scale(axis, 1.0 / n);
         let (sa, ca) = (self.elasticity * n).sin_cos();
@@ -169,6 +180,7 @@ impl Turtle {
         self.s.h = r(self.s.h);
         self.s.l = r(self.s.l);
         self.s.u = r(self.s.u);
+        Ok(())
     }
 
     /// Roll about H so that L is horizontal and U is as close to up as can
@@ -206,14 +218,14 @@ impl Turtle {
                 let to = self.s.pos;
                 sink.segment(from, to, self.s.width * self.width_scale, self.colour())?;
                 if sym == 'F' {
-                    self.vertex(to);
+                    self.vertex(to)?;
                 }
-                self.bend();
+                self.bend()?;
             }
             'f' | 'g' => {
                 self.forward(p)?;
                 if sym == 'f' {
-                    self.vertex(self.s.pos);
+                    self.vertex(self.s.pos)?;
                 }
             }
             '+' | '-' => {
@@ -265,7 +277,7 @@ impl Turtle {
                 }
             }
             '.' => {
-                self.vertex(self.s.pos);
+                self.vertex(self.s.pos)?;
             }
             '!' => match p.first() {
                 Some(&w) => self.s.width = w,
@@ -306,10 +318,20 @@ impl Turtle {
     }
 
     #[inline]
-    fn vertex(&mut self, p: V3) {
+    fn vertex(&mut self, p: V3) -> Result<(), ModErr> {
         if self.open > 0 {
-            self.polygons[self.open - 1].push(p);
+            let poly = &mut self.polygons[self.open - 1];
+            if poly.len() >= MAX_VERTICES {
+                return Err(ModErr::Fault(Fault::PolygonTooLarge));
+            }
+            poly.push(p);
         }
+        Ok(())
+    }
+
+    /// Polygons opened (`{`) and not closed yet.
+    pub fn open_polygons(&self) -> usize {
+        self.open
     }
 
     /// Branches and polygons left open at the end are dropped, as cpfg does.

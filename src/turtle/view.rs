@@ -4,7 +4,6 @@
 //! reads them and its options override them.
 
 use crate::diag::{CodeMap, Error, Location};
-use crate::lexer::match_keyword;
 
 /// An RGB colour.
 pub type Rgb = [u8; 3];
@@ -331,51 +330,30 @@ pub fn setting_end(rest: &str) -> usize {
     rest[..line].find("/*").unwrap_or(line)
 }
 
-/// Read the `view:` lines of an `.ls` file's header (the lines before
-/// `axiom:`, outside comments) into `view`.
-pub fn read_ls(path: &str, text: &str, view: &mut View) -> Result<(), Error> {
-    let map = CodeMap::new(text);
-    let mut in_comment = false;
-    let mut offset = 0;
-    for line in text.split_inclusive('\n') {
-        let start = offset;
-        offset += line.len();
-        if !in_comment {
-            let trimmed = line.trim_start_matches([' ', '\t', '\r']);
-            let blank = line.len() - trimmed.len();
-            if match_keyword(trimmed, "axiom:").is_some() {
-                break;
+/// Read the `view:` lines of an `.ls` file's header into `view`, the way
+/// lsgen reads that header: lsgen's header reader (at most
+/// [`crate::input::MAX_HEADER`] bytes, UTF-8 without NUL, a byte-order
+/// mark and a `#!` line skipped) up to `axiom:`, then lsgen's lexer, so
+/// a line is a view line for lsgen-turtle exactly when it is one for lsgen.
+pub fn read_ls(name: &str, input: Box<dyn std::io::Read>, view: &mut View) -> Result<(), Error> {
+    let mut input = crate::input::Input::new(input, name);
+    let split = crate::input::split_header(&mut input)?;
+    let text = &split.header;
+    match crate::lexer::view_settings(text) {
+        Ok(settings) => {
+            for s in settings {
+                view.apply(s);
             }
-            if let Some(kl) = match_keyword(trimmed, "view:") {
-                let at = start + blank + kl;
-                let rest = &text[at..];
-                let end = setting_end(rest);
-                match parse_setting(&rest[..end]) {
-                    Ok(s) => view.apply(s),
-                    Err(e) => {
-                        return Err(Error::at(
-                            Location::from_map(path, &map, at + e.span.0),
-                            e.message,
-                        ))
-                    }
-                }
-            }
+            Ok(())
         }
-        let b = line.as_bytes();
-        let mut i = 0;
-        while i + 1 < b.len() {
-            if !in_comment && b[i] == b'/' && b[i + 1] == b'*' {
-                in_comment = true;
-                i += 2;
-            } else if in_comment && b[i] == b'*' && b[i + 1] == b'/' {
-                in_comment = false;
-                i += 2;
-            } else {
-                i += 1;
-            }
+        Err(e) => {
+            let map = CodeMap::new(text);
+            Err(Error::at(
+                Location::from_map(name, &map, e.span.0),
+                e.message,
+            ))
         }
     }
-    Ok(())
 }
 
 #[cfg(test)]
@@ -434,14 +412,30 @@ mod tests {
         assert!(parse_setting(" width = -1").is_err());
     }
 
+    fn read(text: &str, v: &mut View) -> Result<(), Error> {
+        let bytes = text.as_bytes().to_vec();
+        read_ls("t.ls", Box::new(std::io::Cursor::new(bytes)), v)
+    }
+
     #[test]
     fn reads_header_lines_only() {
-        let text = "/* view: angle = 1\n*/ view: step = 2\nview: angle = 3 /* c */\naxiom:\nview: width = 9\n";
+        // As lsgen's lexer: a comment that spans lines ends its line, so
+        // `*/ view:` starts a view line; so does `/* c */ view:`.
+        let text = "/* view: angle = 1\n*/ view: step = 2\nview: angle = 3 /* c */\n\
+                    /* c */ view: width = 4\naxiom:\nview: width = 9\n";
         let mut v = View::default();
-        read_ls("t.ls", text, &mut v).unwrap();
-        assert_eq!((v.angle, v.step, v.width), (3.0, 1.0, 1.0));
-        let e = read_ls("t.ls", "F\n  view: step = x\n", &mut v).unwrap_err();
+        read(text, &mut v).unwrap();
+        assert_eq!((v.angle, v.step, v.width), (3.0, 2.0, 4.0));
+        // After a byte-order mark and a `#!` line too.
+        read("\u{feff}view: step = 7\n", &mut v).unwrap();
+        assert_eq!(v.step, 7.0);
+        read("#!/usr/bin/env lsgen\nview: step = 8\n", &mut v).unwrap();
+        assert_eq!(v.step, 8.0);
+        let e = read("F\n  view: step = x\n", &mut v).unwrap_err();
         let l = e.location.clone().unwrap();
         assert_eq!((l.line, l.col), (2, 16));
+        let e = read("/* c */ view: angel = 3\n", &mut v).unwrap_err();
+        let l = e.location.clone().unwrap();
+        assert_eq!((l.line, l.col), (1, 15));
     }
 }
