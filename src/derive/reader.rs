@@ -18,6 +18,11 @@ pub struct PosReader<'f> {
     start: u64,
     pos: usize,
     end: usize,
+    /// Where the file ends: its length when opened (a generation is
+    /// complete before it is read), lowered if a read comes up short.
+    /// Reads stop there, so the end of file costs no `pread` returning 0
+    /// each time the reader nears it.
+    eof: u64,
 }
 
 impl<'f> PosReader<'f> {
@@ -25,6 +30,7 @@ impl<'f> PosReader<'f> {
         // No bigger than the file: many steps over a short string must not
         // pay for a large buffer each time.
         let len = file.metadata().map_or(u64::MAX, |m| m.len());
+        let eof = len;
         let capacity = capacity.min(usize::try_from(len).unwrap_or(usize::MAX));
         PosReader {
             file,
@@ -33,6 +39,7 @@ impl<'f> PosReader<'f> {
             start: 0,
             pos: 0,
             end: 0,
+            eof,
         }
     }
 
@@ -55,11 +62,14 @@ impl<'f> PosReader<'f> {
 
     #[cold]
     pub(crate) fn refill(&mut self) -> io::Result<()> {
+        if self.start + self.end as u64 >= self.eof {
+            return Ok(()); // all the rest is buffered
+        }
         self.buf.copy_within(self.pos..self.end, 0);
         self.start += self.pos as u64;
         self.end -= self.pos;
         self.pos = 0;
-        while self.end < self.buf.len() {
+        while self.end < self.buf.len() && self.start + (self.end as u64) < self.eof {
             let n = match self
                 .file
                 .read_at(&mut self.buf[self.end..], self.start + self.end as u64)
@@ -69,6 +79,7 @@ impl<'f> PosReader<'f> {
                 Err(e) => return Err(e),
             };
             if n == 0 {
+                self.eof = self.start + self.end as u64;
                 break;
             }
             self.end += n;
@@ -134,5 +145,38 @@ impl<'f> PosReader<'f> {
         } else {
             skip_branch(self, al, next)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rules::Filter;
+    use std::io::{Seek, SeekFrom, Write};
+
+    /// Once the reader has met the end of the generation it does not ask
+    /// the file again (issue 15: thousands of `pread`s returning 0 per
+    /// context step). Bytes appended afterwards are never seen, which
+    /// shows that no read reached the file past the end.
+    #[test]
+    fn end_of_file_is_read_once() {
+        let al = Alphabet::new(Filter::All);
+        let mut f = tempfile::tempfile().unwrap();
+        f.write_all(b"F1[F]1").unwrap();
+        let mut rd = PosReader::new(&f, 1 << 16, false);
+        let mut keys = Vec::new();
+        while let Some((key, s, e)) = rd.next_module(&al).unwrap() {
+            assert_eq!(rd.bytes(s, e).len(), 1);
+            keys.push(key as u8);
+        }
+        assert_eq!(keys, b"F1[F]1");
+        let mut w = &f;
+        w.seek(SeekFrom::End(0)).unwrap();
+        w.write_all(b"FF").unwrap();
+        assert_eq!(rd.next_module(&al).unwrap(), None);
+        assert!(rd.window().unwrap().is_empty());
+        // Going back within the buffer still reads the generation.
+        rd.seek(4);
+        assert_eq!(rd.next_module(&al).unwrap(), Some((b']' as u32, 4, 5)));
     }
 }
