@@ -8,13 +8,17 @@
 use crate::diag::Error;
 use std::fs::{self, File};
 use std::io::{self, Write};
+use std::mem::ManuallyDrop;
 use std::os::unix::ffi::OsStrExt;
 use std::os::unix::fs::{MetadataExt, OpenOptionsExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU8, Ordering};
 
 pub enum Output {
-    Stdout(io::Stdout),
+    /// File descriptor 1, written directly: whole blocks go to `write(2)`
+    /// as they are (std's line-buffered stdout scans each for `\n`).
+    /// Never closed (`ManuallyDrop`): the descriptor is not ours.
+    Stdout(ManuallyDrop<File>),
     /// A regular file, written beside its final name.
     Atomic {
         file: File,
@@ -209,7 +213,16 @@ fn dup_fd(fd: i32) -> io::Result<File> {
 impl Output {
     pub fn stdout() -> Result<Output, Error> {
         check_stdout_open()?;
-        Ok(Output::Stdout(io::stdout()))
+        use std::os::fd::FromRawFd;
+        // Anything written through std's stdout so far reaches the
+        // descriptor first.
+        let _ = io::stdout().flush();
+        // SAFETY: nothing in lsgen closes descriptor 1 (closed at start,
+        // it is /dev/null and we stopped above); the File is never
+        // dropped, so it never closes it either.
+        Ok(Output::Stdout(ManuallyDrop::new(unsafe {
+            File::from_raw_fd(1)
+        })))
     }
 
     /// `-o PATH`: `-` is standard output.
@@ -296,7 +309,7 @@ impl Output {
 
     pub fn writer(&mut self) -> &mut dyn Write {
         match self {
-            Output::Stdout(s) => s,
+            Output::Stdout(s) => &mut **s,
             Output::Atomic { file, .. } | Output::Direct(file, _) => file,
         }
     }
