@@ -181,7 +181,10 @@ impl NumFmt {
         let slot = (bits.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - CACHE_BITS)) as usize;
         let e = &mut self.cache[slot];
         if e.len != 0 && e.bits == bits {
-            out.extend_from_slice(&e.text[..e.len as usize]);
+            // A fixed-size copy (inlined, no memcpy call), then cut.
+            let end = out.len() + e.len as usize;
+            out.extend_from_slice(&e.text);
+            out.truncate(end);
             return;
         }
         let s = self.ryu.format_finite(v).as_bytes();
@@ -201,7 +204,10 @@ impl NumFmt {
     /// Append a module as text.
     #[inline]
     pub fn module(&mut self, out: &mut Vec<u8>, sym_text: &[u8], params: &[f64]) {
-        out.extend_from_slice(sym_text);
+        match *sym_text {
+            [b] => out.push(b),
+            _ => out.extend_from_slice(sym_text),
+        }
         if let Some((first, rest)) = params.split_first() {
             out.push(b'(');
             self.put(out, *first);
