@@ -112,10 +112,16 @@ fn errors_say_which_stage_found_them() {
     assert_eq!(stage("productions:\nA -> B(\naxiom: A\n"), Parse);
     assert_eq!(stage("productions:\nA -> B\naxiom: A(\n"), Parse);
     assert_eq!(stage("productions:\nA(x) -> B(y)\naxiom: A(1)\n"), Compile);
-    assert_eq!(stage("productions:\nA(x) -> A(1/x)\naxiom: A(0)\n"), Runtime);
+    assert_eq!(
+        stage("productions:\nA(x) -> A(1/x)\naxiom: A(0)\n"),
+        Runtime
+    );
     let io = lsgen::LSystem::parse("axiom: A\n")
         .unwrap()
-        .derive(&lsgen::Options::new().tmpdir("/nonexistent/dir"), Vec::new())
+        .derive(
+            &lsgen::Options::new().tmpdir("/nonexistent/dir"),
+            Vec::new(),
+        )
         .expect_err("no temporary directory");
     assert_eq!(io.category, Io);
     assert!(std::error::Error::source(&io).is_some());
