@@ -2,7 +2,7 @@
 
 use crate::derive::random::Random;
 use crate::derive::{derive, Event, FrameSink, Frames, Limits, Settings, Strategy};
-use crate::diag::Error;
+use crate::diag::{Error, ErrorKind};
 use crate::io::axiom::AxiomReader;
 use crate::io::input::{split_header, Input, Split};
 use crate::io::precision::Significant;
@@ -406,7 +406,8 @@ fn compile(path: &str, split: &Split, seed: Option<u64>, fresh: u64) -> Result<S
         command_line: seed,
         fallback: fresh,
     };
-    compile_with(header, Some(&split.header), seeds).map_err(|e| locate(path, &split.header, e))
+    compile_with(header, Some(&split.header), seeds)
+        .map_err(|e| locate(path, &split.header, e).in_stage(ErrorKind::Compile))
 }
 
 /// Load an L-system from `src` and derive it in full into a byte vector

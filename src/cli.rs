@@ -370,7 +370,7 @@ fn main_on_thread() -> i32 {
                         Ok(()) => 0,
                         Err(e) => {
                             if e.kind != Kind::BrokenPipe {
-                                crate::diag::eprint(&e.to_string());
+                                crate::diag::eprint(&e.render("lsgen"));
                             }
                             e.exit_code()
                         }
@@ -401,7 +401,7 @@ fn main_on_thread() -> i32 {
         Ok(()) => 0,
         Err(e) => {
             if e.kind != Kind::BrokenPipe {
-                crate::diag::eprint(&e.to_string());
+                crate::diag::eprint(&e.render("lsgen"));
             }
             e.exit_code()
         }

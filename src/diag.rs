@@ -123,6 +123,28 @@ pub enum Kind {
     BrokenPipe,
 }
 
+/// What went wrong, by stage of the pipeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum ErrorKind {
+    /// Unreadable text: invalid UTF-8, a NUL byte, an unterminated
+    /// comment, a character that starts no token.
+    Lexical,
+    /// Text that does not follow the grammar, in the header or the axiom.
+    Parse,
+    /// A well-formed file that does not make sense: an unknown name, a
+    /// constant defined twice, a production that cannot apply.
+    Compile,
+    /// Found while deriving: an arithmetic error, unbalanced brackets, a
+    /// negative probability, a generation past the limits.
+    Runtime,
+    /// Reading or writing failed; [`std::error::Error::source`] gives the
+    /// operating system's error.
+    Io,
+    /// The request itself is wrong (the command line, the options).
+    Usage,
+}
+
 /// An error, boxed so that `Result<T, Error>` stays two words wide in the
 /// hot loop; its fields are reached through `Deref`.
 #[derive(Debug)]
@@ -130,7 +152,10 @@ pub struct Error(Box<ErrorInner>);
 
 #[derive(Debug)]
 pub struct ErrorInner {
+    /// How the run ends (the binaries' exit status).
     pub kind: Kind,
+    /// Which stage found it.
+    pub category: ErrorKind,
     pub message: String,
     pub location: Option<Location>,
     /// Context without a line, e.g. the file name of an I/O error.
@@ -158,6 +183,7 @@ impl Error {
     pub fn new(message: impl Into<String>) -> Error {
         Error(Box::new(ErrorInner {
             kind: Kind::Failure,
+            category: ErrorKind::Runtime,
             message: message.into(),
             location: None,
             subject: None,
@@ -174,7 +200,22 @@ impl Error {
     pub fn usage(message: impl Into<String>) -> Error {
         let mut e = Error::new(message);
         e.kind = Kind::Usage;
+        e.category = ErrorKind::Usage;
         e
+    }
+
+    /// The same error, found by stage `category`.
+    pub fn in_stage(mut self, category: ErrorKind) -> Error {
+        self.category = category;
+        self
+    }
+
+    /// The error as a program named `program` reports it:
+    /// `PROGRAM: FILE:LINE:COL: error: message`, then the source line and a
+    /// caret under the spot (without a location, `PROGRAM: FILE: error:
+    /// ...` or `PROGRAM: error: ...`).
+    pub fn render(&self, program: &str) -> String {
+        format!("{program}: {}", Located(self))
     }
 
     /// An I/O error about `subject` (a file name, "standard output", ...).
@@ -186,6 +227,7 @@ impl Error {
         };
         Error(Box::new(ErrorInner {
             kind,
+            category: ErrorKind::Io,
             message: format!("{what}: {}", io_message(&e)),
             location: None,
             subject: Some(subject.into()),
@@ -214,15 +256,23 @@ fn io_message(e: &std::io::Error) -> String {
     }
 }
 
+/// As `lsgen` reports it: [`Error::render`] with the program `lsgen`.
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match (&self.location, &self.subject) {
+        write!(f, "lsgen: {}", Located(self))
+    }
+}
+
+/// The message with its location, the source line and a caret, without
+/// the program's name.
+struct Located<'a>(&'a Error);
+
+impl fmt::Display for Located<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let e = self.0;
+        match (&e.location, &e.subject) {
             (Some(l), _) => {
-                writeln!(
-                    f,
-                    "lsgen: {}:{}:{}: error: {}",
-                    l.path, l.line, l.col, self.message
-                )?;
+                writeln!(f, "{}:{}:{}: error: {}", l.path, l.line, l.col, e.message)?;
                 // Control characters (a NUL, a stray `\r`) are shown as
                 // U+FFFD, as undecodable bytes are: never sent raw.
                 let shown: String = l
@@ -239,8 +289,8 @@ impl fmt::Display for Error {
                 writeln!(f, "{shown}")?;
                 writeln!(f, "{}^", caret_pad(&l.snippet, l.caret_col))
             }
-            (None, Some(s)) => writeln!(f, "lsgen: {s}: error: {}", self.message),
-            (None, None) => writeln!(f, "lsgen: error: {}", self.message),
+            (None, Some(s)) => writeln!(f, "{s}: error: {}", e.message),
+            (None, None) => writeln!(f, "error: {}", e.message),
         }
     }
 }
@@ -289,8 +339,12 @@ mod tests {
         assert_eq!(io.raw_os_error(), Some(libc::ENOSPC));
         assert!(std::error::Error::source(&Error::new("no source")).is_none());
         // `?` turns it into a boxed error.
+        assert_eq!(e.category, ErrorKind::Io);
         let boxed: Box<dyn std::error::Error + Send + Sync> = e.into();
-        assert!(boxed.to_string().contains("cannot write"));
+        assert_eq!(
+            boxed.to_string(),
+            "lsgen: out.txt: error: cannot write: No space left on device\n"
+        );
     }
 
     #[test]
@@ -311,9 +365,22 @@ mod tests {
         let m = CodeMap::new("F -> G\n\tA(x) -> B(y)\n");
         let e = Error::at(Location::from_map("p.ls", &m, 17), "unknown identifier `y`");
         assert_eq!(
-            e.to_string(),
+            e.render("lsgen"),
             "lsgen: p.ls:2:11: error: unknown identifier `y`\n\tA(x) -> B(y)\n\t         ^\n"
         );
+    }
+
+    #[test]
+    fn the_program_names_itself() {
+        let m = CodeMap::new("F -> G(\n");
+        let e = Error::at(Location::from_map("p.ls", &m, 7), "unexpected end of line")
+            .in_stage(ErrorKind::Parse);
+        assert_eq!(
+            e.render("lsgen-turtle"),
+            "lsgen-turtle: p.ls:1:8: error: unexpected end of line\nF -> G(\n       ^\n"
+        );
+        assert_eq!(e.category, ErrorKind::Parse);
+        assert_eq!(Error::usage("no").render("x"), "x: error: no\n");
     }
 
     #[test]
@@ -331,7 +398,7 @@ mod tests {
         let m = CodeMap::new("漢字 -> F>\n");
         let e = Error::at(Location::from_map("p.ls", &m, 11), "unexpected `>`");
         assert_eq!(
-            e.to_string(),
+            e.render("lsgen"),
             "lsgen: p.ls:1:8: error: unexpected `>`\n漢字 -> F>\n         ^\n"
         );
     }

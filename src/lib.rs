@@ -66,7 +66,7 @@ pub(crate) mod turtle {
 
 pub use api::{derive_bytes, LSystem, Options, Stats, DEFAULT_DERIVATION_LENGTH};
 pub use derive::{Event, Limits, Pass};
-pub use diag::Error;
+pub use diag::{Error, ErrorKind};
 
 // Paths of the flat layout, kept for src/turtle, src/cpfg, the tests and
 // the fuzz targets.

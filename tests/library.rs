@@ -94,3 +94,35 @@ fn errors_are_located_and_limits_apply() {
         e.message
     );
 }
+
+#[test]
+fn errors_say_which_stage_found_them() {
+    use lsgen::ErrorKind::*;
+    let stage = |src: &str| match lsgen::LSystem::parse(src) {
+        Err(e) => e.category,
+        Ok(mut ls) => {
+            let e = ls
+                .derive(&lsgen::Options::new().steps(3), Vec::new())
+                .expect_err("an error");
+            e.category
+        }
+    };
+    assert_eq!(stage("productions:\nA -> B\0\naxiom: A\n"), Lexical);
+    assert_eq!(stage("productions:\nA -> B /* open\n"), Lexical);
+    assert_eq!(stage("productions:\nA -> B(\naxiom: A\n"), Parse);
+    assert_eq!(stage("productions:\nA -> B\naxiom: A(\n"), Parse);
+    assert_eq!(stage("productions:\nA(x) -> B(y)\naxiom: A(1)\n"), Compile);
+    assert_eq!(
+        stage("productions:\nA(x) -> A(1/x)\naxiom: A(0)\n"),
+        Runtime
+    );
+    let io = lsgen::LSystem::parse("axiom: A\n")
+        .unwrap()
+        .derive(
+            &lsgen::Options::new().tmpdir("/nonexistent/dir"),
+            Vec::new(),
+        )
+        .expect_err("no temporary directory");
+    assert_eq!(io.category, Io);
+    assert!(std::error::Error::source(&io).is_some());
+}

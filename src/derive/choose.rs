@@ -89,7 +89,7 @@ impl Chooser {
     }
 
     #[allow(clippy::too_many_arguments)]
-    #[inline]
+    #[inline(always)]
     fn choose_in<F>(
         &mut self,
         slots: &mut [f64],
@@ -172,7 +172,7 @@ impl Chooser {
 
     /// Evaluate `p`'s successor with the bound parameters, handing each
     /// piece to `emit` in string order.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn successor<F>(
         &mut self,
         slots: &[f64],

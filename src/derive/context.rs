@@ -410,3 +410,134 @@ pub(crate) fn skip_branch(
     }
     Ok(None)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::derive::{Limits, Out};
+    use crate::lang::parse::parse_header;
+    use crate::rules::{compile, System};
+    use std::fs::File;
+
+    /// The compiled header `src`.
+    fn system(src: &str) -> System {
+        compile(&parse_header(src).unwrap()).unwrap()
+    }
+
+    /// A generation in the binary format (with a bracket index if
+    /// `indexed`) holding `modules`: (symbol, parameters).
+    fn generation(al: &mut Alphabet, modules: &[(char, &[f64])], indexed: bool) -> File {
+        let mut f = tempfile::tempfile().unwrap();
+        let index = f.try_clone().unwrap();
+        let mut out = Out::new(&mut f, "gen", false, Limits::default());
+        if indexed {
+            out = out.with_index(index);
+        }
+        for &(sym, params) in modules {
+            let key = al.intern(sym, params.len()).unwrap();
+            out.module(key, params, al).unwrap();
+        }
+        out.finish().unwrap();
+        f
+    }
+
+    /// The offset just after the first module with symbol `sym`.
+    fn after(f: &File, al: &Alphabet, sym: char, indexed: bool) -> u64 {
+        let mut rd = PosReader::new(f, 1 << 10, indexed);
+        while let Some((key, _, _)) = rd.next_module(al).unwrap() {
+            if al.symbol(key) == sym {
+                return rd.offset();
+            }
+        }
+        panic!("no {sym}");
+    }
+
+    // README, "Contexts": `A(a) < B(b) > [C(c)]D(d)` on
+    // `A(1)[E]B(2)[C(3)[E][E]D(4)]D(5)` binds c = 3, d = 5.
+    const README: &[(char, &[f64])] = &[
+        ('A', &[1.0]),
+        ('[', &[]),
+        ('E', &[]),
+        (']', &[]),
+        ('B', &[2.0]),
+        ('[', &[]),
+        ('C', &[3.0]),
+        ('[', &[]),
+        ('E', &[]),
+        (']', &[]),
+        ('[', &[]),
+        ('E', &[]),
+        (']', &[]),
+        ('D', &[4.0]),
+        (']', &[]),
+        ('D', &[5.0]),
+    ];
+
+    #[test]
+    fn right_context_enters_a_branch_and_skips_the_rest() {
+        for indexed in [false, true] {
+            let mut s = system("productions:\nA(a) < B(b) > [C(c)]D(d) -> X\n");
+            let f = generation(&mut s.alphabet, README, indexed);
+            let al = &s.alphabet;
+            let p = &s.productions.prods[0];
+            let mut slots = vec![f64::NAN; p.nslots];
+            let mut peek = PosReader::new(&f, 1 << 10, indexed);
+            let pos = after(&f, al, 'B', indexed);
+            assert!(match_right(&mut peek, al, pos, &p.right, &mut slots).unwrap());
+            let bound: Vec<(char, f64)> = p
+                .right
+                .iter()
+                .filter_map(|r| match r {
+                    RPat::Module(m) => Some((al.symbol(m.key), slots[m.slot as usize])),
+                    _ => None,
+                })
+                .collect();
+            assert_eq!(bound, [('C', 3.0), ('D', 5.0)], "indexed {indexed}");
+            // From the `C`, the rest of its branch holds no `[C]D`.
+            let pos = after(&f, al, 'C', indexed);
+            assert!(!match_right(&mut peek, al, pos, &p.right, &mut slots).unwrap());
+        }
+    }
+
+    #[test]
+    fn the_walker_skips_branches_and_ignored_modules_and_stops_at_a_close() {
+        let mut s = system("ignore: +\nproductions:\nB > D -> X\n");
+        let modules: &[(char, &[f64])] = &[
+            ('B', &[]),
+            ('+', &[]),
+            ('[', &[]),
+            ('D', &[]),
+            (']', &[]),
+            ('+', &[]),
+            ('D', &[7.0]),
+            (']', &[]),
+            ('F', &[]),
+        ];
+        let f = generation(&mut s.alphabet, modules, true);
+        let al = &s.alphabet;
+        let mut peek = PosReader::new(&f, 1 << 10, true);
+        let pos = after(&f, al, 'B', true);
+        // Skipping branches: the `+`, the branch, the `+`, then D(7).
+        match walk_right(&mut peek, al, pos, true).unwrap() {
+            Walk::Module {
+                key, s, e, next, ..
+            } => {
+                assert_eq!((al.symbol(key), al.arity(key)), ('D', 1));
+                let mut p = [0.0];
+                codec::read_params(peek.bytes(s, e), &mut p);
+                assert_eq!(p, [7.0]);
+                // Past D(7) the branch ends: the walk stops there.
+                assert!(matches!(
+                    walk_right(&mut peek, al, next, true).unwrap(),
+                    Walk::Stop { open: false, .. }
+                ));
+            }
+            Walk::Stop { .. } => panic!("stopped before D(7)"),
+        }
+        // Without skipping: the `+` is passed over, the `[` stops the walk.
+        match walk_right(&mut peek, al, pos, false).unwrap() {
+            Walk::Stop { at, open } => assert_eq!((at, open), (pos + 1, true)),
+            Walk::Module { .. } => panic!("walked into the branch"),
+        }
+    }
+}

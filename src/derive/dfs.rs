@@ -338,9 +338,9 @@ impl Level {
     fn push_bin(&mut self, mut bin: &[u8], al: &Alphabet) {
         while !bin.is_empty() {
             let (key, kl) = crate::rules::codec::get_key(bin);
-            let len = kl + 8 * al.arity(key);
-            self.modules.push_encoded(key, &bin[..len], al.arity(key));
-            bin = &bin[len..];
+            let n = al.arity(key);
+            self.modules.push_body(key, &bin[kl..], n);
+            bin = &bin[kl + 8 * n..];
         }
     }
 }

@@ -599,3 +599,77 @@ fn same_contents(a: &File, b: &File) -> Result<bool, Error> {
     }
     Ok(true)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::api::{LSystem, Options};
+    use crate::diag::Kind;
+
+    fn run(src: &str, options: &Options) -> Result<(String, Vec<Event>), Error> {
+        let mut ls = LSystem::parse(src)?;
+        let mut out = Vec::new();
+        let mut events = Vec::new();
+        ls.derive_with(options, &mut out, |e| events.push(*e))?;
+        Ok((String::from_utf8(out).unwrap(), events))
+    }
+
+    #[test]
+    fn every_strategy_derives_the_same_string() {
+        // By hand: A, AB, ABA, ABAAB, ABAABABA, ABAABABAABAAB; and
+        // F(1), F(2)[B], F(3)[B][BB], F(3)[BB][BBBB] (F(3) stays).
+        let cases = [
+            (
+                "productions:\nA -> AB\nB -> A\naxiom: A\n",
+                5,
+                "ABAABABAABAAB\n",
+            ),
+            (
+                "productions:\nF(x) : x < 3 -> F(x+1)[B]\nB -> BB\naxiom: F(1)\n",
+                3,
+                "F(3)[BB][BBBB]\n",
+            ),
+        ];
+        for (src, n, want) in cases {
+            for strategy in [Strategy::Auto, Strategy::Step, Strategy::DepthFirst] {
+                // Depth first gives no lengths of the parametric system's
+                // generations, so derive without asking for them.
+                let mut ls = LSystem::parse(src).unwrap();
+                let mut out = Vec::new();
+                ls.derive(&Options::new().steps(n).strategy(strategy), &mut out)
+                    .unwrap();
+                assert_eq!(String::from_utf8(out).unwrap(), want, "{strategy:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn step_by_step_reports_each_generation_and_the_fixed_point() {
+        let src = "productions:\nA -> A\naxiom: AA\n";
+        let (out, events) = run(src, &Options::new().steps(4).strategy(Strategy::Step)).unwrap();
+        assert_eq!(out, "AA\n");
+        let g = |pass, modules| Event::Generation {
+            pass,
+            modules,
+            bytes: modules,
+        };
+        assert_eq!(
+            events,
+            [
+                g(Pass::Axiom, 2),
+                g(Pass::Step(1), 2),
+                Event::FixedPoint { from: 2, to: 4 },
+                g(Pass::Step(4), 2),
+            ]
+        );
+    }
+
+    #[test]
+    fn depth_first_is_refused_where_it_does_not_apply() {
+        let src = "productions:\nA < B -> A\naxiom: AB\n";
+        let e = run(src, &Options::new().steps(2).strategy(Strategy::DepthFirst)).unwrap_err();
+        assert_eq!(e.kind, Kind::Usage);
+        let (out, _) = run(src, &Options::new().steps(2)).unwrap();
+        assert_eq!(out, "AA\n");
+    }
+}

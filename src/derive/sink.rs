@@ -302,3 +302,82 @@ impl<'w> Out<'w> {
         Ok((self.modules, self.written - newline))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rules::{Alphabet, Filter};
+    use std::io::{Read, Seek};
+
+    #[test]
+    fn text_prints_parameters_in_their_shortest_form() {
+        let mut al = Alphabet::new(Filter::All);
+        let f = al.intern('F', 2).unwrap();
+        let mut v = Vec::new();
+        let mut out = Out::new(&mut v, "out", true, Limits::default());
+        out.module(f, &[1.5, 2.0], &al).unwrap();
+        out.plain(b"+[G]").unwrap();
+        out.module(f, &[-0.0, 1e-7], &al).unwrap();
+        // 8 + 4 + 10 bytes, without the newline.
+        assert_eq!(out.finish().unwrap(), (6, 22));
+        assert_eq!(v, b"F(1.5,2)+[G]F(-0,1e-7)\n");
+    }
+
+    #[test]
+    fn each_open_bracket_carries_the_offset_past_its_close() {
+        // Small enough to stay in the buffer, and large enough that the
+        // outer `]` is patched in the file after a flush.
+        for filler in [1usize, OUT_CHUNK + 10] {
+            let mut file = tempfile::tempfile().unwrap();
+            let index = file.try_clone().unwrap();
+            let al = Alphabet::new(Filter::All);
+            let mut out = Out::new(&mut file, "tmp", false, Limits::default()).with_index(index);
+            out.plain(b"[A[B]").unwrap();
+            for _ in 0..filler {
+                out.plain(b"C").unwrap();
+                out.maybe_flush().unwrap();
+            }
+            out.raw(CLOSE, b"]", &al).unwrap();
+            out.plain(b"D").unwrap();
+            out.finish().unwrap();
+            let mut bin = Vec::new();
+            file.rewind().unwrap();
+            file.read_to_end(&mut bin).unwrap();
+            let index_at = |i: usize| u64::from_le_bytes(bin[i + 1..i + 9].try_into().unwrap());
+            // [........ A [........ B ] C... ] D
+            assert_eq!(bin[0], b'[');
+            assert_eq!(bin[10], b'[');
+            assert_eq!(index_at(10), 21, "inner, filler {filler}");
+            let outer_end = 21 + filler as u64 + 1;
+            assert_eq!(index_at(0), outer_end, "outer, filler {filler}");
+            assert_eq!(bin[outer_end as usize - 1], b']');
+            assert_eq!(&bin[outer_end as usize..], b"D");
+        }
+    }
+
+    #[test]
+    fn limits_name_the_pass() {
+        let mut v = Vec::new();
+        let limits = Limits {
+            modules: 3,
+            bytes: u64::MAX,
+        };
+        let mut out = Out::new(&mut v, "out", false, limits).for_pass(Pass::Step(7));
+        out.plain(b"ABCD").unwrap();
+        let e = out.finish().unwrap_err();
+        assert_eq!(
+            e.message,
+            "the string grew past --max-length (3 modules) in step 7"
+        );
+        let lengths = [(1, 1), (2, 20), (3, 3)];
+        let bytes = Limits {
+            modules: u64::MAX,
+            bytes: 10,
+        };
+        // Generation 2 is binary: its 20 bytes count.
+        let e = bytes.check_generations(&lengths, true).unwrap_err();
+        assert!(e.message.ends_with("(10 bytes) in step 2"), "{}", e.message);
+        // The last (text) generation's bytes are checked as written.
+        assert!(bytes.check_generations(&[(1, 1), (2, 20)], true).is_ok());
+    }
+}

@@ -4,7 +4,7 @@
 //! `define:` constants.
 
 use crate::derive::random::Random;
-use crate::diag::{excerpt, Error, Location};
+use crate::diag::{excerpt, Error, ErrorKind, Location};
 use crate::io::input::Input;
 use crate::lang::parse::parse_expr;
 use crate::rules::codec::MAX_ARITY;
@@ -95,6 +95,7 @@ impl<'a> AxiomReader<'a> {
             },
             msg,
         )
+        .in_stage(ErrorKind::Parse)
     }
 
     /// Advance over `n` bytes that hold no newline.
@@ -444,6 +445,7 @@ impl<'a> AxiomReader<'a> {
                 },
                 msg,
             )
+            .in_stage(ErrorKind::Parse)
         };
         // The expression lexer ends a line at a newline; here newlines
         // are blanks.

@@ -2,7 +2,7 @@
 //! `axiom:`) is collected for the grammar; the axiom is left in the stream
 //! for [`crate::io::axiom`] to read module by module, so it may be gigabytes long.
 
-use crate::diag::{excerpt, Error, Location};
+use crate::diag::{excerpt, Error, ErrorKind, Location};
 use std::io::{self, Read};
 
 /// A byte stream with look-ahead and enough history to quote the current
@@ -288,6 +288,7 @@ fn header_error(input: &mut Input, line: usize, col: usize, msg: &str) -> Error 
         },
         msg,
     )
+    .in_stage(ErrorKind::Lexical)
 }
 
 fn finish(

@@ -2,7 +2,7 @@
 //! grammar, and lalrpop's `ParseError` is turned into our located error in
 //! one place.
 
-use crate::diag::{CodeMap, Error, Location};
+use crate::diag::{CodeMap, Error, ErrorKind, Location};
 use crate::lang::ast;
 use crate::lang::lexer::{LexError, Lexer, Span, Tok};
 use lalrpop_util::{lalrpop_mod, ParseError};
@@ -18,6 +18,8 @@ lalrpop_mod!(
 pub struct UserError {
     pub span: Span,
     pub message: String,
+    /// Found by the lexer (else by the grammar).
+    pub lexical: bool,
 }
 
 impl UserError {
@@ -25,6 +27,7 @@ impl UserError {
         UserError {
             span,
             message: message.into(),
+            lexical: false,
         }
     }
 }
@@ -34,6 +37,7 @@ impl From<LexError> for UserError {
         UserError {
             span: e.span,
             message: e.message,
+            lexical: true,
         }
     }
 }
@@ -56,10 +60,15 @@ pub fn parse_expr(text: &str) -> Result<ast::Expr, UserError> {
         .map_err(|e| convert(e, text))
 }
 
-/// Locate a header-relative error for display.
+/// Locate a header-relative error for display: a lexical or a parse error.
 pub fn locate(path: &str, text: &str, e: UserError) -> Error {
     let map = CodeMap::new(text);
-    Error::at(Location::from_map(path, &map, e.span.0), e.message)
+    let stage = if e.lexical {
+        ErrorKind::Lexical
+    } else {
+        ErrorKind::Parse
+    };
+    Error::at(Location::from_map(path, &map, e.span.0), e.message).in_stage(stage)
 }
 
 fn describe_expected(expected: &[String]) -> String {

@@ -102,11 +102,16 @@ impl Modules {
     /// parameters.
     #[inline]
     pub fn push_encoded(&mut self, key: u32, module: &[u8], arity: usize) {
+        self.push_body(key, body(module), arity);
+    }
+
+    /// Append module `key` whose `arity` encoded parameters are `body`.
+    #[inline]
+    pub fn push_body(&mut self, key: u32, body: &[u8], arity: usize) {
         self.keys.push(key);
         self.starts.push(self.params.len());
-        let b = body(module);
         for i in 0..arity {
-            self.params.push(get_param(b, i));
+            self.params.push(get_param(body, i));
         }
     }
 
