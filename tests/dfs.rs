@@ -218,3 +218,18 @@ fn runtime_errors_in_depth_first_parametric_expansion() {
     let after_path = |r: &Run| r.stderr.split_once("p.ls:").unwrap().1.to_string();
     assert_eq!(after_path(&a), after_path(&b));
 }
+
+/// Depth first keeps a constant run of a successor whole when nothing
+/// rewrites its modules (issue 15), and decodes it when a production or
+/// only the homomorphism does: all three kinds, nested, at every depth,
+/// must print what the step engine prints.
+#[test]
+fn constant_runs_depth_first_equal_stepwise() {
+    let src = "define: a = 30\nproductions:\nA(x) : x < 3 -> [+(a)G(2.5)[ω]]A(x+1)[-(a)ω(0.1)]X A(x*2)F(1)B(x/3)\nA(x) : x >= 3 -> [G]\nF(l) -> F(l*1.5)\nhomomorphism:\nX -> Y(3)Z\naxiom: A(0) [G(1)] F(2)\n";
+    for n in ["1", "2", "3", "5"] {
+        let (a, b) = both(src, &["-n", n]);
+        assert_same(&a, &b, &format!("n={n}"));
+        let (a, b) = both(src, &["-n", n, "--no-homomorphism"]);
+        assert_same(&a, &b, &format!("n={n}, no homomorphism"));
+    }
+}

@@ -19,7 +19,7 @@ use super::random::Random;
 use crate::derive::{Origin, Out, Pass, PosReader, ASCII};
 use crate::diag::Error;
 use crate::rules::codec::Modules;
-use crate::rules::{Alphabet, Item, Table};
+use crate::rules::{Alphabet, ConstRun, Item, Table};
 use std::fs::File;
 
 /// Deepest derivation expanded depth first (the stack holds one frame per
@@ -320,16 +320,24 @@ pub struct ParamPlan<'t> {
 }
 
 /// Modules of one generation along the current path, and the next one to
-/// expand.
+/// expand. A constant run of the successor that no production (nor the
+/// homomorphism) rewrites is kept whole, as key [`INERT`] whose start is
+/// its index in `inert`, and written as its precompiled text: it is not
+/// decoded, chosen for, nor formatted again.
 #[derive(Default)]
-struct Level {
+struct Level<'t> {
     modules: Modules,
+    inert: Vec<&'t ConstRun>,
     pos: usize,
 }
 
-impl Level {
+/// Key of a [`Level`] entry that is an inert constant run.
+const INERT: u32 = u32::MAX;
+
+impl<'t> Level<'t> {
     fn clear(&mut self) {
         self.modules.clear();
+        self.inert.clear();
         self.pos = 0;
     }
 
@@ -342,6 +350,13 @@ impl Level {
             self.modules.push_body(key, &bin[kl..], n);
             bin = &bin[kl + 8 * n..];
         }
+    }
+
+    /// Append a constant run that stays as it is until the end.
+    fn push_inert(&mut self, c: &'t ConstRun) {
+        self.modules.keys.push(INERT);
+        self.modules.starts.push(self.inert.len());
+        self.inert.push(c);
     }
 }
 
@@ -364,6 +379,39 @@ impl<'t> ParamPlan<'t> {
             && deterministic_free(prods)
             && hom.is_none_or(deterministic_free);
         ok.then_some(ParamPlan { prods, hom })
+    }
+
+    /// Per production of `prods`, per successor item: the constant run if
+    /// none of its modules is rewritten by any production or the
+    /// homomorphism.
+    fn inert_runs(&self, al: &Alphabet) -> Vec<Box<[Option<&'t ConstRun>]>> {
+        let ruled = |key: u32| {
+            self.prods.get(key).is_some() || self.hom.is_some_and(|h| h.get(key).is_some())
+        };
+        let inert = |c: &ConstRun| {
+            let mut bin = c.bin();
+            while !bin.is_empty() {
+                let (key, kl) = crate::rules::codec::get_key(bin);
+                if ruled(key) {
+                    return false;
+                }
+                bin = &bin[kl + 8 * al.arity(key)..];
+            }
+            true
+        };
+        self.prods
+            .prods
+            .iter()
+            .map(|p| {
+                p.succ
+                    .iter()
+                    .map(|i| match i {
+                        Item::Const(c) if inert(c) => Some(c),
+                        _ => None,
+                    })
+                    .collect()
+            })
+            .collect()
     }
 
     /// The production of `table` applying to (key, params), if any, with
@@ -395,6 +443,7 @@ impl<'t> ParamPlan<'t> {
     ) -> Result<(), Error> {
         let n = steps as usize;
         let mut levels: Vec<Level> = (0..=n.min(64)).map(|_| Level::default()).collect();
+        let inert = self.inert_runs(al);
         let mut ch = Chooser::default();
         let mut rng = Random::new(0); // never drawn from
         let mut rd = PosReader::new(input, 1 << 16, false);
@@ -418,7 +467,13 @@ impl<'t> ParamPlan<'t> {
                     levels.push(Level::default());
                 }
                 let (cur, next) = levels.split_at_mut(j + 1);
-                let (k, p) = cur[j].modules.get_mut(i, al.arity(cur[j].modules.keys[i]));
+                let key = cur[j].modules.keys[i];
+                if key == INERT {
+                    out.constant(cur[j].inert[cur[j].modules.starts[i]])?;
+                    out.maybe_flush()?;
+                    continue;
+                }
+                let (k, p) = cur[j].modules.get_mut(i, al.arity(key));
                 let pass = Pass::Step(j as u64 + 1);
                 let chosen = if j == n {
                     None
@@ -434,10 +489,13 @@ impl<'t> ParamPlan<'t> {
                 let next = &mut next[0];
                 next.clear();
                 let prod = &self.prods.prods[pi as usize];
+                let mut inert = inert[pi as usize].iter();
                 ch.successor(p, prod, &mut rng, origin, pass, |piece| {
-                    match piece {
-                        Piece::Const(c) => next.push_bin(c.bin(), al),
-                        Piece::Module(key, vals) => next.modules.push(key, vals),
+                    let whole = inert.next().copied().flatten();
+                    match (piece, whole) {
+                        (Piece::Const(_), Some(c)) => next.push_inert(c),
+                        (Piece::Const(c), None) => next.push_bin(c.bin(), al),
+                        (Piece::Module(key, vals), _) => next.modules.push(key, vals),
                     }
                     Ok(())
                 })?;
