@@ -382,11 +382,13 @@ impl<'t> ParamPlan<'t> {
     }
 
     /// Per production of `prods`, per successor item: the constant run if
-    /// none of its modules is rewritten by any production or the
-    /// homomorphism.
-    fn inert_runs(&self, al: &Alphabet) -> Vec<Box<[Option<&'t ConstRun>]>> {
+    /// none of its modules is rewritten by the homomorphism nor, unless
+    /// `last` (made by the last step), by any production: it goes out as
+    /// its text.
+    fn inert_runs(&self, al: &Alphabet, last: bool) -> Vec<Box<[Option<&'t ConstRun>]>> {
         let ruled = |key: u32| {
-            self.prods.get(key).is_some() || self.hom.is_some_and(|h| h.get(key).is_some())
+            (!last && self.prods.get(key).is_some())
+                || self.hom.is_some_and(|h| h.get(key).is_some())
         };
         let inert = |c: &ConstRun| {
             let mut bin = c.bin();
@@ -443,7 +445,15 @@ impl<'t> ParamPlan<'t> {
     ) -> Result<(), Error> {
         let n = steps as usize;
         let mut levels: Vec<Level> = (0..=n.min(64)).map(|_| Level::default()).collect();
-        let inert = self.inert_runs(al);
+        let inert = self.inert_runs(al, false);
+        let inert_last = self.inert_runs(al, true);
+        // The homomorphism's own chooser and generator (never drawn from),
+        // so a module of the last step goes out while `ch` still holds the
+        // successor being evaluated; `scratch` holds that module's
+        // parameters, the slots the homomorphism binds.
+        let mut hch = Chooser::default();
+        let mut hrng = Random::new(0);
+        let mut scratch: Vec<f64> = Vec::new();
         let mut ch = Chooser::default();
         let mut rng = Random::new(0); // never drawn from
         let mut rd = PosReader::new(input, 1 << 16, false);
@@ -485,10 +495,44 @@ impl<'t> ParamPlan<'t> {
                     out.maybe_flush()?;
                     continue;
                 };
+                let prod = &self.prods.prods[pi as usize];
+                if j + 1 == n {
+                    // The last step: its successor goes straight out (a
+                    // module rewritten to itself too: it would be a leaf).
+                    let mut runs = inert_last[pi as usize].iter();
+                    ch.successor(p, prod, &mut rng, origin, pass, |piece| {
+                        let whole = runs.next().copied().flatten();
+                        match (piece, whole) {
+                            (Piece::Const(_), Some(c)) => out.constant(c)?,
+                            (Piece::Const(c), None) => {
+                                let mut bin = c.bin();
+                                while !bin.is_empty() {
+                                    let (key, kl) = crate::rules::codec::get_key(bin);
+                                    let a = al.arity(key);
+                                    scratch.clear();
+                                    scratch
+                                        .extend((0..a).map(|i| {
+                                            crate::rules::codec::get_param(&bin[kl..], i)
+                                        }));
+                                    let m = (key, &mut scratch[..]);
+                                    self.leaf(m, al, origin, out, &mut hch, &mut hrng)?;
+                                    bin = &bin[kl + 8 * a..];
+                                }
+                            }
+                            (Piece::Module(key, vals), _) => {
+                                scratch.clear();
+                                scratch.extend_from_slice(vals);
+                                let m = (key, &mut scratch[..]);
+                                self.leaf(m, al, origin, out, &mut hch, &mut hrng)?;
+                            }
+                        }
+                        out.maybe_flush()
+                    })?;
+                    continue;
+                }
                 // Evaluate the successor into the next level.
                 let next = &mut next[0];
                 next.clear();
-                let prod = &self.prods.prods[pi as usize];
                 let mut inert = inert[pi as usize].iter();
                 ch.successor(p, prod, &mut rng, origin, pass, |piece| {
                     let whole = inert.next().copied().flatten();
