@@ -313,7 +313,9 @@ pub fn census(input: &File, al: &Alphabet) -> Result<Census, Error> {
 ///
 /// A module that no production matches stays the same for the remaining
 /// steps (same symbol, same parameters, same conditions), so it is written
-/// at once.
+/// at once. A constant run of a successor whose modules nothing rewrites is
+/// one level entry, written as its text; the last step's successor is
+/// written as it is evaluated, without a level.
 pub struct ParamPlan<'t> {
     prods: &'t Table,
     hom: Option<&'t Table>,
