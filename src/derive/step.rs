@@ -40,6 +40,16 @@ struct StepState<'f> {
     /// right context may start there. Keeps right contexts over long
     /// ignored runs linear.
     skip: (u64, u64),
+    /// The last walk over each nesting level: from any offset in
+    /// `chains[l].0..=chains[l].1` at level `l`, only ignored modules and
+    /// whole branches lie before `chains[l].1`, where the next considered
+    /// module of that level (or its `]`, or the end) is. One per level, so
+    /// the walks of nested branches do not evict it. Keeps right contexts
+    /// linear over runs of ignored modules interleaved with branches
+    /// (`A[A]A[A]...B`).
+    chains: Vec<(u64, u64)>,
+    /// Nesting level of the input at the current module.
+    level: i64,
     depth: i64,
     /// Productions that last opened or closed more than they matched, to
     /// blame for unbalanced output.
@@ -67,12 +77,40 @@ impl StepState<'_> {
         Ok(pos)
     }
 
+    /// Where the next considered module of the current level right of the
+    /// module ending at `end_off` is (or the `]` or end that stops the
+    /// search), passing over ignored modules and whole branches. Each such
+    /// stretch is walked once per pass, however many of its modules ask.
+    #[inline]
+    fn level_start(&mut self, end_off: u64, al: &Alphabet) -> io::Result<u64> {
+        let start = self.right_start(end_off, al)?;
+        // The input is balanced, so the level is never negative.
+        let level = usize::try_from(self.level).unwrap_or(0);
+        if let Some(&(lo, hi)) = self.chains.get(level) {
+            if lo <= start && start <= hi {
+                return Ok(hi);
+            }
+        }
+        let peek = self
+            .peek
+            .as_mut()
+            .expect("a look-ahead reader for right contexts");
+        let at = match walk_right(peek, al, start, true)? {
+            Walk::Module { at, .. } | Walk::Stop { at, .. } => at,
+        };
+        if self.chains.len() <= level {
+            self.chains.resize(level + 1, (u64::MAX, 0));
+        }
+        self.chains[level] = (start, at);
+        Ok(at)
+    }
+
     /// The next considered modules right of the module ending at `end_off`
     /// (read once per module).
     #[inline]
     fn right_of(&mut self, end_off: u64, al: &Alphabet) -> Result<&RightCache, Error> {
         let read_err = |e| Error::io("temporary file", "cannot read", e);
-        let start = self.right_start(end_off, al).map_err(read_err)?;
+        let start = self.level_start(end_off, al).map_err(read_err)?;
         if self.right.at != start {
             let peek = self
                 .peek
@@ -117,6 +155,8 @@ impl<'a> Deriver<'a> {
             left: (table.max_left > 0).then(|| LeftContext::new(table, &self.alphabet)),
             depth: 0,
             skip: (u64::MAX, 0),
+            chains: Vec::new(),
+            level: 0,
             last_opener: None,
             last_closer: None,
         };
@@ -134,7 +174,14 @@ impl<'a> Deriver<'a> {
         loop {
             if let Some(fast) = &fast {
                 let window = rd.window().map_err(read_err)?;
-                let used = fast.run(window, out, st.left.as_mut(), &self.alphabet, indexed)?;
+                let used = fast.run(
+                    window,
+                    out,
+                    st.left.as_mut(),
+                    &self.alphabet,
+                    indexed,
+                    &mut st.level,
+                )?;
                 rd.advance(used);
                 out.maybe_flush()?;
                 if used > 0 {
@@ -162,6 +209,11 @@ impl<'a> Deriver<'a> {
                     }
                 }
                 out.raw(key, bytes, &self.alphabet)?;
+            }
+            if key == OPEN {
+                st.level += 1;
+            } else if key == CLOSE {
+                st.level -= 1;
             }
             if let Some(left) = &mut st.left {
                 if key == OPEN {
@@ -292,9 +344,14 @@ fn contexts_match(
         }
     } else if !p.right.is_empty() {
         // Matching from past the ignored run is the same: every pattern
-        // element passes over ignored modules first.
+        // element passes over ignored modules first, and a leading module
+        // over whole branches too.
         let read_err = |e| Error::io("temporary file", "cannot read", e);
-        let start = st.right_start(end_off, al).map_err(read_err)?;
+        let start = match p.right.first() {
+            Some(RPat::Module(_)) => st.level_start(end_off, al),
+            _ => st.right_start(end_off, al),
+        }
+        .map_err(read_err)?;
         let peek = st.peek.as_mut().unwrap();
         if !match_right(peek, al, start, &p.right, slots).map_err(read_err)? {
             return Ok(false);
