@@ -152,6 +152,24 @@ fn right_context_over_ignored_runs_interleaved_with_branches_is_linear() {
         limit,
     );
     assert!(r.ok() == format!("{want}B[D]"), "wrong output");
+    // Every walk of the general matcher, not only the first: `]` skips the
+    // rest of the branch over the same stretch; after it (for the A inside
+    // each [A]) and after B the walk goes over a stretch again.
+    let r = run_with(
+        &format!("ignore: A\nproductions:\nA > ]B -> C\naxiom:\n[{axiom}]B\n"),
+        &[],
+        None,
+        limit,
+    );
+    assert!(r.ok() == format!("[{want}]B"), "wrong output");
+    let r = run_with(
+        &format!("ignore: A\nproductions:\nA > B C[D] -> E\naxiom:\n{axiom}B{axiom}C[D]\n"),
+        &[],
+        None,
+        limit,
+    );
+    let e = "E[A]".repeat(n);
+    assert!(r.ok() == format!("{e}B{axiom}C[D]"), "wrong output");
     // Levels are kept apart: a stretch walked at one level says nothing
     // about the modules of a branch inside it, nor about a branch's
     // modules after it closes.

@@ -10,7 +10,7 @@
 
 use super::bytetable::ByteTable;
 use super::choose::{Chooser, Piece};
-use super::context::{match_right, walk_right, LeftContext, RightCache, Walk};
+use super::context::{match_right, walk_right, Chains, LeftContext, RightCache, Walk};
 use super::reader::PosReader;
 use super::sink::Out;
 use super::{Origin, Pass};
@@ -40,14 +40,8 @@ struct StepState<'f> {
     /// right context may start there. Keeps right contexts over long
     /// ignored runs linear.
     skip: (u64, u64),
-    /// The last walk over each nesting level: from any offset in
-    /// `chains[l].0..=chains[l].1` at level `l`, only ignored modules and
-    /// whole branches lie before `chains[l].1`, where the next considered
-    /// module of that level (or its `]`, or the end) is. One per level, so
-    /// the walks of nested branches do not evict it. Keeps right contexts
-    /// linear over runs of ignored modules interleaved with branches
-    /// (`A[A]A[A]...B`).
-    chains: Vec<(u64, u64)>,
+    /// Where walks over ignored modules and branches ended, per level.
+    chains: Chains,
     /// Nesting level of the input at the current module.
     level: i64,
     depth: i64,
@@ -84,25 +78,18 @@ impl StepState<'_> {
     #[inline]
     fn level_start(&mut self, end_off: u64, al: &Alphabet) -> io::Result<u64> {
         let start = self.right_start(end_off, al)?;
-        // The input is balanced, so the level is never negative.
-        let level = usize::try_from(self.level).unwrap_or(0);
-        if let Some(&(lo, hi)) = self.chains.get(level) {
-            if lo <= start && start <= hi {
-                return Ok(hi);
-            }
-        }
+        let level = self.level();
         let peek = self
             .peek
             .as_mut()
             .expect("a look-ahead reader for right contexts");
-        let at = match walk_right(peek, al, start, true)? {
-            Walk::Module { at, .. } | Walk::Stop { at, .. } => at,
-        };
-        if self.chains.len() <= level {
-            self.chains.resize(level + 1, (u64::MAX, 0));
-        }
-        self.chains[level] = (start, at);
-        Ok(at)
+        self.chains.walk(peek, al, start, level)
+    }
+
+    /// The nesting level of the current module (the input is balanced, so
+    /// it is never negative).
+    fn level(&self) -> usize {
+        usize::try_from(self.level).unwrap_or(0)
     }
 
     /// The next considered modules right of the module ending at `end_off`
@@ -155,7 +142,7 @@ impl<'a> Deriver<'a> {
             left: (table.max_left > 0).then(|| LeftContext::new(table, &self.alphabet)),
             depth: 0,
             skip: (u64::MAX, 0),
-            chains: Vec::new(),
+            chains: Chains::default(),
             level: 0,
             last_opener: None,
             last_closer: None,
@@ -344,16 +331,14 @@ fn contexts_match(
         }
     } else if !p.right.is_empty() {
         // Matching from past the ignored run is the same: every pattern
-        // element passes over ignored modules first, and a leading module
-        // over whole branches too.
+        // element passes over ignored modules first.
         let read_err = |e| Error::io("temporary file", "cannot read", e);
-        let start = match p.right.first() {
-            Some(RPat::Module(_)) => st.level_start(end_off, al),
-            _ => st.right_start(end_off, al),
-        }
-        .map_err(read_err)?;
+        let start = st.right_start(end_off, al).map_err(read_err)?;
+        let level = st.level();
         let peek = st.peek.as_mut().unwrap();
-        if !match_right(peek, al, start, &p.right, slots).map_err(read_err)? {
+        if !match_right(peek, al, start, &p.right, slots, &mut st.chains, level)
+            .map_err(read_err)?
+        {
             return Ok(false);
         }
     }
