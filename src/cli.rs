@@ -419,8 +419,14 @@ fn print_stdout(text: &[u8]) -> Result<(), Error> {
 
 fn open_input(path: Option<&Path>) -> Result<Input, Error> {
     match path {
-        None => Ok(Input::new(Box::new(io::stdin()), "<stdin>")),
-        Some(p) if p.as_os_str() == "-" => Ok(Input::new(Box::new(io::stdin()), "<stdin>")),
+        None => {
+            crate::io::output::check_stdin_open()?;
+            Ok(Input::new(Box::new(io::stdin()), "<stdin>"))
+        }
+        Some(p) if p.as_os_str() == "-" => {
+            crate::io::output::check_stdin_open()?;
+            Ok(Input::new(Box::new(io::stdin()), "<stdin>"))
+        }
         Some(p) => {
             let name = p.display().to_string();
             let f = File::open(p).map_err(|e| Error::io(name.clone(), "cannot open", e))?;

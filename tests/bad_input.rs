@@ -646,6 +646,18 @@ cases! {
     // quoted the text near the read position, the caret under a `1`).
     unclosed_paren_far_back_in_axiom =>
         err(format!("axiom: F({}\n", "1".repeat(200_000)), 1, 9, "");
+    // An unterminated comment reported at its start, far behind the read
+    // position (lsgen 9855045 quoted `(...`, not in the input, or the
+    // comment's parameter list from its `(`, with the caret under column 1
+    // or the `(`).
+    unterminated_comment_far_back_in_axiom =>
+        err(format!("axiom: F /*{}", "a".repeat(200_000)), 1, 10, "unterminated comment").on_stdin();
+    unterminated_comment_far_back_in_axiom_file =>
+        err(format!("axiom:\nFFF\n{} /*{}", "G".repeat(1000), "a".repeat(300_000)), 3, 1002, "unterminated comment");
+    unterminated_comment_far_back_in_parameters =>
+        err(format!("axiom: F(1 /* {}", "a".repeat(300_000)), 1, 12, "unterminated comment").on_stdin();
+    unterminated_comment_far_back_in_parameters_file =>
+        err(format!("axiom:\nFFF\n  G(1, 2 /* {}", "a".repeat(300_000)), 3, 10, "unterminated comment");
 
     // --- deep nesting: a clear error or the right result, never a crash ----
     deep_parens_in_define =>

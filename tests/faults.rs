@@ -1374,6 +1374,40 @@ fn closed_stdout_is_an_error_when_the_output_goes_there() {
     assert_eq!(fs::read(&out).unwrap(), doubled(4));
 }
 
+/// Standard input closed (`<&-`): reading the L-system or `--axiom -`
+/// from it is a read error naming standard input (lsgen before this read
+/// it as empty and said "empty L-system: no `axiom:` found").
+#[test]
+fn closed_stdin_is_a_read_error() {
+    let dir = tempdir();
+    let d = dir.path();
+    let input = write(d, "in.ls", DOUBLING);
+    let out = d.join("out.txt");
+    for args in [&[][..], &["-"][..]] {
+        let r = run(lsgen_under_sh("exec <&-").args(args).arg("-o").arg(&out));
+        let line = plain_error(&r, "standard input");
+        assert!(
+            line.contains("cannot read") && line.contains("closed"),
+            "{args:?}: {line}"
+        );
+        assert!(!out.exists());
+    }
+    let r = run(lsgen_under_sh("exec <&-")
+        .arg(&input)
+        .args(["--axiom", "-", "-o"])
+        .arg(&out));
+    let line = plain_error(&r, "standard input");
+    assert!(line.contains("cannot read"), "{line}");
+    assert!(!out.exists());
+    // Standard input not read: a closed one does not matter.
+    let r = run(lsgen_under_sh("exec <&-")
+        .arg(&input)
+        .args(["-n", "2", "-o"])
+        .arg(&out));
+    assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
+    assert_eq!(fs::read(&out).unwrap(), doubled(2));
+}
+
 /// A pipe whose reading end is already closed: every write fails with
 /// EPIPE.
 fn widowed_pipe() -> fs::File {

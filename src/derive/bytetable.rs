@@ -76,7 +76,8 @@ impl<'t> ByteTable<'t> {
     /// Rewrite the leading bytes of `input` it can handle; returns how many
     /// bytes and how many modules it used. Modules that left contexts consider are recorded in
     /// `left`; brackets open and close its levels and the output's bracket
-    /// index (`indexed`: the input's `[` carry 8 index bytes).
+    /// index (`indexed`: the input's `[` carry 8 index bytes), and follow
+    /// the input's nesting `level`.
     #[inline]
     pub(crate) fn run(
         &self,
@@ -85,6 +86,7 @@ impl<'t> ByteTable<'t> {
         mut left: Option<&mut LeftContext>,
         al: &Alphabet,
         indexed: bool,
+        level: &mut i64,
     ) -> Result<(usize, u64), Error> {
         let mut i = 0;
         let mut modules = 0;
@@ -101,6 +103,7 @@ impl<'t> ByteTable<'t> {
                     }
                     out.modules += 1;
                     out.open();
+                    *level += 1;
                     if let Some(left) = &mut left {
                         left.open();
                     }
@@ -111,6 +114,7 @@ impl<'t> ByteTable<'t> {
                 if b == b']' {
                     out.modules += 1;
                     out.close()?;
+                    *level -= 1;
                     if let Some(left) = &mut left {
                         left.close();
                     }

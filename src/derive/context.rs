@@ -313,20 +313,74 @@ pub(crate) fn walk_right(
     }
 }
 
+/// Walks kept per nesting level.
+const WAYS: usize = 4;
+
+/// Where the last walks over each nesting level ended: from any offset in
+/// `lo..=hi` at that level, only ignored modules and whole branches lie
+/// before `hi`, where the next considered module of the level (or its `]`,
+/// or the end) is. So a stretch of ignored modules interleaved with
+/// branches (`A[A]A[A]...B`) is walked once per step, however many modules
+/// ask for a right context across it. A few per level, for patterns that
+/// walk several stretches of one level; memory grows with the nesting
+/// depth only.
+#[derive(Default)]
+pub(crate) struct Chains {
+    ways: Vec<[(u64, u64); WAYS]>,
+    turn: Vec<usize>,
+}
+
+impl Chains {
+    /// Where [`walk_right`] with `skip_branches` from `pos`, at nesting
+    /// level `level` of the input, stops.
+    #[inline]
+    pub(crate) fn walk(
+        &mut self,
+        peek: &mut PosReader,
+        al: &Alphabet,
+        pos: u64,
+        level: usize,
+    ) -> io::Result<u64> {
+        if let Some(ways) = self.ways.get(level) {
+            for &(lo, hi) in ways {
+                if lo <= pos && pos <= hi {
+                    return Ok(hi);
+                }
+            }
+        }
+        let at = match walk_right(peek, al, pos, true)? {
+            Walk::Module { at, .. } | Walk::Stop { at, .. } => at,
+        };
+        if at != pos {
+            if self.ways.len() <= level {
+                self.ways.resize(level + 1, [(u64::MAX, 0); WAYS]);
+                self.turn.resize(level + 1, 0);
+            }
+            let t = self.turn[level];
+            self.ways[level][t] = (pos, at);
+            self.turn[level] = (t + 1) % WAYS;
+        }
+        Ok(at)
+    }
+}
+
 /// Match a right context starting at file offset `pos` (just after the
-/// predecessor), binding parameters into `slots`.
-pub fn match_right(
+/// predecessor, at nesting `level`), binding parameters into `slots`.
+pub(crate) fn match_right(
     peek: &mut PosReader,
     al: &Alphabet,
     pos: u64,
     pat: &[RPat],
     slots: &mut [f64],
+    chains: &mut Chains,
+    level: usize,
 ) -> io::Result<bool> {
     let Some((&first, rest)) = pat.split_first() else {
         return Ok(true);
     };
     match first {
         RPat::Module(p) => {
+            let pos = chains.walk(peek, al, pos, level)?;
             let Walk::Module {
                 key, s, e, next, ..
             } = walk_right(peek, al, pos, true)?
@@ -341,7 +395,7 @@ pub fn match_right(
                 peek.bytes(s, e),
                 &mut slots[p.slot as usize..p.slot as usize + n],
             );
-            match_right(peek, al, next, rest, slots)
+            match_right(peek, al, next, rest, slots, chains, level)
         }
         RPat::Open => {
             // Step over ignored modules to the first `[`, then try each of
@@ -356,7 +410,7 @@ pub fn match_right(
                     return Ok(false);
                 }
                 let next = peek.offset();
-                if match_right(peek, al, next, rest, slots)? {
+                if match_right(peek, al, next, rest, slots, chains, level + 1)? {
                     return Ok(true);
                 }
                 // The recursion moved the buffer: read the `[` again.
@@ -376,10 +430,23 @@ pub fn match_right(
                 }
             }
         }
-        RPat::Close => match skip_branch(peek, al, pos)? {
-            Some(after) => match_right(peek, al, after, rest, slots),
-            None => Ok(false),
-        },
+        RPat::Close => {
+            // The walk stays in the branch: skipping its rest from where
+            // the walk stops is the same.
+            let pos = chains.walk(peek, al, pos, level)?;
+            match skip_branch(peek, al, pos)? {
+                Some(after) => match_right(
+                    peek,
+                    al,
+                    after,
+                    rest,
+                    slots,
+                    chains,
+                    level.saturating_sub(1),
+                ),
+                None => Ok(false),
+            }
+        }
     }
 }
 
@@ -483,7 +550,9 @@ mod tests {
             let mut slots = vec![f64::NAN; p.nslots];
             let mut peek = PosReader::new(&f, 1 << 10, indexed);
             let pos = after(&f, al, 'B', indexed);
-            assert!(match_right(&mut peek, al, pos, &p.right, &mut slots).unwrap());
+            let mut chains = Chains::default();
+            // `B` is at nesting level 0, the `C` below at level 1.
+            assert!(match_right(&mut peek, al, pos, &p.right, &mut slots, &mut chains, 0).unwrap());
             let bound: Vec<(char, f64)> = p
                 .right
                 .iter()
@@ -495,7 +564,9 @@ mod tests {
             assert_eq!(bound, [('C', 3.0), ('D', 5.0)], "indexed {indexed}");
             // From the `C`, the rest of its branch holds no `[C]D`.
             let pos = after(&f, al, 'C', indexed);
-            assert!(!match_right(&mut peek, al, pos, &p.right, &mut slots).unwrap());
+            assert!(
+                !match_right(&mut peek, al, pos, &p.right, &mut slots, &mut chains, 1).unwrap()
+            );
         }
     }
 

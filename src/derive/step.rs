@@ -10,7 +10,7 @@
 
 use super::bytetable::ByteTable;
 use super::choose::{Chooser, Piece};
-use super::context::{match_right, walk_right, LeftContext, RightCache, Walk};
+use super::context::{match_right, walk_right, Chains, LeftContext, RightCache, Walk};
 use super::reader::PosReader;
 use super::sink::Out;
 use super::{Origin, Pass};
@@ -40,6 +40,10 @@ struct StepState<'f> {
     /// right context may start there. Keeps right contexts over long
     /// ignored runs linear.
     skip: (u64, u64),
+    /// Where walks over ignored modules and branches ended, per level.
+    chains: Chains,
+    /// Nesting level of the input at the current module.
+    level: i64,
     depth: i64,
     /// Productions that last opened or closed more than they matched, to
     /// blame for unbalanced output.
@@ -67,12 +71,33 @@ impl StepState<'_> {
         Ok(pos)
     }
 
+    /// Where the next considered module of the current level right of the
+    /// module ending at `end_off` is (or the `]` or end that stops the
+    /// search), passing over ignored modules and whole branches. Each such
+    /// stretch is walked once per pass, however many of its modules ask.
+    #[inline]
+    fn level_start(&mut self, end_off: u64, al: &Alphabet) -> io::Result<u64> {
+        let start = self.right_start(end_off, al)?;
+        let level = self.level();
+        let peek = self
+            .peek
+            .as_mut()
+            .expect("a look-ahead reader for right contexts");
+        self.chains.walk(peek, al, start, level)
+    }
+
+    /// The nesting level of the current module (the input is balanced, so
+    /// it is never negative).
+    fn level(&self) -> usize {
+        usize::try_from(self.level).unwrap_or(0)
+    }
+
     /// The next considered modules right of the module ending at `end_off`
     /// (read once per module).
     #[inline]
     fn right_of(&mut self, end_off: u64, al: &Alphabet) -> Result<&RightCache, Error> {
         let read_err = |e| Error::io("temporary file", "cannot read", e);
-        let start = self.right_start(end_off, al).map_err(read_err)?;
+        let start = self.level_start(end_off, al).map_err(read_err)?;
         if self.right.at != start {
             let peek = self
                 .peek
@@ -117,6 +142,8 @@ impl<'a> Deriver<'a> {
             left: (table.max_left > 0).then(|| LeftContext::new(table, &self.alphabet)),
             depth: 0,
             skip: (u64::MAX, 0),
+            chains: Chains::default(),
+            level: 0,
             last_opener: None,
             last_closer: None,
         };
@@ -136,8 +163,14 @@ impl<'a> Deriver<'a> {
         loop {
             if let Some(fast) = &fast {
                 let window = rd.window().map_err(read_err)?;
-                let (used, modules) =
-                    fast.run(window, out, st.left.as_mut(), &self.alphabet, indexed)?;
+                let (used, modules) = fast.run(
+                    window,
+                    out,
+                    st.left.as_mut(),
+                    &self.alphabet,
+                    indexed,
+                    &mut st.level,
+                )?;
                 rd.advance(used);
                 index += modules;
                 out.maybe_flush()?;
@@ -168,6 +201,11 @@ impl<'a> Deriver<'a> {
                     }
                 }
                 out.raw(key, bytes, &self.alphabet)?;
+            }
+            if key == OPEN {
+                st.level += 1;
+            } else if key == CLOSE {
+                st.level -= 1;
             }
             if let Some(left) = &mut st.left {
                 if key == OPEN {
@@ -301,8 +339,11 @@ fn contexts_match(
         // element passes over ignored modules first.
         let read_err = |e| Error::io("temporary file", "cannot read", e);
         let start = st.right_start(end_off, al).map_err(read_err)?;
+        let level = st.level();
         let peek = st.peek.as_mut().unwrap();
-        if !match_right(peek, al, start, &p.right, slots).map_err(read_err)? {
+        if !match_right(peek, al, start, &p.right, slots, &mut st.chains, level)
+            .map_err(read_err)?
+        {
             return Ok(false);
         }
     }

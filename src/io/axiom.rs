@@ -125,6 +125,8 @@ impl<'a> AxiomReader<'a> {
                 b' ' | b'\t' | b'\r' | 0x0B | 0x0C => self.advance(1),
                 b'/' if self.comments && avail.get(1) == Some(&b'*') => {
                     let (line, col, at) = (self.line, self.col, self.input.offset());
+                    // An unterminated comment is reported at its start.
+                    self.input.mark(at);
                     self.advance(2);
                     loop {
                         let avail = self.input.fill(2)?;
@@ -355,6 +357,7 @@ impl<'a> AxiomReader<'a> {
                 _ if comment.is_some() => {}
                 b'/' if self.comments && next == Some(b'*') => {
                     comment = Some((self.line, self.col, self.input.offset()));
+                    self.input.mark(self.input.offset());
                     self.text.push(b'/');
                     self.advance(1);
                 }

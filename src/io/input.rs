@@ -16,11 +16,20 @@ pub struct Input {
     /// Stream offset of `buf[0]`.
     base: u64,
     pub name: String,
+    /// An offset an error may still quote after it leaves the buffer (the
+    /// start of a comment): before the buffer drops the text around it,
+    /// that text is copied to `saved` (from stream offset `saved_base`).
+    mark: Option<u64>,
+    saved: Vec<u8>,
+    saved_base: u64,
 }
 
 const CHUNK: usize = 1 << 16;
 /// Bytes kept before `pos` when the buffer is compacted, for error excerpts.
 const HISTORY: usize = 512;
+/// Bytes saved either side of a mark: an excerpt shows 60 characters
+/// either side of its column, of at most 4 bytes each.
+const MARK_WINDOW: u64 = 256;
 
 impl Input {
     pub fn new(inner: Box<dyn Read>, name: impl Into<String>) -> Input {
@@ -32,7 +41,17 @@ impl Input {
             eof: false,
             base: 0,
             name: name.into(),
+            mark: None,
+            saved: Vec::new(),
+            saved_base: 0,
         }
+    }
+
+    /// Keep the text around stream offset `at` (at most 512 bytes) quotable
+    /// after it leaves the buffer, until the next mark.
+    pub fn mark(&mut self, at: u64) {
+        self.mark = Some(at);
+        self.saved.clear();
     }
 
     /// Make at least `want` bytes available after the read position, unless
@@ -41,6 +60,15 @@ impl Input {
         while self.end - self.pos < want && !self.eof {
             if self.end == self.buf.len() {
                 let keep_from = self.pos.saturating_sub(HISTORY);
+                if let Some(m) = self.mark {
+                    let from = m.saturating_sub(MARK_WINDOW).max(self.base);
+                    if self.base + keep_from as u64 > from && from <= m && self.saved.is_empty() {
+                        let to = (m + MARK_WINDOW).min(self.base + self.end as u64);
+                        let (s, e) = ((from - self.base) as usize, (to - self.base) as usize);
+                        self.saved.extend_from_slice(&self.buf[s..e]);
+                        self.saved_base = from;
+                    }
+                }
                 if keep_from > 0 {
                     self.buf.copy_within(keep_from..self.end, 0);
                     self.pos -= keep_from;
@@ -78,35 +106,59 @@ impl Input {
         self.base + self.pos as u64
     }
 
-    /// Is stream offset `at` still in the buffer (so it can be quoted)?
+    /// Is stream offset `at` still in the buffer, or saved around the
+    /// mark (so it can be quoted)?
     pub fn holds(&self, at: u64) -> bool {
-        at >= self.base && at <= self.base + self.end as u64
+        (at >= self.base && at <= self.base + self.end as u64) || self.saved_holds(at)
+    }
+
+    fn saved_holds(&self, at: u64) -> bool {
+        !self.saved.is_empty()
+            && at >= self.saved_base
+            && at <= self.saved_base + self.saved.len() as u64
     }
 
     /// The line around stream offset `at` (which must be near the read
-    /// position), with the 1-based caret column in that excerpt.
+    /// position, or saved around the mark), with the 1-based caret column
+    /// in that excerpt.
     pub fn excerpt_at(&mut self, at: u64) -> (String, usize) {
         let _ = self.fill(200);
-        let at = (at.saturating_sub(self.base) as usize).min(self.end);
-        let lo = self.buf[..at]
-            .iter()
-            .rposition(|&b| b == b'\n')
-            .map_or(0, |i| i + 1);
-        let hi = self.buf[at..self.end]
-            .iter()
-            .position(|&b| b == b'\n')
-            .map_or(self.end, |i| at + i);
-        let before = String::from_utf8_lossy(&self.buf[lo..at]);
-        let line = String::from_utf8_lossy(&self.buf[lo..hi]);
-        let line = line.strip_suffix('\r').unwrap_or(&line);
-        let col = before.chars().count() + 1;
-        let (s, c) = excerpt(line, col);
-        if lo == 0 && self.base > 0 && !s.starts_with("...") {
-            (format!("...{s}"), c + 3)
-        } else {
-            (s, c)
+        if at < self.base && self.saved_holds(at) {
+            // The saved text may stop inside the line.
+            let more = self.saved_base + (self.saved.len() as u64) < self.base + self.end as u64;
+            return line_excerpt(&self.saved, self.saved_base, at, more);
         }
+        line_excerpt(&self.buf[..self.end], self.base, at, false)
     }
+}
+
+/// The line of `bytes` (stream offset `base`) around stream offset `at`,
+/// cut to an excerpt, with the 1-based caret column in it; `...` marks a
+/// line that starts before `bytes`, or (`more`) goes on after them.
+fn line_excerpt(bytes: &[u8], base: u64, at: u64, more: bool) -> (String, usize) {
+    let end = bytes.len();
+    let at = (at.saturating_sub(base) as usize).min(end);
+    let lo = bytes[..at]
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .map_or(0, |i| i + 1);
+    let (hi, cut) = bytes[at..]
+        .iter()
+        .position(|&b| b == b'\n')
+        .map_or((end, more), |i| (at + i, false));
+    let before = String::from_utf8_lossy(&bytes[lo..at]);
+    let line = String::from_utf8_lossy(&bytes[lo..hi]);
+    let line = line.strip_suffix('\r').unwrap_or(&line);
+    let col = before.chars().count() + 1;
+    let (mut s, mut c) = excerpt(line, col);
+    if lo == 0 && base > 0 && !s.starts_with("...") {
+        s.insert_str(0, "...");
+        c += 3;
+    }
+    if cut && !s.ends_with("...") {
+        s.push_str("...");
+    }
+    (s, c)
 }
 
 /// Where the axiom starts, once the header has been split off.

@@ -82,6 +82,18 @@ pub fn check_stdout_open() -> Result<(), Error> {
     Ok(())
 }
 
+/// The error for reading a closed standard input (`<&-`), which would
+/// otherwise read as empty.
+pub fn check_stdin_open() -> Result<(), Error> {
+    if closed_at_start(0) {
+        return Err(fail(
+            "standard input",
+            "cannot read: Bad file descriptor (closed when lsgen started)",
+        ));
+    }
+    Ok(())
+}
+
 /// An error about `-o NAME` with a message of our own.
 fn fail(name: &str, message: impl Into<String>) -> Error {
     let mut e = Error::new(message);
