@@ -850,3 +850,67 @@ mod tests {
         assert!(parse_limit("").is_err());
     }
 }
+
+/// The binaries' global allocator: the system's, except that a failed
+/// allocation ends the process with one line (`PROGRAM: error: out of
+/// memory ...`) and exit status 1 instead of Rust's abort (exit 134). It
+/// writes with `write(2)` and allocates nothing; unnamed temporary files
+/// vanish with the process, and a named `-o` temporary file is removed by
+/// the next run (README, "Leftover temporary files").
+pub struct ExitOnOom(pub &'static str);
+
+impl ExitOnOom {
+    #[cold]
+    fn fail(&self, size: usize) -> ! {
+        fn put(b: &[u8]) {
+            // SAFETY: writing a valid buffer to descriptor 2; errors ignored.
+            let _ = unsafe { libc::write(2, b.as_ptr().cast(), b.len()) };
+        }
+        let mut digits = [0u8; 20];
+        let mut i = digits.len();
+        let mut n = size;
+        loop {
+            i -= 1;
+            digits[i] = b'0' + (n % 10) as u8;
+            n /= 10;
+            if n == 0 {
+                break;
+            }
+        }
+        put(self.0.as_bytes());
+        put(b": error: out of memory (");
+        put(&digits[i..]);
+        put(b" more bytes wanted; see `ulimit -v`)\n");
+        // SAFETY: ending the process without running anything else.
+        unsafe { libc::_exit(1) }
+    }
+}
+
+// SAFETY: every call is forwarded to the system allocator; a null result
+// never returns (the process ends).
+unsafe impl std::alloc::GlobalAlloc for ExitOnOom {
+    unsafe fn alloc(&self, l: std::alloc::Layout) -> *mut u8 {
+        let p = std::alloc::System.alloc(l);
+        if p.is_null() {
+            self.fail(l.size());
+        }
+        p
+    }
+    unsafe fn alloc_zeroed(&self, l: std::alloc::Layout) -> *mut u8 {
+        let p = std::alloc::System.alloc_zeroed(l);
+        if p.is_null() {
+            self.fail(l.size());
+        }
+        p
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: std::alloc::Layout, size: usize) -> *mut u8 {
+        let q = std::alloc::System.realloc(p, l, size);
+        if q.is_null() {
+            self.fail(size);
+        }
+        q
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: std::alloc::Layout) {
+        std::alloc::System.dealloc(p, l)
+    }
+}

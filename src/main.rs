@@ -1,3 +1,7 @@
+/// A failed allocation is one error line and exit 1, not an abort.
+#[global_allocator]
+static ALLOC: lsgen::cli::ExitOnOom = lsgen::cli::ExitOnOom("lsgen");
+
 fn main() {
     std::process::exit(lsgen::cli::main_exit_code());
 }

@@ -580,3 +580,18 @@ fn too_little_address_space_to_start_is_reported() {
     assert!(e.starts_with("lsgen: error: cannot start: "), "{e}");
     assert!(e.contains("ulimit -v"), "{e}");
 }
+
+/// Out of memory is one error line and exit 1, not an abort (exit 134):
+/// a million productions under a 450 MiB address-space cap (the worker's
+/// stack reserves 256 MiB of it).
+#[test]
+fn out_of_memory_is_an_error_not_an_abort() {
+    let mut src = String::from("productions:\n");
+    for _ in 0..1_000_000 {
+        src.push_str("F -> FF\n");
+    }
+    src.push_str("axiom:\nF\n");
+    let r = run_with(&src, &[], Some(450 * MIB), Duration::from_secs(120));
+    let e = r.error();
+    assert!(e.starts_with("lsgen: error: out of memory ("), "{e}");
+}

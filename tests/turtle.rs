@@ -806,3 +806,23 @@ fn unclosed_polygons_long_numbers_and_tropism_overflow_are_named() {
         "0: error: the tropism bend overflows (elasticity × |tropism| is too large)",
     );
 }
+
+/// Out of memory is one error line and exit 1, not an abort: an 8192-pixel
+/// PNG under a 150 MiB address-space cap; no output file.
+#[test]
+fn out_of_memory_is_an_error_not_an_abort() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let r = run(
+        turtle_under_sh("printf F >in; ulimit -v 150000; exec <in", d)
+            .args(["-f", "png", "--size", "8192", "-o", "big.png"]),
+    );
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr.starts_with("lsgen-turtle: error: out of memory ("),
+        "{}",
+        r.stderr
+    );
+    assert!(!d.join("big.png").exists());
+}

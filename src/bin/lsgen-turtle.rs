@@ -8,6 +8,10 @@ use lsgen::turtle::{run, Format, Options};
 use std::io::Write;
 use std::path::PathBuf;
 
+/// A failed allocation is one error line and exit 1, not an abort.
+#[global_allocator]
+static ALLOC: lsgen::cli::ExitOnOom = lsgen::cli::ExitOnOom("lsgen-turtle");
+
 #[derive(Parser, Debug)]
 #[command(
     name = "lsgen-turtle",
