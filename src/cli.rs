@@ -836,21 +836,6 @@ fn run_one(
     output.commit()
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn limits() {
-        assert_eq!(parse_limit("1000").unwrap().modules, 1000);
-        assert_eq!(parse_limit("5M").unwrap().modules, 5_000_000);
-        assert_eq!(parse_limit("2GB").unwrap().bytes, 2_000_000_000);
-        assert_eq!(parse_limit("512MiB").unwrap().bytes, 512 << 20);
-        assert!(parse_limit("12 parsecs").is_err());
-        assert!(parse_limit("").is_err());
-    }
-}
-
 /// The binaries' global allocator: the system's, except that a failed
 /// allocation ends the process with one line (`PROGRAM: error: out of
 /// memory ...`) and exit status 1 instead of Rust's abort (exit 134). It
@@ -912,5 +897,20 @@ unsafe impl std::alloc::GlobalAlloc for ExitOnOom {
     }
     unsafe fn dealloc(&self, p: *mut u8, l: std::alloc::Layout) {
         std::alloc::System.dealloc(p, l)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn limits() {
+        assert_eq!(parse_limit("1000").unwrap().modules, 1000);
+        assert_eq!(parse_limit("5M").unwrap().modules, 5_000_000);
+        assert_eq!(parse_limit("2GB").unwrap().bytes, 2_000_000_000);
+        assert_eq!(parse_limit("512MiB").unwrap().bytes, 512 << 20);
+        assert!(parse_limit("12 parsecs").is_err());
+        assert!(parse_limit("").is_err());
     }
 }
