@@ -187,11 +187,20 @@ pub(crate) fn derive(
         alphabet,
         productions,
         homomorphism,
+        groups,
+        schedule,
+        decomposition,
+        hom_depth,
+        hom_seed,
         ..
     } = system;
     let hom = settings.homomorphism && !homomorphism.is_empty();
     // Right contexts skip branches in O(1) through a bracket index.
-    let indexed = productions.has_right || (hom && homomorphism.has_right);
+    let indexed = productions.has_right
+        || groups.iter().any(|(_, t)| t.has_right)
+        || (hom && homomorphism.has_right);
+    let pct = u32::from(b'%');
+    let cuts = productions.get(pct).is_none() && groups.iter().all(|(_, t)| t.get(pct).is_none());
     let passes = steps + u64::from(hom);
     let strategy = settings.strategy;
     let not_depth_first = || {
@@ -203,6 +212,10 @@ pub(crate) fn derive(
         return Err(not_depth_first());
     }
     let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
+    d.hom_depth = hom_depth;
+    d.cut = cuts;
+    let structural = !schedule.is_empty() || decomposition.is_some() || hom_depth > 1;
+    d.decomp = decomposition;
     let mut generation = |pass: Pass, (modules, bytes): (u64, u64)| {
         events(&Event::Generation {
             pass,
@@ -239,6 +252,25 @@ pub(crate) fn derive(
         }
     }
     drop(reader);
+    // Issue 11: groups, decomposition, homomorphism depth and cuts are
+    // implemented by the step engine only; a `%` that can be a cut makes a
+    // module's expansion depend on its neighbours.
+    let step_only = structural
+        || (cuts
+            && (makes_percent(&d, &productions, &groups)
+                || cur
+                    .as_ref()
+                    .map(|f| crate::derive::dfs::census(f, &d.alphabet))
+                    .transpose()?
+                    .is_some_and(|c| c.hist[pct as usize] > 0)));
+    let strategy = if step_only {
+        if strategy == Strategy::DepthFirst {
+            return Err(not_depth_first());
+        }
+        Strategy::Step
+    } else {
+        strategy
+    };
 
     // Deterministic context-free byte systems: depth first, no temp files.
     let plan = crate::derive::dfs::Plan::new(
@@ -311,10 +343,16 @@ pub(crate) fn derive(
     } else {
         output
     };
+    let tables = Tables {
+        productions: &productions,
+        groups: &groups,
+        schedule: &schedule,
+        hom_seed,
+    };
     let stepwise = step_passes(
         &mut d,
         cur,
-        (&productions, &homomorphism, hom),
+        (&tables, &homomorphism, hom),
         settings,
         (output, out_name, &tmp_name),
         indexed,
@@ -331,7 +369,7 @@ pub(crate) fn derive(
 fn step_passes(
     d: &mut Deriver,
     mut cur: Option<File>,
-    (productions, homomorphism, hom): (&crate::rules::Table, &crate::rules::Table, bool),
+    (tables, homomorphism, hom): (&Tables, &crate::rules::Table, bool),
     settings: &Settings,
     (output, out_name, tmp_name): (&mut dyn Write, &str, &str),
     indexed: bool,
@@ -349,8 +387,12 @@ fn step_passes(
     let mut i = 1;
     while i <= passes {
         let (table, pass) = if i <= steps {
-            (productions, Pass::Step(i))
+            (tables.table_for(i), Pass::Step(i))
         } else {
+            if let Some(s) = tables.hom_seed {
+                // The homomorphism's own generator (its `seed:`).
+                d.rng = Random::new(s);
+            }
             (homomorphism, Pass::Homomorphism)
         };
         let src = cur.take().expect("a generation to read");
@@ -382,7 +424,7 @@ fn step_passes(
         // point: every later step does the same. Go on with the last pass
         // (the homomorphism, or the last step, which writes the text).
         let last = if hom { passes } else { steps };
-        if i < steps && last > i + 1 && d.rng.draws() == draws {
+        if i < steps && last > i + 1 && d.rng.draws() == draws && tables.schedule.is_empty() {
             if let Some(next) = &dst {
                 if same_contents(&src, next)? {
                     events(&Event::FixedPoint {
@@ -401,6 +443,57 @@ fn step_passes(
         i += 1;
     }
     Ok(last_len)
+}
+
+/// The production tables of the steps (issue 11: groups and schedule).
+struct Tables<'t> {
+    productions: &'t crate::rules::Table,
+    groups: &'t [(u32, crate::rules::Table)],
+    schedule: &'t [u32],
+    hom_seed: Option<u64>,
+}
+
+impl Tables<'_> {
+    /// The table of step `step` (1 for the first).
+    fn table_for(&self, step: u64) -> &crate::rules::Table {
+        if self.schedule.is_empty() {
+            return self.productions;
+        }
+        let g = self.schedule[((step - 1) % self.schedule.len() as u64) as usize];
+        self.groups
+            .iter()
+            .find(|(n, _)| *n == g)
+            .map_or(self.productions, |(_, t)| t)
+    }
+}
+
+/// Can a production or decomposition successor make a `%`?
+fn makes_percent(
+    d: &Deriver,
+    productions: &crate::rules::Table,
+    groups: &[(u32, crate::rules::Table)],
+) -> bool {
+    let pct = u32::from(b'%');
+    let tables = std::iter::once(productions)
+        .chain(groups.iter().map(|(_, t)| t))
+        .chain(d.decomp.iter().map(|(t, _)| t));
+    tables.flat_map(|t| t.prods.iter()).any(|p| {
+        p.succ.iter().any(|i| match i {
+            crate::rules::Item::Const(c) => {
+                let b = c.bin();
+                let mut i = 0;
+                while i < b.len() {
+                    let (k, kl) = crate::rules::codec::get_key(&b[i..]);
+                    if k == pct {
+                        return true;
+                    }
+                    i += kl + 8 * d.alphabet.arity(k);
+                }
+                false
+            }
+            crate::rules::Item::Module { key, .. } => *key == pct,
+        })
+    })
 }
 
 /// Do two generation files hold the same bytes?

@@ -10,12 +10,13 @@
 
 use super::bytetable::ByteTable;
 use super::choose::{Chooser, Piece};
-use super::context::{match_right, walk_right, LeftContext, RightCache, Walk};
+use super::context::{match_right, skip_branch, walk_right, LeftContext, RightCache, Walk};
 use super::reader::PosReader;
 use super::sink::Out;
 use super::{Origin, Pass};
 use crate::derive::random::Random;
 use crate::diag::Error;
+use crate::rules::codec::{self, Modules};
 use crate::rules::{Alphabet, KeyRules, Production, RPat, Table, CLOSE, OPEN};
 use std::fs::File;
 use std::io;
@@ -26,6 +27,130 @@ pub struct Deriver<'a> {
     pub rng: Random,
     pub origin: Origin<'a>,
     chooser: Chooser,
+    /// Issue 11: decomposition (table, maximum depth), applied in every
+    /// step; the homomorphism's maximum depth; whether a `%` that nothing
+    /// rewrites cuts its branch.
+    pub decomp: Option<(Table, usize)>,
+    pub hom_depth: usize,
+    pub cut: bool,
+    rc: Recur,
+}
+
+/// Recursive rewriting (decomposition, homomorphism depth): one chooser,
+/// and one buffer of modules per depth level, reused.
+#[derive(Default)]
+struct Recur {
+    chooser: Chooser,
+    levels: Vec<Modules>,
+}
+
+/// Append the modules of a precompiled run to `m`.
+fn push_const(m: &mut Modules, c: &crate::rules::ConstRun, al: &Alphabet) {
+    let b = c.bin();
+    let mut i = 0;
+    while i < b.len() {
+        let (k, kl) = codec::get_key(&b[i..]);
+        let n = al.arity(k);
+        m.push_encoded(k, &b[i..i + kl + 8 * n], n);
+        i += kl + 8 * n;
+    }
+}
+
+/// Everything the recursion reads.
+struct RecCtx<'r, 'o> {
+    table: &'r Table,
+    max: usize,
+    al: &'r Alphabet,
+    origin: &'r Origin<'o>,
+    pass: Pass,
+}
+
+/// Rewrite each module of `rc.levels[depth]` (its modules have depth
+/// `depth`) recursively, writing what is left to `out`.
+fn expand_level(
+    rc: &mut Recur,
+    cx: &RecCtx,
+    depth: usize,
+    rng: &mut Random,
+    ctx: &mut dyn FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    out: &mut Out,
+) -> Result<(), Error> {
+    let buf = std::mem::take(&mut rc.levels[depth]);
+    let mut r = Ok(());
+    for i in 0..buf.len() {
+        let key = buf.keys[i];
+        let (_, params) = buf.get(i, cx.al.arity(key));
+        r = match try_rewrite(rc, cx, depth, key, params, rng, ctx, out) {
+            Ok(true) => Ok(()),
+            Ok(false) => out.module(key, params, cx.al),
+            Err(e) => Err(e),
+        };
+        if r.is_err() {
+            break;
+        }
+    }
+    rc.levels[depth] = buf;
+    r
+}
+
+/// Rewrite the module (key, params) of depth `depth` if it is below the
+/// maximum depth and a production applies: its successor (depth + 1) is
+/// rewritten in turn, depth first. False if nothing applied.
+#[allow(clippy::too_many_arguments)]
+fn try_rewrite(
+    rc: &mut Recur,
+    cx: &RecCtx,
+    depth: usize,
+    key: u32,
+    params: &[f64],
+    rng: &mut Random,
+    ctx: &mut dyn FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    out: &mut Out,
+) -> Result<bool, Error> {
+    if depth >= cx.max {
+        return Ok(false);
+    }
+    let Some(kr) = cx.table.get(key) else {
+        return Ok(false);
+    };
+    rc.chooser.bind(params);
+    let Some(pi) = rc
+        .chooser
+        .choose(cx.table, kr, rng, cx.origin, cx.pass, |p, s| ctx(p, s))?
+    else {
+        return Ok(false);
+    };
+    let p = &cx.table.prods[pi as usize];
+    fill_level(rc, cx.al, depth + 1, p, rng, cx.origin, cx.pass)?;
+    expand_level(rc, cx, depth + 1, rng, ctx, out)?;
+    Ok(true)
+}
+
+/// Evaluate `p`'s successor (parameters bound in `rc.chooser`) into
+/// `rc.levels[level]`.
+fn fill_level(
+    rc: &mut Recur,
+    al: &Alphabet,
+    level: usize,
+    p: &Production,
+    rng: &mut Random,
+    origin: &Origin,
+    pass: Pass,
+) -> Result<(), Error> {
+    if rc.levels.len() <= level {
+        rc.levels.resize_with(level + 1, Modules::default);
+    }
+    let mut next = std::mem::take(&mut rc.levels[level]);
+    next.clear();
+    let r = rc.chooser.successor(p, rng, origin, pass, |piece| {
+        match piece {
+            Piece::Const(c) => push_const(&mut next, c, al),
+            Piece::Module(k, v) => next.push(k, v),
+        }
+        Ok(())
+    });
+    rc.levels[level] = next;
+    r
 }
 
 struct StepState<'f> {
@@ -91,6 +216,10 @@ impl<'a> Deriver<'a> {
             rng,
             origin,
             chooser: Chooser::default(),
+            decomp: None,
+            hom_depth: 1,
+            cut: false,
+            rc: Recur::default(),
         }
     }
 
@@ -103,7 +232,41 @@ impl<'a> Deriver<'a> {
         out: &mut Out,
         pass: Pass,
     ) -> Result<(), Error> {
+        let decomp = if matches!(pass, Pass::Step(_)) {
+            self.decomp.take()
+        } else {
+            None
+        };
+        let r = self.pass_with(table, decomp.as_ref(), input, indexed, out, pass);
+        if decomp.is_some() {
+            self.decomp = decomp;
+        }
+        r
+    }
+
+    fn pass_with(
+        &mut self,
+        table: &Table,
+        decomp: Option<&(Table, usize)>,
+        input: &File,
+        indexed: bool,
+        out: &mut Out,
+        pass: Pass,
+    ) -> Result<(), Error> {
         self.chooser.prepare(table);
+        self.rc.chooser.prepare(table);
+        if let Some((d, _)) = decomp {
+            self.rc.chooser.prepare(d);
+        }
+        if self.rc.levels.len() < 2 {
+            self.rc.levels.resize_with(2, Modules::default);
+        }
+        let cut = self.cut && matches!(pass, Pass::Step(_));
+        let hom_depth = if pass == Pass::Homomorphism {
+            self.hom_depth
+        } else {
+            1
+        };
         let mut st = StepState {
             peek: table
                 .has_right
@@ -120,12 +283,16 @@ impl<'a> Deriver<'a> {
         let read_err = |e| Error::io("temporary file", "cannot read", e);
         // Bytes that need no decision take the table; with contexts, keys
         // that have context productions and brackets still go the long way.
-        let fast = (!table.check_balance).then(|| {
-            ByteTable::new(
+        let fast = (!table.check_balance && decomp.is_none() && hom_depth == 1).then(|| {
+            let mut t = ByteTable::new(
                 table,
                 out.text,
                 !indexed && st.left.is_none() && out.indexed.is_none(),
-            )
+            );
+            if cut {
+                t.general(b'%');
+            }
+            t
         });
         loop {
             if let Some(fast) = &fast {
@@ -143,9 +310,70 @@ impl<'a> Deriver<'a> {
             let end_off = rd.offset();
             let bytes = rd.bytes(s, e);
             let applied = match table.get(key) {
-                Some(kr) => self.apply(table, kr, key, bytes, end_off, &mut st, out, pass)?,
+                Some(kr) => self.apply(
+                    table,
+                    kr,
+                    (key, bytes, end_off),
+                    (decomp, hom_depth),
+                    &mut st,
+                    out,
+                    pass,
+                )?,
                 None => false,
             };
+            if !applied && (decomp.is_some() || (cut && key == u32::from(b'%'))) {
+                // The copied module, decomposed; a `%` that nothing
+                // rewrites is a cut.
+                let n = self.alphabet.arity(key);
+                self.rc.levels[0].clear();
+                self.rc.levels[0].push_encoded(key, bytes, n);
+                // (levels[0] holds the copied module for try_rewrite.)
+                let decomposed = match decomp {
+                    Some((d, max)) => {
+                        let cx = RecCtx {
+                            table: d,
+                            max: *max,
+                            al: &self.alphabet,
+                            origin: &self.origin,
+                            pass,
+                        };
+                        let lv = std::mem::take(&mut self.rc.levels[0]);
+                        let (_, params) = lv.get(0, n);
+                        let r = try_rewrite(
+                            &mut self.rc,
+                            &cx,
+                            0,
+                            key,
+                            params,
+                            &mut self.rng,
+                            &mut |_, _| Ok(true),
+                            out,
+                        );
+                        self.rc.levels[0] = lv;
+                        r?
+                    }
+                    None => false,
+                };
+                if decomposed {
+                    if let Some(left) = &mut st.left {
+                        if key != OPEN && key != CLOSE && !self.alphabet.ignored(key) {
+                            left.push(key, bytes, n);
+                        }
+                    }
+                    out.maybe_flush()?;
+                    continue;
+                }
+                if cut && key == u32::from(b'%') && n == 0 {
+                    // Drop the rest of the branch; its `]` stays.
+                    match skip_branch(&mut rd, &self.alphabet, end_off).map_err(read_err)? {
+                        Some(after) => {
+                            rd.seek(after - 1);
+                            continue;
+                        }
+                        None => break,
+                    }
+                }
+            }
             if !applied {
                 if table.check_balance {
                     if key == OPEN {
@@ -189,9 +417,8 @@ impl<'a> Deriver<'a> {
         &mut self,
         table: &Table,
         kr: &KeyRules,
-        key: u32,
-        bytes: &[u8],
-        end_off: u64,
+        (key, bytes, end_off): (u32, &[u8], u64),
+        (decomp, hom_depth): (Option<&(Table, usize)>, usize),
         st: &mut StepState,
         out: &mut Out,
         pass: Pass,
@@ -201,6 +428,8 @@ impl<'a> Deriver<'a> {
             rng,
             origin,
             chooser,
+            rc,
+            ..
         } = self;
         chooser.bind_encoded(bytes, al.arity(key));
         let chosen = chooser.choose(table, kr, rng, origin, pass, |p, slots| {
@@ -221,6 +450,36 @@ impl<'a> Deriver<'a> {
             if p.depth_delta < 0 || p.depth_min < 0 {
                 st.last_closer = Some(pi);
             }
+        }
+        if let Some((d, max)) = decomp {
+            // The successor has depth 0: decompose it.
+            rc.chooser.slots[..p.nslots].copy_from_slice(&chooser.slots[..p.nslots]);
+            fill_level(rc, al, 0, p, rng, origin, pass)?;
+            let cx = RecCtx {
+                table: d,
+                max: *max,
+                al,
+                origin,
+                pass,
+            };
+            return expand_level(rc, &cx, 0, rng, &mut |_, _| Ok(true), out).map(|()| true);
+        }
+        if hom_depth > 1 {
+            // The successor has depth 1; contexts are those of the
+            // original module, at every depth.
+            rc.chooser.slots[..p.nslots].copy_from_slice(&chooser.slots[..p.nslots]);
+            fill_level(rc, al, 1, p, rng, origin, pass)?;
+            let cx = RecCtx {
+                table,
+                max: hom_depth,
+                al,
+                origin,
+                pass,
+            };
+            let mut ctx = |p: &Production, slots: &mut [f64]| {
+                Ok(!surely_not(p, end_off, st, al)? && contexts_match(p, end_off, st, al, slots)?)
+            };
+            return expand_level(rc, &cx, 1, rng, &mut ctx, out).map(|()| true);
         }
         chooser.successor(p, rng, origin, pass, |piece| match piece {
             Piece::Const(c) => out.constant(c),

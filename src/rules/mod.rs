@@ -262,6 +262,18 @@ pub struct KeyRules {
     pub free: Vec<u32>,
     pub context_stochastic: bool,
     pub free_stochastic: bool,
+    /// Group 0's productions of the key, tried when a numbered group's
+    /// choose nothing (issue 11, lpfg's rule).
+    pub fallback: Option<Box<KeyRules>>,
+}
+
+impl KeyRules {
+    fn offset(mut self, by: u32) -> KeyRules {
+        for i in self.context.iter_mut().chain(self.free.iter_mut()) {
+            *i += by;
+        }
+        self
+    }
 }
 
 #[derive(Debug, Default)]
@@ -327,6 +339,30 @@ impl Table {
     pub fn has_context(&self) -> bool {
         self.max_left > 0 || self.has_right
     }
+
+    /// A numbered group's table with group 0 (`base`) as its fallback:
+    /// group 0's productions come after the group's own, and a key with
+    /// productions in both tries the group's first.
+    fn with_fallback(mut self, base: &Table) -> Table {
+        let by = self.prods.len() as u32;
+        self.prods.extend(base.prods.iter().cloned());
+        if self.by_key.len() < base.by_key.len() {
+            self.by_key.resize(base.by_key.len(), None);
+        }
+        for (key, b) in base.by_key.iter().enumerate() {
+            let Some(b) = b else { continue };
+            let b = b.clone().offset(by);
+            match &mut self.by_key[key] {
+                Some(kr) => kr.fallback = Some(Box::new(b)),
+                none => *none = Some(b),
+            }
+        }
+        self.max_left = self.max_left.max(base.max_left);
+        self.has_right |= base.has_right;
+        self.max_right_simple = self.max_right_simple.max(base.max_right_simple);
+        self.check_balance |= base.check_balance;
+        self
+    }
 }
 
 pub struct System {
@@ -336,6 +372,16 @@ pub struct System {
     pub derivation_length: Option<u64>,
     pub seed: Option<u64>,
     pub consts: HashMap<String, f64>,
+    /// Issue 11: numbered production groups, each with group 0 as its
+    /// fallback, and the schedule (group numbers, cycling; empty: every
+    /// step uses group 0).
+    pub groups: Vec<(u32, Table)>,
+    pub schedule: Vec<u32>,
+    /// Decomposition and its maximum depth.
+    pub decomposition: Option<(Table, usize)>,
+    pub hom_depth: usize,
+    /// The homomorphism's own seed (`seed:` in its section).
+    pub hom_seed: Option<u64>,
 }
 
 type R<T> = Result<T, UserError>;
@@ -488,8 +534,33 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         _ => seeds.fallback,
     });
     let mut define_rng = Random::for_constants(run_seed);
+    let mut schedule: Vec<u32> = Vec::new();
+    let mut schedule_span: Option<Span> = None;
+    let h_group_spans: Vec<(u32, Span, ())> =
+        h.groups.iter().map(|(n, s, _)| (*n, *s, ())).collect();
     for s in &h.settings {
         match s {
+            Setting::Groups(list, span) => {
+                if schedule_span.is_some() {
+                    return err(*span, "use either `groups:` or `group:`, not both");
+                }
+                schedule_span = Some(*span);
+                for &(n, at) in list {
+                    if n != 0 && !h.groups.iter().any(|(g, _, _)| *g == n) {
+                        return err(
+                            at,
+                            format!("unknown group {n}: there is no `productions {n}:` section"),
+                        );
+                    }
+                    schedule.push(n);
+                }
+            }
+            Setting::Group(_, span) => {
+                if schedule_span.is_some() {
+                    return err(*span, "use either `groups:` or `group:`, not both");
+                }
+                return err(*span, "`group:` is not implemented yet: use `groups:`");
+            }
             Setting::DerivationLength(e, span) => {
                 if derivation_length.is_some() {
                     return err(*span, "`derivation length:` is set twice");
@@ -537,6 +608,47 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
     let mut alphabet = Alphabet::new(filter.map(|f| f.0).unwrap_or_default());
     let mut num = codec::NumFmt::new();
     let productions = compile_table(h.productions, &mut alphabet, &consts, &mut num)?;
+    let mut groups = Vec::new();
+    for (n, _, prods) in h.groups {
+        let t = compile_table(prods, &mut alphabet, &consts, &mut num)?;
+        groups.push((n, t.with_fallback(&productions)));
+    }
+    if let (Some((n, span, _)), None) = (h_group_spans.first(), schedule_span) {
+        return err(
+            *span,
+            format!("group {n} is never used: add a `groups:` or `group:` setting"),
+        );
+    }
+    let decomposition = match h.decomposition {
+        Some(d) => {
+            let (depth, seed) = section_settings(&d, &consts)?;
+            if let Some(span) = seed {
+                return err(
+                    span,
+                    "decomposition uses the main random generator: no `seed:` here",
+                );
+            }
+            let t = compile_table(d.productions, &mut alphabet, &consts, &mut num)?;
+            Some((t, depth))
+        }
+        None => None,
+    };
+    let (hom_depth, hom_seed) = match &h.hom {
+        Some(s) => {
+            let (depth, _) = section_settings(s, &consts)?;
+            let seed = s
+                .settings
+                .iter()
+                .find_map(|x| match x {
+                    ast::SectionSetting::Seed(e, _) => Some(e),
+                    _ => None,
+                })
+                .map(|e| seed_value(e, &consts, src))
+                .transpose()?;
+            (depth, seed)
+        }
+        None => (1, None),
+    };
     let homomorphism = compile_table(h.homomorphism, &mut alphabet, &consts, &mut num)?;
     Ok(System {
         alphabet,
@@ -545,7 +657,46 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         derivation_length,
         seed,
         consts,
+        groups,
+        schedule,
+        decomposition,
+        hom_depth,
+        hom_seed,
     })
+}
+
+/// A decomposition or homomorphism section's `maximum depth:` (default 1)
+/// and where its `seed:` is, if any.
+fn section_settings(s: &ast::Section, consts: &HashMap<String, f64>) -> R<(usize, Option<Span>)> {
+    let mut depth = None;
+    let mut seed = None;
+    for x in &s.settings {
+        match x {
+            ast::SectionSetting::MaximumDepth(e, span) => {
+                if depth.is_some() {
+                    return err(
+                        *span,
+                        "`maximum depth:` comes once, right after the section keyword",
+                    );
+                }
+                let v = constant(e, consts, &mut Random::new(0))?;
+                if !(1.0..=10000.0).contains(&v) || v.fract() != 0.0 {
+                    return err(
+                        e.span(),
+                        "maximum depth must be a whole number from 1 to 10000",
+                    );
+                }
+                depth = Some(v as usize);
+            }
+            ast::SectionSetting::Seed(_, span) => {
+                if seed.is_some() {
+                    return err(*span, "`seed:` is set twice");
+                }
+                seed = Some(*span);
+            }
+        }
+    }
+    Ok((depth.unwrap_or(1), seed))
 }
 
 fn compile_table(
