@@ -189,6 +189,7 @@ pub(crate) fn derive(
         homomorphism,
         groups,
         schedule,
+        group_expr,
         decomposition,
         hom_depth,
         hom_seed,
@@ -200,7 +201,6 @@ pub(crate) fn derive(
         || groups.iter().any(|(_, t)| t.has_right)
         || (hom && homomorphism.has_right);
     let pct = u32::from(b'%');
-    let cuts = productions.get(pct).is_none() && groups.iter().all(|(_, t)| t.get(pct).is_none());
     let passes = steps + u64::from(hom);
     let strategy = settings.strategy;
     let not_depth_first = || {
@@ -213,8 +213,17 @@ pub(crate) fn derive(
     }
     let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
     d.hom_depth = hom_depth;
-    d.cut = cuts;
-    let structural = !schedule.is_empty() || decomposition.is_some() || hom_depth > 1;
+    // A `%` that no production rewrites is a cut (docs/structural.md, section 5).
+    d.cut = true;
+    let structural = !schedule.is_empty()
+        || group_expr.is_some()
+        || decomposition.is_some()
+        || hom_depth > 1
+        || std::iter::once(&productions)
+            .chain(groups.iter().map(|(_, t)| t))
+            .chain(decomposition.iter().map(|(t, _)| t))
+            .chain(std::iter::once(&homomorphism))
+            .any(uses_step);
     d.decomp = decomposition;
     let mut generation = |pass: Pass, (modules, bytes): (u64, u64)| {
         events(&Event::Generation {
@@ -256,13 +265,12 @@ pub(crate) fn derive(
     // implemented by the step engine only; a `%` that can be a cut makes a
     // module's expansion depend on its neighbours.
     let step_only = structural
-        || (cuts
-            && (makes_percent(&d, &productions, &groups)
-                || cur
-                    .as_ref()
-                    .map(|f| crate::derive::dfs::census(f, &d.alphabet))
-                    .transpose()?
-                    .is_some_and(|c| c.hist[pct as usize] > 0)));
+        || makes_percent(&d, &productions, &groups)
+        || cur
+            .as_ref()
+            .map(|f| crate::derive::dfs::census(f, &d.alphabet))
+            .transpose()?
+            .is_some_and(|c| c.hist[pct as usize] > 0);
     let strategy = if step_only {
         if strategy == Strategy::DepthFirst {
             return Err(not_depth_first());
@@ -347,7 +355,9 @@ pub(crate) fn derive(
         productions: &productions,
         groups: &groups,
         schedule: &schedule,
+        group_expr: group_expr.as_ref(),
         hom_seed,
+        fixed_points: !structural,
     };
     let stepwise = step_passes(
         &mut d,
@@ -387,12 +397,14 @@ fn step_passes(
     let mut i = 1;
     while i <= passes {
         let (table, pass) = if i <= steps {
-            (tables.table_for(i), Pass::Step(i))
+            d.rng.set_step(i);
+            (tables.table_for(i, d)?, Pass::Step(i))
         } else {
             if let Some(s) = tables.hom_seed {
                 // The homomorphism's own generator (its `seed:`).
                 d.rng = Random::new(s);
             }
+            d.rng.set_step(steps);
             (homomorphism, Pass::Homomorphism)
         };
         let src = cur.take().expect("a generation to read");
@@ -424,7 +436,7 @@ fn step_passes(
         // point: every later step does the same. Go on with the last pass
         // (the homomorphism, or the last step, which writes the text).
         let last = if hom { passes } else { steps };
-        if i < steps && last > i + 1 && d.rng.draws() == draws && tables.schedule.is_empty() {
+        if i < steps && last > i + 1 && d.rng.draws() == draws && tables.fixed_points {
             if let Some(next) = &dst {
                 if same_contents(&src, next)? {
                     events(&Event::FixedPoint {
@@ -450,21 +462,62 @@ struct Tables<'t> {
     productions: &'t crate::rules::Table,
     groups: &'t [(u32, crate::rules::Table)],
     schedule: &'t [u32],
+    group_expr: Option<&'t crate::rules::expr::Code>,
     hom_seed: Option<u64>,
+    /// A step that changed nothing means every later step changes
+    /// nothing (not with groups, `step`, ...).
+    fixed_points: bool,
 }
 
-impl Tables<'_> {
-    /// The table of step `step` (1 for the first).
-    fn table_for(&self, step: u64) -> &crate::rules::Table {
-        if self.schedule.is_empty() {
-            return self.productions;
-        }
-        let g = self.schedule[((step - 1) % self.schedule.len() as u64) as usize];
-        self.groups
+impl<'t> Tables<'t> {
+    /// The table of step `step` (1 for the first; `d.rng` has its number).
+    fn table_for(&self, step: u64, d: &mut Deriver) -> Result<&'t crate::rules::Table, Error> {
+        let g = if let Some(code) = self.group_expr {
+            let v = code
+                .eval(&[], &mut Vec::new(), &mut d.rng)
+                .map_err(|e| d.origin.eval_error(e, Pass::Step(step)))?;
+            let at = d.origin.locate(code.span.0);
+            if !(0.0..=65535.0).contains(&v) || v.fract() != 0.0 {
+                return Err(Error::at(
+                    at,
+                    format!(
+                        "group: gives {} in step {step}, not a group number",
+                        crate::rules::codec::number_string(v)
+                    ),
+                ));
+            }
+            let g = v as u32;
+            if g != 0 && !self.groups.iter().any(|(n, _)| *n == g) {
+                return Err(Error::at(
+                    at,
+                    format!(
+                        "group: gives {g} in step {step}, but there is no `productions {g}:` section"
+                    ),
+                ));
+            }
+            g
+        } else if self.schedule.is_empty() {
+            return Ok(self.productions);
+        } else {
+            self.schedule[((step - 1) % self.schedule.len() as u64) as usize]
+        };
+        Ok(self
+            .groups
             .iter()
             .find(|(n, _)| *n == g)
-            .map_or(self.productions, |(_, t)| t)
+            .map_or(self.productions, |(_, t)| t))
     }
+}
+
+/// Does a production of `t` read the built-in `step`?
+fn uses_step(t: &crate::rules::Table) -> bool {
+    t.prods.iter().any(|p| {
+        p.cond.iter().chain(p.prob.iter()).any(|c| c.uses_step())
+            || p.succ.iter().any(|i| match i {
+                crate::rules::Item::Module { params, .. } => params.iter().any(|c| c.uses_step()),
+                crate::rules::Item::Const(_) => false,
+            })
+    })
 }
 
 /// Can a production or decomposition successor make a `%`?

@@ -5,11 +5,23 @@
 use rand_chacha::rand_core::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-pub struct Random(ChaCha8Rng, u64);
+/// The generator, its count of draws, and the step number the built-in
+/// `step` reads (issue 11).
+pub struct Random(ChaCha8Rng, u64, f64);
 
 impl Random {
     pub fn new(seed: u64) -> Random {
-        Random(ChaCha8Rng::seed_from_u64(seed), 0)
+        Random(ChaCha8Rng::seed_from_u64(seed), 0, 0.0)
+    }
+
+    /// The value of the built-in `step` from now on.
+    pub fn set_step(&mut self, step: u64) {
+        self.2 = step as f64;
+    }
+
+    #[inline]
+    pub fn step(&self) -> f64 {
+        self.2
     }
 
     /// The generator of random constants (`ran` in `define:`): the run's
@@ -17,7 +29,7 @@ impl Random {
     pub fn for_constants(seed: u64) -> Random {
         let mut r = ChaCha8Rng::seed_from_u64(seed);
         r.set_stream(1);
-        Random(r, 0)
+        Random(r, 0, 0.0)
     }
 
     /// How many draws were made so far (a step that made none and left the

@@ -377,6 +377,8 @@ pub struct System {
     /// step uses group 0).
     pub groups: Vec<(u32, Table)>,
     pub schedule: Vec<u32>,
+    /// `group: EXPR`, evaluated with `step` before each step.
+    pub group_expr: Option<Code>,
     /// Decomposition and its maximum depth.
     pub decomposition: Option<(Table, usize)>,
     pub hom_depth: usize,
@@ -536,6 +538,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
     let mut define_rng = Random::for_constants(run_seed);
     let mut schedule: Vec<u32> = Vec::new();
     let mut schedule_span: Option<Span> = None;
+    let mut group_expr: Option<Code> = None;
     let h_group_spans: Vec<(u32, Span, ())> =
         h.groups.iter().map(|(n, s, _)| (*n, *s, ())).collect();
     for s in &h.settings {
@@ -555,11 +558,19 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
                     schedule.push(n);
                 }
             }
-            Setting::Group(_, span) => {
+            Setting::Group(e, span) => {
                 if schedule_span.is_some() {
                     return err(*span, "use either `groups:` or `group:`, not both");
                 }
-                return err(*span, "`group:` is not implemented yet: use `groups:`");
+                schedule_span = Some(*span);
+                if is_random(e, &HashSet::new()) {
+                    return err(e.span(), "`group:` cannot use ran or nran");
+                }
+                let mut names = HashMap::new();
+                if !consts.contains_key("step") {
+                    names.insert("step".to_string(), expr::STEP_SLOT);
+                }
+                group_expr = Some(compile_code(e, &names, &consts)?);
             }
             Setting::DerivationLength(e, span) => {
                 if derivation_length.is_some() {
@@ -659,6 +670,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         consts,
         groups,
         schedule,
+        group_expr,
         decomposition,
         hom_depth,
         hom_seed,
@@ -810,6 +822,10 @@ fn compile_production(
                 right.push(RPat::Module(Pat { key: k, slot }));
             }
         }
+    }
+    // The built-in step number, unless a parameter or constant hides it.
+    if !consts.contains_key("step") {
+        names.entry("step".to_string()).or_insert(expr::STEP_SLOT);
     }
     let cond = p
         .cond
