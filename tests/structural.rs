@@ -22,8 +22,10 @@ fn derive(file: &Path, n: &str, strategy: &str) -> String {
     String::from_utf8(r.stdout).unwrap()
 }
 
-/// The models of tests/structural/ (and those moved to examples/) against
-/// every `NAME.nN.txt` in tests/expected/structural/.
+/// The models of tests/structural/ against every `NAME.nN.txt` in
+/// tests/expected/structural/ (shedding_plant, compound_leaf and
+/// alternating_tables moved to examples/ and tests/expected/, where
+/// tests/examples.rs checks them; checked here too, with both strategies).
 #[test]
 fn every_structural_model_matches_the_reference() {
     let dir = Path::new(ROOT).join("tests/expected/structural");
@@ -51,17 +53,35 @@ fn every_structural_model_matches_the_reference() {
         }
         checked += 1;
     }
-    assert!(checked >= 28, "only {checked} expected files found");
+    for (model, n) in [
+        ("shedding_plant", 3),
+        ("shedding_plant", 5),
+        ("compound_leaf", 3),
+        ("alternating_tables", 6),
+    ] {
+        let want = std::fs::read_to_string(
+            Path::new(ROOT).join(format!("tests/expected/{model}.n{n}.txt")),
+        )
+        .unwrap();
+        let file = Path::new(ROOT).join(format!("examples/{model}.ls"));
+        for strategy in ["auto", "step"] {
+            assert_eq!(
+                derive(&file, &n.to_string(), strategy),
+                want,
+                "{model} -n {n}"
+            );
+        }
+    }
+    assert!(checked >= 16, "only {checked} expected files found");
 }
 
 /// The 300 random systems of random_cases.txt (every feature, written by
 /// tests/tools/gen_cross_cases.py with ref.py).
 #[test]
 fn random_cases_match_the_reference() {
-    let text = std::fs::read_to_string(
-        Path::new(ROOT).join("tests/expected/structural/random_cases.txt"),
-    )
-    .unwrap();
+    let text =
+        std::fs::read_to_string(Path::new(ROOT).join("tests/expected/structural/random_cases.txt"))
+            .unwrap();
     let dir = tempdir();
     let file = dir.path().join("case.ls");
     let mut cases = 0;
@@ -100,7 +120,11 @@ fn depth_first_refuses_structural_systems() {
         std::fs::write(&file, src).unwrap();
         let r = run(lsgen().args(["-n", "2", "--strategy", "dfs"]).arg(&file));
         assert_eq!(r.status.code(), Some(2), "{src}: {}", r.stderr);
-        assert!(r.stderr.contains("cannot be derived depth first"), "{}", r.stderr);
+        assert!(
+            r.stderr.contains("cannot be derived depth first"),
+            "{}",
+            r.stderr
+        );
     }
 }
 
@@ -133,7 +157,11 @@ fn seeded_stochastic_groups_are_reproducible() {
 fn cut_by_hand() {
     let dir = tempdir();
     let cases = [
-        ("productions:\nA -> B\naxiom: A[+%F[G]H]I%J\n", "1", "B[+]I\n"),
+        (
+            "productions:\nA -> B\naxiom: A[+%F[G]H]I%J\n",
+            "1",
+            "B[+]I\n",
+        ),
         ("productions:\n% -> %\naxiom: A[%B]C\n", "1", "A[%B]C\n"),
         ("homomorphism:\nA -> %\naxiom: A[%B]C\n", "0", "%[%B]C\n"),
         (
