@@ -56,6 +56,9 @@ fn push_const(m: &mut Modules, c: &crate::rules::ConstRun, al: &Alphabet) {
     }
 }
 
+/// Do a production's contexts match (binding their parameters)?
+type ContextFn<'c> = dyn FnMut(&Production, &mut [f64]) -> Result<bool, Error> + 'c;
+
 /// Everything the recursion reads.
 struct RecCtx<'r, 'o> {
     table: &'r Table,
@@ -72,7 +75,7 @@ fn expand_level(
     cx: &RecCtx,
     depth: usize,
     rng: &mut Random,
-    ctx: &mut dyn FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    ctx: &mut ContextFn,
     out: &mut Out,
 ) -> Result<(), Error> {
     let buf = std::mem::take(&mut rc.levels[depth]);
@@ -104,7 +107,7 @@ fn try_rewrite(
     key: u32,
     params: &[f64],
     rng: &mut Random,
-    ctx: &mut dyn FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    ctx: &mut ContextFn,
     out: &mut Out,
 ) -> Result<bool, Error> {
     if depth >= cx.max {

@@ -572,6 +572,11 @@ impl System {
                     }
                     filter = Filter::Consider(set);
                 }
+                // split_structure took the schedule lines out: this
+                // reference reads them itself.
+                Setting::Groups(..) | Setting::Group(..) => {
+                    return Err("schedule left in the main header".into())
+                }
             }
         }
         let rules = h
