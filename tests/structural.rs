@@ -176,3 +176,61 @@ fn cut_by_hand() {
         assert_eq!(derive(&file, n, "auto"), *want, "{src}");
     }
 }
+
+/// `warnings` (docs/structural.md, section 4): once per section per run, at
+/// the first production in file order that would still apply; the output
+/// and the exit status are unchanged; without `warnings`, silence.
+#[test]
+fn depth_warnings() {
+    let dir = tempdir();
+    let file = dir.path().join("p.ls");
+    let src = "derivation length: 3\nproductions:\nA -> AL\ndecomposition: warnings\n\
+               maximum depth: 2\nL -> [+P][-P]\nP : 2 < 1 -> S\nP -> Q\nQ -> R\naxiom:\nA\n";
+    std::fs::write(&file, src).unwrap();
+    let r = run(lsgen().arg(&file));
+    assert!(r.status.success(), "{}", r.stderr);
+    // Step 1: L -> [+P][-P] (depth 1), P -> Q (depth 2), Q kept at the
+    // limit although `Q -> R` applies; steps 2 and 3 rewrite the kept Q.
+    assert_eq!(
+        String::from_utf8(r.stdout).unwrap(),
+        "A[+Q][-Q][+R][-R][+R][-R]\n"
+    );
+    assert_eq!(
+        r.stderr,
+        format!(
+            "lsgen: {}:9:1: warning: decomposition stopped at maximum depth 2, but this \
+             production still applies (to module Q, in step 1)\nQ -> R\n^\n",
+            file.display()
+        )
+    );
+    // Without `warnings`: the same string, nothing on stderr.
+    std::fs::write(
+        &file,
+        src.replace("decomposition: warnings", "decomposition:"),
+    )
+    .unwrap();
+    let r = run(lsgen().arg(&file));
+    assert_eq!(
+        String::from_utf8(r.stdout).unwrap(),
+        "A[+Q][-Q][+R][-R][+R][-R]\n"
+    );
+    assert_eq!(r.stderr, "");
+
+    // The homomorphism, default depth 1: G -> K would apply to the G made
+    // by F -> G; the false condition before it does not count.
+    std::fs::write(
+        &file,
+        "homomorphism: warnings\nF -> G\nG : 1 > 2 -> H\nG -> K\naxiom:\nFF\n",
+    )
+    .unwrap();
+    let r = run(lsgen().arg(&file));
+    assert_eq!(String::from_utf8(r.stdout).unwrap(), "GG\n");
+    assert_eq!(
+        r.stderr,
+        format!(
+            "lsgen: {}:4:1: warning: homomorphism stopped at maximum depth 1, but this \
+             production still applies (to module G)\nG -> K\n^\n",
+            file.display()
+        )
+    );
+}

@@ -193,6 +193,7 @@ pub(crate) fn derive(
         decomposition,
         hom_depth,
         hom_seed,
+        warnings,
         ..
     } = system;
     let hom = settings.homomorphism && !homomorphism.is_empty();
@@ -213,12 +214,14 @@ pub(crate) fn derive(
     }
     let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
     d.hom_depth = hom_depth;
+    d.warnings = warnings;
     // A `%` that no production rewrites is a cut (docs/structural.md, section 5).
     d.cut = true;
     let structural = !schedule.is_empty()
         || group_expr.is_some()
         || decomposition.is_some()
         || hom_depth > 1
+        || (hom && warnings[1])
         || std::iter::once(&productions)
             .chain(groups.iter().map(|(_, t)| t))
             .chain(decomposition.iter().map(|(t, _)| t))

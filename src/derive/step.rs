@@ -18,6 +18,7 @@ use crate::derive::random::Random;
 use crate::diag::Error;
 use crate::rules::codec::{self, Modules};
 use crate::rules::{Alphabet, KeyRules, Production, RPat, Table, CLOSE, OPEN};
+use std::cell::Cell;
 use std::fs::File;
 use std::io;
 
@@ -33,6 +34,10 @@ pub struct Deriver<'a> {
     pub decomp: Option<(Table, usize)>,
     pub hom_depth: usize,
     pub cut: bool,
+    /// `warnings` on the decomposition / homomorphism section, and whether
+    /// each has warned (once per run).
+    pub warnings: [bool; 2],
+    warned: [Cell<bool>; 2],
     rc: Recur,
 }
 
@@ -42,6 +47,8 @@ pub struct Deriver<'a> {
 struct Recur {
     chooser: Chooser,
     levels: Vec<Modules>,
+    /// Scratch stack of the depth-warning check.
+    stack: Vec<f64>,
 }
 
 /// Append the modules of a precompiled run to `m`.
@@ -66,6 +73,67 @@ struct RecCtx<'r, 'o> {
     al: &'r Alphabet,
     origin: &'r Origin<'o>,
     pass: Pass,
+    /// Warn (once: the cell) when the depth limit keeps a module that a
+    /// production would still rewrite.
+    warn: Option<&'r Cell<bool>>,
+}
+
+/// The depth limit keeps (key, params): with `warnings`, say once if a
+/// production of the section would still apply (docs/structural.md,
+/// section 4). Makes no draw: a condition that draws counts as applying,
+/// and so does one that fails.
+fn depth_warning(
+    rc: &mut Recur,
+    cx: &RecCtx,
+    key: u32,
+    params: &[f64],
+    rng: &mut Random,
+    ctx: &mut ContextFn,
+) {
+    let Some(done) = cx.warn.filter(|d| !d.get()) else {
+        return;
+    };
+    let Some(kr) = cx.table.get(key) else {
+        return;
+    };
+    let mut first: Option<u32> = None;
+    for &pi in kr.context.iter().chain(kr.free.iter()) {
+        if first.is_some_and(|f| f < pi) {
+            continue;
+        }
+        let p = &cx.table.prods[pi as usize];
+        rc.chooser.bind(params);
+        if !ctx(p, &mut rc.chooser.slots).unwrap_or(true) {
+            continue;
+        }
+        let applies = match &p.cond {
+            None => true,
+            Some(c) if c.uses_random() => true,
+            Some(c) => c
+                .eval(&rc.chooser.slots, &mut rc.stack, rng)
+                .map_or(true, |v| v != 0.0),
+        };
+        if applies {
+            first = Some(pi);
+        }
+    }
+    let Some(pi) = first else {
+        return;
+    };
+    done.set(true);
+    let p = &cx.table.prods[pi as usize];
+    let sym = cx.al.symbol(key);
+    let message = match cx.pass {
+        Pass::Step(k) => format!(
+            "decomposition stopped at maximum depth {}, but this production still applies (to module {sym}, in step {k})",
+            cx.max
+        ),
+        _ => format!(
+            "homomorphism stopped at maximum depth {}, but this production still applies (to module {sym})",
+            cx.max
+        ),
+    };
+    crate::diag::warn(cx.origin.locate(p.span.0), &message);
 }
 
 /// Rewrite each module of `rc.levels[depth]` (its modules have depth
@@ -111,6 +179,7 @@ fn try_rewrite(
     out: &mut Out,
 ) -> Result<bool, Error> {
     if depth >= cx.max {
+        depth_warning(rc, cx, key, params, rng, ctx);
         return Ok(false);
     }
     let Some(kr) = cx.table.get(key) else {
@@ -222,6 +291,8 @@ impl<'a> Deriver<'a> {
             decomp: None,
             hom_depth: 1,
             cut: false,
+            warnings: [false; 2],
+            warned: [Cell::new(false), Cell::new(false)],
             rc: Recur::default(),
         }
     }
@@ -286,7 +357,8 @@ impl<'a> Deriver<'a> {
         let read_err = |e| Error::io("temporary file", "cannot read", e);
         // Bytes that need no decision take the table; with contexts, keys
         // that have context productions and brackets still go the long way.
-        let fast = (!table.check_balance && decomp.is_none() && hom_depth == 1).then(|| {
+        let hom_rec = pass == Pass::Homomorphism && (hom_depth > 1 || self.warnings[1]);
+        let fast = (!table.check_balance && decomp.is_none() && !hom_rec).then(|| {
             let mut t = ByteTable::new(
                 table,
                 out.text,
@@ -339,6 +411,7 @@ impl<'a> Deriver<'a> {
                             al: &self.alphabet,
                             origin: &self.origin,
                             pass,
+                            warn: self.warnings[0].then_some(&self.warned[0]),
                         };
                         let lv = std::mem::take(&mut self.rc.levels[0]);
                         let (_, params) = lv.get(0, n);
@@ -432,6 +505,8 @@ impl<'a> Deriver<'a> {
             origin,
             chooser,
             rc,
+            warnings,
+            warned,
             ..
         } = self;
         chooser.bind_encoded(bytes, al.arity(key));
@@ -464,10 +539,11 @@ impl<'a> Deriver<'a> {
                 al,
                 origin,
                 pass,
+                warn: warnings[0].then_some(&warned[0]),
             };
             return expand_level(rc, &cx, 0, rng, &mut |_, _| Ok(true), out).map(|()| true);
         }
-        if hom_depth > 1 {
+        if pass == Pass::Homomorphism && (hom_depth > 1 || warnings[1]) {
             // The successor has depth 1; contexts are those of the
             // original module, at every depth.
             rc.chooser.slots[..p.nslots].copy_from_slice(&chooser.slots[..p.nslots]);
@@ -478,6 +554,7 @@ impl<'a> Deriver<'a> {
                 al,
                 origin,
                 pass,
+                warn: warnings[1].then_some(&warned[1]),
             };
             let mut ctx = |p: &Production, slots: &mut [f64]| {
                 Ok(!surely_not(p, end_off, st, al)? && contexts_match(p, end_off, st, al, slots)?)

@@ -384,6 +384,8 @@ pub struct System {
     pub hom_depth: usize,
     /// The homomorphism's own seed (`seed:` in its section).
     pub hom_seed: Option<u64>,
+    /// `warnings` on the decomposition and on the homomorphism.
+    pub warnings: [bool; 2],
 }
 
 type R<T> = Result<T, UserError>;
@@ -630,6 +632,10 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
             format!("group {n} is never used: add a `groups:` or `group:` setting"),
         );
     }
+    let warnings = [
+        h.decomposition.as_ref().is_some_and(|d| d.warnings),
+        h.hom.as_ref().is_some_and(|d| d.warnings),
+    ];
     let decomposition = match h.decomposition {
         Some(d) => {
             let (depth, seed) = section_settings(&d, &consts)?;
@@ -674,6 +680,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         decomposition,
         hom_depth,
         hom_seed,
+        warnings,
     })
 }
 
