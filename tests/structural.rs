@@ -234,3 +234,32 @@ fn depth_warnings() {
         )
     );
 }
+
+/// A constant or a formal parameter named `step` hides the built-in, with
+/// a warning at its place (docs/structural.md, section 7).
+#[test]
+fn step_hidden_by_a_constant_or_parameter() {
+    let dir = tempdir();
+    let file = dir.path().join("p.ls");
+    std::fs::write(
+        &file,
+        "define: step = 7\nproductions:\nA(step) -> A(step+1)B(step)\nB(x) -> C(step)\naxiom:\nA(1)\n",
+    )
+    .unwrap();
+    let r = run(lsgen().args(["-n", "2"]).arg(&file));
+    assert!(r.status.success(), "{}", r.stderr);
+    // A's parameter hides the constant in A's production; B's sees 7.
+    assert_eq!(String::from_utf8(r.stdout).unwrap(), "A(3)B(2)C(7)\n");
+    let p = file.display();
+    assert_eq!(
+        r.stderr,
+        format!(
+            "lsgen: {p}:1:1: warning: `step` hides the built-in step number\ndefine: step = 7\n^\n\
+             lsgen: {p}:3:3: warning: `step` hides the built-in step number\n\
+             A(step) -> A(step+1)B(step)\n  ^\n"
+        )
+    );
+    // Without them, `step` is the step number: 1, then 2.
+    std::fs::write(&file, "productions:\nA(x) -> A(x+step)\naxiom:\nA(0)\n").unwrap();
+    assert_eq!(derive(&file, "3", "auto"), "A(6)\n");
+}

@@ -194,6 +194,7 @@ pub(crate) fn derive(
         hom_depth,
         hom_seed,
         warnings,
+        step_hidden,
         ..
     } = system;
     let hom = settings.homomorphism && !homomorphism.is_empty();
@@ -213,6 +214,12 @@ pub(crate) fn derive(
         return Err(not_depth_first());
     }
     let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
+    for span in step_hidden {
+        crate::diag::warn(
+            d.origin.locate(span.0),
+            "`step` hides the built-in step number",
+        );
+    }
     d.hom_depth = hom_depth;
     d.warnings = warnings;
     // A `%` that no production rewrites is a cut (docs/structural.md, section 5).
@@ -269,7 +276,9 @@ pub(crate) fn derive(
     // module's expansion depend on its neighbours.
     let step_only = structural
         || makes_percent(&d, &productions, &groups)
-        || cur
+        // (An indexed axiom means contexts: never depth first anyway, and
+        // the census reads the plain format only.)
+        || !indexed && cur
             .as_ref()
             .map(|f| crate::derive::dfs::census(f, &d.alphabet))
             .transpose()?

@@ -386,6 +386,39 @@ pub struct System {
     pub hom_seed: Option<u64>,
     /// `warnings` on the decomposition and on the homomorphism.
     pub warnings: [bool; 2],
+    /// Where a constant or a formal parameter named `step` hides the
+    /// built-in step number (a warning each).
+    pub step_hidden: Vec<Span>,
+}
+
+/// Constants and formal parameters named `step` (issue 11).
+fn hidden_step(h: &ast::Header) -> Vec<Span> {
+    let mut out = Vec::new();
+    for s in &h.settings {
+        if let Setting::Define(name, _, span) = s {
+            if name == "step" {
+                out.push(*span);
+            }
+        }
+    }
+    let prods = h
+        .productions
+        .iter()
+        .chain(h.groups.iter().flat_map(|(_, _, p)| p.iter()))
+        .chain(h.decomposition.iter().flat_map(|d| d.productions.iter()))
+        .chain(h.homomorphism.iter());
+    for p in prods {
+        for m in p.left.iter().chain([&p.pred]).chain(p.right.iter()) {
+            for e in &m.params {
+                if let Expr::Var(name, span) = e {
+                    if name == "step" {
+                        out.push(*span);
+                    }
+                }
+            }
+        }
+    }
+    out
 }
 
 type R<T> = Result<T, UserError>;
@@ -538,6 +571,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         _ => seeds.fallback,
     });
     let mut define_rng = Random::for_constants(run_seed);
+    let step_hidden = hidden_step(&h);
     let mut schedule: Vec<u32> = Vec::new();
     let mut schedule_span: Option<Span> = None;
     let mut group_expr: Option<Code> = None;
@@ -681,6 +715,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         hom_depth,
         hom_seed,
         warnings,
+        step_hidden,
     })
 }
 
