@@ -111,7 +111,7 @@ fn depth_warning(
             Some(c) if c.uses_random() => true,
             Some(c) => c
                 .eval(&rc.chooser.slots, &mut rc.stack, rng)
-                .map_or(true, |v| v != 0.0),
+                .is_err_or(|v| v != 0.0),
         };
         if applies {
             first = Some(pi);
