@@ -109,9 +109,7 @@ fn depth_warning(
         let applies = match &p.cond {
             None => true,
             Some(c) if c.uses_random() => true,
-            Some(c) => c
-                .eval(&rc.chooser.slots, &mut rc.stack, rng)
-                .is_err_or(|v| v != 0.0),
+            Some(c) => !matches!(c.eval(&rc.chooser.slots, &mut rc.stack, rng), Ok(v) if v == 0.0),
         };
         if applies {
             first = Some(pi);
