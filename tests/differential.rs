@@ -652,8 +652,6 @@ fn gen_case(cfg: Cfg, seed: u64) -> Case {
         ));
         filter = Some((ignore, set));
     }
-    let mut kinds = kinds;
-    let mut consts = consts;
     if cfg.structural {
         // `%` is a symbol like the others (a cut when nothing rewrites
         // it), and `step` a name like the constants.
