@@ -733,6 +733,10 @@ cases! {
         err("derivation length: 3\ngroup: step\nproductions 1:\nL -> LF\naxiom: L\n", 2, 8, "group: gives 2 in step 2, but there is no `productions 2:` section");
     group_expression_gives_fraction =>
         err("derivation length: 3\ngroup: step / 2\nproductions 1:\nL -> LF\naxiom: L\n", 2, 8, "group: gives 0.5 in step 1, not a group number");
+    decomposition_unbalanced =>
+        err("productions:\nX -> XL\ndecomposition:\nL -> [F\naxiom: X\n", 4, 1, "a decomposition successor must balance its brackets");
+    deep_homomorphism_unbalanced =>
+        err("homomorphism:\nmaximum depth: 2\nL -> F]\naxiom: L\n", 3, 1, "a homomorphism successor must balance its brackets");
     step_in_define =>
         err("define: x = step\naxiom: F(x)\n", 1, 13, "unknown identifier `step`");
     step_in_axiom =>

@@ -680,6 +680,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
                 );
             }
             let t = compile_table(d.productions, &mut alphabet, &consts, &mut num)?;
+            balanced(&t, "a decomposition successor must balance its brackets")?;
             Some((t, depth))
         }
         None => None,
@@ -701,6 +702,12 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         None => (1, None),
     };
     let homomorphism = compile_table(h.homomorphism, &mut alphabet, &consts, &mut num)?;
+    if hom_depth > 1 {
+        balanced(
+            &homomorphism,
+            "with `maximum depth:` above 1, a homomorphism successor must balance its brackets",
+        )?;
+    }
     Ok(System {
         alphabet,
         productions,
@@ -717,6 +724,19 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         warnings,
         step_hidden,
     })
+}
+
+/// Recursive rewriting does not track brackets: every successor of `t`
+/// must balance (each `]` after its `[`).
+fn balanced(t: &Table, message: &str) -> R<()> {
+    match t
+        .prods
+        .iter()
+        .find(|p| p.depth_delta != 0 || p.depth_min < 0)
+    {
+        Some(p) => err(p.span, message),
+        None => Ok(()),
+    }
 }
 
 /// A decomposition or homomorphism section's `maximum depth:` (default 1)
