@@ -248,7 +248,8 @@ pub(crate) fn derive(
         "temporary file in {}",
         tmpdir.clone().unwrap_or_else(std::env::temp_dir).display()
     );
-    // Generation 0: the axiom.
+    // Generation 0: the axiom (does it hold a `%`?).
+    let mut axiom_cuts = false;
     let mut cur = if passes == 0 {
         None
     } else {
@@ -258,9 +259,15 @@ pub(crate) fn derive(
         let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, indexed)?;
         let mut params = Vec::new();
         loop {
-            reader.plain_run(|run| out.plain(run))??;
+            reader.plain_run(|run| {
+                axiom_cuts |= run.contains(&b'%');
+                out.plain(run)
+            })??;
             match reader.next(&mut d.alphabet, &mut params, &mut d.rng)? {
-                Some(key) => out.module(key, &params, &d.alphabet)?,
+                Some(key) => {
+                    axiom_cuts |= key == pct;
+                    out.module(key, &params, &d.alphabet)?
+                }
                 None => break,
             }
             out.maybe_flush()?;
@@ -274,15 +281,7 @@ pub(crate) fn derive(
     // Issue 11: groups, decomposition, homomorphism depth and cuts are
     // implemented by the step engine only; a `%` that can be a cut makes a
     // module's expansion depend on its neighbours.
-    let step_only = structural
-        || makes_percent(&d, &productions, &groups)
-        // (An indexed axiom means contexts: never depth first anyway, and
-        // the census reads the plain format only.)
-        || !indexed && cur
-            .as_ref()
-            .map(|f| crate::derive::dfs::census(f, &d.alphabet))
-            .transpose()?
-            .is_some_and(|c| c.hist[pct as usize] > 0);
+    let step_only = structural || makes_percent(&d, &productions, &groups) || axiom_cuts;
     let strategy = if step_only {
         if strategy == Strategy::DepthFirst {
             return Err(not_depth_first());
