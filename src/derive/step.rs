@@ -151,7 +151,10 @@ fn expand_level(
         let (_, params) = buf.get(i, cx.al.arity(key));
         r = match try_rewrite(rc, cx, depth, key, params, rng, ctx, out) {
             Ok(true) => Ok(()),
-            Ok(false) => out.module(key, params, cx.al),
+            // (A flush per module: one module's recursion may write a lot.)
+            Ok(false) => out
+                .module(key, params, cx.al)
+                .and_then(|()| out.maybe_flush()),
             Err(e) => Err(e),
         };
         if r.is_err() {
