@@ -263,3 +263,30 @@ fn step_hidden_by_a_constant_or_parameter() {
     std::fs::write(&file, "productions:\nA(x) -> A(x+step)\naxiom:\nA(0)\n").unwrap();
     assert_eq!(derive(&file, "3", "auto"), "A(6)\n");
 }
+
+/// One module's decomposition can be huge (2^40 modules here): the output
+/// is flushed, and so checked against --max-length, as it is written.
+#[test]
+fn a_huge_decomposition_meets_max_length() {
+    let dir = tempdir();
+    let file = dir.path().join("p.ls");
+    std::fs::write(
+        &file,
+        "productions:\nX -> X\ndecomposition:\nmaximum depth: 40\nA -> AA\naxiom:\nA\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out.txt");
+    let r = run(lsgen()
+        .args(["-n", "1", "--max-length", "1000000"])
+        .arg(&file)
+        .arg("-o")
+        .arg(&out));
+    assert_eq!(r.status.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr
+            .contains("--max-length (1000000 modules) in step 1"),
+        "{}",
+        r.stderr
+    );
+    assert!(!out.exists());
+}
