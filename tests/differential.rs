@@ -1767,15 +1767,30 @@ fn frames_of_structural_systems_equal_single_runs() {
     let path = dir.path().join("p.ls");
     std::fs::write(
         &path,
-        "productions:\nA(x) -> [%Q]A(ran(1))I\ndecomposition:\nI -> F(step)\nhomomorphism:\nmaximum depth: 2\nseed: 4\nA(x) -> B(ran(1))\nB(x) -> C(x, ran(1))\nF(x) -> G(x)\naxiom: A(0) I\n",
+        "productions:\nA(x) -> [%Q]A(ran(1))I\ndecomposition:\nI -> J\nJ -> F(step)\nhomomorphism:\nmaximum depth: 2\nseed: 4\nA(x) -> B(ran(1))\nB(x) -> C(x, ran(1))\nF(x) -> G(x)\naxiom: A(0) I\n",
     )
     .unwrap();
     let args = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
-    let frames = binary(&path, &args(&["--seed", "3", "--frames", "0..4"]), None).unwrap();
-    let lines: Vec<&str> = frames.lines().collect();
-    assert_eq!(lines.len(), 5);
-    for (k, line) in lines.iter().enumerate() {
-        let one = binary(&path, &args(&["--seed", "3", "-n", &k.to_string()]), None).unwrap();
-        assert_eq!(format!("{line}\n"), one, "frame {k}");
+    // Without the homomorphism a frame is a plain copy of its generation,
+    // which holds a `%` and a `J` (kept by the maximum depth 1).
+    for hom in [&[][..], &["--no-homomorphism"][..]] {
+        let frames = binary(
+            &path,
+            &args(&[&["--seed", "3", "--frames", "0..4"][..], hom].concat()),
+            None,
+        )
+        .unwrap();
+        let lines: Vec<&str> = frames.lines().collect();
+        assert_eq!(lines.len(), 5);
+        for (k, line) in lines.iter().enumerate() {
+            let n = k.to_string();
+            let one = binary(
+                &path,
+                &args(&[&["--seed", "3", "-n", &n][..], hom].concat()),
+                None,
+            );
+            assert_eq!(format!("{line}\n"), one.unwrap(), "frame {k} {hom:?}");
+        }
+        assert!(hom.is_empty() || lines[2].contains("[%Q]") && lines[2].contains('J'));
     }
 }
