@@ -60,6 +60,8 @@ enum Class {
     Stochastic,
     Context,
     Homomorphism,
+    /// Issue 11: decomposition, the cut.
+    Structural,
 }
 
 impl Class {
@@ -70,6 +72,7 @@ impl Class {
             Class::Stochastic => "stochastic",
             Class::Context => "context",
             Class::Homomorphism => "homomorphism",
+            Class::Structural => "structural",
         }
     }
 
@@ -79,7 +82,7 @@ impl Class {
         match self {
             Class::D0l => (300e6, true),
             Class::Parametric | Class::Stochastic | Class::Context => (30e6, true),
-            Class::Homomorphism => (30e6, false),
+            Class::Homomorphism | Class::Structural => (30e6, false),
         }
     }
 
@@ -227,6 +230,19 @@ const WORKLOADS: &[Workload] = &[
             (10, 10_485_760),
             (12, 167_772_160),
             (13, 671_088_640),
+        ],
+    },
+    Workload {
+        name: "shedding_decomposition (decomposition, %)",
+        class: Class::Structural,
+        file: "shedding_decomposition.ls",
+        axiom_gen: None,
+        steps: 0,
+        plan: [
+            (11, 1_942_000),
+            (13, 17_478_000),
+            (15, 157_300_000),
+            (17, 1_416_000_000),
         ],
     },
 ];

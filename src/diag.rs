@@ -113,6 +113,13 @@ pub fn group_digits(n: u64) -> String {
     out
 }
 
+/// Print a located warning (`lsgen: FILE:LINE:COL: warning: ...`, the
+/// source line and a caret) on standard error.
+pub fn warn(location: Location, message: &str) {
+    let text = Error::at(location, message).to_string();
+    eprint(&text.replacen(": error: ", ": warning: ", 1));
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
     /// Bad input, runtime error, I/O failure: exit 1.

@@ -349,8 +349,9 @@ cases! {
     blank_file => err("\n  \n\n", 1, 1, "empty L-system");
     settings_after_productions =>
         err("productions:\nF -> F\nderivation length: 3\naxiom: F\n", 3, 1, "out of place");
+    // (issue 11: `productions:` is group 0, and a group is declared once)
     productions_twice =>
-        err("productions:\nF -> FF\nproductions:\nG -> H\naxiom: F\n", 3, 1, "out of place");
+        err("productions:\nF -> FF\nproductions:\nG -> H\naxiom: F\n", 3, 1, "group 0 is declared twice");
     homomorphism_before_productions =>
         err("homomorphism:\nF -> G\nproductions:\nF -> H\naxiom: F\n", 3, 1, "out of place");
     seed_twice => err("seed: 1\nseed: 2\naxiom: F\n", 2, 1, "set twice");
@@ -681,6 +682,77 @@ cases! {
         err("productions:\n  view: step = 1x /* c */\nF -> FF\naxiom: F\n", 2, 16, "`1x` is not a number");
     view_bad_colour =>
         err("view: palette = #2e7d32 green\naxiom: F\n", 1, 25, "not a colour");
+    // --- issue 11: structural rewriting (docs/structural.md, section 9) ----
+    decomposition_left_context =>
+        err("productions:\nA -> AL\ndecomposition:\nA < L -> X\naxiom: A\n", 4, 3, "decomposition production has no context");
+    decomposition_right_context =>
+        err("productions:\nA -> AL\ndecomposition:\nL > A -> X\naxiom: A\n", 4, 3, "decomposition is context-free");
+    decomposition_after_homomorphism =>
+        err("productions:\nA -> AL\nhomomorphism:\nL -> F\ndecomposition:\nL -> X\naxiom: A\n", 5, 1, "comes after the productions and before `homomorphism:`");
+    decomposition_twice =>
+        err("productions:\nA -> AL\ndecomposition:\nL -> F\ndecomposition:\nL -> X\naxiom: A\n", 5, 1, "second `decomposition:` section");
+    homomorphism_twice =>
+        err("productions:\nA -> AL\nhomomorphism:\nL -> F\nhomomorphism:\nL -> X\naxiom: A\n", 5, 1, "second `homomorphism:` section");
+    maximum_depth_negative =>
+        err("decomposition:\nmaximum depth: -1\nL -> F\naxiom: L\n", 2, 16, "maximum depth must be a whole number from 1 to 10000");
+    maximum_depth_zero =>
+        err("homomorphism:\nmaximum depth: 0\nL -> F\naxiom: L\n", 2, 16, "whole number from 1 to 10000");
+    maximum_depth_fraction =>
+        err("decomposition:\nmaximum depth: 2.5\nL -> F\naxiom: L\n", 2, 16, "whole number from 1 to 10000");
+    maximum_depth_too_large =>
+        err("decomposition:\nmaximum depth: 10001\nL -> F\naxiom: L\n", 2, 16, "whole number from 1 to 10000");
+    maximum_depth_twice =>
+        err("decomposition:\nmaximum depth: 2\nmaximum depth: 3\nL -> F\naxiom: L\n", 3, 1, "comes once, right after the section keyword");
+    maximum_depth_after_production =>
+        err("homomorphism:\nL -> F\nmaximum depth: 3\naxiom: L\n", 3, 1, "comes once, right after the section keyword");
+    maximum_depth_among_settings =>
+        err("maximum depth: 3\nproductions:\nL -> F\naxiom: L\n", 1, 1, "belongs to `decomposition:` or `homomorphism:`");
+    maximum_depth_in_productions =>
+        err("productions:\nmaximum depth: 3\nL -> F\naxiom: L\n", 2, 1, "belongs to `decomposition:` or `homomorphism:`");
+    seed_in_decomposition =>
+        err("decomposition:\nseed: 3\nL -> F\naxiom: L\n", 2, 1, "decomposition uses the main random generator");
+    homomorphism_warnings_typo =>
+        err("homomorphism: maybe\nL -> F\naxiom: L\n", 1, 15, "expected `warnings` or `no warnings` after `homomorphism:`");
+    production_group_negative =>
+        err("productions -1:\nL -> F\naxiom: L\n", 1, 13, "a production group is a whole number from 0 to 65535");
+    production_group_fraction =>
+        err("productions 1.5:\nL -> F\naxiom: L\n", 1, 13, "whole number from 0 to 65535");
+    production_group_name =>
+        err("productions x:\nL -> F\naxiom: L\n", 1, 13, "whole number from 0 to 65535");
+    production_group_too_large =>
+        err("productions 70000:\nL -> F\naxiom: L\n", 1, 13, "whole number from 0 to 65535");
+    production_group_twice =>
+        err("groups: 2\nproductions 2:\nL -> F\nproductions 2:\nL -> G\naxiom: L\n", 4, 1, "group 2 is declared twice");
+    production_group_zero_twice =>
+        err("productions:\nL -> F\nproductions 0:\nL -> G\naxiom: L\n", 3, 1, "group 0 is declared twice");
+    decomposition_group =>
+        err("decomposition 1:\nL -> F\naxiom: L\n", 1, 15, "decomposition has no groups");
+    homomorphism_group =>
+        err("homomorphism 1:\nL -> F\naxiom: L\n", 1, 14, "homomorphism has no groups");
+    groups_unknown_group =>
+        err("groups: 1 3\nproductions 1:\nL -> F\naxiom: L\n", 1, 11, "unknown group 3: there is no `productions 3:` section");
+    groups_empty =>
+        err("groups:\nproductions:\nL -> F\naxiom: L\n", 1, 1, "`groups:` takes whole group numbers separated by blanks");
+    groups_not_a_number =>
+        err("groups: 1 x\nproductions 1:\nL -> F\naxiom: L\n", 1, 11, "`groups:` takes whole group numbers");
+    groups_and_group =>
+        err("groups: 1\ngroup: 1\nproductions 1:\nL -> F\naxiom: L\n", 2, 1, "use either `groups:` or `group:`, not both");
+    group_with_ran =>
+        err("group: ran(3)\nproductions 1:\nL -> F\naxiom: L\n", 1, 8, "`group:` cannot use ran or nran");
+    group_never_used =>
+        err("productions 1:\nL -> F\naxiom: L\n", 1, 1, "group 1 is never used");
+    group_expression_gives_undeclared_group =>
+        err("derivation length: 3\ngroup: step\nproductions 1:\nL -> LF\naxiom: L\n", 2, 8, "group: gives 2 in step 2, but there is no `productions 2:` section");
+    group_expression_gives_fraction =>
+        err("derivation length: 3\ngroup: step / 2\nproductions 1:\nL -> LF\naxiom: L\n", 2, 8, "group: gives 0.5 in step 1, not a group number");
+    decomposition_unbalanced =>
+        err("productions:\nX -> XL\ndecomposition:\nL -> [F\naxiom: X\n", 4, 1, "a decomposition successor must balance its brackets");
+    deep_homomorphism_unbalanced =>
+        err("homomorphism:\nmaximum depth: 2\nL -> F]\naxiom: L\n", 3, 1, "a homomorphism successor must balance its brackets");
+    step_in_define =>
+        err("define: x = step\naxiom: F(x)\n", 1, 13, "unknown identifier `step`");
+    step_in_axiom =>
+        err("axiom: F(step)\n", 1, 10, "`step`");
 }
 
 impl Case {

@@ -87,6 +87,10 @@ struct Cfg {
     /// Share of productions that get contexts (when `left`/`right` allow).
     context_share: f64,
     max_steps: u64,
+    /// Issue 11 (docs/structural.md): production groups with a `groups:`
+    /// or `group:` schedule, decomposition with a maximum depth,
+    /// homomorphism depth and seed, the cut `%`, the built-in `step`.
+    structural: bool,
 }
 
 /// Symbols used for modules (no brackets; `/` and `*` are left out so no
@@ -114,6 +118,12 @@ struct Case {
     axiom: Vec<AxItem>,
     steps: Option<u64>,
     seed: Option<u64>,
+    /// Issue 11: `productions N:` sections, the decomposition (its
+    /// `maximum depth:` line, then productions), the homomorphism's
+    /// `maximum depth:` / `seed:` lines.
+    groups: Vec<(u32, Vec<String>)>,
+    decomposition: Option<(String, Vec<String>)>,
+    hom_settings: Vec<String>,
 }
 
 impl Case {
@@ -128,8 +138,27 @@ impl Case {
             t.push_str(p);
             t.push('\n');
         }
+        for (n, prods) in &self.groups {
+            let _ = writeln!(t, "productions {n}:");
+            for p in prods {
+                t.push_str(p);
+                t.push('\n');
+            }
+        }
+        if let Some((depth, prods)) = &self.decomposition {
+            t.push_str("decomposition:\n");
+            t.push_str(depth);
+            for p in prods {
+                t.push_str(p);
+                t.push('\n');
+            }
+        }
         if !self.hom.is_empty() {
             t.push_str("homomorphism:\n");
+            for h in &self.hom_settings {
+                t.push_str(h);
+                t.push('\n');
+            }
             for p in &self.hom {
                 t.push_str(p);
                 t.push('\n');
@@ -623,6 +652,22 @@ fn gen_case(cfg: Cfg, seed: u64) -> Case {
         ));
         filter = Some((ignore, set));
     }
+    if cfg.structural {
+        // `%` is a symbol like the others (a cut when nothing rewrites
+        // it), and `step` a name like the constants.
+        kinds.push(('%', 0));
+        consts.push("step".to_string());
+        match g.below(3) {
+            0 => {}
+            1 => {
+                let list: Vec<String> = (0..g.range(1, 3))
+                    .map(|_| g.range(0, 2).to_string())
+                    .collect();
+                settings.push(format!("groups: {}", list.join(" ")));
+            }
+            _ => settings.push("group: step - 2 * floor(step / 2)".to_string()),
+        }
+    }
     let mut b = Builder {
         g: &mut g,
         cfg,
@@ -633,6 +678,36 @@ fn gen_case(cfg: Cfg, seed: u64) -> Case {
     };
     b.axiom = b.axiom();
     let prods = b.productions(&[]);
+    let mut groups = Vec::new();
+    let mut decomposition = None;
+    let mut hom_settings = Vec::new();
+    if cfg.structural {
+        let scheduled = settings.iter().any(|s| s.starts_with("group"));
+        if scheduled {
+            groups.push((1, b.productions(&[])));
+            groups.push((2, b.productions(&[])));
+        }
+        if b.g.chance(0.6) {
+            // Context-free: the decomposition has no contexts.
+            let saved = b.cfg;
+            b.cfg.left = 0;
+            b.cfg.right = 0;
+            let prods = b.productions(&['X']);
+            b.cfg = saved;
+            let depth = if b.g.chance(0.5) {
+                format!("maximum depth: {}\n", b.g.range(1, 3))
+            } else {
+                String::new()
+            };
+            decomposition = Some((depth, prods));
+        }
+        if b.g.chance(0.5) {
+            hom_settings.push(format!("maximum depth: {}", b.g.range(1, 3)));
+        }
+        if b.g.chance(0.3) {
+            hom_settings.push(format!("seed: {}", b.g.range(0, 99)));
+        }
+    }
     let hom = if cfg.hom && b.g.chance(0.8) {
         b.productions(&['X', 'Y', '~'])
     } else {
@@ -646,6 +721,9 @@ fn gen_case(cfg: Cfg, seed: u64) -> Case {
         axiom,
         steps: if steps_in_file { None } else { Some(steps) },
         seed: if seed_in_file { None } else { Some(rng_seed) },
+        groups,
+        decomposition,
+        hom_settings,
     }
 }
 
@@ -841,8 +919,18 @@ fn check_many(name: &str, cfg: Cfg, count: u64) {
     // every 4th such case also goes through the step-by-step engine.
     let context_free = cfg.left == 0 && cfg.right == 0 && !cfg.stochastic && !cfg.random_fns;
     let mut stepwise = 0;
+    // Structural cases with decomposition, groups, a `%`, homomorphism depth.
+    let mut structural = [0usize; 4];
     for i in 0..count {
         let case = gen_case(cfg, base + i);
+        let text = case.text();
+        for (n, what) in
+            structural
+                .iter_mut()
+                .zip(["decomposition:", "productions 1:", "%", "maximum depth: 2"])
+        {
+            *n += usize::from(text.contains(what));
+        }
         match run(&case) {
             Outcome::Same { error, stats, .. } => {
                 if context_free && i % 4 == 0 {
@@ -902,6 +990,12 @@ fn check_many(name: &str, cfg: Cfg, count: u64) {
         errors * 20 < count as usize,
         "{name}: too many cases fail on both sides ({errors})"
     );
+    for (k, &n) in structural.iter().enumerate() {
+        assert!(
+            !cfg.structural || n * 10 >= count as usize,
+            "{name}: structural feature {k} in only {n} cases"
+        );
+    }
     // The generator must exercise what the configuration asks for.
     let want = [
         cfg.left > 0,
@@ -935,6 +1029,7 @@ const BASE: Cfg = Cfg {
     hom: false,
     context_share: 0.0,
     max_steps: 5,
+    structural: false,
 };
 
 #[test]
@@ -1094,6 +1189,57 @@ fn homomorphism_with_contexts() {
         ..CS
     };
     check_many("homomorphism_with_contexts", cfg, 400);
+}
+
+// ---------------------------------------------------------------------------
+// Structural rewriting (issue 11): groups, decomposition, homomorphism
+// depth and seed, the cut, `step`.
+
+#[test]
+fn structural_parametric() {
+    let cfg = Cfg {
+        params: true,
+        cond: true,
+        defines: true,
+        brackets: true,
+        hom: true,
+        structural: true,
+        max_steps: 4,
+        ..BASE
+    };
+    check_many("structural_parametric", cfg, 400);
+}
+
+#[test]
+fn structural_stochastic() {
+    let cfg = Cfg {
+        params: true,
+        cond: true,
+        stochastic: true,
+        random_fns: true,
+        brackets: true,
+        hom: true,
+        structural: true,
+        max_steps: 4,
+        ..BASE
+    };
+    check_many("structural_stochastic", cfg, 400);
+}
+
+#[test]
+fn structural_with_contexts() {
+    let cfg = Cfg {
+        params: true,
+        cond: true,
+        left: 2,
+        right: 2,
+        right_brackets: true,
+        hom: true,
+        structural: true,
+        max_steps: 4,
+        ..CS
+    };
+    check_many("structural_with_contexts", cfg, 400);
 }
 
 /// Strings larger than lsgen's read buffers: generated cases with their
@@ -1569,4 +1715,82 @@ fn draws_sit_at_their_documented_positions() {
     let h = |i: u128| uniform_at(9, 5, 1 << 65 | i);
     let want = format!("[B(0,{})][B(0,{})]B({v},{})\n", h(1), h(4), h(6));
     assert_eq!(out, want, "u = {u}");
+}
+
+// ---------------------------------------------------------------------------
+// Issue 11 on the position-based draws (issue 13).
+
+/// A cut drops the rest of its branch, but the modules after it keep their
+/// indices in the old generation for their draws (README, "Structural
+/// rewriting"): `X` is module 7 of `[%AAAA]X`, not module 3.
+#[test]
+fn draws_after_a_cut_keep_their_indices() {
+    for extra in ["", "C > D -> C\n"] {
+        let src = format!("productions:\nX -> Y(ran(1))\n{extra}axiom: [%AAAA]X\n");
+        let want = uniform_at(5, 1, 7);
+        let (reference, _) = derive_text_stats(&src, Some(1), Some(5), usize::MAX);
+        assert_eq!(reference, Ok(format!("[]Y({want})\n")), "{src}");
+        assert_eq!(lsgen_text(&src, Some(1), Some(5)), reference, "{src}");
+        assert_eq!(
+            lsgen_step_text(&src, Some(1), Some(5)).map(|s| s + "\n"),
+            reference,
+            "{src}"
+        );
+    }
+}
+
+/// `step` and the group schedule number the steps as the draws do, so a
+/// chained run with `--first-step` equals one run for them too.
+#[test]
+fn chained_runs_with_step_and_groups_equal_one_run() {
+    let dir = common::tempdir();
+    let path = dir.path().join("p.ls");
+    std::fs::write(
+        &path,
+        "groups: 1 2\nproductions:\nA -> A\nproductions 1:\nA -> F(step)A\nproductions 2:\nA -> [+G(step, ran(1))]A\ndecomposition:\nG(x, y) -> H(x)\naxiom: A\n",
+    )
+    .unwrap();
+    let (whole, chained, unnumbered) = chain(&path, 2, 3, 11);
+    let whole = whole.unwrap();
+    // Steps 1..5 use groups 1 2 1 2 1.
+    assert!(whole.starts_with("F(1)[+H(2)]F(3)[+H(4)]F(5)A"), "{whole}");
+    assert_eq!(chained, Ok(whole.clone()));
+    assert_ne!(unnumbered, Ok(whole));
+}
+
+/// `--frames` applies decomposition in the steps, never to a frame's copy,
+/// and the homomorphism's own `seed:` to each frame alone: every frame is
+/// what `lsgen -n k` prints.
+#[test]
+fn frames_of_structural_systems_equal_single_runs() {
+    let dir = common::tempdir();
+    let path = dir.path().join("p.ls");
+    std::fs::write(
+        &path,
+        "productions:\nA(x) -> [%Q]A(ran(1))I\ndecomposition:\nI -> J\nJ -> F(step)\nhomomorphism:\nmaximum depth: 2\nseed: 4\nA(x) -> B(ran(1))\nB(x) -> C(x, ran(1))\nF(x) -> G(x)\naxiom: A(0) I\n",
+    )
+    .unwrap();
+    let args = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    // Without the homomorphism a frame is a plain copy of its generation,
+    // which holds a `%` and a `J` (kept by the maximum depth 1).
+    for hom in [&[][..], &["--no-homomorphism"][..]] {
+        let frames = binary(
+            &path,
+            &args(&[&["--seed", "3", "--frames", "0..4"][..], hom].concat()),
+            None,
+        )
+        .unwrap();
+        let lines: Vec<&str> = frames.lines().collect();
+        assert_eq!(lines.len(), 5);
+        for (k, line) in lines.iter().enumerate() {
+            let n = k.to_string();
+            let one = binary(
+                &path,
+                &args(&[&["--seed", "3", "-n", &n][..], hom].concat()),
+                None,
+            );
+            assert_eq!(format!("{line}\n"), one.unwrap(), "frame {k} {hom:?}");
+        }
+        assert!(hom.is_empty() || lines[2].contains("[%Q]") && lines[2].contains('J'));
+    }
 }

@@ -73,6 +73,11 @@ impl<'t> ByteTable<'t> {
         ByteTable { succ }
     }
 
+    /// Send byte `b` down the general path (the cut `%`).
+    pub(crate) fn general(&mut self, b: u8) {
+        self.succ[b as usize] = None;
+    }
+
     /// Rewrite the leading bytes of `input` it can handle; returns how many
     /// bytes and how many modules it used. Modules that left contexts consider are recorded in
     /// `left`; brackets open and close its levels and the output's bracket

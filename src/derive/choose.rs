@@ -51,13 +51,21 @@ impl Chooser {
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
         let mut chosen = None;
-        if !kr.context.is_empty() {
-            let group = (&kr.context[..], kr.context_stochastic);
-            chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
-        }
-        if chosen.is_none() && !kr.free.is_empty() {
-            let group = (&kr.free[..], kr.free_stochastic);
-            chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
+        let mut kr = kr;
+        loop {
+            if !kr.context.is_empty() {
+                let group = (&kr.context[..], kr.context_stochastic);
+                chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
+            }
+            if chosen.is_none() && !kr.free.is_empty() {
+                let group = (&kr.free[..], kr.free_stochastic);
+                chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
+            }
+            // A numbered group that chose nothing falls back to group 0.
+            match (&chosen, &kr.fallback) {
+                (None, Some(f)) => kr = f,
+                _ => break,
+            }
         }
         Ok(chosen)
     }

@@ -235,11 +235,22 @@ pub(crate) fn derive(
         alphabet,
         productions,
         homomorphism,
+        groups,
+        schedule,
+        group_expr,
+        decomposition,
+        hom_depth,
+        hom_seed,
+        warnings,
+        step_hidden,
         ..
     } = system;
     let hom = settings.homomorphism && !homomorphism.is_empty();
     // Right contexts skip branches in O(1) through a bracket index.
-    let indexed = productions.has_right || (hom && homomorphism.has_right);
+    let indexed = productions.has_right
+        || groups.iter().any(|(_, t)| t.has_right)
+        || (hom && homomorphism.has_right);
+    let pct = u32::from(b'%');
     let passes = steps + u64::from(hom);
     let strategy = settings.strategy;
     let not_depth_first = || {
@@ -251,6 +262,27 @@ pub(crate) fn derive(
         return Err(not_depth_first());
     }
     let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
+    for span in step_hidden {
+        crate::diag::warn(
+            d.origin.locate(span.0),
+            "`step` hides the built-in step number",
+        );
+    }
+    d.hom_depth = hom_depth;
+    d.warnings = warnings;
+    // A `%` that no production rewrites is a cut (docs/structural.md, section 5).
+    d.cut = true;
+    let structural = !schedule.is_empty()
+        || group_expr.is_some()
+        || decomposition.is_some()
+        || hom_depth > 1
+        || (hom && warnings[1])
+        || std::iter::once(&productions)
+            .chain(groups.iter().map(|(_, t)| t))
+            .chain(decomposition.iter().map(|(t, _)| t))
+            .chain(std::iter::once(&homomorphism))
+            .any(uses_step);
+    d.decomp = decomposition;
     let mut generation = |pass: Pass, (modules, bytes): (u64, u64)| {
         events(&Event::Generation {
             pass,
@@ -264,7 +296,8 @@ pub(crate) fn derive(
         "temporary file in {}",
         tmpdir.clone().unwrap_or_else(std::env::temp_dir).display()
     );
-    // Generation 0: the axiom.
+    // Generation 0: the axiom (does it hold a `%`?).
+    let mut axiom_cuts = false;
     let mut cur = if passes == 0 && frames.is_none() {
         None
     } else {
@@ -274,10 +307,16 @@ pub(crate) fn derive(
         let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, indexed)?;
         let mut params = Vec::new();
         loop {
-            reader.plain_run(|run| out.plain(run))??;
+            reader.plain_run(|run| {
+                axiom_cuts |= run.contains(&b'%');
+                out.plain(run)
+            })??;
             d.rng.set_module(out.modules);
             match reader.next(&mut d.alphabet, &mut params, &mut d.rng)? {
-                Some(key) => out.module(key, &params, &d.alphabet)?,
+                Some(key) => {
+                    axiom_cuts |= key == pct;
+                    out.module(key, &params, &d.alphabet)?
+                }
                 None => break,
             }
             out.maybe_flush()?;
@@ -288,9 +327,29 @@ pub(crate) fn derive(
         }
     }
     drop(reader);
+    // Issue 11: groups, decomposition, homomorphism depth and cuts are
+    // implemented by the step engine only; a `%` that can be a cut makes a
+    // module's expansion depend on its neighbours.
+    let step_only = structural || makes_percent(&d, &productions, &groups) || axiom_cuts;
+    let strategy = if step_only {
+        if strategy == Strategy::DepthFirst {
+            return Err(not_depth_first());
+        }
+        Strategy::Step
+    } else {
+        strategy
+    };
     if let Some((frames, frame_sink)) = frames {
         let cur = cur.take().expect("generation 0 in a file");
-        let tables = (&productions, &homomorphism, hom);
+        let tables = Tables {
+            productions: &productions,
+            groups: &groups,
+            schedule: &schedule,
+            group_expr: group_expr.as_ref(),
+            hom_seed,
+            fixed_points: !structural,
+        };
+        let tables = (&tables, &homomorphism, hom);
         let names = (frame_sink, tmp_name.as_str());
         return frame_passes(
             &mut d, cur, tables, settings, frames, names, indexed, events,
@@ -397,10 +456,18 @@ pub(crate) fn derive(
     } else {
         output
     };
+    let tables = Tables {
+        productions: &productions,
+        groups: &groups,
+        schedule: &schedule,
+        group_expr: group_expr.as_ref(),
+        hom_seed,
+        fixed_points: !structural,
+    };
     let stepwise = step_passes(
         &mut d,
         cur,
-        (&productions, &homomorphism, hom),
+        (&tables, &homomorphism, hom),
         settings,
         (output, out_name, &tmp_name),
         indexed,
@@ -417,7 +484,7 @@ pub(crate) fn derive(
 fn step_passes(
     d: &mut Deriver,
     mut cur: Option<File>,
-    (productions, homomorphism, hom): (&crate::rules::Table, &crate::rules::Table, bool),
+    (tables, homomorphism, hom): (&Tables, &crate::rules::Table, bool),
     settings: &Settings,
     (output, out_name, tmp_name): (&mut dyn Write, &str, &str),
     indexed: bool,
@@ -440,10 +507,19 @@ fn step_passes(
         let (table, pass) = if i <= steps {
             let k = first_step + (i - 1);
             d.rng.start_pass(k, Region::Step);
-            (productions, Pass::Step(k))
+            // The built-in `step` and the group schedule count the steps
+            // as the draws do (`--first-step`), so chained runs agree.
+            d.rng.set_step(k);
+            (tables.table_for(k, d)?, Pass::Step(k))
         } else {
-            d.rng
-                .start_pass(first_step + steps - 1, Region::Homomorphism);
+            let k = first_step + steps - 1;
+            if let Some(s) = tables.hom_seed {
+                // The homomorphism's own key (its `seed:`); same stream
+                // and positions (docs/structural.md, section 8).
+                d.rng = Random::new(s);
+            }
+            d.rng.start_pass(k, Region::Homomorphism);
+            d.rng.set_step(k);
             (homomorphism, Pass::Homomorphism)
         };
         let src = cur.take().expect("a generation to read");
@@ -475,7 +551,7 @@ fn step_passes(
         // point: every later step does the same. Go on with the last pass
         // (the homomorphism, or the last step, which writes the text).
         let last = if hom { passes } else { steps };
-        if i < steps && last > i + 1 && d.rng.draws() == draws {
+        if i < steps && last > i + 1 && d.rng.draws() == draws && tables.fixed_points {
             if let Some(next) = &dst {
                 if same_contents(&src, next)? {
                     events(&Event::FixedPoint {
@@ -504,7 +580,7 @@ fn step_passes(
 fn frame_passes(
     d: &mut Deriver,
     mut cur: File,
-    (productions, homomorphism, hom): (&crate::rules::Table, &crate::rules::Table, bool),
+    (tables, homomorphism, hom): (&Tables, &crate::rules::Table, bool),
     settings: &Settings,
     frames: Frames,
     (sink_of_frames, tmp_name): (&mut dyn FrameSink, &str),
@@ -524,10 +600,20 @@ fn frame_passes(
             let mut none = None;
             let mut out = sink(&mut none, tmp_name, w, name, limits, false)?;
             if hom {
-                // The homomorphism of generation k, as `lsgen -n k` applies it.
-                d.rng.start_pass(first_step + k - 1, Region::Homomorphism);
+                // The homomorphism of generation k, as `lsgen -n k` applies
+                // it: with its own `seed:`, a generator for this frame only.
+                let stream = first_step + k - 1;
+                let main = tables
+                    .hom_seed
+                    .map(|s| std::mem::replace(&mut d.rng, Random::new(s)));
+                d.rng.start_pass(stream, Region::Homomorphism);
+                d.rng.set_step(stream);
                 let mut out = out.for_pass(Pass::Homomorphism);
-                d.pass(homomorphism, gen, indexed, &mut out, Pass::Homomorphism)?;
+                let r = d.pass(homomorphism, gen, indexed, &mut out, Pass::Homomorphism);
+                if let Some(main) = main {
+                    d.rng = main;
+                }
+                r?;
                 out.finish()
             } else {
                 let pass = if k == 0 {
@@ -536,7 +622,14 @@ fn frame_passes(
                     Pass::Step(first_step + (k - 1))
                 };
                 out = out.for_pass(pass);
-                d.pass(&copy, gen, indexed, &mut out, pass)?;
+                // A plain copy: no decomposition, no cut (the generation
+                // already had them).
+                let decomp = d.decomp.take();
+                let cut = std::mem::replace(&mut d.cut, false);
+                let r = d.pass(&copy, gen, indexed, &mut out, pass);
+                d.decomp = decomp;
+                d.cut = cut;
+                r?;
                 out.finish()
             }
         })?;
@@ -549,6 +642,8 @@ fn frame_passes(
     for i in 1..=frames.last() {
         let k = first_step + (i - 1);
         d.rng.start_pass(k, Region::Step);
+        d.rng.set_step(k);
+        let table = tables.table_for(k, d)?;
         let pass = Pass::Step(k);
         let mut dst = Some(match other.take() {
             Some(mut f) => {
@@ -561,7 +656,7 @@ fn frame_passes(
             let mut discard = io::sink();
             let mut out =
                 sink(&mut dst, tmp_name, &mut discard, "", limits, indexed)?.for_pass(pass);
-            d.pass(productions, &cur, indexed, &mut out, pass)?;
+            d.pass(table, &cur, indexed, &mut out, pass)?;
             let (modules, bytes) = out.finish()?;
             events(&Event::Generation {
                 pass,
@@ -575,6 +670,98 @@ fn frame_passes(
         }
     }
     Ok(last_len)
+}
+
+/// The production tables of the steps (issue 11: groups and schedule).
+struct Tables<'t> {
+    productions: &'t crate::rules::Table,
+    groups: &'t [(u32, crate::rules::Table)],
+    schedule: &'t [u32],
+    group_expr: Option<&'t crate::rules::expr::Code>,
+    hom_seed: Option<u64>,
+    /// A step that changed nothing means every later step changes
+    /// nothing (not with groups, `step`, ...).
+    fixed_points: bool,
+}
+
+impl<'t> Tables<'t> {
+    /// The table of step `step` (1 for the first; `d.rng` has its number).
+    fn table_for(&self, step: u64, d: &mut Deriver) -> Result<&'t crate::rules::Table, Error> {
+        let g = if let Some(code) = self.group_expr {
+            let v = code
+                .eval(&[], &mut Vec::new(), &mut d.rng)
+                .map_err(|e| d.origin.eval_error(e, Pass::Step(step)))?;
+            let at = d.origin.locate(code.span.0);
+            if !(0.0..=65535.0).contains(&v) || v.fract() != 0.0 {
+                return Err(Error::at(
+                    at,
+                    format!(
+                        "group: gives {} in step {step}, not a group number",
+                        crate::rules::codec::number_string(v)
+                    ),
+                ));
+            }
+            let g = v as u32;
+            if g != 0 && !self.groups.iter().any(|(n, _)| *n == g) {
+                return Err(Error::at(
+                    at,
+                    format!(
+                        "group: gives {g} in step {step}, but there is no `productions {g}:` section"
+                    ),
+                ));
+            }
+            g
+        } else if self.schedule.is_empty() {
+            return Ok(self.productions);
+        } else {
+            self.schedule[((step - 1) % self.schedule.len() as u64) as usize]
+        };
+        Ok(self
+            .groups
+            .iter()
+            .find(|(n, _)| *n == g)
+            .map_or(self.productions, |(_, t)| t))
+    }
+}
+
+/// Does a production of `t` read the built-in `step`?
+fn uses_step(t: &crate::rules::Table) -> bool {
+    t.prods.iter().any(|p| {
+        p.cond.iter().chain(p.prob.iter()).any(|c| c.uses_step())
+            || p.succ.iter().any(|i| match i {
+                crate::rules::Item::Module { params, .. } => params.iter().any(|c| c.uses_step()),
+                crate::rules::Item::Const(_) => false,
+            })
+    })
+}
+
+/// Can a production or decomposition successor make a `%`?
+fn makes_percent(
+    d: &Deriver,
+    productions: &crate::rules::Table,
+    groups: &[(u32, crate::rules::Table)],
+) -> bool {
+    let pct = u32::from(b'%');
+    let tables = std::iter::once(productions)
+        .chain(groups.iter().map(|(_, t)| t))
+        .chain(d.decomp.iter().map(|(t, _)| t));
+    tables.flat_map(|t| t.prods.iter()).any(|p| {
+        p.succ.iter().any(|i| match i {
+            crate::rules::Item::Const(c) => {
+                let b = c.bin();
+                let mut i = 0;
+                while i < b.len() {
+                    let (k, kl) = crate::rules::codec::get_key(&b[i..]);
+                    if k == pct {
+                        return true;
+                    }
+                    i += kl + 8 * d.alphabet.arity(k);
+                }
+                false
+            }
+            crate::rules::Item::Module { key, .. } => *key == pct,
+        })
+    })
 }
 
 /// Do two generation files hold the same bytes?

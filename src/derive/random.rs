@@ -50,6 +50,12 @@ pub trait Draw {
     /// Normal deviate by Box-Muller from one draw: the high 32 bits give
     /// u1 in (0, 1], the low 32 bits u2 in [0, 1).
     fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, &'static str>;
+    /// The value of the built-in `step` (issue 11) where the expression
+    /// compiler emitted it as such; a drawer that binds `step` as an
+    /// ordinary parameter (the tests' reference) never reaches this.
+    fn step(&self) -> f64 {
+        0.0
+    }
 }
 
 /// The uniform value of a draw.
@@ -84,6 +90,8 @@ pub struct Random {
     pos: u128,
     /// Random constants: draws in order, no modules.
     sequential: bool,
+    /// The step number the built-in `step` reads (issue 11).
+    step: f64,
 }
 
 impl Random {
@@ -97,7 +105,13 @@ impl Random {
             draw: 0,
             pos: 0,
             sequential: false,
+            step: 0.0,
         }
+    }
+
+    /// The value of the built-in `step` from now on.
+    pub fn set_step(&mut self, step: u64) {
+        self.step = step as f64;
     }
 
     /// The generator of random constants (`ran` in `define:`).
@@ -189,6 +203,11 @@ impl Draw for Random {
     #[inline]
     fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, &'static str> {
         self.next().map(|x| normal_of(x, mean, sd))
+    }
+
+    #[inline]
+    fn step(&self) -> f64 {
+        self.step
     }
 }
 

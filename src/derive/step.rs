@@ -16,8 +16,9 @@ use super::sink::Out;
 use super::{Origin, Pass};
 use crate::derive::random::Random;
 use crate::diag::Error;
-use crate::rules::codec;
+use crate::rules::codec::{self, Modules};
 use crate::rules::{Alphabet, KeyRules, Production, RPat, Table, CLOSE, OPEN};
+use std::cell::Cell;
 use std::fs::File;
 use std::io;
 
@@ -28,6 +29,213 @@ pub struct Deriver<'a> {
     pub origin: Origin<'a>,
     slots: Vec<f64>,
     chooser: Chooser,
+    /// Issue 11: decomposition (table, maximum depth), applied in every
+    /// step; the homomorphism's maximum depth; whether a `%` that nothing
+    /// rewrites cuts its branch.
+    pub decomp: Option<(Table, usize)>,
+    pub hom_depth: usize,
+    pub cut: bool,
+    /// `warnings` on the decomposition / homomorphism section, and whether
+    /// each has warned (once per run).
+    pub warnings: [bool; 2],
+    warned: [Cell<bool>; 2],
+    rc: Recur,
+}
+
+/// Recursive rewriting (decomposition, homomorphism depth): one chooser,
+/// and one buffer of modules per depth level, reused.
+#[derive(Default)]
+struct Recur {
+    chooser: Chooser,
+    /// The formal parameters of the production being tried (see
+    /// [`Chooser`]).
+    slots: Vec<f64>,
+    levels: Vec<Modules>,
+    /// Scratch stack of the depth-warning check.
+    stack: Vec<f64>,
+}
+
+/// Append the modules of a precompiled run to `m`.
+fn push_const(m: &mut Modules, c: &crate::rules::ConstRun, al: &Alphabet) {
+    let b = c.bin();
+    let mut i = 0;
+    while i < b.len() {
+        let (k, kl) = codec::get_key(&b[i..]);
+        let n = al.arity(k);
+        m.push_encoded(k, &b[i..i + kl + 8 * n], n);
+        i += kl + 8 * n;
+    }
+}
+
+/// Do a production's contexts match (binding their parameters)?
+type ContextFn<'c> = dyn FnMut(&Production, &mut [f64]) -> Result<bool, Error> + 'c;
+
+/// Everything the recursion reads.
+struct RecCtx<'r, 'o> {
+    table: &'r Table,
+    max: usize,
+    al: &'r Alphabet,
+    origin: &'r Origin<'o>,
+    pass: Pass,
+    /// Warn (once: the cell) when the depth limit keeps a module that a
+    /// production would still rewrite.
+    warn: Option<&'r Cell<bool>>,
+}
+
+/// The depth limit keeps (key, params): with `warnings`, say once if a
+/// production of the section would still apply (docs/structural.md,
+/// section 4). Makes no draw: a condition that draws counts as applying,
+/// and so does one that fails.
+fn depth_warning(
+    rc: &mut Recur,
+    cx: &RecCtx,
+    key: u32,
+    params: &[f64],
+    rng: &mut Random,
+    ctx: &mut ContextFn,
+) {
+    let Some(done) = cx.warn.filter(|d| !d.get()) else {
+        return;
+    };
+    let Some(kr) = cx.table.get(key) else {
+        return;
+    };
+    let mut first: Option<u32> = None;
+    for &pi in kr.context.iter().chain(kr.free.iter()) {
+        if first.is_some_and(|f| f < pi) {
+            continue;
+        }
+        let p = &cx.table.prods[pi as usize];
+        rc.slots[..params.len()].copy_from_slice(params);
+        if !ctx(p, &mut rc.slots).unwrap_or(true) {
+            continue;
+        }
+        let applies = match &p.cond {
+            None => true,
+            Some(c) if c.uses_random() => true,
+            Some(c) => !matches!(c.eval(&rc.slots, &mut rc.stack, rng), Ok(v) if v == 0.0),
+        };
+        if applies {
+            first = Some(pi);
+        }
+    }
+    let Some(pi) = first else {
+        return;
+    };
+    done.set(true);
+    let p = &cx.table.prods[pi as usize];
+    let sym = cx.al.symbol(key);
+    let message = match cx.pass {
+        Pass::Step(k) => format!(
+            "decomposition stopped at maximum depth {}, but this production still applies (to module {sym}, in step {k})",
+            cx.max
+        ),
+        _ => format!(
+            "homomorphism stopped at maximum depth {}, but this production still applies (to module {sym})",
+            cx.max
+        ),
+    };
+    crate::diag::warn(cx.origin.locate(p.span.0), &message);
+}
+
+/// Rewrite each module of `rc.levels[depth]` (its modules have depth
+/// `depth`) recursively, writing what is left to `out`.
+fn expand_level(
+    rc: &mut Recur,
+    cx: &RecCtx,
+    depth: usize,
+    rng: &mut Random,
+    ctx: &mut ContextFn,
+    out: &mut Out,
+) -> Result<(), Error> {
+    let buf = std::mem::take(&mut rc.levels[depth]);
+    let mut r = Ok(());
+    for i in 0..buf.len() {
+        let key = buf.keys[i];
+        let (_, params) = buf.get(i, cx.al.arity(key));
+        r = match try_rewrite(rc, cx, depth, key, params, rng, ctx, out) {
+            Ok(true) => Ok(()),
+            // (A flush per module: one module's recursion may write a lot.)
+            Ok(false) => out
+                .module(key, params, cx.al)
+                .and_then(|()| out.maybe_flush()),
+            Err(e) => Err(e),
+        };
+        if r.is_err() {
+            break;
+        }
+    }
+    rc.levels[depth] = buf;
+    r
+}
+
+/// Rewrite the module (key, params) of depth `depth` if it is below the
+/// maximum depth and a production applies: its successor (depth + 1) is
+/// rewritten in turn, depth first. False if nothing applied.
+#[allow(clippy::too_many_arguments)]
+fn try_rewrite(
+    rc: &mut Recur,
+    cx: &RecCtx,
+    depth: usize,
+    key: u32,
+    params: &[f64],
+    rng: &mut Random,
+    ctx: &mut ContextFn,
+    out: &mut Out,
+) -> Result<bool, Error> {
+    if depth >= cx.max {
+        depth_warning(rc, cx, key, params, rng, ctx);
+        return Ok(false);
+    }
+    let Some(kr) = cx.table.get(key) else {
+        return Ok(false);
+    };
+    rc.slots[..params.len()].copy_from_slice(params);
+    let Some(pi) = rc.chooser.choose(
+        &mut rc.slots,
+        cx.table,
+        kr,
+        rng,
+        cx.origin,
+        cx.pass,
+        |p, s| ctx(p, s),
+    )?
+    else {
+        return Ok(false);
+    };
+    let p = &cx.table.prods[pi as usize];
+    fill_level(rc, cx.al, depth + 1, p, rng, cx.origin, cx.pass)?;
+    expand_level(rc, cx, depth + 1, rng, ctx, out)?;
+    Ok(true)
+}
+
+/// Evaluate `p`'s successor (parameters bound in `rc.chooser`) into
+/// `rc.levels[level]`.
+fn fill_level(
+    rc: &mut Recur,
+    al: &Alphabet,
+    level: usize,
+    p: &Production,
+    rng: &mut Random,
+    origin: &Origin,
+    pass: Pass,
+) -> Result<(), Error> {
+    if rc.levels.len() <= level {
+        rc.levels.resize_with(level + 1, Modules::default);
+    }
+    let mut next = std::mem::take(&mut rc.levels[level]);
+    next.clear();
+    let r = rc
+        .chooser
+        .successor(&rc.slots, p, rng, origin, pass, |piece| {
+            match piece {
+                Piece::Const(c) => push_const(&mut next, c, al),
+                Piece::Module(k, v) => next.push(k, v),
+            }
+            Ok(())
+        });
+    rc.levels[level] = next;
+    r
 }
 
 struct StepState<'f> {
@@ -119,6 +327,12 @@ impl<'a> Deriver<'a> {
             origin,
             slots: Vec::new(),
             chooser: Chooser::default(),
+            decomp: None,
+            hom_depth: 1,
+            cut: false,
+            warnings: [false; 2],
+            warned: [Cell::new(false), Cell::new(false)],
+            rc: Recur::default(),
         }
     }
 
@@ -131,8 +345,42 @@ impl<'a> Deriver<'a> {
         out: &mut Out,
         pass: Pass,
     ) -> Result<(), Error> {
-        let max_slots = table.prods.iter().map(|p| p.nslots).max().unwrap_or(0);
-        self.slots.resize(max_slots.max(1), 0.0);
+        let decomp = if matches!(pass, Pass::Step(_)) {
+            self.decomp.take()
+        } else {
+            None
+        };
+        let r = self.pass_with(table, decomp.as_ref(), input, indexed, out, pass);
+        if decomp.is_some() {
+            self.decomp = decomp;
+        }
+        r
+    }
+
+    fn pass_with(
+        &mut self,
+        table: &Table,
+        decomp: Option<&(Table, usize)>,
+        input: &File,
+        indexed: bool,
+        out: &mut Out,
+        pass: Pass,
+    ) -> Result<(), Error> {
+        let max_slots = |t: &Table| t.prods.iter().map(|p| p.nslots).max().unwrap_or(0);
+        let n = max_slots(table).max(decomp.map_or(0, |(d, _)| max_slots(d)));
+        self.slots.resize(max_slots(table).max(1), 0.0);
+        if self.rc.slots.len() < n.max(1) {
+            self.rc.slots.resize(n.max(1), 0.0);
+        }
+        if self.rc.levels.len() < 2 {
+            self.rc.levels.resize_with(2, Modules::default);
+        }
+        let cut = self.cut && matches!(pass, Pass::Step(_));
+        let hom_depth = if pass == Pass::Homomorphism {
+            self.hom_depth
+        } else {
+            1
+        };
         let mut st = StepState {
             peek: table
                 .has_right
@@ -153,12 +401,17 @@ impl<'a> Deriver<'a> {
         let read_err = |e| Error::io("temporary file", "cannot read", e);
         // Bytes that need no decision take the table; with contexts, keys
         // that have context productions and brackets still go the long way.
-        let fast = (!table.check_balance).then(|| {
-            ByteTable::new(
+        let hom_rec = pass == Pass::Homomorphism && (hom_depth > 1 || self.warnings[1]);
+        let fast = (!table.check_balance && decomp.is_none() && !hom_rec).then(|| {
+            let mut t = ByteTable::new(
                 table,
                 out.text,
                 !indexed && st.left.is_none() && out.indexed.is_none(),
-            )
+            );
+            if cut {
+                t.general(b'%');
+            }
+            t
         });
         loop {
             if let Some(fast) = &fast {
@@ -186,9 +439,88 @@ impl<'a> Deriver<'a> {
             self.rng.set_module(index);
             index += 1;
             let applied = match table.get(key) {
-                Some(kr) => self.apply(table, kr, key, bytes, end_off, &mut st, out, pass)?,
+                Some(kr) => self.apply(
+                    table,
+                    kr,
+                    (key, bytes, end_off),
+                    (decomp, hom_depth),
+                    &mut st,
+                    out,
+                    pass,
+                )?,
                 None => false,
             };
+            if !applied && (decomp.is_some() || (cut && key == u32::from(b'%'))) {
+                // The copied module, decomposed; a `%` that nothing
+                // rewrites is a cut.
+                let n = self.alphabet.arity(key);
+                self.rc.levels[0].clear();
+                self.rc.levels[0].push_encoded(key, bytes, n);
+                // (levels[0] holds the copied module for try_rewrite.)
+                let decomposed = match decomp {
+                    Some((d, max)) => {
+                        let cx = RecCtx {
+                            table: d,
+                            max: *max,
+                            al: &self.alphabet,
+                            origin: &self.origin,
+                            pass,
+                            warn: self.warnings[0].then_some(&self.warned[0]),
+                        };
+                        let lv = std::mem::take(&mut self.rc.levels[0]);
+                        let (_, params) = lv.get(0, n);
+                        let r = try_rewrite(
+                            &mut self.rc,
+                            &cx,
+                            0,
+                            key,
+                            params,
+                            &mut self.rng,
+                            &mut |_, _| Ok(true),
+                            out,
+                        );
+                        self.rc.levels[0] = lv;
+                        r?
+                    }
+                    None => false,
+                };
+                if decomposed {
+                    if let Some(left) = &mut st.left {
+                        if key != OPEN && key != CLOSE && !self.alphabet.ignored(key) {
+                            left.push(key, bytes, n);
+                        }
+                    }
+                    out.maybe_flush()?;
+                    continue;
+                }
+                if cut && key == u32::from(b'%') && n == 0 {
+                    // Drop the rest of the branch; its `]` stays. The
+                    // dropped modules still count in the draw positions of
+                    // the modules after them (module index in the old
+                    // generation), so walk them one by one.
+                    let mut depth = 0u64;
+                    let mut close = None;
+                    while let Some((k, _, _)) = rd.next_module(&self.alphabet).map_err(read_err)? {
+                        if k == CLOSE {
+                            if depth == 0 {
+                                close = Some(rd.offset());
+                                break;
+                            }
+                            depth -= 1;
+                        } else if k == OPEN {
+                            depth += 1;
+                        }
+                        index += 1;
+                    }
+                    match close {
+                        Some(after) => {
+                            rd.seek(after - 1);
+                            continue;
+                        }
+                        None => break,
+                    }
+                }
+            }
             if !applied {
                 if table.check_balance {
                     if key == OPEN {
@@ -237,9 +569,8 @@ impl<'a> Deriver<'a> {
         &mut self,
         table: &Table,
         kr: &KeyRules,
-        key: u32,
-        bytes: &[u8],
-        end_off: u64,
+        (key, bytes, end_off): (u32, &[u8], u64),
+        (decomp, hom_depth): (Option<&(Table, usize)>, usize),
         st: &mut StepState,
         out: &mut Out,
         pass: Pass,
@@ -250,6 +581,10 @@ impl<'a> Deriver<'a> {
             origin,
             slots,
             chooser,
+            rc,
+            warnings,
+            warned,
+            ..
         } = self;
         // Predecessor parameters into the first slots.
         let arity = al.arity(key);
@@ -274,6 +609,38 @@ impl<'a> Deriver<'a> {
             if p.depth_delta < 0 || p.depth_min < 0 {
                 st.last_closer = Some(pi);
             }
+        }
+        if let Some((d, max)) = decomp {
+            // The successor has depth 0: decompose it.
+            rc.slots[..p.nslots].copy_from_slice(&slots[..p.nslots]);
+            fill_level(rc, al, 0, p, rng, origin, pass)?;
+            let cx = RecCtx {
+                table: d,
+                max: *max,
+                al,
+                origin,
+                pass,
+                warn: warnings[0].then_some(&warned[0]),
+            };
+            return expand_level(rc, &cx, 0, rng, &mut |_, _| Ok(true), out).map(|()| true);
+        }
+        if pass == Pass::Homomorphism && (hom_depth > 1 || warnings[1]) {
+            // The successor has depth 1; contexts are those of the
+            // original module, at every depth.
+            rc.slots[..p.nslots].copy_from_slice(&slots[..p.nslots]);
+            fill_level(rc, al, 1, p, rng, origin, pass)?;
+            let cx = RecCtx {
+                table,
+                max: hom_depth,
+                al,
+                origin,
+                pass,
+                warn: warnings[1].then_some(&warned[1]),
+            };
+            let mut ctx = |p: &Production, slots: &mut [f64]| {
+                Ok(!surely_not(p, end_off, st, al)? && contexts_match(p, end_off, st, al, slots)?)
+            };
+            return expand_level(rc, &cx, 1, rng, &mut ctx, out).map(|()| true);
         }
         chooser.successor(slots, p, rng, origin, pass, |piece| match piece {
             Piece::Const(c) => out.constant(c),

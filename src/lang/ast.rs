@@ -75,13 +75,42 @@ pub enum Setting {
     Seed(Expr, Span),
     Ignore(Vec<Module>, Span),
     Consider(Vec<Module>, Span),
+    /// `groups: G1 G2 ...`: the cycling group schedule (issue 11).
+    Groups(Vec<(u32, Span)>, Span),
+    /// `group: EXPR`: the group of step `step`.
+    Group(Expr, Span),
+}
+
+/// A `maximum depth:` or `seed:` line of a decomposition or homomorphism
+/// section.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SectionSetting {
+    MaximumDepth(Expr, Span),
+    Seed(Expr, Span),
+}
+
+/// A `decomposition:` or `homomorphism:` section with its options.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Section {
+    /// The keyword line.
+    pub span: Span,
+    pub warnings: bool,
+    pub settings: Vec<SectionSetting>,
+    pub productions: Vec<Production>,
 }
 
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct Header {
     pub settings: Vec<Setting>,
+    /// Group 0: `productions:` (or `productions 0:`).
     pub productions: Vec<Production>,
     pub homomorphism: Vec<Production>,
+    /// `productions N:` sections, N > 0, in file order.
+    pub groups: Vec<(u32, Span, Vec<Production>)>,
+    pub decomposition: Option<Section>,
+    /// The homomorphism section's options (its productions are in
+    /// `homomorphism`).
+    pub hom: Option<Section>,
 }
 
 impl Production {

@@ -25,6 +25,15 @@ pub enum Tok<'a> {
     KwConsider,
     KwProductions,
     KwHomomorphism,
+    KwDecomposition,
+    KwMaximumDepth,
+    /// `productions N:` (issue 11), N a group number.
+    KwProductionsN(u32),
+    /// `groups: G1 G2 ...`, each group with its span.
+    KwGroups(Vec<(u32, Span)>),
+    KwGroup,
+    /// `warnings` (true) or `no warnings` after a section keyword.
+    Warnings(bool),
     Sym(char),
     Num(f64),
     Ident(&'a str),
@@ -61,6 +70,13 @@ impl std::fmt::Display for Tok<'_> {
             Tok::KwConsider => "`consider:`",
             Tok::KwProductions => "`productions:`",
             Tok::KwHomomorphism => "`homomorphism:`",
+            Tok::KwDecomposition => "`decomposition:`",
+            Tok::KwMaximumDepth => "`maximum depth:`",
+            Tok::KwProductionsN(n) => return write!(f, "`productions {n}:`"),
+            Tok::KwGroups(_) => "`groups:`",
+            Tok::KwGroup => "`group:`",
+            Tok::Warnings(true) => "`warnings`",
+            Tok::Warnings(false) => "`no warnings`",
             Tok::Sym(c) => return write!(f, "symbol `{c}`"),
             Tok::Num(n) => return write!(f, "number `{n}`"),
             Tok::Ident(s) => return write!(f, "identifier `{s}`"),
@@ -203,7 +219,20 @@ const KEYWORDS: &[(&str, Tok<'static>, bool)] = &[
     ("consider:", Tok::KwConsider, false),
     ("productions:", Tok::KwProductions, false),
     ("homomorphism:", Tok::KwHomomorphism, false),
+    ("decomposition:", Tok::KwDecomposition, false),
+    ("maximum depth:", Tok::KwMaximumDepth, true),
+    ("group:", Tok::KwGroup, true),
 ];
+
+/// The rest of a line from `rest`, up to a newline or a comment.
+fn line_rest(rest: &str) -> &str {
+    let end = rest.find(['\n', '\r']).unwrap_or(rest.len());
+    let line = &rest[..end];
+    match line.find("/*") {
+        Some(c) => &line[..c],
+        None => line,
+    }
+}
 
 /// Is `line` (from its first non-blank byte) a keyword line? Returns the
 /// keyword's byte length. Keywords are matched case-insensitively, so cpfg's
@@ -255,6 +284,9 @@ pub struct Lexer<'a> {
     expr_tokens: usize,
     /// The settings of the `view:` lines met, when collected.
     views: Option<Vec<crate::turtle::view::Setting>>,
+    /// Just after `decomposition:` / `homomorphism:` (at this offset):
+    /// look for `warnings` / `no warnings`.
+    pending_warnings: Option<usize>,
 }
 
 /// The settings of a header's `view:` lines, in order, found by the lexer
@@ -286,6 +318,7 @@ impl<'a> Lexer<'a> {
             done: false,
             expr_tokens: 0,
             views: None,
+            pending_warnings: None,
         }
     }
 
@@ -301,6 +334,7 @@ impl<'a> Lexer<'a> {
             done: false,
             expr_tokens: 0,
             views: None,
+            pending_warnings: None,
         }
     }
 
@@ -362,10 +396,14 @@ impl<'a> Lexer<'a> {
 
     /// At the start of a line: skip blanks and look for a keyword.
     /// Blanks and comments may come before the keyword.
-    fn keyword(&mut self) -> Option<(usize, Tok<'a>, usize)> {
+    fn keyword(&mut self) -> Option<Spanned<'a>> {
         let pos = self.pos();
         let blank = self.lead(pos);
         let rest = &self.src[pos + blank..];
+        let at = pos + blank;
+        if let Some(t) = self.structural_keyword(rest, at) {
+            return Some(t);
+        }
         for (kw, tok, expr) in KEYWORDS {
             if let Some(len) = match_keyword(rest, kw) {
                 self.bump(blank + len);
@@ -375,10 +413,129 @@ impl<'a> Lexer<'a> {
                     self.depth = 0;
                     self.return_at_zero = false;
                 }
-                return Some((pos + blank, tok.clone(), pos + blank + len));
+                if matches!(tok, Tok::KwHomomorphism | Tok::KwDecomposition) {
+                    self.pending_warnings = Some(at + len);
+                }
+                return Some(Ok((at, tok.clone(), at + len)));
             }
         }
         None
+    }
+
+    /// Keyword lines of issue 11 the keyword table cannot express:
+    /// `productions N:`, `groups: ...`, and the `decomposition N:` /
+    /// `homomorphism N:` mistakes.
+    fn structural_keyword(&mut self, rest: &str, at: usize) -> Option<Spanned<'a>> {
+        let err = |s: usize, e: usize, m: &str| {
+            Some(Err(LexError {
+                span: (s, e),
+                message: m.to_string(),
+            }))
+        };
+        if let Some(len) = match_keyword(rest, "groups:") {
+            let line = line_rest(&rest[len..]);
+            let mut groups = Vec::new();
+            let mut off = 0;
+            for word in line.split([' ', '\t']) {
+                let s = at + len + off;
+                off += word.len() + 1;
+                if word.is_empty() {
+                    continue;
+                }
+                if !word.bytes().all(|b| b.is_ascii_digit()) {
+                    return err(
+                        s,
+                        s + word.len(),
+                        "`groups:` takes whole group numbers separated by blanks",
+                    );
+                }
+                match word.parse::<u32>() {
+                    Ok(n) if n <= 65535 => groups.push((n, (s, s + word.len()))),
+                    _ => {
+                        return err(
+                            s,
+                            s + word.len(),
+                            "a production group is a whole number from 0 to 65535",
+                        )
+                    }
+                }
+            }
+            if groups.is_empty() {
+                return err(
+                    at,
+                    at + len,
+                    "`groups:` takes whole group numbers separated by blanks",
+                );
+            }
+            self.bump(at - self.pos() + len + line.len());
+            self.ensure_mod();
+            return Some(Ok((at, Tok::KwGroups(groups), at + len + line.len())));
+        }
+        for word in ["productions", "decomposition", "homomorphism"] {
+            let Some(len) = match_keyword(rest, word) else {
+                continue;
+            };
+            let after = &rest[len..];
+            let blanks = after.len() - after.trim_start_matches([' ', '\t']).len();
+            if blanks == 0 {
+                continue;
+            }
+            let t = &after[blanks..];
+            let wlen = t.find([' ', '\t', ':', '\n', '\r']).unwrap_or(t.len());
+            let tail = &t[wlen..];
+            let colon = tail.len() - tail.trim_start_matches([' ', '\t']).len();
+            if wlen == 0 || !tail[colon..].starts_with(':') {
+                continue;
+            }
+            let (s, e) = (at + len + blanks, at + len + blanks + wlen);
+            if word != "productions" {
+                return err(s, e, &format!("{word} has no groups"));
+            }
+            let n = match t[..wlen].parse::<u32>() {
+                Ok(n) if n <= 65535 && t[..wlen].bytes().all(|b| b.is_ascii_digit()) => n,
+                _ => return err(s, e, "a production group is a whole number from 0 to 65535"),
+            };
+            let end = e + colon + 1;
+            self.bump(end - self.pos());
+            self.ensure_mod();
+            return Some(Ok((at, Tok::KwProductionsN(n), end)));
+        }
+        None
+    }
+
+    /// After `decomposition:` or `homomorphism:`: `warnings`, `no
+    /// warnings`, or nothing on the rest of the line.
+    fn warnings(&mut self, at: usize) -> Option<Spanned<'a>> {
+        let rest = &self.src[at..];
+        let line = line_rest(rest);
+        let blank = line.len() - line.trim_start_matches([' ', '\t']).len();
+        let word = line[blank..].trim_end();
+        if word.is_empty() {
+            return None;
+        }
+        let s = at + blank;
+        let which = if word.eq_ignore_ascii_case("warnings") {
+            true
+        } else if let Some(len) = match_keyword(word, "no warnings").filter(|&l| l == word.len()) {
+            let _ = len;
+            false
+        } else {
+            let kw = if self.src[..at]
+                .trim_end()
+                .to_ascii_lowercase()
+                .ends_with("homomorphism:")
+            {
+                "homomorphism:"
+            } else {
+                "decomposition:"
+            };
+            return Some(Err(LexError {
+                span: (s, s + word.len()),
+                message: format!("expected `warnings` or `no warnings` after `{kw}`"),
+            }));
+        };
+        self.bump(blank + word.len());
+        Some(Ok((s, Tok::Warnings(which), s + word.len())))
     }
 
     /// A `view:` line holds lsgen-turtle's view settings: a keyword like
@@ -434,7 +591,12 @@ impl<'a> Iterator for Lexer<'a> {
                 }
                 if let Some(t) = self.keyword() {
                     self.after_nl = false;
-                    return Some(Ok(t));
+                    return Some(t);
+                }
+            }
+            if let Some(at) = self.pending_warnings.take() {
+                if let Some(t) = self.warnings(at) {
+                    return Some(t);
                 }
             }
             let (tok, span) = match &mut self.inner {

@@ -45,9 +45,51 @@ impl From<LexError> for UserError {
 /// Parse the header (everything before `axiom:`).
 pub fn parse_header(text: &str) -> Result<ast::Header, UserError> {
     let lexer = Lexer::new(text).map(|t| t.map_err(UserError::from));
-    grammar::HeaderParser::new()
+    let h = grammar::HeaderParser::new()
         .parse(lexer)
-        .map_err(|e| convert(e, text))
+        .map_err(|e| convert(e, text))?;
+    if let Some(d) = &h.decomposition {
+        for p in &d.productions {
+            let at = if let Some(l) = p.left.last() {
+                text[l.span.1..p.pred.span.0]
+                    .find('<')
+                    .map(|i| l.span.1 + i)
+            } else if let Some(r) = p.right.first() {
+                text[p.pred.span.1..r.span.0]
+                    .find('>')
+                    .map(|i| p.pred.span.1 + i)
+            } else {
+                continue;
+            };
+            let at = at.unwrap_or(p.pred.span.0);
+            return Err(UserError::new(
+                (at, at + 1),
+                "a decomposition production has no context (decomposition is context-free)",
+            ));
+        }
+    }
+    Ok(h)
+}
+
+/// The last section keyword (`productions`, `decomposition`,
+/// `homomorphism`) that starts a line of `text`, and how many times each
+/// of the latter two occurs.
+fn last_section(text: &str) -> (Option<&'static str>, usize, usize) {
+    let mut last = None;
+    let (mut d, mut h) = (0, 0);
+    for line in text.lines() {
+        let l = line.trim_start().to_ascii_lowercase();
+        if l.starts_with("productions") {
+            last = Some("productions");
+        } else if l.starts_with("decomposition:") {
+            last = Some("decomposition");
+            d += 1;
+        } else if l.starts_with("homomorphism:") {
+            last = Some("homomorphism");
+            h += 1;
+        }
+    }
+    (last, d, h)
 }
 
 /// Parse a lone expression (an axiom parameter).
@@ -129,7 +171,21 @@ fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str) -> UserError {
                 }
                 Tok::Gt => ("unexpected `>`: contexts are written only left of the arrow (`lc < pred > rc -> succ`)".to_string(), true),
                 Tok::Lt => ("unexpected `<`: contexts are written only left of the arrow (`lc < pred > rc -> succ`)".to_string(), true),
-                Tok::KwProductions | Tok::KwHomomorphism | Tok::KwDerivationLength
+                Tok::KwMaximumDepth => {
+                    let (last, _, _) = last_section(&text[..l.min(text.len())]);
+                    if matches!(last, Some("decomposition" | "homomorphism")) {
+                        ("`maximum depth:` comes once, right after the section keyword".to_string(), true)
+                    } else {
+                        ("`maximum depth:` belongs to `decomposition:` or `homomorphism:`".to_string(), true)
+                    }
+                }
+                Tok::KwDecomposition | Tok::KwHomomorphism if {
+                    let (_, d, h) = last_section(&text[..l.min(text.len())]);
+                    (tok == Tok::KwDecomposition && d > 0) || (tok == Tok::KwHomomorphism && h > 0)
+                } => (format!("second {tok} section"), true),
+                Tok::KwDecomposition => ("`decomposition:` comes after the productions and before `homomorphism:`".to_string(), true),
+                Tok::KwProductions | Tok::KwProductionsN(_) | Tok::KwGroups(_) | Tok::KwGroup
+                | Tok::KwHomomorphism | Tok::KwDerivationLength
                 | Tok::KwDefine | Tok::KwSeed | Tok::KwIgnore | Tok::KwConsider => {
                     (format!("{tok} is out of place: the order is settings, `productions:`, `homomorphism:`, `axiom:`"), true)
                 }

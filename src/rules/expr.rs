@@ -123,7 +123,13 @@ pub enum Op {
     F2(Func2, u32),
     Ran(u32),
     Nran(u32),
+    /// The built-in step number (issue 11), kept by the generator.
+    Step,
 }
+
+/// The parameter slot that names the built-in `step` in a scope's
+/// `params` (issue 11).
+pub const STEP_SLOT: u32 = u32::MAX;
 
 /// A compiled expression.
 #[derive(Clone, Debug, PartialEq)]
@@ -182,6 +188,11 @@ impl Code {
             .any(|o| matches!(o, Op::Ran(_) | Op::Nran(_)))
     }
 
+    /// Does this expression read the built-in `step`?
+    pub fn uses_step(&self) -> bool {
+        self.ops.iter().any(|o| matches!(o, Op::Step))
+    }
+
     fn span_index(&mut self, s: Span) -> u32 {
         self.spans.push(s);
         (self.spans.len() - 1) as u32
@@ -193,7 +204,11 @@ impl Code {
             Expr::Num(v, _) => self.ops.push(Op::Const(*v)),
             Expr::Var(name, span) => {
                 if let Some(&slot) = scope.params.get(name) {
-                    self.ops.push(Op::Load(slot));
+                    self.ops.push(if slot == STEP_SLOT {
+                        Op::Step
+                    } else {
+                        Op::Load(slot)
+                    });
                 } else if let Some(&v) = scope.consts.get(name) {
                     self.ops.push(Op::Const(v));
                 } else {
@@ -269,7 +284,7 @@ impl Code {
         if tail.len() == 1
             || tail
                 .iter()
-                .any(|o| matches!(o, Op::Load(_) | Op::Ran(_) | Op::Nran(_)))
+                .any(|o| matches!(o, Op::Load(_) | Op::Ran(_) | Op::Nran(_) | Op::Step))
         {
             return Ok(());
         }
@@ -313,6 +328,7 @@ impl Code {
             match *op {
                 Op::Const(v) => stack.push(v),
                 Op::Load(s) => stack.push(slots[s as usize]),
+                Op::Step => stack.push(rng.step()),
                 Op::Neg => {
                     let a = stack.last_mut().unwrap();
                     *a = -*a;
@@ -441,7 +457,14 @@ impl Code {
 fn is_binary(op: Op) -> bool {
     !matches!(
         op,
-        Op::Const(_) | Op::Load(_) | Op::Neg | Op::Not | Op::F1(..) | Op::Ran(_) | Op::Nran(_)
+        Op::Const(_)
+            | Op::Load(_)
+            | Op::Neg
+            | Op::Not
+            | Op::F1(..)
+            | Op::Ran(_)
+            | Op::Nran(_)
+            | Op::Step
     )
 }
 

@@ -262,6 +262,18 @@ pub struct KeyRules {
     pub free: Vec<u32>,
     pub context_stochastic: bool,
     pub free_stochastic: bool,
+    /// Group 0's productions of the key, tried when a numbered group's
+    /// choose nothing (issue 11, lpfg's rule).
+    pub fallback: Option<Box<KeyRules>>,
+}
+
+impl KeyRules {
+    fn offset(mut self, by: u32) -> KeyRules {
+        for i in self.context.iter_mut().chain(self.free.iter_mut()) {
+            *i += by;
+        }
+        self
+    }
 }
 
 #[derive(Debug, Default)]
@@ -327,6 +339,30 @@ impl Table {
     pub fn has_context(&self) -> bool {
         self.max_left > 0 || self.has_right
     }
+
+    /// A numbered group's table with group 0 (`base`) as its fallback:
+    /// group 0's productions come after the group's own, and a key with
+    /// productions in both tries the group's first.
+    fn with_fallback(mut self, base: &Table) -> Table {
+        let by = self.prods.len() as u32;
+        self.prods.extend(base.prods.iter().cloned());
+        if self.by_key.len() < base.by_key.len() {
+            self.by_key.resize(base.by_key.len(), None);
+        }
+        for (key, b) in base.by_key.iter().enumerate() {
+            let Some(b) = b else { continue };
+            let b = b.clone().offset(by);
+            match &mut self.by_key[key] {
+                Some(kr) => kr.fallback = Some(Box::new(b)),
+                none => *none = Some(b),
+            }
+        }
+        self.max_left = self.max_left.max(base.max_left);
+        self.has_right |= base.has_right;
+        self.max_right_simple = self.max_right_simple.max(base.max_right_simple);
+        self.check_balance |= base.check_balance;
+        self
+    }
 }
 
 pub struct System {
@@ -336,6 +372,53 @@ pub struct System {
     pub derivation_length: Option<u64>,
     pub seed: Option<u64>,
     pub consts: HashMap<String, f64>,
+    /// Issue 11: numbered production groups, each with group 0 as its
+    /// fallback, and the schedule (group numbers, cycling; empty: every
+    /// step uses group 0).
+    pub groups: Vec<(u32, Table)>,
+    pub schedule: Vec<u32>,
+    /// `group: EXPR`, evaluated with `step` before each step.
+    pub group_expr: Option<Code>,
+    /// Decomposition and its maximum depth.
+    pub decomposition: Option<(Table, usize)>,
+    pub hom_depth: usize,
+    /// The homomorphism's own seed (`seed:` in its section).
+    pub hom_seed: Option<u64>,
+    /// `warnings` on the decomposition and on the homomorphism.
+    pub warnings: [bool; 2],
+    /// Where a constant or a formal parameter named `step` hides the
+    /// built-in step number (a warning each).
+    pub step_hidden: Vec<Span>,
+}
+
+/// Constants and formal parameters named `step` (issue 11).
+fn hidden_step(h: &ast::Header) -> Vec<Span> {
+    let mut out = Vec::new();
+    for s in &h.settings {
+        if let Setting::Define(name, _, span) = s {
+            if name == "step" {
+                out.push(*span);
+            }
+        }
+    }
+    let prods = h
+        .productions
+        .iter()
+        .chain(h.groups.iter().flat_map(|(_, _, p)| p.iter()))
+        .chain(h.decomposition.iter().flat_map(|d| d.productions.iter()))
+        .chain(h.homomorphism.iter());
+    for p in prods {
+        for m in p.left.iter().chain([&p.pred]).chain(p.right.iter()) {
+            for e in &m.params {
+                if let Expr::Var(name, span) = e {
+                    if name == "step" {
+                        out.push(*span);
+                    }
+                }
+            }
+        }
+    }
+    out
 }
 
 type R<T> = Result<T, UserError>;
@@ -488,8 +571,43 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         _ => seeds.fallback,
     });
     let mut define_rng = Random::for_constants(run_seed);
+    let step_hidden = hidden_step(&h);
+    let mut schedule: Vec<u32> = Vec::new();
+    let mut schedule_span: Option<Span> = None;
+    let mut group_expr: Option<Code> = None;
+    let h_group_spans: Vec<(u32, Span, ())> =
+        h.groups.iter().map(|(n, s, _)| (*n, *s, ())).collect();
     for s in &h.settings {
         match s {
+            Setting::Groups(list, span) => {
+                if schedule_span.is_some() {
+                    return err(*span, "use either `groups:` or `group:`, not both");
+                }
+                schedule_span = Some(*span);
+                for &(n, at) in list {
+                    if n != 0 && !h.groups.iter().any(|(g, _, _)| *g == n) {
+                        return err(
+                            at,
+                            format!("unknown group {n}: there is no `productions {n}:` section"),
+                        );
+                    }
+                    schedule.push(n);
+                }
+            }
+            Setting::Group(e, span) => {
+                if schedule_span.is_some() {
+                    return err(*span, "use either `groups:` or `group:`, not both");
+                }
+                schedule_span = Some(*span);
+                if is_random(e, &HashSet::new()) {
+                    return err(e.span(), "`group:` cannot use ran or nran");
+                }
+                let mut names = HashMap::new();
+                if !consts.contains_key("step") {
+                    names.insert("step".to_string(), expr::STEP_SLOT);
+                }
+                group_expr = Some(compile_code(e, &names, &consts)?);
+            }
             Setting::DerivationLength(e, span) => {
                 if derivation_length.is_some() {
                     return err(*span, "`derivation length:` is set twice");
@@ -537,7 +655,59 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
     let mut alphabet = Alphabet::new(filter.map(|f| f.0).unwrap_or_default());
     let mut num = codec::NumFmt::new();
     let productions = compile_table(h.productions, &mut alphabet, &consts, &mut num)?;
+    let mut groups = Vec::new();
+    for (n, _, prods) in h.groups {
+        let t = compile_table(prods, &mut alphabet, &consts, &mut num)?;
+        groups.push((n, t.with_fallback(&productions)));
+    }
+    if let (Some((n, span, _)), None) = (h_group_spans.first(), schedule_span) {
+        return err(
+            *span,
+            format!("group {n} is never used: add a `groups:` or `group:` setting"),
+        );
+    }
+    let warnings = [
+        h.decomposition.as_ref().is_some_and(|d| d.warnings),
+        h.hom.as_ref().is_some_and(|d| d.warnings),
+    ];
+    let decomposition = match h.decomposition {
+        Some(d) => {
+            let (depth, seed) = section_settings(&d, &consts)?;
+            if let Some(span) = seed {
+                return err(
+                    span,
+                    "decomposition uses the main random generator: no `seed:` here",
+                );
+            }
+            let t = compile_table(d.productions, &mut alphabet, &consts, &mut num)?;
+            balanced(&t, "a decomposition successor must balance its brackets")?;
+            Some((t, depth))
+        }
+        None => None,
+    };
+    let (hom_depth, hom_seed) = match &h.hom {
+        Some(s) => {
+            let (depth, _) = section_settings(s, &consts)?;
+            let seed = s
+                .settings
+                .iter()
+                .find_map(|x| match x {
+                    ast::SectionSetting::Seed(e, _) => Some(e),
+                    _ => None,
+                })
+                .map(|e| seed_value(e, &consts, src))
+                .transpose()?;
+            (depth, seed)
+        }
+        None => (1, None),
+    };
     let homomorphism = compile_table(h.homomorphism, &mut alphabet, &consts, &mut num)?;
+    if hom_depth > 1 {
+        balanced(
+            &homomorphism,
+            "with `maximum depth:` above 1, a homomorphism successor must balance its brackets",
+        )?;
+    }
     Ok(System {
         alphabet,
         productions,
@@ -545,7 +715,62 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         derivation_length,
         seed,
         consts,
+        groups,
+        schedule,
+        group_expr,
+        decomposition,
+        hom_depth,
+        hom_seed,
+        warnings,
+        step_hidden,
     })
+}
+
+/// Recursive rewriting does not track brackets: every successor of `t`
+/// must balance (each `]` after its `[`).
+fn balanced(t: &Table, message: &str) -> R<()> {
+    match t
+        .prods
+        .iter()
+        .find(|p| p.depth_delta != 0 || p.depth_min < 0)
+    {
+        Some(p) => err(p.span, message),
+        None => Ok(()),
+    }
+}
+
+/// A decomposition or homomorphism section's `maximum depth:` (default 1)
+/// and where its `seed:` is, if any.
+fn section_settings(s: &ast::Section, consts: &HashMap<String, f64>) -> R<(usize, Option<Span>)> {
+    let mut depth = None;
+    let mut seed = None;
+    for x in &s.settings {
+        match x {
+            ast::SectionSetting::MaximumDepth(e, span) => {
+                if depth.is_some() {
+                    return err(
+                        *span,
+                        "`maximum depth:` comes once, right after the section keyword",
+                    );
+                }
+                let v = constant(e, consts, &mut Random::new(0))?;
+                if !(1.0..=10000.0).contains(&v) || v.fract() != 0.0 {
+                    return err(
+                        e.span(),
+                        "maximum depth must be a whole number from 1 to 10000",
+                    );
+                }
+                depth = Some(v as usize);
+            }
+            ast::SectionSetting::Seed(_, span) => {
+                if seed.is_some() {
+                    return err(*span, "`seed:` is set twice");
+                }
+                seed = Some(*span);
+            }
+        }
+    }
+    Ok((depth.unwrap_or(1), seed))
 }
 
 fn compile_table(
@@ -659,6 +884,10 @@ fn compile_production(
                 right.push(RPat::Module(Pat { key: k, slot }));
             }
         }
+    }
+    // The built-in step number, unless a parameter or constant hides it.
+    if !consts.contains_key("step") {
+        names.entry("step".to_string()).or_insert(expr::STEP_SLOT);
     }
     let cond = p
         .cond

@@ -574,6 +574,11 @@ impl System {
                     }
                     filter = Filter::Consider(set);
                 }
+                // split_structure took the schedule lines out: this
+                // reference reads them itself.
+                Setting::Groups(..) | Setting::Group(..) => {
+                    return Err("schedule left in the main header".into())
+                }
             }
         }
         let rules = h
@@ -1490,12 +1495,15 @@ mod tests {
             let n: u64 = n.parse().unwrap();
             let src =
                 std::fs::read_to_string(root.join(format!("tests/structural/{name}.ls"))).unwrap();
+            // (The models lsgen implements moved to examples/ with their
+            // expected files; `examples_match_the_reference`-style tests
+            // cover them there.)
             let want = std::fs::read_to_string(dir.join(&file)).unwrap();
             let got = derive(&src, n, 0).unwrap_or_else(|e| panic!("{file}: {e}"));
             assert_eq!(format!("{got}\n"), want, "{file}");
             checked += 1;
         }
-        assert!(checked >= 20, "only {checked} structural expected files");
+        assert!(checked >= 16, "only {checked} structural expected files");
     }
 
     /// Both references agree on random systems with every structural

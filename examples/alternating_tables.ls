@@ -3,6 +3,7 @@
    step's group comes first and group 0 is the fallback. In a wet year the
    apex branches and internodes grow (group 0); in a dry year the apex only
    leaves a ring R, and I -> I keeps internodes from growing. */
+view: angle = 30
 derivation length: 6
 groups: 1 1 2
 

@@ -4,6 +4,8 @@
    a rachis segment F with a pair of leaflets P and a smaller leaf, three
    levels per step; what the depth limit leaves (P, L(k)) is decomposed in
    the next step. A leaflet P becomes [&K]. */
+view: angle = 45
+view: direction = side
 derivation length: 3
 
 productions:
