@@ -793,17 +793,14 @@ fn run_one(
                 stem: &stem,
                 seed,
             };
-            let sink = (frames, &mut files as &mut dyn FrameSink);
-            let mut discard = io::sink();
-            ls.run(
+            return derive_frames(
+                &mut ls,
                 &options,
-                &mut discard,
-                "",
                 args.verbose,
                 &mut report,
-                Some(sink),
-            )?;
-            return Ok(());
+                frames,
+                &mut files,
+            );
         }
     };
     if let Some(frames) = args.frames {
@@ -811,15 +808,13 @@ fn run_one(
             out: output.writer(),
             name: out_name.clone(),
         };
-        let sink = (frames, &mut stream as &mut dyn FrameSink);
-        let mut discard = io::sink();
-        ls.run(
+        derive_frames(
+            &mut ls,
             &options,
-            &mut discard,
-            "",
             args.verbose,
             &mut report,
-            Some(sink),
+            frames,
+            &mut stream,
         )?;
         return output.commit();
     }
@@ -834,6 +829,27 @@ fn run_one(
     drop(_installed);
     drop(display);
     output.commit()
+}
+
+/// Derive once and write `frames` to `sink`, one output per frame; the
+/// derivation's own output is discarded.
+fn derive_frames(
+    ls: &mut LSystem,
+    options: &Options,
+    verbose: bool,
+    report: &mut dyn FnMut(&Event),
+    frames: Frames,
+    sink: &mut dyn FrameSink,
+) -> Result<(), Error> {
+    ls.run(
+        options,
+        io::sink(),
+        "",
+        verbose,
+        report,
+        Some((frames, sink)),
+    )?;
+    Ok(())
 }
 
 /// The binaries' global allocator: the system's, except that a failed

@@ -252,7 +252,7 @@ impl Error {
 }
 
 /// The OS message without Rust's " (os error N)" suffix.
-fn io_message(e: &std::io::Error) -> String {
+pub(crate) fn io_message(e: &std::io::Error) -> String {
     if e.raw_os_error() == Some(libc::EFBIG) {
         return "File too large (past `ulimit -f`, or the file system's largest file)".into();
     }

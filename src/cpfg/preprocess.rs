@@ -176,20 +176,12 @@ impl PpError {
             IncludeFailed { path, source } => format!(
                 "cannot include `{}`: {}",
                 path.display(),
-                io_message(source)
+                crate::diag::io_message(source)
             ),
             IncludeCycle(chain) => format!("#include cycle: {chain}"),
             Limit { what, limit } => format!("{what} (limit {limit})"),
             ErrorDirective(m) => format!("#error {m}"),
         }
-    }
-}
-
-fn io_message(e: &io::Error) -> String {
-    let s = e.to_string();
-    match s.find(" (os error") {
-        Some(i) => s[..i].to_string(),
-        None => s,
     }
 }
 
