@@ -370,13 +370,10 @@ cases! {
     // --- numbers -----------------------------------------------------------
     bad_number_trailing_e =>
         err("define: a = 1e\naxiom: F\n", 1, 14, "unexpected identifier `e`");
-    // The message quotes the number as lsgen reads it, `0.3`, not as it
-    // is written: the golden file has the written `.3`.
-    #[ignore = "lsgen bug: `1.2.3` is reported as unexpected number `0.3`, a text not in the file"]
+    // The message quotes the number as written, `.3`, not as read (`0.3`).
     bad_number_two_points =>
         err("define: a = 1.2.3\naxiom: F\n", 1, 16, "unexpected number");
     bad_number_in_axiom_trailing_e => err("axiom: F(1e)\n", 1, 11, "unexpected identifier `e`");
-    #[ignore = "lsgen bug: `1.2.3` is reported as unexpected number `0.3`, a text not in the file"]
     bad_number_in_axiom_two_points => err("axiom: F(1.2.3)\n", 1, 13, "unexpected number");
     number_out_of_range_in_header =>
         err("define: a = 1e309\naxiom: F\n", 1, 13, "out of range");

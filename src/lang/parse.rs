@@ -189,6 +189,11 @@ fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str) -> UserError {
                 | Tok::KwDefine | Tok::KwSeed | Tok::KwIgnore | Tok::KwConsider => {
                     (format!("{tok} is out of place: the order is settings, `productions:`, `homomorphism:`, `axiom:`"), true)
                 }
+                // Quote a number as written (`.3`), not as read (`0.3`).
+                Tok::Num(_) => match text.get(l..r) {
+                    Some(written) => (format!("unexpected number `{written}`"), false),
+                    None => (format!("unexpected {tok}"), false),
+                },
                 t => (format!("unexpected {t}"), false),
             };
             let msg = if exp.is_empty() || complete {
