@@ -356,6 +356,16 @@ impl LSystem {
             }
             None => &mut out,
         };
+        // Frames go out through their own sink: the same rewriting there.
+        let mut precise;
+        let frames: Option<(Frames, &mut dyn FrameSink)> = match (frames, options.precision) {
+            (Some((f, sink)), Some(digits)) => {
+                precise = PreciseFrames { sink, digits };
+                Some((f, &mut precise))
+            }
+            (Some((f, sink)), None) => Some((f, sink)),
+            (None, _) => None,
+        };
         let (modules, bytes) = derive(
             &settings,
             reader,
@@ -429,4 +439,28 @@ pub fn derive_bytes(
     let mut out = Vec::new();
     ls.derive(&options, &mut out)?;
     Ok(out)
+}
+
+/// `--precision` for frames: each frame's text goes through [`Significant`]
+/// on its way into the caller's sink.
+struct PreciseFrames<'s> {
+    sink: &'s mut dyn FrameSink,
+    digits: u32,
+}
+
+impl FrameSink for PreciseFrames<'_> {
+    fn frame(
+        &mut self,
+        n: u64,
+        write: &mut dyn FnMut(&mut dyn Write, &str) -> Result<(u64, u64), Error>,
+    ) -> Result<(u64, u64), Error> {
+        let digits = self.digits;
+        self.sink.frame(n, &mut |out, name| {
+            let mut sig = Significant::new(out, digits);
+            let len = write(&mut sig, name)?;
+            sig.flush()
+                .map_err(|e| Error::io(name, "cannot write", e))?;
+            Ok(len)
+        })
+    }
 }

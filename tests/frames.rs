@@ -208,3 +208,27 @@ fn frames_to_files_need_no_standard_output() {
         "aba\n"
     );
 }
+
+/// `--precision` applies to frames as to a single run (stdout and files).
+#[test]
+fn frames_honour_precision() {
+    let src = "productions:\nA(x) -> A(x/3)\naxiom:\nA(1)\n";
+    let r = common::run_ls(src, &["--frames", "1..2", "--precision", "2"]);
+    assert_eq!(r.ok(), "A(0.33)\nA(0.11)\n");
+    let dir = common::tempdir();
+    let t = dir.path().join("f-{n}.txt");
+    let r = common::run_ls(
+        src,
+        &[
+            "--frames",
+            "2..2",
+            "--precision",
+            "2",
+            "-o",
+            t.to_str().unwrap(),
+        ],
+    );
+    r.ok();
+    let f = std::fs::read_to_string(dir.path().join("f-2.txt")).unwrap();
+    assert_eq!(f, "A(0.11)\n");
+}
