@@ -386,6 +386,18 @@ impl Png {
         })
     }
 
+    /// Fill `path` with palette colour `colour`.
+    fn fill(&mut self, path: &tiny_skia::Path, colour: i64) {
+        let paint = self.paint(colour);
+        self.pixmap.fill_path(
+            path,
+            &paint,
+            tiny_skia::FillRule::Winding,
+            tiny_skia::Transform::identity(),
+            None,
+        );
+    }
+
     fn paint(&self, colour: i64) -> tiny_skia::Paint<'static> {
         let c = self.view.colour_of(colour);
         let mut p = tiny_skia::Paint::default();
@@ -483,14 +495,7 @@ impl Sink for Png {
         }
         pb.close();
         if let Some(path) = pb.finish() {
-            let paint = self.paint(colour);
-            self.pixmap.fill_path(
-                &path,
-                &paint,
-                tiny_skia::FillRule::Winding,
-                tiny_skia::Transform::identity(),
-                None,
-            );
+            self.fill(&path, colour);
         }
         Ok(())
     }
@@ -499,14 +504,7 @@ impl Sink for Png {
         let (x, y) = self.layout.px(centre);
         let r = (d / 2.0 * self.layout.scale) as f32;
         if let Some(path) = tiny_skia::PathBuilder::from_circle(x as f32, y as f32, r.max(0.5)) {
-            let paint = self.paint(colour);
-            self.pixmap.fill_path(
-                &path,
-                &paint,
-                tiny_skia::FillRule::Winding,
-                tiny_skia::Transform::identity(),
-                None,
-            );
+            self.fill(&path, colour);
         }
         Ok(())
     }
