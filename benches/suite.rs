@@ -524,10 +524,11 @@ fn run_suite(bin: &Path, o: &Options) -> Result<(), String> {
     Ok(())
 }
 
-fn selected(o: &Options, w: &Workload) -> bool {
+/// Is the row or workload `name` selected by `--only`?
+fn selected(o: &Options, name: &str) -> bool {
     o.only
         .as_ref()
-        .is_none_or(|v| v.iter().any(|p| w.name.starts_with(p.as_str())))
+        .is_none_or(|v| v.iter().any(|p| name.starts_with(p.as_str())))
 }
 
 fn run_all(
@@ -541,7 +542,7 @@ fn run_all(
     let out = scratch.join("out.txt");
     let floor_out = scratch.join("floor.txt");
     let axiom = scratch.join("axiom.txt");
-    for w in WORKLOADS.iter().filter(|w| selected(o, w)) {
+    for w in WORKLOADS.iter().filter(|w| selected(o, w.name)) {
         let mut prev: Option<(f64, f64)> = None; // (modules/s, bytes/module)
         for (i, &size) in SIZES.iter().enumerate() {
             if size > o.max {
@@ -690,11 +691,7 @@ fn run_turtle(
 ) -> Result<String, String> {
     let rows: Vec<_> = TURTLE_ROWS
         .iter()
-        .filter(|(name, _)| {
-            o.only
-                .as_ref()
-                .is_none_or(|v| v.iter().any(|p| name.starts_with(p.as_str())))
-        })
+        .filter(|(name, _)| selected(o, name))
         .collect();
     if rows.is_empty() || o.max < 10_000_000 {
         return Ok(String::new());
@@ -869,11 +866,7 @@ fn run_frames(
 ) -> Result<String, String> {
     let rows: Vec<_> = FRAME_ROWS
         .iter()
-        .filter(|(name, ..)| {
-            o.only
-                .as_ref()
-                .is_none_or(|v| v.iter().any(|p| name.starts_with(p.as_str())))
-        })
+        .filter(|(name, ..)| selected(o, name))
         .collect();
     if rows.is_empty() || o.max < 10_000_000 {
         return Ok(String::new());
@@ -939,10 +932,7 @@ fn run_frames(
 /// faster than `-j 1` on a machine with 2 free cores.
 fn run_forest(lsgen: &Path, o: &Options, scratch: &Path) -> Result<String, String> {
     const NAME: &str = "forest_100_seeds";
-    if o.only
-        .as_ref()
-        .is_some_and(|v| !v.iter().any(|p| NAME.starts_with(p.as_str())))
-    {
+    if !selected(o, NAME) {
         return Ok(String::new());
     }
     let model = workload_path("stochastic_plant.ls");
