@@ -6,8 +6,8 @@ use crate::diag::{Error, ErrorKind};
 use crate::io::axiom::AxiomReader;
 use crate::io::input::{split_header, Input, Split};
 use crate::io::precision::Significant;
-use crate::lang::parse::{locate, parse_header, UserError};
-use crate::rules::{compile_with, Seeds, System};
+use crate::lang::parse::{locate, UserError};
+use crate::rules::{compile_text, LoadError, Seeds, System};
 use std::io::{self, Read, Write};
 use std::path::PathBuf;
 
@@ -411,13 +411,15 @@ impl LSystem {
 
 /// Parse and compile the header of `split`.
 fn compile(path: &str, split: &Split, seed: Option<u64>, fresh: u64) -> Result<System, Error> {
-    let header = parse_header(&split.header).map_err(|e| locate(path, &split.header, e))?;
     let seeds = Seeds {
         command_line: seed,
         fallback: fresh,
     };
-    compile_with(header, Some(&split.header), seeds)
-        .map_err(|e| locate(path, &split.header, e).in_stage(ErrorKind::Compile))
+    // Each production is compiled as it is read (no whole syntax tree).
+    compile_text(&split.header, seeds).map_err(|e| match e {
+        LoadError::Parse(e) => locate(path, &split.header, e),
+        LoadError::Compile(e) => locate(path, &split.header, e).in_stage(ErrorKind::Compile),
+    })
 }
 
 /// Load an L-system from `src` and derive it in full into a byte vector

@@ -5,6 +5,7 @@
 use crate::diag::{CodeMap, Error, ErrorKind, Location};
 use crate::lang::ast;
 use crate::lang::lexer::{LexError, Lexer, Span, Tok};
+use crate::lang::sink::{Collect, HeaderSink, Reader};
 use lalrpop_util::{lalrpop_mod, ParseError};
 
 lalrpop_mod!(
@@ -42,33 +43,26 @@ impl From<LexError> for UserError {
     }
 }
 
-/// Parse the header (everything before `axiom:`).
+/// Parse the header (everything before `axiom:`) into a whole syntax tree.
 pub fn parse_header(text: &str) -> Result<ast::Header, UserError> {
+    let mut collect = Collect::default();
+    parse_into(text, &mut collect)?;
+    Ok(collect.header)
+}
+
+/// Parse the header, handing it to `sink` as it is read (the productions
+/// one at a time). The sink keeps going after an error of its own: a
+/// syntax error anywhere, returned here, comes first.
+pub fn parse_into(text: &str, sink: &mut dyn HeaderSink) -> Result<(), UserError> {
     let lexer = Lexer::new(text).map(|t| t.map_err(UserError::from));
-    let h = grammar::HeaderParser::new()
-        .parse(lexer)
+    let mut reader = Reader::new(sink);
+    let finish = grammar::HeaderParser::new()
+        .parse(&mut reader, lexer)
         .map_err(|e| convert(e, text))?;
-    if let Some(d) = &h.decomposition {
-        for p in &d.productions {
-            let at = if let Some(l) = p.left.last() {
-                text[l.span.1..p.pred.span.0]
-                    .find('<')
-                    .map(|i| l.span.1 + i)
-            } else if let Some(r) = p.right.first() {
-                text[p.pred.span.1..r.span.0]
-                    .find('>')
-                    .map(|i| p.pred.span.1 + i)
-            } else {
-                continue;
-            };
-            let at = at.unwrap_or(p.pred.span.0);
-            return Err(UserError::new(
-                (at, at + 1),
-                "a decomposition production has no context (decomposition is context-free)",
-            ));
-        }
+    match finish.context {
+        Some(c) => Err(c.error(text)),
+        None => Ok(()),
     }
-    Ok(h)
 }
 
 /// The last section keyword (`productions`, `decomposition`,
@@ -98,7 +92,7 @@ pub fn parse_expr(text: &str) -> Result<ast::Expr, UserError> {
         .filter(|t| !matches!(t, Ok((_, Tok::Nl, _))))
         .map(|t| t.map_err(UserError::from));
     grammar::ExprParser::new()
-        .parse(lexer)
+        .parse(&mut Reader::new(&mut Collect::default()), lexer)
         .map_err(|e| convert(e, text))
 }
 

@@ -7,6 +7,7 @@ use crate::derive::random::Random;
 use crate::lang::ast::{self, Expr, Setting};
 use crate::lang::lexer::Span;
 use crate::lang::parse::UserError;
+use crate::lang::sink::{HeaderSink, SectionKind, SectionStart};
 use codec::MAX_ARITY;
 use expr::{Code, Scope};
 use std::collections::{HashMap, HashSet};
@@ -329,6 +330,39 @@ impl Table {
         }
     }
 
+    /// Add a compiled production after the others.
+    pub fn push(&mut self, p: Production) {
+        self.max_left = self.max_left.max(p.left.len());
+        self.has_right |= !p.right.is_empty();
+        if p.right_simple {
+            self.max_right_simple = self.max_right_simple.max(p.right.len());
+        }
+        self.check_balance |= p.depth_delta != 0 || p.depth_min < 0;
+        let key = p.key as usize;
+        if self.by_key.len() <= key {
+            self.by_key.resize(key + 1, None);
+        }
+        let kr = self.by_key[key].get_or_insert_with(KeyRules::default);
+        let idx = self.prods.len() as u32;
+        if p.has_context() {
+            kr.context.push(idx);
+            kr.context_stochastic |= p.prob.is_some();
+        } else {
+            kr.free.push(idx);
+            kr.free_stochastic |= p.prob.is_some();
+        }
+        self.prods.push(p);
+    }
+
+    /// Drop the spare capacity the table grew with.
+    fn shrink(&mut self) {
+        self.prods.shrink_to_fit();
+        for kr in self.by_key.iter_mut().flatten() {
+            kr.context.shrink_to_fit();
+            kr.free.shrink_to_fit();
+        }
+    }
+
     #[inline]
     pub fn get(&self, key: u32) -> Option<&KeyRules> {
         self.by_key.get(key as usize).and_then(Option::as_ref)
@@ -391,34 +425,17 @@ pub struct System {
     pub step_hidden: Vec<Span>,
 }
 
-/// Constants and formal parameters named `step` (issue 11).
-fn hidden_step(h: &ast::Header) -> Vec<Span> {
-    let mut out = Vec::new();
-    for s in &h.settings {
-        if let Setting::Define(name, _, span) = s {
-            if name == "step" {
-                out.push(*span);
-            }
-        }
-    }
-    let prods = h
-        .productions
-        .iter()
-        .chain(h.groups.iter().flat_map(|(_, _, p)| p.iter()))
-        .chain(h.decomposition.iter().flat_map(|d| d.productions.iter()))
-        .chain(h.homomorphism.iter());
-    for p in prods {
-        for m in p.left.iter().chain([&p.pred]).chain(p.right.iter()) {
-            for e in &m.params {
-                if let Expr::Var(name, span) = e {
-                    if name == "step" {
-                        out.push(*span);
-                    }
+/// Formal parameters named `step` (issue 11) in a production.
+fn hidden_step(p: &ast::Production, out: &mut Vec<Span>) {
+    for m in p.left.iter().chain([&p.pred]).chain(p.right.iter()) {
+        for e in &m.params {
+            if let Expr::Var(name, span) = e {
+                if name == "step" {
+                    out.push(*span);
                 }
             }
         }
     }
-    out
 }
 
 type R<T> = Result<T, UserError>;
@@ -515,10 +532,10 @@ fn is_random(e: &Expr, random: &HashSet<String>) -> bool {
 /// The file's seed, read ahead of the constants (random constants are
 /// drawn with the run's seed, wherever `seed:` stands). None if there is
 /// none or it cannot be read: then the settings report the error in order.
-fn file_seed(h: &ast::Header, src: Option<&str>) -> Option<R<u64>> {
+fn file_seed(settings: &[Setting], src: Option<&str>) -> Option<R<u64>> {
     let mut consts = HashMap::new();
     let mut random = HashSet::new();
-    for s in &h.settings {
+    for s in settings {
         match s {
             Setting::Define(name, e, _) if is_random(e, &random) => {
                 random.insert(name.clone());
@@ -555,175 +572,446 @@ pub fn compile(h: &ast::Header) -> R<System> {
     compile_with(h.clone(), None, Seeds::default())
 }
 
-/// Compile a parsed header whose text is `src`. Random constants (`ran`
-/// and `nran` in `define:`) are drawn in file order from a generator of
-/// their own seeded with the run's seed: `--seed`, else `seed:`, else the
-/// fallback.
-/// The syntax tree is consumed production by production.
+/// Compile a parsed header whose text is `src`: hands the tree to a
+/// [`Compiler`] as the parser would, production by production.
 pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System> {
-    let mut derivation_length = None;
-    let mut seed = None;
-    let mut filter: Option<(Filter, Span)> = None;
-    let mut consts: HashMap<String, f64> = HashMap::new();
-    let ahead = file_seed(&h, src);
-    let run_seed = seeds.command_line.unwrap_or(match &ahead {
-        Some(Ok(s)) => *s,
-        _ => seeds.fallback,
+    let mut c = Compiler::new(src, seeds);
+    c.settings(h.settings);
+    c.section(SectionStart {
+        kind: SectionKind::Group(0),
+        span: (0, 0),
+        warnings: false,
+        settings: Vec::new(),
     });
-    let mut define_rng = Random::for_constants(run_seed);
-    let step_hidden = hidden_step(&h);
-    let mut schedule: Vec<u32> = Vec::new();
-    let mut schedule_span: Option<Span> = None;
-    let mut group_expr: Option<Code> = None;
-    let h_group_spans: Vec<(u32, Span, ())> =
-        h.groups.iter().map(|(n, s, _)| (*n, *s, ())).collect();
-    for s in &h.settings {
-        match s {
-            Setting::Groups(list, span) => {
-                if schedule_span.is_some() {
-                    return err(*span, "use either `groups:` or `group:`, not both");
-                }
-                schedule_span = Some(*span);
-                for &(n, at) in list {
-                    if n != 0 && !h.groups.iter().any(|(g, _, _)| *g == n) {
-                        return err(
-                            at,
-                            format!("unknown group {n}: there is no `productions {n}:` section"),
-                        );
+    for p in h.productions {
+        c.production(p);
+    }
+    for (n, span, prods) in h.groups {
+        c.section(SectionStart {
+            kind: SectionKind::Group(n),
+            span,
+            warnings: false,
+            settings: Vec::new(),
+        });
+        for p in prods {
+            c.production(p);
+        }
+    }
+    if let Some(d) = h.decomposition {
+        c.section(SectionStart {
+            kind: SectionKind::Decomposition,
+            span: d.span,
+            warnings: d.warnings,
+            settings: d.settings,
+        });
+        for p in d.productions {
+            c.production(p);
+        }
+    }
+    if let Some(s) = h.hom {
+        c.section(SectionStart {
+            kind: SectionKind::Homomorphism,
+            span: s.span,
+            warnings: s.warnings,
+            settings: s.settings,
+        });
+    }
+    if !h.homomorphism.is_empty() && !c.in_section(SectionKind::Homomorphism) {
+        c.section(SectionStart {
+            kind: SectionKind::Homomorphism,
+            span: (0, 0),
+            warnings: false,
+            settings: Vec::new(),
+        });
+    }
+    for p in h.homomorphism {
+        c.production(p);
+    }
+    c.finish()
+}
+
+/// A header's parse error, or its compile error (found only if it parses).
+#[derive(Clone, Debug, PartialEq)]
+pub enum LoadError {
+    Parse(UserError),
+    Compile(UserError),
+}
+
+/// Parse and compile the header text `src`, each production as it is
+/// read: the whole syntax tree never exists. Errors as [`parse_header`]
+/// then [`compile_with`] would report them.
+///
+/// [`parse_header`]: crate::lang::parse::parse_header
+pub fn compile_text(src: &str, seeds: Seeds) -> Result<System, LoadError> {
+    let mut c = Compiler::new(Some(src), seeds);
+    crate::lang::parse::parse_into(src, &mut c).map_err(LoadError::Parse)?;
+    c.finish().map_err(LoadError::Compile)
+}
+
+/// Where a compile error was found, in the order the checks are made: the
+/// first error of the lowest stage is the one reported. Sections are
+/// compiled in file order as they arrive, but group 0 is checked before
+/// the numbered groups wherever it stands.
+mod stage {
+    pub const SETTINGS: u8 = 0;
+    pub const GROUP0: u8 = 1;
+    pub const GROUPS: u8 = 2;
+    pub const UNUSED: u8 = 3;
+    pub const DECOMPOSITION: u8 = 4;
+    pub const HOMOMORPHISM: u8 = 5;
+}
+
+/// What the settings give the productions.
+struct Settled {
+    derivation_length: Option<u64>,
+    seed: Option<u64>,
+    consts: HashMap<String, f64>,
+    schedule: Vec<u32>,
+    scheduled: bool,
+    group_expr: Option<Code>,
+    alphabet: Alphabet,
+}
+
+/// Compiles a header handed over by the parser ([`HeaderSink`]): the
+/// settings, then each production into its section's table as soon as it
+/// is read. After an error it keeps reading (the parser may still find a
+/// syntax error, which comes first) but compiles only what could still
+/// hold an earlier error.
+pub struct Compiler<'a> {
+    src: Option<&'a str>,
+    seeds: Seeds,
+    settled: Option<Settled>,
+    /// The first error of the lowest stage so far.
+    error: Option<(u8, UserError)>,
+    /// `groups:` entries to check once every section is known: (group, where).
+    scheduled_groups: Vec<(u32, Span)>,
+    /// `step` hidden by a constant or a formal parameter, with its stage
+    /// (warned in the stages' order).
+    step_hidden: Vec<(u8, Span)>,
+    num: codec::NumFmt,
+    section: SectionKind,
+    productions: Table,
+    groups: Vec<(u32, Span, Table)>,
+    decomposition: Option<(Table, usize)>,
+    hom: Option<(usize, Option<u64>)>,
+    homomorphism: Table,
+    warnings: [bool; 2],
+}
+
+impl<'a> Compiler<'a> {
+    /// `src` is the header text, for reading a large `seed:` literal
+    /// exactly.
+    pub fn new(src: Option<&'a str>, seeds: Seeds) -> Compiler<'a> {
+        Compiler {
+            src,
+            seeds,
+            settled: None,
+            error: None,
+            scheduled_groups: Vec::new(),
+            step_hidden: Vec::new(),
+            num: codec::NumFmt::new(),
+            section: SectionKind::Group(0),
+            productions: Table::default(),
+            groups: Vec::new(),
+            decomposition: None,
+            hom: None,
+            homomorphism: Table::default(),
+            warnings: [false; 2],
+        }
+    }
+
+    fn in_section(&self, kind: SectionKind) -> bool {
+        self.section == kind
+    }
+
+    fn stage(&self) -> u8 {
+        match self.section {
+            SectionKind::Group(0) => stage::GROUP0,
+            SectionKind::Group(_) => stage::GROUPS,
+            SectionKind::Decomposition => stage::DECOMPOSITION,
+            SectionKind::Homomorphism => stage::HOMOMORPHISM,
+        }
+    }
+
+    /// Could an error found at `stage` still be the one reported?
+    fn open(&self, stage: u8) -> bool {
+        self.settled.is_some() && self.error.as_ref().is_none_or(|(s, _)| stage < *s)
+    }
+
+    fn fail(&mut self, stage: u8, e: UserError) {
+        if self.error.as_ref().is_none_or(|(s, _)| stage < *s) {
+            self.error = Some((stage, e));
+        }
+    }
+
+    fn settle(&mut self, settings: &[Setting]) -> R<Settled> {
+        let mut derivation_length = None;
+        let mut seed = None;
+        let mut filter: Option<(Filter, Span)> = None;
+        let mut consts: HashMap<String, f64> = HashMap::new();
+        let src = self.src;
+        let ahead = file_seed(settings, src);
+        let run_seed = self.seeds.command_line.unwrap_or(match &ahead {
+            Some(Ok(s)) => *s,
+            _ => self.seeds.fallback,
+        });
+        let mut define_rng = Random::for_constants(run_seed);
+        let mut schedule: Vec<u32> = Vec::new();
+        let mut schedule_span: Option<Span> = None;
+        let mut group_expr: Option<Code> = None;
+        for s in settings {
+            match s {
+                Setting::Groups(list, span) => {
+                    if schedule_span.is_some() {
+                        return err(*span, "use either `groups:` or `group:`, not both");
                     }
-                    schedule.push(n);
+                    schedule_span = Some(*span);
+                    for &(n, at) in list {
+                        if n != 0 {
+                            // Checked when every section is known.
+                            self.scheduled_groups.push((n, at));
+                        }
+                        schedule.push(n);
+                    }
                 }
-            }
-            Setting::Group(e, span) => {
-                if schedule_span.is_some() {
-                    return err(*span, "use either `groups:` or `group:`, not both");
+                Setting::Group(e, span) => {
+                    if schedule_span.is_some() {
+                        return err(*span, "use either `groups:` or `group:`, not both");
+                    }
+                    schedule_span = Some(*span);
+                    if is_random(e, &HashSet::new()) {
+                        return err(e.span(), "`group:` cannot use ran or nran");
+                    }
+                    let mut names = HashMap::new();
+                    if !consts.contains_key("step") {
+                        names.insert("step".to_string(), expr::STEP_SLOT);
+                    }
+                    group_expr = Some(compile_code(e, &names, &consts)?);
                 }
-                schedule_span = Some(*span);
-                if is_random(e, &HashSet::new()) {
-                    return err(e.span(), "`group:` cannot use ran or nran");
+                Setting::DerivationLength(e, span) => {
+                    if derivation_length.is_some() {
+                        return err(*span, "`derivation length:` is set twice");
+                    }
+                    derivation_length = Some(whole_number(e, &consts, "the derivation length")?);
                 }
-                let mut names = HashMap::new();
-                if !consts.contains_key("step") {
-                    names.insert("step".to_string(), expr::STEP_SLOT);
+                Setting::Seed(e, span) => {
+                    if seed.is_some() {
+                        return err(*span, "`seed:` is set twice");
+                    }
+                    seed = Some(match &ahead {
+                        Some(Ok(v)) => *v,
+                        Some(Err(e)) => return Err(e.clone()),
+                        None => seed_value(e, &consts, src)?,
+                    });
                 }
-                group_expr = Some(compile_code(e, &names, &consts)?);
-            }
-            Setting::DerivationLength(e, span) => {
-                if derivation_length.is_some() {
-                    return err(*span, "`derivation length:` is set twice");
+                Setting::Define(name, e, span) => {
+                    if consts.contains_key(name) {
+                        return err(*span, format!("`{name}` is defined twice"));
+                    }
+                    let v = constant(e, &consts, &mut define_rng)?;
+                    consts.insert(name.clone(), v);
                 }
-                derivation_length = Some(whole_number(e, &consts, "the derivation length")?);
-            }
-            Setting::Seed(e, span) => {
-                if seed.is_some() {
-                    return err(*span, "`seed:` is set twice");
-                }
-                seed = Some(match &ahead {
-                    Some(Ok(v)) => *v,
-                    Some(Err(e)) => return Err(e.clone()),
-                    None => seed_value(e, &consts, src)?,
-                });
-            }
-            Setting::Define(name, e, span) => {
-                if consts.contains_key(name) {
-                    return err(*span, format!("`{name}` is defined twice"));
-                }
-                let v = constant(e, &consts, &mut define_rng)?;
-                consts.insert(name.clone(), v);
-            }
-            Setting::Ignore(m, span) | Setting::Consider(m, span) => {
-                let set = symbols(m)?;
-                let f = if matches!(s, Setting::Ignore(..)) {
-                    Filter::Ignore(set)
-                } else {
-                    Filter::Consider(set)
-                };
-                match (&mut filter, f) {
-                    (None, f) => filter = Some((f, *span)),
-                    (Some((Filter::Ignore(a), _)), Filter::Ignore(b))
-                    | (Some((Filter::Consider(a), _)), Filter::Consider(b)) => a.extend(b),
-                    (Some(_), _) => {
-                        return err(
-                            *span,
-                            "`ignore:` and `consider:` cannot both be used: pick one",
-                        )
+                Setting::Ignore(m, span) | Setting::Consider(m, span) => {
+                    let set = symbols(m)?;
+                    let f = if matches!(s, Setting::Ignore(..)) {
+                        Filter::Ignore(set)
+                    } else {
+                        Filter::Consider(set)
+                    };
+                    match (&mut filter, f) {
+                        (None, f) => filter = Some((f, *span)),
+                        (Some((Filter::Ignore(a), _)), Filter::Ignore(b))
+                        | (Some((Filter::Consider(a), _)), Filter::Consider(b)) => a.extend(b),
+                        (Some(_), _) => {
+                            return err(
+                                *span,
+                                "`ignore:` and `consider:` cannot both be used: pick one",
+                            )
+                        }
                     }
                 }
             }
         }
+        Ok(Settled {
+            derivation_length,
+            seed,
+            consts,
+            schedule,
+            scheduled: schedule_span.is_some(),
+            group_expr,
+            alphabet: Alphabet::new(filter.map(|f| f.0).unwrap_or_default()),
+        })
     }
-    let mut alphabet = Alphabet::new(filter.map(|f| f.0).unwrap_or_default());
-    let mut num = codec::NumFmt::new();
-    let productions = compile_table(h.productions, &mut alphabet, &consts, &mut num)?;
-    let mut groups = Vec::new();
-    for (n, _, prods) in h.groups {
-        let t = compile_table(prods, &mut alphabet, &consts, &mut num)?;
-        groups.push((n, t.with_fallback(&productions)));
-    }
-    if let (Some((n, span, _)), None) = (h_group_spans.first(), schedule_span) {
-        return err(
-            *span,
-            format!("group {n} is never used: add a `groups:` or `group:` setting"),
-        );
-    }
-    let warnings = [
-        h.decomposition.as_ref().is_some_and(|d| d.warnings),
-        h.hom.as_ref().is_some_and(|d| d.warnings),
-    ];
-    let decomposition = match h.decomposition {
-        Some(d) => {
-            let (depth, seed) = section_settings(&d, &consts)?;
-            if let Some(span) = seed {
-                return err(
-                    span,
-                    "decomposition uses the main random generator: no `seed:` here",
+
+    /// The compiled system, or the first error of the earliest stage.
+    pub fn finish(mut self) -> R<System> {
+        // A `groups:` entry naming no section is an error of the settings,
+        // before any later setting's.
+        let declared: Vec<u32> = self.groups.iter().map(|g| g.0).collect();
+        if let Some(&(n, at)) = self
+            .scheduled_groups
+            .iter()
+            .find(|(n, _)| !declared.contains(n))
+        {
+            return err(
+                at,
+                format!("unknown group {n}: there is no `productions {n}:` section"),
+            );
+        }
+        if let Some(st) = &self.settled {
+            if let (Some((n, span, _)), false) = (self.groups.first(), st.scheduled) {
+                let e = UserError::new(
+                    *span,
+                    format!("group {n} is never used: add a `groups:` or `group:` setting"),
                 );
+                self.fail(stage::UNUSED, e);
             }
-            let t = compile_table(d.productions, &mut alphabet, &consts, &mut num)?;
-            balanced(&t, "a decomposition successor must balance its brackets")?;
-            Some((t, depth))
         }
-        None => None,
-    };
-    let (hom_depth, hom_seed) = match &h.hom {
-        Some(s) => {
-            let (depth, _) = section_settings(s, &consts)?;
-            let seed = s
-                .settings
-                .iter()
-                .find_map(|x| match x {
-                    ast::SectionSetting::Seed(e, _) => Some(e),
-                    _ => None,
-                })
-                .map(|e| seed_value(e, &consts, src))
-                .transpose()?;
-            (depth, seed)
+        if let Some((t, _)) = &self.decomposition {
+            if let Err(e) = balanced(t, "a decomposition successor must balance its brackets") {
+                self.fail(stage::DECOMPOSITION, e);
+            }
         }
-        None => (1, None),
-    };
-    let homomorphism = compile_table(h.homomorphism, &mut alphabet, &consts, &mut num)?;
-    if hom_depth > 1 {
-        balanced(
-            &homomorphism,
-            "with `maximum depth:` above 1, a homomorphism successor must balance its brackets",
-        )?;
+        let (hom_depth, hom_seed) = self.hom.unwrap_or((1, None));
+        if hom_depth > 1 {
+            if let Err(e) = balanced(
+                &self.homomorphism,
+                "with `maximum depth:` above 1, a homomorphism successor must balance its brackets",
+            ) {
+                self.fail(stage::HOMOMORPHISM, e);
+            }
+        }
+        if let Some((_, e)) = self.error {
+            return Err(e);
+        }
+        let st = self.settled.expect("settings come first");
+        let mut productions = self.productions;
+        productions.shrink();
+        let groups = self
+            .groups
+            .into_iter()
+            .map(|(n, _, mut t)| {
+                t.shrink();
+                (n, t.with_fallback(&productions))
+            })
+            .collect();
+        let decomposition = self.decomposition.map(|(mut t, depth)| {
+            t.shrink();
+            (t, depth)
+        });
+        let mut homomorphism = self.homomorphism;
+        homomorphism.shrink();
+        let mut step_hidden = self.step_hidden;
+        step_hidden.sort_by_key(|h| h.0);
+        Ok(System {
+            alphabet: st.alphabet,
+            productions,
+            homomorphism,
+            derivation_length: st.derivation_length,
+            seed: st.seed,
+            consts: st.consts,
+            groups,
+            schedule: st.schedule,
+            group_expr: st.group_expr,
+            decomposition,
+            hom_depth,
+            hom_seed,
+            warnings: self.warnings,
+            step_hidden: step_hidden.into_iter().map(|h| h.1).collect(),
+        })
     }
-    Ok(System {
-        alphabet,
-        productions,
-        homomorphism,
-        derivation_length,
-        seed,
-        consts,
-        groups,
-        schedule,
-        group_expr,
-        decomposition,
-        hom_depth,
-        hom_seed,
-        warnings,
-        step_hidden,
-    })
+}
+
+impl HeaderSink for Compiler<'_> {
+    fn settings(&mut self, settings: Vec<Setting>) {
+        for s in &settings {
+            if let Setting::Define(name, _, span) = s {
+                if name == "step" {
+                    self.step_hidden.push((stage::SETTINGS, *span));
+                }
+            }
+        }
+        match self.settle(&settings) {
+            Ok(st) => self.settled = Some(st),
+            Err(e) => self.fail(stage::SETTINGS, e),
+        }
+    }
+
+    fn section(&mut self, start: SectionStart) {
+        self.section = start.kind;
+        let stage = self.stage();
+        match start.kind {
+            SectionKind::Group(0) => {}
+            SectionKind::Group(n) => self.groups.push((n, start.span, Table::default())),
+            SectionKind::Decomposition => {
+                self.warnings[0] = start.warnings;
+                self.decomposition = Some((Table::default(), 1));
+                if !self.open(stage) {
+                    return;
+                }
+                let consts = &self.settled.as_ref().unwrap().consts;
+                match section_settings(&start.settings, consts) {
+                    Ok((depth, None)) => self.decomposition = Some((Table::default(), depth)),
+                    Ok((_, Some(span))) => self.fail(
+                        stage,
+                        UserError::new(
+                            span,
+                            "decomposition uses the main random generator: no `seed:` here",
+                        ),
+                    ),
+                    Err(e) => self.fail(stage, e),
+                }
+            }
+            SectionKind::Homomorphism => {
+                self.warnings[1] = start.warnings;
+                if !self.open(stage) {
+                    return;
+                }
+                let consts = &self.settled.as_ref().unwrap().consts;
+                let hom = section_settings(&start.settings, consts).and_then(|(depth, _)| {
+                    let seed = start
+                        .settings
+                        .iter()
+                        .find_map(|x| match x {
+                            ast::SectionSetting::Seed(e, _) => Some(e),
+                            _ => None,
+                        })
+                        .map(|e| seed_value(e, consts, self.src))
+                        .transpose()?;
+                    Ok((depth, seed))
+                });
+                match hom {
+                    Ok(h) => self.hom = Some(h),
+                    Err(e) => self.fail(stage, e),
+                }
+            }
+        }
+    }
+
+    fn production(&mut self, p: ast::Production) {
+        let stage = self.stage();
+        if !self.open(stage) {
+            return;
+        }
+        hidden_step_at(&p, stage, &mut self.step_hidden);
+        let st = self.settled.as_mut().unwrap();
+        let table = match self.section {
+            SectionKind::Group(0) => &mut self.productions,
+            SectionKind::Group(_) => &mut self.groups.last_mut().unwrap().2,
+            SectionKind::Decomposition => &mut self.decomposition.as_mut().unwrap().0,
+            SectionKind::Homomorphism => &mut self.homomorphism,
+        };
+        match compile_production(&p, &mut st.alphabet, &st.consts, &mut self.num) {
+            Ok(cp) => table.push(cp),
+            Err(e) => self.fail(stage, e),
+        }
+    }
+}
+
+fn hidden_step_at(p: &ast::Production, stage: u8, out: &mut Vec<(u8, Span)>) {
+    let mut spans = Vec::new();
+    hidden_step(p, &mut spans);
+    out.extend(spans.into_iter().map(|s| (stage, s)));
 }
 
 /// Recursive rewriting does not track brackets: every successor of `t`
@@ -741,10 +1029,13 @@ fn balanced(t: &Table, message: &str) -> R<()> {
 
 /// A decomposition or homomorphism section's `maximum depth:` (default 1)
 /// and where its `seed:` is, if any.
-fn section_settings(s: &ast::Section, consts: &HashMap<String, f64>) -> R<(usize, Option<Span>)> {
+fn section_settings(
+    settings: &[ast::SectionSetting],
+    consts: &HashMap<String, f64>,
+) -> R<(usize, Option<Span>)> {
     let mut depth = None;
     let mut seed = None;
-    for x in &s.settings {
+    for x in settings {
         match x {
             ast::SectionSetting::MaximumDepth(e, span) => {
                 if depth.is_some() {
@@ -771,58 +1062,6 @@ fn section_settings(s: &ast::Section, consts: &HashMap<String, f64>) -> R<(usize
         }
     }
     Ok((depth.unwrap_or(1), seed))
-}
-
-fn compile_table(
-    prods: Vec<ast::Production>,
-    alphabet: &mut Alphabet,
-    consts: &HashMap<String, f64>,
-    num: &mut codec::NumFmt,
-) -> R<Table> {
-    let mut t = Table::default();
-    t.prods.reserve_exact(prods.len());
-    // The syntax tree is freed as it is compiled: each production's parts
-    // at once, the array itself by halves, so the tree and the table are
-    // not both whole at the same time.
-    let mut prods = prods;
-    let mut i = 0;
-    while i < prods.len() {
-        let cp = compile_production(&prods[i], alphabet, consts, num)?;
-        let p = &mut prods[i];
-        p.pred.params = Vec::new();
-        p.left = Vec::new();
-        p.right = Vec::new();
-        p.succ = Vec::new();
-        p.cond = None;
-        p.prob = None;
-        i += 1;
-        if i >= 1024 && 2 * i >= prods.len() {
-            prods.drain(..i);
-            prods.shrink_to_fit();
-            i = 0;
-        }
-        t.max_left = t.max_left.max(cp.left.len());
-        t.has_right |= !cp.right.is_empty();
-        if cp.right_simple {
-            t.max_right_simple = t.max_right_simple.max(cp.right.len());
-        }
-        t.check_balance |= cp.depth_delta != 0 || cp.depth_min < 0;
-        let key = cp.key as usize;
-        if t.by_key.len() <= key {
-            t.by_key.resize(key + 1, None);
-        }
-        let kr = t.by_key[key].get_or_insert_with(KeyRules::default);
-        let idx = t.prods.len() as u32;
-        if cp.has_context() {
-            kr.context.push(idx);
-            kr.context_stochastic |= cp.prob.is_some();
-        } else {
-            kr.free.push(idx);
-            kr.free_stochastic |= cp.prob.is_some();
-        }
-        t.prods.push(cp);
-    }
-    Ok(t)
 }
 
 fn bind_formals(m: &ast::Module, names: &mut HashMap<String, u32>, nslots: &mut usize) -> R<u32> {
