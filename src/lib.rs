@@ -75,7 +75,7 @@ pub use derive::random;
 #[doc(hidden)]
 pub use io::{axiom, input, output};
 #[doc(hidden)]
-pub use lang::{ast, lexer, parse};
+pub use lang::{ast, lexer, parse, sink};
 #[doc(hidden)]
 pub use rules::{codec, expr};
 #[doc(hidden)]

@@ -225,7 +225,7 @@ impl<'w> Out<'w> {
 
     #[inline]
     pub fn constant(&mut self, c: &ConstRun) -> Result<(), Error> {
-        self.modules += c.modules;
+        self.modules += c.modules();
         if self.text {
             self.buf.extend_from_slice(c.text());
         } else if self.indexed.is_none() {
@@ -233,7 +233,7 @@ impl<'w> Out<'w> {
         } else {
             let base = self.buf.len();
             self.buf.extend_from_slice(c.ibin());
-            for &(at, open) in c.brackets.iter() {
+            for (at, open) in c.brackets() {
                 let abs = self.written + (base + at as usize) as u64;
                 if open {
                     self.opens.push(abs);

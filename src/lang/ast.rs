@@ -115,8 +115,8 @@ pub struct Header {
 
 impl Production {
     /// Drop the spare capacity the parser's vectors grew with: a file may
-    /// hold millions of productions, and the whole tree is alive until it
-    /// is compiled.
+    /// hold millions of productions, when the whole tree is collected
+    /// (`sink::Collect`; the compiler takes one at a time).
     pub fn compact(mut self) -> Self {
         self.pred.compact();
         for m in self

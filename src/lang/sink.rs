@@ -182,6 +182,7 @@ impl HeaderSink for Collect {
     }
 
     fn production(&mut self, p: Production) {
+        let p = p.compact();
         let h = &mut self.header;
         match self.section {
             Some(SectionKind::Group(0)) | None => h.productions.push(p),

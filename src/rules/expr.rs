@@ -125,6 +125,9 @@ pub enum Op {
     Nran(u32),
     /// The built-in step number (issue 11), kept by the generator.
     Step,
+    /// Not an instruction: the span of a fallible one, stored after the
+    /// code (u32 offsets: headers are far below 4 GiB).
+    At(u32, u32),
 }
 
 /// The parameter slot that names the built-in `step` in a scope's
@@ -134,8 +137,10 @@ pub const STEP_SLOT: u32 = u32::MAX;
 /// A compiled expression.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Code {
-    ops: Vec<Op>,
-    spans: Vec<Span>,
+    /// The `n` instructions, then the spans of those that can fail (`At`),
+    /// in one allocation: a production table may hold millions of these.
+    ops: Box<[Op]>,
+    n: u32,
     /// Span of the whole expression.
     pub span: Span,
 }
@@ -159,23 +164,45 @@ pub struct Scope<'a> {
     pub consts: &'a HashMap<String, f64>,
 }
 
+/// A [`Code`] being compiled.
+struct Draft {
+    ops: Vec<Op>,
+    spans: Vec<Span>,
+    span: Span,
+}
+
 impl Code {
     pub fn compile(e: &Expr, scope: &Scope) -> Result<Code, CompileError> {
-        let mut c = Code {
+        let mut c = Draft {
             ops: Vec::new(),
             spans: Vec::new(),
             span: e.span(),
         };
         c.emit(e, scope)?;
-        // No spare capacity: a production table may hold millions of these.
-        c.ops.shrink_to_fit();
-        c.spans.shrink_to_fit();
-        Ok(c)
+        Ok(Code::pack(&c.ops, &c.spans, c.span))
+    }
+
+    fn pack(ops: &[Op], spans: &[Span], span: Span) -> Code {
+        let u = |x: usize| u32::try_from(x).unwrap_or(u32::MAX);
+        let mut all = Vec::with_capacity(ops.len() + spans.len());
+        all.extend_from_slice(ops);
+        all.extend(spans.iter().map(|s| Op::At(u(s.0), u(s.1))));
+        Code {
+            ops: all.into_boxed_slice(),
+            n: ops.len() as u32,
+            span,
+        }
+    }
+
+    /// The instructions.
+    #[inline]
+    fn ops(&self) -> &[Op] {
+        &self.ops[..self.n as usize]
     }
 
     /// The value, if the expression needs no parameter and no draw.
     pub fn constant(&self) -> Option<f64> {
-        match self.ops.as_slice() {
+        match self.ops() {
             [Op::Const(v)] => Some(*v),
             _ => None,
         }
@@ -183,16 +210,18 @@ impl Code {
 
     /// Does evaluating this expression draw random numbers?
     pub fn uses_random(&self) -> bool {
-        self.ops
+        self.ops()
             .iter()
             .any(|o| matches!(o, Op::Ran(_) | Op::Nran(_)))
     }
 
     /// Does this expression read the built-in `step`?
     pub fn uses_step(&self) -> bool {
-        self.ops.iter().any(|o| matches!(o, Op::Step))
+        self.ops().iter().any(|o| matches!(o, Op::Step))
     }
+}
 
+impl Draft {
     fn span_index(&mut self, s: Span) -> u32 {
         self.spans.push(s);
         (self.spans.len() - 1) as u32
@@ -288,17 +317,15 @@ impl Code {
         {
             return Ok(());
         }
-        let sub = Code {
-            ops: tail.to_vec(),
-            spans: self.spans.clone(),
-            span: self.span,
-        };
+        let sub = Code::pack(tail, &self.spans, self.span);
         let v = sub.eval(&[], &mut Vec::new(), &mut Random::new(0))?;
         self.ops.truncate(start);
         self.ops.push(Op::Const(v));
         Ok(())
     }
+}
 
+impl Code {
     /// Evaluate with parameters in `slots`; `stack` is scratch space reused
     /// between calls.
     #[inline]
@@ -309,7 +336,7 @@ impl Code {
         rng: &mut D,
     ) -> Result<f64, EvalError> {
         // The shapes most successors and conditions have, without the stack.
-        match *self.ops.as_slice() {
+        match *self.ops() {
             [Op::Const(v)] => return Ok(v),
             [Op::Load(s)] => return Ok(slots[s as usize]),
             [Op::Load(a), Op::Const(c), op] if is_binary(op) => {
@@ -324,11 +351,12 @@ impl Code {
             _ => {}
         }
         stack.clear();
-        for op in &self.ops {
+        for op in self.ops() {
             match *op {
                 Op::Const(v) => stack.push(v),
                 Op::Load(s) => stack.push(slots[s as usize]),
                 Op::Step => stack.push(rng.step()),
+                Op::At(..) => unreachable!("a span is not an instruction"),
                 Op::Neg => {
                     let a = stack.last_mut().unwrap();
                     *a = -*a;
@@ -391,7 +419,7 @@ impl Code {
     }
 
     fn name_at(&self, si: u32) -> &'static str {
-        match self.ops.iter().find_map(|o| match o {
+        match self.ops().iter().find_map(|o| match o {
             Op::F1(f, s) if *s == si => Some(*f),
             _ => None,
         }) {
@@ -447,7 +475,10 @@ impl Code {
 
     fn fail(&self, si: u32, msg: &str) -> EvalError {
         EvalError {
-            span: self.spans[si as usize],
+            span: match self.ops[self.n as usize + si as usize] {
+                Op::At(a, b) => (a as usize, b as usize),
+                _ => unreachable!("no span at {si}"),
+            },
             message: msg.to_string(),
         }
     }

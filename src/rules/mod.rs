@@ -146,30 +146,126 @@ pub enum RPat {
 /// allocation (a production table may hold millions of these).
 #[derive(Clone, Debug, Default)]
 pub struct ConstRun {
-    /// Binary, then binary with bracket index, then text.
+    /// A header, then the binary format, the binary with bracket index,
+    /// the text, and the brackets' offsets in the latter (4 bytes each,
+    /// then 1 if `[`). The header holds five lengths (binary, indexed,
+    /// text, brackets, modules): `[0, a, b, c, d, e]` when all are below
+    /// 256 (most runs), else `[1]` and five little-endian u32.
     data: Box<[u8]>,
-    bin_len: u32,
-    ibin_len: u32,
-    /// Offsets of the brackets in `ibin` (true: `[`).
-    pub brackets: Box<[(u32, bool)]>,
-    pub modules: u64,
+}
+
+/// The lengths of a [`ConstRun`]: where its parts start and end.
+struct Parts {
+    start: usize,
+    bin: usize,
+    ibin: usize,
+    text: usize,
+    brackets: usize,
+    modules: u32,
 }
 
 impl ConstRun {
+    fn new(bin: &[u8], ibin: &[u8], text: &[u8], brackets: &[(u32, bool)], modules: u32) -> Self {
+        let lens = [
+            bin.len(),
+            ibin.len(),
+            text.len(),
+            brackets.len(),
+            modules as usize,
+        ];
+        let small = lens.iter().all(|&l| l < 256);
+        let mut data =
+            Vec::with_capacity(21 + bin.len() + ibin.len() + text.len() + 5 * brackets.len());
+        if small {
+            data.push(0);
+            data.extend(lens.iter().map(|&l| l as u8));
+        } else {
+            data.push(1);
+            for l in lens {
+                data.extend_from_slice(&(l as u32).to_le_bytes());
+            }
+        }
+        data.extend_from_slice(bin);
+        data.extend_from_slice(ibin);
+        data.extend_from_slice(text);
+        for &(at, open) in brackets {
+            data.extend_from_slice(&at.to_le_bytes());
+            data.push(u8::from(open));
+        }
+        ConstRun { data: data.into() }
+    }
+
+    #[inline]
+    fn parts(&self) -> Parts {
+        let d = &self.data;
+        match d.first() {
+            None => Parts {
+                start: 0,
+                bin: 0,
+                ibin: 0,
+                text: 0,
+                brackets: 0,
+                modules: 0,
+            },
+            Some(0) => Parts {
+                start: 6,
+                bin: d[1] as usize,
+                ibin: d[2] as usize,
+                text: d[3] as usize,
+                brackets: d[4] as usize,
+                modules: u32::from(d[5]),
+            },
+            Some(_) => {
+                let at = |i: usize| u32::from_le_bytes(d[1 + 4 * i..5 + 4 * i].try_into().unwrap());
+                Parts {
+                    start: 21,
+                    bin: at(0) as usize,
+                    ibin: at(1) as usize,
+                    text: at(2) as usize,
+                    brackets: at(3) as usize,
+                    modules: at(4),
+                }
+            }
+        }
+    }
+
     /// Binary format.
     #[inline]
     pub fn bin(&self) -> &[u8] {
-        &self.data[..self.bin_len as usize]
+        let p = self.parts();
+        &self.data[p.start..p.start + p.bin]
     }
     /// Binary with bracket index: each `[` followed by 8 bytes that will
     /// hold the offset just past its `]`.
     #[inline]
     pub fn ibin(&self) -> &[u8] {
-        &self.data[self.bin_len as usize..self.bin_len as usize + self.ibin_len as usize]
+        let p = self.parts();
+        let s = p.start + p.bin;
+        &self.data[s..s + p.ibin]
     }
     #[inline]
     pub fn text(&self) -> &[u8] {
-        &self.data[self.bin_len as usize + self.ibin_len as usize..]
+        let p = self.parts();
+        let s = p.start + p.bin + p.ibin;
+        &self.data[s..s + p.text]
+    }
+    /// How many modules.
+    #[inline]
+    pub fn modules(&self) -> u64 {
+        u64::from(self.parts().modules)
+    }
+    /// Offsets of the brackets in [`ibin`](Self::ibin) (true: `[`).
+    pub fn brackets(&self) -> impl Iterator<Item = (u32, bool)> + '_ {
+        let p = self.parts();
+        let s = p.start + p.bin + p.ibin + p.text;
+        self.data[s..s + 5 * p.brackets]
+            .chunks_exact(5)
+            .map(|b| (u32::from_le_bytes([b[0], b[1], b[2], b[3]]), b[4] == 1))
+    }
+    /// Does the run hold `[` or `]`?
+    #[inline]
+    pub fn has_brackets(&self) -> bool {
+        self.parts().brackets > 0
     }
 }
 
@@ -204,17 +300,13 @@ impl ConstBuilder {
             return None;
         }
         let b = std::mem::take(self);
-        let mut data = Vec::with_capacity(b.bin.len() + b.ibin.len() + b.text.len());
-        data.extend_from_slice(&b.bin);
-        data.extend_from_slice(&b.ibin);
-        data.extend_from_slice(&b.text);
-        Some(ConstRun {
-            data: data.into(),
-            bin_len: b.bin.len() as u32,
-            ibin_len: b.ibin.len() as u32,
-            brackets: b.brackets.into(),
-            modules: b.modules,
-        })
+        Some(ConstRun::new(
+            &b.bin,
+            &b.ibin,
+            &b.text,
+            &b.brackets,
+            b.modules as u32,
+        ))
     }
 }
 
@@ -323,8 +415,8 @@ impl Table {
             [Item::Const(c)] => Some(Some(Fixed {
                 bin: c.bin(),
                 text: c.text(),
-                modules: c.modules,
-                brackets: !c.brackets.is_empty(),
+                modules: c.modules(),
+                brackets: c.has_brackets(),
             })),
             _ => None,
         }
@@ -1155,16 +1247,28 @@ fn compile_production(
     Ok(Production {
         key,
         nslots,
-        left: left.into(),
-        right: right.into(),
+        left: exact(left),
+        right: exact(right),
         right_simple,
         cond,
         prob,
-        succ: succ.into(),
+        succ: exact(succ),
         span: p.span,
         depth_delta,
         depth_min,
     })
+}
+
+/// `v` in a block of its exact size. Shrinking the vector in place would
+/// leave the rest of its block behind as a small free chunk, one per
+/// production: a table of millions of productions grows by a third.
+fn exact<T>(mut v: Vec<T>) -> Box<[T]> {
+    if v.len() == v.capacity() {
+        return v.into_boxed_slice();
+    }
+    let mut b = Vec::with_capacity(v.len());
+    b.append(&mut v);
+    b.into_boxed_slice()
 }
 
 /// Successor to items: runs of modules whose parameters are all constant
@@ -1208,7 +1312,7 @@ fn compile_successor(
                 }
                 items.push(Item::Module {
                     key,
-                    params: codes.into_boxed_slice(),
+                    params: exact(codes),
                 });
             }
         }
@@ -1248,8 +1352,8 @@ mod tests {
         match &p.succ[0] {
             Item::Const(c) => {
                 assert_eq!(std::str::from_utf8(c.text()).unwrap(), "F(2)[+F]G(1,6)");
-                assert_eq!(c.modules, 6);
-                assert_eq!(&*c.brackets, &[(10, true), (21, false)]);
+                assert_eq!(c.modules(), 6);
+                assert_eq!(c.brackets().collect::<Vec<_>>(), [(10, true), (21, false)]);
                 assert_eq!(c.ibin().len(), c.bin().len() + 8);
             }
             other => panic!("{other:?}"),
