@@ -45,7 +45,11 @@ impl Filter {
 pub struct Alphabet {
     sym: Vec<char>,
     arity: Vec<u16>,
-    text: Vec<Box<[u8]>>,
+    /// Each key's text (its symbol in UTF-8), one after the other: key k's
+    /// ends at `text_end[k]` (one block, not one per key: a header may
+    /// name a million symbols).
+    text: Vec<u8>,
+    text_end: Vec<u32>,
     ignored: Vec<bool>,
     map: HashMap<(char, u16), u32>,
     filter: Filter,
@@ -57,6 +61,7 @@ impl Alphabet {
             sym: Vec::new(),
             arity: Vec::new(),
             text: Vec::new(),
+            text_end: Vec::new(),
             ignored: Vec::new(),
             map: HashMap::new(),
             filter,
@@ -65,7 +70,8 @@ impl Alphabet {
             let c = b as char;
             a.sym.push(c);
             a.arity.push(0);
-            a.text.push(vec![b].into_boxed_slice());
+            a.text.push(b);
+            a.text_end.push(a.text.len() as u32);
             a.ignored.push(a.filter.ignores(c));
         }
         a
@@ -89,12 +95,9 @@ impl Alphabet {
         self.sym.push(sym);
         self.arity.push(arity);
         let mut t = [0u8; 4];
-        self.text.push(
-            sym.encode_utf8(&mut t)
-                .as_bytes()
-                .to_vec()
-                .into_boxed_slice(),
-        );
+        self.text
+            .extend_from_slice(sym.encode_utf8(&mut t).as_bytes());
+        self.text_end.push(self.text.len() as u32);
         self.ignored.push(self.filter.ignores(sym));
         self.map.insert((sym, arity), k);
         Ok(k)
@@ -106,7 +109,9 @@ impl Alphabet {
     }
     #[inline]
     pub fn text(&self, key: u32) -> &[u8] {
-        &self.text[key as usize]
+        let k = key as usize;
+        let start = if k == 0 { 0 } else { self.text_end[k - 1] };
+        &self.text[start as usize..self.text_end[k] as usize]
     }
     #[inline]
     pub fn symbol(&self, key: u32) -> char {
@@ -319,8 +324,54 @@ pub enum Item {
     Module { key: u32, params: Box<[Code]> },
 }
 
-/// A compiled production. Kept small (boxed slices, boxed expressions): a
-/// table may hold millions.
+/// A successor's items: a slice ([`Deref`](std::ops::Deref)). Most
+/// successors are one item, kept in place (no block of their own).
+#[derive(Clone, Debug)]
+pub enum Succ {
+    One(Item),
+    Many(Box<[Item]>),
+}
+
+impl std::ops::Deref for Succ {
+    type Target = [Item];
+    #[inline]
+    fn deref(&self) -> &[Item] {
+        match self {
+            Succ::One(i) => std::slice::from_ref(i),
+            Succ::Many(m) => m,
+        }
+    }
+}
+
+impl<'a> IntoIterator for &'a Succ {
+    type Item = &'a Item;
+    type IntoIter = std::slice::Iter<'a, Item>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter()
+    }
+}
+
+impl From<Vec<Item>> for Succ {
+    fn from(mut v: Vec<Item>) -> Succ {
+        match v.pop() {
+            Some(i) if v.is_empty() => Succ::One(i),
+            Some(i) => {
+                v.push(i);
+                Succ::Many(exact(v))
+            }
+            None => Succ::Many(Box::default()),
+        }
+    }
+}
+
+impl From<Box<[Item]>> for Succ {
+    fn from(b: Box<[Item]>) -> Succ {
+        Succ::from(b.into_vec())
+    }
+}
+
+/// A compiled production. Kept small (boxed slices, boxed expressions, a
+/// one-item successor in place): a table may hold millions.
 #[derive(Clone, Debug)]
 pub struct Production {
     pub key: u32,
@@ -333,7 +384,7 @@ pub struct Production {
     pub right_simple: bool,
     pub cond: Option<Box<Code>>,
     pub prob: Option<Box<Code>>,
-    pub succ: Box<[Item]>,
+    pub succ: Succ,
     /// Where the production starts in the header, for runtime errors.
     pub span: Span,
     /// Bracket depth change of the successor, and its lowest prefix.
@@ -1252,7 +1303,7 @@ fn compile_production(
         right_simple,
         cond,
         prob,
-        succ: exact(succ),
+        succ: Succ::from(succ),
         span: p.span,
         depth_delta,
         depth_min,
