@@ -137,9 +137,10 @@ pub const STEP_SLOT: u32 = u32::MAX;
 /// A compiled expression.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Code {
-    /// The `n` instructions, then the spans of those that can fail (`At`),
-    /// in one allocation: a production table may hold millions of these.
-    ops: Box<[Op]>,
+    /// The `n` instructions ([`ops`](Code::ops)), then the spans of those
+    /// that can fail (`At`), in one allocation: a production table may
+    /// hold millions of these.
+    packed: Box<[Op]>,
     n: u32,
     /// Span of the whole expression.
     pub span: Span,
@@ -188,7 +189,7 @@ impl Code {
         all.extend_from_slice(ops);
         all.extend(spans.iter().map(|s| Op::At(u(s.0), u(s.1))));
         Code {
-            ops: all.into_boxed_slice(),
+            packed: all.into_boxed_slice(),
             n: ops.len() as u32,
             span,
         }
@@ -197,7 +198,7 @@ impl Code {
     /// The instructions.
     #[inline]
     fn ops(&self) -> &[Op] {
-        &self.ops[..self.n as usize]
+        &self.packed[..self.n as usize]
     }
 
     /// The value, if the expression needs no parameter and no draw.
@@ -475,7 +476,7 @@ impl Code {
 
     fn fail(&self, si: u32, msg: &str) -> EvalError {
         EvalError {
-            span: match self.ops[self.n as usize + si as usize] {
+            span: match self.packed[self.n as usize + si as usize] {
                 Op::At(a, b) => (a as usize, b as usize),
                 _ => unreachable!("no span at {si}"),
             },
