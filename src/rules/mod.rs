@@ -782,7 +782,10 @@ pub enum LoadError {
 
 /// Parse and compile the header text `src`, each production as it is
 /// read: the whole syntax tree never exists. Errors as [`parse_header`]
-/// then [`compile_with`] would report them.
+/// then [`compile_with`] would report them. Random constants (`ran` and
+/// `nran` in `define:`) are drawn in file order from a generator of their
+/// own seeded with the run's seed: `--seed`, else `seed:`, else the
+/// fallback.
 ///
 /// [`parse_header`]: crate::lang::parse::parse_header
 pub fn compile_text(src: &str, seeds: Seeds) -> Result<System, LoadError> {
@@ -1449,5 +1452,64 @@ mod tests {
         let s = sys("productions:\nA -> ]B[\n").unwrap();
         assert!(s.productions.check_balance);
         assert_eq!(s.productions.prods[0].depth_min, -1);
+    }
+
+    /// Compiled as read, in file order, a header still reports the error
+    /// the whole-tree compiler did: a syntax error anywhere first, then by
+    /// stage (settings, group 0, numbered groups, ...), each stage's first.
+    #[test]
+    fn streaming_keeps_the_error_order() {
+        let first = |src: &str| match compile_text(src, Seeds::default()) {
+            Ok(_) => "ok".to_string(),
+            Err(LoadError::Parse(e)) => format!("parse {}: {}", e.span.0, e.message),
+            Err(LoadError::Compile(e)) => format!("compile {}: {}", e.span.0, e.message),
+        };
+        // Group 0 is checked before group 1, wherever it stands.
+        let src = "groups: 1\nproductions 1:\nA -> B(y)\nproductions:\nC -> D(z)\n";
+        assert_eq!(first(src), "compile 55: unknown identifier `z`");
+        // A `groups:` entry naming no section comes before a later setting's
+        // error, though it is known only at the end.
+        let src = "groups: 5\ndefine: a = 1/0\nproductions:\nF -> G\n";
+        assert_eq!(
+            first(src),
+            "compile 8: unknown group 5: there is no `productions 5:` section"
+        );
+        let src = "define: a = 1/0\ngroups: 5\n";
+        assert_eq!(first(src), "compile 12: division by zero");
+        // A syntax error after a compile error wins.
+        let src = "productions:\nA -> B(q)\nC C\n";
+        assert_eq!(
+            first(src),
+            "parse 26: unexpected end of line, expected `->`"
+        );
+        // A group declared twice, after the parse, before compile errors.
+        let src = "productions 1:\nA -> B(q)\nproductions 1:\nC -> D\n";
+        assert_eq!(first(src), "parse 25: group 1 is declared twice");
+        // A numbered group's error before "never used"; that before the
+        // decomposition's.
+        let src = "productions 2:\nA -> B(q)\nproductions:\nF -> G\n";
+        assert_eq!(first(src), "compile 22: unknown identifier `q`");
+        let src = "productions 2:\nA -> B\nproductions:\nF -> G\ndecomposition:\nG -> H(q)\n";
+        assert_eq!(
+            first(src),
+            "compile 0: group 2 is never used: add a `groups:` or `group:` setting"
+        );
+        // Within a section: its settings, its productions, then balance.
+        let src = "productions:\nF -> G\ndecomposition:\nseed: 3\nG -> H(q)\n";
+        assert_eq!(
+            first(src),
+            "compile 35: decomposition uses the main random generator: no `seed:` here"
+        );
+        let src = "productions:\nF -> G\ndecomposition:\nG -> [H\nH -> I(q)\n";
+        assert_eq!(first(src), "compile 50: unknown identifier `q`");
+        let src = "productions:\nF -> G\ndecomposition:\nG -> [H\n";
+        assert_eq!(
+            first(src),
+            "compile 35: a decomposition successor must balance its brackets"
+        );
+        // `step` hidden: warned in stage order (group 0 before group 1).
+        let src = "groups: 1 0\nproductions 1:\nA(step) -> B\nproductions:\nC(step) -> D\n";
+        let s = compile_text(src, Seeds::default()).unwrap();
+        assert_eq!(s.step_hidden, vec![(55, 59), (29, 33)]);
     }
 }
