@@ -183,11 +183,31 @@ impl Code {
         Ok(Code::pack(&c.ops, &c.spans, c.span))
     }
 
+    /// The instructions, then the span of each one that can fail, in
+    /// order (spans of folded or infallible operations are dropped).
     fn pack(ops: &[Op], spans: &[Span], span: Span) -> Code {
         let u = |x: usize| u32::try_from(x).unwrap_or(u32::MAX);
         let mut all = Vec::with_capacity(ops.len() + spans.len());
-        all.extend_from_slice(ops);
-        all.extend(spans.iter().map(|s| Op::At(u(s.0), u(s.1))));
+        let mut kept = Vec::new();
+        for &op in ops {
+            let mut at = |si: u32| {
+                kept.push(spans[si as usize]);
+                (kept.len() - 1) as u32
+            };
+            all.push(match op {
+                Op::Add(si) => Op::Add(at(si)),
+                Op::Sub(si) => Op::Sub(at(si)),
+                Op::Mul(si) => Op::Mul(at(si)),
+                Op::Div(si) => Op::Div(at(si)),
+                Op::Pow(si) => Op::Pow(at(si)),
+                Op::F1(f, si) => Op::F1(f, at(si)),
+                Op::F2(f, si) => Op::F2(f, at(si)),
+                Op::Ran(si) => Op::Ran(at(si)),
+                Op::Nran(si) => Op::Nran(at(si)),
+                other => other,
+            });
+        }
+        all.extend(kept.iter().map(|s| Op::At(u(s.0), u(s.1))));
         Code {
             packed: all.into_boxed_slice(),
             n: ops.len() as u32,
@@ -337,16 +357,24 @@ impl Code {
         rng: &mut D,
     ) -> Result<f64, EvalError> {
         // The shapes most successors and conditions have, without the stack.
-        match *self.ops() {
+        // Matched on the whole block: a binary operation that can fail is
+        // followed by its span.
+        match *self.packed {
             [Op::Const(v)] => return Ok(v),
             [Op::Load(s)] => return Ok(slots[s as usize]),
-            [Op::Load(a), Op::Const(c), op] if is_binary(op) => {
+            [Op::Load(a), Op::Const(c), op] | [Op::Load(a), Op::Const(c), op, Op::At(..)]
+                if is_binary(op) =>
+            {
                 return self.binary(op, slots[a as usize], c)
             }
-            [Op::Const(c), Op::Load(b), op] if is_binary(op) => {
+            [Op::Const(c), Op::Load(b), op] | [Op::Const(c), Op::Load(b), op, Op::At(..)]
+                if is_binary(op) =>
+            {
                 return self.binary(op, c, slots[b as usize])
             }
-            [Op::Load(a), Op::Load(b), op] if is_binary(op) => {
+            [Op::Load(a), Op::Load(b), op] | [Op::Load(a), Op::Load(b), op, Op::At(..)]
+                if is_binary(op) =>
+            {
                 return self.binary(op, slots[a as usize], slots[b as usize])
             }
             _ => {}
@@ -497,6 +525,7 @@ fn is_binary(op: Op) -> bool {
             | Op::Ran(_)
             | Op::Nran(_)
             | Op::Step
+            | Op::At(..)
     )
 }
 

@@ -45,11 +45,7 @@ impl Filter {
 pub struct Alphabet {
     sym: Vec<char>,
     arity: Vec<u16>,
-    /// Each key's text (its symbol in UTF-8), one after the other: key k's
-    /// ends at `text_end[k]` (one block, not one per key: a header may
-    /// name a million symbols).
-    text: Vec<u8>,
-    text_end: Vec<u32>,
+    text: Vec<Box<[u8]>>,
     ignored: Vec<bool>,
     map: HashMap<(char, u16), u32>,
     filter: Filter,
@@ -61,7 +57,6 @@ impl Alphabet {
             sym: Vec::new(),
             arity: Vec::new(),
             text: Vec::new(),
-            text_end: Vec::new(),
             ignored: Vec::new(),
             map: HashMap::new(),
             filter,
@@ -70,8 +65,7 @@ impl Alphabet {
             let c = b as char;
             a.sym.push(c);
             a.arity.push(0);
-            a.text.push(b);
-            a.text_end.push(a.text.len() as u32);
+            a.text.push(vec![b].into_boxed_slice());
             a.ignored.push(a.filter.ignores(c));
         }
         a
@@ -95,9 +89,12 @@ impl Alphabet {
         self.sym.push(sym);
         self.arity.push(arity);
         let mut t = [0u8; 4];
-        self.text
-            .extend_from_slice(sym.encode_utf8(&mut t).as_bytes());
-        self.text_end.push(self.text.len() as u32);
+        self.text.push(
+            sym.encode_utf8(&mut t)
+                .as_bytes()
+                .to_vec()
+                .into_boxed_slice(),
+        );
         self.ignored.push(self.filter.ignores(sym));
         self.map.insert((sym, arity), k);
         Ok(k)
@@ -109,9 +106,7 @@ impl Alphabet {
     }
     #[inline]
     pub fn text(&self, key: u32) -> &[u8] {
-        let k = key as usize;
-        let start = if k == 0 { 0 } else { self.text_end[k - 1] };
-        &self.text[start as usize..self.text_end[k] as usize]
+        &self.text[key as usize]
     }
     #[inline]
     pub fn symbol(&self, key: u32) -> char {
@@ -149,46 +144,32 @@ pub enum RPat {
 
 /// Modules known at load time, precomputed in each format, in one
 /// allocation (a production table may hold millions of these).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct ConstRun {
-    /// A header, then the binary format, the binary with bracket index,
-    /// the text, and the brackets' offsets in the latter (4 bytes each,
-    /// then 1 if `[`). The header holds five lengths (binary, indexed,
-    /// text, brackets, modules): `[0, a, b, c, d, e]` when all are below
-    /// 256 (most runs), else `[1]` and five little-endian u32.
+    /// A 16-byte header (little-endian u32s: the module count, then where
+    /// the binary, the indexed binary and the text end), the binary format,
+    /// the binary with bracket index, the text, and the brackets' offsets
+    /// in the indexed binary (4 bytes each, then 1 if `[`).
     data: Box<[u8]>,
 }
 
-/// The lengths of a [`ConstRun`]: where its parts start and end.
-struct Parts {
-    start: usize,
-    bin: usize,
-    ibin: usize,
-    text: usize,
-    brackets: usize,
-    modules: u32,
+impl Default for ConstRun {
+    fn default() -> ConstRun {
+        ConstRun::new(&[], &[], &[], &[], 0)
+    }
 }
+
+const HEADER: usize = 16;
 
 impl ConstRun {
     fn new(bin: &[u8], ibin: &[u8], text: &[u8], brackets: &[(u32, bool)], modules: u32) -> Self {
-        let lens = [
-            bin.len(),
-            ibin.len(),
-            text.len(),
-            brackets.len(),
-            modules as usize,
-        ];
-        let small = lens.iter().all(|&l| l < 256);
         let mut data =
-            Vec::with_capacity(21 + bin.len() + ibin.len() + text.len() + 5 * brackets.len());
-        if small {
-            data.push(0);
-            data.extend(lens.iter().map(|&l| l as u8));
-        } else {
-            data.push(1);
-            for l in lens {
-                data.extend_from_slice(&(l as u32).to_le_bytes());
-            }
+            Vec::with_capacity(HEADER + bin.len() + ibin.len() + text.len() + 5 * brackets.len());
+        let bin_end = HEADER + bin.len();
+        let ibin_end = bin_end + ibin.len();
+        let text_end = ibin_end + text.len();
+        for v in [modules as usize, bin_end, ibin_end, text_end] {
+            data.extend_from_slice(&(v as u32).to_le_bytes());
         }
         data.extend_from_slice(bin);
         data.extend_from_slice(ibin);
@@ -200,77 +181,43 @@ impl ConstRun {
         ConstRun { data: data.into() }
     }
 
-    #[inline]
-    fn parts(&self) -> Parts {
-        let d = &self.data;
-        match d.first() {
-            None => Parts {
-                start: 0,
-                bin: 0,
-                ibin: 0,
-                text: 0,
-                brackets: 0,
-                modules: 0,
-            },
-            Some(0) => Parts {
-                start: 6,
-                bin: d[1] as usize,
-                ibin: d[2] as usize,
-                text: d[3] as usize,
-                brackets: d[4] as usize,
-                modules: u32::from(d[5]),
-            },
-            Some(_) => {
-                let at = |i: usize| u32::from_le_bytes(d[1 + 4 * i..5 + 4 * i].try_into().unwrap());
-                Parts {
-                    start: 21,
-                    bin: at(0) as usize,
-                    ibin: at(1) as usize,
-                    text: at(2) as usize,
-                    brackets: at(3) as usize,
-                    modules: at(4),
-                }
-            }
-        }
+    /// The header's `i`th number.
+    #[inline(always)]
+    fn at(&self, i: usize) -> usize {
+        let b: [u8; 4] = self.data[4 * i..4 * i + 4].try_into().unwrap();
+        u32::from_le_bytes(b) as usize
     }
 
     /// Binary format.
-    #[inline]
+    #[inline(always)]
     pub fn bin(&self) -> &[u8] {
-        let p = self.parts();
-        &self.data[p.start..p.start + p.bin]
+        &self.data[HEADER..self.at(1)]
     }
     /// Binary with bracket index: each `[` followed by 8 bytes that will
     /// hold the offset just past its `]`.
-    #[inline]
+    #[inline(always)]
     pub fn ibin(&self) -> &[u8] {
-        let p = self.parts();
-        let s = p.start + p.bin;
-        &self.data[s..s + p.ibin]
+        &self.data[self.at(1)..self.at(2)]
     }
-    #[inline]
+    #[inline(always)]
     pub fn text(&self) -> &[u8] {
-        let p = self.parts();
-        let s = p.start + p.bin + p.ibin;
-        &self.data[s..s + p.text]
+        &self.data[self.at(2)..self.at(3)]
     }
     /// How many modules.
-    #[inline]
+    #[inline(always)]
     pub fn modules(&self) -> u64 {
-        u64::from(self.parts().modules)
+        self.at(0) as u64
     }
     /// Offsets of the brackets in [`ibin`](Self::ibin) (true: `[`).
     pub fn brackets(&self) -> impl Iterator<Item = (u32, bool)> + '_ {
-        let p = self.parts();
-        let s = p.start + p.bin + p.ibin + p.text;
-        self.data[s..s + 5 * p.brackets]
+        self.data[self.at(3)..]
             .chunks_exact(5)
             .map(|b| (u32::from_le_bytes([b[0], b[1], b[2], b[3]]), b[4] == 1))
     }
     /// Does the run hold `[` or `]`?
     #[inline]
     pub fn has_brackets(&self) -> bool {
-        self.parts().brackets > 0
+        self.data.len() > self.at(3)
     }
 }
 
