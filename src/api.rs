@@ -2,7 +2,7 @@
 
 use crate::derive::random::Random;
 use crate::derive::{derive, Event, FrameSink, Frames, Limits, Settings, Strategy};
-use crate::diag::{Error, ErrorKind};
+use crate::diag::{Error, ParseError, RuntimeError, UsageError};
 use crate::io::axiom::AxiomReader;
 use crate::io::input::{split_header, Input, Split};
 use crate::io::precision::Significant;
@@ -161,6 +161,25 @@ pub struct Stats {
 
 impl LSystem {
     /// Parse an L-system from `.ls` text.
+    ///
+    /// A failure is an [`Error`] whose [`kind`](Error::kind) says what went
+    /// wrong, with its data; its `Display` is the located message:
+    ///
+    /// ```
+    /// use lsgen::diag::{CompileError, ExprError};
+    /// let e = lsgen::LSystem::parse("productions:\nA(x) -> B(y)\naxiom: A(1)\n")
+    ///     .err()
+    ///     .unwrap();
+    /// assert!(matches!(
+    ///     e.kind(),
+    ///     lsgen::ErrorKind::Compile(CompileError::Expr(ExprError::UnknownIdentifier(n))) if n == "y"
+    /// ));
+    /// assert_eq!(e.stage(), lsgen::Stage::Compile);
+    /// assert_eq!(
+    ///     e.to_string(),
+    ///     "<input>:2:11: error: unknown identifier `y`\nA(x) -> B(y)\n          ^\n"
+    /// );
+    /// ```
     pub fn parse(text: &str) -> Result<LSystem, Error> {
         let mut ls = Self::load_named(
             Input::new(Box::new(io::Cursor::new(text.to_string())), "<input>"),
@@ -213,18 +232,12 @@ impl LSystem {
         }
         let header = &self.split.header;
         let end = header.trim_end().len();
-        let mut e = locate(
-            &self.path,
-            header,
-            UserError::new(
-                (end, end),
-                "missing `axiom:`: the axiom comes last, after the productions",
-            ),
-        );
-        if header.trim().is_empty() {
-            e.message = "empty L-system: no `axiom:` found".into();
-        }
-        Err(e)
+        let kind = if header.trim().is_empty() {
+            ParseError::EmptySystem
+        } else {
+            ParseError::MissingAxiom
+        };
+        Err(locate(&self.path, header, UserError::new((end, end), kind)))
     }
 
     #[cfg(feature = "cli")]
@@ -258,7 +271,7 @@ impl LSystem {
                 split_header(&mut i)?;
                 i
             }
-            (None, None) => return Err(Error::new("the axiom stream was already derived")),
+            (None, None) => return Err(Error::new(RuntimeError::AlreadyDerived)),
         };
         let (line, col) = (self.split.axiom_line, self.split.axiom_col);
         Ok((system, input, true, line, col))
@@ -316,7 +329,7 @@ impl LSystem {
         frames: Option<(Frames, &mut dyn FrameSink)>,
     ) -> Result<Stats, Error> {
         if options.first_step == 0 {
-            return Err(Error::usage("the first step is step 1 or later"));
+            return Err(Error::new(UsageError::FirstStepZero));
         }
         let (mut system, input, comments, line, col) = self.take(options.seed)?;
         let steps = match &frames {
@@ -327,10 +340,10 @@ impl LSystem {
                 .unwrap_or(DEFAULT_DERIVATION_LENGTH),
         };
         if options.first_step.checked_add(steps).is_none() {
-            return Err(Error::usage(format!(
-                "`--first-step {}` with {steps} steps: step numbers must stay below 2^64 - 1",
-                options.first_step
-            )));
+            return Err(Error::new(UsageError::StepsOverflow {
+                first: options.first_step,
+                steps,
+            }));
         }
         let seed = options.seed.or(system.seed).unwrap_or(self.fresh);
         let settings = Settings {
@@ -416,8 +429,7 @@ fn compile(path: &str, split: &Split, seed: Option<u64>, fresh: u64) -> Result<S
         command_line: seed,
         fallback: fresh,
     };
-    compile_with(header, Some(&split.header), seeds)
-        .map_err(|e| locate(path, &split.header, e).in_stage(ErrorKind::Compile))
+    compile_with(header, Some(&split.header), seeds).map_err(|e| locate(path, &split.header, e))
 }
 
 /// Load an L-system from `src` and derive it in full into a byte vector
@@ -459,7 +471,7 @@ impl FrameSink for PreciseFrames<'_> {
             let mut sig = Significant::new(out, digits);
             let len = write(&mut sig, name)?;
             sig.flush()
-                .map_err(|e| Error::io(name, "cannot write", e))?;
+                .map_err(|e| Error::io(name, crate::diag::IoAction::Write, e))?;
             Ok(len)
         })
     }

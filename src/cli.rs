@@ -3,7 +3,7 @@
 pub use crate::api::DEFAULT_DERIVATION_LENGTH;
 use crate::api::{LSystem, Options};
 use crate::derive::{Event, FrameSink, Frames, Limits, Pass, Strategy};
-use crate::diag::{Error, Kind};
+use crate::diag::{Error, RuntimeError, Stage};
 use crate::io::input::Input;
 use crate::io::output::Output;
 use crate::io::template::{self, Field, Template, Vars};
@@ -326,12 +326,12 @@ pub fn ignore_sigxfsz() {
 
 /// Print clap's `--help` or `--version` text. A failed write
 /// (`--version > /dev/full`, standard output closed) is an error; a
-/// closed pipe is [`Kind::BrokenPipe`], which callers keep quiet.
+/// closed pipe ([`Error::is_broken_pipe`]) callers keep quiet.
 pub fn print_help_or_version(e: &clap::Error) -> Result<(), Error> {
     crate::io::output::check_stdout_open().and_then(|()| {
         e.print()
             .and_then(|()| io::stdout().flush())
-            .map_err(|e| Error::io("standard output", "cannot write", e))
+            .map_err(|e| Error::io("standard output", crate::diag::IoAction::Write, e))
     })
 }
 
@@ -368,12 +368,7 @@ fn main_on_thread() -> i32 {
                 clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => {
                     match print_help_or_version(&e) {
                         Ok(()) => 0,
-                        Err(e) => {
-                            if e.kind != Kind::BrokenPipe {
-                                crate::diag::eprint(&e.render("lsgen"));
-                            }
-                            e.exit_code()
-                        }
+                        Err(e) => report("lsgen", &e),
                     }
                 }
                 _ => {
@@ -392,20 +387,36 @@ fn main_on_thread() -> i32 {
         let mut text = Vec::new();
         clap_mangen::Man::new(Args::command())
             .render(&mut text)
-            .map_err(|e| Error::io("the man page", "cannot render", e))
+            .map_err(|e| Error::io("the man page", crate::diag::IoAction::Render, e))
             .and_then(|()| print_stdout(&text))
     } else {
         run(&args)
     };
     match result {
         Ok(()) => 0,
-        Err(e) => {
-            if e.kind != Kind::BrokenPipe {
-                crate::diag::eprint(&e.render("lsgen"));
-            }
-            e.exit_code()
-        }
+        Err(e) => report("lsgen", &e),
     }
+}
+
+/// The exit status of a failed run: 2 for a usage error, 0 when the
+/// reader closed the output pipe (a quiet end), else 1.
+pub fn exit_code(e: &Error) -> i32 {
+    if e.is_broken_pipe() {
+        0
+    } else if e.stage() == Stage::Usage {
+        2
+    } else {
+        1
+    }
+}
+
+/// Report `e` on standard error as `program` does (`PROGRAM: FILE:LINE:COL:
+/// error: ...`; nothing for a closed pipe) and return the exit status.
+pub fn report(program: &str, e: &Error) -> i32 {
+    if !e.is_broken_pipe() {
+        crate::diag::eprint(&format!("{program}: {e}"));
+    }
+    exit_code(e)
 }
 
 /// Write `text` to standard output (for --completions, --man).
@@ -414,7 +425,7 @@ fn print_stdout(text: &[u8]) -> Result<(), Error> {
     let mut out = io::stdout().lock();
     out.write_all(text)
         .and_then(|()| out.flush())
-        .map_err(|e| Error::io("standard output", "cannot write", e))
+        .map_err(|e| Error::io("standard output", crate::diag::IoAction::Write, e))
 }
 
 fn open_input(path: Option<&Path>) -> Result<Input, Error> {
@@ -429,11 +440,12 @@ fn open_input(path: Option<&Path>) -> Result<Input, Error> {
         }
         Some(p) => {
             let name = p.display().to_string();
-            let f = File::open(p).map_err(|e| Error::io(name.clone(), "cannot open", e))?;
+            let f = File::open(p)
+                .map_err(|e| Error::io(name.clone(), crate::diag::IoAction::Open, e))?;
             if f.metadata().map(|m| m.is_dir()).unwrap_or(false) {
                 return Err(Error::io(
                     name,
-                    "cannot read",
+                    crate::diag::IoAction::Read,
                     io::Error::from(io::ErrorKind::IsADirectory),
                 ));
             }
@@ -511,12 +523,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let failed = run_batch(total, workers as usize, |i| {
         let job = jobs(i);
         let mut seed = None;
-        let r = run_one(args, job, template.as_ref(), Some(&mut seed)).map_err(|mut e| {
+        let r = run_one(args, job, template.as_ref(), Some(&mut seed)).map_err(|e| {
             // The seed the job used, once known (the file's `seed:`, or a
             // fresh one, without --seed).
-            let label = job.label(seed);
-            e.message = format!("{} [job {label}]", e.message);
-            e
+            e.in_job(job.label(seed))
         });
         if let Some(d) = &display {
             d.job_done();
@@ -528,12 +538,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
         return Ok(());
     }
     for (_, e) in &failed {
-        crate::diag::eprint(&e.to_string());
+        crate::diag::eprint(&format!("lsgen: {e}"));
     }
-    Err(Error::new(format!(
-        "{} of {total} jobs failed",
-        crate::diag::group_digits(failed.len() as u64)
-    )))
+    Err(Error::new(RuntimeError::JobsFailed {
+        failed: failed.len() as u64,
+        total,
+    }))
 }
 
 /// A batch's usage errors, found before any job runs.
@@ -611,7 +621,7 @@ fn run_batch(
             break;
         }
         let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(i)))
-            .unwrap_or_else(|_| Err(Error::new("internal error (please report this)")));
+            .unwrap_or_else(|_| Err(Error::new(RuntimeError::Internal)));
         if let Err(e) = r {
             if let Ok(mut f) = failed.lock() {
                 f.push((i, e));

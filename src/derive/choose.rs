@@ -138,7 +138,7 @@ impl Chooser {
             if w < 0.0 {
                 return Err(Error::at(
                     origin.locate(p.prob.as_ref().unwrap().span.0),
-                    format!("a probability cannot be negative ({w}, in {pass})"),
+                    crate::diag::RuntimeError::NegativeProbability { value: w, pass },
                 ));
             }
             if w > 0.0 {
@@ -153,7 +153,13 @@ impl Chooser {
             n => {
                 let u = rng.uniform().map_err(|m| {
                     let p = &table.prods[self.cand[0].0 as usize];
-                    Error::at(origin.locate(p.span.0), format!("{m} (in {pass})"))
+                    Error::at(
+                        origin.locate(p.span.0),
+                        crate::diag::RuntimeError::Eval {
+                            error: crate::diag::ExprError::Random(m),
+                            pass,
+                        },
+                    )
                 })?;
                 let mut u = u * total;
                 let mut i = 0;

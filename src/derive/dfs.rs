@@ -152,7 +152,7 @@ impl<'t> Plan<'t> {
         let steps = steps as usize;
         let mut rd = PosReader::new(input, 1 << 16, false);
         let mut stack: Vec<(&[u8], usize)> = Vec::new();
-        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         while let Some((key, s, e)) = rd.next_module(al).map_err(read_err)? {
             if key >= 128 {
                 out.raw(key, rd.bytes(s, e), al)?;
@@ -292,7 +292,7 @@ pub fn census(input: &File, al: &Alphabet) -> Result<Census, Error> {
     let mut rd = PosReader::new(input, 1 << 16, false);
     while let Some((key, s, e)) = rd
         .next_module(al)
-        .map_err(|e| Error::io("temporary file", "cannot read", e))?
+        .map_err(|e| Error::io("temporary file", crate::diag::IoAction::Read, e))?
     {
         match c.hist.get_mut(key as usize) {
             Some(h) => *h += 1,
@@ -459,7 +459,7 @@ impl<'t> ParamPlan<'t> {
         let mut ch = Chooser::default();
         let mut rng = Random::new(0); // never drawn from
         let mut rd = PosReader::new(input, 1 << 16, false);
-        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         while let Some((_, s, e)) = rd.next_module(al).map_err(read_err)? {
             let bytes = rd.bytes(s, e);
             levels[0].clear();

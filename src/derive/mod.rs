@@ -43,7 +43,13 @@ impl Origin<'_> {
 
     /// A runtime error of an expression, in `pass`.
     pub(crate) fn eval_error(&self, e: crate::rules::expr::EvalError, pass: Pass) -> Error {
-        Error::at(self.locate(e.span.0), format!("{} (in {pass})", e.message))
+        Error::at(
+            self.locate(e.span.0),
+            crate::diag::RuntimeError::Eval {
+                error: e.kind,
+                pass,
+            },
+        )
     }
 }
 
@@ -168,7 +174,7 @@ fn tempfile(dir: &Option<PathBuf>) -> Result<File, Error> {
                 || std::env::temp_dir().display().to_string(),
                 |d| d.display().to_string(),
             ),
-            "cannot create a temporary file",
+            crate::diag::IoAction::CreateTemp,
             e,
         )
     })
@@ -189,7 +195,7 @@ fn sink<'a>(
             let index = if indexed {
                 Some(
                     f.try_clone()
-                        .map_err(|e| Error::io(tmp_name, "cannot write", e))?,
+                        .map_err(|e| Error::io(tmp_name, crate::diag::IoAction::Write, e))?,
                 )
             } else {
                 None
@@ -207,7 +213,7 @@ fn sink<'a>(
 fn rewind(f: &mut File) -> Result<(), Error> {
     f.set_len(0)
         .and_then(|_| f.seek(SeekFrom::Start(0)).map(|_| ()))
-        .map_err(|e| Error::io("temporary file", "cannot write", e))
+        .map_err(|e| Error::io("temporary file", crate::diag::IoAction::Write, e))
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -253,11 +259,7 @@ pub(crate) fn derive(
     let pct = u32::from(b'%');
     let passes = steps + u64::from(hom);
     let strategy = settings.strategy;
-    let not_depth_first = || {
-        Error::usage(
-            "`--strategy dfs`: this system cannot be derived depth first with these options",
-        )
-    };
+    let not_depth_first = || Error::new(crate::diag::UsageError::NotDepthFirst);
     if strategy == Strategy::DepthFirst && (passes == 0 || frames.is_some()) {
         return Err(not_depth_first());
     }
@@ -381,14 +383,10 @@ pub(crate) fn derive(
                     Ok(n) if n != u64::MAX => format!("{} bytes", group_digits(n)),
                     _ => format!("more than {} bytes", group_digits(u64::MAX)),
                 };
-                let mut e = Error::new(format!(
-                    "the final string would be {size}, more than the {} bytes free on \
-                     its file system: nothing written (fewer steps; --max-length stops \
-                     any run early)",
-                    group_digits(space)
+                return Err(Error::about(
+                    out_name,
+                    crate::diag::RuntimeError::NoSpace { size, free: space },
                 ));
-                e.subject = Some(out_name.to_string());
-                return Err(e);
             }
         }
         if settings.lengths || limits.modules != u64::MAX || limits.bytes != u64::MAX {
@@ -446,7 +444,7 @@ pub(crate) fn derive(
                 };
                 return Ok(generation(last, len));
             }
-            Err(e) if e.location.is_some() => depth_first_error = Some(e),
+            Err(e) if e.location().is_some() => depth_first_error = Some(e),
             Err(e) => return Err(e),
         }
     }
@@ -695,19 +693,17 @@ impl<'t> Tables<'t> {
             if !(0.0..=65535.0).contains(&v) || v.fract() != 0.0 {
                 return Err(Error::at(
                     at,
-                    format!(
-                        "group: gives {} in step {step}, not a group number",
-                        crate::rules::codec::number_string(v)
-                    ),
+                    crate::diag::RuntimeError::GroupNotNumber { value: v, step },
                 ));
             }
             let g = v as u32;
             if g != 0 && !self.groups.iter().any(|(n, _)| *n == g) {
                 return Err(Error::at(
                     at,
-                    format!(
-                        "group: gives {g} in step {step}, but there is no `productions {g}:` section"
-                    ),
+                    crate::diag::RuntimeError::GroupMissing {
+                        group: g.into(),
+                        step,
+                    },
                 ));
             }
             g
@@ -767,7 +763,7 @@ fn makes_percent(
 /// Do two generation files hold the same bytes?
 fn same_contents(a: &File, b: &File) -> Result<bool, Error> {
     use std::os::unix::fs::FileExt;
-    let read_err = |e| Error::io("temporary file", "cannot read", e);
+    let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
     let len = a.metadata().map_err(read_err)?.len();
     if b.metadata().map_err(read_err)?.len() != len {
         return Ok(false);
@@ -791,7 +787,6 @@ fn same_contents(a: &File, b: &File) -> Result<bool, Error> {
 mod tests {
     use super::*;
     use crate::api::{LSystem, Options};
-    use crate::diag::Kind;
 
     fn run(src: &str, options: &Options) -> Result<(String, Vec<Event>), Error> {
         let mut ls = LSystem::parse(src)?;
@@ -855,7 +850,10 @@ mod tests {
     fn depth_first_is_refused_where_it_does_not_apply() {
         let src = "productions:\nA < B -> A\naxiom: AB\n";
         let e = run(src, &Options::new().steps(2).strategy(Strategy::DepthFirst)).unwrap_err();
-        assert_eq!(e.kind, Kind::Usage);
+        assert!(matches!(
+            e.kind(),
+            crate::diag::ErrorKind::Usage(crate::diag::UsageError::NotDepthFirst)
+        ));
         let (out, _) = run(src, &Options::new().steps(2)).unwrap();
         assert_eq!(out, "AA\n");
     }

@@ -46,10 +46,10 @@ pub enum Region {
 pub trait Draw {
     /// Uniform in [0, 1): the top 53 bits of one draw / 2^53. An error
     /// message when the module has drawn too often.
-    fn uniform(&mut self) -> Result<f64, &'static str>;
+    fn uniform(&mut self) -> Result<f64, RandomError>;
     /// Normal deviate by Box-Muller from one draw: the high 32 bits give
     /// u1 in (0, 1], the low 32 bits u2 in [0, 1).
-    fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, &'static str>;
+    fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, RandomError>;
     /// The value of the built-in `step` (issue 11) where the expression
     /// compiler emitted it as such; a drawer that binds `step` as an
     /// ordinary parameter (the tests' reference) never reaches this.
@@ -73,9 +73,9 @@ pub fn normal_of(x: u64, mean: f64, sd: f64) -> f64 {
     mean + sd * z
 }
 
-pub const TOO_MANY_DRAWS: &str =
-    "more than 64 random draws for one module (the limit of the random scheme)";
-const TOO_MANY_MODULES: &str = "a generation of 2^59 modules or more cannot draw";
+pub use crate::diag::RandomError;
+pub const TOO_MANY_DRAWS: RandomError = RandomError::TooManyDraws;
+const TOO_MANY_MODULES: RandomError = RandomError::TooManyModules;
 
 pub struct Random {
     rng: ChaCha8Rng,
@@ -165,7 +165,7 @@ impl Random {
 
     /// The next draw of the current module.
     #[inline]
-    fn next(&mut self) -> Result<u64, &'static str> {
+    fn next(&mut self) -> Result<u64, RandomError> {
         let p = if self.sequential {
             self.base + self.draw as u128
         } else {
@@ -196,12 +196,12 @@ impl Random {
 
 impl Draw for Random {
     #[inline]
-    fn uniform(&mut self) -> Result<f64, &'static str> {
+    fn uniform(&mut self) -> Result<f64, RandomError> {
         self.next().map(uniform_of)
     }
 
     #[inline]
-    fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, &'static str> {
+    fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, RandomError> {
         self.next().map(|x| normal_of(x, mean, sd))
     }
 

@@ -3,7 +3,7 @@
 //! bytes against `--max-length`.
 
 use super::Pass;
-use crate::diag::Error;
+use crate::diag::{Error, LengthUnit, RuntimeError};
 use crate::rules::codec::{self, MAX_MODULE_BYTES};
 use crate::rules::{Alphabet, ConstRun, CLOSE, OPEN};
 use std::fs::File;
@@ -27,16 +27,18 @@ impl Limits {
     /// `pass`, too long?
     pub fn check(&self, modules: u64, bytes: u64, pass: Pass) -> Result<(), Error> {
         if modules > self.modules {
-            return Err(Error::new(format!(
-                "the string grew past --max-length ({} modules) in {pass}",
-                self.modules
-            )));
+            return Err(Error::new(RuntimeError::TooLong {
+                limit: self.modules,
+                unit: LengthUnit::Modules,
+                pass,
+            }));
         }
         if bytes > self.bytes {
-            return Err(Error::new(format!(
-                "the string grew past --max-length ({} bytes) in {pass}",
-                self.bytes
-            )));
+            return Err(Error::new(RuntimeError::TooLong {
+                limit: self.bytes,
+                unit: LengthUnit::Bytes,
+                pass,
+            }));
         }
         Ok(())
     }
@@ -158,7 +160,7 @@ impl<'w> Out<'w> {
             self.buf[i..i + 8].copy_from_slice(&end);
         } else if let Some(file) = &self.indexed {
             file.write_all_at(&end, at + 1)
-                .map_err(|e| Error::io(self.name, "cannot write", e))?;
+                .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
         }
         Ok(())
     }
@@ -280,7 +282,7 @@ impl<'w> Out<'w> {
             .check(self.modules, self.written - uncounted, self.pass)?;
         self.w
             .write_all(&self.buf)
-            .map_err(|e| Error::io(self.name, "cannot write", e))?;
+            .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
         self.buf.clear();
         if let Some(m) = &self.meter {
             m.record(self.modules, self.written);
@@ -298,7 +300,7 @@ impl<'w> Out<'w> {
         self.flush_but(newline)?;
         self.w
             .flush()
-            .map_err(|e| Error::io(self.name, "cannot write", e))?;
+            .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
         Ok((self.modules, self.written - newline))
     }
 }
@@ -366,7 +368,7 @@ mod tests {
         out.plain(b"ABCD").unwrap();
         let e = out.finish().unwrap_err();
         assert_eq!(
-            e.message,
+            e.message(),
             "the string grew past --max-length (3 modules) in step 7"
         );
         let lengths = [(1, 1), (2, 20), (3, 3)];
@@ -376,7 +378,11 @@ mod tests {
         };
         // Generation 2 is binary: its 20 bytes count.
         let e = bytes.check_generations(&lengths, true).unwrap_err();
-        assert!(e.message.ends_with("(10 bytes) in step 2"), "{}", e.message);
+        assert!(
+            e.message().ends_with("(10 bytes) in step 2"),
+            "{}",
+            e.message()
+        );
         // The last (text) generation's bytes are checked as written.
         assert!(bytes.check_generations(&[(1, 1), (2, 20)], true).is_ok());
     }

@@ -304,7 +304,7 @@ impl StepState<'_> {
     /// (read once per module).
     #[inline]
     fn right_of(&mut self, end_off: u64, al: &Alphabet) -> Result<&RightCache, Error> {
-        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         let start = self.level_start(end_off, al).map_err(read_err)?;
         if self.right.at != start {
             let peek = self
@@ -398,7 +398,7 @@ impl<'a> Deriver<'a> {
         let mut rd = PosReader::new(input, 1 << 20, indexed);
         // The index of the module being rewritten, for the random draws.
         let mut index: u64 = 0;
-        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         // Bytes that need no decision take the table; with contexts, keys
         // that have context productions and brackets still go the long way.
         let hom_rec = pass == Pass::Homomorphism && (hom_depth > 1 || self.warnings[1]);
@@ -554,9 +554,7 @@ impl<'a> Deriver<'a> {
             let p = &table.prods[st.last_opener.unwrap_or(0) as usize];
             return Err(Error::at(
                 self.origin.locate(p.span.0),
-                format!(
-                    "unbalanced brackets: {pass} leaves a `[` open, produced by this production"
-                ),
+                crate::diag::RuntimeError::UnclosedBracket(pass),
             ));
         }
         Ok(())
@@ -655,7 +653,7 @@ fn unbalanced(origin: &Origin, table: &Table, culprit: Option<u32>, pass: Pass) 
     let p = &table.prods[culprit.unwrap_or(0) as usize];
     Error::at(
         origin.locate(p.span.0),
-        format!("unbalanced brackets: {pass} produces a `]` without `[`, from this production"),
+        crate::diag::RuntimeError::UnopenedBracket(pass),
     )
 }
 
@@ -704,7 +702,7 @@ fn contexts_match(
     } else if !p.right.is_empty() {
         // Matching from past the ignored run is the same: every pattern
         // element passes over ignored modules first.
-        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         let start = st.right_start(end_off, al).map_err(read_err)?;
         let level = st.level();
         let peek = st.peek.as_mut().unwrap();

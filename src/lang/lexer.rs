@@ -9,6 +9,7 @@
 //! recognised at the start of a line. The axiom is not lexed here: it is
 //! streamed by [`crate::io::axiom`].
 
+use crate::diag::LexicalError;
 use logos::Logos;
 
 /// Byte span in the header text.
@@ -109,7 +110,7 @@ impl std::fmt::Display for Tok<'_> {
 #[derive(Clone, Debug, PartialEq)]
 pub struct LexError {
     pub span: Span,
-    pub message: String,
+    pub kind: LexicalError,
 }
 
 /// Tokens of module mode.
@@ -426,12 +427,8 @@ impl<'a> Lexer<'a> {
     /// `productions N:`, `groups: ...`, and the `decomposition N:` /
     /// `homomorphism N:` mistakes.
     fn structural_keyword(&mut self, rest: &str, at: usize) -> Option<Spanned<'a>> {
-        let err = |s: usize, e: usize, m: &str| {
-            Some(Err(LexError {
-                span: (s, e),
-                message: m.to_string(),
-            }))
-        };
+        let err =
+            |s: usize, e: usize, kind: LexicalError| Some(Err(LexError { span: (s, e), kind }));
         if let Some(len) = match_keyword(rest, "groups:") {
             let line = line_rest(&rest[len..]);
             let mut groups = Vec::new();
@@ -443,29 +440,15 @@ impl<'a> Lexer<'a> {
                     continue;
                 }
                 if !word.bytes().all(|b| b.is_ascii_digit()) {
-                    return err(
-                        s,
-                        s + word.len(),
-                        "`groups:` takes whole group numbers separated by blanks",
-                    );
+                    return err(s, s + word.len(), LexicalError::GroupsNotNumbers);
                 }
                 match word.parse::<u32>() {
                     Ok(n) if n <= 65535 => groups.push((n, (s, s + word.len()))),
-                    _ => {
-                        return err(
-                            s,
-                            s + word.len(),
-                            "a production group is a whole number from 0 to 65535",
-                        )
-                    }
+                    _ => return err(s, s + word.len(), LexicalError::GroupOutOfRange),
                 }
             }
             if groups.is_empty() {
-                return err(
-                    at,
-                    at + len,
-                    "`groups:` takes whole group numbers separated by blanks",
-                );
+                return err(at, at + len, LexicalError::GroupsNotNumbers);
             }
             self.bump(at - self.pos() + len + line.len());
             self.ensure_mod();
@@ -489,11 +472,11 @@ impl<'a> Lexer<'a> {
             }
             let (s, e) = (at + len + blanks, at + len + blanks + wlen);
             if word != "productions" {
-                return err(s, e, &format!("{word} has no groups"));
+                return err(s, e, LexicalError::NoGroups(word));
             }
             let n = match t[..wlen].parse::<u32>() {
                 Ok(n) if n <= 65535 && t[..wlen].bytes().all(|b| b.is_ascii_digit()) => n,
-                _ => return err(s, e, "a production group is a whole number from 0 to 65535"),
+                _ => return err(s, e, LexicalError::GroupOutOfRange),
             };
             let end = e + colon + 1;
             self.bump(end - self.pos());
@@ -531,7 +514,7 @@ impl<'a> Lexer<'a> {
             };
             return Some(Err(LexError {
                 span: (s, s + word.len()),
-                message: format!("expected `warnings` or `no warnings` after `{kw}`"),
+                kind: LexicalError::ExpectedWarnings(kw),
             }));
         };
         self.bump(blank + word.len());
@@ -558,7 +541,7 @@ impl<'a> Lexer<'a> {
             Err(e) => {
                 return Err(LexError {
                     span: (at + e.span.0, at + e.span.1.max(e.span.0 + 1).min(end)),
-                    message: e.message,
+                    kind: LexicalError::ViewSetting(e.message),
                 })
             }
         }
@@ -626,7 +609,7 @@ impl<'a> Iterator for Lexer<'a> {
                     let c = text.chars().next().unwrap_or('?');
                     return Some(Err(LexError {
                         span: (s, s + c.len_utf8()),
-                        message: format!("unexpected character `{}`", c.escape_default()),
+                        kind: LexicalError::UnexpectedChar(c),
                     }));
                 }
                 Ok(t) => t,
@@ -636,7 +619,7 @@ impl<'a> Iterator for Lexer<'a> {
                 if self.expr_tokens > MAX_EXPR_TOKENS {
                     return Some(Err(LexError {
                         span: (s, e),
-                        message: format!("expression too long (over {MAX_EXPR_TOKENS} tokens)"),
+                        kind: LexicalError::ExpressionTooLong,
                     }));
                 }
             }
@@ -665,17 +648,14 @@ impl<'a> Iterator for Lexer<'a> {
                 Left(ModTok::OpenComment) | Right(ExprTok::OpenComment) => {
                     return Some(Err(LexError {
                         span: (s, e),
-                        message: "unterminated comment: `/*` without `*/`".into(),
+                        kind: LexicalError::UnterminatedComment,
                     }));
                 }
                 Left(ModTok::Control) => {
                     let c = self.src[s..].chars().next().unwrap_or('?');
                     return Some(Err(LexError {
                         span: (s, e),
-                        message: format!(
-                            "control character `{}` cannot be a symbol",
-                            c.escape_default()
-                        ),
+                        kind: LexicalError::ControlChar(c),
                     }));
                 }
                 Left(ModTok::Sym) => Tok::Sym(self.src[s..e].chars().next().unwrap()),
@@ -701,7 +681,7 @@ impl<'a> Iterator for Lexer<'a> {
                     _ => {
                         return Some(Err(LexError {
                             span: (s, e),
-                            message: format!("number `{}` is out of range", &self.src[s..e]),
+                            kind: LexicalError::NumberOutOfRange(self.src[s..e].to_string()),
                         }))
                     }
                 },
@@ -711,9 +691,7 @@ impl<'a> Iterator for Lexer<'a> {
                     if self.depth > MAX_PAREN_DEPTH {
                         return Some(Err(LexError {
                             span: (s, e),
-                            message: format!(
-                                "parentheses nested too deeply (over {MAX_PAREN_DEPTH})"
-                            ),
+                            kind: LexicalError::NestedTooDeeply,
                         }));
                     }
                     Tok::LParen
@@ -869,7 +847,7 @@ mod tests {
             .collect();
         assert_eq!(errs.len(), 1);
         assert_eq!(errs[0].span, (7, 9));
-        assert!(errs[0].message.contains("unterminated comment"));
+        assert_eq!(errs[0].kind, LexicalError::UnterminatedComment);
     }
 
     #[test]
@@ -894,10 +872,10 @@ mod tests {
     fn absurd_expressions_are_refused() {
         let deep = format!("seed: {}1", "(".repeat(1000));
         let errs: Vec<_> = Lexer::new(&deep).filter_map(|t| t.err()).collect();
-        assert!(errs[0].message.contains("nested too deeply"));
+        assert_eq!(errs[0].kind, LexicalError::NestedTooDeeply);
         let long = format!("seed: {}", "1+".repeat(20_000));
         let errs: Vec<_> = Lexer::new(&long).filter_map(|t| t.err()).collect();
-        assert!(errs[0].message.contains("too long"));
+        assert_eq!(errs[0].kind, LexicalError::ExpressionTooLong);
     }
 
     #[test]

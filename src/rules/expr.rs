@@ -7,6 +7,7 @@
 //! the operation.
 
 use crate::derive::random::{Draw, Random};
+use crate::diag::ExprError;
 use crate::lang::ast::{BinOp, Expr, UnOp};
 use crate::lang::lexer::Span;
 use std::collections::HashMap;
@@ -144,7 +145,14 @@ pub struct Code {
 #[derive(Clone, Debug, PartialEq)]
 pub struct EvalError {
     pub span: Span,
-    pub message: String,
+    pub kind: ExprError,
+}
+
+impl EvalError {
+    /// The message, as the error shows it.
+    pub fn message(&self) -> String {
+        self.kind.to_string()
+    }
 }
 
 /// A compile error: unknown identifier, unknown function, wrong arity, or a
@@ -214,7 +222,7 @@ impl Code {
                 } else {
                     return Err(EvalError {
                         span: *span,
-                        message: format!("unknown identifier `{name}`"),
+                        kind: ExprError::UnknownIdentifier(name.clone()),
                     });
                 }
             }
@@ -222,17 +230,17 @@ impl Code {
                 let Some((fun, arity)) = lookup_function(name) else {
                     return Err(EvalError {
                         span: (span.0, span.0 + name.len()),
-                        message: format!("unknown function `{name}`"),
+                        kind: ExprError::UnknownFunction(name.clone()),
                     });
                 };
                 if args.len() != arity {
                     return Err(EvalError {
                         span: *span,
-                        message: format!(
-                            "function `{name}` takes {arity} argument{}, not {}",
-                            if arity == 1 { "" } else { "s" },
-                            args.len()
-                        ),
+                        kind: ExprError::Arity {
+                            name: name.clone(),
+                            arity,
+                            got: args.len(),
+                        },
                     });
                 }
                 for a in args {
@@ -359,9 +367,7 @@ impl Code {
                     let a = stack.last_mut().unwrap();
                     let r = f.apply(*a);
                     if !r.is_finite() {
-                        return Err(
-                            self.fail(si, &format!("{} is undefined here", self.name_at(si)))
-                        );
+                        return Err(self.fail(si, ExprError::Undefined(self.name_at(si))));
                     }
                     *a = r;
                 }
@@ -369,18 +375,24 @@ impl Code {
                     let a = stack.last_mut().unwrap();
                     // Uniform in [0, x), or (x, 0] for negative x (cpfg's
                     // x * drand48()); + 0.0 turns a -0 into 0.
-                    let r = *a * rng.uniform().map_err(|m| self.fail(si, m))? + 0.0;
+                    let r = *a
+                        * rng
+                            .uniform()
+                            .map_err(|m| self.fail(si, ExprError::Random(m)))?
+                        + 0.0;
                     if !r.is_finite() {
-                        return Err(self.fail(si, "ran() is undefined here"));
+                        return Err(self.fail(si, ExprError::Undefined("ran()")));
                     }
                     *a = r;
                 }
                 Op::Nran(si) => {
                     let sd = stack.pop().unwrap();
                     let mean = stack.last_mut().unwrap();
-                    let r = rng.normal(*mean, sd).map_err(|m| self.fail(si, m))?;
+                    let r = rng
+                        .normal(*mean, sd)
+                        .map_err(|m| self.fail(si, ExprError::Random(m)))?;
                     if !r.is_finite() {
-                        return Err(self.fail(si, "nran() is undefined here"));
+                        return Err(self.fail(si, ExprError::Undefined("nran()")));
                     }
                     *mean = r;
                 }
@@ -424,7 +436,7 @@ impl Code {
             Op::Pow(si) => (a.powf(b), si),
             Op::Div(si) => {
                 if b == 0.0 {
-                    return Err(self.fail(si, "division by zero"));
+                    return Err(self.fail(si, ExprError::DivisionByZero));
                 }
                 (a / b, si)
             }
@@ -437,18 +449,18 @@ impl Code {
             Err(self.fail(
                 si,
                 if r.is_nan() {
-                    "result is not a number"
+                    ExprError::NotANumber
                 } else {
-                    "result overflows a 64-bit float"
+                    ExprError::Overflow
                 },
             ))
         }
     }
 
-    fn fail(&self, si: u32, msg: &str) -> EvalError {
+    fn fail(&self, si: u32, kind: ExprError) -> EvalError {
         EvalError {
             span: self.spans[si as usize],
-            message: msg.to_string(),
+            kind,
         }
     }
 }
@@ -558,19 +570,19 @@ mod tests {
     #[test]
     fn errors_are_located() {
         let e = eval_with("x / (y - 3)", &[("x", 1.0), ("y", 3.0)]).unwrap_err();
-        assert_eq!(e.message, "division by zero");
+        assert_eq!(e.kind, ExprError::DivisionByZero);
         assert_eq!(e.span, (0, 11));
         let e = eval_with("1 + z", &[]).unwrap_err();
-        assert_eq!(e.message, "unknown identifier `z`");
+        assert_eq!(e.kind, ExprError::UnknownIdentifier("z".into()));
         assert_eq!(e.span, (4, 5));
         let e = eval_with("foo(1)", &[]).unwrap_err();
-        assert_eq!(e.message, "unknown function `foo`");
+        assert_eq!(e.kind, ExprError::UnknownFunction("foo".into()));
         let e = eval_with("sin(1, 2)", &[]).unwrap_err();
-        assert!(e.message.contains("takes 1 argument"), "{}", e.message);
+        assert!(e.message().contains("takes 1 argument"), "{}", e.message());
         let e = eval_with("sqrt(x)", &[("x", -1.0)]).unwrap_err();
-        assert!(e.message.contains("sqrt"), "{}", e.message);
+        assert!(e.message().contains("sqrt"), "{}", e.message());
         let e = eval_with("x * 1e308 * 10", &[("x", 1.0)]).unwrap_err();
-        assert!(e.message.contains("overflow"), "{}", e.message);
+        assert!(e.message().contains("overflow"), "{}", e.message());
     }
 
     #[test]

@@ -4,6 +4,7 @@
 //! in O(1).
 
 use crate::derive::random::Random;
+use crate::diag::CompileError;
 use crate::lang::ast::{self, Expr, Setting};
 use crate::lang::lexer::Span;
 use crate::lang::parse::UserError;
@@ -71,11 +72,9 @@ impl Alphabet {
     }
 
     /// The key of `sym` with `arity` parameters, made on first use.
-    pub fn intern(&mut self, sym: char, arity: usize) -> Result<u32, String> {
+    pub fn intern(&mut self, sym: char, arity: usize) -> Result<u32, CompileError> {
         if arity > MAX_ARITY {
-            return Err(format!(
-                "a module has at most {MAX_ARITY} parameters, this one has {arity}"
-            ));
+            return Err(CompileError::TooManyParams(arity));
         }
         if arity == 0 && sym.is_ascii() {
             return Ok(sym as u32);
@@ -423,31 +422,25 @@ fn hidden_step(h: &ast::Header) -> Vec<Span> {
 
 type R<T> = Result<T, UserError>;
 
-fn err<T>(span: Span, msg: impl Into<String>) -> R<T> {
-    Err(UserError::new(span, msg))
+fn err<T>(span: Span, kind: CompileError) -> R<T> {
+    Err(UserError::new(span, kind))
 }
 
 fn compile_code(e: &Expr, params: &HashMap<String, u32>, consts: &HashMap<String, f64>) -> R<Code> {
-    Code::compile(e, &Scope { params, consts }).map_err(|e| UserError::new(e.span, e.message))
+    Code::compile(e, &Scope { params, consts }).map_err(|e| UserError::new(e.span, e.kind))
 }
 
 /// Evaluate a setting's expression: constants only.
 fn constant(e: &Expr, consts: &HashMap<String, f64>, rng: &mut Random) -> R<f64> {
     let code = compile_code(e, &HashMap::new(), consts)?;
     code.eval(&[], &mut Vec::new(), rng)
-        .map_err(|e| UserError::new(e.span, e.message))
+        .map_err(|e| UserError::new(e.span, e.kind))
 }
 
-fn whole_number(e: &Expr, consts: &HashMap<String, f64>, what: &str) -> R<u64> {
+fn whole_number(e: &Expr, consts: &HashMap<String, f64>, what: &'static str) -> R<u64> {
     let v = constant(e, consts, &mut Random::new(0))?;
     if v < 0.0 || v.fract() != 0.0 || v > 9.007_199_254_740_992e15 {
-        return err(
-            e.span(),
-            format!(
-                "{what} must be a whole number from 0 to 2^53, not {}",
-                crate::rules::codec::number_string(v)
-            ),
-        );
+        return err(e.span(), CompileError::NotWholeNumber { what, value: v });
     }
     Ok(v as u64)
 }
@@ -456,7 +449,7 @@ fn symbols(mods: &[ast::Module]) -> R<HashSet<char>> {
     let mut s = HashSet::new();
     for m in mods {
         if !m.params.is_empty() {
-            return err(m.span, "list symbols here, without parameters");
+            return err(m.span, CompileError::SymbolsOnly);
         }
         s.insert(m.sym);
     }
@@ -474,27 +467,15 @@ fn seed_value(e: &Expr, consts: &HashMap<String, f64>, src: Option<&str>) -> R<u
     if let (Expr::Num(_, (a, b)), Some(src)) = (e, src) {
         if let Some(text) = src.get(*a..*b) {
             if !text.is_empty() && text.bytes().all(|c| c.is_ascii_digit()) {
-                return text.parse::<u64>().or_else(|_| {
-                    err(
-                        e.span(),
-                        format!(
-                            "the seed must be a whole number from 0 to 18446744073709551615, not {text}"
-                        ),
-                    )
-                });
+                return text
+                    .parse::<u64>()
+                    .or_else(|_| err(e.span(), CompileError::SeedLiteralRange(text.to_string())));
             }
         }
     }
     let v = constant(e, consts, &mut Random::new(0))?;
     if v < 0.0 || v.fract() != 0.0 || v >= EXACT_LIMIT {
-        return err(
-            e.span(),
-            format!(
-                "the seed must be a whole number from 0 to 18446744073709551615 \
-                 (computed: below 2^53; write larger seeds as digits), not {}",
-                crate::rules::codec::number_string(v)
-            ),
-        );
+        return err(e.span(), CompileError::SeedComputedRange(v));
     }
     Ok(v as u64)
 }
@@ -528,10 +509,7 @@ fn file_seed(h: &ast::Header, src: Option<&str>) -> Option<R<u64>> {
                 consts.insert(name.clone(), v);
             }
             Setting::Seed(e, _) if is_random(e, &random) => {
-                return Some(err(
-                    e.span(),
-                    "the seed cannot depend on random numbers (`ran`, `nran`)",
-                ));
+                return Some(err(e.span(), CompileError::SeedRandom));
             }
             Setting::Seed(e, _) => return Some(seed_value(e, &consts, src)),
             _ => {}
@@ -581,26 +559,23 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         match s {
             Setting::Groups(list, span) => {
                 if schedule_span.is_some() {
-                    return err(*span, "use either `groups:` or `group:`, not both");
+                    return err(*span, CompileError::GroupsAndGroup);
                 }
                 schedule_span = Some(*span);
                 for &(n, at) in list {
                     if n != 0 && !h.groups.iter().any(|(g, _, _)| *g == n) {
-                        return err(
-                            at,
-                            format!("unknown group {n}: there is no `productions {n}:` section"),
-                        );
+                        return err(at, CompileError::UnknownGroup(n));
                     }
                     schedule.push(n);
                 }
             }
             Setting::Group(e, span) => {
                 if schedule_span.is_some() {
-                    return err(*span, "use either `groups:` or `group:`, not both");
+                    return err(*span, CompileError::GroupsAndGroup);
                 }
                 schedule_span = Some(*span);
                 if is_random(e, &HashSet::new()) {
-                    return err(e.span(), "`group:` cannot use ran or nran");
+                    return err(e.span(), CompileError::GroupRandom);
                 }
                 let mut names = HashMap::new();
                 if !consts.contains_key("step") {
@@ -610,13 +585,13 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
             }
             Setting::DerivationLength(e, span) => {
                 if derivation_length.is_some() {
-                    return err(*span, "`derivation length:` is set twice");
+                    return err(*span, CompileError::SetTwice("derivation length"));
                 }
                 derivation_length = Some(whole_number(e, &consts, "the derivation length")?);
             }
             Setting::Seed(e, span) => {
                 if seed.is_some() {
-                    return err(*span, "`seed:` is set twice");
+                    return err(*span, CompileError::SetTwice("seed"));
                 }
                 seed = Some(match &ahead {
                     Some(Ok(v)) => *v,
@@ -626,7 +601,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
             }
             Setting::Define(name, e, span) => {
                 if consts.contains_key(name) {
-                    return err(*span, format!("`{name}` is defined twice"));
+                    return err(*span, CompileError::DefinedTwice(name.clone()));
                 }
                 let v = constant(e, &consts, &mut define_rng)?;
                 consts.insert(name.clone(), v);
@@ -642,12 +617,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
                     (None, f) => filter = Some((f, *span)),
                     (Some((Filter::Ignore(a), _)), Filter::Ignore(b))
                     | (Some((Filter::Consider(a), _)), Filter::Consider(b)) => a.extend(b),
-                    (Some(_), _) => {
-                        return err(
-                            *span,
-                            "`ignore:` and `consider:` cannot both be used: pick one",
-                        )
-                    }
+                    (Some(_), _) => return err(*span, CompileError::IgnoreAndConsider),
                 }
             }
         }
@@ -661,10 +631,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         groups.push((n, t.with_fallback(&productions)));
     }
     if let (Some((n, span, _)), None) = (h_group_spans.first(), schedule_span) {
-        return err(
-            *span,
-            format!("group {n} is never used: add a `groups:` or `group:` setting"),
-        );
+        return err(*span, CompileError::GroupUnused(*n));
     }
     let warnings = [
         h.decomposition.as_ref().is_some_and(|d| d.warnings),
@@ -674,13 +641,10 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         Some(d) => {
             let (depth, seed) = section_settings(&d, &consts)?;
             if let Some(span) = seed {
-                return err(
-                    span,
-                    "decomposition uses the main random generator: no `seed:` here",
-                );
+                return err(span, CompileError::DecompositionSeed);
             }
             let t = compile_table(d.productions, &mut alphabet, &consts, &mut num)?;
-            balanced(&t, "a decomposition successor must balance its brackets")?;
+            balanced(&t, CompileError::DecompositionUnbalanced)?;
             Some((t, depth))
         }
         None => None,
@@ -703,10 +667,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
     };
     let homomorphism = compile_table(h.homomorphism, &mut alphabet, &consts, &mut num)?;
     if hom_depth > 1 {
-        balanced(
-            &homomorphism,
-            "with `maximum depth:` above 1, a homomorphism successor must balance its brackets",
-        )?;
+        balanced(&homomorphism, CompileError::HomomorphismUnbalanced)?;
     }
     Ok(System {
         alphabet,
@@ -728,13 +689,13 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
 
 /// Recursive rewriting does not track brackets: every successor of `t`
 /// must balance (each `]` after its `[`).
-fn balanced(t: &Table, message: &str) -> R<()> {
+fn balanced(t: &Table, kind: CompileError) -> R<()> {
     match t
         .prods
         .iter()
         .find(|p| p.depth_delta != 0 || p.depth_min < 0)
     {
-        Some(p) => err(p.span, message),
+        Some(p) => err(p.span, kind),
         None => Ok(()),
     }
 }
@@ -748,23 +709,17 @@ fn section_settings(s: &ast::Section, consts: &HashMap<String, f64>) -> R<(usize
         match x {
             ast::SectionSetting::MaximumDepth(e, span) => {
                 if depth.is_some() {
-                    return err(
-                        *span,
-                        "`maximum depth:` comes once, right after the section keyword",
-                    );
+                    return err(*span, CompileError::MaximumDepthTwice);
                 }
                 let v = constant(e, consts, &mut Random::new(0))?;
                 if !(1.0..=10000.0).contains(&v) || v.fract() != 0.0 {
-                    return err(
-                        e.span(),
-                        "maximum depth must be a whole number from 1 to 10000",
-                    );
+                    return err(e.span(), CompileError::MaximumDepthRange);
                 }
                 depth = Some(v as usize);
             }
             ast::SectionSetting::Seed(_, span) => {
                 if seed.is_some() {
-                    return err(*span, "`seed:` is set twice");
+                    return err(*span, CompileError::SetTwice("seed"));
                 }
                 seed = Some(*span);
             }
@@ -831,14 +786,11 @@ fn bind_formals(m: &ast::Module, names: &mut HashMap<String, u32>, nslots: &mut 
         match e {
             Expr::Var(name, span) => {
                 if names.insert(name.clone(), *nslots as u32).is_some() {
-                    return err(*span, format!("parameter `{name}` is bound twice"));
+                    return err(*span, CompileError::BoundTwice(name.clone()));
                 }
                 *nslots += 1;
             }
-            other => return err(
-                other.span(),
-                "a formal parameter must be a name (values go in the successor or the condition)",
-            ),
+            other => return err(other.span(), CompileError::FormalNotName),
         }
     }
     Ok(first)
@@ -855,7 +807,7 @@ fn compile_production(
             .map_err(|e| UserError::new(m.span, e))
     };
     if matches!(p.pred.sym, '[' | ']') {
-        return err(p.pred.span, "brackets cannot be rewritten");
+        return err(p.pred.span, CompileError::BracketRewritten);
     }
     let mut names = HashMap::new();
     let mut nslots = 0;
@@ -864,7 +816,7 @@ fn compile_production(
     let mut left = Vec::new();
     for m in &p.left {
         if matches!(m.sym, '[' | ']') {
-            return err(m.span, "a left context cannot hold brackets: branches to the left are skipped by the matcher");
+            return err(m.span, CompileError::LeftContextBracket);
         }
         let k = intern(alphabet, m)?;
         let slot = bind_formals(m, &mut names, &mut nslots)?;
@@ -873,9 +825,7 @@ fn compile_production(
     let mut right = Vec::new();
     for m in &p.right {
         match m.sym {
-            '[' | ']' if !m.params.is_empty() => {
-                return err(m.span, "a bracket takes no parameters")
-            }
+            '[' | ']' if !m.params.is_empty() => return err(m.span, CompileError::BracketParams),
             '[' => right.push(RPat::Open),
             ']' => right.push(RPat::Close),
             _ => {
@@ -907,7 +857,7 @@ fn compile_production(
         if w < 0.0 {
             return err(
                 prob.as_ref().unwrap().span,
-                format!("a probability cannot be negative ({w})"),
+                CompileError::NegativeProbability(w),
             );
         }
     }
@@ -1033,21 +983,21 @@ mod tests {
     #[test]
     fn compile_errors() {
         let e = sys("productions:\nA(x) -> B(y)\n").err().unwrap();
-        assert_eq!(e.message, "unknown identifier `y`");
+        assert_eq!(e.message(), "unknown identifier `y`");
         let e = sys("define: a = 1\ndefine: a = 2\n").err().unwrap();
-        assert!(e.message.contains("defined twice"));
+        assert!(e.message().contains("defined twice"));
         let e = sys("ignore: +\nconsider: F\n").err().unwrap();
-        assert!(e.message.contains("cannot both"));
+        assert!(e.message().contains("cannot both"));
         let e = sys("productions:\nA -> B : -1\n").err().unwrap();
-        assert!(e.message.contains("negative"));
+        assert!(e.message().contains("negative"));
         let e = sys("productions:\nA(x) : z > 1 -> B\n").err().unwrap();
-        assert!(e.message.contains("unknown identifier `z`"));
+        assert!(e.message().contains("unknown identifier `z`"));
         let e = sys("productions:\nA(1) -> B\n").err().unwrap();
-        assert!(e.message.contains("formal parameter"));
+        assert!(e.message().contains("formal parameter"));
         let e = sys("productions:\nA(x) < B(x) -> B\n").err().unwrap();
-        assert!(e.message.contains("bound twice"));
+        assert!(e.message().contains("bound twice"));
         let e = sys("derivation length: 2.5\n").err().unwrap();
-        assert!(e.message.contains("whole number"));
+        assert!(e.message().contains("whole number"));
     }
 
     #[test]

@@ -55,9 +55,7 @@ impl<R: Read> Reader<R> {
 
     /// An error at stream offset `at`: `FILE:OFFSET: error: ...`.
     pub fn error_at(&self, at: u64, message: impl Into<String>) -> Error {
-        let mut e = Error::new(message);
-        e.subject = Some(format!("{}:{}", self.name, at));
-        e
+        Error::about(format!("{}:{}", self.name, at), message.into())
     }
 
     /// Refill so that at least `want` bytes (at most the buffer size) are
@@ -75,7 +73,7 @@ impl<R: Read> Reader<R> {
                 Ok(0) => self.eof = true,
                 Ok(n) => self.end += n,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(Error::io(self.name.clone(), "cannot read", e)),
+                Err(e) => return Err(Error::io(self.name.clone(), crate::diag::IoAction::Read, e)),
             }
         }
         Ok(())
@@ -245,24 +243,24 @@ mod tests {
     fn errors() {
         assert_eq!(
             all("FF(1").unwrap_err(),
-            "lsgen: in:1: error: parameter list not closed: `(` without `)`\n"
+            "in:1: error: parameter list not closed: `(` without `)`\n"
         );
         assert_eq!(
             all("F(x)").unwrap_err(),
-            "lsgen: in:2: error: expected a number, found `x`\n"
+            "in:2: error: expected a number, found `x`\n"
         );
         assert_eq!(
             all("F(1;2)").unwrap_err(),
-            "lsgen: in:3: error: expected `,` or `)`, found `;`\n"
+            "in:3: error: expected `,` or `)`, found `;`\n"
         );
         assert_eq!(
             all("F\u{1}").unwrap_err(),
-            "lsgen: in:1: error: unexpected control character 0x01\n"
+            "in:1: error: unexpected control character 0x01\n"
         );
         assert!(all("F\u{ff}").is_ok());
         assert_eq!(
             all_bytes(b"F\xff").unwrap_err(),
-            "lsgen: in:1: error: invalid UTF-8\n"
+            "in:1: error: invalid UTF-8\n"
         );
     }
 

@@ -348,10 +348,7 @@ pub fn read_ls(name: &str, input: Box<dyn std::io::Read>, view: &mut View) -> Re
         }
         Err(e) => {
             let map = CodeMap::new(text);
-            Err(Error::at(
-                Location::from_map(name, &map, e.span.0),
-                e.message,
-            ))
+            Err(Error::at(Location::from_map(name, &map, e.span.0), e.kind))
         }
     }
 }
@@ -432,10 +429,10 @@ mod tests {
         read("#!/usr/bin/env lsgen\nview: step = 8\n", &mut v).unwrap();
         assert_eq!(v.step, 8.0);
         let e = read("F\n  view: step = x\n", &mut v).unwrap_err();
-        let l = e.location.clone().unwrap();
+        let l = e.location().unwrap().clone();
         assert_eq!((l.line, l.col), (2, 16));
         let e = read("/* c */ view: angel = 3\n", &mut v).unwrap_err();
-        let l = e.location.clone().unwrap();
+        let l = e.location().unwrap().clone();
         assert_eq!((l.line, l.col), (1, 15));
     }
 }
