@@ -105,21 +105,9 @@ enum Fun {
 pub enum Op {
     Const(f64),
     Load(u32),
-    Neg,
-    Not,
-    Add(u32),
-    Sub(u32),
-    Mul(u32),
-    Div(u32),
-    Pow(u32),
-    Lt,
-    Le,
-    Gt,
-    Ge,
-    Eq,
-    Ne,
-    And,
-    Or,
+    /// The syntax tree's operators, one list for both (`lang::ast`).
+    Un(UnOp),
+    Bin(BinOp, u32),
     F1(Func1, u32),
     F2(Func2, u32),
     Ran(u32),
@@ -256,30 +244,13 @@ impl Code {
             }
             Expr::Unary(op, a, _) => {
                 self.emit(a, scope)?;
-                self.ops.push(match op {
-                    UnOp::Neg => Op::Neg,
-                    UnOp::Not => Op::Not,
-                });
+                self.ops.push(Op::Un(*op));
             }
             Expr::Binary(op, a, b, span) => {
                 self.emit(a, scope)?;
                 self.emit(b, scope)?;
                 let si = self.span_index(*span);
-                self.ops.push(match op {
-                    BinOp::Add => Op::Add(si),
-                    BinOp::Sub => Op::Sub(si),
-                    BinOp::Mul => Op::Mul(si),
-                    BinOp::Div => Op::Div(si),
-                    BinOp::Pow => Op::Pow(si),
-                    BinOp::Lt => Op::Lt,
-                    BinOp::Le => Op::Le,
-                    BinOp::Gt => Op::Gt,
-                    BinOp::Ge => Op::Ge,
-                    BinOp::Eq => Op::Eq,
-                    BinOp::Ne => Op::Ne,
-                    BinOp::And => Op::And,
-                    BinOp::Or => Op::Or,
-                });
+                self.ops.push(Op::Bin(*op, si));
             }
         }
         self.fold(start)
@@ -337,28 +308,15 @@ impl Code {
                 Op::Const(v) => stack.push(v),
                 Op::Load(s) => stack.push(slots[s as usize]),
                 Op::Step => stack.push(rng.step()),
-                Op::Neg => {
+                Op::Un(UnOp::Neg) => {
                     let a = stack.last_mut().unwrap();
                     *a = -*a;
                 }
-                Op::Not => {
+                Op::Un(UnOp::Not) => {
                     let a = stack.last_mut().unwrap();
                     *a = if *a == 0.0 { 1.0 } else { 0.0 };
                 }
-                Op::Lt
-                | Op::Le
-                | Op::Gt
-                | Op::Ge
-                | Op::Eq
-                | Op::Ne
-                | Op::And
-                | Op::Or
-                | Op::Add(_)
-                | Op::Sub(_)
-                | Op::Mul(_)
-                | Op::Div(_)
-                | Op::Pow(_)
-                | Op::F2(..) => {
+                Op::Bin(..) | Op::F2(..) => {
                     let b = stack.pop().unwrap();
                     let a = stack.last_mut().unwrap();
                     *a = self.binary(*op, *a, b)?;
@@ -422,19 +380,19 @@ impl Code {
     #[inline(always)]
     fn binary(&self, op: Op, a: f64, b: f64) -> Result<f64, EvalError> {
         let (r, si) = match op {
-            Op::Lt => return Ok(bool_f(a < b)),
-            Op::Le => return Ok(bool_f(a <= b)),
-            Op::Gt => return Ok(bool_f(a > b)),
-            Op::Ge => return Ok(bool_f(a >= b)),
-            Op::Eq => return Ok(bool_f(a == b)),
-            Op::Ne => return Ok(bool_f(a != b)),
-            Op::And => return Ok(bool_f(a != 0.0 && b != 0.0)),
-            Op::Or => return Ok(bool_f(a != 0.0 || b != 0.0)),
-            Op::Add(si) => (a + b, si),
-            Op::Sub(si) => (a - b, si),
-            Op::Mul(si) => (a * b, si),
-            Op::Pow(si) => (a.powf(b), si),
-            Op::Div(si) => {
+            Op::Bin(BinOp::Lt, _) => return Ok(bool_f(a < b)),
+            Op::Bin(BinOp::Le, _) => return Ok(bool_f(a <= b)),
+            Op::Bin(BinOp::Gt, _) => return Ok(bool_f(a > b)),
+            Op::Bin(BinOp::Ge, _) => return Ok(bool_f(a >= b)),
+            Op::Bin(BinOp::Eq, _) => return Ok(bool_f(a == b)),
+            Op::Bin(BinOp::Ne, _) => return Ok(bool_f(a != b)),
+            Op::Bin(BinOp::And, _) => return Ok(bool_f(a != 0.0 && b != 0.0)),
+            Op::Bin(BinOp::Or, _) => return Ok(bool_f(a != 0.0 || b != 0.0)),
+            Op::Bin(BinOp::Add, si) => (a + b, si),
+            Op::Bin(BinOp::Sub, si) => (a - b, si),
+            Op::Bin(BinOp::Mul, si) => (a * b, si),
+            Op::Bin(BinOp::Pow, si) => (a.powf(b), si),
+            Op::Bin(BinOp::Div, si) => {
                 if b == 0.0 {
                     return Err(self.fail(si, ExprError::DivisionByZero));
                 }
@@ -467,17 +425,7 @@ impl Code {
 
 #[inline(always)]
 fn is_binary(op: Op) -> bool {
-    !matches!(
-        op,
-        Op::Const(_)
-            | Op::Load(_)
-            | Op::Neg
-            | Op::Not
-            | Op::F1(..)
-            | Op::Ran(_)
-            | Op::Nran(_)
-            | Op::Step
-    )
+    matches!(op, Op::Bin(..) | Op::F2(..))
 }
 
 #[inline]
