@@ -6,6 +6,7 @@
 use crate::derive::random::Random;
 use crate::diag::{excerpt, CompileError, Error, ErrorKind, LexicalError, Location, ParseError};
 use crate::io::input::Input;
+use crate::lang::comment;
 use crate::lang::parse::parse_expr;
 use crate::rules::codec::MAX_ARITY;
 use crate::rules::expr::{Code, Scope};
@@ -122,7 +123,7 @@ impl<'a> AxiomReader<'a> {
                     self.col = 1;
                 }
                 b' ' | b'\t' | b'\r' | 0x0B | 0x0C => self.advance(1),
-                b'/' if self.comments && avail.get(1) == Some(&b'*') => {
+                b'/' if self.comments && comment::opens(avail) => {
                     let (line, col, at) = (self.line, self.col, self.input.offset());
                     // An unterminated comment is reported at its start.
                     self.input.mark(at);
@@ -138,8 +139,8 @@ impl<'a> AxiomReader<'a> {
                                     LexicalError::UnterminatedComment,
                                 ))
                             }
-                            [b'*', b'/', ..] => {
-                                self.advance(2);
+                            c if comment::closes(c) => {
+                                self.advance(comment::CLOSE.len());
                                 break;
                             }
                             [b'\n', ..] => {
@@ -201,7 +202,8 @@ impl<'a> AxiomReader<'a> {
         let n = avail.len();
         let mut i = 0;
         while i < n && PLAIN[avail[i] as usize] {
-            if avail[i] == b'/' && self.comments && avail.get(i + 1).is_none_or(|&b| b == b'*') {
+            // A `/` that opens a comment, or may (the last byte buffered).
+            if avail[i] == b'/' && self.comments && (i + 1 == n || comment::opens(&avail[i..])) {
                 break;
             }
             i += 1;
@@ -315,7 +317,6 @@ impl<'a> AxiomReader<'a> {
                 }
                 return Err(self.error_at(at, line, col, ParseError::UnclosedParen));
             };
-            let next = avail.get(1).copied();
             match b {
                 0 => return Err(self.error_here(LexicalError::Nul)),
                 b'\n' => {
@@ -326,13 +327,13 @@ impl<'a> AxiomReader<'a> {
                     self.col = 1;
                     continue;
                 }
-                b'*' if comment.is_some() && next == Some(b'/') => {
+                b'*' if comment.is_some() && comment::closes(avail) => {
                     comment = None;
                     self.text.push(b'*');
                     self.advance(1);
                 }
                 _ if comment.is_some() => {}
-                b'/' if self.comments && next == Some(b'*') => {
+                b'/' if self.comments && comment::opens(avail) => {
                     comment = Some((self.line, self.col, self.input.offset()));
                     self.input.mark(self.input.offset());
                     self.text.push(b'/');

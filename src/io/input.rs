@@ -3,6 +3,7 @@
 //! for [`crate::io::axiom`] to read module by module, so it may be gigabytes long.
 
 use crate::diag::{excerpt, Error, LexicalError, Location};
+use crate::lang::comment;
 use std::io::{self, Read};
 
 /// A byte stream with look-ahead and enough history to quote the current
@@ -241,11 +242,11 @@ pub fn split_header(input: &mut Input) -> Result<Split, Error> {
                     break;
                 }
                 _ if shebang => {}
-                b'/' if !in_comment && avail.get(i + 1) == Some(&b'*') => {
+                b'/' if !in_comment && comment::opens(&avail[i..]) => {
                     in_comment = true;
                     n = 2;
                 }
-                b'*' if in_comment && avail.get(i + 1) == Some(&b'/') => {
+                b'*' if in_comment && comment::closes(&avail[i..]) => {
                     in_comment = false;
                     n = 2;
                 }
