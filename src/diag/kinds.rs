@@ -29,8 +29,10 @@ pub enum ErrorKind {
     Io(IoError),
     /// The request itself is wrong (the command line, the options).
     Usage(UsageError),
+    /// lsgen-turtle: a module string it cannot read or draw.
+    Turtle(TurtleError),
     /// A message of a front end whose errors are not typed yet (the cpfg
-    /// preprocessor's conversion, lsgen-turtle's reader).
+    /// preprocessor's conversion, warnings).
     Other(String),
 }
 
@@ -62,6 +64,8 @@ impl ErrorKind {
             ErrorKind::Runtime(_) | ErrorKind::Other(_) => Stage::Runtime,
             ErrorKind::Io(_) => Stage::Io,
             ErrorKind::Usage(_) => Stage::Usage,
+            ErrorKind::Turtle(e) if e.is_drawing() => Stage::Runtime,
+            ErrorKind::Turtle(_) => Stage::Parse,
         }
     }
 }
@@ -75,6 +79,7 @@ impl fmt::Display for ErrorKind {
             ErrorKind::Runtime(e) => e.fmt(f),
             ErrorKind::Io(e) => e.fmt(f),
             ErrorKind::Usage(e) => e.fmt(f),
+            ErrorKind::Turtle(e) => e.fmt(f),
             ErrorKind::Other(m) => f.write_str(m),
         }
     }
@@ -90,7 +95,7 @@ macro_rules! into_kind {
     )*};
 }
 into_kind!(LexicalError => Lexical, ParseError => Parse, CompileError => Compile,
-    RuntimeError => Runtime, IoError => Io, UsageError => Usage);
+    RuntimeError => Runtime, IoError => Io, UsageError => Usage, TurtleError => Turtle);
 
 /// A message of its own (see [`ErrorKind::Other`]).
 impl From<String> for ErrorKind {
@@ -762,6 +767,86 @@ impl fmt::Display for UsageError {
                 "`--first-step {first}` with {steps} steps: step numbers must stay below 2^64 - 1"
             ),
             CommandLine(m) => f.write_str(m),
+        }
+    }
+}
+
+/// lsgen-turtle: a module string it cannot read (stage parse) or draw
+/// (stage runtime).
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum TurtleError {
+    /// A control byte where a module would be.
+    ControlByte(u8),
+    /// `(`, `)` or `,` where a module would be.
+    Unexpected(char),
+    /// Bytes that are not UTF-8.
+    InvalidUtf8,
+    /// A parameter longer than this many characters.
+    NumberTooLong(usize),
+    /// Something else than a number in a parameter list (its start).
+    ExpectedNumber(String),
+    /// A parameter list without its `)`.
+    ParamsNotClosed,
+    /// Neither `,` nor `)` after a parameter.
+    ExpectedCommaOrParen(char),
+    /// A `{` without its `}` at the end.
+    PolygonNotClosed,
+    /// A `]` or `}` without its opener.
+    UnmatchedClose(char),
+    /// The turtle's position overflowed.
+    Overflow,
+    /// The tropism bend overflowed.
+    TropismOverflow,
+    /// A polygon with more than this many vertices.
+    PolygonTooLarge(usize),
+    /// Branches or polygons nested past the limit.
+    TooDeep,
+    /// The drawing's extent overflowed.
+    ExtentOverflow,
+}
+
+impl TurtleError {
+    /// Found while drawing (else while reading).
+    pub fn is_drawing(&self) -> bool {
+        use TurtleError::*;
+        matches!(
+            self,
+            PolygonNotClosed
+                | UnmatchedClose(_)
+                | Overflow
+                | TropismOverflow
+                | PolygonTooLarge(_)
+                | TooDeep
+                | ExtentOverflow
+        )
+    }
+}
+
+impl fmt::Display for TurtleError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use TurtleError::*;
+        match self {
+            ControlByte(b) => write!(f, "unexpected control character 0x{b:02x}"),
+            Unexpected(c) => write!(f, "unexpected `{c}`"),
+            InvalidUtf8 => f.write_str("invalid UTF-8"),
+            NumberTooLong(n) => write!(f, "number too long (over {n} characters)"),
+            ExpectedNumber(shown) => write!(f, "expected a number, found `{shown}`"),
+            ParamsNotClosed => f.write_str("parameter list not closed: `(` without `)`"),
+            ExpectedCommaOrParen(c) => {
+                write!(f, "expected `,` or `)`, found `{}`", c.escape_default())
+            }
+            PolygonNotClosed => f.write_str("polygon not closed: `{` without `}`"),
+            UnmatchedClose(c) => write!(f, "unmatched `{c}`"),
+            Overflow => f.write_str("the turtle moved out of range (overflow)"),
+            TropismOverflow => {
+                f.write_str("the tropism bend overflows (elasticity × |tropism| is too large)")
+            }
+            PolygonTooLarge(n) => write!(f, "polygon too large (over {n} vertices)"),
+            TooDeep => f.write_str("branches or polygons nested too deeply"),
+            ExtentOverflow => {
+                f.write_str("the drawing is too large to lay out (its extent overflows)")
+            }
         }
     }
 }

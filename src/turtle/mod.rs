@@ -13,7 +13,7 @@ pub mod render;
 pub mod state;
 pub mod view;
 
-use crate::diag::Error;
+use crate::diag::{Error, TurtleError};
 use reader::Reader;
 use state::{Fault, ModErr, Sink, Turtle};
 use std::io::Read;
@@ -34,7 +34,7 @@ pub fn interpret<R: Read>(
     loop {
         let Some(sym) = r.next_module()? else {
             if t.open_polygons() > 0 {
-                return Err(r.error_at(polygon_at, "polygon not closed: `{` without `}`"));
+                return Err(r.error_at(polygon_at, TurtleError::PolygonNotClosed));
             }
             return Ok(());
         };
@@ -46,34 +46,27 @@ pub fn interpret<R: Read>(
         match t.module(sym, &params[..n], sink) {
             Ok(()) => {}
             Err(ModErr::Io(e)) => {
-                if let Some(o) = e
-                    .get_ref()
-                    .and_then(|x| x.downcast_ref::<render::ExtentOverflow>())
+                if e.get_ref()
+                    .is_some_and(|x| x.is::<render::ExtentOverflow>())
                 {
-                    return Err(r.error_at(r.last_at, o.to_string()));
+                    return Err(r.error_at(r.last_at, TurtleError::ExtentOverflow));
                 }
                 return Err(Error::io(out_name, crate::diag::IoAction::Write, e));
             }
             Err(ModErr::Fault(Fault::UnmatchedClose(c))) => {
-                return Err(r.error_at(r.last_at, format!("unmatched `{c}`")));
+                return Err(r.error_at(r.last_at, TurtleError::UnmatchedClose(c)));
             }
             Err(ModErr::Fault(Fault::Overflow)) => {
-                return Err(r.error_at(r.last_at, "the turtle moved out of range (overflow)"))
+                return Err(r.error_at(r.last_at, TurtleError::Overflow))
             }
             Err(ModErr::Fault(Fault::TropismOverflow)) => {
-                return Err(r.error_at(
-                    r.last_at,
-                    "the tropism bend overflows (elasticity × |tropism| is too large)",
-                ))
+                return Err(r.error_at(r.last_at, TurtleError::TropismOverflow))
             }
             Err(ModErr::Fault(Fault::PolygonTooLarge)) => {
-                return Err(r.error_at(
-                    r.last_at,
-                    format!("polygon too large (over {} vertices)", state::MAX_VERTICES),
-                ))
+                return Err(r.error_at(r.last_at, TurtleError::PolygonTooLarge(state::MAX_VERTICES)))
             }
             Err(ModErr::Fault(Fault::TooDeep)) => {
-                return Err(r.error_at(r.last_at, "branches or polygons nested too deeply"))
+                return Err(r.error_at(r.last_at, TurtleError::TooDeep))
             }
         }
     }
