@@ -7,9 +7,9 @@
 //! identifiers, numbers and operators apply. There is one token list,
 //! [`Tok`]: its expression tokens are lexed by logos, their payloads filled
 //! by callbacks; module mode is a character-by-character scan over the same
-//! tokens ([`Lexer::module_token`]); keywords are recognised at the start
-//! of a line. [`Lexer::next`] dispatches on the [`Mode`]. Comments are
-//! found by [`crate::lang::comment`], as everywhere else. The axiom is not
+//! tokens (`Lexer::module_token`); keywords are recognised at the start
+//! of a line. [`Lexer::next`] dispatches on the `Mode`. Comments are
+//! found by `crate::lang::comment`, as everywhere else. The axiom is not
 //! lexed here: it is streamed by [`crate::io::axiom`].
 
 use crate::diag::LexicalError;
@@ -117,7 +117,7 @@ fn skip_comment<'a>(lex: &mut logos::Lexer<'a, Tok<'a>>) -> Result<(), LexicalEr
     }
 }
 
-/// logos wants a default error; [`unexpected`] gives the real one.
+/// logos wants a default error; `unexpected` gives the real one.
 impl Default for LexicalError {
     fn default() -> LexicalError {
         LexicalError::UnexpectedChar('?')
