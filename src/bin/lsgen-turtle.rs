@@ -2,7 +2,7 @@
 //! of ABOP / cpfg. The work is in `lsgen::turtle`; this parses the options.
 
 use clap::Parser;
-use lsgen::diag::{Error, IoAction};
+use lsgen::diag::{Error, IoAction, UsageError};
 use lsgen::turtle::view::{self, View};
 use lsgen::turtle::{run, Format, Options};
 use std::io::Write;
@@ -93,8 +93,17 @@ fn options(a: Args) -> Result<Options, Error> {
     }
     let set = |v: &mut View, name: &str, value: &str| -> Result<(), Error> {
         let text = format!(" {name} = {value}");
-        let s = view::parse_setting(&text)
-            .map_err(|e| usage(format!("--{}: {}", name.replace(' ', "-"), e.message)))?;
+        let s = view::parse_setting(&text).map_err(|e| {
+            // The direction is given as `--view`.
+            let option = match name {
+                "direction" => "view".to_string(),
+                _ => name.replace(' ', "-"),
+            };
+            Error::new(UsageError::ViewOption {
+                option,
+                error: e.kind,
+            })
+        })?;
         v.apply(s);
         Ok(())
     };
@@ -114,13 +123,7 @@ fn options(a: Args) -> Result<Options, Error> {
         ("background", a.background.clone()),
     ] {
         if let Some(value) = value {
-            set(&mut v, name, &value).map_err(|e| {
-                if name == "direction" {
-                    usage(e.message().replace("--direction", "--view"))
-                } else {
-                    e
-                }
-            })?;
+            set(&mut v, name, &value)?;
         }
     }
     let format = match (&a.format, &a.output) {

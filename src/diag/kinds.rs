@@ -138,8 +138,8 @@ pub enum LexicalError {
     NoGroups(&'static str),
     /// Neither `warnings` nor `no warnings` after the section keyword.
     ExpectedWarnings(&'static str),
-    /// A `view:` line lsgen-turtle cannot read (its parser's message).
-    ViewSetting(String),
+    /// A `view:` line lsgen-turtle cannot read.
+    ViewSetting(ViewError),
     /// The header outgrew its bound: `axiom:` is probably missing.
     HeaderTooLong,
 }
@@ -172,7 +172,7 @@ impl fmt::Display for LexicalError {
             ExpectedWarnings(kw) => {
                 write!(f, "expected `warnings` or `no warnings` after `{kw}`")
             }
-            ViewSetting(m) => f.write_str(m),
+            ViewSetting(e) => e.fmt(f),
             HeaderTooLong => f.write_str(
                 "the part before `axiom:` is too long (over 64 MiB); is `axiom:` missing?",
             ),
@@ -735,6 +735,9 @@ pub enum UsageError {
     FirstStepZero,
     /// Step numbers past 2^64 - 1.
     StepsOverflow { first: u64, steps: u64 },
+    /// A view option of lsgen-turtle (its name, `view` for the
+    /// direction) that cannot be read.
+    ViewOption { option: String, error: ViewError },
     /// A command-line check of a binary (its message).
     CommandLine(String),
 }
@@ -766,6 +769,7 @@ impl fmt::Display for UsageError {
                 f,
                 "`--first-step {first}` with {steps} steps: step numbers must stay below 2^64 - 1"
             ),
+            ViewOption { option, error } => write!(f, "--{option}: {error}"),
             CommandLine(m) => f.write_str(m),
         }
     }
@@ -847,6 +851,59 @@ impl fmt::Display for TurtleError {
             ExtentOverflow => {
                 f.write_str("the drawing is too large to lay out (its extent overflows)")
             }
+        }
+    }
+}
+
+/// A view setting (`view:` line, lsgen-turtle option) that cannot be read.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum ViewError {
+    /// Not `NAME = VALUE`.
+    Syntax,
+    /// A name that is no setting (as written, lower case).
+    Unknown(String),
+    /// A word that is not a number.
+    NotANumber(String),
+    /// A word that is not a colour.
+    NotAColour(String),
+    /// Not exactly one number.
+    OneNumber,
+    /// A negative width or width scale.
+    Negative,
+    /// An elevation outside -90 to 90.
+    ElevationRange,
+    /// A direction that is none of the forms.
+    Direction,
+    /// A tropism that is not three numbers.
+    Tropism,
+    /// An empty palette.
+    Palette,
+    /// A background that is neither a colour nor `none`.
+    Background,
+}
+
+impl fmt::Display for ViewError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use ViewError::*;
+        match self {
+            Syntax => f.write_str("a view setting is `view: NAME = VALUE`"),
+            Unknown(name) => write!(
+                f,
+                "unknown view setting `{name}` (known: {})",
+                crate::turtle::view::NAMES.join(", ")
+            ),
+            NotANumber(w) => write!(f, "`{w}` is not a number"),
+            NotAColour(w) => write!(f, "`{w}` is not a colour `#rrggbb`"),
+            OneNumber => f.write_str("expected one number"),
+            Negative => f.write_str("must not be negative"),
+            ElevationRange => f.write_str("the elevation is between -90 and 90"),
+            Direction => f.write_str(
+                "a direction is `front`, `side`, `top` or `AZIMUTH ELEVATION` in degrees",
+            ),
+            Tropism => f.write_str("a tropism is three numbers `X Y Z`"),
+            Palette => f.write_str("a palette is one or more colours `#rrggbb`"),
+            Background => f.write_str("a background is `#rrggbb` or `none`"),
         }
     }
 }

@@ -664,7 +664,7 @@ impl<'a> Lexer<'a> {
             Err(e) => {
                 return Err(LexError {
                     span: (at + e.span.0, at + e.span.1.max(e.span.0 + 1).min(end)),
-                    kind: LexicalError::ViewSetting(e.message),
+                    kind: LexicalError::ViewSetting(e.kind),
                 })
             }
         }
