@@ -94,7 +94,9 @@ impl<'t> ByteTable<'t> {
         level: &mut i64,
     ) -> Result<(usize, u64), Error> {
         let mut i = 0;
-        let mut modules = 0;
+        // Modules = bytes, less the index bytes of each `[`.
+        let mut opens = 0u64;
+        let mut lv = *level;
         while i < input.len() {
             let b = input[i];
             if b >= 0x80 {
@@ -108,29 +110,30 @@ impl<'t> ByteTable<'t> {
                     }
                     out.modules += 1;
                     out.open();
-                    *level += 1;
+                    lv += 1;
                     if let Some(left) = &mut left {
                         left.open();
                     }
                     i += n;
-                    modules += 1;
+                    opens += 1;
                     continue;
                 }
                 if b == b']' {
                     out.modules += 1;
                     out.close()?;
-                    *level -= 1;
+                    lv -= 1;
                     if let Some(left) = &mut left {
                         left.close();
                     }
                     i += 1;
-                    modules += 1;
                     continue;
                 }
                 break;
             };
             let buf = &mut out.buf;
-            if f.len <= 16 {
+            if f.len == 1 {
+                buf.push(f.small[0]);
+            } else if f.len <= 16 {
                 let at = buf.len();
                 buf.extend_from_slice(&f.small);
                 buf.truncate(at + f.len);
@@ -144,11 +147,12 @@ impl<'t> ByteTable<'t> {
                 }
             }
             i += 1;
-            modules += 1;
             if out.buf.len() >= OUT_CHUNK {
                 break;
             }
         }
-        Ok((i, modules))
+        *level = lv;
+        let skipped = if indexed { 8 * opens } else { 0 };
+        Ok((i, i as u64 - skipped))
     }
 }
