@@ -4,6 +4,7 @@
 use super::context::LeftContext;
 use super::sink::{Out, OUT_CHUNK};
 use crate::diag::Error;
+use crate::rules::codec::INDEX_BYTES;
 use crate::rules::{Alphabet, Table, CLOSE, OPEN};
 
 /// Each ASCII byte, so a symbol can be copied as a one-byte slice.
@@ -24,6 +25,8 @@ pub(crate) static ASCII: [u8; 128] = {
 pub(crate) struct ByteTable<'t> {
     /// None: take the general path.
     succ: [Option<FastSucc<'t>>; 128],
+    /// Brackets take the general path too (it tracks branches for cuts).
+    brackets_general: bool,
 }
 
 /// A successor for the byte table. Short ones are padded to 16 bytes and
@@ -70,12 +73,22 @@ impl<'t> ByteTable<'t> {
                 _ => None,
             };
         }
-        ByteTable { succ }
+        ByteTable {
+            succ,
+            brackets_general: false,
+        }
     }
 
     /// Send byte `b` down the general path (the cut `%`).
     pub(crate) fn general(&mut self, b: u8) {
         self.succ[b as usize] = None;
+    }
+
+    /// Send `[` and `]` down the general path.
+    pub(crate) fn brackets_general(&mut self) {
+        self.general(b'[');
+        self.general(b']');
+        self.brackets_general = true;
     }
 
     /// Rewrite the leading bytes of `input` it can handle; returns how many
@@ -103,8 +116,11 @@ impl<'t> ByteTable<'t> {
                 break;
             }
             let Some(f) = &self.succ[b as usize] else {
+                if self.brackets_general {
+                    break;
+                }
                 if b == b'[' {
-                    let n = if indexed { 9 } else { 1 };
+                    let n = if indexed { 1 + INDEX_BYTES } else { 1 };
                     if i + n > input.len() {
                         break;
                     }
@@ -152,7 +168,11 @@ impl<'t> ByteTable<'t> {
             }
         }
         *level = lv;
-        let skipped = if indexed { 8 * opens } else { 0 };
+        let skipped = if indexed {
+            INDEX_BYTES as u64 * opens
+        } else {
+            0
+        };
         Ok((i, i as u64 - skipped))
     }
 }

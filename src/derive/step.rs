@@ -238,6 +238,12 @@ fn fill_level(
     r
 }
 
+#[cfg(test)]
+thread_local! {
+    /// Modules a cut walked over one by one (tests).
+    pub(crate) static CUT_SCANNED: Cell<u64> = const { Cell::new(0) };
+}
+
 struct StepState<'f> {
     peek: Option<PosReader<'f>>,
     right: RightCache,
@@ -264,6 +270,10 @@ struct StepState<'f> {
     chains: Chains,
     /// Nesting level of the input at the current module.
     level: i64,
+    /// With cuts over an indexed generation: for each open branch of the
+    /// input, the offset just past its `]` and that `]`'s module index, so
+    /// a cut skips the rest of the branch in constant time.
+    branches: Option<Vec<(u64, u64)>>,
     depth: i64,
     /// Productions that last opened or closed more than they matched, to
     /// blame for unbalanced output.
@@ -430,6 +440,7 @@ impl<'a> Deriver<'a> {
                 .any(|p| !p.right.is_empty() && self.alphabet.ignored(p.key)),
             chains: Chains::default(),
             level: 0,
+            branches: (cut && indexed).then(Vec::new),
             last_opener: None,
             last_closer: None,
         };
@@ -448,6 +459,10 @@ impl<'a> Deriver<'a> {
             );
             if cut {
                 t.general(b'%');
+                if st.branches.is_some() {
+                    // The general path keeps `branches`.
+                    t.brackets_general();
+                }
             }
             t
         });
@@ -535,10 +550,18 @@ impl<'a> Deriver<'a> {
                     // Drop the rest of the branch; its `]` stays. The
                     // dropped modules still count in the draw positions of
                     // the modules after them (module index in the old
-                    // generation), so walk them one by one.
+                    // generation): the bracket index has the `]`'s, else
+                    // walk them one by one.
+                    if let Some(&(end, close)) = st.branches.as_ref().and_then(|b| b.last()) {
+                        index = close;
+                        rd.seek(end - 1);
+                        continue;
+                    }
                     let mut depth = 0u64;
                     let mut close = None;
                     while let Some((k, _, _)) = rd.next_module(&self.alphabet).map_err(read_err)? {
+                        #[cfg(test)]
+                        CUT_SCANNED.with(|c| c.set(c.get() + 1));
                         if k == CLOSE {
                             if depth == 0 {
                                 close = Some(rd.offset());
@@ -574,8 +597,16 @@ impl<'a> Deriver<'a> {
             }
             if key == OPEN {
                 st.level += 1;
+                if let Some(b) = &mut st.branches {
+                    // This `[` is module `index - 1`.
+                    let (end, modules) = rd.branch_index(s);
+                    b.push((end, index + modules - 2));
+                }
             } else if key == CLOSE {
                 st.level -= 1;
+                if let Some(b) = &mut st.branches {
+                    b.pop();
+                }
             }
             if let Some(left) = &mut st.left {
                 if key == OPEN {
