@@ -125,11 +125,23 @@ impl<'w> Out<'w> {
     }
 
     /// Write a `[` (already counted in `modules`).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn open(&mut self) {
+        self.open_after(self.modules - 1);
+    }
+
+    /// Write a `]` (already counted in `modules`).
+    #[inline(always)]
+    pub(crate) fn close(&mut self) -> Result<(), Error> {
+        self.close_after(self.modules)
+    }
+
+    /// Write a `[` with `before` modules before it.
+    #[inline(always)]
+    fn open_after(&mut self, before: u64) {
         if self.indexed.is_some() {
             self.opens
-                .push((self.written + self.buf.len() as u64, self.modules - 1));
+                .push((self.written + self.buf.len() as u64, before));
             self.buf.push(b'[');
             self.buf.extend_from_slice(&[0; INDEX_BYTES]);
         } else {
@@ -137,13 +149,13 @@ impl<'w> Out<'w> {
         }
     }
 
-    /// Write a `]` (already counted in `modules`).
-    #[inline]
-    pub(crate) fn close(&mut self) -> Result<(), Error> {
+    /// Write a `]`, the last of `through` modules.
+    #[inline(always)]
+    fn close_after(&mut self, through: u64) -> Result<(), Error> {
         self.buf.push(b']');
         if self.indexed.is_some() {
             let end = self.written + self.buf.len() as u64;
-            self.patch(end, self.modules)?;
+            self.patch(end, through)?;
         }
         Ok(())
     }
@@ -219,12 +231,12 @@ impl<'w> Out<'w> {
             self.buf.extend_from_slice(run);
             return Ok(());
         }
-        for &b in run {
-            // Counted first: a bracket's index records the modules before it.
-            self.modules += 1;
+        let start = self.modules;
+        self.modules += run.len() as u64;
+        for (i, &b) in run.iter().enumerate() {
             match b {
-                b'[' => self.open(),
-                b']' => self.close()?,
+                b'[' => self.open_after(start + i as u64),
+                b']' => self.close_after(start + i as u64 + 1)?,
                 _ => self.buf.push(b),
             }
         }
