@@ -4,6 +4,7 @@
 use super::context::LeftContext;
 use super::sink::{Out, OUT_CHUNK};
 use crate::diag::Error;
+use crate::rules::codec::INDEX_BYTES;
 use crate::rules::{Alphabet, Table, CLOSE, OPEN};
 
 /// Each ASCII byte, so a symbol can be copied as a one-byte slice.
@@ -24,6 +25,8 @@ pub(crate) static ASCII: [u8; 128] = {
 pub(crate) struct ByteTable<'t> {
     /// None: take the general path.
     succ: [Option<FastSucc<'t>>; 128],
+    /// Brackets take the general path too (it tracks branches for cuts).
+    brackets_general: bool,
 }
 
 /// A successor for the byte table. Short ones are padded to 16 bytes and
@@ -70,12 +73,22 @@ impl<'t> ByteTable<'t> {
                 _ => None,
             };
         }
-        ByteTable { succ }
+        ByteTable {
+            succ,
+            brackets_general: false,
+        }
     }
 
     /// Send byte `b` down the general path (the cut `%`).
     pub(crate) fn general(&mut self, b: u8) {
         self.succ[b as usize] = None;
+    }
+
+    /// Send `[` and `]` down the general path.
+    pub(crate) fn brackets_general(&mut self) {
+        self.general(b'[');
+        self.general(b']');
+        self.brackets_general = true;
     }
 
     /// Rewrite the leading bytes of `input` it can handle; returns how many
@@ -94,43 +107,49 @@ impl<'t> ByteTable<'t> {
         level: &mut i64,
     ) -> Result<(usize, u64), Error> {
         let mut i = 0;
-        let mut modules = 0;
+        // Modules = bytes, less the index bytes of each `[`.
+        let mut opens = 0u64;
+        let mut lv = *level;
         while i < input.len() {
             let b = input[i];
             if b >= 0x80 {
                 break;
             }
             let Some(f) = &self.succ[b as usize] else {
+                if self.brackets_general {
+                    break;
+                }
                 if b == b'[' {
-                    let n = if indexed { 9 } else { 1 };
+                    let n = if indexed { 1 + INDEX_BYTES } else { 1 };
                     if i + n > input.len() {
                         break;
                     }
                     out.modules += 1;
                     out.open();
-                    *level += 1;
+                    lv += 1;
                     if let Some(left) = &mut left {
                         left.open();
                     }
                     i += n;
-                    modules += 1;
+                    opens += 1;
                     continue;
                 }
                 if b == b']' {
                     out.modules += 1;
                     out.close()?;
-                    *level -= 1;
+                    lv -= 1;
                     if let Some(left) = &mut left {
                         left.close();
                     }
                     i += 1;
-                    modules += 1;
                     continue;
                 }
                 break;
             };
             let buf = &mut out.buf;
-            if f.len <= 16 {
+            if f.len == 1 {
+                buf.push(f.small[0]);
+            } else if f.len <= 16 {
                 let at = buf.len();
                 buf.extend_from_slice(&f.small);
                 buf.truncate(at + f.len);
@@ -144,11 +163,16 @@ impl<'t> ByteTable<'t> {
                 }
             }
             i += 1;
-            modules += 1;
             if out.buf.len() >= OUT_CHUNK {
                 break;
             }
         }
-        Ok((i, modules))
+        *level = lv;
+        let skipped = if indexed {
+            INDEX_BYTES as u64 * opens
+        } else {
+            0
+        };
+        Ok((i, i as u64 - skipped))
     }
 }

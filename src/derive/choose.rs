@@ -71,7 +71,7 @@ impl Chooser {
     }
 
     /// Does `p` match: contexts, then its condition?
-    #[inline]
+    #[inline(always)]
     fn matches<F>(
         &mut self,
         slots: &mut [f64],

@@ -120,7 +120,7 @@ impl LeftContext {
 
     /// Record the considered module `key`, encoded as `module` (key
     /// included), with `arity` parameters.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn push(&mut self, key: u32, module: &[u8], arity: usize) {
         let (k, w) = (self.k, self.width);
         let l = &mut self.levels[self.depth];
@@ -129,7 +129,9 @@ impl LeftContext {
             l.head = l.cnt;
             l.cnt += 1;
             self.keys.push(key);
-            self.params.resize(self.params.len() + w, 0.0);
+            if w > 0 {
+                self.params.resize(self.params.len() + w, 0.0);
+            }
             l.start + l.head
         } else {
             l.head = if l.head + 1 == k { 0 } else { l.head + 1 };

@@ -272,8 +272,6 @@ pub(crate) fn derive(
     }
     d.hom_depth = hom_depth;
     d.warnings = warnings;
-    // A `%` that no production rewrites is a cut (docs/structural.md, section 5).
-    d.cut = true;
     let structural = !schedule.is_empty()
         || group_expr.is_some()
         || decomposition.is_some()
@@ -332,7 +330,10 @@ pub(crate) fn derive(
     // Issue 11: groups, decomposition, homomorphism depth and cuts are
     // implemented by the step engine only; a `%` that can be a cut makes a
     // module's expansion depend on its neighbours.
-    let step_only = structural || makes_percent(&d, &productions, &groups) || axiom_cuts;
+    // A `%` that no production rewrites is a cut (docs/structural.md,
+    // section 5); the step engine looks for cuts only if a `%` can occur.
+    d.cut = axiom_cuts || makes_percent(&d, &productions, &groups);
+    let step_only = structural || d.cut;
     let strategy = if step_only {
         if strategy == Strategy::DepthFirst {
             return Err(not_depth_first());
@@ -844,6 +845,39 @@ mod tests {
                 g(Pass::Step(4), 2),
             ]
         );
+    }
+
+    /// Issue 11: with the bracket index (right contexts), a cut skips the
+    /// rest of its branch in constant time, and the modules after it keep
+    /// their draw positions (module indices of the old generation).
+    #[test]
+    fn a_cut_over_an_indexed_branch_does_not_scan_it() {
+        use crate::derive::step::CUT_SCANNED;
+        let n = 1_000_000;
+        let fs = "F".repeat(n);
+        let cs = "C".repeat(24);
+        let derive = |prods: &str, first: &str| {
+            CUT_SCANNED.with(|c| c.set(0));
+            let src = format!("productions:\n{prods}\naxiom: [{first}{fs}]B{cs}\n");
+            let (out, _) = run(&src, &Options::new().steps(1).seed(7)).unwrap();
+            (out, CUT_SCANNED.with(|c| c.get()))
+        };
+        let stochastic = "C -> E : 1\nC -> G : 1";
+        // By hand: the `%` drops the F's, its `]` stays; B sees C.
+        let (out, scanned) = derive(&format!("B > C -> D\n{stochastic}"), "%");
+        assert_eq!(scanned, 0, "the cut walked the branch");
+        assert_eq!(&out[..3], "[]D");
+        // The C's draw as if the dropped modules were still there: as in
+        // the same string with an X (no cut) instead of the `%`. 24 fair
+        // draws: equal by chance once in 2^24.
+        let (whole, _) = derive(&format!("B > C -> D\n{stochastic}"), "X");
+        assert_eq!(whole, format!("[X{fs}]D{}", &out[3..]));
+        assert!(out[3..].contains('E') && out[3..].contains('G'));
+        // Without right contexts there is no index: the cut walks the
+        // branch (so the count above can fail), with the same result.
+        let (plain, scanned) = derive(&format!("B -> D\n{stochastic}"), "%");
+        assert_eq!(scanned, n as u64 + 1, "the F's and the `]`");
+        assert_eq!(plain, out);
     }
 
     #[test]

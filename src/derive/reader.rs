@@ -2,7 +2,7 @@
 //! main reader and the look-ahead reader of right contexts share one file.
 
 use super::context::skip_branch;
-use crate::rules::codec::{self, MAX_MODULE_BYTES};
+use crate::rules::codec::{self, INDEX_BYTES, MAX_MODULE_BYTES};
 use crate::rules::Alphabet;
 use std::fs::File;
 use std::io;
@@ -100,7 +100,11 @@ impl<'f> PosReader<'f> {
         let s = self.pos;
         let b = self.buf[s];
         if b < 0x80 {
-            let n = if b == b'[' && self.indexed { 9 } else { 1 };
+            let n = if b == b'[' && self.indexed {
+                1 + INDEX_BYTES
+            } else {
+                1
+            };
             self.pos += n;
             return Ok(Some((b as u32, s, s + n)));
         }
@@ -127,6 +131,15 @@ impl<'f> PosReader<'f> {
     #[inline]
     pub fn bytes(&self, s: usize, e: usize) -> &[u8] {
         &self.buf[s..e]
+    }
+
+    /// For a `[` of an indexed generation read at `s`: the offset just
+    /// past its `]` and the number of modules of its branch, brackets
+    /// included.
+    #[inline]
+    pub(crate) fn branch_index(&self, s: usize) -> (u64, u64) {
+        let word = |i: usize| u64::from_le_bytes(self.buf[i..i + 8].try_into().unwrap());
+        (word(s + 1), word(s + 9))
     }
 
     /// For a `[` read at `s` (next module at `next`): the offset just past

@@ -4,7 +4,7 @@
 
 use super::Pass;
 use crate::diag::{Error, LengthUnit, RuntimeError};
-use crate::rules::codec::{self, MAX_MODULE_BYTES};
+use crate::rules::codec::{self, INDEX_BYTES, MAX_MODULE_BYTES};
 use crate::rules::{Alphabet, ConstRun, CLOSE, OPEN};
 use std::fs::File;
 use std::io::Write;
@@ -82,7 +82,8 @@ pub struct Out<'w> {
     /// Bracket index mode: each `[` carries the offset just past its `]`,
     /// patched in the buffer or, once flushed, in `file`.
     pub(crate) indexed: Option<File>,
-    opens: Vec<u64>,
+    /// Each open `[`: its offset, and the modules written before it.
+    opens: Vec<(u64, u64)>,
     name: &'w str,
     pub text: bool,
     pub(crate) modules: u64,
@@ -125,41 +126,59 @@ impl<'w> Out<'w> {
         self
     }
 
-    #[inline]
+    /// Write a `[` (already counted in `modules`).
+    #[inline(always)]
     pub(crate) fn open(&mut self) {
+        self.open_after(self.modules - 1);
+    }
+
+    /// Write a `]` (already counted in `modules`).
+    #[inline(always)]
+    pub(crate) fn close(&mut self) -> Result<(), Error> {
+        self.close_after(self.modules)
+    }
+
+    /// Write a `[` with `before` modules before it.
+    #[inline(always)]
+    fn open_after(&mut self, before: u64) {
         if self.indexed.is_some() {
-            self.opens.push(self.written + self.buf.len() as u64);
+            self.opens
+                .push((self.written + self.buf.len() as u64, before));
             self.buf.push(b'[');
-            self.buf.extend_from_slice(&[0; 8]);
+            self.buf.extend_from_slice(&[0; INDEX_BYTES]);
         } else {
             self.buf.push(b'[');
         }
     }
 
-    #[inline]
-    pub(crate) fn close(&mut self) -> Result<(), Error> {
+    /// Write a `]`, the last of `through` modules.
+    #[inline(always)]
+    fn close_after(&mut self, through: u64) -> Result<(), Error> {
         self.buf.push(b']');
         if self.indexed.is_some() {
             let end = self.written + self.buf.len() as u64;
-            self.patch(end)?;
+            self.patch(end, through)?;
         }
         Ok(())
     }
 
-    /// The `]` ending just before offset `end` closes the last open `[`:
-    /// write `end` into that `[`'s index bytes, in the buffer or, once
-    /// flushed, in the file.
+    /// The `]` ending just before offset `end`, with `modules` modules
+    /// written up to it, closes the last open `[`: write `end` and the
+    /// branch's module count into that `[`'s index bytes, in the buffer
+    /// or, once flushed, in the file.
     #[inline]
-    pub(crate) fn patch(&mut self, end: u64) -> Result<(), Error> {
-        let Some(at) = self.opens.pop() else {
+    pub(crate) fn patch(&mut self, end: u64, modules: u64) -> Result<(), Error> {
+        let Some((at, before)) = self.opens.pop() else {
             return Ok(()); // unbalanced: reported by the balance check
         };
-        let end = end.to_le_bytes();
+        let mut index = [0; INDEX_BYTES];
+        index[..8].copy_from_slice(&end.to_le_bytes());
+        index[8..].copy_from_slice(&(modules - before).to_le_bytes());
         if at >= self.written {
             let i = (at - self.written) as usize + 1;
-            self.buf[i..i + 8].copy_from_slice(&end);
+            self.buf[i..i + INDEX_BYTES].copy_from_slice(&index);
         } else if let Some(file) = &self.indexed {
-            file.write_all_at(&end, at + 1)
+            file.write_all_at(&index, at + 1)
                 .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
         }
         Ok(())
@@ -214,11 +233,12 @@ impl<'w> Out<'w> {
             self.buf.extend_from_slice(run);
             return Ok(());
         }
+        let start = self.modules;
         self.modules += run.len() as u64;
-        for &b in run {
+        for (i, &b) in run.iter().enumerate() {
             match b {
-                b'[' => self.open(),
-                b']' => self.close()?,
+                b'[' => self.open_after(start + i as u64),
+                b']' => self.close_after(start + i as u64 + 1)?,
                 _ => self.buf.push(b),
             }
         }
@@ -234,13 +254,15 @@ impl<'w> Out<'w> {
             self.buf.extend_from_slice(c.bin());
         } else {
             let base = self.buf.len();
+            let start = self.modules - c.modules;
             self.buf.extend_from_slice(c.ibin());
-            for &(at, open) in c.brackets.iter() {
+            for &(at, open, before) in c.brackets.iter() {
                 let abs = self.written + (base + at as usize) as u64;
+                let before = start + before;
                 if open {
-                    self.opens.push(abs);
+                    self.opens.push((abs, before));
                 } else {
-                    self.patch(abs + 1)?;
+                    self.patch(abs + 1, before + 1)?;
                 }
             }
         }
@@ -345,15 +367,82 @@ mod tests {
             let mut bin = Vec::new();
             file.rewind().unwrap();
             file.read_to_end(&mut bin).unwrap();
-            let index_at = |i: usize| u64::from_le_bytes(bin[i + 1..i + 9].try_into().unwrap());
-            // [........ A [........ B ] C... ] D
+            let word = |i: usize| u64::from_le_bytes(bin[i..i + 8].try_into().unwrap());
+            let index_at = |i: usize| (word(i + 1), word(i + 9));
+            // [(16 bytes) A [(16 bytes) B ] C... ] D: each `[` holds the
+            // offset past its `]` and its branch's modules, brackets
+            // included.
             assert_eq!(bin[0], b'[');
-            assert_eq!(bin[10], b'[');
-            assert_eq!(index_at(10), 21, "inner, filler {filler}");
-            let outer_end = 21 + filler as u64 + 1;
-            assert_eq!(index_at(0), outer_end, "outer, filler {filler}");
+            assert_eq!(bin[18], b'[');
+            assert_eq!(index_at(18), (37, 3), "inner, filler {filler}");
+            let outer_end = 37 + filler as u64 + 1;
+            assert_eq!(
+                index_at(0),
+                (outer_end, 6 + filler as u64),
+                "outer, filler {filler}"
+            );
             assert_eq!(bin[outer_end as usize - 1], b']');
             assert_eq!(&bin[outer_end as usize..], b"D");
+        }
+    }
+
+    /// Issue 11: every way of writing a `[` (plain runs, precompiled
+    /// successors, single modules; in the buffer or patched in the file)
+    /// leaves the offset past its `]` and its branch's module count in the
+    /// index, as a scan of the written string finds them.
+    #[test]
+    fn the_index_counts_each_branchs_modules() {
+        use crate::lang::parse::parse_header;
+        use crate::rules::{compile, Item};
+        let mut sys =
+            compile(&parse_header("productions:\nF -> F(1)[+F[G]]H[]\n").unwrap()).unwrap();
+        let Item::Const(c) = &sys.productions.prods[0].succ[0] else {
+            panic!("a precompiled successor")
+        };
+        let c = c.clone();
+        let al = &mut sys.alphabet;
+        let x = al.intern('X', 1).unwrap();
+        for filler in [1usize, OUT_CHUNK + 10] {
+            let mut file = tempfile::tempfile().unwrap();
+            let index = file.try_clone().unwrap();
+            let mut out = Out::new(&mut file, "tmp", false, Limits::default()).with_index(index);
+            out.plain(b"A[B").unwrap();
+            out.constant(&c).unwrap();
+            out.module(OPEN, &[], al).unwrap();
+            out.module(x, &[2.0], al).unwrap();
+            for _ in 0..filler {
+                out.plain(b"C").unwrap();
+                out.maybe_flush().unwrap();
+            }
+            out.constant(&c).unwrap();
+            out.raw(CLOSE, b"]", al).unwrap();
+            out.plain(b"]D").unwrap();
+            out.finish().unwrap();
+            let mut bin = Vec::new();
+            file.rewind().unwrap();
+            file.read_to_end(&mut bin).unwrap();
+            // Scan: (offset, modules before) of each open `[`.
+            let (mut i, mut modules, mut open, mut checked) = (0, 0u64, Vec::new(), 0);
+            while i < bin.len() {
+                let (key, kl) = codec::get_key(&bin[i..]);
+                modules += 1;
+                if key == OPEN {
+                    open.push((i, modules - 1));
+                    i += 1 + INDEX_BYTES;
+                    continue;
+                }
+                i += kl + 8 * al.arity(key);
+                if key == CLOSE {
+                    let (at, before) = open.pop().unwrap();
+                    let word = |j: usize| u64::from_le_bytes(bin[j..j + 8].try_into().unwrap());
+                    let want = (i as u64, modules - before);
+                    assert_eq!((word(at + 1), word(at + 9)), want, "filler {filler}");
+                    checked += 1;
+                }
+            }
+            assert!(open.is_empty());
+            // `A[B...]D` and `[X...]`, and 3 in each successor.
+            assert_eq!(checked, 2 + 2 * 3);
         }
     }
 

@@ -238,6 +238,12 @@ fn fill_level(
     r
 }
 
+#[cfg(test)]
+thread_local! {
+    /// Modules a cut walked over one by one (tests).
+    pub(crate) static CUT_SCANNED: Cell<u64> = const { Cell::new(0) };
+}
+
 struct StepState<'f> {
     peek: Option<PosReader<'f>>,
     right: RightCache,
@@ -248,10 +254,26 @@ struct StepState<'f> {
     /// right context may start there. Keeps right contexts over long
     /// ignored runs linear.
     skip: (u64, u64),
+    /// The ignored run of `skip` ends at a `[`: only then can a walk
+    /// over whole branches go further (see [`Chains`]).
+    skip_open: bool,
+    /// The module end `right` was last looked up for: the productions
+    /// tried on one module share one look-up.
+    right_end: u64,
+    /// Some ignored module asks for a right context: then walks
+    /// from inside one stretch of ignored modules and branches repeat, and
+    /// `skip` and `chains` keep them linear. Otherwise only considered
+    /// modules start walks, each stretch is walked by at most
+    /// `max_right_simple` of them, and a plain walk is cheaper.
+    memo: bool,
     /// Where walks over ignored modules and branches ended, per level.
     chains: Chains,
     /// Nesting level of the input at the current module.
     level: i64,
+    /// With cuts over an indexed generation: for each open branch of the
+    /// input, the offset just past its `]` and that `]`'s module index, so
+    /// a cut skips the rest of the branch in constant time.
+    branches: Option<Vec<(u64, u64)>>,
     depth: i64,
     /// Productions that last opened or closed more than they matched, to
     /// blame for unbalanced output.
@@ -272,10 +294,12 @@ impl StepState<'_> {
             .peek
             .as_mut()
             .expect("a look-ahead reader for right contexts");
-        let pos = match walk_right(peek, al, end_off, false)? {
-            Walk::Module { at, .. } | Walk::Stop { at, .. } => at,
+        let (pos, open) = match walk_right(peek, al, end_off, false)? {
+            Walk::Module { at, .. } => (at, false),
+            Walk::Stop { at, open } => (at, open),
         };
         self.skip = (end_off, pos);
+        self.skip_open = open;
         Ok(pos)
     }
 
@@ -286,6 +310,11 @@ impl StepState<'_> {
     #[inline]
     fn level_start(&mut self, end_off: u64, al: &Alphabet) -> io::Result<u64> {
         let start = self.right_start(end_off, al)?;
+        if !self.skip_open {
+            // A considered module, a `]` or the end: no branch to pass
+            // over, the walk over branches would stop where it starts.
+            return Ok(start);
+        }
         let level = self.level();
         let peek = self
             .peek
@@ -302,20 +331,33 @@ impl StepState<'_> {
 
     /// The next considered modules right of the module ending at `end_off`
     /// (read once per module).
-    #[inline]
+    #[inline(always)]
     fn right_of(&mut self, end_off: u64, al: &Alphabet) -> Result<&RightCache, Error> {
-        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
-        let start = self.level_start(end_off, al).map_err(read_err)?;
+        if self.right_end != end_off {
+            self.look_right(end_off, al)
+                .map_err(|e| Error::io("temporary file", crate::diag::IoAction::Read, e))?;
+        }
+        Ok(&self.right)
+    }
+
+    /// Fill `right` for the module ending at `end_off`.
+    #[inline(never)]
+    fn look_right(&mut self, end_off: u64, al: &Alphabet) -> io::Result<()> {
+        self.right_end = u64::MAX;
+        let start = if self.memo {
+            self.level_start(end_off, al)?
+        } else {
+            end_off
+        };
         if self.right.at != start {
             let peek = self
                 .peek
                 .as_mut()
                 .expect("a look-ahead reader for right contexts");
-            self.right
-                .fill(peek, al, start, self.max_right_simple)
-                .map_err(read_err)?;
+            self.right.fill(peek, al, start, self.max_right_simple)?;
         }
-        Ok(&self.right)
+        self.right_end = end_off;
+        Ok(())
     }
 }
 
@@ -390,8 +432,15 @@ impl<'a> Deriver<'a> {
             left: (table.max_left > 0).then(|| LeftContext::new(table, &self.alphabet)),
             depth: 0,
             skip: (u64::MAX, 0),
+            skip_open: false,
+            right_end: u64::MAX,
+            memo: table
+                .prods
+                .iter()
+                .any(|p| !p.right.is_empty() && self.alphabet.ignored(p.key)),
             chains: Chains::default(),
             level: 0,
+            branches: (cut && indexed).then(Vec::new),
             last_opener: None,
             last_closer: None,
         };
@@ -410,6 +459,10 @@ impl<'a> Deriver<'a> {
             );
             if cut {
                 t.general(b'%');
+                if st.branches.is_some() {
+                    // The general path keeps `branches`.
+                    t.brackets_general();
+                }
             }
             t
         });
@@ -497,10 +550,18 @@ impl<'a> Deriver<'a> {
                     // Drop the rest of the branch; its `]` stays. The
                     // dropped modules still count in the draw positions of
                     // the modules after them (module index in the old
-                    // generation), so walk them one by one.
+                    // generation): the bracket index has the `]`'s, else
+                    // walk them one by one.
+                    if let Some(&(end, close)) = st.branches.as_ref().and_then(|b| b.last()) {
+                        index = close;
+                        rd.seek(end - 1);
+                        continue;
+                    }
                     let mut depth = 0u64;
                     let mut close = None;
                     while let Some((k, _, _)) = rd.next_module(&self.alphabet).map_err(read_err)? {
+                        #[cfg(test)]
+                        CUT_SCANNED.with(|c| c.set(c.get() + 1));
                         if k == CLOSE {
                             if depth == 0 {
                                 close = Some(rd.offset());
@@ -536,8 +597,16 @@ impl<'a> Deriver<'a> {
             }
             if key == OPEN {
                 st.level += 1;
+                if let Some(b) = &mut st.branches {
+                    // This `[` is module `index - 1`.
+                    let (end, modules) = rd.branch_index(s);
+                    b.push((end, index + modules - 2));
+                }
             } else if key == CLOSE {
                 st.level -= 1;
+                if let Some(b) = &mut st.branches {
+                    b.pop();
+                }
             }
             if let Some(left) = &mut st.left {
                 if key == OPEN {
@@ -589,9 +658,13 @@ impl<'a> Deriver<'a> {
         if arity > 0 {
             codec::read_params(bytes, &mut slots[..arity]);
         }
-        let chosen = chooser.choose(slots, table, kr, rng, origin, pass, |p, slots| {
-            Ok(!surely_not(p, end_off, st, al)? && contexts_match(p, end_off, st, al, slots)?)
-        })?;
+        // The nearest considered module to the left, looked up once.
+        let last = st.left.as_ref().map(|l| l.last_key());
+        let chosen =
+            chooser.choose(slots, table, kr, rng, origin, pass, |p, slots| {
+                Ok(!surely_not(p, last, end_off, st, al)?
+                    && contexts_match(p, end_off, st, al, slots)?)
+            })?;
         let Some(pi) = chosen else {
             return Ok(false);
         };
@@ -636,7 +709,8 @@ impl<'a> Deriver<'a> {
                 warn: warnings[1].then_some(&warned[1]),
             };
             let mut ctx = |p: &Production, slots: &mut [f64]| {
-                Ok(!surely_not(p, end_off, st, al)? && contexts_match(p, end_off, st, al, slots)?)
+                Ok(!surely_not(p, last, end_off, st, al)?
+                    && contexts_match(p, end_off, st, al, slots)?)
             };
             return expand_level(rc, &cx, 1, rng, &mut ctx, out).map(|()| true);
         }
@@ -658,16 +732,18 @@ fn unbalanced(origin: &Origin, table: &Table, culprit: Option<u32>, pass: Pass) 
 }
 
 /// A cheap first look: do the nearest context modules already differ?
-/// (Fills the right-context cache on first use for this module.)
+/// `last`: the nearest considered module to the left, if left contexts are
+/// kept. (Fills the right-context cache on first use for this module.)
 #[inline(always)]
 fn surely_not(
     p: &Production,
+    last: Option<Option<u32>>,
     end_off: u64,
     st: &mut StepState,
     al: &Alphabet,
 ) -> Result<bool, Error> {
-    if let (Some(pat), Some(left)) = (p.left.last(), &st.left) {
-        if left.last_key() != Some(pat.key) {
+    if let (Some(pat), Some(last)) = (p.left.last(), last) {
+        if last != Some(pat.key) {
             return Ok(true);
         }
     }

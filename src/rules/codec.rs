@@ -9,6 +9,12 @@
 //! *Text* (the output): the symbol, then `(p1,p2,...)` with each number in
 //! the shortest form that reads back to the same f64.
 
+/// The bracket index (see `Out::with_index`): in a generation written
+/// with it, each `[` is followed by the offset just past its `]` and the
+/// number of modules of its branch, both brackets included (little-endian
+/// u64 each), so a branch is skipped, or cut, in constant time.
+pub const INDEX_BYTES: usize = 16;
+
 /// Longest encoded module: 5 key bytes + 255 parameters.
 pub const MAX_ARITY: usize = 255;
 pub const MAX_MODULE_BYTES: usize = 5 + 8 * MAX_ARITY;

@@ -148,8 +148,9 @@ pub struct ConstRun {
     data: Box<[u8]>,
     bin_len: u32,
     ibin_len: u32,
-    /// Offsets of the brackets in `ibin` (true: `[`).
-    pub brackets: Box<[(u32, bool)]>,
+    /// Offsets of the brackets in `ibin` (true: `[`), and how many of the
+    /// run's modules come before each.
+    pub brackets: Box<[(u32, bool, u64)]>,
     pub modules: u64,
 }
 
@@ -159,8 +160,9 @@ impl ConstRun {
     pub fn bin(&self) -> &[u8] {
         &self.data[..self.bin_len as usize]
     }
-    /// Binary with bracket index: each `[` followed by 8 bytes that will
-    /// hold the offset just past its `]`.
+    /// Binary with bracket index: each `[` followed by
+    /// [`codec::INDEX_BYTES`] that will hold the offset just past its `]`
+    /// and the module count of its branch.
     #[inline]
     pub fn ibin(&self) -> &[u8] {
         &self.data[self.bin_len as usize..self.bin_len as usize + self.ibin_len as usize]
@@ -176,7 +178,7 @@ impl ConstRun {
 struct ConstBuilder {
     bin: Vec<u8>,
     ibin: Vec<u8>,
-    brackets: Vec<(u32, bool)>,
+    brackets: Vec<(u32, bool, u64)>,
     text: Vec<u8>,
     modules: u64,
 }
@@ -186,11 +188,12 @@ impl ConstBuilder {
         codec::put_key(&mut self.bin, key);
         codec::put_params(&mut self.bin, vals);
         if key == OPEN || key == CLOSE {
-            self.brackets.push((self.ibin.len() as u32, key == OPEN));
+            self.brackets
+                .push((self.ibin.len() as u32, key == OPEN, self.modules));
         }
         codec::put_key(&mut self.ibin, key);
         if key == OPEN {
-            self.ibin.extend_from_slice(&[0; 8]);
+            self.ibin.extend_from_slice(&[0; codec::INDEX_BYTES]);
         }
         codec::put_params(&mut self.ibin, vals);
         num.module(&mut self.text, al.text(key), vals);
@@ -960,8 +963,10 @@ mod tests {
             Item::Const(c) => {
                 assert_eq!(std::str::from_utf8(c.text()).unwrap(), "F(2)[+F]G(1,6)");
                 assert_eq!(c.modules, 6);
-                assert_eq!(&*c.brackets, &[(10, true), (21, false)]);
-                assert_eq!(c.ibin().len(), c.bin().len() + 8);
+                // F(2) is 10 bytes; the `[` carries the index; modules
+                // F(2) [ + F ] G: the `[` is the second, the `]` the fifth.
+                assert_eq!(&*c.brackets, &[(10, true, 1), (29, false, 4)]);
+                assert_eq!(c.ibin().len(), c.bin().len() + codec::INDEX_BYTES);
             }
             other => panic!("{other:?}"),
         }
