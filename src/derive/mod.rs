@@ -11,6 +11,7 @@ pub(crate) mod choose;
 pub(crate) mod context;
 pub mod dfs;
 pub mod meter;
+pub(crate) mod par;
 pub mod random;
 pub(crate) mod reader;
 pub mod sink;
@@ -97,6 +98,8 @@ pub(crate) struct Settings {
     /// system), when known: a string known in advance to be larger is
     /// refused before anything is written.
     pub space: Option<u64>,
+    /// Threads for one derivation (`-j`); 1 is the sequential engine.
+    pub threads: usize,
 }
 
 /// Which generations `--frames A..B:K` writes: `from..=to`, every
@@ -434,10 +437,13 @@ pub(crate) fn derive(
         }
         let mut none = None;
         let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
-        match plan
-            .expand(src, &d.alphabet, &d.origin, steps, &mut out)
-            .and_then(|()| out.finish())
-        {
+        let threads = par::threads_for(settings.threads, steps, strategy);
+        let expanded = if threads > 1 {
+            par::expand(&plan, src, &d.alphabet, &d.origin, steps, threads, &mut out)
+        } else {
+            plan.expand(src, &d.alphabet, &d.origin, steps, &mut out)
+        };
+        match expanded.and_then(|()| out.finish()) {
             Ok(len) => {
                 let last = if hom {
                     Pass::Homomorphism
