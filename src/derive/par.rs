@@ -15,9 +15,9 @@
 //! every thread count.
 //!
 //! Memory stays flat: each task's channel holds at most [`BLOCKS`] blocks
-//! of about 1 MiB, at most [`IN_FLIGHT`] tasks per thread are handed out
-//! ahead of the writer, and a worker whose task is not the one being
-//! written waits when its channel is full.
+//! of about [`CHUNK`] bytes, at most [`IN_FLIGHT`] tasks per thread are
+//! handed out ahead of the writer, and a worker whose task is not the one
+//! being written waits when its channel is full.
 
 use super::dfs::{ParamPlan, Split, Walker};
 use super::{Origin, Out, Strategy};
@@ -31,8 +31,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, SyncSender};
 use std::sync::{Arc, Mutex};
 
+/// A worker sends its text in blocks of about this size.
+const CHUNK: usize = 256 << 10;
 /// Text blocks a task may hold ahead of the writer.
-const BLOCKS: usize = 2;
+const BLOCKS: usize = 1;
 /// Tasks handed out ahead of the writer, per thread.
 const IN_FLIGHT: usize = 2;
 /// Split at the first generation with at least this many modules per
@@ -75,6 +77,9 @@ enum Item<'t> {
 /// The workers' queue: each task with its result channel.
 type Tasks<'t> = mpsc::Sender<(Task<'t>, SyncSender<Msg>)>;
 
+/// The workers' end of it.
+type Queue<'t> = Mutex<Receiver<(Task<'t>, SyncSender<Msg>)>>;
+
 /// What a task sends to the writer.
 enum Msg {
     Text(Vec<u8>),
@@ -83,15 +88,21 @@ enum Msg {
     Err(Error),
 }
 
-/// The task a worker is on: its result channel and the bytes sent to it.
-struct Current {
+/// The task a worker is on: its result channel and the bytes sent to it;
+/// and the blocks the writer has written, for reuse.
+struct Current<'a> {
     tx: RefCell<Option<SyncSender<Msg>>>,
     bytes: Cell<u64>,
+    pool: &'a Pool,
 }
+
+/// Written blocks, for reuse (at most one per thread, and one more, are
+/// kept).
+type Pool = Mutex<Vec<Vec<u8>>>;
 
 /// A writer sending its blocks to the current task's channel (one per
 /// worker, under the worker's one [`Out`]).
-struct ChannelWriter<'a>(&'a Current);
+struct ChannelWriter<'a>(&'a Current<'a>);
 
 impl Write for ChannelWriter<'_> {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
@@ -106,7 +117,13 @@ impl Write for ChannelWriter<'_> {
         let gone = || std::io::Error::from(std::io::ErrorKind::BrokenPipe);
         let tx = self.0.tx.borrow();
         let tx = tx.as_ref().ok_or_else(gone)?;
-        tx.send(Msg::Text(buf.to_vec())).map_err(|_| gone())?;
+        let mut block = match self.0.pool.lock() {
+            Ok(mut pool) => pool.pop().unwrap_or_default(),
+            Err(_) => Vec::new(),
+        };
+        block.clear();
+        block.extend_from_slice(buf);
+        tx.send(Msg::Text(block)).map_err(|_| gone())?;
         self.0.bytes.set(self.0.bytes.get() + buf.len() as u64);
         Ok(())
     }
@@ -137,6 +154,7 @@ pub(crate) fn expand(
     let done_modules = AtomicU64::new(0);
     let done_bytes = AtomicU64::new(0);
     let (done_modules, done_bytes) = (&done_modules, &done_bytes);
+    let pool = &Pool::default();
     std::thread::scope(|s| -> Result<(), Error> {
         let (task_tx, task_rx) = mpsc::channel::<(Task, SyncSender<Msg>)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
@@ -152,7 +170,7 @@ pub(crate) fn expand(
                         al,
                         origin,
                         steps,
-                        &task_rx,
+                        (&task_rx, pool),
                         (done_modules, done_bytes),
                     )
                 });
@@ -189,6 +207,11 @@ pub(crate) fn expand(
                     Ok(Msg::Text(block)) => {
                         out.extend(&block, 0);
                         out.maybe_flush()?;
+                        if let Ok(mut pool) = pool.lock() {
+                            if pool.len() <= threads {
+                                pool.push(block);
+                            }
+                        }
                     }
                     Ok(Msg::End(modules)) => {
                         out.extend(&[], modules);
@@ -321,16 +344,18 @@ fn work(
     al: &Alphabet,
     origin: &Origin,
     steps: u64,
-    tasks: &Mutex<Receiver<(Task, SyncSender<Msg>)>>,
+    (tasks, pool): (&Queue, &Pool),
     (done_modules, done_bytes): (&AtomicU64, &AtomicU64),
 ) {
     let mut walker = Walker::new(plan, al, steps);
     let current = Current {
         tx: RefCell::new(None),
         bytes: Cell::new(0),
+        pool,
     };
     let mut w = ChannelWriter(&current);
     let mut out = Out::new(&mut w, "output", true, super::Limits::default());
+    out.chunk = CHUNK;
     loop {
         let next = match tasks.lock() {
             Ok(rx) => rx.recv(),
