@@ -56,6 +56,7 @@ pub struct Options {
     precision: Option<u32>,
     space: Option<u64>,
     threads: usize,
+    split: Option<u64>,
 }
 
 impl Default for Options {
@@ -71,6 +72,7 @@ impl Default for Options {
             precision: None,
             space: None,
             threads: 1,
+            split: None,
         }
     }
 }
@@ -144,6 +146,13 @@ impl Options {
     /// split use one thread (README, Design: parallel derivation).
     pub fn threads(mut self, n: usize) -> Self {
         self.threads = n.max(1);
+        self
+    }
+
+    /// Split the work between threads into tasks this small (for tests).
+    #[doc(hidden)]
+    pub fn split(mut self, n: u64) -> Self {
+        self.split = Some(n.max(1));
         self
     }
 
@@ -354,6 +363,7 @@ impl LSystem {
             first_step: options.first_step,
             space: options.space,
             threads: options.threads,
+            split: options.split,
         };
         let consts = std::mem::take(&mut system.consts);
         let reader = AxiomReader::new(input, comments, line, col, &consts);
@@ -441,22 +451,24 @@ pub fn derive_bytes(
     seed: Option<u64>,
     limits: Limits,
 ) -> Result<Vec<u8>, Error> {
-    derive_bytes_on(src, steps, seed, limits, 1)
+    derive_bytes_on(src, steps, seed, limits, (1, None))
 }
 
-/// [`derive_bytes`] on `threads` threads (`-j`): for tests.
+/// [`derive_bytes`] on `threads` threads (`-j`), split into tasks of
+/// `split` (modules per thread depth first, bytes step by step): for tests.
 #[doc(hidden)]
 pub fn derive_bytes_on(
     src: &[u8],
     steps: Option<u64>,
     seed: Option<u64>,
     limits: Limits,
-    threads: usize,
+    (threads, split): (usize, Option<u64>),
 ) -> Result<Vec<u8>, Error> {
     let input = Input::new(Box::new(io::Cursor::new(src.to_vec())), "<input>");
     let mut ls = LSystem::load_named(input, seed)?.with_fallback_seed(0)?;
     ls.require_axiom()?;
     let mut options = Options::new().limits(limits).threads(threads);
+    options.split = split;
     options.steps = steps;
     options.seed = seed;
     let mut out = Vec::new();

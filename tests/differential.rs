@@ -758,7 +758,10 @@ fn lsgen_text_on(
     seed: Option<u64>,
     threads: usize,
 ) -> Result<String, String> {
-    lsgen::derive_bytes_on(src.as_bytes(), steps, seed, Limits::default(), threads)
+    // Tiny tasks (3 modules per thread depth first, chunks of 3 bytes step
+    // by step), so that these small strings split.
+    let split = (threads, Some(3));
+    lsgen::derive_bytes_on(src.as_bytes(), steps, seed, Limits::default(), split)
         .map(|v| String::from_utf8(v).expect("lsgen writes UTF-8"))
         .map_err(|e| e.to_string())
 }

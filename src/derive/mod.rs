@@ -100,6 +100,8 @@ pub(crate) struct Settings {
     pub space: Option<u64>,
     /// Threads for one derivation (`-j`); 1 is the sequential engine.
     pub threads: usize,
+    /// Tests: split into tasks this small (`par::test_split`).
+    pub split: Option<u64>,
 }
 
 /// Which generations `--frames A..B:K` writes: `from..=to`, every
@@ -351,6 +353,7 @@ pub(crate) fn derive(
             group_expr: group_expr.as_ref(),
             hom_seed,
             fixed_points: !structural,
+            plain: !step_only,
         };
         let tables = (&tables, &homomorphism, hom);
         let names = (frame_sink, tmp_name.as_str());
@@ -439,7 +442,8 @@ pub(crate) fn derive(
         let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
         let threads = par::threads_for(settings.threads, steps, strategy);
         let expanded = if threads > 1 {
-            par::expand(&plan, src, &d.alphabet, &d.origin, steps, threads, &mut out)
+            let split = (threads, settings.split.or_else(par::test_split));
+            par::expand(&plan, src, &d.alphabet, &d.origin, steps, split, &mut out)
         } else {
             plan.expand(src, &d.alphabet, &d.origin, steps, &mut out)
         };
@@ -469,6 +473,7 @@ pub(crate) fn derive(
         group_expr: group_expr.as_ref(),
         hom_seed,
         fixed_points: !structural,
+        plain: !step_only,
     };
     let stepwise = step_passes(
         &mut d,
@@ -541,10 +546,19 @@ fn step_passes(
             })
         };
         let draws = d.rng.draws();
+        let mut drew = 0;
         {
             let mut out =
                 sink(&mut dst, tmp_name, output, out_name, limits, indexed)?.for_pass(pass);
-            d.pass(table, &src, indexed, &mut out, pass)?;
+            let limited = limits.modules != u64::MAX || limits.bytes != u64::MAX;
+            let threads =
+                par::step_threads(settings.threads, table, tables.plain, indexed, limited);
+            if threads > 1 {
+                let split = (threads, settings.split.or_else(par::test_split));
+                drew = par::step_pass(d, table, &src, split, &mut out, pass)?;
+            } else {
+                d.pass(table, &src, indexed, &mut out, pass)?;
+            }
             let (modules, bytes) = out.finish()?;
             events(&Event::Generation {
                 pass,
@@ -557,7 +571,7 @@ fn step_passes(
         // point: every later step does the same. Go on with the last pass
         // (the homomorphism, or the last step, which writes the text).
         let last = if hom { passes } else { steps };
-        if i < steps && last > i + 1 && d.rng.draws() == draws && tables.fixed_points {
+        if i < steps && last > i + 1 && d.rng.draws() == draws && drew == 0 && tables.fixed_points {
             if let Some(next) = &dst {
                 if same_contents(&src, next)? {
                     events(&Event::FixedPoint {
@@ -688,6 +702,9 @@ struct Tables<'t> {
     /// A step that changed nothing means every later step changes
     /// nothing (not with groups, `step`, ...).
     fixed_points: bool,
+    /// No structural rewriting and no `%` (a pass may be split between
+    /// threads, `par::step_threads`).
+    plain: bool,
 }
 
 impl<'t> Tables<'t> {

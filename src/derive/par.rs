@@ -20,7 +20,7 @@
 //! being written waits when its channel is full.
 
 use super::dfs::{ParamPlan, Split, Walker};
-use super::{Origin, Out, Strategy};
+use super::{Deriver, Origin, Out, Strategy};
 use crate::diag::Error;
 use crate::rules::codec;
 use crate::rules::{Alphabet, ConstRun};
@@ -59,6 +59,196 @@ pub(crate) fn threads_for(threads: usize, steps: u64, strategy: Strategy) -> usi
     } else {
         threads.max(1)
     }
+}
+
+/// Can a pass of `table` be split into chunks of the generation, derived
+/// concurrently (the step engine, `-j N`)? Only when a module's rewriting
+/// depends on the module alone and its index: no context, no bracket
+/// balance to track across the string, and none of the structural
+/// features (decomposition, cuts, homomorphism depth: `plain`), and no
+/// `--max-length` (checked as the text is written, in order, on one
+/// thread).
+pub(crate) fn step_threads(
+    threads: usize,
+    table: &crate::rules::Table,
+    plain: bool,
+    indexed: bool,
+    limited: bool,
+) -> usize {
+    let free = table.max_left == 0 && !table.has_right && !table.check_balance;
+    if plain && free && !indexed && !limited {
+        threads.max(1)
+    } else {
+        1
+    }
+}
+
+/// Bytes of the generation read per chunk of a split pass.
+const CHUNK_IN: u64 = 512 << 10;
+
+/// `LSGEN_TEST_SPLIT=N` (or `Options::split`): split at N modules per
+/// thread (depth first) and into chunks of N bytes (step by step), so that
+/// tests split small strings.
+pub(crate) fn test_split() -> Option<u64> {
+    std::env::var("LSGEN_TEST_SPLIT")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .filter(|&n| n > 0)
+}
+
+/// One pass of the step engine on `threads` threads: the generation in
+/// `src` is cut into chunks at module boundaries (a scan on the producer
+/// thread, counting modules for the draw positions), each chunk rewritten
+/// by a worker with its own [`Deriver`] (the same generator, positioned by
+/// module index), and the chunks' output written to `out` in order. The
+/// same bytes, draws and first error as one thread. Returns the number of
+/// draws made.
+pub(crate) fn step_pass(
+    d: &Deriver,
+    table: &crate::rules::Table,
+    src: &File,
+    (threads, split): (usize, Option<u64>),
+    out: &mut Out,
+    pass: super::Pass,
+) -> Result<u64, Error> {
+    let draws = AtomicU64::new(0);
+    let draws = &draws;
+    let pool = &Pool::default();
+    let text = out.text;
+    let al = &d.alphabet;
+    std::thread::scope(|s| -> Result<(), Error> {
+        type Chunk = (u64, u64, u64);
+        let (task_tx, task_rx) = mpsc::channel::<(Chunk, SyncSender<Msg>)>();
+        let task_rx = Arc::new(Mutex::new(task_rx));
+        let (order_tx, order_rx) = mpsc::sync_channel::<Receiver<Msg>>(threads * IN_FLIGHT);
+        let mut workers = 0;
+        for w in 0..threads {
+            let task_rx = Arc::clone(&task_rx);
+            let mut wd = Deriver::new(
+                d.alphabet.clone(),
+                d.rng.clone(),
+                Origin {
+                    path: d.origin.path,
+                    header: d.origin.header,
+                },
+            );
+            wd.warnings = d.warnings;
+            let h = std::thread::Builder::new()
+                .name(format!("lsgen-step-{w}"))
+                .spawn_scoped(s, move || {
+                    let current = Current {
+                        tx: RefCell::new(None),
+                        bytes: Cell::new(0),
+                        pool,
+                    };
+                    let mut w = ChannelWriter(&current);
+                    let mut out = Out::new(&mut w, "output", text, super::Limits::default());
+                    out.chunk = CHUNK;
+                    loop {
+                        let next = match task_rx.lock() {
+                            Ok(rx) => rx.recv(),
+                            Err(_) => return,
+                        };
+                        let Ok((chunk, tx)) = next else { return };
+                        *current.tx.borrow_mut() = Some(tx);
+                        let before = (out.modules, wd.rng.draws());
+                        wd.range = Some(chunk);
+                        let r = wd
+                            .pass(table, src, false, &mut out, pass)
+                            .and_then(|()| out.flush());
+                        out.buf.clear();
+                        draws.fetch_add(wd.rng.draws() - before.1, Ordering::Relaxed);
+                        let tx = current.tx.borrow_mut().take().expect("the task's channel");
+                        let _ = tx.send(match r {
+                            Ok(()) => Msg::End(out.modules - before.0),
+                            Err(e) => Msg::Err(e),
+                        });
+                    }
+                });
+            if h.is_err() {
+                break;
+            }
+            workers += 1;
+        }
+        if workers == 0 {
+            return Err(Error::new("cannot start a thread"));
+        }
+        let producer = std::thread::Builder::new()
+            .name("lsgen-chunks".into())
+            .spawn_scoped(s, move || {
+                // Cut at the first module boundary past every `size` bytes.
+                let size = split.unwrap_or(CHUNK_IN);
+                let mut rd = super::PosReader::new(src, 1 << 20, false);
+                let (mut start, mut first, mut index) = (0u64, 0u64, 0u64);
+                let send = |chunk: Chunk| {
+                    let (tx, rx) = mpsc::sync_channel(BLOCKS);
+                    order_tx.send(rx).is_ok() && task_tx.send((chunk, tx)).is_ok()
+                };
+                loop {
+                    match rd.next_module(al) {
+                        Ok(Some(_)) => {
+                            index += 1;
+                            let off = rd.offset();
+                            if off - start >= size {
+                                if !send((start, off, first)) {
+                                    return;
+                                }
+                                (start, first) = (off, index);
+                            }
+                        }
+                        Ok(None) => {
+                            if rd.offset() > start {
+                                send((start, rd.offset(), first));
+                            }
+                            return;
+                        }
+                        Err(e) => {
+                            let (tx, rx) = mpsc::sync_channel(1);
+                            let e = Error::io("temporary file", "cannot read", e);
+                            let _ = tx.send(Msg::Err(e));
+                            let _ = order_tx.send(rx);
+                            return;
+                        }
+                    }
+                }
+            });
+        if producer.is_err() {
+            return Err(Error::new("cannot start a thread"));
+        }
+        write_in_order(order_rx, out, pool, threads)
+    })?;
+    Ok(draws.load(Ordering::Relaxed))
+}
+
+/// The writer: each task's blocks, task after task, into `out`.
+fn write_in_order(
+    order_rx: Receiver<Receiver<Msg>>,
+    out: &mut Out,
+    pool: &Pool,
+    threads: usize,
+) -> Result<(), Error> {
+    for rx in order_rx {
+        loop {
+            match rx.recv() {
+                Ok(Msg::Text(block)) => {
+                    out.extend(&block, 0);
+                    out.maybe_flush()?;
+                    if let Ok(mut pool) = pool.lock() {
+                        if pool.len() <= threads {
+                            pool.push(block);
+                        }
+                    }
+                }
+                Ok(Msg::End(modules)) => {
+                    out.extend(&[], modules);
+                    break;
+                }
+                Ok(Msg::Err(e)) => return Err(e),
+                Err(_) => return Err(Error::new("internal error: a worker thread stopped")),
+            }
+        }
+    }
+    Ok(())
 }
 
 /// One task: modules (binary) of various generations, or inert runs, in
@@ -145,10 +335,11 @@ pub(crate) fn expand(
     al: &Alphabet,
     origin: &Origin,
     steps: u64,
-    threads: usize,
+    (threads, split): (usize, Option<u64>),
     out: &mut Out,
 ) -> Result<(), Error> {
-    let (depth, most) = split_depth(plan, input, al, origin, steps, threads)?;
+    let per_thread = split.unwrap_or(PER_THREAD);
+    let (depth, most) = split_depth(plan, input, al, origin, steps, (threads, per_thread))?;
     // Modules of the split generation expanded so far and their text, for
     // sizing the next tasks.
     let done_modules = AtomicU64::new(0);
@@ -201,28 +392,7 @@ pub(crate) fn expand(
             return plan.expand(input, al, origin, steps, out);
         }
         // Write the tasks' text in task order.
-        for rx in order_rx {
-            loop {
-                match rx.recv() {
-                    Ok(Msg::Text(block)) => {
-                        out.extend(&block, 0);
-                        out.maybe_flush()?;
-                        if let Ok(mut pool) = pool.lock() {
-                            if pool.len() <= threads {
-                                pool.push(block);
-                            }
-                        }
-                    }
-                    Ok(Msg::End(modules)) => {
-                        out.extend(&[], modules);
-                        break;
-                    }
-                    Ok(Msg::Err(e)) => return Err(e),
-                    Err(_) => return Err(Error::new("internal error: a worker thread stopped")),
-                }
-            }
-        }
-        Ok(())
+        write_in_order(order_rx, out, pool, threads)
     })
 }
 
@@ -236,12 +406,9 @@ fn split_depth(
     al: &Alphabet,
     origin: &Origin,
     steps: u64,
-    threads: usize,
+    (threads, per_thread): (usize, u64),
 ) -> Result<(usize, u64), Error> {
-    #[cfg(test)]
-    let want = tests::PER_THREAD.with(|p| p.get()) * threads as u64;
-    #[cfg(not(test))]
-    let want = PER_THREAD * threads as u64;
+    let want = per_thread * threads as u64;
     let last = (steps - 1) as usize;
     let cap = want * 64;
     let mut depth = 0;
@@ -392,27 +559,26 @@ fn work(
 #[cfg(test)]
 mod tests {
     use crate::api::{LSystem, Options};
-    use std::cell::Cell;
 
-    thread_local! {
-        /// Split at the first generation with this many modules per thread
-        /// (small in tests, so that small strings split at every depth).
-        pub(super) static PER_THREAD: Cell<u64> = const { Cell::new(super::PER_THREAD) };
-    }
-
-    fn derive(src: &str, steps: u64, threads: usize) -> Result<String, String> {
+    fn derive(src: &str, steps: u64, threads: usize, split: u64) -> Result<String, String> {
         let mut ls = LSystem::parse(src).map_err(|e| e.to_string())?;
         let mut out = Vec::new();
-        let options = Options::new().steps(steps).threads(threads);
+        let options = Options::new()
+            .steps(steps)
+            .seed(3)
+            .threads(threads)
+            .split(split);
         ls.derive(&options, &mut out).map_err(|e| e.to_string())?;
         Ok(String::from_utf8(out).unwrap())
     }
 
     #[test]
     fn every_split_and_thread_count_gives_the_same_string() {
-        // Branches, leaves above the split (B has no production; C(x) for
-        // x >= 3 rewrites to itself), inert constant runs ([+ ... ]), a
-        // homomorphism, and an error in step 4 of one subtree only.
+        // Depth first: branches, leaves above the split (B has no
+        // production; C(x) for x >= 3 rewrites to itself), inert constant
+        // runs ([+ ... ]), a homomorphism, and an error in step 4 of one
+        // subtree only. Step by step: draws (a probability, ran), modules
+        // with parameters of several bytes, an error in a late chunk.
         let systems = [
             "productions:\nA(x) : x < 5 -> F(x)[+A(x+1)]B[-A(x+2)]C(x)\n\
              A(x) : x >= 5 -> F(x)\nF(x) -> F(x*1.5)\n\
@@ -420,18 +586,19 @@ mod tests {
              homomorphism:\nB -> G(1)\naxiom: A(0)BA(1)\n",
             "productions:\nA(x) -> A(x+1)[B(x)]A(x+2)\nB(x) -> B(1/(x-7))\naxiom: A(0)\n",
             "productions:\nF -> F[+F]F[-F]F\naxiom: F\n",
+            "productions:\nF -> F[+F]F : 1\nF -> F[-F]F : 2\nF -> FF : 1\naxiom: F\n",
+            "productions:\nA(x) -> A(x+ran(1))[B(ran(2))]A(x*2)\nB(x) : x > 1.9 -> B(1/(x-x))\n\
+             B(x) -> C\naxiom: A(0)\n",
         ];
         for src in systems {
             for steps in 1..=6 {
-                let one = derive(src, steps, 1);
-                for per_thread in [1, 2, 5, 256] {
-                    PER_THREAD.with(|p| p.set(per_thread));
+                let one = derive(src, steps, 1, 1);
+                for split in [1, 2, 5, 256] {
                     for threads in [2, 3, 8] {
-                        let many = derive(src, steps, threads);
-                        assert_eq!(one, many, "{src} -n {steps} -j {threads} ({per_thread})");
+                        let many = derive(src, steps, threads, split);
+                        assert_eq!(one, many, "{src} -n {steps} -j {threads} ({split})");
                     }
                 }
-                PER_THREAD.with(|p| p.set(super::PER_THREAD));
             }
         }
     }

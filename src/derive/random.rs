@@ -77,6 +77,7 @@ pub const TOO_MANY_DRAWS: &str =
     "more than 64 random draws for one module (the limit of the random scheme)";
 const TOO_MANY_MODULES: &str = "a generation of 2^59 modules or more cannot draw";
 
+#[derive(Clone)]
 pub struct Random {
     rng: ChaCha8Rng,
     /// Draws made so far (a step that made none and left the string
