@@ -144,7 +144,7 @@ fn jobs_must_be_a_positive_count() {
 
 #[test]
 fn a_stochastic_plant_is_the_same_on_1_2_and_8_threads() {
-    // Step by step in chunks of 512 KiB: about 4 MB of text, each
+    // Step by step in chunks of 256 KiB: about 4 MB of text, each
     // generation cut into several chunks whose draws are placed by module
     // index.
     let file = Path::new(ROOT).join("examples/stochastic_plant.ls");

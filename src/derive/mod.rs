@@ -553,11 +553,14 @@ fn step_passes(
             let limited = limits.modules != u64::MAX || limits.bytes != u64::MAX;
             let threads =
                 par::step_threads(settings.threads, table, tables.plain, indexed, limited);
-            if threads > 1 {
-                let split = (threads, settings.split.or_else(par::test_split));
-                drew = par::step_pass(d, table, &src, split, &mut out, pass)?;
-            } else {
-                d.pass(table, &src, indexed, &mut out, pass)?;
+            let split = (threads, settings.split.or_else(par::test_split));
+            match (threads > 1)
+                .then(|| par::step_pass(d, table, &src, split, &mut out, pass))
+                .transpose()?
+                .flatten()
+            {
+                Some(n) => drew = n,
+                None => d.pass(table, &src, indexed, &mut out, pass)?,
             }
             let (modules, bytes) = out.finish()?;
             events(&Event::Generation {

@@ -84,7 +84,7 @@ pub(crate) fn step_threads(
 }
 
 /// Bytes of the generation read per chunk of a split pass.
-const CHUNK_IN: u64 = 512 << 10;
+const CHUNK_IN: u64 = 256 << 10;
 
 /// `LSGEN_TEST_SPLIT=N` (or `Options::split`): split at N modules per
 /// thread (depth first) and into chunks of N bytes (step by step), so that
@@ -102,7 +102,8 @@ pub(crate) fn test_split() -> Option<u64> {
 /// by a worker with its own [`Deriver`] (the same generator, positioned by
 /// module index), and the chunks' output written to `out` in order. The
 /// same bytes, draws and first error as one thread. Returns the number of
-/// draws made.
+/// draws made, or None when no thread could be started (then nothing was
+/// written: the caller derives the pass on its own thread).
 pub(crate) fn step_pass(
     d: &Deriver,
     table: &crate::rules::Table,
@@ -110,13 +111,13 @@ pub(crate) fn step_pass(
     (threads, split): (usize, Option<u64>),
     out: &mut Out,
     pass: super::Pass,
-) -> Result<u64, Error> {
+) -> Result<Option<u64>, Error> {
     let draws = AtomicU64::new(0);
     let draws = &draws;
     let pool = &Pool::default();
     let text = out.text;
     let al = &d.alphabet;
-    std::thread::scope(|s| -> Result<(), Error> {
+    let done = std::thread::scope(|s| -> Result<bool, Error> {
         type Chunk = (u64, u64, u64);
         let (task_tx, task_rx) = mpsc::channel::<(Chunk, SyncSender<Msg>)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
@@ -171,14 +172,14 @@ pub(crate) fn step_pass(
             workers += 1;
         }
         if workers == 0 {
-            return Err(Error::new("cannot start a thread"));
+            return Ok(false);
         }
         let producer = std::thread::Builder::new()
             .name("lsgen-chunks".into())
             .spawn_scoped(s, move || {
                 // Cut at the first module boundary past every `size` bytes.
                 let size = split.unwrap_or(CHUNK_IN);
-                let mut rd = super::PosReader::new(src, 1 << 20, false);
+                let mut rd = super::PosReader::new(src, 256 << 10, false);
                 let (mut start, mut first, mut index) = (0u64, 0u64, 0u64);
                 let send = |chunk: Chunk| {
                     let (tx, rx) = mpsc::sync_channel(BLOCKS);
@@ -213,11 +214,12 @@ pub(crate) fn step_pass(
                 }
             });
         if producer.is_err() {
-            return Err(Error::new("cannot start a thread"));
+            // The workers end when their task channel closes.
+            return Ok(false);
         }
-        write_in_order(order_rx, out, pool, threads)
+        write_in_order(order_rx, out, pool, threads).map(|()| true)
     })?;
-    Ok(draws.load(Ordering::Relaxed))
+    Ok(done.then(|| draws.load(Ordering::Relaxed)))
 }
 
 /// The writer: each task's blocks, task after task, into `out`.
