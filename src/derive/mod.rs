@@ -551,9 +551,11 @@ fn step_passes(
             let mut out =
                 sink(&mut dst, tmp_name, output, out_name, limits, indexed)?.for_pass(pass);
             let limited = limits.modules != u64::MAX || limits.bytes != u64::MAX;
-            let threads =
-                par::step_threads(settings.threads, table, tables.plain, indexed, limited);
-            let split = (threads, settings.split.or_else(par::test_split));
+            let split = settings.split.or_else(par::test_split);
+            let len = src.metadata().map_or(u64::MAX, |m| m.len());
+            let flags = (tables.plain, indexed, limited);
+            let threads = par::step_threads(settings.threads, table, flags, (len, split));
+            let split = (threads, split);
             match (threads > 1)
                 .then(|| par::step_pass(d, table, &src, split, &mut out, pass))
                 .transpose()?

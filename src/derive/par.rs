@@ -65,18 +65,18 @@ pub(crate) fn threads_for(threads: usize, steps: u64, strategy: Strategy) -> usi
 /// concurrently (the step engine, `-j N`)? Only when a module's rewriting
 /// depends on the module alone and its index: no context, no bracket
 /// balance to track across the string, and none of the structural
-/// features (decomposition, cuts, homomorphism depth: `plain`), and no
+/// features (decomposition, cuts, homomorphism depth: `plain`), no
 /// `--max-length` (checked as the text is written, in order, on one
-/// thread).
+/// thread), and a generation (`len` bytes) of more than one chunk (many
+/// steps over a short string must not start threads at each step).
 pub(crate) fn step_threads(
     threads: usize,
     table: &crate::rules::Table,
-    plain: bool,
-    indexed: bool,
-    limited: bool,
+    (plain, indexed, limited): (bool, bool, bool),
+    (len, split): (u64, Option<u64>),
 ) -> usize {
     let free = table.max_left == 0 && !table.has_right && !table.check_balance;
-    if plain && free && !indexed && !limited {
+    if plain && free && !indexed && !limited && len > split.unwrap_or(CHUNK_IN) {
         threads.max(1)
     } else {
         1
