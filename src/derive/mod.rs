@@ -4,7 +4,8 @@
 //!
 //! The step engine's parts: [`sink`] (output formats, bracket index,
 //! limits), [`reader`] (buffered pread readers), [`context`] (left contexts
-//! and the right-walker), [`bytetable`] (the D0L byte table).
+//! and the right-walker), [`bytetable`] (the D0L byte table). [`par`]
+//! splits either strategy between threads (`-j N`).
 
 pub(crate) mod bytetable;
 pub(crate) mod choose;

@@ -1,18 +1,28 @@
 //! One string on several threads (`-j N`, issue 15), byte-identical for
 //! every N.
 //!
-//! [`threads_for`] is the one place that decides how many threads a
-//! derivation uses. Today that is the depth-first expansion of
-//! deterministic parametric systems ([`ParamPlan`]): there a module's
-//! expansion depends on the module alone (no context, no random draw), so
-//! the final string is the concatenation, in string order, of the
-//! expansions of the modules of any one generation. A producer walks the
-//! top generations ([`ParamPlan::split`]) and hands out consecutive runs of
-//! modules of a split generation as tasks; workers expand each task depth
-//! first ([`Walker`]) into a bounded channel of text blocks; the calling
-//! thread writes the tasks' blocks in task order. Nothing a worker computes
-//! depends on which thread runs it or when, so the output is the same for
-//! every thread count.
+//! [`threads_for`] (depth first) and [`step_threads`] (a pass of the step
+//! engine) are the one place that decides how many threads a derivation
+//! uses. Two splits:
+//!
+//! - Depth first ([`expand`]), for deterministic parametric systems
+//!   ([`ParamPlan`]): a module's expansion depends on the module alone (no
+//!   context, no random draw), so the final string is the concatenation,
+//!   in string order, of the expansions of the modules of any one
+//!   generation. A producer walks the top generations
+//!   ([`ParamPlan::split`]) and hands out consecutive runs of modules of a
+//!   split generation as tasks; workers expand each task depth first
+//!   ([`Walker`]).
+//! - Step by step ([`step_pass`]), for a pass without contexts: a producer
+//!   scans the generation and cuts it into chunks at module boundaries,
+//!   counting modules; a worker rewrites a chunk with its own [`Deriver`],
+//!   whose draws are placed by module index, so a chunk draws what one
+//!   thread draws there.
+//!
+//! In both, workers write into bounded channels of blocks, and the calling
+//! thread writes the tasks' blocks in task order ([`write_in_order`]).
+//! Nothing a worker computes depends on which thread runs it or when, so
+//! the output is the same for every thread count.
 //!
 //! Memory stays flat: each task's channel holds at most [`BLOCKS`] blocks
 //! of about [`CHUNK`] bytes, at most [`IN_FLIGHT`] tasks per thread are
@@ -48,11 +58,10 @@ const MAX_BATCH: u64 = 1 << 16;
 /// Tasks per thread, at least (see [`split_depth`]).
 const TASKS: u64 = 16;
 
-/// How many threads one derivation uses: `threads` (`-j`) for the
-/// depth-first parametric strategy when there are at least two steps to
-/// split, else 1. The D0L byte plans are at the speed of writing already;
-/// the step engine (contexts, random draws, structural rewriting) and
-/// frames derive on one thread.
+/// How many threads the depth-first parametric strategy uses: `threads`
+/// (`-j`) when there are at least two steps to split, else 1. (The D0L
+/// byte plans are at the speed of writing already and stay on one thread;
+/// frames too.)
 pub(crate) fn threads_for(threads: usize, steps: u64, strategy: Strategy) -> usize {
     if steps < 2 || strategy == Strategy::Step {
         1
