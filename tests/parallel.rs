@@ -184,3 +184,31 @@ fn the_first_error_of_a_split_step_whatever_the_threads() {
     assert_eq!(errors[0], errors[1]);
     assert_eq!(errors[0], errors[2]);
 }
+
+#[test]
+fn memory_stays_flat_while_the_reader_of_the_output_waits() {
+    // The output goes to a pipe that is not read for 2 seconds: the
+    // workers ahead of the writer must wait (bounded channels), not buffer
+    // the tens of MB they could derive meanwhile. Peak RSS by GNU time.
+    let time = Path::new("/usr/bin/time");
+    assert!(time.exists(), "these tests need GNU time at /usr/bin/time");
+    let dir = tempdir();
+    for (file, n) in [
+        ("parametric_tree.ls", "13"),  // depth first, about 78 MB
+        ("stochastic_plant.ls", "13"), // step by step, about 40 MB
+    ] {
+        let rss = dir.path().join("rss.txt");
+        let model = Path::new(ROOT).join("benches/workloads").join(file);
+        let script = format!(
+            "/usr/bin/time -f %M -o '{}' '{}' -j 2 -n {n} --seed 1 '{}' | (sleep 2; cat >/dev/null)",
+            rss.display(),
+            common::LSGEN,
+            model.display()
+        );
+        let r = run(common::command("sh").args(["-c", &script]));
+        assert_eq!(r.ok(), "", "{file}");
+        let text = std::fs::read_to_string(&rss).unwrap();
+        let kib: u64 = text.trim().lines().last().unwrap().parse().unwrap();
+        assert!(kib < 40 * 1024, "{file}: peak RSS {kib} KiB");
+    }
+}
