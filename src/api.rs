@@ -55,6 +55,8 @@ pub struct Options {
     first_step: u64,
     precision: Option<u32>,
     space: Option<u64>,
+    threads: usize,
+    split: Option<u64>,
 }
 
 impl Default for Options {
@@ -69,6 +71,8 @@ impl Default for Options {
             first_step: 1,
             precision: None,
             space: None,
+            threads: 1,
+            split: None,
         }
     }
 }
@@ -134,6 +138,21 @@ impl Options {
     /// where it goes.
     pub fn free_space(mut self, bytes: u64) -> Self {
         self.space = Some(bytes);
+        self
+    }
+
+    /// Derive one string on up to `n` threads (default 1; 0 counts as 1).
+    /// The output is byte-identical for every `n`; systems that cannot be
+    /// split use one thread (README, Design: parallel derivation).
+    pub fn threads(mut self, n: usize) -> Self {
+        self.threads = n.max(1);
+        self
+    }
+
+    /// Split the work between threads into tasks this small (for tests).
+    #[doc(hidden)]
+    pub fn split(mut self, n: u64) -> Self {
+        self.split = Some(n.max(1));
         self
     }
 
@@ -356,6 +375,8 @@ impl LSystem {
             strategy: options.strategy,
             first_step: options.first_step,
             space: options.space,
+            threads: options.threads,
+            split: options.split,
         };
         let consts = std::mem::take(&mut system.consts);
         let reader = AxiomReader::new(input, comments, line, col, &consts);
@@ -442,10 +463,24 @@ pub fn derive_bytes(
     seed: Option<u64>,
     limits: Limits,
 ) -> Result<Vec<u8>, Error> {
+    derive_bytes_on(src, steps, seed, limits, (1, None))
+}
+
+/// [`derive_bytes`] on `threads` threads (`-j`), split into tasks of
+/// `split` (modules per thread depth first, bytes step by step): for tests.
+#[doc(hidden)]
+pub fn derive_bytes_on(
+    src: &[u8],
+    steps: Option<u64>,
+    seed: Option<u64>,
+    limits: Limits,
+    (threads, split): (usize, Option<u64>),
+) -> Result<Vec<u8>, Error> {
     let input = Input::new(Box::new(io::Cursor::new(src.to_vec())), "<input>");
     let mut ls = LSystem::load_named(input, seed)?.with_fallback_seed(0)?;
     ls.require_axiom()?;
-    let mut options = Options::new().limits(limits);
+    let mut options = Options::new().limits(limits).threads(threads);
+    options.split = split;
     options.steps = steps;
     options.seed = seed;
     let mut out = Vec::new();

@@ -62,7 +62,8 @@ pub struct Args {
     #[arg(long, value_name = "S|A..B", value_parser = parse_seeds)]
     pub seed: Option<Seeds>,
 
-    /// Run a batch's jobs on N worker threads (default: the number of CPUs).
+    /// Threads: a batch's jobs run on N workers, one derivation on N
+    /// threads (default: the number of CPUs).
     #[arg(short, long, value_name = "N", env = "LSGEN_JOBS",
           value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub jobs: Option<u32>,
@@ -715,6 +716,14 @@ fn run_one(
     }
     if let Some(p) = args.precision {
         options = options.precision(p);
+    }
+    // One derivation on -j threads (default: all CPUs); a batch's jobs
+    // already run in parallel, one thread each.
+    if batch.is_none() {
+        options = options.threads(args.jobs.map_or_else(
+            || std::thread::available_parallelism().map_or(1, |n| n.get()),
+            |j| j as usize,
+        ));
     }
     let seed = ls.seed(&options);
     let batch = batch.map(|used| *used = Some(seed)).is_some();

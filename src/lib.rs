@@ -65,7 +65,7 @@ pub(crate) mod turtle {
     pub mod view;
 }
 
-pub use api::{derive_bytes, LSystem, Options, Stats, DEFAULT_DERIVATION_LENGTH};
+pub use api::{derive_bytes, derive_bytes_on, LSystem, Options, Stats, DEFAULT_DERIVATION_LENGTH};
 pub use derive::{Event, Limits, Pass};
 pub use diag::{Error, ErrorKind, Stage};
 

@@ -4,13 +4,15 @@
 //!
 //! The step engine's parts: [`sink`] (output formats, bracket index,
 //! limits), [`reader`] (buffered pread readers), [`context`] (left contexts
-//! and the right-walker), [`bytetable`] (the D0L byte table).
+//! and the right-walker), [`bytetable`] (the D0L byte table). [`par`]
+//! splits either strategy between threads (`-j N`).
 
 pub(crate) mod bytetable;
 pub(crate) mod choose;
 pub(crate) mod context;
 pub mod dfs;
 pub mod meter;
+pub(crate) mod par;
 pub mod random;
 pub(crate) mod reader;
 pub mod sink;
@@ -103,6 +105,10 @@ pub(crate) struct Settings {
     /// system), when known: a string known in advance to be larger is
     /// refused before anything is written.
     pub space: Option<u64>,
+    /// Threads for one derivation (`-j`); 1 is the sequential engine.
+    pub threads: usize,
+    /// Tests: split into tasks this small (`par::test_split`).
+    pub split: Option<u64>,
 }
 
 /// Which generations `--frames A..B:K` writes: `from..=to`, every
@@ -351,6 +357,7 @@ pub(crate) fn derive(
             group_expr: group_expr.as_ref(),
             hom_seed,
             fixed_points: !structural,
+            plain: !step_only,
         };
         let tables = (&tables, &homomorphism, hom);
         let names = (frame_sink, tmp_name.as_str());
@@ -433,10 +440,14 @@ pub(crate) fn derive(
         }
         let mut none = None;
         let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
-        match plan
-            .expand(src, &d.alphabet, &d.origin, steps, &mut out)
-            .and_then(|()| out.finish())
-        {
+        let threads = par::threads_for(settings.threads, steps, strategy);
+        let expanded = if threads > 1 {
+            let split = (threads, settings.split.or_else(par::test_split));
+            par::expand(&plan, src, &d.alphabet, &d.origin, steps, split, &mut out)
+        } else {
+            plan.expand(src, &d.alphabet, &d.origin, steps, &mut out)
+        };
+        match expanded.and_then(|()| out.finish()) {
             Ok(len) => {
                 let last = if hom {
                     Pass::Homomorphism
@@ -462,6 +473,7 @@ pub(crate) fn derive(
         group_expr: group_expr.as_ref(),
         hom_seed,
         fixed_points: !structural,
+        plain: !step_only,
     };
     let stepwise = step_passes(
         &mut d,
@@ -534,10 +546,24 @@ fn step_passes(
             })
         };
         let draws = d.rng.draws();
+        let mut drew = 0;
         {
             let mut out =
                 sink(&mut dst, tmp_name, output, out_name, limits, indexed)?.for_pass(pass);
-            d.pass(table, &src, indexed, &mut out, pass)?;
+            let limited = limits.modules != u64::MAX || limits.bytes != u64::MAX;
+            let split = settings.split.or_else(par::test_split);
+            let len = src.metadata().map_or(u64::MAX, |m| m.len());
+            let flags = (tables.plain, indexed, limited);
+            let threads = par::step_threads(settings.threads, table, flags, (len, split));
+            let split = (threads, split);
+            match (threads > 1)
+                .then(|| par::step_pass(d, table, &src, split, &mut out, pass))
+                .transpose()?
+                .flatten()
+            {
+                Some(n) => drew = n,
+                None => d.pass(table, &src, indexed, &mut out, pass)?,
+            }
             let (modules, bytes) = out.finish()?;
             events(&Event::Generation {
                 pass,
@@ -550,7 +576,7 @@ fn step_passes(
         // point: every later step does the same. Go on with the last pass
         // (the homomorphism, or the last step, which writes the text).
         let last = if hom { passes } else { steps };
-        if i < steps && last > i + 1 && d.rng.draws() == draws && tables.fixed_points {
+        if i < steps && last > i + 1 && d.rng.draws() == draws && drew == 0 && tables.fixed_points {
             if let Some(next) = &dst {
                 if same_contents(&src, next)? {
                     events(&Event::FixedPoint {
@@ -681,6 +707,9 @@ struct Tables<'t> {
     /// A step that changed nothing means every later step changes
     /// nothing (not with groups, `step`, ...).
     fixed_points: bool,
+    /// No structural rewriting and no `%` (a pass may be split between
+    /// threads, `par::step_threads`).
+    plain: bool,
 }
 
 impl<'t> Tables<'t> {

@@ -77,6 +77,7 @@ pub use crate::diag::RandomError;
 pub const TOO_MANY_DRAWS: RandomError = RandomError::TooManyDraws;
 const TOO_MANY_MODULES: RandomError = RandomError::TooManyModules;
 
+#[derive(Clone)]
 pub struct Random {
     rng: ChaCha8Rng,
     /// Draws made so far (a step that made none and left the string

@@ -48,6 +48,15 @@ impl<'f> PosReader<'f> {
         self.start + self.pos as u64
     }
 
+    /// Read only the bytes `start..end` of the file (a chunk of a
+    /// generation, `super::par`), as if they were all of it.
+    pub(crate) fn limit(&mut self, start: u64, end: u64) {
+        self.eof = self.eof.min(end);
+        self.start = start;
+        self.pos = 0;
+        self.end = 0;
+    }
+
     /// Move to file offset `off`, keeping the buffer if it covers `off`.
     #[inline]
     pub fn seek(&mut self, off: u64) {
@@ -69,10 +78,14 @@ impl<'f> PosReader<'f> {
         self.start += self.pos as u64;
         self.end -= self.pos;
         self.pos = 0;
-        while self.end < self.buf.len() && self.start + (self.end as u64) < self.eof {
+        // Never past `eof`: a reader limited to a range (`limit`) must not
+        // see the bytes after it.
+        let room = usize::try_from(self.eof - self.start)
+            .map_or(self.buf.len(), |r| r.min(self.buf.len()));
+        while self.end < room {
             let n = match self
                 .file
-                .read_at(&mut self.buf[self.end..], self.start + self.end as u64)
+                .read_at(&mut self.buf[self.end..room], self.start + self.end as u64)
             {
                 Ok(n) => n,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,

@@ -94,6 +94,9 @@ pub struct Out<'w> {
     pass: Pass,
     /// A progress display's meter, if one is installed.
     meter: Option<std::sync::Arc<super::meter::Meter>>,
+    /// Flush when the buffer holds this much (`OUT_CHUNK`; less for the
+    /// blocks of parallel tasks, `super::par`).
+    pub(crate) chunk: usize,
 }
 
 impl<'w> Out<'w> {
@@ -111,6 +114,7 @@ impl<'w> Out<'w> {
             limits,
             pass: Pass::Axiom,
             meter: super::meter::current(),
+            chunk: OUT_CHUNK,
         }
     }
 
@@ -286,7 +290,7 @@ impl<'w> Out<'w> {
 
     #[inline]
     pub fn maybe_flush(&mut self) -> Result<(), Error> {
-        if self.buf.len() >= OUT_CHUNK {
+        if self.buf.len() >= self.chunk {
             self.flush()?;
         }
         Ok(())

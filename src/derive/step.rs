@@ -40,6 +40,9 @@ pub struct Deriver<'a> {
     pub warnings: [bool; 2],
     warned: [Cell<bool>; 2],
     rc: Recur,
+    /// Rewrite only the bytes `start..end` of the generation, whose first
+    /// module has index `first` (a chunk, `super::par`).
+    pub(crate) range: Option<(u64, u64, u64)>,
 }
 
 /// Recursive rewriting (decomposition, homomorphism depth): one chooser,
@@ -375,6 +378,7 @@ impl<'a> Deriver<'a> {
             warnings: [false; 2],
             warned: [Cell::new(false), Cell::new(false)],
             rc: Recur::default(),
+            range: None,
         }
     }
 
@@ -447,6 +451,10 @@ impl<'a> Deriver<'a> {
         let mut rd = PosReader::new(input, 1 << 20, indexed);
         // The index of the module being rewritten, for the random draws.
         let mut index: u64 = 0;
+        if let Some((start, end, first)) = self.range {
+            rd.limit(start, end);
+            index = first;
+        }
         let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         // Bytes that need no decision take the table; with contexts, keys
         // that have context productions and brackets still go the long way.

@@ -42,6 +42,7 @@ impl Filter {
 
 /// Every module kind (symbol, number of parameters) gets a key. Keys below
 /// 128 are the ASCII symbols without parameters, equal to their byte.
+#[derive(Clone)]
 pub struct Alphabet {
     sym: Vec<char>,
     arity: Vec<u16>,
