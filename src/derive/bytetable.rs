@@ -4,7 +4,6 @@
 use super::context::LeftContext;
 use super::sink::{Out, OUT_CHUNK};
 use crate::diag::Error;
-use crate::rules::codec::INDEX_BYTES;
 use crate::rules::{Alphabet, Table, CLOSE, OPEN};
 
 /// Each ASCII byte, so a symbol can be copied as a one-byte slice.
@@ -94,7 +93,7 @@ impl<'t> ByteTable<'t> {
     /// Rewrite the leading bytes of `input` it can handle; returns how many
     /// bytes and how many modules it used. Modules that left contexts consider are recorded in
     /// `left`; brackets open and close its levels and the output's bracket
-    /// index (`indexed`: the input's `[` carry 8 index bytes), and follow
+    /// index (`open_len`: the bytes of the input's `[`), and follow
     /// the input's nesting `level`.
     #[inline]
     pub(crate) fn run(
@@ -103,7 +102,7 @@ impl<'t> ByteTable<'t> {
         out: &mut Out,
         mut left: Option<&mut LeftContext>,
         al: &Alphabet,
-        indexed: bool,
+        open_len: usize,
         level: &mut i64,
     ) -> Result<(usize, u64), Error> {
         let mut i = 0;
@@ -120,7 +119,7 @@ impl<'t> ByteTable<'t> {
                     break;
                 }
                 if b == b'[' {
-                    let n = if indexed { 1 + INDEX_BYTES } else { 1 };
+                    let n = open_len;
                     if i + n > input.len() {
                         break;
                     }
@@ -168,11 +167,7 @@ impl<'t> ByteTable<'t> {
             }
         }
         *level = lv;
-        let skipped = if indexed {
-            INDEX_BYTES as u64 * opens
-        } else {
-            0
-        };
+        let skipped = (open_len as u64 - 1) * opens;
         Ok((i, i as u64 - skipped))
     }
 }

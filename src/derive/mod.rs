@@ -194,7 +194,7 @@ fn sink<'a>(
     output: &'a mut dyn Write,
     out_name: &'a str,
     limits: Limits,
-    indexed: bool,
+    (indexed, counts): (bool, bool),
 ) -> Result<Out<'a>, Error> {
     Ok(match dst {
         Some(f) => {
@@ -208,7 +208,7 @@ fn sink<'a>(
             };
             let out = Out::new(f, tmp_name, false, limits);
             match index {
-                Some(i) => out.with_index(i),
+                Some(i) => out.with_index(i).with_counts(counts),
                 None => out,
             }
         }
@@ -289,6 +289,11 @@ pub(crate) fn derive(
             .chain(std::iter::once(&homomorphism))
             .any(uses_step);
     d.decomp = decomposition;
+    // Can a step make a `%`? Then indexed generations also hold module
+    // counts, so a cut skips its branch in O(1) (an axiom's `%` alone cuts
+    // once, in step 1, by one scan of its branch).
+    let percent = makes_percent(&d, &productions, &groups);
+    d.counts = indexed && percent;
     let mut generation = |pass: Pass, (modules, bytes): (u64, u64)| {
         events(&Event::Generation {
             pass,
@@ -310,7 +315,8 @@ pub(crate) fn derive(
         Some(tempfile(tmpdir)?)
     };
     {
-        let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, indexed)?;
+        let index = (indexed, d.counts);
+        let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, index)?;
         let mut params = Vec::new();
         loop {
             reader.plain_run(|run| {
@@ -338,7 +344,7 @@ pub(crate) fn derive(
     // module's expansion depend on its neighbours.
     // A `%` that no production rewrites is a cut (docs/structural.md,
     // section 5); the step engine looks for cuts only if a `%` can occur.
-    d.cut = axiom_cuts || makes_percent(&d, &productions, &groups);
+    d.cut = axiom_cuts || percent;
     let step_only = structural || d.cut;
     let strategy = if step_only {
         if strategy == Strategy::DepthFirst {
@@ -416,7 +422,9 @@ pub(crate) fn derive(
             Pass::Step(step_no(steps))
         };
         let mut none = None;
-        let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?.for_pass(last);
+        let no_index = (false, false);
+        let mut out =
+            sink(&mut none, &tmp_name, output, out_name, limits, no_index)?.for_pass(last);
         plan.expand(src, &d.alphabet, steps, &mut out)?;
         return Ok(generation(last, out.finish()?));
     }
@@ -439,7 +447,14 @@ pub(crate) fn derive(
             m.depth_first.store(true, Ordering::Relaxed);
         }
         let mut none = None;
-        let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
+        let mut out = sink(
+            &mut none,
+            &tmp_name,
+            output,
+            out_name,
+            limits,
+            (false, false),
+        )?;
         let threads = par::threads_for(settings.threads, steps, strategy);
         let expanded = if threads > 1 {
             let split = (threads, settings.split.or_else(par::test_split));
@@ -548,8 +563,15 @@ fn step_passes(
         let draws = d.rng.draws();
         let mut drew = 0;
         {
-            let mut out =
-                sink(&mut dst, tmp_name, output, out_name, limits, indexed)?.for_pass(pass);
+            let mut out = sink(
+                &mut dst,
+                tmp_name,
+                output,
+                out_name,
+                limits,
+                (indexed, d.counts),
+            )?
+            .for_pass(pass);
             let limited = limits.modules != u64::MAX || limits.bytes != u64::MAX;
             let split = settings.split.or_else(par::test_split);
             let len = src.metadata().map_or(u64::MAX, |m| m.len());
@@ -623,7 +645,7 @@ fn frame_passes(
     let mut emit = |d: &mut Deriver, gen: &File, k: u64| -> Result<(), Error> {
         last_len = sink_of_frames.frame(k, &mut |w, name| {
             let mut none = None;
-            let mut out = sink(&mut none, tmp_name, w, name, limits, false)?;
+            let mut out = sink(&mut none, tmp_name, w, name, limits, (false, false))?;
             if hom {
                 // The homomorphism of generation k, as `lsgen -n k` applies
                 // it: with its own `seed:`, a generator for this frame only.
@@ -679,8 +701,15 @@ fn frame_passes(
         });
         {
             let mut discard = io::sink();
-            let mut out =
-                sink(&mut dst, tmp_name, &mut discard, "", limits, indexed)?.for_pass(pass);
+            let mut out = sink(
+                &mut dst,
+                tmp_name,
+                &mut discard,
+                "",
+                limits,
+                (indexed, d.counts),
+            )?
+            .for_pass(pass);
             d.pass(table, &cur, indexed, &mut out, pass)?;
             let (modules, bytes) = out.finish()?;
             events(&Event::Generation {
@@ -891,7 +920,9 @@ mod tests {
             let (out, _) = run(&src, &Options::new().steps(1).seed(7)).unwrap();
             (out, CUT_SCANNED.with(|c| c.get()))
         };
-        let stochastic = "C -> E : 1\nC -> G : 1";
+        // `Z -> %`: a step can make a `%` (Z never occurs), so indexed
+        // generations hold module counts.
+        let stochastic = "C -> E : 1\nC -> G : 1\nZ -> %";
         // By hand: the `%` drops the F's, its `]` stays; B sees C.
         let (out, scanned) = derive(&format!("B > C -> D\n{stochastic}"), "%");
         assert_eq!(scanned, 0, "the cut walked the branch");
@@ -906,6 +937,11 @@ mod tests {
         // branch (so the count above can fail), with the same result.
         let (plain, scanned) = derive(&format!("B -> D\n{stochastic}"), "%");
         assert_eq!(scanned, n as u64 + 1, "the F's and the `]`");
+        assert_eq!(plain, out);
+        // Nor when only the axiom has a `%` (no counts in the index).
+        let once = "B > C -> D\nC -> E : 1\nC -> G : 1";
+        let (plain, scanned) = derive(once, "%");
+        assert_eq!(scanned, n as u64 + 1);
         assert_eq!(plain, out);
     }
 

@@ -2,7 +2,7 @@
 //! main reader and the look-ahead reader of right contexts share one file.
 
 use super::context::skip_branch;
-use crate::rules::codec::{self, INDEX_BYTES, MAX_MODULE_BYTES};
+use crate::rules::codec::{self, ENDS_BYTES, INDEX_BYTES, MAX_MODULE_BYTES};
 use crate::rules::Alphabet;
 use std::fs::File;
 use std::io;
@@ -13,6 +13,8 @@ pub struct PosReader<'f> {
     file: &'f File,
     /// The file has a bracket index (see [`Out::with_index`]).
     pub(crate) indexed: bool,
+    /// Bytes of a `[`: 1, or with the index 1 + its index bytes.
+    open_len: usize,
     pub(crate) buf: Vec<u8>,
     /// File offset of `buf[0]`.
     start: u64,
@@ -35,12 +37,27 @@ impl<'f> PosReader<'f> {
         PosReader {
             file,
             indexed,
+            open_len: if indexed { 1 + ENDS_BYTES } else { 1 },
             buf: vec![0; capacity.max(2 * MAX_MODULE_BYTES)],
             start: 0,
             pos: 0,
             end: 0,
             eof,
         }
+    }
+
+    /// The index also holds module counts (see [`Out::with_counts`]).
+    pub(crate) fn with_counts(mut self, counts: bool) -> Self {
+        if self.indexed && counts {
+            self.open_len = 1 + INDEX_BYTES;
+        }
+        self
+    }
+
+    /// Bytes of a `[` in this generation.
+    #[inline]
+    pub(crate) fn open_len(&self) -> usize {
+        self.open_len
     }
 
     #[inline]
@@ -113,11 +130,7 @@ impl<'f> PosReader<'f> {
         let s = self.pos;
         let b = self.buf[s];
         if b < 0x80 {
-            let n = if b == b'[' && self.indexed {
-                1 + INDEX_BYTES
-            } else {
-                1
-            };
+            let n = if b == b'[' { self.open_len } else { 1 };
             self.pos += n;
             return Ok(Some((b as u32, s, s + n)));
         }
@@ -146,9 +159,9 @@ impl<'f> PosReader<'f> {
         &self.buf[s..e]
     }
 
-    /// For a `[` of an indexed generation read at `s`: the offset just
-    /// past its `]` and the number of modules of its branch, brackets
-    /// included.
+    /// For a `[` read at `s` of a generation indexed with counts: the
+    /// offset just past its `]` and the number of modules of its branch,
+    /// brackets included.
     #[inline]
     pub(crate) fn branch_index(&self, s: usize) -> (u64, u64) {
         let word = |i: usize| u64::from_le_bytes(self.buf[i..i + 8].try_into().unwrap());

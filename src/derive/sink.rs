@@ -4,7 +4,7 @@
 
 use super::Pass;
 use crate::diag::{Error, LengthUnit, RuntimeError};
-use crate::rules::codec::{self, INDEX_BYTES, MAX_MODULE_BYTES};
+use crate::rules::codec::{self, ENDS_BYTES, INDEX_BYTES, MAX_MODULE_BYTES};
 use crate::rules::{Alphabet, ConstRun, CLOSE, OPEN};
 use std::fs::File;
 use std::io::Write;
@@ -84,6 +84,8 @@ pub struct Out<'w> {
     pub(crate) indexed: Option<File>,
     /// Each open `[`: its offset, and the modules written before it.
     opens: Vec<(u64, u64)>,
+    /// The index also holds each branch's module count.
+    counts: bool,
     name: &'w str,
     pub text: bool,
     pub(crate) modules: u64,
@@ -106,6 +108,7 @@ impl<'w> Out<'w> {
             w,
             indexed: None,
             opens: Vec::new(),
+            counts: false,
             name,
             text,
             modules: 0,
@@ -130,6 +133,23 @@ impl<'w> Out<'w> {
         self
     }
 
+    /// With a bracket index, also write each branch's module count (see
+    /// [`codec::INDEX_BYTES`]).
+    pub fn with_counts(mut self, counts: bool) -> Self {
+        self.counts = counts;
+        self
+    }
+
+    /// Index bytes after each `[`.
+    #[inline(always)]
+    fn index_len(&self) -> usize {
+        if self.counts {
+            INDEX_BYTES
+        } else {
+            ENDS_BYTES
+        }
+    }
+
     /// Write a `[` (already counted in `modules`).
     #[inline(always)]
     pub(crate) fn open(&mut self) {
@@ -149,7 +169,12 @@ impl<'w> Out<'w> {
             self.opens
                 .push((self.written + self.buf.len() as u64, before));
             self.buf.push(b'[');
-            self.buf.extend_from_slice(&[0; INDEX_BYTES]);
+            // (Fixed-size copies: no call to memcpy.)
+            if self.counts {
+                self.buf.extend_from_slice(&[0; INDEX_BYTES]);
+            } else {
+                self.buf.extend_from_slice(&[0; ENDS_BYTES]);
+            }
         } else {
             self.buf.push(b'[');
         }
@@ -180,9 +205,15 @@ impl<'w> Out<'w> {
         index[8..].copy_from_slice(&(modules - before).to_le_bytes());
         if at >= self.written {
             let i = (at - self.written) as usize + 1;
-            self.buf[i..i + INDEX_BYTES].copy_from_slice(&index);
+            // (Fixed-size copies: no call to memcpy.)
+            if self.counts {
+                self.buf[i..i + INDEX_BYTES].copy_from_slice(&index);
+            } else {
+                self.buf[i..i + ENDS_BYTES].copy_from_slice(&index[..ENDS_BYTES]);
+            }
         } else if let Some(file) = &self.indexed {
-            file.write_all_at(&index, at + 1)
+            let index = &index[..self.index_len()];
+            file.write_all_at(index, at + 1)
                 .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
         }
         Ok(())
@@ -259,15 +290,38 @@ impl<'w> Out<'w> {
         } else {
             let base = self.buf.len();
             let start = self.modules - c.modules;
-            self.buf.extend_from_slice(c.ibin());
+            let ibin = c.ibin();
+            // Without counts, each `[` of `ibin` has bytes to leave out.
+            let extra = INDEX_BYTES - self.index_len();
+            if extra == 0 {
+                self.buf.extend_from_slice(ibin);
+            }
+            let mut copied = 0;
+            let mut dropped = 0;
             for &(at, open, before) in c.brackets.iter() {
-                let abs = self.written + (base + at as usize) as u64;
+                let at = at as usize;
+                let abs = self.written + (base + at - dropped) as u64;
                 let before = start + before;
                 if open {
+                    if extra > 0 {
+                        let keep = at + 1 + ENDS_BYTES;
+                        self.buf.extend_from_slice(&ibin[copied..keep]);
+                        copied = keep + extra;
+                        dropped += extra;
+                    }
                     self.opens.push((abs, before));
                 } else {
+                    if extra > 0 {
+                        // The `]` and what precedes it: the patch below may
+                        // write into this run's own `[`.
+                        self.buf.extend_from_slice(&ibin[copied..at + 1]);
+                        copied = at + 1;
+                    }
                     self.patch(abs + 1, before + 1)?;
                 }
+            }
+            if extra > 0 {
+                self.buf.extend_from_slice(&ibin[copied..]);
             }
         }
         Ok(())
@@ -371,20 +425,13 @@ mod tests {
             let mut bin = Vec::new();
             file.rewind().unwrap();
             file.read_to_end(&mut bin).unwrap();
-            let word = |i: usize| u64::from_le_bytes(bin[i..i + 8].try_into().unwrap());
-            let index_at = |i: usize| (word(i + 1), word(i + 9));
-            // [(16 bytes) A [(16 bytes) B ] C... ] D: each `[` holds the
-            // offset past its `]` and its branch's modules, brackets
-            // included.
+            let index_at = |i: usize| u64::from_le_bytes(bin[i + 1..i + 9].try_into().unwrap());
+            // [........ A [........ B ] C... ] D
             assert_eq!(bin[0], b'[');
-            assert_eq!(bin[18], b'[');
-            assert_eq!(index_at(18), (37, 3), "inner, filler {filler}");
-            let outer_end = 37 + filler as u64 + 1;
-            assert_eq!(
-                index_at(0),
-                (outer_end, 6 + filler as u64),
-                "outer, filler {filler}"
-            );
+            assert_eq!(bin[10], b'[');
+            assert_eq!(index_at(10), 21, "inner, filler {filler}");
+            let outer_end = 21 + filler as u64 + 1;
+            assert_eq!(index_at(0), outer_end, "outer, filler {filler}");
             assert_eq!(bin[outer_end as usize - 1], b']');
             assert_eq!(&bin[outer_end as usize..], b"D");
         }
@@ -392,8 +439,9 @@ mod tests {
 
     /// Issue 11: every way of writing a `[` (plain runs, precompiled
     /// successors, single modules; in the buffer or patched in the file)
-    /// leaves the offset past its `]` and its branch's module count in the
-    /// index, as a scan of the written string finds them.
+    /// leaves the offset past its `]` and, with counts, its branch's
+    /// module count in the index, as a scan of the written string finds
+    /// them.
     #[test]
     fn the_index_counts_each_branchs_modules() {
         use crate::lang::parse::parse_header;
@@ -406,10 +454,15 @@ mod tests {
         let c = c.clone();
         let al = &mut sys.alphabet;
         let x = al.intern('X', 1).unwrap();
-        for filler in [1usize, OUT_CHUNK + 10] {
+        for (filler, counts) in [1usize, OUT_CHUNK + 10]
+            .into_iter()
+            .flat_map(|f| [(f, false), (f, true)])
+        {
             let mut file = tempfile::tempfile().unwrap();
             let index = file.try_clone().unwrap();
-            let mut out = Out::new(&mut file, "tmp", false, Limits::default()).with_index(index);
+            let mut out = Out::new(&mut file, "tmp", false, Limits::default())
+                .with_index(index)
+                .with_counts(counts);
             out.plain(b"A[B").unwrap();
             out.constant(&c).unwrap();
             out.module(OPEN, &[], al).unwrap();
@@ -432,15 +485,17 @@ mod tests {
                 modules += 1;
                 if key == OPEN {
                     open.push((i, modules - 1));
-                    i += 1 + INDEX_BYTES;
+                    i += 1 + if counts { INDEX_BYTES } else { ENDS_BYTES };
                     continue;
                 }
                 i += kl + 8 * al.arity(key);
                 if key == CLOSE {
                     let (at, before) = open.pop().unwrap();
                     let word = |j: usize| u64::from_le_bytes(bin[j..j + 8].try_into().unwrap());
-                    let want = (i as u64, modules - before);
-                    assert_eq!((word(at + 1), word(at + 9)), want, "filler {filler}");
+                    assert_eq!(word(at + 1), i as u64, "filler {filler}, counts {counts}");
+                    if counts {
+                        assert_eq!(word(at + 9), modules - before, "filler {filler}");
+                    }
                     checked += 1;
                 }
             }

@@ -35,6 +35,9 @@ pub struct Deriver<'a> {
     pub decomp: Option<(Table, usize)>,
     pub hom_depth: usize,
     pub cut: bool,
+    /// Indexed generations also hold module counts (see
+    /// [`Out::with_counts`]): set when the steps can cut.
+    pub counts: bool,
     /// `warnings` on the decomposition / homomorphism section, and whether
     /// each has warned (once per run).
     pub warnings: [bool; 2],
@@ -375,6 +378,7 @@ impl<'a> Deriver<'a> {
             decomp: None,
             hom_depth: 1,
             cut: false,
+            counts: false,
             warnings: [false; 2],
             warned: [Cell::new(false), Cell::new(false)],
             rc: Recur::default(),
@@ -430,7 +434,7 @@ impl<'a> Deriver<'a> {
         let mut st = StepState {
             peek: table
                 .has_right
-                .then(|| PosReader::new(input, 1 << 16, indexed)),
+                .then(|| PosReader::new(input, 1 << 16, indexed).with_counts(self.counts)),
             right: RightCache::new(),
             max_right_simple: table.max_right_simple,
             left: (table.max_left > 0).then(|| LeftContext::new(table, &self.alphabet)),
@@ -444,11 +448,12 @@ impl<'a> Deriver<'a> {
                 .any(|p| !p.right.is_empty() && self.alphabet.ignored(p.key)),
             chains: Chains::default(),
             level: 0,
-            branches: (cut && indexed).then(Vec::new),
+            branches: (cut && indexed && self.counts).then(Vec::new),
             last_opener: None,
             last_closer: None,
         };
-        let mut rd = PosReader::new(input, 1 << 20, indexed);
+        let mut rd = PosReader::new(input, 1 << 20, indexed).with_counts(self.counts);
+        let open_len = rd.open_len();
         // The index of the module being rewritten, for the random draws.
         let mut index: u64 = 0;
         if let Some((start, end, first)) = self.range {
@@ -482,7 +487,7 @@ impl<'a> Deriver<'a> {
                     out,
                     st.left.as_mut(),
                     &self.alphabet,
-                    indexed,
+                    open_len,
                     &mut st.level,
                 )?;
                 rd.advance(used);
