@@ -25,6 +25,7 @@
 //! N of the output is line N of the file outside included text.
 
 pub mod preprocess;
+pub mod random;
 
 #[cfg(test)]
 mod tests;
