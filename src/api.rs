@@ -242,6 +242,15 @@ impl LSystem {
         })
     }
 
+    /// Derive as a `.l` file with these settings would (tests of the
+    /// engine's cpfg pieces on `.ls` texts).
+    #[cfg(test)]
+    pub(crate) fn as_cpfg(&mut self, run: crate::cpfg::run::CpfgRun) {
+        if let Some((s, _)) = &mut self.system {
+            s.cpfg = Some(Box::new(run));
+        }
+    }
+
     /// The compiled rules for `seed`, and the axiom reader's input.
     fn take(&mut self, seed: Option<u64>) -> Result<(System, Input, bool, usize, usize), Error> {
         let system = match self.system.take() {
@@ -333,6 +342,10 @@ impl LSystem {
             )));
         }
         let seed = options.seed.or(system.seed).unwrap_or(self.fresh);
+        if let (Some(c), Some(s)) = (system.cpfg.as_mut(), options.seed) {
+            // `--seed N` on a `.l` file: as if it said `seed: N`.
+            c.seed = Some(s);
+        }
         let settings = Settings {
             steps,
             seed,

@@ -26,6 +26,7 @@
 
 pub mod preprocess;
 pub mod random;
+pub mod run;
 
 #[cfg(test)]
 mod tests;

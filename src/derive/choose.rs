@@ -5,6 +5,7 @@
 
 use super::random::{Draw, Random};
 use super::{Origin, Pass};
+use crate::cpfg::random::select;
 use crate::diag::Error;
 use crate::rules::{ConstRun, Item, KeyRules, Production, Table};
 
@@ -111,7 +112,9 @@ impl Chooser {
     where
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
-        if !stochastic {
+        // cpfg's dialect without `seed:` ignores the weights (issue 12).
+        let cpfg = rng.cpfg_mut().map(|c| c.stochastic);
+        if !stochastic || cpfg == Some(false) {
             for &pi in list {
                 let p = &table.prods[pi as usize];
                 if self.matches(slots, p, rng, origin, pass, contexts)? {
@@ -141,30 +144,39 @@ impl Chooser {
                     format!("a probability cannot be negative ({w}, in {pass})"),
                 ));
             }
-            if w > 0.0 {
+            if w > 0.0 || cpfg.is_some() {
                 total += w;
                 self.cand.push((pi, w));
                 self.cand_slots.extend_from_slice(&slots[..p.nslots]);
             }
         }
-        let pick = match self.cand.len() {
-            0 => return Ok(None),
-            1 => 0,
-            n => {
-                let u = rng.uniform().map_err(|m| {
-                    let p = &table.prods[self.cand[0].0 as usize];
-                    Error::at(origin.locate(p.span.0), format!("{m} (in {pass})"))
-                })?;
-                let mut u = u * total;
-                let mut i = 0;
-                while i < n - 1 {
-                    u -= self.cand[i].1;
-                    if u < 0.0 {
-                        break;
+        // cpfg's SelectProd: the module's draw from its choice generator,
+        // 32-bit floats, weight 0 competes (README, "Coming from cpfg").
+        let pick = if let Some(u) = rng.cpfg_choice() {
+            match select(self.cand.iter().map(|&(_, w)| w as f32), u) {
+                Some(i) => i,
+                None => return Ok(None),
+            }
+        } else {
+            match self.cand.len() {
+                0 => return Ok(None),
+                1 => 0,
+                n => {
+                    let u = rng.uniform().map_err(|m| {
+                        let p = &table.prods[self.cand[0].0 as usize];
+                        Error::at(origin.locate(p.span.0), format!("{m} (in {pass})"))
+                    })?;
+                    let mut u = u * total;
+                    let mut i = 0;
+                    while i < n - 1 {
+                        u -= self.cand[i].1;
+                        if u < 0.0 {
+                            break;
+                        }
+                        i += 1;
                     }
-                    i += 1;
+                    i
                 }
-                i
             }
         };
         // Restore the chosen production's bindings.

@@ -243,6 +243,7 @@ pub(crate) fn derive(
         hom_seed,
         warnings,
         step_hidden,
+        cpfg,
         ..
     } = system;
     let hom = settings.homomorphism && !homomorphism.is_empty();
@@ -261,7 +262,12 @@ pub(crate) fn derive(
     if strategy == Strategy::DepthFirst && (passes == 0 || frames.is_some()) {
         return Err(not_depth_first());
     }
-    let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
+    // The cpfg dialect: cpfg's generators (README, "Coming from cpfg").
+    let rng = match &cpfg {
+        Some(c) => Random::cpfg(c.seed),
+        None => Random::new(seed),
+    };
+    let mut d = Deriver::new(alphabet, rng, Origin { path, header });
     for span in step_hidden {
         crate::diag::warn(
             d.origin.locate(span.0),
@@ -330,7 +336,10 @@ pub(crate) fn derive(
     // Issue 11: groups, decomposition, homomorphism depth and cuts are
     // implemented by the step engine only; a `%` that can be a cut makes a
     // module's expansion depend on its neighbours.
-    let step_only = structural || makes_percent(&d, &productions, &groups) || axiom_cuts;
+    // The cpfg dialect draws in string order from one sequential
+    // generator (`ran`, the stochastic choice): only step by step.
+    let step_only =
+        structural || cpfg.is_some() || makes_percent(&d, &productions, &groups) || axiom_cuts;
     let strategy = if step_only {
         if strategy == Strategy::DepthFirst {
             return Err(not_depth_first());
@@ -515,8 +524,9 @@ fn step_passes(
             let k = first_step + steps - 1;
             if let Some(s) = tables.hom_seed {
                 // The homomorphism's own key (its `seed:`); same stream
-                // and positions (docs/structural.md, section 8).
-                d.rng = Random::new(s);
+                // and positions (docs/structural.md, section 8). The last
+                // pass: nothing to restore.
+                d.rng.begin_homomorphism(s);
             }
             d.rng.start_pass(k, Region::Homomorphism);
             d.rng.set_step(k);
@@ -603,15 +613,13 @@ fn frame_passes(
                 // The homomorphism of generation k, as `lsgen -n k` applies
                 // it: with its own `seed:`, a generator for this frame only.
                 let stream = first_step + k - 1;
-                let main = tables
-                    .hom_seed
-                    .map(|s| std::mem::replace(&mut d.rng, Random::new(s)));
+                let main = tables.hom_seed.map(|s| d.rng.begin_homomorphism(s));
                 d.rng.start_pass(stream, Region::Homomorphism);
                 d.rng.set_step(stream);
                 let mut out = out.for_pass(Pass::Homomorphism);
                 let r = d.pass(homomorphism, gen, indexed, &mut out, Pass::Homomorphism);
                 if let Some(main) = main {
-                    d.rng = main;
+                    d.rng.end_homomorphism(main);
                 }
                 r?;
                 out.finish()

@@ -500,6 +500,7 @@ impl<'a> Deriver<'a> {
                     // generation), so walk them one by one.
                     let mut depth = 0u64;
                     let mut close = None;
+                    let cut_from = index;
                     while let Some((k, _, _)) = rd.next_module(&self.alphabet).map_err(read_err)? {
                         if k == CLOSE {
                             if depth == 0 {
@@ -511,6 +512,10 @@ impl<'a> Deriver<'a> {
                             depth += 1;
                         }
                         index += 1;
+                    }
+                    // cpfg's choice generator: the cut part draws nothing.
+                    if let Some(c) = self.rng.cpfg_mut() {
+                        c.skip_modules(index - cut_from);
                     }
                     match close {
                         Some(after) => {
@@ -549,6 +554,10 @@ impl<'a> Deriver<'a> {
                 }
             }
             out.maybe_flush()?;
+        }
+        if let (Some(c), Pass::Step(_)) = (self.rng.cpfg_mut(), pass) {
+            // cpfg's choice generator: every module of the step drew once.
+            c.end_pass(index);
         }
         if st.depth != 0 {
             let p = &table.prods[st.last_opener.unwrap_or(0) as usize];

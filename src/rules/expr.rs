@@ -88,6 +88,10 @@ fn lookup_function(name: &str) -> Option<(Fun, usize)> {
         "atan2" => (Fun::F2(Atan2), 2),
         "ran" => (Fun::Ran, 1),
         "nran" => (Fun::Nran, 2),
+        // cpfg's (issue 12): an error at run time outside `.l` files.
+        "bran" => (Fun::Cpfg(CpfgFun::Bran), 2),
+        "biran" => (Fun::Cpfg(CpfgFun::Biran), 2),
+        "srand" => (Fun::Cpfg(CpfgFun::Srand), 1),
         _ => return None,
     })
 }
@@ -97,6 +101,19 @@ enum Fun {
     F2(Func2),
     Ran,
     Nran,
+    Cpfg(CpfgFun),
+}
+
+/// cpfg's random functions besides `ran` and `nran` (issue 12), on its
+/// function generator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CpfgFun {
+    /// `bran(a, b)`: a beta deviate.
+    Bran,
+    /// `biran(n, p)`: a binomial deviate.
+    Biran,
+    /// `srand(x)`: reseed, giving 0.
+    Srand,
 }
 
 /// One instruction. Operations that can fail carry the index of their span.
@@ -123,6 +140,8 @@ pub enum Op {
     F2(Func2, u32),
     Ran(u32),
     Nran(u32),
+    /// `bran`, `biran` (two operands) or `srand` (one).
+    CpfgRan(CpfgFun, u32),
     /// The built-in step number (issue 11), kept by the generator.
     Step,
 }
@@ -185,7 +204,7 @@ impl Code {
     pub fn uses_random(&self) -> bool {
         self.ops
             .iter()
-            .any(|o| matches!(o, Op::Ran(_) | Op::Nran(_)))
+            .any(|o| matches!(o, Op::Ran(_) | Op::Nran(_) | Op::CpfgRan(..)))
     }
 
     /// Does this expression read the built-in `step`?
@@ -244,6 +263,7 @@ impl Code {
                     Fun::F2(f) => Op::F2(f, si),
                     Fun::Ran => Op::Ran(si),
                     Fun::Nran => Op::Nran(si),
+                    Fun::Cpfg(f) => Op::CpfgRan(f, si),
                 });
             }
             Expr::Unary(op, a, _) => {
@@ -282,9 +302,12 @@ impl Code {
     fn fold(&mut self, start: usize) -> Result<(), CompileError> {
         let tail = &self.ops[start..];
         if tail.len() == 1
-            || tail
-                .iter()
-                .any(|o| matches!(o, Op::Load(_) | Op::Ran(_) | Op::Nran(_) | Op::Step))
+            || tail.iter().any(|o| {
+                matches!(
+                    o,
+                    Op::Load(_) | Op::Ran(_) | Op::Nran(_) | Op::CpfgRan(..) | Op::Step
+                )
+            })
         {
             return Ok(());
         }
@@ -375,6 +398,24 @@ impl Code {
                     }
                     *a = r;
                 }
+                Op::CpfgRan(f, si) => {
+                    let r = match f {
+                        CpfgFun::Srand => {
+                            let a = stack.pop().unwrap();
+                            rng.srand(a)
+                        }
+                        CpfgFun::Bran | CpfgFun::Biran => {
+                            let b = stack.pop().unwrap();
+                            let a = stack.pop().unwrap();
+                            if f == CpfgFun::Bran {
+                                rng.bran(a, b)
+                            } else {
+                                rng.biran(a, b)
+                            }
+                        }
+                    };
+                    stack.push(r.map_err(|m| self.fail(si, m))?);
+                }
                 Op::Nran(si) => {
                     let sd = stack.pop().unwrap();
                     let mean = stack.last_mut().unwrap();
@@ -464,6 +505,7 @@ fn is_binary(op: Op) -> bool {
             | Op::F1(..)
             | Op::Ran(_)
             | Op::Nran(_)
+            | Op::CpfgRan(..)
             | Op::Step
     )
 }

@@ -389,6 +389,9 @@ pub struct System {
     /// Where a constant or a formal parameter named `step` hides the
     /// built-in step number (a warning each).
     pub step_hidden: Vec<Span>,
+    /// A `.l` file's run-time settings (issue 12): cpfg's generators,
+    /// context rules and the step strategy.
+    pub cpfg: Option<Box<crate::cpfg::run::CpfgRun>>,
 }
 
 /// Constants and formal parameters named `step` (issue 11).
@@ -723,6 +726,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         hom_seed,
         warnings,
         step_hidden,
+        cpfg: None,
     })
 }
 

@@ -1,0 +1,80 @@
+//! What the cpfg dialect adds to a compiled system at run time (issue 12):
+//! its randomness settings, filled in by the dialect's front end and read
+//! by the one derivation engine (`src/derive/`).
+
+/// The cpfg dialect's run-time settings. A system from a `.l` file carries
+/// one ([`crate::rules::System::cpfg`]); its presence selects cpfg's
+/// generators (`src/cpfg/random.rs`), forces the step strategy (cpfg's
+/// draws are sequential, in string order) and cpfg's context rules.
+#[derive(Clone, Debug, Default)]
+pub struct CpfgRun {
+    /// The file's `seed:` (None: no `seed:`, so the productions' weights
+    /// are ignored, as in cpfg). `--seed N` replaces it, as if the file
+    /// said `seed: N`.
+    pub seed: Option<u64>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::CpfgRun;
+    use crate::api::{LSystem, Options};
+
+    /// `src` (an `.ls` text) derived `n` steps as a `.l` file with `seed`
+    /// would be: cpfg's generators and draw order in the one engine.
+    fn cpfg(src: &str, seed: Option<u64>, n: u64) -> String {
+        let mut ls = LSystem::parse(src).unwrap();
+        ls.as_cpfg(CpfgRun { seed });
+        let mut out = Vec::new();
+        ls.derive(&Options::new().steps(n), &mut out).unwrap();
+        String::from_utf8(out).unwrap()
+    }
+
+    fn expected(name: &str) -> String {
+        std::fs::read_to_string(format!(
+            "{}/tests/expected/cpfg/{name}.txt",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .unwrap()
+    }
+
+    // tests/cpfg/stochastic.l in the `.ls` syntax (its productions are
+    // context-free, so both dialects try them in the same order); the
+    // strings are cpfg_ref.py's.
+    const STOCHASTIC: &str = "productions:
+F(n) -> F(n+1)[+F(0)]F(n+1) : 1
+F(n) -> F(n+1)[-F(0)] : 2
+F(n) : n > 1 -> G : n / 2
+F(n) -> F(n+1)
+G -> H : 0
+axiom: F(0)
+";
+
+    #[test]
+    fn seeded_choice_is_cpfgs() {
+        for n in [1, 2, 5, 8] {
+            assert_eq!(
+                cpfg(STOCHASTIC, Some(7), n),
+                expected(&format!("stochastic.n{n}")),
+                "{n} steps"
+            );
+        }
+        // tests/cpfg/stochastic_seed0.l: glibc's unseeded state.
+        let seed0 = "productions:\nA -> AB : 1\nA -> A : 1\nB -> C\nB -> D\naxiom: A\n";
+        for n in [1, 4] {
+            assert_eq!(
+                cpfg(seed0, Some(0), n),
+                expected(&format!("stochastic_seed0.n{n}")),
+                "seed 0, {n} steps"
+            );
+        }
+    }
+
+    #[test]
+    fn without_seed_the_weights_are_ignored() {
+        // First applicable in file order: F(n) -> F(n+1)[+F(0)]F(n+1).
+        assert_eq!(
+            cpfg(STOCHASTIC, None, 2),
+            "F(2)[+F(0)]F(2)[+F(1)[+F(0)]F(1)]F(2)[+F(0)]F(2)\n"
+        );
+    }
+}
