@@ -24,6 +24,7 @@
 //! continues the statement before it exactly when it does in cpfg, and line
 //! N of the output is line N of the file outside included text.
 
+pub mod blocks;
 pub mod preprocess;
 pub mod random;
 pub mod run;

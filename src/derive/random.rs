@@ -68,6 +68,11 @@ pub trait Draw {
     fn srand(&mut self, _x: f64) -> Result<f64, &'static str> {
         Err(CPFG_ONLY)
     }
+    /// cpfg's global variable `i` (issue 12; 0 until assigned).
+    fn global(&self, _i: u32) -> f64 {
+        0.0
+    }
+    fn set_global(&mut self, _i: u32, _v: f64) {}
 }
 
 const CPFG_ONLY: &str = "bran, biran and srand are cpfg functions, only in `.l` files";
@@ -116,6 +121,9 @@ pub struct Random {
     /// the stochastic choice draw from them, in string order, instead of
     /// the draws by position.
     cpfg: Option<Box<CpfgRandom>>,
+    /// cpfg's global variables (issue 12): the run's state that every
+    /// expression reads, kept here with the step number.
+    globals: Vec<f64>,
 }
 
 impl Random {
@@ -131,6 +139,7 @@ impl Random {
             sequential: false,
             step: 0.0,
             cpfg: None,
+            globals: Vec::new(),
         }
     }
 
@@ -320,6 +329,19 @@ impl Draw for Random {
     #[inline]
     fn step(&self) -> f64 {
         self.step
+    }
+
+    #[inline]
+    fn global(&self, i: u32) -> f64 {
+        self.globals.get(i as usize).copied().unwrap_or(0.0)
+    }
+
+    fn set_global(&mut self, i: u32, v: f64) {
+        let i = i as usize;
+        if self.globals.len() <= i {
+            self.globals.resize(i + 1, 0.0);
+        }
+        self.globals[i] = v;
     }
 }
 

@@ -144,11 +144,18 @@ pub enum Op {
     CpfgRan(CpfgFun, u32),
     /// The built-in step number (issue 11), kept by the generator.
     Step,
+    /// A cpfg global variable (issue 12), kept by the generator.
+    Global(u32),
 }
 
 /// The parameter slot that names the built-in `step` in a scope's
 /// `params` (issue 11).
 pub const STEP_SLOT: u32 = u32::MAX;
+
+/// Parameter slots from here on name cpfg's global variables (issue 12):
+/// `GLOBAL_SLOT + i` is global `i`, read from the generator
+/// ([`Draw::global`]), not from the production's slots.
+pub const GLOBAL_SLOT: u32 = 1 << 31;
 
 /// A compiled expression.
 #[derive(Clone, Debug, PartialEq)]
@@ -225,6 +232,8 @@ impl Code {
                 if let Some(&slot) = scope.params.get(name) {
                     self.ops.push(if slot == STEP_SLOT {
                         Op::Step
+                    } else if slot >= GLOBAL_SLOT {
+                        Op::Global(slot - GLOBAL_SLOT)
                     } else {
                         Op::Load(slot)
                     });
@@ -305,7 +314,12 @@ impl Code {
             || tail.iter().any(|o| {
                 matches!(
                     o,
-                    Op::Load(_) | Op::Ran(_) | Op::Nran(_) | Op::CpfgRan(..) | Op::Step
+                    Op::Load(_)
+                        | Op::Ran(_)
+                        | Op::Nran(_)
+                        | Op::CpfgRan(..)
+                        | Op::Step
+                        | Op::Global(_)
                 )
             })
         {
@@ -352,6 +366,7 @@ impl Code {
                 Op::Const(v) => stack.push(v),
                 Op::Load(s) => stack.push(slots[s as usize]),
                 Op::Step => stack.push(rng.step()),
+                Op::Global(g) => stack.push(rng.global(g)),
                 Op::Neg => {
                     let a = stack.last_mut().unwrap();
                     *a = -*a;
@@ -507,6 +522,7 @@ fn is_binary(op: Op) -> bool {
             | Op::Nran(_)
             | Op::CpfgRan(..)
             | Op::Step
+            | Op::Global(_)
     )
 }
 
