@@ -69,6 +69,62 @@ axiom: F(0)
         }
     }
 
+    // tests/cpfg/context_*.l in the `.ls` syntax (every production has a
+    // context, so both dialects try them in file order); each gives
+    // another string under the `.ls` rules (checked by hand: `A > [B`
+    // matches there, `]` skips the rest of a branch, brackets are never
+    // passed over).
+    #[test]
+    fn right_contexts_follow_cpfg() {
+        let branches = "productions:
+A > [B -> a1
+A > [X]C -> a2
+C > D -> c
+D > F -> d1
+G > [H]I -> g
+E > F -> e
+H > ] -> h1
+I < J -> i
+K > [L]M -> k
+L > ]M -> l
+M < N -> m1
+K < N -> m2
+J < N -> n
+P < Q -> q
+P < R -> r
+Q > R -> x
+axiom: A[X][BY]C D[E]F G[H]I J[K[L]M]N P[Q]R S
+";
+        let consider = "consider: ABCD
+productions:
+A > BC -> a
+B > CD -> b
+A < C -> c
+D > AB -> d
+F < D -> f
+A > F -> g
+axiom: A[B]C F D[F[A]]B
+";
+        let equals = "productions:
+B > =]F -> b
+C > =]G -> c
+H > =]I -> h
+A > [=]F -> a
+axiom: A[BC[D]E]F G[H]I
+";
+        for (src, name) in [
+            (branches, "context_branches"),
+            (consider, "context_consider"),
+            (equals, "context_equals"),
+        ] {
+            assert_eq!(
+                cpfg(src, None, 1),
+                expected(&format!("{name}.n1")),
+                "{name}"
+            );
+        }
+    }
+
     #[test]
     fn without_seed_the_weights_are_ignored() {
         // First applicable in file order: F(n) -> F(n+1)[+F(0)]F(n+1).

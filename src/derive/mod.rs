@@ -267,7 +267,18 @@ pub(crate) fn derive(
         Some(c) => Random::cpfg(c.seed),
         None => Random::new(seed),
     };
+    let (mut productions, mut homomorphism, mut decomposition) =
+        (productions, homomorphism, decomposition);
+    if cpfg.is_some() {
+        // cpfg's right contexts (README, "Coming from cpfg").
+        productions.for_cpfg(&alphabet);
+        homomorphism.for_cpfg(&alphabet);
+        if let Some((t, _)) = &mut decomposition {
+            t.for_cpfg(&alphabet);
+        }
+    }
     let mut d = Deriver::new(alphabet, rng, Origin { path, header });
+    d.cpfg_contexts = cpfg.is_some();
     for span in step_hidden {
         crate::diag::warn(
             d.origin.locate(span.0),

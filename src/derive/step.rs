@@ -10,7 +10,9 @@
 
 use super::bytetable::ByteTable;
 use super::choose::{Chooser, Piece};
-use super::context::{match_right, walk_right, Chains, LeftContext, RightCache, Walk};
+use super::context::{
+    match_right, match_right_cpfg, walk_right, Chains, CpfgBrackets, LeftContext, RightCache, Walk,
+};
 use super::reader::PosReader;
 use super::sink::Out;
 use super::{Origin, Pass};
@@ -35,6 +37,8 @@ pub struct Deriver<'a> {
     pub decomp: Option<(Table, usize)>,
     pub hom_depth: usize,
     pub cut: bool,
+    /// Right contexts follow cpfg's rules (a `.l` file, issue 12).
+    pub cpfg_contexts: bool,
     /// `warnings` on the decomposition / homomorphism section, and whether
     /// each has warned (once per run).
     pub warnings: [bool; 2],
@@ -240,6 +244,8 @@ fn fill_level(
 
 struct StepState<'f> {
     peek: Option<PosReader<'f>>,
+    /// cpfg's right-context rules (a `.l` file), chosen once per pass.
+    cpfg: Option<CpfgBrackets>,
     right: RightCache,
     max_right_simple: usize,
     left: Option<LeftContext>,
@@ -330,6 +336,7 @@ impl<'a> Deriver<'a> {
             decomp: None,
             hom_depth: 1,
             cut: false,
+            cpfg_contexts: false,
             warnings: [false; 2],
             warned: [Cell::new(false), Cell::new(false)],
             rc: Recur::default(),
@@ -385,6 +392,7 @@ impl<'a> Deriver<'a> {
             peek: table
                 .has_right
                 .then(|| PosReader::new(input, 1 << 16, indexed)),
+            cpfg: self.cpfg_contexts.then(|| CpfgBrackets::of(&self.alphabet)),
             right: RightCache::new(),
             max_right_simple: table.max_right_simple,
             left: (table.max_left > 0).then(|| LeftContext::new(table, &self.alphabet)),
@@ -708,6 +716,13 @@ fn contexts_match(
     if p.right_simple {
         let right = st.right_of(end_off, al)?;
         if !right.matches(&p.right, al, slots) {
+            return Ok(false);
+        }
+    } else if let (Some(passed), false) = (st.cpfg, p.right.is_empty()) {
+        // cpfg's rules: from just after the predecessor.
+        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        let peek = st.peek.as_mut().unwrap();
+        if !match_right_cpfg(peek, al, end_off, &p.right, slots, passed).map_err(read_err)? {
             return Ok(false);
         }
     } else if !p.right.is_empty() {

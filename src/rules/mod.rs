@@ -111,6 +111,17 @@ impl Alphabet {
     pub fn symbol(&self, key: u32) -> char {
         self.sym[key as usize]
     }
+    /// cpfg's right contexts (issue 12): is bracket `b` passed over like
+    /// an ignored symbol? Under `consider:`, when not listed; under
+    /// `ignore:`, when listed.
+    pub fn bracket_passed(&self, b: char) -> bool {
+        match &self.filter {
+            Filter::All => false,
+            Filter::Ignore(s) => s.contains(&b),
+            Filter::Consider(s) => !s.contains(&b),
+        }
+    }
+
     /// Is this key passed over when matching contexts?
     #[inline]
     pub fn ignored(&self, key: u32) -> bool {
@@ -137,8 +148,12 @@ pub enum RPat {
     Module(Pat),
     /// `[`: enter a lateral branch.
     Open,
-    /// `]`: skip the rest of the current branch.
+    /// `]`: skip the rest of the current branch (the cpfg dialect: match
+    /// a `]` of the string).
     Close,
+    /// cpfg's `=`: skip to the end of the current branch (the cpfg dialect
+    /// only; README, "Coming from cpfg").
+    SkipRest,
 }
 
 /// Modules known at load time, precomputed in each format, in one
@@ -338,6 +353,23 @@ impl Table {
     }
     pub fn has_context(&self) -> bool {
         self.max_left > 0 || self.has_right
+    }
+
+    /// cpfg's right contexts (issue 12): every one goes through cpfg's
+    /// matcher (no cached bracket-free shortcut), and a `=` module in a
+    /// right context is cpfg's "skip the rest of the branch".
+    pub fn for_cpfg(&mut self, al: &Alphabet) {
+        for p in &mut self.prods {
+            p.right_simple = false;
+            for r in p.right.iter_mut() {
+                if let RPat::Module(m) = r {
+                    if m.key == u32::from(b'=') && al.arity(m.key) == 0 {
+                        *r = RPat::SkipRest;
+                    }
+                }
+            }
+        }
+        self.max_right_simple = 0;
     }
 
     /// A numbered group's table with group 0 (`base`) as its fallback:
