@@ -2,6 +2,10 @@
 //! its randomness settings, filled in by the dialect's front end and read
 //! by the one derivation engine (`src/derive/`).
 
+use super::blocks::Block;
+use crate::derive::random::Random;
+use crate::rules::expr::EvalError;
+
 /// The cpfg dialect's run-time settings. A system from a `.l` file carries
 /// one ([`crate::rules::System::cpfg`]); its presence selects cpfg's
 /// generators (`src/cpfg/random.rs`), forces the step strategy (cpfg's
@@ -12,6 +16,52 @@ pub struct CpfgRun {
     /// are ignored, as in cpfg). `--seed N` replaces it, as if the file
     /// said `seed: N`.
     pub seed: Option<u64>,
+    /// `Start:`, `StartEach:`, `EndEach:`, `End:` (empty when absent):
+    /// they assign global variables.
+    pub start: Block,
+    pub start_each: Block,
+    pub end_each: Block,
+    pub end: Block,
+    /// `derivation length:` of the file: `End:` runs after the last step's
+    /// `EndEach:` when the run reaches it (cpfg ends there).
+    pub derivation_length: u64,
+}
+
+impl CpfgRun {
+    /// Does a header block run? (Then every step counts: no fixed point.)
+    pub fn has_blocks(&self) -> bool {
+        !(self.start.is_empty()
+            && self.start_each.is_empty()
+            && self.end_each.is_empty()
+            && self.end.is_empty())
+    }
+
+    /// Run a header block, globals in `rng`.
+    pub fn run(&self, which: When, rng: &mut Random) -> Result<(), EvalError> {
+        let b = match which {
+            When::Start => &self.start,
+            When::StartEach => &self.start_each,
+            When::EndEach => &self.end_each,
+            When::End => &self.end,
+        };
+        if b.is_empty() {
+            return Ok(());
+        }
+        b.run(&mut [], &mut Vec::new(), rng)
+    }
+}
+
+/// Which header block.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum When {
+    /// Before the axiom is read.
+    Start,
+    /// Before each step.
+    StartEach,
+    /// After each step.
+    EndEach,
+    /// After the last step's `EndEach:` (not for 0 steps).
+    End,
 }
 
 #[cfg(test)]
@@ -23,7 +73,10 @@ mod tests {
     /// would be: cpfg's generators and draw order in the one engine.
     fn cpfg(src: &str, seed: Option<u64>, n: u64) -> String {
         let mut ls = LSystem::parse(src).unwrap();
-        ls.as_cpfg(CpfgRun { seed });
+        ls.as_cpfg(CpfgRun {
+            seed,
+            ..CpfgRun::default()
+        });
         let mut out = Vec::new();
         ls.derive(&Options::new().steps(n), &mut out).unwrap();
         String::from_utf8(out).unwrap()

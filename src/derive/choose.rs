@@ -88,6 +88,11 @@ impl Chooser {
         if !contexts(p, slots)? {
             return Ok(false);
         }
+        if let Some(b) = &p.pre {
+            // cpfg: the pre-condition block, before the condition.
+            b.run(slots, &mut self.stack, rng)
+                .map_err(|e| origin.eval_error(e, pass))?;
+        }
         match &p.cond {
             None => Ok(true),
             Some(c) => match c.eval(slots, &mut self.stack, rng) {
@@ -188,6 +193,25 @@ impl Chooser {
         let n = table.prods[pi as usize].nslots;
         slots[..n].copy_from_slice(&self.cand_slots[off..off + n]);
         Ok(Some(pi))
+    }
+
+    /// cpfg's post-condition block of the chosen production `p` (locals in
+    /// `slots`), before its successor is evaluated.
+    #[inline]
+    pub(crate) fn post(
+        &mut self,
+        slots: &mut [f64],
+        p: &Production,
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+    ) -> Result<(), Error> {
+        match &p.post {
+            Some(b) => b
+                .run(slots, &mut self.stack, rng)
+                .map_err(|e| origin.eval_error(e, pass)),
+            None => Ok(()),
+        }
     }
 
     /// Evaluate `p`'s successor with the bound parameters, handing each

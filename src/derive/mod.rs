@@ -21,6 +21,7 @@ pub use reader::PosReader;
 pub use sink::{Limits, Out};
 pub use step::Deriver;
 
+use crate::cpfg::run::When;
 use crate::diag::{CodeMap, Error, Location};
 use crate::io::axiom::AxiomReader;
 use crate::rules::System;
@@ -279,6 +280,10 @@ pub(crate) fn derive(
     }
     let mut d = Deriver::new(alphabet, rng, Origin { path, header });
     d.cpfg_contexts = cpfg.is_some();
+    let is_cpfg = cpfg.is_some();
+    // Header blocks run every step: no fixed point.
+    let blocks = cpfg.as_ref().is_some_and(|c| c.has_blocks());
+    d.cpfg = cpfg;
     for span in step_hidden {
         crate::diag::warn(
             d.origin.locate(span.0),
@@ -320,6 +325,8 @@ pub(crate) fn derive(
     } else {
         Some(tempfile(tmpdir)?)
     };
+    // cpfg's `Start:` runs before the axiom is read.
+    d.cpfg_block(When::Start, Pass::Axiom)?;
     {
         let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, indexed)?;
         let mut params = Vec::new();
@@ -349,8 +356,7 @@ pub(crate) fn derive(
     // module's expansion depend on its neighbours.
     // The cpfg dialect draws in string order from one sequential
     // generator (`ran`, the stochastic choice): only step by step.
-    let step_only =
-        structural || cpfg.is_some() || makes_percent(&d, &productions, &groups) || axiom_cuts;
+    let step_only = structural || is_cpfg || makes_percent(&d, &productions, &groups) || axiom_cuts;
     let strategy = if step_only {
         if strategy == Strategy::DepthFirst {
             return Err(not_depth_first());
@@ -367,7 +373,7 @@ pub(crate) fn derive(
             schedule: &schedule,
             group_expr: group_expr.as_ref(),
             hom_seed,
-            fixed_points: !structural,
+            fixed_points: !structural && !blocks,
         };
         let tables = (&tables, &homomorphism, hom);
         let names = (frame_sink, tmp_name.as_str());
@@ -482,7 +488,7 @@ pub(crate) fn derive(
         schedule: &schedule,
         group_expr: group_expr.as_ref(),
         hom_seed,
-        fixed_points: !structural,
+        fixed_points: !structural && !blocks,
     };
     let stepwise = step_passes(
         &mut d,
@@ -556,6 +562,10 @@ fn step_passes(
             })
         };
         let draws = d.rng.draws();
+        let step = matches!(pass, Pass::Step(_));
+        if step {
+            d.cpfg_block(When::StartEach, pass)?;
+        }
         {
             let mut out =
                 sink(&mut dst, tmp_name, output, out_name, limits, indexed)?.for_pass(pass);
@@ -567,6 +577,14 @@ fn step_passes(
                 bytes,
             });
             last_len = (modules, bytes);
+        }
+        if step {
+            d.cpfg_block(When::EndEach, pass)?;
+            // `End:` after the last step, when the run reaches the file's
+            // derivation length (cpfg's end of derivation).
+            if i == steps && d.cpfg.as_ref().is_some_and(|c| i >= c.derivation_length) {
+                d.cpfg_block(When::End, pass)?;
+            }
         }
         // A step that drew nothing and left the string as it was is a fixed
         // point: every later step does the same. Go on with the last pass
@@ -671,6 +689,7 @@ fn frame_passes(
             }
             None => tempfile(tmpdir)?,
         });
+        d.cpfg_block(When::StartEach, pass)?;
         {
             let mut discard = io::sink();
             let mut out =
@@ -683,6 +702,7 @@ fn frame_passes(
                 bytes,
             });
         }
+        d.cpfg_block(When::EndEach, pass)?;
         other = Some(std::mem::replace(&mut cur, dst.expect("a generation")));
         if frames.contains(i) {
             emit(d, &cur, i)?;

@@ -39,6 +39,8 @@ pub struct Deriver<'a> {
     pub cut: bool,
     /// Right contexts follow cpfg's rules (a `.l` file, issue 12).
     pub cpfg_contexts: bool,
+    /// A `.l` file's header blocks (issue 12).
+    pub cpfg: Option<Box<crate::cpfg::run::CpfgRun>>,
     /// `warnings` on the decomposition / homomorphism section, and whether
     /// each has warned (once per run).
     pub warnings: [bool; 2],
@@ -208,6 +210,7 @@ fn try_rewrite(
         return Ok(false);
     };
     let p = &cx.table.prods[pi as usize];
+    rc.chooser.post(&mut rc.slots, p, rng, cx.origin, cx.pass)?;
     fill_level(rc, cx.al, depth + 1, p, rng, cx.origin, cx.pass)?;
     expand_level(rc, cx, depth + 1, rng, ctx, out)?;
     Ok(true)
@@ -337,9 +340,21 @@ impl<'a> Deriver<'a> {
             hom_depth: 1,
             cut: false,
             cpfg_contexts: false,
+            cpfg: None,
             warnings: [false; 2],
             warned: [Cell::new(false), Cell::new(false)],
             rc: Recur::default(),
+        }
+    }
+
+    /// Run a `.l` file's header block `which` (its errors located in
+    /// `pass`); nothing for other files.
+    pub fn cpfg_block(&mut self, which: crate::cpfg::run::When, pass: Pass) -> Result<(), Error> {
+        match &self.cpfg {
+            Some(c) => c
+                .run(which, &mut self.rng)
+                .map_err(|e| self.origin.eval_error(e, pass)),
+            None => Ok(()),
         }
     }
 
@@ -615,6 +630,7 @@ impl<'a> Deriver<'a> {
             return Ok(false);
         };
         let p = &table.prods[pi as usize];
+        chooser.post(slots, p, rng, origin, pass)?;
         if table.check_balance {
             if st.depth + p.depth_min < 0 {
                 return Err(unbalanced(origin, table, Some(pi), pass));

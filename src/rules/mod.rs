@@ -261,6 +261,11 @@ pub struct Production {
     /// Bracket depth change of the successor, and its lowest prefix.
     pub depth_delta: i64,
     pub depth_min: i64,
+    /// cpfg's pre-condition block (runs before the condition, also when
+    /// it fails) and post-condition block (runs when the production is
+    /// applied, before its successor), issue 12.
+    pub pre: Option<Box<crate::cpfg::blocks::Block>>,
+    pub post: Option<Box<crate::cpfg::blocks::Block>>,
 }
 
 impl Production {
@@ -961,6 +966,8 @@ fn compile_production(
         span: p.span,
         depth_delta,
         depth_min,
+        pre: None,
+        post: None,
     })
 }
 
