@@ -34,10 +34,15 @@ use std::sync::atomic::Ordering;
 pub struct Origin<'a> {
     pub path: &'a str,
     pub header: &'a str,
+    /// A cpfg file: offsets are in its preprocessed text.
+    pub map: Option<&'a crate::cpfg::preprocess::SourceMap>,
 }
 
 impl Origin<'_> {
     pub(crate) fn locate(&self, offset: usize) -> Location {
+        if let Some(map) = self.map {
+            return map.location(offset);
+        }
         Location::from_map(self.path, &CodeMap::new(self.header), offset)
     }
 
@@ -243,6 +248,7 @@ pub(crate) fn derive(
         hom_seed,
         warnings,
         step_hidden,
+        source_map,
         ..
     } = system;
     let hom = settings.homomorphism && !homomorphism.is_empty();
@@ -261,7 +267,15 @@ pub(crate) fn derive(
     if strategy == Strategy::DepthFirst && (passes == 0 || frames.is_some()) {
         return Err(not_depth_first());
     }
-    let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
+    let mut d = Deriver::new(
+        alphabet,
+        Random::new(seed),
+        Origin {
+            path,
+            header,
+            map: source_map.as_deref(),
+        },
+    );
     for span in step_hidden {
         crate::diag::warn(
             d.origin.locate(span.0),
