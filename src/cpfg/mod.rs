@@ -1,10 +1,14 @@
 //! The cpfg (L-studio / vlab) dialect: `.l` files (issue 12).
 //!
-//! Work in progress: only the first stage exists so far, the built-in
-//! C-preprocessor subset ([`preprocess`]) that cpfg runs every `.l` file
-//! through (cpfg calls vlab's `vlabcpp`, a GNU `cccp`). The dialect's parser
-//! will read [`preprocess::Output::text`] and turn byte offsets into original
-//! file/line/column with [`preprocess::SourceMap`].
+//! The stages: the built-in C-preprocessor subset ([`preprocess`]) that
+//! cpfg runs every `.l` file through (cpfg calls vlab's `vlabcpp`, a GNU
+//! `cccp`); the lexer ([`lexer`], logos) and the LALRPOP grammar
+//! (`grammar/cpfg.lalrpop`, [`parse`]) on its output, giving the syntax
+//! tree ([`ast`], statement blocks kept as data); the lowering ([`lower`])
+//! to the shared `.ls` syntax tree, compiled by `rules::compile_dialect`
+//! with cpfg's semantics and derived by the shared engine. Every offset of
+//! the preprocessed text maps back to its original file, line and column
+//! through [`preprocess::SourceMap`].
 //!
 //! # Newline + TAB continues a statement: the parser's job
 //!
@@ -24,10 +28,105 @@
 //! continues the statement before it exactly when it does in cpfg, and line
 //! N of the output is line N of the file outside included text.
 
+pub mod ast;
 pub mod blocks;
+pub mod lexer;
+pub mod lower;
+pub mod parse;
 pub mod preprocess;
 pub mod random;
 pub mod run;
+
+use crate::diag::{Error, ErrorKind};
+use crate::lang::ast::Header;
+use crate::lang::parse::UserError;
+use preprocess::SourceMap;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Which language a file is written in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Dialect {
+    /// From the file: see [`is_cpfg`].
+    #[default]
+    Auto,
+    /// lsgen's `.ls`.
+    Ls,
+    /// cpfg's `.l`.
+    Cpfg,
+}
+
+/// Is a file cpfg's: its name ends in `.l`, or its first statement (after
+/// blanks and comments) is `Lsystem:` or a `#` directive? `head` is the
+/// start of the file.
+pub fn is_cpfg(name: &str, head: &[u8]) -> bool {
+    if name.ends_with(".l") {
+        return true;
+    }
+    let mut s = head
+        .strip_prefix(b"\xEF\xBB\xBF".as_slice())
+        .unwrap_or(head);
+    loop {
+        let t = s.trim_ascii_start();
+        if let Some(r) = t.strip_prefix(b"/*".as_slice()) {
+            match r.windows(2).position(|w| w == b"*/") {
+                Some(i) => s = &r[i + 2..],
+                None => return false,
+            }
+        } else if let Some(r) = t.strip_prefix(b"//".as_slice()) {
+            match r.iter().position(|&b| b == b'\n') {
+                Some(i) => s = &r[i..],
+                None => return false,
+            }
+        } else {
+            return t.starts_with(b"#") || t.starts_with(b"Lsystem:") || t.starts_with(b"lsystem:");
+        }
+    }
+}
+
+/// A `.l` file read, preprocessed, parsed and lowered.
+pub struct Loaded {
+    /// The preprocessed text (the spans' text).
+    pub text: String,
+    pub map: Arc<SourceMap>,
+    pub header: Header,
+    /// The axiom as module text.
+    pub axiom: String,
+}
+
+/// A located error of the preprocessed text.
+pub fn locate(map: &SourceMap, e: UserError, kind: ErrorKind) -> Error {
+    Error::at(map.location(e.span.0), e.message).in_stage(kind)
+}
+
+/// Preprocess, parse and lower `source`, the text of the file `name`
+/// (includes are read relative to it); warnings go to standard error.
+pub fn load(name: &str, source: &str) -> Result<Loaded, Error> {
+    let out = preprocess::preprocess(Path::new(name), source, &preprocess::read_file)?;
+    for w in &out.warnings {
+        crate::diag::warn(w.at.clone(), &w.message);
+    }
+    let map = out.map;
+    let text = out.text;
+    let tree = parse::parse(&text).map_err(|e| {
+        let kind = if e.lexical {
+            ErrorKind::Lexical
+        } else {
+            ErrorKind::Parse
+        };
+        locate(&map, e, kind)
+    })?;
+    let lowered = lower::lower(&tree, &mut |span, msg| {
+        crate::diag::warn(map.location(span.0), &msg)
+    })
+    .map_err(|e| locate(&map, e, ErrorKind::Compile))?;
+    Ok(Loaded {
+        text,
+        map: Arc::new(map),
+        header: lowered.header,
+        axiom: lowered.axiom,
+    })
+}
 
 #[cfg(test)]
 mod tests;

@@ -35,10 +35,15 @@ use std::sync::atomic::Ordering;
 pub struct Origin<'a> {
     pub path: &'a str,
     pub header: &'a str,
+    /// A cpfg file: offsets are in its preprocessed text.
+    pub map: Option<&'a crate::cpfg::preprocess::SourceMap>,
 }
 
 impl Origin<'_> {
     pub(crate) fn locate(&self, offset: usize) -> Location {
+        if let Some(map) = self.map {
+            return map.location(offset);
+        }
         Location::from_map(self.path, &CodeMap::new(self.header), offset)
     }
 
@@ -245,6 +250,7 @@ pub(crate) fn derive(
         warnings,
         step_hidden,
         cpfg,
+        source_map,
         ..
     } = system;
     let hom = settings.homomorphism && !homomorphism.is_empty();
@@ -278,7 +284,15 @@ pub(crate) fn derive(
             t.for_cpfg(&alphabet);
         }
     }
-    let mut d = Deriver::new(alphabet, rng, Origin { path, header });
+    let mut d = Deriver::new(
+        alphabet,
+        rng,
+        Origin {
+            path,
+            header,
+            map: source_map.as_deref(),
+        },
+    );
     d.cpfg_contexts = cpfg.is_some();
     let is_cpfg = cpfg.is_some();
     // Header blocks run every step: no fixed point.

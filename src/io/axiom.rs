@@ -462,6 +462,7 @@ impl<'a> AxiomReader<'a> {
             &Scope {
                 params: &empty,
                 consts: self.consts,
+                cpfg: false,
             },
         ) {
             Ok(c) => c,

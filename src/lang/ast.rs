@@ -10,6 +10,8 @@ pub enum Expr {
     Call(String, Vec<Expr>, Span),
     Unary(UnOp, Box<Expr>, Span),
     Binary(BinOp, Box<Expr>, Box<Expr>, Span),
+    /// `c ? a : b` (cpfg dialect; all three are evaluated).
+    Cond(Box<Expr>, Box<Expr>, Box<Expr>, Span),
 }
 
 impl Expr {
@@ -19,7 +21,8 @@ impl Expr {
             | Expr::Var(_, s)
             | Expr::Call(_, _, s)
             | Expr::Unary(_, _, s)
-            | Expr::Binary(_, _, _, s) => *s,
+            | Expr::Binary(_, _, _, s)
+            | Expr::Cond(_, _, _, s) => *s,
         }
     }
 }
@@ -36,6 +39,8 @@ pub enum BinOp {
     Sub,
     Mul,
     Div,
+    /// `%` (cpfg dialect: remainder of the truncated operands).
+    Rem,
     Pow,
     Lt,
     Le,
@@ -157,6 +162,11 @@ impl Expr {
             }
             Expr::Unary(_, a, _) => a.compact(),
             Expr::Binary(_, a, b, _) => {
+                a.compact();
+                b.compact();
+            }
+            Expr::Cond(c, a, b, _) => {
+                c.compact();
                 a.compact();
                 b.compact();
             }

@@ -26,6 +26,13 @@ pub enum Func1 {
     Ceil,
     Trunc,
     Abs,
+    /// cpfg's `trunc`: floor(x + 0.5).
+    Round,
+    /// cpfg's `sign`: -1, 0 or 1.
+    Sign,
+    /// Round to a 32-bit float: cpfg stores parameters as `float`s (the
+    /// cpfg dialect wraps every successor parameter in it, [`CPFG_F32`]).
+    Float32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -33,6 +40,8 @@ pub enum Func2 {
     Min,
     Max,
     Atan2,
+    /// cpfg's `atan(a, b)`: atan(b), in degrees.
+    AtanSecond,
 }
 
 impl Func1 {
@@ -51,6 +60,17 @@ impl Func1 {
             Func1::Ceil => x.ceil(),
             Func1::Trunc => x.trunc(),
             Func1::Abs => x.abs(),
+            Func1::Round => (x + 0.5).floor(),
+            Func1::Float32 => f64::from(x as f32),
+            Func1::Sign => {
+                if x > 0.0 {
+                    1.0
+                } else if x < 0.0 {
+                    -1.0
+                } else {
+                    0.0
+                }
+            }
         }
     }
 }
@@ -61,6 +81,7 @@ impl Func2 {
             Func2::Min => a.min(b),
             Func2::Max => a.max(b),
             Func2::Atan2 => a.atan2(b).to_degrees(),
+            Func2::AtanSecond => b.atan().to_degrees(),
         }
     }
 }
@@ -88,10 +109,42 @@ fn lookup_function(name: &str) -> Option<(Fun, usize)> {
         "atan2" => (Fun::F2(Atan2), 2),
         "ran" => (Fun::Ran, 1),
         "nran" => (Fun::Nran, 2),
-        // cpfg's (issue 12): an error at run time outside `.l` files.
+        _ => return None,
+    })
+}
+
+/// The name of [`Func1::Float32`] for the cpfg dialect's compiler (no
+/// lexer makes it a name).
+pub const CPFG_F32: &str = "\u{0}f32";
+
+/// The cpfg dialect's functions (cpfg's `lsys_input.y`): degrees, `trunc`
+/// rounds, `atan` takes 1 or 2 arguments. Random ones are the cpfg
+/// runtime's.
+fn lookup_cpfg_function(name: &str, args: usize) -> Option<(Fun, usize)> {
+    use Func1::*;
+    Some(match name {
+        "sin" => (Fun::F1(Sin), 1),
+        "cos" => (Fun::F1(Cos), 1),
+        "tan" => (Fun::F1(Tan), 1),
+        "asin" => (Fun::F1(Asin), 1),
+        "acos" => (Fun::F1(Acos), 1),
+        "atan" if args == 2 => (Fun::F2(Func2::AtanSecond), 2),
+        "atan" => (Fun::F1(Atan), 1),
+        "sqrt" => (Fun::F1(Sqrt), 1),
+        "exp" => (Fun::F1(Exp), 1),
+        "log" => (Fun::F1(Log), 1),
+        "floor" => (Fun::F1(Floor), 1),
+        "ceil" => (Fun::F1(Ceil), 1),
+        "trunc" => (Fun::F1(Round), 1),
+        "fabs" => (Fun::F1(Abs), 1),
+        "sign" => (Fun::F1(Sign), 1),
+        // On cpfg's function generator (src/cpfg/random.rs).
+        "ran" => (Fun::Ran, 1),
+        "nran" => (Fun::Nran, 2),
         "bran" => (Fun::Cpfg(CpfgFun::Bran), 2),
         "biran" => (Fun::Cpfg(CpfgFun::Biran), 2),
         "srand" => (Fun::Cpfg(CpfgFun::Srand), 1),
+        CPFG_F32 => (Fun::F1(Float32), 1),
         _ => return None,
     })
 }
@@ -127,6 +180,10 @@ pub enum Op {
     Sub(u32),
     Mul(u32),
     Div(u32),
+    /// cpfg's `/`: a zero divisor divides by 1 (with a warning).
+    DivOr1(u32),
+    /// cpfg's `%`: remainder of the operands truncated to integers.
+    Rem(u32),
     Pow(u32),
     Lt,
     Le,
@@ -146,6 +203,9 @@ pub enum Op {
     Step,
     /// A cpfg global variable (issue 12), kept by the generator.
     Global(u32),
+    /// `c ? a : b` with c, a, b on the stack (all three evaluated, as
+    /// cpfg does).
+    Select,
 }
 
 /// The parameter slot that names the built-in `step` in a scope's
@@ -183,6 +243,8 @@ pub struct Scope<'a> {
     pub params: &'a HashMap<String, u32>,
     /// Constants from `define:`.
     pub consts: &'a HashMap<String, f64>,
+    /// The cpfg dialect: its functions, `/` and `%`.
+    pub cpfg: bool,
 }
 
 impl Code {
@@ -247,7 +309,12 @@ impl Code {
                 }
             }
             Expr::Call(name, args, span) => {
-                let Some((fun, arity)) = lookup_function(name) else {
+                let found = if scope.cpfg {
+                    lookup_cpfg_function(name, args.len())
+                } else {
+                    lookup_function(name)
+                };
+                let Some((fun, arity)) = found else {
                     return Err(EvalError {
                         span: (span.0, span.0 + name.len()),
                         message: format!("unknown function `{name}`"),
@@ -282,6 +349,12 @@ impl Code {
                     UnOp::Not => Op::Not,
                 });
             }
+            Expr::Cond(c, a, b, _) => {
+                self.emit(c, scope)?;
+                self.emit(a, scope)?;
+                self.emit(b, scope)?;
+                self.ops.push(Op::Select);
+            }
             Expr::Binary(op, a, b, span) => {
                 self.emit(a, scope)?;
                 self.emit(b, scope)?;
@@ -290,7 +363,17 @@ impl Code {
                     BinOp::Add => Op::Add(si),
                     BinOp::Sub => Op::Sub(si),
                     BinOp::Mul => Op::Mul(si),
+                    BinOp::Div if scope.cpfg => Op::DivOr1(si),
                     BinOp::Div => Op::Div(si),
+                    BinOp::Rem => {
+                        if matches!(self.ops.last(), Some(Op::Const(v)) if v.trunc() == 0.0) {
+                            return Err(EvalError {
+                                span: b.span(),
+                                message: "remainder by zero (`x % 0` crashes cpfg)".to_string(),
+                            });
+                        }
+                        Op::Rem(si)
+                    }
                     BinOp::Pow => Op::Pow(si),
                     BinOp::Lt => Op::Lt,
                     BinOp::Le => Op::Le,
@@ -375,6 +458,13 @@ impl Code {
                     let a = stack.last_mut().unwrap();
                     *a = if *a == 0.0 { 1.0 } else { 0.0 };
                 }
+                Op::Select => {
+                    let b = stack.pop().unwrap();
+                    let a = stack.pop().unwrap();
+                    let c = stack.last_mut().unwrap();
+                    *c = if *c != 0.0 { a } else { b };
+                }
+
                 Op::Lt
                 | Op::Le
                 | Op::Gt
@@ -387,6 +477,8 @@ impl Code {
                 | Op::Sub(_)
                 | Op::Mul(_)
                 | Op::Div(_)
+                | Op::DivOr1(_)
+                | Op::Rem(_)
                 | Op::Pow(_)
                 | Op::F2(..) => {
                     let b = stack.pop().unwrap();
@@ -484,6 +576,25 @@ impl Code {
                 }
                 (a / b, si)
             }
+            Op::DivOr1(si) => {
+                if b == 0.0 {
+                    warn_division_by_zero();
+                    (a, si)
+                } else {
+                    (a / b, si)
+                }
+            }
+            Op::Rem(si) => {
+                // C's (int) conversions and `%`: truncation toward zero.
+                let (x, y) = (a.trunc(), b.trunc());
+                if y == 0.0 {
+                    return Err(self.fail(si, "remainder by zero (`x % 0` crashes cpfg)"));
+                }
+                if x.abs() >= 2147483648.0 || y.abs() >= 2147483648.0 {
+                    return Err(self.fail(si, "`%` needs operands that fit a C int"));
+                }
+                (((x as i64) % (y as i64)) as f64, si)
+            }
             Op::F2(f, si) => (f.apply(a, b), si),
             _ => unreachable!("not a binary operation: {op:?}"),
         };
@@ -523,7 +634,22 @@ fn is_binary(op: Op) -> bool {
             | Op::CpfgRan(..)
             | Op::Step
             | Op::Global(_)
+            | Op::Select
     )
+}
+
+/// cpfg divides by 1 instead of 0, with a warning: once per process here
+/// (the evaluator has no place to report to; the division is cpfg's rule,
+/// not an error).
+#[cold]
+fn warn_division_by_zero() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    static WARNED: AtomicBool = AtomicBool::new(false);
+    if !WARNED.swap(true, Ordering::Relaxed) {
+        crate::diag::eprint(
+            "lsgen: warning: division by zero in a cpfg expression: divided by 1 instead, as cpfg does\n",
+        );
+    }
 }
 
 #[inline]
@@ -553,6 +679,7 @@ mod tests {
             &Scope {
                 params: &params,
                 consts: &consts,
+                cpfg: false,
             },
         )?;
         let slots: Vec<f64> = names.iter().map(|(_, v)| *v).collect();
@@ -641,6 +768,7 @@ mod tests {
             &Scope {
                 params: &p,
                 consts: &c,
+                cpfg: false,
             },
         )
         .unwrap();
@@ -651,7 +779,8 @@ mod tests {
             &e,
             &Scope {
                 params: &p,
-                consts: &c
+                consts: &c,
+                cpfg: false,
             }
         )
         .is_err());

@@ -8,7 +8,7 @@ use crate::lang::ast::{self, Expr, Setting};
 use crate::lang::lexer::Span;
 use crate::lang::parse::UserError;
 use codec::MAX_ARITY;
-use expr::{Code, Scope};
+use expr::{Code, Scope, CPFG_F32};
 use std::collections::{HashMap, HashSet};
 
 pub mod codec;
@@ -429,6 +429,9 @@ pub struct System {
     /// A `.l` file's run-time settings (issue 12): cpfg's generators,
     /// context rules and the step strategy.
     pub cpfg: Option<Box<crate::cpfg::run::CpfgRun>>,
+    /// A cpfg file's map from preprocessed text to original places (set by
+    /// the loader): runtime errors are located through it.
+    pub source_map: Option<std::sync::Arc<crate::cpfg::preprocess::SourceMap>>,
 }
 
 /// Constants and formal parameters named `step` (issue 11).
@@ -468,7 +471,24 @@ fn err<T>(span: Span, msg: impl Into<String>) -> R<T> {
 }
 
 fn compile_code(e: &Expr, params: &HashMap<String, u32>, consts: &HashMap<String, f64>) -> R<Code> {
-    Code::compile(e, &Scope { params, consts }).map_err(|e| UserError::new(e.span, e.message))
+    compile_code_in(e, params, consts, false)
+}
+
+fn compile_code_in(
+    e: &Expr,
+    params: &HashMap<String, u32>,
+    consts: &HashMap<String, f64>,
+    cpfg: bool,
+) -> R<Code> {
+    Code::compile(
+        e,
+        &Scope {
+            params,
+            consts,
+            cpfg,
+        },
+    )
+    .map_err(|e| UserError::new(e.span, e.message))
 }
 
 /// Evaluate a setting's expression: constants only.
@@ -549,6 +569,7 @@ fn is_random(e: &Expr, random: &HashSet<String>) -> bool {
         }
         Expr::Unary(_, a, _) => is_random(a, random),
         Expr::Binary(_, a, b, _) => is_random(a, random) || is_random(b, random),
+        Expr::Cond(c, a, b, _) => [c, a, b].iter().any(|e| is_random(e, random)),
     }
 }
 
@@ -601,6 +622,14 @@ pub fn compile(h: &ast::Header) -> R<System> {
 /// fallback.
 /// The syntax tree is consumed production by production.
 pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System> {
+    compile_dialect(h, src, seeds, false)
+}
+
+/// [`compile_with`] for a dialect: `cpfg` (a header lowered from a `.l`
+/// file, see `src/cpfg/lower.rs`) takes cpfg's functions, `/` and `%`,
+/// rounds every computed parameter to a 32-bit float, and chooses the
+/// first applicable production in file order, context or not.
+pub fn compile_dialect(h: ast::Header, src: Option<&str>, seeds: Seeds, cpfg: bool) -> R<System> {
     let mut derivation_length = None;
     let mut seed = None;
     let mut filter: Option<(Filter, Span)> = None;
@@ -694,10 +723,10 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
     }
     let mut alphabet = Alphabet::new(filter.map(|f| f.0).unwrap_or_default());
     let mut num = codec::NumFmt::new();
-    let productions = compile_table(h.productions, &mut alphabet, &consts, &mut num)?;
+    let productions = compile_table(h.productions, &mut alphabet, &consts, &mut num, cpfg)?;
     let mut groups = Vec::new();
     for (n, _, prods) in h.groups {
-        let t = compile_table(prods, &mut alphabet, &consts, &mut num)?;
+        let t = compile_table(prods, &mut alphabet, &consts, &mut num, cpfg)?;
         groups.push((n, t.with_fallback(&productions)));
     }
     if let (Some((n, span, _)), None) = (h_group_spans.first(), schedule_span) {
@@ -719,7 +748,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
                     "decomposition uses the main random generator: no `seed:` here",
                 );
             }
-            let t = compile_table(d.productions, &mut alphabet, &consts, &mut num)?;
+            let t = compile_table(d.productions, &mut alphabet, &consts, &mut num, cpfg)?;
             balanced(&t, "a decomposition successor must balance its brackets")?;
             Some((t, depth))
         }
@@ -741,7 +770,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         }
         None => (1, None),
     };
-    let homomorphism = compile_table(h.homomorphism, &mut alphabet, &consts, &mut num)?;
+    let homomorphism = compile_table(h.homomorphism, &mut alphabet, &consts, &mut num, cpfg)?;
     if hom_depth > 1 {
         balanced(
             &homomorphism,
@@ -763,7 +792,8 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         hom_seed,
         warnings,
         step_hidden,
-        cpfg: None,
+        cpfg: cpfg.then(|| Box::new(crate::cpfg::run::CpfgRun::default())),
+        source_map: None,
     })
 }
 
@@ -819,6 +849,7 @@ fn compile_table(
     alphabet: &mut Alphabet,
     consts: &HashMap<String, f64>,
     num: &mut codec::NumFmt,
+    cpfg: bool,
 ) -> R<Table> {
     let mut t = Table::default();
     t.prods.reserve_exact(prods.len());
@@ -828,7 +859,7 @@ fn compile_table(
     let mut prods = prods;
     let mut i = 0;
     while i < prods.len() {
-        let cp = compile_production(&prods[i], alphabet, consts, num)?;
+        let cp = compile_production(&prods[i], alphabet, consts, num, cpfg)?;
         let p = &mut prods[i];
         p.pred.params = Vec::new();
         p.left = Vec::new();
@@ -863,6 +894,20 @@ fn compile_table(
         }
         t.prods.push(cp);
     }
+    if cpfg {
+        // cpfg's choice: the first applicable production in file order,
+        // context-sensitive or not. One list per key, in file order, tried
+        // by the one chooser as it tries a context group.
+        for kr in t.by_key.iter_mut().flatten() {
+            if !kr.context.is_empty() && !kr.free.is_empty() {
+                let mut all = std::mem::take(&mut kr.free);
+                all.append(&mut kr.context);
+                all.sort_unstable();
+                kr.context = all;
+                kr.context_stochastic |= std::mem::take(&mut kr.free_stochastic);
+            }
+        }
+    }
     Ok(t)
 }
 
@@ -890,6 +935,7 @@ fn compile_production(
     alphabet: &mut Alphabet,
     consts: &HashMap<String, f64>,
     num: &mut codec::NumFmt,
+    cpfg: bool,
 ) -> R<Production> {
     let intern = |a: &mut Alphabet, m: &ast::Module| {
         a.intern(m.sym, m.params.len())
@@ -933,7 +979,7 @@ fn compile_production(
     let cond = p
         .cond
         .as_ref()
-        .map(|e| compile_code(e, &names, consts))
+        .map(|e| compile_code_in(e, &names, consts, cpfg))
         .transpose()?
         // A condition folded to a non-zero constant always holds.
         .filter(|c| c.constant().is_none_or(|v| v == 0.0))
@@ -941,7 +987,7 @@ fn compile_production(
     let prob = p
         .prob
         .as_ref()
-        .map(|e| compile_code(e, &names, consts))
+        .map(|e| compile_code_in(e, &names, consts, cpfg))
         .transpose()?
         .map(Box::new);
     if let Some(w) = prob.as_ref().and_then(|c| c.constant()) {
@@ -952,7 +998,8 @@ fn compile_production(
             );
         }
     }
-    let (succ, depth_delta, depth_min) = compile_successor(&p.succ, alphabet, &names, consts, num)?;
+    let (succ, depth_delta, depth_min) =
+        compile_successor(&p.succ, alphabet, &names, consts, num, cpfg)?;
     let right_simple = !right.is_empty() && right.iter().all(|r| matches!(r, RPat::Module(_)));
     Ok(Production {
         key,
@@ -979,6 +1026,7 @@ fn compile_successor(
     names: &HashMap<String, u32>,
     consts: &HashMap<String, f64>,
     num: &mut codec::NumFmt,
+    cpfg: bool,
 ) -> R<(Vec<Item>, i64, i64)> {
     let mut items = Vec::new();
     let mut run = ConstBuilder::default();
@@ -1001,7 +1049,15 @@ fn compile_successor(
         let codes = m
             .params
             .iter()
-            .map(|e| compile_code(e, names, consts))
+            .map(|e| {
+                if cpfg {
+                    // cpfg stores parameters as 32-bit floats.
+                    let e = Expr::Call(CPFG_F32.to_string(), vec![e.clone()], e.span());
+                    compile_code_in(&e, names, consts, true)
+                } else {
+                    compile_code(e, names, consts)
+                }
+            })
             .collect::<R<Vec<Code>>>()?;
         let values: Option<Vec<f64>> = codes.iter().map(Code::constant).collect();
         match values {

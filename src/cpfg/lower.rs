@@ -1,0 +1,380 @@
+//! From a cpfg syntax tree to the shared `.ls` syntax tree
+//! ([`crate::lang::ast::Header`]), which `rules::compile_dialect` compiles
+//! with cpfg's semantics: one set of rules, strategies and errors for both
+//! dialects.
+//!
+//! Names are resolved here, as cpfg resolves them: a formal parameter, `Q`
+//! (the step), `Z` (the derivation length), else an undefined name, which
+//! is 0 with a warning. The axiom's parameters are evaluated here (cpfg
+//! evaluates them once, as `float`s) and the axiom becomes module text.
+
+use super::ast::{self, Block, Expr, Module, Production, Section, Setting};
+use crate::lang::ast as ls;
+use crate::lang::lexer::Span;
+use crate::lang::parse::UserError;
+use crate::rules::expr::{Code, Scope};
+use std::collections::HashMap;
+
+type R<T> = Result<T, UserError>;
+
+fn err<T>(span: Span, msg: impl Into<String>) -> R<T> {
+    Err(UserError::new(span, msg))
+}
+
+/// A lowered `.l` file.
+pub struct Lowered {
+    pub header: ls::Header,
+    /// The axiom as module text (parameters evaluated, in full precision).
+    pub axiom: String,
+}
+
+/// The name a formal parameter gets in the shared tree: `step` is the
+/// shared tree's built-in step number (cpfg's `Q`), so a cpfg formal named
+/// `step` is renamed to a name no lexer makes.
+fn formal_name(name: &str) -> String {
+    if name == "step" {
+        "step\u{0}".to_string()
+    } else {
+        name.to_string()
+    }
+}
+
+struct Lowerer<'w> {
+    /// The file's `derivation length:` (cpfg's `Z`), once read.
+    z: Option<f64>,
+    /// `seed:` given: cpfg's stochastic mode.
+    seeded: bool,
+    warn: &'w mut dyn FnMut(Span, String),
+}
+
+impl Lowerer<'_> {
+    fn expr(&mut self, e: &Expr, formals: &HashMap<String, ()>) -> R<ls::Expr> {
+        Ok(match e {
+            Expr::Num(v, s) => ls::Expr::Num(*v, *s),
+            Expr::Var(name, s) => {
+                if formals.contains_key(name) {
+                    ls::Expr::Var(formal_name(name), *s)
+                } else if name == "Q" {
+                    ls::Expr::Var("step".to_string(), *s)
+                } else if let (Some(z), "Z") = (self.z, name.as_str()) {
+                    ls::Expr::Num(z, *s)
+                } else {
+                    (self.warn)(
+                        *s,
+                        format!("`{name}` is not defined: it is 0 here, as in cpfg"),
+                    );
+                    ls::Expr::Num(0.0, *s)
+                }
+            }
+            Expr::Str(_, s) => return err(*s, "a string is only for `printf` and `fprintf`"),
+            Expr::Call(name, args, s) => {
+                if name == "printf" || name == "fprintf" {
+                    return err(
+                        *s,
+                        format!("`{name}` is a statement of a block, not a value"),
+                    );
+                }
+                let args = args
+                    .iter()
+                    .map(|a| self.expr(a, formals))
+                    .collect::<R<Vec<_>>>()?;
+                ls::Expr::Call(name.clone(), args, *s)
+            }
+            Expr::Unary(op, a, s) => ls::Expr::Unary(*op, Box::new(self.expr(a, formals)?), *s),
+            Expr::Binary(op, a, b, s) => ls::Expr::Binary(
+                *op,
+                Box::new(self.expr(a, formals)?),
+                Box::new(self.expr(b, formals)?),
+                *s,
+            ),
+            Expr::Cond(c, a, b, s) => ls::Expr::Cond(
+                Box::new(self.expr(c, formals)?),
+                Box::new(self.expr(a, formals)?),
+                Box::new(self.expr(b, formals)?),
+                *s,
+            ),
+        })
+    }
+
+    /// A constant expression's value (settings, the axiom), in cpfg's
+    /// semantics.
+    fn constant(&mut self, e: &Expr) -> R<f64> {
+        let e = self.expr(e, &HashMap::new())?;
+        let params = HashMap::new();
+        let consts = HashMap::new();
+        let scope = Scope {
+            params: &params,
+            consts: &consts,
+            cpfg: true,
+        };
+        let code = Code::compile(&e, &scope).map_err(|x| UserError::new(x.span, x.message))?;
+        match code.constant() {
+            Some(v) => Ok(v),
+            None => err(
+                e.span(),
+                "this value must be known before the derivation (a constant expression)",
+            ),
+        }
+    }
+
+    fn whole(&mut self, e: &Expr, what: &str, max: f64) -> R<f64> {
+        let v = self.constant(e)?;
+        // cpfg converts with C's (int): truncation.
+        let v = v.trunc();
+        if !(0.0..=max).contains(&v) {
+            return err(e.span(), format!("{what} must be from 0 to {max}, not {v}"));
+        }
+        Ok(v)
+    }
+
+    fn module(&mut self, m: &Module, formals: &HashMap<String, ()>) -> R<ls::Module> {
+        Ok(ls::Module {
+            sym: m.sym,
+            params: m
+                .params
+                .iter()
+                .map(|e| self.expr(e, formals))
+                .collect::<R<Vec<_>>>()?,
+            span: m.span,
+        })
+    }
+
+    fn formals(
+        &mut self,
+        mods: &[Module],
+        formals: &mut HashMap<String, ()>,
+    ) -> R<Vec<ls::Module>> {
+        let mut out = Vec::new();
+        for m in mods {
+            let mut params = Vec::new();
+            for e in &m.params {
+                match e {
+                    Expr::Var(name, s) => {
+                        if formals.insert(name.clone(), ()).is_some() {
+                            return err(
+                                *s,
+                                format!(
+                                    "formal parameter `{name}` is named twice in this production (cpfg: multiple definition)"
+                                ),
+                            );
+                        }
+                        params.push(ls::Expr::Var(formal_name(name), *s));
+                    }
+                    other => {
+                        return err(
+                            other.span(),
+                            "a formal parameter must be a name (values go in the successor or the condition)",
+                        )
+                    }
+                }
+            }
+            out.push(ls::Module {
+                sym: m.sym,
+                params,
+                span: m.span,
+            });
+        }
+        Ok(out)
+    }
+
+    fn production(&mut self, p: &Production, section: &str) -> R<ls::Production> {
+        no_block(&p.pre, p.span, "a pre-condition block")?;
+        no_block(&p.post, p.span, "a post-condition block")?;
+        if p.pred.len() > 1 {
+            let s = (
+                p.pred[0].span.0,
+                p.pred.last().map_or(p.span.1, |m| m.span.1),
+            );
+            return err(
+                s,
+                "a predecessor of several modules (`AB --> C`) is not supported yet in the cpfg dialect",
+            );
+        }
+        let mut formals = HashMap::new();
+        let left = match &p.left {
+            Some(l) => self.formals(l, &mut formals)?,
+            None => Vec::new(),
+        };
+        let mut pred = self.formals(&p.pred, &mut formals)?;
+        let right = match &p.right {
+            Some(r) => self.formals(r, &mut formals)?,
+            None => Vec::new(),
+        };
+        let cond = match &p.cond {
+            Some(c) => Some(Box::new(self.expr(c, &formals)?)),
+            None => None,
+        };
+        let succ = p
+            .succ
+            .iter()
+            .map(|m| self.module(m, &formals))
+            .collect::<R<Vec<_>>>()?;
+        let prob = match &p.prob {
+            None => None,
+            Some(e) if self.seeded => {
+                return err(
+                    e.span(),
+                    "stochastic productions (with `seed:`, cpfg's drand48 choice) are not supported yet in the cpfg dialect",
+                )
+            }
+            Some(e) => {
+                (self.warn)(
+                    e.span(),
+                    format!(
+                        "a probability without `seed:` is ignored, as in cpfg (the first applicable {section}production applies)"
+                    ),
+                );
+                None
+            }
+        };
+        Ok(ls::Production {
+            left,
+            pred: pred.pop().expect("one module"),
+            right,
+            cond,
+            succ,
+            prob,
+            span: p.span,
+        })
+    }
+
+    fn section(&mut self, s: &Section, name: &str) -> R<(ls::Section, Vec<ls::Production>)> {
+        let mut settings = Vec::new();
+        if let Some((e, span)) = &s.depth {
+            let v = self.constant(e)?;
+            settings.push(ls::SectionSetting::MaximumDepth(
+                ls::Expr::Num(v, e.span()),
+                *span,
+            ));
+        }
+        if let Some((e, span)) = &s.seed {
+            let v = self.whole(e, "the homomorphism's seed", 9.007_199_254_740_992e15)?;
+            settings.push(ls::SectionSetting::Seed(ls::Expr::Num(v, e.span()), *span));
+        }
+        let prods = s
+            .productions
+            .iter()
+            .map(|p| self.production(p, name))
+            .collect::<R<Vec<_>>>()?;
+        Ok((
+            ls::Section {
+                span: s.span,
+                // cpfg warns unless told `no warnings`.
+                warnings: s.warnings.unwrap_or(true),
+                settings,
+                productions: Vec::new(),
+            },
+            prods,
+        ))
+    }
+}
+
+fn no_block(b: &Block, span: Span, what: &str) -> R<()> {
+    if b.is_empty() {
+        Ok(())
+    } else {
+        err(
+            span,
+            format!("{what} (cpfg's statements) is not supported yet in the cpfg dialect"),
+        )
+    }
+}
+
+/// Lower `ls`; `warn` receives each warning with its span.
+pub fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, String)) -> R<Lowered> {
+    let mut lw = Lowerer {
+        z: None,
+        seeded: false,
+        warn,
+    };
+    for (b, what) in [
+        (&lsys.start, "a `Start:` block"),
+        (&lsys.start_each, "a `StartEach:` block"),
+        (&lsys.end_each, "an `EndEach:` block"),
+        (&lsys.end, "an `End:` block"),
+    ] {
+        if let Some((b, span)) = b {
+            no_block(b, *span, what)?;
+        }
+    }
+    let mut header = ls::Header::default();
+    // (ignore, symbols, span) of the last `ignore:`/`consider:`.
+    let mut filter = None;
+    for s in &lsys.settings {
+        match s {
+            Setting::Unsupported(msg, span) => return err(*span, *msg),
+            Setting::Seed(e, _) => {
+                lw.constant(e)?;
+                lw.seeded = true;
+            }
+            Setting::DerivationLength(e, span) => {
+                let n = lw.whole(e, "the derivation length", 9.007_199_254_740_992e15)?;
+                lw.z = Some(n);
+                header
+                    .settings
+                    .retain(|s| !matches!(s, ls::Setting::DerivationLength(..)));
+                header.settings.push(ls::Setting::DerivationLength(
+                    ls::Expr::Num(n, e.span()),
+                    *span,
+                ));
+            }
+            // A later `ignore:`/`consider:` replaces an earlier one.
+            Setting::Ignore(syms, span) => filter = Some((true, syms, *span)),
+            Setting::Consider(syms, span) => filter = Some((false, syms, *span)),
+        }
+    }
+    if let Some((ignore, syms, span)) = filter {
+        let mods = syms
+            .iter()
+            .map(|&(sym, s)| ls::Module {
+                sym,
+                params: Vec::new(),
+                span: s,
+            })
+            .collect();
+        header.settings.push(if ignore {
+            ls::Setting::Ignore(mods, span)
+        } else {
+            ls::Setting::Consider(mods, span)
+        });
+    }
+    // The axiom: values now, stored as cpfg stores them (32-bit floats).
+    let mut axiom = String::new();
+    for m in &lsys.axiom {
+        axiom.push(m.sym);
+        if !m.params.is_empty() {
+            axiom.push('(');
+            for (i, e) in m.params.iter().enumerate() {
+                if i > 0 {
+                    axiom.push(',');
+                }
+                let v = f64::from(lw.constant(e)? as f32);
+                if !v.is_finite() {
+                    return err(e.span(), "this value does not fit cpfg's 32-bit float");
+                }
+                axiom.push_str(&crate::rules::codec::number_string(v));
+            }
+            axiom.push(')');
+        }
+        axiom.push(' ');
+    }
+    if lsys.axiom.is_empty() {
+        return err(lsys.axiom_span, "the axiom is empty");
+    }
+    header.productions = lsys
+        .productions
+        .iter()
+        .map(|p| lw.production(p, ""))
+        .collect::<R<Vec<_>>>()?;
+    if let Some(d) = &lsys.decomposition {
+        let (mut s, prods) = lw.section(d, "decomposition ")?;
+        s.productions = prods;
+        header.decomposition = Some(s);
+    }
+    if let Some(h) = &lsys.homomorphism {
+        let (s, prods) = lw.section(h, "homomorphism ")?;
+        header.homomorphism = prods;
+        header.hom = Some(s);
+    }
+    Ok(Lowered { header, axiom })
+}

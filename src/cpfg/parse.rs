@@ -1,0 +1,255 @@
+//! From preprocessed cpfg text to syntax tree: the lexer's tokens, a scan
+//! for the constructs lsgen refuses (each a located error naming it), the
+//! LALRPOP grammar, and located parse errors.
+
+use super::ast;
+use super::lexer::{Lexer, Tok};
+use crate::lang::parse::UserError;
+use lalrpop_util::{lalrpop_mod, ParseError};
+
+lalrpop_mod!(
+    #[allow(clippy::all, clippy::pedantic, unused)]
+    grammar,
+    "/cpfg.rs"
+);
+
+/// cpfg functions that need cpfg's files, curves, view or animation.
+const UNSUPPORTED_FUNCTIONS: &[&str] = &[
+    "func",
+    "play",
+    "curveX",
+    "curveY",
+    "curveZ",
+    "curveGAL",
+    "vvXmin",
+    "vvXmax",
+    "vvYmin",
+    "vvYmax",
+    "vvZmin",
+    "vvZmax",
+    "vvScale",
+    "Display",
+    "SetDerivationLength",
+    "GetDerivationLength",
+    "stop",
+    "fopen",
+    "fclose",
+    "fflush",
+    "fscanf",
+    "inblob",
+    "external",
+    "array",
+];
+
+/// cpfg's random functions: the cpfg runtime (a second generator, as
+/// cpfg's) is still to come.
+const PENDING_FUNCTIONS: &[&str] = &["ran", "nran", "bran", "biran", "srand"];
+
+/// Parse the preprocessed text of a `.l` file.
+pub fn parse(text: &str) -> Result<ast::Lsystem, UserError> {
+    let mut toks = Vec::new();
+    let mut lex_err = None;
+    for t in Lexer::new(text) {
+        match t {
+            Ok(t) => toks.push(t),
+            Err(e) => {
+                lex_err = Some(e);
+                break;
+            }
+        }
+    }
+    let refusal = refused(&toks);
+    let first = |a: Option<UserError>, b: Option<UserError>| match (a, b) {
+        (Some(a), Some(b)) => Some(if b.span.0 < a.span.0 { b } else { a }),
+        (a, b) => a.or(b),
+    };
+    if let Some(e) = first(refusal.clone(), lex_err) {
+        return Err(e);
+    }
+    let end = toks.last().map_or(0, |t| t.2);
+    let parsed = grammar::FileParser::new()
+        .parse(toks.into_iter().map(Ok::<_, UserError>))
+        .map_err(|e| convert(e, text, end));
+    match parsed {
+        Ok(ls) => Ok(ls),
+        Err(e) => Err(first(refusal, Some(e)).expect("an error")),
+    }
+}
+
+fn at(span: (usize, usize), message: impl Into<String>) -> Option<UserError> {
+    Some(UserError::new(span, message))
+}
+
+/// The first construct lsgen refuses, if any.
+fn refused(toks: &[(usize, Tok<'_>, usize)]) -> Option<UserError> {
+    let mut lsystems = 0;
+    for (i, (l, t, r)) in toks.iter().enumerate() {
+        let span = (*l, *r);
+        let next = toks.get(i + 1).map(|t| &t.1);
+        match t {
+            Tok::KwLsystem => {
+                lsystems += 1;
+                if lsystems > 1 {
+                    return at(
+                        span,
+                        "a second `Lsystem:`: several L-systems in one file (cpfg's sub-L-systems) are not supported; lsgen derives one L-system per file",
+                    );
+                }
+            }
+            Tok::KwRing => {
+                return at(
+                    span,
+                    "`ring lsystem` is not supported: lsgen derives open strings (no ring of modules)",
+                )
+            }
+            Tok::KwDefine => {
+                return at(
+                    span,
+                    "`define:` (cpfg's arrays) is not supported: lsgen has no arrays; use `#define` for constants",
+                )
+            }
+            Tok::ObjArrow => {
+                return at(
+                    span,
+                    "`-o>` (an object production, for cpfg's surfaces and objects) is not supported: lsgen rewrites strings only",
+                )
+            }
+            Tok::Sym('?') => {
+                let what = match next {
+                    Some(Tok::Sym(c @ ('P' | 'H' | 'L' | 'U'))) => format!(
+                        "`?{c}` (a query of the turtle's state) needs cpfg's turtle interpretation between steps"
+                    ),
+                    Some(Tok::Sym('E')) => {
+                        "`?E` (communication with an environment program) needs cpfg's environment process".to_string()
+                    }
+                    Some(Tok::LParen) => {
+                        "`?(id,s)` (a sub-L-system call) needs cpfg's sub-L-systems".to_string()
+                    }
+                    _ => "a `?` query module needs cpfg's interpretation or environment".to_string(),
+                };
+                return at(span, format!("{what}: not supported by lsgen, which only rewrites strings"));
+            }
+            Tok::Sym('$') => {
+                return at(
+                    span,
+                    "`$` (the end of a sub-L-system) is not supported: lsgen has no sub-L-systems",
+                )
+            }
+            Tok::Sym('@') if next == Some(&Tok::Sym('S')) => {
+                return at(
+                    (*l, toks[i + 1].2),
+                    "`@S` (a surface from cpfg's surface files) is not supported: lsgen has no surfaces",
+                )
+            }
+            Tok::Name(n) if *n == "atan2" && next == Some(&Tok::LParen) => {
+                return at(
+                    span,
+                    "`atan2` is reserved in cpfg but a syntax error there: use `atan(y / x)`",
+                )
+            }
+            Tok::Name(n) if UNSUPPORTED_FUNCTIONS.contains(n) => {
+                return at(
+                    span,
+                    format!("`{n}` is not supported: it needs cpfg's function files, curves, view or animation"),
+                )
+            }
+            Tok::Name(n) if PENDING_FUNCTIONS.contains(n) && next == Some(&Tok::LParen) => {
+                return at(
+                    span,
+                    format!("`{n}` (cpfg's random functions) is not supported yet in the cpfg dialect"),
+                )
+            }
+            Tok::Name(n) if next == Some(&Tok::LBracket) => {
+                return at(
+                    span,
+                    format!("`{n}[...]`: arrays are not supported by lsgen"),
+                )
+            }
+            _ => {}
+        }
+    }
+    None
+}
+
+fn describe_expected(expected: &[String]) -> String {
+    let names: Vec<String> = expected
+        .iter()
+        .map(|e| match e.as_str() {
+            "Eol" => "end of line".to_string(),
+            "Sym" => "a symbol".to_string(),
+            "Num" => "a number".to_string(),
+            "Name" => "a name".to_string(),
+            "Str" => "a string".to_string(),
+            "Null" => "`*`".to_string(),
+            "LSep" => "`<`".to_string(),
+            "RSep" => "`>`".to_string(),
+            "Warnings" => "`warnings`".to_string(),
+            other => format!("`{}`", other.trim_matches('"')),
+        })
+        .collect();
+    match names.len() {
+        0 => String::new(),
+        1 => format!("expected {}", names[0]),
+        n if n <= 6 => format!("expected {} or {}", names[..n - 1].join(", "), names[n - 1]),
+        _ => String::new(),
+    }
+}
+
+fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str, end: usize) -> UserError {
+    match e {
+        ParseError::User { error } => error,
+        ParseError::InvalidToken { location } => {
+            UserError::new((location, location), "invalid token")
+        }
+        ParseError::UnrecognizedEof { location, expected } => {
+            let loc = text[..location.max(end).min(text.len())].trim_end().len();
+            if expected.iter().any(|e| e == "\"endlsystem\"") {
+                return UserError::new(
+                    (loc, loc),
+                    "missing `endlsystem`: a cpfg L-system ends with it",
+                );
+            }
+            if expected.iter().any(|e| e == "\"Lsystem:\"") {
+                return UserError::new(
+                    (loc, loc),
+                    "empty file: a cpfg L-system starts with `Lsystem:`",
+                );
+            }
+            let exp = describe_expected(&expected);
+            UserError::new(
+                (loc, loc),
+                if exp.is_empty() {
+                    "unexpected end of input".to_string()
+                } else {
+                    format!("unexpected end of input, {exp}")
+                },
+            )
+        }
+        ParseError::UnrecognizedToken {
+            token: (l, tok, r),
+            expected,
+        } => {
+            let has = |s: &str| expected.iter().any(|e| e == s);
+            let msg = if has("\"Lsystem:\"") {
+                format!("unexpected {tok}: a cpfg L-system starts with `Lsystem:`")
+            } else if has("\"Axiom:\"") && !has("\"-->\"") {
+                format!(
+                    "unexpected {tok}: the settings (`seed:`, `derivation length:`, `ignore:`, `consider:`, blocks) come before `Axiom:`, one per line"
+                )
+            } else if has("\"endlsystem\"") && !has("\"-->\"") && !has("Eol") {
+                format!("unexpected {tok}, expected a production or `endlsystem`")
+            } else {
+                let exp = describe_expected(&expected);
+                if exp.is_empty() {
+                    format!("unexpected {tok}")
+                } else {
+                    format!("unexpected {tok}, {exp}")
+                }
+            };
+            UserError::new((l, r.max(l + 1)), msg)
+        }
+        ParseError::ExtraToken { token: (l, tok, r) } => {
+            UserError::new((l, r), format!("unexpected {tok}"))
+        }
+    }
+}
