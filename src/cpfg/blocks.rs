@@ -398,6 +398,7 @@ mod tests {
             &Scope {
                 params: &params,
                 consts: &HashMap::new(),
+                cpfg: true,
             },
         )
         .unwrap()
