@@ -528,6 +528,7 @@ fn compile_cpfg(c: &crate::cpfg::Loaded) -> Result<System, Error> {
         crate::rules::compile_dialect(c.header.clone(), Some(&c.text), Seeds::default(), true)
             .map_err(|e| crate::cpfg::locate(&c.map, e, ErrorKind::Compile))?;
     s.source_map = Some(c.map.clone());
+    crate::cpfg::lower::attach(&c.run, &c.extra, &mut s);
     Ok(s)
 }
 

@@ -9,10 +9,12 @@
 //! evaluates them once, as `float`s) and the axiom becomes module text.
 
 use super::ast::{self, Block, Expr, Module, Production, Section, Setting};
+use super::blocks;
+use super::run::CpfgRun;
 use crate::lang::ast as ls;
 use crate::lang::lexer::Span;
 use crate::lang::parse::UserError;
-use crate::rules::expr::{Code, Scope};
+use crate::rules::expr::{Code, Scope, STEP_SLOT};
 use std::collections::HashMap;
 
 type R<T> = Result<T, UserError>;
@@ -26,6 +28,113 @@ pub struct Lowered {
     pub header: ls::Header,
     /// The axiom as module text (parameters evaluated, in full precision).
     pub axiom: String,
+    /// What the shared tree cannot hold, for [`Lowered::attach`]: the
+    /// header blocks, and per production (in file order) of the
+    /// productions, the decomposition and the homomorphism, its blocks and
+    /// slots (issue 12).
+    pub run: CpfgRun,
+    pub extra: [Vec<ProdExtra>; 3],
+}
+
+/// A production's statement blocks and how many slots it needs: formal
+/// parameters (predecessor, left context, right context, as the shared
+/// compiler numbers them), then its local variables.
+#[derive(Clone, Debug, Default)]
+pub struct ProdExtra {
+    pub pre: Option<blocks::Block>,
+    pub post: Option<blocks::Block>,
+    pub nslots: usize,
+}
+
+/// Give the compiled `system` what the shared tree could not hold (see
+/// [`Lowered`]).
+pub fn attach(run: &CpfgRun, extra: &[Vec<ProdExtra>; 3], system: &mut crate::rules::System) {
+    {
+        let mut run = run.clone();
+        run.seed = system.seed;
+        run.derivation_length = system.derivation_length.unwrap_or(0);
+        system.cpfg = Some(Box::new(run));
+        let tables = [
+            Some(&mut system.productions),
+            system.decomposition.as_mut().map(|(t, _)| t),
+            Some(&mut system.homomorphism),
+        ];
+        for (t, extra) in tables.into_iter().zip(extra) {
+            let Some(t) = t else { continue };
+            for (p, x) in t.prods.iter_mut().zip(extra) {
+                p.nslots = p.nslots.max(x.nslots);
+                p.pre = x.pre.clone().map(Box::new);
+                p.post = x.post.clone().map(Box::new);
+            }
+        }
+    }
+}
+
+/// The shared tree's name of cpfg global variable `i`, and of slot `i` of
+/// a production (a local variable): names no lexer makes, which the
+/// expression compiler resolves in the cpfg dialect
+/// ([`crate::rules::expr`]).
+fn global_name(i: u32) -> String {
+    format!("\u{1}g{i}")
+}
+fn slot_name(i: u32) -> String {
+    format!("\u{1}s{i}")
+}
+
+/// Every name a block reads or assigns, in order.
+fn block_names(b: &Block, out: &mut Vec<String>, assigned_only: bool) {
+    fn expr(e: &Expr, out: &mut Vec<String>) {
+        match e {
+            Expr::Var(n, _) => out.push(n.clone()),
+            Expr::Num(..) | Expr::Str(..) => {}
+            Expr::Call(_, a, _) => a.iter().for_each(|e| expr(e, out)),
+            Expr::Unary(_, a, _) => expr(a, out),
+            Expr::Binary(_, a, b, _) => {
+                expr(a, out);
+                expr(b, out);
+            }
+            Expr::Cond(c, a, b, _) => {
+                expr(c, out);
+                expr(a, out);
+                expr(b, out);
+            }
+        }
+    }
+    for s in b {
+        match s {
+            ast::Stmt::Assign { name, value, .. } => {
+                out.push(name.clone());
+                if !assigned_only {
+                    expr(value, out);
+                }
+            }
+            ast::Stmt::If {
+                cond, then, els, ..
+            } => {
+                if !assigned_only {
+                    expr(cond, out);
+                }
+                block_names(then, out, assigned_only);
+                block_names(els, out, assigned_only);
+            }
+            ast::Stmt::While { cond, body, .. } | ast::Stmt::DoWhile { body, cond, .. } => {
+                if !assigned_only {
+                    expr(cond, out);
+                }
+                block_names(body, out, assigned_only);
+            }
+            ast::Stmt::Printf { args, .. } => {
+                if !assigned_only {
+                    args.iter().for_each(|e| expr(e, out));
+                }
+            }
+            ast::Stmt::Expr(e) => {
+                if !assigned_only {
+                    expr(e, out);
+                }
+            }
+        }
+    }
 }
 
 /// The name a formal parameter gets in the shared tree: `step` is the
@@ -45,6 +154,16 @@ struct Lowerer<'w> {
     /// `seed:` given: cpfg's stochastic mode.
     seeded: bool,
     warn: &'w mut dyn FnMut(Span, String),
+    /// Global variables: every name of the header blocks (cpfg's L-system
+    /// symbol table), by number.
+    globals: HashMap<String, u32>,
+    /// The current production's local variables (assigned in its blocks,
+    /// not formal, not global), by slot.
+    locals: HashMap<String, u32>,
+    /// Blocks and slots of the productions lowered so far, per section.
+    extra: [Vec<ProdExtra>; 3],
+    /// The section being lowered (index into `extra`).
+    section: usize,
 }
 
 impl Lowerer<'_> {
@@ -54,6 +173,10 @@ impl Lowerer<'_> {
             Expr::Var(name, s) => {
                 if formals.contains_key(name) {
                     ls::Expr::Var(formal_name(name), *s)
+                } else if let Some(&g) = self.globals.get(name) {
+                    ls::Expr::Var(global_name(g), *s)
+                } else if let Some(&l) = self.locals.get(name) {
+                    ls::Expr::Var(slot_name(l), *s)
                 } else if name == "Q" {
                     ls::Expr::Var("step".to_string(), *s)
                 } else if let (Some(z), "Z") = (self.z, name.as_str()) {
@@ -177,9 +300,96 @@ impl Lowerer<'_> {
         Ok(out)
     }
 
+    /// Compile a block: `names` maps the shared names of the formal
+    /// parameters to their slots.
+    fn block(
+        &mut self,
+        b: &Block,
+        formals: &HashMap<String, ()>,
+        names: &HashMap<String, u32>,
+    ) -> R<blocks::Block> {
+        let mut out = Vec::new();
+        for s in b {
+            out.push(match s {
+                ast::Stmt::Assign {
+                    name,
+                    name_span,
+                    value,
+                } => {
+                    let var = if formals.contains_key(name) {
+                        blocks::Var::Local(names[&formal_name(name)])
+                    } else if let Some(&g) = self.globals.get(name) {
+                        blocks::Var::Global(g)
+                    } else if let Some(&l) = self.locals.get(name) {
+                        blocks::Var::Local(l)
+                    } else {
+                        return err(
+                            *name_span,
+                            format!("`{name}` cannot be assigned (cpfg's built-in variables `Q` and `Z` are read only)"),
+                        );
+                    };
+                    blocks::Stmt::Assign(var, self.code(value, formals, names)?)
+                }
+                ast::Stmt::If {
+                    cond, then, els, ..
+                } => blocks::Stmt::If(
+                    self.code(cond, formals, names)?,
+                    self.block(then, formals, names)?,
+                    self.block(els, formals, names)?,
+                ),
+                ast::Stmt::While { cond, body, span } => blocks::Stmt::While(
+                    self.code(cond, formals, names)?,
+                    self.block(body, formals, names)?,
+                    *span,
+                ),
+                ast::Stmt::DoWhile { body, cond, span } => blocks::Stmt::DoWhile(
+                    self.block(body, formals, names)?,
+                    self.code(cond, formals, names)?,
+                    *span,
+                ),
+                ast::Stmt::Printf {
+                    format, args, span, ..
+                } => {
+                    let (f, n) =
+                        blocks::Format::parse(format).map_err(|m| UserError::new(*span, m))?;
+                    if n != args.len() {
+                        return err(
+                            *span,
+                            format!(
+                                "printf: the format takes {n} value{}, {} given",
+                                if n == 1 { "" } else { "s" },
+                                args.len()
+                            ),
+                        );
+                    }
+                    let args = args
+                        .iter()
+                        .map(|a| self.code(a, formals, names))
+                        .collect::<R<Vec<_>>>()?;
+                    blocks::Stmt::Printf(f, args.into(), *span)
+                }
+                ast::Stmt::Expr(e) => blocks::Stmt::Eval(self.code(e, formals, names)?),
+            });
+        }
+        Ok(blocks::Block(out.into()))
+    }
+
+    fn code(
+        &mut self,
+        e: &Expr,
+        formals: &HashMap<String, ()>,
+        names: &HashMap<String, u32>,
+    ) -> R<Code> {
+        let e = self.expr(e, formals)?;
+        let scope = Scope {
+            params: names,
+            consts: &HashMap::new(),
+            cpfg: true,
+        };
+        Code::compile(&e, &scope).map_err(|x| UserError::new(x.span, x.message))
+    }
+
     fn production(&mut self, p: &Production, section: &str) -> R<ls::Production> {
-        no_block(&p.pre, p.span, "a pre-condition block")?;
-        no_block(&p.post, p.span, "a post-condition block")?;
         if p.pred.len() > 1 {
             let s = (
                 p.pred[0].span.0,
@@ -200,6 +410,40 @@ impl Lowerer<'_> {
             Some(r) => self.formals(r, &mut formals)?,
             None => Vec::new(),
         };
+        // Slots as the shared compiler numbers them: predecessor, left
+        // context, right context; then the locals.
+        let mut names = HashMap::new();
+        for m in pred.iter().chain(&left).chain(&right) {
+            for e in &m.params {
+                if let ls::Expr::Var(n, _) = e {
+                    let k = names.len() as u32;
+                    names.insert(n.clone(), k);
+                }
+            }
+        }
+        names.insert("step".to_string(), STEP_SLOT);
+        let mut assigned = Vec::new();
+        block_names(&p.pre, &mut assigned, true);
+        block_names(&p.post, &mut assigned, true);
+        self.locals.clear();
+        for n in assigned {
+            if !formals.contains_key(&n) && !self.globals.contains_key(&n) {
+                // (`names` holds `step` too.)
+                let k = (names.len() - 1 + self.locals.len()) as u32;
+                self.locals.entry(n).or_insert(k);
+            }
+        }
+        let pre = (!p.pre.is_empty())
+            .then(|| self.block(&p.pre, &formals, &names))
+            .transpose()?;
+        let post = (!p.post.is_empty())
+            .then(|| self.block(&p.post, &formals, &names))
+            .transpose()?;
+        self.extra[self.section].push(ProdExtra {
+            pre,
+            post,
+            nslots: names.len() - 1 + self.locals.len(),
+        });
         let cond = match &p.cond {
             Some(c) => Some(Box::new(self.expr(c, &formals)?)),
             None => None,
@@ -211,12 +455,8 @@ impl Lowerer<'_> {
             .collect::<R<Vec<_>>>()?;
         let prob = match &p.prob {
             None => None,
-            Some(e) if self.seeded => {
-                return err(
-                    e.span(),
-                    "stochastic productions (with `seed:`, cpfg's drand48 choice) are not supported yet in the cpfg dialect",
-                )
-            }
+            // cpfg's stochastic choice (src/cpfg/random.rs).
+            Some(e) if self.seeded && section.is_empty() => Some(Box::new(self.expr(e, &formals)?)),
             Some(e) => {
                 (self.warn)(
                     e.span(),
@@ -227,6 +467,7 @@ impl Lowerer<'_> {
                 None
             }
         };
+        self.locals.clear();
         Ok(ls::Production {
             left,
             pred: pred.pop().expect("one module"),
@@ -269,32 +510,30 @@ impl Lowerer<'_> {
     }
 }
 
-fn no_block(b: &Block, span: Span, what: &str) -> R<()> {
-    if b.is_empty() {
-        Ok(())
-    } else {
-        err(
-            span,
-            format!("{what} (cpfg's statements) is not supported yet in the cpfg dialect"),
-        )
-    }
-}
-
 /// Lower `ls`; `warn` receives each warning with its span.
 pub fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, String)) -> R<Lowered> {
     let mut lw = Lowerer {
         z: None,
         seeded: false,
         warn,
+        globals: HashMap::new(),
+        locals: HashMap::new(),
+        extra: Default::default(),
+        section: 0,
     };
-    for (b, what) in [
-        (&lsys.start, "a `Start:` block"),
-        (&lsys.start_each, "a `StartEach:` block"),
-        (&lsys.end_each, "an `EndEach:` block"),
-        (&lsys.end, "an `End:` block"),
-    ] {
-        if let Some((b, span)) = b {
-            no_block(b, *span, what)?;
+    // Every name of the header blocks is global (cpfg's L-system table);
+    // `Q` and `Z` are built in.
+    let mut names = Vec::new();
+    for (b, _) in [&lsys.start, &lsys.start_each, &lsys.end_each, &lsys.end]
+        .into_iter()
+        .flatten()
+    {
+        block_names(b, &mut names, false);
+    }
+    for n in names {
+        if n != "Q" && n != "Z" {
+            let k = lw.globals.len() as u32;
+            lw.globals.entry(n).or_insert(k);
         }
     }
     let mut header = ls::Header::default();
@@ -303,9 +542,16 @@ pub fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, String)) -> R<Lower
     for s in &lsys.settings {
         match s {
             Setting::Unsupported(msg, span) => return err(*span, *msg),
-            Setting::Seed(e, _) => {
-                lw.constant(e)?;
+            Setting::Seed(e, span) => {
+                // seed48 keeps 16 bits; the shared setting keeps the value.
+                let v = lw.whole(e, "the seed", 9.007_199_254_740_992e15)?;
                 lw.seeded = true;
+                header
+                    .settings
+                    .retain(|s| !matches!(s, ls::Setting::Seed(..)));
+                header
+                    .settings
+                    .push(ls::Setting::Seed(ls::Expr::Num(v, e.span()), *span));
             }
             Setting::DerivationLength(e, span) => {
                 let n = lw.whole(e, "the derivation length", 9.007_199_254_740_992e15)?;
@@ -361,20 +607,41 @@ pub fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, String)) -> R<Lower
     if lsys.axiom.is_empty() {
         return err(lsys.axiom_span, "the axiom is empty");
     }
+    // Header blocks: globals only (after the settings, which set `Z`).
+    let mut run = CpfgRun::default();
+    // `Q` is the shared tree's built-in step number.
+    let none: HashMap<String, u32> = [("step".to_string(), STEP_SLOT)].into_iter().collect();
+    for (b, slot) in [
+        (&lsys.start, &mut run.start),
+        (&lsys.start_each, &mut run.start_each),
+        (&lsys.end_each, &mut run.end_each),
+        (&lsys.end, &mut run.end),
+    ] {
+        if let Some((b, _)) = b {
+            *slot = lw.block(b, &HashMap::new(), &none)?;
+        }
+    }
     header.productions = lsys
         .productions
         .iter()
         .map(|p| lw.production(p, ""))
         .collect::<R<Vec<_>>>()?;
     if let Some(d) = &lsys.decomposition {
+        lw.section = 1;
         let (mut s, prods) = lw.section(d, "decomposition ")?;
         s.productions = prods;
         header.decomposition = Some(s);
     }
     if let Some(h) = &lsys.homomorphism {
+        lw.section = 2;
         let (s, prods) = lw.section(h, "homomorphism ")?;
         header.homomorphism = prods;
         header.hom = Some(s);
     }
-    Ok(Lowered { header, axiom })
+    Ok(Lowered {
+        header,
+        axiom,
+        run,
+        extra: lw.extra,
+    })
 }

@@ -92,6 +92,10 @@ pub struct Loaded {
     pub header: Header,
     /// The axiom as module text.
     pub axiom: String,
+    /// Header blocks and the productions' blocks and slots (issue 12),
+    /// given to the compiled system by [`lower::attach`].
+    pub run: run::CpfgRun,
+    pub extra: [Vec<lower::ProdExtra>; 3],
 }
 
 /// A located error of the preprocessed text.
@@ -125,6 +129,8 @@ pub fn load(name: &str, source: &str) -> Result<Loaded, Error> {
         map: Arc::new(map),
         header: lowered.header,
         axiom: lowered.axiom,
+        run: lowered.run,
+        extra: lowered.extra,
     })
 }
 

@@ -41,10 +41,6 @@ const UNSUPPORTED_FUNCTIONS: &[&str] = &[
     "array",
 ];
 
-/// cpfg's random functions: the cpfg runtime (a second generator, as
-/// cpfg's) is still to come.
-const PENDING_FUNCTIONS: &[&str] = &["ran", "nran", "bran", "biran", "srand"];
-
 /// Parse the preprocessed text of a `.l` file.
 pub fn parse(text: &str) -> Result<ast::Lsystem, UserError> {
     let mut toks = Vec::new();
@@ -151,12 +147,6 @@ fn refused(toks: &[(usize, Tok<'_>, usize)]) -> Option<UserError> {
                 return at(
                     span,
                     format!("`{n}` is not supported: it needs cpfg's function files, curves, view or animation"),
-                )
-            }
-            Tok::Name(n) if PENDING_FUNCTIONS.contains(n) && next == Some(&Tok::LParen) => {
-                return at(
-                    span,
-                    format!("`{n}` (cpfg's random functions) is not supported yet in the cpfg dialect"),
                 )
             }
             Tok::Name(n) if next == Some(&Tok::LBracket) => {

@@ -117,6 +117,19 @@ fn lookup_function(name: &str) -> Option<(Fun, usize)> {
 /// lexer makes it a name).
 pub const CPFG_F32: &str = "\u{0}f32";
 
+/// cpfg's variables as `src/cpfg/lower.rs` names them (issue 12): global
+/// `i` is `\u{1}g<i>`, slot `i` of the production (a local) `\u{1}s<i>`.
+fn cpfg_variable(name: &str) -> Option<Op> {
+    let rest = name.strip_prefix('\u{1}')?;
+    let (kind, n) = rest.split_at_checked(1)?;
+    let n: u32 = n.parse().ok()?;
+    match kind {
+        "g" => Some(Op::Global(n)),
+        "s" => Some(Op::Load(n)),
+        _ => None,
+    }
+}
+
 /// The cpfg dialect's functions (cpfg's `lsys_input.y`): degrees, `trunc`
 /// rounds, `atan` takes 1 or 2 arguments. Random ones are the cpfg
 /// runtime's.
@@ -301,6 +314,8 @@ impl Code {
                     });
                 } else if let Some(&v) = scope.consts.get(name) {
                     self.ops.push(Op::Const(v));
+                } else if let Some(op) = scope.cpfg.then(|| cpfg_variable(name)).flatten() {
+                    self.ops.push(op);
                 } else {
                     return Err(EvalError {
                         span: *span,
