@@ -457,11 +457,20 @@ impl Lowerer<'_> {
             None => None,
             // cpfg's stochastic choice (src/cpfg/random.rs).
             Some(e) if self.seeded && section.is_empty() => Some(Box::new(self.expr(e, &formals)?)),
+            // Without `seed:` the weights are ignored at run time, as in
+            // cpfg, unless `--seed` stands for `seed:` (README).
+            Some(e) if section.is_empty() => {
+                (self.warn)(
+                    e.span(),
+                    "a probability without `seed:` is ignored, as in cpfg (the first applicable production applies; `--seed` makes it count)".to_string(),
+                );
+                Some(Box::new(self.expr(e, &formals)?))
+            }
             Some(e) => {
                 (self.warn)(
                     e.span(),
                     format!(
-                        "a probability without `seed:` is ignored, as in cpfg (the first applicable {section}production applies)"
+                        "a probability in the {section}section is ignored, as in cpfg (the first applicable {section}production applies)"
                     ),
                 );
                 None

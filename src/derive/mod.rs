@@ -372,6 +372,11 @@ pub(crate) fn derive(
     // generator (`ran`, the stochastic choice): only step by step.
     let step_only = structural || is_cpfg || makes_percent(&d, &productions, &groups) || axiom_cuts;
     let strategy = if step_only {
+        if strategy == Strategy::DepthFirst && is_cpfg {
+            return Err(Error::usage(
+                "`--strategy dfs`: a cpfg (`.l`) file is derived step by step (cpfg's random draws and blocks run in string order)",
+            ));
+        }
         if strategy == Strategy::DepthFirst {
             return Err(not_depth_first());
         }

@@ -329,7 +329,13 @@ impl Table {
             return Some(None);
         };
         let p = &self.prods[*kr.free.first()? as usize];
-        if !kr.context.is_empty() || kr.free_stochastic || p.cond.is_some() {
+        // (cpfg's blocks run whenever the production is tried.)
+        if !kr.context.is_empty()
+            || kr.free_stochastic
+            || p.cond.is_some()
+            || p.pre.is_some()
+            || p.post.is_some()
+        {
             return None;
         }
         match &*p.succ {

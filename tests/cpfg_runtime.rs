@@ -1,0 +1,161 @@
+//! Issue 12, the cpfg dialect's runtime: cpfg's generators and draw order,
+//! statement blocks and global variables, cpfg's right contexts, run
+//! through the real binary on the models of tests/cpfg/. Expected strings
+//! come from the independent reference tests/tools/cpfg_ref.py
+//! (tests/expected/cpfg/, `python3 tests/tools/gen_expected_cpfg.py`),
+//! never from lsgen.
+
+mod common;
+
+use common::{lsgen, run, tempdir, write, ROOT};
+use std::path::Path;
+
+/// The models whose expected strings need the runtime's pieces.
+const MODELS: &[&str] = &[
+    "blocks",
+    "vlab_typical",
+    "vlab_stochastic",
+    "stochastic",
+    "stochastic_seed0",
+    "stochastic_deterministic",
+    "stochastic_context",
+    "stochastic_plant",
+    "random_functions",
+    "context_branches",
+    "context_consider",
+    "context_equals",
+    "homomorphism",
+];
+
+fn derive(args: &[&str], file: &Path) -> (String, String) {
+    let r = run(lsgen().args(args).arg(file));
+    assert!(
+        r.status.success(),
+        "{}: {} ({})",
+        r.what,
+        r.stderr,
+        r.status
+    );
+    (String::from_utf8(r.stdout).unwrap(), r.stderr)
+}
+
+#[test]
+fn runtime_models_match_the_reference() {
+    let dir = Path::new(ROOT).join("tests/expected/cpfg");
+    let mut checked = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_str().unwrap().to_string();
+        let Some(stem) = name.strip_suffix(".txt") else {
+            continue;
+        };
+        let (stem, homomorphism) = match stem.strip_suffix(".nohomo") {
+            Some(s) => (s, false),
+            None => (stem, true),
+        };
+        let Some((model, n)) = stem.rsplit_once(".n") else {
+            continue;
+        };
+        if !MODELS.contains(&model) {
+            continue;
+        }
+        let want = std::fs::read_to_string(&path).unwrap();
+        let file = Path::new(ROOT).join(format!("tests/cpfg/{model}.l"));
+        for strategy in ["auto", "step"] {
+            let mut args = vec!["-n", n, "--strategy", strategy];
+            if !homomorphism {
+                args.push("--no-homomorphism");
+            }
+            let (got, _) = derive(&args, &file);
+            assert_eq!(got, want, "{name}, --strategy {strategy}");
+        }
+        checked += 1;
+    }
+    assert!(checked >= 40, "only {checked} expected strings found");
+}
+
+/// `printf` and `fprintf(stderr, ...)` write to standard error, in step
+/// order; `End:` runs after the last step only when the run reaches the
+/// file's derivation length (cpfg_ref.py's standard error).
+#[test]
+fn printf_writes_to_standard_error() {
+    let blocks = Path::new(ROOT).join("tests/cpfg/blocks.l");
+    let (_, err) = derive(&["-n", "4"], &blocks);
+    assert_eq!(err, "end: n=5\n");
+    let (_, err) = derive(&["-n", "3"], &blocks);
+    assert_eq!(err, "");
+    let stochastic = Path::new(ROOT).join("tests/cpfg/vlab_stochastic.l");
+    let (_, err) = derive(&["-n", "3", "--no-homomorphism"], &stochastic);
+    assert_eq!(
+        err,
+        "step 1: 1 branchings\nstep 2: 2 branchings\nstep 3: 2 branchings\n"
+    );
+}
+
+/// `--seed N` on a `.l` file acts as `seed: N`: on a copy of
+/// tests/cpfg/stochastic.l that says `seed: 99`, `--seed 7` gives the
+/// strings of `seed: 7`; on a file without `seed:`, it makes the weights
+/// count.
+#[test]
+fn seed_option_acts_as_the_seed_setting() {
+    let src = std::fs::read_to_string(Path::new(ROOT).join("tests/cpfg/stochastic.l")).unwrap();
+    assert!(src.contains("seed: 7\n"));
+    let dir = tempdir();
+    let other = write(
+        dir.path(),
+        "other.l",
+        src.replace("seed: 7\n", "seed: 99\n"),
+    );
+    let unseeded = write(dir.path(), "unseeded.l", src.replace("seed: 7\n", ""));
+    for n in ["5", "8"] {
+        let want = std::fs::read_to_string(
+            Path::new(ROOT).join(format!("tests/expected/cpfg/stochastic.n{n}.txt")),
+        )
+        .unwrap();
+        let (plain, _) = derive(&["-n", n], &other);
+        assert_ne!(plain, want, "seed 99 gives another string");
+        assert_eq!(derive(&["-n", n, "--seed", "7"], &other).0, want);
+        assert_eq!(derive(&["-n", n, "--seed", "7"], &unseeded).0, want);
+    }
+}
+
+/// cpfg's draws are sequential, in string order: depth first is refused.
+#[test]
+fn depth_first_is_refused_for_cpfg_files() {
+    let file = Path::new(ROOT).join("tests/cpfg/stochastic.l");
+    let r = run(lsgen().args(["-n", "2", "--strategy", "dfs"]).arg(&file));
+    assert_eq!(r.code(), Some(2), "{}", r.stderr);
+    assert!(r.stderr.contains("cpfg"), "{}", r.stderr);
+}
+
+/// Runtime errors of blocks are located: a loop that does not end, a
+/// `printf` whose format does not fit its values, an assignment to `Q`.
+#[test]
+fn block_errors_are_located() {
+    let dir = tempdir();
+    let cases = [
+        (
+            "Lsystem: 1\nderivation length: 1\nStart: {i = 0; while (i < 1) {j = 1;}}\nAxiom: A\nendlsystem\n",
+            ":3:16: error: this `while` loop ran 10000000 times: lsgen stops it (cpfg would hang)",
+        ),
+        (
+            "Lsystem: 1\nderivation length: 1\nAxiom: A\nA : {do {k = 1;} while (1);} * --> B\nendlsystem\n",
+            ":4:6: error: this `do … while` loop ran 10000000 times",
+        ),
+        (
+            "Lsystem: 1\nderivation length: 1\nEnd: {printf(\"%g %g\\n\", 1);}\nAxiom: A\nendlsystem\n",
+            ":3:7: error: printf: the format takes 2 values, 1 given",
+        ),
+        (
+            "Lsystem: 1\nderivation length: 1\nStart: {Q = 1;}\nAxiom: A\nendlsystem\n",
+            ":3:9: error: `Q` cannot be assigned",
+        ),
+    ];
+    for (i, (src, want)) in cases.iter().enumerate() {
+        let file = write(dir.path(), &format!("bad{i}.l"), src);
+        let r = run(lsgen().arg(&file));
+        let err = r.one_error();
+        assert!(err.contains(want), "case {i}: {err}");
+        assert_eq!(r.code(), Some(1));
+    }
+}
