@@ -430,6 +430,7 @@ impl LSystem {
         let seed = options.seed.or(system.seed).unwrap_or(self.fresh);
         // cpfg prints parameters with C's `%g`: 6 significant digits.
         let precision = options.precision.or(system.cpfg.then_some(6));
+        let cpfg = system.cpfg;
         let settings = Settings {
             steps,
             seed,
@@ -448,7 +449,7 @@ impl LSystem {
         let mut significant;
         let out: &mut dyn Write = match precision {
             Some(p) => {
-                significant = Significant::new(&mut out, p);
+                significant = Significant::new(&mut out, p).c_exponent(cpfg);
                 &mut significant
             }
             None => &mut out,
@@ -457,7 +458,7 @@ impl LSystem {
         let mut precise;
         let frames: Option<(Frames, &mut dyn FrameSink)> = match (frames, precision) {
             (Some((f, sink)), Some(digits)) => {
-                precise = PreciseFrames { sink, digits };
+                precise = PreciseFrames { sink, digits, cpfg };
                 Some((f, &mut precise))
             }
             (Some((f, sink)), None) => Some((f, sink)),
@@ -555,6 +556,8 @@ pub fn derive_bytes(
 struct PreciseFrames<'s> {
     sink: &'s mut dyn FrameSink,
     digits: u32,
+    /// C's exponent form (the cpfg dialect).
+    cpfg: bool,
 }
 
 impl FrameSink for PreciseFrames<'_> {
@@ -563,9 +566,9 @@ impl FrameSink for PreciseFrames<'_> {
         n: u64,
         write: &mut dyn FnMut(&mut dyn Write, &str) -> Result<(u64, u64), Error>,
     ) -> Result<(u64, u64), Error> {
-        let digits = self.digits;
+        let (digits, cpfg) = (self.digits, self.cpfg);
         self.sink.frame(n, &mut |out, name| {
-            let mut sig = Significant::new(out, digits);
+            let mut sig = Significant::new(out, digits).c_exponent(cpfg);
             let len = write(&mut sig, name)?;
             sig.flush()
                 .map_err(|e| Error::io(name, "cannot write", e))?;
