@@ -443,6 +443,7 @@ impl LSystem {
         }
         // cpfg prints parameters with C's `%g`: 6 significant digits.
         let precision = options.precision.or(system.cpfg.is_some().then_some(6));
+        let cpfg = system.cpfg.is_some();
         let settings = Settings {
             steps,
             seed,
@@ -461,7 +462,7 @@ impl LSystem {
         let mut significant;
         let out: &mut dyn Write = match precision {
             Some(p) => {
-                significant = Significant::new(&mut out, p);
+                significant = Significant::new(&mut out, p).c_exponent(cpfg);
                 &mut significant
             }
             None => &mut out,
@@ -470,7 +471,7 @@ impl LSystem {
         let mut precise;
         let frames: Option<(Frames, &mut dyn FrameSink)> = match (frames, precision) {
             (Some((f, sink)), Some(digits)) => {
-                precise = PreciseFrames { sink, digits };
+                precise = PreciseFrames { sink, digits, cpfg };
                 Some((f, &mut precise))
             }
             (Some((f, sink)), None) => Some((f, sink)),
@@ -569,6 +570,8 @@ pub fn derive_bytes(
 struct PreciseFrames<'s> {
     sink: &'s mut dyn FrameSink,
     digits: u32,
+    /// C's exponent form (the cpfg dialect).
+    cpfg: bool,
 }
 
 impl FrameSink for PreciseFrames<'_> {
@@ -577,9 +580,9 @@ impl FrameSink for PreciseFrames<'_> {
         n: u64,
         write: &mut dyn FnMut(&mut dyn Write, &str) -> Result<(u64, u64), Error>,
     ) -> Result<(u64, u64), Error> {
-        let digits = self.digits;
+        let (digits, cpfg) = (self.digits, self.cpfg);
         self.sink.frame(n, &mut |out, name| {
-            let mut sig = Significant::new(out, digits);
+            let mut sig = Significant::new(out, digits).c_exponent(cpfg);
             let len = write(&mut sig, name)?;
             sig.flush()
                 .map_err(|e| Error::io(name, "cannot write", e))?;

@@ -1,31 +1,14 @@
-//! Issue 12, the cpfg dialect's runtime: cpfg's generators and draw order,
-//! statement blocks and global variables, cpfg's right contexts, run
-//! through the real binary on the models of tests/cpfg/. Expected strings
-//! come from the independent reference tests/tools/cpfg_ref.py
-//! (tests/expected/cpfg/, `python3 tests/tools/gen_expected_cpfg.py`),
-//! never from lsgen.
+//! Issue 12, the cpfg dialect's runtime, through the real binary, beyond
+//! the expected strings of tests/cpfg.rs (which checks the models of
+//! blocks, randomness and contexts against tests/tools/cpfg_ref.py):
+//! `printf` on standard error, `--seed`, the strategy, located errors of
+//! blocks. Expected text comes from cpfg_ref.py or by hand, never from
+//! lsgen.
 
 mod common;
 
 use common::{lsgen, run, tempdir, write, ROOT};
 use std::path::Path;
-
-/// The models whose expected strings need the runtime's pieces.
-const MODELS: &[&str] = &[
-    "blocks",
-    "vlab_typical",
-    "vlab_stochastic",
-    "stochastic",
-    "stochastic_seed0",
-    "stochastic_deterministic",
-    "stochastic_context",
-    "stochastic_plant",
-    "random_functions",
-    "context_branches",
-    "context_consider",
-    "context_equals",
-    "homomorphism",
-];
 
 fn derive(args: &[&str], file: &Path) -> (String, String) {
     let r = run(lsgen().args(args).arg(file));
@@ -37,41 +20,6 @@ fn derive(args: &[&str], file: &Path) -> (String, String) {
         r.status
     );
     (String::from_utf8(r.stdout).unwrap(), r.stderr)
-}
-
-#[test]
-fn runtime_models_match_the_reference() {
-    let dir = Path::new(ROOT).join("tests/expected/cpfg");
-    let mut checked = 0;
-    for entry in std::fs::read_dir(&dir).unwrap() {
-        let path = entry.unwrap().path();
-        let name = path.file_name().unwrap().to_str().unwrap().to_string();
-        let Some(stem) = name.strip_suffix(".txt") else {
-            continue;
-        };
-        let (stem, homomorphism) = match stem.strip_suffix(".nohomo") {
-            Some(s) => (s, false),
-            None => (stem, true),
-        };
-        let Some((model, n)) = stem.rsplit_once(".n") else {
-            continue;
-        };
-        if !MODELS.contains(&model) {
-            continue;
-        }
-        let want = std::fs::read_to_string(&path).unwrap();
-        let file = Path::new(ROOT).join(format!("tests/cpfg/{model}.l"));
-        for strategy in ["auto", "step"] {
-            let mut args = vec!["-n", n, "--strategy", strategy];
-            if !homomorphism {
-                args.push("--no-homomorphism");
-            }
-            let (got, _) = derive(&args, &file);
-            assert_eq!(got, want, "{name}, --strategy {strategy}");
-        }
-        checked += 1;
-    }
-    assert!(checked >= 40, "only {checked} expected strings found");
 }
 
 /// `printf` and `fprintf(stderr, ...)` write to standard error, in step

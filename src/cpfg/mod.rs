@@ -57,8 +57,9 @@ pub enum Dialect {
 }
 
 /// Is a file cpfg's: its name ends in `.l`, or its first statement (after
-/// blanks and comments) is `Lsystem:` or a `#` directive? `head` is the
-/// start of the file.
+/// blanks and comments) is `Lsystem:` or a `#` directive (`#` and a name,
+/// as `#define`; not an `.ls` file's `#!` line)? `head` is the start of
+/// the file.
 pub fn is_cpfg(name: &str, head: &[u8]) -> bool {
     if name.ends_with(".l") {
         return true;
@@ -79,7 +80,13 @@ pub fn is_cpfg(name: &str, head: &[u8]) -> bool {
                 None => return false,
             }
         } else {
-            return t.starts_with(b"#") || t.starts_with(b"Lsystem:") || t.starts_with(b"lsystem:");
+            // A directive: `#`, blanks, a name (`#!` is an `.ls` shebang).
+            let directive = t.strip_prefix(b"#".as_slice()).is_some_and(|r| {
+                r.trim_ascii_start()
+                    .first()
+                    .is_some_and(|c| c.is_ascii_alphabetic())
+            });
+            return directive || t.starts_with(b"Lsystem:") || t.starts_with(b"lsystem:");
         }
     }
 }

@@ -243,3 +243,73 @@ fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str, end: usize) -> 
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cpfg::ast::{BinOp, Expr, Setting, Stmt};
+
+    #[test]
+    fn layout_and_productions() {
+        let src = "Lsystem: main\nignore: A\nDerivation length: 2 * 2\nconsider: AB\nAxiom: A , ;\nA < B --> X\n* < B > * : * --> *\nB(x) : x > 1 -> C(x)\n\tD\nHomomorphism: warnings\nmaximum depth: 2\nX --> x\nEndLsystem\n";
+        let ls = parse(src).unwrap();
+        assert_eq!(ls.settings.len(), 3);
+        assert!(matches!(ls.settings[2], Setting::Consider(ref s, _) if s.len() == 2));
+        let axiom: String = ls.axiom.iter().map(|m| m.sym).collect();
+        assert_eq!(axiom, "A,;");
+        assert_eq!(ls.productions.len(), 3);
+        let p = &ls.productions[1];
+        assert!(p.left.is_none() && p.right.is_none() && p.cond.is_none());
+        assert!(p.succ.is_empty());
+        // newline + TAB continues the successor
+        assert_eq!(ls.productions[2].succ.len(), 2);
+        let h = ls.homomorphism.as_ref().unwrap();
+        assert_eq!(h.warnings, Some(true));
+        assert!(h.depth.is_some());
+    }
+
+    #[test]
+    fn blocks_are_kept_as_syntax() {
+        let src = "Lsystem: 1\nStart: {n = 0;\n  if (n < 1) { n = n + 1; } else { n = 2; }\n  while (n < 3) { n = n + 1; }\n  do { n = n - 1; } while (n > 0);\n  printf(\"%d\\n\", n); fprintf(stderr, \"x\");\n}\nAxiom: A\nA : { k = 2; } k > 1 { n = n + k; } --> B\nendlsystem\n";
+        let ls = parse(src).unwrap();
+        let (b, _) = ls.start.as_ref().unwrap();
+        assert!(matches!(b[0], Stmt::Assign { ref name, .. } if name == "n"));
+        assert!(matches!(b[1], Stmt::If { ref els, .. } if els.len() == 1));
+        assert!(matches!(b[2], Stmt::While { .. }));
+        assert!(matches!(b[3], Stmt::DoWhile { .. }));
+        assert!(
+            matches!(b[4], Stmt::Printf { stderr: false, ref format, ref args, .. } if format == "%d\n" && args.len() == 1)
+        );
+        assert!(matches!(b[5], Stmt::Printf { stderr: true, .. }));
+        let p = &ls.productions[0];
+        assert_eq!(p.pre.len(), 1);
+        assert_eq!(p.post.len(), 1);
+        assert!(matches!(p.cond, Some(Expr::Binary(BinOp::Gt, ..))));
+    }
+
+    #[test]
+    fn precedence() {
+        let ls = parse("Lsystem: 1\nAxiom: A(-2^2, 1 ? 2 : 3, 7 % 2 * 3)\nendlsystem\n").unwrap();
+        let p = &ls.axiom[0].params;
+        // (-2)^2
+        assert!(
+            matches!(&p[0], Expr::Binary(BinOp::Pow, a, _, _) if matches!(**a, Expr::Unary(..)))
+        );
+        assert!(matches!(&p[1], Expr::Cond(..)));
+        // (7 % 2) * 3
+        assert!(
+            matches!(&p[2], Expr::Binary(BinOp::Mul, a, _, _) if matches!(**a, Expr::Binary(BinOp::Rem, ..)))
+        );
+    }
+
+    #[test]
+    fn errors() {
+        let e = parse("Lsystem: 1\nAxiom: A\nA --> B\n").unwrap_err();
+        assert!(e.message.contains("missing `endlsystem`"), "{}", e.message);
+        let e = parse("Lsystem: 1\nAxiom: A\nA --> F?H\nendlsystem\n").unwrap_err();
+        assert!(e.message.contains("`?H`"), "{}", e.message);
+        assert_eq!(e.span.0, 27);
+        let e = parse("Lsystem: 1\nAxiom: A(1e6)\nendlsystem\n").unwrap_err();
+        assert!(e.message.contains("dot"), "{}", e.message);
+    }
+}

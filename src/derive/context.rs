@@ -45,11 +45,13 @@ pub(crate) struct Level {
 }
 
 impl LeftContext {
-    pub(crate) fn new(table: &Table, al: &Alphabet) -> Self {
-        let k = table.max_left;
+    /// The left context `tables` need together (a step's productions and
+    /// the decomposition, whose contexts are read in the same string).
+    pub(crate) fn new_for(tables: &[&Table], al: &Alphabet) -> Self {
+        let k = tables.iter().map(|t| t.max_left).max().unwrap_or(0);
         let mut wanted = Vec::new();
         let mut width = 0;
-        for p in &table.prods {
+        for p in tables.iter().flat_map(|t| t.prods.iter()) {
             for pat in &p.left {
                 let n = al.arity(pat.key);
                 if n > 0 {

@@ -256,6 +256,7 @@ pub(crate) fn derive(
     let hom = settings.homomorphism && !homomorphism.is_empty();
     // Right contexts skip branches in O(1) through a bracket index.
     let indexed = productions.has_right
+        || decomposition.as_ref().is_some_and(|(d, _)| d.has_right)
         || groups.iter().any(|(_, t)| t.has_right)
         || (hom && homomorphism.has_right);
     let pct = u32::from(b'%');

@@ -403,14 +403,22 @@ impl<'a> Deriver<'a> {
         } else {
             1
         };
+        // Decomposition contexts (cpfg dialect) are read in the same string,
+        // around the predecessor.
+        let d = decomp.map(|(d, _)| d);
         let mut st = StepState {
-            peek: table
-                .has_right
+            peek: (table.has_right || d.is_some_and(|d| d.has_right))
                 .then(|| PosReader::new(input, 1 << 16, indexed)),
             cpfg: self.cpfg_contexts.then(|| CpfgBrackets::of(&self.alphabet)),
             right: RightCache::new(),
-            max_right_simple: table.max_right_simple,
-            left: (table.max_left > 0).then(|| LeftContext::new(table, &self.alphabet)),
+            max_right_simple: table
+                .max_right_simple
+                .max(d.map_or(0, |d| d.max_right_simple)),
+            left: (table.max_left > 0 || d.is_some_and(|d| d.max_left > 0)).then(|| {
+                let mut ts = vec![table];
+                ts.extend(d);
+                LeftContext::new_for(&ts, &self.alphabet)
+            }),
             depth: 0,
             skip: (u64::MAX, 0),
             chains: Chains::default(),
@@ -492,6 +500,8 @@ impl<'a> Deriver<'a> {
                         };
                         let lv = std::mem::take(&mut self.rc.levels[0]);
                         let (_, params) = lv.get(0, n);
+                        let al = &self.alphabet;
+                        let st = &mut st;
                         let r = try_rewrite(
                             &mut self.rc,
                             &cx,
@@ -499,7 +509,10 @@ impl<'a> Deriver<'a> {
                             key,
                             params,
                             &mut self.rng,
-                            &mut |_, _| Ok(true),
+                            &mut |p, slots| {
+                                Ok(!surely_not(p, end_off, st, al)?
+                                    && contexts_match(p, end_off, st, al, slots)?)
+                            },
                             out,
                         );
                         self.rc.levels[0] = lv;
@@ -655,7 +668,12 @@ impl<'a> Deriver<'a> {
                 pass,
                 warn: warnings[0].then_some(&warned[0]),
             };
-            return expand_level(rc, &cx, 0, rng, &mut |_, _| Ok(true), out).map(|()| true);
+            // Contexts (cpfg dialect) are read around the predecessor in
+            // the string before the step, at every depth.
+            let mut ctx = |p: &Production, slots: &mut [f64]| {
+                Ok(!surely_not(p, end_off, st, al)? && contexts_match(p, end_off, st, al, slots)?)
+            };
+            return expand_level(rc, &cx, 0, rng, &mut ctx, out).map(|()| true);
         }
         if pass == Pass::Homomorphism && (hom_depth > 1 || warnings[1]) {
             // The successor has depth 1; contexts are those of the

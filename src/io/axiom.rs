@@ -266,7 +266,7 @@ impl<'a> AxiomReader<'a> {
         self.last = (line, col, at);
         let (sym, n) = self.peek_char()?.expect("skip_blank saw a byte");
         match sym {
-            '(' | ')' | ',' | ':' | '<' | '>' => {
+            '(' | ')' | ':' | '<' | '>' => {
                 return Err(self.error_here(format!(
                     "`{sym}` is reserved and cannot be a symbol{}",
                     if sym == '(' {
@@ -506,7 +506,7 @@ static PLAIN: [bool; 256] = {
     let mut t = [false; 256];
     let mut b = 0x21;
     while b < 0x7f {
-        t[b] = !matches!(b as u8, b'(' | b')' | b',' | b':' | b'<' | b'>');
+        t[b] = !matches!(b as u8, b'(' | b')' | b':' | b'<' | b'>');
         b += 1;
     }
     t

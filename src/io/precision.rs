@@ -12,8 +12,11 @@ pub const MAX_PRECISION: u32 = 17;
 
 /// Append `v` with `digits` significant digits, `%g` style: scientific when
 /// the exponent is below -4 or at least `digits`, trailing zeros dropped.
-/// `scratch` is reused, so nothing is allocated once it has grown.
-pub fn put_significant(out: &mut Vec<u8>, scratch: &mut String, v: f64, digits: u32) {
+/// `scratch` is reused, so nothing is allocated once it has grown. With
+/// `c_exponent` the exponent is exactly as C's `%g` writes it: a sign and
+/// at least two digits (`1.67772e+07`, `1e-05`), as cpfg prints (the cpfg
+/// dialect's output); else as lsgen writes numbers (`1.67772e7`).
+pub fn put_g(out: &mut Vec<u8>, scratch: &mut String, v: f64, digits: u32, c_exponent: bool) {
     let p = digits.clamp(1, MAX_PRECISION) as usize;
     if !v.is_finite() || v == 0.0 {
         if v == 0.0 && v.is_sign_negative() {
@@ -34,7 +37,12 @@ pub fn put_significant(out: &mut Vec<u8>, scratch: &mut String, v: f64, digits: 
     let exp: i32 = scratch[at + 1..].parse().unwrap_or(0);
     if exp < -4 || exp >= p as i32 {
         out.extend_from_slice(trim_zeros(&scratch.as_bytes()[..at]));
-        let _ = write!(out, "e{exp}");
+        if c_exponent {
+            let sign = if exp < 0 { '-' } else { '+' };
+            let _ = write!(out, "e{sign}{:02}", exp.unsigned_abs());
+        } else {
+            let _ = write!(out, "e{exp}");
+        }
     } else {
         scratch.clear();
         let _ = write!(scratch, "{:.*}", (p as i32 - 1 - exp) as usize, v);
@@ -64,6 +72,8 @@ fn trim_zeros(s: &[u8]) -> &[u8] {
 pub struct Significant<W: Write> {
     inner: W,
     digits: u32,
+    /// C's exponent form (`e+07`), see [`put_g`].
+    c_exponent: bool,
     in_params: bool,
     token: Vec<u8>,
     buf: Vec<u8>,
@@ -78,6 +88,7 @@ impl<W: Write> Significant<W> {
         Significant {
             inner,
             digits,
+            c_exponent: false,
             in_params: false,
             token: Vec::with_capacity(MAX_TOKEN),
             buf: Vec::with_capacity(1 << 16),
@@ -85,14 +96,24 @@ impl<W: Write> Significant<W> {
         }
     }
 
+    /// Write exponents as C's `%g` does (`e+07`), see [`put_g`].
+    pub fn c_exponent(mut self, on: bool) -> Self {
+        self.c_exponent = on;
+        self
+    }
+
     fn emit_token(&mut self) {
         let parsed = std::str::from_utf8(&self.token)
             .ok()
             .and_then(|s| s.parse::<f64>().ok());
         match parsed {
-            Some(v) if self.token.len() <= MAX_TOKEN => {
-                put_significant(&mut self.buf, &mut self.scratch, v, self.digits)
-            }
+            Some(v) if self.token.len() <= MAX_TOKEN => put_g(
+                &mut self.buf,
+                &mut self.scratch,
+                v,
+                self.digits,
+                self.c_exponent,
+            ),
             _ => self.buf.extend_from_slice(&self.token),
         }
         self.token.clear();
@@ -171,8 +192,24 @@ mod tests {
 
     fn g(v: f64, p: u32) -> String {
         let mut o = Vec::new();
-        put_significant(&mut o, &mut String::new(), v, p);
+        put_g(&mut o, &mut String::new(), v, p, false);
         String::from_utf8(o).unwrap()
+    }
+
+    #[test]
+    fn c_exponent_like_printf_g() {
+        // Expected: C's printf("%g") (checked by hand against glibc's).
+        let c = |v: f64| {
+            let mut o = Vec::new();
+            put_g(&mut o, &mut String::new(), v, 6, true);
+            String::from_utf8(o).unwrap()
+        };
+        assert_eq!(c(16777216.0), "1.67772e+07");
+        assert_eq!(c(1e-30), "1e-30");
+        assert_eq!(c(0.00001), "1e-05");
+        assert_eq!(c(1.5e100), "1.5e+100");
+        assert_eq!(c(123456.0), "123456");
+        assert_eq!(c(-0.0), "-0");
     }
 
     #[test]

@@ -126,8 +126,6 @@ enum ModTok {
     LParen,
     #[token(")")]
     RParen,
-    #[token(",")]
-    Comma,
     #[token(":")]
     Colon,
     #[token("->")]
@@ -137,7 +135,7 @@ enum ModTok {
     Lt,
     #[token(">")]
     Gt,
-    #[regex(r"[^\s\p{Cc}(),:<>]")]
+    #[regex(r"[^\s\p{Cc}():<>]")]
     Sym,
     #[regex(r"[\x00-\x08\x0E-\x1F\x7F\u{80}-\u{84}\u{86}-\u{9F}]")]
     Control,
@@ -686,7 +684,6 @@ impl<'a> Iterator for Lexer<'a> {
                     Tok::LParen
                 }
                 Left(ModTok::RParen) => Tok::RParen,
-                Left(ModTok::Comma) => Tok::Comma,
                 Left(ModTok::Colon) => {
                     self.enter_expr();
                     self.depth = 0;
