@@ -752,17 +752,15 @@ fn contexts_match(
         if !right.matches(&p.right, al, slots) {
             return Ok(false);
         }
-    } else if let (Some(passed), false) = (st.cpfg, p.right.is_empty()) {
-        // cpfg's rules: from just after the predecessor.
-        let read_err = |e| Error::io("temporary file", "cannot read", e);
-        let peek = st.peek.as_mut().unwrap();
-        if !match_right_cpfg(peek, al, end_off, &p.right, slots, passed).map_err(read_err)? {
-            return Ok(false);
-        }
     } else if !p.right.is_empty() {
+        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        if let Some(passed) = st.cpfg {
+            // cpfg's rules: from just after the predecessor.
+            let peek = st.peek.as_mut().unwrap();
+            return match_right_cpfg(peek, al, end_off, &p.right, slots, passed).map_err(read_err);
+        }
         // Matching from past the ignored run is the same: every pattern
         // element passes over ignored modules first.
-        let read_err = |e| Error::io("temporary file", "cannot read", e);
         let start = st.right_start(end_off, al).map_err(read_err)?;
         let level = st.level();
         let peek = st.peek.as_mut().unwrap();
