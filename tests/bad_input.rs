@@ -793,6 +793,17 @@ cases! {
         err("Lsystem: 1\nAxiom: A\n* --> B\nendlsystem\n", 3, 1, "the strict predecessor cannot be `*`");
     cpfg_unknown_function =>
         err("Lsystem: 1\nAxiom: A(1)\nA(x) --> A(min(x, 2))\nendlsystem\n", 3, 12, "unknown function `min`");
+    // cpfg's statement blocks (issue 12, the runtime)
+    cpfg_runaway_while =>
+        err("Lsystem: 1\nderivation length: 1\nStart: {i = 0; while (i < 1) {j = 1;}}\nAxiom: A\nendlsystem\n", 3, 16, "this `while` loop ran 10000000 times: lsgen stops it (cpfg would hang)");
+    cpfg_runaway_do_while =>
+        err("Lsystem: 1\nderivation length: 1\nAxiom: A\nA : {do {k = 1;} while (1);} * --> B\nendlsystem\n", 4, 6, "this `do … while` loop ran 10000000 times");
+    cpfg_printf_values =>
+        err("Lsystem: 1\nEnd: {printf(\"%g %g\\n\", 1);}\nAxiom: A\nendlsystem\n", 2, 7, "printf: the format takes 2 values, 1 given");
+    cpfg_printf_conversion =>
+        err("Lsystem: 1\nEnd: {printf(\"%s\\n\", 1);}\nAxiom: A\nendlsystem\n", 2, 7, "printf: `%s` is not a conversion lsgen prints");
+    cpfg_assign_q =>
+        err("Lsystem: 1\nStart: {Q = 1;}\nAxiom: A\nendlsystem\n", 2, 9, "`Q` cannot be assigned");
 }
 
 impl Case {

@@ -350,12 +350,22 @@ impl<'a> Deriver<'a> {
     /// Run a `.l` file's header block `which` (its errors located in
     /// `pass`); nothing for other files.
     pub fn cpfg_block(&mut self, which: crate::cpfg::run::When, pass: Pass) -> Result<(), Error> {
-        match &self.cpfg {
-            Some(c) => c
-                .run(which, &mut self.rng)
-                .map_err(|e| self.origin.eval_error(e, pass)),
-            None => Ok(()),
-        }
+        use crate::cpfg::run::When;
+        let Some(c) = &self.cpfg else {
+            return Ok(());
+        };
+        c.run(which, &mut self.rng).map_err(|e| {
+            let block = match which {
+                When::Start => "`Start:`".to_string(),
+                When::StartEach => format!("`StartEach:` before {pass}"),
+                When::EndEach => format!("`EndEach:` after {pass}"),
+                When::End => "`End:`".to_string(),
+            };
+            crate::diag::Error::at(
+                self.origin.locate(e.span.0),
+                format!("{} (in {block})", e.message),
+            )
+        })
     }
 
     /// One pass: rewrite the generation in `input` into `out`.
