@@ -29,9 +29,20 @@ pub(crate) struct Chooser {
     /// Matching candidates of a weighted group, with their bindings.
     cand: Vec<(u32, f64)>,
     cand_slots: Vec<f64>,
+    /// Chooses for decomposition or a deep homomorphism: in a `.l` file,
+    /// always the first applicable production, no draw.
+    pub(crate) nested: bool,
 }
 
 impl Chooser {
+    /// The chooser of decomposition and deep homomorphisms.
+    pub(crate) fn nested() -> Chooser {
+        Chooser {
+            nested: true,
+            ..Chooser::default()
+        }
+    }
+
     /// The production of `kr` that rewrites the bound module: the context
     /// group first, then the context-free one (see README, "Choice").
     /// `contexts(p, slots)` tells whether `p`'s contexts match here,
@@ -90,8 +101,7 @@ impl Chooser {
         }
         if let Some(b) = &p.pre {
             // cpfg: the pre-condition block, before the condition.
-            b.run(slots, &mut self.stack, rng)
-                .map_err(|e| origin.eval_error(e, pass))?;
+            pre_block(b, slots, &mut self.stack, rng, origin, pass)?;
         }
         match &p.cond {
             None => Ok(true),
@@ -117,9 +127,10 @@ impl Chooser {
     where
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
-        // cpfg's dialect without `seed:` ignores the weights (issue 12).
-        let cpfg = rng.cpfg_mut().map(|c| c.stochastic);
-        if !stochastic || cpfg == Some(false) {
+        if rng.cpfg_mut().is_some() {
+            return self.choose_in_cpfg(slots, table, list, rng, origin, pass, contexts);
+        }
+        if !stochastic {
             for &pi in list {
                 let p = &table.prods[pi as usize];
                 if self.matches(slots, p, rng, origin, pass, contexts)? {
@@ -149,40 +160,101 @@ impl Chooser {
                     format!("a probability cannot be negative ({w}, in {pass})"),
                 ));
             }
-            if w > 0.0 || cpfg.is_some() {
+            if w > 0.0 {
                 total += w;
                 self.cand.push((pi, w));
                 self.cand_slots.extend_from_slice(&slots[..p.nslots]);
             }
         }
-        // cpfg's SelectProd: the module's draw from its choice generator,
-        // 32-bit floats, weight 0 competes (README, "Coming from cpfg").
-        let pick = if let Some(u) = rng.cpfg_choice() {
-            match select(self.cand.iter().map(|&(_, w)| w as f32), u) {
-                Some(i) => i,
-                None => return Ok(None),
-            }
-        } else {
-            match self.cand.len() {
-                0 => return Ok(None),
-                1 => 0,
-                n => {
-                    let u = rng.uniform().map_err(|m| {
-                        let p = &table.prods[self.cand[0].0 as usize];
-                        Error::at(origin.locate(p.span.0), format!("{m} (in {pass})"))
-                    })?;
-                    let mut u = u * total;
-                    let mut i = 0;
-                    while i < n - 1 {
-                        u -= self.cand[i].1;
-                        if u < 0.0 {
-                            break;
-                        }
-                        i += 1;
+        let pick = match self.cand.len() {
+            0 => return Ok(None),
+            1 => 0,
+            n => {
+                let u = rng.uniform().map_err(|m| {
+                    let p = &table.prods[self.cand[0].0 as usize];
+                    Error::at(origin.locate(p.span.0), format!("{m} (in {pass})"))
+                })?;
+                let mut u = u * total;
+                let mut i = 0;
+                while i < n - 1 {
+                    u -= self.cand[i].1;
+                    if u < 0.0 {
+                        break;
                     }
-                    i
+                    i += 1;
+                }
+                i
+            }
+        };
+        // Restore the chosen production's bindings.
+        let pi = self.cand[pick].0;
+        let off: usize = self.cand[..pick]
+            .iter()
+            .map(|(q, _)| table.prods[*q as usize].nslots)
+            .sum();
+        let n = table.prods[pi as usize].nslots;
+        slots[..n].copy_from_slice(&self.cand_slots[off..off + n]);
+        Ok(Some(pi))
+    }
+
+    /// cpfg's choice (a `.l` file, README "Coming from cpfg"): the first
+    /// applicable production in file order; with `seed:`, `SelectProd`
+    /// over all applicable ones (weights as 32-bit floats, weight 0
+    /// competing) with the module's draw from cpfg's choice generator.
+    /// Out of line: the `.ls` path above pays one test for it.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn choose_in_cpfg<F>(
+        &mut self,
+        slots: &mut [f64],
+        table: &Table,
+        list: &[u32],
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        contexts: &mut F,
+    ) -> Result<Option<u32>, Error>
+    where
+        F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    {
+        // With `seed:` every production competes, weighted 1 by default.
+        let stochastic = rng.cpfg_mut().is_some_and(|c| c.stochastic);
+        if !stochastic || self.nested || !matches!(pass, Pass::Step(_)) {
+            for &pi in list {
+                let p = &table.prods[pi as usize];
+                if self.matches(slots, p, rng, origin, pass, contexts)? {
+                    return Ok(Some(pi));
                 }
             }
+            return Ok(None);
+        }
+        self.cand.clear();
+        self.cand_slots.clear();
+        for &pi in list {
+            let p = &table.prods[pi as usize];
+            if !self.matches(slots, p, rng, origin, pass, contexts)? {
+                continue;
+            }
+            let w = match &p.prob {
+                None => 1.0,
+                Some(c) => c
+                    .eval(slots, &mut self.stack, rng)
+                    .map_err(|e| origin.eval_error(e, pass))?,
+            };
+            if w < 0.0 {
+                return Err(Error::at(
+                    origin.locate(p.prob.as_ref().unwrap().span.0),
+                    format!("a probability cannot be negative ({w}, in {pass})"),
+                ));
+            }
+            self.cand.push((pi, w));
+            self.cand_slots.extend_from_slice(&slots[..p.nslots]);
+        }
+        let Some(u) = rng.cpfg_choice() else {
+            return Ok(None);
+        };
+        let Some(pick) = select(self.cand.iter().map(|&(_, w)| w as f32), u) else {
+            return Ok(None);
         };
         // Restore the chosen production's bindings.
         let pi = self.cand[pick].0;
@@ -246,4 +318,19 @@ impl Chooser {
         }
         Ok(())
     }
+}
+
+/// cpfg's pre-condition block (out of line: `.ls` productions have none).
+#[cold]
+#[inline(never)]
+fn pre_block(
+    b: &crate::cpfg::blocks::Block,
+    slots: &mut [f64],
+    stack: &mut Vec<f64>,
+    rng: &mut Random,
+    origin: &Origin,
+    pass: Pass,
+) -> Result<(), Error> {
+    b.run(slots, stack, rng)
+        .map_err(|e| origin.eval_error(e, pass))
 }

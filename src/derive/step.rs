@@ -343,7 +343,10 @@ impl<'a> Deriver<'a> {
             cpfg: None,
             warnings: [false; 2],
             warned: [Cell::new(false), Cell::new(false)],
-            rc: Recur::default(),
+            rc: Recur {
+                chooser: Chooser::nested(),
+                ..Recur::default()
+            },
         }
     }
 
@@ -745,8 +748,25 @@ fn surely_not(
     Ok(false)
 }
 
+/// cpfg's right contexts (a `.l` file), kept out of line so that
+/// [`contexts_match`] stays as small as the `.ls` path needs.
+#[inline(never)]
+fn right_cpfg(
+    p: &Production,
+    end_off: u64,
+    st: &mut StepState,
+    al: &Alphabet,
+    slots: &mut [f64],
+    passed: CpfgBrackets,
+) -> Result<bool, Error> {
+    // From just after the predecessor.
+    let peek = st.peek.as_mut().unwrap();
+    match_right_cpfg(peek, al, end_off, &p.right, slots, passed)
+        .map_err(|e| Error::io("temporary file", "cannot read", e))
+}
+
 /// Do production `p`'s contexts match here? Binds their parameters.
-#[inline]
+#[inline(always)]
 fn contexts_match(
     p: &Production,
     end_off: u64,
@@ -765,9 +785,7 @@ fn contexts_match(
     } else if !p.right.is_empty() {
         let read_err = |e| Error::io("temporary file", "cannot read", e);
         if let Some(passed) = st.cpfg {
-            // cpfg's rules: from just after the predecessor.
-            let peek = st.peek.as_mut().unwrap();
-            return match_right_cpfg(peek, al, end_off, &p.right, slots, passed).map_err(read_err);
+            return right_cpfg(p, end_off, st, al, slots, passed);
         }
         // Matching from past the ignored run is the same: every pattern
         // element passes over ignored modules first.
