@@ -62,6 +62,15 @@ impl Chooser {
     where
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
+        if rng.cpfg_mut().is_some() {
+            // A `.l` file: one list per key (the front end merges them).
+            let list = if kr.context.is_empty() {
+                &kr.free[..]
+            } else {
+                &kr.context[..]
+            };
+            return self.choose_cpfg(slots, table, list, rng, origin, pass, &mut contexts);
+        }
         let mut chosen = None;
         let mut kr = kr;
         loop {
@@ -99,10 +108,6 @@ impl Chooser {
         if !contexts(p, slots)? {
             return Ok(false);
         }
-        if let Some(b) = &p.pre {
-            // cpfg: the pre-condition block, before the condition.
-            pre_block(b, slots, &mut self.stack, rng, origin, pass)?;
-        }
         match &p.cond {
             None => Ok(true),
             Some(c) => match c.eval(slots, &mut self.stack, rng) {
@@ -127,9 +132,6 @@ impl Chooser {
     where
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
-        if rng.cpfg_mut().is_some() {
-            return self.choose_in_cpfg(slots, table, list, rng, origin, pass, contexts);
-        }
         if !stochastic {
             for &pi in list {
                 let p = &table.prods[pi as usize];
@@ -201,10 +203,12 @@ impl Chooser {
     /// applicable production in file order; with `seed:`, `SelectProd`
     /// over all applicable ones (weights as 32-bit floats, weight 0
     /// competing) with the module's draw from cpfg's choice generator.
-    /// Out of line: the `.ls` path above pays one test for it.
+    /// The chosen production's post-condition block runs before this
+    /// returns, its successor right after. Out of line: the `.ls` path
+    /// pays one test per module for it.
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
-    fn choose_in_cpfg<F>(
+    fn choose_cpfg<F>(
         &mut self,
         slots: &mut [f64],
         table: &Table,
@@ -222,8 +226,8 @@ impl Chooser {
         if !stochastic || self.nested || !matches!(pass, Pass::Step(_)) {
             for &pi in list {
                 let p = &table.prods[pi as usize];
-                if self.matches(slots, p, rng, origin, pass, contexts)? {
-                    return Ok(Some(pi));
+                if self.matches_cpfg(slots, p, rng, origin, pass, contexts)? {
+                    return self.post(slots, p, rng, origin, pass).map(|()| Some(pi));
                 }
             }
             return Ok(None);
@@ -232,7 +236,7 @@ impl Chooser {
         self.cand_slots.clear();
         for &pi in list {
             let p = &table.prods[pi as usize];
-            if !self.matches(slots, p, rng, origin, pass, contexts)? {
+            if !self.matches_cpfg(slots, p, rng, origin, pass, contexts)? {
                 continue;
             }
             let w = match &p.prob {
@@ -262,15 +266,45 @@ impl Chooser {
             .iter()
             .map(|(q, _)| table.prods[*q as usize].nslots)
             .sum();
-        let n = table.prods[pi as usize].nslots;
-        slots[..n].copy_from_slice(&self.cand_slots[off..off + n]);
-        Ok(Some(pi))
+        let p = &table.prods[pi as usize];
+        slots[..p.nslots].copy_from_slice(&self.cand_slots[off..off + p.nslots]);
+        self.post(slots, p, rng, origin, pass).map(|()| Some(pi))
+    }
+    /// [`Chooser::matches`] with cpfg's pre-condition block: contexts,
+    /// the block (also when the condition then fails), the condition.
+    #[inline]
+    fn matches_cpfg<F>(
+        &mut self,
+        slots: &mut [f64],
+        p: &Production,
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        contexts: &mut F,
+    ) -> Result<bool, Error>
+    where
+        F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    {
+        if !contexts(p, slots)? {
+            return Ok(false);
+        }
+        if let Some(b) = &p.pre {
+            b.run(slots, &mut self.stack, rng)
+                .map_err(|e| origin.eval_error(e, pass))?;
+        }
+        match &p.cond {
+            None => Ok(true),
+            Some(c) => match c.eval(slots, &mut self.stack, rng) {
+                Ok(v) => Ok(v != 0.0),
+                Err(e) => Err(origin.eval_error(e, pass)),
+            },
+        }
     }
 
     /// cpfg's post-condition block of the chosen production `p` (locals in
     /// `slots`), before its successor is evaluated.
     #[inline]
-    pub(crate) fn post(
+    fn post(
         &mut self,
         slots: &mut [f64],
         p: &Production,
@@ -318,19 +352,4 @@ impl Chooser {
         }
         Ok(())
     }
-}
-
-/// cpfg's pre-condition block (out of line: `.ls` productions have none).
-#[cold]
-#[inline(never)]
-fn pre_block(
-    b: &crate::cpfg::blocks::Block,
-    slots: &mut [f64],
-    stack: &mut Vec<f64>,
-    rng: &mut Random,
-    origin: &Origin,
-    pass: Pass,
-) -> Result<(), Error> {
-    b.run(slots, stack, rng)
-        .map_err(|e| origin.eval_error(e, pass))
 }

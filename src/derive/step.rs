@@ -210,7 +210,6 @@ fn try_rewrite(
         return Ok(false);
     };
     let p = &cx.table.prods[pi as usize];
-    rc.chooser.post(&mut rc.slots, p, rng, cx.origin, cx.pass)?;
     fill_level(rc, cx.al, depth + 1, p, rng, cx.origin, cx.pass)?;
     expand_level(rc, cx, depth + 1, rng, ctx, out)?;
     Ok(true)
@@ -656,7 +655,6 @@ impl<'a> Deriver<'a> {
             return Ok(false);
         };
         let p = &table.prods[pi as usize];
-        chooser.post(slots, p, rng, origin, pass)?;
         if table.check_balance {
             if st.depth + p.depth_min < 0 {
                 return Err(unbalanced(origin, table, Some(pi), pass));
