@@ -25,10 +25,6 @@ const PENDING: &[(&str, Pending)] = &[
     ("stochastic_seed0", Refused("stochastic productions")),
     ("stochastic_context", Refused("stochastic productions")),
     ("stochastic_plant", Refused("stochastic productions")),
-    (
-        "multi_pred",
-        Refused("a predecessor of several modules (`AB --> C`)"),
-    ),
     // cpfg's context quirks (cpfg-behaviour.md, "Contexts"): lsgen's
     // matcher gives another string today.
     ("context_branches", Differs),
@@ -344,4 +340,49 @@ fn first_applicable_production_in_cpfg_only() {
     assert_eq!(run_with_stdin(lsgen().arg("-"), l).ok(), "AX\n");
     let ls = "productions:\nB -> X\nA < B -> Y\naxiom: AB\n";
     assert_eq!(common::run_ls(ls, &[]).ok(), "AY\n");
+}
+
+/// A predecessor of several modules (hand derivations): the run must
+/// follow strictly, contexts are around it, the old run is the left
+/// context of what follows, and only the step engine derives it.
+#[test]
+fn multi_module_predecessor_details() {
+    let case = |src: &str, args: &[&str]| {
+        let mut cmd = lsgen();
+        cmd.args(["-", "--dialect", "cpfg"]).args(args);
+        run_with_stdin(&mut cmd, src.to_string())
+    };
+    // B < C sees the old B, though AB became X.
+    let r = case(
+        "Lsystem: 1\nAxiom: ABC\nAB --> X\nB < C --> Y\nendlsystem\n",
+        &[],
+    );
+    assert_eq!(r.ok(), "XY\n");
+    // A[B]: not a run; the second AB is.
+    let r = case("Lsystem: 1\nAxiom: A[B]AB\nAB --> X\nendlsystem\n", &[]);
+    assert_eq!(r.ok(), "A[B]X\n");
+    // The right context starts after the run (and skips the branch).
+    let r = case("Lsystem: 1\nAxiom: AB[C]D\nAB > D --> X\nendlsystem\n", &[]);
+    assert_eq!(r.ok(), "X[C]D\n");
+    // Parameters from every module; file order decides.
+    let r = case(
+        "Lsystem: 1\nAxiom: A(2)B(3)A(1)\nA(a)B(b) --> C(a*b)\nA(a) --> D(a)\nendlsystem\n",
+        &["--strategy", "step"],
+    );
+    assert_eq!(r.ok(), "C(6)D(1)\n");
+    let r = case(
+        "Lsystem: 1\nAxiom: AB\nAB --> X\nendlsystem\n",
+        &["--strategy", "dfs"],
+    );
+    r.fails(2);
+    // Not in the homomorphism.
+    let r = case(
+        "Lsystem: 1\nAxiom: AB\nhomomorphism\nAB --> X\nendlsystem\n",
+        &[],
+    );
+    let e = r.assert_one_error();
+    assert!(
+        e.contains(":4:1: error:") && e.contains("several modules"),
+        "{e}"
+    );
 }

@@ -188,14 +188,17 @@ impl Lowerer<'_> {
     fn production(&mut self, p: &Production, section: &str) -> R<ls::Production> {
         no_block(&p.pre, p.span, "a pre-condition block")?;
         no_block(&p.post, p.span, "a post-condition block")?;
-        if p.pred.len() > 1 {
+        if p.pred.len() > 1 && !section.is_empty() {
             let s = (
                 p.pred[0].span.0,
                 p.pred.last().map_or(p.span.1, |m| m.span.1),
             );
             return err(
                 s,
-                "a predecessor of several modules (`AB --> C`) is not supported yet in the cpfg dialect",
+                format!(
+                    "a predecessor of several modules (`AB --> C`) is supported among the L-system's productions, not in the {}",
+                    section.trim_end()
+                ),
             );
         }
         let mut formals = HashMap::new();
@@ -204,6 +207,7 @@ impl Lowerer<'_> {
             None => Vec::new(),
         };
         let mut pred = self.formals(&p.pred, &mut formals)?;
+        let pred_rest = pred.split_off(1);
         let right = match &p.right {
             Some(r) => self.formals(r, &mut formals)?,
             None => Vec::new(),
@@ -238,6 +242,7 @@ impl Lowerer<'_> {
         Ok(ls::Production {
             left,
             pred: pred.pop().expect("one module"),
+            pred_rest,
             right,
             cond,
             succ,
@@ -421,6 +426,8 @@ mod tests {
     #[test]
     fn refusals_not_yet() {
         let (r, _) = lowered("Lsystem: 1\nAxiom: AB\nAB --> C\nendlsystem\n");
+        assert_eq!(r.unwrap().header.productions[0].pred_rest.len(), 1);
+        let (r, _) = lowered("Lsystem: 1\nAxiom: AB\nhomomorphism\nAB --> C\nendlsystem\n");
         assert!(r.err().unwrap().message.contains("several modules"));
         let (r, _) = lowered("Lsystem: 1\nseed: 2\nAxiom: A\nA --> B : 0.5\nendlsystem\n");
         assert!(r.err().unwrap().message.contains("stochastic"));
