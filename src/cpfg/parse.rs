@@ -323,3 +323,26 @@ mod tests {
         assert!(e.message.contains("dot"), "{}", e.message);
     }
 }
+
+#[cfg(test)]
+mod sniff_tests {
+    use crate::cpfg::sniff;
+
+    #[test]
+    fn first_statement_decides() {
+        assert_eq!(sniff("a.l", b"", false), Some(true));
+        assert_eq!(sniff("-", b"/* x */ Lsystem: 1", false), Some(true));
+        assert_eq!(sniff("-", b"// x\n#define A 1\n", false), Some(true));
+        assert_eq!(sniff("-", b"#!/bin/lsgen\n", false), Some(false));
+        assert_eq!(sniff("-", b"productions:\n", false), Some(false));
+        assert_eq!(sniff("-", b"\xEF\xBB\xBFlsystem:", false), Some(true));
+        // Undecided until more comes, decided at the end.
+        assert_eq!(sniff("-", b"/* open", false), None);
+        assert_eq!(sniff("-", b"/* open", true), Some(false));
+        assert_eq!(sniff("-", b"  Lsys", false), None);
+        assert_eq!(sniff("-", b"Lsys", true), Some(false));
+        assert_eq!(sniff("-", b"#", false), None);
+        assert_eq!(sniff("-", b"\xEF", false), None);
+        assert_eq!(sniff("-", b"Lx", false), Some(false));
+    }
+}
