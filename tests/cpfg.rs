@@ -272,7 +272,8 @@ fn dialect_option_forces_the_language() {
         lsgen().args(["-", "--dialect", "cpfg"]),
         "\n\nLsystem: 1\nAxiom: F\nF --> FF\nendlsystem\n",
     );
-    assert_eq!(r.ok(), "FF\n");
+    // No `derivation length:`: 0 steps, as in cpfg.
+    assert_eq!(r.ok(), "F\n");
     // A bad value is a usage error.
     run(lsgen().arg(&l).args(["--dialect", "lpfg"])).fails(2);
 }
@@ -301,7 +302,7 @@ fn errors_are_located_in_the_original_file() {
         "m.l",
         "/* top */\nLsystem: 1\nAxiom: A(-1)\n#include \"rules.inc\"\nendlsystem\n",
     );
-    let r = run(lsgen().arg(&main));
+    let r = run(lsgen().arg(&main).args(["-n", "1"]));
     let e = r.one_error().to_string();
     let inc = d.join("rules.inc").display().to_string();
     assert!(
@@ -337,7 +338,10 @@ fn cpfg_numbers_are_float32_and_percent_g() {
 #[test]
 fn first_applicable_production_in_cpfg_only() {
     let l = "Lsystem: 1\nAxiom: AB\nB --> X\nA < B --> Y\nendlsystem\n";
-    assert_eq!(run_with_stdin(lsgen().arg("-"), l).ok(), "AX\n");
+    assert_eq!(
+        run_with_stdin(lsgen().args(["-", "-n", "1"]), l).ok(),
+        "AX\n"
+    );
     let ls = "productions:\nB -> X\nA < B -> Y\naxiom: AB\n";
     assert_eq!(common::run_ls(ls, &[]).ok(), "AY\n");
 }
@@ -349,7 +353,7 @@ fn first_applicable_production_in_cpfg_only() {
 fn multi_module_predecessor_details() {
     let case = |src: &str, args: &[&str]| {
         let mut cmd = lsgen();
-        cmd.args(["-", "--dialect", "cpfg"]).args(args);
+        cmd.args(["-", "--dialect", "cpfg", "-n", "1"]).args(args);
         run_with_stdin(&mut cmd, src.to_string())
     };
     // B < C sees the old B, though AB became X.

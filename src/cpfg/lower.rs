@@ -337,6 +337,13 @@ pub fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, String)) -> R<Lower
             Setting::Consider(syms, span) => filter = Some((false, syms, *span)),
         }
     }
+    if lw.z.is_none() {
+        // cpfg derives 0 steps without `derivation length:`.
+        let at = (lsys.span.0, lsys.span.0);
+        header
+            .settings
+            .push(ls::Setting::DerivationLength(ls::Expr::Num(0.0, at), at));
+    }
     if let Some((ignore, syms, span)) = filter {
         let mods = syms
             .iter()
