@@ -443,3 +443,91 @@ mod tests {
         assert!(w[0].contains("ignored"));
     }
 }
+
+#[cfg(test)]
+mod soup {
+    use crate::cpfg::parse::parse;
+
+    /// Random token soup: parse and lower give a tree or an error, never
+    /// a panic.
+    #[test]
+    fn random_input_never_panics() {
+        let pieces = [
+            "Lsystem: 1\n",
+            "Axiom: ",
+            "endlsystem\n",
+            "A",
+            "B(x)",
+            "(",
+            ")",
+            "*",
+            "<",
+            ">",
+            ":",
+            "-->",
+            "->",
+            "\n",
+            "\n\t",
+            "{",
+            "}",
+            "x = 1;",
+            "if (x) {",
+            "} else {",
+            "while (1) {",
+            "do {",
+            "} while (0);",
+            "printf(\"%d\", x);",
+            "?",
+            "$",
+            "@S",
+            "1.0e3",
+            "1e3",
+            "\"s",
+            "%",
+            ",",
+            ";",
+            "homomorphism\n",
+            "decomposition\n",
+            "maximum depth: 2\n",
+            "seed: 3\n",
+            "derivation length: Z\n",
+            "ignore: A\n",
+            "Start: {",
+            "x ? 1 : 2",
+            "-",
+            "^",
+            "!",
+            "&&",
+            "||",
+            "==",
+            "<>",
+            "[",
+            "]",
+            "AB(a)C(b)",
+            "Q",
+            "atan(1,2)",
+            "sin(",
+            "\u{7}",
+            "é",
+        ];
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        for _ in 0..3000 {
+            let mut s = String::from("Lsystem: 1\n");
+            for _ in 0..(x % 24) {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                s.push_str(pieces[(x % pieces.len() as u64) as usize]);
+            }
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            if let Ok(ls) = parse(&s) {
+                if let Ok(l) = super::lower(&ls, &mut |_, _| {}) {
+                    let seeds = crate::rules::Seeds::default();
+                    let _ = crate::rules::compile_dialect(l.header, Some(&s), seeds, true);
+                }
+            }
+        }
+    }
+}
