@@ -390,3 +390,19 @@ fn multi_module_predecessor_details() {
         "{e}"
     );
 }
+
+/// An expression past the token limit is a located error, not a stack
+/// overflow (4,000,000 nested unary minuses crashed the parser's tree walk).
+#[test]
+fn huge_expression_is_a_located_error() {
+    let src = format!(
+        "Lsystem: 1\nAxiom: A({}1)\nendlsystem\n",
+        "-".repeat(4_000_000)
+    );
+    let r = run_with_stdin(lsgen().arg("-"), src);
+    let e = r.one_error();
+    assert!(
+        e.starts_with("lsgen: <stdin>:2:10010: error: expression too long"),
+        "{e}"
+    );
+}
