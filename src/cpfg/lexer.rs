@@ -324,6 +324,9 @@ pub struct Lexer<'a> {
 
 pub use crate::lang::lexer::MAX_EXPR_TOKENS;
 
+/// Deepest nesting of `{ }` blocks (the tree walks recurse on it).
+pub const MAX_BLOCK_DEPTH: i64 = 256;
+
 impl<'a> Lexer<'a> {
     pub fn new(src: &'a str) -> Lexer<'a> {
         Lexer {
@@ -604,6 +607,13 @@ impl<'a> Lexer<'a> {
             ExprTok::LBrace => {
                 self.nesting += 1;
                 self.braces += 1;
+                if self.braces > MAX_BLOCK_DEPTH {
+                    return Err(self.err(
+                        s,
+                        1,
+                        format!("blocks nested too deep (over {MAX_BLOCK_DEPTH})"),
+                    ));
+                }
                 Tok::LBrace
             }
             ExprTok::RBrace => {

@@ -346,3 +346,20 @@ mod sniff_tests {
         assert_eq!(sniff("-", b"Lx", false), Some(false));
     }
 }
+
+#[cfg(test)]
+mod limits {
+    #[test]
+    fn blocks_nest_at_most_256_deep() {
+        let deep = |n: usize| {
+            format!(
+                "Lsystem: 1\nStart: {{{}{}}}\nAxiom: A\nendlsystem\n",
+                "if (1) {".repeat(n),
+                "}".repeat(n)
+            )
+        };
+        assert!(super::parse(&deep(255)).is_ok());
+        let e = super::parse(&deep(256)).unwrap_err();
+        assert!(e.message.contains("nested too deep"), "{}", e.message);
+    }
+}
