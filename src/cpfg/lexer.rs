@@ -304,7 +304,7 @@ fn keyword(s: &[u8]) -> Option<(usize, Kw)> {
 
 pub type Spanned<'a> = Result<(usize, Tok<'a>, usize), UserError>;
 
-/// Most tokens in a file (the preprocessed text is at most 16 MiB).
+/// The cpfg lexer over the preprocessed text (see the module docs).
 pub struct Lexer<'a> {
     src: &'a str,
     pos: usize,
