@@ -203,8 +203,17 @@ impl LSystem {
             Dialect::Cpfg => true,
             Dialect::Ls => false,
             Dialect::Auto => {
+                // Read only as far as the first statement.
                 let name = input.name.clone();
-                crate::cpfg::is_cpfg(&name, input.fill(SNIFF)?)
+                let mut want = 1;
+                loop {
+                    let head = input.fill(want)?;
+                    let complete = head.len() < want || head.len() >= SNIFF;
+                    if let Some(cpfg) = crate::cpfg::sniff(&name, head, complete) {
+                        break cpfg;
+                    }
+                    want = head.len() + 1;
+                }
             }
         };
         if cpfg {

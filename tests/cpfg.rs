@@ -12,18 +12,15 @@ use std::path::{Path, PathBuf};
 /// Models whose expected strings need pieces of the cpfg runtime not
 /// there yet. Each must fail today exactly as said here (so the list
 /// cannot rot: when a piece lands, its entries fail until removed).
-const PENDING: &[(&str, Pending)] = &[(
-    "multi_pred",
-    Refused("a predecessor of several modules (`AB --> C`)"),
-)];
+const PENDING: &[(&str, Pending)] = &[];
 
 #[derive(Clone, Copy, Debug)]
+#[allow(dead_code)] // no model is pending today
 enum Pending {
     /// Refused with a located error whose message holds these words and
     /// "not supported yet".
     Refused(&'static str),
-    /// Derived, but not (yet) to the expected string (none today).
-    #[allow(dead_code)]
+    /// Derived, but not (yet) to the expected string.
     Differs,
 }
 use Pending::*;
@@ -258,7 +255,8 @@ fn dialect_option_forces_the_language() {
         lsgen().args(["-", "--dialect", "cpfg"]),
         "\n\nLsystem: 1\nAxiom: F\nF --> FF\nendlsystem\n",
     );
-    assert_eq!(r.ok(), "FF\n");
+    // No `derivation length:`: 0 steps, as in cpfg.
+    assert_eq!(r.ok(), "F\n");
     // A bad value is a usage error.
     run(lsgen().arg(&l).args(["--dialect", "lpfg"])).fails(2);
 }
@@ -287,7 +285,7 @@ fn errors_are_located_in_the_original_file() {
         "m.l",
         "/* top */\nLsystem: 1\nAxiom: A(-1)\n#include \"rules.inc\"\nendlsystem\n",
     );
-    let r = run(lsgen().arg(&main));
+    let r = run(lsgen().arg(&main).args(["-n", "1"]));
     let e = r.one_error().to_string();
     let inc = d.join("rules.inc").display().to_string();
     assert!(
@@ -323,7 +321,71 @@ fn cpfg_numbers_are_float32_and_percent_g() {
 #[test]
 fn first_applicable_production_in_cpfg_only() {
     let l = "Lsystem: 1\nAxiom: AB\nB --> X\nA < B --> Y\nendlsystem\n";
-    assert_eq!(run_with_stdin(lsgen().arg("-"), l).ok(), "AX\n");
+    assert_eq!(
+        run_with_stdin(lsgen().args(["-", "-n", "1"]), l).ok(),
+        "AX\n"
+    );
     let ls = "productions:\nB -> X\nA < B -> Y\naxiom: AB\n";
     assert_eq!(common::run_ls(ls, &[]).ok(), "AY\n");
+}
+
+/// A predecessor of several modules (hand derivations): the run must
+/// follow strictly, contexts are around it, the old run is the left
+/// context of what follows, and only the step engine derives it.
+#[test]
+fn multi_module_predecessor_details() {
+    let case = |src: &str, args: &[&str]| {
+        let mut cmd = lsgen();
+        cmd.args(["-", "--dialect", "cpfg", "-n", "1"]).args(args);
+        run_with_stdin(&mut cmd, src.to_string())
+    };
+    // B < C sees the old B, though AB became X.
+    let r = case(
+        "Lsystem: 1\nAxiom: ABC\nAB --> X\nB < C --> Y\nendlsystem\n",
+        &[],
+    );
+    assert_eq!(r.ok(), "XY\n");
+    // A[B]: not a run; the second AB is.
+    let r = case("Lsystem: 1\nAxiom: A[B]AB\nAB --> X\nendlsystem\n", &[]);
+    assert_eq!(r.ok(), "A[B]X\n");
+    // The right context starts after the run (and skips the branch).
+    let r = case("Lsystem: 1\nAxiom: AB[C]D\nAB > D --> X\nendlsystem\n", &[]);
+    assert_eq!(r.ok(), "X[C]D\n");
+    // Parameters from every module; file order decides.
+    let r = case(
+        "Lsystem: 1\nAxiom: A(2)B(3)A(1)\nA(a)B(b) --> C(a*b)\nA(a) --> D(a)\nendlsystem\n",
+        &["--strategy", "step"],
+    );
+    assert_eq!(r.ok(), "C(6)D(1)\n");
+    let r = case(
+        "Lsystem: 1\nAxiom: AB\nAB --> X\nendlsystem\n",
+        &["--strategy", "dfs"],
+    );
+    r.fails(2);
+    // Not in the homomorphism.
+    let r = case(
+        "Lsystem: 1\nAxiom: AB\nhomomorphism\nAB --> X\nendlsystem\n",
+        &[],
+    );
+    let e = r.assert_one_error();
+    assert!(
+        e.contains(":4:1: error:") && e.contains("several modules"),
+        "{e}"
+    );
+}
+
+/// An expression past the token limit is a located error, not a stack
+/// overflow (4,000,000 nested unary minuses crashed the parser's tree walk).
+#[test]
+fn huge_expression_is_a_located_error() {
+    let src = format!(
+        "Lsystem: 1\nAxiom: A({}1)\nendlsystem\n",
+        "-".repeat(4_000_000)
+    );
+    let r = run_with_stdin(lsgen().arg("-"), src);
+    let e = r.one_error();
+    assert!(
+        e.starts_with("lsgen: <stdin>:2:10010: error: expression too long"),
+        "{e}"
+    );
 }

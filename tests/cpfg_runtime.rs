@@ -75,3 +75,33 @@ fn depth_first_is_refused_for_cpfg_files() {
     assert_eq!(r.code(), Some(2), "{}", r.stderr);
     assert!(r.stderr.contains("cpfg"), "{}", r.stderr);
 }
+
+/// A multi-module predecessor draws once for the whole run, in cpfg's
+/// string order (strings from tests/tools/cpfg_ref.py on this model; one
+/// draw per module of the run gives others from step 2 on).
+#[test]
+fn a_multi_module_predecessor_draws_once() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "multi_stochastic.l",
+        "Lsystem: 1\nseed: 3\nderivation length: 6\nAxiom: A B C A B\n\
+         A B --> X : 1\nA B --> Y : 2\nA --> A B : 1\nC --> C A B\nX --> A B\nY --> A\nendlsystem\n",
+    );
+    let want = [
+        "YCABY",
+        "ACABYA",
+        "ABCABABBAAB",
+        "XCABYXBABY",
+        "ABCABXAABBABBA",
+        "XCABYABABXBYBAB",
+    ];
+    for (i, want) in want.iter().enumerate() {
+        let n = (i + 1).to_string();
+        assert_eq!(
+            derive(&["-n", &n], &file).0,
+            format!("{want}\n"),
+            "{n} steps"
+        );
+    }
+}

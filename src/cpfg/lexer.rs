@@ -304,7 +304,7 @@ fn keyword(s: &[u8]) -> Option<(usize, Kw)> {
 
 pub type Spanned<'a> = Result<(usize, Tok<'a>, usize), UserError>;
 
-/// Most tokens in a file (the preprocessed text is at most 16 MiB).
+/// The cpfg lexer over the preprocessed text (see the module docs).
 pub struct Lexer<'a> {
     src: &'a str,
     pos: usize,
@@ -316,7 +316,16 @@ pub struct Lexer<'a> {
     /// The last token was an end of line (or nothing yet).
     after_eol: bool,
     done: bool,
+    /// Expression tokens since the last statement boundary (`;`, `{`, `}`,
+    /// the symbol state): at most [`MAX_EXPR_TOKENS`], as in `.ls` files,
+    /// so that evaluation's recursion stays bounded.
+    expr_tokens: usize,
 }
+
+pub use crate::lang::lexer::MAX_EXPR_TOKENS;
+
+/// Deepest nesting of `{ }` blocks (the tree walks recurse on it).
+pub const MAX_BLOCK_DEPTH: i64 = 256;
 
 impl<'a> Lexer<'a> {
     pub fn new(src: &'a str) -> Lexer<'a> {
@@ -328,6 +337,7 @@ impl<'a> Lexer<'a> {
             braces: 0,
             after_eol: true,
             done: false,
+            expr_tokens: 0,
         }
     }
 
@@ -428,8 +438,28 @@ impl<'a> Lexer<'a> {
             }
         }
         match self.state {
-            State::Symbol => Some(self.symbol(i)),
-            State::Expression => Some(self.expression(i)),
+            State::Symbol => {
+                self.expr_tokens = 0;
+                Some(self.symbol(i))
+            }
+            State::Expression => {
+                let t = self.expression(i);
+                match &t {
+                    Ok((_, Tok::Semi | Tok::LBrace | Tok::RBrace, _)) => self.expr_tokens = 0,
+                    Ok((s, _, e)) => {
+                        self.expr_tokens += 1;
+                        if self.expr_tokens > MAX_EXPR_TOKENS {
+                            return Some(Err(self.err(
+                                *s,
+                                e - s,
+                                format!("expression too long (over {MAX_EXPR_TOKENS} tokens)"),
+                            )));
+                        }
+                    }
+                    Err(_) => {}
+                }
+                Some(t)
+            }
         }
     }
 
@@ -577,6 +607,13 @@ impl<'a> Lexer<'a> {
             ExprTok::LBrace => {
                 self.nesting += 1;
                 self.braces += 1;
+                if self.braces > MAX_BLOCK_DEPTH {
+                    return Err(self.err(
+                        s,
+                        1,
+                        format!("blocks nested too deep (over {MAX_BLOCK_DEPTH})"),
+                    ));
+                }
                 Tok::LBrace
             }
             ExprTok::RBrace => {

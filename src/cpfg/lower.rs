@@ -398,14 +398,17 @@ impl Lowerer<'_> {
     }
 
     fn production(&mut self, p: &Production, section: &str) -> R<ls::Production> {
-        if p.pred.len() > 1 {
+        if p.pred.len() > 1 && !section.is_empty() {
             let s = (
                 p.pred[0].span.0,
                 p.pred.last().map_or(p.span.1, |m| m.span.1),
             );
             return err(
                 s,
-                "a predecessor of several modules (`AB --> C`) is not supported yet in the cpfg dialect",
+                format!(
+                    "a predecessor of several modules (`AB --> C`) is supported among the L-system's productions, not in the {}",
+                    section.trim_end()
+                ),
             );
         }
         let mut formals = HashMap::new();
@@ -414,6 +417,7 @@ impl Lowerer<'_> {
             None => Vec::new(),
         };
         let mut pred = self.formals(&p.pred, &mut formals)?;
+        let pred_rest = pred.split_off(1);
         let right = match &p.right {
             Some(r) => self.formals(r, &mut formals)?,
             None => Vec::new(),
@@ -488,6 +492,7 @@ impl Lowerer<'_> {
         Ok(ls::Production {
             left,
             pred: pred.pop().expect("one module"),
+            pred_rest,
             right,
             cond,
             succ,
@@ -586,6 +591,13 @@ pub fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, String)) -> R<Lower
             Setting::Ignore(syms, span) => filter = Some((true, syms, *span)),
             Setting::Consider(syms, span) => filter = Some((false, syms, *span)),
         }
+    }
+    if lw.z.is_none() {
+        // cpfg derives 0 steps without `derivation length:`.
+        let at = (lsys.span.0, lsys.span.0);
+        header
+            .settings
+            .push(ls::Setting::DerivationLength(ls::Expr::Num(0.0, at), at));
     }
     if let Some((ignore, syms, span)) = filter {
         let mods = syms
@@ -697,6 +709,8 @@ mod tests {
     #[test]
     fn refusals_not_yet() {
         let (r, _) = lowered("Lsystem: 1\nAxiom: AB\nAB --> C\nendlsystem\n");
+        assert_eq!(r.unwrap().header.productions[0].pred_rest.len(), 1);
+        let (r, _) = lowered("Lsystem: 1\nAxiom: AB\nhomomorphism\nAB --> C\nendlsystem\n");
         assert!(r.err().unwrap().message.contains("several modules"));
         // Weights: kept with `seed:`; without it kept too (ignored at run
         // time unless `--seed` stands for `seed:`), with a warning.
@@ -706,5 +720,93 @@ mod tests {
         let (r, w) = lowered("Lsystem: 1\nAxiom: A\nA --> B : 0.5\nendlsystem\n");
         assert!(r.unwrap().header.productions[0].prob.is_some());
         assert!(w[0].contains("ignored"));
+    }
+}
+
+#[cfg(test)]
+mod soup {
+    use crate::cpfg::parse::parse;
+
+    /// Random token soup: parse and lower give a tree or an error, never
+    /// a panic.
+    #[test]
+    fn random_input_never_panics() {
+        let pieces = [
+            "Lsystem: 1\n",
+            "Axiom: ",
+            "endlsystem\n",
+            "A",
+            "B(x)",
+            "(",
+            ")",
+            "*",
+            "<",
+            ">",
+            ":",
+            "-->",
+            "->",
+            "\n",
+            "\n\t",
+            "{",
+            "}",
+            "x = 1;",
+            "if (x) {",
+            "} else {",
+            "while (1) {",
+            "do {",
+            "} while (0);",
+            "printf(\"%d\", x);",
+            "?",
+            "$",
+            "@S",
+            "1.0e3",
+            "1e3",
+            "\"s",
+            "%",
+            ",",
+            ";",
+            "homomorphism\n",
+            "decomposition\n",
+            "maximum depth: 2\n",
+            "seed: 3\n",
+            "derivation length: Z\n",
+            "ignore: A\n",
+            "Start: {",
+            "x ? 1 : 2",
+            "-",
+            "^",
+            "!",
+            "&&",
+            "||",
+            "==",
+            "<>",
+            "[",
+            "]",
+            "AB(a)C(b)",
+            "Q",
+            "atan(1,2)",
+            "sin(",
+            "\u{7}",
+            "é",
+        ];
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        for _ in 0..3000 {
+            let mut s = String::from("Lsystem: 1\n");
+            for _ in 0..(x % 24) {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                s.push_str(pieces[(x % pieces.len() as u64) as usize]);
+            }
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            if let Ok(ls) = parse(&s) {
+                if let Ok(l) = super::lower(&ls, &mut |_, _| {}) {
+                    let seeds = crate::rules::Seeds::default();
+                    let _ = crate::rules::compile_dialect(l.header, Some(&s), seeds, true);
+                }
+            }
+        }
     }
 }

@@ -59,34 +59,46 @@ pub enum Dialect {
 /// Is a file cpfg's: its name ends in `.l`, or its first statement (after
 /// blanks and comments) is `Lsystem:` or a `#` directive (`#` and a name,
 /// as `#define`; not an `.ls` file's `#!` line)? `head` is the start of
-/// the file.
-pub fn is_cpfg(name: &str, head: &[u8]) -> bool {
+/// the file, `complete` says whether it is all of it; None: more bytes are
+/// needed to tell (so a file on a pipe is not waited for longer than its
+/// first statement).
+pub fn sniff(name: &str, head: &[u8], complete: bool) -> Option<bool> {
     if name.ends_with(".l") {
-        return true;
+        return Some(true);
     }
-    let mut s = head
-        .strip_prefix(b"\xEF\xBB\xBF".as_slice())
-        .unwrap_or(head);
+    let more = if complete { Some(false) } else { None };
+    let bom = b"\xEF\xBB\xBF".as_slice();
+    if !complete && head.len() < 3 && bom.starts_with(head) {
+        return None;
+    }
+    let mut s = head.strip_prefix(bom).unwrap_or(head);
     loop {
         let t = s.trim_ascii_start();
+        if t.is_empty() || t == b"/" {
+            return more;
+        }
         if let Some(r) = t.strip_prefix(b"/*".as_slice()) {
             match r.windows(2).position(|w| w == b"*/") {
                 Some(i) => s = &r[i + 2..],
-                None => return false,
+                None => return more,
             }
         } else if let Some(r) = t.strip_prefix(b"//".as_slice()) {
             match r.iter().position(|&b| b == b'\n') {
                 Some(i) => s = &r[i..],
-                None => return false,
+                None => return more,
             }
-        } else {
+        } else if let Some(r) = t.strip_prefix(b"#".as_slice()) {
             // A directive: `#`, blanks, a name (`#!` is an `.ls` shebang).
-            let directive = t.strip_prefix(b"#".as_slice()).is_some_and(|r| {
-                r.trim_ascii_start()
-                    .first()
-                    .is_some_and(|c| c.is_ascii_alphabetic())
-            });
-            return directive || t.starts_with(b"Lsystem:") || t.starts_with(b"lsystem:");
+            let r = r.trim_ascii_start();
+            return match r.first() {
+                Some(c) => Some(c.is_ascii_alphabetic()),
+                None => more,
+            };
+        } else {
+            let word = b"system:";
+            let n = t.len().min(8);
+            let fits = matches!(t[0], b'L' | b'l') && t[1..n] == word[..n - 1];
+            return if fits && n < 8 { more } else { Some(fits) };
         }
     }
 }

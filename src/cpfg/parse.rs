@@ -3,7 +3,7 @@
 //! LALRPOP grammar, and located parse errors.
 
 use super::ast;
-use super::lexer::{Lexer, Tok};
+use super::lexer::{Lexer, Spanned, Tok};
 use crate::lang::parse::UserError;
 use lalrpop_util::{lalrpop_mod, ParseError};
 
@@ -43,32 +43,58 @@ const UNSUPPORTED_FUNCTIONS: &[&str] = &[
 
 /// Parse the preprocessed text of a `.l` file.
 pub fn parse(text: &str) -> Result<ast::Lsystem, UserError> {
-    let mut toks = Vec::new();
-    let mut lex_err = None;
-    for t in Lexer::new(text) {
-        match t {
-            Ok(t) => toks.push(t),
-            Err(e) => {
-                lex_err = Some(e);
-                break;
-            }
-        }
-    }
-    let refusal = refused(&toks);
-    let first = |a: Option<UserError>, b: Option<UserError>| match (a, b) {
-        (Some(a), Some(b)) => Some(if b.span.0 < a.span.0 { b } else { a }),
-        (a, b) => a.or(b),
+    // Tokens are checked for refused constructs as they stream into the
+    // parser (one token of look-ahead; no token list is kept: memory is
+    // the tree's, not the text's times a token's size).
+    let checked = Checked {
+        lex: Lexer::new(text),
+        next: None,
+        lsystems: 0,
+        failed: false,
     };
-    if let Some(e) = first(refusal.clone(), lex_err) {
-        return Err(e);
-    }
-    let end = toks.last().map_or(0, |t| t.2);
-    let parsed = grammar::FileParser::new()
-        .parse(toks.into_iter().map(Ok::<_, UserError>))
-        .map_err(|e| convert(e, text, end));
-    match parsed {
-        Ok(ls) => Ok(ls),
-        Err(e) => Err(first(refusal, Some(e)).expect("an error")),
+    grammar::FileParser::new()
+        .parse(checked)
+        .map_err(|e| convert(e, text, text.len()))
+}
+
+/// The lexer's tokens, each checked with [`refusal`] before the parser
+/// sees it.
+struct Checked<'a> {
+    lex: Lexer<'a>,
+    /// The look-ahead token.
+    next: Option<Spanned<'a>>,
+    lsystems: usize,
+    failed: bool,
+}
+
+impl<'a> Iterator for Checked<'a> {
+    type Item = Spanned<'a>;
+
+    fn next(&mut self) -> Option<Spanned<'a>> {
+        if self.failed {
+            return None;
+        }
+        let cur = match self.next.take() {
+            Some(t) => t,
+            None => self.lex.next()?,
+        };
+        let (l, t, r) = match cur {
+            Ok(t) => t,
+            Err(e) => {
+                self.failed = true;
+                return Some(Err(e));
+            }
+        };
+        self.next = self.lex.next();
+        let next = match &self.next {
+            Some(Ok(n)) => Some(n),
+            _ => None,
+        };
+        if let Some(e) = refusal((l, &t, r), next, &mut self.lsystems) {
+            self.failed = true;
+            return Some(Err(e));
+        }
+        Some(Ok((l, t, r)))
     }
 }
 
@@ -76,16 +102,19 @@ fn at(span: (usize, usize), message: impl Into<String>) -> Option<UserError> {
     Some(UserError::new(span, message))
 }
 
-/// The first construct lsgen refuses, if any.
-fn refused(toks: &[(usize, Tok<'_>, usize)]) -> Option<UserError> {
-    let mut lsystems = 0;
-    for (i, (l, t, r)) in toks.iter().enumerate() {
-        let span = (*l, *r);
-        let next = toks.get(i + 1).map(|t| &t.1);
-        match t {
+/// Is the token `(l, t, r)` (followed by `next`) a construct lsgen
+/// refuses? `lsystems` counts the `Lsystem:` keywords so far.
+fn refusal(
+    (l, t, r): (usize, &Tok<'_>, usize),
+    next_tok: Option<&(usize, Tok<'_>, usize)>,
+    lsystems: &mut usize,
+) -> Option<UserError> {
+    let span = (l, r);
+    let next = next_tok.map(|n| &n.1);
+    match t {
             Tok::KwLsystem => {
-                lsystems += 1;
-                if lsystems > 1 {
+                *lsystems += 1;
+                if *lsystems > 1 {
                     return at(
                         span,
                         "a second `Lsystem:`: several L-systems in one file (cpfg's sub-L-systems) are not supported; lsgen derives one L-system per file",
@@ -133,7 +162,7 @@ fn refused(toks: &[(usize, Tok<'_>, usize)]) -> Option<UserError> {
             }
             Tok::Sym('@') if next == Some(&Tok::Sym('S')) => {
                 return at(
-                    (*l, toks[i + 1].2),
+                    (l, next_tok.map_or(r, |n| n.2)),
                     "`@S` (a surface from cpfg's surface files) is not supported: lsgen has no surfaces",
                 )
             }
@@ -156,7 +185,6 @@ fn refused(toks: &[(usize, Tok<'_>, usize)]) -> Option<UserError> {
                 )
             }
             _ => {}
-        }
     }
     None
 }
@@ -311,5 +339,45 @@ mod tests {
         assert_eq!(e.span.0, 27);
         let e = parse("Lsystem: 1\nAxiom: A(1e6)\nendlsystem\n").unwrap_err();
         assert!(e.message.contains("dot"), "{}", e.message);
+    }
+}
+
+#[cfg(test)]
+mod sniff_tests {
+    use crate::cpfg::sniff;
+
+    #[test]
+    fn first_statement_decides() {
+        assert_eq!(sniff("a.l", b"", false), Some(true));
+        assert_eq!(sniff("-", b"/* x */ Lsystem: 1", false), Some(true));
+        assert_eq!(sniff("-", b"// x\n#define A 1\n", false), Some(true));
+        assert_eq!(sniff("-", b"#!/bin/lsgen\n", false), Some(false));
+        assert_eq!(sniff("-", b"productions:\n", false), Some(false));
+        assert_eq!(sniff("-", b"\xEF\xBB\xBFlsystem:", false), Some(true));
+        // Undecided until more comes, decided at the end.
+        assert_eq!(sniff("-", b"/* open", false), None);
+        assert_eq!(sniff("-", b"/* open", true), Some(false));
+        assert_eq!(sniff("-", b"  Lsys", false), None);
+        assert_eq!(sniff("-", b"Lsys", true), Some(false));
+        assert_eq!(sniff("-", b"#", false), None);
+        assert_eq!(sniff("-", b"\xEF", false), None);
+        assert_eq!(sniff("-", b"Lx", false), Some(false));
+    }
+}
+
+#[cfg(test)]
+mod limits {
+    #[test]
+    fn blocks_nest_at_most_256_deep() {
+        let deep = |n: usize| {
+            format!(
+                "Lsystem: 1\nStart: {{{}{}}}\nAxiom: A\nendlsystem\n",
+                "if (1) {".repeat(n),
+                "}".repeat(n)
+            )
+        };
+        assert!(super::parse(&deep(255)).is_ok());
+        let e = super::parse(&deep(256)).unwrap_err();
+        assert!(e.message.contains("nested too deep"), "{}", e.message);
     }
 }

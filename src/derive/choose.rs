@@ -45,6 +45,10 @@ impl Chooser {
 
     /// The production of `kr` that rewrites the bound module: the context
     /// group first, then the context-free one (see README, "Choice").
+    /// The choice policy is in `kr`'s lists: for the cpfg dialect (first
+    /// applicable in file order, context or not) `rules::compile_table`
+    /// puts every production of a key that has a context one into the
+    /// context group, in file order, so this one loop serves both.
     /// `contexts(p, slots)` tells whether `p`'s contexts match here,
     /// binding their parameters into `slots`.
     #[inline]

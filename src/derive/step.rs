@@ -19,7 +19,7 @@ use super::{Origin, Pass};
 use crate::derive::random::Random;
 use crate::diag::Error;
 use crate::rules::codec::{self, Modules};
-use crate::rules::{Alphabet, KeyRules, Production, RPat, Table, CLOSE, OPEN};
+use crate::rules::{Alphabet, KeyRules, Pat, Production, RPat, Table, CLOSE, OPEN};
 use std::cell::Cell;
 use std::fs::File;
 use std::io;
@@ -265,9 +265,45 @@ struct StepState<'f> {
     /// blame for unbalanced output.
     last_opener: Option<u32>,
     last_closer: Option<u32>,
+    /// A production with a predecessor of several modules (cpfg dialect)
+    /// was applied: the old string's modules up to this offset are its.
+    run_end: Option<u64>,
 }
 
 impl StepState<'_> {
+    /// Do the modules right after the one ending at `end_off` match `rest`,
+    /// one after the other (the rest of a predecessor of several modules,
+    /// cpfg's rule: no module passed over)? Binds their parameters; returns
+    /// where the run ends.
+    fn match_run(
+        &mut self,
+        end_off: u64,
+        rest: &[Pat],
+        al: &Alphabet,
+        slots: &mut [f64],
+    ) -> Result<Option<u64>, Error> {
+        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        let peek = self
+            .peek
+            .as_mut()
+            .expect("a look-ahead reader for predecessors of several modules");
+        let mut pos = end_off;
+        for pat in rest {
+            peek.seek(pos);
+            let Some((k, s, e)) = peek.next_module(al).map_err(read_err)? else {
+                return Ok(None);
+            };
+            if k != pat.key {
+                return Ok(None);
+            }
+            let n = al.arity(k);
+            let at = pat.slot as usize;
+            codec::read_params(peek.bytes(s, e), &mut slots[at..at + n]);
+            pos = peek.offset();
+        }
+        Ok(Some(pos))
+    }
+
     /// Where the right context of the module ending at `end_off` starts:
     /// past the ignored modules that follow it. Each ignored run is read
     /// once per pass, however many of its modules ask.
@@ -419,7 +455,7 @@ impl<'a> Deriver<'a> {
         // around the predecessor.
         let d = decomp.map(|(d, _)| d);
         let mut st = StepState {
-            peek: (table.has_right || d.is_some_and(|d| d.has_right))
+            peek: (table.has_right || table.has_multi || d.is_some_and(|d| d.has_right))
                 .then(|| PosReader::new(input, 1 << 16, indexed)),
             cpfg: self.cpfg_contexts.then(|| CpfgBrackets::of(&self.alphabet)),
             right: RightCache::new(),
@@ -437,6 +473,7 @@ impl<'a> Deriver<'a> {
             level: 0,
             last_opener: None,
             last_closer: None,
+            run_end: None,
         };
         let mut rd = PosReader::new(input, 1 << 20, indexed);
         // The index of the module being rewritten, for the random draws.
@@ -601,6 +638,26 @@ impl<'a> Deriver<'a> {
                     left.push(key, bytes, self.alphabet.arity(key));
                 }
             }
+            if let Some(run_end) = st.run_end.take() {
+                // The rest of a predecessor of several modules: replaced
+                // with the first; still the old string for left contexts
+                // and draw positions.
+                while rd.offset() < run_end {
+                    let Some((k, s, e)) = rd.next_module(&self.alphabet).map_err(read_err)? else {
+                        break;
+                    };
+                    index += 1;
+                    // cpfg draws once for the whole predecessor.
+                    if let Some(c) = self.rng.cpfg_mut() {
+                        c.skip_modules(1);
+                    }
+                    if let Some(left) = &mut st.left {
+                        if !self.alphabet.ignored(k) {
+                            left.push(k, rd.bytes(s, e), self.alphabet.arity(k));
+                        }
+                    }
+                }
+            }
             out.maybe_flush()?;
         }
         if let (Some(c), Pass::Step(_)) = (self.rng.cpfg_mut(), pass) {
@@ -649,12 +706,26 @@ impl<'a> Deriver<'a> {
             codec::read_params(bytes, &mut slots[..arity]);
         }
         let chosen = chooser.choose(slots, table, kr, rng, origin, pass, |p, slots| {
-            Ok(!surely_not(p, end_off, st, al)? && contexts_match(p, end_off, st, al, slots)?)
+            // The right context of a run starts after it.
+            let end = if p.rest.is_empty() {
+                end_off
+            } else {
+                match st.match_run(end_off, &p.rest, al, slots)? {
+                    Some(e) => e,
+                    None => return Ok(false),
+                }
+            };
+            Ok(!surely_not(p, end, st, al)? && contexts_match(p, end, st, al, slots)?)
         })?;
         let Some(pi) = chosen else {
             return Ok(false);
         };
         let p = &table.prods[pi as usize];
+        if !p.rest.is_empty() {
+            // The run the chosen production matched (parameters bound again,
+            // to the same values): skipped by the caller.
+            st.run_end = st.match_run(end_off, &p.rest, al, slots)?;
+        }
         if table.check_balance {
             if st.depth + p.depth_min < 0 {
                 return Err(unbalanced(origin, table, Some(pi), pass));

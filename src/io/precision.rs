@@ -75,13 +75,40 @@ pub struct Significant<W: Write> {
     /// C's exponent form (`e+07`), see [`put_g`].
     c_exponent: bool,
     in_params: bool,
+    /// The current parameter's text is longer than [`MAX_TOKEN`]: passed
+    /// through up to its end.
+    long: bool,
     token: Vec<u8>,
     buf: Vec<u8>,
     scratch: String,
+    /// Rewritten numbers by their text, direct mapped: parameters repeat,
+    /// and formatting one costs far more than looking it up (the cpfg
+    /// dialect rewrites every number). Made on first use.
+    cache: Vec<CacheEntry>,
 }
 
 /// Longest number text held for rewriting.
 const MAX_TOKEN: usize = 64;
+
+/// Entries of [`Significant`]'s cache.
+const CACHE_SIZE: usize = 1024;
+
+/// A number's text and its rewriting (at most 17 digits, a sign, a point
+/// and an exponent: well under 40 bytes).
+#[derive(Clone, Copy)]
+struct CacheEntry {
+    tok_len: u8,
+    out_len: u8,
+    tok: [u8; MAX_TOKEN],
+    out: [u8; 40],
+}
+
+const EMPTY: CacheEntry = CacheEntry {
+    tok_len: u8::MAX,
+    out_len: 0,
+    tok: [0; MAX_TOKEN],
+    out: [0; 40],
+};
 
 impl<W: Write> Significant<W> {
     pub fn new(inner: W, digits: u32) -> Self {
@@ -90,9 +117,11 @@ impl<W: Write> Significant<W> {
             digits,
             c_exponent: false,
             in_params: false,
-            token: Vec::with_capacity(MAX_TOKEN),
+            long: false,
+            token: Vec::with_capacity(MAX_TOKEN + 1),
             buf: Vec::with_capacity(1 << 16),
             scratch: String::with_capacity(64),
+            cache: Vec::new(),
         }
     }
 
@@ -103,6 +132,42 @@ impl<W: Write> Significant<W> {
     }
 
     fn emit_token(&mut self) {
+        let t = &self.token;
+        if t.len() > MAX_TOKEN {
+            self.buf.extend_from_slice(t);
+            self.token.clear();
+            return;
+        }
+        if self.cache.is_empty() {
+            self.cache = vec![EMPTY; CACHE_SIZE];
+        }
+        // FNV-1a of the text.
+        let mut h: u32 = 0x811c_9dc5;
+        for &b in t {
+            h = (h ^ u32::from(b)).wrapping_mul(0x0100_0193);
+        }
+        let at = h as usize % CACHE_SIZE;
+        let e = &self.cache[at];
+        if usize::from(e.tok_len) == t.len() && e.tok[..t.len()] == t[..] {
+            self.buf.extend_from_slice(&e.out[..usize::from(e.out_len)]);
+            self.token.clear();
+            return;
+        }
+        let start = self.buf.len();
+        self.emit_uncached();
+        let out = &self.buf[start..];
+        let e = &mut self.cache[at];
+        if out.len() <= e.out.len() {
+            let t = &self.token;
+            e.tok[..t.len()].copy_from_slice(t);
+            e.tok_len = t.len() as u8;
+            e.out[..out.len()].copy_from_slice(out);
+            e.out_len = out.len() as u8;
+        }
+        self.token.clear();
+    }
+
+    fn emit_uncached(&mut self) {
         let parsed = std::str::from_utf8(&self.token)
             .ok()
             .and_then(|s| s.parse::<f64>().ok());
@@ -116,7 +181,6 @@ impl<W: Write> Significant<W> {
             ),
             _ => self.buf.extend_from_slice(&self.token),
         }
-        self.token.clear();
     }
 }
 
@@ -137,21 +201,33 @@ impl<W: Write> Write for Significant<W> {
                     }
                 }
             } else {
-                let b = rest[0];
-                rest = &rest[1..];
-                match b {
-                    b',' | b')' => {
-                        self.emit_token();
-                        self.buf.push(b);
-                        self.in_params = b == b',';
-                    }
-                    _ if self.token.len() > MAX_TOKEN => {
+                // A parameter's text, up to its `,` or `)`, in one piece.
+                let end = rest.iter().position(|&b| b == b',' || b == b')');
+                let part = &rest[..end.unwrap_or(rest.len())];
+                if self.long {
+                    self.buf.extend_from_slice(part);
+                } else {
+                    self.token.extend_from_slice(part);
+                    if self.token.len() > MAX_TOKEN {
                         // Not a number lsgen wrote: pass it on unchanged.
                         self.buf.extend_from_slice(&self.token);
                         self.token.clear();
-                        self.buf.push(b);
+                        self.long = true;
                     }
-                    _ => self.token.push(b),
+                }
+                match end {
+                    Some(i) => {
+                        let b = rest[i];
+                        if self.long {
+                            self.long = false;
+                        } else {
+                            self.emit_token();
+                        }
+                        self.buf.push(b);
+                        self.in_params = b == b',';
+                        rest = &rest[i + 1..];
+                    }
+                    None => rest = &[],
                 }
             }
         }
@@ -194,6 +270,42 @@ mod tests {
         let mut o = Vec::new();
         put_g(&mut o, &mut String::new(), v, p, false);
         String::from_utf8(o).unwrap()
+    }
+
+    #[test]
+    fn cache_gives_what_formatting_gives() {
+        // Many numbers, repeated, colliding in the cache: the filter's text
+        // equals formatting each number afresh.
+        let mut x: u64 = 12345;
+        let mut vals = Vec::new();
+        for _ in 0..5000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            vals.push(((x % 100_000) as f64 - 50_000.0) / 7.0);
+        }
+        let mut text = String::new();
+        let mut want = Vec::new();
+        for round in 0..3 {
+            for (i, v) in vals.iter().enumerate() {
+                if (i + round) % 3 == 0 {
+                    continue;
+                }
+                text.push_str(&format!("F({v},1)"));
+                want.extend_from_slice(b"F(");
+                put_g(&mut want, &mut String::new(), *v, 6, true);
+                want.extend_from_slice(b",1)");
+            }
+        }
+        let mut out = Vec::new();
+        {
+            let mut w = Significant::new(&mut out, 6).c_exponent(true);
+            for chunk in text.as_bytes().chunks(7) {
+                w.write_all(chunk).unwrap();
+            }
+            w.flush().unwrap();
+        }
+        assert!(out == want);
     }
 
     #[test]

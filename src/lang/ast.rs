@@ -64,6 +64,9 @@ pub struct Module {
 pub struct Production {
     pub left: Vec<Module>,
     pub pred: Module,
+    /// The rest of a predecessor of several modules (cpfg dialect: `AB
+    /// --> C` rewrites the run); empty in `.ls` files.
+    pub pred_rest: Vec<Module>,
     pub right: Vec<Module>,
     /// Boxed, as `prob`: most productions have neither.
     pub cond: Option<Box<Expr>>,
@@ -124,6 +127,7 @@ impl Production {
     /// is compiled.
     pub fn compact(mut self) -> Self {
         self.pred.compact();
+        self.pred_rest.shrink_to_fit();
         for m in self
             .left
             .iter_mut()

@@ -443,8 +443,21 @@ impl Code {
         stack: &mut Vec<f64>,
         rng: &mut D,
     ) -> Result<f64, EvalError> {
-        // The shapes most successors and conditions have, without the stack.
+        // The shapes most successors and conditions have, without the stack
+        // (in the cpfg dialect, a successor's ends with the float rounding).
         match *self.ops.as_slice() {
+            [Op::Load(s), Op::F1(Func1::Float32, si)] => {
+                return self.float32(slots[s as usize], si)
+            }
+            [Op::Load(a), Op::Const(c), op, Op::F1(Func1::Float32, si)] if is_binary(op) => {
+                return self.float32(self.binary(op, slots[a as usize], c)?, si)
+            }
+            [Op::Const(c), Op::Load(b), op, Op::F1(Func1::Float32, si)] if is_binary(op) => {
+                return self.float32(self.binary(op, c, slots[b as usize])?, si)
+            }
+            [Op::Load(a), Op::Load(b), op, Op::F1(Func1::Float32, si)] if is_binary(op) => {
+                return self.float32(self.binary(op, slots[a as usize], slots[b as usize])?, si)
+            }
             [Op::Const(v)] => return Ok(v),
             [Op::Load(s)] => return Ok(slots[s as usize]),
             [Op::Load(a), Op::Const(c), op] if is_binary(op) => {
@@ -500,6 +513,10 @@ impl Code {
                     let a = stack.last_mut().unwrap();
                     *a = self.binary(*op, *a, b)?;
                 }
+                Op::F1(Func1::Float32, si) => {
+                    let a = stack.last_mut().unwrap();
+                    *a = self.float32(*a, si)?;
+                }
                 Op::F1(f, si) => {
                     let a = stack.last_mut().unwrap();
                     let r = f.apply(*a);
@@ -551,6 +568,20 @@ impl Code {
         }
         debug_assert_eq!(stack.len(), 1);
         Ok(stack[0])
+    }
+
+    /// `v` stored as cpfg stores a parameter: a 32-bit float.
+    #[inline(always)]
+    fn float32(&self, v: f64, si: u32) -> Result<f64, EvalError> {
+        let r = f64::from(v as f32);
+        if r.is_finite() {
+            Ok(r)
+        } else {
+            Err(self.fail(
+                si,
+                "the value is out of the range of a 32-bit float (cpfg's parameters)",
+            ))
+        }
     }
 
     fn name_at(&self, si: u32) -> &'static str {

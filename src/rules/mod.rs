@@ -249,6 +249,9 @@ pub struct Production {
     /// Slots: predecessor parameters, then left context, then right context.
     pub nslots: usize,
     pub left: Box<[Pat]>,
+    /// The modules after the first of a predecessor of several modules
+    /// (cpfg dialect), matched strictly one after the other.
+    pub rest: Box<[Pat]>,
     pub right: Box<[RPat]>,
     /// The right context has no brackets: it is matched against the cached
     /// list of the next considered modules.
@@ -270,7 +273,7 @@ pub struct Production {
 
 impl Production {
     pub fn has_context(&self) -> bool {
-        !self.left.is_empty() || !self.right.is_empty()
+        !self.left.is_empty() || !self.right.is_empty() || !self.rest.is_empty()
     }
 }
 
@@ -303,6 +306,9 @@ pub struct Table {
     /// Longest left context.
     pub max_left: usize,
     pub has_right: bool,
+    /// Some predecessor has several modules (cpfg dialect): only the step
+    /// engine, which looks ahead, derives it.
+    pub has_multi: bool,
     /// Longest bracket-free right context.
     pub max_right_simple: usize,
     /// Some successor is not bracket-balanced: check each step's output.
@@ -363,7 +369,7 @@ impl Table {
         self.prods.is_empty()
     }
     pub fn has_context(&self) -> bool {
-        self.max_left > 0 || self.has_right
+        self.max_left > 0 || self.has_right || self.has_multi
     }
 
     /// cpfg's right contexts (issue 12): every one goes through cpfg's
@@ -402,6 +408,7 @@ impl Table {
         }
         self.max_left = self.max_left.max(base.max_left);
         self.has_right |= base.has_right;
+        self.has_multi |= base.has_multi;
         self.max_right_simple = self.max_right_simple.max(base.max_right_simple);
         self.check_balance |= base.check_balance;
         self
@@ -881,6 +888,7 @@ fn compile_table(
         }
         t.max_left = t.max_left.max(cp.left.len());
         t.has_right |= !cp.right.is_empty();
+        t.has_multi |= !cp.rest.is_empty();
         if cp.right_simple {
             t.max_right_simple = t.max_right_simple.max(cp.right.len());
         }
@@ -954,6 +962,15 @@ fn compile_production(
     let mut nslots = 0;
     let key = intern(alphabet, &p.pred)?;
     bind_formals(&p.pred, &mut names, &mut nslots)?;
+    let mut rest = Vec::new();
+    for m in &p.pred_rest {
+        if matches!(m.sym, '[' | ']') {
+            return err(m.span, "brackets cannot be rewritten");
+        }
+        let k = intern(alphabet, m)?;
+        let slot = bind_formals(m, &mut names, &mut nslots)?;
+        rest.push(Pat { key: k, slot });
+    }
     let mut left = Vec::new();
     for m in &p.left {
         if matches!(m.sym, '[' | ']') {
@@ -1011,6 +1028,7 @@ fn compile_production(
         key,
         nslots,
         left: left.into(),
+        rest: rest.into(),
         right: right.into(),
         right_simple,
         cond,
