@@ -137,7 +137,7 @@ pub struct Lsystem {
     pub start_each: Option<(Block, Span)>,
     pub end_each: Option<(Block, Span)>,
     pub end: Option<(Block, Span)>,
-    pub axiom: Vec<Module>,
+    pub axiom: Vec<AxiomPiece>,
     pub axiom_span: Span,
     pub productions: Vec<Production>,
     pub decomposition: Option<Section>,
@@ -151,6 +151,28 @@ pub enum BlockKind {
     StartEach,
     EndEach,
     End,
+}
+
+/// A piece of the axiom: a run of symbols without parameters (kept as
+/// text: an axiom line may be megabytes long), or a module with them.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AxiomPiece {
+    Symbols(String),
+    Module(Module),
+}
+
+impl AxiomPiece {
+    /// Append `m` to the axiom `v`.
+    pub fn push(v: &mut Vec<AxiomPiece>, m: Module) {
+        if !m.params.is_empty() {
+            v.push(AxiomPiece::Module(m));
+            return;
+        }
+        match v.last_mut() {
+            Some(AxiomPiece::Symbols(s)) => s.push(m.sym),
+            _ => v.push(AxiomPiece::Symbols(m.sym.to_string())),
+        }
+    }
 }
 
 /// A line before `Axiom:` (the grammar's).

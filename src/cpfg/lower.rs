@@ -616,23 +616,27 @@ pub fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, String)) -> R<Lower
     }
     // The axiom: values now, stored as cpfg stores them (32-bit floats).
     let mut axiom = String::new();
-    for m in &lsys.axiom {
-        axiom.push(m.sym);
-        if !m.params.is_empty() {
-            axiom.push('(');
-            for (i, e) in m.params.iter().enumerate() {
-                if i > 0 {
-                    axiom.push(',');
-                }
-                let v = f64::from(lw.constant(e)? as f32);
-                if !v.is_finite() {
-                    return err(e.span(), "this value does not fit cpfg's 32-bit float");
-                }
-                axiom.push_str(&crate::rules::codec::number_string(v));
+    for piece in &lsys.axiom {
+        let m = match piece {
+            ast::AxiomPiece::Symbols(s) => {
+                axiom.push_str(s);
+                continue;
             }
-            axiom.push(')');
+            ast::AxiomPiece::Module(m) => m,
+        };
+        axiom.push(m.sym);
+        axiom.push('(');
+        for (i, e) in m.params.iter().enumerate() {
+            if i > 0 {
+                axiom.push(',');
+            }
+            let v = f64::from(lw.constant(e)? as f32);
+            if !v.is_finite() {
+                return err(e.span(), "this value does not fit cpfg's 32-bit float");
+            }
+            axiom.push_str(&crate::rules::codec::number_string(v));
         }
-        axiom.push(' ');
+        axiom.push(')');
     }
     if lsys.axiom.is_empty() {
         return err(lsys.axiom_span, "the axiom is empty");
@@ -695,7 +699,7 @@ mod tests {
         );
         let l = r.unwrap();
         // 0.1 stored as a float: 0.10000000149011612.
-        assert_eq!(l.axiom, "A(3,0,0.10000000149011612,0) ");
+        assert_eq!(l.axiom, "A(3,0,0.10000000149011612,0)");
         assert_eq!(w.len(), 1);
         assert!(w[0].contains("`nothing` is not defined"));
         let succ = &l.header.productions[0].succ[0].params[0];

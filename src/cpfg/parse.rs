@@ -283,8 +283,7 @@ mod tests {
         let ls = parse(src).unwrap();
         assert_eq!(ls.settings.len(), 3);
         assert!(matches!(ls.settings[2], Setting::Consider(ref s, _) if s.len() == 2));
-        let axiom: String = ls.axiom.iter().map(|m| m.sym).collect();
-        assert_eq!(axiom, "A,;");
+        assert_eq!(ls.axiom, vec![ast::AxiomPiece::Symbols("A,;".into())]);
         assert_eq!(ls.productions.len(), 3);
         let p = &ls.productions[1];
         assert!(p.left.is_none() && p.right.is_none() && p.cond.is_none());
@@ -318,7 +317,10 @@ mod tests {
     #[test]
     fn precedence() {
         let ls = parse("Lsystem: 1\nAxiom: A(-2^2, 1 ? 2 : 3, 7 % 2 * 3)\nendlsystem\n").unwrap();
-        let p = &ls.axiom[0].params;
+        let ast::AxiomPiece::Module(m) = &ls.axiom[0] else {
+            panic!("{:?}", ls.axiom)
+        };
+        let p = &m.params;
         // (-2)^2
         assert!(
             matches!(&p[0], Expr::Binary(BinOp::Pow, a, _, _) if matches!(**a, Expr::Unary(..)))
