@@ -105,3 +105,22 @@ fn a_multi_module_predecessor_draws_once() {
         );
     }
 }
+
+/// A production's local variables keep their values between applications
+/// (cpfg's per-production symbol tables): `c` and `d` count across the
+/// string and the steps (string from tests/tools/cpfg_ref.py; by hand:
+/// step 1 gives B(1)A B(2)A B(3)A, step 2 adds to d in string order).
+#[test]
+fn locals_keep_their_values_between_applications() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "locals.l",
+        "Lsystem: 1\nderivation length: 2\nAxiom: A A A\n\
+         A : {c = c + 1;} * --> B(c) A\nB(x) : {d = d + x;} * --> B(d)\nendlsystem\n",
+    );
+    assert_eq!(
+        derive(&["-n", "2"], &file).0,
+        "B(1)B(4)AB(3)B(5)AB(6)B(6)A\n"
+    );
+}

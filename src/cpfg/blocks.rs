@@ -1,8 +1,9 @@
 //! cpfg's statement blocks, compiled (issue 12): `Start:`, `StartEach:`,
 //! `EndEach:`, `End:` and the pre- and post-condition blocks of
-//! productions. Expressions are the one evaluator's ([`Code`]); a variable
-//! is a slot of the production (a local: after its formal parameters) or
-//! a global, kept by the generator ([`Draw::global`]).
+//! productions. Expressions are the one evaluator's ([`Code`]); an
+//! assignment stores into a slot of the production (a formal parameter)
+//! or into a run variable (a global, or a production's local), kept by the
+//! generator ([`Draw::global`]).
 //!
 //! Loops are bounded: a `while` or `do … while` that runs
 //! [`MAX_ITERATIONS`] times in one execution stops the run with a located
@@ -18,9 +19,10 @@ pub const MAX_ITERATIONS: u64 = 10_000_000;
 /// Where an assignment stores.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Var {
-    /// A slot of the production being applied (formal parameters first).
+    /// A slot of the production being applied (a formal parameter).
     Local(u32),
-    /// A global variable.
+    /// A run variable: a global, or a production's local (cpfg keeps
+    /// those between applications).
     Global(u32),
 }
 

@@ -36,9 +36,10 @@ pub struct Lowered {
     pub extra: [Vec<ProdExtra>; 3],
 }
 
-/// A production's statement blocks and how many slots it needs: formal
+/// A production's statement blocks and how many slots it needs: its formal
 /// parameters (predecessor, left context, right context, as the shared
-/// compiler numbers them), then its local variables.
+/// compiler numbers them); its local variables are run variables, as the
+/// globals (see `Lowerer::locals`).
 #[derive(Clone, Debug, Default)]
 pub struct ProdExtra {
     pub pre: Option<blocks::Block>,
@@ -70,15 +71,12 @@ pub fn attach(run: &CpfgRun, extra: &[Vec<ProdExtra>; 3], system: &mut crate::ru
     }
 }
 
-/// The shared tree's name of cpfg global variable `i`, and of slot `i` of
-/// a production (a local variable): names no lexer makes, which the
-/// expression compiler resolves in the cpfg dialect
+/// The shared tree's name of cpfg variable `i` (a global, or a
+/// production's local: both live in the run's variable slots): a name no
+/// lexer makes, which the expression compiler resolves in the cpfg dialect
 /// ([`crate::rules::expr`]).
 fn global_name(i: u32) -> String {
     format!("\u{1}g{i}")
-}
-fn slot_name(i: u32) -> String {
-    format!("\u{1}s{i}")
 }
 
 /// Every name a block reads or assigns, in order.
@@ -160,8 +158,12 @@ struct Lowerer<'w> {
     /// symbol table), by number.
     globals: HashMap<String, u32>,
     /// The current production's local variables (assigned in its blocks,
-    /// not formal, not global), by slot.
+    /// not formal, not global), by variable number: each production has
+    /// its own, which keep their values between applications, as cpfg's
+    /// per-production symbol tables do.
     locals: HashMap<String, u32>,
+    /// Variables numbered so far (globals, then every production's locals).
+    variables: u32,
     /// Blocks and slots of the productions lowered so far, per section.
     extra: [Vec<ProdExtra>; 3],
     /// The section being lowered (index into `extra`).
@@ -181,7 +183,7 @@ impl Lowerer<'_> {
                 } else if let Some(&g) = self.globals.get(name) {
                     ls::Expr::Var(global_name(g), *s)
                 } else if let Some(&l) = self.locals.get(name) {
-                    ls::Expr::Var(slot_name(l), *s)
+                    ls::Expr::Var(global_name(l), *s)
                 } else if name == "Q" {
                     ls::Expr::Var("step".to_string(), *s)
                 } else if let (Some(z), "Z") = (self.z, name.as_str()) {
@@ -329,7 +331,7 @@ impl Lowerer<'_> {
                     } else if let Some(&g) = self.globals.get(name) {
                         blocks::Var::Global(g)
                     } else if let Some(&l) = self.locals.get(name) {
-                        blocks::Var::Local(l)
+                        blocks::Var::Global(l)
                     } else {
                         return err(
                             *name_span,
@@ -422,10 +424,10 @@ impl Lowerer<'_> {
             Some(r) => self.formals(r, &mut formals)?,
             None => Vec::new(),
         };
-        // Slots as the shared compiler numbers them: predecessor, left
-        // context, right context; then the locals.
+        // Slots as the shared compiler numbers them: predecessor (its
+        // first module, then the rest), left context, right context.
         let mut names = HashMap::new();
-        for m in pred.iter().chain(&left).chain(&right) {
+        for m in pred.iter().chain(&pred_rest).chain(&left).chain(&right) {
             for e in &m.params {
                 if let ls::Expr::Var(n, _) = e {
                     let k = names.len() as u32;
@@ -439,10 +441,12 @@ impl Lowerer<'_> {
         block_names(&p.post, &mut assigned, true);
         self.locals.clear();
         for n in assigned {
-            if !formals.contains_key(&n) && !self.globals.contains_key(&n) {
-                // (`names` holds `step` too.)
-                let k = (names.len() - 1 + self.locals.len()) as u32;
-                self.locals.entry(n).or_insert(k);
+            if !formals.contains_key(&n)
+                && !self.globals.contains_key(&n)
+                && !self.locals.contains_key(&n)
+            {
+                self.locals.insert(n, self.variables);
+                self.variables += 1;
             }
         }
         let pre = (!p.pre.is_empty())
@@ -454,7 +458,8 @@ impl Lowerer<'_> {
         self.extra[self.section].push(ProdExtra {
             pre,
             post,
-            nslots: names.len() - 1 + self.locals.len(),
+            // (`names` holds `step` too.)
+            nslots: names.len() - 1,
         });
         let cond = match &p.cond {
             Some(c) => Some(Box::new(self.expr(c, &formals)?)),
@@ -541,6 +546,7 @@ pub fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, String)) -> R<Lower
         warn,
         globals: HashMap::new(),
         locals: HashMap::new(),
+        variables: 0,
         extra: Default::default(),
         section: 0,
     };
@@ -559,6 +565,7 @@ pub fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, String)) -> R<Lower
             lw.globals.entry(n).or_insert(k);
         }
     }
+    lw.variables = lw.globals.len() as u32;
     let mut header = ls::Header::default();
     // (ignore, symbols, span) of the last `ignore:`/`consider:`.
     let mut filter = None;

@@ -117,17 +117,11 @@ fn lookup_function(name: &str) -> Option<(Fun, usize)> {
 /// lexer makes it a name).
 pub const CPFG_F32: &str = "\u{0}f32";
 
-/// cpfg's variables as `src/cpfg/lower.rs` names them (issue 12): global
-/// `i` is `\u{1}g<i>`, slot `i` of the production (a local) `\u{1}s<i>`.
+/// cpfg's variables as `src/cpfg/lower.rs` names them (issue 12):
+/// variable `i` (a global, or a production's local) is `\u{1}g<i>`.
 fn cpfg_variable(name: &str) -> Option<Op> {
-    let rest = name.strip_prefix('\u{1}')?;
-    let (kind, n) = rest.split_at_checked(1)?;
-    let n: u32 = n.parse().ok()?;
-    match kind {
-        "g" => Some(Op::Global(n)),
-        "s" => Some(Op::Load(n)),
-        _ => None,
-    }
+    let n = name.strip_prefix("\u{1}g")?;
+    n.parse().ok().map(Op::Global)
 }
 
 /// The cpfg dialect's functions (cpfg's `lsys_input.y`): degrees, `trunc`
