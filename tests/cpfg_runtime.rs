@@ -124,3 +124,22 @@ fn locals_keep_their_values_between_applications() {
         "B(1)B(4)AB(3)B(5)AB(6)B(6)A\n"
     );
 }
+
+/// The homomorphism's `seed:` seeds the generator of the successors of the
+/// productions it applies; the conditions at its top level draw from the
+/// first one (interpret.c; string from tests/tools/cpfg_ref.py, which one
+/// generator for both would not give).
+#[test]
+fn homomorphism_seed_is_for_successors() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "homseed.l",
+        "Lsystem: 1\nderivation length: 1\nAxiom: A A A A\nA --> A\nhomomorphism\nseed: 9\n\
+         A : ran(1) < 0.5 --> R(ran(1))\nA --> S(ran(1))\nendlsystem\n",
+    );
+    assert_eq!(
+        derive(&["-n", "1"], &file).0,
+        "R(0.00804881)S(0.0912162)R(0.742382)S(0.0601525)\n"
+    );
+}

@@ -113,6 +113,9 @@ pub struct CpfgRandom {
     gset: f64,
     /// Whether the choice is stochastic (`seed:` given).
     pub stochastic: bool,
+    /// The homomorphism's own function generator while it runs, and
+    /// whether it is the one in `xsubi` now (swapped).
+    hom: Option<(Rand48, bool)>,
 }
 
 impl CpfgRandom {
@@ -134,6 +137,7 @@ impl CpfgRandom {
             iset: 10,
             gset: 0.0,
             stochastic: seed.is_some(),
+            hom: None,
         }
     }
 
@@ -166,10 +170,44 @@ impl CpfgRandom {
         self.iset = 0;
     }
 
-    /// Replace the function generator (the homomorphism's `seed:`), giving
-    /// the old one back.
-    pub fn swap_functions(&mut self, with: Rand48) -> Rand48 {
-        std::mem::replace(&mut self.xsubi, with)
+    /// The homomorphism's `seed:` (interpret.c): a second function
+    /// generator, seeded as `srand(seed)` seeds it, that takes over while
+    /// an applied homomorphism production's successor is evaluated (and
+    /// what it rewrites further), while the top level's conditions still
+    /// read the first one. [`CpfgRandom::hom_successor`] and
+    /// [`CpfgRandom::hom_condition`] switch; `end_homomorphism` ends it.
+    pub fn begin_homomorphism(&mut self, seed: u64) {
+        self.end_homomorphism();
+        self.hom = Some((
+            Rand48::from_xsubi(0x330E, seed as u16, (seed >> 16) as u16),
+            false,
+        ));
+    }
+
+    /// Back to the first function generator for good.
+    pub fn end_homomorphism(&mut self) {
+        self.hom_condition();
+        self.hom = None;
+    }
+
+    /// A top-level homomorphism production applies: its post-condition
+    /// block and successor draw from the homomorphism's generator.
+    #[inline]
+    pub fn hom_successor(&mut self) {
+        if let Some((x, active @ false)) = &mut self.hom {
+            std::mem::swap(&mut self.xsubi, x);
+            *active = true;
+        }
+    }
+
+    /// The top level tries a module's homomorphism productions: their
+    /// pre-condition blocks and conditions draw from the first generator.
+    #[inline]
+    pub fn hom_condition(&mut self) {
+        if let Some((x, active @ true)) = &mut self.hom {
+            std::mem::swap(&mut self.xsubi, x);
+            *active = false;
+        }
     }
 
     /// `ran(v)`: `erand48(main_xsubi) * v`.

@@ -225,6 +225,14 @@ impl Chooser {
     where
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
+        let top_hom = pass == Pass::Homomorphism && !self.nested;
+        if top_hom {
+            // Conditions at the top of the homomorphism: cpfg's first
+            // function generator (a homomorphism `seed:` is for successors).
+            if let Some(c) = rng.cpfg_mut() {
+                c.hom_condition();
+            }
+        }
         // With `seed:` every production competes, weighted 1 by default.
         let stochastic = rng.cpfg_mut().is_some_and(|c| c.stochastic);
         if !stochastic || self.nested || !matches!(pass, Pass::Step(_)) {
@@ -316,6 +324,13 @@ impl Chooser {
         origin: &Origin,
         pass: Pass,
     ) -> Result<(), Error> {
+        if pass == Pass::Homomorphism && !self.nested {
+            // The homomorphism's `seed:` generator, from here on for this
+            // module (successor, deeper homomorphism).
+            if let Some(c) = rng.cpfg_mut() {
+                c.hom_successor();
+            }
+        }
         match &p.post {
             Some(b) => b
                 .run(slots, &mut self.stack, rng)

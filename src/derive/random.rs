@@ -22,7 +22,7 @@
 //! generator's buffer is used in order; other jumps cost one
 //! `set_word_pos`.
 
-use crate::cpfg::random::{CpfgRandom, Rand48};
+use crate::cpfg::random::CpfgRandom;
 use rand_chacha::rand_core::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -99,7 +99,8 @@ const TOO_MANY_MODULES: &str = "a generation of 2^59 modules or more cannot draw
 /// What the homomorphism's `seed:` replaced.
 pub enum Saved {
     Whole(Box<Random>),
-    Functions(Rand48),
+    /// cpfg's: the homomorphism's function generator runs beside the first.
+    Functions,
 }
 
 pub struct Random {
@@ -152,13 +153,14 @@ impl Random {
     }
 
     /// The homomorphism's own `seed:` `seed` takes over: lsgen's key for
-    /// the pass, or in the cpfg dialect its function generator, seeded as
-    /// `srand(seed)` seeds it (tests/cpfg/README.md). Give the result to
+    /// the pass, or in the cpfg dialect a function generator seeded as
+    /// `srand(seed)` seeds it, for the successors of the productions it
+    /// applies ([`CpfgRandom::begin_homomorphism`]). Give the result to
     /// [`Random::end_homomorphism`] to go back.
     pub fn begin_homomorphism(&mut self, seed: u64) -> Saved {
         if let Some(c) = self.cpfg.as_deref_mut() {
-            let x = Rand48::from_xsubi(0x330E, seed as u16, (seed >> 16) as u16);
-            return Saved::Functions(c.swap_functions(x));
+            c.begin_homomorphism(seed);
+            return Saved::Functions;
         }
         Saved::Whole(Box::new(std::mem::replace(self, Random::new(seed))))
     }
@@ -167,9 +169,9 @@ impl Random {
     pub fn end_homomorphism(&mut self, saved: Saved) {
         match saved {
             Saved::Whole(r) => *self = *r,
-            Saved::Functions(x) => {
+            Saved::Functions => {
                 if let Some(c) = self.cpfg.as_deref_mut() {
-                    c.swap_functions(x);
+                    c.end_homomorphism();
                 }
             }
         }
