@@ -32,6 +32,9 @@ fn printf_writes_to_standard_error() {
     assert_eq!(err, "end: n=5\n");
     let (_, err) = derive(&["-n", "3"], &blocks);
     assert_eq!(err, "");
+    // Frames run the same blocks as one derivation.
+    let (_, err) = derive(&["--frames", "1..4"], &blocks);
+    assert_eq!(err, "end: n=5\n");
     let stochastic = Path::new(ROOT).join("tests/cpfg/vlab_stochastic.l");
     let (_, err) = derive(&["-n", "3", "--no-homomorphism"], &stochastic);
     assert_eq!(

@@ -723,6 +723,9 @@ fn frame_passes(
             });
         }
         d.cpfg_block(When::EndEach, pass)?;
+        if i == frames.last() && d.cpfg.as_ref().is_some_and(|c| i >= c.derivation_length) {
+            d.cpfg_block(When::End, pass)?;
+        }
         other = Some(std::mem::replace(&mut cur, dst.expect("a generation")));
         if frames.contains(i) {
             emit(d, &cur, i)?;
