@@ -168,6 +168,19 @@ const WORKLOADS: &[Workload] = &[
         ],
     },
     Workload {
+        name: "parametric_tree.l (cpfg dialect)",
+        class: Class::Parametric,
+        file: "parametric_tree.l",
+        axiom_gen: None,
+        steps: 0,
+        plan: [
+            (11, 885_731),
+            (13, 7_971_611),
+            (16, 143_489_066),
+            (18, 1_000_000_000),
+        ],
+    },
+    Workload {
         name: "stochastic_plant",
         class: Class::Stochastic,
         file: "stochastic_plant.ls",

@@ -1,5 +1,6 @@
 //! The library facade: [`LSystem`], [`Options`], [`Stats`].
 
+use crate::cpfg::Dialect;
 use crate::derive::random::Random;
 use crate::derive::{derive, Event, FrameSink, Frames, Limits, Settings, Strategy};
 use crate::diag::{Error, ParseError, RuntimeError, UsageError};
@@ -40,6 +41,9 @@ pub struct LSystem {
     system: Option<(System, Option<u64>)>,
     /// The seed used when neither the options nor the file give one.
     fresh: u64,
+    /// A cpfg `.l` file, lowered: the rules are compiled from it, the
+    /// axiom is read from its text.
+    cpfg: Option<crate::cpfg::Loaded>,
 }
 
 /// How to derive. `Options::new()` (or `default()`) takes the file's
@@ -222,7 +226,37 @@ impl LSystem {
 
     /// Read and compile the header from `input` (leaving it at the axiom);
     /// random constants drawn with `seed` (else the file's or a fresh one).
-    pub(crate) fn load_named(mut input: Input, seed: Option<u64>) -> Result<LSystem, Error> {
+    pub(crate) fn load_named(input: Input, seed: Option<u64>) -> Result<LSystem, Error> {
+        Self::load_dialect(input, seed, Dialect::Auto)
+    }
+
+    /// [`load_named`](Self::load_named) in `dialect` (`Auto`: the file's,
+    /// see [`crate::cpfg::is_cpfg`]).
+    pub(crate) fn load_dialect(
+        mut input: Input,
+        seed: Option<u64>,
+        dialect: Dialect,
+    ) -> Result<LSystem, Error> {
+        let cpfg = match dialect {
+            Dialect::Cpfg => true,
+            Dialect::Ls => false,
+            Dialect::Auto => {
+                // Read only as far as the first statement.
+                let name = input.name.clone();
+                let mut want = 1;
+                loop {
+                    let head = input.fill(want)?;
+                    let complete = head.len() < want || head.len() >= SNIFF;
+                    if let Some(cpfg) = crate::cpfg::sniff(&name, head, complete) {
+                        break cpfg;
+                    }
+                    want = head.len() + 1;
+                }
+            }
+        };
+        if cpfg {
+            return Self::load_cpfg(input);
+        }
         let fresh = Random::fresh_seed();
         let split = split_header(&mut input)?;
         let path = input.name.clone();
@@ -235,7 +269,70 @@ impl LSystem {
             axiom: None,
             system: Some((system, seed)),
             fresh,
+            cpfg: None,
         })
+    }
+
+    /// Read a cpfg `.l` file whole (at most the preprocessor's limit),
+    /// preprocess, parse, lower and compile it.
+    fn load_cpfg(mut input: Input) -> Result<LSystem, Error> {
+        let path = input.name.clone();
+        let mut bytes = Vec::new();
+        let limit = crate::cpfg::preprocess::MAX_FILE_SIZE as usize;
+        loop {
+            let n = input.fill(1 << 16)?.len();
+            if n == 0 {
+                break;
+            }
+            bytes.extend_from_slice(&input.available()[..n]);
+            input.consume(n);
+            if bytes.len() > limit {
+                return Err(Error::new(format!(
+                    "{path}: file larger than {} MiB",
+                    limit >> 20
+                )));
+            }
+        }
+        let bytes = bytes
+            .strip_prefix(b"\xEF\xBB\xBF".as_slice())
+            .unwrap_or(&bytes);
+        let source = match std::str::from_utf8(bytes) {
+            Ok(s) => s,
+            Err(e) => {
+                let at = e.valid_up_to();
+                let text = String::from_utf8_lossy(&bytes[..at]).into_owned();
+                let map = crate::diag::CodeMap::new(&text);
+                return Err(Error::at(
+                    crate::diag::Location::from_map(&path, &map, at),
+                    crate::diag::LexicalError::InvalidUtf8,
+                ));
+            }
+        };
+        let loaded = crate::cpfg::load(&path, source)?;
+        let system = compile_cpfg(&loaded)?;
+        Ok(LSystem {
+            path,
+            split: Split {
+                header: String::new(),
+                has_axiom: true,
+                axiom_line: 1,
+                axiom_col: 1,
+            },
+            input: None,
+            text: None,
+            axiom: None,
+            system: Some((system, None)),
+            fresh: 0,
+            cpfg: Some(loaded),
+        })
+    }
+
+    /// The compiled rules for `seed`.
+    fn compile_system(&self, seed: Option<u64>) -> Result<System, Error> {
+        match &self.cpfg {
+            Some(c) => compile_cpfg(c),
+            None => compile(&self.path, &self.split, seed, self.fresh),
+        }
     }
 
     #[cfg(feature = "cli")]
@@ -274,14 +371,29 @@ impl LSystem {
         })
     }
 
+    /// Derive as a `.l` file with these settings would (tests of the
+    /// engine's cpfg pieces on `.ls` texts).
+    #[cfg(test)]
+    pub(crate) fn as_cpfg(&mut self, run: crate::cpfg::run::CpfgRun) {
+        if let Some((s, _)) = &mut self.system {
+            s.cpfg = Some(Box::new(run));
+        }
+    }
+
     /// The compiled rules for `seed`, and the axiom reader's input.
     fn take(&mut self, seed: Option<u64>) -> Result<(System, Input, bool, usize, usize), Error> {
         let system = match self.system.take() {
-            Some((s, with)) if with == seed => s,
-            _ => compile(&self.path, &self.split, seed, self.fresh)?,
+            // A cpfg system draws no random constants: any seed will do.
+            Some((s, with)) if with == seed || self.cpfg.is_some() => s,
+            _ => self.compile_system(seed)?,
         };
         if let Some(a) = self.axiom.take() {
             return Ok((system, a, false, 1, 1));
+        }
+        if let Some(c) = &self.cpfg {
+            let text = c.axiom.clone();
+            let input = Input::new(Box::new(io::Cursor::new(text)), self.path.clone());
+            return Ok((system, input, false, 1, 1));
         }
         let input = match (self.input.take(), &self.text) {
             (Some(i), _) => i,
@@ -365,6 +477,13 @@ impl LSystem {
             }));
         }
         let seed = options.seed.or(system.seed).unwrap_or(self.fresh);
+        if let (Some(c), Some(s)) = (system.cpfg.as_mut(), options.seed) {
+            // `--seed N` on a `.l` file: as if it said `seed: N`.
+            c.seed = Some(s);
+        }
+        // cpfg prints parameters with C's `%g`: 6 significant digits.
+        let precision = options.precision.or(system.cpfg.is_some().then_some(6));
+        let cpfg = system.cpfg.is_some();
         let settings = Settings {
             steps,
             seed,
@@ -383,18 +502,18 @@ impl LSystem {
         // --precision: the one place numbers are rewritten, for every
         // strategy, on the text's way out.
         let mut significant;
-        let out: &mut dyn Write = match options.precision {
+        let out: &mut dyn Write = match precision {
             Some(p) => {
-                significant = Significant::new(&mut out, p);
+                significant = Significant::new(&mut out, p).c_exponent(cpfg);
                 &mut significant
             }
             None => &mut out,
         };
         // Frames go out through their own sink: the same rewriting there.
         let mut precise;
-        let frames: Option<(Frames, &mut dyn FrameSink)> = match (frames, options.precision) {
+        let frames: Option<(Frames, &mut dyn FrameSink)> = match (frames, precision) {
             (Some((f, sink)), Some(digits)) => {
-                precise = PreciseFrames { sink, digits };
+                precise = PreciseFrames { sink, digits, cpfg };
                 Some((f, &mut precise))
             }
             (Some((f, sink)), None) => Some((f, sink)),
@@ -437,10 +556,23 @@ impl LSystem {
     pub fn with_fallback_seed(mut self, seed: u64) -> Result<Self, Error> {
         self.fresh = seed;
         if let Some((_, with)) = self.system.take() {
-            self.system = Some((compile(&self.path, &self.split, with, seed)?, with));
+            self.system = Some((self.compile_system(with)?, with));
         }
         Ok(self)
     }
+}
+
+/// Bytes looked at to tell a cpfg file from an `.ls` one.
+const SNIFF: usize = 1 << 16;
+
+/// Compile a lowered cpfg file.
+fn compile_cpfg(c: &crate::cpfg::Loaded) -> Result<System, Error> {
+    let mut s =
+        crate::rules::compile_dialect(c.header.clone(), Some(&c.text), Seeds::default(), true)
+            .map_err(|e| crate::cpfg::locate(&c.map, e))?;
+    s.source_map = Some(c.map.clone());
+    crate::cpfg::lower::attach(&c.run, &c.extra, &mut s);
+    Ok(s)
 }
 
 /// Parse and compile the header of `split`.
@@ -493,6 +625,8 @@ pub fn derive_bytes_on(
 struct PreciseFrames<'s> {
     sink: &'s mut dyn FrameSink,
     digits: u32,
+    /// C's exponent form (the cpfg dialect).
+    cpfg: bool,
 }
 
 impl FrameSink for PreciseFrames<'_> {
@@ -501,9 +635,9 @@ impl FrameSink for PreciseFrames<'_> {
         n: u64,
         write: &mut dyn FnMut(&mut dyn Write, &str) -> Result<(u64, u64), Error>,
     ) -> Result<(u64, u64), Error> {
-        let digits = self.digits;
+        let (digits, cpfg) = (self.digits, self.cpfg);
         self.sink.frame(n, &mut |out, name| {
-            let mut sig = Significant::new(out, digits);
+            let mut sig = Significant::new(out, digits).c_exponent(cpfg);
             let len = write(&mut sig, name)?;
             sig.flush()
                 .map_err(|e| Error::io(name, crate::diag::IoAction::Write, e))?;

@@ -131,6 +131,12 @@ pub struct Args {
     #[arg(long, exclusive = true)]
     pub man: bool,
 
+    /// The language of the input: `cpfg` (L-studio / vlab `.l` files) or
+    /// `ls`; default: cpfg for a name ending in `.l` or a file whose first
+    /// statement is `Lsystem:` or a `#` directive, else ls.
+    #[arg(long, value_name = "cpfg|ls", value_parser = parse_dialect)]
+    pub dialect: Option<crate::cpfg::Dialect>,
+
     /// For tests (hidden): force the derivation strategy. `auto` (default)
     /// picks depth first when the system allows it, `step` always derives
     /// step by step through temporary files, `dfs` insists on depth first
@@ -171,6 +177,15 @@ pub fn parse_seeds(s: &str) -> Result<Seeds, String> {
             }
             Ok(Seeds { first, last })
         }
+    }
+}
+
+/// `--dialect`: `cpfg` or `ls`.
+pub fn parse_dialect(s: &str) -> Result<crate::cpfg::Dialect, String> {
+    match s {
+        "cpfg" => Ok(crate::cpfg::Dialect::Cpfg),
+        "ls" => Ok(crate::cpfg::Dialect::Ls),
+        _ => Err(format!("`{s}` is not a dialect: use cpfg or ls")),
     }
 }
 
@@ -681,7 +696,7 @@ fn run_one(
         ));
     }
     let input = open_input(job.file)?;
-    let mut ls = LSystem::load_named(input, job.seed)?;
+    let mut ls = LSystem::load_dialect(input, job.seed, args.dialect.unwrap_or_default())?;
     if args.axiom.is_none() {
         ls.require_axiom()?;
     }

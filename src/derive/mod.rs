@@ -23,6 +23,7 @@ pub use reader::PosReader;
 pub use sink::{Limits, Out};
 pub use step::Deriver;
 
+use crate::cpfg::run::When;
 use crate::diag::{CodeMap, Error, Location};
 use crate::io::axiom::AxiomReader;
 use crate::rules::System;
@@ -36,10 +37,15 @@ use std::sync::atomic::Ordering;
 pub struct Origin<'a> {
     pub path: &'a str,
     pub header: &'a str,
+    /// A cpfg file: offsets are in its preprocessed text.
+    pub map: Option<&'a crate::cpfg::preprocess::SourceMap>,
 }
 
 impl Origin<'_> {
     pub(crate) fn locate(&self, offset: usize) -> Location {
+        if let Some(map) = self.map {
+            return map.location(offset);
+        }
         Location::from_map(self.path, &CodeMap::new(self.header), offset)
     }
 
@@ -255,11 +261,14 @@ pub(crate) fn derive(
         hom_seed,
         warnings,
         step_hidden,
+        cpfg,
+        source_map,
         ..
     } = system;
     let hom = settings.homomorphism && !homomorphism.is_empty();
     // Right contexts skip branches in O(1) through a bracket index.
     let indexed = productions.has_right
+        || decomposition.as_ref().is_some_and(|(d, _)| d.has_right)
         || groups.iter().any(|(_, t)| t.has_right)
         || (hom && homomorphism.has_right);
     let pct = u32::from(b'%');
@@ -269,7 +278,35 @@ pub(crate) fn derive(
     if strategy == Strategy::DepthFirst && (passes == 0 || frames.is_some()) {
         return Err(not_depth_first());
     }
-    let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
+    // The cpfg dialect: cpfg's generators (README, "Coming from cpfg").
+    let rng = match &cpfg {
+        Some(c) => Random::cpfg(c.seed),
+        None => Random::new(seed),
+    };
+    let (mut productions, mut homomorphism, mut decomposition) =
+        (productions, homomorphism, decomposition);
+    if cpfg.is_some() {
+        // cpfg's right contexts (README, "Coming from cpfg").
+        productions.for_cpfg(&alphabet);
+        homomorphism.for_cpfg(&alphabet);
+        if let Some((t, _)) = &mut decomposition {
+            t.for_cpfg(&alphabet);
+        }
+    }
+    let mut d = Deriver::new(
+        alphabet,
+        rng,
+        Origin {
+            path,
+            header,
+            map: source_map.as_deref(),
+        },
+    );
+    d.cpfg_contexts = cpfg.is_some();
+    let is_cpfg = cpfg.is_some();
+    // Header blocks run every step: no fixed point.
+    let blocks = cpfg.as_ref().is_some_and(|c| c.has_blocks());
+    d.cpfg = cpfg;
     for span in step_hidden {
         crate::diag::warn(
             d.origin.locate(span.0),
@@ -314,6 +351,8 @@ pub(crate) fn derive(
     } else {
         Some(tempfile(tmpdir)?)
     };
+    // cpfg's `Start:` runs before the axiom is read.
+    d.cpfg_block(When::Start, Pass::Axiom)?;
     {
         let index = (indexed, d.counts);
         let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, index)?;
@@ -345,8 +384,15 @@ pub(crate) fn derive(
     // A `%` that no production rewrites is a cut (docs/structural.md,
     // section 5); the step engine looks for cuts only if a `%` can occur.
     d.cut = axiom_cuts || percent;
-    let step_only = structural || d.cut;
+    // The cpfg dialect draws in string order from one sequential
+    // generator (`ran`, the stochastic choice): only step by step.
+    let step_only = structural || is_cpfg || d.cut;
     let strategy = if step_only {
+        if strategy == Strategy::DepthFirst && is_cpfg {
+            return Err(Error::usage(
+                "`--strategy dfs`: a cpfg (`.l`) file is derived step by step (cpfg's random draws and blocks run in string order)",
+            ));
+        }
         if strategy == Strategy::DepthFirst {
             return Err(not_depth_first());
         }
@@ -362,7 +408,7 @@ pub(crate) fn derive(
             schedule: &schedule,
             group_expr: group_expr.as_ref(),
             hom_seed,
-            fixed_points: !structural,
+            fixed_points: !structural && !blocks,
             plain: !step_only,
         };
         let tables = (&tables, &homomorphism, hom);
@@ -487,7 +533,7 @@ pub(crate) fn derive(
         schedule: &schedule,
         group_expr: group_expr.as_ref(),
         hom_seed,
-        fixed_points: !structural,
+        fixed_points: !structural && !blocks,
         plain: !step_only,
     };
     let stepwise = step_passes(
@@ -541,8 +587,9 @@ fn step_passes(
             let k = first_step + steps - 1;
             if let Some(s) = tables.hom_seed {
                 // The homomorphism's own key (its `seed:`); same stream
-                // and positions (docs/structural.md, section 8).
-                d.rng = Random::new(s);
+                // and positions (docs/structural.md, section 8). The last
+                // pass: nothing to restore.
+                d.rng.begin_homomorphism(s);
             }
             d.rng.start_pass(k, Region::Homomorphism);
             d.rng.set_step(k);
@@ -562,6 +609,10 @@ fn step_passes(
         };
         let draws = d.rng.draws();
         let mut drew = 0;
+        let step = matches!(pass, Pass::Step(_));
+        if step {
+            d.cpfg_block(When::StartEach, pass)?;
+        }
         {
             let mut out = sink(
                 &mut dst,
@@ -593,6 +644,14 @@ fn step_passes(
                 bytes,
             });
             last_len = (modules, bytes);
+        }
+        if step {
+            d.cpfg_block(When::EndEach, pass)?;
+            // `End:` after the last step, when the run reaches the file's
+            // derivation length (cpfg's end of derivation).
+            if i == steps && d.cpfg.as_ref().is_some_and(|c| i >= c.derivation_length) {
+                d.cpfg_block(When::End, pass)?;
+            }
         }
         // A step that drew nothing and left the string as it was is a fixed
         // point: every later step does the same. Go on with the last pass
@@ -650,15 +709,13 @@ fn frame_passes(
                 // The homomorphism of generation k, as `lsgen -n k` applies
                 // it: with its own `seed:`, a generator for this frame only.
                 let stream = first_step + k - 1;
-                let main = tables
-                    .hom_seed
-                    .map(|s| std::mem::replace(&mut d.rng, Random::new(s)));
+                let main = tables.hom_seed.map(|s| d.rng.begin_homomorphism(s));
                 d.rng.start_pass(stream, Region::Homomorphism);
                 d.rng.set_step(stream);
                 let mut out = out.for_pass(Pass::Homomorphism);
                 let r = d.pass(homomorphism, gen, indexed, &mut out, Pass::Homomorphism);
                 if let Some(main) = main {
-                    d.rng = main;
+                    d.rng.end_homomorphism(main);
                 }
                 r?;
                 out.finish()
@@ -699,6 +756,7 @@ fn frame_passes(
             }
             None => tempfile(tmpdir)?,
         });
+        d.cpfg_block(When::StartEach, pass)?;
         {
             let mut discard = io::sink();
             let mut out = sink(
@@ -717,6 +775,10 @@ fn frame_passes(
                 modules,
                 bytes,
             });
+        }
+        d.cpfg_block(When::EndEach, pass)?;
+        if i == frames.last() && d.cpfg.as_ref().is_some_and(|c| i >= c.derivation_length) {
+            d.cpfg_block(When::End, pass)?;
         }
         other = Some(std::mem::replace(&mut cur, dst.expect("a generation")));
         if frames.contains(i) {

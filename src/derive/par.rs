@@ -140,6 +140,7 @@ pub(crate) fn step_pass(
                 Origin {
                     path: d.origin.path,
                     header: d.origin.header,
+                    map: d.origin.map,
                 },
             );
             wd.warnings = d.warnings;

@@ -372,6 +372,18 @@ pub enum ExprError {
     Undefined(&'static str),
     /// `x / 0`.
     DivisionByZero,
+    /// A cpfg block's `while` / `do` loop that ran too often (its kind and
+    /// the limit).
+    Runaway(&'static str, u64),
+    /// A cpfg random function's argument it cannot use (the message).
+    CpfgFunction(&'static str),
+    /// A value stored into a cpfg module parameter that a 32-bit float
+    /// cannot hold.
+    OutOfF32,
+    /// cpfg's `x % 0` (which crashes cpfg).
+    RemainderByZero,
+    /// cpfg's `%` on an operand that does not fit a C int.
+    RemainderOutOfRange,
     /// A result that is NaN.
     NotANumber,
     /// A result past the largest float.
@@ -393,6 +405,16 @@ impl fmt::Display for ExprError {
             ),
             Undefined(what) => write!(f, "{what} is undefined here"),
             DivisionByZero => f.write_str("division by zero"),
+            Runaway(what, n) => write!(
+                f,
+                "this `{what}` loop ran {n} times: lsgen stops it (cpfg would hang)"
+            ),
+            CpfgFunction(m) => f.write_str(m),
+            OutOfF32 => {
+                f.write_str("the value is out of the range of a 32-bit float (cpfg's parameters)")
+            }
+            RemainderByZero => f.write_str("remainder by zero (`x % 0` crashes cpfg)"),
+            RemainderOutOfRange => f.write_str("`%` needs operands that fit a C int"),
             NotANumber => f.write_str("result is not a number"),
             Overflow => f.write_str("result overflows a 64-bit float"),
             Random(e) => e.fmt(f),

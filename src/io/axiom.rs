@@ -267,9 +267,7 @@ impl<'a> AxiomReader<'a> {
         self.last = (line, col, at);
         let (sym, n) = self.peek_char()?.expect("skip_blank saw a byte");
         match sym {
-            '(' | ')' | ',' | ':' | '<' | '>' => {
-                return Err(self.error_here(ParseError::Reserved(sym)))
-            }
+            '(' | ')' | ':' | '<' | '>' => return Err(self.error_here(ParseError::Reserved(sym))),
             c if c.is_control() => return Err(self.error_here(LexicalError::ControlChar(c))),
             _ => {}
         }
@@ -429,6 +427,7 @@ impl<'a> AxiomReader<'a> {
             &Scope {
                 params: &empty,
                 consts: self.consts,
+                cpfg: false,
             },
         ) {
             Ok(c) => c,
@@ -470,7 +469,7 @@ static PLAIN: [bool; 256] = {
     let mut t = [false; 256];
     let mut b = 0x21;
     while b < 0x7f {
-        t[b] = !matches!(b as u8, b'(' | b')' | b',' | b':' | b'<' | b'>');
+        t[b] = !matches!(b as u8, b'(' | b')' | b':' | b'<' | b'>');
         b += 1;
     }
     t

@@ -355,7 +355,6 @@ impl<'a> Lexer<'a> {
             },
             '(' => (Ok(Tok::LParen), 1),
             ')' => (Ok(Tok::RParen), 1),
-            ',' => (Ok(Tok::Comma), 1),
             ':' => (Ok(Tok::Colon), 1),
             '<' => (Ok(Tok::Lt), 1),
             '>' => (Ok(Tok::Gt), 1),

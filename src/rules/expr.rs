@@ -27,6 +27,13 @@ pub enum Func1 {
     Ceil,
     Trunc,
     Abs,
+    /// cpfg's `trunc`: floor(x + 0.5).
+    Round,
+    /// cpfg's `sign`: -1, 0 or 1.
+    Sign,
+    /// Round to a 32-bit float: cpfg stores parameters as `float`s (the
+    /// cpfg dialect wraps every successor parameter in it, [`CPFG_F32`]).
+    Float32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,6 +41,8 @@ pub enum Func2 {
     Min,
     Max,
     Atan2,
+    /// cpfg's `atan(a, b)`: atan(b), in degrees.
+    AtanSecond,
 }
 
 impl Func1 {
@@ -52,6 +61,17 @@ impl Func1 {
             Func1::Ceil => x.ceil(),
             Func1::Trunc => x.trunc(),
             Func1::Abs => x.abs(),
+            Func1::Round => (x + 0.5).floor(),
+            Func1::Float32 => f64::from(x as f32),
+            Func1::Sign => {
+                if x > 0.0 {
+                    1.0
+                } else if x < 0.0 {
+                    -1.0
+                } else {
+                    0.0
+                }
+            }
         }
     }
 }
@@ -62,6 +82,7 @@ impl Func2 {
             Func2::Min => a.min(b),
             Func2::Max => a.max(b),
             Func2::Atan2 => a.atan2(b).to_degrees(),
+            Func2::AtanSecond => b.atan().to_degrees(),
         }
     }
 }
@@ -93,11 +114,67 @@ fn lookup_function(name: &str) -> Option<(Fun, usize)> {
     })
 }
 
+/// The name of [`Func1::Float32`] for the cpfg dialect's compiler (no
+/// lexer makes it a name).
+pub const CPFG_F32: &str = "\u{0}f32";
+
+/// cpfg's variables as `src/cpfg/lower.rs` names them (issue 12):
+/// variable `i` (a global, or a production's local) is `\u{1}g<i>`.
+fn cpfg_variable(name: &str) -> Option<Op> {
+    let n = name.strip_prefix("\u{1}g")?;
+    n.parse().ok().map(Op::Global)
+}
+
+/// The cpfg dialect's functions (cpfg's `lsys_input.y`): degrees, `trunc`
+/// rounds, `atan` takes 1 or 2 arguments. Random ones are the cpfg
+/// runtime's.
+fn lookup_cpfg_function(name: &str, args: usize) -> Option<(Fun, usize)> {
+    use Func1::*;
+    Some(match name {
+        "sin" => (Fun::F1(Sin), 1),
+        "cos" => (Fun::F1(Cos), 1),
+        "tan" => (Fun::F1(Tan), 1),
+        "asin" => (Fun::F1(Asin), 1),
+        "acos" => (Fun::F1(Acos), 1),
+        "atan" if args == 2 => (Fun::F2(Func2::AtanSecond), 2),
+        "atan" => (Fun::F1(Atan), 1),
+        "sqrt" => (Fun::F1(Sqrt), 1),
+        "exp" => (Fun::F1(Exp), 1),
+        "log" => (Fun::F1(Log), 1),
+        "floor" => (Fun::F1(Floor), 1),
+        "ceil" => (Fun::F1(Ceil), 1),
+        "trunc" => (Fun::F1(Round), 1),
+        "fabs" => (Fun::F1(Abs), 1),
+        "sign" => (Fun::F1(Sign), 1),
+        // On cpfg's function generator (src/cpfg/random.rs).
+        "ran" => (Fun::Ran, 1),
+        "nran" => (Fun::Nran, 2),
+        "bran" => (Fun::Cpfg(CpfgFun::Bran), 2),
+        "biran" => (Fun::Cpfg(CpfgFun::Biran), 2),
+        "srand" => (Fun::Cpfg(CpfgFun::Srand), 1),
+        CPFG_F32 => (Fun::F1(Float32), 1),
+        _ => return None,
+    })
+}
+
 enum Fun {
     F1(Func1),
     F2(Func2),
     Ran,
     Nran,
+    Cpfg(CpfgFun),
+}
+
+/// cpfg's random functions besides `ran` and `nran` (issue 12), on its
+/// function generator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CpfgFun {
+    /// `bran(a, b)`: a beta deviate.
+    Bran,
+    /// `biran(n, p)`: a binomial deviate.
+    Biran,
+    /// `srand(x)`: reseed, giving 0.
+    Srand,
 }
 
 /// One instruction. Operations that can fail carry the index of their span.
@@ -108,17 +185,31 @@ pub enum Op {
     /// The syntax tree's operators, one list for both (`lang::ast`).
     Un(UnOp),
     Bin(BinOp, u32),
+    /// cpfg's `/`: a zero divisor divides by 1 (with a warning).
+    DivOr1(u32),
     F1(Func1, u32),
     F2(Func2, u32),
     Ran(u32),
     Nran(u32),
+    /// `bran`, `biran` (two operands) or `srand` (one).
+    CpfgRan(CpfgFun, u32),
     /// The built-in step number (issue 11), kept by the generator.
     Step,
+    /// A cpfg global variable (issue 12), kept by the generator.
+    Global(u32),
+    /// `c ? a : b` with c, a, b on the stack (all three evaluated, as
+    /// cpfg does).
+    Select,
 }
 
 /// The parameter slot that names the built-in `step` in a scope's
 /// `params` (issue 11).
 pub const STEP_SLOT: u32 = u32::MAX;
+
+/// Parameter slots from here on name cpfg's global variables (issue 12):
+/// `GLOBAL_SLOT + i` is global `i`, read from the generator
+/// ([`Draw::global`]), not from the production's slots.
+pub const GLOBAL_SLOT: u32 = 1 << 31;
 
 /// A compiled expression.
 #[derive(Clone, Debug, PartialEq)]
@@ -153,6 +244,8 @@ pub struct Scope<'a> {
     pub params: &'a HashMap<String, u32>,
     /// Constants from `define:`.
     pub consts: &'a HashMap<String, f64>,
+    /// The cpfg dialect: its functions, `/` and `%`.
+    pub cpfg: bool,
 }
 
 impl Code {
@@ -181,7 +274,7 @@ impl Code {
     pub fn uses_random(&self) -> bool {
         self.ops
             .iter()
-            .any(|o| matches!(o, Op::Ran(_) | Op::Nran(_)))
+            .any(|o| matches!(o, Op::Ran(_) | Op::Nran(_) | Op::CpfgRan(..)))
     }
 
     /// Does this expression read the built-in `step`?
@@ -202,11 +295,15 @@ impl Code {
                 if let Some(&slot) = scope.params.get(name) {
                     self.ops.push(if slot == STEP_SLOT {
                         Op::Step
+                    } else if slot >= GLOBAL_SLOT {
+                        Op::Global(slot - GLOBAL_SLOT)
                     } else {
                         Op::Load(slot)
                     });
                 } else if let Some(&v) = scope.consts.get(name) {
                     self.ops.push(Op::Const(v));
+                } else if let Some(op) = scope.cpfg.then(|| cpfg_variable(name)).flatten() {
+                    self.ops.push(op);
                 } else {
                     return Err(EvalError {
                         span: *span,
@@ -215,7 +312,12 @@ impl Code {
                 }
             }
             Expr::Call(name, args, span) => {
-                let Some((fun, arity)) = lookup_function(name) else {
+                let found = if scope.cpfg {
+                    lookup_cpfg_function(name, args.len())
+                } else {
+                    lookup_function(name)
+                };
+                let Some((fun, arity)) = found else {
                     return Err(EvalError {
                         span: (span.0, span.0 + name.len()),
                         kind: ExprError::UnknownFunction(name.clone()),
@@ -240,17 +342,36 @@ impl Code {
                     Fun::F2(f) => Op::F2(f, si),
                     Fun::Ran => Op::Ran(si),
                     Fun::Nran => Op::Nran(si),
+                    Fun::Cpfg(f) => Op::CpfgRan(f, si),
                 });
             }
             Expr::Unary(op, a, _) => {
                 self.emit(a, scope)?;
                 self.ops.push(Op::Un(*op));
             }
+            Expr::Cond(c, a, b, _) => {
+                self.emit(c, scope)?;
+                self.emit(a, scope)?;
+                self.emit(b, scope)?;
+                self.ops.push(Op::Select);
+            }
             Expr::Binary(op, a, b, span) => {
                 self.emit(a, scope)?;
                 self.emit(b, scope)?;
                 let si = self.span_index(*span);
-                self.ops.push(Op::Bin(*op, si));
+                self.ops.push(match op {
+                    BinOp::Div if scope.cpfg => Op::DivOr1(si),
+                    BinOp::Rem => {
+                        if matches!(self.ops.last(), Some(Op::Const(v)) if v.trunc() == 0.0) {
+                            return Err(EvalError {
+                                span: b.span(),
+                                kind: ExprError::RemainderByZero,
+                            });
+                        }
+                        Op::Bin(BinOp::Rem, si)
+                    }
+                    _ => Op::Bin(*op, si),
+                });
             }
         }
         self.fold(start)
@@ -261,9 +382,17 @@ impl Code {
     fn fold(&mut self, start: usize) -> Result<(), CompileError> {
         let tail = &self.ops[start..];
         if tail.len() == 1
-            || tail
-                .iter()
-                .any(|o| matches!(o, Op::Load(_) | Op::Ran(_) | Op::Nran(_) | Op::Step))
+            || tail.iter().any(|o| {
+                matches!(
+                    o,
+                    Op::Load(_)
+                        | Op::Ran(_)
+                        | Op::Nran(_)
+                        | Op::CpfgRan(..)
+                        | Op::Step
+                        | Op::Global(_)
+                )
+            })
         {
             return Ok(());
         }
@@ -287,8 +416,21 @@ impl Code {
         stack: &mut Vec<f64>,
         rng: &mut D,
     ) -> Result<f64, EvalError> {
-        // The shapes most successors and conditions have, without the stack.
+        // The shapes most successors and conditions have, without the stack
+        // (in the cpfg dialect, a successor's ends with the float rounding).
         match *self.ops.as_slice() {
+            [Op::Load(s), Op::F1(Func1::Float32, si)] => {
+                return self.float32(slots[s as usize], si)
+            }
+            [Op::Load(a), Op::Const(c), op, Op::F1(Func1::Float32, si)] if is_binary(op) => {
+                return self.float32(self.binary(op, slots[a as usize], c)?, si)
+            }
+            [Op::Const(c), Op::Load(b), op, Op::F1(Func1::Float32, si)] if is_binary(op) => {
+                return self.float32(self.binary(op, c, slots[b as usize])?, si)
+            }
+            [Op::Load(a), Op::Load(b), op, Op::F1(Func1::Float32, si)] if is_binary(op) => {
+                return self.float32(self.binary(op, slots[a as usize], slots[b as usize])?, si)
+            }
             [Op::Const(v)] => return Ok(v),
             [Op::Load(s)] => return Ok(slots[s as usize]),
             [Op::Load(a), Op::Const(c), op] if is_binary(op) => {
@@ -308,6 +450,7 @@ impl Code {
                 Op::Const(v) => stack.push(v),
                 Op::Load(s) => stack.push(slots[s as usize]),
                 Op::Step => stack.push(rng.step()),
+                Op::Global(g) => stack.push(rng.global(g)),
                 Op::Un(UnOp::Neg) => {
                     let a = stack.last_mut().unwrap();
                     *a = -*a;
@@ -316,10 +459,20 @@ impl Code {
                     let a = stack.last_mut().unwrap();
                     *a = if *a == 0.0 { 1.0 } else { 0.0 };
                 }
-                Op::Bin(..) | Op::F2(..) => {
+                Op::Select => {
+                    let b = stack.pop().unwrap();
+                    let a = stack.pop().unwrap();
+                    let c = stack.last_mut().unwrap();
+                    *c = if *c != 0.0 { a } else { b };
+                }
+                Op::Bin(..) | Op::DivOr1(_) | Op::F2(..) => {
                     let b = stack.pop().unwrap();
                     let a = stack.last_mut().unwrap();
                     *a = self.binary(*op, *a, b)?;
+                }
+                Op::F1(Func1::Float32, si) => {
+                    let a = stack.last_mut().unwrap();
+                    *a = self.float32(*a, si)?;
                 }
                 Op::F1(f, si) => {
                     let a = stack.last_mut().unwrap();
@@ -343,6 +496,24 @@ impl Code {
                     }
                     *a = r;
                 }
+                Op::CpfgRan(f, si) => {
+                    let r = match f {
+                        CpfgFun::Srand => {
+                            let a = stack.pop().unwrap();
+                            rng.srand(a)
+                        }
+                        CpfgFun::Bran | CpfgFun::Biran => {
+                            let b = stack.pop().unwrap();
+                            let a = stack.pop().unwrap();
+                            if f == CpfgFun::Bran {
+                                rng.bran(a, b)
+                            } else {
+                                rng.biran(a, b)
+                            }
+                        }
+                    };
+                    stack.push(r.map_err(|m| self.fail(si, ExprError::CpfgFunction(m)))?);
+                }
                 Op::Nran(si) => {
                     let sd = stack.pop().unwrap();
                     let mean = stack.last_mut().unwrap();
@@ -358,6 +529,17 @@ impl Code {
         }
         debug_assert_eq!(stack.len(), 1);
         Ok(stack[0])
+    }
+
+    /// `v` stored as cpfg stores a parameter: a 32-bit float.
+    #[inline(always)]
+    fn float32(&self, v: f64, si: u32) -> Result<f64, EvalError> {
+        let r = f64::from(v as f32);
+        if r.is_finite() {
+            Ok(r)
+        } else {
+            Err(self.fail(si, ExprError::OutOfF32))
+        }
     }
 
     fn name_at(&self, si: u32) -> &'static str {
@@ -398,6 +580,25 @@ impl Code {
                 }
                 (a / b, si)
             }
+            Op::DivOr1(si) => {
+                if b == 0.0 {
+                    warn_division_by_zero();
+                    (a, si)
+                } else {
+                    (a / b, si)
+                }
+            }
+            Op::Bin(BinOp::Rem, si) => {
+                // C's (int) conversions and `%`: truncation toward zero.
+                let (x, y) = (a.trunc(), b.trunc());
+                if y == 0.0 {
+                    return Err(self.fail(si, ExprError::RemainderByZero));
+                }
+                if x.abs() >= 2147483648.0 || y.abs() >= 2147483648.0 {
+                    return Err(self.fail(si, ExprError::RemainderOutOfRange));
+                }
+                (((x as i64) % (y as i64)) as f64, si)
+            }
             Op::F2(f, si) => (f.apply(a, b), si),
             _ => unreachable!("not a binary operation: {op:?}"),
         };
@@ -425,7 +626,21 @@ impl Code {
 
 #[inline(always)]
 fn is_binary(op: Op) -> bool {
-    matches!(op, Op::Bin(..) | Op::F2(..))
+    matches!(op, Op::Bin(..) | Op::DivOr1(_) | Op::F2(..))
+}
+
+/// cpfg divides by 1 instead of 0, with a warning: once per process here
+/// (the evaluator has no place to report to; the division is cpfg's rule,
+/// not an error).
+#[cold]
+fn warn_division_by_zero() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    static WARNED: AtomicBool = AtomicBool::new(false);
+    if !WARNED.swap(true, Ordering::Relaxed) {
+        crate::diag::eprint(
+            "lsgen: warning: division by zero in a cpfg expression: divided by 1 instead, as cpfg does\n",
+        );
+    }
 }
 
 #[inline]
@@ -455,6 +670,7 @@ mod tests {
             &Scope {
                 params: &params,
                 consts: &consts,
+                cpfg: false,
             },
         )?;
         let slots: Vec<f64> = names.iter().map(|(_, v)| *v).collect();
@@ -543,6 +759,7 @@ mod tests {
             &Scope {
                 params: &p,
                 consts: &c,
+                cpfg: false,
             },
         )
         .unwrap();
@@ -553,7 +770,8 @@ mod tests {
             &e,
             &Scope {
                 params: &p,
-                consts: &c
+                consts: &c,
+                cpfg: false,
             }
         )
         .is_err());

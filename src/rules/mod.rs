@@ -9,7 +9,7 @@ use crate::lang::ast::{self, Expr, Setting};
 use crate::lang::lexer::Span;
 use crate::lang::parse::UserError;
 use codec::MAX_ARITY;
-use expr::{Code, Scope};
+use expr::{Code, Scope, CPFG_F32};
 use std::collections::{HashMap, HashSet};
 
 pub mod codec;
@@ -111,6 +111,17 @@ impl Alphabet {
     pub fn symbol(&self, key: u32) -> char {
         self.sym[key as usize]
     }
+    /// cpfg's right contexts (issue 12): is bracket `b` passed over like
+    /// an ignored symbol? Under `consider:`, when not listed; under
+    /// `ignore:`, when listed.
+    pub fn bracket_passed(&self, b: char) -> bool {
+        match &self.filter {
+            Filter::All => false,
+            Filter::Ignore(s) => s.contains(&b),
+            Filter::Consider(s) => !s.contains(&b),
+        }
+    }
+
     /// Is this key passed over when matching contexts?
     #[inline]
     pub fn ignored(&self, key: u32) -> bool {
@@ -137,8 +148,12 @@ pub enum RPat {
     Module(Pat),
     /// `[`: enter a lateral branch.
     Open,
-    /// `]`: skip the rest of the current branch.
+    /// `]`: skip the rest of the current branch (the cpfg dialect: match
+    /// a `]` of the string).
     Close,
+    /// cpfg's `=`: skip to the end of the current branch (the cpfg dialect
+    /// only; README, "Coming from cpfg").
+    SkipRest,
 }
 
 /// Modules known at load time, precomputed in each format, in one
@@ -237,6 +252,9 @@ pub struct Production {
     /// Slots: predecessor parameters, then left context, then right context.
     pub nslots: usize,
     pub left: Box<[Pat]>,
+    /// The modules after the first of a predecessor of several modules
+    /// (cpfg dialect), matched strictly one after the other.
+    pub rest: Box<[Pat]>,
     pub right: Box<[RPat]>,
     /// The right context has no brackets: it is matched against the cached
     /// list of the next considered modules.
@@ -249,11 +267,16 @@ pub struct Production {
     /// Bracket depth change of the successor, and its lowest prefix.
     pub depth_delta: i64,
     pub depth_min: i64,
+    /// cpfg's pre-condition block (runs before the condition, also when
+    /// it fails) and post-condition block (runs when the production is
+    /// applied, before its successor), issue 12.
+    pub pre: Option<Box<crate::cpfg::blocks::Block>>,
+    pub post: Option<Box<crate::cpfg::blocks::Block>>,
 }
 
 impl Production {
     pub fn has_context(&self) -> bool {
-        !self.left.is_empty() || !self.right.is_empty()
+        !self.left.is_empty() || !self.right.is_empty() || !self.rest.is_empty()
     }
 }
 
@@ -286,6 +309,9 @@ pub struct Table {
     /// Longest left context.
     pub max_left: usize,
     pub has_right: bool,
+    /// Some predecessor has several modules (cpfg dialect): only the step
+    /// engine, which looks ahead, derives it.
+    pub has_multi: bool,
     /// Longest bracket-free right context.
     pub max_right_simple: usize,
     /// Some successor is not bracket-balanced: check each step's output.
@@ -312,7 +338,13 @@ impl Table {
             return Some(None);
         };
         let p = &self.prods[*kr.free.first()? as usize];
-        if !kr.context.is_empty() || kr.free_stochastic || p.cond.is_some() {
+        // (cpfg's blocks run whenever the production is tried.)
+        if !kr.context.is_empty()
+            || kr.free_stochastic
+            || p.cond.is_some()
+            || p.pre.is_some()
+            || p.post.is_some()
+        {
             return None;
         }
         match &*p.succ {
@@ -340,7 +372,24 @@ impl Table {
         self.prods.is_empty()
     }
     pub fn has_context(&self) -> bool {
-        self.max_left > 0 || self.has_right
+        self.max_left > 0 || self.has_right || self.has_multi
+    }
+
+    /// cpfg's right contexts (issue 12): every one goes through cpfg's
+    /// matcher (no cached bracket-free shortcut), and a `=` module in a
+    /// right context is cpfg's "skip the rest of the branch".
+    pub fn for_cpfg(&mut self, al: &Alphabet) {
+        for p in &mut self.prods {
+            p.right_simple = false;
+            for r in p.right.iter_mut() {
+                if let RPat::Module(m) = r {
+                    if m.key == u32::from(b'=') && al.arity(m.key) == 0 {
+                        *r = RPat::SkipRest;
+                    }
+                }
+            }
+        }
+        self.max_right_simple = 0;
     }
 
     /// A numbered group's table with group 0 (`base`) as its fallback:
@@ -362,6 +411,7 @@ impl Table {
         }
         self.max_left = self.max_left.max(base.max_left);
         self.has_right |= base.has_right;
+        self.has_multi |= base.has_multi;
         self.max_right_simple = self.max_right_simple.max(base.max_right_simple);
         self.check_balance |= base.check_balance;
         self
@@ -392,6 +442,12 @@ pub struct System {
     /// Where a constant or a formal parameter named `step` hides the
     /// built-in step number (a warning each).
     pub step_hidden: Vec<Span>,
+    /// A `.l` file's run-time settings (issue 12): cpfg's generators,
+    /// context rules and the step strategy.
+    pub cpfg: Option<Box<crate::cpfg::run::CpfgRun>>,
+    /// A cpfg file's map from preprocessed text to original places (set by
+    /// the loader): runtime errors are located through it.
+    pub source_map: Option<std::sync::Arc<crate::cpfg::preprocess::SourceMap>>,
 }
 
 /// Constants and formal parameters named `step` (issue 11).
@@ -431,7 +487,24 @@ fn err<T>(span: Span, kind: CompileError) -> R<T> {
 }
 
 fn compile_code(e: &Expr, params: &HashMap<String, u32>, consts: &HashMap<String, f64>) -> R<Code> {
-    Code::compile(e, &Scope { params, consts }).map_err(|e| UserError::new(e.span, e.kind))
+    compile_code_in(e, params, consts, false)
+}
+
+fn compile_code_in(
+    e: &Expr,
+    params: &HashMap<String, u32>,
+    consts: &HashMap<String, f64>,
+    cpfg: bool,
+) -> R<Code> {
+    Code::compile(
+        e,
+        &Scope {
+            params,
+            consts,
+            cpfg,
+        },
+    )
+    .map_err(|e| UserError::new(e.span, e.kind))
 }
 
 /// Evaluate a setting's expression: constants only.
@@ -494,6 +567,7 @@ fn is_random(e: &Expr, random: &HashSet<String>) -> bool {
         }
         Expr::Unary(_, a, _) => is_random(a, random),
         Expr::Binary(_, a, b, _) => is_random(a, random) || is_random(b, random),
+        Expr::Cond(c, a, b, _) => [c, a, b].iter().any(|e| is_random(e, random)),
     }
 }
 
@@ -543,6 +617,14 @@ pub fn compile(h: &ast::Header) -> R<System> {
 /// fallback.
 /// The syntax tree is consumed production by production.
 pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System> {
+    compile_dialect(h, src, seeds, false)
+}
+
+/// [`compile_with`] for a dialect: `cpfg` (a header lowered from a `.l`
+/// file, see `src/cpfg/lower.rs`) takes cpfg's functions, `/` and `%`,
+/// rounds every computed parameter to a 32-bit float, and chooses the
+/// first applicable production in file order, context or not.
+pub fn compile_dialect(h: ast::Header, src: Option<&str>, seeds: Seeds, cpfg: bool) -> R<System> {
     let mut derivation_length = None;
     let mut seed = None;
     let mut filter: Option<(Filter, Span)> = None;
@@ -628,10 +710,10 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
     }
     let mut alphabet = Alphabet::new(filter.map(|f| f.0).unwrap_or_default());
     let mut num = codec::NumFmt::new();
-    let productions = compile_table(h.productions, &mut alphabet, &consts, &mut num)?;
+    let productions = compile_table(h.productions, &mut alphabet, &consts, &mut num, cpfg)?;
     let mut groups = Vec::new();
     for (n, _, prods) in h.groups {
-        let t = compile_table(prods, &mut alphabet, &consts, &mut num)?;
+        let t = compile_table(prods, &mut alphabet, &consts, &mut num, cpfg)?;
         groups.push((n, t.with_fallback(&productions)));
     }
     if let (Some((n, span, _)), None) = (h_group_spans.first(), schedule_span) {
@@ -647,7 +729,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
             if let Some(span) = seed {
                 return err(span, CompileError::DecompositionSeed);
             }
-            let t = compile_table(d.productions, &mut alphabet, &consts, &mut num)?;
+            let t = compile_table(d.productions, &mut alphabet, &consts, &mut num, cpfg)?;
             balanced(&t, CompileError::DecompositionUnbalanced)?;
             Some((t, depth))
         }
@@ -669,7 +751,7 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         }
         None => (1, None),
     };
-    let homomorphism = compile_table(h.homomorphism, &mut alphabet, &consts, &mut num)?;
+    let homomorphism = compile_table(h.homomorphism, &mut alphabet, &consts, &mut num, cpfg)?;
     if hom_depth > 1 {
         balanced(&homomorphism, CompileError::HomomorphismUnbalanced)?;
     }
@@ -688,6 +770,8 @@ pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System
         hom_seed,
         warnings,
         step_hidden,
+        cpfg: cpfg.then(|| Box::new(crate::cpfg::run::CpfgRun::default())),
+        source_map: None,
     })
 }
 
@@ -737,6 +821,7 @@ fn compile_table(
     alphabet: &mut Alphabet,
     consts: &HashMap<String, f64>,
     num: &mut codec::NumFmt,
+    cpfg: bool,
 ) -> R<Table> {
     let mut t = Table::default();
     t.prods.reserve_exact(prods.len());
@@ -746,7 +831,7 @@ fn compile_table(
     let mut prods = prods;
     let mut i = 0;
     while i < prods.len() {
-        let cp = compile_production(&prods[i], alphabet, consts, num)?;
+        let cp = compile_production(&prods[i], alphabet, consts, num, cpfg)?;
         let p = &mut prods[i];
         p.pred.params = Vec::new();
         p.left = Vec::new();
@@ -762,6 +847,7 @@ fn compile_table(
         }
         t.max_left = t.max_left.max(cp.left.len());
         t.has_right |= !cp.right.is_empty();
+        t.has_multi |= !cp.rest.is_empty();
         if cp.right_simple {
             t.max_right_simple = t.max_right_simple.max(cp.right.len());
         }
@@ -780,6 +866,20 @@ fn compile_table(
             kr.free_stochastic |= cp.prob.is_some();
         }
         t.prods.push(cp);
+    }
+    if cpfg {
+        // cpfg's choice: the first applicable production in file order,
+        // context-sensitive or not. One list per key, in file order, tried
+        // by the one chooser as it tries a context group.
+        for kr in t.by_key.iter_mut().flatten() {
+            if !kr.context.is_empty() && !kr.free.is_empty() {
+                let mut all = std::mem::take(&mut kr.free);
+                all.append(&mut kr.context);
+                all.sort_unstable();
+                kr.context = all;
+                kr.context_stochastic |= std::mem::take(&mut kr.free_stochastic);
+            }
+        }
     }
     Ok(t)
 }
@@ -805,6 +905,7 @@ fn compile_production(
     alphabet: &mut Alphabet,
     consts: &HashMap<String, f64>,
     num: &mut codec::NumFmt,
+    cpfg: bool,
 ) -> R<Production> {
     let intern = |a: &mut Alphabet, m: &ast::Module| {
         a.intern(m.sym, m.params.len())
@@ -817,6 +918,15 @@ fn compile_production(
     let mut nslots = 0;
     let key = intern(alphabet, &p.pred)?;
     bind_formals(&p.pred, &mut names, &mut nslots)?;
+    let mut rest = Vec::new();
+    for m in &p.pred_rest {
+        if matches!(m.sym, '[' | ']') {
+            return err(m.span, CompileError::BracketRewritten);
+        }
+        let k = intern(alphabet, m)?;
+        let slot = bind_formals(m, &mut names, &mut nslots)?;
+        rest.push(Pat { key: k, slot });
+    }
     let mut left = Vec::new();
     for m in &p.left {
         if matches!(m.sym, '[' | ']') {
@@ -846,7 +956,7 @@ fn compile_production(
     let cond = p
         .cond
         .as_ref()
-        .map(|e| compile_code(e, &names, consts))
+        .map(|e| compile_code_in(e, &names, consts, cpfg))
         .transpose()?
         // A condition folded to a non-zero constant always holds.
         .filter(|c| c.constant().is_none_or(|v| v == 0.0))
@@ -854,7 +964,7 @@ fn compile_production(
     let prob = p
         .prob
         .as_ref()
-        .map(|e| compile_code(e, &names, consts))
+        .map(|e| compile_code_in(e, &names, consts, cpfg))
         .transpose()?
         .map(Box::new);
     if let Some(w) = prob.as_ref().and_then(|c| c.constant()) {
@@ -865,12 +975,14 @@ fn compile_production(
             );
         }
     }
-    let (succ, depth_delta, depth_min) = compile_successor(&p.succ, alphabet, &names, consts, num)?;
+    let (succ, depth_delta, depth_min) =
+        compile_successor(&p.succ, alphabet, &names, consts, num, cpfg)?;
     let right_simple = !right.is_empty() && right.iter().all(|r| matches!(r, RPat::Module(_)));
     Ok(Production {
         key,
         nslots,
         left: left.into(),
+        rest: rest.into(),
         right: right.into(),
         right_simple,
         cond,
@@ -879,6 +991,8 @@ fn compile_production(
         span: p.span,
         depth_delta,
         depth_min,
+        pre: None,
+        post: None,
     })
 }
 
@@ -890,6 +1004,7 @@ fn compile_successor(
     names: &HashMap<String, u32>,
     consts: &HashMap<String, f64>,
     num: &mut codec::NumFmt,
+    cpfg: bool,
 ) -> R<(Vec<Item>, i64, i64)> {
     let mut items = Vec::new();
     let mut run = ConstBuilder::default();
@@ -912,7 +1027,15 @@ fn compile_successor(
         let codes = m
             .params
             .iter()
-            .map(|e| compile_code(e, names, consts))
+            .map(|e| {
+                if cpfg {
+                    // cpfg stores parameters as 32-bit floats.
+                    let e = Expr::Call(CPFG_F32.to_string(), vec![e.clone()], e.span());
+                    compile_code_in(&e, names, consts, true)
+                } else {
+                    compile_code(e, names, consts)
+                }
+            })
             .collect::<R<Vec<Code>>>()?;
         let values: Option<Vec<f64>> = codes.iter().map(Code::constant).collect();
         match values {

@@ -172,6 +172,7 @@ fn compile_expr(e: &Expr, names: &HashMap<String, u32>, consts: &HashMap<String,
         &Scope {
             params: names,
             consts,
+            cpfg: false,
         },
     )
     .map_err(|e| format!("compile error: {}", e.message()))
