@@ -9,7 +9,7 @@
 //! evaluates them once, as `float`s) and the axiom becomes module text.
 //!
 //! For the cpfg runtime (statement blocks, cpfg's generators), the
-//! refusals to lift are: [`no_block`] (blocks, here), the seeded
+//! refusals to lift are: `no_block` (blocks, here), the seeded
 //! probability in `Lowerer::production` (here), and `PENDING_FUNCTIONS`
 //! in `parse.rs` (`ran nran bran biran srand`). Names assigned in blocks
 //! (globals, production locals) must then resolve in `Lowerer::expr`
