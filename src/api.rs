@@ -231,7 +231,7 @@ impl LSystem {
     }
 
     /// [`load_named`](Self::load_named) in `dialect` (`Auto`: the file's,
-    /// see [`crate::cpfg::is_cpfg`]).
+    /// see [`crate::cpfg::sniff`]).
     pub(crate) fn load_dialect(
         mut input: Input,
         seed: Option<u64>,

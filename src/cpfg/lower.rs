@@ -7,6 +7,13 @@
 //! (the step), `Z` (the derivation length), else an undefined name, which
 //! is 0 with a warning. The axiom's parameters are evaluated here (cpfg
 //! evaluates them once, as `float`s) and the axiom becomes module text.
+//!
+//! For the cpfg runtime (statement blocks, cpfg's generators), the
+//! refusals to lift are: `no_block` (blocks, here), the seeded
+//! probability in `Lowerer::production` (here), and `PENDING_FUNCTIONS`
+//! in `parse.rs` (`ran nran bran biran srand`). Names assigned in blocks
+//! (globals, production locals) must then resolve in `Lowerer::expr`
+//! before the "undefined name is 0" rule.
 
 use super::ast::{self, Block, Expr, Module, Production, Section, Setting};
 use super::blocks;

@@ -47,7 +47,7 @@ use std::sync::Arc;
 /// Which language a file is written in.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Dialect {
-    /// From the file: see [`is_cpfg`].
+    /// From the file: see [`sniff`].
     #[default]
     Auto,
     /// lsgen's `.ls`.
