@@ -426,10 +426,11 @@ pub(crate) fn match_right(
                     Some(after) => pos = after,
                     None => return Ok(false),
                 }
-                // Only a directly following branch is another candidate.
-                peek.seek(pos);
-                match peek.next_module(al)? {
-                    Some((k, _, _)) if k == OPEN => continue,
+                // The next branch is another candidate, also after
+                // passed-over modules (`[A]X[B]` with `X` ignored is
+                // `[A][B]` to a context).
+                match walk_right(peek, al, pos, false)? {
+                    Walk::Stop { at, open: true } => pos = at,
                     _ => return Ok(false),
                 }
             }

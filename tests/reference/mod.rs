@@ -1071,6 +1071,10 @@ impl System {
                         return true;
                     }
                     i = after_branch(s, i);
+                    // Passed-over modules do not separate two branches.
+                    while i < s.len() && !self.seen(&s[i]) {
+                        i += 1;
+                    }
                 }
             }
             RightItem::Close => {
