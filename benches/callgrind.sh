@@ -19,6 +19,7 @@ rows=(
     "dragon_curve|dragon_curve.ls|18|-"
     "plant_d|plant_d.ls|11|-"
     "parametric_tree|parametric_tree.ls|11|-"
+    "parametric_tree_cpfg|parametric_tree.l|11|-"
     "stochastic_plant|stochastic_plant.ls|10|-"
     "context_signal_1|context_signal.ls|1|signal_axiom.ls 11"
     "context_signal_3|context_signal.ls|3|signal_axiom.ls 11"

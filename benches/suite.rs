@@ -168,6 +168,19 @@ const WORKLOADS: &[Workload] = &[
         ],
     },
     Workload {
+        name: "parametric_tree.l (cpfg dialect)",
+        class: Class::Parametric,
+        file: "parametric_tree.l",
+        axiom_gen: None,
+        steps: 0,
+        plan: [
+            (11, 885_731),
+            (13, 7_971_611),
+            (16, 143_489_066),
+            (18, 1_000_000_000),
+        ],
+    },
+    Workload {
         name: "stochastic_plant",
         class: Class::Stochastic,
         file: "stochastic_plant.ls",
@@ -508,6 +521,10 @@ fn run_suite(bin: &Path, o: &Options) -> Result<(), String> {
         .and_then(|_| run_all(&copy, o, &scratch, gnu_time.as_deref()))
         .and_then(|r| Ok((r, run_turtle(&copy, o, &scratch, gnu_time.as_deref())?)))
         .and_then(|(r, t)| Ok((r, t + &run_forest(&copy, o, &scratch)?)))
+        .and_then(|(r, t)| {
+            let threads = run_threads(&copy, o, &scratch, gnu_time.as_deref())?;
+            Ok((r, t + &threads))
+        })
         .and_then(|r| Ok((r, run_frames(&copy, o, &scratch, gnu_time.as_deref())?)));
     let _ = fs::remove_dir_all(&scratch);
     let (((rows, skips), turtle), frames) = res?;
@@ -982,6 +999,111 @@ fn run_forest(lsgen: &Path, o: &Options, scratch: &Path) -> Result<String, Strin
             md,
             "| {NAME} -j {j} | 100 | {best:.3} | {speedup} | {target} |"
         );
+    }
+    Ok(md)
+}
+
+/// One string on 1 and 2 threads (issue 15): the workloads the parallel
+/// derivation is for, without `-v` (which asks for every generation's
+/// length and so keeps parametric systems step by step), at each size from
+/// 10^7 up to `--max`. Rows named `threads ...` (`--only threads`).
+fn run_threads(
+    lsgen: &Path,
+    o: &Options,
+    scratch: &Path,
+    gnu_time: Option<&Path>,
+) -> Result<String, String> {
+    const ROWS: [&str; 3] = [
+        "parametric_tree",
+        "stochastic_plant",
+        "context_signal (ignore:, 3 steps)",
+    ];
+    let rows: Vec<&Workload> = WORKLOADS
+        .iter()
+        .filter(|w| ROWS.contains(&w.name) && selected(o, &format!("threads {}", w.name)))
+        .collect();
+    if rows.is_empty() || o.max < 10_000_000 {
+        return Ok(String::new());
+    }
+    let out = scratch.join("out.txt");
+    let axiom = scratch.join("axiom.txt");
+    let time_file = scratch.join("threads.time");
+    let mut md = String::from(
+        "\n### One string on several threads\n\n\
+         `-j 1` and `-j 2` on the same workload (no `-v`; best wall time of the \
+         repetitions). Depth-first parametric systems and context-free step-by-step passes \
+         (stochastic) split between threads; passes with contexts run on one thread \
+         whatever `-j` (README, Design: parallel derivation).\n\n\
+         | row | size | -n | wall s | cpu s | peak RSS MiB | speed-up over -j 1 | target |\n\
+         |---|---|---|--:|--:|--:|--:|---|\n",
+    );
+    for w in rows {
+        for (i, &size) in SIZES.iter().enumerate().skip(1) {
+            if size > o.max {
+                break;
+            }
+            let (n, approx) = w.plan[i];
+            let mut args: Vec<OsString> = vec![workload_path(w.file).into()];
+            let n_label = if let Some(gen) = w.axiom_gen {
+                let st = Command::new(lsgen)
+                    .arg(workload_path(gen))
+                    .args(["-n", &n.to_string(), "-o"])
+                    .arg(&axiom)
+                    .stdout(Stdio::null())
+                    .status()
+                    .map_err(|e| format!("cannot run {}: {e}", lsgen.display()))?;
+                if !st.success() {
+                    return Err(format!("{}: axiom generation failed", w.name));
+                }
+                args.extend(["--axiom".into(), axiom.clone().into()]);
+                args.extend(["-n".into(), w.steps.to_string().into()]);
+                format!("{} (axiom -n {n})", w.steps)
+            } else {
+                args.extend(["-n".into(), n.to_string().into()]);
+                n.to_string()
+            };
+            args.extend(["-o".into(), out.clone().into()]);
+            args.extend(["--tmpdir".into(), scratch.into()]);
+            let mut serial = None;
+            for j in [1u32, 2] {
+                let mut a = args.clone();
+                a.extend(["-j".into(), j.to_string().into()]);
+                let reps = o.reps.unwrap_or_else(|| default_reps(approx));
+                let mut best: Option<(f64, Option<f64>, Option<u64>)> = None;
+                for rep in 0..reps {
+                    let r = timed(lsgen, &a, &time_file, gnu_time)?;
+                    let _ = fs::remove_file(&out);
+                    eprintln!(
+                        "suite: threads {} 1e{} -j {j} [{}/{reps}]: {:.3} s",
+                        w.name,
+                        log10(size),
+                        rep + 1,
+                        r.0
+                    );
+                    if best.is_none_or(|b| r.0 < b.0) {
+                        best = Some(r);
+                    }
+                }
+                let (wall, cpu, rss) = best.expect("at least one repetition");
+                let base = *serial.get_or_insert(wall);
+                let (speedup, target) = if j == 1 {
+                    ("1.00".to_string(), "")
+                } else if base / wall >= 1.7 {
+                    (format!("{:.2}", base / wall), ">= 1.7: met")
+                } else {
+                    (format!("{:.2}", base / wall), ">= 1.7: MISSED")
+                };
+                let _ = writeln!(
+                    md,
+                    "| threads {} -j {j} | 10^{} | {n_label} | {wall:.3} | {} | {} | {speedup} | {target} |",
+                    w.name,
+                    log10(size),
+                    cpu.map_or("?".into(), |c| format!("{c:.2}")),
+                    rss.map_or("?".into(), |k| format!("{:.1}", k as f64 / 1024.0)),
+                );
+            }
+            let _ = fs::remove_file(&axiom);
+        }
     }
     Ok(md)
 }

@@ -1,8 +1,9 @@
 //! The library facade: [`LSystem`], [`Options`], [`Stats`].
 
+use crate::cpfg::Dialect;
 use crate::derive::random::Random;
 use crate::derive::{derive, Event, FrameSink, Frames, Limits, Settings, Strategy};
-use crate::diag::{Error, ErrorKind};
+use crate::diag::{Error, ParseError, RuntimeError, UsageError};
 use crate::io::axiom::AxiomReader;
 use crate::io::input::{split_header, Input, Split};
 use crate::io::precision::Significant;
@@ -40,6 +41,9 @@ pub struct LSystem {
     system: Option<(System, Option<u64>)>,
     /// The seed used when neither the options nor the file give one.
     fresh: u64,
+    /// A cpfg `.l` file, lowered: the rules are compiled from it, the
+    /// axiom is read from its text.
+    cpfg: Option<crate::cpfg::Loaded>,
 }
 
 /// How to derive. `Options::new()` (or `default()`) takes the file's
@@ -55,6 +59,8 @@ pub struct Options {
     first_step: u64,
     precision: Option<u32>,
     space: Option<u64>,
+    threads: usize,
+    split: Option<u64>,
 }
 
 impl Default for Options {
@@ -69,6 +75,8 @@ impl Default for Options {
             first_step: 1,
             precision: None,
             space: None,
+            threads: 1,
+            split: None,
         }
     }
 }
@@ -137,6 +145,21 @@ impl Options {
         self
     }
 
+    /// Derive one string on up to `n` threads (default 1; 0 counts as 1).
+    /// The output is byte-identical for every `n`; systems that cannot be
+    /// split use one thread (README, Design: parallel derivation).
+    pub fn threads(mut self, n: usize) -> Self {
+        self.threads = n.max(1);
+        self
+    }
+
+    /// Split the work between threads into tasks this small (for tests).
+    #[doc(hidden)]
+    pub fn split(mut self, n: u64) -> Self {
+        self.split = Some(n.max(1));
+        self
+    }
+
     /// Force a strategy (for tests).
     #[doc(hidden)]
     pub fn strategy(mut self, strategy: Strategy) -> Self {
@@ -161,6 +184,25 @@ pub struct Stats {
 
 impl LSystem {
     /// Parse an L-system from `.ls` text.
+    ///
+    /// A failure is an [`Error`] whose [`kind`](Error::kind) says what went
+    /// wrong, with its data; its `Display` is the located message:
+    ///
+    /// ```
+    /// use lsgen::diag::{CompileError, ExprError};
+    /// let e = lsgen::LSystem::parse("productions:\nA(x) -> B(y)\naxiom: A(1)\n")
+    ///     .err()
+    ///     .unwrap();
+    /// assert!(matches!(
+    ///     e.kind(),
+    ///     lsgen::ErrorKind::Compile(CompileError::Expr(ExprError::UnknownIdentifier(n))) if n == "y"
+    /// ));
+    /// assert_eq!(e.stage(), lsgen::Stage::Compile);
+    /// assert_eq!(
+    ///     e.to_string(),
+    ///     "<input>:2:11: error: unknown identifier `y`\nA(x) -> B(y)\n          ^\n"
+    /// );
+    /// ```
     pub fn parse(text: &str) -> Result<LSystem, Error> {
         let mut ls = Self::load_named(
             Input::new(Box::new(io::Cursor::new(text.to_string())), "<input>"),
@@ -184,7 +226,37 @@ impl LSystem {
 
     /// Read and compile the header from `input` (leaving it at the axiom);
     /// random constants drawn with `seed` (else the file's or a fresh one).
-    pub(crate) fn load_named(mut input: Input, seed: Option<u64>) -> Result<LSystem, Error> {
+    pub(crate) fn load_named(input: Input, seed: Option<u64>) -> Result<LSystem, Error> {
+        Self::load_dialect(input, seed, Dialect::Auto)
+    }
+
+    /// [`load_named`](Self::load_named) in `dialect` (`Auto`: the file's,
+    /// see [`crate::cpfg::sniff`]).
+    pub(crate) fn load_dialect(
+        mut input: Input,
+        seed: Option<u64>,
+        dialect: Dialect,
+    ) -> Result<LSystem, Error> {
+        let cpfg = match dialect {
+            Dialect::Cpfg => true,
+            Dialect::Ls => false,
+            Dialect::Auto => {
+                // Read only as far as the first statement.
+                let name = input.name.clone();
+                let mut want = 1;
+                loop {
+                    let head = input.fill(want)?;
+                    let complete = head.len() < want || head.len() >= SNIFF;
+                    if let Some(cpfg) = crate::cpfg::sniff(&name, head, complete) {
+                        break cpfg;
+                    }
+                    want = head.len() + 1;
+                }
+            }
+        };
+        if cpfg {
+            return Self::load_cpfg(input);
+        }
         let fresh = Random::fresh_seed();
         let split = split_header(&mut input)?;
         let path = input.name.clone();
@@ -197,7 +269,70 @@ impl LSystem {
             axiom: None,
             system: Some((system, seed)),
             fresh,
+            cpfg: None,
         })
+    }
+
+    /// Read a cpfg `.l` file whole (at most the preprocessor's limit),
+    /// preprocess, parse, lower and compile it.
+    fn load_cpfg(mut input: Input) -> Result<LSystem, Error> {
+        let path = input.name.clone();
+        let mut bytes = Vec::new();
+        let limit = crate::cpfg::preprocess::MAX_FILE_SIZE as usize;
+        loop {
+            let n = input.fill(1 << 16)?.len();
+            if n == 0 {
+                break;
+            }
+            bytes.extend_from_slice(&input.available()[..n]);
+            input.consume(n);
+            if bytes.len() > limit {
+                return Err(Error::new(format!(
+                    "{path}: file larger than {} MiB",
+                    limit >> 20
+                )));
+            }
+        }
+        let bytes = bytes
+            .strip_prefix(b"\xEF\xBB\xBF".as_slice())
+            .unwrap_or(&bytes);
+        let source = match std::str::from_utf8(bytes) {
+            Ok(s) => s,
+            Err(e) => {
+                let at = e.valid_up_to();
+                let text = String::from_utf8_lossy(&bytes[..at]).into_owned();
+                let map = crate::diag::CodeMap::new(&text);
+                return Err(Error::at(
+                    crate::diag::Location::from_map(&path, &map, at),
+                    crate::diag::LexicalError::InvalidUtf8,
+                ));
+            }
+        };
+        let loaded = crate::cpfg::load(&path, source)?;
+        let system = compile_cpfg(&loaded)?;
+        Ok(LSystem {
+            path,
+            split: Split {
+                header: String::new(),
+                has_axiom: true,
+                axiom_line: 1,
+                axiom_col: 1,
+            },
+            input: None,
+            text: None,
+            axiom: None,
+            system: Some((system, None)),
+            fresh: 0,
+            cpfg: Some(loaded),
+        })
+    }
+
+    /// The compiled rules for `seed`.
+    fn compile_system(&self, seed: Option<u64>) -> Result<System, Error> {
+        match &self.cpfg {
+            Some(c) => compile_cpfg(c),
+            None => compile(&self.path, &self.split, seed, self.fresh),
+        }
     }
 
     #[cfg(feature = "cli")]
@@ -213,18 +348,12 @@ impl LSystem {
         }
         let header = &self.split.header;
         let end = header.trim_end().len();
-        let mut e = locate(
-            &self.path,
-            header,
-            UserError::new(
-                (end, end),
-                "missing `axiom:`: the axiom comes last, after the productions",
-            ),
-        );
-        if header.trim().is_empty() {
-            e.message = "empty L-system: no `axiom:` found".into();
-        }
-        Err(e)
+        let kind = if header.trim().is_empty() {
+            ParseError::EmptySystem
+        } else {
+            ParseError::MissingAxiom
+        };
+        Err(locate(&self.path, header, UserError::new((end, end), kind)))
     }
 
     #[cfg(feature = "cli")]
@@ -242,14 +371,29 @@ impl LSystem {
         })
     }
 
+    /// Derive as a `.l` file with these settings would (tests of the
+    /// engine's cpfg pieces on `.ls` texts).
+    #[cfg(test)]
+    pub(crate) fn as_cpfg(&mut self, run: crate::cpfg::run::CpfgRun) {
+        if let Some((s, _)) = &mut self.system {
+            s.cpfg = Some(Box::new(run));
+        }
+    }
+
     /// The compiled rules for `seed`, and the axiom reader's input.
     fn take(&mut self, seed: Option<u64>) -> Result<(System, Input, bool, usize, usize), Error> {
         let system = match self.system.take() {
-            Some((s, with)) if with == seed => s,
-            _ => compile(&self.path, &self.split, seed, self.fresh)?,
+            // A cpfg system draws no random constants: any seed will do.
+            Some((s, with)) if with == seed || self.cpfg.is_some() => s,
+            _ => self.compile_system(seed)?,
         };
         if let Some(a) = self.axiom.take() {
             return Ok((system, a, false, 1, 1));
+        }
+        if let Some(c) = &self.cpfg {
+            let text = c.axiom.clone();
+            let input = Input::new(Box::new(io::Cursor::new(text)), self.path.clone());
+            return Ok((system, input, false, 1, 1));
         }
         let input = match (self.input.take(), &self.text) {
             (Some(i), _) => i,
@@ -258,7 +402,7 @@ impl LSystem {
                 split_header(&mut i)?;
                 i
             }
-            (None, None) => return Err(Error::new("the axiom stream was already derived")),
+            (None, None) => return Err(Error::new(RuntimeError::AlreadyDerived)),
         };
         let (line, col) = (self.split.axiom_line, self.split.axiom_col);
         Ok((system, input, true, line, col))
@@ -316,7 +460,7 @@ impl LSystem {
         frames: Option<(Frames, &mut dyn FrameSink)>,
     ) -> Result<Stats, Error> {
         if options.first_step == 0 {
-            return Err(Error::usage("the first step is step 1 or later"));
+            return Err(Error::new(UsageError::FirstStepZero));
         }
         let (mut system, input, comments, line, col) = self.take(options.seed)?;
         let steps = match &frames {
@@ -327,12 +471,19 @@ impl LSystem {
                 .unwrap_or(DEFAULT_DERIVATION_LENGTH),
         };
         if options.first_step.checked_add(steps).is_none() {
-            return Err(Error::usage(format!(
-                "`--first-step {}` with {steps} steps: step numbers must stay below 2^64 - 1",
-                options.first_step
-            )));
+            return Err(Error::new(UsageError::StepsOverflow {
+                first: options.first_step,
+                steps,
+            }));
         }
         let seed = options.seed.or(system.seed).unwrap_or(self.fresh);
+        if let (Some(c), Some(s)) = (system.cpfg.as_mut(), options.seed) {
+            // `--seed N` on a `.l` file: as if it said `seed: N`.
+            c.seed = Some(s);
+        }
+        // cpfg prints parameters with C's `%g`: 6 significant digits.
+        let precision = options.precision.or(system.cpfg.is_some().then_some(6));
+        let cpfg = system.cpfg.is_some();
         let settings = Settings {
             steps,
             seed,
@@ -343,24 +494,26 @@ impl LSystem {
             strategy: options.strategy,
             first_step: options.first_step,
             space: options.space,
+            threads: options.threads,
+            split: options.split,
         };
         let consts = std::mem::take(&mut system.consts);
         let reader = AxiomReader::new(input, comments, line, col, &consts);
         // --precision: the one place numbers are rewritten, for every
         // strategy, on the text's way out.
         let mut significant;
-        let out: &mut dyn Write = match options.precision {
+        let out: &mut dyn Write = match precision {
             Some(p) => {
-                significant = Significant::new(&mut out, p);
+                significant = Significant::new(&mut out, p).c_exponent(cpfg);
                 &mut significant
             }
             None => &mut out,
         };
         // Frames go out through their own sink: the same rewriting there.
         let mut precise;
-        let frames: Option<(Frames, &mut dyn FrameSink)> = match (frames, options.precision) {
+        let frames: Option<(Frames, &mut dyn FrameSink)> = match (frames, precision) {
             (Some((f, sink)), Some(digits)) => {
-                precise = PreciseFrames { sink, digits };
+                precise = PreciseFrames { sink, digits, cpfg };
                 Some((f, &mut precise))
             }
             (Some((f, sink)), None) => Some((f, sink)),
@@ -403,10 +556,23 @@ impl LSystem {
     pub fn with_fallback_seed(mut self, seed: u64) -> Result<Self, Error> {
         self.fresh = seed;
         if let Some((_, with)) = self.system.take() {
-            self.system = Some((compile(&self.path, &self.split, with, seed)?, with));
+            self.system = Some((self.compile_system(with)?, with));
         }
         Ok(self)
     }
+}
+
+/// Bytes looked at to tell a cpfg file from an `.ls` one.
+const SNIFF: usize = 1 << 16;
+
+/// Compile a lowered cpfg file.
+fn compile_cpfg(c: &crate::cpfg::Loaded) -> Result<System, Error> {
+    let mut s =
+        crate::rules::compile_dialect(c.header.clone(), Some(&c.text), Seeds::default(), true)
+            .map_err(|e| crate::cpfg::locate(&c.map, e))?;
+    s.source_map = Some(c.map.clone());
+    crate::cpfg::lower::attach(&c.run, &c.extra, &mut s);
+    Ok(s)
 }
 
 /// Parse and compile the header of `split`.
@@ -417,8 +583,7 @@ fn compile(path: &str, split: &Split, seed: Option<u64>, fresh: u64) -> Result<S
     };
     // Each production is compiled as it is read (no whole syntax tree).
     compile_text(&split.header, seeds).map_err(|e| match e {
-        LoadError::Parse(e) => locate(path, &split.header, e),
-        LoadError::Compile(e) => locate(path, &split.header, e).in_stage(ErrorKind::Compile),
+        LoadError::Parse(e) | LoadError::Compile(e) => locate(path, &split.header, e),
     })
 }
 
@@ -432,10 +597,24 @@ pub fn derive_bytes(
     seed: Option<u64>,
     limits: Limits,
 ) -> Result<Vec<u8>, Error> {
+    derive_bytes_on(src, steps, seed, limits, (1, None))
+}
+
+/// [`derive_bytes`] on `threads` threads (`-j`), split into tasks of
+/// `split` (modules per thread depth first, bytes step by step): for tests.
+#[doc(hidden)]
+pub fn derive_bytes_on(
+    src: &[u8],
+    steps: Option<u64>,
+    seed: Option<u64>,
+    limits: Limits,
+    (threads, split): (usize, Option<u64>),
+) -> Result<Vec<u8>, Error> {
     let input = Input::new(Box::new(io::Cursor::new(src.to_vec())), "<input>");
     let mut ls = LSystem::load_named(input, seed)?.with_fallback_seed(0)?;
     ls.require_axiom()?;
-    let mut options = Options::new().limits(limits);
+    let mut options = Options::new().limits(limits).threads(threads);
+    options.split = split;
     options.steps = steps;
     options.seed = seed;
     let mut out = Vec::new();
@@ -448,6 +627,8 @@ pub fn derive_bytes(
 struct PreciseFrames<'s> {
     sink: &'s mut dyn FrameSink,
     digits: u32,
+    /// C's exponent form (the cpfg dialect).
+    cpfg: bool,
 }
 
 impl FrameSink for PreciseFrames<'_> {
@@ -456,12 +637,12 @@ impl FrameSink for PreciseFrames<'_> {
         n: u64,
         write: &mut dyn FnMut(&mut dyn Write, &str) -> Result<(u64, u64), Error>,
     ) -> Result<(u64, u64), Error> {
-        let digits = self.digits;
+        let (digits, cpfg) = (self.digits, self.cpfg);
         self.sink.frame(n, &mut |out, name| {
-            let mut sig = Significant::new(out, digits);
+            let mut sig = Significant::new(out, digits).c_exponent(cpfg);
             let len = write(&mut sig, name)?;
             sig.flush()
-                .map_err(|e| Error::io(name, "cannot write", e))?;
+                .map_err(|e| Error::io(name, crate::diag::IoAction::Write, e))?;
             Ok(len)
         })
     }

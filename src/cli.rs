@@ -3,7 +3,7 @@
 pub use crate::api::DEFAULT_DERIVATION_LENGTH;
 use crate::api::{LSystem, Options};
 use crate::derive::{Event, FrameSink, Frames, Limits, Pass, Strategy};
-use crate::diag::{Error, Kind};
+use crate::diag::{Error, RuntimeError, Stage};
 use crate::io::input::Input;
 use crate::io::output::Output;
 use crate::io::template::{self, Field, Template, Vars};
@@ -62,7 +62,8 @@ pub struct Args {
     #[arg(long, value_name = "S|A..B", value_parser = parse_seeds)]
     pub seed: Option<Seeds>,
 
-    /// Run a batch's jobs on N worker threads (default: the number of CPUs).
+    /// Threads: a batch's jobs run on N workers, one derivation on N
+    /// threads (default: the number of CPUs).
     #[arg(short, long, value_name = "N", env = "LSGEN_JOBS",
           value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub jobs: Option<u32>,
@@ -130,6 +131,12 @@ pub struct Args {
     #[arg(long, exclusive = true)]
     pub man: bool,
 
+    /// The language of the input: `cpfg` (L-studio / vlab `.l` files) or
+    /// `ls`; default: cpfg for a name ending in `.l` or a file whose first
+    /// statement is `Lsystem:` or a `#` directive, else ls.
+    #[arg(long, value_name = "cpfg|ls", value_parser = parse_dialect)]
+    pub dialect: Option<crate::cpfg::Dialect>,
+
     /// For tests (hidden): force the derivation strategy. `auto` (default)
     /// picks depth first when the system allows it, `step` always derives
     /// step by step through temporary files, `dfs` insists on depth first
@@ -170,6 +177,15 @@ pub fn parse_seeds(s: &str) -> Result<Seeds, String> {
             }
             Ok(Seeds { first, last })
         }
+    }
+}
+
+/// `--dialect`: `cpfg` or `ls`.
+pub fn parse_dialect(s: &str) -> Result<crate::cpfg::Dialect, String> {
+    match s {
+        "cpfg" => Ok(crate::cpfg::Dialect::Cpfg),
+        "ls" => Ok(crate::cpfg::Dialect::Ls),
+        _ => Err(format!("`{s}` is not a dialect: use cpfg or ls")),
     }
 }
 
@@ -326,12 +342,12 @@ pub fn ignore_sigxfsz() {
 
 /// Print clap's `--help` or `--version` text. A failed write
 /// (`--version > /dev/full`, standard output closed) is an error; a
-/// closed pipe is [`Kind::BrokenPipe`], which callers keep quiet.
+/// closed pipe ([`Error::is_broken_pipe`]) callers keep quiet.
 pub fn print_help_or_version(e: &clap::Error) -> Result<(), Error> {
     crate::io::output::check_stdout_open().and_then(|()| {
         e.print()
             .and_then(|()| io::stdout().flush())
-            .map_err(|e| Error::io("standard output", "cannot write", e))
+            .map_err(|e| Error::io("standard output", crate::diag::IoAction::Write, e))
     })
 }
 
@@ -368,12 +384,7 @@ fn main_on_thread() -> i32 {
                 clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => {
                     match print_help_or_version(&e) {
                         Ok(()) => 0,
-                        Err(e) => {
-                            if e.kind != Kind::BrokenPipe {
-                                crate::diag::eprint(&e.render("lsgen"));
-                            }
-                            e.exit_code()
-                        }
+                        Err(e) => report("lsgen", &e),
                     }
                 }
                 _ => {
@@ -392,20 +403,36 @@ fn main_on_thread() -> i32 {
         let mut text = Vec::new();
         clap_mangen::Man::new(Args::command())
             .render(&mut text)
-            .map_err(|e| Error::io("the man page", "cannot render", e))
+            .map_err(|e| Error::io("the man page", crate::diag::IoAction::Render, e))
             .and_then(|()| print_stdout(&text))
     } else {
         run(&args)
     };
     match result {
         Ok(()) => 0,
-        Err(e) => {
-            if e.kind != Kind::BrokenPipe {
-                crate::diag::eprint(&e.render("lsgen"));
-            }
-            e.exit_code()
-        }
+        Err(e) => report("lsgen", &e),
     }
+}
+
+/// The exit status of a failed run: 2 for a usage error, 0 when the
+/// reader closed the output pipe (a quiet end), else 1.
+pub fn exit_code(e: &Error) -> i32 {
+    if e.is_broken_pipe() {
+        0
+    } else if e.stage() == Stage::Usage {
+        2
+    } else {
+        1
+    }
+}
+
+/// Report `e` on standard error as `program` does (`PROGRAM: FILE:LINE:COL:
+/// error: ...`; nothing for a closed pipe) and return the exit status.
+pub fn report(program: &str, e: &Error) -> i32 {
+    if !e.is_broken_pipe() {
+        crate::diag::eprint(&format!("{program}: {e}"));
+    }
+    exit_code(e)
 }
 
 /// Write `text` to standard output (for --completions, --man).
@@ -414,7 +441,7 @@ fn print_stdout(text: &[u8]) -> Result<(), Error> {
     let mut out = io::stdout().lock();
     out.write_all(text)
         .and_then(|()| out.flush())
-        .map_err(|e| Error::io("standard output", "cannot write", e))
+        .map_err(|e| Error::io("standard output", crate::diag::IoAction::Write, e))
 }
 
 fn open_input(path: Option<&Path>) -> Result<Input, Error> {
@@ -429,11 +456,12 @@ fn open_input(path: Option<&Path>) -> Result<Input, Error> {
         }
         Some(p) => {
             let name = p.display().to_string();
-            let f = File::open(p).map_err(|e| Error::io(name.clone(), "cannot open", e))?;
+            let f = File::open(p)
+                .map_err(|e| Error::io(name.clone(), crate::diag::IoAction::Open, e))?;
             if f.metadata().map(|m| m.is_dir()).unwrap_or(false) {
                 return Err(Error::io(
                     name,
-                    "cannot read",
+                    crate::diag::IoAction::Read,
                     io::Error::from(io::ErrorKind::IsADirectory),
                 ));
             }
@@ -511,12 +539,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let failed = run_batch(total, workers as usize, |i| {
         let job = jobs(i);
         let mut seed = None;
-        let r = run_one(args, job, template.as_ref(), Some(&mut seed)).map_err(|mut e| {
+        let r = run_one(args, job, template.as_ref(), Some(&mut seed)).map_err(|e| {
             // The seed the job used, once known (the file's `seed:`, or a
             // fresh one, without --seed).
-            let label = job.label(seed);
-            e.message = format!("{} [job {label}]", e.message);
-            e
+            e.in_job(job.label(seed))
         });
         if let Some(d) = &display {
             d.job_done();
@@ -528,12 +554,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
         return Ok(());
     }
     for (_, e) in &failed {
-        crate::diag::eprint(&e.to_string());
+        crate::diag::eprint(&format!("lsgen: {e}"));
     }
-    Err(Error::new(format!(
-        "{} of {total} jobs failed",
-        crate::diag::group_digits(failed.len() as u64)
-    )))
+    Err(Error::new(RuntimeError::JobsFailed {
+        failed: failed.len() as u64,
+        total,
+    }))
 }
 
 /// A batch's usage errors, found before any job runs.
@@ -611,7 +637,7 @@ fn run_batch(
             break;
         }
         let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(i)))
-            .unwrap_or_else(|_| Err(Error::new("internal error (please report this)")));
+            .unwrap_or_else(|_| Err(Error::new(RuntimeError::Internal)));
         if let Err(e) = r {
             if let Ok(mut f) = failed.lock() {
                 f.push((i, e));
@@ -670,7 +696,7 @@ fn run_one(
         ));
     }
     let input = open_input(job.file)?;
-    let mut ls = LSystem::load_named(input, job.seed)?;
+    let mut ls = LSystem::load_dialect(input, job.seed, args.dialect.unwrap_or_default())?;
     if args.axiom.is_none() {
         ls.require_axiom()?;
     }
@@ -705,6 +731,14 @@ fn run_one(
     }
     if let Some(p) = args.precision {
         options = options.precision(p);
+    }
+    // One derivation on -j threads (default: all CPUs); a batch's jobs
+    // already run in parallel, one thread each.
+    if batch.is_none() {
+        options = options.threads(args.jobs.map_or_else(
+            || std::thread::available_parallelism().map_or(1, |n| n.get()),
+            |j| j as usize,
+        ));
     }
     let seed = ls.seed(&options);
     let batch = batch.map(|used| *used = Some(seed)).is_some();

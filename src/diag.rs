@@ -1,5 +1,7 @@
-//! Errors and their rendering: `lsgen: FILE:LINE:COL: error: message`, then
-//! the source line and a caret under the spot.
+//! Errors and their rendering: `FILE:LINE:COL: error: message`, then the
+//! source line and a caret under the spot. What went wrong is typed, one
+//! enum per stage (`kinds.rs`); the program's name in front (`lsgen: `)
+//! and the exit status are the binaries' (`crate::cli::report`).
 
 use std::fmt;
 
@@ -116,138 +118,116 @@ pub fn group_digits(n: u64) -> String {
 /// Print a located warning (`lsgen: FILE:LINE:COL: warning: ...`, the
 /// source line and a caret) on standard error.
 pub fn warn(location: Location, message: &str) {
-    let text = Error::at(location, message).to_string();
-    eprint(&text.replacen(": error: ", ": warning: ", 1));
+    let e = Error::at(location, message);
+    eprint(&format!("lsgen: {}", Warning(&e)));
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kind {
-    /// Bad input, runtime error, I/O failure: exit 1.
-    Failure,
-    /// The command line is wrong: exit 2.
-    Usage,
-    /// Output pipe closed by the reader: quiet success.
-    BrokenPipe,
-}
+mod kinds;
+pub use kinds::*;
 
-/// What went wrong, by stage of the pipeline.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[non_exhaustive]
-pub enum ErrorKind {
-    /// Unreadable text: invalid UTF-8, a NUL byte, an unterminated
-    /// comment, a character that starts no token.
-    Lexical,
-    /// Text that does not follow the grammar, in the header or the axiom.
-    Parse,
-    /// A well-formed file that does not make sense: an unknown name, a
-    /// constant defined twice, a production that cannot apply.
-    Compile,
-    /// Found while deriving: an arithmetic error, unbalanced brackets, a
-    /// negative probability, a generation past the limits.
-    Runtime,
-    /// Reading or writing failed; [`std::error::Error::source`] gives the
-    /// operating system's error.
-    Io,
-    /// The request itself is wrong (the command line, the options).
-    Usage,
-}
-
-/// An error, boxed so that `Result<T, Error>` stays two words wide in the
-/// hot loop; its fields are reached through `Deref`.
+/// An error: what went wrong ([`ErrorKind`], typed by stage), where (a
+/// [`Location`] in the source, or a subject such as a file name), boxed so
+/// that `Result<T, Error>` stays two words wide in the hot loop.
+///
+/// `Display` renders it as `FILE:LINE:COL: error: message`, then the
+/// source line and a caret under the spot (without a location,
+/// `FILE: error: ...` or `error: ...`); a program puts its name in front.
 #[derive(Debug)]
 pub struct Error(Box<ErrorInner>);
 
 #[derive(Debug)]
-pub struct ErrorInner {
-    /// How the run ends (the binaries' exit status).
-    pub kind: Kind,
-    /// Which stage found it.
-    pub category: ErrorKind,
-    pub message: String,
-    pub location: Option<Location>,
+struct ErrorInner {
+    kind: ErrorKind,
+    location: Option<Location>,
     /// Context without a line, e.g. the file name of an I/O error.
-    pub subject: Option<String>,
-    /// The operating system's error behind an I/O failure.
-    pub io: Option<std::io::Error>,
-}
-
-impl std::ops::Deref for Error {
-    type Target = ErrorInner;
-    fn deref(&self) -> &ErrorInner {
-        &self.0
-    }
-}
-
-impl std::ops::DerefMut for Error {
-    fn deref_mut(&mut self) -> &mut ErrorInner {
-        &mut self.0
-    }
+    subject: Option<String>,
+    /// The batch job that failed (`[job LABEL]` after the message).
+    job: Option<String>,
 }
 
 pub type Result<T> = std::result::Result<T, Error>;
 
 impl Error {
-    pub fn new(message: impl Into<String>) -> Error {
+    /// An error without a place.
+    pub fn new(kind: impl Into<ErrorKind>) -> Error {
         Error(Box::new(ErrorInner {
-            kind: Kind::Failure,
-            category: ErrorKind::Runtime,
-            message: message.into(),
+            kind: kind.into(),
             location: None,
             subject: None,
-            io: None,
+            job: None,
         }))
     }
 
-    pub fn at(location: Location, message: impl Into<String>) -> Error {
-        let mut e = Error::new(message);
-        e.location = Some(location);
+    /// An error at a place in the source.
+    pub fn at(location: Location, kind: impl Into<ErrorKind>) -> Error {
+        let mut e = Error::new(kind);
+        e.0.location = Some(location);
         e
     }
 
+    /// An error about `subject` (a file name, "standard output", ...).
+    pub fn about(subject: impl Into<String>, kind: impl Into<ErrorKind>) -> Error {
+        let mut e = Error::new(kind);
+        e.0.subject = Some(subject.into());
+        e
+    }
+
+    /// A usage error of a binary's command line.
     pub fn usage(message: impl Into<String>) -> Error {
-        let mut e = Error::new(message);
-        e.kind = Kind::Usage;
-        e.category = ErrorKind::Usage;
-        e
+        Error::new(UsageError::CommandLine(message.into()))
     }
 
-    /// The same error, found by stage `category`.
-    pub fn in_stage(mut self, category: ErrorKind) -> Error {
-        self.category = category;
+    /// An I/O error about `subject` while doing `action`.
+    pub fn io(subject: impl Into<String>, action: IoAction, e: std::io::Error) -> Error {
+        Error::about(
+            subject,
+            IoError {
+                action,
+                reason: IoReason::Os(e),
+            },
+        )
+    }
+
+    /// The same error, in a batch job labelled `label`.
+    #[doc(hidden)]
+    pub fn in_job(mut self, label: impl Into<String>) -> Error {
+        self.0.job = Some(label.into());
         self
     }
 
-    /// The error as a program named `program` reports it:
-    /// `PROGRAM: FILE:LINE:COL: error: message`, then the source line and a
-    /// caret under the spot (without a location, `PROGRAM: FILE: error:
-    /// ...` or `PROGRAM: error: ...`).
-    pub fn render(&self, program: &str) -> String {
-        format!("{program}: {}", Located(self))
+    /// What went wrong.
+    pub fn kind(&self) -> &ErrorKind {
+        &self.0.kind
     }
 
-    /// An I/O error about `subject` (a file name, "standard output", ...).
-    pub fn io(subject: impl Into<String>, what: &str, e: std::io::Error) -> Error {
-        let kind = if e.kind() == std::io::ErrorKind::BrokenPipe {
-            Kind::BrokenPipe
-        } else {
-            Kind::Failure
-        };
-        Error(Box::new(ErrorInner {
-            kind,
-            category: ErrorKind::Io,
-            message: format!("{what}: {}", io_message(&e)),
-            location: None,
-            subject: Some(subject.into()),
-            io: Some(e),
-        }))
+    /// Which stage found it.
+    pub fn stage(&self) -> Stage {
+        self.0.kind.stage()
     }
 
-    pub fn exit_code(&self) -> i32 {
-        match self.kind {
-            Kind::Failure => 1,
-            Kind::Usage => 2,
-            Kind::BrokenPipe => 0,
+    /// Where in the source, if anywhere.
+    pub fn location(&self) -> Option<&Location> {
+        self.0.location.as_ref()
+    }
+
+    /// What it is about when it has no place in the source (a file name,
+    /// "standard output").
+    pub fn subject(&self) -> Option<&str> {
+        self.0.subject.as_deref()
+    }
+
+    /// The message alone, without place, source line and caret.
+    pub fn message(&self) -> String {
+        match &self.0.job {
+            Some(label) => format!("{} [job {label}]", self.0.kind),
+            None => self.0.kind.to_string(),
         }
+    }
+
+    /// Writing failed because the reader closed the pipe: a quiet end.
+    pub fn is_broken_pipe(&self) -> bool {
+        matches!(&self.0.kind, ErrorKind::Io(e)
+            if e.os_error().is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe))
     }
 }
 
@@ -263,50 +243,57 @@ pub(crate) fn io_message(e: &std::io::Error) -> String {
     }
 }
 
-/// As `lsgen` reports it: [`Error::render`] with the program `lsgen`.
+/// The message with its location, the source line and a caret (the one
+/// renderer of errors and warnings), without the program's name.
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "lsgen: {}", Located(self))
+        render(f, self, "error")
     }
 }
 
-/// The message with its location, the source line and a caret, without
-/// the program's name.
-struct Located<'a>(&'a Error);
-
-impl fmt::Display for Located<'_> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let e = self.0;
-        match (&e.location, &e.subject) {
-            (Some(l), _) => {
-                writeln!(f, "{}:{}:{}: error: {}", l.path, l.line, l.col, e.message)?;
-                // Control characters (a NUL, a stray `\r`) are shown as
-                // U+FFFD, as undecodable bytes are: never sent raw.
-                let shown: String = l
-                    .snippet
-                    .chars()
-                    .map(|c| {
-                        if c.is_control() && c != '\t' {
-                            '\u{FFFD}'
-                        } else {
-                            c
-                        }
-                    })
-                    .collect();
-                writeln!(f, "{shown}")?;
-                writeln!(f, "{}^", caret_pad(&l.snippet, l.caret_col))
-            }
-            (None, Some(s)) => writeln!(f, "{s}: error: {}", e.message),
-            (None, None) => writeln!(f, "error: {}", e.message),
+fn render(f: &mut fmt::Formatter<'_>, e: &Error, severity: &str) -> fmt::Result {
+    let message = e.message();
+    match (&e.0.location, &e.0.subject) {
+        (Some(l), _) => {
+            writeln!(f, "{}:{}:{}: {severity}: {message}", l.path, l.line, l.col)?;
+            // Control characters (a NUL, a stray `\r`) are shown as
+            // U+FFFD, as undecodable bytes are: never sent raw.
+            let shown: String = l
+                .snippet
+                .chars()
+                .map(|c| {
+                    if c.is_control() && c != '\t' {
+                        '\u{FFFD}'
+                    } else {
+                        c
+                    }
+                })
+                .collect();
+            writeln!(f, "{shown}")?;
+            writeln!(f, "{}^", caret_pad(&l.snippet, l.caret_col))
         }
+        (None, Some(s)) => writeln!(f, "{s}: {severity}: {message}"),
+        (None, None) => writeln!(f, "{severity}: {message}"),
+    }
+}
+
+/// An error rendered as a warning.
+struct Warning<'a>(&'a Error);
+
+impl fmt::Display for Warning<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        render(f, self.0, "warning")
     }
 }
 
 impl std::error::Error for Error {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        self.io
-            .as_ref()
-            .map(|e| e as &(dyn std::error::Error + 'static))
+        match &self.0.kind {
+            ErrorKind::Io(e) => e
+                .os_error()
+                .map(|e| e as &(dyn std::error::Error + 'static)),
+            _ => None,
+        }
     }
 }
 
@@ -337,7 +324,7 @@ mod tests {
         fn std_error<E: std::error::Error + Send + Sync + 'static>(_: &E) {}
         let e = Error::io(
             "out.txt",
-            "cannot write",
+            crate::diag::IoAction::Write,
             std::io::Error::from_raw_os_error(libc::ENOSPC),
         );
         std_error(&e);
@@ -346,11 +333,11 @@ mod tests {
         assert_eq!(io.raw_os_error(), Some(libc::ENOSPC));
         assert!(std::error::Error::source(&Error::new("no source")).is_none());
         // `?` turns it into a boxed error.
-        assert_eq!(e.category, ErrorKind::Io);
+        assert_eq!(e.stage(), Stage::Io);
         let boxed: Box<dyn std::error::Error + Send + Sync> = e.into();
         assert_eq!(
             boxed.to_string(),
-            "lsgen: out.txt: error: cannot write: No space left on device\n"
+            "out.txt: error: cannot write: No space left on device\n"
         );
     }
 
@@ -370,24 +357,48 @@ mod tests {
     #[test]
     fn render_with_caret() {
         let m = CodeMap::new("F -> G\n\tA(x) -> B(y)\n");
-        let e = Error::at(Location::from_map("p.ls", &m, 17), "unknown identifier `y`");
+        let e = Error::at(
+            Location::from_map("p.ls", &m, 17),
+            CompileError::Expr(ExprError::UnknownIdentifier("y".into())),
+        );
         assert_eq!(
-            e.render("lsgen"),
-            "lsgen: p.ls:2:11: error: unknown identifier `y`\n\tA(x) -> B(y)\n\t         ^\n"
+            e.to_string(),
+            "p.ls:2:11: error: unknown identifier `y`\n\tA(x) -> B(y)\n\t         ^\n"
+        );
+        assert_eq!(e.stage(), Stage::Compile);
+    }
+
+    #[test]
+    fn the_stage_follows_the_payload() {
+        let m = CodeMap::new("F -> G(\n");
+        let e = Error::at(
+            Location::from_map("p.ls", &m, 7),
+            ParseError::Unexpected {
+                found: "end of line".into(),
+                expected: Expected::Nothing,
+            },
+        );
+        assert_eq!(
+            e.to_string(),
+            "p.ls:1:8: error: unexpected end of line\nF -> G(\n       ^\n"
+        );
+        assert_eq!(e.stage(), Stage::Parse);
+        assert_eq!(Error::usage("no").to_string(), "error: no\n");
+        assert_eq!(Error::usage("no").stage(), Stage::Usage);
+        let e = Error::new(RuntimeError::AlreadyDerived).in_job("a.ls");
+        assert_eq!(
+            e.message(),
+            "the axiom stream was already derived [job a.ls]"
         );
     }
 
     #[test]
-    fn the_program_names_itself() {
-        let m = CodeMap::new("F -> G(\n");
-        let e = Error::at(Location::from_map("p.ls", &m, 7), "unexpected end of line")
-            .in_stage(ErrorKind::Parse);
-        assert_eq!(
-            e.render("lsgen-turtle"),
-            "lsgen-turtle: p.ls:1:8: error: unexpected end of line\nF -> G(\n       ^\n"
-        );
-        assert_eq!(e.category, ErrorKind::Parse);
-        assert_eq!(Error::usage("no").render("x"), "x: error: no\n");
+    fn expected_tokens_are_listed_up_to_six() {
+        let names = |n: usize| Expected::OneOf((0..n).map(|i| format!("`{i}`")).collect());
+        assert_eq!(names(1).to_string(), "expected `0`");
+        assert_eq!(names(3).to_string(), "expected `0`, `1` or `2`");
+        assert_eq!(names(7).to_string(), "");
+        assert_eq!(Expected::Arrow.to_string(), "expected `->`");
     }
 
     #[test]
@@ -405,8 +416,8 @@ mod tests {
         let m = CodeMap::new("漢字 -> F>\n");
         let e = Error::at(Location::from_map("p.ls", &m, 11), "unexpected `>`");
         assert_eq!(
-            e.render("lsgen"),
-            "lsgen: p.ls:1:8: error: unexpected `>`\n漢字 -> F>\n         ^\n"
+            e.to_string(),
+            "p.ls:1:8: error: unexpected `>`\n漢字 -> F>\n         ^\n"
         );
     }
 

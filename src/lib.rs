@@ -5,8 +5,9 @@
 //! [`Write`](std::io::Write): the final string is streamed, generations in
 //! between live in temporary files, so memory does not grow with the
 //! string. [`LSystem::derive_with`] also reports each generation
-//! ([`Event`]). Errors ([`Error`]) carry their location and render as
-//! `FILE:LINE:COL: error: ...`, the source line and a caret.
+//! ([`Event`]). Errors ([`Error`]) carry what went wrong, typed by stage
+//! ([`ErrorKind`], payloads in [`diag`]), and their location; they render
+//! as `FILE:LINE:COL: error: ...`, the source line and a caret.
 //!
 //! ```
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -64,9 +65,9 @@ pub(crate) mod turtle {
     pub mod view;
 }
 
-pub use api::{derive_bytes, LSystem, Options, Stats, DEFAULT_DERIVATION_LENGTH};
+pub use api::{derive_bytes, derive_bytes_on, LSystem, Options, Stats, DEFAULT_DERIVATION_LENGTH};
 pub use derive::{Event, Limits, Pass};
-pub use diag::{Error, ErrorKind};
+pub use diag::{Error, ErrorKind, Stage};
 
 // Paths of the flat layout, kept for src/turtle, src/cpfg, the tests and
 // the fuzz targets.

@@ -396,8 +396,6 @@ cases! {
     // --- reserved characters as axiom symbols ------------------------------
     reserved_rparen_in_axiom =>
         err("productions:\nA -> B\naxiom: FF)\n", 3, 10, "`)` is reserved");
-    reserved_comma_in_axiom =>
-        err("productions:\nA -> B\naxiom: FF,\n", 3, 10, "`,` is reserved");
     reserved_colon_in_axiom =>
         err("productions:\nA -> B\naxiom: FF:\n", 3, 10, "`:` is reserved");
     reserved_lt_in_axiom =>
@@ -548,7 +546,7 @@ cases! {
     axiom_inside_header_comment_is_skipped =>
         err("/* header\naxiom: not this\n*/\naxiom: X)\n", 4, 9, "`)` is reserved");
     axiom_lines_after_comments =>
-        err("#!/bin/lsgen\naxiom: X /* a\nb\n*/ Y\n\n  Z ,\n", 6, 5, "`,` is reserved");
+        err("#!/bin/lsgen\naxiom: X /* a\nb\n*/ Y\n\n  Z )\n", 6, 5, "`)` is reserved");
 
     // --- arity limits ------------------------------------------------------
     too_many_parameters_in_axiom =>
@@ -750,6 +748,62 @@ cases! {
         err("define: x = step\naxiom: F(x)\n", 1, 13, "unknown identifier `step`");
     step_in_axiom =>
         err("axiom: F(step)\n", 1, 10, "`step`");
+
+    // --- the cpfg dialect (issue 12): tests/cpfg/refused/, each construct
+    // named with its reason; detected by the first statement `Lsystem:` ---
+    cpfg_refused_array =>
+        err(include_str!("cpfg/refused/array.l"), 5, 6, "arrays are not supported");
+    cpfg_refused_at_s =>
+        err(include_str!("cpfg/refused/at_s.l"), 5, 7, "`@S` (a surface");
+    cpfg_refused_atan2 =>
+        err(include_str!("cpfg/refused/atan2.l"), 5, 12, "`atan2` is reserved in cpfg");
+    cpfg_refused_curve =>
+        err(include_str!("cpfg/refused/curve.l"), 5, 12, "`curveX` is not supported");
+    cpfg_refused_duplicate_formal =>
+        err(include_str!("cpfg/refused/duplicate_formal.l"), 5, 10, "formal parameter `x` is named twice");
+    cpfg_refused_environment =>
+        err(include_str!("cpfg/refused/environment.l"), 4, 8, "`?E` (communication with an environment program)");
+    cpfg_refused_exponent =>
+        err(include_str!("cpfg/refused/exponent.l"), 4, 10, "a dot in an exponent literal");
+    cpfg_refused_func =>
+        err(include_str!("cpfg/refused/func.l"), 5, 12, "`func` is not supported");
+    cpfg_refused_no_endlsystem =>
+        err(include_str!("cpfg/refused/no_endlsystem.l"), 5, 8, "missing `endlsystem`");
+    cpfg_refused_object_production =>
+        err(include_str!("cpfg/refused/object_production.l"), 5, 3, "`-o>` (an object production");
+    cpfg_refused_query_p =>
+        err(include_str!("cpfg/refused/query_p.l"), 5, 8, "`?P` (a query of the turtle's state)");
+    cpfg_refused_remainder_zero =>
+        err(include_str!("cpfg/refused/remainder_zero.l"), 5, 16, "remainder by zero");
+    cpfg_refused_ring =>
+        err(include_str!("cpfg/refused/ring.l"), 3, 1, "`ring lsystem` is not supported");
+    cpfg_refused_sublsystem =>
+        err(include_str!("cpfg/refused/sublsystem.l"), 5, 7, "`?(id,s)` (a sub-L-system call)");
+    cpfg_refused_two_lsystems =>
+        err(include_str!("cpfg/refused/two_lsystems.l"), 7, 1, "several L-systems in one file");
+    cpfg_refused_vv =>
+        err(include_str!("cpfg/refused/vv.l"), 5, 12, "`vvXmin` is not supported");
+    cpfg_setting_after_axiom =>
+        err("Lsystem: 1\nAxiom: A\nderivation length: 2\nA --> B\nendlsystem\n", 3, 1, "unexpected `derivation length:`");
+    cpfg_missing_arrow =>
+        err("Lsystem: 1\nAxiom: A\nA B\nendlsystem\n", 3, 4, "expected");
+    cpfg_unclosed_parameters =>
+        err("Lsystem: 1\nAxiom: A(1\nendlsystem\n", 2, 11, "unexpected end of line");
+    cpfg_star_predecessor =>
+        err("Lsystem: 1\nAxiom: A\n* --> B\nendlsystem\n", 3, 1, "the strict predecessor cannot be `*`");
+    cpfg_unknown_function =>
+        err("Lsystem: 1\nAxiom: A(1)\nA(x) --> A(min(x, 2))\nendlsystem\n", 3, 12, "unknown function `min`");
+    // cpfg's statement blocks (issue 12, the runtime)
+    cpfg_runaway_while =>
+        err("Lsystem: 1\nderivation length: 1\nStart: {i = 0; while (i < 1) {j = 1;}}\nAxiom: A\nendlsystem\n", 3, 16, "this `while` loop ran 10000000 times: lsgen stops it (cpfg would hang)");
+    cpfg_runaway_do_while =>
+        err("Lsystem: 1\nderivation length: 1\nAxiom: A\nA : {do {k = 1;} while (1);} * --> B\nendlsystem\n", 4, 6, "this `do … while` loop ran 10000000 times");
+    cpfg_printf_values =>
+        err("Lsystem: 1\nEnd: {printf(\"%g %g\\n\", 1);}\nAxiom: A\nendlsystem\n", 2, 7, "printf: the format takes 2 values, 1 given");
+    cpfg_printf_conversion =>
+        err("Lsystem: 1\nEnd: {printf(\"%s\\n\", 1);}\nAxiom: A\nendlsystem\n", 2, 7, "printf: `%s` is not a conversion lsgen prints");
+    cpfg_assign_q =>
+        err("Lsystem: 1\nStart: {Q = 1;}\nAxiom: A\nendlsystem\n", 2, 9, "`Q` cannot be assigned");
 }
 
 impl Case {

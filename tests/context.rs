@@ -203,3 +203,36 @@ fn deep_nesting_with_left_context() {
     let out = one(&src);
     assert!(out.ends_with(&format!("AC{}", "]".repeat(depth))));
 }
+
+#[test]
+fn two_module_right_context_over_interleaved_ignored_modules_and_branches() {
+    // Only considered modules ask (no walk memo): A's context walks over
+    // `+[B]` pairs to B, then over more of them to C; the A before a
+    // single B does not match, nor the B's inside branches (they meet `]`).
+    // Hand-derived.
+    let run = "+[B]".repeat(3);
+    let src = format!("ignore: +\nproductions:\nA > B C -> X\naxiom: A{run}B{run}CA+B+D\n");
+    assert_eq!(one(&src), format!("X{run}B{run}CA+B+D"));
+    // The same with the context's modules in a branch after the stretch.
+    let src = format!("ignore: +\nproductions:\nA > B C -> X\naxiom: A{run}B[C]C\n");
+    assert_eq!(one(&src), format!("X{run}B[C]C"));
+}
+
+#[test]
+fn passed_over_modules_do_not_separate_consecutive_branches() {
+    // `[A]X[B]` with X passed over is `[A][B]` to a context: the pattern's
+    // `[B]` may match the second branch (hand-derived; ref.py agrees).
+    assert_eq!(
+        one("ignore: X\nproductions:\nB > [B] -> Z\naxiom: B[A]X[B]\n"),
+        "Z[A]X[B]"
+    );
+    assert_eq!(
+        one("consider: [ ] A B\nproductions:\nB > [B] -> Z\naxiom: B[XC[A]]X[BBB][C]XCX\n"),
+        "Z[XC[A]]X[BBB][C]XCX"
+    );
+    // A considered module between them does separate them.
+    assert_eq!(
+        one("ignore: X\nproductions:\nB > [B] -> Z\naxiom: B[A]C[B]\n"),
+        "B[A]C[B]"
+    );
+}

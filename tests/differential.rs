@@ -1,6 +1,7 @@
 //! Differential tests: random L-systems are derived by lsgen's streaming
 //! engine (`derive_bytes`) and by the small in-memory reference rewriter in
-//! `tests/reference/`, and the outputs must be byte-identical.
+//! `tests/reference/`, and the outputs must be byte-identical; and the same
+//! (string or error) on 1, 2 and 8 threads (`derive_bytes_on`).
 //!
 //! Cases come from a self-written deterministic generator (splitmix64) over
 //! fixed seed ranges, so every run checks the same cases. On a mismatch the
@@ -750,6 +751,21 @@ fn lsgen_text(src: &str, steps: Option<u64>, seed: Option<u64>) -> Result<String
         .map_err(|e| e.to_string())
 }
 
+/// `lsgen_text` on `threads` threads (`-j`, issue 15).
+fn lsgen_text_on(
+    src: &str,
+    steps: Option<u64>,
+    seed: Option<u64>,
+    threads: usize,
+) -> Result<String, String> {
+    // Tiny tasks (3 modules per thread depth first, chunks of 3 bytes step
+    // by step), so that these small strings split.
+    let split = (threads, Some(3));
+    lsgen::derive_bytes_on(src.as_bytes(), steps, seed, Limits::default(), split)
+        .map(|v| String::from_utf8(v).expect("lsgen writes UTF-8"))
+        .map_err(|e| e.to_string())
+}
+
 /// The real binary forced onto the step-by-step engine (`--strategy
 /// step`), the system on standard input: its output, or its stderr.
 fn lsgen_step_text(src: &str, steps: Option<u64>, seed: Option<u64>) -> Result<String, String> {
@@ -933,6 +949,20 @@ fn check_many(name: &str, cfg: Cfg, count: u64) {
         }
         match run(&case) {
             Outcome::Same { error, stats, .. } => {
+                // The same string, or the same error, on any number of
+                // threads.
+                let (src, n, seed) = (case.text(), case.steps, case.seed);
+                let one = lsgen_text(&src, n, seed);
+                for threads in [2, 8] {
+                    let many = lsgen_text_on(&src, n, seed, threads);
+                    assert!(
+                        one == many,
+                        "{name}: case {i}: -j {threads} differs from -j 1 on\n{src}\n\
+                         -j 1: {}\n-j {threads}: {}",
+                        clip(&one),
+                        clip(&many)
+                    );
+                }
                 if context_free && i % 4 == 0 {
                     let (src, n, seed) = (case.text(), case.steps, case.seed);
                     let (dfs, step) = (lsgen_text(&src, n, seed), lsgen_step_text(&src, n, seed));

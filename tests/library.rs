@@ -77,7 +77,7 @@ fn errors_are_located_and_limits_apply() {
         .err()
         .expect("a syntax error");
     assert_eq!(
-        e.location.as_ref().map(|l| (l.line, l.path.as_str())),
+        e.location().map(|l| (l.line, l.path.as_str())),
         Some((2, "<input>"))
     );
     let mut ls = lsgen::LSystem::parse("productions:\nA -> AA\naxiom: A\n").unwrap();
@@ -89,22 +89,22 @@ fn errors_are_located_and_limits_apply() {
         .derive(&lsgen::Options::new().steps(10).limits(limits), Vec::new())
         .expect_err("past the limit");
     assert!(
-        e.message.contains("--max-length (100 modules)"),
+        e.message().contains("--max-length (100 modules)"),
         "{}",
-        e.message
+        e.message()
     );
 }
 
 #[test]
 fn errors_say_which_stage_found_them() {
-    use lsgen::ErrorKind::*;
+    use lsgen::Stage::*;
     let stage = |src: &str| match lsgen::LSystem::parse(src) {
-        Err(e) => e.category,
+        Err(e) => e.stage(),
         Ok(mut ls) => {
             let e = ls
                 .derive(&lsgen::Options::new().steps(3), Vec::new())
                 .expect_err("an error");
-            e.category
+            e.stage()
         }
     };
     assert_eq!(stage("productions:\nA -> B\0\naxiom: A\n"), Lexical);
@@ -123,6 +123,96 @@ fn errors_say_which_stage_found_them() {
             Vec::new(),
         )
         .expect_err("no temporary directory");
-    assert_eq!(io.category, Io);
+    assert_eq!(io.stage(), Io);
     assert!(std::error::Error::source(&io).is_some());
+}
+
+#[test]
+fn errors_carry_typed_payloads() {
+    use lsgen::diag::{
+        CompileError, ExprError, IoAction, LengthUnit, LexicalError, ParseError, RuntimeError,
+    };
+    use lsgen::ErrorKind;
+    let parse = |src: &str| lsgen::LSystem::parse(src).err().expect("an error");
+    // The unknown name comes with the error, not inside a message.
+    match parse("productions:\nA(x) -> B(y)\naxiom: A(1)\n").kind() {
+        ErrorKind::Compile(CompileError::Expr(ExprError::UnknownIdentifier(name))) => {
+            assert_eq!(name, "y")
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(matches!(
+        parse("define: a = 1\ndefine: a = 2\naxiom: A\n").kind(),
+        ErrorKind::Compile(CompileError::DefinedTwice(n)) if n == "a"
+    ));
+    assert!(matches!(
+        parse("productions:\nA -> B /* open\n").kind(),
+        ErrorKind::Lexical(LexicalError::UnterminatedComment)
+    ));
+    assert!(matches!(
+        parse("productions:\nA -> G > H\naxiom: A\n").kind(),
+        ErrorKind::Parse(ParseError::ContextRightOfArrow('>'))
+    ));
+    assert!(matches!(
+        parse("").kind(),
+        ErrorKind::Parse(ParseError::EmptySystem)
+    ));
+    let derive = |src: &str, o: lsgen::Options| {
+        lsgen::LSystem::parse(src)
+            .unwrap()
+            .derive(&o, Vec::new())
+            .expect_err("an error")
+    };
+    let e = derive(
+        "productions:\nA(x) -> A(1/x)\naxiom: A(0)\n",
+        lsgen::Options::new().steps(1),
+    );
+    assert!(
+        matches!(
+            e.kind(),
+            ErrorKind::Runtime(RuntimeError::Eval {
+                error: ExprError::DivisionByZero,
+                pass: lsgen::Pass::Step(1),
+            })
+        ),
+        "{e:?}"
+    );
+    let limits = lsgen::Limits {
+        modules: 3,
+        bytes: u64::MAX,
+    };
+    let e = derive(
+        "productions:\nA -> AA\naxiom: A\n",
+        lsgen::Options::new().steps(4).limits(limits),
+    );
+    assert!(
+        matches!(
+            e.kind(),
+            ErrorKind::Runtime(RuntimeError::TooLong {
+                limit: 3,
+                unit: LengthUnit::Modules,
+                ..
+            })
+        ),
+        "{e:?}"
+    );
+    let e = derive(
+        "axiom: A\n",
+        lsgen::Options::new().tmpdir("/nonexistent/dir"),
+    );
+    match e.kind() {
+        ErrorKind::Io(io) => {
+            assert_eq!(io.action, IoAction::CreateTemp);
+            assert_eq!(
+                io.os_error().map(|e| e.kind()),
+                Some(std::io::ErrorKind::NotFound)
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    // The library's rendering names no program: that is the binary's.
+    assert_eq!(
+        e.to_string(),
+        "/nonexistent/dir: error: cannot create a temporary file: No such file or directory\n"
+    );
 }

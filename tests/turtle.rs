@@ -451,6 +451,29 @@ fn bad_view_settings() {
         assert!(r.stderr.starts_with("lsgen-turtle: "), "{args:?}");
     }
     assert!(!Path::new(ROOT).join("x.gif").exists());
+    // The whole message of a bad view option; the direction is `--view`.
+    for (args, message) in [
+        (
+            &["--view", "sideways"][..],
+            "--view: a direction is `front`, `side`, `top` or `AZIMUTH ELEVATION` in degrees",
+        ),
+        (
+            &["--view", "0 100"],
+            "--view: the elevation is between -90 and 90",
+        ),
+        (&["--width=-1"], "--width: must not be negative"),
+        (
+            &["--palette", "red"],
+            "--palette: `red` is not a colour `#rrggbb`",
+        ),
+    ] {
+        let r = turtle(args, b"F");
+        assert_eq!(
+            r.stderr,
+            format!("lsgen-turtle: error: {message}\n"),
+            "{args:?}"
+        );
+    }
 }
 
 #[test]

@@ -29,7 +29,7 @@ fuzz_target!(|data: &[u8]| {
     if let Err(e) = lsgen::derive_bytes(src, Some(steps), seed, LIMITS) {
         let shown = e.to_string();
         assert!(
-            shown.starts_with("lsgen: ") && shown.contains("error: "),
+            !shown.starts_with("lsgen: ") && shown.contains("error: ") && shown.ends_with('\n'),
             "badly rendered error: {shown:?}"
         );
     }

@@ -2,7 +2,7 @@
 //! of ABOP / cpfg. The work is in `lsgen::turtle`; this parses the options.
 
 use clap::Parser;
-use lsgen::diag::{Error, Kind};
+use lsgen::diag::{Error, IoAction, UsageError};
 use lsgen::turtle::view::{self, View};
 use lsgen::turtle::{run, Format, Options};
 use std::io::Write;
@@ -83,18 +83,27 @@ fn options(a: Args) -> Result<Options, Error> {
     let mut v = View::default();
     if let Some(ls) = &a.ls {
         let name = ls.display().to_string();
-        let f = std::fs::File::open(ls).map_err(|e| Error::io(name.clone(), "cannot open", e))?;
+        let f = std::fs::File::open(ls).map_err(|e| Error::io(name.clone(), IoAction::Open, e))?;
         if f.metadata().is_ok_and(|m| m.is_dir()) {
             let e = std::io::Error::from(std::io::ErrorKind::IsADirectory);
-            return Err(Error::io(name, "cannot read", e));
+            return Err(Error::io(name, IoAction::Read, e));
         }
         // lsgen's header reader and lexer: bounded, and the same view lines.
         view::read_ls(&name, Box::new(f), &mut v)?;
     }
     let set = |v: &mut View, name: &str, value: &str| -> Result<(), Error> {
         let text = format!(" {name} = {value}");
-        let s = view::parse_setting(&text)
-            .map_err(|e| usage(format!("--{}: {}", name.replace(' ', "-"), e.message)))?;
+        let s = view::parse_setting(&text).map_err(|e| {
+            // The direction is given as `--view`.
+            let option = match name {
+                "direction" => "view".to_string(),
+                _ => name.replace(' ', "-"),
+            };
+            Error::new(UsageError::ViewOption {
+                option,
+                error: e.kind,
+            })
+        })?;
         v.apply(s);
         Ok(())
     };
@@ -114,13 +123,7 @@ fn options(a: Args) -> Result<Options, Error> {
         ("background", a.background.clone()),
     ] {
         if let Some(value) = value {
-            set(&mut v, name, &value).map_err(|e| {
-                if name == "direction" {
-                    usage(e.message.replace("--direction", "--view"))
-                } else {
-                    e
-                }
-            })?;
+            set(&mut v, name, &value)?;
         }
     }
     let format = match (&a.format, &a.output) {
@@ -147,14 +150,6 @@ fn options(a: Args) -> Result<Options, Error> {
     })
 }
 
-fn report(e: &Error) {
-    if e.kind != Kind::BrokenPipe {
-        let s = e.to_string();
-        let s = s.strip_prefix("lsgen: ").unwrap_or(&s);
-        let _ = write!(std::io::stderr(), "lsgen-turtle: {s}");
-    }
-}
-
 fn main() {
     // Shared with lsgen: a write past `ulimit -f` is an error (EFBIG).
     lsgen::cli::ignore_sigxfsz();
@@ -173,10 +168,7 @@ fn main() {
             clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => {
                 match lsgen::cli::print_help_or_version(&e) {
                     Ok(()) => 0,
-                    Err(e) => {
-                        report(&e);
-                        e.exit_code()
-                    }
+                    Err(e) => lsgen::cli::report("lsgen-turtle", &e),
                 }
             }
             _ => {
@@ -186,10 +178,7 @@ fn main() {
         },
         Ok(a) => match options(a).and_then(|o| run(&o)) {
             Ok(()) => 0,
-            Err(e) => {
-                report(&e);
-                e.exit_code()
-            }
+            Err(e) => lsgen::cli::report("lsgen-turtle", &e),
         },
     };
     std::process::exit(code);

@@ -1,10 +1,14 @@
 //! The cpfg (L-studio / vlab) dialect: `.l` files (issue 12).
 //!
-//! Work in progress: only the first stage exists so far, the built-in
-//! C-preprocessor subset ([`preprocess`]) that cpfg runs every `.l` file
-//! through (cpfg calls vlab's `vlabcpp`, a GNU `cccp`). The dialect's parser
-//! will read [`preprocess::Output::text`] and turn byte offsets into original
-//! file/line/column with [`preprocess::SourceMap`].
+//! The stages: the built-in C-preprocessor subset ([`preprocess`]) that
+//! cpfg runs every `.l` file through (cpfg calls vlab's `vlabcpp`, a GNU
+//! `cccp`); the lexer ([`lexer`], logos) and the LALRPOP grammar
+//! (`grammar/cpfg.lalrpop`, [`parse`]) on its output, giving the syntax
+//! tree ([`ast`], statement blocks kept as data); the lowering ([`lower`])
+//! to the shared `.ls` syntax tree, compiled by `rules::compile_dialect`
+//! with cpfg's semantics and derived by the shared engine. Every offset of
+//! the preprocessed text maps back to its original file, line and column
+//! through [`preprocess::SourceMap`].
 //!
 //! # Newline + TAB continues a statement: the parser's job
 //!
@@ -24,7 +28,123 @@
 //! continues the statement before it exactly when it does in cpfg, and line
 //! N of the output is line N of the file outside included text.
 
+pub mod ast;
+pub mod blocks;
+pub mod lexer;
+pub mod lower;
+pub mod parse;
 pub mod preprocess;
+pub mod random;
+pub mod run;
+
+use crate::diag::{Error, ErrorKind};
+use crate::lang::ast::Header;
+use crate::lang::parse::UserError;
+use preprocess::SourceMap;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Which language a file is written in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Dialect {
+    /// From the file: see [`sniff`].
+    #[default]
+    Auto,
+    /// lsgen's `.ls`.
+    Ls,
+    /// cpfg's `.l`.
+    Cpfg,
+}
+
+/// Is a file cpfg's: its name ends in `.l`, or its first statement (after
+/// blanks and comments) is `Lsystem:` or a `#` directive (`#` and a name,
+/// as `#define`; not an `.ls` file's `#!` line)? `head` is the start of
+/// the file, `complete` says whether it is all of it; None: more bytes are
+/// needed to tell (so a file on a pipe is not waited for longer than its
+/// first statement).
+pub fn sniff(name: &str, head: &[u8], complete: bool) -> Option<bool> {
+    if name.ends_with(".l") {
+        return Some(true);
+    }
+    let more = if complete { Some(false) } else { None };
+    let bom = b"\xEF\xBB\xBF".as_slice();
+    if !complete && head.len() < 3 && bom.starts_with(head) {
+        return None;
+    }
+    let mut s = head.strip_prefix(bom).unwrap_or(head);
+    loop {
+        let t = s.trim_ascii_start();
+        if t.is_empty() || t == b"/" {
+            return more;
+        }
+        if let Some(r) = t.strip_prefix(b"/*".as_slice()) {
+            match r.windows(2).position(|w| w == b"*/") {
+                Some(i) => s = &r[i + 2..],
+                None => return more,
+            }
+        } else if let Some(r) = t.strip_prefix(b"//".as_slice()) {
+            match r.iter().position(|&b| b == b'\n') {
+                Some(i) => s = &r[i..],
+                None => return more,
+            }
+        } else if let Some(r) = t.strip_prefix(b"#".as_slice()) {
+            // A directive: `#`, blanks, a name (`#!` is an `.ls` shebang).
+            let r = r.trim_ascii_start();
+            return match r.first() {
+                Some(c) => Some(c.is_ascii_alphabetic()),
+                None => more,
+            };
+        } else {
+            let word = b"system:";
+            let n = t.len().min(8);
+            let fits = matches!(t[0], b'L' | b'l') && t[1..n] == word[..n - 1];
+            return if fits && n < 8 { more } else { Some(fits) };
+        }
+    }
+}
+
+/// A `.l` file read, preprocessed, parsed and lowered.
+pub struct Loaded {
+    /// The preprocessed text (the spans' text).
+    pub text: String,
+    pub map: Arc<SourceMap>,
+    pub header: Header,
+    /// The axiom as module text.
+    pub axiom: String,
+    /// Header blocks and the productions' blocks and slots (issue 12),
+    /// given to the compiled system by [`lower::attach`].
+    pub run: run::CpfgRun,
+    pub extra: [Vec<lower::ProdExtra>; 3],
+}
+
+/// A located error of the preprocessed text.
+pub fn locate(map: &SourceMap, e: UserError) -> Error {
+    Error::at(map.location(e.span.0), ErrorKind::from(e.kind))
+}
+
+/// Preprocess, parse and lower `source`, the text of the file `name`
+/// (includes are read relative to it); warnings go to standard error.
+pub fn load(name: &str, source: &str) -> Result<Loaded, Error> {
+    let out = preprocess::preprocess(Path::new(name), source, &preprocess::read_file)?;
+    for w in &out.warnings {
+        crate::diag::warn(w.at.clone(), &w.message);
+    }
+    let map = out.map;
+    let text = out.text;
+    let tree = parse::parse(&text).map_err(|e| locate(&map, e))?;
+    let lowered = lower::lower(&tree, &mut |span, msg| {
+        crate::diag::warn(map.location(span.0), &msg)
+    })
+    .map_err(|e| locate(&map, e))?;
+    Ok(Loaded {
+        text,
+        map: Arc::new(map),
+        header: lowered.header,
+        axiom: lowered.axiom,
+        run: lowered.run,
+        extra: lowered.extra,
+    })
+}
 
 #[cfg(test)]
 mod tests;

@@ -593,7 +593,7 @@ fn unknown_and_unsupported_directives() {
     let d: crate::diag::Error = e.into();
     assert_eq!(
         d.to_string(),
-        "lsgen: m.l:2:2: error: unknown directive `#foo`\n#foo bar\n ^\n"
+        "m.l:2:2: error: unknown directive `#foo`\n#foo bar\n ^\n"
     );
     for src in [
         "#line 3\n",

@@ -24,6 +24,8 @@ pub(crate) static ASCII: [u8; 128] = {
 pub(crate) struct ByteTable<'t> {
     /// None: take the general path.
     succ: [Option<FastSucc<'t>>; 128],
+    /// Brackets take the general path too (it tracks branches for cuts).
+    brackets_general: bool,
 }
 
 /// A successor for the byte table. Short ones are padded to 16 bytes and
@@ -70,7 +72,10 @@ impl<'t> ByteTable<'t> {
                 _ => None,
             };
         }
-        ByteTable { succ }
+        ByteTable {
+            succ,
+            brackets_general: false,
+        }
     }
 
     /// Send byte `b` down the general path (the cut `%`).
@@ -78,10 +83,17 @@ impl<'t> ByteTable<'t> {
         self.succ[b as usize] = None;
     }
 
+    /// Send `[` and `]` down the general path.
+    pub(crate) fn brackets_general(&mut self) {
+        self.general(b'[');
+        self.general(b']');
+        self.brackets_general = true;
+    }
+
     /// Rewrite the leading bytes of `input` it can handle; returns how many
     /// bytes and how many modules it used. Modules that left contexts consider are recorded in
     /// `left`; brackets open and close its levels and the output's bracket
-    /// index (`indexed`: the input's `[` carry 8 index bytes), and follow
+    /// index (`open_len`: the bytes of the input's `[`), and follow
     /// the input's nesting `level`.
     #[inline]
     pub(crate) fn run(
@@ -90,47 +102,53 @@ impl<'t> ByteTable<'t> {
         out: &mut Out,
         mut left: Option<&mut LeftContext>,
         al: &Alphabet,
-        indexed: bool,
+        open_len: usize,
         level: &mut i64,
     ) -> Result<(usize, u64), Error> {
         let mut i = 0;
-        let mut modules = 0;
+        // Modules = bytes, less the index bytes of each `[`.
+        let mut opens = 0u64;
+        let mut lv = *level;
         while i < input.len() {
             let b = input[i];
             if b >= 0x80 {
                 break;
             }
             let Some(f) = &self.succ[b as usize] else {
+                if self.brackets_general {
+                    break;
+                }
                 if b == b'[' {
-                    let n = if indexed { 9 } else { 1 };
+                    let n = open_len;
                     if i + n > input.len() {
                         break;
                     }
                     out.modules += 1;
                     out.open();
-                    *level += 1;
+                    lv += 1;
                     if let Some(left) = &mut left {
                         left.open();
                     }
                     i += n;
-                    modules += 1;
+                    opens += 1;
                     continue;
                 }
                 if b == b']' {
                     out.modules += 1;
                     out.close()?;
-                    *level -= 1;
+                    lv -= 1;
                     if let Some(left) = &mut left {
                         left.close();
                     }
                     i += 1;
-                    modules += 1;
                     continue;
                 }
                 break;
             };
             let buf = &mut out.buf;
-            if f.len <= 16 {
+            if f.len == 1 {
+                buf.push(f.small[0]);
+            } else if f.len <= 16 {
                 let at = buf.len();
                 buf.extend_from_slice(&f.small);
                 buf.truncate(at + f.len);
@@ -144,11 +162,12 @@ impl<'t> ByteTable<'t> {
                 }
             }
             i += 1;
-            modules += 1;
             if out.buf.len() >= OUT_CHUNK {
                 break;
             }
         }
-        Ok((i, modules))
+        *level = lv;
+        let skipped = (open_len as u64 - 1) * opens;
+        Ok((i, i as u64 - skipped))
     }
 }

@@ -5,6 +5,7 @@
 
 use super::random::{Draw, Random};
 use super::{Origin, Pass};
+use crate::cpfg::random::select;
 use crate::diag::Error;
 use crate::rules::{ConstRun, Item, KeyRules, Production, Table};
 
@@ -28,11 +29,26 @@ pub(crate) struct Chooser {
     /// Matching candidates of a weighted group, with their bindings.
     cand: Vec<(u32, f64)>,
     cand_slots: Vec<f64>,
+    /// Chooses for decomposition or a deep homomorphism: in a `.l` file,
+    /// always the first applicable production, no draw.
+    pub(crate) nested: bool,
 }
 
 impl Chooser {
+    /// The chooser of decomposition and deep homomorphisms.
+    pub(crate) fn nested() -> Chooser {
+        Chooser {
+            nested: true,
+            ..Chooser::default()
+        }
+    }
+
     /// The production of `kr` that rewrites the bound module: the context
     /// group first, then the context-free one (see README, "Choice").
+    /// The choice policy is in `kr`'s lists: for the cpfg dialect (first
+    /// applicable in file order, context or not) `rules::compile_table`
+    /// puts every production of a key that has a context one into the
+    /// context group, in file order, so this one loop serves both.
     /// `contexts(p, slots)` tells whether `p`'s contexts match here,
     /// binding their parameters into `slots`.
     #[inline]
@@ -50,6 +66,15 @@ impl Chooser {
     where
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
+        if rng.cpfg_mut().is_some() {
+            // A `.l` file: one list per key (the front end merges them).
+            let list = if kr.context.is_empty() {
+                &kr.free[..]
+            } else {
+                &kr.context[..]
+            };
+            return self.choose_cpfg(slots, table, list, rng, origin, pass, &mut contexts);
+        }
         let mut chosen = None;
         let mut kr = kr;
         loop {
@@ -71,7 +96,7 @@ impl Chooser {
     }
 
     /// Does `p` match: contexts, then its condition?
-    #[inline]
+    #[inline(always)]
     fn matches<F>(
         &mut self,
         slots: &mut [f64],
@@ -138,7 +163,7 @@ impl Chooser {
             if w < 0.0 {
                 return Err(Error::at(
                     origin.locate(p.prob.as_ref().unwrap().span.0),
-                    format!("a probability cannot be negative ({w}, in {pass})"),
+                    crate::diag::RuntimeError::NegativeProbability { value: w, pass },
                 ));
             }
             if w > 0.0 {
@@ -153,7 +178,13 @@ impl Chooser {
             n => {
                 let u = rng.uniform().map_err(|m| {
                     let p = &table.prods[self.cand[0].0 as usize];
-                    Error::at(origin.locate(p.span.0), format!("{m} (in {pass})"))
+                    Error::at(
+                        origin.locate(p.span.0),
+                        crate::diag::RuntimeError::Eval {
+                            error: crate::diag::ExprError::Random(m),
+                            pass,
+                        },
+                    )
                 })?;
                 let mut u = u * total;
                 let mut i = 0;
@@ -176,6 +207,142 @@ impl Chooser {
         let n = table.prods[pi as usize].nslots;
         slots[..n].copy_from_slice(&self.cand_slots[off..off + n]);
         Ok(Some(pi))
+    }
+
+    /// cpfg's choice (a `.l` file, README "Coming from cpfg"): the first
+    /// applicable production in file order; with `seed:`, `SelectProd`
+    /// over all applicable ones (weights as 32-bit floats, weight 0
+    /// competing) with the module's draw from cpfg's choice generator.
+    /// The chosen production's post-condition block runs before this
+    /// returns, its successor right after. Out of line: the `.ls` path
+    /// pays one test per module for it.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn choose_cpfg<F>(
+        &mut self,
+        slots: &mut [f64],
+        table: &Table,
+        list: &[u32],
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        contexts: &mut F,
+    ) -> Result<Option<u32>, Error>
+    where
+        F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    {
+        let top_hom = pass == Pass::Homomorphism && !self.nested;
+        if top_hom {
+            // Conditions at the top of the homomorphism: cpfg's first
+            // function generator (a homomorphism `seed:` is for successors).
+            if let Some(c) = rng.cpfg_mut() {
+                c.hom_condition();
+            }
+        }
+        // With `seed:` every production competes, weighted 1 by default.
+        let stochastic = rng.cpfg_mut().is_some_and(|c| c.stochastic);
+        if !stochastic || self.nested || !matches!(pass, Pass::Step(_)) {
+            for &pi in list {
+                let p = &table.prods[pi as usize];
+                if self.matches_cpfg(slots, p, rng, origin, pass, contexts)? {
+                    return self.post(slots, p, rng, origin, pass).map(|()| Some(pi));
+                }
+            }
+            return Ok(None);
+        }
+        self.cand.clear();
+        self.cand_slots.clear();
+        for &pi in list {
+            let p = &table.prods[pi as usize];
+            if !self.matches_cpfg(slots, p, rng, origin, pass, contexts)? {
+                continue;
+            }
+            let w = match &p.prob {
+                None => 1.0,
+                Some(c) => c
+                    .eval(slots, &mut self.stack, rng)
+                    .map_err(|e| origin.eval_error(e, pass))?,
+            };
+            if w < 0.0 {
+                return Err(Error::at(
+                    origin.locate(p.prob.as_ref().unwrap().span.0),
+                    format!("a probability cannot be negative ({w}, in {pass})"),
+                ));
+            }
+            self.cand.push((pi, w));
+            self.cand_slots.extend_from_slice(&slots[..p.nslots]);
+        }
+        let Some(u) = rng.cpfg_choice() else {
+            return Ok(None);
+        };
+        let Some(pick) = select(self.cand.iter().map(|&(_, w)| w as f32), u) else {
+            return Ok(None);
+        };
+        // Restore the chosen production's bindings.
+        let pi = self.cand[pick].0;
+        let off: usize = self.cand[..pick]
+            .iter()
+            .map(|(q, _)| table.prods[*q as usize].nslots)
+            .sum();
+        let p = &table.prods[pi as usize];
+        slots[..p.nslots].copy_from_slice(&self.cand_slots[off..off + p.nslots]);
+        self.post(slots, p, rng, origin, pass).map(|()| Some(pi))
+    }
+    /// [`Chooser::matches`] with cpfg's pre-condition block: contexts,
+    /// the block (also when the condition then fails), the condition.
+    #[inline]
+    fn matches_cpfg<F>(
+        &mut self,
+        slots: &mut [f64],
+        p: &Production,
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        contexts: &mut F,
+    ) -> Result<bool, Error>
+    where
+        F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    {
+        if !contexts(p, slots)? {
+            return Ok(false);
+        }
+        if let Some(b) = &p.pre {
+            b.run(slots, &mut self.stack, rng)
+                .map_err(|e| origin.eval_error(e, pass))?;
+        }
+        match &p.cond {
+            None => Ok(true),
+            Some(c) => match c.eval(slots, &mut self.stack, rng) {
+                Ok(v) => Ok(v != 0.0),
+                Err(e) => Err(origin.eval_error(e, pass)),
+            },
+        }
+    }
+
+    /// cpfg's post-condition block of the chosen production `p` (locals in
+    /// `slots`), before its successor is evaluated.
+    #[inline]
+    fn post(
+        &mut self,
+        slots: &mut [f64],
+        p: &Production,
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+    ) -> Result<(), Error> {
+        if pass == Pass::Homomorphism && !self.nested {
+            // The homomorphism's `seed:` generator, from here on for this
+            // module (successor, deeper homomorphism).
+            if let Some(c) = rng.cpfg_mut() {
+                c.hom_successor();
+            }
+        }
+        match &p.post {
+            Some(b) => b
+                .run(slots, &mut self.stack, rng)
+                .map_err(|e| origin.eval_error(e, pass)),
+            None => Ok(()),
+        }
     }
 
     /// Evaluate `p`'s successor with the bound parameters, handing each

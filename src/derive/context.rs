@@ -45,11 +45,13 @@ pub(crate) struct Level {
 }
 
 impl LeftContext {
-    pub(crate) fn new(table: &Table, al: &Alphabet) -> Self {
-        let k = table.max_left;
+    /// The left context `tables` need together (a step's productions and
+    /// the decomposition, whose contexts are read in the same string).
+    pub(crate) fn new_for(tables: &[&Table], al: &Alphabet) -> Self {
+        let k = tables.iter().map(|t| t.max_left).max().unwrap_or(0);
         let mut wanted = Vec::new();
         let mut width = 0;
-        for p in &table.prods {
+        for p in tables.iter().flat_map(|t| t.prods.iter()) {
             for pat in &p.left {
                 let n = al.arity(pat.key);
                 if n > 0 {
@@ -120,7 +122,7 @@ impl LeftContext {
 
     /// Record the considered module `key`, encoded as `module` (key
     /// included), with `arity` parameters.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn push(&mut self, key: u32, module: &[u8], arity: usize) {
         let (k, w) = (self.k, self.width);
         let l = &mut self.levels[self.depth];
@@ -129,7 +131,9 @@ impl LeftContext {
             l.head = l.cnt;
             l.cnt += 1;
             self.keys.push(key);
-            self.params.resize(self.params.len() + w, 0.0);
+            if w > 0 {
+                self.params.resize(self.params.len() + w, 0.0);
+            }
             l.start + l.head
         } else {
             l.head = if l.head + 1 == k { 0 } else { l.head + 1 };
@@ -422,14 +426,17 @@ pub(crate) fn match_right(
                     Some(after) => pos = after,
                     None => return Ok(false),
                 }
-                // Only a directly following branch is another candidate.
-                peek.seek(pos);
-                match peek.next_module(al)? {
-                    Some((k, _, _)) if k == OPEN => continue,
+                // The next branch is another candidate, also after
+                // passed-over modules (`[A]X[B]` with `X` ignored is
+                // `[A][B]` to a context).
+                match walk_right(peek, al, pos, false)? {
+                    Walk::Stop { at, open: true } => pos = at,
                     _ => return Ok(false),
                 }
             }
         }
+        // cpfg's `=` comes only with cpfg's rules (`match_right_cpfg`).
+        RPat::SkipRest => Ok(false),
         RPat::Close => {
             // The walk stays in the branch: skipping its rest from where
             // the walk stops is the same.
@@ -448,6 +455,90 @@ pub(crate) fn match_right(
             }
         }
     }
+}
+
+/// cpfg's right-context rules (issue 12), chosen once per pass for a `.l`
+/// file: which brackets are passed over like ignored symbols.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct CpfgBrackets {
+    pub(crate) open: bool,
+    pub(crate) close: bool,
+}
+
+impl CpfgBrackets {
+    pub(crate) fn of(al: &Alphabet) -> Self {
+        CpfgBrackets {
+            open: al.bracket_passed('['),
+            close: al.bracket_passed(']'),
+        }
+    }
+}
+
+/// Match a right context the way cpfg's `RconDiff` (generate.c) does, from
+/// offset `pos` just after the predecessor, binding parameters into
+/// `slots`. Module by module: an ignored module (a bracket when `passed`
+/// says so: an unlisted bracket under `consider:`) is passed over; a `[`
+/// that the pattern element is not a `[` skips its whole branch; anything
+/// else must equal the pattern element: so a `[` of the pattern enters
+/// only the first of several consecutive branches, a `]` of the pattern
+/// must meet a `]` and goes on after it, and a context never leaves its
+/// branch otherwise. `=` moves to the `]` that ends the current branch.
+pub(crate) fn match_right_cpfg(
+    peek: &mut PosReader,
+    al: &Alphabet,
+    mut pos: u64,
+    pat: &[RPat],
+    slots: &mut [f64],
+    passed: CpfgBrackets,
+) -> io::Result<bool> {
+    let mut i = 0;
+    while i < pat.len() {
+        if pat[i] == RPat::SkipRest {
+            pos = match skip_branch(peek, al, pos)? {
+                // `]` is one byte: stop on it.
+                Some(after) => after - 1,
+                None => u64::MAX,
+            };
+            i += 1;
+            continue;
+        }
+        peek.seek(pos);
+        let Some((key, s, e)) = peek.next_module(al)? else {
+            return Ok(false);
+        };
+        let next = peek.offset();
+        let ignored = match key {
+            OPEN => passed.open,
+            CLOSE => passed.close,
+            _ => al.ignored(key),
+        };
+        if ignored {
+            pos = next;
+            continue;
+        }
+        if key == OPEN && pat[i] != RPat::Open {
+            match peek.branch_end(al, s, next)? {
+                Some(after) => pos = after,
+                None => return Ok(false),
+            }
+            continue;
+        }
+        match pat[i] {
+            RPat::Module(p) if p.key == key => {
+                let n = al.arity(key);
+                codec::read_params(
+                    peek.bytes(s, e),
+                    &mut slots[p.slot as usize..p.slot as usize + n],
+                );
+            }
+            RPat::Open if key == OPEN => {}
+            RPat::Close if key == CLOSE => {}
+            _ => return Ok(false),
+        }
+        pos = next;
+        i += 1;
+    }
+    Ok(true)
 }
 
 /// From inside a branch at `pos`, the offset just after the `]` that closes

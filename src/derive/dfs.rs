@@ -152,7 +152,7 @@ impl<'t> Plan<'t> {
         let steps = steps as usize;
         let mut rd = PosReader::new(input, 1 << 16, false);
         let mut stack: Vec<(&[u8], usize)> = Vec::new();
-        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         while let Some((key, s, e)) = rd.next_module(al).map_err(read_err)? {
             if key >= 128 {
                 out.raw(key, rd.bytes(s, e), al)?;
@@ -292,7 +292,7 @@ pub fn census(input: &File, al: &Alphabet) -> Result<Census, Error> {
     let mut rd = PosReader::new(input, 1 << 16, false);
     while let Some((key, s, e)) = rd
         .next_module(al)
-        .map_err(|e| Error::io("temporary file", "cannot read", e))?
+        .map_err(|e| Error::io("temporary file", crate::diag::IoAction::Read, e))?
     {
         match c.hist.get_mut(key as usize) {
             Some(h) => *h += 1,
@@ -445,25 +445,38 @@ impl<'t> ParamPlan<'t> {
         steps: u64,
         out: &mut Out,
     ) -> Result<(), Error> {
-        let n = steps as usize;
-        let mut levels: Vec<Level> = (0..=n.min(64)).map(|_| Level::default()).collect();
+        let mut w = Walker::new(self, al, steps);
+        let mut rd = PosReader::new(input, 1 << 16, false);
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
+        while let Some((_, s, e)) = rd.next_module(al).map_err(read_err)? {
+            w.expand(0, rd.bytes(s, e), al, origin, out)?;
+        }
+        Ok(())
+    }
+
+    /// Walk generation 0 (`input`) down to generation `depth` (< steps),
+    /// calling `visit` in string order with each module of that generation
+    /// and each module above it that no production rewrites (with its
+    /// generation), or with an inert constant run; together they expand to
+    /// the whole string. Stops when `visit` returns false. For splitting
+    /// the work between threads (`super::par`).
+    pub(crate) fn split(
+        &self,
+        input: &File,
+        al: &Alphabet,
+        origin: &Origin,
+        depth: usize,
+        mut visit: impl FnMut(Split<'_, 't>) -> Result<bool, Error>,
+    ) -> Result<(), Error> {
+        let mut levels: Vec<Level> = (0..=depth).map(|_| Level::default()).collect();
         let inert = self.inert_runs(al, false);
-        let inert_last = self.inert_runs(al, true);
-        // The homomorphism's own chooser and generator (never drawn from),
-        // so a module of the last step goes out while `ch` still holds the
-        // successor being evaluated; `scratch` holds that module's
-        // parameters, the slots the homomorphism binds.
-        let mut hch = Chooser::default();
-        let mut hrng = Random::new(0);
-        let mut scratch: Vec<f64> = Vec::new();
         let mut ch = Chooser::default();
         let mut rng = Random::new(0); // never drawn from
         let mut rd = PosReader::new(input, 1 << 16, false);
-        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         while let Some((_, s, e)) = rd.next_module(al).map_err(read_err)? {
-            let bytes = rd.bytes(s, e);
             levels[0].clear();
-            levels[0].push_bin(bytes, al);
+            levels[0].push_bin(rd.bytes(s, e), al);
             let mut j = 0;
             loop {
                 if levels[j].pos == levels[j].modules.len() {
@@ -475,64 +488,28 @@ impl<'t> ParamPlan<'t> {
                 }
                 let i = levels[j].pos;
                 levels[j].pos += 1;
-                if levels.len() <= j + 1 {
-                    levels.push(Level::default());
-                }
                 let (cur, next) = levels.split_at_mut(j + 1);
                 let key = cur[j].modules.keys[i];
                 if key == INERT {
-                    out.constant(cur[j].inert[cur[j].modules.starts[i]])?;
-                    out.maybe_flush()?;
+                    if !visit(Split::Inert(cur[j].inert[cur[j].modules.starts[i]]))? {
+                        return Ok(());
+                    }
                     continue;
                 }
                 let (k, p) = cur[j].modules.get_mut(i, al.arity(key));
                 let pass = Pass::Step(j as u64 + 1);
-                let chosen = if j == n {
+                let chosen = if j == depth {
                     None
                 } else {
                     Self::choose(self.prods, (k, &mut *p), &mut ch, &mut rng, origin, pass)?
                 };
                 let Some(pi) = chosen else {
-                    self.leaf((k, p), al, origin, out, &mut ch, &mut rng)?;
-                    out.maybe_flush()?;
+                    if !visit(Split::Module(j, k, p))? {
+                        return Ok(());
+                    }
                     continue;
                 };
                 let prod = &self.prods.prods[pi as usize];
-                if j + 1 == n {
-                    // The last step: its successor goes straight out (a
-                    // module rewritten to itself too: it would be a leaf).
-                    let mut runs = inert_last[pi as usize].iter();
-                    ch.successor(p, prod, &mut rng, origin, pass, |piece| {
-                        let whole = runs.next().copied().flatten();
-                        match (piece, whole) {
-                            (Piece::Const(_), Some(c)) => out.constant(c)?,
-                            (Piece::Const(c), None) => {
-                                let mut bin = c.bin();
-                                while !bin.is_empty() {
-                                    let (key, kl) = crate::rules::codec::get_key(bin);
-                                    let a = al.arity(key);
-                                    scratch.clear();
-                                    scratch
-                                        .extend((0..a).map(|i| {
-                                            crate::rules::codec::get_param(&bin[kl..], i)
-                                        }));
-                                    let m = (key, &mut scratch[..]);
-                                    self.leaf(m, al, origin, out, &mut hch, &mut hrng)?;
-                                    bin = &bin[kl + 8 * a..];
-                                }
-                            }
-                            (Piece::Module(key, vals), _) => {
-                                scratch.clear();
-                                scratch.extend_from_slice(vals);
-                                let m = (key, &mut scratch[..]);
-                                self.leaf(m, al, origin, out, &mut hch, &mut hrng)?;
-                            }
-                        }
-                        out.maybe_flush()
-                    })?;
-                    continue;
-                }
-                // Evaluate the successor into the next level.
                 let next = &mut next[0];
                 next.clear();
                 let mut inert = inert[pi as usize].iter();
@@ -545,25 +522,11 @@ impl<'t> ParamPlan<'t> {
                     }
                     Ok(())
                 })?;
-                // A module rewritten to itself is a fixed point: the same
-                // production applies at every later step (the system draws
-                // no randomness), so it goes out as it is.
-                let same = next.modules.len() == 1
-                    && k == next.modules.keys[0]
-                    && p.iter()
-                        .zip(&next.modules.params)
-                        .all(|(a, b)| a.to_bits() == b.to_bits());
-                if same {
-                    self.leaf((k, p), al, origin, out, &mut ch, &mut rng)?;
-                    out.maybe_flush()?;
-                    continue;
-                }
                 j += 1;
             }
         }
         Ok(())
     }
-
     /// Write a module of the last generation, through the homomorphism.
     fn leaf(
         &self,
@@ -595,5 +558,175 @@ impl<'t> ParamPlan<'t> {
                 Piece::Module(key, vals) => out.module(key, vals, al),
             },
         )
+    }
+}
+
+/// What [`ParamPlan::split`] hands out: a module of generation `.0` (its
+/// key and parameters), or an inert constant run.
+pub(crate) enum Split<'a, 't> {
+    Module(usize, u32, &'a [f64]),
+    Inert(&'t ConstRun),
+}
+
+/// One thread's state for expanding modules depth first: a level per step
+/// on the current path, reused for every module.
+pub(crate) struct Walker<'p, 't> {
+    plan: &'p ParamPlan<'t>,
+    n: usize,
+    levels: Vec<Level<'t>>,
+    inert: Vec<Box<[Option<&'t ConstRun>]>>,
+    inert_last: Vec<Box<[Option<&'t ConstRun>]>>,
+    // The homomorphism's own chooser and generator (never drawn from),
+    // so a module of the last step goes out while `ch` still holds the
+    // successor being evaluated; `scratch` holds that module's
+    // parameters, the slots the homomorphism binds.
+    hch: Chooser,
+    hrng: Random,
+    scratch: Vec<f64>,
+    ch: Chooser,
+    rng: Random,
+}
+
+impl<'p, 't> Walker<'p, 't> {
+    pub(crate) fn new(plan: &'p ParamPlan<'t>, al: &Alphabet, steps: u64) -> Self {
+        let n = steps as usize;
+        Walker {
+            plan,
+            n,
+            levels: (0..=n.min(64)).map(|_| Level::default()).collect(),
+            inert: plan.inert_runs(al, false),
+            inert_last: plan.inert_runs(al, true),
+            hch: Chooser::default(),
+            hrng: Random::new(0),
+            scratch: Vec::new(),
+            ch: Chooser::default(),
+            rng: Random::new(0), // never drawn from
+        }
+    }
+
+    /// Write `bin` (modules in binary form) of generation `depth` expanded
+    /// by the remaining steps, homomorphism applied, as text into `out`.
+    pub(crate) fn expand(
+        &mut self,
+        depth: usize,
+        bin: &[u8],
+        al: &Alphabet,
+        origin: &Origin,
+        out: &mut Out,
+    ) -> Result<(), Error> {
+        let Walker {
+            plan,
+            n,
+            levels,
+            inert,
+            inert_last,
+            hch,
+            hrng,
+            scratch,
+            ch,
+            rng,
+        } = self;
+        let (plan, n) = (*plan, *n);
+        while levels.len() <= depth {
+            levels.push(Level::default());
+        }
+        levels[depth].clear();
+        levels[depth].push_bin(bin, al);
+        let mut j = depth;
+        loop {
+            if levels[j].pos == levels[j].modules.len() {
+                if j == depth {
+                    break;
+                }
+                j -= 1;
+                continue;
+            }
+            let i = levels[j].pos;
+            levels[j].pos += 1;
+            if levels.len() <= j + 1 {
+                levels.push(Level::default());
+            }
+            let (cur, next) = levels.split_at_mut(j + 1);
+            let key = cur[j].modules.keys[i];
+            if key == INERT {
+                out.constant(cur[j].inert[cur[j].modules.starts[i]])?;
+                out.maybe_flush()?;
+                continue;
+            }
+            let (k, p) = cur[j].modules.get_mut(i, al.arity(key));
+            let pass = Pass::Step(j as u64 + 1);
+            let chosen = if j == n {
+                None
+            } else {
+                ParamPlan::choose(plan.prods, (k, &mut *p), ch, rng, origin, pass)?
+            };
+            let Some(pi) = chosen else {
+                plan.leaf((k, p), al, origin, out, ch, rng)?;
+                out.maybe_flush()?;
+                continue;
+            };
+            let prod = &plan.prods.prods[pi as usize];
+            if j + 1 == n {
+                // The last step: its successor goes straight out (a
+                // module rewritten to itself too: it would be a leaf).
+                let mut runs = inert_last[pi as usize].iter();
+                ch.successor(p, prod, rng, origin, pass, |piece| {
+                    let whole = runs.next().copied().flatten();
+                    match (piece, whole) {
+                        (Piece::Const(_), Some(c)) => out.constant(c)?,
+                        (Piece::Const(c), None) => {
+                            let mut bin = c.bin();
+                            while !bin.is_empty() {
+                                let (key, kl) = crate::rules::codec::get_key(bin);
+                                let a = al.arity(key);
+                                scratch.clear();
+                                scratch.extend(
+                                    (0..a).map(|i| crate::rules::codec::get_param(&bin[kl..], i)),
+                                );
+                                let m = (key, &mut scratch[..]);
+                                plan.leaf(m, al, origin, out, hch, hrng)?;
+                                bin = &bin[kl + 8 * a..];
+                            }
+                        }
+                        (Piece::Module(key, vals), _) => {
+                            scratch.clear();
+                            scratch.extend_from_slice(vals);
+                            let m = (key, &mut scratch[..]);
+                            plan.leaf(m, al, origin, out, hch, hrng)?;
+                        }
+                    }
+                    out.maybe_flush()
+                })?;
+                continue;
+            }
+            // Evaluate the successor into the next level.
+            let next = &mut next[0];
+            next.clear();
+            let mut inert = inert[pi as usize].iter();
+            ch.successor(p, prod, rng, origin, pass, |piece| {
+                let whole = inert.next().copied().flatten();
+                match (piece, whole) {
+                    (Piece::Const(_), Some(c)) => next.push_inert(c),
+                    (Piece::Const(c), None) => next.push_bin(c.bin(), al),
+                    (Piece::Module(key, vals), _) => next.modules.push(key, vals),
+                }
+                Ok(())
+            })?;
+            // A module rewritten to itself is a fixed point: the same
+            // production applies at every later step (the system draws
+            // no randomness), so it goes out as it is.
+            let same = next.modules.len() == 1
+                && k == next.modules.keys[0]
+                && p.iter()
+                    .zip(&next.modules.params)
+                    .all(|(a, b)| a.to_bits() == b.to_bits());
+            if same {
+                plan.leaf((k, p), al, origin, out, ch, rng)?;
+                out.maybe_flush()?;
+                continue;
+            }
+            j += 1;
+        }
+        Ok(())
     }
 }

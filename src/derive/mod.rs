@@ -4,13 +4,15 @@
 //!
 //! The step engine's parts: [`sink`] (output formats, bracket index,
 //! limits), [`reader`] (buffered pread readers), [`context`] (left contexts
-//! and the right-walker), [`bytetable`] (the D0L byte table).
+//! and the right-walker), [`bytetable`] (the D0L byte table). [`par`]
+//! splits either strategy between threads (`-j N`).
 
 pub(crate) mod bytetable;
 pub(crate) mod choose;
 pub(crate) mod context;
 pub mod dfs;
 pub mod meter;
+pub(crate) mod par;
 pub mod random;
 pub(crate) mod reader;
 pub mod sink;
@@ -21,6 +23,7 @@ pub use reader::PosReader;
 pub use sink::{Limits, Out};
 pub use step::Deriver;
 
+use crate::cpfg::run::When;
 use crate::diag::{CodeMap, Error, Location};
 use crate::io::axiom::AxiomReader;
 use crate::rules::System;
@@ -34,16 +37,27 @@ use std::sync::atomic::Ordering;
 pub struct Origin<'a> {
     pub path: &'a str,
     pub header: &'a str,
+    /// A cpfg file: offsets are in its preprocessed text.
+    pub map: Option<&'a crate::cpfg::preprocess::SourceMap>,
 }
 
 impl Origin<'_> {
     pub(crate) fn locate(&self, offset: usize) -> Location {
+        if let Some(map) = self.map {
+            return map.location(offset);
+        }
         Location::from_map(self.path, &CodeMap::new(self.header), offset)
     }
 
     /// A runtime error of an expression, in `pass`.
     pub(crate) fn eval_error(&self, e: crate::rules::expr::EvalError, pass: Pass) -> Error {
-        Error::at(self.locate(e.span.0), format!("{} (in {pass})", e.message))
+        Error::at(
+            self.locate(e.span.0),
+            crate::diag::RuntimeError::Eval {
+                error: e.kind,
+                pass,
+            },
+        )
     }
 }
 
@@ -97,6 +111,10 @@ pub(crate) struct Settings {
     /// system), when known: a string known in advance to be larger is
     /// refused before anything is written.
     pub space: Option<u64>,
+    /// Threads for one derivation (`-j`); 1 is the sequential engine.
+    pub threads: usize,
+    /// Tests: split into tasks this small (`par::test_split`).
+    pub split: Option<u64>,
 }
 
 /// Which generations `--frames A..B:K` writes: `from..=to`, every
@@ -168,7 +186,7 @@ fn tempfile(dir: &Option<PathBuf>) -> Result<File, Error> {
                 || std::env::temp_dir().display().to_string(),
                 |d| d.display().to_string(),
             ),
-            "cannot create a temporary file",
+            crate::diag::IoAction::CreateTemp,
             e,
         )
     })
@@ -182,21 +200,21 @@ fn sink<'a>(
     output: &'a mut dyn Write,
     out_name: &'a str,
     limits: Limits,
-    indexed: bool,
+    (indexed, counts): (bool, bool),
 ) -> Result<Out<'a>, Error> {
     Ok(match dst {
         Some(f) => {
             let index = if indexed {
                 Some(
                     f.try_clone()
-                        .map_err(|e| Error::io(tmp_name, "cannot write", e))?,
+                        .map_err(|e| Error::io(tmp_name, crate::diag::IoAction::Write, e))?,
                 )
             } else {
                 None
             };
             let out = Out::new(f, tmp_name, false, limits);
             match index {
-                Some(i) => out.with_index(i),
+                Some(i) => out.with_index(i).with_counts(counts),
                 None => out,
             }
         }
@@ -207,7 +225,7 @@ fn sink<'a>(
 fn rewind(f: &mut File) -> Result<(), Error> {
     f.set_len(0)
         .and_then(|_| f.seek(SeekFrom::Start(0)).map(|_| ()))
-        .map_err(|e| Error::io("temporary file", "cannot write", e))
+        .map_err(|e| Error::io("temporary file", crate::diag::IoAction::Write, e))
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -243,25 +261,52 @@ pub(crate) fn derive(
         hom_seed,
         warnings,
         step_hidden,
+        cpfg,
+        source_map,
         ..
     } = system;
     let hom = settings.homomorphism && !homomorphism.is_empty();
     // Right contexts skip branches in O(1) through a bracket index.
     let indexed = productions.has_right
+        || decomposition.as_ref().is_some_and(|(d, _)| d.has_right)
         || groups.iter().any(|(_, t)| t.has_right)
         || (hom && homomorphism.has_right);
     let pct = u32::from(b'%');
     let passes = steps + u64::from(hom);
     let strategy = settings.strategy;
-    let not_depth_first = || {
-        Error::usage(
-            "`--strategy dfs`: this system cannot be derived depth first with these options",
-        )
-    };
+    let not_depth_first = || Error::new(crate::diag::UsageError::NotDepthFirst);
     if strategy == Strategy::DepthFirst && (passes == 0 || frames.is_some()) {
         return Err(not_depth_first());
     }
-    let mut d = Deriver::new(alphabet, Random::new(seed), Origin { path, header });
+    // The cpfg dialect: cpfg's generators (README, "Coming from cpfg").
+    let rng = match &cpfg {
+        Some(c) => Random::cpfg(c.seed),
+        None => Random::new(seed),
+    };
+    let (mut productions, mut homomorphism, mut decomposition) =
+        (productions, homomorphism, decomposition);
+    if cpfg.is_some() {
+        // cpfg's right contexts (README, "Coming from cpfg").
+        productions.for_cpfg(&alphabet);
+        homomorphism.for_cpfg(&alphabet);
+        if let Some((t, _)) = &mut decomposition {
+            t.for_cpfg(&alphabet);
+        }
+    }
+    let mut d = Deriver::new(
+        alphabet,
+        rng,
+        Origin {
+            path,
+            header,
+            map: source_map.as_deref(),
+        },
+    );
+    d.cpfg_contexts = cpfg.is_some();
+    let is_cpfg = cpfg.is_some();
+    // Header blocks run every step: no fixed point.
+    let blocks = cpfg.as_ref().is_some_and(|c| c.has_blocks());
+    d.cpfg = cpfg;
     for span in step_hidden {
         crate::diag::warn(
             d.origin.locate(span.0),
@@ -270,8 +315,6 @@ pub(crate) fn derive(
     }
     d.hom_depth = hom_depth;
     d.warnings = warnings;
-    // A `%` that no production rewrites is a cut (docs/structural.md, section 5).
-    d.cut = true;
     let structural = !schedule.is_empty()
         || group_expr.is_some()
         || decomposition.is_some()
@@ -283,6 +326,11 @@ pub(crate) fn derive(
             .chain(std::iter::once(&homomorphism))
             .any(uses_step);
     d.decomp = decomposition;
+    // Can a step make a `%`? Then indexed generations also hold module
+    // counts, so a cut skips its branch in O(1) (an axiom's `%` alone cuts
+    // once, in step 1, by one scan of its branch).
+    let percent = makes_percent(&d, &productions, &groups);
+    d.counts = indexed && percent;
     let mut generation = |pass: Pass, (modules, bytes): (u64, u64)| {
         events(&Event::Generation {
             pass,
@@ -303,8 +351,11 @@ pub(crate) fn derive(
     } else {
         Some(tempfile(tmpdir)?)
     };
+    // cpfg's `Start:` runs before the axiom is read.
+    d.cpfg_block(When::Start, Pass::Axiom)?;
     {
-        let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, indexed)?;
+        let index = (indexed, d.counts);
+        let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, index)?;
         let mut params = Vec::new();
         loop {
             reader.plain_run(|run| {
@@ -330,8 +381,18 @@ pub(crate) fn derive(
     // Issue 11: groups, decomposition, homomorphism depth and cuts are
     // implemented by the step engine only; a `%` that can be a cut makes a
     // module's expansion depend on its neighbours.
-    let step_only = structural || makes_percent(&d, &productions, &groups) || axiom_cuts;
+    // A `%` that no production rewrites is a cut (docs/structural.md,
+    // section 5); the step engine looks for cuts only if a `%` can occur.
+    d.cut = axiom_cuts || percent;
+    // The cpfg dialect draws in string order from one sequential
+    // generator (`ran`, the stochastic choice): only step by step.
+    let step_only = structural || is_cpfg || d.cut;
     let strategy = if step_only {
+        if strategy == Strategy::DepthFirst && is_cpfg {
+            return Err(Error::usage(
+                "`--strategy dfs`: a cpfg (`.l`) file is derived step by step (cpfg's random draws and blocks run in string order)",
+            ));
+        }
         if strategy == Strategy::DepthFirst {
             return Err(not_depth_first());
         }
@@ -347,7 +408,8 @@ pub(crate) fn derive(
             schedule: &schedule,
             group_expr: group_expr.as_ref(),
             hom_seed,
-            fixed_points: !structural,
+            fixed_points: !structural && !blocks,
+            plain: !step_only,
         };
         let tables = (&tables, &homomorphism, hom);
         let names = (frame_sink, tmp_name.as_str());
@@ -381,14 +443,10 @@ pub(crate) fn derive(
                     Ok(n) if n != u64::MAX => format!("{} bytes", group_digits(n)),
                     _ => format!("more than {} bytes", group_digits(u64::MAX)),
                 };
-                let mut e = Error::new(format!(
-                    "the final string would be {size}, more than the {} bytes free on \
-                     its file system: nothing written (fewer steps; --max-length stops \
-                     any run early)",
-                    group_digits(space)
+                return Err(Error::about(
+                    out_name,
+                    crate::diag::RuntimeError::NoSpace { size, free: space },
                 ));
-                e.subject = Some(out_name.to_string());
-                return Err(e);
             }
         }
         if settings.lengths || limits.modules != u64::MAX || limits.bytes != u64::MAX {
@@ -410,7 +468,9 @@ pub(crate) fn derive(
             Pass::Step(step_no(steps))
         };
         let mut none = None;
-        let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?.for_pass(last);
+        let no_index = (false, false);
+        let mut out =
+            sink(&mut none, &tmp_name, output, out_name, limits, no_index)?.for_pass(last);
         plan.expand(src, &d.alphabet, steps, &mut out)?;
         return Ok(generation(last, out.finish()?));
     }
@@ -433,11 +493,22 @@ pub(crate) fn derive(
             m.depth_first.store(true, Ordering::Relaxed);
         }
         let mut none = None;
-        let mut out = sink(&mut none, &tmp_name, output, out_name, limits, false)?;
-        match plan
-            .expand(src, &d.alphabet, &d.origin, steps, &mut out)
-            .and_then(|()| out.finish())
-        {
+        let mut out = sink(
+            &mut none,
+            &tmp_name,
+            output,
+            out_name,
+            limits,
+            (false, false),
+        )?;
+        let threads = par::threads_for(settings.threads, steps, strategy);
+        let expanded = if threads > 1 {
+            let split = (threads, settings.split.or_else(par::test_split));
+            par::expand(&plan, src, &d.alphabet, &d.origin, steps, split, &mut out)
+        } else {
+            plan.expand(src, &d.alphabet, &d.origin, steps, &mut out)
+        };
+        match expanded.and_then(|()| out.finish()) {
             Ok(len) => {
                 let last = if hom {
                     Pass::Homomorphism
@@ -446,7 +517,7 @@ pub(crate) fn derive(
                 };
                 return Ok(generation(last, len));
             }
-            Err(e) if e.location.is_some() => depth_first_error = Some(e),
+            Err(e) if e.location().is_some() => depth_first_error = Some(e),
             Err(e) => return Err(e),
         }
     }
@@ -462,7 +533,8 @@ pub(crate) fn derive(
         schedule: &schedule,
         group_expr: group_expr.as_ref(),
         hom_seed,
-        fixed_points: !structural,
+        fixed_points: !structural && !blocks,
+        plain: !step_only,
     };
     let stepwise = step_passes(
         &mut d,
@@ -515,8 +587,9 @@ fn step_passes(
             let k = first_step + steps - 1;
             if let Some(s) = tables.hom_seed {
                 // The homomorphism's own key (its `seed:`); same stream
-                // and positions (docs/structural.md, section 8).
-                d.rng = Random::new(s);
+                // and positions (docs/structural.md, section 8). The last
+                // pass: nothing to restore.
+                d.rng.begin_homomorphism(s);
             }
             d.rng.start_pass(k, Region::Homomorphism);
             d.rng.set_step(k);
@@ -535,10 +608,35 @@ fn step_passes(
             })
         };
         let draws = d.rng.draws();
+        let mut drew = 0;
+        let step = matches!(pass, Pass::Step(_));
+        if step {
+            d.cpfg_block(When::StartEach, pass)?;
+        }
         {
-            let mut out =
-                sink(&mut dst, tmp_name, output, out_name, limits, indexed)?.for_pass(pass);
-            d.pass(table, &src, indexed, &mut out, pass)?;
+            let mut out = sink(
+                &mut dst,
+                tmp_name,
+                output,
+                out_name,
+                limits,
+                (indexed, d.counts),
+            )?
+            .for_pass(pass);
+            let limited = limits.modules != u64::MAX || limits.bytes != u64::MAX;
+            let split = settings.split.or_else(par::test_split);
+            let len = src.metadata().map_or(u64::MAX, |m| m.len());
+            let flags = (tables.plain, indexed, limited);
+            let threads = par::step_threads(settings.threads, table, flags, (len, split));
+            let split = (threads, split);
+            match (threads > 1)
+                .then(|| par::step_pass(d, table, &src, split, &mut out, pass))
+                .transpose()?
+                .flatten()
+            {
+                Some(n) => drew = n,
+                None => d.pass(table, &src, indexed, &mut out, pass)?,
+            }
             let (modules, bytes) = out.finish()?;
             events(&Event::Generation {
                 pass,
@@ -547,11 +645,19 @@ fn step_passes(
             });
             last_len = (modules, bytes);
         }
+        if step {
+            d.cpfg_block(When::EndEach, pass)?;
+            // `End:` after the last step, when the run reaches the file's
+            // derivation length (cpfg's end of derivation).
+            if i == steps && d.cpfg.as_ref().is_some_and(|c| i >= c.derivation_length) {
+                d.cpfg_block(When::End, pass)?;
+            }
+        }
         // A step that drew nothing and left the string as it was is a fixed
         // point: every later step does the same. Go on with the last pass
         // (the homomorphism, or the last step, which writes the text).
         let last = if hom { passes } else { steps };
-        if i < steps && last > i + 1 && d.rng.draws() == draws && tables.fixed_points {
+        if i < steps && last > i + 1 && d.rng.draws() == draws && drew == 0 && tables.fixed_points {
             if let Some(next) = &dst {
                 if same_contents(&src, next)? {
                     events(&Event::FixedPoint {
@@ -598,20 +704,18 @@ fn frame_passes(
     let mut emit = |d: &mut Deriver, gen: &File, k: u64| -> Result<(), Error> {
         last_len = sink_of_frames.frame(k, &mut |w, name| {
             let mut none = None;
-            let mut out = sink(&mut none, tmp_name, w, name, limits, false)?;
+            let mut out = sink(&mut none, tmp_name, w, name, limits, (false, false))?;
             if hom {
                 // The homomorphism of generation k, as `lsgen -n k` applies
                 // it: with its own `seed:`, a generator for this frame only.
                 let stream = first_step + k - 1;
-                let main = tables
-                    .hom_seed
-                    .map(|s| std::mem::replace(&mut d.rng, Random::new(s)));
+                let main = tables.hom_seed.map(|s| d.rng.begin_homomorphism(s));
                 d.rng.start_pass(stream, Region::Homomorphism);
                 d.rng.set_step(stream);
                 let mut out = out.for_pass(Pass::Homomorphism);
                 let r = d.pass(homomorphism, gen, indexed, &mut out, Pass::Homomorphism);
                 if let Some(main) = main {
-                    d.rng = main;
+                    d.rng.end_homomorphism(main);
                 }
                 r?;
                 out.finish()
@@ -652,10 +756,18 @@ fn frame_passes(
             }
             None => tempfile(tmpdir)?,
         });
+        d.cpfg_block(When::StartEach, pass)?;
         {
             let mut discard = io::sink();
-            let mut out =
-                sink(&mut dst, tmp_name, &mut discard, "", limits, indexed)?.for_pass(pass);
+            let mut out = sink(
+                &mut dst,
+                tmp_name,
+                &mut discard,
+                "",
+                limits,
+                (indexed, d.counts),
+            )?
+            .for_pass(pass);
             d.pass(table, &cur, indexed, &mut out, pass)?;
             let (modules, bytes) = out.finish()?;
             events(&Event::Generation {
@@ -663,6 +775,10 @@ fn frame_passes(
                 modules,
                 bytes,
             });
+        }
+        d.cpfg_block(When::EndEach, pass)?;
+        if i == frames.last() && d.cpfg.as_ref().is_some_and(|c| i >= c.derivation_length) {
+            d.cpfg_block(When::End, pass)?;
         }
         other = Some(std::mem::replace(&mut cur, dst.expect("a generation")));
         if frames.contains(i) {
@@ -682,6 +798,9 @@ struct Tables<'t> {
     /// A step that changed nothing means every later step changes
     /// nothing (not with groups, `step`, ...).
     fixed_points: bool,
+    /// No structural rewriting and no `%` (a pass may be split between
+    /// threads, `par::step_threads`).
+    plain: bool,
 }
 
 impl<'t> Tables<'t> {
@@ -695,19 +814,17 @@ impl<'t> Tables<'t> {
             if !(0.0..=65535.0).contains(&v) || v.fract() != 0.0 {
                 return Err(Error::at(
                     at,
-                    format!(
-                        "group: gives {} in step {step}, not a group number",
-                        crate::rules::codec::number_string(v)
-                    ),
+                    crate::diag::RuntimeError::GroupNotNumber { value: v, step },
                 ));
             }
             let g = v as u32;
             if g != 0 && !self.groups.iter().any(|(n, _)| *n == g) {
                 return Err(Error::at(
                     at,
-                    format!(
-                        "group: gives {g} in step {step}, but there is no `productions {g}:` section"
-                    ),
+                    crate::diag::RuntimeError::GroupMissing {
+                        group: g.into(),
+                        step,
+                    },
                 ));
             }
             g
@@ -767,7 +884,7 @@ fn makes_percent(
 /// Do two generation files hold the same bytes?
 fn same_contents(a: &File, b: &File) -> Result<bool, Error> {
     use std::os::unix::fs::FileExt;
-    let read_err = |e| Error::io("temporary file", "cannot read", e);
+    let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
     let len = a.metadata().map_err(read_err)?.len();
     if b.metadata().map_err(read_err)?.len() != len {
         return Ok(false);
@@ -791,7 +908,6 @@ fn same_contents(a: &File, b: &File) -> Result<bool, Error> {
 mod tests {
     use super::*;
     use crate::api::{LSystem, Options};
-    use crate::diag::Kind;
 
     fn run(src: &str, options: &Options) -> Result<(String, Vec<Event>), Error> {
         let mut ls = LSystem::parse(src)?;
@@ -851,11 +967,54 @@ mod tests {
         );
     }
 
+    /// Issue 11: with the bracket index (right contexts), a cut skips the
+    /// rest of its branch in constant time, and the modules after it keep
+    /// their draw positions (module indices of the old generation).
+    #[test]
+    fn a_cut_over_an_indexed_branch_does_not_scan_it() {
+        use crate::derive::step::CUT_SCANNED;
+        let n = 1_000_000;
+        let fs = "F".repeat(n);
+        let cs = "C".repeat(24);
+        let derive = |prods: &str, first: &str| {
+            CUT_SCANNED.with(|c| c.set(0));
+            let src = format!("productions:\n{prods}\naxiom: [{first}{fs}]B{cs}\n");
+            let (out, _) = run(&src, &Options::new().steps(1).seed(7)).unwrap();
+            (out, CUT_SCANNED.with(|c| c.get()))
+        };
+        // `Z -> %`: a step can make a `%` (Z never occurs), so indexed
+        // generations hold module counts.
+        let stochastic = "C -> E : 1\nC -> G : 1\nZ -> %";
+        // By hand: the `%` drops the F's, its `]` stays; B sees C.
+        let (out, scanned) = derive(&format!("B > C -> D\n{stochastic}"), "%");
+        assert_eq!(scanned, 0, "the cut walked the branch");
+        assert_eq!(&out[..3], "[]D");
+        // The C's draw as if the dropped modules were still there: as in
+        // the same string with an X (no cut) instead of the `%`. 24 fair
+        // draws: equal by chance once in 2^24.
+        let (whole, _) = derive(&format!("B > C -> D\n{stochastic}"), "X");
+        assert_eq!(whole, format!("[X{fs}]D{}", &out[3..]));
+        assert!(out[3..].contains('E') && out[3..].contains('G'));
+        // Without right contexts there is no index: the cut walks the
+        // branch (so the count above can fail), with the same result.
+        let (plain, scanned) = derive(&format!("B -> D\n{stochastic}"), "%");
+        assert_eq!(scanned, n as u64 + 1, "the F's and the `]`");
+        assert_eq!(plain, out);
+        // Nor when only the axiom has a `%` (no counts in the index).
+        let once = "B > C -> D\nC -> E : 1\nC -> G : 1";
+        let (plain, scanned) = derive(once, "%");
+        assert_eq!(scanned, n as u64 + 1);
+        assert_eq!(plain, out);
+    }
+
     #[test]
     fn depth_first_is_refused_where_it_does_not_apply() {
         let src = "productions:\nA < B -> A\naxiom: AB\n";
         let e = run(src, &Options::new().steps(2).strategy(Strategy::DepthFirst)).unwrap_err();
-        assert_eq!(e.kind, Kind::Usage);
+        assert!(matches!(
+            e.kind(),
+            crate::diag::ErrorKind::Usage(crate::diag::UsageError::NotDepthFirst)
+        ));
         let (out, _) = run(src, &Options::new().steps(2)).unwrap();
         assert_eq!(out, "AA\n");
     }

@@ -22,6 +22,7 @@
 //! generator's buffer is used in order; other jumps cost one
 //! `set_word_pos`.
 
+use crate::cpfg::random::CpfgRandom;
 use rand_chacha::rand_core::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -46,17 +47,35 @@ pub enum Region {
 pub trait Draw {
     /// Uniform in [0, 1): the top 53 bits of one draw / 2^53. An error
     /// message when the module has drawn too often.
-    fn uniform(&mut self) -> Result<f64, &'static str>;
+    fn uniform(&mut self) -> Result<f64, RandomError>;
     /// Normal deviate by Box-Muller from one draw: the high 32 bits give
     /// u1 in (0, 1], the low 32 bits u2 in [0, 1).
-    fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, &'static str>;
+    fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, RandomError>;
     /// The value of the built-in `step` (issue 11) where the expression
     /// compiler emitted it as such; a drawer that binds `step` as an
     /// ordinary parameter (the tests' reference) never reaches this.
     fn step(&self) -> f64 {
         0.0
     }
+    /// cpfg's `bran(a, b)`, `biran(n, p)` and `srand(x)` (issue 12): only
+    /// the cpfg dialect's generator has them.
+    fn bran(&mut self, _a: f64, _b: f64) -> Result<f64, &'static str> {
+        Err(CPFG_ONLY)
+    }
+    fn biran(&mut self, _n: f64, _p: f64) -> Result<f64, &'static str> {
+        Err(CPFG_ONLY)
+    }
+    fn srand(&mut self, _x: f64) -> Result<f64, &'static str> {
+        Err(CPFG_ONLY)
+    }
+    /// cpfg's global variable `i` (issue 12; 0 until assigned).
+    fn global(&self, _i: u32) -> f64 {
+        0.0
+    }
+    fn set_global(&mut self, _i: u32, _v: f64) {}
 }
+
+const CPFG_ONLY: &str = "bran, biran and srand are cpfg functions, only in `.l` files";
 
 /// The uniform value of a draw.
 #[inline]
@@ -73,10 +92,18 @@ pub fn normal_of(x: u64, mean: f64, sd: f64) -> f64 {
     mean + sd * z
 }
 
-pub const TOO_MANY_DRAWS: &str =
-    "more than 64 random draws for one module (the limit of the random scheme)";
-const TOO_MANY_MODULES: &str = "a generation of 2^59 modules or more cannot draw";
+pub use crate::diag::RandomError;
+pub const TOO_MANY_DRAWS: RandomError = RandomError::TooManyDraws;
+const TOO_MANY_MODULES: RandomError = RandomError::TooManyModules;
 
+/// What the homomorphism's `seed:` replaced.
+pub enum Saved {
+    Whole(Box<Random>),
+    /// cpfg's: the homomorphism's function generator runs beside the first.
+    Functions,
+}
+
+#[derive(Clone)]
 pub struct Random {
     rng: ChaCha8Rng,
     /// Draws made so far (a step that made none and left the string
@@ -92,6 +119,13 @@ pub struct Random {
     sequential: bool,
     /// The step number the built-in `step` reads (issue 11).
     step: f64,
+    /// The cpfg dialect's generators (issue 12): `ran`, `nran`, ... and
+    /// the stochastic choice draw from them, in string order, instead of
+    /// the draws by position.
+    cpfg: Option<Box<CpfgRandom>>,
+    /// cpfg's global variables (issue 12): the run's state that every
+    /// expression reads, kept here with the step number.
+    globals: Vec<f64>,
 }
 
 impl Random {
@@ -106,7 +140,62 @@ impl Random {
             pos: 0,
             sequential: false,
             step: 0.0,
+            cpfg: None,
+            globals: Vec::new(),
         }
+    }
+
+    /// cpfg's generators, for a file with `seed:` `seed` (None: no
+    /// `seed:`, weights are ignored).
+    pub fn cpfg(seed: Option<u64>) -> Random {
+        let mut r = Random::new(0);
+        r.cpfg = Some(Box::new(CpfgRandom::new(seed)));
+        r
+    }
+
+    /// The homomorphism's own `seed:` `seed` takes over: lsgen's key for
+    /// the pass, or in the cpfg dialect a function generator seeded as
+    /// `srand(seed)` seeds it, for the successors of the productions it
+    /// applies ([`CpfgRandom::begin_homomorphism`]). Give the result to
+    /// [`Random::end_homomorphism`] to go back.
+    pub fn begin_homomorphism(&mut self, seed: u64) -> Saved {
+        if let Some(c) = self.cpfg.as_deref_mut() {
+            c.begin_homomorphism(seed);
+            return Saved::Functions;
+        }
+        Saved::Whole(Box::new(std::mem::replace(self, Random::new(seed))))
+    }
+
+    /// Back to the generator before [`Random::begin_homomorphism`].
+    pub fn end_homomorphism(&mut self, saved: Saved) {
+        match saved {
+            Saved::Whole(r) => *self = *r,
+            Saved::Functions => {
+                if let Some(c) = self.cpfg.as_deref_mut() {
+                    c.end_homomorphism();
+                }
+            }
+        }
+    }
+
+    /// cpfg's generators, if this is the cpfg dialect's.
+    #[inline]
+    pub fn cpfg_mut(&mut self) -> Option<&mut CpfgRandom> {
+        self.cpfg.as_deref_mut()
+    }
+
+    /// The stochastic choice draw of the current module, for the cpfg
+    /// dialect's `SelectProd` (its choice generator, one draw per module
+    /// of the string in string order); None outside the cpfg dialect or
+    /// without `seed:`.
+    #[inline]
+    pub fn cpfg_choice(&mut self) -> Option<f64> {
+        let c = self.cpfg.as_deref_mut()?;
+        if !c.stochastic {
+            return None;
+        }
+        self.draws += 1;
+        Some(c.choice(self.module))
     }
 
     /// The value of the built-in `step` from now on.
@@ -124,6 +213,10 @@ impl Random {
 
     /// Start a pass: `stream` and `region` as in the module docs.
     pub fn start_pass(&mut self, stream: u64, region: Region) {
+        if self.cpfg.is_some() {
+            self.module = 0;
+            return;
+        }
         if self.rng.get_stream() != stream {
             self.rng.set_stream(stream);
             self.pos = u128::MAX;
@@ -165,7 +258,7 @@ impl Random {
 
     /// The next draw of the current module.
     #[inline]
-    fn next(&mut self) -> Result<u64, &'static str> {
+    fn next(&mut self) -> Result<u64, RandomError> {
         let p = if self.sequential {
             self.base + self.draw as u128
         } else {
@@ -196,18 +289,62 @@ impl Random {
 
 impl Draw for Random {
     #[inline]
-    fn uniform(&mut self) -> Result<f64, &'static str> {
+    fn uniform(&mut self) -> Result<f64, RandomError> {
+        if let Some(c) = self.cpfg.as_deref_mut() {
+            self.draws += 1;
+            return Ok(c.ran(1.0));
+        }
         self.next().map(uniform_of)
     }
 
     #[inline]
-    fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, &'static str> {
+    fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, RandomError> {
+        if let Some(c) = self.cpfg.as_deref_mut() {
+            self.draws += 1;
+            return Ok(c.nran(mean, sd));
+        }
         self.next().map(|x| normal_of(x, mean, sd))
+    }
+
+    fn bran(&mut self, a: f64, b: f64) -> Result<f64, &'static str> {
+        let c = self.cpfg.as_deref_mut().ok_or(CPFG_ONLY)?;
+        self.draws += 1;
+        c.bran(a, b)
+    }
+
+    fn biran(&mut self, n: f64, p: f64) -> Result<f64, &'static str> {
+        let c = self.cpfg.as_deref_mut().ok_or(CPFG_ONLY)?;
+        self.draws += 1;
+        // C's (int) conversion: toward zero.
+        c.biran(n.trunc(), p)
+    }
+
+    fn srand(&mut self, x: f64) -> Result<f64, &'static str> {
+        let c = self.cpfg.as_deref_mut().ok_or(CPFG_ONLY)?;
+        if !x.is_finite() {
+            return Err("srand() needs a finite number");
+        }
+        // cpfg converts to an int (toward zero) and keeps 32 bits.
+        c.srand(x.trunc() as i64);
+        Ok(0.0)
     }
 
     #[inline]
     fn step(&self) -> f64 {
         self.step
+    }
+
+    #[inline]
+    fn global(&self, i: u32) -> f64 {
+        self.globals.get(i as usize).copied().unwrap_or(0.0)
+    }
+
+    fn set_global(&mut self, i: u32, v: f64) {
+        let i = i as usize;
+        if self.globals.len() <= i {
+            self.globals.resize(i + 1, 0.0);
+        }
+        self.globals[i] = v;
     }
 }
 

@@ -2,7 +2,7 @@
 //! main reader and the look-ahead reader of right contexts share one file.
 
 use super::context::skip_branch;
-use crate::rules::codec::{self, MAX_MODULE_BYTES};
+use crate::rules::codec::{self, ENDS_BYTES, INDEX_BYTES, MAX_MODULE_BYTES};
 use crate::rules::Alphabet;
 use std::fs::File;
 use std::io;
@@ -13,6 +13,8 @@ pub struct PosReader<'f> {
     file: &'f File,
     /// The file has a bracket index (see [`Out::with_index`]).
     pub(crate) indexed: bool,
+    /// Bytes of a `[`: 1, or with the index 1 + its index bytes.
+    open_len: usize,
     pub(crate) buf: Vec<u8>,
     /// File offset of `buf[0]`.
     start: u64,
@@ -35,6 +37,7 @@ impl<'f> PosReader<'f> {
         PosReader {
             file,
             indexed,
+            open_len: if indexed { 1 + ENDS_BYTES } else { 1 },
             buf: vec![0; capacity.max(2 * MAX_MODULE_BYTES)],
             start: 0,
             pos: 0,
@@ -43,9 +46,32 @@ impl<'f> PosReader<'f> {
         }
     }
 
+    /// The index also holds module counts (see [`Out::with_counts`]).
+    pub(crate) fn with_counts(mut self, counts: bool) -> Self {
+        if self.indexed && counts {
+            self.open_len = 1 + INDEX_BYTES;
+        }
+        self
+    }
+
+    /// Bytes of a `[` in this generation.
+    #[inline]
+    pub(crate) fn open_len(&self) -> usize {
+        self.open_len
+    }
+
     #[inline]
     pub fn offset(&self) -> u64 {
         self.start + self.pos as u64
+    }
+
+    /// Read only the bytes `start..end` of the file (a chunk of a
+    /// generation, `super::par`), as if they were all of it.
+    pub(crate) fn limit(&mut self, start: u64, end: u64) {
+        self.eof = self.eof.min(end);
+        self.start = start;
+        self.pos = 0;
+        self.end = 0;
     }
 
     /// Move to file offset `off`, keeping the buffer if it covers `off`.
@@ -69,10 +95,14 @@ impl<'f> PosReader<'f> {
         self.start += self.pos as u64;
         self.end -= self.pos;
         self.pos = 0;
-        while self.end < self.buf.len() && self.start + (self.end as u64) < self.eof {
+        // Never past `eof`: a reader limited to a range (`limit`) must not
+        // see the bytes after it.
+        let room = usize::try_from(self.eof - self.start)
+            .map_or(self.buf.len(), |r| r.min(self.buf.len()));
+        while self.end < room {
             let n = match self
                 .file
-                .read_at(&mut self.buf[self.end..], self.start + self.end as u64)
+                .read_at(&mut self.buf[self.end..room], self.start + self.end as u64)
             {
                 Ok(n) => n,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
@@ -100,7 +130,7 @@ impl<'f> PosReader<'f> {
         let s = self.pos;
         let b = self.buf[s];
         if b < 0x80 {
-            let n = if b == b'[' && self.indexed { 9 } else { 1 };
+            let n = if b == b'[' { self.open_len } else { 1 };
             self.pos += n;
             return Ok(Some((b as u32, s, s + n)));
         }
@@ -127,6 +157,15 @@ impl<'f> PosReader<'f> {
     #[inline]
     pub fn bytes(&self, s: usize, e: usize) -> &[u8] {
         &self.buf[s..e]
+    }
+
+    /// For a `[` read at `s` of a generation indexed with counts: the
+    /// offset just past its `]` and the number of modules of its branch,
+    /// brackets included.
+    #[inline]
+    pub(crate) fn branch_index(&self, s: usize) -> (u64, u64) {
+        let word = |i: usize| u64::from_le_bytes(self.buf[i..i + 8].try_into().unwrap());
+        (word(s + 1), word(s + 9))
     }
 
     /// For a `[` read at `s` (next module at `next`): the offset just past

@@ -3,8 +3,8 @@
 //! bytes against `--max-length`.
 
 use super::Pass;
-use crate::diag::Error;
-use crate::rules::codec::{self, MAX_MODULE_BYTES};
+use crate::diag::{Error, LengthUnit, RuntimeError};
+use crate::rules::codec::{self, ENDS_BYTES, INDEX_BYTES, MAX_MODULE_BYTES};
 use crate::rules::{Alphabet, ConstRun, CLOSE, OPEN};
 use std::fs::File;
 use std::io::Write;
@@ -27,16 +27,18 @@ impl Limits {
     /// `pass`, too long?
     pub fn check(&self, modules: u64, bytes: u64, pass: Pass) -> Result<(), Error> {
         if modules > self.modules {
-            return Err(Error::new(format!(
-                "the string grew past --max-length ({} modules) in {pass}",
-                self.modules
-            )));
+            return Err(Error::new(RuntimeError::TooLong {
+                limit: self.modules,
+                unit: LengthUnit::Modules,
+                pass,
+            }));
         }
         if bytes > self.bytes {
-            return Err(Error::new(format!(
-                "the string grew past --max-length ({} bytes) in {pass}",
-                self.bytes
-            )));
+            return Err(Error::new(RuntimeError::TooLong {
+                limit: self.bytes,
+                unit: LengthUnit::Bytes,
+                pass,
+            }));
         }
         Ok(())
     }
@@ -80,7 +82,10 @@ pub struct Out<'w> {
     /// Bracket index mode: each `[` carries the offset just past its `]`,
     /// patched in the buffer or, once flushed, in `file`.
     pub(crate) indexed: Option<File>,
-    opens: Vec<u64>,
+    /// Each open `[`: its offset, and the modules written before it.
+    opens: Vec<(u64, u64)>,
+    /// The index also holds each branch's module count.
+    counts: bool,
     name: &'w str,
     pub text: bool,
     pub(crate) modules: u64,
@@ -91,6 +96,9 @@ pub struct Out<'w> {
     pass: Pass,
     /// A progress display's meter, if one is installed.
     meter: Option<std::sync::Arc<super::meter::Meter>>,
+    /// Flush when the buffer holds this much (`OUT_CHUNK`; less for the
+    /// blocks of parallel tasks, `super::par`).
+    pub(crate) chunk: usize,
 }
 
 impl<'w> Out<'w> {
@@ -100,6 +108,7 @@ impl<'w> Out<'w> {
             w,
             indexed: None,
             opens: Vec::new(),
+            counts: false,
             name,
             text,
             modules: 0,
@@ -108,6 +117,7 @@ impl<'w> Out<'w> {
             limits,
             pass: Pass::Axiom,
             meter: super::meter::current(),
+            chunk: OUT_CHUNK,
         }
     }
 
@@ -123,42 +133,88 @@ impl<'w> Out<'w> {
         self
     }
 
-    #[inline]
+    /// With a bracket index, also write each branch's module count (see
+    /// [`codec::INDEX_BYTES`]).
+    pub fn with_counts(mut self, counts: bool) -> Self {
+        self.counts = counts;
+        self
+    }
+
+    /// Index bytes after each `[`.
+    #[inline(always)]
+    fn index_len(&self) -> usize {
+        if self.counts {
+            INDEX_BYTES
+        } else {
+            ENDS_BYTES
+        }
+    }
+
+    /// Write a `[` (already counted in `modules`).
+    #[inline(always)]
     pub(crate) fn open(&mut self) {
+        self.open_after(self.modules - 1);
+    }
+
+    /// Write a `]` (already counted in `modules`).
+    #[inline(always)]
+    pub(crate) fn close(&mut self) -> Result<(), Error> {
+        self.close_after(self.modules)
+    }
+
+    /// Write a `[` with `before` modules before it.
+    #[inline(always)]
+    fn open_after(&mut self, before: u64) {
         if self.indexed.is_some() {
-            self.opens.push(self.written + self.buf.len() as u64);
+            self.opens
+                .push((self.written + self.buf.len() as u64, before));
             self.buf.push(b'[');
-            self.buf.extend_from_slice(&[0; 8]);
+            // (Fixed-size copies: no call to memcpy.)
+            if self.counts {
+                self.buf.extend_from_slice(&[0; INDEX_BYTES]);
+            } else {
+                self.buf.extend_from_slice(&[0; ENDS_BYTES]);
+            }
         } else {
             self.buf.push(b'[');
         }
     }
 
-    #[inline]
-    pub(crate) fn close(&mut self) -> Result<(), Error> {
+    /// Write a `]`, the last of `through` modules.
+    #[inline(always)]
+    fn close_after(&mut self, through: u64) -> Result<(), Error> {
         self.buf.push(b']');
         if self.indexed.is_some() {
             let end = self.written + self.buf.len() as u64;
-            self.patch(end)?;
+            self.patch(end, through)?;
         }
         Ok(())
     }
 
-    /// The `]` ending just before offset `end` closes the last open `[`:
-    /// write `end` into that `[`'s index bytes, in the buffer or, once
-    /// flushed, in the file.
+    /// The `]` ending just before offset `end`, with `modules` modules
+    /// written up to it, closes the last open `[`: write `end` and the
+    /// branch's module count into that `[`'s index bytes, in the buffer
+    /// or, once flushed, in the file.
     #[inline]
-    pub(crate) fn patch(&mut self, end: u64) -> Result<(), Error> {
-        let Some(at) = self.opens.pop() else {
+    pub(crate) fn patch(&mut self, end: u64, modules: u64) -> Result<(), Error> {
+        let Some((at, before)) = self.opens.pop() else {
             return Ok(()); // unbalanced: reported by the balance check
         };
-        let end = end.to_le_bytes();
+        let mut index = [0; INDEX_BYTES];
+        index[..8].copy_from_slice(&end.to_le_bytes());
+        index[8..].copy_from_slice(&(modules - before).to_le_bytes());
         if at >= self.written {
             let i = (at - self.written) as usize + 1;
-            self.buf[i..i + 8].copy_from_slice(&end);
+            // (Fixed-size copies: no call to memcpy.)
+            if self.counts {
+                self.buf[i..i + INDEX_BYTES].copy_from_slice(&index);
+            } else {
+                self.buf[i..i + ENDS_BYTES].copy_from_slice(&index[..ENDS_BYTES]);
+            }
         } else if let Some(file) = &self.indexed {
-            file.write_all_at(&end, at + 1)
-                .map_err(|e| Error::io(self.name, "cannot write", e))?;
+            let index = &index[..self.index_len()];
+            file.write_all_at(index, at + 1)
+                .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
         }
         Ok(())
     }
@@ -212,11 +268,12 @@ impl<'w> Out<'w> {
             self.buf.extend_from_slice(run);
             return Ok(());
         }
+        let start = self.modules;
         self.modules += run.len() as u64;
-        for &b in run {
+        for (i, &b) in run.iter().enumerate() {
             match b {
-                b'[' => self.open(),
-                b']' => self.close()?,
+                b'[' => self.open_after(start + i as u64),
+                b']' => self.close_after(start + i as u64 + 1)?,
                 _ => self.buf.push(b),
             }
         }
@@ -232,14 +289,39 @@ impl<'w> Out<'w> {
             self.buf.extend_from_slice(c.bin());
         } else {
             let base = self.buf.len();
-            self.buf.extend_from_slice(c.ibin());
-            for (at, open) in c.brackets() {
-                let abs = self.written + (base + at as usize) as u64;
+            let start = self.modules - c.modules();
+            let ibin = c.ibin();
+            // Without counts, each `[` of `ibin` has bytes to leave out.
+            let extra = INDEX_BYTES - self.index_len();
+            if extra == 0 {
+                self.buf.extend_from_slice(ibin);
+            }
+            let mut copied = 0;
+            let mut dropped = 0;
+            for (at, open, before) in c.brackets() {
+                let at = at as usize;
+                let abs = self.written + (base + at - dropped) as u64;
+                let before = start + before;
                 if open {
-                    self.opens.push(abs);
+                    if extra > 0 {
+                        let keep = at + 1 + ENDS_BYTES;
+                        self.buf.extend_from_slice(&ibin[copied..keep]);
+                        copied = keep + extra;
+                        dropped += extra;
+                    }
+                    self.opens.push((abs, before));
                 } else {
-                    self.patch(abs + 1)?;
+                    if extra > 0 {
+                        // The `]` and what precedes it: the patch below may
+                        // write into this run's own `[`.
+                        self.buf.extend_from_slice(&ibin[copied..at + 1]);
+                        copied = at + 1;
+                    }
+                    self.patch(abs + 1, before + 1)?;
                 }
+            }
+            if extra > 0 {
+                self.buf.extend_from_slice(&ibin[copied..]);
             }
         }
         Ok(())
@@ -262,7 +344,7 @@ impl<'w> Out<'w> {
 
     #[inline]
     pub fn maybe_flush(&mut self) -> Result<(), Error> {
-        if self.buf.len() >= OUT_CHUNK {
+        if self.buf.len() >= self.chunk {
             self.flush()?;
         }
         Ok(())
@@ -280,7 +362,7 @@ impl<'w> Out<'w> {
             .check(self.modules, self.written - uncounted, self.pass)?;
         self.w
             .write_all(&self.buf)
-            .map_err(|e| Error::io(self.name, "cannot write", e))?;
+            .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
         self.buf.clear();
         if let Some(m) = &self.meter {
             m.record(self.modules, self.written);
@@ -298,7 +380,7 @@ impl<'w> Out<'w> {
         self.flush_but(newline)?;
         self.w
             .flush()
-            .map_err(|e| Error::io(self.name, "cannot write", e))?;
+            .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
         Ok((self.modules, self.written - newline))
     }
 }
@@ -355,6 +437,74 @@ mod tests {
         }
     }
 
+    /// Issue 11: every way of writing a `[` (plain runs, precompiled
+    /// successors, single modules; in the buffer or patched in the file)
+    /// leaves the offset past its `]` and, with counts, its branch's
+    /// module count in the index, as a scan of the written string finds
+    /// them.
+    #[test]
+    fn the_index_counts_each_branchs_modules() {
+        use crate::lang::parse::parse_header;
+        use crate::rules::{compile, Item};
+        let mut sys =
+            compile(&parse_header("productions:\nF -> F(1)[+F[G]]H[]\n").unwrap()).unwrap();
+        let Item::Const(c) = &sys.productions.prods[0].succ[0] else {
+            panic!("a precompiled successor")
+        };
+        let c = c.clone();
+        let al = &mut sys.alphabet;
+        let x = al.intern('X', 1).unwrap();
+        for (filler, counts) in [1usize, OUT_CHUNK + 10]
+            .into_iter()
+            .flat_map(|f| [(f, false), (f, true)])
+        {
+            let mut file = tempfile::tempfile().unwrap();
+            let index = file.try_clone().unwrap();
+            let mut out = Out::new(&mut file, "tmp", false, Limits::default())
+                .with_index(index)
+                .with_counts(counts);
+            out.plain(b"A[B").unwrap();
+            out.constant(&c).unwrap();
+            out.module(OPEN, &[], al).unwrap();
+            out.module(x, &[2.0], al).unwrap();
+            for _ in 0..filler {
+                out.plain(b"C").unwrap();
+                out.maybe_flush().unwrap();
+            }
+            out.constant(&c).unwrap();
+            out.raw(CLOSE, b"]", al).unwrap();
+            out.plain(b"]D").unwrap();
+            out.finish().unwrap();
+            let mut bin = Vec::new();
+            file.rewind().unwrap();
+            file.read_to_end(&mut bin).unwrap();
+            // Scan: (offset, modules before) of each open `[`.
+            let (mut i, mut modules, mut open, mut checked) = (0, 0u64, Vec::new(), 0);
+            while i < bin.len() {
+                let (key, kl) = codec::get_key(&bin[i..]);
+                modules += 1;
+                if key == OPEN {
+                    open.push((i, modules - 1));
+                    i += 1 + if counts { INDEX_BYTES } else { ENDS_BYTES };
+                    continue;
+                }
+                i += kl + 8 * al.arity(key);
+                if key == CLOSE {
+                    let (at, before) = open.pop().unwrap();
+                    let word = |j: usize| u64::from_le_bytes(bin[j..j + 8].try_into().unwrap());
+                    assert_eq!(word(at + 1), i as u64, "filler {filler}, counts {counts}");
+                    if counts {
+                        assert_eq!(word(at + 9), modules - before, "filler {filler}");
+                    }
+                    checked += 1;
+                }
+            }
+            assert!(open.is_empty());
+            // `A[B...]D` and `[X...]`, and 3 in each successor.
+            assert_eq!(checked, 2 + 2 * 3);
+        }
+    }
+
     #[test]
     fn limits_name_the_pass() {
         let mut v = Vec::new();
@@ -366,7 +516,7 @@ mod tests {
         out.plain(b"ABCD").unwrap();
         let e = out.finish().unwrap_err();
         assert_eq!(
-            e.message,
+            e.message(),
             "the string grew past --max-length (3 modules) in step 7"
         );
         let lengths = [(1, 1), (2, 20), (3, 3)];
@@ -376,7 +526,11 @@ mod tests {
         };
         // Generation 2 is binary: its 20 bytes count.
         let e = bytes.check_generations(&lengths, true).unwrap_err();
-        assert!(e.message.ends_with("(10 bytes) in step 2"), "{}", e.message);
+        assert!(
+            e.message().ends_with("(10 bytes) in step 2"),
+            "{}",
+            e.message()
+        );
         // The last (text) generation's bytes are checked as written.
         assert!(bytes.check_generations(&[(1, 1), (2, 20)], true).is_ok());
     }

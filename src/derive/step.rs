@@ -10,14 +10,16 @@
 
 use super::bytetable::ByteTable;
 use super::choose::{Chooser, Piece};
-use super::context::{match_right, walk_right, Chains, LeftContext, RightCache, Walk};
+use super::context::{
+    match_right, match_right_cpfg, walk_right, Chains, CpfgBrackets, LeftContext, RightCache, Walk,
+};
 use super::reader::PosReader;
 use super::sink::Out;
 use super::{Origin, Pass};
 use crate::derive::random::Random;
 use crate::diag::Error;
 use crate::rules::codec::{self, Modules};
-use crate::rules::{Alphabet, KeyRules, Production, RPat, Table, CLOSE, OPEN};
+use crate::rules::{Alphabet, KeyRules, Pat, Production, RPat, Table, CLOSE, OPEN};
 use std::cell::Cell;
 use std::fs::File;
 use std::io;
@@ -35,11 +37,21 @@ pub struct Deriver<'a> {
     pub decomp: Option<(Table, usize)>,
     pub hom_depth: usize,
     pub cut: bool,
+    /// Indexed generations also hold module counts (see
+    /// [`Out::with_counts`]): set when the steps can cut.
+    pub counts: bool,
+    /// Right contexts follow cpfg's rules (a `.l` file, issue 12).
+    pub cpfg_contexts: bool,
+    /// A `.l` file's header blocks (issue 12).
+    pub cpfg: Option<Box<crate::cpfg::run::CpfgRun>>,
     /// `warnings` on the decomposition / homomorphism section, and whether
     /// each has warned (once per run).
     pub warnings: [bool; 2],
     warned: [Cell<bool>; 2],
     rc: Recur,
+    /// Rewrite only the bytes `start..end` of the generation, whose first
+    /// module has index `first` (a chunk, `super::par`).
+    pub(crate) range: Option<(u64, u64, u64)>,
 }
 
 /// Recursive rewriting (decomposition, homomorphism depth): one chooser,
@@ -238,8 +250,16 @@ fn fill_level(
     r
 }
 
+#[cfg(test)]
+thread_local! {
+    /// Modules a cut walked over one by one (tests).
+    pub(crate) static CUT_SCANNED: Cell<u64> = const { Cell::new(0) };
+}
+
 struct StepState<'f> {
     peek: Option<PosReader<'f>>,
+    /// cpfg's right-context rules (a `.l` file), chosen once per pass.
+    cpfg: Option<CpfgBrackets>,
     right: RightCache,
     max_right_simple: usize,
     left: Option<LeftContext>,
@@ -248,18 +268,70 @@ struct StepState<'f> {
     /// right context may start there. Keeps right contexts over long
     /// ignored runs linear.
     skip: (u64, u64),
+    /// The ignored run of `skip` ends at a `[`: only then can a walk
+    /// over whole branches go further (see [`Chains`]).
+    skip_open: bool,
+    /// The module end `right` was last looked up for: the productions
+    /// tried on one module share one look-up.
+    right_end: u64,
+    /// Some ignored module asks for a right context: then walks
+    /// from inside one stretch of ignored modules and branches repeat, and
+    /// `skip` and `chains` keep them linear. Otherwise only considered
+    /// modules start walks, each stretch is walked by at most
+    /// `max_right_simple` of them, and a plain walk is cheaper.
+    memo: bool,
     /// Where walks over ignored modules and branches ended, per level.
     chains: Chains,
     /// Nesting level of the input at the current module.
     level: i64,
+    /// With cuts over an indexed generation: for each open branch of the
+    /// input, the offset just past its `]` and that `]`'s module index, so
+    /// a cut skips the rest of the branch in constant time.
+    branches: Option<Vec<(u64, u64)>>,
     depth: i64,
     /// Productions that last opened or closed more than they matched, to
     /// blame for unbalanced output.
     last_opener: Option<u32>,
     last_closer: Option<u32>,
+    /// A production with a predecessor of several modules (cpfg dialect)
+    /// was applied: the old string's modules up to this offset are its.
+    run_end: Option<u64>,
 }
 
 impl StepState<'_> {
+    /// Do the modules right after the one ending at `end_off` match `rest`,
+    /// one after the other (the rest of a predecessor of several modules,
+    /// cpfg's rule: no module passed over)? Binds their parameters; returns
+    /// where the run ends.
+    fn match_run(
+        &mut self,
+        end_off: u64,
+        rest: &[Pat],
+        al: &Alphabet,
+        slots: &mut [f64],
+    ) -> Result<Option<u64>, Error> {
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
+        let peek = self
+            .peek
+            .as_mut()
+            .expect("a look-ahead reader for predecessors of several modules");
+        let mut pos = end_off;
+        for pat in rest {
+            peek.seek(pos);
+            let Some((k, s, e)) = peek.next_module(al).map_err(read_err)? else {
+                return Ok(None);
+            };
+            if k != pat.key {
+                return Ok(None);
+            }
+            let n = al.arity(k);
+            let at = pat.slot as usize;
+            codec::read_params(peek.bytes(s, e), &mut slots[at..at + n]);
+            pos = peek.offset();
+        }
+        Ok(Some(pos))
+    }
+
     /// Where the right context of the module ending at `end_off` starts:
     /// past the ignored modules that follow it. Each ignored run is read
     /// once per pass, however many of its modules ask.
@@ -272,10 +344,12 @@ impl StepState<'_> {
             .peek
             .as_mut()
             .expect("a look-ahead reader for right contexts");
-        let pos = match walk_right(peek, al, end_off, false)? {
-            Walk::Module { at, .. } | Walk::Stop { at, .. } => at,
+        let (pos, open) = match walk_right(peek, al, end_off, false)? {
+            Walk::Module { at, .. } => (at, false),
+            Walk::Stop { at, open } => (at, open),
         };
         self.skip = (end_off, pos);
+        self.skip_open = open;
         Ok(pos)
     }
 
@@ -286,6 +360,11 @@ impl StepState<'_> {
     #[inline]
     fn level_start(&mut self, end_off: u64, al: &Alphabet) -> io::Result<u64> {
         let start = self.right_start(end_off, al)?;
+        if !self.skip_open {
+            // A considered module, a `]` or the end: no branch to pass
+            // over, the walk over branches would stop where it starts.
+            return Ok(start);
+        }
         let level = self.level();
         let peek = self
             .peek
@@ -302,20 +381,33 @@ impl StepState<'_> {
 
     /// The next considered modules right of the module ending at `end_off`
     /// (read once per module).
-    #[inline]
+    #[inline(always)]
     fn right_of(&mut self, end_off: u64, al: &Alphabet) -> Result<&RightCache, Error> {
-        let read_err = |e| Error::io("temporary file", "cannot read", e);
-        let start = self.level_start(end_off, al).map_err(read_err)?;
+        if self.right_end != end_off {
+            self.look_right(end_off, al)
+                .map_err(|e| Error::io("temporary file", crate::diag::IoAction::Read, e))?;
+        }
+        Ok(&self.right)
+    }
+
+    /// Fill `right` for the module ending at `end_off`.
+    #[inline(never)]
+    fn look_right(&mut self, end_off: u64, al: &Alphabet) -> io::Result<()> {
+        self.right_end = u64::MAX;
+        let start = if self.memo {
+            self.level_start(end_off, al)?
+        } else {
+            end_off
+        };
         if self.right.at != start {
             let peek = self
                 .peek
                 .as_mut()
                 .expect("a look-ahead reader for right contexts");
-            self.right
-                .fill(peek, al, start, self.max_right_simple)
-                .map_err(read_err)?;
+            self.right.fill(peek, al, start, self.max_right_simple)?;
         }
-        Ok(&self.right)
+        self.right_end = end_off;
+        Ok(())
     }
 }
 
@@ -330,10 +422,38 @@ impl<'a> Deriver<'a> {
             decomp: None,
             hom_depth: 1,
             cut: false,
+            counts: false,
+            cpfg_contexts: false,
+            cpfg: None,
             warnings: [false; 2],
             warned: [Cell::new(false), Cell::new(false)],
-            rc: Recur::default(),
+            rc: Recur {
+                chooser: Chooser::nested(),
+                ..Recur::default()
+            },
+            range: None,
         }
+    }
+
+    /// Run a `.l` file's header block `which` (its errors located in
+    /// `pass`); nothing for other files.
+    pub fn cpfg_block(&mut self, which: crate::cpfg::run::When, pass: Pass) -> Result<(), Error> {
+        use crate::cpfg::run::When;
+        let Some(c) = &self.cpfg else {
+            return Ok(());
+        };
+        c.run(which, &mut self.rng).map_err(|e| {
+            let block = match which {
+                When::Start => "`Start:`".to_string(),
+                When::StartEach => format!("`StartEach:` before {pass}"),
+                When::EndEach => format!("`EndEach:` after {pass}"),
+                When::End => "`End:`".to_string(),
+            };
+            crate::diag::Error::at(
+                self.origin.locate(e.span.0),
+                format!("{} (in {block})", e.message()),
+            )
+        })
     }
 
     /// One pass: rewrite the generation in `input` into `out`.
@@ -381,24 +501,47 @@ impl<'a> Deriver<'a> {
         } else {
             1
         };
+        // Decomposition contexts (cpfg dialect) are read in the same string,
+        // around the predecessor.
+        let d = decomp.map(|(d, _)| d);
         let mut st = StepState {
-            peek: table
-                .has_right
-                .then(|| PosReader::new(input, 1 << 16, indexed)),
+            peek: (table.has_right || table.has_multi || d.is_some_and(|d| d.has_right))
+                .then(|| PosReader::new(input, 1 << 16, indexed).with_counts(self.counts)),
+            cpfg: self.cpfg_contexts.then(|| CpfgBrackets::of(&self.alphabet)),
             right: RightCache::new(),
-            max_right_simple: table.max_right_simple,
-            left: (table.max_left > 0).then(|| LeftContext::new(table, &self.alphabet)),
+            max_right_simple: table
+                .max_right_simple
+                .max(d.map_or(0, |d| d.max_right_simple)),
+            left: (table.max_left > 0 || d.is_some_and(|d| d.max_left > 0)).then(|| {
+                let mut ts = vec![table];
+                ts.extend(d);
+                LeftContext::new_for(&ts, &self.alphabet)
+            }),
             depth: 0,
             skip: (u64::MAX, 0),
+            skip_open: false,
+            right_end: u64::MAX,
+            memo: table
+                .prods
+                .iter()
+                .chain(d.iter().flat_map(|d| d.prods.iter()))
+                .any(|p| !p.right.is_empty() && self.alphabet.ignored(p.key)),
             chains: Chains::default(),
             level: 0,
+            branches: (cut && indexed && self.counts).then(Vec::new),
             last_opener: None,
             last_closer: None,
+            run_end: None,
         };
-        let mut rd = PosReader::new(input, 1 << 20, indexed);
+        let mut rd = PosReader::new(input, 1 << 20, indexed).with_counts(self.counts);
+        let open_len = rd.open_len();
         // The index of the module being rewritten, for the random draws.
         let mut index: u64 = 0;
-        let read_err = |e| Error::io("temporary file", "cannot read", e);
+        if let Some((start, end, first)) = self.range {
+            rd.limit(start, end);
+            index = first;
+        }
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         // Bytes that need no decision take the table; with contexts, keys
         // that have context productions and brackets still go the long way.
         let hom_rec = pass == Pass::Homomorphism && (hom_depth > 1 || self.warnings[1]);
@@ -410,6 +553,10 @@ impl<'a> Deriver<'a> {
             );
             if cut {
                 t.general(b'%');
+                if st.branches.is_some() {
+                    // The general path keeps `branches`.
+                    t.brackets_general();
+                }
             }
             t
         });
@@ -421,7 +568,7 @@ impl<'a> Deriver<'a> {
                     out,
                     st.left.as_mut(),
                     &self.alphabet,
-                    indexed,
+                    open_len,
                     &mut st.level,
                 )?;
                 rd.advance(used);
@@ -469,6 +616,8 @@ impl<'a> Deriver<'a> {
                         };
                         let lv = std::mem::take(&mut self.rc.levels[0]);
                         let (_, params) = lv.get(0, n);
+                        let al = &self.alphabet;
+                        let st = &mut st;
                         let r = try_rewrite(
                             &mut self.rc,
                             &cx,
@@ -476,7 +625,11 @@ impl<'a> Deriver<'a> {
                             key,
                             params,
                             &mut self.rng,
-                            &mut |_, _| Ok(true),
+                            &mut |p, slots| {
+                                let last = st.left.as_ref().map(|l| l.last_key());
+                                Ok(!surely_not(p, last, end_off, st, al)?
+                                    && contexts_match(p, end_off, st, al, slots)?)
+                            },
                             out,
                         );
                         self.rc.levels[0] = lv;
@@ -497,10 +650,23 @@ impl<'a> Deriver<'a> {
                     // Drop the rest of the branch; its `]` stays. The
                     // dropped modules still count in the draw positions of
                     // the modules after them (module index in the old
-                    // generation), so walk them one by one.
+                    // generation): the bracket index has the `]`'s, else
+                    // walk them one by one.
+                    if let Some(&(end, close)) = st.branches.as_ref().and_then(|b| b.last()) {
+                        // cpfg's choice generator: the cut part draws nothing.
+                        if let Some(c) = self.rng.cpfg_mut() {
+                            c.skip_modules(close - index);
+                        }
+                        index = close;
+                        rd.seek(end - 1);
+                        continue;
+                    }
                     let mut depth = 0u64;
                     let mut close = None;
+                    let cut_from = index;
                     while let Some((k, _, _)) = rd.next_module(&self.alphabet).map_err(read_err)? {
+                        #[cfg(test)]
+                        CUT_SCANNED.with(|c| c.set(c.get() + 1));
                         if k == CLOSE {
                             if depth == 0 {
                                 close = Some(rd.offset());
@@ -511,6 +677,10 @@ impl<'a> Deriver<'a> {
                             depth += 1;
                         }
                         index += 1;
+                    }
+                    // cpfg's choice generator: the cut part draws nothing.
+                    if let Some(c) = self.rng.cpfg_mut() {
+                        c.skip_modules(index - cut_from);
                     }
                     match close {
                         Some(after) => {
@@ -536,8 +706,16 @@ impl<'a> Deriver<'a> {
             }
             if key == OPEN {
                 st.level += 1;
+                if let Some(b) = &mut st.branches {
+                    // This `[` is module `index - 1`.
+                    let (end, modules) = rd.branch_index(s);
+                    b.push((end, index + modules - 2));
+                }
             } else if key == CLOSE {
                 st.level -= 1;
+                if let Some(b) = &mut st.branches {
+                    b.pop();
+                }
             }
             if let Some(left) = &mut st.left {
                 if key == OPEN {
@@ -548,15 +726,37 @@ impl<'a> Deriver<'a> {
                     left.push(key, bytes, self.alphabet.arity(key));
                 }
             }
+            if let Some(run_end) = st.run_end.take() {
+                // The rest of a predecessor of several modules: replaced
+                // with the first; still the old string for left contexts
+                // and draw positions.
+                while rd.offset() < run_end {
+                    let Some((k, s, e)) = rd.next_module(&self.alphabet).map_err(read_err)? else {
+                        break;
+                    };
+                    index += 1;
+                    // cpfg draws once for the whole predecessor.
+                    if let Some(c) = self.rng.cpfg_mut() {
+                        c.skip_modules(1);
+                    }
+                    if let Some(left) = &mut st.left {
+                        if !self.alphabet.ignored(k) {
+                            left.push(k, rd.bytes(s, e), self.alphabet.arity(k));
+                        }
+                    }
+                }
+            }
             out.maybe_flush()?;
+        }
+        if let (Some(c), Pass::Step(_)) = (self.rng.cpfg_mut(), pass) {
+            // cpfg's choice generator: every module of the step drew once.
+            c.end_pass(index);
         }
         if st.depth != 0 {
             let p = &table.prods[st.last_opener.unwrap_or(0) as usize];
             return Err(Error::at(
                 self.origin.locate(p.span.0),
-                format!(
-                    "unbalanced brackets: {pass} leaves a `[` open, produced by this production"
-                ),
+                crate::diag::RuntimeError::UnclosedBracket(pass),
             ));
         }
         Ok(())
@@ -591,13 +791,29 @@ impl<'a> Deriver<'a> {
         if arity > 0 {
             codec::read_params(bytes, &mut slots[..arity]);
         }
+        // The nearest considered module to the left, looked up once.
+        let last = st.left.as_ref().map(|l| l.last_key());
         let chosen = chooser.choose(slots, table, kr, rng, origin, pass, |p, slots| {
-            Ok(!surely_not(p, end_off, st, al)? && contexts_match(p, end_off, st, al, slots)?)
+            // The right context of a run starts after it.
+            let end = if p.rest.is_empty() {
+                end_off
+            } else {
+                match st.match_run(end_off, &p.rest, al, slots)? {
+                    Some(e) => e,
+                    None => return Ok(false),
+                }
+            };
+            Ok(!surely_not(p, last, end, st, al)? && contexts_match(p, end, st, al, slots)?)
         })?;
         let Some(pi) = chosen else {
             return Ok(false);
         };
         let p = &table.prods[pi as usize];
+        if !p.rest.is_empty() {
+            // The run the chosen production matched (parameters bound again,
+            // to the same values): skipped by the caller.
+            st.run_end = st.match_run(end_off, &p.rest, al, slots)?;
+        }
         if table.check_balance {
             if st.depth + p.depth_min < 0 {
                 return Err(unbalanced(origin, table, Some(pi), pass));
@@ -622,7 +838,14 @@ impl<'a> Deriver<'a> {
                 pass,
                 warn: warnings[0].then_some(&warned[0]),
             };
-            return expand_level(rc, &cx, 0, rng, &mut |_, _| Ok(true), out).map(|()| true);
+            // Contexts (cpfg dialect) are read around the predecessor in
+            // the string before the step, at every depth.
+            let mut ctx = |p: &Production, slots: &mut [f64]| {
+                let last = st.left.as_ref().map(|l| l.last_key());
+                Ok(!surely_not(p, last, end_off, st, al)?
+                    && contexts_match(p, end_off, st, al, slots)?)
+            };
+            return expand_level(rc, &cx, 0, rng, &mut ctx, out).map(|()| true);
         }
         if pass == Pass::Homomorphism && (hom_depth > 1 || warnings[1]) {
             // The successor has depth 1; contexts are those of the
@@ -638,7 +861,8 @@ impl<'a> Deriver<'a> {
                 warn: warnings[1].then_some(&warned[1]),
             };
             let mut ctx = |p: &Production, slots: &mut [f64]| {
-                Ok(!surely_not(p, end_off, st, al)? && contexts_match(p, end_off, st, al, slots)?)
+                Ok(!surely_not(p, last, end_off, st, al)?
+                    && contexts_match(p, end_off, st, al, slots)?)
             };
             return expand_level(rc, &cx, 1, rng, &mut ctx, out).map(|()| true);
         }
@@ -655,21 +879,23 @@ fn unbalanced(origin: &Origin, table: &Table, culprit: Option<u32>, pass: Pass) 
     let p = &table.prods[culprit.unwrap_or(0) as usize];
     Error::at(
         origin.locate(p.span.0),
-        format!("unbalanced brackets: {pass} produces a `]` without `[`, from this production"),
+        crate::diag::RuntimeError::UnopenedBracket(pass),
     )
 }
 
 /// A cheap first look: do the nearest context modules already differ?
-/// (Fills the right-context cache on first use for this module.)
+/// `last`: the nearest considered module to the left, if left contexts are
+/// kept. (Fills the right-context cache on first use for this module.)
 #[inline(always)]
 fn surely_not(
     p: &Production,
+    last: Option<Option<u32>>,
     end_off: u64,
     st: &mut StepState,
     al: &Alphabet,
 ) -> Result<bool, Error> {
-    if let (Some(pat), Some(left)) = (p.left.last(), &st.left) {
-        if left.last_key() != Some(pat.key) {
+    if let (Some(pat), Some(last)) = (p.left.last(), last) {
+        if last != Some(pat.key) {
             return Ok(true);
         }
     }
@@ -684,8 +910,25 @@ fn surely_not(
     Ok(false)
 }
 
+/// cpfg's right contexts (a `.l` file), kept out of line so that
+/// [`contexts_match`] stays as small as the `.ls` path needs.
+#[inline(never)]
+fn right_cpfg(
+    p: &Production,
+    end_off: u64,
+    st: &mut StepState,
+    al: &Alphabet,
+    slots: &mut [f64],
+    passed: CpfgBrackets,
+) -> Result<bool, Error> {
+    // From just after the predecessor.
+    let peek = st.peek.as_mut().unwrap();
+    match_right_cpfg(peek, al, end_off, &p.right, slots, passed)
+        .map_err(|e| Error::io("temporary file", crate::diag::IoAction::Read, e))
+}
+
 /// Do production `p`'s contexts match here? Binds their parameters.
-#[inline]
+#[inline(always)]
 fn contexts_match(
     p: &Production,
     end_off: u64,
@@ -702,9 +945,12 @@ fn contexts_match(
             return Ok(false);
         }
     } else if !p.right.is_empty() {
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
+        if let Some(passed) = st.cpfg {
+            return right_cpfg(p, end_off, st, al, slots, passed);
+        }
         // Matching from past the ignored run is the same: every pattern
         // element passes over ignored modules first.
-        let read_err = |e| Error::io("temporary file", "cannot read", e);
         let start = st.right_start(end_off, al).map_err(read_err)?;
         let level = st.level();
         let peek = st.peek.as_mut().unwrap();

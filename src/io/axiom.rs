@@ -4,8 +4,9 @@
 //! `define:` constants.
 
 use crate::derive::random::Random;
-use crate::diag::{excerpt, Error, ErrorKind, Location};
+use crate::diag::{excerpt, CompileError, Error, ErrorKind, LexicalError, Location, ParseError};
 use crate::io::input::Input;
+use crate::lang::comment;
 use crate::lang::parse::parse_expr;
 use crate::rules::codec::MAX_ARITY;
 use crate::rules::expr::{Code, Scope};
@@ -68,12 +69,12 @@ impl<'a> AxiomReader<'a> {
     }
 
     /// An error at the current read position.
-    fn error_here(&mut self, msg: impl Into<String>) -> Error {
+    fn error_here(&mut self, msg: impl Into<ErrorKind>) -> Error {
         let at = self.input.offset();
         self.error_at(at, self.line, self.col, msg)
     }
 
-    fn error_at(&mut self, at: u64, line: usize, col: usize, msg: impl Into<String>) -> Error {
+    fn error_at(&mut self, at: u64, line: usize, col: usize, msg: impl Into<ErrorKind>) -> Error {
         let (snippet, caret_col) = if self.input.holds(at) {
             self.input.excerpt_at(at)
         } else {
@@ -95,7 +96,6 @@ impl<'a> AxiomReader<'a> {
             },
             msg,
         )
-        .in_stage(ErrorKind::Parse)
     }
 
     /// Advance over `n` bytes that hold no newline.
@@ -123,7 +123,7 @@ impl<'a> AxiomReader<'a> {
                     self.col = 1;
                 }
                 b' ' | b'\t' | b'\r' | 0x0B | 0x0C => self.advance(1),
-                b'/' if self.comments && avail.get(1) == Some(&b'*') => {
+                b'/' if self.comments && comment::opens(avail) => {
                     let (line, col, at) = (self.line, self.col, self.input.offset());
                     // An unterminated comment is reported at its start.
                     self.input.mark(at);
@@ -136,11 +136,11 @@ impl<'a> AxiomReader<'a> {
                                     at,
                                     line,
                                     col,
-                                    "unterminated comment: `/*` without `*/`",
+                                    LexicalError::UnterminatedComment,
                                 ))
                             }
-                            [b'*', b'/', ..] => {
-                                self.advance(2);
+                            c if comment::closes(c) => {
+                                self.advance(comment::CLOSE.len());
                                 break;
                             }
                             [b'\n', ..] => {
@@ -148,7 +148,7 @@ impl<'a> AxiomReader<'a> {
                                 self.line += 1;
                                 self.col = 1;
                             }
-                            [0, ..] => return Err(self.error_here(NUL_MSG)),
+                            [0, ..] => return Err(self.error_here(LexicalError::Nul)),
                             [b, ..] if *b >= 0x80 => {
                                 // Checked as in the header: text only.
                                 let n = self.peek_char()?.map_or(1, |(_, n)| n);
@@ -185,7 +185,7 @@ impl<'a> AxiomReader<'a> {
         };
         match avail.get(..n).map(std::str::from_utf8) {
             Some(Ok(s)) if n > 0 => Ok(Some((s.chars().next().unwrap(), n))),
-            _ => Err(self.error_here("invalid UTF-8")),
+            _ => Err(self.error_here(LexicalError::InvalidUtf8)),
         }
     }
 
@@ -202,7 +202,8 @@ impl<'a> AxiomReader<'a> {
         let n = avail.len();
         let mut i = 0;
         while i < n && PLAIN[avail[i] as usize] {
-            if avail[i] == b'/' && self.comments && avail.get(i + 1).is_none_or(|&b| b == b'*') {
+            // A `/` that opens a comment, or may (the last byte buffered).
+            if avail[i] == b'/' && self.comments && (i + 1 == n || comment::opens(&avail[i..])) {
                 break;
             }
             i += 1;
@@ -252,9 +253,9 @@ impl<'a> AxiomReader<'a> {
         if !self.skip_blank()? {
             if self.depth > 0 {
                 let (l, c, at) = self.first_open;
-                let msg = format!("unbalanced brackets: the `[` at {l}:{c} is never closed");
+                let msg = ParseError::UnclosedBracket { line: l, col: c };
                 if self.input.holds(at) {
-                    return Err(self.error_at(at, l, c, msg));
+                    return Err(self.error_at(at, l, c, msg.clone()));
                 }
                 // Point at the last module instead, which is still buffered.
                 let (l, c, at) = self.last;
@@ -266,22 +267,8 @@ impl<'a> AxiomReader<'a> {
         self.last = (line, col, at);
         let (sym, n) = self.peek_char()?.expect("skip_blank saw a byte");
         match sym {
-            '(' | ')' | ',' | ':' | '<' | '>' => {
-                return Err(self.error_here(format!(
-                    "`{sym}` is reserved and cannot be a symbol{}",
-                    if sym == '(' {
-                        " (parameters follow a symbol: `F(1)`)"
-                    } else {
-                        ""
-                    }
-                )))
-            }
-            c if c.is_control() => {
-                return Err(self.error_here(format!(
-                    "control character `{}` cannot be a symbol",
-                    c.escape_default()
-                )))
-            }
+            '(' | ')' | ':' | '<' | '>' => return Err(self.error_here(ParseError::Reserved(sym))),
+            c if c.is_control() => return Err(self.error_here(LexicalError::ControlChar(c))),
             _ => {}
         }
         self.advance(n);
@@ -298,12 +285,7 @@ impl<'a> AxiomReader<'a> {
             }
             ']' if params.is_empty() => {
                 if self.depth == 0 {
-                    return Err(self.error_at(
-                        at,
-                        line,
-                        col,
-                        "unbalanced brackets: `]` without `[`",
-                    ));
+                    return Err(self.error_at(at, line, col, ParseError::UnbalancedClose));
                 }
                 self.depth -= 1;
             }
@@ -329,18 +311,12 @@ impl<'a> AxiomReader<'a> {
             let avail = self.input.fill(2)?;
             let Some(&b) = avail.first() else {
                 if let Some((l, c, a)) = comment {
-                    return Err(self.error_at(a, l, c, "unterminated comment: `/*` without `*/`"));
+                    return Err(self.error_at(a, l, c, LexicalError::UnterminatedComment));
                 }
-                return Err(self.error_at(
-                    at,
-                    line,
-                    col,
-                    "unbalanced parentheses: `(` is never closed",
-                ));
+                return Err(self.error_at(at, line, col, ParseError::UnclosedParen));
             };
-            let next = avail.get(1).copied();
             match b {
-                0 => return Err(self.error_here(NUL_MSG)),
+                0 => return Err(self.error_here(LexicalError::Nul)),
                 b'\n' => {
                     // Kept, so that places in the text can be found again.
                     self.text.push(b'\n');
@@ -349,13 +325,13 @@ impl<'a> AxiomReader<'a> {
                     self.col = 1;
                     continue;
                 }
-                b'*' if comment.is_some() && next == Some(b'/') => {
+                b'*' if comment.is_some() && comment::closes(avail) => {
                     comment = None;
                     self.text.push(b'*');
                     self.advance(1);
                 }
                 _ if comment.is_some() => {}
-                b'/' if self.comments && next == Some(b'*') => {
+                b'/' if self.comments && comment::opens(avail) => {
                     comment = Some((self.line, self.col, self.input.offset()));
                     self.input.mark(self.input.offset());
                     self.text.push(b'/');
@@ -379,12 +355,7 @@ impl<'a> AxiomReader<'a> {
             self.text.push(b);
             self.advance(1);
             if self.text.len() > MAX_PARAM_TEXT {
-                return Err(self.error_at(
-                    at,
-                    line,
-                    col,
-                    "parameter list too long (over 1 MiB): is a `)` missing?",
-                ));
+                return Err(self.error_at(at, line, col, ParseError::ParamListTooLong));
             }
         }
     }
@@ -396,12 +367,7 @@ impl<'a> AxiomReader<'a> {
         rng: &mut Random,
     ) -> Result<(), Error> {
         if params.len() == MAX_ARITY {
-            return Err(self.error_at(
-                at,
-                line,
-                col,
-                format!("a module has at most {MAX_ARITY} parameters"),
-            ));
+            return Err(self.error_at(at, line, col, ParseError::TooManyParams));
         }
         let raw = match std::str::from_utf8(&self.text) {
             Ok(r) => r.to_string(),
@@ -409,7 +375,7 @@ impl<'a> AxiomReader<'a> {
                 let good = e.valid_up_to();
                 let prefix = String::from_utf8_lossy(&self.text[..good]).into_owned();
                 let (l, c, _, _) = place(&prefix, good, line, col);
-                return Err(self.error_at(at + good as u64, l, c, "invalid UTF-8"));
+                return Err(self.error_at(at + good as u64, l, c, LexicalError::InvalidUtf8));
             }
         };
         let t = raw.trim();
@@ -426,10 +392,10 @@ impl<'a> AxiomReader<'a> {
             }
         }
         if t.is_empty() {
-            return Err(self.error_at(at, line, col, "empty parameter"));
+            return Err(self.error_at(at, line, col, ParseError::EmptyParameter));
         }
         let lead = raw.len() - raw.trim_start().len();
-        let located = |s: &mut Self, off: usize, msg: String| {
+        let located = |s: &mut Self, off: usize, msg: ErrorKind| {
             let k = lead + off.min(t.len());
             let (l, c, text_line, caret) = place(&raw, k, line, col);
             let spot = at + k as u64;
@@ -448,13 +414,12 @@ impl<'a> AxiomReader<'a> {
                 },
                 msg,
             )
-            .in_stage(ErrorKind::Parse)
         };
         // The expression lexer ends a line at a newline; here newlines
         // are blanks.
         let e = match parse_expr(&t.replace('\n', " ")) {
             Ok(e) => e,
-            Err(e) => return Err(located(self, e.span.0, e.message)),
+            Err(e) => return Err(located(self, e.span.0, e.kind.into())),
         };
         let empty = HashMap::new();
         let code = match Code::compile(
@@ -462,22 +427,21 @@ impl<'a> AxiomReader<'a> {
             &Scope {
                 params: &empty,
                 consts: self.consts,
+                cpfg: false,
             },
         ) {
             Ok(c) => c,
-            Err(e) => return Err(located(self, e.span.0, e.message)),
+            Err(e) => return Err(located(self, e.span.0, CompileError::Expr(e.kind).into())),
         };
         match code.eval(&[], &mut self.stack, rng) {
             Ok(v) => {
                 params.push(v);
                 Ok(())
             }
-            Err(e) => Err(located(self, e.span.0, e.message)),
+            Err(e) => Err(located(self, e.span.0, CompileError::Expr(e.kind).into())),
         }
     }
 }
-
-const NUL_MSG: &str = "NUL byte: the input is not text";
 
 /// Where byte `k` of a parameter's text is, the text starting at
 /// `line`:`col`: its line and column in the file, the text's line that
@@ -505,7 +469,7 @@ static PLAIN: [bool; 256] = {
     let mut t = [false; 256];
     let mut b = 0x21;
     while b < 0x7f {
-        t[b] = !matches!(b as u8, b'(' | b')' | b',' | b':' | b'<' | b'>');
+        t[b] = !matches!(b as u8, b'(' | b')' | b':' | b'<' | b'>');
         b += 1;
     }
     t
@@ -565,31 +529,39 @@ mod tests {
         assert_eq!(m[100_000], ('[', vec![]));
         assert_eq!(m.last().unwrap(), &('G', vec![1.0]));
         let e = read(&format!("{}]", "F".repeat(100_000))).unwrap_err();
-        assert_eq!(e.location.clone().unwrap().col, 100_001);
+        assert_eq!(e.location().unwrap().clone().col, 100_001);
         let e = read("[[F]").unwrap_err();
-        assert!(e.message.contains("1:1 is never closed"), "{}", e.message);
+        assert!(
+            e.message().contains("1:1 is never closed"),
+            "{}",
+            e.message()
+        );
     }
 
     #[test]
     fn errors_are_located() {
         let e = read("F\nFF)").unwrap_err();
-        let l = e.location.clone().unwrap();
+        let l = e.location().unwrap().clone();
         assert_eq!((l.line, l.col), (2, 3));
-        assert!(e.message.contains("reserved"));
+        assert!(e.message().contains("reserved"));
         assert_eq!(l.snippet, "FF)");
         let e = read("F(1,2").unwrap_err();
-        assert!(e.message.contains("never closed"), "{}", e.message);
+        assert!(e.message().contains("never closed"), "{}", e.message());
         let e = read("F]").unwrap_err();
-        assert!(e.message.contains("without `[`"), "{}", e.message);
+        assert!(e.message().contains("without `[`"), "{}", e.message());
         let e = read("[F[G]").unwrap_err();
-        assert!(e.message.contains("1:1 is never closed"), "{}", e.message);
+        assert!(
+            e.message().contains("1:1 is never closed"),
+            "{}",
+            e.message()
+        );
         let e = read("F(1/0)").unwrap_err();
-        assert_eq!(e.message, "division by zero");
+        assert_eq!(e.message(), "division by zero");
         let e = read("F(x)").unwrap_err();
-        let l = e.location.clone().unwrap();
+        let l = e.location().unwrap().clone();
         assert_eq!((l.line, l.col), (1, 3));
         let e = read("F /* open").unwrap_err();
-        assert!(e.message.contains("unterminated comment"));
+        assert!(e.message().contains("unterminated comment"));
     }
 
     #[test]
@@ -605,8 +577,12 @@ mod tests {
             ]
         );
         let e = read("F(1 /* open, 2)").unwrap_err();
-        assert!(e.message.contains("unterminated comment"), "{}", e.message);
-        assert_eq!(e.location.clone().unwrap().col, 5);
+        assert!(
+            e.message().contains("unterminated comment"),
+            "{}",
+            e.message()
+        );
+        assert_eq!(e.location().unwrap().clone().col, 5);
     }
 
     #[test]
@@ -629,12 +605,12 @@ mod tests {
     #[test]
     fn multi_line_parameters_are_located() {
         let e = read("F\nF(1 +\n  x)").unwrap_err();
-        let l = e.location.clone().unwrap();
+        let l = e.location().unwrap().clone();
         assert_eq!((l.line, l.col), (3, 3));
         assert_eq!((l.snippet.as_str(), l.caret_col), ("  x)", 3));
         // The end of the text, just after the `+`.
         let e = read("F(1,\r\n 2 /* c\n */ +)").unwrap_err();
-        let l = e.location.clone().unwrap();
+        let l = e.location().unwrap().clone();
         assert_eq!((l.line, l.col), (3, 6));
     }
 
@@ -654,10 +630,10 @@ mod tests {
                 Err(e) => break e,
             }
         };
-        assert_eq!(e.message, "invalid UTF-8");
-        assert_eq!(e.location.clone().unwrap().col, 6);
+        assert_eq!(e.message(), "invalid UTF-8");
+        assert_eq!(e.location().unwrap().clone().col, 6);
         let e = read("F /* \0 */").unwrap_err();
-        assert!(e.message.contains("NUL"), "{}", e.message);
+        assert!(e.message().contains("NUL"), "{}", e.message());
     }
 
     #[test]
@@ -686,7 +662,7 @@ mod tests {
         assert!(r.next(&mut al, &mut p, &mut rng).unwrap().is_some());
         // The second F is read, then the bad byte is met looking for `(`.
         let e = r.next(&mut al, &mut p, &mut rng).unwrap_err();
-        assert_eq!(e.message, "invalid UTF-8");
-        assert_eq!(e.location.clone().unwrap().col, 3);
+        assert_eq!(e.message(), "invalid UTF-8");
+        assert_eq!(e.location().unwrap().clone().col, 3);
     }
 }

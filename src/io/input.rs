@@ -2,7 +2,8 @@
 //! `axiom:`) is collected for the grammar; the axiom is left in the stream
 //! for [`crate::io::axiom`] to read module by module, so it may be gigabytes long.
 
-use crate::diag::{excerpt, Error, ErrorKind, Location};
+use crate::diag::{excerpt, Error, LexicalError, Location};
+use crate::lang::comment;
 use std::io::{self, Read};
 
 /// A byte stream with look-ahead and enough history to quote the current
@@ -83,7 +84,7 @@ impl Input {
                 Ok(0) => self.eof = true,
                 Ok(n) => self.end += n,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(Error::io(self.name.clone(), "cannot read", e)),
+                Err(e) => return Err(Error::io(self.name.clone(), crate::diag::IoAction::Read, e)),
             }
         }
         Ok(&self.buf[self.pos..self.end])
@@ -182,7 +183,7 @@ const LOOK: usize = 8;
 /// What stopped the header scan.
 enum Stop {
     Axiom(usize),
-    Bad(&'static str),
+    Bad(LexicalError),
     TooLong,
 }
 
@@ -237,15 +238,15 @@ pub fn split_header(input: &mut Input) -> Result<Split, Error> {
                     shebang = false;
                 }
                 0 => {
-                    stop = Some(Stop::Bad("NUL byte: the input is not text"));
+                    stop = Some(Stop::Bad(LexicalError::Nul));
                     break;
                 }
                 _ if shebang => {}
-                b'/' if !in_comment && avail.get(i + 1) == Some(&b'*') => {
+                b'/' if !in_comment && comment::opens(&avail[i..]) => {
                     in_comment = true;
                     n = 2;
                 }
-                b'*' if in_comment && avail.get(i + 1) == Some(&b'/') => {
+                b'*' if in_comment && comment::closes(&avail[i..]) => {
                     in_comment = false;
                     n = 2;
                 }
@@ -272,7 +273,7 @@ pub fn split_header(input: &mut Input) -> Result<Split, Error> {
                         }
                     }
                     _ => {
-                        stop = Some(Stop::Bad("invalid UTF-8"));
+                        stop = Some(Stop::Bad(LexicalError::InvalidUtf8));
                         break;
                     }
                 }
@@ -303,12 +304,7 @@ pub fn split_header(input: &mut Input) -> Result<Split, Error> {
             }
             Some(Stop::Bad(msg)) => return Err(header_error(input, line, col, msg)),
             Some(Stop::TooLong) => {
-                return Err(header_error(
-                    input,
-                    line,
-                    col,
-                    "the part before `axiom:` is too long (over 64 MiB); is `axiom:` missing?",
-                ))
+                return Err(header_error(input, line, col, LexicalError::HeaderTooLong))
             }
         }
     }
@@ -327,7 +323,7 @@ fn utf8_len(b: u8) -> usize {
 }
 
 /// An error at the read position of the header, at `line`:`col`.
-fn header_error(input: &mut Input, line: usize, col: usize, msg: &str) -> Error {
+fn header_error(input: &mut Input, line: usize, col: usize, kind: LexicalError) -> Error {
     let at = input.offset();
     let (snippet, caret_col) = input.excerpt_at(at);
     Error::at(
@@ -338,9 +334,8 @@ fn header_error(input: &mut Input, line: usize, col: usize, msg: &str) -> Error 
             snippet,
             caret_col,
         },
-        msg,
+        kind,
     )
-    .in_stage(ErrorKind::Lexical)
 }
 
 fn finish(
@@ -360,13 +355,19 @@ fn finish(
             axiom_col,
         }),
         // Checked while reading: cannot happen.
-        Err(_) => Err(header_error(input, axiom_line, 1, "invalid UTF-8")),
+        Err(_) => Err(header_error(
+            input,
+            axiom_line,
+            1,
+            LexicalError::InvalidUtf8,
+        )),
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::diag::ErrorKind;
 
     fn split(src: &str) -> (Split, String) {
         let mut i = Input::new(Box::new(io::Cursor::new(src.as_bytes().to_vec())), "t.ls");
@@ -417,9 +418,12 @@ mod tests {
     fn nul_is_refused_at_once() {
         let mut i = Input::new(Box::new(io::repeat(0)), "zero");
         let e = split_header(&mut i).err().unwrap();
-        let l = e.location.clone().unwrap();
+        let l = e.location().unwrap().clone();
         assert_eq!((l.line, l.col), (1, 1));
-        assert!(e.message.contains("NUL"), "{}", e.message);
+        assert!(
+            matches!(e.kind(), ErrorKind::Lexical(LexicalError::Nul)),
+            "{e}"
+        );
     }
 
     #[test]
@@ -437,9 +441,12 @@ mod tests {
         src.insert(0, b' ');
         let mut i = Input::new(Box::new(io::Cursor::new(src)), "t.ls");
         let e = split_header(&mut i).err().unwrap();
-        let l = e.location.clone().unwrap();
+        let l = e.location().unwrap().clone();
         assert_eq!((l.line, l.col), (MAX_HEADER / 64, 64));
-        assert!(e.message.contains("too long"), "{}", e.message);
+        assert!(
+            matches!(e.kind(), ErrorKind::Lexical(LexicalError::HeaderTooLong)),
+            "{e}"
+        );
     }
 
     #[test]
@@ -456,8 +463,8 @@ mod tests {
             "t.ls",
         );
         let e = split_header(&mut i).err().unwrap();
-        let l = e.location.clone().unwrap();
+        let l = e.location().unwrap().clone();
         assert_eq!((l.line, l.col), (2, 6));
-        assert_eq!(e.message, "invalid UTF-8");
+        assert_eq!(e.message(), "invalid UTF-8");
     }
 }

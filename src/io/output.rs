@@ -5,7 +5,7 @@
 //! clobbers one. `-o` follows symbolic links: the link's target is replaced
 //! and the link kept, as the shell's `>` writes through it.
 
-use crate::diag::Error;
+use crate::diag::{Error, IoAction, IoError, IoReason};
 use std::fs::{self, File};
 use std::io::{self, Write};
 use std::mem::ManuallyDrop;
@@ -76,7 +76,8 @@ pub fn check_stdout_open() -> Result<(), Error> {
     if closed_at_start(1) {
         return Err(fail(
             "standard output",
-            "cannot write: Bad file descriptor (closed at startup)",
+            IoAction::Write,
+            IoReason::ClosedAtStartup,
         ));
     }
     Ok(())
@@ -88,17 +89,16 @@ pub fn check_stdin_open() -> Result<(), Error> {
     if closed_at_start(0) {
         return Err(fail(
             "standard input",
-            "cannot read: Bad file descriptor (closed when lsgen started)",
+            IoAction::Read,
+            IoReason::ClosedWhenStarted,
         ));
     }
     Ok(())
 }
 
-/// An error about `-o NAME` with a message of our own.
-fn fail(name: &str, message: impl Into<String>) -> Error {
-    let mut e = Error::new(message);
-    e.subject = Some(name.to_string());
-    e
+/// An error about `-o NAME` with a reason of our own.
+fn fail(name: &str, action: IoAction, reason: IoReason) -> Error {
+    Error::about(name, IoError { action, reason })
 }
 
 /// Where `-o` leads, its symbolic links followed.
@@ -131,27 +131,22 @@ fn resolve(path: &Path, name: &str) -> Result<Target, Error> {
         }
         match fs::symlink_metadata(&p) {
             Ok(m) if m.file_type().is_symlink() => {
-                let to =
-                    fs::read_link(&p).map_err(|e| Error::io(name, "cannot read the link", e))?;
+                let to = fs::read_link(&p)
+                    .map_err(|e| Error::io(name, crate::diag::IoAction::ReadLink, e))?;
                 // A relative target is relative to the link's directory.
                 p = match p.parent() {
                     Some(d) => d.join(to),
                     None => to,
                 };
             }
-            Ok(m) if m.is_dir() => {
-                return Err(fail(
-                    name,
-                    "cannot write: is a directory; -o takes a file name",
-                ))
-            }
+            Ok(m) if m.is_dir() => return Err(fail(name, IoAction::Write, IoReason::IsADirectory)),
             Ok(m) if !m.is_file() => return Ok(Target::Stream(p)),
             Ok(_) => return Ok(Target::File(p)),
             Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(Target::File(p)),
             Err(e) => {
                 return Err(Error::io(
                     name,
-                    &format!("cannot create a file in {}", parent_dir(&p).display()),
+                    crate::diag::IoAction::CreateIn(parent_dir(&p).to_path_buf()),
                     e,
                 ))
             }
@@ -159,7 +154,7 @@ fn resolve(path: &Path, name: &str) -> Result<Target, Error> {
     }
     Err(Error::io(
         name,
-        "cannot write",
+        crate::diag::IoAction::Write,
         io::Error::from_raw_os_error(libc::ELOOP),
     ))
 }
@@ -174,10 +169,11 @@ fn check_not_a_directory_name(p: &Path, name: &str) -> Result<(), Error> {
     }
     Err(fail(
         name,
+        IoAction::Write,
         match fs::metadata(p) {
-            Ok(m) if m.is_dir() => "cannot write: is a directory; -o takes a file name",
-            Ok(_) => "cannot write: not a directory, but the name ends with `/`",
-            Err(_) => "cannot write: no such directory, and -o takes a file name, not a directory",
+            Ok(m) if m.is_dir() => IoReason::IsADirectory,
+            Ok(_) => IoReason::NotADirectory,
+            Err(_) => IoReason::NoSuchDirectory,
         },
     ))
 }
@@ -248,18 +244,19 @@ impl Output {
                 if fd == 1 {
                     check_stdout_open()?;
                 }
-                let f = dup_fd(fd).map_err(|e| Error::io(&name, "cannot write", e))?;
+                let f =
+                    dup_fd(fd).map_err(|e| Error::io(&name, crate::diag::IoAction::Write, e))?;
                 return Ok(Output::Direct(f, name));
             }
             Target::Stream(p) => {
                 let f = fs::OpenOptions::new()
                     .write(true)
                     .open(&p)
-                    .map_err(|e| Error::io(&name, "cannot write", e))?;
+                    .map_err(|e| Error::io(&name, crate::diag::IoAction::Write, e))?;
                 // Another process's regular file: start it afresh, as `>`.
                 if f.metadata().is_ok_and(|m| m.is_file()) {
                     f.set_len(0)
-                        .map_err(|e| Error::io(&name, "cannot write", e))?;
+                        .map_err(|e| Error::io(&name, crate::diag::IoAction::Write, e))?;
                 }
                 return Ok(Output::Direct(f, name));
             }
@@ -272,13 +269,8 @@ impl Output {
         let dir = parent_dir(&p).to_path_buf();
         remove_leftovers(&dir);
         // O_TMPFILE on Linux: the file has no name until it is complete.
-        let file = tempfile::tempfile_in(&dir).map_err(|e| {
-            Error::io(
-                &name,
-                &format!("cannot create a file in {}", dir.display()),
-                e,
-            )
-        })?;
+        let file = tempfile::tempfile_in(&dir)
+            .map_err(|e| Error::io(&name, crate::diag::IoAction::CreateIn(dir.to_path_buf()), e))?;
         Ok(Output::Atomic {
             file,
             path: p,
@@ -340,7 +332,7 @@ impl Output {
         };
         file.set_permissions(fs::Permissions::from_mode(mode))
             .and_then(|_| file.sync_all())
-            .map_err(|e| Error::io(&name, "cannot write", e))?;
+            .map_err(|e| Error::io(&name, crate::diag::IoAction::Write, e))?;
         // Ctrl-C (or SIGTERM) while the file gets its name would leave a
         // named temp file behind: hold such signals until it is in place.
         let result = with_signals_held(|| Self::put_in_place(file, &dir, &path, &name));
@@ -356,10 +348,9 @@ impl Output {
             Ok(()) => Ok(()),
             // No O_TMPFILE here (tempfile fell back to a deleted named file,
             // which cannot be linked again): copy into a named temp file.
-            Err(e) if e.raw_os_error() == Some(libc::ENOENT) => {
-                copy_into_place(file, dir, path).map_err(|e| Error::io(name, "cannot write", e))
-            }
-            Err(e) => Err(Error::io(name, "cannot write", e)),
+            Err(e) if e.raw_os_error() == Some(libc::ENOENT) => copy_into_place(file, dir, path)
+                .map_err(|e| Error::io(name, crate::diag::IoAction::Write, e)),
+            Err(e) => Err(Error::io(name, crate::diag::IoAction::Write, e)),
         }
     }
 }

@@ -7,7 +7,7 @@
 //! `{...}` is a usage error, so a typo never silently becomes part of a
 //! file name.
 
-use crate::diag::Error;
+use crate::diag::{Error, UsageError};
 use std::path::{Path, PathBuf};
 
 /// A placeholder of a template.
@@ -78,23 +78,20 @@ impl Template {
                 text.push('}');
                 rest = r;
             } else if tail.starts_with('}') {
-                return Err(Error::usage(format!(
-                    "-o `{s}`: a lone `}}`; write `}}}}` for a literal brace"
-                )));
+                return Err(Error::new(UsageError::LoneCloseBrace(s.to_string())));
             } else {
-                let end = tail.find('}').ok_or_else(|| {
-                    Error::usage(format!(
-                        "-o `{s}`: unclosed `{{`; write `{{{{` for a literal brace"
-                    ))
-                })?;
+                let end = tail
+                    .find('}')
+                    .ok_or_else(|| Error::new(UsageError::UnclosedBrace(s.to_string())))?;
                 let field = match &tail[1..end] {
                     "stem" => Field::Stem,
                     "seed" => Field::Seed,
                     "n" => Field::N,
                     other => {
-                        return Err(Error::usage(format!(
-                            "-o `{s}`: unknown placeholder `{{{other}}}`: use {{stem}}, {{seed}} or {{n}} ({{{{ and }}}} for braces)"
-                        )))
+                        return Err(Error::new(UsageError::UnknownPlaceholder {
+                            template: s.to_string(),
+                            name: other.to_string(),
+                        }))
                     }
                 };
                 if !text.is_empty() {
@@ -136,17 +133,7 @@ impl Template {
                         Field::Seed => vars.seed.map(|v| v.to_string()),
                         Field::N => vars.n.map(|v| v.to_string()),
                     };
-                    let v = v.ok_or_else(|| {
-                        Error::usage(format!(
-                            "-o: `{{{}}}` has no value here{}",
-                            f.name(),
-                            if *f == Field::N {
-                                " (it numbers frames)"
-                            } else {
-                                ""
-                            }
-                        ))
-                    })?;
+                    let v = v.ok_or_else(|| Error::new(UsageError::NoValue(f.name())))?;
                     s.push_str(&v);
                 }
             }
@@ -197,7 +184,7 @@ mod tests {
     fn rejects_unknown_and_unclosed() {
         for bad in ["{x}", "a{stem", "a}b", "{}", "{Stem}"] {
             let e = Template::parse(bad).unwrap_err();
-            assert_eq!(e.exit_code(), 2, "{bad}");
+            assert_eq!(e.stage(), crate::diag::Stage::Usage, "{bad}");
         }
     }
 

@@ -10,6 +10,8 @@ pub enum Expr {
     Call(String, Vec<Expr>, Span),
     Unary(UnOp, Box<Expr>, Span),
     Binary(BinOp, Box<Expr>, Box<Expr>, Span),
+    /// `c ? a : b` (cpfg dialect; all three are evaluated).
+    Cond(Box<Expr>, Box<Expr>, Box<Expr>, Span),
 }
 
 impl Expr {
@@ -19,7 +21,8 @@ impl Expr {
             | Expr::Var(_, s)
             | Expr::Call(_, _, s)
             | Expr::Unary(_, _, s)
-            | Expr::Binary(_, _, _, s) => *s,
+            | Expr::Binary(_, _, _, s)
+            | Expr::Cond(_, _, _, s) => *s,
         }
     }
 }
@@ -36,6 +39,8 @@ pub enum BinOp {
     Sub,
     Mul,
     Div,
+    /// `%` (cpfg dialect: remainder of the truncated operands).
+    Rem,
     Pow,
     Lt,
     Le,
@@ -59,6 +64,9 @@ pub struct Module {
 pub struct Production {
     pub left: Vec<Module>,
     pub pred: Module,
+    /// The rest of a predecessor of several modules (cpfg dialect: `AB
+    /// --> C` rewrites the run); empty in `.ls` files.
+    pub pred_rest: Vec<Module>,
     pub right: Vec<Module>,
     /// Boxed, as `prob`: most productions have neither.
     pub cond: Option<Box<Expr>>,
@@ -119,6 +127,7 @@ impl Production {
     /// (`sink::Collect`; the compiler takes one at a time).
     pub fn compact(mut self) -> Self {
         self.pred.compact();
+        self.pred_rest.shrink_to_fit();
         for m in self
             .left
             .iter_mut()
@@ -157,6 +166,11 @@ impl Expr {
             }
             Expr::Unary(_, a, _) => a.compact(),
             Expr::Binary(_, a, b, _) => {
+                a.compact();
+                b.compact();
+            }
+            Expr::Cond(c, a, b, _) => {
+                c.compact();
                 a.compact();
                 b.compact();
             }

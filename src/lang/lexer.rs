@@ -4,19 +4,27 @@
 //! contexts, successors, `ignore:` lists) every non-blank character is a
 //! symbol of its own: `F+F` is three tokens. In *expression* mode (inside a
 //! module's parentheses, after `:` and in numeric settings) the usual
-//! identifiers, numbers and operators apply. Two logos lexers share one
-//! position and are morphed into each other as the mode changes; keywords are
-//! recognised at the start of a line. The axiom is not lexed here: it is
-//! streamed by [`crate::io::axiom`].
+//! identifiers, numbers and operators apply. There is one token list,
+//! [`Tok`]: its expression tokens are lexed by logos, their payloads filled
+//! by callbacks; module mode is a character-by-character scan over the same
+//! tokens (`Lexer::module_token`); keywords are recognised at the start
+//! of a line. [`Lexer::next`] dispatches on the `Mode`. Comments are
+//! found by `crate::lang::comment`, as everywhere else. The axiom is not
+//! lexed here: it is streamed by [`crate::io::axiom`].
 
+use crate::diag::LexicalError;
+use crate::lang::comment;
 use logos::Logos;
 
 /// Byte span in the header text.
 pub type Span = (usize, usize);
 
-/// A token handed to the LALRPOP grammar.
-#[derive(Clone, Debug, PartialEq)]
+/// A token handed to the LALRPOP grammar: the one token list of the header.
+#[derive(Logos, Clone, Debug, PartialEq)]
+#[logos(error(LexicalError, unexpected))]
+#[logos(skip r"[\s&&[^\n]]+")]
 pub enum Tok<'a> {
+    #[token("\n")]
     Nl,
     KwDerivationLength,
     KwDefine,
@@ -34,130 +42,13 @@ pub enum Tok<'a> {
     KwGroup,
     /// `warnings` (true) or `no warnings` after a section keyword.
     Warnings(bool),
+    /// A symbol (module mode only).
     Sym(char),
+    #[regex(r"[0-9]+(\.[0-9]*)?([eE][+-]?[0-9]+)?", number)]
+    #[regex(r"\.[0-9]+([eE][+-]?[0-9]+)?", number)]
     Num(f64),
+    #[regex(r"[A-Za-z_][A-Za-z0-9_]*", |lex| lex.slice())]
     Ident(&'a str),
-    LParen,
-    RParen,
-    Comma,
-    Colon,
-    Arrow,
-    Lt,
-    Gt,
-    Le,
-    Ge,
-    EqEq,
-    Ne,
-    Assign,
-    AndAnd,
-    OrOr,
-    Bang,
-    Plus,
-    Minus,
-    Star,
-    Slash,
-    Caret,
-}
-
-impl std::fmt::Display for Tok<'_> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let s = match self {
-            Tok::Nl => "end of line",
-            Tok::KwDerivationLength => "`derivation length:`",
-            Tok::KwDefine => "`define:`",
-            Tok::KwSeed => "`seed:`",
-            Tok::KwIgnore => "`ignore:`",
-            Tok::KwConsider => "`consider:`",
-            Tok::KwProductions => "`productions:`",
-            Tok::KwHomomorphism => "`homomorphism:`",
-            Tok::KwDecomposition => "`decomposition:`",
-            Tok::KwMaximumDepth => "`maximum depth:`",
-            Tok::KwProductionsN(n) => return write!(f, "`productions {n}:`"),
-            Tok::KwGroups(_) => "`groups:`",
-            Tok::KwGroup => "`group:`",
-            Tok::Warnings(true) => "`warnings`",
-            Tok::Warnings(false) => "`no warnings`",
-            Tok::Sym(c) => return write!(f, "symbol `{c}`"),
-            Tok::Num(n) => return write!(f, "number `{n}`"),
-            Tok::Ident(s) => return write!(f, "identifier `{s}`"),
-            Tok::LParen => "`(`",
-            Tok::RParen => "`)`",
-            Tok::Comma => "`,`",
-            Tok::Colon => "`:`",
-            Tok::Arrow => "`->`",
-            Tok::Lt => "`<`",
-            Tok::Gt => "`>`",
-            Tok::Le => "`<=`",
-            Tok::Ge => "`>=`",
-            Tok::EqEq => "`==`",
-            Tok::Ne => "`!=`",
-            Tok::Assign => "`=`",
-            Tok::AndAnd => "`&&`",
-            Tok::OrOr => "`||`",
-            Tok::Bang => "`!`",
-            Tok::Plus => "`+`",
-            Tok::Minus => "`-`",
-            Tok::Star => "`*`",
-            Tok::Slash => "`/`",
-            Tok::Caret => "`^`",
-        };
-        f.write_str(s)
-    }
-}
-
-/// What went wrong while lexing, with the span it covers.
-#[derive(Clone, Debug, PartialEq)]
-pub struct LexError {
-    pub span: Span,
-    pub message: String,
-}
-
-/// Tokens of module mode.
-#[derive(Logos, Debug, Clone, Copy, PartialEq)]
-#[logos(skip r"[\s&&[^\n]]+")]
-enum ModTok {
-    #[token("\n")]
-    Nl,
-    #[regex(r"/\*([^*]|\*+[^*/])*\*+/", allow_greedy = true)]
-    Comment,
-    #[token("/*")]
-    OpenComment,
-    #[token("(")]
-    LParen,
-    #[token(")")]
-    RParen,
-    #[token(",")]
-    Comma,
-    #[token(":")]
-    Colon,
-    #[token("->")]
-    #[token("-->")]
-    Arrow,
-    #[token("<")]
-    Lt,
-    #[token(">")]
-    Gt,
-    #[regex(r"[^\s\p{Cc}(),:<>]")]
-    Sym,
-    #[regex(r"[\x00-\x08\x0E-\x1F\x7F\u{80}-\u{84}\u{86}-\u{9F}]")]
-    Control,
-}
-
-/// Tokens of expression mode.
-#[derive(Logos, Debug, Clone, Copy, PartialEq)]
-#[logos(skip r"[\s&&[^\n]]+")]
-enum ExprTok {
-    #[token("\n")]
-    Nl,
-    #[regex(r"/\*([^*]|\*+[^*/])*\*+/", allow_greedy = true)]
-    Comment,
-    #[token("/*")]
-    OpenComment,
-    #[regex(r"[0-9]+(\.[0-9]*)?([eE][+-]?[0-9]+)?")]
-    #[regex(r"\.[0-9]+([eE][+-]?[0-9]+)?")]
-    Num,
-    #[regex(r"[A-Za-z_][A-Za-z0-9_]*")]
-    Ident,
     #[token("(")]
     LParen,
     #[token(")")]
@@ -201,13 +92,124 @@ enum ExprTok {
     Slash,
     #[token("^")]
     Caret,
+    /// A whole comment (never handed to the grammar).
+    #[token("/*", skip_comment)]
+    Comment,
 }
 
-enum Inner<'a> {
-    Mod(logos::Lexer<'a, ModTok>),
-    Expr(logos::Lexer<'a, ExprTok>),
-    /// Transitional state while morphing.
-    Gone,
+/// A number as written; too large for a float is an error.
+fn number<'a>(lex: &mut logos::Lexer<'a, Tok<'a>>) -> Result<f64, LexicalError> {
+    match lex.slice().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(LexicalError::NumberOutOfRange(lex.slice().to_string())),
+    }
+}
+
+/// At `/*`: take the whole comment, or fail at its `/*`.
+fn skip_comment<'a>(lex: &mut logos::Lexer<'a, Tok<'a>>) -> Result<(), LexicalError> {
+    let at = lex.span().start;
+    match comment::len(&lex.source()[at..]) {
+        Some(n) => {
+            lex.bump(n - comment::OPEN.len());
+            Ok(())
+        }
+        None => Err(LexicalError::UnterminatedComment),
+    }
+}
+
+/// logos wants a default error; `unexpected` gives the real one.
+impl Default for LexicalError {
+    fn default() -> LexicalError {
+        LexicalError::UnexpectedChar('?')
+    }
+}
+
+/// Input no token starts with: its first character.
+fn unexpected<'a>(lex: &mut logos::Lexer<'a, Tok<'a>>) -> LexicalError {
+    let c = lex.source()[lex.span().start..].chars().next();
+    LexicalError::UnexpectedChar(c.unwrap_or('?'))
+}
+
+impl std::fmt::Display for Tok<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = match self {
+            Tok::Nl => "end of line",
+            Tok::KwDerivationLength => "`derivation length:`",
+            Tok::KwDefine => "`define:`",
+            Tok::KwSeed => "`seed:`",
+            Tok::KwIgnore => "`ignore:`",
+            Tok::KwConsider => "`consider:`",
+            Tok::KwProductions => "`productions:`",
+            Tok::KwHomomorphism => "`homomorphism:`",
+            Tok::KwDecomposition => "`decomposition:`",
+            Tok::KwMaximumDepth => "`maximum depth:`",
+            Tok::KwProductionsN(n) => return write!(f, "`productions {n}:`"),
+            Tok::KwGroups(_) => "`groups:`",
+            Tok::KwGroup => "`group:`",
+            Tok::Warnings(true) => "`warnings`",
+            Tok::Warnings(false) => "`no warnings`",
+            Tok::Sym(c) => return write!(f, "symbol `{c}`"),
+            Tok::Num(n) => return write!(f, "number `{n}`"),
+            Tok::Ident(s) => return write!(f, "identifier `{s}`"),
+            Tok::LParen => "`(`",
+            Tok::RParen => "`)`",
+            Tok::Comma => "`,`",
+            Tok::Colon => "`:`",
+            Tok::Arrow => "`->`",
+            Tok::Lt => "`<`",
+            Tok::Gt => "`>`",
+            Tok::Le => "`<=`",
+            Tok::Ge => "`>=`",
+            Tok::EqEq => "`==`",
+            Tok::Ne => "`!=`",
+            Tok::Assign => "`=`",
+            Tok::AndAnd => "`&&`",
+            Tok::OrOr => "`||`",
+            Tok::Bang => "`!`",
+            Tok::Plus => "`+`",
+            Tok::Minus => "`-`",
+            Tok::Star => "`*`",
+            Tok::Slash => "`/`",
+            Tok::Caret => "`^`",
+            Tok::Comment => "a comment",
+        };
+        f.write_str(s)
+    }
+}
+
+/// What went wrong while lexing, with the span it covers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LexError {
+    pub span: Span,
+    pub kind: LexicalError,
+}
+
+/// Which tokens come next.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mode {
+    /// Every non-blank character a symbol.
+    Module,
+    /// A module's parameter list, `depth` parentheses deep (at least 1):
+    /// module mode again after its `)`.
+    Params { depth: u32 },
+    /// A condition, probability or numeric setting, `depth` parentheses
+    /// deep: until the arrow or the end of the line.
+    Expr { depth: u32 },
+}
+
+/// Where the lexer is in its line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Line {
+    /// At the start of a line (nothing yet, or after an end of line):
+    /// look for a `view:` line and a keyword.
+    Start,
+    /// Nothing handed out on this line yet: another end of line is a
+    /// blank line, collapsed.
+    Empty,
+    /// Tokens handed out on this line.
+    Tokens,
+    /// The input is over.
+    Done,
 }
 
 /// Keywords recognised at the start of a line, with the mode that follows.
@@ -228,7 +230,7 @@ const KEYWORDS: &[(&str, Tok<'static>, bool)] = &[
 fn line_rest(rest: &str) -> &str {
     let end = rest.find(['\n', '\r']).unwrap_or(rest.len());
     let line = &rest[..end];
-    match line.find("/*") {
+    match line.find(comment::OPEN) {
         Some(c) => &line[..c],
         None => line,
     }
@@ -268,17 +270,10 @@ pub fn match_keyword(rest: &str, keyword: &str) -> Option<usize> {
 /// The mode-switching lexer over the header text.
 pub struct Lexer<'a> {
     src: &'a str,
-    inner: Inner<'a>,
-    /// At the start of a line: check for keywords.
-    line_start: bool,
-    /// Last token emitted was a newline (or nothing yet): collapse blank lines.
-    after_nl: bool,
-    /// In expression mode: parenthesis depth, and whether depth 0 returns to
-    /// module mode (a module's parameter list) or not (condition, probability,
-    /// numeric setting).
-    depth: u32,
-    return_at_zero: bool,
-    done: bool,
+    /// Byte offset of the next token.
+    pos: usize,
+    mode: Mode,
+    line: Line,
     /// Tokens of the current expression, to bound the parser's and the
     /// compiler's recursion on absurd input.
     expr_tokens: usize,
@@ -306,16 +301,22 @@ pub fn view_settings(src: &str) -> Result<Vec<crate::turtle::view::Setting>, Lex
 pub const MAX_EXPR_TOKENS: usize = 10_000;
 pub const MAX_PAREN_DEPTH: u32 = 256;
 
+/// A token or an error, with its span.
+pub type Spanned<'a> = Result<(usize, Tok<'a>, usize), LexError>;
+
+/// Characters that cannot be module symbols (logos' old `Control` class):
+/// C0 and C1 controls that are not blanks.
+fn is_control(c: char) -> bool {
+    matches!(c, '\x00'..='\x08' | '\x0E'..='\x1F' | '\x7F' | '\u{80}'..='\u{84}' | '\u{86}'..='\u{9F}')
+}
+
 impl<'a> Lexer<'a> {
     pub fn new(src: &'a str) -> Self {
         Lexer {
             src,
-            inner: Inner::Mod(ModTok::lexer(src)),
-            line_start: true,
-            after_nl: true,
-            depth: 0,
-            return_at_zero: false,
-            done: false,
+            pos: 0,
+            mode: Mode::Module,
+            line: Line::Start,
             expr_tokens: 0,
             views: None,
             pending_warnings: None,
@@ -325,69 +326,192 @@ impl<'a> Lexer<'a> {
     /// A lexer for a lone expression (an axiom parameter, a test).
     pub fn new_expr(src: &'a str) -> Self {
         Lexer {
-            src,
-            inner: Inner::Expr(ExprTok::lexer(src)),
-            line_start: false,
-            after_nl: true,
-            depth: 0,
-            return_at_zero: false,
-            done: false,
-            expr_tokens: 0,
-            views: None,
-            pending_warnings: None,
+            mode: Mode::Expr { depth: 0 },
+            line: Line::Empty,
+            ..Lexer::new(src)
         }
     }
 
-    fn pos(&self) -> usize {
-        match &self.inner {
-            Inner::Mod(l) => l.span().end,
-            Inner::Expr(l) => l.span().end,
-            Inner::Gone => unreachable!("lexer used while morphing"),
+    /// Switch to `mode`; an expression starts with a fresh token budget.
+    fn enter(&mut self, mode: Mode) {
+        if mode != Mode::Module {
+            self.expr_tokens = 0;
         }
+        self.mode = mode;
     }
 
-    fn bump(&mut self, n: usize) {
-        match &mut self.inner {
-            Inner::Mod(l) => l.bump(n),
-            Inner::Expr(l) => l.bump(n),
-            Inner::Gone => unreachable!("lexer used while morphing"),
-        }
+    /// Module mode: the next token at `self.pos`, its start and end; None
+    /// at the end of the input.
+    fn module_token(&self) -> Option<(Result<Tok<'a>, LexicalError>, usize, usize)> {
+        let rest = &self.src[self.pos..];
+        let t = rest.trim_start_matches(|c: char| c != '\n' && c.is_whitespace());
+        let s = self.pos + rest.len() - t.len();
+        let c = t.chars().next()?;
+        let (tok, len) = match c {
+            '\n' => (Ok(Tok::Nl), 1),
+            '/' if t.starts_with(comment::OPEN) => match comment::len(t) {
+                Some(n) => (Ok(Tok::Comment), n),
+                None => (Err(LexicalError::UnterminatedComment), 2),
+            },
+            '(' => (Ok(Tok::LParen), 1),
+            ')' => (Ok(Tok::RParen), 1),
+            ':' => (Ok(Tok::Colon), 1),
+            '<' => (Ok(Tok::Lt), 1),
+            '>' => (Ok(Tok::Gt), 1),
+            '-' if t.starts_with("-->") => (Ok(Tok::Arrow), 3),
+            '-' if t.starts_with("->") => (Ok(Tok::Arrow), 2),
+            c if is_control(c) => (Err(LexicalError::ControlChar(c)), c.len_utf8()),
+            c => (Ok(Tok::Sym(c)), c.len_utf8()),
+        };
+        Some((tok, s, s + len))
     }
 
-    fn enter_expr(&mut self) {
-        self.expr_tokens = 0;
-        if let Inner::Mod(l) = std::mem::replace(&mut self.inner, Inner::Gone) {
-            self.inner = Inner::Expr(l.morph());
-        } else {
-            unreachable!("to_expr from expression mode")
-        }
+    /// Expression mode: the next token, by logos.
+    fn expr_token(&self) -> Option<(Result<Tok<'a>, LexicalError>, usize, usize)> {
+        let mut lex = Tok::lexer(&self.src[self.pos..]);
+        let tok = lex.next()?;
+        let span = lex.span();
+        Some((tok, self.pos + span.start, self.pos + span.end))
     }
 
-    fn enter_mod(&mut self) {
-        if let Inner::Expr(l) = std::mem::replace(&mut self.inner, Inner::Gone) {
-            self.inner = Inner::Mod(l.morph());
-        } else {
-            unreachable!("to_mod from module mode")
+    /// What follows a token in the current mode: the mode it leads to, or
+    /// an error.
+    fn after(&mut self, tok: &Tok<'a>) -> Result<(), LexicalError> {
+        match (self.mode, tok) {
+            (Mode::Module, Tok::LParen) => self.enter(Mode::Params { depth: 1 }),
+            (Mode::Module, Tok::Colon) => self.enter(Mode::Expr { depth: 0 }),
+            (Mode::Module, _) => {}
+            (Mode::Params { depth } | Mode::Expr { depth }, Tok::LParen) => {
+                if depth + 1 > MAX_PAREN_DEPTH {
+                    return Err(LexicalError::NestedTooDeeply);
+                }
+                self.mode = match self.mode {
+                    Mode::Params { .. } => Mode::Params { depth: depth + 1 },
+                    _ => Mode::Expr { depth: depth + 1 },
+                };
+            }
+            (Mode::Params { depth: 1 }, Tok::RParen) => self.enter(Mode::Module),
+            (Mode::Params { depth }, Tok::RParen) => self.mode = Mode::Params { depth: depth - 1 },
+            (Mode::Expr { depth }, Tok::RParen) => {
+                self.mode = Mode::Expr {
+                    depth: depth.saturating_sub(1),
+                }
+            }
+            // The next parameter of a module: its own budget, so a long
+            // list meets the arity limit instead.
+            (Mode::Params { depth: 1 }, Tok::Comma) => self.expr_tokens = 0,
+            (Mode::Expr { depth: 0 }, Tok::Arrow) => self.enter(Mode::Module),
+            _ => {}
         }
+        Ok(())
     }
 
-    fn ensure_mod(&mut self) {
-        if matches!(self.inner, Inner::Expr(_)) {
-            self.enter_mod();
+    /// An end of line: module mode, and a keyword may follow.
+    fn newline(&mut self) {
+        self.enter(Mode::Module);
+        self.line = Line::Start;
+    }
+}
+
+impl<'a> Iterator for Lexer<'a> {
+    type Item = Spanned<'a>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        loop {
+            match self.line {
+                Line::Done => return None,
+                Line::Start => {
+                    self.line = Line::Empty;
+                    if let Err(e) = self.view_line() {
+                        return Some(Err(e));
+                    }
+                    if let Some(t) = self.keyword() {
+                        self.line = Line::Tokens;
+                        return Some(t);
+                    }
+                }
+                Line::Empty | Line::Tokens => {}
+            }
+            if let Some(at) = self.pending_warnings.take() {
+                if let Some(t) = self.warnings(at) {
+                    return Some(t);
+                }
+            }
+            let next = match self.mode {
+                Mode::Module => self.module_token(),
+                Mode::Params { .. } | Mode::Expr { .. } => self.expr_token(),
+            };
+            let Some((tok, s, e)) = next else {
+                // Terminate the last line so the grammar sees whole lines.
+                let ended = self.line == Line::Tokens;
+                self.line = Line::Done;
+                self.pos = self.src.len();
+                return ended.then_some(Ok((self.src.len(), Tok::Nl, self.src.len())));
+            };
+            let error = |span: Span, kind| Some(Err(LexError { span, kind }));
+            // Past the token, also a bad one: lexing may go on after an error.
+            if let Err(LexicalError::UnexpectedChar(c)) = tok {
+                self.pos = e.max(s + c.len_utf8());
+                return error((s, s + c.len_utf8()), LexicalError::UnexpectedChar(c));
+            }
+            self.pos = e;
+            if self.mode != Mode::Module {
+                self.expr_tokens += 1;
+                if self.expr_tokens > MAX_EXPR_TOKENS {
+                    return error((s, e), LexicalError::ExpressionTooLong);
+                }
+            }
+            let tok = match tok {
+                Ok(t) => t,
+                Err(kind) => return error((s, e), kind),
+            };
+            match tok {
+                Tok::Nl => {
+                    // Blank lines collapse into one end of line.
+                    let ended = self.line == Line::Tokens;
+                    self.newline();
+                    if ended {
+                        return Some(Ok((s, Tok::Nl, e)));
+                    }
+                    continue;
+                }
+                Tok::Comment => {
+                    // A comment spanning lines ends the line it began on:
+                    // what follows starts a line of its own.
+                    if self.src[s..e].contains('\n') {
+                        let ended = self.line == Line::Tokens;
+                        self.newline();
+                        if ended {
+                            return Some(Ok((s, Tok::Nl, s)));
+                        }
+                    }
+                    continue;
+                }
+                _ => {}
+            }
+            if let Err(kind) = self.after(&tok) {
+                return error((s, e), kind);
+            }
+            self.line = Line::Tokens;
+            return Some(Ok((s, tok, e)));
         }
     }
+}
 
-    /// Bytes of blanks and comments at `pos` before a keyword may start
-    /// (a comment that spans lines starts a new line, handled by the
-    /// caller as a newline).
+/// Keyword lines, `view:` lines and the blanks before them.
+impl<'a> Lexer<'a> {
     fn lead(&self, pos: usize) -> usize {
         let mut blank = 0;
         loop {
             let rest = &self.src[pos + blank..];
             let t = rest.trim_start_matches(|c: char| c != '\n' && c.is_whitespace());
             blank += rest.len() - t.len();
-            match t.strip_prefix("/*").and_then(|c| c.find("*/")) {
-                Some(end) if !t[..end + 4].contains('\n') => blank += end + 4,
+            match t
+                .starts_with(comment::OPEN)
+                .then(|| comment::len(t))
+                .flatten()
+            {
+                Some(len) if !t[..len].contains('\n') => blank += len,
                 _ => break,
             }
         }
@@ -397,7 +521,7 @@ impl<'a> Lexer<'a> {
     /// At the start of a line: skip blanks and look for a keyword.
     /// Blanks and comments may come before the keyword.
     fn keyword(&mut self) -> Option<Spanned<'a>> {
-        let pos = self.pos();
+        let pos = self.pos;
         let blank = self.lead(pos);
         let rest = &self.src[pos + blank..];
         let at = pos + blank;
@@ -406,13 +530,12 @@ impl<'a> Lexer<'a> {
         }
         for (kw, tok, expr) in KEYWORDS {
             if let Some(len) = match_keyword(rest, kw) {
-                self.bump(blank + len);
-                self.ensure_mod();
-                if *expr {
-                    self.enter_expr();
-                    self.depth = 0;
-                    self.return_at_zero = false;
-                }
+                self.pos += blank + len;
+                self.enter(if *expr {
+                    Mode::Expr { depth: 0 }
+                } else {
+                    Mode::Module
+                });
                 if matches!(tok, Tok::KwHomomorphism | Tok::KwDecomposition) {
                     self.pending_warnings = Some(at + len);
                 }
@@ -426,12 +549,8 @@ impl<'a> Lexer<'a> {
     /// `productions N:`, `groups: ...`, and the `decomposition N:` /
     /// `homomorphism N:` mistakes.
     fn structural_keyword(&mut self, rest: &str, at: usize) -> Option<Spanned<'a>> {
-        let err = |s: usize, e: usize, m: &str| {
-            Some(Err(LexError {
-                span: (s, e),
-                message: m.to_string(),
-            }))
-        };
+        let err =
+            |s: usize, e: usize, kind: LexicalError| Some(Err(LexError { span: (s, e), kind }));
         if let Some(len) = match_keyword(rest, "groups:") {
             let line = line_rest(&rest[len..]);
             let mut groups = Vec::new();
@@ -443,32 +562,18 @@ impl<'a> Lexer<'a> {
                     continue;
                 }
                 if !word.bytes().all(|b| b.is_ascii_digit()) {
-                    return err(
-                        s,
-                        s + word.len(),
-                        "`groups:` takes whole group numbers separated by blanks",
-                    );
+                    return err(s, s + word.len(), LexicalError::GroupsNotNumbers);
                 }
                 match word.parse::<u32>() {
                     Ok(n) if n <= 65535 => groups.push((n, (s, s + word.len()))),
-                    _ => {
-                        return err(
-                            s,
-                            s + word.len(),
-                            "a production group is a whole number from 0 to 65535",
-                        )
-                    }
+                    _ => return err(s, s + word.len(), LexicalError::GroupOutOfRange),
                 }
             }
             if groups.is_empty() {
-                return err(
-                    at,
-                    at + len,
-                    "`groups:` takes whole group numbers separated by blanks",
-                );
+                return err(at, at + len, LexicalError::GroupsNotNumbers);
             }
-            self.bump(at - self.pos() + len + line.len());
-            self.ensure_mod();
+            self.pos = at + len + line.len();
+            self.enter(Mode::Module);
             return Some(Ok((at, Tok::KwGroups(groups), at + len + line.len())));
         }
         for word in ["productions", "decomposition", "homomorphism"] {
@@ -489,15 +594,15 @@ impl<'a> Lexer<'a> {
             }
             let (s, e) = (at + len + blanks, at + len + blanks + wlen);
             if word != "productions" {
-                return err(s, e, &format!("{word} has no groups"));
+                return err(s, e, LexicalError::NoGroups(word));
             }
             let n = match t[..wlen].parse::<u32>() {
                 Ok(n) if n <= 65535 && t[..wlen].bytes().all(|b| b.is_ascii_digit()) => n,
-                _ => return err(s, e, "a production group is a whole number from 0 to 65535"),
+                _ => return err(s, e, LexicalError::GroupOutOfRange),
             };
             let end = e + colon + 1;
-            self.bump(end - self.pos());
-            self.ensure_mod();
+            self.pos = end;
+            self.enter(Mode::Module);
             return Some(Ok((at, Tok::KwProductionsN(n), end)));
         }
         None
@@ -531,10 +636,10 @@ impl<'a> Lexer<'a> {
             };
             return Some(Err(LexError {
                 span: (s, s + word.len()),
-                message: format!("expected `warnings` or `no warnings` after `{kw}`"),
+                kind: LexicalError::ExpectedWarnings(kw),
             }));
         };
-        self.bump(blank + word.len());
+        self.pos += blank + word.len();
         Some(Ok((s, Tok::Warnings(which), s + word.len())))
     }
 
@@ -542,7 +647,7 @@ impl<'a> Lexer<'a> {
     /// the others (blanks and comments may come first), checked by the
     /// same parser, then skipped up to the end of the line (or a comment).
     fn view_line(&mut self) -> Result<(), LexError> {
-        let pos = self.pos();
+        let pos = self.pos;
         let blank = self.lead(pos);
         let Some(kl) = match_keyword(&self.src[pos + blank..], "view:") else {
             return Ok(());
@@ -558,215 +663,13 @@ impl<'a> Lexer<'a> {
             Err(e) => {
                 return Err(LexError {
                     span: (at + e.span.0, at + e.span.1.max(e.span.0 + 1).min(end)),
-                    message: e.message,
+                    kind: LexicalError::ViewSetting(e.kind),
                 })
             }
         }
-        self.bump(blank + kl + end);
+        self.pos += blank + kl + end;
         Ok(())
     }
-
-    fn newline(&mut self) {
-        self.ensure_mod();
-        self.depth = 0;
-        self.return_at_zero = false;
-        self.line_start = true;
-    }
-}
-
-pub type Spanned<'a> = Result<(usize, Tok<'a>, usize), LexError>;
-
-impl<'a> Iterator for Lexer<'a> {
-    type Item = Spanned<'a>;
-
-    fn next(&mut self) -> Option<Self::Item> {
-        loop {
-            if self.done {
-                return None;
-            }
-            if self.line_start {
-                self.line_start = false;
-                if let Err(e) = self.view_line() {
-                    return Some(Err(e));
-                }
-                if let Some(t) = self.keyword() {
-                    self.after_nl = false;
-                    return Some(t);
-                }
-            }
-            if let Some(at) = self.pending_warnings.take() {
-                if let Some(t) = self.warnings(at) {
-                    return Some(t);
-                }
-            }
-            let (tok, span) = match &mut self.inner {
-                Inner::Mod(l) => match l.next() {
-                    None => (None, l.span()),
-                    Some(t) => (Some(t.map(Left)), l.span()),
-                },
-                Inner::Expr(l) => match l.next() {
-                    None => (None, l.span()),
-                    Some(t) => (Some(t.map(Right)), l.span()),
-                },
-                Inner::Gone => unreachable!("lexer used while morphing"),
-            };
-            let (s, e) = (span.start, span.end);
-            let Some(tok) = tok else {
-                self.done = true;
-                // Terminate the last line so the grammar sees whole lines.
-                if !self.after_nl {
-                    self.after_nl = true;
-                    return Some(Ok((self.src.len(), Tok::Nl, self.src.len())));
-                }
-                return None;
-            };
-            let tok = match tok {
-                Err(()) => {
-                    let text = &self.src[s..e.max(s + 1).min(self.src.len())];
-                    let c = text.chars().next().unwrap_or('?');
-                    return Some(Err(LexError {
-                        span: (s, s + c.len_utf8()),
-                        message: format!("unexpected character `{}`", c.escape_default()),
-                    }));
-                }
-                Ok(t) => t,
-            };
-            if let Right(_) = tok {
-                self.expr_tokens += 1;
-                if self.expr_tokens > MAX_EXPR_TOKENS {
-                    return Some(Err(LexError {
-                        span: (s, e),
-                        message: format!("expression too long (over {MAX_EXPR_TOKENS} tokens)"),
-                    }));
-                }
-            }
-            let out = match tok {
-                Left(ModTok::Nl) | Right(ExprTok::Nl) => {
-                    self.newline();
-                    if self.after_nl {
-                        continue;
-                    }
-                    self.after_nl = true;
-                    return Some(Ok((s, Tok::Nl, e)));
-                }
-                Left(ModTok::Comment) | Right(ExprTok::Comment) => {
-                    // A comment spanning lines still ends the line it began on
-                    // only if it contains a newline; treat that as a newline.
-                    if self.src[s..e].contains('\n') {
-                        // What follows the comment starts a line of its own.
-                        self.newline();
-                        if !self.after_nl {
-                            self.after_nl = true;
-                            return Some(Ok((s, Tok::Nl, s)));
-                        }
-                    }
-                    continue;
-                }
-                Left(ModTok::OpenComment) | Right(ExprTok::OpenComment) => {
-                    return Some(Err(LexError {
-                        span: (s, e),
-                        message: "unterminated comment: `/*` without `*/`".into(),
-                    }));
-                }
-                Left(ModTok::Control) => {
-                    let c = self.src[s..].chars().next().unwrap_or('?');
-                    return Some(Err(LexError {
-                        span: (s, e),
-                        message: format!(
-                            "control character `{}` cannot be a symbol",
-                            c.escape_default()
-                        ),
-                    }));
-                }
-                Left(ModTok::Sym) => Tok::Sym(self.src[s..e].chars().next().unwrap()),
-                Left(ModTok::LParen) => {
-                    self.enter_expr();
-                    self.depth = 1;
-                    self.return_at_zero = true;
-                    Tok::LParen
-                }
-                Left(ModTok::RParen) => Tok::RParen,
-                Left(ModTok::Comma) => Tok::Comma,
-                Left(ModTok::Colon) => {
-                    self.enter_expr();
-                    self.depth = 0;
-                    self.return_at_zero = false;
-                    Tok::Colon
-                }
-                Left(ModTok::Arrow) => Tok::Arrow,
-                Left(ModTok::Lt) => Tok::Lt,
-                Left(ModTok::Gt) => Tok::Gt,
-                Right(ExprTok::Num) => match self.src[s..e].parse::<f64>() {
-                    Ok(v) if v.is_finite() => Tok::Num(v),
-                    _ => {
-                        return Some(Err(LexError {
-                            span: (s, e),
-                            message: format!("number `{}` is out of range", &self.src[s..e]),
-                        }))
-                    }
-                },
-                Right(ExprTok::Ident) => Tok::Ident(&self.src[s..e]),
-                Right(ExprTok::LParen) => {
-                    self.depth += 1;
-                    if self.depth > MAX_PAREN_DEPTH {
-                        return Some(Err(LexError {
-                            span: (s, e),
-                            message: format!(
-                                "parentheses nested too deeply (over {MAX_PAREN_DEPTH})"
-                            ),
-                        }));
-                    }
-                    Tok::LParen
-                }
-                Right(ExprTok::RParen) => {
-                    self.depth = self.depth.saturating_sub(1);
-                    if self.depth == 0 && self.return_at_zero {
-                        self.enter_mod();
-                        self.return_at_zero = false;
-                    }
-                    Tok::RParen
-                }
-                Right(ExprTok::Comma) => {
-                    if self.depth == 1 && self.return_at_zero {
-                        // The next parameter of a module: its own budget,
-                        // so a long list meets the arity limit instead.
-                        self.expr_tokens = 0;
-                    }
-                    Tok::Comma
-                }
-                Right(ExprTok::Colon) => Tok::Colon,
-                Right(ExprTok::Arrow) => {
-                    if self.depth == 0 {
-                        self.enter_mod();
-                    }
-                    Tok::Arrow
-                }
-                Right(ExprTok::Lt) => Tok::Lt,
-                Right(ExprTok::Gt) => Tok::Gt,
-                Right(ExprTok::Le) => Tok::Le,
-                Right(ExprTok::Ge) => Tok::Ge,
-                Right(ExprTok::EqEq) => Tok::EqEq,
-                Right(ExprTok::Ne) => Tok::Ne,
-                Right(ExprTok::Assign) => Tok::Assign,
-                Right(ExprTok::AndAnd) => Tok::AndAnd,
-                Right(ExprTok::OrOr) => Tok::OrOr,
-                Right(ExprTok::Bang) => Tok::Bang,
-                Right(ExprTok::Plus) => Tok::Plus,
-                Right(ExprTok::Minus) => Tok::Minus,
-                Right(ExprTok::Star) => Tok::Star,
-                Right(ExprTok::Slash) => Tok::Slash,
-                Right(ExprTok::Caret) => Tok::Caret,
-            };
-            self.after_nl = false;
-            return Some(Ok((s, out, e)));
-        }
-    }
-}
-
-use Either::{Left, Right};
-enum Either<A, B> {
-    Left(A),
-    Right(B),
 }
 
 #[cfg(test)]
@@ -869,7 +772,7 @@ mod tests {
             .collect();
         assert_eq!(errs.len(), 1);
         assert_eq!(errs[0].span, (7, 9));
-        assert!(errs[0].message.contains("unterminated comment"));
+        assert_eq!(errs[0].kind, LexicalError::UnterminatedComment);
     }
 
     #[test]
@@ -894,10 +797,10 @@ mod tests {
     fn absurd_expressions_are_refused() {
         let deep = format!("seed: {}1", "(".repeat(1000));
         let errs: Vec<_> = Lexer::new(&deep).filter_map(|t| t.err()).collect();
-        assert!(errs[0].message.contains("nested too deeply"));
+        assert_eq!(errs[0].kind, LexicalError::NestedTooDeeply);
         let long = format!("seed: {}", "1+".repeat(20_000));
         let errs: Vec<_> = Lexer::new(&long).filter_map(|t| t.err()).collect();
-        assert!(errs[0].message.contains("too long"));
+        assert_eq!(errs[0].kind, LexicalError::ExpressionTooLong);
     }
 
     #[test]

@@ -2,7 +2,10 @@
 //! grammar, and lalrpop's `ParseError` is turned into our located error in
 //! one place.
 
-use crate::diag::{CodeMap, Error, ErrorKind, Location};
+use crate::diag::{
+    CodeMap, CompileError, Error, ErrorKind, Expected, ExprError, LexicalError, Location,
+    ParseError as Syntax,
+};
 use crate::lang::ast;
 use crate::lang::lexer::{LexError, Lexer, Span, Tok};
 use crate::lang::sink::{Collect, HeaderSink, Reader};
@@ -14,32 +17,89 @@ lalrpop_mod!(
     "/ls.rs"
 );
 
-/// An error raised by the lexer or by a grammar action.
+/// An error in the header text, with its span: raised by the lexer, the
+/// grammar or the compiler of the rules.
 #[derive(Clone, Debug, PartialEq)]
 pub struct UserError {
     pub span: Span,
-    pub message: String,
-    /// Found by the lexer (else by the grammar).
-    pub lexical: bool,
+    pub kind: HeaderError,
+}
+
+/// What went wrong in the header text, by stage.
+#[derive(Clone, Debug, PartialEq)]
+pub enum HeaderError {
+    Lexical(LexicalError),
+    Parse(Syntax),
+    Compile(CompileError),
+    /// A message of the cpfg front end, whose errors are not typed yet
+    /// (shown as [`ErrorKind::Other`]).
+    Cpfg(String),
+}
+
+impl From<String> for HeaderError {
+    fn from(e: String) -> HeaderError {
+        HeaderError::Cpfg(e)
+    }
+}
+
+impl From<&str> for HeaderError {
+    fn from(e: &str) -> HeaderError {
+        HeaderError::Cpfg(e.to_string())
+    }
+}
+
+impl From<LexicalError> for HeaderError {
+    fn from(e: LexicalError) -> HeaderError {
+        HeaderError::Lexical(e)
+    }
+}
+
+impl From<Syntax> for HeaderError {
+    fn from(e: Syntax) -> HeaderError {
+        HeaderError::Parse(e)
+    }
+}
+
+impl From<CompileError> for HeaderError {
+    fn from(e: CompileError) -> HeaderError {
+        HeaderError::Compile(e)
+    }
+}
+
+impl From<ExprError> for HeaderError {
+    fn from(e: ExprError) -> HeaderError {
+        HeaderError::Compile(CompileError::Expr(e))
+    }
+}
+
+impl From<HeaderError> for ErrorKind {
+    fn from(e: HeaderError) -> ErrorKind {
+        match e {
+            HeaderError::Lexical(e) => ErrorKind::Lexical(e),
+            HeaderError::Parse(e) => ErrorKind::Parse(e),
+            HeaderError::Compile(e) => ErrorKind::Compile(e),
+            HeaderError::Cpfg(e) => ErrorKind::Other(e),
+        }
+    }
 }
 
 impl UserError {
-    pub fn new(span: Span, message: impl Into<String>) -> UserError {
+    pub fn new(span: Span, kind: impl Into<HeaderError>) -> UserError {
         UserError {
             span,
-            message: message.into(),
-            lexical: false,
+            kind: kind.into(),
         }
+    }
+
+    /// The message, as the error shows it.
+    pub fn message(&self) -> String {
+        ErrorKind::from(self.kind.clone()).to_string()
     }
 }
 
 impl From<LexError> for UserError {
     fn from(e: LexError) -> UserError {
-        UserError {
-            span: e.span,
-            message: e.message,
-            lexical: true,
-        }
+        UserError::new(e.span, e.kind)
     }
 }
 
@@ -96,110 +156,110 @@ pub fn parse_expr(text: &str) -> Result<ast::Expr, UserError> {
         .map_err(|e| convert(e, text))
 }
 
-/// Locate a header-relative error for display: a lexical or a parse error.
+/// Locate a header-relative error for display.
 pub fn locate(path: &str, text: &str, e: UserError) -> Error {
     let map = CodeMap::new(text);
-    let stage = if e.lexical {
-        ErrorKind::Lexical
-    } else {
-        ErrorKind::Parse
-    };
-    Error::at(Location::from_map(path, &map, e.span.0), e.message).in_stage(stage)
+    Error::at(Location::from_map(path, &map, e.span.0), e.kind)
 }
 
-fn describe_expected(expected: &[String]) -> String {
+fn describe_expected(expected: &[String]) -> Expected {
     let has = |s: &str| expected.iter().any(|e| e == s);
     if has("\"->\"") {
-        return "expected `->`".into();
+        return Expected::Arrow;
     }
-    let names: Vec<String> = expected
-        .iter()
-        .map(|e| match e.as_str() {
-            "Nl" => "end of line".to_string(),
-            "Sym" => "a symbol".to_string(),
-            "Num" => "a number".to_string(),
-            "Ident" => "an identifier".to_string(),
-            other => format!("`{}`", other.trim_matches('"')),
-        })
-        .collect();
-    match names.len() {
-        0 => String::new(),
-        1 => format!("expected {}", names[0]),
-        n if n <= 6 => format!("expected {} or {}", names[..n - 1].join(", "), names[n - 1]),
-        _ => String::new(),
+    if expected.is_empty() || expected.len() > 6 {
+        return Expected::Nothing;
     }
+    Expected::OneOf(
+        expected
+            .iter()
+            .map(|e| match e.as_str() {
+                "Nl" => "end of line".to_string(),
+                "Sym" => "a symbol".to_string(),
+                "Num" => "a number".to_string(),
+                "Ident" => "an identifier".to_string(),
+                other => format!("`{}`", other.trim_matches('"')),
+            })
+            .collect(),
+    )
 }
 
+/// lalrpop's error to ours: the one place where a parse error is typed.
 fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str) -> UserError {
     match e {
         ParseError::User { error } => error,
         ParseError::InvalidToken { location } => {
-            UserError::new((location, location), "invalid token")
+            UserError::new((location, location), Syntax::InvalidToken)
         }
         ParseError::UnrecognizedEof { location, expected } => {
-            let exp = describe_expected(&expected);
             let loc = text[..location.min(text.len())].trim_end().len();
             UserError::new(
                 (loc, loc),
-                if exp.is_empty() {
-                    "unexpected end of input".to_string()
-                } else {
-                    format!("unexpected end of input, {exp}")
-                },
+                Syntax::UnexpectedEof(describe_expected(&expected)),
             )
         }
         ParseError::UnrecognizedToken {
             token: (l, tok, r),
             expected,
         } => {
-            let exp = describe_expected(&expected);
             // After a comparison, in an expression: `1 < x < 3`.
             let in_expr = expected.iter().any(|e| e == "\"+\"");
-            // `complete`: the message says all there is; no "expected ...".
-            let (what, complete) = match &tok {
-                Tok::Nl => ("unexpected end of line".to_string(), false),
+            let unexpected = |found: String| Syntax::Unexpected {
+                found,
+                expected: describe_expected(&expected),
+            };
+            let kind = match &tok {
                 Tok::Gt | Tok::Lt | Tok::Le | Tok::Ge | Tok::EqEq | Tok::Ne | Tok::Assign
                     if in_expr =>
                 {
-                    (format!("unexpected {tok}: comparisons do not chain; write `a < x && x < b`"), true)
+                    Syntax::ChainedComparison(tok.to_string())
                 }
-                Tok::Gt => ("unexpected `>`: contexts are written only left of the arrow (`lc < pred > rc -> succ`)".to_string(), true),
-                Tok::Lt => ("unexpected `<`: contexts are written only left of the arrow (`lc < pred > rc -> succ`)".to_string(), true),
+                Tok::Gt => Syntax::ContextRightOfArrow('>'),
+                Tok::Lt => Syntax::ContextRightOfArrow('<'),
                 Tok::KwMaximumDepth => {
                     let (last, _, _) = last_section(&text[..l.min(text.len())]);
                     if matches!(last, Some("decomposition" | "homomorphism")) {
-                        ("`maximum depth:` comes once, right after the section keyword".to_string(), true)
+                        Syntax::MaximumDepthTwice
                     } else {
-                        ("`maximum depth:` belongs to `decomposition:` or `homomorphism:`".to_string(), true)
+                        Syntax::MaximumDepthOutside
                     }
                 }
-                Tok::KwDecomposition | Tok::KwHomomorphism if {
-                    let (_, d, h) = last_section(&text[..l.min(text.len())]);
-                    (tok == Tok::KwDecomposition && d > 0) || (tok == Tok::KwHomomorphism && h > 0)
-                } => (format!("second {tok} section"), true),
-                Tok::KwDecomposition => ("`decomposition:` comes after the productions and before `homomorphism:`".to_string(), true),
-                Tok::KwProductions | Tok::KwProductionsN(_) | Tok::KwGroups(_) | Tok::KwGroup
-                | Tok::KwHomomorphism | Tok::KwDerivationLength
-                | Tok::KwDefine | Tok::KwSeed | Tok::KwIgnore | Tok::KwConsider => {
-                    (format!("{tok} is out of place: the order is settings, `productions:`, `homomorphism:`, `axiom:`"), true)
+                Tok::KwDecomposition | Tok::KwHomomorphism
+                    if {
+                        let (_, d, h) = last_section(&text[..l.min(text.len())]);
+                        (tok == Tok::KwDecomposition && d > 0)
+                            || (tok == Tok::KwHomomorphism && h > 0)
+                    } =>
+                {
+                    Syntax::SecondSection(tok.to_string())
                 }
+                Tok::KwDecomposition => Syntax::DecompositionOutOfPlace,
+                Tok::KwProductions
+                | Tok::KwProductionsN(_)
+                | Tok::KwGroups(_)
+                | Tok::KwGroup
+                | Tok::KwHomomorphism
+                | Tok::KwDerivationLength
+                | Tok::KwDefine
+                | Tok::KwSeed
+                | Tok::KwIgnore
+                | Tok::KwConsider => Syntax::OutOfPlace(tok.to_string()),
                 // Quote a number as written (`.3`), not as read (`0.3`).
                 Tok::Num(_) => match text.get(l..r) {
-                    Some(written) => (format!("unexpected number `{written}`"), false),
-                    None => (format!("unexpected {tok}"), false),
+                    Some(written) => unexpected(format!("number `{written}`")),
+                    None => unexpected(tok.to_string()),
                 },
-                t => (format!("unexpected {t}"), false),
+                t => unexpected(t.to_string()),
             };
-            let msg = if exp.is_empty() || complete {
-                what
-            } else {
-                format!("{what}, {exp}")
-            };
-            UserError::new((l, r), msg)
+            UserError::new((l, r), kind)
         }
-        ParseError::ExtraToken { token: (l, tok, r) } => {
-            UserError::new((l, r), format!("unexpected {tok}"))
-        }
+        ParseError::ExtraToken { token: (l, tok, r) } => UserError::new(
+            (l, r),
+            Syntax::Unexpected {
+                found: tok.to_string(),
+                expected: Expected::Nothing,
+            },
+        ),
     }
 }
 
@@ -262,25 +322,34 @@ C -> F(R)
     #[test]
     fn errors() {
         let e = parse_header("productions:\nF F\n").unwrap_err();
-        assert!(e.message.contains("expected `->`"), "{}", e.message);
+        assert!(
+            matches!(
+                &e.kind,
+                HeaderError::Parse(Syntax::Unexpected {
+                    expected: Expected::Arrow,
+                    ..
+                })
+            ),
+            "{e:?}"
+        );
         let e = parse_header("productions:\nF -> G > H\n").unwrap_err();
-        assert!(e.message.contains("unexpected `>`"), "{}", e.message);
+        assert!(e.message().contains("unexpected `>`"), "{}", e.message());
         assert_eq!(e.span, (20, 21));
         let e = parse_header("productions:\nA B -> C\n").unwrap_err();
         assert!(
-            e.message.contains("predecessor is one module"),
+            e.message().contains("predecessor is one module"),
             "{}",
-            e.message
+            e.message()
         );
         let e = parse_header("productions:\nF -> F\nderivation length: 3\n").unwrap_err();
-        assert!(e.message.contains("out of place"), "{}", e.message);
+        assert!(e.message().contains("out of place"), "{}", e.message());
         let e = parse_header("productions:\nA(x) : 1 < x < 3 -> B\n").unwrap_err();
-        assert!(e.message.contains("do not chain"), "{}", e.message);
+        assert!(e.message().contains("do not chain"), "{}", e.message());
         assert_eq!(e.span, (26, 27));
         let e = parse_header("productions:\nA(x) -> B(x == 1 >= 0)\n").unwrap_err();
-        assert!(e.message.contains("do not chain"), "{}", e.message);
+        assert!(e.message().contains("do not chain"), "{}", e.message());
         let e = parse_header("productions:\nA(x -> B\n").unwrap_err();
-        assert!(e.message.contains("unexpected"), "{}", e.message);
+        assert!(e.message().contains("unexpected"), "{}", e.message());
     }
 
     #[test]

@@ -87,7 +87,7 @@ impl<'s> Reader<'s> {
                 if self.twice.is_none() {
                     self.twice = Some(UserError::new(
                         start.span,
-                        format!("group {n} is declared twice"),
+                        crate::diag::ParseError::GroupDeclaredTwice(n),
                     ));
                 }
             } else {
@@ -138,10 +138,7 @@ impl Context {
             .get(self.from..self.to)
             .and_then(|s| s.find(self.delim))
             .map_or(self.fallback, |i| self.from + i);
-        UserError::new(
-            (at, at + 1),
-            "a decomposition production has no context (decomposition is context-free)",
-        )
+        UserError::new((at, at + 1), crate::diag::ParseError::DecompositionContext)
     }
 }
 

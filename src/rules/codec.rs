@@ -9,6 +9,16 @@
 //! *Text* (the output): the symbol, then `(p1,p2,...)` with each number in
 //! the shortest form that reads back to the same f64.
 
+/// The bracket index (see `Out::with_index`): in a generation written
+/// with it, each `[` is followed by the offset just past its `]`
+/// (little-endian u64), so a branch is skipped in constant time; with
+/// module counts (`Out::with_counts`, for systems that can cut), also by
+/// the number of modules of its branch, both brackets included (u64), so a
+/// cut skips its branch in constant time and keeps the draw positions.
+pub const INDEX_BYTES: usize = 16;
+/// Index bytes of a `[` without module counts.
+pub const ENDS_BYTES: usize = 8;
+
 /// Longest encoded module: 5 key bytes + 255 parameters.
 pub const MAX_ARITY: usize = 255;
 pub const MAX_MODULE_BYTES: usize = 5 + 8 * MAX_ARITY;

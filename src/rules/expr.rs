@@ -7,6 +7,7 @@
 //! the operation.
 
 use crate::derive::random::{Draw, Random};
+use crate::diag::ExprError;
 use crate::lang::ast::{BinOp, Expr, UnOp};
 use crate::lang::lexer::Span;
 use std::collections::HashMap;
@@ -26,6 +27,13 @@ pub enum Func1 {
     Ceil,
     Trunc,
     Abs,
+    /// cpfg's `trunc`: floor(x + 0.5).
+    Round,
+    /// cpfg's `sign`: -1, 0 or 1.
+    Sign,
+    /// Round to a 32-bit float: cpfg stores parameters as `float`s (the
+    /// cpfg dialect wraps every successor parameter in it, [`CPFG_F32`]).
+    Float32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -33,6 +41,8 @@ pub enum Func2 {
     Min,
     Max,
     Atan2,
+    /// cpfg's `atan(a, b)`: atan(b), in degrees.
+    AtanSecond,
 }
 
 impl Func1 {
@@ -51,6 +61,17 @@ impl Func1 {
             Func1::Ceil => x.ceil(),
             Func1::Trunc => x.trunc(),
             Func1::Abs => x.abs(),
+            Func1::Round => (x + 0.5).floor(),
+            Func1::Float32 => f64::from(x as f32),
+            Func1::Sign => {
+                if x > 0.0 {
+                    1.0
+                } else if x < 0.0 {
+                    -1.0
+                } else {
+                    0.0
+                }
+            }
         }
     }
 }
@@ -61,6 +82,7 @@ impl Func2 {
             Func2::Min => a.min(b),
             Func2::Max => a.max(b),
             Func2::Atan2 => a.atan2(b).to_degrees(),
+            Func2::AtanSecond => b.atan().to_degrees(),
         }
     }
 }
@@ -92,11 +114,67 @@ fn lookup_function(name: &str) -> Option<(Fun, usize)> {
     })
 }
 
+/// The name of [`Func1::Float32`] for the cpfg dialect's compiler (no
+/// lexer makes it a name).
+pub const CPFG_F32: &str = "\u{0}f32";
+
+/// cpfg's variables as `src/cpfg/lower.rs` names them (issue 12):
+/// variable `i` (a global, or a production's local) is `\u{1}g<i>`.
+fn cpfg_variable(name: &str) -> Option<Op> {
+    let n = name.strip_prefix("\u{1}g")?;
+    n.parse().ok().map(Op::Global)
+}
+
+/// The cpfg dialect's functions (cpfg's `lsys_input.y`): degrees, `trunc`
+/// rounds, `atan` takes 1 or 2 arguments. Random ones are the cpfg
+/// runtime's.
+fn lookup_cpfg_function(name: &str, args: usize) -> Option<(Fun, usize)> {
+    use Func1::*;
+    Some(match name {
+        "sin" => (Fun::F1(Sin), 1),
+        "cos" => (Fun::F1(Cos), 1),
+        "tan" => (Fun::F1(Tan), 1),
+        "asin" => (Fun::F1(Asin), 1),
+        "acos" => (Fun::F1(Acos), 1),
+        "atan" if args == 2 => (Fun::F2(Func2::AtanSecond), 2),
+        "atan" => (Fun::F1(Atan), 1),
+        "sqrt" => (Fun::F1(Sqrt), 1),
+        "exp" => (Fun::F1(Exp), 1),
+        "log" => (Fun::F1(Log), 1),
+        "floor" => (Fun::F1(Floor), 1),
+        "ceil" => (Fun::F1(Ceil), 1),
+        "trunc" => (Fun::F1(Round), 1),
+        "fabs" => (Fun::F1(Abs), 1),
+        "sign" => (Fun::F1(Sign), 1),
+        // On cpfg's function generator (src/cpfg/random.rs).
+        "ran" => (Fun::Ran, 1),
+        "nran" => (Fun::Nran, 2),
+        "bran" => (Fun::Cpfg(CpfgFun::Bran), 2),
+        "biran" => (Fun::Cpfg(CpfgFun::Biran), 2),
+        "srand" => (Fun::Cpfg(CpfgFun::Srand), 1),
+        CPFG_F32 => (Fun::F1(Float32), 1),
+        _ => return None,
+    })
+}
+
 enum Fun {
     F1(Func1),
     F2(Func2),
     Ran,
     Nran,
+    Cpfg(CpfgFun),
+}
+
+/// cpfg's random functions besides `ran` and `nran` (issue 12), on its
+/// function generator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CpfgFun {
+    /// `bran(a, b)`: a beta deviate.
+    Bran,
+    /// `biran(n, p)`: a binomial deviate.
+    Biran,
+    /// `srand(x)`: reseed, giving 0.
+    Srand,
 }
 
 /// One instruction. Operations that can fail carry the index of their span.
@@ -104,35 +182,37 @@ enum Fun {
 pub enum Op {
     Const(f64),
     Load(u32),
-    Neg,
-    Not,
-    Add(u32),
-    Sub(u32),
-    Mul(u32),
-    Div(u32),
-    Pow(u32),
-    Lt,
-    Le,
-    Gt,
-    Ge,
-    Eq,
-    Ne,
-    And,
-    Or,
+    /// The syntax tree's operators, one list for both (`lang::ast`).
+    Un(UnOp),
+    Bin(BinOp, u32),
+    /// cpfg's `/`: a zero divisor divides by 1 (with a warning).
+    DivOr1(u32),
     F1(Func1, u32),
     F2(Func2, u32),
     Ran(u32),
     Nran(u32),
+    /// `bran`, `biran` (two operands) or `srand` (one).
+    CpfgRan(CpfgFun, u32),
     /// The built-in step number (issue 11), kept by the generator.
     Step,
     /// Not an instruction: the span of a fallible one, stored after the
     /// code (u32 offsets: headers are far below 4 GiB).
     At(u32, u32),
+    /// A cpfg global variable (issue 12), kept by the generator.
+    Global(u32),
+    /// `c ? a : b` with c, a, b on the stack (all three evaluated, as
+    /// cpfg does).
+    Select,
 }
 
 /// The parameter slot that names the built-in `step` in a scope's
 /// `params` (issue 11).
 pub const STEP_SLOT: u32 = u32::MAX;
+
+/// Parameter slots from here on name cpfg's global variables (issue 12):
+/// `GLOBAL_SLOT + i` is global `i`, read from the generator
+/// ([`Draw::global`]), not from the production's slots.
+pub const GLOBAL_SLOT: u32 = 1 << 31;
 
 /// A compiled expression.
 #[derive(Clone, Debug, PartialEq)]
@@ -150,7 +230,14 @@ pub struct Code {
 #[derive(Clone, Debug, PartialEq)]
 pub struct EvalError {
     pub span: Span,
-    pub message: String,
+    pub kind: ExprError,
+}
+
+impl EvalError {
+    /// The message, as the error shows it.
+    pub fn message(&self) -> String {
+        self.kind.to_string()
+    }
 }
 
 /// A compile error: unknown identifier, unknown function, wrong arity, or a
@@ -163,6 +250,8 @@ pub struct Scope<'a> {
     pub params: &'a HashMap<String, u32>,
     /// Constants from `define:`.
     pub consts: &'a HashMap<String, f64>,
+    /// The cpfg dialect: its functions, `/` and `%`.
+    pub cpfg: bool,
 }
 
 /// A [`Code`] being compiled.
@@ -195,11 +284,9 @@ impl Code {
                 (kept.len() - 1) as u32
             };
             all.push(match op {
-                Op::Add(si) => Op::Add(at(si)),
-                Op::Sub(si) => Op::Sub(at(si)),
-                Op::Mul(si) => Op::Mul(at(si)),
-                Op::Div(si) => Op::Div(at(si)),
-                Op::Pow(si) => Op::Pow(at(si)),
+                Op::Bin(b, si) => Op::Bin(b, at(si)),
+                Op::DivOr1(si) => Op::DivOr1(at(si)),
+                Op::CpfgRan(f, si) => Op::CpfgRan(f, at(si)),
                 Op::F1(f, si) => Op::F1(f, at(si)),
                 Op::F2(f, si) => Op::F2(f, at(si)),
                 Op::Ran(si) => Op::Ran(at(si)),
@@ -233,7 +320,7 @@ impl Code {
     pub fn uses_random(&self) -> bool {
         self.ops()
             .iter()
-            .any(|o| matches!(o, Op::Ran(_) | Op::Nran(_)))
+            .any(|o| matches!(o, Op::Ran(_) | Op::Nran(_) | Op::CpfgRan(..)))
     }
 
     /// Does this expression read the built-in `step`?
@@ -256,33 +343,42 @@ impl Draft {
                 if let Some(&slot) = scope.params.get(name) {
                     self.ops.push(if slot == STEP_SLOT {
                         Op::Step
+                    } else if slot >= GLOBAL_SLOT {
+                        Op::Global(slot - GLOBAL_SLOT)
                     } else {
                         Op::Load(slot)
                     });
                 } else if let Some(&v) = scope.consts.get(name) {
                     self.ops.push(Op::Const(v));
+                } else if let Some(op) = scope.cpfg.then(|| cpfg_variable(name)).flatten() {
+                    self.ops.push(op);
                 } else {
                     return Err(EvalError {
                         span: *span,
-                        message: format!("unknown identifier `{name}`"),
+                        kind: ExprError::UnknownIdentifier(name.clone()),
                     });
                 }
             }
             Expr::Call(name, args, span) => {
-                let Some((fun, arity)) = lookup_function(name) else {
+                let found = if scope.cpfg {
+                    lookup_cpfg_function(name, args.len())
+                } else {
+                    lookup_function(name)
+                };
+                let Some((fun, arity)) = found else {
                     return Err(EvalError {
                         span: (span.0, span.0 + name.len()),
-                        message: format!("unknown function `{name}`"),
+                        kind: ExprError::UnknownFunction(name.clone()),
                     });
                 };
                 if args.len() != arity {
                     return Err(EvalError {
                         span: *span,
-                        message: format!(
-                            "function `{name}` takes {arity} argument{}, not {}",
-                            if arity == 1 { "" } else { "s" },
-                            args.len()
-                        ),
+                        kind: ExprError::Arity {
+                            name: name.clone(),
+                            arity,
+                            got: args.len(),
+                        },
                     });
                 }
                 for a in args {
@@ -294,33 +390,35 @@ impl Draft {
                     Fun::F2(f) => Op::F2(f, si),
                     Fun::Ran => Op::Ran(si),
                     Fun::Nran => Op::Nran(si),
+                    Fun::Cpfg(f) => Op::CpfgRan(f, si),
                 });
             }
             Expr::Unary(op, a, _) => {
                 self.emit(a, scope)?;
-                self.ops.push(match op {
-                    UnOp::Neg => Op::Neg,
-                    UnOp::Not => Op::Not,
-                });
+                self.ops.push(Op::Un(*op));
+            }
+            Expr::Cond(c, a, b, _) => {
+                self.emit(c, scope)?;
+                self.emit(a, scope)?;
+                self.emit(b, scope)?;
+                self.ops.push(Op::Select);
             }
             Expr::Binary(op, a, b, span) => {
                 self.emit(a, scope)?;
                 self.emit(b, scope)?;
                 let si = self.span_index(*span);
                 self.ops.push(match op {
-                    BinOp::Add => Op::Add(si),
-                    BinOp::Sub => Op::Sub(si),
-                    BinOp::Mul => Op::Mul(si),
-                    BinOp::Div => Op::Div(si),
-                    BinOp::Pow => Op::Pow(si),
-                    BinOp::Lt => Op::Lt,
-                    BinOp::Le => Op::Le,
-                    BinOp::Gt => Op::Gt,
-                    BinOp::Ge => Op::Ge,
-                    BinOp::Eq => Op::Eq,
-                    BinOp::Ne => Op::Ne,
-                    BinOp::And => Op::And,
-                    BinOp::Or => Op::Or,
+                    BinOp::Div if scope.cpfg => Op::DivOr1(si),
+                    BinOp::Rem => {
+                        if matches!(self.ops.last(), Some(Op::Const(v)) if v.trunc() == 0.0) {
+                            return Err(EvalError {
+                                span: b.span(),
+                                kind: ExprError::RemainderByZero,
+                            });
+                        }
+                        Op::Bin(BinOp::Rem, si)
+                    }
+                    _ => Op::Bin(*op, si),
                 });
             }
         }
@@ -332,9 +430,17 @@ impl Draft {
     fn fold(&mut self, start: usize) -> Result<(), CompileError> {
         let tail = &self.ops[start..];
         if tail.len() == 1
-            || tail
-                .iter()
-                .any(|o| matches!(o, Op::Load(_) | Op::Ran(_) | Op::Nran(_) | Op::Step))
+            || tail.iter().any(|o| {
+                matches!(
+                    o,
+                    Op::Load(_)
+                        | Op::Ran(_)
+                        | Op::Nran(_)
+                        | Op::CpfgRan(..)
+                        | Op::Step
+                        | Op::Global(_)
+                )
+            })
         {
             return Ok(());
         }
@@ -357,7 +463,7 @@ impl Code {
         rng: &mut D,
     ) -> Result<f64, EvalError> {
         // The shapes most successors and conditions have, without the stack.
-        // Matched on the whole block: a binary operation that can fail is
+        // Matched on the whole block: an operation that can fail is
         // followed by its span.
         match *self.packed {
             [Op::Const(v)] => return Ok(v),
@@ -379,6 +485,23 @@ impl Code {
             }
             _ => {}
         }
+        // The cpfg dialect: a successor's parameter ends with the float
+        // rounding.
+        match *self.ops() {
+            [Op::Load(s), Op::F1(Func1::Float32, si)] => {
+                return self.float32(slots[s as usize], si)
+            }
+            [Op::Load(a), Op::Const(c), op, Op::F1(Func1::Float32, si)] if is_binary(op) => {
+                return self.float32(self.binary(op, slots[a as usize], c)?, si)
+            }
+            [Op::Const(c), Op::Load(b), op, Op::F1(Func1::Float32, si)] if is_binary(op) => {
+                return self.float32(self.binary(op, c, slots[b as usize])?, si)
+            }
+            [Op::Load(a), Op::Load(b), op, Op::F1(Func1::Float32, si)] if is_binary(op) => {
+                return self.float32(self.binary(op, slots[a as usize], slots[b as usize])?, si)
+            }
+            _ => {}
+        }
         stack.clear();
         for op in self.ops() {
             match *op {
@@ -386,39 +509,35 @@ impl Code {
                 Op::Load(s) => stack.push(slots[s as usize]),
                 Op::Step => stack.push(rng.step()),
                 Op::At(..) => unreachable!("a span is not an instruction"),
-                Op::Neg => {
+                Op::Global(g) => stack.push(rng.global(g)),
+                Op::Un(UnOp::Neg) => {
                     let a = stack.last_mut().unwrap();
                     *a = -*a;
                 }
-                Op::Not => {
+                Op::Un(UnOp::Not) => {
                     let a = stack.last_mut().unwrap();
                     *a = if *a == 0.0 { 1.0 } else { 0.0 };
                 }
-                Op::Lt
-                | Op::Le
-                | Op::Gt
-                | Op::Ge
-                | Op::Eq
-                | Op::Ne
-                | Op::And
-                | Op::Or
-                | Op::Add(_)
-                | Op::Sub(_)
-                | Op::Mul(_)
-                | Op::Div(_)
-                | Op::Pow(_)
-                | Op::F2(..) => {
+                Op::Select => {
+                    let b = stack.pop().unwrap();
+                    let a = stack.pop().unwrap();
+                    let c = stack.last_mut().unwrap();
+                    *c = if *c != 0.0 { a } else { b };
+                }
+                Op::Bin(..) | Op::DivOr1(_) | Op::F2(..) => {
                     let b = stack.pop().unwrap();
                     let a = stack.last_mut().unwrap();
                     *a = self.binary(*op, *a, b)?;
+                }
+                Op::F1(Func1::Float32, si) => {
+                    let a = stack.last_mut().unwrap();
+                    *a = self.float32(*a, si)?;
                 }
                 Op::F1(f, si) => {
                     let a = stack.last_mut().unwrap();
                     let r = f.apply(*a);
                     if !r.is_finite() {
-                        return Err(
-                            self.fail(si, &format!("{} is undefined here", self.name_at(si)))
-                        );
+                        return Err(self.fail(si, ExprError::Undefined(self.name_at(si))));
                     }
                     *a = r;
                 }
@@ -426,18 +545,42 @@ impl Code {
                     let a = stack.last_mut().unwrap();
                     // Uniform in [0, x), or (x, 0] for negative x (cpfg's
                     // x * drand48()); + 0.0 turns a -0 into 0.
-                    let r = *a * rng.uniform().map_err(|m| self.fail(si, m))? + 0.0;
+                    let r = *a
+                        * rng
+                            .uniform()
+                            .map_err(|m| self.fail(si, ExprError::Random(m)))?
+                        + 0.0;
                     if !r.is_finite() {
-                        return Err(self.fail(si, "ran() is undefined here"));
+                        return Err(self.fail(si, ExprError::Undefined("ran()")));
                     }
                     *a = r;
+                }
+                Op::CpfgRan(f, si) => {
+                    let r = match f {
+                        CpfgFun::Srand => {
+                            let a = stack.pop().unwrap();
+                            rng.srand(a)
+                        }
+                        CpfgFun::Bran | CpfgFun::Biran => {
+                            let b = stack.pop().unwrap();
+                            let a = stack.pop().unwrap();
+                            if f == CpfgFun::Bran {
+                                rng.bran(a, b)
+                            } else {
+                                rng.biran(a, b)
+                            }
+                        }
+                    };
+                    stack.push(r.map_err(|m| self.fail(si, ExprError::CpfgFunction(m)))?);
                 }
                 Op::Nran(si) => {
                     let sd = stack.pop().unwrap();
                     let mean = stack.last_mut().unwrap();
-                    let r = rng.normal(*mean, sd).map_err(|m| self.fail(si, m))?;
+                    let r = rng
+                        .normal(*mean, sd)
+                        .map_err(|m| self.fail(si, ExprError::Random(m)))?;
                     if !r.is_finite() {
-                        return Err(self.fail(si, "nran() is undefined here"));
+                        return Err(self.fail(si, ExprError::Undefined("nran()")));
                     }
                     *mean = r;
                 }
@@ -445,6 +588,17 @@ impl Code {
         }
         debug_assert_eq!(stack.len(), 1);
         Ok(stack[0])
+    }
+
+    /// `v` stored as cpfg stores a parameter: a 32-bit float.
+    #[inline(always)]
+    fn float32(&self, v: f64, si: u32) -> Result<f64, EvalError> {
+        let r = f64::from(v as f32);
+        if r.is_finite() {
+            Ok(r)
+        } else {
+            Err(self.fail(si, ExprError::OutOfF32))
+        }
     }
 
     fn name_at(&self, si: u32) -> &'static str {
@@ -467,23 +621,42 @@ impl Code {
     #[inline(always)]
     fn binary(&self, op: Op, a: f64, b: f64) -> Result<f64, EvalError> {
         let (r, si) = match op {
-            Op::Lt => return Ok(bool_f(a < b)),
-            Op::Le => return Ok(bool_f(a <= b)),
-            Op::Gt => return Ok(bool_f(a > b)),
-            Op::Ge => return Ok(bool_f(a >= b)),
-            Op::Eq => return Ok(bool_f(a == b)),
-            Op::Ne => return Ok(bool_f(a != b)),
-            Op::And => return Ok(bool_f(a != 0.0 && b != 0.0)),
-            Op::Or => return Ok(bool_f(a != 0.0 || b != 0.0)),
-            Op::Add(si) => (a + b, si),
-            Op::Sub(si) => (a - b, si),
-            Op::Mul(si) => (a * b, si),
-            Op::Pow(si) => (a.powf(b), si),
-            Op::Div(si) => {
+            Op::Bin(BinOp::Lt, _) => return Ok(bool_f(a < b)),
+            Op::Bin(BinOp::Le, _) => return Ok(bool_f(a <= b)),
+            Op::Bin(BinOp::Gt, _) => return Ok(bool_f(a > b)),
+            Op::Bin(BinOp::Ge, _) => return Ok(bool_f(a >= b)),
+            Op::Bin(BinOp::Eq, _) => return Ok(bool_f(a == b)),
+            Op::Bin(BinOp::Ne, _) => return Ok(bool_f(a != b)),
+            Op::Bin(BinOp::And, _) => return Ok(bool_f(a != 0.0 && b != 0.0)),
+            Op::Bin(BinOp::Or, _) => return Ok(bool_f(a != 0.0 || b != 0.0)),
+            Op::Bin(BinOp::Add, si) => (a + b, si),
+            Op::Bin(BinOp::Sub, si) => (a - b, si),
+            Op::Bin(BinOp::Mul, si) => (a * b, si),
+            Op::Bin(BinOp::Pow, si) => (a.powf(b), si),
+            Op::Bin(BinOp::Div, si) => {
                 if b == 0.0 {
-                    return Err(self.fail(si, "division by zero"));
+                    return Err(self.fail(si, ExprError::DivisionByZero));
                 }
                 (a / b, si)
+            }
+            Op::DivOr1(si) => {
+                if b == 0.0 {
+                    warn_division_by_zero();
+                    (a, si)
+                } else {
+                    (a / b, si)
+                }
+            }
+            Op::Bin(BinOp::Rem, si) => {
+                // C's (int) conversions and `%`: truncation toward zero.
+                let (x, y) = (a.trunc(), b.trunc());
+                if y == 0.0 {
+                    return Err(self.fail(si, ExprError::RemainderByZero));
+                }
+                if x.abs() >= 2147483648.0 || y.abs() >= 2147483648.0 {
+                    return Err(self.fail(si, ExprError::RemainderOutOfRange));
+                }
+                (((x as i64) % (y as i64)) as f64, si)
             }
             Op::F2(f, si) => (f.apply(a, b), si),
             _ => unreachable!("not a binary operation: {op:?}"),
@@ -494,39 +667,42 @@ impl Code {
             Err(self.fail(
                 si,
                 if r.is_nan() {
-                    "result is not a number"
+                    ExprError::NotANumber
                 } else {
-                    "result overflows a 64-bit float"
+                    ExprError::Overflow
                 },
             ))
         }
     }
 
-    fn fail(&self, si: u32, msg: &str) -> EvalError {
+    fn fail(&self, si: u32, kind: ExprError) -> EvalError {
         EvalError {
             span: match self.packed[self.n as usize + si as usize] {
                 Op::At(a, b) => (a as usize, b as usize),
                 _ => unreachable!("no span at {si}"),
             },
-            message: msg.to_string(),
+            kind,
         }
     }
 }
 
 #[inline(always)]
 fn is_binary(op: Op) -> bool {
-    !matches!(
-        op,
-        Op::Const(_)
-            | Op::Load(_)
-            | Op::Neg
-            | Op::Not
-            | Op::F1(..)
-            | Op::Ran(_)
-            | Op::Nran(_)
-            | Op::Step
-            | Op::At(..)
-    )
+    matches!(op, Op::Bin(..) | Op::DivOr1(_) | Op::F2(..))
+}
+
+/// cpfg divides by 1 instead of 0, with a warning: once per process here
+/// (the evaluator has no place to report to; the division is cpfg's rule,
+/// not an error).
+#[cold]
+fn warn_division_by_zero() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    static WARNED: AtomicBool = AtomicBool::new(false);
+    if !WARNED.swap(true, Ordering::Relaxed) {
+        crate::diag::eprint(
+            "lsgen: warning: division by zero in a cpfg expression: divided by 1 instead, as cpfg does\n",
+        );
+    }
 }
 
 #[inline]
@@ -556,6 +732,7 @@ mod tests {
             &Scope {
                 params: &params,
                 consts: &consts,
+                cpfg: false,
             },
         )?;
         let slots: Vec<f64> = names.iter().map(|(_, v)| *v).collect();
@@ -619,19 +796,19 @@ mod tests {
     #[test]
     fn errors_are_located() {
         let e = eval_with("x / (y - 3)", &[("x", 1.0), ("y", 3.0)]).unwrap_err();
-        assert_eq!(e.message, "division by zero");
+        assert_eq!(e.kind, ExprError::DivisionByZero);
         assert_eq!(e.span, (0, 11));
         let e = eval_with("1 + z", &[]).unwrap_err();
-        assert_eq!(e.message, "unknown identifier `z`");
+        assert_eq!(e.kind, ExprError::UnknownIdentifier("z".into()));
         assert_eq!(e.span, (4, 5));
         let e = eval_with("foo(1)", &[]).unwrap_err();
-        assert_eq!(e.message, "unknown function `foo`");
+        assert_eq!(e.kind, ExprError::UnknownFunction("foo".into()));
         let e = eval_with("sin(1, 2)", &[]).unwrap_err();
-        assert!(e.message.contains("takes 1 argument"), "{}", e.message);
+        assert!(e.message().contains("takes 1 argument"), "{}", e.message());
         let e = eval_with("sqrt(x)", &[("x", -1.0)]).unwrap_err();
-        assert!(e.message.contains("sqrt"), "{}", e.message);
+        assert!(e.message().contains("sqrt"), "{}", e.message());
         let e = eval_with("x * 1e308 * 10", &[("x", 1.0)]).unwrap_err();
-        assert!(e.message.contains("overflow"), "{}", e.message);
+        assert!(e.message().contains("overflow"), "{}", e.message());
     }
 
     #[test]
@@ -644,6 +821,7 @@ mod tests {
             &Scope {
                 params: &p,
                 consts: &c,
+                cpfg: false,
             },
         )
         .unwrap();
@@ -654,7 +832,8 @@ mod tests {
             &e,
             &Scope {
                 params: &p,
-                consts: &c
+                consts: &c,
+                cpfg: false,
             }
         )
         .is_err());

@@ -4,12 +4,13 @@
 //! in O(1).
 
 use crate::derive::random::Random;
+use crate::diag::CompileError;
 use crate::lang::ast::{self, Expr, Setting};
 use crate::lang::lexer::Span;
 use crate::lang::parse::UserError;
 use crate::lang::sink::{HeaderSink, SectionKind, SectionStart};
 use codec::MAX_ARITY;
-use expr::{Code, Scope};
+use expr::{Code, Scope, CPFG_F32};
 use std::collections::{HashMap, HashSet};
 
 pub mod codec;
@@ -42,6 +43,7 @@ impl Filter {
 
 /// Every module kind (symbol, number of parameters) gets a key. Keys below
 /// 128 are the ASCII symbols without parameters, equal to their byte.
+#[derive(Clone)]
 pub struct Alphabet {
     sym: Vec<char>,
     arity: Vec<u16>,
@@ -72,11 +74,9 @@ impl Alphabet {
     }
 
     /// The key of `sym` with `arity` parameters, made on first use.
-    pub fn intern(&mut self, sym: char, arity: usize) -> Result<u32, String> {
+    pub fn intern(&mut self, sym: char, arity: usize) -> Result<u32, CompileError> {
         if arity > MAX_ARITY {
-            return Err(format!(
-                "a module has at most {MAX_ARITY} parameters, this one has {arity}"
-            ));
+            return Err(CompileError::TooManyParams(arity));
         }
         if arity == 0 && sym.is_ascii() {
             return Ok(sym as u32);
@@ -112,6 +112,17 @@ impl Alphabet {
     pub fn symbol(&self, key: u32) -> char {
         self.sym[key as usize]
     }
+    /// cpfg's right contexts (issue 12): is bracket `b` passed over like
+    /// an ignored symbol? Under `consider:`, when not listed; under
+    /// `ignore:`, when listed.
+    pub fn bracket_passed(&self, b: char) -> bool {
+        match &self.filter {
+            Filter::All => false,
+            Filter::Ignore(s) => s.contains(&b),
+            Filter::Consider(s) => !s.contains(&b),
+        }
+    }
+
     /// Is this key passed over when matching contexts?
     #[inline]
     pub fn ignored(&self, key: u32) -> bool {
@@ -138,8 +149,12 @@ pub enum RPat {
     Module(Pat),
     /// `[`: enter a lateral branch.
     Open,
-    /// `]`: skip the rest of the current branch.
+    /// `]`: skip the rest of the current branch (the cpfg dialect: match
+    /// a `]` of the string).
     Close,
+    /// cpfg's `=`: skip to the end of the current branch (the cpfg dialect
+    /// only; README, "Coming from cpfg").
+    SkipRest,
 }
 
 /// Modules known at load time, precomputed in each format, in one
@@ -148,8 +163,9 @@ pub enum RPat {
 pub struct ConstRun {
     /// A 16-byte header (little-endian u32s: the module count, then where
     /// the binary, the indexed binary and the text end), the binary format,
-    /// the binary with bracket index, the text, and the brackets' offsets
-    /// in the indexed binary (4 bytes each, then 1 if `[`).
+    /// the binary with bracket index, the text, and for each bracket its
+    /// offset in the indexed binary (4 bytes), 1 if `[`, and how many of
+    /// the run's modules come before it (4 bytes).
     data: Box<[u8]>,
 }
 
@@ -160,11 +176,20 @@ impl Default for ConstRun {
 }
 
 const HEADER: usize = 16;
+/// The bytes of one bracket entry.
+const BRACKET: usize = 9;
 
 impl ConstRun {
-    fn new(bin: &[u8], ibin: &[u8], text: &[u8], brackets: &[(u32, bool)], modules: u32) -> Self {
-        let mut data =
-            Vec::with_capacity(HEADER + bin.len() + ibin.len() + text.len() + 5 * brackets.len());
+    fn new(
+        bin: &[u8],
+        ibin: &[u8],
+        text: &[u8],
+        brackets: &[(u32, bool, u32)],
+        modules: u32,
+    ) -> Self {
+        let mut data = Vec::with_capacity(
+            HEADER + bin.len() + ibin.len() + text.len() + BRACKET * brackets.len(),
+        );
         let bin_end = HEADER + bin.len();
         let ibin_end = bin_end + ibin.len();
         let text_end = ibin_end + text.len();
@@ -174,9 +199,10 @@ impl ConstRun {
         data.extend_from_slice(bin);
         data.extend_from_slice(ibin);
         data.extend_from_slice(text);
-        for &(at, open) in brackets {
+        for &(at, open, before) in brackets {
             data.extend_from_slice(&at.to_le_bytes());
             data.push(u8::from(open));
+            data.extend_from_slice(&before.to_le_bytes());
         }
         ConstRun { data: data.into() }
     }
@@ -193,8 +219,9 @@ impl ConstRun {
     pub fn bin(&self) -> &[u8] {
         &self.data[HEADER..self.at(1)]
     }
-    /// Binary with bracket index: each `[` followed by 8 bytes that will
-    /// hold the offset just past its `]`.
+    /// Binary with bracket index: each `[` followed by
+    /// [`codec::INDEX_BYTES`] that will hold the offset just past its `]`
+    /// and the module count of its branch.
     #[inline(always)]
     pub fn ibin(&self) -> &[u8] {
         &self.data[self.at(1)..self.at(2)]
@@ -208,11 +235,16 @@ impl ConstRun {
     pub fn modules(&self) -> u64 {
         self.at(0) as u64
     }
-    /// Offsets of the brackets in [`ibin`](Self::ibin) (true: `[`).
-    pub fn brackets(&self) -> impl Iterator<Item = (u32, bool)> + '_ {
-        self.data[self.at(3)..]
-            .chunks_exact(5)
-            .map(|b| (u32::from_le_bytes([b[0], b[1], b[2], b[3]]), b[4] == 1))
+    /// Offsets of the brackets in [`ibin`](Self::ibin) (true: `[`), and
+    /// how many of the run's modules come before each.
+    pub fn brackets(&self) -> impl Iterator<Item = (u32, bool, u64)> + '_ {
+        self.data[self.at(3)..].chunks_exact(BRACKET).map(|b| {
+            (
+                u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+                b[4] == 1,
+                u64::from(u32::from_le_bytes([b[5], b[6], b[7], b[8]])),
+            )
+        })
     }
     /// Does the run hold `[` or `]`?
     #[inline]
@@ -226,7 +258,7 @@ impl ConstRun {
 struct ConstBuilder {
     bin: Vec<u8>,
     ibin: Vec<u8>,
-    brackets: Vec<(u32, bool)>,
+    brackets: Vec<(u32, bool, u32)>,
     text: Vec<u8>,
     modules: u64,
 }
@@ -236,11 +268,12 @@ impl ConstBuilder {
         codec::put_key(&mut self.bin, key);
         codec::put_params(&mut self.bin, vals);
         if key == OPEN || key == CLOSE {
-            self.brackets.push((self.ibin.len() as u32, key == OPEN));
+            self.brackets
+                .push((self.ibin.len() as u32, key == OPEN, self.modules as u32));
         }
         codec::put_key(&mut self.ibin, key);
         if key == OPEN {
-            self.ibin.extend_from_slice(&[0; 8]);
+            self.ibin.extend_from_slice(&[0; codec::INDEX_BYTES]);
         }
         codec::put_params(&mut self.ibin, vals);
         num.module(&mut self.text, al.text(key), vals);
@@ -325,6 +358,9 @@ pub struct Production {
     /// Slots: predecessor parameters, then left context, then right context.
     pub nslots: usize,
     pub left: Box<[Pat]>,
+    /// The modules after the first of a predecessor of several modules
+    /// (cpfg dialect), matched strictly one after the other.
+    pub rest: Box<[Pat]>,
     pub right: Box<[RPat]>,
     /// The right context has no brackets: it is matched against the cached
     /// list of the next considered modules.
@@ -337,11 +373,16 @@ pub struct Production {
     /// Bracket depth change of the successor, and its lowest prefix.
     pub depth_delta: i64,
     pub depth_min: i64,
+    /// cpfg's pre-condition block (runs before the condition, also when
+    /// it fails) and post-condition block (runs when the production is
+    /// applied, before its successor), issue 12.
+    pub pre: Option<Box<crate::cpfg::blocks::Block>>,
+    pub post: Option<Box<crate::cpfg::blocks::Block>>,
 }
 
 impl Production {
     pub fn has_context(&self) -> bool {
-        !self.left.is_empty() || !self.right.is_empty()
+        !self.left.is_empty() || !self.right.is_empty() || !self.rest.is_empty()
     }
 }
 
@@ -374,6 +415,9 @@ pub struct Table {
     /// Longest left context.
     pub max_left: usize,
     pub has_right: bool,
+    /// Some predecessor has several modules (cpfg dialect): only the step
+    /// engine, which looks ahead, derives it.
+    pub has_multi: bool,
     /// Longest bracket-free right context.
     pub max_right_simple: usize,
     /// Some successor is not bracket-balanced: check each step's output.
@@ -400,7 +444,13 @@ impl Table {
             return Some(None);
         };
         let p = &self.prods[*kr.free.first()? as usize];
-        if !kr.context.is_empty() || kr.free_stochastic || p.cond.is_some() {
+        // (cpfg's blocks run whenever the production is tried.)
+        if !kr.context.is_empty()
+            || kr.free_stochastic
+            || p.cond.is_some()
+            || p.pre.is_some()
+            || p.post.is_some()
+        {
             return None;
         }
         match &*p.succ {
@@ -424,6 +474,7 @@ impl Table {
     pub fn push(&mut self, p: Production) {
         self.max_left = self.max_left.max(p.left.len());
         self.has_right |= !p.right.is_empty();
+        self.has_multi |= !p.rest.is_empty();
         if p.right_simple {
             self.max_right_simple = self.max_right_simple.max(p.right.len());
         }
@@ -461,7 +512,39 @@ impl Table {
         self.prods.is_empty()
     }
     pub fn has_context(&self) -> bool {
-        self.max_left > 0 || self.has_right
+        self.max_left > 0 || self.has_right || self.has_multi
+    }
+
+    /// cpfg's right contexts (issue 12): every one goes through cpfg's
+    /// matcher (no cached bracket-free shortcut), and a `=` module in a
+    /// right context is cpfg's "skip the rest of the branch".
+    pub fn for_cpfg(&mut self, al: &Alphabet) {
+        for p in &mut self.prods {
+            p.right_simple = false;
+            for r in p.right.iter_mut() {
+                if let RPat::Module(m) = r {
+                    if m.key == u32::from(b'=') && al.arity(m.key) == 0 {
+                        *r = RPat::SkipRest;
+                    }
+                }
+            }
+        }
+        self.max_right_simple = 0;
+    }
+
+    /// cpfg's choice: the first applicable production in file order,
+    /// context-sensitive or not. One list per key, in file order, tried
+    /// by the one chooser as it tries a context group.
+    fn cpfg_order(&mut self) {
+        for kr in self.by_key.iter_mut().flatten() {
+            if !kr.context.is_empty() && !kr.free.is_empty() {
+                let mut all = std::mem::take(&mut kr.free);
+                all.append(&mut kr.context);
+                all.sort_unstable();
+                kr.context = all;
+                kr.context_stochastic |= std::mem::take(&mut kr.free_stochastic);
+            }
+        }
     }
 
     /// A numbered group's table with group 0 (`base`) as its fallback:
@@ -483,6 +566,7 @@ impl Table {
         }
         self.max_left = self.max_left.max(base.max_left);
         self.has_right |= base.has_right;
+        self.has_multi |= base.has_multi;
         self.max_right_simple = self.max_right_simple.max(base.max_right_simple);
         self.check_balance |= base.check_balance;
         self
@@ -513,6 +597,12 @@ pub struct System {
     /// Where a constant or a formal parameter named `step` hides the
     /// built-in step number (a warning each).
     pub step_hidden: Vec<Span>,
+    /// A `.l` file's run-time settings (issue 12): cpfg's generators,
+    /// context rules and the step strategy.
+    pub cpfg: Option<Box<crate::cpfg::run::CpfgRun>>,
+    /// A cpfg file's map from preprocessed text to original places (set by
+    /// the loader): runtime errors are located through it.
+    pub source_map: Option<std::sync::Arc<crate::cpfg::preprocess::SourceMap>>,
 }
 
 /// Formal parameters named `step` (issue 11) in a production.
@@ -530,31 +620,42 @@ fn hidden_step(p: &ast::Production, out: &mut Vec<Span>) {
 
 type R<T> = Result<T, UserError>;
 
-fn err<T>(span: Span, msg: impl Into<String>) -> R<T> {
-    Err(UserError::new(span, msg))
+fn err<T>(span: Span, kind: CompileError) -> R<T> {
+    Err(UserError::new(span, kind))
 }
 
 fn compile_code(e: &Expr, params: &HashMap<String, u32>, consts: &HashMap<String, f64>) -> R<Code> {
-    Code::compile(e, &Scope { params, consts }).map_err(|e| UserError::new(e.span, e.message))
+    compile_code_in(e, params, consts, false)
+}
+
+fn compile_code_in(
+    e: &Expr,
+    params: &HashMap<String, u32>,
+    consts: &HashMap<String, f64>,
+    cpfg: bool,
+) -> R<Code> {
+    Code::compile(
+        e,
+        &Scope {
+            params,
+            consts,
+            cpfg,
+        },
+    )
+    .map_err(|e| UserError::new(e.span, e.kind))
 }
 
 /// Evaluate a setting's expression: constants only.
 fn constant(e: &Expr, consts: &HashMap<String, f64>, rng: &mut Random) -> R<f64> {
     let code = compile_code(e, &HashMap::new(), consts)?;
     code.eval(&[], &mut Vec::new(), rng)
-        .map_err(|e| UserError::new(e.span, e.message))
+        .map_err(|e| UserError::new(e.span, e.kind))
 }
 
-fn whole_number(e: &Expr, consts: &HashMap<String, f64>, what: &str) -> R<u64> {
+fn whole_number(e: &Expr, consts: &HashMap<String, f64>, what: &'static str) -> R<u64> {
     let v = constant(e, consts, &mut Random::new(0))?;
     if v < 0.0 || v.fract() != 0.0 || v > 9.007_199_254_740_992e15 {
-        return err(
-            e.span(),
-            format!(
-                "{what} must be a whole number from 0 to 2^53, not {}",
-                crate::rules::codec::number_string(v)
-            ),
-        );
+        return err(e.span(), CompileError::NotWholeNumber { what, value: v });
     }
     Ok(v as u64)
 }
@@ -563,7 +664,7 @@ fn symbols(mods: &[ast::Module]) -> R<HashSet<char>> {
     let mut s = HashSet::new();
     for m in mods {
         if !m.params.is_empty() {
-            return err(m.span, "list symbols here, without parameters");
+            return err(m.span, CompileError::SymbolsOnly);
         }
         s.insert(m.sym);
     }
@@ -581,27 +682,15 @@ fn seed_value(e: &Expr, consts: &HashMap<String, f64>, src: Option<&str>) -> R<u
     if let (Expr::Num(_, (a, b)), Some(src)) = (e, src) {
         if let Some(text) = src.get(*a..*b) {
             if !text.is_empty() && text.bytes().all(|c| c.is_ascii_digit()) {
-                return text.parse::<u64>().or_else(|_| {
-                    err(
-                        e.span(),
-                        format!(
-                            "the seed must be a whole number from 0 to 18446744073709551615, not {text}"
-                        ),
-                    )
-                });
+                return text
+                    .parse::<u64>()
+                    .or_else(|_| err(e.span(), CompileError::SeedLiteralRange(text.to_string())));
             }
         }
     }
     let v = constant(e, consts, &mut Random::new(0))?;
     if v < 0.0 || v.fract() != 0.0 || v >= EXACT_LIMIT {
-        return err(
-            e.span(),
-            format!(
-                "the seed must be a whole number from 0 to 18446744073709551615 \
-                 (computed: below 2^53; write larger seeds as digits), not {}",
-                crate::rules::codec::number_string(v)
-            ),
-        );
+        return err(e.span(), CompileError::SeedComputedRange(v));
     }
     Ok(v as u64)
 }
@@ -616,6 +705,7 @@ fn is_random(e: &Expr, random: &HashSet<String>) -> bool {
         }
         Expr::Unary(_, a, _) => is_random(a, random),
         Expr::Binary(_, a, b, _) => is_random(a, random) || is_random(b, random),
+        Expr::Cond(c, a, b, _) => [c, a, b].iter().any(|e| is_random(e, random)),
     }
 }
 
@@ -635,10 +725,7 @@ fn file_seed(settings: &[Setting], src: Option<&str>) -> Option<R<u64>> {
                 consts.insert(name.clone(), v);
             }
             Setting::Seed(e, _) if is_random(e, &random) => {
-                return Some(err(
-                    e.span(),
-                    "the seed cannot depend on random numbers (`ran`, `nran`)",
-                ));
+                return Some(err(e.span(), CompileError::SeedRandom));
             }
             Setting::Seed(e, _) => return Some(seed_value(e, &consts, src)),
             _ => {}
@@ -665,7 +752,16 @@ pub fn compile(h: &ast::Header) -> R<System> {
 /// Compile a parsed header whose text is `src`: hands the tree to a
 /// [`Compiler`] as the parser would, production by production.
 pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System> {
+    compile_dialect(h, src, seeds, false)
+}
+
+/// [`compile_with`] for a dialect: `cpfg` (a header lowered from a `.l`
+/// file, see `src/cpfg/lower.rs`) takes cpfg's functions, `/` and `%`,
+/// rounds every computed parameter to a 32-bit float, and chooses the
+/// first applicable production in file order, context or not.
+pub fn compile_dialect(h: ast::Header, src: Option<&str>, seeds: Seeds, cpfg: bool) -> R<System> {
     let mut c = Compiler::new(src, seeds);
+    c.cpfg = cpfg;
     c.settings(h.settings);
     c.section(SectionStart {
         kind: SectionKind::Group(0),
@@ -772,6 +868,8 @@ struct Settled {
 /// hold an earlier error.
 pub struct Compiler<'a> {
     src: Option<&'a str>,
+    /// The cpfg dialect ([`compile_dialect`]).
+    cpfg: bool,
     seeds: Seeds,
     settled: Option<Settled>,
     /// The first error of the lowest stage so far.
@@ -797,6 +895,7 @@ impl<'a> Compiler<'a> {
     pub fn new(src: Option<&'a str>, seeds: Seeds) -> Compiler<'a> {
         Compiler {
             src,
+            cpfg: false,
             seeds,
             settled: None,
             error: None,
@@ -856,7 +955,7 @@ impl<'a> Compiler<'a> {
             match s {
                 Setting::Groups(list, span) => {
                     if schedule_span.is_some() {
-                        return err(*span, "use either `groups:` or `group:`, not both");
+                        return err(*span, CompileError::GroupsAndGroup);
                     }
                     schedule_span = Some(*span);
                     for &(n, at) in list {
@@ -869,11 +968,11 @@ impl<'a> Compiler<'a> {
                 }
                 Setting::Group(e, span) => {
                     if schedule_span.is_some() {
-                        return err(*span, "use either `groups:` or `group:`, not both");
+                        return err(*span, CompileError::GroupsAndGroup);
                     }
                     schedule_span = Some(*span);
                     if is_random(e, &HashSet::new()) {
-                        return err(e.span(), "`group:` cannot use ran or nran");
+                        return err(e.span(), CompileError::GroupRandom);
                     }
                     let mut names = HashMap::new();
                     if !consts.contains_key("step") {
@@ -883,13 +982,13 @@ impl<'a> Compiler<'a> {
                 }
                 Setting::DerivationLength(e, span) => {
                     if derivation_length.is_some() {
-                        return err(*span, "`derivation length:` is set twice");
+                        return err(*span, CompileError::SetTwice("derivation length"));
                     }
                     derivation_length = Some(whole_number(e, &consts, "the derivation length")?);
                 }
                 Setting::Seed(e, span) => {
                     if seed.is_some() {
-                        return err(*span, "`seed:` is set twice");
+                        return err(*span, CompileError::SetTwice("seed"));
                     }
                     seed = Some(match &ahead {
                         Some(Ok(v)) => *v,
@@ -899,7 +998,7 @@ impl<'a> Compiler<'a> {
                 }
                 Setting::Define(name, e, span) => {
                     if consts.contains_key(name) {
-                        return err(*span, format!("`{name}` is defined twice"));
+                        return err(*span, CompileError::DefinedTwice(name.clone()));
                     }
                     let v = constant(e, &consts, &mut define_rng)?;
                     consts.insert(name.clone(), v);
@@ -915,12 +1014,7 @@ impl<'a> Compiler<'a> {
                         (None, f) => filter = Some((f, *span)),
                         (Some((Filter::Ignore(a), _)), Filter::Ignore(b))
                         | (Some((Filter::Consider(a), _)), Filter::Consider(b)) => a.extend(b),
-                        (Some(_), _) => {
-                            return err(
-                                *span,
-                                "`ignore:` and `consider:` cannot both be used: pick one",
-                            )
-                        }
+                        (Some(_), _) => return err(*span, CompileError::IgnoreAndConsider),
                     }
                 }
             }
@@ -946,31 +1040,22 @@ impl<'a> Compiler<'a> {
             .iter()
             .find(|(n, _)| !declared.contains(n))
         {
-            return err(
-                at,
-                format!("unknown group {n}: there is no `productions {n}:` section"),
-            );
+            return err(at, CompileError::UnknownGroup(n));
         }
         if let Some(st) = &self.settled {
             if let (Some((n, span, _)), false) = (self.groups.first(), st.scheduled) {
-                let e = UserError::new(
-                    *span,
-                    format!("group {n} is never used: add a `groups:` or `group:` setting"),
-                );
+                let e = UserError::new(*span, CompileError::GroupUnused(*n));
                 self.fail(stage::UNUSED, e);
             }
         }
         if let Some((t, _)) = &self.decomposition {
-            if let Err(e) = balanced(t, "a decomposition successor must balance its brackets") {
+            if let Err(e) = balanced(t, CompileError::DecompositionUnbalanced) {
                 self.fail(stage::DECOMPOSITION, e);
             }
         }
         let (hom_depth, hom_seed) = self.hom.unwrap_or((1, None));
         if hom_depth > 1 {
-            if let Err(e) = balanced(
-                &self.homomorphism,
-                "with `maximum depth:` above 1, a homomorphism successor must balance its brackets",
-            ) {
+            if let Err(e) = balanced(&self.homomorphism, CompileError::HomomorphismUnbalanced) {
                 self.fail(stage::HOMOMORPHISM, e);
             }
         }
@@ -978,22 +1063,29 @@ impl<'a> Compiler<'a> {
             return Err(e);
         }
         let st = self.settled.expect("settings come first");
+        let cpfg = self.cpfg;
+        let done = |t: &mut Table| {
+            t.shrink();
+            if cpfg {
+                t.cpfg_order();
+            }
+        };
         let mut productions = self.productions;
-        productions.shrink();
+        done(&mut productions);
         let groups = self
             .groups
             .into_iter()
             .map(|(n, _, mut t)| {
-                t.shrink();
+                done(&mut t);
                 (n, t.with_fallback(&productions))
             })
             .collect();
         let decomposition = self.decomposition.map(|(mut t, depth)| {
-            t.shrink();
+            done(&mut t);
             (t, depth)
         });
         let mut homomorphism = self.homomorphism;
-        homomorphism.shrink();
+        done(&mut homomorphism);
         let mut step_hidden = self.step_hidden;
         step_hidden.sort_by_key(|h| h.0);
         Ok(System {
@@ -1011,6 +1103,8 @@ impl<'a> Compiler<'a> {
             hom_seed,
             warnings: self.warnings,
             step_hidden: step_hidden.into_iter().map(|h| h.1).collect(),
+            cpfg: cpfg.then(|| Box::new(crate::cpfg::run::CpfgRun::default())),
+            source_map: None,
         })
     }
 }
@@ -1045,13 +1139,9 @@ impl HeaderSink for Compiler<'_> {
                 let consts = &self.settled.as_ref().unwrap().consts;
                 match section_settings(&start.settings, consts) {
                     Ok((depth, None)) => self.decomposition = Some((Table::default(), depth)),
-                    Ok((_, Some(span))) => self.fail(
-                        stage,
-                        UserError::new(
-                            span,
-                            "decomposition uses the main random generator: no `seed:` here",
-                        ),
-                    ),
+                    Ok((_, Some(span))) => {
+                        self.fail(stage, UserError::new(span, CompileError::DecompositionSeed))
+                    }
                     Err(e) => self.fail(stage, e),
                 }
             }
@@ -1094,7 +1184,7 @@ impl HeaderSink for Compiler<'_> {
             SectionKind::Decomposition => &mut self.decomposition.as_mut().unwrap().0,
             SectionKind::Homomorphism => &mut self.homomorphism,
         };
-        match compile_production(&p, &mut st.alphabet, &st.consts, &mut self.num) {
+        match compile_production(&p, &mut st.alphabet, &st.consts, &mut self.num, self.cpfg) {
             Ok(cp) => table.push(cp),
             Err(e) => self.fail(stage, e),
         }
@@ -1109,13 +1199,13 @@ fn hidden_step_at(p: &ast::Production, stage: u8, out: &mut Vec<(u8, Span)>) {
 
 /// Recursive rewriting does not track brackets: every successor of `t`
 /// must balance (each `]` after its `[`).
-fn balanced(t: &Table, message: &str) -> R<()> {
+fn balanced(t: &Table, kind: CompileError) -> R<()> {
     match t
         .prods
         .iter()
         .find(|p| p.depth_delta != 0 || p.depth_min < 0)
     {
-        Some(p) => err(p.span, message),
+        Some(p) => err(p.span, kind),
         None => Ok(()),
     }
 }
@@ -1132,23 +1222,17 @@ fn section_settings(
         match x {
             ast::SectionSetting::MaximumDepth(e, span) => {
                 if depth.is_some() {
-                    return err(
-                        *span,
-                        "`maximum depth:` comes once, right after the section keyword",
-                    );
+                    return err(*span, CompileError::MaximumDepthTwice);
                 }
                 let v = constant(e, consts, &mut Random::new(0))?;
                 if !(1.0..=10000.0).contains(&v) || v.fract() != 0.0 {
-                    return err(
-                        e.span(),
-                        "maximum depth must be a whole number from 1 to 10000",
-                    );
+                    return err(e.span(), CompileError::MaximumDepthRange);
                 }
                 depth = Some(v as usize);
             }
             ast::SectionSetting::Seed(_, span) => {
                 if seed.is_some() {
-                    return err(*span, "`seed:` is set twice");
+                    return err(*span, CompileError::SetTwice("seed"));
                 }
                 seed = Some(*span);
             }
@@ -1163,14 +1247,11 @@ fn bind_formals(m: &ast::Module, names: &mut HashMap<String, u32>, nslots: &mut 
         match e {
             Expr::Var(name, span) => {
                 if names.insert(name.clone(), *nslots as u32).is_some() {
-                    return err(*span, format!("parameter `{name}` is bound twice"));
+                    return err(*span, CompileError::BoundTwice(name.clone()));
                 }
                 *nslots += 1;
             }
-            other => return err(
-                other.span(),
-                "a formal parameter must be a name (values go in the successor or the condition)",
-            ),
+            other => return err(other.span(), CompileError::FormalNotName),
         }
     }
     Ok(first)
@@ -1181,22 +1262,32 @@ fn compile_production(
     alphabet: &mut Alphabet,
     consts: &HashMap<String, f64>,
     num: &mut codec::NumFmt,
+    cpfg: bool,
 ) -> R<Production> {
     let intern = |a: &mut Alphabet, m: &ast::Module| {
         a.intern(m.sym, m.params.len())
             .map_err(|e| UserError::new(m.span, e))
     };
     if matches!(p.pred.sym, '[' | ']') {
-        return err(p.pred.span, "brackets cannot be rewritten");
+        return err(p.pred.span, CompileError::BracketRewritten);
     }
     let mut names = HashMap::new();
     let mut nslots = 0;
     let key = intern(alphabet, &p.pred)?;
     bind_formals(&p.pred, &mut names, &mut nslots)?;
+    let mut rest = Vec::new();
+    for m in &p.pred_rest {
+        if matches!(m.sym, '[' | ']') {
+            return err(m.span, CompileError::BracketRewritten);
+        }
+        let k = intern(alphabet, m)?;
+        let slot = bind_formals(m, &mut names, &mut nslots)?;
+        rest.push(Pat { key: k, slot });
+    }
     let mut left = Vec::new();
     for m in &p.left {
         if matches!(m.sym, '[' | ']') {
-            return err(m.span, "a left context cannot hold brackets: branches to the left are skipped by the matcher");
+            return err(m.span, CompileError::LeftContextBracket);
         }
         let k = intern(alphabet, m)?;
         let slot = bind_formals(m, &mut names, &mut nslots)?;
@@ -1205,9 +1296,7 @@ fn compile_production(
     let mut right = Vec::new();
     for m in &p.right {
         match m.sym {
-            '[' | ']' if !m.params.is_empty() => {
-                return err(m.span, "a bracket takes no parameters")
-            }
+            '[' | ']' if !m.params.is_empty() => return err(m.span, CompileError::BracketParams),
             '[' => right.push(RPat::Open),
             ']' => right.push(RPat::Close),
             _ => {
@@ -1224,7 +1313,7 @@ fn compile_production(
     let cond = p
         .cond
         .as_ref()
-        .map(|e| compile_code(e, &names, consts))
+        .map(|e| compile_code_in(e, &names, consts, cpfg))
         .transpose()?
         // A condition folded to a non-zero constant always holds.
         .filter(|c| c.constant().is_none_or(|v| v == 0.0))
@@ -1232,23 +1321,25 @@ fn compile_production(
     let prob = p
         .prob
         .as_ref()
-        .map(|e| compile_code(e, &names, consts))
+        .map(|e| compile_code_in(e, &names, consts, cpfg))
         .transpose()?
         .map(Box::new);
     if let Some(w) = prob.as_ref().and_then(|c| c.constant()) {
         if w < 0.0 {
             return err(
                 prob.as_ref().unwrap().span,
-                format!("a probability cannot be negative ({w})"),
+                CompileError::NegativeProbability(w),
             );
         }
     }
-    let (succ, depth_delta, depth_min) = compile_successor(&p.succ, alphabet, &names, consts, num)?;
+    let (succ, depth_delta, depth_min) =
+        compile_successor(&p.succ, alphabet, &names, consts, num, cpfg)?;
     let right_simple = !right.is_empty() && right.iter().all(|r| matches!(r, RPat::Module(_)));
     Ok(Production {
         key,
         nslots,
         left: exact(left),
+        rest: exact(rest),
         right: exact(right),
         right_simple,
         cond,
@@ -1257,6 +1348,8 @@ fn compile_production(
         span: p.span,
         depth_delta,
         depth_min,
+        pre: None,
+        post: None,
     })
 }
 
@@ -1280,6 +1373,7 @@ fn compile_successor(
     names: &HashMap<String, u32>,
     consts: &HashMap<String, f64>,
     num: &mut codec::NumFmt,
+    cpfg: bool,
 ) -> R<(Vec<Item>, i64, i64)> {
     let mut items = Vec::new();
     let mut run = ConstBuilder::default();
@@ -1302,7 +1396,15 @@ fn compile_successor(
         let codes = m
             .params
             .iter()
-            .map(|e| compile_code(e, names, consts))
+            .map(|e| {
+                if cpfg {
+                    // cpfg stores parameters as 32-bit floats.
+                    let e = Expr::Call(CPFG_F32.to_string(), vec![e.clone()], e.span());
+                    compile_code_in(&e, names, consts, true)
+                } else {
+                    compile_code(e, names, consts)
+                }
+            })
             .collect::<R<Vec<Code>>>()?;
         let values: Option<Vec<f64>> = codes.iter().map(Code::constant).collect();
         match values {
@@ -1354,8 +1456,13 @@ mod tests {
             Item::Const(c) => {
                 assert_eq!(std::str::from_utf8(c.text()).unwrap(), "F(2)[+F]G(1,6)");
                 assert_eq!(c.modules(), 6);
-                assert_eq!(c.brackets().collect::<Vec<_>>(), [(10, true), (21, false)]);
-                assert_eq!(c.ibin().len(), c.bin().len() + 8);
+                // F(2) is 10 bytes; the `[` carries the index; modules
+                // F(2) [ + F ] G: the `[` is the second, the `]` the fifth.
+                assert_eq!(
+                    c.brackets().collect::<Vec<_>>(),
+                    [(10, true, 1), (29, false, 4)]
+                );
+                assert_eq!(c.ibin().len(), c.bin().len() + codec::INDEX_BYTES);
             }
             other => panic!("{other:?}"),
         }
@@ -1377,21 +1484,21 @@ mod tests {
     #[test]
     fn compile_errors() {
         let e = sys("productions:\nA(x) -> B(y)\n").err().unwrap();
-        assert_eq!(e.message, "unknown identifier `y`");
+        assert_eq!(e.message(), "unknown identifier `y`");
         let e = sys("define: a = 1\ndefine: a = 2\n").err().unwrap();
-        assert!(e.message.contains("defined twice"));
+        assert!(e.message().contains("defined twice"));
         let e = sys("ignore: +\nconsider: F\n").err().unwrap();
-        assert!(e.message.contains("cannot both"));
+        assert!(e.message().contains("cannot both"));
         let e = sys("productions:\nA -> B : -1\n").err().unwrap();
-        assert!(e.message.contains("negative"));
+        assert!(e.message().contains("negative"));
         let e = sys("productions:\nA(x) : z > 1 -> B\n").err().unwrap();
-        assert!(e.message.contains("unknown identifier `z`"));
+        assert!(e.message().contains("unknown identifier `z`"));
         let e = sys("productions:\nA(1) -> B\n").err().unwrap();
-        assert!(e.message.contains("formal parameter"));
+        assert!(e.message().contains("formal parameter"));
         let e = sys("productions:\nA(x) < B(x) -> B\n").err().unwrap();
-        assert!(e.message.contains("bound twice"));
+        assert!(e.message().contains("bound twice"));
         let e = sys("derivation length: 2.5\n").err().unwrap();
-        assert!(e.message.contains("whole number"));
+        assert!(e.message().contains("whole number"));
     }
 
     #[test]
@@ -1408,8 +1515,8 @@ mod tests {
     fn streaming_keeps_the_error_order() {
         let first = |src: &str| match compile_text(src, Seeds::default()) {
             Ok(_) => "ok".to_string(),
-            Err(LoadError::Parse(e)) => format!("parse {}: {}", e.span.0, e.message),
-            Err(LoadError::Compile(e)) => format!("compile {}: {}", e.span.0, e.message),
+            Err(LoadError::Parse(e)) => format!("parse {}: {}", e.span.0, e.message()),
+            Err(LoadError::Compile(e)) => format!("compile {}: {}", e.span.0, e.message()),
         };
         // Group 0 is checked before group 1, wherever it stands.
         let src = "groups: 1\nproductions 1:\nA -> B(y)\nproductions:\nC -> D(z)\n";

@@ -13,7 +13,7 @@ pub mod render;
 pub mod state;
 pub mod view;
 
-use crate::diag::Error;
+use crate::diag::{Error, TurtleError};
 use reader::Reader;
 use state::{Fault, ModErr, Sink, Turtle};
 use std::io::Read;
@@ -34,7 +34,7 @@ pub fn interpret<R: Read>(
     loop {
         let Some(sym) = r.next_module()? else {
             if t.open_polygons() > 0 {
-                return Err(r.error_at(polygon_at, "polygon not closed: `{` without `}`"));
+                return Err(r.error_at(polygon_at, TurtleError::PolygonNotClosed));
             }
             return Ok(());
         };
@@ -46,34 +46,27 @@ pub fn interpret<R: Read>(
         match t.module(sym, &params[..n], sink) {
             Ok(()) => {}
             Err(ModErr::Io(e)) => {
-                if let Some(o) = e
-                    .get_ref()
-                    .and_then(|x| x.downcast_ref::<render::ExtentOverflow>())
+                if e.get_ref()
+                    .is_some_and(|x| x.is::<render::ExtentOverflow>())
                 {
-                    return Err(r.error_at(r.last_at, o.to_string()));
+                    return Err(r.error_at(r.last_at, TurtleError::ExtentOverflow));
                 }
-                return Err(Error::io(out_name, "cannot write", e));
+                return Err(Error::io(out_name, crate::diag::IoAction::Write, e));
             }
             Err(ModErr::Fault(Fault::UnmatchedClose(c))) => {
-                return Err(r.error_at(r.last_at, format!("unmatched `{c}`")));
+                return Err(r.error_at(r.last_at, TurtleError::UnmatchedClose(c)));
             }
             Err(ModErr::Fault(Fault::Overflow)) => {
-                return Err(r.error_at(r.last_at, "the turtle moved out of range (overflow)"))
+                return Err(r.error_at(r.last_at, TurtleError::Overflow))
             }
             Err(ModErr::Fault(Fault::TropismOverflow)) => {
-                return Err(r.error_at(
-                    r.last_at,
-                    "the tropism bend overflows (elasticity × |tropism| is too large)",
-                ))
+                return Err(r.error_at(r.last_at, TurtleError::TropismOverflow))
             }
             Err(ModErr::Fault(Fault::PolygonTooLarge)) => {
-                return Err(r.error_at(
-                    r.last_at,
-                    format!("polygon too large (over {} vertices)", state::MAX_VERTICES),
-                ))
+                return Err(r.error_at(r.last_at, TurtleError::PolygonTooLarge(state::MAX_VERTICES)))
             }
             Err(ModErr::Fault(Fault::TooDeep)) => {
-                return Err(r.error_at(r.last_at, "branches or polygons nested too deeply"))
+                return Err(r.error_at(r.last_at, TurtleError::TooDeep))
             }
         }
     }
@@ -120,11 +113,11 @@ enum Source {
 }
 
 fn open_file(p: &std::path::Path, name: &str) -> Result<std::fs::File, Error> {
-    let f = std::fs::File::open(p).map_err(|e| Error::io(name, "cannot open", e))?;
+    let f = std::fs::File::open(p).map_err(|e| Error::io(name, crate::diag::IoAction::Open, e))?;
     if f.metadata().map(|m| m.is_dir()).unwrap_or(false) {
         return Err(Error::io(
             name,
-            "cannot read",
+            crate::diag::IoAction::Read,
             std::io::Error::from(std::io::ErrorKind::IsADirectory),
         ));
     }
@@ -179,7 +172,7 @@ pub fn run(o: &Options) -> Result<(), Error> {
     };
     let out_name = out.name();
     let file_path = out.file_path().map(|p| p.to_path_buf());
-    let werr = |e: std::io::Error| Error::io(out_name.clone(), "cannot write", e);
+    let werr = |e: std::io::Error| Error::io(out_name.clone(), crate::diag::IoAction::Write, e);
     match o.format {
         Format::Segments | Format::Obj => {
             let mut mtl_out = None;
@@ -210,7 +203,7 @@ pub fn run(o: &Options) -> Result<(), Error> {
                         let mname = m.name();
                         m.writer()
                             .write_all(render::mtl(&o.view).as_bytes())
-                            .map_err(|e| Error::io(mname, "cannot write", e))?;
+                            .map_err(|e| Error::io(mname, crate::diag::IoAction::Write, e))?;
                         mtl_out = Some(m);
                     }
                 }
@@ -230,8 +223,9 @@ pub fn run(o: &Options) -> Result<(), Error> {
                     Box::new(open_file(p, n)?)
                 }
                 Source::Stream => {
-                    let spool = tempfile::tempfile()
-                        .map_err(|e| Error::io("temporary file", "cannot create", e))?;
+                    let spool = tempfile::tempfile().map_err(|e| {
+                        Error::io("temporary file", crate::diag::IoAction::Create, e)
+                    })?;
                     let mut tee = Tee {
                         inner: first,
                         spool,
@@ -239,12 +233,12 @@ pub fn run(o: &Options) -> Result<(), Error> {
                     };
                     interpret(&mut tee, &in_name, &out_name, &o.view, &mut bbox)?;
                     if let Some(e) = tee.error {
-                        return Err(Error::io("temporary file", "cannot write", e));
+                        return Err(Error::io("temporary file", crate::diag::IoAction::Write, e));
                     }
                     let mut spool = tee.spool;
                     spool
                         .rewind()
-                        .map_err(|e| Error::io("temporary file", "cannot read", e))?;
+                        .map_err(|e| Error::io("temporary file", crate::diag::IoAction::Read, e))?;
                     Box::new(std::io::BufReader::with_capacity(1 << 16, spool))
                 }
             };

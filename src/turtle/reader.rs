@@ -1,7 +1,7 @@
 //! Reading a module string as lsgen writes it (`F(1.5)[+F]...`), module by
 //! module, from any byte stream: one 64 KiB buffer, whatever the length.
 
-use crate::diag::Error;
+use crate::diag::{Error, TurtleError};
 use std::io::{self, Read};
 
 /// Parameters kept per module; further ones are read and ignored.
@@ -54,10 +54,8 @@ impl<R: Read> Reader<R> {
     }
 
     /// An error at stream offset `at`: `FILE:OFFSET: error: ...`.
-    pub fn error_at(&self, at: u64, message: impl Into<String>) -> Error {
-        let mut e = Error::new(message);
-        e.subject = Some(format!("{}:{}", self.name, at));
-        e
+    pub fn error_at(&self, at: u64, kind: TurtleError) -> Error {
+        Error::about(format!("{}:{}", self.name, at), kind)
     }
 
     /// Refill so that at least `want` bytes (at most the buffer size) are
@@ -75,7 +73,7 @@ impl<R: Read> Reader<R> {
                 Ok(0) => self.eof = true,
                 Ok(n) => self.end += n,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(Error::io(self.name.clone(), "cannot read", e)),
+                Err(e) => return Err(Error::io(self.name.clone(), crate::diag::IoAction::Read, e)),
             }
         }
         Ok(())
@@ -112,10 +110,10 @@ impl<R: Read> Reader<R> {
         let sym = if b < 0x80 {
             self.pos += 1;
             if b < 0x20 || b == 0x7f {
-                return Err(self.error_at(at, format!("unexpected control character 0x{b:02x}")));
+                return Err(self.error_at(at, TurtleError::ControlByte(b)));
             }
             if matches!(b, b'(' | b')' | b',') {
-                return Err(self.error_at(at, format!("unexpected `{}`", b as char)));
+                return Err(self.error_at(at, TurtleError::Unexpected(b as char)));
             }
             b as char
         } else {
@@ -123,7 +121,7 @@ impl<R: Read> Reader<R> {
                 0xc2..=0xdf => 2,
                 0xe0..=0xef => 3,
                 0xf0..=0xf4 => 4,
-                _ => return Err(self.error_at(at, "invalid UTF-8")),
+                _ => return Err(self.error_at(at, TurtleError::InvalidUtf8)),
             };
             self.fill(len)?;
             let bytes = &self.buf[self.pos..self.end.min(self.pos + len)];
@@ -135,7 +133,7 @@ impl<R: Read> Reader<R> {
                     self.pos += len;
                     c
                 }
-                _ => return Err(self.error_at(at, "invalid UTF-8")),
+                _ => return Err(self.error_at(at, TurtleError::InvalidUtf8)),
             }
         };
         self.nparams = 0;
@@ -158,10 +156,7 @@ impl<R: Read> Reader<R> {
                 |c: &&u8| c.is_ascii_digit() || matches!(c, b'+' | b'-' | b'.' | b'e' | b'E');
             let len = avail.iter().take(MAX_NUMBER + 1).take_while(is_num).count();
             if len > MAX_NUMBER {
-                return Err(self.error_at(
-                    at,
-                    format!("number too long (over {MAX_NUMBER} characters)"),
-                ));
+                return Err(self.error_at(at, TurtleError::NumberTooLong(MAX_NUMBER)));
             }
             let text = std::str::from_utf8(&avail[..len]).unwrap_or("");
             let v = match text.parse::<f64>() {
@@ -172,9 +167,9 @@ impl<R: Read> Reader<R> {
                         .take_while(|c| !matches!(c, ',' | ')' | '\n'))
                         .collect();
                     return Err(if avail.is_empty() {
-                        self.error_at(module_at, "parameter list not closed: `(` without `)`")
+                        self.error_at(module_at, TurtleError::ParamsNotClosed)
                     } else {
-                        self.error_at(at, format!("expected a number, found `{shown}`"))
+                        self.error_at(at, TurtleError::ExpectedNumber(shown))
                     });
                 }
             };
@@ -190,20 +185,10 @@ impl<R: Read> Reader<R> {
                     self.nparams = n.min(MAX_PARAMS);
                     return Ok(());
                 }
-                None => {
-                    return Err(
-                        self.error_at(module_at, "parameter list not closed: `(` without `)`")
-                    )
-                }
+                None => return Err(self.error_at(module_at, TurtleError::ParamsNotClosed)),
                 Some(c) => {
                     let at = self.offset();
-                    return Err(self.error_at(
-                        at,
-                        format!(
-                            "expected `,` or `)`, found `{}`",
-                            (c as char).escape_default()
-                        ),
-                    ));
+                    return Err(self.error_at(at, TurtleError::ExpectedCommaOrParen(c as char)));
                 }
             }
         }
@@ -245,24 +230,41 @@ mod tests {
     fn errors() {
         assert_eq!(
             all("FF(1").unwrap_err(),
-            "lsgen: in:1: error: parameter list not closed: `(` without `)`\n"
+            "in:1: error: parameter list not closed: `(` without `)`\n"
         );
         assert_eq!(
             all("F(x)").unwrap_err(),
-            "lsgen: in:2: error: expected a number, found `x`\n"
+            "in:2: error: expected a number, found `x`\n"
         );
         assert_eq!(
             all("F(1;2)").unwrap_err(),
-            "lsgen: in:3: error: expected `,` or `)`, found `;`\n"
+            "in:3: error: expected `,` or `)`, found `;`\n"
         );
         assert_eq!(
             all("F\u{1}").unwrap_err(),
-            "lsgen: in:1: error: unexpected control character 0x01\n"
+            "in:1: error: unexpected control character 0x01\n"
         );
         assert!(all("F\u{ff}").is_ok());
         assert_eq!(
             all_bytes(b"F\xff").unwrap_err(),
-            "lsgen: in:1: error: invalid UTF-8\n"
+            "in:1: error: invalid UTF-8\n"
+        );
+    }
+
+    #[test]
+    fn errors_are_typed() {
+        use crate::diag::{ErrorKind, Stage};
+        let mut r = Reader::new(&b"F(1"[..], "in");
+        let e = r.next_module().unwrap_err();
+        assert!(matches!(
+            e.kind(),
+            ErrorKind::Turtle(TurtleError::ParamsNotClosed)
+        ));
+        assert_eq!(e.stage(), Stage::Parse);
+        assert_eq!(e.subject(), Some("in:0"));
+        assert_eq!(
+            Error::new(TurtleError::UnmatchedClose(']')).stage(),
+            Stage::Runtime
         );
     }
 

@@ -91,7 +91,7 @@ pub struct ExtentOverflow;
 
 impl std::fmt::Display for ExtentOverflow {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("the drawing is too large to lay out (its extent overflows)")
+        crate::diag::TurtleError::ExtentOverflow.fmt(f)
     }
 }
 

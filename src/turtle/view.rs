@@ -3,7 +3,7 @@
 //! with [`parse_setting`] and otherwise ignores; `lsgen-turtle --ls FILE`
 //! reads them and its options override them.
 
-use crate::diag::{CodeMap, Error, Location};
+use crate::diag::{CodeMap, Error, Location, ViewError};
 
 /// An RGB colour.
 pub type Rgb = [u8; 3];
@@ -108,18 +108,15 @@ pub const NAMES: &[&str] = &[
     "background",
 ];
 
-/// A problem in a setting: byte range in the text given and a message.
+/// A problem in a setting: byte range in the text given and what.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SettingError {
     pub span: (usize, usize),
-    pub message: String,
+    pub kind: ViewError,
 }
 
-fn err(span: (usize, usize), message: impl Into<String>) -> SettingError {
-    SettingError {
-        span,
-        message: message.into(),
-    }
+fn err(span: (usize, usize), kind: ViewError) -> SettingError {
+    SettingError { span, kind }
 }
 
 /// Words of `s` with their byte offsets.
@@ -144,17 +141,15 @@ fn words(s: &str) -> Vec<(usize, &str)> {
 fn number(at: usize, w: &str) -> Result<f64, SettingError> {
     match w.parse::<f64>() {
         Ok(v) if v.is_finite() && !w.starts_with(['i', 'I', 'n', 'N', '+']) => Ok(v),
-        _ => Err(err((at, at + w.len()), format!("`{w}` is not a number"))),
+        _ => Err(err(
+            (at, at + w.len()),
+            ViewError::NotANumber(w.to_string()),
+        )),
     }
 }
 
 fn colour(at: usize, w: &str) -> Result<Rgb, SettingError> {
-    let bad = || {
-        err(
-            (at, at + w.len()),
-            format!("`{w}` is not a colour `#rrggbb`"),
-        )
-    };
+    let bad = || err((at, at + w.len()), ViewError::NotAColour(w.to_string()));
     let hex = w.strip_prefix('#').ok_or_else(bad)?;
     if hex.len() != 6 || !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
         return Err(bad());
@@ -177,17 +172,11 @@ pub fn parse_direction(s: &str) -> Result<Direction, SettingError> {
         [(a, x), (b, y)] => {
             let e = number(*b, y)?;
             if !(-90.0..=90.0).contains(&e) {
-                return Err(err(
-                    (*b, b + y.len()),
-                    "the elevation is between -90 and 90",
-                ));
+                return Err(err((*b, b + y.len()), ViewError::ElevationRange));
             }
             Ok(d(number(*a, x)?, e))
         }
-        _ => Err(err(
-            (0, s.len()),
-            "a direction is `front`, `side`, `top` or `AZIMUTH ELEVATION` in degrees",
-        )),
+        _ => Err(err((0, s.len()), ViewError::Direction)),
     }
 }
 
@@ -195,10 +184,7 @@ pub fn parse_direction(s: &str) -> Result<Direction, SettingError> {
 /// relative to `text`.
 pub fn parse_setting(text: &str) -> Result<Setting, SettingError> {
     let Some(eq) = text.find('=') else {
-        return Err(err(
-            (0, text.len()),
-            "a view setting is `view: NAME = VALUE`",
-        ));
+        return Err(err((0, text.len()), ViewError::Syntax));
     };
     let name = words(&text[..eq])
         .iter()
@@ -220,12 +206,12 @@ pub fn parse_setting(text: &str) -> Result<Setting, SettingError> {
     let one = |w: &[(usize, &str)]| -> Result<f64, SettingError> {
         match w {
             [(a, x)] => number(*a, x),
-            _ => Err(err((vstart, text.len()), "expected one number")),
+            _ => Err(err((vstart, text.len()), ViewError::OneNumber)),
         }
     };
     let non_negative = |v: f64| -> Result<f64, SettingError> {
         if v < 0.0 {
-            Err(err((vstart, text.len()), "must not be negative"))
+            Err(err((vstart, text.len()), ViewError::Negative))
         } else {
             Ok(v)
         }
@@ -243,19 +229,11 @@ pub fn parse_setting(text: &str) -> Result<Setting, SettingError> {
             [(a, x), (b, y), (c, z)] => {
                 Setting::Tropism([number(*a, x)?, number(*b, y)?, number(*c, z)?])
             }
-            _ => {
-                return Err(err(
-                    (vstart, text.len()),
-                    "a tropism is three numbers `X Y Z`",
-                ))
-            }
+            _ => return Err(err((vstart, text.len()), ViewError::Tropism)),
         },
         "palette" => {
             if w.is_empty() {
-                return Err(err(
-                    (vstart, text.len()),
-                    "a palette is one or more colours `#rrggbb`",
-                ));
+                return Err(err((vstart, text.len()), ViewError::Palette));
             }
             Setting::Palette(
                 w.iter()
@@ -271,25 +249,10 @@ pub fn parse_setting(text: &str) -> Result<Setting, SettingError> {
         "background" => match w.as_slice() {
             [(_, n)] if n.eq_ignore_ascii_case("none") => Setting::Background(None),
             [(a, s)] => Setting::Background(Some(colour(*a, s)?)),
-            _ => {
-                return Err(err(
-                    (vstart, text.len()),
-                    "a background is `#rrggbb` or `none`",
-                ))
-            }
+            _ => return Err(err((vstart, text.len()), ViewError::Background)),
         },
-        _ if name.is_empty() => {
-            return Err(err(name_span, "a view setting is `view: NAME = VALUE`"))
-        }
-        _ => {
-            return Err(err(
-                name_span,
-                format!(
-                    "unknown view setting `{name}` (known: {})",
-                    NAMES.join(", ")
-                ),
-            ))
-        }
+        _ if name.is_empty() => return Err(err(name_span, ViewError::Syntax)),
+        _ => return Err(err(name_span, ViewError::Unknown(name))),
     })
 }
 
@@ -348,10 +311,7 @@ pub fn read_ls(name: &str, input: Box<dyn std::io::Read>, view: &mut View) -> Re
         }
         Err(e) => {
             let map = CodeMap::new(text);
-            Err(Error::at(
-                Location::from_map(name, &map, e.span.0),
-                e.message,
-            ))
+            Err(Error::at(Location::from_map(name, &map, e.span.0), e.kind))
         }
     }
 }
@@ -402,7 +362,7 @@ mod tests {
     fn errors_are_located() {
         let e = parse_setting(" angel = 3").unwrap_err();
         assert_eq!(e.span, (1, 6));
-        assert!(e.message.contains("unknown view setting `angel`"));
+        assert_eq!(e.kind, ViewError::Unknown("angel".into()));
         let e = parse_setting(" angle = 2x").unwrap_err();
         assert_eq!(e.span, (9, 11));
         let e = parse_setting(" palette = #12345").unwrap_err();
@@ -432,10 +392,10 @@ mod tests {
         read("#!/usr/bin/env lsgen\nview: step = 8\n", &mut v).unwrap();
         assert_eq!(v.step, 8.0);
         let e = read("F\n  view: step = x\n", &mut v).unwrap_err();
-        let l = e.location.clone().unwrap();
+        let l = e.location().unwrap().clone();
         assert_eq!((l.line, l.col), (2, 16));
         let e = read("/* c */ view: angel = 3\n", &mut v).unwrap_err();
-        let l = e.location.clone().unwrap();
+        let l = e.location().unwrap().clone();
         assert_eq!((l.line, l.col), (1, 15));
     }
 }

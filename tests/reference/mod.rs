@@ -17,7 +17,7 @@
 use lsgen::ast::{self, Expr, Setting};
 use lsgen::expr::{Code, Scope};
 use lsgen::parse::{parse_expr, parse_header};
-use lsgen::random::{Draw, Random};
+use lsgen::random::{Draw, Random, RandomError};
 use rand_chacha::rand_core::{Rng as _, SeedableRng as _};
 use rand_chacha::ChaCha8Rng;
 use std::cell::Cell;
@@ -172,15 +172,16 @@ fn compile_expr(e: &Expr, names: &HashMap<String, u32>, consts: &HashMap<String,
         &Scope {
             params: names,
             consts,
+            cpfg: false,
         },
     )
-    .map_err(|e| format!("compile error: {}", e.message))
+    .map_err(|e| format!("compile error: {}", e.message()))
 }
 
 fn constant(e: &Expr, consts: &HashMap<String, f64>) -> R<f64> {
     let c = compile_expr(e, &HashMap::new(), consts)?;
     c.eval(&[], &mut Vec::new(), &mut Random::new(0))
-        .map_err(|e| format!("eval error: {}", e.message))
+        .map_err(|e| format!("eval error: {}", e.message()))
 }
 
 fn whole(e: &Expr, consts: &HashMap<String, f64>) -> R<u64> {
@@ -536,7 +537,7 @@ fn split_structure(header: &str) -> R<Structure> {
 /// The productions of a section's lines, through lsgen's parser.
 fn section_rules(lines: &str, consts: &HashMap<String, f64>) -> R<Vec<Rule>> {
     let h = parse_header(&format!("productions:\n{lines}"))
-        .map_err(|e| format!("parse error: {}", e.message))?;
+        .map_err(|e| format!("parse error: {}", e.message()))?;
     h.productions
         .iter()
         .map(|p| compile_rule(p, consts))
@@ -547,7 +548,7 @@ impl System {
     pub fn load(src: &str) -> R<System> {
         let (header, axiom_text) = split(src)?;
         let st = split_structure(header)?;
-        let h = parse_header(&st.main).map_err(|e| format!("parse error: {}", e.message))?;
+        let h = parse_header(&st.main).map_err(|e| format!("parse error: {}", e.message()))?;
         let mut consts = HashMap::new();
         let mut derivation_length = None;
         let mut seed = None;
@@ -605,7 +606,7 @@ impl System {
         let schedule = match (&st.list, &st.expr) {
             (Some(list), _) => Schedule::List(list.clone()),
             (None, Some(text)) => {
-                let e = parse_expr(text).map_err(|e| format!("parse error: {}", e.message))?;
+                let e = parse_expr(text).map_err(|e| format!("parse error: {}", e.message()))?;
                 let mut names = HashMap::new();
                 if !consts.contains_key(STEP) {
                     names.insert(STEP.to_string(), 0);
@@ -838,9 +839,9 @@ impl System {
         if let Ok(v) = t.parse::<f64>() {
             return Ok(v);
         }
-        let e = parse_expr(t).map_err(|e| e.message)?;
+        let e = parse_expr(t).map_err(|e| e.message())?;
         let c = compile_expr(&e, &HashMap::new(), &self.consts)?;
-        c.eval(&[], &mut Vec::new(), rng).map_err(|e| e.message)
+        c.eval(&[], &mut Vec::new(), rng).map_err(|e| e.message())
     }
 
     /// Do contexts see this module? Brackets are always seen.
@@ -948,7 +949,7 @@ impl System {
         let mut st = self.stats.get();
         st.draws += 1;
         self.stats.set(st);
-        let mut u = rng.uniform()? * total;
+        let mut u = rng.uniform().map_err(|e| e.to_string())? * total;
         let last = candidates.len() - 1;
         for (i, (r, slots, w)) in candidates.into_iter().enumerate() {
             u -= w;
@@ -1070,6 +1071,10 @@ impl System {
                         return true;
                     }
                     i = after_branch(s, i);
+                    // Passed-over modules do not separate two branches.
+                    while i < s.len() && !self.seen(&s[i]) {
+                        i += 1;
+                    }
                 }
             }
             RightItem::Close => {
@@ -1182,13 +1187,14 @@ impl Draws {
 }
 
 impl Draw for Draws {
-    fn uniform(&mut self) -> Result<f64, &'static str> {
+    fn uniform(&mut self) -> Result<f64, RandomError> {
         // The top 53 bits / 2^53.
-        Ok((self.next()? >> 11) as f64 / 9007199254740992.0)
+        let x = self.next().map_err(|_| RandomError::TooManyDraws)?;
+        Ok((x >> 11) as f64 / 9007199254740992.0)
     }
 
-    fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, &'static str> {
-        let x = self.next()?;
+    fn normal(&mut self, mean: f64, sd: f64) -> Result<f64, RandomError> {
+        let x = self.next().map_err(|_| RandomError::TooManyDraws)?;
         let u1 = ((x >> 32) as f64 + 1.0) / 4294967296.0;
         let u2 = (x & 0xffff_ffff) as f64 / 4294967296.0;
         Ok(mean + sd * ((-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()))
@@ -1197,7 +1203,7 @@ impl Draw for Draws {
 
 fn eval(c: &Code, slots: &[f64], rng: &mut Draws) -> R<f64> {
     c.eval(slots, &mut Vec::new(), rng)
-        .map_err(|e| format!("eval error: {}", e.message))
+        .map_err(|e| format!("eval error: {}", e.message()))
 }
 
 /// Load and derive: the whole output as `derive_bytes` would give it.

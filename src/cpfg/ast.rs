@@ -1,0 +1,183 @@
+//! Syntax tree of a cpfg `.l` file, as grammar/cpfg.lalrpop builds it.
+//! Spans are byte offsets into the preprocessed text (map them back to the
+//! original files with [`super::preprocess::SourceMap`]).
+//!
+//! Expressions keep their names unresolved ([`Expr::Var`]): a name may be a
+//! formal parameter, a local or global variable of the statement blocks, `Q`
+//! (the step) or `Z` (the derivation length); [`super::lower`] resolves them.
+//! Statement blocks are kept as data ([`Block`]) on the productions and the
+//! L-system for the runtime that executes them.
+
+use crate::lang::lexer::Span;
+
+/// A cpfg expression.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Expr {
+    Num(f64, Span),
+    Var(String, Span),
+    /// A string literal (only `printf`/`fprintf` take one).
+    Str(String, Span),
+    Call(String, Vec<Expr>, Span),
+    Unary(UnOp, Box<Expr>, Span),
+    Binary(BinOp, Box<Expr>, Box<Expr>, Span),
+    /// `c ? a : b` (cpfg evaluates both branches).
+    Cond(Box<Expr>, Box<Expr>, Box<Expr>, Span),
+}
+
+impl Expr {
+    pub fn span(&self) -> Span {
+        match self {
+            Expr::Num(_, s)
+            | Expr::Var(_, s)
+            | Expr::Str(_, s)
+            | Expr::Call(_, _, s)
+            | Expr::Unary(_, _, s)
+            | Expr::Binary(_, _, _, s)
+            | Expr::Cond(_, _, _, s) => *s,
+        }
+    }
+}
+
+pub use crate::lang::ast::{BinOp, UnOp};
+
+/// A statement of a block.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Stmt {
+    /// `name = value;`
+    Assign {
+        name: String,
+        name_span: Span,
+        value: Expr,
+    },
+    /// `if (cond) { then } else { els }` (`els` empty without `else`).
+    If {
+        cond: Expr,
+        then: Block,
+        els: Block,
+        span: Span,
+    },
+    /// `while (cond) { body }`
+    While { cond: Expr, body: Block, span: Span },
+    /// `do { body } while (cond);`
+    DoWhile { body: Block, cond: Expr, span: Span },
+    /// `printf(format, args...);` or `fprintf(stderr, format, args...);`
+    /// (both to standard error in lsgen: standard output holds the string).
+    Printf {
+        stderr: bool,
+        format: String,
+        args: Vec<Expr>,
+        span: Span,
+    },
+    /// Any other expression, for its effect (`srand(3);`).
+    Expr(Expr),
+}
+
+/// `{ stmt ... }`
+pub type Block = Vec<Stmt>;
+
+/// A module as written: a symbol and its parameter expressions (formal
+/// parameters: [`Expr::Var`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Module {
+    pub sym: char,
+    pub params: Vec<Expr>,
+    pub span: Span,
+}
+
+/// `lc < pred > rc : { pre } cond { post } --> succ : prob`
+#[derive(Clone, Debug, PartialEq)]
+pub struct Production {
+    /// None: no left context (also `*`).
+    pub left: Option<Vec<Module>>,
+    /// The strict predecessor: one module or a run of them (`AB --> C`).
+    pub pred: Vec<Module>,
+    pub right: Option<Vec<Module>>,
+    /// The pre-condition block (runs before the condition is tested).
+    pub pre: Block,
+    /// None: always true (also `*`).
+    pub cond: Option<Expr>,
+    /// The post-condition block (runs when the production is applied).
+    pub post: Block,
+    pub succ: Vec<Module>,
+    pub prob: Option<Expr>,
+    /// The whole production.
+    pub span: Span,
+}
+
+/// A setting before `Axiom:`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Setting {
+    Seed(Expr, Span),
+    DerivationLength(Expr, Span),
+    /// Symbols and their spans; a later `ignore:`/`consider:` replaces an
+    /// earlier one.
+    Ignore(Vec<(char, Span)>, Span),
+    Consider(Vec<(char, Span)>, Span),
+    /// `ring lsystem`, `define: { ... }`: refused by the lowering.
+    Unsupported(&'static str, Span),
+}
+
+/// A `decomposition` or `homomorphism` section.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Section {
+    pub span: Span,
+    /// `warnings` (Some(true)) or `no warnings` (Some(false)).
+    pub warnings: Option<bool>,
+    pub depth: Option<(Expr, Span)>,
+    pub seed: Option<(Expr, Span)>,
+    pub productions: Vec<Production>,
+}
+
+/// One `Lsystem: ... endlsystem` block.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lsystem {
+    pub span: Span,
+    pub settings: Vec<Setting>,
+    pub start: Option<(Block, Span)>,
+    pub start_each: Option<(Block, Span)>,
+    pub end_each: Option<(Block, Span)>,
+    pub end: Option<(Block, Span)>,
+    pub axiom: Vec<AxiomPiece>,
+    pub axiom_span: Span,
+    pub productions: Vec<Production>,
+    pub decomposition: Option<Section>,
+    pub homomorphism: Option<Section>,
+}
+
+/// A statement block of the header (`Start:` ...).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlockKind {
+    Start,
+    StartEach,
+    EndEach,
+    End,
+}
+
+/// A piece of the axiom: a run of symbols without parameters (kept as
+/// text: an axiom line may be megabytes long), or a module with them.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AxiomPiece {
+    Symbols(String),
+    Module(Module),
+}
+
+impl AxiomPiece {
+    /// Append `m` to the axiom `v`.
+    pub fn push(v: &mut Vec<AxiomPiece>, m: Module) {
+        if !m.params.is_empty() {
+            v.push(AxiomPiece::Module(m));
+            return;
+        }
+        match v.last_mut() {
+            Some(AxiomPiece::Symbols(s)) => s.push(m.sym),
+            _ => v.push(AxiomPiece::Symbols(m.sym.to_string())),
+        }
+    }
+}
+
+/// A line before `Axiom:` (the grammar's).
+#[derive(Clone, Debug, PartialEq)]
+pub enum HeaderItem {
+    Setting(Setting),
+    Block(BlockKind, Block, Span),
+}

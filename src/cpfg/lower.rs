@@ -1,0 +1,830 @@
+//! From a cpfg syntax tree to the shared `.ls` syntax tree
+//! ([`crate::lang::ast::Header`]), which `rules::compile_dialect` compiles
+//! with cpfg's semantics: one set of rules, strategies and errors for both
+//! dialects.
+//!
+//! Names are resolved here, as cpfg resolves them: a formal parameter, `Q`
+//! (the step), `Z` (the derivation length), else an undefined name, which
+//! is 0 with a warning. The axiom's parameters are evaluated here (cpfg
+//! evaluates them once, as `float`s) and the axiom becomes module text.
+//!
+//! For the cpfg runtime (statement blocks, cpfg's generators), the
+//! refusals to lift are: `no_block` (blocks, here), the seeded
+//! probability in `Lowerer::production` (here), and `PENDING_FUNCTIONS`
+//! in `parse.rs` (`ran nran bran biran srand`). Names assigned in blocks
+//! (globals, production locals) must then resolve in `Lowerer::expr`
+//! before the "undefined name is 0" rule.
+
+use super::ast::{self, Block, Expr, Module, Production, Section, Setting};
+use super::blocks;
+use super::run::CpfgRun;
+use crate::lang::ast as ls;
+use crate::lang::lexer::Span;
+use crate::lang::parse::UserError;
+use crate::rules::expr::{Code, Scope, STEP_SLOT};
+use std::collections::HashMap;
+
+type R<T> = Result<T, UserError>;
+
+fn err<T>(span: Span, msg: impl Into<String>) -> R<T> {
+    Err(UserError::new(span, msg.into()))
+}
+
+/// A lowered `.l` file.
+pub struct Lowered {
+    pub header: ls::Header,
+    /// The axiom as module text (parameters evaluated, in full precision).
+    pub axiom: String,
+    /// What the shared tree cannot hold, for [`Lowered::attach`]: the
+    /// header blocks, and per production (in file order) of the
+    /// productions, the decomposition and the homomorphism, its blocks and
+    /// slots (issue 12).
+    pub run: CpfgRun,
+    pub extra: [Vec<ProdExtra>; 3],
+}
+
+/// A production's statement blocks and how many slots it needs: its formal
+/// parameters (predecessor, left context, right context, as the shared
+/// compiler numbers them); its local variables are run variables, as the
+/// globals (see `Lowerer::locals`).
+#[derive(Clone, Debug, Default)]
+pub struct ProdExtra {
+    pub pre: Option<blocks::Block>,
+    pub post: Option<blocks::Block>,
+    pub nslots: usize,
+}
+
+/// Give the compiled `system` what the shared tree could not hold (see
+/// [`Lowered`]).
+pub fn attach(run: &CpfgRun, extra: &[Vec<ProdExtra>; 3], system: &mut crate::rules::System) {
+    {
+        let mut run = run.clone();
+        run.seed = system.seed;
+        run.derivation_length = system.derivation_length.unwrap_or(0);
+        system.cpfg = Some(Box::new(run));
+        let tables = [
+            Some(&mut system.productions),
+            system.decomposition.as_mut().map(|(t, _)| t),
+            Some(&mut system.homomorphism),
+        ];
+        for (t, extra) in tables.into_iter().zip(extra) {
+            let Some(t) = t else { continue };
+            for (p, x) in t.prods.iter_mut().zip(extra) {
+                p.nslots = p.nslots.max(x.nslots);
+                p.pre = x.pre.clone().map(Box::new);
+                p.post = x.post.clone().map(Box::new);
+            }
+        }
+    }
+}
+
+/// The shared tree's name of cpfg variable `i` (a global, or a
+/// production's local: both live in the run's variable slots): a name no
+/// lexer makes, which the expression compiler resolves in the cpfg dialect
+/// ([`crate::rules::expr`]).
+fn global_name(i: u32) -> String {
+    format!("\u{1}g{i}")
+}
+
+/// Every name a block reads or assigns, in order.
+fn block_names(b: &Block, out: &mut Vec<String>, assigned_only: bool) {
+    fn expr(e: &Expr, out: &mut Vec<String>) {
+        match e {
+            Expr::Var(n, _) => out.push(n.clone()),
+            Expr::Num(..) | Expr::Str(..) => {}
+            Expr::Call(_, a, _) => a.iter().for_each(|e| expr(e, out)),
+            Expr::Unary(_, a, _) => expr(a, out),
+            Expr::Binary(_, a, b, _) => {
+                expr(a, out);
+                expr(b, out);
+            }
+            Expr::Cond(c, a, b, _) => {
+                expr(c, out);
+                expr(a, out);
+                expr(b, out);
+            }
+        }
+    }
+    for s in b {
+        match s {
+            ast::Stmt::Assign { name, value, .. } => {
+                out.push(name.clone());
+                if !assigned_only {
+                    expr(value, out);
+                }
+            }
+            ast::Stmt::If {
+                cond, then, els, ..
+            } => {
+                if !assigned_only {
+                    expr(cond, out);
+                }
+                block_names(then, out, assigned_only);
+                block_names(els, out, assigned_only);
+            }
+            ast::Stmt::While { cond, body, .. } | ast::Stmt::DoWhile { body, cond, .. } => {
+                if !assigned_only {
+                    expr(cond, out);
+                }
+                block_names(body, out, assigned_only);
+            }
+            ast::Stmt::Printf { args, .. } => {
+                if !assigned_only {
+                    args.iter().for_each(|e| expr(e, out));
+                }
+            }
+            ast::Stmt::Expr(e) => {
+                if !assigned_only {
+                    expr(e, out);
+                }
+            }
+        }
+    }
+}
+
+/// The name a formal parameter gets in the shared tree: `step` is the
+/// shared tree's built-in step number (cpfg's `Q`), so a cpfg formal named
+/// `step` is renamed to a name no lexer makes.
+fn formal_name(name: &str) -> String {
+    if name == "step" {
+        "step\u{0}".to_string()
+    } else {
+        name.to_string()
+    }
+}
+
+struct Lowerer<'w> {
+    /// The file's `derivation length:` (cpfg's `Z`), once read.
+    z: Option<f64>,
+    /// `seed:` given: cpfg's stochastic mode.
+    seeded: bool,
+    /// Lowering a value needed before the derivation (`Q` is 0).
+    constant: bool,
+    warn: &'w mut dyn FnMut(Span, String),
+    /// Global variables: every name of the header blocks (cpfg's L-system
+    /// symbol table), by number.
+    globals: HashMap<String, u32>,
+    /// The current production's local variables (assigned in its blocks,
+    /// not formal, not global), by variable number: each production has
+    /// its own, which keep their values between applications, as cpfg's
+    /// per-production symbol tables do.
+    locals: HashMap<String, u32>,
+    /// Variables numbered so far (globals, then every production's locals).
+    variables: u32,
+    /// Blocks and slots of the productions lowered so far, per section.
+    extra: [Vec<ProdExtra>; 3],
+    /// The section being lowered (index into `extra`).
+    section: usize,
+}
+
+impl Lowerer<'_> {
+    fn expr(&mut self, e: &Expr, formals: &HashMap<String, ()>) -> R<ls::Expr> {
+        Ok(match e {
+            Expr::Num(v, s) => ls::Expr::Num(*v, *s),
+            Expr::Var(name, s) => {
+                if formals.contains_key(name) {
+                    ls::Expr::Var(formal_name(name), *s)
+                } else if name == "Q" && self.constant {
+                    // Before the first step (settings, the axiom).
+                    ls::Expr::Num(0.0, *s)
+                } else if let Some(&g) = self.globals.get(name) {
+                    ls::Expr::Var(global_name(g), *s)
+                } else if let Some(&l) = self.locals.get(name) {
+                    ls::Expr::Var(global_name(l), *s)
+                } else if name == "Q" {
+                    ls::Expr::Var("step".to_string(), *s)
+                } else if let (Some(z), "Z") = (self.z, name.as_str()) {
+                    ls::Expr::Num(z, *s)
+                } else {
+                    (self.warn)(
+                        *s,
+                        format!("`{name}` is not defined: it is 0 here, as in cpfg"),
+                    );
+                    ls::Expr::Num(0.0, *s)
+                }
+            }
+            Expr::Str(_, s) => return err(*s, "a string is only for `printf` and `fprintf`"),
+            Expr::Call(name, args, s) => {
+                if name == "printf" || name == "fprintf" {
+                    return err(
+                        *s,
+                        format!("`{name}` is a statement of a block, not a value"),
+                    );
+                }
+                let args = args
+                    .iter()
+                    .map(|a| self.expr(a, formals))
+                    .collect::<R<Vec<_>>>()?;
+                ls::Expr::Call(name.clone(), args, *s)
+            }
+            Expr::Unary(op, a, s) => ls::Expr::Unary(*op, Box::new(self.expr(a, formals)?), *s),
+            Expr::Binary(op, a, b, s) => ls::Expr::Binary(
+                *op,
+                Box::new(self.expr(a, formals)?),
+                Box::new(self.expr(b, formals)?),
+                *s,
+            ),
+            Expr::Cond(c, a, b, s) => ls::Expr::Cond(
+                Box::new(self.expr(c, formals)?),
+                Box::new(self.expr(a, formals)?),
+                Box::new(self.expr(b, formals)?),
+                *s,
+            ),
+        })
+    }
+
+    /// A constant expression's value (settings, the axiom), in cpfg's
+    /// semantics.
+    fn constant(&mut self, e: &Expr) -> R<f64> {
+        self.constant = true;
+        let e = self.expr(e, &HashMap::new());
+        self.constant = false;
+        let e = e?;
+        let params = HashMap::new();
+        let consts = HashMap::new();
+        let scope = Scope {
+            params: &params,
+            consts: &consts,
+            cpfg: true,
+        };
+        let code = Code::compile(&e, &scope).map_err(|x| UserError::new(x.span, x.kind))?;
+        match code.constant() {
+            Some(v) => Ok(v),
+            None => err(
+                e.span(),
+                "this value must be known before the derivation (a constant expression)",
+            ),
+        }
+    }
+
+    fn whole(&mut self, e: &Expr, what: &str, max: f64) -> R<f64> {
+        let v = self.constant(e)?;
+        // cpfg converts with C's (int): truncation.
+        let v = v.trunc();
+        if !(0.0..=max).contains(&v) {
+            return err(e.span(), format!("{what} must be from 0 to {max}, not {v}"));
+        }
+        Ok(v)
+    }
+
+    fn module(&mut self, m: &Module, formals: &HashMap<String, ()>) -> R<ls::Module> {
+        Ok(ls::Module {
+            sym: m.sym,
+            params: m
+                .params
+                .iter()
+                .map(|e| self.expr(e, formals))
+                .collect::<R<Vec<_>>>()?,
+            span: m.span,
+        })
+    }
+
+    fn formals(
+        &mut self,
+        mods: &[Module],
+        formals: &mut HashMap<String, ()>,
+    ) -> R<Vec<ls::Module>> {
+        let mut out = Vec::new();
+        for m in mods {
+            let mut params = Vec::new();
+            for e in &m.params {
+                match e {
+                    Expr::Var(name, s) => {
+                        if formals.insert(name.clone(), ()).is_some() {
+                            return err(
+                                *s,
+                                format!(
+                                    "formal parameter `{name}` is named twice in this production (cpfg: multiple definition)"
+                                ),
+                            );
+                        }
+                        params.push(ls::Expr::Var(formal_name(name), *s));
+                    }
+                    other => {
+                        return err(
+                            other.span(),
+                            "a formal parameter must be a name (values go in the successor or the condition)",
+                        )
+                    }
+                }
+            }
+            out.push(ls::Module {
+                sym: m.sym,
+                params,
+                span: m.span,
+            });
+        }
+        Ok(out)
+    }
+
+    /// Compile a block: `names` maps the shared names of the formal
+    /// parameters to their slots.
+    fn block(
+        &mut self,
+        b: &Block,
+        formals: &HashMap<String, ()>,
+        names: &HashMap<String, u32>,
+    ) -> R<blocks::Block> {
+        let mut out = Vec::new();
+        for s in b {
+            out.push(match s {
+                ast::Stmt::Assign {
+                    name,
+                    name_span,
+                    value,
+                } => {
+                    let var = if formals.contains_key(name) {
+                        blocks::Var::Local(names[&formal_name(name)])
+                    } else if let Some(&g) = self.globals.get(name) {
+                        blocks::Var::Global(g)
+                    } else if let Some(&l) = self.locals.get(name) {
+                        blocks::Var::Global(l)
+                    } else {
+                        return err(
+                            *name_span,
+                            format!("`{name}` cannot be assigned (cpfg's built-in variables `Q` and `Z` are read only)"),
+                        );
+                    };
+                    blocks::Stmt::Assign(var, self.code(value, formals, names)?)
+                }
+                ast::Stmt::If {
+                    cond, then, els, ..
+                } => blocks::Stmt::If(
+                    self.code(cond, formals, names)?,
+                    self.block(then, formals, names)?,
+                    self.block(els, formals, names)?,
+                ),
+                ast::Stmt::While { cond, body, span } => blocks::Stmt::While(
+                    self.code(cond, formals, names)?,
+                    self.block(body, formals, names)?,
+                    *span,
+                ),
+                ast::Stmt::DoWhile { body, cond, span } => blocks::Stmt::DoWhile(
+                    self.block(body, formals, names)?,
+                    self.code(cond, formals, names)?,
+                    *span,
+                ),
+                ast::Stmt::Printf {
+                    format, args, span, ..
+                } => {
+                    let (f, n) =
+                        blocks::Format::parse(format).map_err(|m| UserError::new(*span, m))?;
+                    if n != args.len() {
+                        return err(
+                            *span,
+                            format!(
+                                "printf: the format takes {n} value{}, {} given",
+                                if n == 1 { "" } else { "s" },
+                                args.len()
+                            ),
+                        );
+                    }
+                    let args = args
+                        .iter()
+                        .map(|a| self.code(a, formals, names))
+                        .collect::<R<Vec<_>>>()?;
+                    blocks::Stmt::Printf(f, args.into(), *span)
+                }
+                ast::Stmt::Expr(e) => blocks::Stmt::Eval(self.code(e, formals, names)?),
+            });
+        }
+        Ok(blocks::Block(out.into()))
+    }
+
+    fn code(
+        &mut self,
+        e: &Expr,
+        formals: &HashMap<String, ()>,
+        names: &HashMap<String, u32>,
+    ) -> R<Code> {
+        let e = self.expr(e, formals)?;
+        let scope = Scope {
+            params: names,
+            consts: &HashMap::new(),
+            cpfg: true,
+        };
+        Code::compile(&e, &scope).map_err(|x| UserError::new(x.span, x.kind))
+    }
+
+    fn production(&mut self, p: &Production, section: &str) -> R<ls::Production> {
+        if p.pred.len() > 1 && !section.is_empty() {
+            let s = (
+                p.pred[0].span.0,
+                p.pred.last().map_or(p.span.1, |m| m.span.1),
+            );
+            return err(
+                s,
+                format!(
+                    "a predecessor of several modules (`AB --> C`) is supported among the L-system's productions, not in the {}",
+                    section.trim_end()
+                ),
+            );
+        }
+        let mut formals = HashMap::new();
+        let left = match &p.left {
+            Some(l) => self.formals(l, &mut formals)?,
+            None => Vec::new(),
+        };
+        let mut pred = self.formals(&p.pred, &mut formals)?;
+        let pred_rest = pred.split_off(1);
+        let right = match &p.right {
+            Some(r) => self.formals(r, &mut formals)?,
+            None => Vec::new(),
+        };
+        // Slots as the shared compiler numbers them: predecessor (its
+        // first module, then the rest), left context, right context.
+        let mut names = HashMap::new();
+        for m in pred.iter().chain(&pred_rest).chain(&left).chain(&right) {
+            for e in &m.params {
+                if let ls::Expr::Var(n, _) = e {
+                    let k = names.len() as u32;
+                    names.insert(n.clone(), k);
+                }
+            }
+        }
+        names.insert("step".to_string(), STEP_SLOT);
+        let mut assigned = Vec::new();
+        block_names(&p.pre, &mut assigned, true);
+        block_names(&p.post, &mut assigned, true);
+        self.locals.clear();
+        for n in assigned {
+            if !formals.contains_key(&n)
+                && !self.globals.contains_key(&n)
+                && !self.locals.contains_key(&n)
+            {
+                self.locals.insert(n, self.variables);
+                self.variables += 1;
+            }
+        }
+        let pre = (!p.pre.is_empty())
+            .then(|| self.block(&p.pre, &formals, &names))
+            .transpose()?;
+        let post = (!p.post.is_empty())
+            .then(|| self.block(&p.post, &formals, &names))
+            .transpose()?;
+        self.extra[self.section].push(ProdExtra {
+            pre,
+            post,
+            // (`names` holds `step` too.)
+            nslots: names.len() - 1,
+        });
+        let cond = match &p.cond {
+            Some(c) => Some(Box::new(self.expr(c, &formals)?)),
+            None => None,
+        };
+        let succ = p
+            .succ
+            .iter()
+            .map(|m| self.module(m, &formals))
+            .collect::<R<Vec<_>>>()?;
+        let prob = match &p.prob {
+            None => None,
+            // cpfg's stochastic choice (src/cpfg/random.rs).
+            Some(e) if self.seeded && section.is_empty() => Some(Box::new(self.expr(e, &formals)?)),
+            // Without `seed:` the weights are ignored at run time, as in
+            // cpfg, unless `--seed` stands for `seed:` (README).
+            Some(e) if section.is_empty() => {
+                (self.warn)(
+                    e.span(),
+                    "a probability without `seed:` is ignored, as in cpfg (the first applicable production applies; `--seed` makes it count)".to_string(),
+                );
+                Some(Box::new(self.expr(e, &formals)?))
+            }
+            Some(e) => {
+                (self.warn)(
+                    e.span(),
+                    format!(
+                        "a probability in the {section}section is ignored, as in cpfg (the first applicable {section}production applies)"
+                    ),
+                );
+                None
+            }
+        };
+        self.locals.clear();
+        Ok(ls::Production {
+            left,
+            pred: pred.pop().expect("one module"),
+            pred_rest,
+            right,
+            cond,
+            succ,
+            prob,
+            span: p.span,
+        })
+    }
+
+    fn section(&mut self, s: &Section, name: &str) -> R<(ls::Section, Vec<ls::Production>)> {
+        let mut settings = Vec::new();
+        if let Some((e, span)) = &s.depth {
+            let v = self.constant(e)?;
+            settings.push(ls::SectionSetting::MaximumDepth(
+                ls::Expr::Num(v, e.span()),
+                *span,
+            ));
+        }
+        if let Some((e, span)) = &s.seed {
+            let v = self.whole(e, "the homomorphism's seed", 9.007_199_254_740_992e15)?;
+            settings.push(ls::SectionSetting::Seed(ls::Expr::Num(v, e.span()), *span));
+        }
+        let prods = s
+            .productions
+            .iter()
+            .map(|p| self.production(p, name))
+            .collect::<R<Vec<_>>>()?;
+        Ok((
+            ls::Section {
+                span: s.span,
+                // cpfg warns unless told `no warnings`.
+                warnings: s.warnings.unwrap_or(true),
+                settings,
+                productions: Vec::new(),
+            },
+            prods,
+        ))
+    }
+}
+
+/// Lower `ls`; `warn` receives each warning with its span.
+pub fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, String)) -> R<Lowered> {
+    let mut lw = Lowerer {
+        z: None,
+        seeded: false,
+        constant: false,
+        warn,
+        globals: HashMap::new(),
+        locals: HashMap::new(),
+        variables: 0,
+        extra: Default::default(),
+        section: 0,
+    };
+    // Every name of the header blocks is global (cpfg's L-system table);
+    // `Q` and `Z` are built in.
+    let mut names = Vec::new();
+    for (b, _) in [&lsys.start, &lsys.start_each, &lsys.end_each, &lsys.end]
+        .into_iter()
+        .flatten()
+    {
+        block_names(b, &mut names, false);
+    }
+    for n in names {
+        if n != "Q" && n != "Z" {
+            let k = lw.globals.len() as u32;
+            lw.globals.entry(n).or_insert(k);
+        }
+    }
+    lw.variables = lw.globals.len() as u32;
+    let mut header = ls::Header::default();
+    // (ignore, symbols, span) of the last `ignore:`/`consider:`.
+    let mut filter = None;
+    for s in &lsys.settings {
+        match s {
+            Setting::Unsupported(msg, span) => return err(*span, *msg),
+            Setting::Seed(e, span) => {
+                // seed48 keeps 16 bits; the shared setting keeps the value.
+                let v = lw.whole(e, "the seed", 9.007_199_254_740_992e15)?;
+                lw.seeded = true;
+                header
+                    .settings
+                    .retain(|s| !matches!(s, ls::Setting::Seed(..)));
+                header
+                    .settings
+                    .push(ls::Setting::Seed(ls::Expr::Num(v, e.span()), *span));
+            }
+            Setting::DerivationLength(e, span) => {
+                let n = lw.whole(e, "the derivation length", 9.007_199_254_740_992e15)?;
+                lw.z = Some(n);
+                header
+                    .settings
+                    .retain(|s| !matches!(s, ls::Setting::DerivationLength(..)));
+                header.settings.push(ls::Setting::DerivationLength(
+                    ls::Expr::Num(n, e.span()),
+                    *span,
+                ));
+            }
+            // A later `ignore:`/`consider:` replaces an earlier one.
+            Setting::Ignore(syms, span) => filter = Some((true, syms, *span)),
+            Setting::Consider(syms, span) => filter = Some((false, syms, *span)),
+        }
+    }
+    if lw.z.is_none() {
+        // cpfg derives 0 steps without `derivation length:`.
+        let at = (lsys.span.0, lsys.span.0);
+        header
+            .settings
+            .push(ls::Setting::DerivationLength(ls::Expr::Num(0.0, at), at));
+    }
+    if let Some((ignore, syms, span)) = filter {
+        let mods = syms
+            .iter()
+            .map(|&(sym, s)| ls::Module {
+                sym,
+                params: Vec::new(),
+                span: s,
+            })
+            .collect();
+        header.settings.push(if ignore {
+            ls::Setting::Ignore(mods, span)
+        } else {
+            ls::Setting::Consider(mods, span)
+        });
+    }
+    // The axiom: values now, stored as cpfg stores them (32-bit floats).
+    let mut axiom = String::new();
+    for piece in &lsys.axiom {
+        let m = match piece {
+            ast::AxiomPiece::Symbols(s) => {
+                axiom.push_str(s);
+                continue;
+            }
+            ast::AxiomPiece::Module(m) => m,
+        };
+        axiom.push(m.sym);
+        axiom.push('(');
+        for (i, e) in m.params.iter().enumerate() {
+            if i > 0 {
+                axiom.push(',');
+            }
+            let v = f64::from(lw.constant(e)? as f32);
+            if !v.is_finite() {
+                return err(e.span(), "this value does not fit cpfg's 32-bit float");
+            }
+            axiom.push_str(&crate::rules::codec::number_string(v));
+        }
+        axiom.push(')');
+    }
+    if lsys.axiom.is_empty() {
+        return err(lsys.axiom_span, "the axiom is empty");
+    }
+    // Header blocks: globals only (after the settings, which set `Z`).
+    let mut run = CpfgRun::default();
+    // `Q` is the shared tree's built-in step number.
+    let none: HashMap<String, u32> = [("step".to_string(), STEP_SLOT)].into_iter().collect();
+    for (b, slot) in [
+        (&lsys.start, &mut run.start),
+        (&lsys.start_each, &mut run.start_each),
+        (&lsys.end_each, &mut run.end_each),
+        (&lsys.end, &mut run.end),
+    ] {
+        if let Some((b, _)) = b {
+            *slot = lw.block(b, &HashMap::new(), &none)?;
+        }
+    }
+    header.productions = lsys
+        .productions
+        .iter()
+        .map(|p| lw.production(p, ""))
+        .collect::<R<Vec<_>>>()?;
+    if let Some(d) = &lsys.decomposition {
+        lw.section = 1;
+        let (mut s, prods) = lw.section(d, "decomposition ")?;
+        s.productions = prods;
+        header.decomposition = Some(s);
+    }
+    if let Some(h) = &lsys.homomorphism {
+        lw.section = 2;
+        let (s, prods) = lw.section(h, "homomorphism ")?;
+        header.homomorphism = prods;
+        header.hom = Some(s);
+    }
+    Ok(Lowered {
+        header,
+        axiom,
+        run,
+        extra: lw.extra,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cpfg::parse::parse;
+
+    fn lowered(src: &str) -> (R<Lowered>, Vec<String>) {
+        let mut warnings = Vec::new();
+        let ls = parse(src).unwrap();
+        let r = lower(&ls, &mut |_, m| warnings.push(m));
+        (r, warnings)
+    }
+
+    #[test]
+    fn names_and_axiom() {
+        let (r, w) = lowered(
+            "Lsystem: 1\nderivation length: 3\nAxiom: A(Z, Q, 0.1, nothing)\nA(x) --> A(x + Q + Z)\nendlsystem\n",
+        );
+        let l = r.unwrap();
+        // 0.1 stored as a float: 0.10000000149011612.
+        assert_eq!(l.axiom, "A(3,0,0.10000000149011612,0)");
+        assert_eq!(w.len(), 1);
+        assert!(w[0].contains("`nothing` is not defined"));
+        let succ = &l.header.productions[0].succ[0].params[0];
+        let text = format!("{succ:?}");
+        assert!(
+            text.contains("\"step\"") && text.contains("Num(3.0"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn refusals_not_yet() {
+        let (r, _) = lowered("Lsystem: 1\nAxiom: AB\nAB --> C\nendlsystem\n");
+        assert_eq!(r.unwrap().header.productions[0].pred_rest.len(), 1);
+        let (r, _) = lowered("Lsystem: 1\nAxiom: AB\nhomomorphism\nAB --> C\nendlsystem\n");
+        assert!(r.err().unwrap().message().contains("several modules"));
+        // Weights: kept with `seed:`; without it kept too (ignored at run
+        // time unless `--seed` stands for `seed:`), with a warning.
+        let (r, w) = lowered("Lsystem: 1\nseed: 2\nAxiom: A\nA --> B : 0.5\nendlsystem\n");
+        assert!(r.unwrap().header.productions[0].prob.is_some());
+        assert!(w.is_empty(), "{w:?}");
+        let (r, w) = lowered("Lsystem: 1\nAxiom: A\nA --> B : 0.5\nendlsystem\n");
+        assert!(r.unwrap().header.productions[0].prob.is_some());
+        assert!(w[0].contains("ignored"));
+    }
+}
+
+#[cfg(test)]
+mod soup {
+    use crate::cpfg::parse::parse;
+
+    /// Random token soup: parse and lower give a tree or an error, never
+    /// a panic.
+    #[test]
+    fn random_input_never_panics() {
+        let pieces = [
+            "Lsystem: 1\n",
+            "Axiom: ",
+            "endlsystem\n",
+            "A",
+            "B(x)",
+            "(",
+            ")",
+            "*",
+            "<",
+            ">",
+            ":",
+            "-->",
+            "->",
+            "\n",
+            "\n\t",
+            "{",
+            "}",
+            "x = 1;",
+            "if (x) {",
+            "} else {",
+            "while (1) {",
+            "do {",
+            "} while (0);",
+            "printf(\"%d\", x);",
+            "?",
+            "$",
+            "@S",
+            "1.0e3",
+            "1e3",
+            "\"s",
+            "%",
+            ",",
+            ";",
+            "homomorphism\n",
+            "decomposition\n",
+            "maximum depth: 2\n",
+            "seed: 3\n",
+            "derivation length: Z\n",
+            "ignore: A\n",
+            "Start: {",
+            "x ? 1 : 2",
+            "-",
+            "^",
+            "!",
+            "&&",
+            "||",
+            "==",
+            "<>",
+            "[",
+            "]",
+            "AB(a)C(b)",
+            "Q",
+            "atan(1,2)",
+            "sin(",
+            "\u{7}",
+            "é",
+        ];
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        for _ in 0..3000 {
+            let mut s = String::from("Lsystem: 1\n");
+            for _ in 0..(x % 24) {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                s.push_str(pieces[(x % pieces.len() as u64) as usize]);
+            }
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            if let Ok(ls) = parse(&s) {
+                if let Ok(l) = super::lower(&ls, &mut |_, _| {}) {
+                    let seeds = crate::rules::Seeds::default();
+                    let _ = crate::rules::compile_dialect(l.header, Some(&s), seeds, true);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,389 @@
+//! From preprocessed cpfg text to syntax tree: the lexer's tokens, a scan
+//! for the constructs lsgen refuses (each a located error naming it), the
+//! LALRPOP grammar, and located parse errors.
+
+use super::ast;
+use super::lexer::{Lexer, Spanned, Tok};
+use crate::lang::parse::UserError;
+use lalrpop_util::{lalrpop_mod, ParseError};
+
+lalrpop_mod!(
+    #[allow(clippy::all, clippy::pedantic, unused)]
+    grammar,
+    "/cpfg.rs"
+);
+
+/// cpfg functions that need cpfg's files, curves, view or animation.
+const UNSUPPORTED_FUNCTIONS: &[&str] = &[
+    "func",
+    "play",
+    "curveX",
+    "curveY",
+    "curveZ",
+    "curveGAL",
+    "vvXmin",
+    "vvXmax",
+    "vvYmin",
+    "vvYmax",
+    "vvZmin",
+    "vvZmax",
+    "vvScale",
+    "Display",
+    "SetDerivationLength",
+    "GetDerivationLength",
+    "stop",
+    "fopen",
+    "fclose",
+    "fflush",
+    "fscanf",
+    "inblob",
+    "external",
+    "array",
+];
+
+/// Parse the preprocessed text of a `.l` file.
+pub fn parse(text: &str) -> Result<ast::Lsystem, UserError> {
+    // Tokens are checked for refused constructs as they stream into the
+    // parser (one token of look-ahead; no token list is kept: memory is
+    // the tree's, not the text's times a token's size).
+    let checked = Checked {
+        lex: Lexer::new(text),
+        next: None,
+        lsystems: 0,
+        failed: false,
+    };
+    grammar::FileParser::new()
+        .parse(checked)
+        .map_err(|e| convert(e, text, text.len()))
+}
+
+/// The lexer's tokens, each checked with [`refusal`] before the parser
+/// sees it.
+struct Checked<'a> {
+    lex: Lexer<'a>,
+    /// The look-ahead token.
+    next: Option<Spanned<'a>>,
+    lsystems: usize,
+    failed: bool,
+}
+
+impl<'a> Iterator for Checked<'a> {
+    type Item = Spanned<'a>;
+
+    fn next(&mut self) -> Option<Spanned<'a>> {
+        if self.failed {
+            return None;
+        }
+        let cur = match self.next.take() {
+            Some(t) => t,
+            None => self.lex.next()?,
+        };
+        let (l, t, r) = match cur {
+            Ok(t) => t,
+            Err(e) => {
+                self.failed = true;
+                return Some(Err(e));
+            }
+        };
+        self.next = self.lex.next();
+        let next = match &self.next {
+            Some(Ok(n)) => Some(n),
+            _ => None,
+        };
+        if let Some(e) = refusal((l, &t, r), next, &mut self.lsystems) {
+            self.failed = true;
+            return Some(Err(e));
+        }
+        Some(Ok((l, t, r)))
+    }
+}
+
+fn at(span: (usize, usize), message: impl Into<String>) -> Option<UserError> {
+    Some(UserError::new(span, message.into()))
+}
+
+/// Is the token `(l, t, r)` (followed by `next`) a construct lsgen
+/// refuses? `lsystems` counts the `Lsystem:` keywords so far.
+fn refusal(
+    (l, t, r): (usize, &Tok<'_>, usize),
+    next_tok: Option<&(usize, Tok<'_>, usize)>,
+    lsystems: &mut usize,
+) -> Option<UserError> {
+    let span = (l, r);
+    let next = next_tok.map(|n| &n.1);
+    match t {
+            Tok::KwLsystem => {
+                *lsystems += 1;
+                if *lsystems > 1 {
+                    return at(
+                        span,
+                        "a second `Lsystem:`: several L-systems in one file (cpfg's sub-L-systems) are not supported; lsgen derives one L-system per file",
+                    );
+                }
+            }
+            Tok::KwRing => {
+                return at(
+                    span,
+                    "`ring lsystem` is not supported: lsgen derives open strings (no ring of modules)",
+                )
+            }
+            Tok::KwDefine => {
+                return at(
+                    span,
+                    "`define:` (cpfg's arrays) is not supported: lsgen has no arrays; use `#define` for constants",
+                )
+            }
+            Tok::ObjArrow => {
+                return at(
+                    span,
+                    "`-o>` (an object production, for cpfg's surfaces and objects) is not supported: lsgen rewrites strings only",
+                )
+            }
+            Tok::Sym('?') => {
+                let what = match next {
+                    Some(Tok::Sym(c @ ('P' | 'H' | 'L' | 'U'))) => format!(
+                        "`?{c}` (a query of the turtle's state) needs cpfg's turtle interpretation between steps"
+                    ),
+                    Some(Tok::Sym('E')) => {
+                        "`?E` (communication with an environment program) needs cpfg's environment process".to_string()
+                    }
+                    Some(Tok::LParen) => {
+                        "`?(id,s)` (a sub-L-system call) needs cpfg's sub-L-systems".to_string()
+                    }
+                    _ => "a `?` query module needs cpfg's interpretation or environment".to_string(),
+                };
+                return at(span, format!("{what}: not supported by lsgen, which only rewrites strings"));
+            }
+            Tok::Sym('$') => {
+                return at(
+                    span,
+                    "`$` (the end of a sub-L-system) is not supported: lsgen has no sub-L-systems",
+                )
+            }
+            Tok::Sym('@') if next == Some(&Tok::Sym('S')) => {
+                return at(
+                    (l, next_tok.map_or(r, |n| n.2)),
+                    "`@S` (a surface from cpfg's surface files) is not supported: lsgen has no surfaces",
+                )
+            }
+            Tok::Name(n) if *n == "atan2" && next == Some(&Tok::LParen) => {
+                return at(
+                    span,
+                    "`atan2` is reserved in cpfg but a syntax error there: use `atan(y / x)`",
+                )
+            }
+            Tok::Name(n) if UNSUPPORTED_FUNCTIONS.contains(n) => {
+                return at(
+                    span,
+                    format!("`{n}` is not supported: it needs cpfg's function files, curves, view or animation"),
+                )
+            }
+            Tok::Name(n) if next == Some(&Tok::LBracket) => {
+                return at(
+                    span,
+                    format!("`{n}[...]`: arrays are not supported by lsgen"),
+                )
+            }
+            _ => {}
+    }
+    None
+}
+
+fn describe_expected(expected: &[String]) -> String {
+    let names: Vec<String> = expected
+        .iter()
+        .map(|e| match e.as_str() {
+            "Eol" => "end of line".to_string(),
+            "Sym" => "a symbol".to_string(),
+            "Num" => "a number".to_string(),
+            "Name" => "a name".to_string(),
+            "Str" => "a string".to_string(),
+            "Null" => "`*`".to_string(),
+            "LSep" => "`<`".to_string(),
+            "RSep" => "`>`".to_string(),
+            "Warnings" => "`warnings`".to_string(),
+            other => format!("`{}`", other.trim_matches('"')),
+        })
+        .collect();
+    match names.len() {
+        0 => String::new(),
+        1 => format!("expected {}", names[0]),
+        n if n <= 6 => format!("expected {} or {}", names[..n - 1].join(", "), names[n - 1]),
+        _ => String::new(),
+    }
+}
+
+fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str, end: usize) -> UserError {
+    match e {
+        ParseError::User { error } => error,
+        ParseError::InvalidToken { location } => {
+            UserError::new((location, location), "invalid token")
+        }
+        ParseError::UnrecognizedEof { location, expected } => {
+            let loc = text[..location.max(end).min(text.len())].trim_end().len();
+            if expected.iter().any(|e| e == "\"endlsystem\"") {
+                return UserError::new(
+                    (loc, loc),
+                    "missing `endlsystem`: a cpfg L-system ends with it",
+                );
+            }
+            if expected.iter().any(|e| e == "\"Lsystem:\"") {
+                return UserError::new(
+                    (loc, loc),
+                    "empty file: a cpfg L-system starts with `Lsystem:`",
+                );
+            }
+            let exp = describe_expected(&expected);
+            UserError::new(
+                (loc, loc),
+                if exp.is_empty() {
+                    "unexpected end of input".to_string()
+                } else {
+                    format!("unexpected end of input, {exp}")
+                },
+            )
+        }
+        ParseError::UnrecognizedToken {
+            token: (l, tok, r),
+            expected,
+        } => {
+            let has = |s: &str| expected.iter().any(|e| e == s);
+            let msg = if has("\"Lsystem:\"") {
+                format!("unexpected {tok}: a cpfg L-system starts with `Lsystem:`")
+            } else if has("\"Axiom:\"") && !has("\"-->\"") {
+                format!(
+                    "unexpected {tok}: the settings (`seed:`, `derivation length:`, `ignore:`, `consider:`, blocks) come before `Axiom:`, one per line"
+                )
+            } else if has("\"endlsystem\"") && !has("\"-->\"") && !has("Eol") {
+                format!("unexpected {tok}, expected a production or `endlsystem`")
+            } else {
+                let exp = describe_expected(&expected);
+                if exp.is_empty() {
+                    format!("unexpected {tok}")
+                } else {
+                    format!("unexpected {tok}, {exp}")
+                }
+            };
+            UserError::new((l, r.max(l + 1)), msg)
+        }
+        ParseError::ExtraToken { token: (l, tok, r) } => {
+            UserError::new((l, r), format!("unexpected {tok}"))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cpfg::ast::{BinOp, Expr, Setting, Stmt};
+
+    #[test]
+    fn layout_and_productions() {
+        let src = "Lsystem: main\nignore: A\nDerivation length: 2 * 2\nconsider: AB\nAxiom: A , ;\nA < B --> X\n* < B > * : * --> *\nB(x) : x > 1 -> C(x)\n\tD\nHomomorphism: warnings\nmaximum depth: 2\nX --> x\nEndLsystem\n";
+        let ls = parse(src).unwrap();
+        assert_eq!(ls.settings.len(), 3);
+        assert!(matches!(ls.settings[2], Setting::Consider(ref s, _) if s.len() == 2));
+        assert_eq!(ls.axiom, vec![ast::AxiomPiece::Symbols("A,;".into())]);
+        assert_eq!(ls.productions.len(), 3);
+        let p = &ls.productions[1];
+        assert!(p.left.is_none() && p.right.is_none() && p.cond.is_none());
+        assert!(p.succ.is_empty());
+        // newline + TAB continues the successor
+        assert_eq!(ls.productions[2].succ.len(), 2);
+        let h = ls.homomorphism.as_ref().unwrap();
+        assert_eq!(h.warnings, Some(true));
+        assert!(h.depth.is_some());
+    }
+
+    #[test]
+    fn blocks_are_kept_as_syntax() {
+        let src = "Lsystem: 1\nStart: {n = 0;\n  if (n < 1) { n = n + 1; } else { n = 2; }\n  while (n < 3) { n = n + 1; }\n  do { n = n - 1; } while (n > 0);\n  printf(\"%d\\n\", n); fprintf(stderr, \"x\");\n}\nAxiom: A\nA : { k = 2; } k > 1 { n = n + k; } --> B\nendlsystem\n";
+        let ls = parse(src).unwrap();
+        let (b, _) = ls.start.as_ref().unwrap();
+        assert!(matches!(b[0], Stmt::Assign { ref name, .. } if name == "n"));
+        assert!(matches!(b[1], Stmt::If { ref els, .. } if els.len() == 1));
+        assert!(matches!(b[2], Stmt::While { .. }));
+        assert!(matches!(b[3], Stmt::DoWhile { .. }));
+        assert!(
+            matches!(b[4], Stmt::Printf { stderr: false, ref format, ref args, .. } if format == "%d\n" && args.len() == 1)
+        );
+        assert!(matches!(b[5], Stmt::Printf { stderr: true, .. }));
+        let p = &ls.productions[0];
+        assert_eq!(p.pre.len(), 1);
+        assert_eq!(p.post.len(), 1);
+        assert!(matches!(p.cond, Some(Expr::Binary(BinOp::Gt, ..))));
+    }
+
+    #[test]
+    fn precedence() {
+        let ls = parse("Lsystem: 1\nAxiom: A(-2^2, 1 ? 2 : 3, 7 % 2 * 3)\nendlsystem\n").unwrap();
+        let ast::AxiomPiece::Module(m) = &ls.axiom[0] else {
+            panic!("{:?}", ls.axiom)
+        };
+        let p = &m.params;
+        // (-2)^2
+        assert!(
+            matches!(&p[0], Expr::Binary(BinOp::Pow, a, _, _) if matches!(**a, Expr::Unary(..)))
+        );
+        assert!(matches!(&p[1], Expr::Cond(..)));
+        // (7 % 2) * 3
+        assert!(
+            matches!(&p[2], Expr::Binary(BinOp::Mul, a, _, _) if matches!(**a, Expr::Binary(BinOp::Rem, ..)))
+        );
+    }
+
+    #[test]
+    fn errors() {
+        let e = parse("Lsystem: 1\nAxiom: A\nA --> B\n").unwrap_err();
+        assert!(
+            e.message().contains("missing `endlsystem`"),
+            "{}",
+            e.message()
+        );
+        let e = parse("Lsystem: 1\nAxiom: A\nA --> F?H\nendlsystem\n").unwrap_err();
+        assert!(e.message().contains("`?H`"), "{}", e.message());
+        assert_eq!(e.span.0, 27);
+        let e = parse("Lsystem: 1\nAxiom: A(1e6)\nendlsystem\n").unwrap_err();
+        assert!(e.message().contains("dot"), "{}", e.message());
+    }
+}
+
+#[cfg(test)]
+mod sniff_tests {
+    use crate::cpfg::sniff;
+
+    #[test]
+    fn first_statement_decides() {
+        assert_eq!(sniff("a.l", b"", false), Some(true));
+        assert_eq!(sniff("-", b"/* x */ Lsystem: 1", false), Some(true));
+        assert_eq!(sniff("-", b"// x\n#define A 1\n", false), Some(true));
+        assert_eq!(sniff("-", b"#!/bin/lsgen\n", false), Some(false));
+        assert_eq!(sniff("-", b"productions:\n", false), Some(false));
+        assert_eq!(sniff("-", b"\xEF\xBB\xBFlsystem:", false), Some(true));
+        // Undecided until more comes, decided at the end.
+        assert_eq!(sniff("-", b"/* open", false), None);
+        assert_eq!(sniff("-", b"/* open", true), Some(false));
+        assert_eq!(sniff("-", b"  Lsys", false), None);
+        assert_eq!(sniff("-", b"Lsys", true), Some(false));
+        assert_eq!(sniff("-", b"#", false), None);
+        assert_eq!(sniff("-", b"\xEF", false), None);
+        assert_eq!(sniff("-", b"Lx", false), Some(false));
+    }
+}
+
+#[cfg(test)]
+mod limits {
+    #[test]
+    fn blocks_nest_at_most_256_deep() {
+        let deep = |n: usize| {
+            format!(
+                "Lsystem: 1\nStart: {{{}{}}}\nAxiom: A\nendlsystem\n",
+                "if (1) {".repeat(n),
+                "}".repeat(n)
+            )
+        };
+        assert!(super::parse(&deep(255)).is_ok());
+        let e = super::parse(&deep(256)).unwrap_err();
+        assert!(e.message().contains("nested too deep"), "{}", e.message());
+    }
+}

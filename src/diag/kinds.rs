@@ -1,0 +1,931 @@
+//! What went wrong, by stage of the pipeline: one enum per stage, each
+//! variant with the data its message needs. The message text is written
+//! in one place, the `Display` of these enums; [`super::Error`] adds the
+//! location, the source line and the caret.
+
+use crate::derive::Pass;
+use crate::lang::lexer::{MAX_EXPR_TOKENS, MAX_PAREN_DEPTH};
+use crate::rules::codec::{number_string, MAX_ARITY};
+use std::fmt;
+use std::path::PathBuf;
+
+/// What went wrong, by stage; [`super::Error::kind`] gives it.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum ErrorKind {
+    /// Unreadable text: invalid UTF-8, a NUL byte, an unterminated comment,
+    /// a character that starts no token.
+    Lexical(LexicalError),
+    /// Text that does not follow the grammar, in the header or the axiom.
+    Parse(ParseError),
+    /// A well-formed file that does not make sense: an unknown name, a
+    /// constant defined twice, a production that cannot apply.
+    Compile(CompileError),
+    /// Found while deriving: an arithmetic error, unbalanced brackets, a
+    /// negative probability, a generation past the limits.
+    Runtime(RuntimeError),
+    /// Reading or writing failed; [`std::error::Error::source`] gives the
+    /// operating system's error.
+    Io(IoError),
+    /// The request itself is wrong (the command line, the options).
+    Usage(UsageError),
+    /// lsgen-turtle: a module string it cannot read or draw.
+    Turtle(TurtleError),
+    /// A message of a front end whose errors are not typed yet (the cpfg
+    /// preprocessor's conversion, warnings).
+    Other(String),
+}
+
+/// Which stage found an error: [`ErrorKind`] without its data.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Stage {
+    /// [`ErrorKind::Lexical`].
+    Lexical,
+    /// [`ErrorKind::Parse`].
+    Parse,
+    /// [`ErrorKind::Compile`].
+    Compile,
+    /// [`ErrorKind::Runtime`] (and [`ErrorKind::Other`]).
+    Runtime,
+    /// [`ErrorKind::Io`].
+    Io,
+    /// [`ErrorKind::Usage`].
+    Usage,
+}
+
+impl ErrorKind {
+    /// The stage that found it.
+    pub fn stage(&self) -> Stage {
+        match self {
+            ErrorKind::Lexical(_) => Stage::Lexical,
+            ErrorKind::Parse(_) => Stage::Parse,
+            ErrorKind::Compile(_) => Stage::Compile,
+            ErrorKind::Runtime(_) | ErrorKind::Other(_) => Stage::Runtime,
+            ErrorKind::Io(_) => Stage::Io,
+            ErrorKind::Usage(_) => Stage::Usage,
+            ErrorKind::Turtle(e) if e.is_drawing() => Stage::Runtime,
+            ErrorKind::Turtle(_) => Stage::Parse,
+        }
+    }
+}
+
+impl fmt::Display for ErrorKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ErrorKind::Lexical(e) => e.fmt(f),
+            ErrorKind::Parse(e) => e.fmt(f),
+            ErrorKind::Compile(e) => e.fmt(f),
+            ErrorKind::Runtime(e) => e.fmt(f),
+            ErrorKind::Io(e) => e.fmt(f),
+            ErrorKind::Usage(e) => e.fmt(f),
+            ErrorKind::Turtle(e) => e.fmt(f),
+            ErrorKind::Other(m) => f.write_str(m),
+        }
+    }
+}
+
+macro_rules! into_kind {
+    ($($t:ident => $v:ident),*) => {$(
+        impl From<$t> for ErrorKind {
+            fn from(e: $t) -> ErrorKind {
+                ErrorKind::$v(e)
+            }
+        }
+    )*};
+}
+into_kind!(LexicalError => Lexical, ParseError => Parse, CompileError => Compile,
+    RuntimeError => Runtime, IoError => Io, UsageError => Usage, TurtleError => Turtle);
+
+/// A message of its own (see [`ErrorKind::Other`]).
+impl From<String> for ErrorKind {
+    fn from(m: String) -> ErrorKind {
+        ErrorKind::Other(m)
+    }
+}
+
+impl From<&str> for ErrorKind {
+    fn from(m: &str) -> ErrorKind {
+        ErrorKind::Other(m.to_string())
+    }
+}
+
+/// Unreadable text.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum LexicalError {
+    /// A character that starts no token.
+    UnexpectedChar(char),
+    /// A control character where a symbol would be.
+    ControlChar(char),
+    /// `/*` without `*/`.
+    UnterminatedComment,
+    /// A NUL byte.
+    Nul,
+    /// Bytes that are not UTF-8.
+    InvalidUtf8,
+    /// A number too large for a 64-bit float, as written.
+    NumberOutOfRange(String),
+    /// More than [`MAX_EXPR_TOKENS`] tokens in one expression.
+    ExpressionTooLong,
+    /// More than [`MAX_PAREN_DEPTH`] nested parentheses.
+    NestedTooDeeply,
+    /// `groups:` followed by something else than group numbers.
+    GroupsNotNumbers,
+    /// A group number past 65535.
+    GroupOutOfRange,
+    /// `decomposition N:` or `homomorphism N:` (the section word).
+    NoGroups(&'static str),
+    /// Neither `warnings` nor `no warnings` after the section keyword.
+    ExpectedWarnings(&'static str),
+    /// A `view:` line lsgen-turtle cannot read.
+    ViewSetting(ViewError),
+    /// The header outgrew its bound: `axiom:` is probably missing.
+    HeaderTooLong,
+}
+
+impl fmt::Display for LexicalError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use LexicalError::*;
+        match self {
+            UnexpectedChar(c) => write!(f, "unexpected character `{}`", c.escape_default()),
+            ControlChar(c) => write!(
+                f,
+                "control character `{}` cannot be a symbol",
+                c.escape_default()
+            ),
+            UnterminatedComment => f.write_str("unterminated comment: `/*` without `*/`"),
+            Nul => f.write_str("NUL byte: the input is not text"),
+            InvalidUtf8 => f.write_str("invalid UTF-8"),
+            NumberOutOfRange(n) => write!(f, "number `{n}` is out of range"),
+            ExpressionTooLong => {
+                write!(f, "expression too long (over {MAX_EXPR_TOKENS} tokens)")
+            }
+            NestedTooDeeply => {
+                write!(f, "parentheses nested too deeply (over {MAX_PAREN_DEPTH})")
+            }
+            GroupsNotNumbers => {
+                f.write_str("`groups:` takes whole group numbers separated by blanks")
+            }
+            GroupOutOfRange => f.write_str("a production group is a whole number from 0 to 65535"),
+            NoGroups(word) => write!(f, "{word} has no groups"),
+            ExpectedWarnings(kw) => {
+                write!(f, "expected `warnings` or `no warnings` after `{kw}`")
+            }
+            ViewSetting(e) => e.fmt(f),
+            HeaderTooLong => f.write_str(
+                "the part before `axiom:` is too long (over 64 MiB); is `axiom:` missing?",
+            ),
+        }
+    }
+}
+
+/// The tokens the grammar would have accepted, as words for a message.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Expected {
+    /// Too many (or none) to be worth listing.
+    Nothing,
+    /// `->`, whatever else would do.
+    Arrow,
+    /// These (each already written as the message shows it).
+    OneOf(Vec<String>),
+}
+
+impl Expected {
+    fn is_empty(&self) -> bool {
+        match self {
+            Expected::Nothing => true,
+            Expected::Arrow => false,
+            Expected::OneOf(names) => names.is_empty() || names.len() > 6,
+        }
+    }
+}
+
+impl fmt::Display for Expected {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Expected::Arrow => f.write_str("expected `->`"),
+            Expected::OneOf(names) if !self.is_empty() => match names.split_last() {
+                Some((last, [])) => write!(f, "expected {last}"),
+                Some((last, rest)) => write!(f, "expected {} or {last}", rest.join(", ")),
+                None => Ok(()),
+            },
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Text that does not follow the grammar.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum ParseError {
+    /// A token the lexer could not hand over.
+    InvalidToken,
+    /// The text ended early.
+    UnexpectedEof(Expected),
+    /// A token the grammar does not accept here (as the message shows it:
+    /// "end of line", "symbol `F`", "number `.3`").
+    Unexpected { found: String, expected: Expected },
+    /// `1 < x < 3`: the second comparison operator.
+    ChainedComparison(String),
+    /// `<` or `>` right of the arrow.
+    ContextRightOfArrow(char),
+    /// A second `maximum depth:` in a section.
+    MaximumDepthTwice,
+    /// `maximum depth:` outside `decomposition:` and `homomorphism:`.
+    MaximumDepthOutside,
+    /// A second `decomposition:` or `homomorphism:` (the keyword).
+    SecondSection(String),
+    /// `decomposition:` after `homomorphism:`.
+    DecompositionOutOfPlace,
+    /// A keyword out of the order of sections (the keyword).
+    OutOfPlace(String),
+    /// `productions N:` twice.
+    GroupDeclaredTwice(u32),
+    /// `A B -> C`.
+    PredecessorIsOneModule,
+    /// A context in a decomposition production.
+    DecompositionContext,
+    /// No `axiom:` after a header.
+    MissingAxiom,
+    /// No `axiom:` and no header.
+    EmptySystem,
+    /// A reserved character where an axiom symbol would be.
+    Reserved(char),
+    /// `]` without `[` in the axiom.
+    UnbalancedClose,
+    /// A `[` of the axiom never closed, at this line and column.
+    UnclosedBracket { line: usize, col: usize },
+    /// An axiom module's `(` never closed.
+    UnclosedParen,
+    /// An axiom module's parameter text past 1 MiB.
+    ParamListTooLong,
+    /// An axiom module with more than [`MAX_ARITY`] parameters.
+    TooManyParams,
+    /// `F(1,,2)`.
+    EmptyParameter,
+}
+
+impl fmt::Display for ParseError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use ParseError::*;
+        const CONTEXTS: &str =
+            "contexts are written only left of the arrow (`lc < pred > rc -> succ`)";
+        match self {
+            InvalidToken => f.write_str("invalid token"),
+            UnexpectedEof(e) if e.is_empty() => f.write_str("unexpected end of input"),
+            UnexpectedEof(e) => write!(f, "unexpected end of input, {e}"),
+            Unexpected { found, expected } if expected.is_empty() => {
+                write!(f, "unexpected {found}")
+            }
+            Unexpected { found, expected } => write!(f, "unexpected {found}, {expected}"),
+            ChainedComparison(tok) => write!(
+                f,
+                "unexpected {tok}: comparisons do not chain; write `a < x && x < b`"
+            ),
+            ContextRightOfArrow(c) => write!(f, "unexpected `{c}`: {CONTEXTS}"),
+            MaximumDepthTwice => {
+                f.write_str("`maximum depth:` comes once, right after the section keyword")
+            }
+            MaximumDepthOutside => {
+                f.write_str("`maximum depth:` belongs to `decomposition:` or `homomorphism:`")
+            }
+            SecondSection(tok) => write!(f, "second {tok} section"),
+            DecompositionOutOfPlace => f.write_str(
+                "`decomposition:` comes after the productions and before `homomorphism:`",
+            ),
+            OutOfPlace(tok) => write!(
+                f,
+                "{tok} is out of place: the order is settings, `productions:`, `homomorphism:`, `axiom:`"
+            ),
+            GroupDeclaredTwice(n) => write!(f, "group {n} is declared twice"),
+            PredecessorIsOneModule => {
+                f.write_str("a predecessor is one module; use `<` and `>` for contexts")
+            }
+            DecompositionContext => f.write_str(
+                "a decomposition production has no context (decomposition is context-free)",
+            ),
+            MissingAxiom => {
+                f.write_str("missing `axiom:`: the axiom comes last, after the productions")
+            }
+            EmptySystem => f.write_str("empty L-system: no `axiom:` found"),
+            Reserved(c) => write!(
+                f,
+                "`{c}` is reserved and cannot be a symbol{}",
+                if *c == '(' {
+                    " (parameters follow a symbol: `F(1)`)"
+                } else {
+                    ""
+                }
+            ),
+            UnbalancedClose => f.write_str("unbalanced brackets: `]` without `[`"),
+            UnclosedBracket { line, col } => write!(
+                f,
+                "unbalanced brackets: the `[` at {line}:{col} is never closed"
+            ),
+            UnclosedParen => f.write_str("unbalanced parentheses: `(` is never closed"),
+            ParamListTooLong => {
+                f.write_str("parameter list too long (over 1 MiB): is a `)` missing?")
+            }
+            TooManyParams => write!(f, "a module has at most {MAX_ARITY} parameters"),
+            EmptyParameter => f.write_str("empty parameter"),
+        }
+    }
+}
+
+/// What the random generator cannot do.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum RandomError {
+    /// More than 64 draws for one module.
+    TooManyDraws,
+    /// A generation of 2^59 modules or more.
+    TooManyModules,
+}
+
+impl fmt::Display for RandomError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            RandomError::TooManyDraws => {
+                "more than 64 random draws for one module (the limit of the random scheme)"
+            }
+            RandomError::TooManyModules => "a generation of 2^59 modules or more cannot draw",
+        })
+    }
+}
+
+/// An expression that cannot be compiled or evaluated.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum ExprError {
+    /// A name that is neither a parameter nor a constant.
+    UnknownIdentifier(String),
+    /// A function lsgen does not have.
+    UnknownFunction(String),
+    /// A function called with the wrong number of arguments.
+    Arity {
+        name: String,
+        arity: usize,
+        got: usize,
+    },
+    /// A function (or `ran()`, `nran()`) outside its domain.
+    Undefined(&'static str),
+    /// `x / 0`.
+    DivisionByZero,
+    /// A cpfg block's `while` / `do` loop that ran too often (its kind and
+    /// the limit).
+    Runaway(&'static str, u64),
+    /// A cpfg random function's argument it cannot use (the message).
+    CpfgFunction(&'static str),
+    /// A value stored into a cpfg module parameter that a 32-bit float
+    /// cannot hold.
+    OutOfF32,
+    /// cpfg's `x % 0` (which crashes cpfg).
+    RemainderByZero,
+    /// cpfg's `%` on an operand that does not fit a C int.
+    RemainderOutOfRange,
+    /// A result that is NaN.
+    NotANumber,
+    /// A result past the largest float.
+    Overflow,
+    /// The random generator's limits.
+    Random(RandomError),
+}
+
+impl fmt::Display for ExprError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use ExprError::*;
+        match self {
+            UnknownIdentifier(n) => write!(f, "unknown identifier `{n}`"),
+            UnknownFunction(n) => write!(f, "unknown function `{n}`"),
+            Arity { name, arity, got } => write!(
+                f,
+                "function `{name}` takes {arity} argument{}, not {got}",
+                if *arity == 1 { "" } else { "s" }
+            ),
+            Undefined(what) => write!(f, "{what} is undefined here"),
+            DivisionByZero => f.write_str("division by zero"),
+            Runaway(what, n) => write!(
+                f,
+                "this `{what}` loop ran {n} times: lsgen stops it (cpfg would hang)"
+            ),
+            CpfgFunction(m) => f.write_str(m),
+            OutOfF32 => {
+                f.write_str("the value is out of the range of a 32-bit float (cpfg's parameters)")
+            }
+            RemainderByZero => f.write_str("remainder by zero (`x % 0` crashes cpfg)"),
+            RemainderOutOfRange => f.write_str("`%` needs operands that fit a C int"),
+            NotANumber => f.write_str("result is not a number"),
+            Overflow => f.write_str("result overflows a 64-bit float"),
+            Random(e) => e.fmt(f),
+        }
+    }
+}
+
+/// A well-formed header that does not make sense.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum CompileError {
+    /// An expression that does not compile, or a constant one that fails.
+    Expr(ExprError),
+    /// A module with more than [`MAX_ARITY`] parameters (how many).
+    TooManyParams(usize),
+    /// A setting that must be a whole number (which, and its value).
+    NotWholeNumber { what: &'static str, value: f64 },
+    /// `ignore:` / `consider:` with a parameter.
+    SymbolsOnly,
+    /// A `seed:` literal past 2^64 - 1 (as written).
+    SeedLiteralRange(String),
+    /// A computed `seed:` that is not a whole number below 2^53.
+    SeedComputedRange(f64),
+    /// A `seed:` using `ran` or `nran`.
+    SeedRandom,
+    /// Both `groups:` and `group:`.
+    GroupsAndGroup,
+    /// `groups:` naming a group without a section.
+    UnknownGroup(u32),
+    /// `group:` using `ran` or `nran`.
+    GroupRandom,
+    /// A group section no setting schedules.
+    GroupUnused(u32),
+    /// A setting given twice (its keyword, without the colon).
+    SetTwice(&'static str),
+    /// A `define:` name given twice.
+    DefinedTwice(String),
+    /// Both `ignore:` and `consider:`.
+    IgnoreAndConsider,
+    /// `seed:` in the decomposition section.
+    DecompositionSeed,
+    /// A decomposition successor with unbalanced brackets.
+    DecompositionUnbalanced,
+    /// A recursive homomorphism successor with unbalanced brackets.
+    HomomorphismUnbalanced,
+    /// `maximum depth:` twice in a section.
+    MaximumDepthTwice,
+    /// `maximum depth:` outside 1 to 10000.
+    MaximumDepthRange,
+    /// A formal parameter name used twice in a production.
+    BoundTwice(String),
+    /// A formal parameter that is not a name.
+    FormalNotName,
+    /// `[` or `]` as a predecessor.
+    BracketRewritten,
+    /// `[` or `]` in a left context.
+    LeftContextBracket,
+    /// `[(1)`.
+    BracketParams,
+    /// A constant negative probability.
+    NegativeProbability(f64),
+}
+
+impl From<ExprError> for CompileError {
+    fn from(e: ExprError) -> CompileError {
+        CompileError::Expr(e)
+    }
+}
+
+impl fmt::Display for CompileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use CompileError::*;
+        const SEED: &str = "the seed must be a whole number from 0 to 18446744073709551615";
+        match self {
+            Expr(e) => e.fmt(f),
+            TooManyParams(n) => write!(
+                f,
+                "a module has at most {MAX_ARITY} parameters, this one has {n}"
+            ),
+            NotWholeNumber { what, value } => write!(
+                f,
+                "{what} must be a whole number from 0 to 2^53, not {}",
+                number_string(*value)
+            ),
+            SymbolsOnly => f.write_str("list symbols here, without parameters"),
+            SeedLiteralRange(text) => write!(f, "{SEED}, not {text}"),
+            SeedComputedRange(v) => write!(
+                f,
+                "{SEED} (computed: below 2^53; write larger seeds as digits), not {}",
+                number_string(*v)
+            ),
+            SeedRandom => f.write_str("the seed cannot depend on random numbers (`ran`, `nran`)"),
+            GroupsAndGroup => f.write_str("use either `groups:` or `group:`, not both"),
+            UnknownGroup(n) => write!(
+                f,
+                "unknown group {n}: there is no `productions {n}:` section"
+            ),
+            GroupRandom => f.write_str("`group:` cannot use ran or nran"),
+            GroupUnused(n) => write!(
+                f,
+                "group {n} is never used: add a `groups:` or `group:` setting"
+            ),
+            SetTwice(what) => write!(f, "`{what}:` is set twice"),
+            DefinedTwice(name) => write!(f, "`{name}` is defined twice"),
+            IgnoreAndConsider => {
+                f.write_str("`ignore:` and `consider:` cannot both be used: pick one")
+            }
+            DecompositionSeed => {
+                f.write_str("decomposition uses the main random generator: no `seed:` here")
+            }
+            DecompositionUnbalanced => {
+                f.write_str("a decomposition successor must balance its brackets")
+            }
+            HomomorphismUnbalanced => f.write_str(
+                "with `maximum depth:` above 1, a homomorphism successor must balance its brackets",
+            ),
+            MaximumDepthTwice => {
+                f.write_str("`maximum depth:` comes once, right after the section keyword")
+            }
+            MaximumDepthRange => {
+                f.write_str("maximum depth must be a whole number from 1 to 10000")
+            }
+            BoundTwice(name) => write!(f, "parameter `{name}` is bound twice"),
+            FormalNotName => f.write_str(
+                "a formal parameter must be a name (values go in the successor or the condition)",
+            ),
+            BracketRewritten => f.write_str("brackets cannot be rewritten"),
+            LeftContextBracket => f.write_str(
+                "a left context cannot hold brackets: branches to the left are skipped by the matcher",
+            ),
+            BracketParams => f.write_str("a bracket takes no parameters"),
+            NegativeProbability(w) => write!(f, "a probability cannot be negative ({w})"),
+        }
+    }
+}
+
+/// What `--max-length` counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LengthUnit {
+    /// Modules.
+    Modules,
+    /// Bytes of the output text.
+    Bytes,
+}
+
+/// Found while deriving.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum RuntimeError {
+    /// An expression failed in a pass.
+    Eval { error: ExprError, pass: Pass },
+    /// A probability evaluated negative in a pass.
+    NegativeProbability { value: f64, pass: Pass },
+    /// The string outgrew `--max-length`.
+    TooLong {
+        limit: u64,
+        unit: LengthUnit,
+        pass: Pass,
+    },
+    /// The final string would not fit on the output's file system
+    /// (its size as the message says it, the bytes free).
+    NoSpace { size: String, free: u64 },
+    /// `group:` gave something else than a whole number.
+    GroupNotNumber { value: f64, step: u64 },
+    /// `group:` gave a group without a section.
+    GroupMissing { group: u64, step: u64 },
+    /// A pass left a `[` open.
+    UnclosedBracket(Pass),
+    /// A pass produced a `]` without `[`.
+    UnopenedBracket(Pass),
+    /// An [`crate::LSystem`] read from a stream was derived twice.
+    AlreadyDerived,
+    /// Jobs of a batch failed (how many, of how many).
+    JobsFailed { failed: u64, total: u64 },
+    /// A panic, caught.
+    Internal,
+}
+
+impl fmt::Display for RuntimeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use RuntimeError::*;
+        match self {
+            Eval { error, pass } => write!(f, "{error} (in {pass})"),
+            NegativeProbability { value, pass } => {
+                write!(f, "a probability cannot be negative ({value}, in {pass})")
+            }
+            TooLong { limit, unit, pass } => write!(
+                f,
+                "the string grew past --max-length ({limit} {}) in {pass}",
+                match unit {
+                    LengthUnit::Modules => "modules",
+                    LengthUnit::Bytes => "bytes",
+                }
+            ),
+            NoSpace { size, free } => write!(
+                f,
+                "the final string would be {size}, more than the {} bytes free on \
+                 its file system: nothing written (fewer steps; --max-length stops \
+                 any run early)",
+                super::group_digits(*free)
+            ),
+            GroupNotNumber { value, step } => write!(
+                f,
+                "group: gives {} in step {step}, not a group number",
+                number_string(*value)
+            ),
+            GroupMissing { group, step } => write!(
+                f,
+                "group: gives {group} in step {step}, but there is no `productions {group}:` section"
+            ),
+            UnclosedBracket(pass) => write!(
+                f,
+                "unbalanced brackets: {pass} leaves a `[` open, produced by this production"
+            ),
+            UnopenedBracket(pass) => write!(
+                f,
+                "unbalanced brackets: {pass} produces a `]` without `[`, from this production"
+            ),
+            AlreadyDerived => f.write_str("the axiom stream was already derived"),
+            JobsFailed { failed, total } => write!(
+                f,
+                "{} of {total} jobs failed",
+                super::group_digits(*failed)
+            ),
+            Internal => f.write_str("internal error (please report this)"),
+        }
+    }
+}
+
+/// What was being done when reading or writing failed.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum IoAction {
+    /// Opening a file to read.
+    Open,
+    /// Reading.
+    Read,
+    /// Writing.
+    Write,
+    /// Creating a file.
+    Create,
+    /// Creating a file in this directory.
+    CreateIn(PathBuf),
+    /// Creating a temporary file.
+    CreateTemp,
+    /// Reading a symbolic link.
+    ReadLink,
+    /// Rendering (the man page).
+    Render,
+}
+
+impl fmt::Display for IoAction {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            IoAction::Open => f.write_str("cannot open"),
+            IoAction::Read => f.write_str("cannot read"),
+            IoAction::Write => f.write_str("cannot write"),
+            IoAction::Create => f.write_str("cannot create"),
+            IoAction::CreateIn(dir) => write!(f, "cannot create a file in {}", dir.display()),
+            IoAction::CreateTemp => f.write_str("cannot create a temporary file"),
+            IoAction::ReadLink => f.write_str("cannot read the link"),
+            IoAction::Render => f.write_str("cannot render"),
+        }
+    }
+}
+
+/// Why reading or writing failed.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum IoReason {
+    /// The operating system said so.
+    Os(std::io::Error),
+    /// Standard output was closed when lsgen started.
+    ClosedAtStartup,
+    /// Standard input was closed when lsgen started.
+    ClosedWhenStarted,
+    /// `-o` names a directory.
+    IsADirectory,
+    /// `-o name/` where `name` is not a directory.
+    NotADirectory,
+    /// `-o dir/` where `dir` does not exist.
+    NoSuchDirectory,
+}
+
+/// Reading or writing failed (the file or stream is the error's subject).
+#[derive(Debug)]
+pub struct IoError {
+    /// What was being done.
+    pub action: IoAction,
+    /// Why it failed.
+    pub reason: IoReason,
+}
+
+impl IoError {
+    /// The operating system's error, if that is the reason.
+    pub fn os_error(&self) -> Option<&std::io::Error> {
+        match &self.reason {
+            IoReason::Os(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for IoError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: ", self.action)?;
+        match &self.reason {
+            IoReason::Os(e) => f.write_str(&super::io_message(e)),
+            IoReason::ClosedAtStartup => f.write_str("Bad file descriptor (closed at startup)"),
+            IoReason::ClosedWhenStarted => {
+                f.write_str("Bad file descriptor (closed when lsgen started)")
+            }
+            IoReason::IsADirectory => f.write_str("is a directory; -o takes a file name"),
+            IoReason::NotADirectory => f.write_str("not a directory, but the name ends with `/`"),
+            IoReason::NoSuchDirectory => {
+                f.write_str("no such directory, and -o takes a file name, not a directory")
+            }
+        }
+    }
+}
+
+/// A placeholder of an `-o` template.
+pub type Placeholder = &'static str;
+
+/// The request itself is wrong.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum UsageError {
+    /// `-o` template with a lone `}` (the template).
+    LoneCloseBrace(String),
+    /// `-o` template with `{` not closed (the template).
+    UnclosedBrace(String),
+    /// `-o` template with an unknown placeholder (template, name).
+    UnknownPlaceholder { template: String, name: String },
+    /// A placeholder without a value for this run.
+    NoValue(Placeholder),
+    /// `--strategy dfs` for a system that cannot be derived depth first.
+    NotDepthFirst,
+    /// `--first-step 0`.
+    FirstStepZero,
+    /// Step numbers past 2^64 - 1.
+    StepsOverflow { first: u64, steps: u64 },
+    /// A view option of lsgen-turtle (its name, `view` for the
+    /// direction) that cannot be read.
+    ViewOption { option: String, error: ViewError },
+    /// A command-line check of a binary (its message).
+    CommandLine(String),
+}
+
+impl fmt::Display for UsageError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use UsageError::*;
+        match self {
+            LoneCloseBrace(s) => write!(f, "-o `{s}`: a lone `}}`; write `}}}}` for a literal brace"),
+            UnclosedBrace(s) => write!(f, "-o `{s}`: unclosed `{{`; write `{{{{` for a literal brace"),
+            UnknownPlaceholder { template, name } => write!(
+                f,
+                "-o `{template}`: unknown placeholder `{{{name}}}`: use {{stem}}, {{seed}} or {{n}} ({{{{ and }}}} for braces)"
+            ),
+            NoValue(name) => write!(
+                f,
+                "-o: `{{{name}}}` has no value here{}",
+                if *name == "n" {
+                    " (it numbers frames)"
+                } else {
+                    ""
+                }
+            ),
+            NotDepthFirst => f.write_str(
+                "`--strategy dfs`: this system cannot be derived depth first with these options",
+            ),
+            FirstStepZero => f.write_str("the first step is step 1 or later"),
+            StepsOverflow { first, steps } => write!(
+                f,
+                "`--first-step {first}` with {steps} steps: step numbers must stay below 2^64 - 1"
+            ),
+            ViewOption { option, error } => write!(f, "--{option}: {error}"),
+            CommandLine(m) => f.write_str(m),
+        }
+    }
+}
+
+/// lsgen-turtle: a module string it cannot read (stage parse) or draw
+/// (stage runtime).
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum TurtleError {
+    /// A control byte where a module would be.
+    ControlByte(u8),
+    /// `(`, `)` or `,` where a module would be.
+    Unexpected(char),
+    /// Bytes that are not UTF-8.
+    InvalidUtf8,
+    /// A parameter longer than this many characters.
+    NumberTooLong(usize),
+    /// Something else than a number in a parameter list (its start).
+    ExpectedNumber(String),
+    /// A parameter list without its `)`.
+    ParamsNotClosed,
+    /// Neither `,` nor `)` after a parameter.
+    ExpectedCommaOrParen(char),
+    /// A `{` without its `}` at the end.
+    PolygonNotClosed,
+    /// A `]` or `}` without its opener.
+    UnmatchedClose(char),
+    /// The turtle's position overflowed.
+    Overflow,
+    /// The tropism bend overflowed.
+    TropismOverflow,
+    /// A polygon with more than this many vertices.
+    PolygonTooLarge(usize),
+    /// Branches or polygons nested past the limit.
+    TooDeep,
+    /// The drawing's extent overflowed.
+    ExtentOverflow,
+}
+
+impl TurtleError {
+    /// Found while drawing (else while reading).
+    pub fn is_drawing(&self) -> bool {
+        use TurtleError::*;
+        matches!(
+            self,
+            PolygonNotClosed
+                | UnmatchedClose(_)
+                | Overflow
+                | TropismOverflow
+                | PolygonTooLarge(_)
+                | TooDeep
+                | ExtentOverflow
+        )
+    }
+}
+
+impl fmt::Display for TurtleError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use TurtleError::*;
+        match self {
+            ControlByte(b) => write!(f, "unexpected control character 0x{b:02x}"),
+            Unexpected(c) => write!(f, "unexpected `{c}`"),
+            InvalidUtf8 => f.write_str("invalid UTF-8"),
+            NumberTooLong(n) => write!(f, "number too long (over {n} characters)"),
+            ExpectedNumber(shown) => write!(f, "expected a number, found `{shown}`"),
+            ParamsNotClosed => f.write_str("parameter list not closed: `(` without `)`"),
+            ExpectedCommaOrParen(c) => {
+                write!(f, "expected `,` or `)`, found `{}`", c.escape_default())
+            }
+            PolygonNotClosed => f.write_str("polygon not closed: `{` without `}`"),
+            UnmatchedClose(c) => write!(f, "unmatched `{c}`"),
+            Overflow => f.write_str("the turtle moved out of range (overflow)"),
+            TropismOverflow => {
+                f.write_str("the tropism bend overflows (elasticity × |tropism| is too large)")
+            }
+            PolygonTooLarge(n) => write!(f, "polygon too large (over {n} vertices)"),
+            TooDeep => f.write_str("branches or polygons nested too deeply"),
+            ExtentOverflow => {
+                f.write_str("the drawing is too large to lay out (its extent overflows)")
+            }
+        }
+    }
+}
+
+/// A view setting (`view:` line, lsgen-turtle option) that cannot be read.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum ViewError {
+    /// Not `NAME = VALUE`.
+    Syntax,
+    /// A name that is no setting (as written, lower case).
+    Unknown(String),
+    /// A word that is not a number.
+    NotANumber(String),
+    /// A word that is not a colour.
+    NotAColour(String),
+    /// Not exactly one number.
+    OneNumber,
+    /// A negative width or width scale.
+    Negative,
+    /// An elevation outside -90 to 90.
+    ElevationRange,
+    /// A direction that is none of the forms.
+    Direction,
+    /// A tropism that is not three numbers.
+    Tropism,
+    /// An empty palette.
+    Palette,
+    /// A background that is neither a colour nor `none`.
+    Background,
+}
+
+impl fmt::Display for ViewError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use ViewError::*;
+        match self {
+            Syntax => f.write_str("a view setting is `view: NAME = VALUE`"),
+            Unknown(name) => write!(
+                f,
+                "unknown view setting `{name}` (known: {})",
+                crate::turtle::view::NAMES.join(", ")
+            ),
+            NotANumber(w) => write!(f, "`{w}` is not a number"),
+            NotAColour(w) => write!(f, "`{w}` is not a colour `#rrggbb`"),
+            OneNumber => f.write_str("expected one number"),
+            Negative => f.write_str("must not be negative"),
+            ElevationRange => f.write_str("the elevation is between -90 and 90"),
+            Direction => f.write_str(
+                "a direction is `front`, `side`, `top` or `AZIMUTH ELEVATION` in degrees",
+            ),
+            Tropism => f.write_str("a tropism is three numbers `X Y Z`"),
+            Palette => f.write_str("a palette is one or more colours `#rrggbb`"),
+            Background => f.write_str("a background is `#rrggbb` or `none`"),
+        }
+    }
+}
