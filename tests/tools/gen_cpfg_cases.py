@@ -1,0 +1,193 @@
+#!/usr/bin/env python3
+"""Random cpfg (`.l`) systems derived by the independent reference
+cpfg_ref.py, written to tests/expected/cpfg/random_cases.txt. The Rust test
+`random_cases_match_cpfg_ref` (tests/cpfg_random.rs) derives each with lsgen's
+cpfg dialect and must print the same string: the differential test of the
+cpfg dialect, as gen_cross_cases.py is for the `.ls` structural features.
+
+The generator covers the dialect's features together: parameters stored as
+32-bit floats, cpfg's operators and precedence (`^`, `%`, `/` by zero,
+`<>`, `?:`, `!`, `&&`, `||`, unary minus), conditions and `*`, contexts
+(with `*`, brackets and `=` in right contexts), `ignore:` / `consider:`,
+multi-module predecessors, first-applicable choice, stochastic choice with
+`seed:` (drand48), `ran`, decomposition and homomorphism with `maximum
+depth:`, the cut `%`, `Q` and `Z`, header blocks with globals and
+pre-/post-condition blocks with locals.
+
+Usage (from anywhere):
+    python3 tests/tools/gen_cpfg_cases.py          # write the file
+    python3 tests/tools/gen_cpfg_cases.py --check  # compare, exit 1 if stale
+
+File format: for each case, a line `=== STEPS`, the `.l` text, a line
+`--- expected`, the output line. Cases the reference refuses, that print
+more than MAX_OUTPUT characters, or whose string holds `inf` / `nan` (an
+error in lsgen, README) are not kept.
+"""
+
+import io
+import os
+import random
+import sys
+import tempfile
+import contextlib
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, HERE)
+
+import cpfg_ref  # noqa: E402
+
+OUT = os.path.join(ROOT, "tests", "expected", "cpfg", "random_cases.txt")
+CASES = 300
+MAX_OUTPUT = 2000
+
+SYMS = "ABCD"
+
+
+def generate(r):
+    globals_ = r.random() < 0.3
+    stochastic = r.random() < 0.3
+
+    def expr(var, axiom=False):
+        a = var if var and r.random() < 0.7 else str(r.randint(0, 3))
+        ops = [
+            "%s+1", "%s*2", "%s-1", "%s/2", "%s^2", "-%s^2", "%s%%3",
+            "trunc(%s/3)", "%s/0", "(%s>1?%s:1)", "!%s", "Q", "Z-%s",
+        ]
+        # lsgen reads the axiom's parameters as constant expressions (README,
+        # "Coming from cpfg"): no globals, no `ran` there.
+        if globals_ and not axiom:
+            ops.append("g+%s")
+        if not axiom and (stochastic or r.random() < 0.1):
+            ops.append("floor(ran(3))+%s")
+        e = r.choice(ops)
+        return e.replace("%s", a).replace("%%", "%")
+
+    def module(var, param, axiom):
+        s = r.choice(SYMS)
+        if param:
+            return "%s(%s)" % (s, expr(var, axiom))
+        return s
+
+    def succ(var, brackets=True, axiom=False):
+        out = []
+        for _ in range(r.randint(0, 4)):
+            c = r.choice(SYMS + "F+%,")
+            if c in SYMS and r.random() < 0.5:
+                out.append(module(var, True, axiom))
+            else:
+                out.append(c)
+        if brackets and r.random() < 0.4:
+            inner = succ(var, False, axiom)
+            out.insert(r.randint(0, len(out)), "[" + ("" if inner == "*" else inner) + "]")
+        if not out:
+            return "*"
+        return "".join(out)
+
+    def pred_module():
+        s = r.choice(SYMS)
+        if r.random() < 0.4:
+            return s + "(x)", "x"
+        return s, None
+
+    def production(contexts=True, multi=True, weights=False):
+        lhs, var = pred_module()
+        if multi and r.random() < 0.1:
+            lhs += r.choice(SYMS)
+        if contexts and r.random() < 0.3:
+            lhs = r.choice(["A", "B", "C", "*", "AB"]) + " < " + lhs
+        if contexts and r.random() < 0.3:
+            lhs = lhs + " > " + r.choice(["A", "B", "[C]", "C]", "*", "[A]B", "=B"])
+        cond = ""
+        x = r.random()
+        if x < 0.15:
+            cond = " : *"
+        elif x < 0.45:
+            v = var or "Q"
+            cond = " : " + r.choice([
+                "%s > 1" % v, "%s <> 2" % v, "%s %% 2 == 0" % v, "Q < 3 && %s >= 1" % v,
+                "!(%s == 1) || Q == 2" % v, "Q > 1",
+            ])
+        if globals_ and r.random() < 0.3:
+            cond = " : {g = g + 1; t = %s;}%s" % (var or "Q", cond[2:] if cond else " *")
+            if r.random() < 0.5:
+                cond += " {g = g + t;}"
+        weight = ""
+        if weights and r.random() < 0.6:
+            weight = " : " + r.choice(["1", "2", "0.5", "Q", "%s+1" % (var or "1")])
+        return lhs + cond + " --> " + succ(var) + weight
+
+    lines = ["Lsystem: 1"]
+    if stochastic:
+        lines.append("seed: %d" % r.randint(1, 100))
+    lines.append("derivation length: %d" % r.randint(1, 5))
+    if r.random() < 0.3:
+        lines.append(r.choice(["ignore: F +", "ignore: C", "consider: A B [ ]", "consider: A B"]))
+    if globals_:
+        lines.append("Start: {g = 0;}")
+        if r.random() < 0.5:
+            lines.append("StartEach: {g = g + 1;}")
+    axiom = "[".join(succ(None, False, True) for _ in range(2)) + "]" + succ(None, False, True)
+    axiom = axiom.replace("*", "")
+    lines.append("Axiom: " + (axiom or "A"))
+    lines += [production(weights=stochastic) for _ in range(r.randint(1, 5))]
+    if r.random() < 0.35:
+        lines.append("decomposition")
+        if r.random() < 0.5:
+            lines.append("maximum depth: %d" % r.randint(1, 3))
+        lines += [production(contexts=False, multi=False) for _ in range(r.randint(1, 3))]
+    if r.random() < 0.35:
+        lines.append("homomorphism" + r.choice(["", ": no warnings"]))
+        if r.random() < 0.5:
+            lines.append("maximum depth: %d" % r.randint(1, 3))
+        lines += [production(multi=False) for _ in range(r.randint(1, 3))]
+    lines.append("endlsystem")
+    return "\n".join(lines) + "\n", r.randint(0, 4)
+
+
+def derive(text, steps):
+    """The reference's string, or None if it refuses the system."""
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "case.l")
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+        try:
+            # Warnings (undefined names, division by zero) are printed by
+            # the reference; they are not part of the expected output.
+            with contextlib.redirect_stderr(io.StringIO()):
+                return cpfg_ref.run_file(path, steps)
+        except cpfg_ref.CpfgError:
+            return None
+        except (OverflowError, ZeroDivisionError, ValueError, RecursionError):
+            return None
+
+
+def main(argv):
+    r = random.Random(12)
+    parts = []
+    made = 0
+    tried = 0
+    while made < CASES:
+        tried += 1
+        text, steps = generate(r)
+        out = derive(text, steps)
+        # lsgen refuses a parameter a 32-bit float cannot hold (README), where
+        # cpfg stores inf.
+        if out is None or len(out) > MAX_OUTPUT or "inf" in out or "nan" in out:
+            continue
+        parts.append("=== %d\n%s--- expected\n%s\n" % (steps, text, out))
+        made += 1
+    content = "".join(parts)
+    if "--check" in argv:
+        with open(OUT, encoding="utf-8") as f:
+            same = f.read() == content
+        print("%s: %s" % (os.path.relpath(OUT, ROOT), "up to date" if same else "differs"))
+        return 0 if same else 1
+    with open(OUT, "w", encoding="utf-8", newline="\n") as f:
+        f.write(content)
+    print("wrote %d cases (%d generated) to %s" % (made, tried, os.path.relpath(OUT, ROOT)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
