@@ -365,6 +365,13 @@ impl<'a> Lexer<'a> {
                     self.pos += 1;
                     continue;
                 }
+                // cpfg's scanner has no rule for `\` in an expression (flex
+                // echoes it and reads on): a `\\` line continuation in a
+                // `#define`, common in vlab models, leaves one there.
+                b'\\' if self.state == State::Expression => {
+                    self.pos += 1;
+                    continue;
+                }
                 b'\n' => {
                     if bytes.get(i + 1) == Some(&b'\t') {
                         self.pos += 2;

@@ -790,6 +790,12 @@ class Lexer:
                     i += 1
                 continue
             if state == "EXPRESSION":
+                if c == "\\":
+                    # lsys_input.l has no rule for a backslash in the
+                    # EXPRESSION state: flex's default rule echoes it and
+                    # scanning goes on (vlab's `#define f(x) \\` idiom).
+                    i += 1
+                    continue
                 m = NAME_RE.match(s, i)
                 if m:
                     out.append(("NAME", m.group(), w))

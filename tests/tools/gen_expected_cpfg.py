@@ -61,6 +61,7 @@ MANIFEST = {
     "cut": [1, 2, 3],
     "decomposition": [0, 1, 2, 3],
     "homomorphism": [1, 2],
+    "backslash_define": [1, 3],
 }
 
 # Strings derived by hand (the derivations are in the models' comments);
@@ -70,6 +71,8 @@ HAND = {
     ("layout", 1): "AxCAA,;",
     ("null_star", 1): "BBE",
     ("null_star", 2): "BBBBF",
+    ("backslash_define", 1): "A(3)B(3)",
+    ("backslash_define", 3): "C(7)B(8)B(5)",
     ("multi_pred", 1): "XD(2)D(12)A(5)A(6)",
     ("multi_pred", 2): "XD(2)B(7)A(6)",
     ("first_applicable", 1): "YZ(0)C(5)Y",
