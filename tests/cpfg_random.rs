@@ -11,7 +11,7 @@ use std::path::Path;
 #[test]
 fn random_cases_match_cpfg_ref() {
     let text =
-        std::fs::read_to_string(Path::new(ROOT).join("tests/expected/cpfg/random_cases.txt"))
+        std::fs::read_to_string(Path::new(ROOT).join("tests/expected/cpfg/random/cases.txt"))
             .unwrap();
     let dir = tempdir();
     let file = dir.path().join("case.l");

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Random cpfg (`.l`) systems derived by the independent reference
-cpfg_ref.py, written to tests/expected/cpfg/random_cases.txt. The Rust test
+cpfg_ref.py, written to tests/expected/cpfg/random/cases.txt. The Rust test
 `random_cases_match_cpfg_ref` (tests/cpfg_random.rs) derives each with lsgen's
 cpfg dialect and must print the same string: the differential test of the
 cpfg dialect, as gen_cross_cases.py is for the `.ls` structural features.
@@ -37,7 +37,7 @@ sys.path.insert(0, HERE)
 
 import cpfg_ref  # noqa: E402
 
-OUT = os.path.join(ROOT, "tests", "expected", "cpfg", "random_cases.txt")
+OUT = os.path.join(ROOT, "tests", "expected", "cpfg", "random", "cases.txt")
 CASES = 300
 MAX_OUTPUT = 2000
 
