@@ -6,7 +6,8 @@
 #   fuzz/run.sh parse 10000000 -max_total_time=3600
 #   fuzz/run.sh derive tmin fuzz/artifacts/derive/crash-...   # minimise
 #
-# TARGET is `parse` or `derive` (fuzz/fuzz_targets/). RUNS defaults to
+# TARGET is `parse`, `derive` or `cpfg` (fuzz/fuzz_targets/; cpfg derives
+# the input as a cpfg `.l` file). RUNS defaults to
 # 1000000 (0 = until stopped or a crash: libFuzzer's -runs=-1; its own
 # -runs=0 would only replay the corpus). The script installs cargo-fuzz if
 # missing, seeds fuzz/corpus/TARGET/ from examples/*.ls and runs with the
@@ -29,12 +30,12 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 cd "$root"
 
-target=${1:?usage: fuzz/run.sh parse|derive [RUNS|tmin FILE] [libFuzzer flags...]}
+target=${1:?usage: fuzz/run.sh parse|derive|cpfg [RUNS|tmin FILE] [libFuzzer flags...]}
 shift
 case $target in
-parse | derive) ;;
+parse | derive | cpfg) ;;
 *)
-    echo "fuzz/run.sh: unknown target \`$target\` (parse, derive)" >&2
+    echo "fuzz/run.sh: unknown target \`$target\` (parse, derive, cpfg)" >&2
     exit 2
     ;;
 esac
@@ -93,9 +94,19 @@ need_cargo_fuzz
 # copies get one such byte in front: 0x0b = 3 steps, file's seed.
 corpus="$here/corpus/$target"
 mkdir -p "$corpus" "$here/artifacts/$target"
+if [ "$target" = cpfg ]; then
+    # The cpfg models (their #include files are not found from the corpus:
+    # the preprocessor's error path gets fuzzed too); one byte: 3 steps.
+    for f in tests/cpfg/*.l tests/cpfg/abop/*.l tests/cpfg/refused/*.l; do
+        {
+            printf '\x03'
+            cat "$f"
+        } >"$corpus/cpfg-$(basename "$f" .l)"
+    done
+fi
 for f in examples/*.ls; do
     name=example-$(basename "$f" .ls)
-    if [ "$target" = derive ]; then
+    if [ "$target" = derive ] || [ "$target" = cpfg ]; then
         {
             printf '\x0b'
             cat "$f"
