@@ -75,6 +75,27 @@ impl Chooser {
             };
             return self.choose_cpfg(slots, table, list, rng, origin, pass, &mut contexts);
         }
+        self.choose_ls(slots, table, kr, rng, origin, pass, contexts)
+    }
+
+    /// [`Chooser::choose`] for an `.ls` file (`rng` is not cpfg's): the
+    /// step engine decides that once per pass, so its hot loop holds no
+    /// cpfg path.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn choose_ls<F>(
+        &mut self,
+        slots: &mut [f64],
+        table: &Table,
+        kr: &KeyRules,
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        mut contexts: F,
+    ) -> Result<Option<u32>, Error>
+    where
+        F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    {
         let mut chosen = None;
         let mut kr = kr;
         loop {

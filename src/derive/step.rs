@@ -296,6 +296,9 @@ struct StepState<'f> {
     /// A production with a predecessor of several modules (cpfg dialect)
     /// was applied: the old string's modules up to this offset are its.
     run_end: Option<u64>,
+    /// Choose the cpfg dialect's way (its generator, or predecessors of
+    /// several modules): decided once per pass.
+    cpfg_choice: bool,
 }
 
 impl StepState<'_> {
@@ -532,6 +535,7 @@ impl<'a> Deriver<'a> {
             last_opener: None,
             last_closer: None,
             run_end: None,
+            cpfg_choice: self.cpfg_contexts || table.has_multi || self.rng.cpfg_mut().is_some(),
         };
         let mut rd = PosReader::new(input, 1 << 20, indexed).with_counts(self.counts);
         let open_len = rd.open_len();
@@ -793,18 +797,36 @@ impl<'a> Deriver<'a> {
         }
         // The nearest considered module to the left, looked up once.
         let last = st.left.as_ref().map(|l| l.last_key());
-        let chosen = chooser.choose(slots, table, kr, rng, origin, pass, |p, slots| {
-            // The right context of a run starts after it.
-            let end = if p.rest.is_empty() {
-                end_off
-            } else {
-                match st.match_run(end_off, &p.rest, al, slots)? {
-                    Some(e) => e,
-                    None => return Ok(false),
-                }
-            };
-            Ok(!surely_not(p, last, end, st, al)? && contexts_match(p, end, st, al, slots)?)
-        })?;
+        let chosen = if st.cpfg_choice {
+            choose_cpfg(
+                chooser,
+                slots,
+                (table, kr),
+                rng,
+                origin,
+                pass,
+                st,
+                al,
+                last,
+                end_off,
+            )?
+        } else {
+            // (Inlined: the cheap first look runs in the choice loop; a
+            // call per production tried costs the context rows ~10 %.)
+            chooser.choose_ls(
+                slots,
+                table,
+                kr,
+                rng,
+                origin,
+                pass,
+                #[inline(always)]
+                |p, slots| {
+                    Ok(!surely_not(p, last, end_off, st, al)?
+                        && contexts_match(p, end_off, st, al, slots)?)
+                },
+            )?
+        };
         let Some(pi) = chosen else {
             return Ok(false);
         };
@@ -874,6 +896,37 @@ impl<'a> Deriver<'a> {
     }
 }
 
+/// [`Deriver::apply`]'s choice for a `.l` file (cpfg's choice, and
+/// predecessors of several modules, whose right context starts after the
+/// run): out of line, so that the `.ls` path's loop holds none of it.
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn choose_cpfg(
+    chooser: &mut Chooser,
+    slots: &mut [f64],
+    (table, kr): (&Table, &KeyRules),
+    rng: &mut Random,
+    origin: &Origin,
+    pass: Pass,
+    st: &mut StepState,
+    al: &Alphabet,
+    last: Option<Option<u32>>,
+    end_off: u64,
+) -> Result<Option<u32>, Error> {
+    chooser.choose(slots, table, kr, rng, origin, pass, |p, slots| {
+        // The right context of a run starts after it.
+        let end = if p.rest.is_empty() {
+            end_off
+        } else {
+            match st.match_run(end_off, &p.rest, al, slots)? {
+                Some(e) => e,
+                None => return Ok(false),
+            }
+        };
+        Ok(!surely_not(p, last, end, st, al)? && contexts_match(p, end, st, al, slots)?)
+    })
+}
+
 /// A step made a `]` without `[`: blame `culprit`.
 fn unbalanced(origin: &Origin, table: &Table, culprit: Option<u32>, pass: Pass) -> Error {
     let p = &table.prods[culprit.unwrap_or(0) as usize];
@@ -928,7 +981,7 @@ fn right_cpfg(
 }
 
 /// Do production `p`'s contexts match here? Binds their parameters.
-#[inline(always)]
+#[inline]
 fn contexts_match(
     p: &Production,
     end_off: u64,
