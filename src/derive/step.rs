@@ -610,34 +610,7 @@ impl<'a> Deriver<'a> {
                 // (levels[0] holds the copied module for try_rewrite.)
                 let decomposed = match decomp {
                     Some((d, max)) => {
-                        let cx = RecCtx {
-                            table: d,
-                            max: *max,
-                            al: &self.alphabet,
-                            origin: &self.origin,
-                            pass,
-                            warn: self.warnings[0].then_some(&self.warned[0]),
-                        };
-                        let lv = std::mem::take(&mut self.rc.levels[0]);
-                        let (_, params) = lv.get(0, n);
-                        let al = &self.alphabet;
-                        let st = &mut st;
-                        let r = try_rewrite(
-                            &mut self.rc,
-                            &cx,
-                            0,
-                            key,
-                            params,
-                            &mut self.rng,
-                            &mut |p, slots| {
-                                let last = st.left.as_ref().map(|l| l.last_key());
-                                Ok(!surely_not(p, last, end_off, st, al)?
-                                    && contexts_match(p, end_off, st, al, slots)?)
-                            },
-                            out,
-                        );
-                        self.rc.levels[0] = lv;
-                        r?
+                        self.decompose_copied((d, *max), (key, n, end_off), &mut st, out, pass)?
                     }
                     None => false,
                 };
@@ -731,24 +704,7 @@ impl<'a> Deriver<'a> {
                 }
             }
             if let Some(run_end) = st.run_end.take() {
-                // The rest of a predecessor of several modules: replaced
-                // with the first; still the old string for left contexts
-                // and draw positions.
-                while rd.offset() < run_end {
-                    let Some((k, s, e)) = rd.next_module(&self.alphabet).map_err(read_err)? else {
-                        break;
-                    };
-                    index += 1;
-                    // cpfg draws once for the whole predecessor.
-                    if let Some(c) = self.rng.cpfg_mut() {
-                        c.skip_modules(1);
-                    }
-                    if let Some(left) = &mut st.left {
-                        if !self.alphabet.ignored(k) {
-                            left.push(k, rd.bytes(s, e), self.alphabet.arity(k));
-                        }
-                    }
-                }
+                index = self.skip_run(&mut rd, run_end, index, &mut st)?;
             }
             out.maybe_flush()?;
         }
@@ -764,6 +720,78 @@ impl<'a> Deriver<'a> {
             ));
         }
         Ok(())
+    }
+
+    /// The copied module (key, arity `n`, ending at `end_off`; in
+    /// `rc.levels[0]`) decomposed with `d` (maximum depth `max`); false if
+    /// no production applied. Out of line: the pass's loop stays small.
+    #[inline(never)]
+    fn decompose_copied(
+        &mut self,
+        (d, max): (&Table, usize),
+        (key, n, end_off): (u32, usize, u64),
+        st: &mut StepState,
+        out: &mut Out,
+        pass: Pass,
+    ) -> Result<bool, Error> {
+        let cx = RecCtx {
+            table: d,
+            max,
+            al: &self.alphabet,
+            origin: &self.origin,
+            pass,
+            warn: self.warnings[0].then_some(&self.warned[0]),
+        };
+        let lv = std::mem::take(&mut self.rc.levels[0]);
+        let (_, params) = lv.get(0, n);
+        let al = &self.alphabet;
+        let r = try_rewrite(
+            &mut self.rc,
+            &cx,
+            0,
+            key,
+            params,
+            &mut self.rng,
+            &mut |p, slots| {
+                let last = st.left.as_ref().map(|l| l.last_key());
+                Ok(!surely_not(p, last, end_off, st, al)?
+                    && contexts_match(p, end_off, st, al, slots)?)
+            },
+            out,
+        );
+        self.rc.levels[0] = lv;
+        r
+    }
+
+    /// The rest of a predecessor of several modules (cpfg dialect), up to
+    /// `run_end`: replaced with the first module; still the old string for
+    /// left contexts and draw positions. Returns the module index after it.
+    #[cold]
+    #[inline(never)]
+    fn skip_run(
+        &mut self,
+        rd: &mut PosReader,
+        run_end: u64,
+        mut index: u64,
+        st: &mut StepState,
+    ) -> Result<u64, Error> {
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
+        while rd.offset() < run_end {
+            let Some((k, s, e)) = rd.next_module(&self.alphabet).map_err(read_err)? else {
+                break;
+            };
+            index += 1;
+            // cpfg draws once for the whole predecessor.
+            if let Some(c) = self.rng.cpfg_mut() {
+                c.skip_modules(1);
+            }
+            if let Some(left) = &mut st.left {
+                if !self.alphabet.ignored(k) {
+                    left.push(k, rd.bytes(s, e), self.alphabet.arity(k));
+                }
+            }
+        }
+        Ok(index)
     }
 
     /// Try the productions of `key`; emit the chosen successor.
