@@ -941,18 +941,47 @@ fn choose_cpfg(
     last: Option<Option<u32>>,
     end_off: u64,
 ) -> Result<Option<u32>, Error> {
-    chooser.choose(slots, table, kr, rng, origin, pass, |p, slots| {
-        // The right context of a run starts after it.
-        let end = if p.rest.is_empty() {
-            end_off
-        } else {
-            match st.match_run(end_off, &p.rest, al, slots)? {
-                Some(e) => e,
-                None => return Ok(false),
-            }
-        };
-        Ok(!surely_not(p, last, end, st, al)? && contexts_match(p, end, st, al, slots)?)
-    })
+    if rng.cpfg_mut().is_none() {
+        // (Predecessors of several modules without cpfg's generator: not
+        // made by the front ends; the general choice.)
+        return chooser.choose(slots, table, kr, rng, origin, pass, |p, slots| {
+            run_contexts(p, slots, st, al, last, end_off)
+        });
+    }
+    chooser.choose_cpfg_here(
+        slots,
+        table,
+        kr,
+        rng,
+        origin,
+        pass,
+        #[inline(always)]
+        |p, slots| run_contexts(p, slots, st, al, last, end_off),
+    )
+}
+
+/// Does `p`, a predecessor of one module or of several (cpfg dialect),
+/// match at the module ending at `end_off`, with its contexts? Binds the
+/// run's and the contexts' parameters.
+#[inline(always)]
+fn run_contexts(
+    p: &Production,
+    slots: &mut [f64],
+    st: &mut StepState,
+    al: &Alphabet,
+    last: Option<Option<u32>>,
+    end_off: u64,
+) -> Result<bool, Error> {
+    // The right context of a run starts after it.
+    let end = if p.rest.is_empty() {
+        end_off
+    } else {
+        match st.match_run(end_off, &p.rest, al, slots)? {
+            Some(e) => e,
+            None => return Ok(false),
+        }
+    };
+    Ok(!surely_not(p, last, end, st, al)? && contexts_match(p, end, st, al, slots)?)
 }
 
 /// A step made a `]` without `[`: blame `culprit`.
