@@ -33,6 +33,7 @@ for row in "${rows[@]}"; do
     printf '| %s |' "$name"
     first=
     last=
+    ok=0
     for bin in "$@"; do
         args=(-n "$n" --seed 1 "$file" -o "$tmp/out")
         if [ "$gen" != - ]; then
@@ -40,12 +41,19 @@ for row in "${rows[@]}"; do
             "$bin" -n "$gn" "$gfile" -o "$tmp/axiom"
             args+=(--axiom "$tmp/axiom")
         fi
-        valgrind --tool=callgrind --callgrind-out-file="$tmp/cg" "$bin" "${args[@]}" \
-            2>"$tmp/log" >/dev/null
+        if ! valgrind --tool=callgrind --callgrind-out-file="$tmp/cg" "$bin" "${args[@]}" \
+            2>"$tmp/log" >/dev/null; then
+            # (A build that cannot run this row: an older one on a `.l` file.)
+            printf ' — |'
+            continue
+        fi
         ir=$(sed -n 's/.*Collected : \([0-9]*\).*/\1/p' "$tmp/log")
         [ -n "$first" ] || first=$ir
         last=$ir
+        ok=$((ok + 1))
         printf ' %s |' "$ir"
     done
-    awk -v a="$first" -v b="$last" 'BEGIN { printf " %+.1f%% |\n", (b - a) * 100 / a }'
+    # The change from the first build that ran the row to the last.
+    awk -v a="$first" -v b="$last" -v ok="$ok" \
+        'BEGIN { if (ok < 2) print " — |"; else printf " %+.1f%% |\n", (b - a) * 100 / a }'
 done

@@ -153,6 +153,15 @@ impl Options {
         self
     }
 
+    /// Derive one string on as many threads as there are CPUs (the
+    /// binary's default `-j`); the CPUs are counted only when the
+    /// derivation can be split.
+    #[doc(hidden)]
+    pub fn threads_all(mut self) -> Self {
+        self.threads = crate::derive::par::ALL_CPUS;
+        self
+    }
+
     /// Split the work between threads into tasks this small (for tests).
     #[doc(hidden)]
     pub fn split(mut self, n: u64) -> Self {

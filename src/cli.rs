@@ -735,10 +735,10 @@ fn run_one(
     // One derivation on -j threads (default: all CPUs); a batch's jobs
     // already run in parallel, one thread each.
     if batch.is_none() {
-        options = options.threads(args.jobs.map_or_else(
-            || std::thread::available_parallelism().map_or(1, |n| n.get()),
-            |j| j as usize,
-        ));
+        options = match args.jobs {
+            Some(j) => options.threads(j as usize),
+            None => options.threads_all(),
+        };
     }
     let seed = ls.seed(&options);
     let batch = batch.map(|used| *used = Some(seed)).is_some();

@@ -9,6 +9,17 @@ use crate::cpfg::random::select;
 use crate::diag::Error;
 use crate::rules::{ConstRun, Item, KeyRules, Production, Table};
 
+/// A `.l` file's productions of a key: one list (the front end merges
+/// them).
+#[inline(always)]
+fn cpfg_list(kr: &KeyRules) -> &[u32] {
+    if kr.context.is_empty() {
+        &kr.free[..]
+    } else {
+        &kr.context[..]
+    }
+}
+
 /// One piece of a successor, in string order.
 pub(crate) enum Piece<'a> {
     /// A precompiled run of modules without parameter expressions.
@@ -67,14 +78,65 @@ impl Chooser {
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
         if rng.cpfg_mut().is_some() {
-            // A `.l` file: one list per key (the front end merges them).
-            let list = if kr.context.is_empty() {
-                &kr.free[..]
-            } else {
-                &kr.context[..]
-            };
-            return self.choose_cpfg(slots, table, list, rng, origin, pass, &mut contexts);
+            return self.choose_cpfg(
+                slots,
+                table,
+                cpfg_list(kr),
+                rng,
+                origin,
+                pass,
+                &mut contexts,
+            );
         }
+        self.choose_ls(slots, table, kr, rng, origin, pass, contexts)
+    }
+
+    /// [`Chooser::choose`] for a `.l` file (`rng` is cpfg's), inlined: the
+    /// step engine's own out-of-line cpfg choice calls it.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn choose_cpfg_here<F>(
+        &mut self,
+        slots: &mut [f64],
+        table: &Table,
+        kr: &KeyRules,
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        mut contexts: F,
+    ) -> Result<Option<u32>, Error>
+    where
+        F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    {
+        self.choose_cpfg_in(
+            slots,
+            table,
+            cpfg_list(kr),
+            rng,
+            origin,
+            pass,
+            &mut contexts,
+        )
+    }
+
+    /// [`Chooser::choose`] for an `.ls` file (`rng` is not cpfg's): the
+    /// step engine decides that once per pass, so its hot loop holds no
+    /// cpfg path.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn choose_ls<F>(
+        &mut self,
+        slots: &mut [f64],
+        table: &Table,
+        kr: &KeyRules,
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        mut contexts: F,
+    ) -> Result<Option<u32>, Error>
+    where
+        F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    {
         let mut chosen = None;
         let mut kr = kr;
         loop {
@@ -231,6 +293,25 @@ impl Chooser {
     where
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
+        self.choose_cpfg_in(slots, table, list, rng, origin, pass, contexts)
+    }
+
+    /// The body of [`Chooser::choose_cpfg`].
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn choose_cpfg_in<F>(
+        &mut self,
+        slots: &mut [f64],
+        table: &Table,
+        list: &[u32],
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        contexts: &mut F,
+    ) -> Result<Option<u32>, Error>
+    where
+        F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    {
         let top_hom = pass == Pass::Homomorphism && !self.nested;
         if top_hom {
             // Conditions at the top of the homomorphism: cpfg's first
@@ -290,7 +371,7 @@ impl Chooser {
     }
     /// [`Chooser::matches`] with cpfg's pre-condition block: contexts,
     /// the block (also when the condition then fails), the condition.
-    #[inline]
+    #[inline(always)]
     fn matches_cpfg<F>(
         &mut self,
         slots: &mut [f64],

@@ -58,6 +58,20 @@ const MAX_BATCH: u64 = 1 << 16;
 /// Tasks per thread, at least (see [`split_depth`]).
 const TASKS: u64 = 16;
 
+/// A thread count that means one per CPU ([`crate::Options::threads_all`]),
+/// counted only when a derivation can be split: asking costs a run about
+/// 12 k instructions (cgroup files), a tenth of a small run's start-up.
+pub(crate) const ALL_CPUS: usize = 0;
+
+/// `threads`, with [`ALL_CPUS`] counted.
+fn resolve(threads: usize) -> usize {
+    if threads == ALL_CPUS {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        threads
+    }
+}
+
 /// How many threads the depth-first parametric strategy uses: `threads`
 /// (`-j`) when there are at least two steps to split, else 1. (The D0L
 /// byte plans are at the speed of writing already and stay on one thread;
@@ -66,7 +80,7 @@ pub(crate) fn threads_for(threads: usize, steps: u64, strategy: Strategy) -> usi
     if steps < 2 || strategy == Strategy::Step {
         1
     } else {
-        threads.max(1)
+        resolve(threads).max(1)
     }
 }
 
@@ -86,7 +100,7 @@ pub(crate) fn step_threads(
 ) -> usize {
     let free = table.max_left == 0 && !table.has_right && !table.check_balance;
     if plain && free && !indexed && !limited && len > split.unwrap_or(CHUNK_IN) {
-        threads.max(1)
+        resolve(threads).max(1)
     } else {
         1
     }
@@ -582,6 +596,28 @@ mod tests {
             .split(split);
         ls.derive(&options, &mut out).map_err(|e| e.to_string())?;
         Ok(String::from_utf8(out).unwrap())
+    }
+
+    /// The binary's default `-j` (one thread per CPU) is counted only
+    /// where a derivation can be split, and never reaches a split as 0.
+    #[test]
+    fn all_cpus_is_counted_where_a_derivation_splits() {
+        use super::{threads_for, ALL_CPUS};
+        use crate::derive::Strategy;
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+        assert_eq!(threads_for(ALL_CPUS, 1, Strategy::DepthFirst), 1);
+        assert_eq!(threads_for(ALL_CPUS, 5, Strategy::Step), 1);
+        assert_eq!(threads_for(ALL_CPUS, 5, Strategy::DepthFirst), cpus);
+        assert_eq!(threads_for(3, 5, Strategy::DepthFirst), 3);
+        let src = "productions:\nA(x) -> A(x+1)[B(x)]A(x+2)\naxiom: A(0)\n";
+        let derive_all = || {
+            let mut ls = LSystem::parse(src).unwrap();
+            let mut out = Vec::new();
+            let options = Options::new().steps(6).seed(3).threads_all().split(1);
+            ls.derive(&options, &mut out).unwrap();
+            String::from_utf8(out).unwrap()
+        };
+        assert_eq!(Ok(derive_all()), derive(src, 6, 1, 1));
     }
 
     #[test]

@@ -296,6 +296,9 @@ struct StepState<'f> {
     /// A production with a predecessor of several modules (cpfg dialect)
     /// was applied: the old string's modules up to this offset are its.
     run_end: Option<u64>,
+    /// Choose the cpfg dialect's way (its generator, or predecessors of
+    /// several modules): decided once per pass.
+    cpfg_choice: bool,
 }
 
 impl StepState<'_> {
@@ -532,6 +535,7 @@ impl<'a> Deriver<'a> {
             last_opener: None,
             last_closer: None,
             run_end: None,
+            cpfg_choice: self.cpfg_contexts || table.has_multi || self.rng.cpfg_mut().is_some(),
         };
         let mut rd = PosReader::new(input, 1 << 20, indexed).with_counts(self.counts);
         let open_len = rd.open_len();
@@ -606,34 +610,7 @@ impl<'a> Deriver<'a> {
                 // (levels[0] holds the copied module for try_rewrite.)
                 let decomposed = match decomp {
                     Some((d, max)) => {
-                        let cx = RecCtx {
-                            table: d,
-                            max: *max,
-                            al: &self.alphabet,
-                            origin: &self.origin,
-                            pass,
-                            warn: self.warnings[0].then_some(&self.warned[0]),
-                        };
-                        let lv = std::mem::take(&mut self.rc.levels[0]);
-                        let (_, params) = lv.get(0, n);
-                        let al = &self.alphabet;
-                        let st = &mut st;
-                        let r = try_rewrite(
-                            &mut self.rc,
-                            &cx,
-                            0,
-                            key,
-                            params,
-                            &mut self.rng,
-                            &mut |p, slots| {
-                                let last = st.left.as_ref().map(|l| l.last_key());
-                                Ok(!surely_not(p, last, end_off, st, al)?
-                                    && contexts_match(p, end_off, st, al, slots)?)
-                            },
-                            out,
-                        );
-                        self.rc.levels[0] = lv;
-                        r?
+                        self.decompose_copied((d, *max), (key, n, end_off), &mut st, out, pass)?
                     }
                     None => false,
                 };
@@ -727,24 +704,7 @@ impl<'a> Deriver<'a> {
                 }
             }
             if let Some(run_end) = st.run_end.take() {
-                // The rest of a predecessor of several modules: replaced
-                // with the first; still the old string for left contexts
-                // and draw positions.
-                while rd.offset() < run_end {
-                    let Some((k, s, e)) = rd.next_module(&self.alphabet).map_err(read_err)? else {
-                        break;
-                    };
-                    index += 1;
-                    // cpfg draws once for the whole predecessor.
-                    if let Some(c) = self.rng.cpfg_mut() {
-                        c.skip_modules(1);
-                    }
-                    if let Some(left) = &mut st.left {
-                        if !self.alphabet.ignored(k) {
-                            left.push(k, rd.bytes(s, e), self.alphabet.arity(k));
-                        }
-                    }
-                }
+                index = self.skip_run(&mut rd, run_end, index, &mut st)?;
             }
             out.maybe_flush()?;
         }
@@ -760,6 +720,78 @@ impl<'a> Deriver<'a> {
             ));
         }
         Ok(())
+    }
+
+    /// The copied module (key, arity `n`, ending at `end_off`; in
+    /// `rc.levels[0]`) decomposed with `d` (maximum depth `max`); false if
+    /// no production applied. Out of line: the pass's loop stays small.
+    #[inline(never)]
+    fn decompose_copied(
+        &mut self,
+        (d, max): (&Table, usize),
+        (key, n, end_off): (u32, usize, u64),
+        st: &mut StepState,
+        out: &mut Out,
+        pass: Pass,
+    ) -> Result<bool, Error> {
+        let cx = RecCtx {
+            table: d,
+            max,
+            al: &self.alphabet,
+            origin: &self.origin,
+            pass,
+            warn: self.warnings[0].then_some(&self.warned[0]),
+        };
+        let lv = std::mem::take(&mut self.rc.levels[0]);
+        let (_, params) = lv.get(0, n);
+        let al = &self.alphabet;
+        let r = try_rewrite(
+            &mut self.rc,
+            &cx,
+            0,
+            key,
+            params,
+            &mut self.rng,
+            &mut |p, slots| {
+                let last = st.left.as_ref().map(|l| l.last_key());
+                Ok(!surely_not(p, last, end_off, st, al)?
+                    && contexts_match(p, end_off, st, al, slots)?)
+            },
+            out,
+        );
+        self.rc.levels[0] = lv;
+        r
+    }
+
+    /// The rest of a predecessor of several modules (cpfg dialect), up to
+    /// `run_end`: replaced with the first module; still the old string for
+    /// left contexts and draw positions. Returns the module index after it.
+    #[cold]
+    #[inline(never)]
+    fn skip_run(
+        &mut self,
+        rd: &mut PosReader,
+        run_end: u64,
+        mut index: u64,
+        st: &mut StepState,
+    ) -> Result<u64, Error> {
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
+        while rd.offset() < run_end {
+            let Some((k, s, e)) = rd.next_module(&self.alphabet).map_err(read_err)? else {
+                break;
+            };
+            index += 1;
+            // cpfg draws once for the whole predecessor.
+            if let Some(c) = self.rng.cpfg_mut() {
+                c.skip_modules(1);
+            }
+            if let Some(left) = &mut st.left {
+                if !self.alphabet.ignored(k) {
+                    left.push(k, rd.bytes(s, e), self.alphabet.arity(k));
+                }
+            }
+        }
+        Ok(index)
     }
 
     /// Try the productions of `key`; emit the chosen successor.
@@ -793,18 +825,36 @@ impl<'a> Deriver<'a> {
         }
         // The nearest considered module to the left, looked up once.
         let last = st.left.as_ref().map(|l| l.last_key());
-        let chosen = chooser.choose(slots, table, kr, rng, origin, pass, |p, slots| {
-            // The right context of a run starts after it.
-            let end = if p.rest.is_empty() {
-                end_off
-            } else {
-                match st.match_run(end_off, &p.rest, al, slots)? {
-                    Some(e) => e,
-                    None => return Ok(false),
-                }
-            };
-            Ok(!surely_not(p, last, end, st, al)? && contexts_match(p, end, st, al, slots)?)
-        })?;
+        let chosen = if st.cpfg_choice {
+            choose_cpfg(
+                chooser,
+                slots,
+                (table, kr),
+                rng,
+                origin,
+                pass,
+                st,
+                al,
+                last,
+                end_off,
+            )?
+        } else {
+            // (Inlined: the cheap first look runs in the choice loop; a
+            // call per production tried costs the context rows ~10 %.)
+            chooser.choose_ls(
+                slots,
+                table,
+                kr,
+                rng,
+                origin,
+                pass,
+                #[inline(always)]
+                |p, slots| {
+                    Ok(!surely_not(p, last, end_off, st, al)?
+                        && contexts_match(p, end_off, st, al, slots)?)
+                },
+            )?
+        };
         let Some(pi) = chosen else {
             return Ok(false);
         };
@@ -874,6 +924,66 @@ impl<'a> Deriver<'a> {
     }
 }
 
+/// [`Deriver::apply`]'s choice for a `.l` file (cpfg's choice, and
+/// predecessors of several modules, whose right context starts after the
+/// run): out of line, so that the `.ls` path's loop holds none of it.
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn choose_cpfg(
+    chooser: &mut Chooser,
+    slots: &mut [f64],
+    (table, kr): (&Table, &KeyRules),
+    rng: &mut Random,
+    origin: &Origin,
+    pass: Pass,
+    st: &mut StepState,
+    al: &Alphabet,
+    last: Option<Option<u32>>,
+    end_off: u64,
+) -> Result<Option<u32>, Error> {
+    if rng.cpfg_mut().is_none() {
+        // (Predecessors of several modules without cpfg's generator: not
+        // made by the front ends; the general choice.)
+        return chooser.choose(slots, table, kr, rng, origin, pass, |p, slots| {
+            run_contexts(p, slots, st, al, last, end_off)
+        });
+    }
+    chooser.choose_cpfg_here(
+        slots,
+        table,
+        kr,
+        rng,
+        origin,
+        pass,
+        #[inline(always)]
+        |p, slots| run_contexts(p, slots, st, al, last, end_off),
+    )
+}
+
+/// Does `p`, a predecessor of one module or of several (cpfg dialect),
+/// match at the module ending at `end_off`, with its contexts? Binds the
+/// run's and the contexts' parameters.
+#[inline(always)]
+fn run_contexts(
+    p: &Production,
+    slots: &mut [f64],
+    st: &mut StepState,
+    al: &Alphabet,
+    last: Option<Option<u32>>,
+    end_off: u64,
+) -> Result<bool, Error> {
+    // The right context of a run starts after it.
+    let end = if p.rest.is_empty() {
+        end_off
+    } else {
+        match st.match_run(end_off, &p.rest, al, slots)? {
+            Some(e) => e,
+            None => return Ok(false),
+        }
+    };
+    Ok(!surely_not(p, last, end, st, al)? && contexts_match(p, end, st, al, slots)?)
+}
+
 /// A step made a `]` without `[`: blame `culprit`.
 fn unbalanced(origin: &Origin, table: &Table, culprit: Option<u32>, pass: Pass) -> Error {
     let p = &table.prods[culprit.unwrap_or(0) as usize];
@@ -928,7 +1038,7 @@ fn right_cpfg(
 }
 
 /// Do production `p`'s contexts match here? Binds their parameters.
-#[inline(always)]
+#[inline]
 fn contexts_match(
     p: &Production,
     end_off: u64,
