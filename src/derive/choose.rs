@@ -216,18 +216,7 @@ impl Chooser {
             if !self.matches(slots, p, rng, origin, pass, contexts)? {
                 continue;
             }
-            let w = match &p.prob {
-                None => 1.0,
-                Some(c) => c
-                    .eval(slots, &mut self.stack, rng)
-                    .map_err(|e| origin.eval_error(e, pass))?,
-            };
-            if w < 0.0 {
-                return Err(Error::at(
-                    origin.locate(p.prob.as_ref().unwrap().span.0),
-                    crate::diag::RuntimeError::NegativeProbability { value: w, pass },
-                ));
-            }
+            let w = self.weight(slots, p, rng, origin, pass)?;
             if w > 0.0 {
                 total += w;
                 self.cand.push((pi, w));
@@ -260,7 +249,39 @@ impl Chooser {
                 i
             }
         };
-        // Restore the chosen production's bindings.
+        Ok(Some(self.restore(slots, table, pick)))
+    }
+
+    /// A matching production's weight (1 without one); negative is an
+    /// error. Both dialects' weighted choices.
+    #[inline(always)]
+    fn weight(
+        &mut self,
+        slots: &mut [f64],
+        p: &Production,
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+    ) -> Result<f64, Error> {
+        let Some(c) = &p.prob else {
+            return Ok(1.0);
+        };
+        let w = c
+            .eval(slots, &mut self.stack, rng)
+            .map_err(|e| origin.eval_error(e, pass))?;
+        if w < 0.0 {
+            return Err(Error::at(
+                origin.locate(c.span.0),
+                crate::diag::RuntimeError::NegativeProbability { value: w, pass },
+            ));
+        }
+        Ok(w)
+    }
+
+    /// Candidate `pick` of a weighted choice: its production, with its
+    /// bindings restored into `slots`.
+    #[inline(always)]
+    fn restore(&self, slots: &mut [f64], table: &Table, pick: usize) -> u32 {
         let pi = self.cand[pick].0;
         let off: usize = self.cand[..pick]
             .iter()
@@ -268,7 +289,7 @@ impl Chooser {
             .sum();
         let n = table.prods[pi as usize].nslots;
         slots[..n].copy_from_slice(&self.cand_slots[off..off + n]);
-        Ok(Some(pi))
+        pi
     }
 
     /// cpfg's choice (a `.l` file, README "Coming from cpfg"): the first
@@ -338,18 +359,7 @@ impl Chooser {
             if !self.matches_cpfg(slots, p, rng, origin, pass, contexts)? {
                 continue;
             }
-            let w = match &p.prob {
-                None => 1.0,
-                Some(c) => c
-                    .eval(slots, &mut self.stack, rng)
-                    .map_err(|e| origin.eval_error(e, pass))?,
-            };
-            if w < 0.0 {
-                return Err(Error::at(
-                    origin.locate(p.prob.as_ref().unwrap().span.0),
-                    format!("a probability cannot be negative ({w}, in {pass})"),
-                ));
-            }
+            let w = self.weight(slots, p, rng, origin, pass)?;
             self.cand.push((pi, w));
             self.cand_slots.extend_from_slice(&slots[..p.nslots]);
         }
@@ -359,14 +369,8 @@ impl Chooser {
         let Some(pick) = select(self.cand.iter().map(|&(_, w)| w as f32), u) else {
             return Ok(None);
         };
-        // Restore the chosen production's bindings.
-        let pi = self.cand[pick].0;
-        let off: usize = self.cand[..pick]
-            .iter()
-            .map(|(q, _)| table.prods[*q as usize].nslots)
-            .sum();
+        let pi = self.restore(slots, table, pick);
         let p = &table.prods[pi as usize];
-        slots[..p.nslots].copy_from_slice(&self.cand_slots[off..off + p.nslots]);
         self.post(slots, p, rng, origin, pass).map(|()| Some(pi))
     }
     /// [`Chooser::matches`] with cpfg's pre-condition block: contexts,
