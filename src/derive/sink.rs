@@ -282,14 +282,15 @@ impl<'w> Out<'w> {
 
     #[inline]
     pub fn constant(&mut self, c: &ConstRun) -> Result<(), Error> {
-        self.modules += c.modules();
+        let modules = c.modules();
+        self.modules += modules;
         if self.text {
             self.buf.extend_from_slice(c.text());
         } else if self.indexed.is_none() {
             self.buf.extend_from_slice(c.bin());
         } else {
             let base = self.buf.len();
-            let start = self.modules - c.modules();
+            let start = self.modules - modules;
             let ibin = c.ibin();
             // Without counts, each `[` of `ibin` has bytes to leave out.
             let extra = INDEX_BYTES - self.index_len();

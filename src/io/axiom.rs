@@ -201,12 +201,23 @@ impl<'a> AxiomReader<'a> {
         let avail = self.input.fill(64)?;
         let n = avail.len();
         let mut i = 0;
-        while i < n && PLAIN[avail[i] as usize] {
-            // A `/` that opens a comment, or may (the last byte buffered).
-            if avail[i] == b'/' && self.comments && (i + 1 == n || comment::opens(&avail[i..])) {
-                break;
+        // With comments, `/` stops the table's loop: it is plain unless it
+        // opens a comment, or may (the last byte buffered). One table look-up
+        // per byte on the way.
+        let table = if self.comments {
+            &PLAIN_BUT_SLASH
+        } else {
+            &PLAIN
+        };
+        loop {
+            while i < n && table[avail[i] as usize] {
+                i += 1;
             }
-            i += 1;
+            if self.comments && i + 1 < n && avail[i] == b'/' && !comment::opens(&avail[i..]) {
+                i += 1;
+                continue;
+            }
+            break;
         }
         // The last symbol may take parameters, after blanks and comments
         // too (`F(1)`, `F (1)`, `F/* c */(1)`, `F\u{a0}(1)`), or sit at the
@@ -472,6 +483,13 @@ static PLAIN: [bool; 256] = {
         t[b] = !matches!(b as u8, b'(' | b')' | b':' | b'<' | b'>');
         b += 1;
     }
+    t
+};
+
+/// [`PLAIN`] without `/`, which may open a comment.
+static PLAIN_BUT_SLASH: [bool; 256] = {
+    let mut t = PLAIN;
+    t[b'/' as usize] = false;
     t
 };
 
