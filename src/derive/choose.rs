@@ -174,13 +174,7 @@ impl Chooser {
         if !contexts(p, slots)? {
             return Ok(false);
         }
-        match &p.cond {
-            None => Ok(true),
-            Some(c) => match c.eval(slots, &mut self.stack, rng) {
-                Ok(v) => Ok(v != 0.0),
-                Err(e) => Err(origin.eval_error(e, pass)),
-            },
-        }
+        self.condition(slots, p, rng, origin, pass)
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -373,6 +367,25 @@ impl Chooser {
         let p = &table.prods[pi as usize];
         self.post(slots, p, rng, origin, pass).map(|()| Some(pi))
     }
+    /// `p`'s condition (true without one), in both dialects.
+    #[inline(always)]
+    fn condition(
+        &mut self,
+        slots: &mut [f64],
+        p: &Production,
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+    ) -> Result<bool, Error> {
+        match &p.cond {
+            None => Ok(true),
+            Some(c) => match c.eval(slots, &mut self.stack, rng) {
+                Ok(v) => Ok(v != 0.0),
+                Err(e) => Err(origin.eval_error(e, pass)),
+            },
+        }
+    }
+
     /// [`Chooser::matches`] with cpfg's pre-condition block: contexts,
     /// the block (also when the condition then fails), the condition.
     #[inline(always)]
@@ -395,13 +408,7 @@ impl Chooser {
             b.run(slots, &mut self.stack, rng)
                 .map_err(|e| origin.eval_error(e, pass))?;
         }
-        match &p.cond {
-            None => Ok(true),
-            Some(c) => match c.eval(slots, &mut self.stack, rng) {
-                Ok(v) => Ok(v != 0.0),
-                Err(e) => Err(origin.eval_error(e, pass)),
-            },
-        }
+        self.condition(slots, p, rng, origin, pass)
     }
 
     /// cpfg's post-condition block of the chosen production `p` (locals in

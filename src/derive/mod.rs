@@ -400,17 +400,18 @@ pub(crate) fn derive(
     } else {
         strategy
     };
+    // The step engine's tables, for frames and for step-by-step passes.
+    let tables = Tables {
+        productions: &productions,
+        groups: &groups,
+        schedule: &schedule,
+        group_expr: group_expr.as_ref(),
+        hom_seed,
+        fixed_points: !structural && !blocks,
+        plain: !step_only,
+    };
     if let Some((frames, frame_sink)) = frames {
         let cur = cur.take().expect("generation 0 in a file");
-        let tables = Tables {
-            productions: &productions,
-            groups: &groups,
-            schedule: &schedule,
-            group_expr: group_expr.as_ref(),
-            hom_seed,
-            fixed_points: !structural && !blocks,
-            plain: !step_only,
-        };
         let tables = (&tables, &homomorphism, hom);
         let names = (frame_sink, tmp_name.as_str());
         return frame_passes(
@@ -526,15 +527,6 @@ pub(crate) fn derive(
         &mut discard
     } else {
         output
-    };
-    let tables = Tables {
-        productions: &productions,
-        groups: &groups,
-        schedule: &schedule,
-        group_expr: group_expr.as_ref(),
-        hom_seed,
-        fixed_points: !structural && !blocks,
-        plain: !step_only,
     };
     let stepwise = step_passes(
         &mut d,
