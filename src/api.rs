@@ -296,10 +296,10 @@ impl LSystem {
             bytes.extend_from_slice(&input.available()[..n]);
             input.consume(n);
             if bytes.len() > limit {
-                return Err(Error::new(format!(
-                    "{path}: file larger than {} MiB",
-                    limit >> 20
-                )));
+                return Err(Error::new(crate::diag::LexicalError::FileTooLarge {
+                    path,
+                    mib: limit as u64 >> 20,
+                }));
             }
         }
         let bytes = bytes

@@ -507,9 +507,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         // files need it. Say so before any job.
         let to_stdout = args.output.as_ref().is_some_and(|p| p.as_os_str() == "-");
         if args.frames.is_some() && !to_stdout && !t.uses(Field::N) {
-            return Err(Error::usage(
-                "`--frames` with `-o` needs `{n}` (the generation number) in the file name",
-            ));
+            return Err(Error::new(crate::diag::UsageError::FramesNeedN));
         }
         t.expand(&Vars {
             stem: Some("x"),
@@ -571,34 +569,24 @@ fn check_batch(
 ) -> Result<(), Error> {
     let stdin_file = files.iter().any(|f| f.is_none_or(|p| p.as_os_str() == "-"));
     if stdin_file {
-        return Err(Error::usage(
-            "standard input can feed one job only: a batch (several files or seeds) needs file names",
-        ));
+        return Err(Error::new(crate::diag::UsageError::StdinInBatch));
     }
     if args.axiom.as_ref().is_some_and(|p| p.as_os_str() == "-") {
-        return Err(Error::usage(
-            "`--axiom -` can feed one job only: a batch needs an axiom file",
-        ));
+        return Err(Error::new(crate::diag::UsageError::StdinAxiomInBatch));
     }
     if args.check {
         // Nothing is written: no names to tell apart.
         return Ok(());
     }
     let Some(t) = template.filter(|t| !t.is_plain()) else {
-        return Err(Error::usage(
-            "several jobs (files or seeds) need -o with a template, e.g. -o 'out/{stem}-{seed}.txt', so that each has its own file",
-        ));
+        return Err(Error::new(crate::diag::UsageError::BatchNeedsTemplate));
     };
     if seeds > 1 && !t.uses(Field::Seed) {
-        return Err(Error::usage(
-            "a seed range needs `{seed}` in the -o template, so that each seed has its own file",
-        ));
+        return Err(Error::new(crate::diag::UsageError::SeedRangeNeedsSeed));
     }
     if files.len() > 1 {
         if !t.uses(Field::Stem) {
-            return Err(Error::usage(
-                "several files need `{stem}` in the -o template, so that each has its own file",
-            ));
+            return Err(Error::new(crate::diag::UsageError::FilesNeedStem));
         }
         let mut stems: Vec<(String, &Path)> = files
             .iter()
@@ -608,12 +596,11 @@ fn check_batch(
         stems.sort();
         for w in stems.windows(2) {
             if w[0].0 == w[1].0 {
-                return Err(Error::usage(format!(
-                    "{} and {} have the same {{stem}} `{}`: their outputs would collide",
-                    w[0].1.display(),
-                    w[1].1.display(),
-                    w[0].0
-                )));
+                return Err(Error::new(crate::diag::UsageError::SameStem {
+                    first: w[0].1.to_path_buf(),
+                    second: w[1].1.to_path_buf(),
+                    stem: w[0].0.clone(),
+                }));
             }
         }
     }
@@ -691,9 +678,7 @@ fn run_one(
     let file_is_stdin = job.file.is_none_or(|p| p.as_os_str() == "-");
     let axiom_is_stdin = args.axiom.as_ref().is_some_and(|p| p.as_os_str() == "-");
     if file_is_stdin && axiom_is_stdin {
-        return Err(Error::usage(
-            "the L-system and `--axiom -` cannot both come from standard input",
-        ));
+        return Err(Error::new(crate::diag::UsageError::BothFromStdin));
     }
     let input = open_input(job.file)?;
     let mut ls = LSystem::load_dialect(input, job.seed, args.dialect.unwrap_or_default())?;

@@ -117,13 +117,18 @@ pub fn group_digits(n: u64) -> String {
 
 /// Print a located warning (`lsgen: FILE:LINE:COL: warning: ...`, the
 /// source line and a caret) on standard error.
-pub fn warn(location: Location, message: &str) {
-    let e = Error::at(location, message);
-    eprint(&format!("lsgen: {}", Warning(&e)));
+pub(crate) fn warn(location: Location, warning: &Warning) {
+    eprint(&format!(
+        "lsgen: {}",
+        AsWarning(&location, &warning.to_string())
+    ));
 }
 
+mod cpfg;
 mod kinds;
+mod warning;
 pub use kinds::*;
+pub(crate) use warning::Warning;
 
 /// An error: what went wrong ([`ErrorKind`], typed by stage), where (a
 /// [`Location`] in the source, or a subject such as a file name), boxed so
@@ -170,11 +175,6 @@ impl Error {
         let mut e = Error::new(kind);
         e.0.subject = Some(subject.into());
         e
-    }
-
-    /// A usage error of a binary's command line.
-    pub fn usage(message: impl Into<String>) -> Error {
-        Error::new(UsageError::CommandLine(message.into()))
     }
 
     /// An I/O error about `subject` while doing `action`.
@@ -252,37 +252,43 @@ impl fmt::Display for Error {
 }
 
 fn render(f: &mut fmt::Formatter<'_>, e: &Error, severity: &str) -> fmt::Result {
-    let message = e.message();
     match (&e.0.location, &e.0.subject) {
-        (Some(l), _) => {
-            writeln!(f, "{}:{}:{}: {severity}: {message}", l.path, l.line, l.col)?;
-            // Control characters (a NUL, a stray `\r`) are shown as
-            // U+FFFD, as undecodable bytes are: never sent raw.
-            let shown: String = l
-                .snippet
-                .chars()
-                .map(|c| {
-                    if c.is_control() && c != '\t' {
-                        '\u{FFFD}'
-                    } else {
-                        c
-                    }
-                })
-                .collect();
-            writeln!(f, "{shown}")?;
-            writeln!(f, "{}^", caret_pad(&l.snippet, l.caret_col))
-        }
-        (None, Some(s)) => writeln!(f, "{s}: {severity}: {message}"),
-        (None, None) => writeln!(f, "{severity}: {message}"),
+        (Some(l), _) => render_at(f, l, severity, &e.message()),
+        (None, Some(s)) => writeln!(f, "{s}: {severity}: {}", e.message()),
+        (None, None) => writeln!(f, "{severity}: {}", e.message()),
     }
 }
 
-/// An error rendered as a warning.
-struct Warning<'a>(&'a Error);
+fn render_at(
+    f: &mut fmt::Formatter<'_>,
+    l: &Location,
+    severity: &str,
+    message: &str,
+) -> fmt::Result {
+    writeln!(f, "{}:{}:{}: {severity}: {message}", l.path, l.line, l.col)?;
+    // Control characters (a NUL, a stray `\r`) are shown as
+    // U+FFFD, as undecodable bytes are: never sent raw.
+    let shown: String = l
+        .snippet
+        .chars()
+        .map(|c| {
+            if c.is_control() && c != '\t' {
+                '\u{FFFD}'
+            } else {
+                c
+            }
+        })
+        .collect();
+    writeln!(f, "{shown}")?;
+    writeln!(f, "{}^", caret_pad(&l.snippet, l.caret_col))
+}
 
-impl fmt::Display for Warning<'_> {
+/// A located warning message, rendered as an error is.
+struct AsWarning<'a>(&'a Location, &'a str);
+
+impl fmt::Display for AsWarning<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        render(f, self.0, "warning")
+        render_at(f, self.0, "warning", self.1)
     }
 }
 
@@ -290,6 +296,9 @@ impl std::error::Error for Error {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match &self.0.kind {
             ErrorKind::Io(e) => e
+                .os_error()
+                .map(|e| e as &(dyn std::error::Error + 'static)),
+            ErrorKind::Preprocess(e) => e
                 .os_error()
                 .map(|e| e as &(dyn std::error::Error + 'static)),
             _ => None,
@@ -331,7 +340,8 @@ mod tests {
         let source = std::error::Error::source(&e).expect("an I/O source");
         let io = source.downcast_ref::<std::io::Error>().unwrap();
         assert_eq!(io.raw_os_error(), Some(libc::ENOSPC));
-        assert!(std::error::Error::source(&Error::new("no source")).is_none());
+        let no_source = Error::new(RuntimeError::AlreadyDerived);
+        assert!(std::error::Error::source(&no_source).is_none());
         // `?` turns it into a boxed error.
         assert_eq!(e.stage(), Stage::Io);
         let boxed: Box<dyn std::error::Error + Send + Sync> = e.into();
@@ -383,8 +393,12 @@ mod tests {
             "p.ls:1:8: error: unexpected end of line\nF -> G(\n       ^\n"
         );
         assert_eq!(e.stage(), Stage::Parse);
-        assert_eq!(Error::usage("no").to_string(), "error: no\n");
-        assert_eq!(Error::usage("no").stage(), Stage::Usage);
+        let usage = Error::new(UsageError::FirstStepZero);
+        assert_eq!(
+            usage.to_string(),
+            "error: the first step is step 1 or later\n"
+        );
+        assert_eq!(usage.stage(), Stage::Usage);
         let e = Error::new(RuntimeError::AlreadyDerived).in_job("a.ls");
         assert_eq!(
             e.message(),
@@ -414,7 +428,13 @@ mod tests {
         // 漢 and 😀 are two columns wide, e\u{301} is one column.
         assert_eq!(caret_pad("漢😀e\u{301}\tx", 6), "     \t");
         let m = CodeMap::new("漢字 -> F>\n");
-        let e = Error::at(Location::from_map("p.ls", &m, 11), "unexpected `>`");
+        let e = Error::at(
+            Location::from_map("p.ls", &m, 11),
+            ParseError::Unexpected {
+                found: "`>`".into(),
+                expected: Expected::Nothing,
+            },
+        );
         assert_eq!(
             e.to_string(),
             "p.ls:1:8: error: unexpected `>`\n漢字 -> F>\n         ^\n"

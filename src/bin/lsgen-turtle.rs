@@ -75,10 +75,6 @@ struct Args {
     cylinders: bool,
 }
 
-fn usage(msg: String) -> Error {
-    Error::usage(msg)
-}
-
 fn options(a: Args) -> Result<Options, Error> {
     let mut v = View::default();
     if let Some(ls) = &a.ls {
@@ -127,15 +123,13 @@ fn options(a: Args) -> Result<Options, Error> {
         }
     }
     let format = match (&a.format, &a.output) {
-        (Some(f), _) => Format::parse(f)
-            .ok_or_else(|| usage(format!("unknown format `{f}` (svg, png, obj, segments)")))?,
+        (Some(f), _) => {
+            Format::parse(f).ok_or_else(|| Error::new(UsageError::UnknownFormat(f.clone())))?
+        }
         (None, Some(p)) => match p.extension().and_then(|e| e.to_str()) {
-            Some(e) => Format::parse(e).ok_or_else(|| {
-                usage(format!(
-                    "cannot tell the format from `{}`: give -f svg|png|obj|segments",
-                    p.display()
-                ))
-            })?,
+            Some(e) => {
+                Format::parse(e).ok_or_else(|| Error::new(UsageError::FormatFromName(p.clone())))?
+            }
             None => Format::Svg,
         },
         (None, None) => Format::Svg,

@@ -114,7 +114,7 @@ pub enum Setting {
     Ignore(Vec<(char, Span)>, Span),
     Consider(Vec<(char, Span)>, Span),
     /// `ring lsystem`, `define: { ... }`: refused by the lowering.
-    Unsupported(&'static str, Span),
+    Unsupported(crate::diag::Refused, Span),
 }
 
 /// A `decomposition` or `homomorphism` section.

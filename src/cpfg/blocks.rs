@@ -10,7 +10,7 @@
 //! error (cpfg would hang).
 
 use crate::derive::random::Draw;
-use crate::diag::ExprError;
+use crate::diag::{CompileError, ExprError};
 use crate::lang::lexer::Span;
 use crate::rules::expr::{Code, EvalError};
 
@@ -145,7 +145,7 @@ impl Format {
     /// Parse a C format string (escapes already decoded). The conversions
     /// `d i u o x X c f F e E g G` and `%%`; an error message otherwise.
     /// Returns the format and how many numbers it takes.
-    pub fn parse(s: &str) -> Result<(Format, usize), String> {
+    pub fn parse(s: &str) -> Result<(Format, usize), CompileError> {
         let mut pieces = Vec::new();
         let mut text = String::new();
         let mut it = s.chars().peekable();
@@ -203,8 +203,8 @@ impl Format {
                     c @ ('d' | 'i' | 'u' | 'o' | 'x' | 'X' | 'c' | 'f' | 'F' | 'e' | 'E' | 'g'
                     | 'G'),
                 ) => cv.conv = c as u8,
-                Some(c) => return Err(format!("printf: `%{c}` is not a conversion lsgen prints")),
-                None => return Err("printf: the format ends inside a `%` conversion".into()),
+                Some(c) => return Err(CompileError::PrintfConversion(c)),
+                None => return Err(CompileError::PrintfUnfinished),
             }
             if !text.is_empty() {
                 pieces.push(Piece::Text(std::mem::take(&mut text)));
@@ -377,7 +377,7 @@ mod tests {
         assert_eq!(fmt("%e %x %%", &[1234.5, 255.0]), "1.234500e+03 ff %");
         assert_eq!(fmt("%.3g %G", &[0.00012345, 1e20]), "0.000123 1E+20");
         assert_eq!(
-            Format::parse("%d and %s").err().unwrap(),
+            Format::parse("%d and %s").err().unwrap().to_string(),
             "printf: `%s` is not a conversion lsgen prints"
         );
         assert_eq!(Format::parse("a %g b %5.1f").unwrap().1, 2);

@@ -11,7 +11,8 @@
 //! recognised in both states, as cpfg's lexer does. A newline followed by
 //! a TAB continues the statement; a newline inside `{ }` is a blank.
 
-use crate::lang::parse::UserError;
+use crate::diag::{Expected, LexicalError, ParseError as Syntax, Refused};
+use crate::lang::parse::{HeaderError, UserError};
 use logos::Logos;
 use std::fmt;
 
@@ -341,8 +342,8 @@ impl<'a> Lexer<'a> {
         }
     }
 
-    fn err(&self, at: usize, len: usize, message: impl Into<String>) -> UserError {
-        UserError::new((at, at + len), message.into())
+    fn err(&self, at: usize, len: usize, kind: impl Into<HeaderError>) -> UserError {
+        UserError::new((at, at + len), kind)
     }
 
     fn next_token(&mut self) -> Option<Spanned<'a>> {
@@ -452,11 +453,7 @@ impl<'a> Lexer<'a> {
                     Ok((s, _, e)) => {
                         self.expr_tokens += 1;
                         if self.expr_tokens > MAX_EXPR_TOKENS {
-                            return Some(Err(self.err(
-                                *s,
-                                e - s,
-                                format!("expression too long (over {MAX_EXPR_TOKENS} tokens)"),
-                            )));
+                            return Some(Err(self.err(*s, e - s, LexicalError::ExpressionTooLong)));
                         }
                     }
                     Err(_) => {}
@@ -492,14 +489,7 @@ impl<'a> Lexer<'a> {
                     Tok::LParen
                 }
                 c if c.is_control() => {
-                    return Err(self.err(
-                        i,
-                        c.len_utf8(),
-                        format!(
-                            "control character `{}` cannot be a symbol",
-                            c.escape_default()
-                        ),
-                    ))
+                    return Err(self.err(i, c.len_utf8(), LexicalError::ControlChar(c)))
                 }
                 c => Tok::Sym(c),
             };
@@ -513,21 +503,14 @@ impl<'a> Lexer<'a> {
         let rest = &self.src[i..];
         let mut lx = ExprTok::lexer(rest);
         let Some(t) = lx.next() else {
-            return Err(self.err(i, 1, "unexpected end of input"));
+            return Err(self.err(i, 1, Syntax::UnexpectedEof(Expected::Nothing)));
         };
         let span = lx.span();
         let (s, e) = (i + span.start, i + span.end);
         let text = &self.src[s..e];
         let Ok(t) = t else {
             let c = rest.chars().next().unwrap_or('?');
-            return Err(self.err(
-                i,
-                c.len_utf8(),
-                format!(
-                    "unexpected character `{}` in an expression",
-                    c.escape_default()
-                ),
-            ));
+            return Err(self.err(i, c.len_utf8(), LexicalError::ExpressionChar(c)));
         };
         self.pos = e;
         let tok = match t {
@@ -538,15 +521,17 @@ impl<'a> Lexer<'a> {
                     return Err(self.err(
                         s,
                         e - s,
-                        format!(
-                            "cpfg needs a dot in an exponent literal (`1.0e6`, not `1e6`): `{text}`"
-                        ),
+                        LexicalError::ExponentWithoutDot(text.to_string()),
                     ));
                 }
                 match text.parse::<f64>() {
                     Ok(v) if v.is_finite() => Tok::Num(v),
                     _ => {
-                        return Err(self.err(s, e - s, format!("number `{text}` is out of range")))
+                        return Err(self.err(
+                            s,
+                            e - s,
+                            LexicalError::NumberOutOfRange(text.to_string()),
+                        ))
                     }
                 }
             }
@@ -559,7 +544,7 @@ impl<'a> Lexer<'a> {
             },
             ExprTok::Str => {
                 if !text.ends_with('"') || text.len() < 2 {
-                    return Err(self.err(s, e - s, "unterminated string"));
+                    return Err(self.err(s, e - s, LexicalError::UnterminatedString));
                 }
                 Tok::Str(unescape(&text[1..text.len() - 1]))
             }
@@ -578,9 +563,7 @@ impl<'a> Lexer<'a> {
             ExprTok::AndAnd => Tok::AndAnd,
             ExprTok::OrOr => Tok::OrOr,
             ExprTok::Assign => Tok::Assign,
-            ExprTok::Amp => {
-                return Err(self.err(s, 1, "`&` (an address) is not supported: write `&&`"))
-            }
+            ExprTok::Amp => return Err(self.err(s, 1, Syntax::Refused(Refused::Address))),
             ExprTok::Plus => Tok::Plus,
             ExprTok::Minus => Tok::Minus,
             ExprTok::Star => Tok::Star,
@@ -611,11 +594,7 @@ impl<'a> Lexer<'a> {
                 self.nesting += 1;
                 self.braces += 1;
                 if self.braces > MAX_BLOCK_DEPTH {
-                    return Err(self.err(
-                        s,
-                        1,
-                        format!("blocks nested too deep (over {MAX_BLOCK_DEPTH})"),
-                    ));
+                    return Err(self.err(s, 1, LexicalError::BlocksNestedTooDeeply));
                 }
                 Tok::LBrace
             }

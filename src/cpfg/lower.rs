@@ -18,16 +18,17 @@
 use super::ast::{self, Block, Expr, Module, Production, Section, Setting};
 use super::blocks;
 use super::run::CpfgRun;
+use crate::diag::{CompileError as Invalid, Warning};
 use crate::lang::ast as ls;
 use crate::lang::lexer::Span;
-use crate::lang::parse::UserError;
+use crate::lang::parse::{HeaderError, UserError};
 use crate::rules::expr::{Code, Scope, STEP_SLOT};
 use std::collections::HashMap;
 
 type R<T> = Result<T, UserError>;
 
-fn err<T>(span: Span, msg: impl Into<String>) -> R<T> {
-    Err(UserError::new(span, msg.into()))
+fn err<T>(span: Span, kind: impl Into<HeaderError>) -> R<T> {
+    Err(UserError::new(span, kind))
 }
 
 /// A lowered `.l` file.
@@ -160,7 +161,7 @@ struct Lowerer<'w> {
     seeded: bool,
     /// Lowering a value needed before the derivation (`Q` is 0).
     constant: bool,
-    warn: &'w mut dyn FnMut(Span, String),
+    warn: &'w mut dyn FnMut(Span, Warning),
     /// Global variables: every name of the header blocks (cpfg's L-system
     /// symbol table), by number.
     globals: HashMap<String, u32>,
@@ -196,20 +197,14 @@ impl Lowerer<'_> {
                 } else if let (Some(z), "Z") = (self.z, name.as_str()) {
                     ls::Expr::Num(z, *s)
                 } else {
-                    (self.warn)(
-                        *s,
-                        format!("`{name}` is not defined: it is 0 here, as in cpfg"),
-                    );
+                    (self.warn)(*s, Warning::NotDefined(name.clone()));
                     ls::Expr::Num(0.0, *s)
                 }
             }
-            Expr::Str(_, s) => return err(*s, "a string is only for `printf` and `fprintf`"),
+            Expr::Str(_, s) => return err(*s, Invalid::StringValue),
             Expr::Call(name, args, s) => {
                 if name == "printf" || name == "fprintf" {
-                    return err(
-                        *s,
-                        format!("`{name}` is a statement of a block, not a value"),
-                    );
+                    return err(*s, Invalid::StatementAsValue(name.clone()));
                 }
                 let args = args
                     .iter()
@@ -250,19 +245,23 @@ impl Lowerer<'_> {
         let code = Code::compile(&e, &scope).map_err(|x| UserError::new(x.span, x.kind))?;
         match code.constant() {
             Some(v) => Ok(v),
-            None => err(
-                e.span(),
-                "this value must be known before the derivation (a constant expression)",
-            ),
+            None => err(e.span(), Invalid::NotConstant),
         }
     }
 
-    fn whole(&mut self, e: &Expr, what: &str, max: f64) -> R<f64> {
+    fn whole(&mut self, e: &Expr, what: &'static str, max: f64) -> R<f64> {
         let v = self.constant(e)?;
         // cpfg converts with C's (int): truncation.
         let v = v.trunc();
         if !(0.0..=max).contains(&v) {
-            return err(e.span(), format!("{what} must be from 0 to {max}, not {v}"));
+            return err(
+                e.span(),
+                Invalid::OutOfRange {
+                    what,
+                    max,
+                    value: v,
+                },
+            );
         }
         Ok(v)
     }
@@ -291,21 +290,11 @@ impl Lowerer<'_> {
                 match e {
                     Expr::Var(name, s) => {
                         if formals.insert(name.clone(), ()).is_some() {
-                            return err(
-                                *s,
-                                format!(
-                                    "formal parameter `{name}` is named twice in this production (cpfg: multiple definition)"
-                                ),
-                            );
+                            return err(*s, Invalid::FormalTwice(name.clone()));
                         }
                         params.push(ls::Expr::Var(formal_name(name), *s));
                     }
-                    other => {
-                        return err(
-                            other.span(),
-                            "a formal parameter must be a name (values go in the successor or the condition)",
-                        )
-                    }
+                    other => return err(other.span(), Invalid::FormalNotName),
                 }
             }
             out.push(ls::Module {
@@ -340,10 +329,7 @@ impl Lowerer<'_> {
                     } else if let Some(&l) = self.locals.get(name) {
                         blocks::Var::Global(l)
                     } else {
-                        return err(
-                            *name_span,
-                            format!("`{name}` cannot be assigned (cpfg's built-in variables `Q` and `Z` are read only)"),
-                        );
+                        return err(*name_span, Invalid::ReadOnly(name.clone()));
                     };
                     blocks::Stmt::Assign(var, self.code(value, formals, names)?)
                 }
@@ -372,11 +358,10 @@ impl Lowerer<'_> {
                     if n != args.len() {
                         return err(
                             *span,
-                            format!(
-                                "printf: the format takes {n} value{}, {} given",
-                                if n == 1 { "" } else { "s" },
-                                args.len()
-                            ),
+                            Invalid::PrintfArity {
+                                takes: n,
+                                given: args.len(),
+                            },
                         );
                     }
                     let args = args
@@ -406,19 +391,13 @@ impl Lowerer<'_> {
         Code::compile(&e, &scope).map_err(|x| UserError::new(x.span, x.kind))
     }
 
-    fn production(&mut self, p: &Production, section: &str) -> R<ls::Production> {
+    fn production(&mut self, p: &Production, section: &'static str) -> R<ls::Production> {
         if p.pred.len() > 1 && !section.is_empty() {
             let s = (
                 p.pred[0].span.0,
                 p.pred.last().map_or(p.span.1, |m| m.span.1),
             );
-            return err(
-                s,
-                format!(
-                    "a predecessor of several modules (`AB --> C`) is supported among the L-system's productions, not in the {}",
-                    section.trim_end()
-                ),
-            );
+            return err(s, Invalid::SeveralModules(section));
         }
         let mut formals = HashMap::new();
         let left = match &p.left {
@@ -484,19 +463,11 @@ impl Lowerer<'_> {
             // Without `seed:` the weights are ignored at run time, as in
             // cpfg, unless `--seed` stands for `seed:` (README).
             Some(e) if section.is_empty() => {
-                (self.warn)(
-                    e.span(),
-                    "a probability without `seed:` is ignored, as in cpfg (the first applicable production applies; `--seed` makes it count)".to_string(),
-                );
+                (self.warn)(e.span(), Warning::ProbabilityWithoutSeed);
                 Some(Box::new(self.expr(e, &formals)?))
             }
             Some(e) => {
-                (self.warn)(
-                    e.span(),
-                    format!(
-                        "a probability in the {section}section is ignored, as in cpfg (the first applicable {section}production applies)"
-                    ),
-                );
+                (self.warn)(e.span(), Warning::ProbabilityInSection(section));
                 None
             }
         };
@@ -513,7 +484,11 @@ impl Lowerer<'_> {
         })
     }
 
-    fn section(&mut self, s: &Section, name: &str) -> R<(ls::Section, Vec<ls::Production>)> {
+    fn section(
+        &mut self,
+        s: &Section,
+        name: &'static str,
+    ) -> R<(ls::Section, Vec<ls::Production>)> {
         let mut settings = Vec::new();
         if let Some((e, span)) = &s.depth {
             let v = self.constant(e)?;
@@ -545,7 +520,7 @@ impl Lowerer<'_> {
 }
 
 /// Lower `ls`; `warn` receives each warning with its span.
-pub fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, String)) -> R<Lowered> {
+pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, Warning)) -> R<Lowered> {
     let mut lw = Lowerer {
         z: None,
         seeded: false,
@@ -578,7 +553,9 @@ pub fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, String)) -> R<Lower
     let mut filter = None;
     for s in &lsys.settings {
         match s {
-            Setting::Unsupported(msg, span) => return err(*span, *msg),
+            Setting::Unsupported(what, span) => {
+                return err(*span, crate::diag::ParseError::Refused(what.clone()))
+            }
             Setting::Seed(e, span) => {
                 // seed48 keeps 16 bits; the shared setting keeps the value.
                 let v = lw.whole(e, "the seed", 9.007_199_254_740_992e15)?;
@@ -646,14 +623,14 @@ pub fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, String)) -> R<Lower
             }
             let v = f64::from(lw.constant(e)? as f32);
             if !v.is_finite() {
-                return err(e.span(), "this value does not fit cpfg's 32-bit float");
+                return err(e.span(), Invalid::OutOfF32);
             }
             axiom.push_str(&crate::rules::codec::number_string(v));
         }
         axiom.push(')');
     }
     if lsys.axiom.is_empty() {
-        return err(lsys.axiom_span, "the axiom is empty");
+        return err(lsys.axiom_span, Invalid::EmptyAxiom);
     }
     // Header blocks: globals only (after the settings, which set `Z`).
     let mut run = CpfgRun::default();
@@ -702,7 +679,7 @@ mod tests {
     fn lowered(src: &str) -> (R<Lowered>, Vec<String>) {
         let mut warnings = Vec::new();
         let ls = parse(src).unwrap();
-        let r = lower(&ls, &mut |_, m| warnings.push(m));
+        let r = lower(&ls, &mut |_, m| warnings.push(m.to_string()));
         (r, warnings)
     }
 

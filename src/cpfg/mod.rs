@@ -132,8 +132,8 @@ pub fn load(name: &str, source: &str) -> Result<Loaded, Error> {
     let map = out.map;
     let text = out.text;
     let tree = parse::parse(&text).map_err(|e| locate(&map, e))?;
-    let lowered = lower::lower(&tree, &mut |span, msg| {
-        crate::diag::warn(map.location(span.0), &msg)
+    let lowered = lower::lower(&tree, &mut |span, warning| {
+        crate::diag::warn(map.location(span.0), &warning)
     })
     .map_err(|e| locate(&map, e))?;
     Ok(Loaded {

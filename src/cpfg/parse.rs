@@ -4,6 +4,7 @@
 
 use super::ast;
 use super::lexer::{Lexer, Spanned, Tok};
+use crate::diag::{Expected, ParseError as Syntax, Refused};
 use crate::lang::parse::UserError;
 use lalrpop_util::{lalrpop_mod, ParseError};
 
@@ -98,8 +99,8 @@ impl<'a> Iterator for Checked<'a> {
     }
 }
 
-fn at(span: (usize, usize), message: impl Into<String>) -> Option<UserError> {
-    Some(UserError::new(span, message.into()))
+fn at(span: (usize, usize), refused: Refused) -> Option<UserError> {
+    Some(UserError::new(span, Syntax::Refused(refused)))
 }
 
 /// Is the token `(l, t, r)` (followed by `next`) a construct lsgen
@@ -112,163 +113,116 @@ fn refusal(
     let span = (l, r);
     let next = next_tok.map(|n| &n.1);
     match t {
-            Tok::KwLsystem => {
-                *lsystems += 1;
-                if *lsystems > 1 {
-                    return at(
-                        span,
-                        "a second `Lsystem:`: several L-systems in one file (cpfg's sub-L-systems) are not supported; lsgen derives one L-system per file",
-                    );
-                }
+        Tok::KwLsystem => {
+            *lsystems += 1;
+            if *lsystems > 1 {
+                return at(span, Refused::SecondLsystem);
             }
-            Tok::KwRing => {
-                return at(
-                    span,
-                    "`ring lsystem` is not supported: lsgen derives open strings (no ring of modules)",
-                )
-            }
-            Tok::KwDefine => {
-                return at(
-                    span,
-                    "`define:` (cpfg's arrays) is not supported: lsgen has no arrays; use `#define` for constants",
-                )
-            }
-            Tok::ObjArrow => {
-                return at(
-                    span,
-                    "`-o>` (an object production, for cpfg's surfaces and objects) is not supported: lsgen rewrites strings only",
-                )
-            }
-            Tok::Sym('?') => {
-                let what = match next {
-                    Some(Tok::Sym(c @ ('P' | 'H' | 'L' | 'U'))) => format!(
-                        "`?{c}` (a query of the turtle's state) needs cpfg's turtle interpretation between steps"
-                    ),
-                    Some(Tok::Sym('E')) => {
-                        "`?E` (communication with an environment program) needs cpfg's environment process".to_string()
-                    }
-                    Some(Tok::LParen) => {
-                        "`?(id,s)` (a sub-L-system call) needs cpfg's sub-L-systems".to_string()
-                    }
-                    _ => "a `?` query module needs cpfg's interpretation or environment".to_string(),
-                };
-                return at(span, format!("{what}: not supported by lsgen, which only rewrites strings"));
-            }
-            Tok::Sym('$') => {
-                return at(
-                    span,
-                    "`$` (the end of a sub-L-system) is not supported: lsgen has no sub-L-systems",
-                )
-            }
-            Tok::Sym('@') if next == Some(&Tok::Sym('S')) => {
-                return at(
-                    (l, next_tok.map_or(r, |n| n.2)),
-                    "`@S` (a surface from cpfg's surface files) is not supported: lsgen has no surfaces",
-                )
-            }
-            Tok::Name(n) if *n == "atan2" && next == Some(&Tok::LParen) => {
-                return at(
-                    span,
-                    "`atan2` is reserved in cpfg but a syntax error there: use `atan(y / x)`",
-                )
-            }
-            Tok::Name(n) if UNSUPPORTED_FUNCTIONS.contains(n) => {
-                return at(
-                    span,
-                    format!("`{n}` is not supported: it needs cpfg's function files, curves, view or animation"),
-                )
-            }
-            Tok::Name(n) if next == Some(&Tok::LBracket) => {
-                return at(
-                    span,
-                    format!("`{n}[...]`: arrays are not supported by lsgen"),
-                )
-            }
-            _ => {}
+        }
+        Tok::KwRing => return at(span, Refused::Ring),
+        Tok::KwDefine => return at(span, Refused::Define),
+        Tok::ObjArrow => return at(span, Refused::ObjectProduction),
+        Tok::Sym('?') => {
+            let what = match next {
+                Some(Tok::Sym(c @ ('P' | 'H' | 'L' | 'U'))) => Refused::TurtleQuery(*c),
+                Some(Tok::Sym('E')) => Refused::Environment,
+                Some(Tok::LParen) => Refused::SubLsystemCall,
+                _ => Refused::Query,
+            };
+            return at(span, what);
+        }
+        Tok::Sym('$') => return at(span, Refused::SubLsystemEnd),
+        Tok::Sym('@') if next == Some(&Tok::Sym('S')) => {
+            return at((l, next_tok.map_or(r, |n| n.2)), Refused::Surface)
+        }
+        Tok::Name(n) if *n == "atan2" && next == Some(&Tok::LParen) => {
+            return at(span, Refused::Atan2)
+        }
+        Tok::Name(n) if UNSUPPORTED_FUNCTIONS.contains(n) => {
+            return at(span, Refused::Function(n.to_string()))
+        }
+        Tok::Name(n) if next == Some(&Tok::LBracket) => {
+            return at(span, Refused::Array(n.to_string()))
+        }
+        _ => {}
     }
     None
 }
 
-fn describe_expected(expected: &[String]) -> String {
-    let names: Vec<String> = expected
-        .iter()
-        .map(|e| match e.as_str() {
-            "Eol" => "end of line".to_string(),
-            "Sym" => "a symbol".to_string(),
-            "Num" => "a number".to_string(),
-            "Name" => "a name".to_string(),
-            "Str" => "a string".to_string(),
-            "Null" => "`*`".to_string(),
-            "LSep" => "`<`".to_string(),
-            "RSep" => "`>`".to_string(),
-            "Warnings" => "`warnings`".to_string(),
-            other => format!("`{}`", other.trim_matches('"')),
-        })
-        .collect();
-    match names.len() {
-        0 => String::new(),
-        1 => format!("expected {}", names[0]),
-        n if n <= 6 => format!("expected {} or {}", names[..n - 1].join(", "), names[n - 1]),
-        _ => String::new(),
-    }
+/// The tokens the grammar would have accepted, as the message names them.
+fn describe_expected(expected: &[String]) -> Expected {
+    Expected::OneOf(
+        expected
+            .iter()
+            .map(|e| match e.as_str() {
+                "Eol" => "end of line".to_string(),
+                "Sym" => "a symbol".to_string(),
+                "Num" => "a number".to_string(),
+                "Name" => "a name".to_string(),
+                "Str" => "a string".to_string(),
+                "Null" => "`*`".to_string(),
+                "LSep" => "`<`".to_string(),
+                "RSep" => "`>`".to_string(),
+                "Warnings" => "`warnings`".to_string(),
+                other => format!("`{}`", other.trim_matches('"')),
+            })
+            .collect(),
+    )
 }
 
+/// lalrpop's error for `grammar/cpfg.lalrpop`, converted once into the
+/// typed, located error (the same variants as the `.ls` grammar's where
+/// the error is the same).
 fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str, end: usize) -> UserError {
     match e {
         ParseError::User { error } => error,
         ParseError::InvalidToken { location } => {
-            UserError::new((location, location), "invalid token")
+            UserError::new((location, location), Syntax::InvalidToken)
         }
         ParseError::UnrecognizedEof { location, expected } => {
             let loc = text[..location.max(end).min(text.len())].trim_end().len();
-            if expected.iter().any(|e| e == "\"endlsystem\"") {
-                return UserError::new(
-                    (loc, loc),
-                    "missing `endlsystem`: a cpfg L-system ends with it",
-                );
-            }
-            if expected.iter().any(|e| e == "\"Lsystem:\"") {
-                return UserError::new(
-                    (loc, loc),
-                    "empty file: a cpfg L-system starts with `Lsystem:`",
-                );
-            }
-            let exp = describe_expected(&expected);
-            UserError::new(
-                (loc, loc),
-                if exp.is_empty() {
-                    "unexpected end of input".to_string()
-                } else {
-                    format!("unexpected end of input, {exp}")
-                },
-            )
+            let kind = if expected.iter().any(|e| e == "\"endlsystem\"") {
+                Syntax::MissingEndlsystem
+            } else if expected.iter().any(|e| e == "\"Lsystem:\"") {
+                Syntax::MissingLsystem
+            } else {
+                Syntax::UnexpectedEof(describe_expected(&expected))
+            };
+            UserError::new((loc, loc), kind)
         }
         ParseError::UnrecognizedToken {
             token: (l, tok, r),
             expected,
         } => {
             let has = |s: &str| expected.iter().any(|e| e == s);
-            let msg = if has("\"Lsystem:\"") {
-                format!("unexpected {tok}: a cpfg L-system starts with `Lsystem:`")
+            let found = tok.to_string();
+            let kind = if has("\"Lsystem:\"") {
+                Syntax::BeforeLsystem(found)
             } else if has("\"Axiom:\"") && !has("\"-->\"") {
-                format!(
-                    "unexpected {tok}: the settings (`seed:`, `derivation length:`, `ignore:`, `consider:`, blocks) come before `Axiom:`, one per line"
-                )
+                Syntax::SettingAfterAxiom(found)
             } else if has("\"endlsystem\"") && !has("\"-->\"") && !has("Eol") {
-                format!("unexpected {tok}, expected a production or `endlsystem`")
+                Syntax::Unexpected {
+                    found,
+                    expected: Expected::OneOf(vec![
+                        "a production".to_string(),
+                        "`endlsystem`".to_string(),
+                    ]),
+                }
             } else {
-                let exp = describe_expected(&expected);
-                if exp.is_empty() {
-                    format!("unexpected {tok}")
-                } else {
-                    format!("unexpected {tok}, {exp}")
+                Syntax::Unexpected {
+                    found,
+                    expected: describe_expected(&expected),
                 }
             };
-            UserError::new((l, r.max(l + 1)), msg)
+            UserError::new((l, r.max(l + 1)), kind)
         }
-        ParseError::ExtraToken { token: (l, tok, r) } => {
-            UserError::new((l, r), format!("unexpected {tok}"))
-        }
+        ParseError::ExtraToken { token: (l, tok, r) } => UserError::new(
+            (l, r),
+            Syntax::Unexpected {
+                found: tok.to_string(),
+                expected: Expected::Nothing,
+            },
+        ),
     }
 }
 

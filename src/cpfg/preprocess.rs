@@ -125,63 +125,13 @@ pub struct PpError {
     pub kind: PpErrorKind,
 }
 
-#[derive(Debug)]
-pub enum PpErrorKind {
-    /// `/*` without `*/`.
-    UnterminatedComment,
-    /// A `"` or `'` literal not closed on its line.
-    UnterminatedLiteral(char),
-    /// `#if`/`#ifdef`/`#ifndef` (named) without `#endif` in the same file.
-    UnterminatedConditional(&'static str),
-    /// `#else`/`#elif`/`#endif` (named) without an open `#if` in the file.
-    UnmatchedConditional(&'static str),
-    /// `#else`/`#elif` (named) after the group's `#else`.
-    AfterElse(&'static str),
-    /// `#name` that is no directive.
-    UnknownDirective(String),
-    /// A directive with a malformed operand (the message says which).
-    InvalidDirective(String),
-    /// A malformed or unevaluable `#if`/`#elif` expression.
-    BadExpression(String),
-    /// A construct this preprocessor does not implement (named).
-    NotSupported(String),
-    /// A bad macro call or definition use (argument count, pasting, ...).
-    Macro(String),
-    /// An `#include` file could not be read.
-    IncludeFailed { path: PathBuf, source: io::Error },
-    /// An `#include` that re-enters a file being included; the chain.
-    IncludeCycle(String),
-    /// A resource limit was reached.
-    Limit { what: &'static str, limit: usize },
-    /// `#error` with its text.
-    ErrorDirective(String),
-}
+/// What went wrong (the one typed enum, in `crate::diag`).
+pub use crate::diag::PreprocessError as PpErrorKind;
 
 impl PpError {
     /// The message without the location.
     pub fn message(&self) -> String {
-        use PpErrorKind::*;
-        match &self.kind {
-            UnterminatedComment => "unterminated comment: `/*` without `*/`".into(),
-            UnterminatedLiteral('"') => "unterminated string: missing `\"` on this line".into(),
-            UnterminatedLiteral(q) => {
-                format!("unterminated character constant: missing `{q}` on this line")
-            }
-            UnterminatedConditional(d) => format!("unterminated `{d}`: no matching `#endif`"),
-            UnmatchedConditional(d) => format!("`{d}` without `#if`"),
-            AfterElse(d) => format!("`{d}` after `#else`"),
-            UnknownDirective(n) => format!("unknown directive `#{n}`"),
-            InvalidDirective(m) | BadExpression(m) | Macro(m) => m.clone(),
-            NotSupported(w) => format!("{w} is not supported"),
-            IncludeFailed { path, source } => format!(
-                "cannot include `{}`: {}",
-                path.display(),
-                crate::diag::io_message(source)
-            ),
-            IncludeCycle(chain) => format!("#include cycle: {chain}"),
-            Limit { what, limit } => format!("{what} (limit {limit})"),
-            ErrorDirective(m) => format!("#error {m}"),
-        }
+        self.kind.to_string()
     }
 }
 
@@ -200,17 +150,15 @@ impl fmt::Display for PpError {
 
 impl std::error::Error for PpError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match &self.kind {
-            PpErrorKind::IncludeFailed { source, .. } => Some(source),
-            _ => None,
-        }
+        self.kind
+            .os_error()
+            .map(|e| e as &(dyn std::error::Error + 'static))
     }
 }
 
 impl From<PpError> for crate::diag::Error {
     fn from(e: PpError) -> crate::diag::Error {
-        let m = e.message();
-        crate::diag::Error::at(e.at, m)
+        crate::diag::Error::at(e.at, e.kind)
     }
 }
 
@@ -218,7 +166,7 @@ impl From<PpError> for crate::diag::Error {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Warning {
     pub at: Location,
-    pub message: String,
+    pub(crate) message: crate::diag::Warning,
 }
 
 impl fmt::Display for Warning {
@@ -877,12 +825,9 @@ impl Pp<'_> {
         }
     }
 
-    fn warn(&mut self, p: Pos, message: impl Into<String>) {
+    fn warn(&mut self, p: Pos, message: crate::diag::Warning) {
         let at = self.location(p);
-        self.warnings.push(Warning {
-            at,
-            message: message.into(),
-        });
+        self.warnings.push(Warning { at, message });
     }
 
     fn text<'a>(&'a self, t: &'a Tok) -> &'a str {
@@ -1107,10 +1052,7 @@ impl Pp<'_> {
                         file,
                         off: i as u32,
                     };
-                    self.warn(
-                        p,
-                        "`#` followed by a symbol is taken as a module, not a directive",
-                    );
+                    self.warn(p, crate::diag::Warning::HashModule);
                 }
                 let mut cur = Cursor {
                     file,
@@ -1328,8 +1270,8 @@ impl Pp<'_> {
                 let msg = self.files[file as usize].clean[ne..eol].trim().to_string();
                 match word.as_str() {
                     "error" => return Err(self.err(at, PpErrorKind::ErrorDirective(msg))),
-                    "warning" => self.warn(at, format!("#warning {msg}")),
-                    _ => self.warn(at, "#pragma ignored"),
+                    "warning" => self.warn(at, crate::diag::Warning::UserDirective(msg)),
+                    _ => self.warn(at, crate::diag::Warning::PragmaIgnored),
                 }
             }
             "line" | "include_next" | "import" | "ident" | "sccs" | "assert" | "unassert" => {
@@ -1345,7 +1287,10 @@ impl Pp<'_> {
     fn no_extra(&mut self, file: u32, start: usize, eol: usize, directive: &str) -> Res<()> {
         let toks = self.lex_range(file, start, eol)?;
         if let Some(t) = toks.iter().find(|t| !t.is_space()) {
-            self.warn(t.at, format!("extra tokens after `{directive}` ignored"));
+            self.warn(
+                t.at,
+                crate::diag::Warning::ExtraTokens(directive.to_string()),
+            );
         }
         Ok(())
     }
@@ -1363,7 +1308,10 @@ impl Pp<'_> {
         let n = self.text(t).to_string();
         if let Some(x) = it.next() {
             let p = x.at;
-            self.warn(p, format!("extra tokens after `{directive} {n}` ignored"));
+            self.warn(
+                p,
+                crate::diag::Warning::ExtraTokens(format!("{directive} {n}")),
+            );
         }
         Ok(n)
     }
@@ -1536,7 +1484,7 @@ impl Pp<'_> {
         let m = Macro { params, body };
         if let Some(&old) = self.macros.get(&name) {
             if !self.same_macro(&self.defs[old], &m) {
-                self.warn(nt.at, format!("macro `{name}` redefined"));
+                self.warn(nt.at, crate::diag::Warning::MacroRedefined(name.clone()));
             }
         }
         self.defs.push(m);
@@ -1585,7 +1533,7 @@ impl Pp<'_> {
         let name_at = toks[k].primary();
         if let Some(x) = toks[k + 1..].iter().find(|t| !t.is_space()) {
             let p = x.primary();
-            self.warn(p, "extra tokens after `#include` ignored");
+            self.warn(p, crate::diag::Warning::ExtraTokens("#include".to_string()));
         }
         let quoted = self.text(&toks[k]);
         let name = quoted[1..quoted.len() - 1].to_string();

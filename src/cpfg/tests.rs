@@ -199,7 +199,7 @@ fn redefinition_warns() {
     assert_eq!(o.text, "\n\n\n2\n");
     assert_eq!(o.warnings.len(), 1);
     assert_eq!((o.warnings[0].at.line, o.warnings[0].at.col), (3, 9));
-    assert!(o.warnings[0].message.contains("redefined"));
+    assert!(o.warnings[0].message.to_string().contains("redefined"));
 }
 
 #[test]

@@ -308,10 +308,7 @@ pub(crate) fn derive(
     let blocks = cpfg.as_ref().is_some_and(|c| c.has_blocks());
     d.cpfg = cpfg;
     for span in step_hidden {
-        crate::diag::warn(
-            d.origin.locate(span.0),
-            "`step` hides the built-in step number",
-        );
+        crate::diag::warn(d.origin.locate(span.0), &crate::diag::Warning::StepHidden);
     }
     d.hom_depth = hom_depth;
     d.warnings = warnings;
@@ -389,9 +386,7 @@ pub(crate) fn derive(
     let step_only = structural || is_cpfg || d.cut;
     let strategy = if step_only {
         if strategy == Strategy::DepthFirst && is_cpfg {
-            return Err(Error::usage(
-                "`--strategy dfs`: a cpfg (`.l`) file is derived step by step (cpfg's random draws and blocks run in string order)",
-            ));
+            return Err(Error::new(crate::diag::UsageError::CpfgNotDepthFirst));
         }
         if strategy == Strategy::DepthFirst {
             return Err(not_depth_first());

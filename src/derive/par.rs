@@ -270,7 +270,7 @@ fn write_in_order(
                     break;
                 }
                 Ok(Msg::Err(e)) => return Err(e),
-                Err(_) => return Err(Error::new("internal error: a worker thread stopped")),
+                Err(_) => return Err(Error::new(crate::diag::RuntimeError::WorkerStopped)),
             }
         }
     }

@@ -137,17 +137,12 @@ fn depth_warning(
     done.set(true);
     let p = &cx.table.prods[pi as usize];
     let sym = cx.al.symbol(key);
-    let message = match cx.pass {
-        Pass::Step(k) => format!(
-            "decomposition stopped at maximum depth {}, but this production still applies (to module {sym}, in step {k})",
-            cx.max
-        ),
-        _ => format!(
-            "homomorphism stopped at maximum depth {}, but this production still applies (to module {sym})",
-            cx.max
-        ),
+    let warning = crate::diag::Warning::MaximumDepth {
+        max: cx.max,
+        symbol: sym,
+        pass: cx.pass,
     };
-    crate::diag::warn(cx.origin.locate(p.span.0), &message);
+    crate::diag::warn(cx.origin.locate(p.span.0), &warning);
 }
 
 /// Rewrite each module of `rc.levels[depth]` (its modules have depth
@@ -446,15 +441,19 @@ impl<'a> Deriver<'a> {
             return Ok(());
         };
         c.run(which, &mut self.rng).map_err(|e| {
+            use crate::diag::Block;
             let block = match which {
-                When::Start => "`Start:`".to_string(),
-                When::StartEach => format!("`StartEach:` before {pass}"),
-                When::EndEach => format!("`EndEach:` after {pass}"),
-                When::End => "`End:`".to_string(),
+                When::Start => Block::Start,
+                When::StartEach => Block::StartEach(pass),
+                When::EndEach => Block::EndEach(pass),
+                When::End => Block::End,
             };
             crate::diag::Error::at(
                 self.origin.locate(e.span.0),
-                format!("{} (in {block})", e.message()),
+                crate::diag::RuntimeError::Block {
+                    error: e.kind,
+                    block,
+                },
             )
         })
     }

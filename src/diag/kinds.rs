@@ -3,11 +3,14 @@
 //! in one place, the `Display` of these enums; [`super::Error`] adds the
 //! location, the source line and the caret.
 
+use crate::cpfg::lexer::MAX_BLOCK_DEPTH;
 use crate::derive::Pass;
 use crate::lang::lexer::{MAX_EXPR_TOKENS, MAX_PAREN_DEPTH};
 use crate::rules::codec::{number_string, MAX_ARITY};
 use std::fmt;
 use std::path::PathBuf;
+
+pub use super::cpfg::{Block, PreprocessError, Refused};
 
 /// What went wrong, by stage; [`super::Error::kind`] gives it.
 #[derive(Debug)]
@@ -31,24 +34,25 @@ pub enum ErrorKind {
     Usage(UsageError),
     /// lsgen-turtle: a module string it cannot read or draw.
     Turtle(TurtleError),
-    /// A message of a front end whose errors are not typed yet (the cpfg
-    /// preprocessor's conversion, warnings).
-    Other(String),
+    /// The cpfg dialect's C preprocessor; its stage depends on the error
+    /// ([`PreprocessError::stage`]).
+    Preprocess(PreprocessError),
 }
 
 /// Which stage found an error: [`ErrorKind`] without its data.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub enum Stage {
-    /// [`ErrorKind::Lexical`].
+    /// [`ErrorKind::Lexical`] (and some [`ErrorKind::Preprocess`]).
     Lexical,
-    /// [`ErrorKind::Parse`].
+    /// [`ErrorKind::Parse`] (and most [`ErrorKind::Preprocess`]).
     Parse,
     /// [`ErrorKind::Compile`].
     Compile,
-    /// [`ErrorKind::Runtime`] (and [`ErrorKind::Other`]).
+    /// [`ErrorKind::Runtime`].
     Runtime,
-    /// [`ErrorKind::Io`].
+    /// [`ErrorKind::Io`] (and an `#include` the cpfg preprocessor cannot
+    /// read).
     Io,
     /// [`ErrorKind::Usage`].
     Usage,
@@ -61,11 +65,12 @@ impl ErrorKind {
             ErrorKind::Lexical(_) => Stage::Lexical,
             ErrorKind::Parse(_) => Stage::Parse,
             ErrorKind::Compile(_) => Stage::Compile,
-            ErrorKind::Runtime(_) | ErrorKind::Other(_) => Stage::Runtime,
+            ErrorKind::Runtime(_) => Stage::Runtime,
             ErrorKind::Io(_) => Stage::Io,
             ErrorKind::Usage(_) => Stage::Usage,
             ErrorKind::Turtle(e) if e.is_drawing() => Stage::Runtime,
             ErrorKind::Turtle(_) => Stage::Parse,
+            ErrorKind::Preprocess(e) => e.stage(),
         }
     }
 }
@@ -80,7 +85,7 @@ impl fmt::Display for ErrorKind {
             ErrorKind::Io(e) => e.fmt(f),
             ErrorKind::Usage(e) => e.fmt(f),
             ErrorKind::Turtle(e) => e.fmt(f),
-            ErrorKind::Other(m) => f.write_str(m),
+            ErrorKind::Preprocess(e) => e.fmt(f),
         }
     }
 }
@@ -95,20 +100,8 @@ macro_rules! into_kind {
     )*};
 }
 into_kind!(LexicalError => Lexical, ParseError => Parse, CompileError => Compile,
-    RuntimeError => Runtime, IoError => Io, UsageError => Usage, TurtleError => Turtle);
-
-/// A message of its own (see [`ErrorKind::Other`]).
-impl From<String> for ErrorKind {
-    fn from(m: String) -> ErrorKind {
-        ErrorKind::Other(m)
-    }
-}
-
-impl From<&str> for ErrorKind {
-    fn from(m: &str) -> ErrorKind {
-        ErrorKind::Other(m.to_string())
-    }
-}
+    RuntimeError => Runtime, IoError => Io, UsageError => Usage, TurtleError => Turtle,
+    PreprocessError => Preprocess);
 
 /// Unreadable text.
 #[derive(Clone, Debug, PartialEq)]
@@ -142,6 +135,16 @@ pub enum LexicalError {
     ViewSetting(ViewError),
     /// The header outgrew its bound: `axiom:` is probably missing.
     HeaderTooLong,
+    /// cpfg: a character that starts no token of an expression.
+    ExpressionChar(char),
+    /// cpfg: an exponent literal without a dot (`1e6`; as written).
+    ExponentWithoutDot(String),
+    /// cpfg: a string without its closing `"`.
+    UnterminatedString,
+    /// cpfg: more than [`MAX_BLOCK_DEPTH`] nested blocks.
+    BlocksNestedTooDeeply,
+    /// cpfg: a file (its name) past the size that is read whole, in MiB.
+    FileTooLarge { path: String, mib: u64 },
 }
 
 impl fmt::Display for LexicalError {
@@ -176,6 +179,20 @@ impl fmt::Display for LexicalError {
             HeaderTooLong => f.write_str(
                 "the part before `axiom:` is too long (over 64 MiB); is `axiom:` missing?",
             ),
+            ExpressionChar(c) => write!(
+                f,
+                "unexpected character `{}` in an expression",
+                c.escape_default()
+            ),
+            ExponentWithoutDot(text) => write!(
+                f,
+                "cpfg needs a dot in an exponent literal (`1.0e6`, not `1e6`): `{text}`"
+            ),
+            UnterminatedString => f.write_str("unterminated string"),
+            BlocksNestedTooDeeply => {
+                write!(f, "blocks nested too deep (over {MAX_BLOCK_DEPTH})")
+            }
+            FileTooLarge { path, mib } => write!(f, "{path}: file larger than {mib} MiB"),
         }
     }
 }
@@ -264,6 +281,25 @@ pub enum ParseError {
     TooManyParams,
     /// `F(1,,2)`.
     EmptyParameter,
+    /// cpfg: a construct lsgen refuses.
+    Refused(Refused),
+    /// cpfg: no `endlsystem` at the end.
+    MissingEndlsystem,
+    /// cpfg: no `Lsystem:` in the file.
+    MissingLsystem,
+    /// cpfg: a token before `Lsystem:` (as the message shows it).
+    BeforeLsystem(String),
+    /// cpfg: a token where a setting or `Axiom:` would be (as the
+    /// message shows it).
+    SettingAfterAxiom(String),
+    /// cpfg: a `Start:`, `StartEach:`, `EndEach:` or `End:` block twice.
+    BlockTwice,
+    /// cpfg: a section's setting twice.
+    SettingTwice,
+    /// cpfg: `*` as the strict predecessor.
+    NullPredecessor,
+    /// cpfg: `printf` or `fprintf` (the name) without a format string.
+    NoFormat(String),
 }
 
 impl fmt::Display for ParseError {
@@ -329,6 +365,21 @@ impl fmt::Display for ParseError {
             }
             TooManyParams => write!(f, "a module has at most {MAX_ARITY} parameters"),
             EmptyParameter => f.write_str("empty parameter"),
+            Refused(r) => r.fmt(f),
+            MissingEndlsystem => f.write_str("missing `endlsystem`: a cpfg L-system ends with it"),
+            MissingLsystem => f.write_str("empty file: a cpfg L-system starts with `Lsystem:`"),
+            BeforeLsystem(tok) => write!(
+                f,
+                "unexpected {tok}: a cpfg L-system starts with `Lsystem:`"
+            ),
+            SettingAfterAxiom(tok) => write!(
+                f,
+                "unexpected {tok}: the settings (`seed:`, `derivation length:`, `ignore:`, `consider:`, blocks) come before `Axiom:`, one per line"
+            ),
+            BlockTwice => f.write_str("this block is given twice"),
+            SettingTwice => f.write_str("this setting is given twice"),
+            NullPredecessor => f.write_str("the strict predecessor cannot be `*`"),
+            NoFormat(name) => write!(f, "`{name}` needs a format string"),
         }
     }
 }
@@ -476,6 +527,36 @@ pub enum CompileError {
     BracketParams,
     /// A constant negative probability.
     NegativeProbability(f64),
+    /// cpfg: a string outside `printf` and `fprintf`.
+    StringValue,
+    /// cpfg: `printf` or `fprintf` (the name) used as a value.
+    StatementAsValue(String),
+    /// cpfg: a setting or axiom parameter that is not a constant.
+    NotConstant,
+    /// cpfg: a setting (which) outside 0 to `max` (its value, truncated).
+    OutOfRange {
+        what: &'static str,
+        max: f64,
+        value: f64,
+    },
+    /// cpfg: a formal parameter name used twice in a production.
+    FormalTwice(String),
+    /// cpfg: an assignment to `Q` or `Z` (the name).
+    ReadOnly(String),
+    /// cpfg: a `printf` conversion lsgen does not print (its letter).
+    PrintfConversion(char),
+    /// cpfg: a `printf` format that ends inside a conversion.
+    PrintfUnfinished,
+    /// cpfg: a `printf` with another number of values than its format
+    /// takes.
+    PrintfArity { takes: usize, given: usize },
+    /// cpfg: a predecessor of several modules in a section (its name and
+    /// a blank: `decomposition `, `homomorphism `).
+    SeveralModules(&'static str),
+    /// cpfg: an axiom parameter past a 32-bit float.
+    OutOfF32,
+    /// cpfg: `Axiom:` without modules.
+    EmptyAxiom,
 }
 
 impl From<ExprError> for CompileError {
@@ -547,6 +628,38 @@ impl fmt::Display for CompileError {
             ),
             BracketParams => f.write_str("a bracket takes no parameters"),
             NegativeProbability(w) => write!(f, "a probability cannot be negative ({w})"),
+            StringValue => f.write_str("a string is only for `printf` and `fprintf`"),
+            StatementAsValue(name) => {
+                write!(f, "`{name}` is a statement of a block, not a value")
+            }
+            NotConstant => f.write_str(
+                "this value must be known before the derivation (a constant expression)",
+            ),
+            OutOfRange { what, max, value } => {
+                write!(f, "{what} must be from 0 to {max}, not {value}")
+            }
+            FormalTwice(name) => write!(
+                f,
+                "formal parameter `{name}` is named twice in this production (cpfg: multiple definition)"
+            ),
+            ReadOnly(name) => write!(
+                f,
+                "`{name}` cannot be assigned (cpfg's built-in variables `Q` and `Z` are read only)"
+            ),
+            PrintfConversion(c) => write!(f, "printf: `%{c}` is not a conversion lsgen prints"),
+            PrintfUnfinished => f.write_str("printf: the format ends inside a `%` conversion"),
+            PrintfArity { takes, given } => write!(
+                f,
+                "printf: the format takes {takes} value{}, {given} given",
+                if *takes == 1 { "" } else { "s" }
+            ),
+            SeveralModules(section) => write!(
+                f,
+                "a predecessor of several modules (`AB --> C`) is supported among the L-system's productions, not in the {}",
+                section.trim_end()
+            ),
+            OutOfF32 => f.write_str("this value does not fit cpfg's 32-bit float"),
+            EmptyAxiom => f.write_str("the axiom is empty"),
         }
     }
 }
@@ -591,6 +704,10 @@ pub enum RuntimeError {
     JobsFailed { failed: u64, total: u64 },
     /// A panic, caught.
     Internal,
+    /// A worker thread of the parallel split stopped without an answer.
+    WorkerStopped,
+    /// cpfg: an expression of a header block failed.
+    Block { error: ExprError, block: Block },
 }
 
 impl fmt::Display for RuntimeError {
@@ -640,6 +757,8 @@ impl fmt::Display for RuntimeError {
                 super::group_digits(*failed)
             ),
             Internal => f.write_str("internal error (please report this)"),
+            WorkerStopped => f.write_str("internal error: a worker thread stopped"),
+            Block { error, block } => write!(f, "{error} (in {block})"),
         }
     }
 }
@@ -760,8 +879,32 @@ pub enum UsageError {
     /// A view option of lsgen-turtle (its name, `view` for the
     /// direction) that cannot be read.
     ViewOption { option: String, error: ViewError },
-    /// A command-line check of a binary (its message).
-    CommandLine(String),
+    /// `--frames` with an `-o` file name without `{n}`.
+    FramesNeedN,
+    /// Standard input as an L-system of a batch.
+    StdinInBatch,
+    /// `--axiom -` in a batch.
+    StdinAxiomInBatch,
+    /// A batch without an `-o` template.
+    BatchNeedsTemplate,
+    /// A seed range with an `-o` template without `{seed}`.
+    SeedRangeNeedsSeed,
+    /// Several files with an `-o` template without `{stem}`.
+    FilesNeedStem,
+    /// Two files of a batch with the same `{stem}`.
+    SameStem {
+        first: PathBuf,
+        second: PathBuf,
+        stem: String,
+    },
+    /// The L-system and `--axiom -` both on standard input.
+    BothFromStdin,
+    /// `--strategy dfs` for a cpfg file.
+    CpfgNotDepthFirst,
+    /// lsgen-turtle: `-f` with an unknown format (as given).
+    UnknownFormat(String),
+    /// lsgen-turtle: an output name whose extension names no format.
+    FormatFromName(PathBuf),
 }
 
 impl fmt::Display for UsageError {
@@ -792,7 +935,48 @@ impl fmt::Display for UsageError {
                 "`--first-step {first}` with {steps} steps: step numbers must stay below 2^64 - 1"
             ),
             ViewOption { option, error } => write!(f, "--{option}: {error}"),
-            CommandLine(m) => f.write_str(m),
+            FramesNeedN => f.write_str(
+                "`--frames` with `-o` needs `{n}` (the generation number) in the file name",
+            ),
+            StdinInBatch => f.write_str(
+                "standard input can feed one job only: a batch (several files or seeds) needs file names",
+            ),
+            StdinAxiomInBatch => {
+                f.write_str("`--axiom -` can feed one job only: a batch needs an axiom file")
+            }
+            BatchNeedsTemplate => f.write_str(
+                "several jobs (files or seeds) need -o with a template, e.g. -o 'out/{stem}-{seed}.txt', so that each has its own file",
+            ),
+            SeedRangeNeedsSeed => f.write_str(
+                "a seed range needs `{seed}` in the -o template, so that each seed has its own file",
+            ),
+            FilesNeedStem => f.write_str(
+                "several files need `{stem}` in the -o template, so that each has its own file",
+            ),
+            SameStem {
+                first,
+                second,
+                stem,
+            } => write!(
+                f,
+                "{} and {} have the same {{stem}} `{stem}`: their outputs would collide",
+                first.display(),
+                second.display()
+            ),
+            BothFromStdin => {
+                f.write_str("the L-system and `--axiom -` cannot both come from standard input")
+            }
+            CpfgNotDepthFirst => f.write_str(
+                "`--strategy dfs`: a cpfg (`.l`) file is derived step by step (cpfg's random draws and blocks run in string order)",
+            ),
+            UnknownFormat(name) => {
+                write!(f, "unknown format `{name}` (svg, png, obj, segments)")
+            }
+            FormatFromName(path) => write!(
+                f,
+                "cannot tell the format from `{}`: give -f svg|png|obj|segments",
+                path.display()
+            ),
         }
     }
 }

@@ -31,21 +31,6 @@ pub enum HeaderError {
     Lexical(LexicalError),
     Parse(Syntax),
     Compile(CompileError),
-    /// A message of the cpfg front end, whose errors are not typed yet
-    /// (shown as [`ErrorKind::Other`]).
-    Cpfg(String),
-}
-
-impl From<String> for HeaderError {
-    fn from(e: String) -> HeaderError {
-        HeaderError::Cpfg(e)
-    }
-}
-
-impl From<&str> for HeaderError {
-    fn from(e: &str) -> HeaderError {
-        HeaderError::Cpfg(e.to_string())
-    }
 }
 
 impl From<LexicalError> for HeaderError {
@@ -78,7 +63,6 @@ impl From<HeaderError> for ErrorKind {
             HeaderError::Lexical(e) => ErrorKind::Lexical(e),
             HeaderError::Parse(e) => ErrorKind::Parse(e),
             HeaderError::Compile(e) => ErrorKind::Compile(e),
-            HeaderError::Cpfg(e) => ErrorKind::Other(e),
         }
     }
 }
