@@ -124,6 +124,12 @@ pub(crate) fn warn(location: Location, warning: &Warning) {
     ));
 }
 
+/// Print a warning without a place (`lsgen: warning: ...`) on standard
+/// error.
+pub(crate) fn warn_unlocated(warning: &Warning) {
+    eprint(&format!("lsgen: warning: {warning}\n"));
+}
+
 mod cpfg;
 mod kinds;
 mod warning;

@@ -147,4 +147,6 @@ pub fn load(name: &str, source: &str) -> Result<Loaded, Error> {
 }
 
 #[cfg(test)]
+mod error_tests;
+#[cfg(test)]
 mod tests;

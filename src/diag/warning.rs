@@ -28,6 +28,9 @@ pub(crate) enum Warning {
     ProbabilityInSection(&'static str),
     /// A parameter or constant named `step`.
     StepHidden,
+    /// cpfg: a division by zero, which divides by 1 (given once per
+    /// process, without a place).
+    DivisionByZero,
     /// Decomposition (in a step) or the homomorphism (in
     /// [`Pass::Homomorphism`]) reached its maximum depth with a production
     /// that still applies to this symbol.
@@ -58,6 +61,9 @@ impl fmt::Display for Warning {
                 "a probability in the {section}section is ignored, as in cpfg (the first applicable {section}production applies)"
             ),
             StepHidden => f.write_str("`step` hides the built-in step number"),
+            DivisionByZero => f.write_str(
+                "division by zero in a cpfg expression: divided by 1 instead, as cpfg does",
+            ),
             MaximumDepth { max, symbol, pass } => match pass {
                 Pass::Step(k) => write!(
                     f,

@@ -699,9 +699,7 @@ fn warn_division_by_zero() {
     use std::sync::atomic::{AtomicBool, Ordering};
     static WARNED: AtomicBool = AtomicBool::new(false);
     if !WARNED.swap(true, Ordering::Relaxed) {
-        crate::diag::eprint(
-            "lsgen: warning: division by zero in a cpfg expression: divided by 1 instead, as cpfg does\n",
-        );
+        crate::diag::warn_unlocated(&crate::diag::Warning::DivisionByZero);
     }
 }
 

@@ -1,0 +1,280 @@
+//! The cpfg front end's errors are typed: each stage's error is a variant
+//! of that stage's enum (the `.ls` one where it is the same error), and an
+//! `#include` that cannot be read keeps the operating system's error as
+//! its `source()`. The expected messages are the texts the front end wrote
+//! as strings before the errors were typed (e89df03), copied by hand.
+
+use crate::diag::{
+    Block, CompileError, Error, ErrorKind, ExprError, LexicalError, ParseError, PreprocessError,
+    Refused, RuntimeError, Stage, UsageError, Warning,
+};
+use crate::Pass;
+
+/// The error of loading the `.l` text `src` (named `dir/t.l`).
+fn load_error(src: &str) -> Error {
+    match super::load("/nonexistent-lsgen-dir/t.l", src) {
+        Ok(_) => panic!("expected an error for {src:?}"),
+        Err(e) => e,
+    }
+}
+
+/// The error of deriving the `.l` text `src`.
+fn run_error(src: &str) -> Error {
+    let reader = std::io::Cursor::new(src.as_bytes().to_vec());
+    let mut ls = crate::LSystem::from_reader(reader, "t.l").expect("a valid file");
+    let mut out = Vec::new();
+    match ls.derive(&crate::Options::new(), &mut out) {
+        Ok(_) => panic!("expected a run-time error for {src:?}"),
+        Err(e) => e,
+    }
+}
+
+#[test]
+fn a_lexical_error_is_lexical() {
+    let e = load_error("Lsystem: 1\nAxiom: A(1e6)\nendlsystem\n");
+    assert_eq!(e.stage(), Stage::Lexical);
+    assert!(
+        matches!(e.kind(), ErrorKind::Lexical(LexicalError::ExponentWithoutDot(t)) if t == "1e6"),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.message(),
+        "cpfg needs a dot in an exponent literal (`1.0e6`, not `1e6`): `1e6`"
+    );
+    // The same error as in `.ls` files is the same variant.
+    let e = load_error("Lsystem: 1\nAxiom: A(1.0e999)\nendlsystem\n");
+    assert!(
+        matches!(e.kind(), ErrorKind::Lexical(LexicalError::NumberOutOfRange(t)) if t == "1.0e999"),
+        "{e:?}"
+    );
+    assert_eq!(e.message(), "number `1.0e999` is out of range");
+}
+
+#[test]
+fn a_parse_error_is_the_ls_grammars_variant() {
+    let e = load_error("Lsystem: 1\nAxiom: A\nA --> B\n");
+    assert_eq!(e.stage(), Stage::Parse);
+    assert!(
+        matches!(e.kind(), ErrorKind::Parse(ParseError::MissingEndlsystem)),
+        "{e:?}"
+    );
+    let e = load_error("Lsystem: 1\nAxiom: A\nA --> B\n)\nendlsystem\n");
+    assert_eq!(e.stage(), Stage::Parse);
+    let ErrorKind::Parse(ParseError::Unexpected { found, .. }) = e.kind() else {
+        panic!("{e:?}");
+    };
+    assert_eq!(found, "`)`");
+    assert_eq!(
+        e.message(),
+        "unexpected `)`, expected a production or `endlsystem`"
+    );
+}
+
+#[test]
+fn a_refused_construct_is_a_parse_error() {
+    let e = load_error("Lsystem: 1\nAxiom: A\nA -o> B\nendlsystem\n");
+    assert_eq!(e.stage(), Stage::Parse);
+    assert!(
+        matches!(
+            e.kind(),
+            ErrorKind::Parse(ParseError::Refused(Refused::ObjectProduction))
+        ),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.message(),
+        "`-o>` (an object production, for cpfg's surfaces and objects) is not supported: lsgen rewrites strings only"
+    );
+    let e = load_error("Lsystem: 1\nAxiom: A\nA --> B ?P(1,2)\nendlsystem\n");
+    assert!(
+        matches!(
+            e.kind(),
+            ErrorKind::Parse(ParseError::Refused(Refused::TurtleQuery('P')))
+        ),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.message(),
+        "`?P` (a query of the turtle's state) needs cpfg's turtle interpretation between steps: not supported by lsgen, which only rewrites strings"
+    );
+}
+
+#[test]
+fn a_lowering_error_is_a_compile_error() {
+    let e = load_error("Lsystem: 1\nStart: {Q = 1;}\nAxiom: A\nendlsystem\n");
+    assert_eq!(e.stage(), Stage::Compile);
+    assert!(
+        matches!(e.kind(), ErrorKind::Compile(CompileError::ReadOnly(n)) if n == "Q"),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.message(),
+        "`Q` cannot be assigned (cpfg's built-in variables `Q` and `Z` are read only)"
+    );
+    let e = load_error("Lsystem: 1\nderivation length: -1\nAxiom: A\nendlsystem\n");
+    assert!(
+        matches!(
+            e.kind(),
+            ErrorKind::Compile(CompileError::OutOfRange {
+                what: "the derivation length",
+                ..
+            })
+        ),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.message(),
+        "the derivation length must be from 0 to 9007199254740992, not -1"
+    );
+}
+
+#[test]
+fn a_block_error_while_deriving_is_a_runtime_error() {
+    let e = run_error(
+        "Lsystem: 1\nderivation length: 2\nEndEach: {x = 1 % (Q - 1);}\nAxiom: A\nendlsystem\n",
+    );
+    assert_eq!(e.stage(), Stage::Runtime);
+    assert!(
+        matches!(
+            e.kind(),
+            ErrorKind::Runtime(RuntimeError::Block {
+                error: ExprError::RemainderByZero,
+                block: Block::EndEach(Pass::Step(1)),
+            })
+        ),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.message(),
+        "remainder by zero (`x % 0` crashes cpfg) (in `EndEach:` after step 1)"
+    );
+}
+
+#[test]
+fn preprocessor_errors_are_staged_and_keep_the_io_source() {
+    let e = load_error("Lsystem: 1\n#include \"no-such-file.h\"\nAxiom: A\nendlsystem\n");
+    assert_eq!(e.stage(), Stage::Io);
+    assert!(
+        matches!(
+            e.kind(),
+            ErrorKind::Preprocess(PreprocessError::IncludeFailed { .. })
+        ),
+        "{e:?}"
+    );
+    let source = std::error::Error::source(&e).expect("the OS error");
+    let io = source
+        .downcast_ref::<std::io::Error>()
+        .expect("an io::Error");
+    assert_eq!(io.kind(), std::io::ErrorKind::NotFound);
+    assert_eq!(
+        e.message(),
+        "cannot include `/nonexistent-lsgen-dir/no-such-file.h`: No such file or directory"
+    );
+
+    let e = load_error("Lsystem: 1\n/* open\nAxiom: A\nendlsystem\n");
+    assert_eq!(e.stage(), Stage::Lexical);
+    assert_eq!(e.message(), "unterminated comment: `/*` without `*/`");
+    assert!(std::error::Error::source(&e).is_none());
+
+    let e = load_error("#frobnicate\nLsystem: 1\nAxiom: A\nendlsystem\n");
+    assert_eq!(e.stage(), Stage::Parse);
+    assert!(
+        matches!(e.kind(), ErrorKind::Preprocess(PreprocessError::UnknownDirective(d)) if d == "frobnicate"),
+        "{e:?}"
+    );
+    assert_eq!(e.message(), "unknown directive `#frobnicate`");
+}
+
+/// Every variant added for the cpfg front end, the warnings and the usage
+/// checks renders the text the string it replaced had.
+#[test]
+fn typed_messages_are_the_former_strings() {
+    let cases: Vec<(String, &str)> = vec![
+        (LexicalError::ExpressionChar('#').to_string(), "unexpected character `#` in an expression"),
+        (LexicalError::UnterminatedString.to_string(), "unterminated string"),
+        (LexicalError::BlocksNestedTooDeeply.to_string(), "blocks nested too deep (over 256)"),
+        (
+            LexicalError::FileTooLarge { path: "big.l".into(), mib: 64 }.to_string(),
+            "big.l: file larger than 64 MiB",
+        ),
+        (Refused::SecondLsystem.to_string(), "a second `Lsystem:`: several L-systems in one file (cpfg's sub-L-systems) are not supported; lsgen derives one L-system per file"),
+        (Refused::Ring.to_string(), "`ring lsystem` is not supported: lsgen derives open strings (no ring of modules)"),
+        (Refused::RingSetting.to_string(), "ring L-systems (`ring lsystem`) are not supported"),
+        (Refused::Define.to_string(), "`define:` (cpfg's arrays) is not supported: lsgen has no arrays; use `#define` for constants"),
+        (Refused::Environment.to_string(), "`?E` (communication with an environment program) needs cpfg's environment process: not supported by lsgen, which only rewrites strings"),
+        (Refused::SubLsystemCall.to_string(), "`?(id,s)` (a sub-L-system call) needs cpfg's sub-L-systems: not supported by lsgen, which only rewrites strings"),
+        (Refused::Query.to_string(), "a `?` query module needs cpfg's interpretation or environment: not supported by lsgen, which only rewrites strings"),
+        (Refused::SubLsystemEnd.to_string(), "`$` (the end of a sub-L-system) is not supported: lsgen has no sub-L-systems"),
+        (Refused::Surface.to_string(), "`@S` (a surface from cpfg's surface files) is not supported: lsgen has no surfaces"),
+        (Refused::Atan2.to_string(), "`atan2` is reserved in cpfg but a syntax error there: use `atan(y / x)`"),
+        (Refused::Function("curveX".into()).to_string(), "`curveX` is not supported: it needs cpfg's function files, curves, view or animation"),
+        (Refused::Array("a".into()).to_string(), "`a[...]`: arrays are not supported by lsgen"),
+        (Refused::Address.to_string(), "`&` (an address) is not supported: write `&&`"),
+        (Refused::FprintfNotStderr.to_string(), "lsgen supports `fprintf` only on `stderr`"),
+        (ParseError::MissingLsystem.to_string(), "empty file: a cpfg L-system starts with `Lsystem:`"),
+        (ParseError::BeforeLsystem("symbol `F`".into()).to_string(), "unexpected symbol `F`: a cpfg L-system starts with `Lsystem:`"),
+        (ParseError::SettingAfterAxiom("`x`".into()).to_string(), "unexpected `x`: the settings (`seed:`, `derivation length:`, `ignore:`, `consider:`, blocks) come before `Axiom:`, one per line"),
+        (ParseError::BlockTwice.to_string(), "this block is given twice"),
+        (ParseError::SettingTwice.to_string(), "this setting is given twice"),
+        (ParseError::NullPredecessor.to_string(), "the strict predecessor cannot be `*`"),
+        (ParseError::NoFormat("printf".into()).to_string(), "`printf` needs a format string"),
+        (CompileError::StringValue.to_string(), "a string is only for `printf` and `fprintf`"),
+        (CompileError::StatementAsValue("printf".into()).to_string(), "`printf` is a statement of a block, not a value"),
+        (CompileError::NotConstant.to_string(), "this value must be known before the derivation (a constant expression)"),
+        (
+            CompileError::OutOfRange { what: "the seed", max: 9.007_199_254_740_992e15, value: -1.0 }.to_string(),
+            "the seed must be from 0 to 9007199254740992, not -1",
+        ),
+        (CompileError::FormalTwice("x".into()).to_string(), "formal parameter `x` is named twice in this production (cpfg: multiple definition)"),
+        (CompileError::PrintfConversion('s').to_string(), "printf: `%s` is not a conversion lsgen prints"),
+        (CompileError::PrintfUnfinished.to_string(), "printf: the format ends inside a `%` conversion"),
+        (CompileError::PrintfArity { takes: 1, given: 2 }.to_string(), "printf: the format takes 1 value, 2 given"),
+        (CompileError::PrintfArity { takes: 2, given: 0 }.to_string(), "printf: the format takes 2 values, 0 given"),
+        (CompileError::SeveralModules("homomorphism ").to_string(), "a predecessor of several modules (`AB --> C`) is supported among the L-system's productions, not in the homomorphism"),
+        (CompileError::OutOfF32.to_string(), "this value does not fit cpfg's 32-bit float"),
+        (CompileError::EmptyAxiom.to_string(), "the axiom is empty"),
+        (RuntimeError::WorkerStopped.to_string(), "internal error: a worker thread stopped"),
+        (Block::Start.to_string(), "`Start:`"),
+        (Block::StartEach(Pass::Step(3)).to_string(), "`StartEach:` before step 3"),
+        (Block::End.to_string(), "`End:`"),
+        (Warning::HashModule.to_string(), "`#` followed by a symbol is taken as a module, not a directive"),
+        (Warning::UserDirective("hi".into()).to_string(), "#warning hi"),
+        (Warning::PragmaIgnored.to_string(), "#pragma ignored"),
+        (Warning::ExtraTokens("#undef X".into()).to_string(), "extra tokens after `#undef X` ignored"),
+        (Warning::MacroRedefined("N".into()).to_string(), "macro `N` redefined"),
+        (Warning::NotDefined("v".into()).to_string(), "`v` is not defined: it is 0 here, as in cpfg"),
+        (Warning::ProbabilityWithoutSeed.to_string(), "a probability without `seed:` is ignored, as in cpfg (the first applicable production applies; `--seed` makes it count)"),
+        (Warning::ProbabilityInSection("decomposition ").to_string(), "a probability in the decomposition section is ignored, as in cpfg (the first applicable decomposition production applies)"),
+        (Warning::StepHidden.to_string(), "`step` hides the built-in step number"),
+        (
+            Warning::DivisionByZero.to_string(),
+            "division by zero in a cpfg expression: divided by 1 instead, as cpfg does",
+        ),
+        (
+            Warning::MaximumDepth { max: 3, symbol: 'A', pass: Pass::Step(2) }.to_string(),
+            "decomposition stopped at maximum depth 3, but this production still applies (to module A, in step 2)",
+        ),
+        (
+            Warning::MaximumDepth { max: 4, symbol: 'B', pass: Pass::Homomorphism }.to_string(),
+            "homomorphism stopped at maximum depth 4, but this production still applies (to module B)",
+        ),
+        (UsageError::FramesNeedN.to_string(), "`--frames` with `-o` needs `{n}` (the generation number) in the file name"),
+        (UsageError::StdinInBatch.to_string(), "standard input can feed one job only: a batch (several files or seeds) needs file names"),
+        (UsageError::StdinAxiomInBatch.to_string(), "`--axiom -` can feed one job only: a batch needs an axiom file"),
+        (UsageError::BatchNeedsTemplate.to_string(), "several jobs (files or seeds) need -o with a template, e.g. -o 'out/{stem}-{seed}.txt', so that each has its own file"),
+        (UsageError::SeedRangeNeedsSeed.to_string(), "a seed range needs `{seed}` in the -o template, so that each seed has its own file"),
+        (UsageError::FilesNeedStem.to_string(), "several files need `{stem}` in the -o template, so that each has its own file"),
+        (
+            UsageError::SameStem { first: "a/x.ls".into(), second: "b/x.ls".into(), stem: "x".into() }.to_string(),
+            "a/x.ls and b/x.ls have the same {stem} `x`: their outputs would collide",
+        ),
+        (UsageError::BothFromStdin.to_string(), "the L-system and `--axiom -` cannot both come from standard input"),
+        (UsageError::CpfgNotDepthFirst.to_string(), "`--strategy dfs`: a cpfg (`.l`) file is derived step by step (cpfg's random draws and blocks run in string order)"),
+        (UsageError::UnknownFormat("gif".into()).to_string(), "unknown format `gif` (svg, png, obj, segments)"),
+        (UsageError::FormatFromName("p.gif".into()).to_string(), "cannot tell the format from `p.gif`: give -f svg|png|obj|segments"),
+    ];
+    for (got, want) in cases {
+        assert_eq!(got, want);
+    }
+    assert_eq!(Error::new(UsageError::FilesNeedStem).stage(), Stage::Usage);
+}
