@@ -4,9 +4,11 @@
 //! its `source()`. The expected messages are the texts the front end wrote
 //! as strings before the errors were typed (e89df03), copied by hand.
 
+use crate::diag::PreprocessError::{BadExpression, InvalidDirective, Macro, NotSupported};
 use crate::diag::{
-    Block, CompileError, Error, ErrorKind, ExprError, LexicalError, ParseError, PreprocessError,
-    Refused, RuntimeError, Stage, UsageError, Warning,
+    Block, CompileError, DirectiveError, Error, ErrorKind, ExprError, IfError, LexicalError,
+    MacroError, ParseError, PpConstruct, PreprocessError, Refused, RuntimeError, Stage, UsageError,
+    Warning,
 };
 use crate::Pass;
 
@@ -272,6 +274,155 @@ fn typed_messages_are_the_former_strings() {
         (UsageError::CpfgNotDepthFirst.to_string(), "`--strategy dfs`: a cpfg (`.l`) file is derived step by step (cpfg's random draws and blocks run in string order)"),
         (UsageError::UnknownFormat("gif".into()).to_string(), "unknown format `gif` (svg, png, obj, segments)"),
         (UsageError::FormatFromName("p.gif".into()).to_string(), "cannot tell the format from `p.gif`: give -f svg|png|obj|segments"),
+    ];
+    for (got, want) in cases {
+        assert_eq!(got, want);
+    }
+    let pp = |e: PreprocessError| e.to_string();
+    let cases: Vec<(String, &str)> = vec![
+        (
+            pp(InvalidDirective(DirectiveError::NeedsMacroName(
+                "#undef".into(),
+            ))),
+            "`#undef` needs a macro name",
+        ),
+        (
+            pp(InvalidDirective(DirectiveError::DefinedAsName)),
+            "`defined` cannot be a macro name",
+        ),
+        (
+            pp(InvalidDirective(DirectiveError::ParamListNotClosed)),
+            "missing `)` in macro parameter list",
+        ),
+        (
+            pp(InvalidDirective(DirectiveError::ExpectedParamName)),
+            "expected a parameter name",
+        ),
+        (
+            pp(InvalidDirective(DirectiveError::DuplicateParam("a".into()))),
+            "duplicate macro parameter `a`",
+        ),
+        (
+            pp(InvalidDirective(DirectiveError::ExpectedCommaOrParen)),
+            "expected `,` or `)` in parameter list",
+        ),
+        (
+            pp(InvalidDirective(DirectiveError::PasteAtEnd)),
+            "`##` cannot be at either end of a macro body",
+        ),
+        (
+            pp(InvalidDirective(DirectiveError::StringifyNeedsParam)),
+            "`#` in a function-like macro must be followed by a parameter name (C stringification)",
+        ),
+        (
+            pp(InvalidDirective(DirectiveError::IncludeNeedsName)),
+            "`#include` needs a file name in quotes",
+        ),
+        (
+            pp(InvalidDirective(DirectiveError::IncludeNotQuoted)),
+            "`#include` expects \"FILE\"",
+        ),
+        (
+            pp(InvalidDirective(DirectiveError::IncludeEmptyName)),
+            "empty file name in `#include`",
+        ),
+        (
+            pp(Macro(MacroError::UnterminatedArgs("F".into()))),
+            "unterminated argument list of macro `F`",
+        ),
+        (
+            pp(Macro(MacroError::Arity {
+                name: "F".into(),
+                want: 1,
+                given: 2,
+            })),
+            "macro `F` takes 1 argument, 2 given",
+        ),
+        (
+            pp(Macro(MacroError::Paste {
+                left: "x".into(),
+                right: "(".into(),
+            })),
+            "`##` pasting `x` and `(` does not give one token",
+        ),
+        (
+            pp(BadExpression(IfError::DefinedNeedsName)),
+            "`defined` needs a macro name",
+        ),
+        (
+            pp(BadExpression(IfError::DefinedNotClosed)),
+            "missing `)` after `defined(NAME`",
+        ),
+        (
+            pp(BadExpression(IfError::Unexpected("@".into()))),
+            "unexpected `@` in `#if` expression",
+        ),
+        (
+            pp(BadExpression(IfError::Empty)),
+            "`#if` needs an expression",
+        ),
+        (
+            pp(BadExpression(IfError::MissingOperator)),
+            "missing operator in `#if` expression",
+        ),
+        (
+            pp(BadExpression(IfError::NotInteger("1.5".into()))),
+            "`1.5` is not an integer (only integers are allowed in `#if`)",
+        ),
+        (
+            pp(BadExpression(IfError::IntegerTooLarge(
+                "99999999999999999999".into(),
+            ))),
+            "integer `99999999999999999999` too large",
+        ),
+        (
+            pp(BadExpression(IfError::UnsupportedEscape("'\\q'".into()))),
+            "unsupported escape in `'\\q'`",
+        ),
+        (
+            pp(BadExpression(IfError::NotSingleChar("'ab'".into()))),
+            "`'ab'` is not a single-character constant",
+        ),
+        (
+            pp(BadExpression(IfError::NestedTooDeeply(128))),
+            "`#if` expression nested too deeply (limit 128)",
+        ),
+        (
+            pp(BadExpression(IfError::MissingColon)),
+            "missing `:` after `?` in `#if` expression",
+        ),
+        (
+            pp(BadExpression(IfError::DivisionByZero)),
+            "division by zero in `#if` expression",
+        ),
+        (
+            pp(BadExpression(IfError::EndsEarly)),
+            "`#if` expression ends too early",
+        ),
+        (
+            pp(BadExpression(IfError::MissingParen)),
+            "missing `)` in `#if` expression",
+        ),
+        (
+            pp(NotSupported(PpConstruct::LineMarker)),
+            "a `# LINE \"file\"` line marker is not supported",
+        ),
+        (
+            pp(NotSupported(PpConstruct::Directive("ident".into()))),
+            "`#ident` is not supported",
+        ),
+        (
+            pp(NotSupported(PpConstruct::VaArgs)),
+            "variadic macros (`__VA_ARGS__`) is not supported",
+        ),
+        (
+            pp(NotSupported(PpConstruct::Ellipsis)),
+            "variadic macros (`...`) is not supported",
+        ),
+        (
+            pp(NotSupported(PpConstruct::SystemInclude)),
+            "`#include <...>` (there is no system include path; use \"...\") is not supported",
+        ),
     ];
     for (got, want) in cases {
         assert_eq!(got, want);

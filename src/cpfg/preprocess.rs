@@ -66,7 +66,7 @@
 //! inserted in place, so lines after an include are shifted: use
 //! [`SourceMap`] to go back.
 
-use crate::diag::{excerpt, Location};
+use crate::diag::{excerpt, DirectiveError, IfError, Location, MacroError, PpConstruct};
 use std::collections::{HashMap, VecDeque};
 use std::fmt;
 use std::io::{self, Read};
@@ -1247,10 +1247,7 @@ impl Pp<'_> {
             _ if !active => {}
             "" if name == eol => {} // `#` alone
             w if w.starts_with(|c: char| c.is_ascii_digit()) => {
-                return Err(self.err(
-                    name_at,
-                    PpErrorKind::NotSupported("a `# LINE \"file\"` line marker".into()),
-                ));
+                return Err(self.err(name_at, PpErrorKind::NotSupported(PpConstruct::LineMarker)));
             }
             "define" => {
                 let toks = self.lex_range(file, ne, eol)?;
@@ -1275,7 +1272,7 @@ impl Pp<'_> {
                 }
             }
             "line" | "include_next" | "import" | "ident" | "sccs" | "assert" | "unassert" => {
-                return Err(self.err(at, PpErrorKind::NotSupported(format!("`#{word}`"))));
+                return Err(self.err(at, PpErrorKind::NotSupported(PpConstruct::Directive(word))));
             }
             _ => return Err(self.err(name_at, PpErrorKind::UnknownDirective(word))),
         }
@@ -1302,7 +1299,9 @@ impl Pp<'_> {
             let p = toks.iter().find(|t| !t.is_space()).map_or(at, |t| t.at);
             return Err(self.err(
                 p,
-                PpErrorKind::InvalidDirective(format!("`{directive}` needs a macro name")),
+                PpErrorKind::InvalidDirective(DirectiveError::NeedsMacroName(
+                    directive.to_string(),
+                )),
             ));
         };
         let n = self.text(t).to_string();
@@ -1317,24 +1316,25 @@ impl Pp<'_> {
     }
 
     fn define(&mut self, toks: Vec<Tok>, at: Pos) -> Res<()> {
-        let bad = |s: &Self, p: Pos, m: &str| s.err(p, PpErrorKind::InvalidDirective(m.into()));
+        let bad = |s: &Self, p: Pos, e: DirectiveError| s.err(p, PpErrorKind::InvalidDirective(e));
         let mut i = 0;
         while i < toks.len() && toks[i].is_space() {
             i += 1;
         }
         let Some(nt) = toks.get(i).filter(|t| t.kind == K::Ident) else {
             let p = toks.get(i).map_or(at, |t| t.at);
-            return Err(bad(self, p, "`#define` needs a macro name"));
+            return Err(bad(
+                self,
+                p,
+                DirectiveError::NeedsMacroName("#define".to_string()),
+            ));
         };
         let name = self.text(nt).to_string();
         if name == "defined" {
-            return Err(bad(self, nt.at, "`defined` cannot be a macro name"));
+            return Err(bad(self, nt.at, DirectiveError::DefinedAsName));
         }
         if name == "__VA_ARGS__" {
-            return Err(self.err(
-                nt.at,
-                PpErrorKind::NotSupported("variadic macros (`__VA_ARGS__`)".into()),
-            ));
+            return Err(self.err(nt.at, PpErrorKind::NotSupported(PpConstruct::VaArgs)));
         }
         i += 1;
         let mut params = None;
@@ -1354,21 +1354,20 @@ impl Pp<'_> {
                 loop {
                     skip(&mut i);
                     let Some(t) = toks.get(i) else {
-                        return Err(bad(self, open, "missing `)` in macro parameter list"));
+                        return Err(bad(self, open, DirectiveError::ParamListNotClosed));
                     };
                     let s = self.text(t);
                     if t.kind == K::Other && s.starts_with("...") || s == "__VA_ARGS__" {
-                        return Err(self.err(
-                            t.at,
-                            PpErrorKind::NotSupported("variadic macros (`...`)".into()),
-                        ));
+                        return Err(
+                            self.err(t.at, PpErrorKind::NotSupported(PpConstruct::Ellipsis))
+                        );
                     }
                     if t.kind != K::Ident {
-                        return Err(bad(self, t.at, "expected a parameter name"));
+                        return Err(bad(self, t.at, DirectiveError::ExpectedParamName));
                     }
                     if ps.iter().any(|p| p == s) {
-                        let m = format!("duplicate macro parameter `{s}`");
-                        return Err(bad(self, t.at, &m));
+                        let e = DirectiveError::DuplicateParam(s.to_string());
+                        return Err(bad(self, t.at, e));
                     }
                     ps.push(s.to_string());
                     i += 1;
@@ -1381,9 +1380,9 @@ impl Pp<'_> {
                         }
                         Some(_) => {
                             let p = toks[i].at;
-                            return Err(bad(self, p, "expected `,` or `)` in parameter list"));
+                            return Err(bad(self, p, DirectiveError::ExpectedCommaOrParen));
                         }
-                        None => return Err(bad(self, open, "missing `)` in macro parameter list")),
+                        None => return Err(bad(self, open, DirectiveError::ParamListNotClosed)),
                     }
                 }
             }
@@ -1404,10 +1403,7 @@ impl Pp<'_> {
                 continue;
             }
             if t.kind == K::Ident && self.text(&t) == "__VA_ARGS__" {
-                return Err(self.err(
-                    t.at,
-                    PpErrorKind::NotSupported("variadic macros (`__VA_ARGS__`)".into()),
-                ));
+                return Err(self.err(t.at, PpErrorKind::NotSupported(PpConstruct::VaArgs)));
             }
             if let Some(ps) = &params {
                 if t.kind == K::Ident {
@@ -1439,11 +1435,7 @@ impl Pp<'_> {
             .flatten()
             .find(|t| t.kind == K::Paste)
         {
-            return Err(bad(
-                self,
-                t.at,
-                "`##` cannot be at either end of a macro body",
-            ));
+            return Err(bad(self, t.at, DirectiveError::PasteAtEnd));
         }
         if params.is_some() {
             // `#` must be followed by a parameter: stringification.
@@ -1467,11 +1459,7 @@ impl Pp<'_> {
                         _ => {
                             return Err(self.err(
                                 body[k].at,
-                                PpErrorKind::InvalidDirective(
-                                    "`#` in a function-like macro must be followed by a \
-                                     parameter name (C stringification)"
-                                        .into(),
-                                ),
+                                PpErrorKind::InvalidDirective(DirectiveError::StringifyNeedsParam),
                             ));
                         }
                     }
@@ -1505,15 +1493,13 @@ impl Pp<'_> {
         let first = |v: &[Tok]| v.iter().position(|t| !t.is_space());
         let mut toks = toks;
         let Some(k) = first(&toks) else {
-            let m = "`#include` needs a file name in quotes".to_string();
-            return Err(self.err(at, PpErrorKind::InvalidDirective(m)));
+            let e = DirectiveError::IncludeNeedsName;
+            return Err(self.err(at, PpErrorKind::InvalidDirective(e)));
         };
         if toks[k].kind == K::Other && self.text(&toks[k]).starts_with('<') {
             return Err(self.err(
                 toks[k].at,
-                PpErrorKind::NotSupported(
-                    "`#include <...>` (there is no system include path; use \"...\")".into(),
-                ),
+                PpErrorKind::NotSupported(PpConstruct::SystemInclude),
             ));
         }
         if toks[k].kind != K::Str {
@@ -1526,8 +1512,8 @@ impl Pp<'_> {
             Some(k) if toks[k].kind == K::Str => k,
             k => {
                 let p = k.map_or(at, |k| toks[k].primary());
-                let m = "`#include` expects \"FILE\"".to_string();
-                return Err(self.err(p, PpErrorKind::InvalidDirective(m)));
+                let e = DirectiveError::IncludeNotQuoted;
+                return Err(self.err(p, PpErrorKind::InvalidDirective(e)));
             }
         };
         let name_at = toks[k].primary();
@@ -1538,8 +1524,8 @@ impl Pp<'_> {
         let quoted = self.text(&toks[k]);
         let name = quoted[1..quoted.len() - 1].to_string();
         if name.is_empty() {
-            let m = "empty file name in `#include`".to_string();
-            return Err(self.err(name_at, PpErrorKind::InvalidDirective(m)));
+            let e = DirectiveError::IncludeEmptyName;
+            return Err(self.err(name_at, PpErrorKind::InvalidDirective(e)));
         }
         if self.frames.len() >= self.limits.max_include_depth {
             return Err(self.err(
@@ -1709,8 +1695,8 @@ impl Pp<'_> {
         let rparen = loop {
             let Some(mut x) = self.next_tok(pending, cur.as_deref_mut(), true)? else {
                 let n = self.text(name).to_string();
-                let msg = format!("unterminated argument list of macro `{n}`");
-                return Err(self.err(at, PpErrorKind::Macro(msg)));
+                let e = MacroError::UnterminatedArgs(n);
+                return Err(self.err(at, PpErrorKind::Macro(e)));
             };
             self.charge(1, at)?;
             match x.kind {
@@ -1743,12 +1729,12 @@ impl Pp<'_> {
         }
         if args.len() != want {
             let n = self.text(name).to_string();
-            let msg = format!(
-                "macro `{n}` takes {want} argument{}, {} given",
-                if want == 1 { "" } else { "s" },
-                args.len()
-            );
-            return Err(self.err(at, PpErrorKind::Macro(msg)));
+            let e = MacroError::Arity {
+                name: n,
+                want,
+                given: args.len(),
+            };
+            return Err(self.err(at, PpErrorKind::Macro(e)));
         }
         Ok((args, rparen))
     }
@@ -1871,12 +1857,11 @@ impl Pp<'_> {
         let s = format!("{}{}", self.text(&l), self.text(&r));
         let (kind, end) = lex(s.as_bytes(), 0, s.len());
         if end != s.len() || matches!(kind, K::BadLit | K::Space) {
-            let msg = format!(
-                "`##` pasting `{}` and `{}` does not give one token",
-                self.text(&l),
-                self.text(&r)
-            );
-            return Err(self.err(usage, PpErrorKind::Macro(msg)));
+            let e = MacroError::Paste {
+                left: self.text(&l).to_string(),
+                right: self.text(&r).to_string(),
+            };
+            return Err(self.err(usage, PpErrorKind::Macro(e)));
         }
         Ok(Tok::synth(kind, &s, l.at, Some(usage)))
     }
@@ -1908,16 +1893,15 @@ impl Pp<'_> {
                 skip(&mut j);
             }
             let Some(n) = toks.get(j).filter(|t| t.kind == K::Ident) else {
-                let m = "`defined` needs a macro name".to_string();
-                return Err(self.err(d, PpErrorKind::BadExpression(m)));
+                return Err(self.err(d, PpErrorKind::BadExpression(IfError::DefinedNeedsName)));
             };
             let yes = self.macros.contains_key(self.text(n));
             j += 1;
             if paren {
                 skip(&mut j);
                 if !toks.get(j).is_some_and(|t| t.kind == K::RParen) {
-                    let m = "missing `)` after `defined(NAME`".to_string();
-                    return Err(self.err(d, PpErrorKind::BadExpression(m)));
+                    let e = IfError::DefinedNotClosed;
+                    return Err(self.err(d, PpErrorKind::BadExpression(e)));
                 }
                 j += 1;
             }
@@ -1931,7 +1915,7 @@ impl Pp<'_> {
         for t in out.iter().filter(|t| !t.is_space()) {
             let p = t.primary();
             let s = self.text(t);
-            let bad = |m: String| self.err(p, PpErrorKind::BadExpression(m));
+            let bad = |e: IfError| self.err(p, PpErrorKind::BadExpression(e));
             match t.kind {
                 K::Number => ex.push((E::Num(parse_int(s).map_err(bad)?), p)),
                 K::Char => ex.push((E::Num(parse_char(s).map_err(bad)?), p)),
@@ -1944,7 +1928,7 @@ impl Pp<'_> {
                     while k < s.len() {
                         let Some(op) = OPS.iter().find(|o| s[k..].starts_with(**o)) else {
                             let c = s[k..].chars().next().unwrap();
-                            return Err(bad(format!("unexpected `{c}` in `#if` expression")));
+                            return Err(bad(IfError::Unexpected(c.to_string())));
                         };
                         let q = Pos {
                             file: p.file,
@@ -1958,12 +1942,11 @@ impl Pp<'_> {
                         k += op.len();
                     }
                 }
-                _ => return Err(bad(format!("unexpected `{s}` in `#if` expression"))),
+                _ => return Err(bad(IfError::Unexpected(s.to_string()))),
             }
         }
         if ex.is_empty() {
-            let m = "`#if` needs an expression".to_string();
-            return Err(self.err(at, PpErrorKind::BadExpression(m)));
+            return Err(self.err(at, PpErrorKind::BadExpression(IfError::Empty)));
         }
         let end = out
             .iter()
@@ -1984,11 +1967,11 @@ impl Pp<'_> {
         let r = p.comma(true);
         let r = r.and_then(|v| match p.toks.get(p.i) {
             None => Ok(v),
-            Some((E::Op(o), q)) => Err((format!("unexpected `{o}` in `#if` expression"), *q)),
-            Some((E::Num(_), q)) => Err(("missing operator in `#if` expression".into(), *q)),
+            Some((E::Op(o), q)) => Err((IfError::Unexpected(o.to_string()), *q)),
+            Some((E::Num(_), q)) => Err((IfError::MissingOperator, *q)),
         });
         r.map(|v| v != 0)
-            .map_err(|(m, q)| self.err(q, PpErrorKind::BadExpression(m)))
+            .map_err(|(e, q)| self.err(q, PpErrorKind::BadExpression(e)))
     }
 }
 
@@ -2006,9 +1989,9 @@ const OPS: &[&str] = &[
     "^", "!", "~", "?", ":",
 ];
 
-fn parse_int(s: &str) -> Result<i64, String> {
+fn parse_int(s: &str) -> Result<i64, IfError> {
     let body = s.trim_end_matches(['u', 'U', 'l', 'L']);
-    let bad = || format!("`{s}` is not an integer (only integers are allowed in `#if`)");
+    let bad = || IfError::NotInteger(s.to_string());
     let (digits, radix) = if let Some(h) = body.strip_prefix("0x").or(body.strip_prefix("0X")) {
         (h, 16)
     } else if body.len() > 1 && body.starts_with('0') {
@@ -2021,10 +2004,10 @@ fn parse_int(s: &str) -> Result<i64, String> {
     }
     u64::from_str_radix(digits, radix)
         .map(|v| v as i64)
-        .map_err(|_| format!("integer `{s}` too large"))
+        .map_err(|_| IfError::IntegerTooLarge(s.to_string()))
 }
 
-fn parse_char(s: &str) -> Result<i64, String> {
+fn parse_char(s: &str) -> Result<i64, IfError> {
     let inner = &s[1..s.len() - 1];
     let mut cs = inner.chars();
     let v = match (cs.next(), cs.next(), cs.next()) {
@@ -2038,15 +2021,15 @@ fn parse_char(s: &str) -> Result<i64, String> {
             'f' => 12,
             'v' => 11,
             '\\' | '\'' | '"' | '?' => e as i64,
-            _ => return Err(format!("unsupported escape in `{s}`")),
+            _ => return Err(IfError::UnsupportedEscape(s.to_string())),
         },
         (Some(c), None, None) if c != '\\' => c as i64,
-        _ => return Err(format!("`{s}` is not a single-character constant")),
+        _ => return Err(IfError::NotSingleChar(s.to_string())),
     };
     Ok(v)
 }
 
-type ERes = Result<i64, (String, Pos)>;
+type ERes = Result<i64, (IfError, Pos)>;
 
 /// Precedence climbing over `#if` tokens; `ev == false` parses without
 /// evaluating (the untaken side of `&&`, `||`, `?:`).
@@ -2082,11 +2065,10 @@ impl ExprParser<'_> {
         Ok(v)
     }
 
-    fn enter(&mut self) -> Result<(), (String, Pos)> {
+    fn enter(&mut self) -> Result<(), (IfError, Pos)> {
         self.depth += 1;
         if self.depth > MAX_EXPR_DEPTH {
-            let m = format!("`#if` expression nested too deeply (limit {MAX_EXPR_DEPTH})");
-            return Err((m, self.pos()));
+            return Err((IfError::NestedTooDeeply(MAX_EXPR_DEPTH), self.pos()));
         }
         Ok(())
     }
@@ -2100,10 +2082,7 @@ impl ExprParser<'_> {
         self.i += 1;
         let a = self.comma(ev && c != 0)?;
         if self.peek_op() != Some(":") {
-            return Err((
-                "missing `:` after `?` in `#if` expression".into(),
-                self.pos(),
-            ));
+            return Err((IfError::MissingColon, self.pos()));
         }
         self.i += 1;
         let b = self.cond(ev && c == 0)?;
@@ -2161,7 +2140,7 @@ impl ExprParser<'_> {
                 "*" => a.wrapping_mul(b),
                 _ if b == 0 => {
                     if ev {
-                        return Err(("division by zero in `#if` expression".into(), at));
+                        return Err((IfError::DivisionByZero, at));
                     }
                     0
                 }
@@ -2181,7 +2160,7 @@ impl ExprParser<'_> {
 
     fn unary_inner(&mut self, ev: bool) -> ERes {
         let Some((tok, at)) = self.toks.get(self.i).copied() else {
-            return Err(("`#if` expression ends too early".into(), self.end));
+            return Err((IfError::EndsEarly, self.end));
         };
         self.i += 1;
         match tok {
@@ -2189,7 +2168,7 @@ impl ExprParser<'_> {
             E::Op("(") => {
                 let v = self.comma(ev)?;
                 if self.peek_op() != Some(")") {
-                    return Err(("missing `)` in `#if` expression".into(), self.pos()));
+                    return Err((IfError::MissingParen, self.pos()));
                 }
                 self.i += 1;
                 Ok(v)
@@ -2198,7 +2177,7 @@ impl ExprParser<'_> {
             E::Op("+") => self.unary(ev),
             E::Op("!") => Ok((self.unary(ev)? == 0) as i64),
             E::Op("~") => Ok(!self.unary(ev)?),
-            E::Op(o) => Err((format!("unexpected `{o}` in `#if` expression"), at)),
+            E::Op(o) => Err((IfError::Unexpected(o.to_string()), at)),
         }
     }
 }

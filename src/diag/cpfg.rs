@@ -121,15 +121,14 @@ pub enum PreprocessError {
     AfterElse(&'static str),
     /// `#name` that is no directive.
     UnknownDirective(String),
-    /// A directive with a malformed operand (the message says which).
-    InvalidDirective(String),
-    /// A malformed or unevaluable `#if`/`#elif` expression (the message).
-    BadExpression(String),
-    /// A construct this preprocessor does not implement (named).
-    NotSupported(String),
-    /// A bad macro call or definition use (argument count, pasting, ...;
-    /// the message).
-    Macro(String),
+    /// A directive with a malformed operand.
+    InvalidDirective(DirectiveError),
+    /// A malformed or unevaluable `#if`/`#elif` expression.
+    BadExpression(IfError),
+    /// A construct this preprocessor does not implement.
+    NotSupported(PpConstruct),
+    /// A bad macro call (argument count, pasting, ...).
+    Macro(MacroError),
     /// An `#include` file could not be read.
     IncludeFailed {
         /// The file as named.
@@ -188,7 +187,9 @@ impl fmt::Display for PreprocessError {
             UnmatchedConditional(d) => write!(f, "`{d}` without `#if`"),
             AfterElse(d) => write!(f, "`{d}` after `#else`"),
             UnknownDirective(n) => write!(f, "unknown directive `#{n}`"),
-            InvalidDirective(m) | BadExpression(m) | Macro(m) => f.write_str(m),
+            InvalidDirective(e) => e.fmt(f),
+            BadExpression(e) => e.fmt(f),
+            Macro(e) => e.fmt(f),
             NotSupported(w) => write!(f, "{w} is not supported"),
             IncludeFailed { path, source } => write!(
                 f,
@@ -224,6 +225,192 @@ impl fmt::Display for Block {
             Block::StartEach(pass) => write!(f, "`StartEach:` before {pass}"),
             Block::EndEach(pass) => write!(f, "`EndEach:` after {pass}"),
             Block::End => f.write_str("`End:`"),
+        }
+    }
+}
+
+/// A preprocessor directive with a malformed operand.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum DirectiveError {
+    /// `#ifdef`, `#ifndef`, `#undef` or `#define` (as written) without a
+    /// name.
+    NeedsMacroName(String),
+    /// `#define defined`.
+    DefinedAsName,
+    /// A macro parameter list without its `)`.
+    ParamListNotClosed,
+    /// Something else than a name in a macro parameter list.
+    ExpectedParamName,
+    /// A macro parameter named twice.
+    DuplicateParam(String),
+    /// Neither `,` nor `)` after a macro parameter.
+    ExpectedCommaOrParen,
+    /// `##` first or last in a macro body.
+    PasteAtEnd,
+    /// `#` in a function-like macro not followed by a parameter.
+    StringifyNeedsParam,
+    /// `#include` alone.
+    IncludeNeedsName,
+    /// `#include` with something else than `"FILE"`.
+    IncludeNotQuoted,
+    /// `#include ""`.
+    IncludeEmptyName,
+}
+
+impl fmt::Display for DirectiveError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use DirectiveError::*;
+        match self {
+            NeedsMacroName(d) => write!(f, "`{d}` needs a macro name"),
+            DefinedAsName => f.write_str("`defined` cannot be a macro name"),
+            ParamListNotClosed => f.write_str("missing `)` in macro parameter list"),
+            ExpectedParamName => f.write_str("expected a parameter name"),
+            DuplicateParam(p) => write!(f, "duplicate macro parameter `{p}`"),
+            ExpectedCommaOrParen => f.write_str("expected `,` or `)` in parameter list"),
+            PasteAtEnd => f.write_str("`##` cannot be at either end of a macro body"),
+            StringifyNeedsParam => f.write_str(
+                "`#` in a function-like macro must be followed by a parameter name (C stringification)",
+            ),
+            IncludeNeedsName => f.write_str("`#include` needs a file name in quotes"),
+            IncludeNotQuoted => f.write_str("`#include` expects \"FILE\""),
+            IncludeEmptyName => f.write_str("empty file name in `#include`"),
+        }
+    }
+}
+
+/// A macro call that cannot be expanded.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum MacroError {
+    /// The call's argument list has no `)` (the macro).
+    UnterminatedArgs(String),
+    /// Another number of arguments than the macro's parameters.
+    Arity {
+        /// The macro.
+        name: String,
+        /// Its parameters.
+        want: usize,
+        /// The arguments given.
+        given: usize,
+    },
+    /// `##` joining two tokens into something that is not one token.
+    Paste {
+        /// The left token.
+        left: String,
+        /// The right token.
+        right: String,
+    },
+}
+
+impl fmt::Display for MacroError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            MacroError::UnterminatedArgs(n) => {
+                write!(f, "unterminated argument list of macro `{n}`")
+            }
+            MacroError::Arity { name, want, given } => write!(
+                f,
+                "macro `{name}` takes {want} argument{}, {given} given",
+                if *want == 1 { "" } else { "s" }
+            ),
+            MacroError::Paste { left, right } => write!(
+                f,
+                "`##` pasting `{left}` and `{right}` does not give one token"
+            ),
+        }
+    }
+}
+
+/// An `#if` or `#elif` expression that cannot be read or evaluated.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum IfError {
+    /// `defined` without a name.
+    DefinedNeedsName,
+    /// `defined(NAME` without `)`.
+    DefinedNotClosed,
+    /// A token that does not belong here (as written).
+    Unexpected(String),
+    /// `#if` alone.
+    Empty,
+    /// Two values without an operator between them.
+    MissingOperator,
+    /// A number that is not an integer (as written).
+    NotInteger(String),
+    /// An integer past 64 bits (as written).
+    IntegerTooLarge(String),
+    /// A character constant with an escape C's preprocessor has not (as
+    /// written).
+    UnsupportedEscape(String),
+    /// A character constant of several characters (as written).
+    NotSingleChar(String),
+    /// Parentheses, unary operators and `?:` nested past this limit.
+    NestedTooDeeply(usize),
+    /// `?` without `:`.
+    MissingColon,
+    /// A division or remainder by zero that is evaluated.
+    DivisionByZero,
+    /// The expression ends after an operator.
+    EndsEarly,
+    /// `(` without `)`.
+    MissingParen,
+}
+
+impl fmt::Display for IfError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use IfError::*;
+        match self {
+            DefinedNeedsName => f.write_str("`defined` needs a macro name"),
+            DefinedNotClosed => f.write_str("missing `)` after `defined(NAME`"),
+            Unexpected(t) => write!(f, "unexpected `{t}` in `#if` expression"),
+            Empty => f.write_str("`#if` needs an expression"),
+            MissingOperator => f.write_str("missing operator in `#if` expression"),
+            NotInteger(s) => write!(
+                f,
+                "`{s}` is not an integer (only integers are allowed in `#if`)"
+            ),
+            IntegerTooLarge(s) => write!(f, "integer `{s}` too large"),
+            UnsupportedEscape(s) => write!(f, "unsupported escape in `{s}`"),
+            NotSingleChar(s) => write!(f, "`{s}` is not a single-character constant"),
+            NestedTooDeeply(limit) => {
+                write!(f, "`#if` expression nested too deeply (limit {limit})")
+            }
+            MissingColon => f.write_str("missing `:` after `?` in `#if` expression"),
+            DivisionByZero => f.write_str("division by zero in `#if` expression"),
+            EndsEarly => f.write_str("`#if` expression ends too early"),
+            MissingParen => f.write_str("missing `)` in `#if` expression"),
+        }
+    }
+}
+
+/// A C preprocessor construct lsgen's preprocessor does not implement.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum PpConstruct {
+    /// `# 12 "file"`.
+    LineMarker,
+    /// `#line`, `#include_next`, `#import`, `#ident`, `#sccs`, `#assert`
+    /// or `#unassert` (the word).
+    Directive(String),
+    /// `__VA_ARGS__` in a macro.
+    VaArgs,
+    /// `...` in a macro's parameters.
+    Ellipsis,
+    /// `#include <...>`.
+    SystemInclude,
+}
+
+impl fmt::Display for PpConstruct {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PpConstruct::LineMarker => f.write_str("a `# LINE \"file\"` line marker"),
+            PpConstruct::Directive(word) => write!(f, "`#{word}`"),
+            PpConstruct::VaArgs => f.write_str("variadic macros (`__VA_ARGS__`)"),
+            PpConstruct::Ellipsis => f.write_str("variadic macros (`...`)"),
+            PpConstruct::SystemInclude => {
+                f.write_str("`#include <...>` (there is no system include path; use \"...\")")
+            }
         }
     }
 }

@@ -10,7 +10,9 @@ use crate::rules::codec::{number_string, MAX_ARITY};
 use std::fmt;
 use std::path::PathBuf;
 
-pub use super::cpfg::{Block, PreprocessError, Refused};
+pub use super::cpfg::{
+    Block, DirectiveError, IfError, MacroError, PpConstruct, PreprocessError, Refused,
+};
 
 /// What went wrong, by stage; [`super::Error::kind`] gives it.
 #[derive(Debug)]
