@@ -7,8 +7,8 @@
 use crate::diag::PreprocessError::{BadExpression, InvalidDirective, Macro, NotSupported};
 use crate::diag::{
     Block, CompileError, DirectiveError, Error, ErrorKind, ExprError, IfError, LexicalError,
-    MacroError, ParseError, PpConstruct, PreprocessError, Refused, RuntimeError, Stage, UsageError,
-    Warning,
+    MacroError, ParseError, PpConstruct, PreprocessError, RandomError, Refused, RuntimeError,
+    Stage, UsageError, Warning,
 };
 use crate::Pass;
 
@@ -236,6 +236,10 @@ fn typed_messages_are_the_former_strings() {
         (CompileError::OutOfF32.to_string(), "this value does not fit cpfg's 32-bit float"),
         (CompileError::EmptyAxiom.to_string(), "the axiom is empty"),
         (RuntimeError::WorkerStopped.to_string(), "internal error: a worker thread stopped"),
+        (ExprError::Random(RandomError::CpfgOnly).to_string(), "bran, biran and srand are cpfg functions, only in `.l` files"),
+        (ExprError::Random(RandomError::BranNoValue).to_string(), "bran() finds no value for these parameters"),
+        (ExprError::Random(RandomError::BiranTooManyTrials).to_string(), "biran() takes at most 16777216 trials"),
+        (ExprError::Random(RandomError::SrandNotFinite).to_string(), "srand() needs a finite number"),
         (Block::Start.to_string(), "`Start:`"),
         (Block::StartEach(Pass::Step(3)).to_string(), "`StartEach:` before step 3"),
         (Block::End.to_string(), "`End:`"),

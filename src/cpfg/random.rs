@@ -15,6 +15,8 @@
 //!   {0x330E, 0, 0} and `srand(x)` sets {0x330E, x & 0xFFFF, x >> 16}; the
 //!   file's `seed:` does not touch it.
 
+use crate::diag::RandomError;
+
 /// The multiplier, increment and modulus mask of the 48-bit LCG.
 const A: u64 = 0x5_DEEC_E66D;
 const C: u64 = 0xB;
@@ -240,7 +242,7 @@ impl CpfgRandom {
     /// `bran(a, b)`: a beta deviate by `utility.c`'s `brand` (Cheng's
     /// method). An error message when it finds nothing in
     /// [`BRAN_ROUNDS`] rounds.
-    pub fn bran(&mut self, a: f64, b: f64) -> Result<f64, &'static str> {
+    pub fn bran(&mut self, a: f64, b: f64) -> Result<f64, RandomError> {
         let s = a + b;
         let lambda = if a.min(b) <= 1.0 {
             a.min(b)
@@ -259,7 +261,7 @@ impl CpfgRandom {
                 return Ok(ym / (b + ym));
             }
         }
-        Err("bran() finds no value for these parameters")
+        Err(RandomError::BranNoValue)
     }
 
     fn nonzero(&mut self) -> f64 {
@@ -273,9 +275,9 @@ impl CpfgRandom {
 
     /// `biran(n, p)`: the number of n draws that are `<= p` (`n` already
     /// converted to an integer as C's `(int)` does).
-    pub fn biran(&mut self, n: f64, p: f64) -> Result<f64, &'static str> {
+    pub fn biran(&mut self, n: f64, p: f64) -> Result<f64, RandomError> {
         if n > BIRAN_MAX {
-            return Err("biran() takes at most 16777216 trials");
+            return Err(RandomError::BiranTooManyTrials);
         }
         let mut j = 0u32;
         for _ in 0..(n.max(0.0) as u32) {

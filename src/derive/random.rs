@@ -59,14 +59,14 @@ pub trait Draw {
     }
     /// cpfg's `bran(a, b)`, `biran(n, p)` and `srand(x)` (issue 12): only
     /// the cpfg dialect's generator has them.
-    fn bran(&mut self, _a: f64, _b: f64) -> Result<f64, &'static str> {
-        Err(CPFG_ONLY)
+    fn bran(&mut self, _a: f64, _b: f64) -> Result<f64, RandomError> {
+        Err(RandomError::CpfgOnly)
     }
-    fn biran(&mut self, _n: f64, _p: f64) -> Result<f64, &'static str> {
-        Err(CPFG_ONLY)
+    fn biran(&mut self, _n: f64, _p: f64) -> Result<f64, RandomError> {
+        Err(RandomError::CpfgOnly)
     }
-    fn srand(&mut self, _x: f64) -> Result<f64, &'static str> {
-        Err(CPFG_ONLY)
+    fn srand(&mut self, _x: f64) -> Result<f64, RandomError> {
+        Err(RandomError::CpfgOnly)
     }
     /// cpfg's global variable `i` (issue 12; 0 until assigned).
     fn global(&self, _i: u32) -> f64 {
@@ -74,8 +74,6 @@ pub trait Draw {
     }
     fn set_global(&mut self, _i: u32, _v: f64) {}
 }
-
-const CPFG_ONLY: &str = "bran, biran and srand are cpfg functions, only in `.l` files";
 
 /// The uniform value of a draw.
 #[inline]
@@ -306,23 +304,23 @@ impl Draw for Random {
         self.next().map(|x| normal_of(x, mean, sd))
     }
 
-    fn bran(&mut self, a: f64, b: f64) -> Result<f64, &'static str> {
-        let c = self.cpfg.as_deref_mut().ok_or(CPFG_ONLY)?;
+    fn bran(&mut self, a: f64, b: f64) -> Result<f64, RandomError> {
+        let c = self.cpfg.as_deref_mut().ok_or(RandomError::CpfgOnly)?;
         self.draws += 1;
         c.bran(a, b)
     }
 
-    fn biran(&mut self, n: f64, p: f64) -> Result<f64, &'static str> {
-        let c = self.cpfg.as_deref_mut().ok_or(CPFG_ONLY)?;
+    fn biran(&mut self, n: f64, p: f64) -> Result<f64, RandomError> {
+        let c = self.cpfg.as_deref_mut().ok_or(RandomError::CpfgOnly)?;
         self.draws += 1;
         // C's (int) conversion: toward zero.
         c.biran(n.trunc(), p)
     }
 
-    fn srand(&mut self, x: f64) -> Result<f64, &'static str> {
-        let c = self.cpfg.as_deref_mut().ok_or(CPFG_ONLY)?;
+    fn srand(&mut self, x: f64) -> Result<f64, RandomError> {
+        let c = self.cpfg.as_deref_mut().ok_or(RandomError::CpfgOnly)?;
         if !x.is_finite() {
-            return Err("srand() needs a finite number");
+            return Err(RandomError::SrandNotFinite);
         }
         // cpfg converts to an int (toward zero) and keeps 32 bits.
         c.srand(x.trunc() as i64);

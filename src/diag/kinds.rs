@@ -394,6 +394,14 @@ pub enum RandomError {
     TooManyDraws,
     /// A generation of 2^59 modules or more.
     TooManyModules,
+    /// `bran`, `biran` or `srand` outside a `.l` file.
+    CpfgOnly,
+    /// cpfg's `bran(a, b)` without a value for its parameters.
+    BranNoValue,
+    /// cpfg's `biran(n, p)` with more than 2^24 trials.
+    BiranTooManyTrials,
+    /// cpfg's `srand(x)` with x infinite or NaN.
+    SrandNotFinite,
 }
 
 impl fmt::Display for RandomError {
@@ -403,6 +411,10 @@ impl fmt::Display for RandomError {
                 "more than 64 random draws for one module (the limit of the random scheme)"
             }
             RandomError::TooManyModules => "a generation of 2^59 modules or more cannot draw",
+            RandomError::CpfgOnly => "bran, biran and srand are cpfg functions, only in `.l` files",
+            RandomError::BranNoValue => "bran() finds no value for these parameters",
+            RandomError::BiranTooManyTrials => "biran() takes at most 16777216 trials",
+            RandomError::SrandNotFinite => "srand() needs a finite number",
         })
     }
 }
@@ -428,8 +440,6 @@ pub enum ExprError {
     /// A cpfg block's `while` / `do` loop that ran too often (its kind and
     /// the limit).
     Runaway(&'static str, u64),
-    /// A cpfg random function's argument it cannot use (the message).
-    CpfgFunction(&'static str),
     /// A value stored into a cpfg module parameter that a 32-bit float
     /// cannot hold.
     OutOfF32,
@@ -462,7 +472,6 @@ impl fmt::Display for ExprError {
                 f,
                 "this `{what}` loop ran {n} times: lsgen stops it (cpfg would hang)"
             ),
-            CpfgFunction(m) => f.write_str(m),
             OutOfF32 => {
                 f.write_str("the value is out of the range of a 32-bit float (cpfg's parameters)")
             }

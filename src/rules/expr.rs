@@ -571,7 +571,7 @@ impl Code {
                             }
                         }
                     };
-                    stack.push(r.map_err(|m| self.fail(si, ExprError::CpfgFunction(m)))?);
+                    stack.push(r.map_err(|m| self.fail(si, ExprError::Random(m)))?);
                 }
                 Op::Nran(si) => {
                     let sd = stack.pop().unwrap();
