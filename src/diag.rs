@@ -118,10 +118,12 @@ pub fn group_digits(n: u64) -> String {
 /// Print a located warning (`lsgen: FILE:LINE:COL: warning: ...`, the
 /// source line and a caret) on standard error.
 pub(crate) fn warn(location: Location, warning: &Warning) {
-    eprint(&format!(
-        "lsgen: {}",
-        AsWarning(&location, &warning.to_string())
-    ));
+    eprint(&warning_text(&location, warning));
+}
+
+/// What [`warn`] prints.
+pub(crate) fn warning_text(location: &Location, warning: &Warning) -> String {
+    format!("lsgen: {}", AsWarning(location, &warning.to_string()))
 }
 
 /// Print a warning without a place (`lsgen: warning: ...`) on standard

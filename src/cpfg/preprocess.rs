@@ -170,22 +170,10 @@ pub struct Warning {
 }
 
 impl fmt::Display for Warning {
-    /// `lsgen: FILE:LINE:COL: warning: ...`, the line and a caret.
+    /// `lsgen: FILE:LINE:COL: warning: ...`, the line and a caret, as
+    /// [`crate::diag::warn`] prints it.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let l = &self.at;
-        writeln!(
-            f,
-            "lsgen: {}:{}:{}: warning: {}",
-            l.path, l.line, l.col, self.message
-        )?;
-        writeln!(f, "{}", l.snippet)?;
-        let pad: String = l
-            .snippet
-            .chars()
-            .take(l.caret_col.saturating_sub(1))
-            .map(|c| if c == '\t' { '\t' } else { ' ' })
-            .collect();
-        writeln!(f, "{pad}^")
+        f.write_str(&crate::diag::warning_text(&self.at, &self.message))
     }
 }
 
