@@ -36,7 +36,7 @@ pub struct Lowered {
     pub header: ls::Header,
     /// The axiom as module text (parameters evaluated, in full precision).
     pub axiom: String,
-    /// What the shared tree cannot hold, for [`Lowered::attach`]: the
+    /// What the shared tree cannot hold, for [`attach`]: the
     /// header blocks, and per production (in file order) of the
     /// productions, the decomposition and the homomorphism, its blocks and
     /// slots (issue 12).
