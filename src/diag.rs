@@ -1,7 +1,9 @@
 //! Errors and their rendering: `FILE:LINE:COL: error: message`, then the
 //! source line and a caret under the spot. What went wrong is typed, one
-//! enum per stage (`kinds.rs`); the program's name in front (`lsgen: `)
-//! and the exit status are the binaries' (`crate::cli::report`).
+//! enum per stage (`kinds.rs`, shared by both dialects; cpfg's own
+//! refusals and preprocessor errors in `cpfg.rs`), warnings one enum
+//! (`warning.rs`); the program's name in front (`lsgen: `) and the exit
+//! status are the binaries' (`crate::cli::report`).
 
 use std::fmt;
 
