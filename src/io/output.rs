@@ -386,10 +386,18 @@ fn process_start(pid: u32) -> io::Result<Option<u64>> {
         .ok_or_else(|| io::Error::other("unreadable /proc stat"))
 }
 
+/// This process's start time (`process_start` of its own PID), read from
+/// /proc at most once per run and only when needed: a run whose directory
+/// holds no `.lsgen-` names and whose output is new never reads it.
+fn own_start() -> Option<u64> {
+    static START: std::sync::OnceLock<Option<u64>> = std::sync::OnceLock::new();
+    *START.get_or_init(|| process_start(std::process::id()).ok().flatten())
+}
+
 /// This process's temp file name for attempt `k`.
 fn temp_name(k: u32) -> String {
     let pid = std::process::id();
-    let start = process_start(pid).ok().flatten().unwrap_or(0);
+    let start = own_start().unwrap_or(0);
     let nanos = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.subsec_nanos());
@@ -416,24 +424,25 @@ fn parse_temp_name(name: &[u8]) -> Option<(u32, u64)> {
 /// now used by a process started at another time). Nothing when /proc
 /// cannot tell; errors are ignored.
 fn remove_leftovers(dir: &Path) {
-    if !matches!(process_start(std::process::id()), Ok(Some(_))) {
-        return;
-    }
     let Ok(entries) = fs::read_dir(dir) else {
         return;
     };
-    // SAFETY: geteuid cannot fail.
-    let uid = unsafe { libc::geteuid() };
     for entry in entries.flatten() {
         let Some((pid, start)) = parse_temp_name(entry.file_name().as_bytes()) else {
             continue;
         };
+        // Only once there is a candidate: can /proc tell at all?
+        if own_start().is_none() {
+            return;
+        }
         match process_start(pid) {
             Ok(None) => {}
             Ok(Some(s)) if s != start => {}
             _ => continue,
         }
         let p = entry.path();
+        // SAFETY: geteuid cannot fail.
+        let uid = unsafe { libc::geteuid() };
         if fs::symlink_metadata(&p).is_ok_and(|m| m.is_file() && m.uid() == uid) {
             let _ = fs::remove_file(&p);
         }
