@@ -367,23 +367,45 @@ const TEMP_SUFFIX: &str = ".tmp";
 /// Start time of process `pid` (field 22 of /proc/PID/stat); None if no
 /// such process, Err if that cannot be told.
 fn process_start(pid: u32) -> io::Result<Option<u64>> {
-    let stat = match fs::read(format!("/proc/{pid}/stat")) {
-        Ok(s) => s,
-        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(e),
+    use rustix::fs::{open, Mode, OFlags};
+    use rustix::io::Errno;
+    // Reads into one buffer of fixed capacity (the line is well under
+    // 1 KiB), not `fs::read` (a metadata call, a growing buffer): an -o
+    // run that replaces a file reads its own.
+    let unreadable = || io::Error::other("unreadable /proc stat");
+    let fd = match open(
+        format!("/proc/{pid}/stat").as_str(),
+        OFlags::RDONLY | OFlags::CLOEXEC,
+        Mode::empty(),
+    ) {
+        Ok(fd) => fd,
+        Err(e) if e == Errno::NOENT => return Ok(None),
+        Err(e) => return Err(e.into()),
     };
+    let mut stat = Vec::with_capacity(4096);
+    loop {
+        match rustix::io::read(&fd, rustix::buffer::spare_capacity(&mut stat)) {
+            Ok(0) => break,
+            Ok(_) => {}
+            Err(e) if e == Errno::INTR => continue,
+            Err(e) => return Err(e.into()),
+        }
+        if stat.len() == stat.capacity() {
+            return Err(unreadable());
+        }
+    }
     // The command name (field 2) is in parentheses and may hold anything.
     let after = stat
         .iter()
         .rposition(|&b| b == b')')
         .map(|i| &stat[i + 1..])
-        .ok_or_else(|| io::Error::other("unreadable /proc stat"))?;
+        .ok_or_else(unreadable)?;
     std::str::from_utf8(after)
         .ok()
         .and_then(|s| s.split_ascii_whitespace().nth(22 - 3))
         .and_then(|s| s.parse().ok())
         .map(Some)
-        .ok_or_else(|| io::Error::other("unreadable /proc stat"))
+        .ok_or_else(unreadable)
 }
 
 /// This process's start time (`process_start` of its own PID), read from
