@@ -10,13 +10,15 @@
 // /dev/null (`NOTE_CLOSED_STANDARD_FDS` below), SIGPIPE is ignored (a
 // closed pipe is an EPIPE error, handled quietly), `std::env::args` reads
 // glibc's argv through .init_array, and `process::exit` flushes standard
-// output.
-#![no_main]
+// output. (Not in `cargo test`'s build of this file, whose harness brings
+// its own `main`.)
+#![cfg_attr(not(test), no_main)]
 
 /// A failed allocation is one error line and exit 1, not an abort.
 #[global_allocator]
 static ALLOC: lsgen::cli::ExitOnOom = lsgen::cli::ExitOnOom("lsgen");
 
+#[cfg(not(test))]
 #[no_mangle]
 extern "C" fn main(
     _argc: std::ffi::c_int,
