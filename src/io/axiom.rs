@@ -200,17 +200,39 @@ impl<'a> AxiomReader<'a> {
         let base = self.input.offset();
         let avail = self.input.fill(64)?;
         let n = avail.len();
-        let mut i = 0;
-        // With comments, `/` stops the table's loop: it is plain unless it
-        // opens a comment, or may (the last byte buffered). One table look-up
-        // per byte on the way.
-        let table = if self.comments {
-            &PLAIN_BUT_SLASH
+        // One pass, one table look-up per byte: plain bytes, brackets
+        // (counted on the way), and stops. With comments, `/` stops the
+        // loop too: it is plain unless it opens a comment, or may (the last
+        // byte buffered). A `]` that closes nothing ends the run before it
+        // (reported by the general path).
+        let class = if self.comments {
+            &CLASS_BUT_SLASH
         } else {
-            &PLAIN
+            &CLASS
         };
-        loop {
-            while i < n && table[avail[i] as usize] {
+        let mut depth = self.depth;
+        let mut open_at = None;
+        let mut i = 0;
+        let mut unbalanced = false;
+        'scan: loop {
+            while i < n {
+                match class[avail[i] as usize] {
+                    C_PLAIN => {}
+                    C_OPEN => {
+                        if depth == 0 {
+                            open_at = Some(i);
+                        }
+                        depth += 1;
+                    }
+                    C_CLOSE => {
+                        if depth == 0 {
+                            unbalanced = true;
+                            break 'scan;
+                        }
+                        depth -= 1;
+                    }
+                    _ => break,
+                }
                 i += 1;
             }
             if self.comments && i + 1 < n && avail[i] == b'/' && !comment::opens(&avail[i..]) {
@@ -222,26 +244,23 @@ impl<'a> AxiomReader<'a> {
         // The last symbol may take parameters, after blanks and comments
         // too (`F(1)`, `F (1)`, `F/* c */(1)`, `F\u{a0}(1)`), or sit at the
         // end of what is buffered: leave it to the general path, which
-        // applies the one rule of the language.
-        i = i.saturating_sub(1);
-        let run = &avail[..i];
-        // Brackets: stop before a `]` that closes nothing (reported by the
-        // general path).
-        let mut depth = self.depth;
-        let mut end = run.len();
-        for (j, &b) in run.iter().enumerate() {
-            if b == b'[' {
-                if depth == 0 {
-                    self.first_open = (self.line, self.col + j, base + j as u64);
+        // applies the one rule of the language (and counts it if a bracket).
+        let end = if unbalanced {
+            i
+        } else {
+            let end = i.saturating_sub(1);
+            if i > 0 {
+                match avail[end] {
+                    b'[' => depth -= 1,
+                    b']' => depth += 1,
+                    _ => {}
                 }
-                depth += 1;
-            } else if b == b']' {
-                if depth == 0 {
-                    end = j;
-                    break;
-                }
-                depth -= 1;
             }
+            end
+        };
+        let run = &avail[..end];
+        if let Some(j) = open_at.filter(|&j| j < end) {
+            self.first_open = (self.line, self.col + j, base + j as u64);
         }
         self.depth = depth;
         let r = f(&run[..end]);
@@ -486,10 +505,30 @@ static PLAIN: [bool; 256] = {
     t
 };
 
-/// [`PLAIN`] without `/`, which may open a comment.
-static PLAIN_BUT_SLASH: [bool; 256] = {
-    let mut t = PLAIN;
-    t[b'/' as usize] = false;
+/// Byte classes of [`AxiomReader::plain_run`]'s loop: [`PLAIN`] bytes,
+/// the brackets among them, and the rest (a stop).
+const C_STOP: u8 = 0;
+const C_PLAIN: u8 = 1;
+const C_OPEN: u8 = 2;
+const C_CLOSE: u8 = 3;
+static CLASS: [u8; 256] = {
+    let mut t = [C_STOP; 256];
+    let mut b = 0;
+    while b < 256 {
+        if PLAIN[b] {
+            t[b] = C_PLAIN;
+        }
+        b += 1;
+    }
+    t[b'[' as usize] = C_OPEN;
+    t[b']' as usize] = C_CLOSE;
+    t
+};
+
+/// [`CLASS`] with `/` a stop: it may open a comment.
+static CLASS_BUT_SLASH: [u8; 256] = {
+    let mut t = CLASS;
+    t[b'/' as usize] = C_STOP;
     t
 };
 
@@ -554,6 +593,31 @@ mod tests {
             "{}",
             e.message()
         );
+    }
+
+    /// The plain-run loop counts brackets as it goes and leaves a run's
+    /// last byte to the general path, which may find it takes parameters
+    /// (a `[` with parameters is a module, not a branch) or is a bracket.
+    #[test]
+    fn brackets_at_the_end_of_a_plain_run() {
+        let m = read("F[(2)G").unwrap();
+        assert_eq!(m, [('F', vec![]), ('[', vec![2.0]), ('G', vec![])]);
+        let m = read("F[F]](1)").unwrap();
+        assert_eq!(m.len(), 5);
+        assert_eq!(m[4], (']', vec![1.0]));
+        for (src, at) in [
+            ("FFF[", "1:4"),
+            ("FF[[F]F", "1:3"),
+            ("F[F][", "1:5"),
+            // `](1)` is a module: the `[` stays open.
+            ("F[F](1)", "1:2"),
+        ] {
+            let e = read(src).unwrap_err();
+            let want = format!("{at} is never closed");
+            assert!(e.message().contains(&want), "{src}: {}", e.message());
+        }
+        let e = read("F[F]]F").unwrap_err();
+        assert_eq!(e.location().unwrap().clone().col, 5);
     }
 
     #[test]

@@ -367,29 +367,59 @@ const TEMP_SUFFIX: &str = ".tmp";
 /// Start time of process `pid` (field 22 of /proc/PID/stat); None if no
 /// such process, Err if that cannot be told.
 fn process_start(pid: u32) -> io::Result<Option<u64>> {
-    let stat = match fs::read(format!("/proc/{pid}/stat")) {
-        Ok(s) => s,
-        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(e),
+    use rustix::fs::{open, Mode, OFlags};
+    use rustix::io::Errno;
+    // Reads into one buffer of fixed capacity (the line is well under
+    // 1 KiB), not `fs::read` (a metadata call, a growing buffer): an -o
+    // run that replaces a file reads its own.
+    let unreadable = || io::Error::other("unreadable /proc stat");
+    let fd = match open(
+        format!("/proc/{pid}/stat").as_str(),
+        OFlags::RDONLY | OFlags::CLOEXEC,
+        Mode::empty(),
+    ) {
+        Ok(fd) => fd,
+        Err(e) if e == Errno::NOENT => return Ok(None),
+        Err(e) => return Err(e.into()),
     };
+    let mut stat = Vec::with_capacity(4096);
+    loop {
+        match rustix::io::read(&fd, rustix::buffer::spare_capacity(&mut stat)) {
+            Ok(0) => break,
+            Ok(_) => {}
+            Err(e) if e == Errno::INTR => continue,
+            Err(e) => return Err(e.into()),
+        }
+        if stat.len() == stat.capacity() {
+            return Err(unreadable());
+        }
+    }
     // The command name (field 2) is in parentheses and may hold anything.
     let after = stat
         .iter()
         .rposition(|&b| b == b')')
         .map(|i| &stat[i + 1..])
-        .ok_or_else(|| io::Error::other("unreadable /proc stat"))?;
+        .ok_or_else(unreadable)?;
     std::str::from_utf8(after)
         .ok()
         .and_then(|s| s.split_ascii_whitespace().nth(22 - 3))
         .and_then(|s| s.parse().ok())
         .map(Some)
-        .ok_or_else(|| io::Error::other("unreadable /proc stat"))
+        .ok_or_else(unreadable)
+}
+
+/// This process's start time (`process_start` of its own PID), read from
+/// /proc at most once per run and only when needed: a run whose directory
+/// holds no `.lsgen-` names and whose output is new never reads it.
+fn own_start() -> Option<u64> {
+    static START: std::sync::OnceLock<Option<u64>> = std::sync::OnceLock::new();
+    *START.get_or_init(|| process_start(std::process::id()).ok().flatten())
 }
 
 /// This process's temp file name for attempt `k`.
 fn temp_name(k: u32) -> String {
     let pid = std::process::id();
-    let start = process_start(pid).ok().flatten().unwrap_or(0);
+    let start = own_start().unwrap_or(0);
     let nanos = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.subsec_nanos());
@@ -416,24 +446,25 @@ fn parse_temp_name(name: &[u8]) -> Option<(u32, u64)> {
 /// now used by a process started at another time). Nothing when /proc
 /// cannot tell; errors are ignored.
 fn remove_leftovers(dir: &Path) {
-    if !matches!(process_start(std::process::id()), Ok(Some(_))) {
-        return;
-    }
     let Ok(entries) = fs::read_dir(dir) else {
         return;
     };
-    // SAFETY: geteuid cannot fail.
-    let uid = unsafe { libc::geteuid() };
     for entry in entries.flatten() {
         let Some((pid, start)) = parse_temp_name(entry.file_name().as_bytes()) else {
             continue;
         };
+        // Only once there is a candidate: can /proc tell at all?
+        if own_start().is_none() {
+            return;
+        }
         match process_start(pid) {
             Ok(None) => {}
             Ok(Some(s)) if s != start => {}
             _ => continue,
         }
         let p = entry.path();
+        // SAFETY: geteuid cannot fail.
+        let uid = unsafe { libc::geteuid() };
         if fs::symlink_metadata(&p).is_ok_and(|m| m.is_file() && m.uid() == uid) {
             let _ = fs::remove_file(&p);
         }
