@@ -85,21 +85,25 @@ pub(crate) fn threads_for(threads: usize, steps: u64, strategy: Strategy) -> usi
 }
 
 /// Can a pass of `table` be split into chunks of the generation, derived
-/// concurrently (the step engine, `-j N`)? Only when a module's rewriting
-/// depends on the module alone and its index: no context, no bracket
-/// balance to track across the string, and none of the structural
-/// features (decomposition, cuts, homomorphism depth: `plain`), no
+/// concurrently (the step engine, `-j N`)? When a module's rewriting
+/// depends on the module, its index and its contexts, which a chunk gets
+/// from the scan that cuts the pass (`super::split`): not with a bracket
+/// balance to track across the string (`check_balance`), predecessors of
+/// several modules, or the structural features (decomposition, cuts,
+/// homomorphism depth) and cpfg's sequential generator (`plain`); no
 /// `--max-length` (checked as the text is written, in order, on one
-/// thread), and a generation (`len` bytes) of more than one chunk (many
+/// thread); and a generation (`len` bytes) of more than one chunk (many
 /// steps over a short string must not start threads at each step).
+/// (`indexed`: the generations carry a bracket index; split too, see
+/// [`step_pass`].)
 pub(crate) fn step_threads(
     threads: usize,
     table: &crate::rules::Table,
-    (plain, indexed, limited): (bool, bool, bool),
+    (plain, _indexed, limited): (bool, bool, bool),
     (len, split): (u64, Option<u64>),
 ) -> usize {
-    let free = table.max_left == 0 && !table.has_right && !table.check_balance;
-    if plain && free && !indexed && !limited && len > split.unwrap_or(CHUNK_IN) {
+    let free = !table.check_balance && !table.has_multi;
+    if plain && free && !limited && len > split.unwrap_or(CHUNK_IN) {
         resolve(threads).max(1)
     } else {
         1
@@ -120,17 +124,22 @@ pub(crate) fn test_split() -> Option<u64> {
 }
 
 /// One pass of the step engine on `threads` threads: the generation in
-/// `src` is cut into chunks at module boundaries (a scan on the producer
-/// thread, counting modules for the draw positions), each chunk rewritten
-/// by a worker with its own [`Deriver`] (the same generator, positioned by
-/// module index), and the chunks' output written to `out` in order. The
+/// `src` (`indexed`: with a bracket index) is cut into chunks at module
+/// boundaries (a scan on the producer thread, [`super::split::Scan`],
+/// counting modules for the draw positions and keeping the left context
+/// and nesting level each chunk starts from), each chunk rewritten by a
+/// worker with its own [`Deriver`] (the same generator, positioned by
+/// module index; right contexts read past the chunk's end), and the
+/// chunks' output written to `out` in order. Workers write no bracket
+/// index (a branch may open in one chunk and close in another): when
+/// `out` has one, the writer puts each block's brackets through it. The
 /// same bytes, draws and first error as one thread. Returns the number of
 /// draws made, or None when no thread could be started (then nothing was
 /// written: the caller derives the pass on its own thread).
 pub(crate) fn step_pass(
     d: &Deriver,
     table: &crate::rules::Table,
-    src: &File,
+    (src, indexed): (&File, bool),
     (threads, split): (usize, Option<u64>),
     out: &mut Out,
     pass: super::Pass,
@@ -140,8 +149,9 @@ pub(crate) fn step_pass(
     let pool = &Pool::default();
     let text = out.text;
     let al = &d.alphabet;
+    let counts = d.counts;
     let done = std::thread::scope(|s| -> Result<bool, Error> {
-        type Chunk = (u64, u64, u64);
+        use super::split::{Chunk, Scan};
         let (task_tx, task_rx) = mpsc::channel::<(Chunk, SyncSender<Msg>)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
         let (order_tx, order_rx) = mpsc::sync_channel::<Receiver<Msg>>(threads * IN_FLIGHT);
@@ -177,9 +187,10 @@ pub(crate) fn step_pass(
                         let Ok((chunk, tx)) = next else { return };
                         *current.tx.borrow_mut() = Some(tx);
                         let before = (out.modules, wd.rng.draws());
-                        wd.range = Some(chunk);
+                        wd.range = Some((chunk.start, chunk.end, chunk.first));
+                        wd.chunk_start = Some(chunk.at);
                         let r = wd
-                            .pass(table, src, false, &mut out, pass)
+                            .pass(table, src, indexed, &mut out, pass)
                             .and_then(|()| out.flush());
                         out.buf.clear();
                         draws.fetch_add(wd.rng.draws() - before.1, Ordering::Relaxed);
@@ -203,30 +214,19 @@ pub(crate) fn step_pass(
             .spawn_scoped(s, move || {
                 // Cut at the first module boundary past every `size` bytes.
                 let size = split.unwrap_or(CHUNK_IN);
-                let mut rd = super::PosReader::new(src, 256 << 10, false);
-                let (mut start, mut first, mut index) = (0u64, 0u64, 0u64);
+                let mut scan = Scan::new(src, (indexed, counts), table, al, size);
                 let send = |chunk: Chunk| {
                     let (tx, rx) = mpsc::sync_channel(BLOCKS);
                     order_tx.send(rx).is_ok() && task_tx.send((chunk, tx)).is_ok()
                 };
                 loop {
-                    match rd.next_module(al) {
-                        Ok(Some(_)) => {
-                            index += 1;
-                            let off = rd.offset();
-                            if off - start >= size {
-                                if !send((start, off, first)) {
-                                    return;
-                                }
-                                (start, first) = (off, index);
+                    match scan.next_chunk(al) {
+                        Ok(Some(chunk)) => {
+                            if !send(chunk) {
+                                return;
                             }
                         }
-                        Ok(None) => {
-                            if rd.offset() > start {
-                                send((start, rd.offset(), first));
-                            }
-                            return;
-                        }
+                        Ok(None) => return,
                         Err(e) => {
                             let (tx, rx) = mpsc::sync_channel(1);
                             let e = Error::io("temporary file", crate::diag::IoAction::Read, e);
@@ -241,23 +241,30 @@ pub(crate) fn step_pass(
             // The workers end when their task channel closes.
             return Ok(false);
         }
-        write_in_order(order_rx, out, pool, threads).map(|()| true)
+        // Brackets through `out`'s index, if it has one.
+        let reindex = out.indexed.is_some().then_some(al);
+        write_in_order(order_rx, out, pool, (threads, reindex)).map(|()| true)
     })?;
     Ok(done.then(|| draws.load(Ordering::Relaxed)))
 }
 
-/// The writer: each task's blocks, task after task, into `out`.
+/// The writer: each task's blocks, task after task, into `out`. With
+/// `reindex`, the blocks are binary modules without a bracket index, and
+/// their brackets go through `out`'s ([`super::split::put_indexed`]).
 fn write_in_order(
     order_rx: Receiver<Receiver<Msg>>,
     out: &mut Out,
     pool: &Pool,
-    threads: usize,
+    (threads, reindex): (usize, Option<&Alphabet>),
 ) -> Result<(), Error> {
     for rx in order_rx {
         loop {
             match rx.recv() {
                 Ok(Msg::Text(block)) => {
-                    out.extend(&block, 0);
+                    match reindex {
+                        Some(al) => super::split::put_indexed(out, &block, al)?,
+                        None => out.extend(&block, 0),
+                    }
                     out.maybe_flush()?;
                     if let Ok(mut pool) = pool.lock() {
                         if pool.len() <= threads {
@@ -266,7 +273,8 @@ fn write_in_order(
                     }
                 }
                 Ok(Msg::End(modules)) => {
-                    out.extend(&[], modules);
+                    // (Reindexed blocks are counted module by module.)
+                    out.extend(&[], if reindex.is_some() { 0 } else { modules });
                     break;
                 }
                 Ok(Msg::Err(e)) => return Err(e),
@@ -418,7 +426,7 @@ pub(crate) fn expand(
             return plan.expand(input, al, origin, steps, out);
         }
         // Write the tasks' text in task order.
-        write_in_order(order_rx, out, pool, threads)
+        write_in_order(order_rx, out, pool, (threads, None))
     })
 }
 

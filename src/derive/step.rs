@@ -52,6 +52,9 @@ pub struct Deriver<'a> {
     /// Rewrite only the bytes `start..end` of the generation, whose first
     /// module has index `first` (a chunk, `super::par`).
     pub(crate) range: Option<(u64, u64, u64)>,
+    /// The state at the chunk's first module (left context, nesting
+    /// level), from the scan that cut it (`super::split`).
+    pub(crate) chunk_start: Option<super::split::ChunkStart>,
 }
 
 /// Recursive rewriting (decomposition, homomorphism depth): one chooser,
@@ -435,6 +438,7 @@ impl<'a> Deriver<'a> {
                 ..Recur::default()
             },
             range: None,
+            chunk_start: None,
         }
     }
 
@@ -515,11 +519,7 @@ impl<'a> Deriver<'a> {
             max_right_simple: table
                 .max_right_simple
                 .max(d.map_or(0, |d| d.max_right_simple)),
-            left: (table.max_left > 0 || d.is_some_and(|d| d.max_left > 0)).then(|| {
-                let mut ts = vec![table];
-                ts.extend(d);
-                LeftContext::new_for(&ts, &self.alphabet)
-            }),
+            left: super::split::left_for(table, d, &self.alphabet),
             depth: 0,
             skip: (u64::MAX, 0),
             skip_open: false,
@@ -544,6 +544,13 @@ impl<'a> Deriver<'a> {
         if let Some((start, end, first)) = self.range {
             rd.limit(start, end);
             index = first;
+        }
+        if let Some(at) = self.chunk_start.take() {
+            // A chunk of a split pass: go on from where one thread would be.
+            st.level = at.level;
+            if st.left.is_some() {
+                st.left = at.left;
+            }
         }
         let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         // Bytes that need no decision take the table; with contexts, keys
@@ -695,13 +702,7 @@ impl<'a> Deriver<'a> {
                 }
             }
             if let Some(left) = &mut st.left {
-                if key == OPEN {
-                    left.open();
-                } else if key == CLOSE {
-                    left.close();
-                } else if !self.alphabet.ignored(key) {
-                    left.push(key, bytes, self.alphabet.arity(key));
-                }
+                left.follow(key, bytes, &self.alphabet);
             }
             if let Some(run_end) = st.run_end.take() {
                 index = self.skip_run(&mut rd, run_end, index, &mut st)?;
