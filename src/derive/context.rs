@@ -164,6 +164,34 @@ impl LeftContext {
         }
     }
 
+    /// The last k considered modules on the path to the current one,
+    /// nearest last: (key, its first parameter if kept). Tests.
+    #[cfg(test)]
+    pub(crate) fn path(&self) -> Vec<(u32, Option<f64>)> {
+        let mut v = Vec::new();
+        let mut l = self.levels[self.depth];
+        let (mut left, mut idx) = (l.cnt, l.head);
+        while v.len() < self.k {
+            while left == 0 {
+                if l.up == NONE {
+                    v.reverse();
+                    return v;
+                }
+                l = self.levels[l.up];
+                (left, idx) = (l.cnt, l.head);
+            }
+            let slot = l.start + idx;
+            let key = self.keys[slot];
+            let kept = self.width > 0 && self.wanted.get(key as usize).copied().unwrap_or(false);
+            let p = kept.then(|| self.params[slot * self.width]);
+            v.push((key, p));
+            idx = if idx == 0 { l.cnt - 1 } else { idx - 1 };
+            left -= 1;
+        }
+        v.reverse();
+        v
+    }
+
     /// Does the path to the current module end with `pat`? Binds its
     /// parameters.
     pub(crate) fn matches(&self, pat: &[Pat], al: &Alphabet, slots: &mut [f64]) -> bool {

@@ -628,6 +628,37 @@ mod tests {
         assert_eq!(Ok(derive_all()), derive(src, 6, 1, 1));
     }
 
+    /// Passes with left and right contexts split (issue 15); passes that
+    /// track bracket balance stay on one thread.
+    #[test]
+    fn context_passes_split_and_balance_checks_do_not() {
+        use super::step_threads;
+        let table = |src: &str| {
+            let h = crate::lang::parse::parse_header(src).unwrap();
+            crate::rules::compile(&h).unwrap().productions
+        };
+        let flags = (true, true, false);
+        for src in [
+            "productions:\nA < B -> C\n",
+            "productions:\nA > [B]C -> C\n",
+            "ignore: +\nproductions:\nA < B > C -> C : 1\nB -> D : 2\n",
+        ] {
+            assert_eq!(
+                step_threads(3, &table(src), flags, (100, Some(5))),
+                3,
+                "{src}"
+            );
+            // A generation of one chunk is not split.
+            assert_eq!(
+                step_threads(3, &table(src), flags, (5, Some(5))),
+                1,
+                "{src}"
+            );
+        }
+        let unbalanced = table("productions:\nA < B -> C]\n");
+        assert_eq!(step_threads(3, &unbalanced, flags, (100, Some(5))), 1);
+    }
+
     #[test]
     fn every_split_and_thread_count_gives_the_same_string() {
         // Depth first: branches, leaves above the split (B has no
@@ -645,6 +676,14 @@ mod tests {
             "productions:\nF -> F[+F]F : 1\nF -> F[-F]F : 2\nF -> FF : 1\naxiom: F\n",
             "productions:\nA(x) -> A(x+ran(1))[B(ran(2))]A(x*2)\nB(x) : x > 1.9 -> B(1/(x-x))\n\
              B(x) -> C\naxiom: A(0)\n",
+            // Contexts (issue 15): left and right across branches and
+            // chunks, ignored modules, draws, and an error in a late chunk.
+            "ignore: +\nproductions:\nA < B -> B[+A]\nB > [A] -> AB\nA -> B+A\naxiom: AB\n",
+            "productions:\nA(x) < A(y) > A(z) : y > 12 -> A(1/(z-z))\n\
+             A(x) < A(y) > A(z) : x+y+z > 2 -> A(x+y+z)[A(1/(9-x))]\n\
+             A(x) -> A(x+1)A(0)\naxiom: A(0)\n",
+            "ignore: F\nproductions:\nX < Y > X -> F[Y]X : 1\nX < Y > X -> YF : 1\n\
+             Y < X -> XY[X]\nX -> Y\nY -> XX\naxiom: XY\n",
         ];
         for src in systems {
             for steps in 1..=6 {

@@ -172,3 +172,168 @@ pub(crate) fn put_indexed(
     out.extend(&block[run..], modules);
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::derive::{Limits, Out};
+    use crate::lang::parse::parse_header;
+    use crate::rules::{compile, System};
+    use std::io::{Read, Seek};
+
+    fn system(src: &str) -> System {
+        compile(&parse_header(src).unwrap()).unwrap()
+    }
+
+    /// `modules` (symbol, parameters) written through one [`Out`], binary,
+    /// with a bracket index if `indexed` (module counts too if `counts`),
+    /// flushed after every module if `flush` (so that `]`s patch their `[`
+    /// in the file); and the file's bytes.
+    fn write(
+        al: &mut Alphabet,
+        modules: &[(char, &[f64])],
+        (indexed, counts): (bool, bool),
+        flush: bool,
+    ) -> (File, Vec<u8>) {
+        let mut f = tempfile::tempfile().unwrap();
+        let index = f.try_clone().unwrap();
+        {
+            let mut out = Out::new(&mut f, "gen", false, Limits::default());
+            if indexed {
+                out = out.with_index(index).with_counts(counts);
+            }
+            for &(sym, params) in modules {
+                let key = al.intern(sym, params.len()).unwrap();
+                out.module(key, params, al).unwrap();
+                if flush {
+                    out.flush().unwrap();
+                }
+            }
+            out.finish().unwrap();
+        }
+        let mut bytes = Vec::new();
+        f.rewind().unwrap();
+        f.read_to_end(&mut bytes).unwrap();
+        (f, bytes)
+    }
+
+    // A(1) B(2) [ C(3) + [ D(4) ] E(5) ] F(6), `+` ignored.
+    const STRING: &[(char, &[f64])] = &[
+        ('A', &[1.0]),
+        ('B', &[2.0]),
+        ('[', &[]),
+        ('C', &[3.0]),
+        ('+', &[]),
+        ('[', &[]),
+        ('D', &[4.0]),
+        (']', &[]),
+        ('E', &[5.0]),
+        (']', &[]),
+        ('F', &[6.0]),
+    ];
+
+    /// Each chunk (here: each module) starts from the left context one
+    /// thread has there: the last two considered modules on the path to
+    /// it (derived by hand), with the parameters a left context asks for
+    /// (of A and B), and the nesting level.
+    #[test]
+    fn each_chunk_starts_from_the_path_to_its_first_module() {
+        let mut s = system("ignore: +\nproductions:\nA(a) B(b) < C(c) -> X\nF(f) -> F\n");
+        for indexed in [false, true] {
+            let (f, _) = write(&mut s.alphabet, STRING, (indexed, false), false);
+            let mut key = |c: char| s.alphabet.intern(c, 1).unwrap();
+            let (a, b, c, d, e) = (key('A'), key('B'), key('C'), key('D'), key('E'));
+            let al = &s.alphabet;
+            let want: [(&[(u32, Option<f64>)], i64); 11] = [
+                (&[], 0),
+                (&[(a, Some(1.0))], 0),
+                (&[(a, Some(1.0)), (b, Some(2.0))], 0),
+                (&[(a, Some(1.0)), (b, Some(2.0))], 1),
+                (&[(b, Some(2.0)), (c, None)], 1),
+                (&[(b, Some(2.0)), (c, None)], 1),
+                (&[(b, Some(2.0)), (c, None)], 2),
+                (&[(c, None), (d, None)], 2),
+                (&[(b, Some(2.0)), (c, None)], 1),
+                (&[(c, None), (e, None)], 1),
+                (&[(a, Some(1.0)), (b, Some(2.0))], 0),
+            ];
+            let mut scan = Scan::new(&f, (indexed, false), &s.productions, al, 1);
+            let mut next = (0, 0);
+            let mut got = Vec::new();
+            while let Some(ch) = scan.next_chunk(al).unwrap() {
+                // Contiguous chunks of one module each, numbered in order.
+                assert_eq!((ch.start, ch.first), next, "indexed {indexed}");
+                assert!(ch.end > ch.start);
+                next = (ch.end, ch.first + 1);
+                let left = ch.at.left.expect("left contexts are kept");
+                got.push((left.path(), ch.at.level));
+            }
+            assert_eq!(next.0, f.metadata().unwrap().len());
+            let want: Vec<_> = want.iter().map(|(p, l)| (p.to_vec(), *l)).collect();
+            assert_eq!(got, want, "indexed {indexed}");
+        }
+        // Without left contexts, only the nesting level is kept.
+        let mut s = system("productions:\nA > B -> X\n");
+        let (f, _) = write(&mut s.alphabet, STRING, (true, false), false);
+        let mut scan = Scan::new(&f, (true, false), &s.productions, &s.alphabet, 4);
+        let ch = scan.next_chunk(&s.alphabet).unwrap().unwrap();
+        assert!(ch.at.left.is_none());
+        // Chunks end at the first module boundary past 4 bytes: A(1) is
+        // more than 4 bytes.
+        let ch = scan.next_chunk(&s.alphabet).unwrap().unwrap();
+        assert_eq!(ch.first, 1);
+    }
+
+    /// The writer rebuilds the bracket index of blocks written without one
+    /// (chunks' output): the same file, byte for byte, as one [`Out`]
+    /// writing the string, whatever blocks it arrives in (branches open in
+    /// one block and close in another, `]`s patching a `[` already in the
+    /// file), also when parameters hold the bytes of `[` and `]`.
+    #[test]
+    fn the_writer_rebuilds_the_bracket_index_across_blocks() {
+        let tricky = f64::from_bits(0x5B5D_5B5D_5B5D_5B5D);
+        let tricky = [tricky];
+        let mut string = STRING.to_vec();
+        string.insert(3, ('G', &tricky));
+        string.extend_from_slice(&[('[', &[]), ('G', &tricky), (']', &[]), ('H', &[])]);
+        let mut s = system("productions:\nA > B -> X\n");
+        let al = &mut s.alphabet;
+        for counts in [false, true] {
+            let (_, want) = write(al, &string, (true, counts), false);
+            let (_, plain) = write(al, &string, (false, false), false);
+            // Module boundaries of the plain string.
+            let mut ends = Vec::new();
+            let mut i = 0;
+            while i < plain.len() {
+                let (key, kl) = crate::rules::codec::get_key(&plain[i..]);
+                i += if plain[i] < 0x80 {
+                    1
+                } else {
+                    kl + 8 * al.arity(key)
+                };
+                ends.push(i);
+            }
+            for per_block in [1, 2, 3, ends.len()] {
+                let mut f = tempfile::tempfile().unwrap();
+                let index = f.try_clone().unwrap();
+                {
+                    let mut out = Out::new(&mut f, "gen", false, Limits::default())
+                        .with_index(index)
+                        .with_counts(counts);
+                    let mut from = 0;
+                    for chunk in ends.chunks(per_block) {
+                        let to = *chunk.last().unwrap();
+                        put_indexed(&mut out, &plain[from..to], al).unwrap();
+                        out.flush().unwrap();
+                        from = to;
+                    }
+                    assert_eq!(out.finish().unwrap().0, string.len() as u64);
+                }
+                let mut got = Vec::new();
+                f.rewind().unwrap();
+                f.read_to_end(&mut got).unwrap();
+                assert_eq!(got, want, "counts {counts}, {per_block} per block");
+            }
+        }
+    }
+}
