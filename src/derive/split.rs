@@ -244,7 +244,8 @@ mod tests {
             let mut key = |c: char| s.alphabet.intern(c, 1).unwrap();
             let (a, b, c, d, e) = (key('A'), key('B'), key('C'), key('D'), key('E'));
             let al = &s.alphabet;
-            let want: [(&[(u32, Option<f64>)], i64); 11] = [
+            type Path<'p> = &'p [(u32, Option<f64>)];
+            let want: [(Path, i64); 11] = [
                 (&[], 0),
                 (&[(a, Some(1.0))], 0),
                 (&[(a, Some(1.0)), (b, Some(2.0))], 0),
