@@ -150,7 +150,10 @@ pub(crate) fn step_pass(
     let text = out.text;
     let al = &d.alphabet;
     let counts = d.counts;
-    let done = std::thread::scope(|s| -> Result<bool, Error> {
+    let times = super::split::thread_times().then(super::split::CpuTimes::default);
+    let times = times.as_ref();
+    // Some(the writer's CPU time) when the pass was split.
+    let done = std::thread::scope(|s| -> Result<Option<u64>, Error> {
         use super::split::{Chunk, Scan};
         let (task_tx, task_rx) = mpsc::channel::<(Chunk, SyncSender<Msg>)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
@@ -179,6 +182,7 @@ pub(crate) fn step_pass(
                     let mut w = ChannelWriter(&current);
                     let mut out = Out::new(&mut w, "output", text, super::Limits::default());
                     out.chunk = CHUNK;
+                    let _timed = times.map(|t| super::split::Timed(t, false));
                     loop {
                         let next = match task_rx.lock() {
                             Ok(rx) => rx.recv(),
@@ -207,13 +211,14 @@ pub(crate) fn step_pass(
             workers += 1;
         }
         if workers == 0 {
-            return Ok(false);
+            return Ok(None);
         }
         let producer = std::thread::Builder::new()
             .name("lsgen-chunks".into())
             .spawn_scoped(s, move || {
                 // Cut at the first module boundary past every `size` bytes.
                 let size = split.unwrap_or(CHUNK_IN);
+                let _timed = times.map(|t| super::split::Timed(t, true));
                 let mut scan = Scan::new(src, (indexed, counts), table, al, size);
                 let send = |chunk: Chunk| {
                     let (tx, rx) = mpsc::sync_channel(BLOCKS);
@@ -239,13 +244,18 @@ pub(crate) fn step_pass(
             });
         if producer.is_err() {
             // The workers end when their task channel closes.
-            return Ok(false);
+            return Ok(None);
         }
         // Brackets through `out`'s index, if it has one.
         let reindex = out.indexed.is_some().then_some(al);
-        write_in_order(order_rx, out, pool, (threads, reindex)).map(|()| true)
+        let writer = times.map(|_| super::split::thread_cpu_ns());
+        write_in_order(order_rx, out, pool, (threads, reindex))?;
+        Ok(Some(writer.map_or(0, |w| super::split::thread_cpu_ns() - w)))
     })?;
-    Ok(done.then(|| draws.load(Ordering::Relaxed)))
+    if let (Some(t), Some(writer)) = (times, done) {
+        t.report(pass, writer);
+    }
+    Ok(done.map(|_| draws.load(Ordering::Relaxed)))
 }
 
 /// The writer: each task's blocks, task after task, into `out`. With

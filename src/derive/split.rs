@@ -338,3 +338,75 @@ mod tests {
         }
     }
 }
+
+/// `LSGEN_THREAD_TIMES=1` (hidden, for measuring, benches/RESULTS.md):
+/// each split pass reports on stderr the CPU time of its producer, of each
+/// worker and of the writer, a speed-up proxy that does not depend on how
+/// loaded the machine is.
+pub(crate) fn thread_times() -> bool {
+    std::env::var_os("LSGEN_THREAD_TIMES").is_some_and(|v| v == "1")
+}
+
+/// Nanoseconds the calling thread has run on a CPU (Linux's
+/// /proc/thread-self/schedstat; 0 where there is none).
+pub(crate) fn thread_cpu_ns() -> u64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse().ok())
+        .unwrap_or(0)
+}
+
+/// One line per split pass: the CPU time (ms) of the producer, the
+/// workers and the writer, and the speed-up on free cores they imply: the
+/// sum over the critical one (the longest of producer, writer and the
+/// workers' share per thread).
+pub(crate) fn report_times(pass: super::Pass, producer: u64, workers: &[u64], writer: u64) {
+    let ms = |ns: u64| ns as f64 / 1e6;
+    let total: u64 = producer + writer + workers.iter().sum::<u64>();
+    let per = workers.iter().sum::<u64>() / workers.len().max(1) as u64;
+    let critical = producer.max(writer).max(per).max(1);
+    let w: Vec<String> = workers.iter().map(|&n| format!("{:.1}", ms(n))).collect();
+    crate::diag::eprint(&format!(
+        "lsgen: threads: {pass}: producer {:.1} ms, workers [{}] ms, writer {:.1} ms; \
+         total {:.1} ms, producer share {:.1} %, bound {:.2}x\n",
+        ms(producer),
+        w.join(", "),
+        ms(writer),
+        ms(total),
+        100.0 * producer as f64 / total.max(1) as f64,
+        total as f64 / critical as f64,
+    ));
+}
+
+/// The CPU times of a split pass's threads ([`thread_times`]).
+#[derive(Default)]
+pub(crate) struct CpuTimes {
+    producer: std::sync::atomic::AtomicU64,
+    workers: std::sync::Mutex<Vec<u64>>,
+}
+
+/// Records its thread's CPU time into a [`CpuTimes`] when the thread's
+/// work ends (dropped), however it ends.
+pub(crate) struct Timed<'a>(pub(crate) &'a CpuTimes, pub(crate) bool);
+
+impl Drop for Timed<'_> {
+    fn drop(&mut self) {
+        let ns = thread_cpu_ns();
+        if self.1 {
+            self.0
+                .producer
+                .store(ns, std::sync::atomic::Ordering::Relaxed);
+        } else if let Ok(mut w) = self.0.workers.lock() {
+            w.push(ns);
+        }
+    }
+}
+
+impl CpuTimes {
+    /// Report them (the writer's `writer` ns) with [`report_times`].
+    pub(crate) fn report(&self, pass: super::Pass, writer: u64) {
+        let producer = self.producer.load(std::sync::atomic::Ordering::Relaxed);
+        let workers = self.workers.lock().map(|w| w.clone()).unwrap_or_default();
+        report_times(pass, producer, &workers, writer);
+    }
+}
