@@ -250,7 +250,9 @@ pub(crate) fn step_pass(
         let reindex = out.indexed.is_some().then_some(al);
         let writer = times.map(|_| super::split::thread_cpu_ns());
         write_in_order(order_rx, out, pool, (threads, reindex))?;
-        Ok(Some(writer.map_or(0, |w| super::split::thread_cpu_ns() - w)))
+        Ok(Some(
+            writer.map_or(0, |w| super::split::thread_cpu_ns() - w),
+        ))
     })?;
     if let (Some(t), Some(writer)) = (times, done) {
         t.report(pass, writer);
