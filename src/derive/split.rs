@@ -24,6 +24,7 @@
 //! depends on what earlier chunks wrote) stay on one thread; so do the
 //! structural and cpfg features (`par::step_threads`).
 
+use super::bytetable::ASCII;
 use super::context::LeftContext;
 use super::reader::PosReader;
 use crate::rules::{Alphabet, Table, CLOSE, OPEN};
@@ -107,7 +108,62 @@ impl<'f> Scan<'f> {
             level: self.level,
         };
         let (start, first) = (self.start, self.index);
+        // Cut once the chunk reaches this offset.
+        let stop = start + self.size;
+        let open_len = self.rd.open_len();
         loop {
+            // One-byte symbols and `[`s in a tight loop (the bytes of
+            // [`super::bytetable`]'s fast path), the rest module by module.
+            let base = self.rd.offset();
+            let Scan {
+                rd, left, level, ..
+            } = self;
+            let w = rd.window()?;
+            let (mut i, mut n) = (0, 0);
+            while i < w.len() {
+                let b = w[i];
+                if b >= 0x80 {
+                    break;
+                }
+                if b == b'[' {
+                    if i + open_len > w.len() {
+                        break;
+                    }
+                    *level += 1;
+                    if let Some(left) = left {
+                        left.open();
+                    }
+                    i += open_len;
+                } else {
+                    if b == b']' {
+                        *level -= 1;
+                    }
+                    if let Some(left) = left {
+                        let b = b as usize;
+                        left.follow(b as u32, &ASCII[b..b + 1], al);
+                    }
+                    i += 1;
+                }
+                n += 1;
+                if base + i as u64 >= stop {
+                    break;
+                }
+            }
+            self.rd.advance(i);
+            self.index += n;
+            let end = self.rd.offset();
+            if i > 0 {
+                if end >= stop {
+                    self.start = end;
+                    return Ok(Some(Chunk {
+                        start,
+                        end,
+                        first,
+                        at,
+                    }));
+                }
+                continue;
+            }
             let Some((key, s, e)) = self.rd.next_module(al)? else {
                 self.done = true;
                 let end = self.rd.offset();

@@ -537,7 +537,12 @@ impl<'a> Deriver<'a> {
             run_end: None,
             cpfg_choice: self.cpfg_contexts || table.has_multi || self.rng.cpfg_mut().is_some(),
         };
-        let mut rd = PosReader::new(input, 1 << 20, indexed).with_counts(self.counts);
+        // (A chunk's reader needs no more than the chunk: the buffer is
+        // zeroed once per pass.)
+        let capacity = self.range.map_or(1 << 20, |(start, end, _)| {
+            (end - start).min(1 << 20) as usize
+        });
+        let mut rd = PosReader::new(input, capacity, indexed).with_counts(self.counts);
         let open_len = rd.open_len();
         // The index of the module being rewritten, for the random draws.
         let mut index: u64 = 0;
