@@ -87,9 +87,9 @@ pub(crate) fn threads_for(threads: usize, steps: u64, strategy: Strategy) -> usi
 /// Can a pass of `table` be split into chunks of the generation, derived
 /// concurrently (the step engine, `-j N`)? When a module's rewriting
 /// depends on the module, its index and its contexts, which a chunk gets
-/// from the scan that cuts the pass (`super::split`): not with a bracket
-/// balance to track across the string (`check_balance`), predecessors of
-/// several modules, or the structural features (decomposition, cuts,
+/// from the scan that cuts the pass (`super::split`; a bracket balance
+/// check is judged by the writer, `split::Balance`): not with predecessors
+/// of several modules, or the structural features (decomposition, cuts,
 /// homomorphism depth) and cpfg's sequential generator (`plain`); no
 /// `--max-length` (checked as the text is written, in order, on one
 /// thread); and a generation (`len` bytes) of more than one chunk (many
@@ -102,7 +102,7 @@ pub(crate) fn step_threads(
     (plain, _indexed, limited): (bool, bool, bool),
     (len, split): (u64, Option<u64>),
 ) -> usize {
-    let free = !table.check_balance && !table.has_multi;
+    let free = !table.has_multi;
     if plain && free && !limited && len > split.unwrap_or(CHUNK_IN) {
         resolve(threads).max(1)
     } else {
@@ -193,12 +193,18 @@ pub(crate) fn step_pass(
                         let before = (out.modules, wd.rng.draws());
                         wd.range = Some((chunk.start, chunk.end, chunk.first));
                         wd.chunk_start = Some(chunk.at);
+                        wd.balance = table.check_balance.then(Default::default);
                         let r = wd
                             .pass(table, src, indexed, &mut out, pass)
                             .and_then(|()| out.flush());
                         out.buf.clear();
                         draws.fetch_add(wd.rng.draws() - before.1, Ordering::Relaxed);
                         let tx = current.tx.borrow_mut().take().expect("the task's channel");
+                        if let Some(b) = wd.balance.take() {
+                            // Before the chunk's end or error: its lows
+                            // come first in string order.
+                            let _ = tx.send(Msg::Balance(Box::new(b)));
+                        }
                         let _ = tx.send(match r {
                             Ok(()) => Msg::End(out.modules - before.0),
                             Err(e) => Msg::Err(e),
@@ -249,7 +255,24 @@ pub(crate) fn step_pass(
         // Brackets through `out`'s index, if it has one.
         let reindex = out.indexed.is_some().then_some(al);
         let writer = times.map(|_| super::split::thread_cpu_ns());
-        write_in_order(order_rx, out, pool, (threads, reindex))?;
+        let mut check = super::split::BalanceCheck::default();
+        let mut judge = |b: &super::split::Balance| {
+            check
+                .next(b)
+                .map_err(|culprit| super::step::unbalanced(&d.origin, table, culprit, pass))
+        };
+        let judge = table
+            .check_balance
+            .then_some(&mut judge as &mut dyn FnMut(&super::split::Balance) -> Result<(), Error>);
+        write_in_order(order_rx, out, pool, (threads, reindex, judge))?;
+        if table.check_balance && check.depth() != 0 {
+            return Err(super::step::unclosed(
+                &d.origin,
+                table,
+                check.last_opener,
+                pass,
+            ));
+        }
         Ok(Some(
             writer.map_or(0, |w| super::split::thread_cpu_ns() - w),
         ))
@@ -263,11 +286,13 @@ pub(crate) fn step_pass(
 /// The writer: each task's blocks, task after task, into `out`. With
 /// `reindex`, the blocks are binary modules without a bracket index, and
 /// their brackets go through `out`'s ([`super::split::put_indexed`]).
+/// `judge` judges each chunk's bracket balance.
+type Judge<'j> = Option<&'j mut dyn FnMut(&super::split::Balance) -> Result<(), Error>>;
 fn write_in_order(
     order_rx: Receiver<Receiver<Msg>>,
     out: &mut Out,
     pool: &Pool,
-    (threads, reindex): (usize, Option<&Alphabet>),
+    (threads, reindex, mut judge): (usize, Option<&Alphabet>, Judge),
 ) -> Result<(), Error> {
     for rx in order_rx {
         loop {
@@ -288,6 +313,11 @@ fn write_in_order(
                     // (Reindexed blocks are counted module by module.)
                     out.extend(&[], if reindex.is_some() { 0 } else { modules });
                     break;
+                }
+                Ok(Msg::Balance(b)) => {
+                    if let Some(judge) = &mut judge {
+                        judge(&b)?;
+                    }
                 }
                 Ok(Msg::Err(e)) => return Err(e),
                 Err(_) => return Err(Error::new("internal error: a worker thread stopped")),
@@ -321,6 +351,8 @@ enum Msg {
     Text(Vec<u8>),
     /// The task is complete: its number of modules.
     End(u64),
+    /// A chunk's bracket balance (sent before its end or error).
+    Balance(Box<super::split::Balance>),
     Err(Error),
 }
 
@@ -438,7 +470,7 @@ pub(crate) fn expand(
             return plan.expand(input, al, origin, steps, out);
         }
         // Write the tasks' text in task order.
-        write_in_order(order_rx, out, pool, (threads, None))
+        write_in_order(order_rx, out, pool, (threads, None, None))
     })
 }
 
@@ -667,8 +699,45 @@ mod tests {
                 "{src}"
             );
         }
+        // Bracket balance is judged by the writer: split too.
         let unbalanced = table("productions:\nA < B -> C]\n");
-        assert_eq!(step_threads(3, &unbalanced, flags, (100, Some(5))), 1);
+        assert!(unbalanced.check_balance);
+        assert_eq!(step_threads(3, &unbalanced, flags, (100, Some(5))), 3);
+    }
+
+    /// The writer's verdict on chunks' bracket balance is one thread's:
+    /// the first dip below depth 0, blaming the production one thread
+    /// blames (a closer of an earlier chunk when the chunk has none yet).
+    #[test]
+    fn the_writer_judges_bracket_balance_across_chunks() {
+        use super::super::split::{Balance, BalanceCheck};
+        let mut check = BalanceCheck::default();
+        // Chunk 1 ends 2 deeper; its last opener is production 4, its
+        // last closer 5.
+        let dip = |lows: Vec<(i64, Option<u32>)>, depth, opener, closer| Balance {
+            lows,
+            depth,
+            last_opener: opener,
+            last_closer: closer,
+        };
+        assert_eq!(check.next(&dip(vec![], 2, Some(4), Some(5))), Ok(()));
+        // Depth 2 here: dips to -1 and -2 are fine, -3 is the error,
+        // blaming the last closer before this chunk (5); a chunk judged
+        // wrong changes nothing.
+        let b = dip(
+            vec![(-1, Some(6)), (-2, Some(7)), (-3, None)],
+            -3,
+            None,
+            None,
+        );
+        assert_eq!(check.next(&b), Err(Some(5)));
+        let b = dip(vec![(-1, Some(6)), (-2, Some(7))], -2, None, Some(7));
+        assert_eq!(check.next(&b), Ok(()));
+        assert_eq!((check.depth(), check.last_opener), (0, Some(4)));
+        assert_eq!(
+            check.next(&dip(vec![(-1, Some(9))], 0, None, None)),
+            Err(Some(9))
+        );
     }
 
     #[test]
@@ -696,6 +765,13 @@ mod tests {
              A(x) -> A(x+1)A(0)\naxiom: A(0)\n",
             "ignore: F\nproductions:\nX < Y > X -> F[Y]X : 1\nX < Y > X -> YF : 1\n\
              Y < X -> XY[X]\nX -> Y\nY -> XX\naxiom: XY\n",
+            // Bracket balance judged across chunks: balanced; a `]` without
+            // `[` (a production's, a copied one blaming a closer of an
+            // earlier chunk); a `[` left open.
+            "productions:\nA -> A[B\nC -> ]C\naxiom: AC\n",
+            "productions:\nA -> A[B\nC -> ]C\nD -> ]\naxiom: FFFFFAFFFFFDC\n",
+            "productions:\nB -> BB\nA -> ]\naxiom: [AFFFFFFFFFFB]\n",
+            "productions:\nA -> [X\nB -> [Y\nC -> ]\naxiom: AFFFFBFFFFFCFFFF\n",
         ];
         for src in systems {
             for steps in 1..=6 {

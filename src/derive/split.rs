@@ -466,3 +466,62 @@ impl CpuTimes {
         report_times(pass, producer, &workers, writer);
     }
 }
+
+/// A chunk's bracket balance, for a pass that checks it (`check_balance`):
+/// the output's depth at a chunk's start depends on what the chunks
+/// before it wrote, so a worker counts depth from 0 at its chunk's start
+/// and leaves the verdict to the writer, which knows the depth there
+/// ([`BalanceCheck`]).
+#[derive(Default, Debug)]
+pub(crate) struct Balance {
+    /// Each new low of the depth (relative to the chunk's start, with what
+    /// the production about to be written dips) below 0, in string order,
+    /// with the production to blame (None: the last one that closed a
+    /// branch before the chunk).
+    pub(crate) lows: Vec<(i64, Option<u32>)>,
+    /// The depth at the chunk's end, relative to its start.
+    pub(crate) depth: i64,
+    /// The chunk's last productions that opened and closed more than
+    /// they matched.
+    pub(crate) last_opener: Option<u32>,
+    pub(crate) last_closer: Option<u32>,
+}
+
+impl Balance {
+    /// The depth (relative) dips to `low` (< 0) here, blaming `culprit`.
+    #[cold]
+    pub(crate) fn dip(&mut self, low: i64, culprit: Option<u32>) {
+        if low < self.lows.last().map_or(0, |l| l.0) {
+            self.lows.push((low, culprit));
+        }
+    }
+}
+
+/// The writer's side: the output's depth at the next chunk's start, and
+/// the productions one thread would blame there.
+#[derive(Default)]
+pub(crate) struct BalanceCheck {
+    depth: i64,
+    pub(crate) last_opener: Option<u32>,
+    last_closer: Option<u32>,
+}
+
+impl BalanceCheck {
+    /// The next chunk's balance: Err(the production to blame) at the first
+    /// of its lows that takes the depth below 0, where one thread stops
+    /// (the first new low below `-depth` is the first point below it).
+    pub(crate) fn next(&mut self, b: &Balance) -> Result<(), Option<u32>> {
+        if let Some(&(_, culprit)) = b.lows.iter().find(|l| self.depth + l.0 < 0) {
+            return Err(culprit.or(self.last_closer));
+        }
+        self.depth += b.depth;
+        self.last_opener = b.last_opener.or(self.last_opener);
+        self.last_closer = b.last_closer.or(self.last_closer);
+        Ok(())
+    }
+
+    /// The depth after the last chunk (0: balanced).
+    pub(crate) fn depth(&self) -> i64 {
+        self.depth
+    }
+}

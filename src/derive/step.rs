@@ -55,6 +55,9 @@ pub struct Deriver<'a> {
     /// The state at the chunk's first module (left context, nesting
     /// level), from the scan that cut it (`super::split`).
     pub(crate) chunk_start: Option<super::split::ChunkStart>,
+    /// A chunk of a pass that checks bracket balance: its balance, for
+    /// the writer to judge (`super::split::Balance`).
+    pub(crate) balance: Option<super::split::Balance>,
 }
 
 /// Recursive rewriting (decomposition, homomorphism depth): one chooser,
@@ -439,6 +442,7 @@ impl<'a> Deriver<'a> {
             },
             range: None,
             chunk_start: None,
+            balance: None,
         }
     }
 
@@ -687,7 +691,17 @@ impl<'a> Deriver<'a> {
                     } else if key == CLOSE {
                         st.depth -= 1;
                         if st.depth < 0 {
-                            return Err(unbalanced(&self.origin, table, st.last_closer, pass));
+                            match &mut self.balance {
+                                Some(b) => b.dip(st.depth, st.last_closer),
+                                None => {
+                                    return Err(unbalanced(
+                                        &self.origin,
+                                        table,
+                                        st.last_closer,
+                                        pass,
+                                    ))
+                                }
+                            }
                         }
                     }
                 }
@@ -718,12 +732,11 @@ impl<'a> Deriver<'a> {
             // cpfg's choice generator: every module of the step drew once.
             c.end_pass(index);
         }
-        if st.depth != 0 {
-            let p = &table.prods[st.last_opener.unwrap_or(0) as usize];
-            return Err(Error::at(
-                self.origin.locate(p.span.0),
-                crate::diag::RuntimeError::UnclosedBracket(pass),
-            ));
+        if let Some(b) = &mut self.balance {
+            // A chunk: the writer judges.
+            (b.depth, b.last_opener, b.last_closer) = (st.depth, st.last_opener, st.last_closer);
+        } else if st.depth != 0 {
+            return Err(unclosed(&self.origin, table, st.last_opener, pass));
         }
         Ok(())
     }
@@ -822,6 +835,7 @@ impl<'a> Deriver<'a> {
             rc,
             warnings,
             warned,
+            balance,
             ..
         } = self;
         // Predecessor parameters into the first slots.
@@ -872,7 +886,10 @@ impl<'a> Deriver<'a> {
         }
         if table.check_balance {
             if st.depth + p.depth_min < 0 {
-                return Err(unbalanced(origin, table, Some(pi), pass));
+                match balance {
+                    Some(b) => b.dip(st.depth + p.depth_min, Some(pi)),
+                    None => return Err(unbalanced(origin, table, Some(pi), pass)),
+                }
             }
             st.depth += p.depth_delta;
             if p.depth_delta > 0 {
@@ -990,8 +1007,23 @@ fn run_contexts(
     Ok(!surely_not(p, last, end, st, al)? && contexts_match(p, end, st, al, slots)?)
 }
 
+/// A pass left a `[` open: blame `culprit`, the last production that
+/// opened more than it closed.
+pub(crate) fn unclosed(origin: &Origin, table: &Table, culprit: Option<u32>, pass: Pass) -> Error {
+    let p = &table.prods[culprit.unwrap_or(0) as usize];
+    Error::at(
+        origin.locate(p.span.0),
+        crate::diag::RuntimeError::UnclosedBracket(pass),
+    )
+}
+
 /// A step made a `]` without `[`: blame `culprit`.
-fn unbalanced(origin: &Origin, table: &Table, culprit: Option<u32>, pass: Pass) -> Error {
+pub(crate) fn unbalanced(
+    origin: &Origin,
+    table: &Table,
+    culprit: Option<u32>,
+    pass: Pass,
+) -> Error {
     let p = &table.prods[culprit.unwrap_or(0) as usize];
     Error::at(
         origin.locate(p.span.0),
