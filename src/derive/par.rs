@@ -283,11 +283,13 @@ pub(crate) fn step_pass(
     Ok(done.map(|_| draws.load(Ordering::Relaxed)))
 }
 
+/// Judges each chunk's bracket balance ([`write_in_order`]).
+type Judge<'j> = Option<&'j mut dyn FnMut(&super::split::Balance) -> Result<(), Error>>;
+
 /// The writer: each task's blocks, task after task, into `out`. With
 /// `reindex`, the blocks are binary modules without a bracket index, and
 /// their brackets go through `out`'s ([`super::split::put_indexed`]).
 /// `judge` judges each chunk's bracket balance.
-type Judge<'j> = Option<&'j mut dyn FnMut(&super::split::Balance) -> Result<(), Error>>;
 fn write_in_order(
     order_rx: Receiver<Receiver<Msg>>,
     out: &mut Out,
@@ -672,10 +674,10 @@ mod tests {
         assert_eq!(Ok(derive_all()), derive(src, 6, 1, 1));
     }
 
-    /// Passes with left and right contexts split (issue 15); passes that
-    /// track bracket balance stay on one thread.
+    /// Passes with left and right contexts split (issue 15), and so do
+    /// passes that check bracket balance.
     #[test]
-    fn context_passes_split_and_balance_checks_do_not() {
+    fn context_and_balance_checked_passes_split() {
         use super::step_threads;
         let table = |src: &str| {
             let h = crate::lang::parse::parse_header(src).unwrap();
