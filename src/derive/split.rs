@@ -75,6 +75,9 @@ pub(crate) struct Scan<'f> {
     index: u64,
     size: u64,
     done: bool,
+    /// Per ASCII byte: the one-byte module is recorded by the left
+    /// context (considered: not ignored, not a bracket).
+    kept: [bool; 128],
 }
 
 impl<'f> Scan<'f> {
@@ -87,9 +90,14 @@ impl<'f> Scan<'f> {
         al: &Alphabet,
         size: u64,
     ) -> Self {
+        let left = left_for(table, None, al);
+        let kept = std::array::from_fn(|b| {
+            left.is_some() && b != OPEN as usize && b != CLOSE as usize && !al.ignored(b as u32)
+        });
         Scan {
             rd: PosReader::new(src, 256 << 10, indexed).with_counts(counts),
-            left: left_for(table, None, al),
+            left,
+            kept,
             level: 0,
             start: 0,
             index: 0,
@@ -116,7 +124,11 @@ impl<'f> Scan<'f> {
             // [`super::bytetable`]'s fast path), the rest module by module.
             let base = self.rd.offset();
             let Scan {
-                rd, left, level, ..
+                rd,
+                left,
+                level,
+                kept,
+                ..
             } = self;
             let w = rd.window()?;
             let (mut i, mut n) = (0, 0);
@@ -135,12 +147,18 @@ impl<'f> Scan<'f> {
                     }
                     i += open_len;
                 } else {
-                    if b == b']' {
+                    // (What `LeftContext::follow` does, decided per byte
+                    // once in `kept`.)
+                    if kept[b as usize] {
+                        if let Some(left) = left {
+                            let b = b as usize;
+                            left.push(b as u32, &ASCII[b..b + 1], 0);
+                        }
+                    } else if b == b']' {
                         *level -= 1;
-                    }
-                    if let Some(left) = left {
-                        let b = b as usize;
-                        left.follow(b as u32, &ASCII[b..b + 1], al);
+                        if let Some(left) = left {
+                            left.close();
+                        }
                     }
                     i += 1;
                 }
@@ -294,32 +312,53 @@ mod tests {
     /// (of A and B), and the nesting level.
     #[test]
     fn each_chunk_starts_from_the_path_to_its_first_module() {
-        let mut s = system("ignore: +\nproductions:\nA(a) B(b) < C(c) -> X\nF(f) -> F\n");
-        for indexed in [false, true] {
-            let (f, _) = write(&mut s.alphabet, STRING, (indexed, false), false);
-            let mut key = |c: char| s.alphabet.intern(c, 1).unwrap();
+        // The same string with parameters (module by module) and without
+        // (one-byte modules: the scan's byte loop).
+        let ascii: Vec<(char, &[f64])> = STRING.iter().map(|&(c, _)| (c, &[][..])).collect();
+        for (indexed, plain) in [(false, false), (true, false), (false, true), (true, true)] {
+            let (mut s, string) = if plain {
+                (
+                    system("ignore: +\nproductions:\nA B < C -> X\n"),
+                    &ascii[..],
+                )
+            } else {
+                let src = "ignore: +\nproductions:\nA(a) B(b) < C(c) -> X\nF(f) -> F\n";
+                (system(src), STRING)
+            };
+            let (f, _) = write(&mut s.alphabet, string, (indexed, false), false);
+            let arity = usize::from(!plain);
+            let mut key = |c: char| s.alphabet.intern(c, arity).unwrap();
             let (a, b, c, d, e) = (key('A'), key('B'), key('C'), key('D'), key('E'));
             let al = &s.alphabet;
+            let (one, two) = if plain {
+                (None, None)
+            } else {
+                (Some(1.0), Some(2.0))
+            };
             type Path<'p> = &'p [(u32, Option<f64>)];
             let want: [(Path, i64); 11] = [
                 (&[], 0),
-                (&[(a, Some(1.0))], 0),
-                (&[(a, Some(1.0)), (b, Some(2.0))], 0),
-                (&[(a, Some(1.0)), (b, Some(2.0))], 1),
-                (&[(b, Some(2.0)), (c, None)], 1),
-                (&[(b, Some(2.0)), (c, None)], 1),
-                (&[(b, Some(2.0)), (c, None)], 2),
+                (&[(a, one)], 0),
+                (&[(a, one), (b, two)], 0),
+                (&[(a, one), (b, two)], 1),
+                (&[(b, two), (c, None)], 1),
+                (&[(b, two), (c, None)], 1),
+                (&[(b, two), (c, None)], 2),
                 (&[(c, None), (d, None)], 2),
-                (&[(b, Some(2.0)), (c, None)], 1),
+                (&[(b, two), (c, None)], 1),
                 (&[(c, None), (e, None)], 1),
-                (&[(a, Some(1.0)), (b, Some(2.0))], 0),
+                (&[(a, one), (b, two)], 0),
             ];
             let mut scan = Scan::new(&f, (indexed, false), &s.productions, al, 1);
             let mut next = (0, 0);
             let mut got = Vec::new();
             while let Some(ch) = scan.next_chunk(al).unwrap() {
                 // Contiguous chunks of one module each, numbered in order.
-                assert_eq!((ch.start, ch.first), next, "indexed {indexed}");
+                assert_eq!(
+                    (ch.start, ch.first),
+                    next,
+                    "indexed {indexed}, plain {plain}"
+                );
                 assert!(ch.end > ch.start);
                 next = (ch.end, ch.first + 1);
                 let left = ch.at.left.expect("left contexts are kept");
@@ -327,7 +366,7 @@ mod tests {
             }
             assert_eq!(next.0, f.metadata().unwrap().len());
             let want: Vec<_> = want.iter().map(|(p, l)| (p.to_vec(), *l)).collect();
-            assert_eq!(got, want, "indexed {indexed}");
+            assert_eq!(got, want, "indexed {indexed}, plain {plain}");
         }
         // Without left contexts, only the nesting level is kept.
         let mut s = system("productions:\nA > B -> X\n");
