@@ -751,16 +751,16 @@ fn lsgen_text(src: &str, steps: Option<u64>, seed: Option<u64>) -> Result<String
         .map_err(|e| e.to_string())
 }
 
-/// `lsgen_text` on `threads` threads (`-j`, issue 15).
+/// `lsgen_text` on `threads` threads (`-j`, issue 15), in tasks of
+/// `split` (modules per thread depth first, bytes per chunk step by step).
 fn lsgen_text_on(
     src: &str,
     steps: Option<u64>,
     seed: Option<u64>,
-    threads: usize,
+    (threads, split): (usize, u64),
 ) -> Result<String, String> {
-    // Tiny tasks (3 modules per thread depth first, chunks of 3 bytes step
-    // by step), so that these small strings split.
-    let split = (threads, Some(3));
+    // Tiny tasks, so that these small strings split.
+    let split = (threads, Some(split));
     lsgen::derive_bytes_on(src.as_bytes(), steps, seed, Limits::default(), split)
         .map(|v| String::from_utf8(v).expect("lsgen writes UTF-8"))
         .map_err(|e| e.to_string())
@@ -953,11 +953,14 @@ fn check_many(name: &str, cfg: Cfg, count: u64) {
                 // threads.
                 let (src, n, seed) = (case.text(), case.steps, case.seed);
                 let one = lsgen_text(&src, n, seed);
+                // Chunks of 1 to 4 bytes (context passes split too: every
+                // module a chunk start, contexts across chunks).
+                let split = 1 + i % 4;
                 for threads in [2, 8] {
-                    let many = lsgen_text_on(&src, n, seed, threads);
+                    let many = lsgen_text_on(&src, n, seed, (threads, split));
                     assert!(
                         one == many,
-                        "{name}: case {i}: -j {threads} differs from -j 1 on\n{src}\n\
+                        "{name}: case {i}: -j {threads} (split {split}) differs from -j 1 on\n{src}\n\
                          -j 1: {}\n-j {threads}: {}",
                         clip(&one),
                         clip(&many)

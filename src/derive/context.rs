@@ -16,6 +16,9 @@ use std::io;
 /// k each, and no more than the level has) plus O(1) per level: a long
 /// context and deep nesting do not multiply. Only the parameters of keys
 /// that some left context asks for are kept, up to their largest arity.
+/// A clone is the state at one point of a scan: a chunk of a split pass
+/// starts from it (`super::split`).
+#[derive(Clone)]
 pub(crate) struct LeftContext {
     k: usize,
     /// Parameters kept per slot.
@@ -144,6 +147,49 @@ impl LeftContext {
         if self.wanted.get(key as usize).copied().unwrap_or(false) {
             codec::read_params(module, &mut self.params[slot * w..slot * w + arity]);
         }
+    }
+
+    /// Follow module `key` (encoded as `module`) of the string being
+    /// read: a `[` opens a level, a `]` closes one, a considered module is
+    /// recorded. The one rule both the step engine and the scan that splits
+    /// a pass (`super::split`) keep the left context by.
+    #[inline(always)]
+    pub(crate) fn follow(&mut self, key: u32, module: &[u8], al: &Alphabet) {
+        if key == OPEN {
+            self.open();
+        } else if key == CLOSE {
+            self.close();
+        } else if !al.ignored(key) {
+            self.push(key, module, al.arity(key));
+        }
+    }
+
+    /// The last k considered modules on the path to the current one,
+    /// nearest last: (key, its first parameter if kept). Tests.
+    #[cfg(test)]
+    pub(crate) fn path(&self) -> Vec<(u32, Option<f64>)> {
+        let mut v = Vec::new();
+        let mut l = self.levels[self.depth];
+        let (mut left, mut idx) = (l.cnt, l.head);
+        while v.len() < self.k {
+            while left == 0 {
+                if l.up == NONE {
+                    v.reverse();
+                    return v;
+                }
+                l = self.levels[l.up];
+                (left, idx) = (l.cnt, l.head);
+            }
+            let slot = l.start + idx;
+            let key = self.keys[slot];
+            let kept = self.width > 0 && self.wanted.get(key as usize).copied().unwrap_or(false);
+            let p = kept.then(|| self.params[slot * self.width]);
+            v.push((key, p));
+            idx = if idx == 0 { l.cnt - 1 } else { idx - 1 };
+            left -= 1;
+        }
+        v.reverse();
+        v
     }
 
     /// Does the path to the current module end with `pat`? Binds its

@@ -16,6 +16,7 @@ pub(crate) mod par;
 pub mod random;
 pub(crate) mod reader;
 pub mod sink;
+pub(crate) mod split;
 pub(crate) mod step;
 
 pub(crate) use bytetable::ASCII;
@@ -617,7 +618,7 @@ fn step_passes(
             let threads = par::step_threads(settings.threads, table, flags, (len, split));
             let split = (threads, split);
             match (threads > 1)
-                .then(|| par::step_pass(d, table, &src, split, &mut out, pass))
+                .then(|| par::step_pass(d, table, (&src, indexed), split, &mut out, pass))
                 .transpose()?
                 .flatten()
             {

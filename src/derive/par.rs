@@ -85,21 +85,25 @@ pub(crate) fn threads_for(threads: usize, steps: u64, strategy: Strategy) -> usi
 }
 
 /// Can a pass of `table` be split into chunks of the generation, derived
-/// concurrently (the step engine, `-j N`)? Only when a module's rewriting
-/// depends on the module alone and its index: no context, no bracket
-/// balance to track across the string, and none of the structural
-/// features (decomposition, cuts, homomorphism depth: `plain`), no
+/// concurrently (the step engine, `-j N`)? When a module's rewriting
+/// depends on the module, its index and its contexts, which a chunk gets
+/// from the scan that cuts the pass (`super::split`; a bracket balance
+/// check is judged by the writer, `split::Balance`): not with predecessors
+/// of several modules, or the structural features (decomposition, cuts,
+/// homomorphism depth) and cpfg's sequential generator (`plain`); no
 /// `--max-length` (checked as the text is written, in order, on one
-/// thread), and a generation (`len` bytes) of more than one chunk (many
+/// thread); and a generation (`len` bytes) of more than one chunk (many
 /// steps over a short string must not start threads at each step).
+/// (`indexed`: the generations carry a bracket index; split too, see
+/// [`step_pass`].)
 pub(crate) fn step_threads(
     threads: usize,
     table: &crate::rules::Table,
-    (plain, indexed, limited): (bool, bool, bool),
+    (plain, _indexed, limited): (bool, bool, bool),
     (len, split): (u64, Option<u64>),
 ) -> usize {
-    let free = table.max_left == 0 && !table.has_right && !table.check_balance;
-    if plain && free && !indexed && !limited && len > split.unwrap_or(CHUNK_IN) {
+    let free = !table.has_multi;
+    if plain && free && !limited && len > split.unwrap_or(CHUNK_IN) {
         resolve(threads).max(1)
     } else {
         1
@@ -120,17 +124,22 @@ pub(crate) fn test_split() -> Option<u64> {
 }
 
 /// One pass of the step engine on `threads` threads: the generation in
-/// `src` is cut into chunks at module boundaries (a scan on the producer
-/// thread, counting modules for the draw positions), each chunk rewritten
-/// by a worker with its own [`Deriver`] (the same generator, positioned by
-/// module index), and the chunks' output written to `out` in order. The
+/// `src` (`indexed`: with a bracket index) is cut into chunks at module
+/// boundaries (a scan on the producer thread, [`super::split::Scan`],
+/// counting modules for the draw positions and keeping the left context
+/// and nesting level each chunk starts from), each chunk rewritten by a
+/// worker with its own [`Deriver`] (the same generator, positioned by
+/// module index; right contexts read past the chunk's end), and the
+/// chunks' output written to `out` in order. Workers write no bracket
+/// index (a branch may open in one chunk and close in another): when
+/// `out` has one, the writer puts each block's brackets through it. The
 /// same bytes, draws and first error as one thread. Returns the number of
 /// draws made, or None when no thread could be started (then nothing was
 /// written: the caller derives the pass on its own thread).
 pub(crate) fn step_pass(
     d: &Deriver,
     table: &crate::rules::Table,
-    src: &File,
+    (src, indexed): (&File, bool),
     (threads, split): (usize, Option<u64>),
     out: &mut Out,
     pass: super::Pass,
@@ -140,8 +149,12 @@ pub(crate) fn step_pass(
     let pool = &Pool::default();
     let text = out.text;
     let al = &d.alphabet;
-    let done = std::thread::scope(|s| -> Result<bool, Error> {
-        type Chunk = (u64, u64, u64);
+    let counts = d.counts;
+    let times = super::split::thread_times().then(super::split::CpuTimes::default);
+    let times = times.as_ref();
+    // Some(the writer's CPU time) when the pass was split.
+    let done = std::thread::scope(|s| -> Result<Option<u64>, Error> {
+        use super::split::{Chunk, Scan};
         let (task_tx, task_rx) = mpsc::channel::<(Chunk, SyncSender<Msg>)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
         let (order_tx, order_rx) = mpsc::sync_channel::<Receiver<Msg>>(threads * IN_FLIGHT);
@@ -169,6 +182,7 @@ pub(crate) fn step_pass(
                     let mut w = ChannelWriter(&current);
                     let mut out = Out::new(&mut w, "output", text, super::Limits::default());
                     out.chunk = CHUNK;
+                    let _timed = times.map(|t| super::split::Timed(t, false));
                     loop {
                         let next = match task_rx.lock() {
                             Ok(rx) => rx.recv(),
@@ -177,13 +191,20 @@ pub(crate) fn step_pass(
                         let Ok((chunk, tx)) = next else { return };
                         *current.tx.borrow_mut() = Some(tx);
                         let before = (out.modules, wd.rng.draws());
-                        wd.range = Some(chunk);
+                        wd.range = Some((chunk.start, chunk.end, chunk.first));
+                        wd.chunk_start = Some(chunk.at);
+                        wd.balance = table.check_balance.then(Default::default);
                         let r = wd
-                            .pass(table, src, false, &mut out, pass)
+                            .pass(table, src, indexed, &mut out, pass)
                             .and_then(|()| out.flush());
                         out.buf.clear();
                         draws.fetch_add(wd.rng.draws() - before.1, Ordering::Relaxed);
                         let tx = current.tx.borrow_mut().take().expect("the task's channel");
+                        if let Some(b) = wd.balance.take() {
+                            // Before the chunk's end or error: its lows
+                            // come first in string order.
+                            let _ = tx.send(Msg::Balance(Box::new(b)));
+                        }
                         let _ = tx.send(match r {
                             Ok(()) => Msg::End(out.modules - before.0),
                             Err(e) => Msg::Err(e),
@@ -196,37 +217,27 @@ pub(crate) fn step_pass(
             workers += 1;
         }
         if workers == 0 {
-            return Ok(false);
+            return Ok(None);
         }
         let producer = std::thread::Builder::new()
             .name("lsgen-chunks".into())
             .spawn_scoped(s, move || {
                 // Cut at the first module boundary past every `size` bytes.
                 let size = split.unwrap_or(CHUNK_IN);
-                let mut rd = super::PosReader::new(src, 256 << 10, false);
-                let (mut start, mut first, mut index) = (0u64, 0u64, 0u64);
+                let _timed = times.map(|t| super::split::Timed(t, true));
+                let mut scan = Scan::new(src, (indexed, counts), table, al, size);
                 let send = |chunk: Chunk| {
                     let (tx, rx) = mpsc::sync_channel(BLOCKS);
                     order_tx.send(rx).is_ok() && task_tx.send((chunk, tx)).is_ok()
                 };
                 loop {
-                    match rd.next_module(al) {
-                        Ok(Some(_)) => {
-                            index += 1;
-                            let off = rd.offset();
-                            if off - start >= size {
-                                if !send((start, off, first)) {
-                                    return;
-                                }
-                                (start, first) = (off, index);
+                    match scan.next_chunk(al) {
+                        Ok(Some(chunk)) => {
+                            if !send(chunk) {
+                                return;
                             }
                         }
-                        Ok(None) => {
-                            if rd.offset() > start {
-                                send((start, rd.offset(), first));
-                            }
-                            return;
-                        }
+                        Ok(None) => return,
                         Err(e) => {
                             let (tx, rx) = mpsc::sync_channel(1);
                             let e = Error::io("temporary file", crate::diag::IoAction::Read, e);
@@ -239,25 +250,60 @@ pub(crate) fn step_pass(
             });
         if producer.is_err() {
             // The workers end when their task channel closes.
-            return Ok(false);
+            return Ok(None);
         }
-        write_in_order(order_rx, out, pool, threads).map(|()| true)
+        // Brackets through `out`'s index, if it has one.
+        let reindex = out.indexed.is_some().then_some(al);
+        let writer = times.map(|_| super::split::thread_cpu_ns());
+        let mut check = super::split::BalanceCheck::default();
+        let mut judge = |b: &super::split::Balance| {
+            check
+                .next(b)
+                .map_err(|culprit| super::step::unbalanced(&d.origin, table, culprit, pass))
+        };
+        let judge = table
+            .check_balance
+            .then_some(&mut judge as &mut dyn FnMut(&super::split::Balance) -> Result<(), Error>);
+        write_in_order(order_rx, out, pool, (threads, reindex, judge))?;
+        if table.check_balance && check.depth() != 0 {
+            return Err(super::step::unclosed(
+                &d.origin,
+                table,
+                check.last_opener,
+                pass,
+            ));
+        }
+        Ok(Some(
+            writer.map_or(0, |w| super::split::thread_cpu_ns() - w),
+        ))
     })?;
-    Ok(done.then(|| draws.load(Ordering::Relaxed)))
+    if let (Some(t), Some(writer)) = (times, done) {
+        t.report(pass, writer);
+    }
+    Ok(done.map(|_| draws.load(Ordering::Relaxed)))
 }
 
-/// The writer: each task's blocks, task after task, into `out`.
+/// Judges each chunk's bracket balance ([`write_in_order`]).
+type Judge<'j> = Option<&'j mut dyn FnMut(&super::split::Balance) -> Result<(), Error>>;
+
+/// The writer: each task's blocks, task after task, into `out`. With
+/// `reindex`, the blocks are binary modules without a bracket index, and
+/// their brackets go through `out`'s ([`super::split::put_indexed`]).
+/// `judge` judges each chunk's bracket balance.
 fn write_in_order(
     order_rx: Receiver<Receiver<Msg>>,
     out: &mut Out,
     pool: &Pool,
-    threads: usize,
+    (threads, reindex, mut judge): (usize, Option<&Alphabet>, Judge),
 ) -> Result<(), Error> {
     for rx in order_rx {
         loop {
             match rx.recv() {
                 Ok(Msg::Text(block)) => {
-                    out.extend(&block, 0);
+                    match reindex {
+                        Some(al) => super::split::put_indexed(out, &block, al)?,
+                        None => out.extend(&block, 0),
+                    }
                     out.maybe_flush()?;
                     if let Ok(mut pool) = pool.lock() {
                         if pool.len() <= threads {
@@ -266,8 +312,14 @@ fn write_in_order(
                     }
                 }
                 Ok(Msg::End(modules)) => {
-                    out.extend(&[], modules);
+                    // (Reindexed blocks are counted module by module.)
+                    out.extend(&[], if reindex.is_some() { 0 } else { modules });
                     break;
+                }
+                Ok(Msg::Balance(b)) => {
+                    if let Some(judge) = &mut judge {
+                        judge(&b)?;
+                    }
                 }
                 Ok(Msg::Err(e)) => return Err(e),
                 Err(_) => return Err(Error::new(crate::diag::RuntimeError::WorkerStopped)),
@@ -301,6 +353,8 @@ enum Msg {
     Text(Vec<u8>),
     /// The task is complete: its number of modules.
     End(u64),
+    /// A chunk's bracket balance (sent before its end or error).
+    Balance(Box<super::split::Balance>),
     Err(Error),
 }
 
@@ -418,7 +472,7 @@ pub(crate) fn expand(
             return plan.expand(input, al, origin, steps, out);
         }
         // Write the tasks' text in task order.
-        write_in_order(order_rx, out, pool, threads)
+        write_in_order(order_rx, out, pool, (threads, None, None))
     })
 }
 
@@ -620,6 +674,74 @@ mod tests {
         assert_eq!(Ok(derive_all()), derive(src, 6, 1, 1));
     }
 
+    /// Passes with left and right contexts split (issue 15), and so do
+    /// passes that check bracket balance.
+    #[test]
+    fn context_and_balance_checked_passes_split() {
+        use super::step_threads;
+        let table = |src: &str| {
+            let h = crate::lang::parse::parse_header(src).unwrap();
+            crate::rules::compile(&h).unwrap().productions
+        };
+        let flags = (true, true, false);
+        for src in [
+            "productions:\nA < B -> C\n",
+            "productions:\nA > [B]C -> C\n",
+            "ignore: +\nproductions:\nA < B > C -> C : 1\nB -> D : 2\n",
+        ] {
+            assert_eq!(
+                step_threads(3, &table(src), flags, (100, Some(5))),
+                3,
+                "{src}"
+            );
+            // A generation of one chunk is not split.
+            assert_eq!(
+                step_threads(3, &table(src), flags, (5, Some(5))),
+                1,
+                "{src}"
+            );
+        }
+        // Bracket balance is judged by the writer: split too.
+        let unbalanced = table("productions:\nA < B -> C]\n");
+        assert!(unbalanced.check_balance);
+        assert_eq!(step_threads(3, &unbalanced, flags, (100, Some(5))), 3);
+    }
+
+    /// The writer's verdict on chunks' bracket balance is one thread's:
+    /// the first dip below depth 0, blaming the production one thread
+    /// blames (a closer of an earlier chunk when the chunk has none yet).
+    #[test]
+    fn the_writer_judges_bracket_balance_across_chunks() {
+        use super::super::split::{Balance, BalanceCheck};
+        let mut check = BalanceCheck::default();
+        // Chunk 1 ends 2 deeper; its last opener is production 4, its
+        // last closer 5.
+        let dip = |lows: Vec<(i64, Option<u32>)>, depth, opener, closer| Balance {
+            lows,
+            depth,
+            last_opener: opener,
+            last_closer: closer,
+        };
+        assert_eq!(check.next(&dip(vec![], 2, Some(4), Some(5))), Ok(()));
+        // Depth 2 here: dips to -1 and -2 are fine, -3 is the error,
+        // blaming the last closer before this chunk (5); a chunk judged
+        // wrong changes nothing.
+        let b = dip(
+            vec![(-1, Some(6)), (-2, Some(7)), (-3, None)],
+            -3,
+            None,
+            None,
+        );
+        assert_eq!(check.next(&b), Err(Some(5)));
+        let b = dip(vec![(-1, Some(6)), (-2, Some(7))], -2, None, Some(7));
+        assert_eq!(check.next(&b), Ok(()));
+        assert_eq!((check.depth(), check.last_opener), (0, Some(4)));
+        assert_eq!(
+            check.next(&dip(vec![(-1, Some(9))], 0, None, None)),
+            Err(Some(9))
+        );
+    }
+
     #[test]
     fn every_split_and_thread_count_gives_the_same_string() {
         // Depth first: branches, leaves above the split (B has no
@@ -637,6 +759,21 @@ mod tests {
             "productions:\nF -> F[+F]F : 1\nF -> F[-F]F : 2\nF -> FF : 1\naxiom: F\n",
             "productions:\nA(x) -> A(x+ran(1))[B(ran(2))]A(x*2)\nB(x) : x > 1.9 -> B(1/(x-x))\n\
              B(x) -> C\naxiom: A(0)\n",
+            // Contexts (issue 15): left and right across branches and
+            // chunks, ignored modules, draws, and an error in a late chunk.
+            "ignore: +\nproductions:\nA < B -> B[+A]\nB > [A] -> AB\nA -> B+A\naxiom: AB\n",
+            "productions:\nA(x) < A(y) > A(z) : y > 12 -> A(1/(z-z))\n\
+             A(x) < A(y) > A(z) : x+y+z > 2 -> A(x+y+z)[A(1/(9-x))]\n\
+             A(x) -> A(x+1)A(0)\naxiom: A(0)\n",
+            "ignore: F\nproductions:\nX < Y > X -> F[Y]X : 1\nX < Y > X -> YF : 1\n\
+             Y < X -> XY[X]\nX -> Y\nY -> XX\naxiom: XY\n",
+            // Bracket balance judged across chunks: balanced; a `]` without
+            // `[` (a production's, a copied one blaming a closer of an
+            // earlier chunk); a `[` left open.
+            "productions:\nA -> A[B\nC -> ]C\naxiom: AC\n",
+            "productions:\nA -> A[B\nC -> ]C\nD -> ]\naxiom: FFFFFAFFFFFDC\n",
+            "productions:\nB -> BB\nA -> ]\naxiom: [AFFFFFFFFFFB]\n",
+            "productions:\nA -> [X\nB -> [Y\nC -> ]\naxiom: AFFFFBFFFFFCFFFF\n",
         ];
         for src in systems {
             for steps in 1..=6 {

@@ -52,6 +52,12 @@ pub struct Deriver<'a> {
     /// Rewrite only the bytes `start..end` of the generation, whose first
     /// module has index `first` (a chunk, `super::par`).
     pub(crate) range: Option<(u64, u64, u64)>,
+    /// The state at the chunk's first module (left context, nesting
+    /// level), from the scan that cut it (`super::split`).
+    pub(crate) chunk_start: Option<super::split::ChunkStart>,
+    /// A chunk of a pass that checks bracket balance: its balance, for
+    /// the writer to judge (`super::split::Balance`).
+    pub(crate) balance: Option<super::split::Balance>,
 }
 
 /// Recursive rewriting (decomposition, homomorphism depth): one chooser,
@@ -430,6 +436,8 @@ impl<'a> Deriver<'a> {
                 ..Recur::default()
             },
             range: None,
+            chunk_start: None,
+            balance: None,
         }
     }
 
@@ -514,11 +522,7 @@ impl<'a> Deriver<'a> {
             max_right_simple: table
                 .max_right_simple
                 .max(d.map_or(0, |d| d.max_right_simple)),
-            left: (table.max_left > 0 || d.is_some_and(|d| d.max_left > 0)).then(|| {
-                let mut ts = vec![table];
-                ts.extend(d);
-                LeftContext::new_for(&ts, &self.alphabet)
-            }),
+            left: super::split::left_for(table, d, &self.alphabet),
             depth: 0,
             skip: (u64::MAX, 0),
             skip_open: false,
@@ -536,13 +540,25 @@ impl<'a> Deriver<'a> {
             run_end: None,
             cpfg_choice: self.cpfg_contexts || table.has_multi || self.rng.cpfg_mut().is_some(),
         };
-        let mut rd = PosReader::new(input, 1 << 20, indexed).with_counts(self.counts);
+        // (A chunk's reader needs no more than the chunk: the buffer is
+        // zeroed once per pass.)
+        let capacity = self.range.map_or(1 << 20, |(start, end, _)| {
+            (end - start).min(1 << 20) as usize
+        });
+        let mut rd = PosReader::new(input, capacity, indexed).with_counts(self.counts);
         let open_len = rd.open_len();
         // The index of the module being rewritten, for the random draws.
         let mut index: u64 = 0;
         if let Some((start, end, first)) = self.range {
             rd.limit(start, end);
             index = first;
+        }
+        if let Some(at) = self.chunk_start.take() {
+            // A chunk of a split pass: go on from where one thread would be.
+            st.level = at.level;
+            if st.left.is_some() {
+                st.left = at.left;
+            }
         }
         let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         // Bytes that need no decision take the table; with contexts, keys
@@ -674,7 +690,17 @@ impl<'a> Deriver<'a> {
                     } else if key == CLOSE {
                         st.depth -= 1;
                         if st.depth < 0 {
-                            return Err(unbalanced(&self.origin, table, st.last_closer, pass));
+                            match &mut self.balance {
+                                Some(b) => b.dip(st.depth, st.last_closer),
+                                None => {
+                                    return Err(unbalanced(
+                                        &self.origin,
+                                        table,
+                                        st.last_closer,
+                                        pass,
+                                    ))
+                                }
+                            }
                         }
                     }
                 }
@@ -694,13 +720,7 @@ impl<'a> Deriver<'a> {
                 }
             }
             if let Some(left) = &mut st.left {
-                if key == OPEN {
-                    left.open();
-                } else if key == CLOSE {
-                    left.close();
-                } else if !self.alphabet.ignored(key) {
-                    left.push(key, bytes, self.alphabet.arity(key));
-                }
+                left.follow(key, bytes, &self.alphabet);
             }
             if let Some(run_end) = st.run_end.take() {
                 index = self.skip_run(&mut rd, run_end, index, &mut st)?;
@@ -711,12 +731,11 @@ impl<'a> Deriver<'a> {
             // cpfg's choice generator: every module of the step drew once.
             c.end_pass(index);
         }
-        if st.depth != 0 {
-            let p = &table.prods[st.last_opener.unwrap_or(0) as usize];
-            return Err(Error::at(
-                self.origin.locate(p.span.0),
-                crate::diag::RuntimeError::UnclosedBracket(pass),
-            ));
+        if let Some(b) = &mut self.balance {
+            // A chunk: the writer judges.
+            (b.depth, b.last_opener, b.last_closer) = (st.depth, st.last_opener, st.last_closer);
+        } else if st.depth != 0 {
+            return Err(unclosed(&self.origin, table, st.last_opener, pass));
         }
         Ok(())
     }
@@ -815,6 +834,7 @@ impl<'a> Deriver<'a> {
             rc,
             warnings,
             warned,
+            balance,
             ..
         } = self;
         // Predecessor parameters into the first slots.
@@ -865,7 +885,10 @@ impl<'a> Deriver<'a> {
         }
         if table.check_balance {
             if st.depth + p.depth_min < 0 {
-                return Err(unbalanced(origin, table, Some(pi), pass));
+                match balance {
+                    Some(b) => b.dip(st.depth + p.depth_min, Some(pi)),
+                    None => return Err(unbalanced(origin, table, Some(pi), pass)),
+                }
             }
             st.depth += p.depth_delta;
             if p.depth_delta > 0 {
@@ -983,8 +1006,23 @@ fn run_contexts(
     Ok(!surely_not(p, last, end, st, al)? && contexts_match(p, end, st, al, slots)?)
 }
 
+/// A pass left a `[` open: blame `culprit`, the last production that
+/// opened more than it closed.
+pub(crate) fn unclosed(origin: &Origin, table: &Table, culprit: Option<u32>, pass: Pass) -> Error {
+    let p = &table.prods[culprit.unwrap_or(0) as usize];
+    Error::at(
+        origin.locate(p.span.0),
+        crate::diag::RuntimeError::UnclosedBracket(pass),
+    )
+}
+
 /// A step made a `]` without `[`: blame `culprit`.
-fn unbalanced(origin: &Origin, table: &Table, culprit: Option<u32>, pass: Pass) -> Error {
+pub(crate) fn unbalanced(
+    origin: &Origin,
+    table: &Table,
+    culprit: Option<u32>,
+    pass: Pass,
+) -> Error {
     let p = &table.prods[culprit.unwrap_or(0) as usize];
     Error::at(
         origin.locate(p.span.0),

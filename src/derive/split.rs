@@ -1,0 +1,566 @@
+//! Cutting a pass of the step engine into chunks that threads derive
+//! concurrently (`-j N`, issue 15), contexts included.
+//!
+//! A chunk is a run of whole modules of the generation being read. What a
+//! module's rewriting reads besides the module and its index is:
+//!
+//! - its left context: the last k considered modules on the path to it,
+//!   which the engine keeps in a [`LeftContext`] as it reads. The scan
+//!   here ([`Scan`]) follows every module of the generation with that same
+//!   [`LeftContext::follow`] (no second implementation) and hands each
+//!   chunk a clone of it as it stands at the chunk's first module, with
+//!   the nesting level there ([`ChunkStart`]): the worker starts its pass
+//!   in the state one thread would have reached there. The clone holds at
+//!   most k modules per open branch, so it costs O(k x depth), not the
+//!   string;
+//! - its right context: read ahead by the worker's own look-ahead reader
+//!   (pread on the same file, its bracket index shared read-only), which
+//!   is not limited to the chunk;
+//! - its random draws: placed by module index, which the scan counts.
+//!
+//! So a chunk's output is a function of the generation and the chunk's
+//! bounds, whichever thread derives it and whenever. Passes that track
+//! bracket balance (`check_balance`: the output's depth at a chunk's start
+//! depends on what earlier chunks wrote) stay on one thread; so do the
+//! structural and cpfg features (`par::step_threads`).
+
+use super::bytetable::ASCII;
+use super::context::LeftContext;
+use super::reader::PosReader;
+use crate::rules::{Alphabet, Table, CLOSE, OPEN};
+use std::fs::File;
+use std::io;
+
+/// The engine's state at a chunk's first module, as one thread would have
+/// it there.
+#[derive(Clone)]
+pub(crate) struct ChunkStart {
+    /// The left context (when the pass has left contexts).
+    pub(crate) left: Option<LeftContext>,
+    /// The nesting level of the input.
+    pub(crate) level: i64,
+}
+
+/// One chunk: the generation's bytes `start..end`, the index of its first
+/// module, and the state there.
+pub(crate) struct Chunk {
+    pub(crate) start: u64,
+    pub(crate) end: u64,
+    pub(crate) first: u64,
+    pub(crate) at: ChunkStart,
+}
+
+/// The left context a pass of `table` (with decomposition `decomp`) keeps,
+/// if any: the engine's and the scan's are made here, so they agree.
+pub(crate) fn left_for(
+    table: &Table,
+    decomp: Option<&Table>,
+    al: &Alphabet,
+) -> Option<LeftContext> {
+    (table.max_left > 0 || decomp.is_some_and(|d| d.max_left > 0)).then(|| {
+        let mut ts = vec![table];
+        ts.extend(decomp);
+        LeftContext::new_for(&ts, al)
+    })
+}
+
+/// The producer's scan: reads the generation once, module by module,
+/// cutting it at the first module boundary past every `size` bytes.
+pub(crate) struct Scan<'f> {
+    rd: PosReader<'f>,
+    left: Option<LeftContext>,
+    level: i64,
+    /// Where the next chunk starts, and its first module's index.
+    start: u64,
+    index: u64,
+    size: u64,
+    done: bool,
+    /// Per ASCII byte: the one-byte module is recorded by the left
+    /// context (considered: not ignored, not a bracket).
+    kept: [bool; 128],
+}
+
+impl<'f> Scan<'f> {
+    /// A scan of the generation in `src` (`indexed`: with a bracket index,
+    /// `counts`: with module counts) for a pass of `table`.
+    pub(crate) fn new(
+        src: &'f File,
+        (indexed, counts): (bool, bool),
+        table: &Table,
+        al: &Alphabet,
+        size: u64,
+    ) -> Self {
+        let left = left_for(table, None, al);
+        let kept = std::array::from_fn(|b| {
+            left.is_some() && b != OPEN as usize && b != CLOSE as usize && !al.ignored(b as u32)
+        });
+        Scan {
+            rd: PosReader::new(src, 256 << 10, indexed).with_counts(counts),
+            left,
+            kept,
+            level: 0,
+            start: 0,
+            index: 0,
+            size: size.max(1),
+            done: false,
+        }
+    }
+
+    /// The next chunk, None after the last.
+    pub(crate) fn next_chunk(&mut self, al: &Alphabet) -> io::Result<Option<Chunk>> {
+        if self.done {
+            return Ok(None);
+        }
+        let at = ChunkStart {
+            left: self.left.clone(),
+            level: self.level,
+        };
+        let (start, first) = (self.start, self.index);
+        // Cut once the chunk reaches this offset.
+        let stop = start + self.size;
+        let open_len = self.rd.open_len();
+        loop {
+            // One-byte symbols and `[`s in a tight loop (the bytes of
+            // [`super::bytetable`]'s fast path), the rest module by module.
+            let base = self.rd.offset();
+            let Scan {
+                rd,
+                left,
+                level,
+                kept,
+                ..
+            } = self;
+            let w = rd.window()?;
+            let (mut i, mut n) = (0, 0);
+            while i < w.len() {
+                let b = w[i];
+                if b >= 0x80 {
+                    break;
+                }
+                if b == b'[' {
+                    if i + open_len > w.len() {
+                        break;
+                    }
+                    *level += 1;
+                    if let Some(left) = left {
+                        left.open();
+                    }
+                    i += open_len;
+                } else {
+                    // (What `LeftContext::follow` does, decided per byte
+                    // once in `kept`.)
+                    if kept[b as usize] {
+                        if let Some(left) = left {
+                            let b = b as usize;
+                            left.push(b as u32, &ASCII[b..b + 1], 0);
+                        }
+                    } else if b == b']' {
+                        *level -= 1;
+                        if let Some(left) = left {
+                            left.close();
+                        }
+                    }
+                    i += 1;
+                }
+                n += 1;
+                if base + i as u64 >= stop {
+                    break;
+                }
+            }
+            self.rd.advance(i);
+            self.index += n;
+            let end = self.rd.offset();
+            if i > 0 {
+                if end >= stop {
+                    self.start = end;
+                    return Ok(Some(Chunk {
+                        start,
+                        end,
+                        first,
+                        at,
+                    }));
+                }
+                continue;
+            }
+            let Some((key, s, e)) = self.rd.next_module(al)? else {
+                self.done = true;
+                let end = self.rd.offset();
+                return Ok((end > start).then_some(Chunk {
+                    start,
+                    end,
+                    first,
+                    at,
+                }));
+            };
+            self.index += 1;
+            if key == OPEN {
+                self.level += 1;
+            } else if key == CLOSE {
+                self.level -= 1;
+            }
+            if let Some(left) = &mut self.left {
+                left.follow(key, self.rd.bytes(s, e), al);
+            }
+            let end = self.rd.offset();
+            if end - start >= self.size {
+                self.start = end;
+                return Ok(Some(Chunk {
+                    start,
+                    end,
+                    first,
+                    at,
+                }));
+            }
+        }
+    }
+}
+
+/// Append `block`, whole binary modules written without a bracket index
+/// (a chunk's output), to `out`, which writes one: runs without brackets
+/// are copied as they are, each bracket goes through `out` (which leaves
+/// room for a `[`'s index and fills it in at its `]`, whichever chunks
+/// they came from). Counts the modules.
+pub(crate) fn put_indexed(
+    out: &mut super::Out,
+    block: &[u8],
+    al: &Alphabet,
+) -> Result<(), crate::diag::Error> {
+    let (mut i, mut run, mut modules) = (0, 0, 0u64);
+    while i < block.len() {
+        let b = block[i];
+        if b == b'[' || b == b']' {
+            out.extend(&block[run..i], modules);
+            out.raw(u32::from(b), &block[i..i + 1], al)?;
+            i += 1;
+            (run, modules) = (i, 0);
+            continue;
+        }
+        i += if b < 0x80 {
+            1
+        } else {
+            let (key, kl) = crate::rules::codec::get_key(&block[i..]);
+            kl + 8 * al.arity(key)
+        };
+        modules += 1;
+    }
+    out.extend(&block[run..], modules);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::derive::{Limits, Out};
+    use crate::lang::parse::parse_header;
+    use crate::rules::{compile, System};
+    use std::io::{Read, Seek};
+
+    fn system(src: &str) -> System {
+        compile(&parse_header(src).unwrap()).unwrap()
+    }
+
+    /// `modules` (symbol, parameters) written through one [`Out`], binary,
+    /// with a bracket index if `indexed` (module counts too if `counts`),
+    /// flushed after every module if `flush` (so that `]`s patch their `[`
+    /// in the file); and the file's bytes.
+    fn write(
+        al: &mut Alphabet,
+        modules: &[(char, &[f64])],
+        (indexed, counts): (bool, bool),
+        flush: bool,
+    ) -> (File, Vec<u8>) {
+        let mut f = tempfile::tempfile().unwrap();
+        let index = f.try_clone().unwrap();
+        {
+            let mut out = Out::new(&mut f, "gen", false, Limits::default());
+            if indexed {
+                out = out.with_index(index).with_counts(counts);
+            }
+            for &(sym, params) in modules {
+                let key = al.intern(sym, params.len()).unwrap();
+                out.module(key, params, al).unwrap();
+                if flush {
+                    out.flush().unwrap();
+                }
+            }
+            out.finish().unwrap();
+        }
+        let mut bytes = Vec::new();
+        f.rewind().unwrap();
+        f.read_to_end(&mut bytes).unwrap();
+        (f, bytes)
+    }
+
+    // A(1) B(2) [ C(3) + [ D(4) ] E(5) ] F(6), `+` ignored.
+    const STRING: &[(char, &[f64])] = &[
+        ('A', &[1.0]),
+        ('B', &[2.0]),
+        ('[', &[]),
+        ('C', &[3.0]),
+        ('+', &[]),
+        ('[', &[]),
+        ('D', &[4.0]),
+        (']', &[]),
+        ('E', &[5.0]),
+        (']', &[]),
+        ('F', &[6.0]),
+    ];
+
+    /// Each chunk (here: each module) starts from the left context one
+    /// thread has there: the last two considered modules on the path to
+    /// it (derived by hand), with the parameters a left context asks for
+    /// (of A and B), and the nesting level.
+    #[test]
+    fn each_chunk_starts_from_the_path_to_its_first_module() {
+        // The same string with parameters (module by module) and without
+        // (one-byte modules: the scan's byte loop).
+        let ascii: Vec<(char, &[f64])> = STRING.iter().map(|&(c, _)| (c, &[][..])).collect();
+        for (indexed, plain) in [(false, false), (true, false), (false, true), (true, true)] {
+            let (mut s, string) = if plain {
+                (
+                    system("ignore: +\nproductions:\nA B < C -> X\n"),
+                    &ascii[..],
+                )
+            } else {
+                let src = "ignore: +\nproductions:\nA(a) B(b) < C(c) -> X\nF(f) -> F\n";
+                (system(src), STRING)
+            };
+            let (f, _) = write(&mut s.alphabet, string, (indexed, false), false);
+            let arity = usize::from(!plain);
+            let mut key = |c: char| s.alphabet.intern(c, arity).unwrap();
+            let (a, b, c, d, e) = (key('A'), key('B'), key('C'), key('D'), key('E'));
+            let al = &s.alphabet;
+            let (one, two) = if plain {
+                (None, None)
+            } else {
+                (Some(1.0), Some(2.0))
+            };
+            type Path<'p> = &'p [(u32, Option<f64>)];
+            let want: [(Path, i64); 11] = [
+                (&[], 0),
+                (&[(a, one)], 0),
+                (&[(a, one), (b, two)], 0),
+                (&[(a, one), (b, two)], 1),
+                (&[(b, two), (c, None)], 1),
+                (&[(b, two), (c, None)], 1),
+                (&[(b, two), (c, None)], 2),
+                (&[(c, None), (d, None)], 2),
+                (&[(b, two), (c, None)], 1),
+                (&[(c, None), (e, None)], 1),
+                (&[(a, one), (b, two)], 0),
+            ];
+            let mut scan = Scan::new(&f, (indexed, false), &s.productions, al, 1);
+            let mut next = (0, 0);
+            let mut got = Vec::new();
+            while let Some(ch) = scan.next_chunk(al).unwrap() {
+                // Contiguous chunks of one module each, numbered in order.
+                assert_eq!(
+                    (ch.start, ch.first),
+                    next,
+                    "indexed {indexed}, plain {plain}"
+                );
+                assert!(ch.end > ch.start);
+                next = (ch.end, ch.first + 1);
+                let left = ch.at.left.expect("left contexts are kept");
+                got.push((left.path(), ch.at.level));
+            }
+            assert_eq!(next.0, f.metadata().unwrap().len());
+            let want: Vec<_> = want.iter().map(|(p, l)| (p.to_vec(), *l)).collect();
+            assert_eq!(got, want, "indexed {indexed}, plain {plain}");
+        }
+        // Without left contexts, only the nesting level is kept.
+        let mut s = system("productions:\nA > B -> X\n");
+        let (f, _) = write(&mut s.alphabet, STRING, (true, false), false);
+        let mut scan = Scan::new(&f, (true, false), &s.productions, &s.alphabet, 4);
+        let ch = scan.next_chunk(&s.alphabet).unwrap().unwrap();
+        assert!(ch.at.left.is_none());
+        // Chunks end at the first module boundary past 4 bytes: A(1) is
+        // more than 4 bytes.
+        let ch = scan.next_chunk(&s.alphabet).unwrap().unwrap();
+        assert_eq!(ch.first, 1);
+    }
+
+    /// The writer rebuilds the bracket index of blocks written without one
+    /// (chunks' output): the same file, byte for byte, as one [`Out`]
+    /// writing the string, whatever blocks it arrives in (branches open in
+    /// one block and close in another, `]`s patching a `[` already in the
+    /// file), also when parameters hold the bytes of `[` and `]`.
+    #[test]
+    fn the_writer_rebuilds_the_bracket_index_across_blocks() {
+        let tricky = f64::from_bits(0x5B5D_5B5D_5B5D_5B5D);
+        let tricky = [tricky];
+        let mut string = STRING.to_vec();
+        string.insert(3, ('G', &tricky));
+        string.extend_from_slice(&[('[', &[]), ('G', &tricky), (']', &[]), ('H', &[])]);
+        let mut s = system("productions:\nA > B -> X\n");
+        let al = &mut s.alphabet;
+        for counts in [false, true] {
+            let (_, want) = write(al, &string, (true, counts), false);
+            let (_, plain) = write(al, &string, (false, false), false);
+            // Module boundaries of the plain string.
+            let mut ends = Vec::new();
+            let mut i = 0;
+            while i < plain.len() {
+                let (key, kl) = crate::rules::codec::get_key(&plain[i..]);
+                i += if plain[i] < 0x80 {
+                    1
+                } else {
+                    kl + 8 * al.arity(key)
+                };
+                ends.push(i);
+            }
+            for per_block in [1, 2, 3, ends.len()] {
+                let mut f = tempfile::tempfile().unwrap();
+                let index = f.try_clone().unwrap();
+                {
+                    let mut out = Out::new(&mut f, "gen", false, Limits::default())
+                        .with_index(index)
+                        .with_counts(counts);
+                    let mut from = 0;
+                    for chunk in ends.chunks(per_block) {
+                        let to = *chunk.last().unwrap();
+                        put_indexed(&mut out, &plain[from..to], al).unwrap();
+                        out.flush().unwrap();
+                        from = to;
+                    }
+                    assert_eq!(out.finish().unwrap().0, string.len() as u64);
+                }
+                let mut got = Vec::new();
+                f.rewind().unwrap();
+                f.read_to_end(&mut got).unwrap();
+                assert_eq!(got, want, "counts {counts}, {per_block} per block");
+            }
+        }
+    }
+}
+
+/// `LSGEN_THREAD_TIMES=1` (hidden, for measuring, benches/RESULTS.md):
+/// each split pass reports on stderr the CPU time of its producer, of each
+/// worker and of the writer, a speed-up proxy that does not depend on how
+/// loaded the machine is.
+pub(crate) fn thread_times() -> bool {
+    std::env::var_os("LSGEN_THREAD_TIMES").is_some_and(|v| v == "1")
+}
+
+/// Nanoseconds the calling thread has run on a CPU (Linux's
+/// /proc/thread-self/schedstat; 0 where there is none).
+pub(crate) fn thread_cpu_ns() -> u64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse().ok())
+        .unwrap_or(0)
+}
+
+/// One line per split pass: the CPU time (ms) of the producer, the
+/// workers and the writer, and the speed-up on free cores they imply: the
+/// sum over the critical one (the longest of producer, writer and the
+/// workers' share per thread).
+pub(crate) fn report_times(pass: super::Pass, producer: u64, workers: &[u64], writer: u64) {
+    let ms = |ns: u64| ns as f64 / 1e6;
+    let total: u64 = producer + writer + workers.iter().sum::<u64>();
+    let per = workers.iter().sum::<u64>() / workers.len().max(1) as u64;
+    let critical = producer.max(writer).max(per).max(1);
+    let w: Vec<String> = workers.iter().map(|&n| format!("{:.1}", ms(n))).collect();
+    crate::diag::eprint(&format!(
+        "lsgen: threads: {pass}: producer {:.1} ms, workers [{}] ms, writer {:.1} ms; \
+         total {:.1} ms, producer share {:.1} %, bound {:.2}x\n",
+        ms(producer),
+        w.join(", "),
+        ms(writer),
+        ms(total),
+        100.0 * producer as f64 / total.max(1) as f64,
+        total as f64 / critical as f64,
+    ));
+}
+
+/// The CPU times of a split pass's threads ([`thread_times`]).
+#[derive(Default)]
+pub(crate) struct CpuTimes {
+    producer: std::sync::atomic::AtomicU64,
+    workers: std::sync::Mutex<Vec<u64>>,
+}
+
+/// Records its thread's CPU time into a [`CpuTimes`] when the thread's
+/// work ends (dropped), however it ends.
+pub(crate) struct Timed<'a>(pub(crate) &'a CpuTimes, pub(crate) bool);
+
+impl Drop for Timed<'_> {
+    fn drop(&mut self) {
+        let ns = thread_cpu_ns();
+        if self.1 {
+            self.0
+                .producer
+                .store(ns, std::sync::atomic::Ordering::Relaxed);
+        } else if let Ok(mut w) = self.0.workers.lock() {
+            w.push(ns);
+        }
+    }
+}
+
+impl CpuTimes {
+    /// Report them (the writer's `writer` ns) with [`report_times`].
+    pub(crate) fn report(&self, pass: super::Pass, writer: u64) {
+        let producer = self.producer.load(std::sync::atomic::Ordering::Relaxed);
+        let workers = self.workers.lock().map(|w| w.clone()).unwrap_or_default();
+        report_times(pass, producer, &workers, writer);
+    }
+}
+
+/// A chunk's bracket balance, for a pass that checks it (`check_balance`):
+/// the output's depth at a chunk's start depends on what the chunks
+/// before it wrote, so a worker counts depth from 0 at its chunk's start
+/// and leaves the verdict to the writer, which knows the depth there
+/// ([`BalanceCheck`]).
+#[derive(Default, Debug)]
+pub(crate) struct Balance {
+    /// Each new low of the depth (relative to the chunk's start, with what
+    /// the production about to be written dips) below 0, in string order,
+    /// with the production to blame (None: the last one that closed a
+    /// branch before the chunk).
+    pub(crate) lows: Vec<(i64, Option<u32>)>,
+    /// The depth at the chunk's end, relative to its start.
+    pub(crate) depth: i64,
+    /// The chunk's last productions that opened and closed more than
+    /// they matched.
+    pub(crate) last_opener: Option<u32>,
+    pub(crate) last_closer: Option<u32>,
+}
+
+impl Balance {
+    /// The depth (relative) dips to `low` (< 0) here, blaming `culprit`.
+    #[cold]
+    pub(crate) fn dip(&mut self, low: i64, culprit: Option<u32>) {
+        if low < self.lows.last().map_or(0, |l| l.0) {
+            self.lows.push((low, culprit));
+        }
+    }
+}
+
+/// The writer's side: the output's depth at the next chunk's start, and
+/// the productions one thread would blame there.
+#[derive(Default)]
+pub(crate) struct BalanceCheck {
+    depth: i64,
+    pub(crate) last_opener: Option<u32>,
+    last_closer: Option<u32>,
+}
+
+impl BalanceCheck {
+    /// The next chunk's balance: Err(the production to blame) at the first
+    /// of its lows that takes the depth below 0, where one thread stops
+    /// (the first new low below `-depth` is the first point below it).
+    pub(crate) fn next(&mut self, b: &Balance) -> Result<(), Option<u32>> {
+        if let Some(&(_, culprit)) = b.lows.iter().find(|l| self.depth + l.0 < 0) {
+            return Err(culprit.or(self.last_closer));
+        }
+        self.depth += b.depth;
+        self.last_opener = b.last_opener.or(self.last_opener);
+        self.last_closer = b.last_closer.or(self.last_closer);
+        Ok(())
+    }
+
+    /// The depth after the last chunk (0: balanced).
+    pub(crate) fn depth(&self) -> i64 {
+        self.depth
+    }
+}
