@@ -113,7 +113,7 @@ fn depth_warning(
         return;
     };
     let mut first: Option<u32> = None;
-    for &pi in kr.context.iter().chain(kr.free.iter()) {
+    for &pi in cx.table.context(kr).iter().chain(cx.table.free(kr)) {
         if first.is_some_and(|f| f < pi) {
             continue;
         }
@@ -147,7 +147,7 @@ fn depth_warning(
             cx.max
         ),
     };
-    crate::diag::warn(cx.origin.locate(p.span.0), &message);
+    crate::diag::warn(cx.origin.locate(p.span().0), &message);
 }
 
 /// Rewrite each module of `rc.levels[depth]` (its modules have depth
@@ -715,7 +715,7 @@ impl<'a> Deriver<'a> {
         if st.depth != 0 {
             let p = &table.prods[st.last_opener.unwrap_or(0) as usize];
             return Err(Error::at(
-                self.origin.locate(p.span.0),
+                self.origin.locate(p.span().0),
                 crate::diag::RuntimeError::UnclosedBracket(pass),
             ));
         }
@@ -859,16 +859,16 @@ impl<'a> Deriver<'a> {
             return Ok(false);
         };
         let p = &table.prods[pi as usize];
-        if !p.rest.is_empty() {
+        if !p.rest().is_empty() {
             // The run the chosen production matched (parameters bound again,
             // to the same values): skipped by the caller.
-            st.run_end = st.match_run(end_off, &p.rest, al, slots)?;
+            st.run_end = st.match_run(end_off, p.rest(), al, slots)?;
         }
         if table.check_balance {
-            if st.depth + p.depth_min < 0 {
+            if st.depth + i64::from(p.depth_min) < 0 {
                 return Err(unbalanced(origin, table, Some(pi), pass));
             }
-            st.depth += p.depth_delta;
+            st.depth += i64::from(p.depth_delta);
             if p.depth_delta > 0 {
                 st.last_opener = Some(pi);
             }
@@ -973,10 +973,10 @@ fn run_contexts(
     end_off: u64,
 ) -> Result<bool, Error> {
     // The right context of a run starts after it.
-    let end = if p.rest.is_empty() {
+    let end = if p.rest().is_empty() {
         end_off
     } else {
-        match st.match_run(end_off, &p.rest, al, slots)? {
+        match st.match_run(end_off, p.rest(), al, slots)? {
             Some(e) => e,
             None => return Ok(false),
         }
@@ -988,7 +988,7 @@ fn run_contexts(
 fn unbalanced(origin: &Origin, table: &Table, culprit: Option<u32>, pass: Pass) -> Error {
     let p = &table.prods[culprit.unwrap_or(0) as usize];
     Error::at(
-        origin.locate(p.span.0),
+        origin.locate(p.span().0),
         crate::diag::RuntimeError::UnopenedBracket(pass),
     )
 }

@@ -47,7 +47,9 @@ impl Filter {
 pub struct Alphabet {
     sym: Vec<char>,
     arity: Vec<u16>,
-    text: Vec<Box<[u8]>>,
+    /// Each key's symbol in UTF-8, in place (its length from the first
+    /// byte): a header may name millions of symbols.
+    text: Vec<[u8; 4]>,
     ignored: Vec<bool>,
     map: HashMap<(char, u16), u32>,
     filter: Filter,
@@ -67,7 +69,7 @@ impl Alphabet {
             let c = b as char;
             a.sym.push(c);
             a.arity.push(0);
-            a.text.push(vec![b].into_boxed_slice());
+            a.text.push([b, 0, 0, 0]);
             a.ignored.push(a.filter.ignores(c));
         }
         a
@@ -89,12 +91,8 @@ impl Alphabet {
         self.sym.push(sym);
         self.arity.push(arity);
         let mut t = [0u8; 4];
-        self.text.push(
-            sym.encode_utf8(&mut t)
-                .as_bytes()
-                .to_vec()
-                .into_boxed_slice(),
-        );
+        sym.encode_utf8(&mut t);
+        self.text.push(t);
         self.ignored.push(self.filter.ignores(sym));
         self.map.insert((sym, arity), k);
         Ok(k)
@@ -106,7 +104,10 @@ impl Alphabet {
     }
     #[inline]
     pub fn text(&self, key: u32) -> &[u8] {
-        &self.text[key as usize]
+        let t = &self.text[key as usize];
+        // UTF-8: a leading byte's high one bits count the bytes (none:
+        // ASCII, one byte).
+        &t[..(t[0].leading_ones() as usize).max(1)]
     }
     #[inline]
     pub fn symbol(&self, key: u32) -> char {
@@ -351,47 +352,84 @@ impl From<Box<[Item]>> for Succ {
 }
 
 /// A compiled production. Kept small (boxed slices, boxed expressions, a
-/// one-item successor in place): a table may hold millions.
+/// one-item successor in place, u32 offsets and depths, the cpfg-only
+/// parts behind one optional box): a table may hold millions.
 #[derive(Clone, Debug)]
 pub struct Production {
     pub key: u32,
-    /// Slots: predecessor parameters, then left context, then right context.
-    pub nslots: usize,
-    pub left: Box<[Pat]>,
-    /// The modules after the first of a predecessor of several modules
-    /// (cpfg dialect), matched strictly one after the other.
-    pub rest: Box<[Pat]>,
-    pub right: Box<[RPat]>,
     /// The right context has no brackets: it is matched against the cached
     /// list of the next considered modules.
     pub right_simple: bool,
+    /// Slots: predecessor parameters, then left context, then right context.
+    pub nslots: usize,
+    pub left: Box<[Pat]>,
+    pub right: Box<[RPat]>,
     pub cond: Option<Box<Code>>,
     pub prob: Option<Box<Code>>,
     pub succ: Succ,
-    /// Where the production starts in the header, for runtime errors.
-    pub span: Span,
+    /// Where the production starts and ends in the header, for runtime
+    /// errors ([`span`](Self::span); headers are far below 4 GiB).
+    span: (u32, u32),
     /// Bracket depth change of the successor, and its lowest prefix.
-    pub depth_delta: i64,
-    pub depth_min: i64,
-    /// cpfg's pre-condition block (runs before the condition, also when
-    /// it fails) and post-condition block (runs when the production is
-    /// applied, before its successor), issue 12.
-    pub pre: Option<Box<crate::cpfg::blocks::Block>>,
-    pub post: Option<Box<crate::cpfg::blocks::Block>>,
+    pub depth_delta: i32,
+    pub depth_min: i32,
+    /// What only the cpfg dialect has (None in `.ls`).
+    pub cpfg: Option<Box<CpfgParts>>,
+}
+
+/// A production's cpfg-only parts (issue 12).
+#[derive(Clone, Debug, Default)]
+pub struct CpfgParts {
+    /// The modules after the first of a predecessor of several modules,
+    /// matched strictly one after the other.
+    pub rest: Box<[Pat]>,
+    /// The pre-condition block (runs before the condition, also when it
+    /// fails) and the post-condition block (runs when the production is
+    /// applied, before its successor).
+    pub pre: Option<crate::cpfg::blocks::Block>,
+    pub post: Option<crate::cpfg::blocks::Block>,
 }
 
 impl Production {
     pub fn has_context(&self) -> bool {
-        !self.left.is_empty() || !self.right.is_empty() || !self.rest.is_empty()
+        !self.left.is_empty() || !self.right.is_empty() || !self.rest().is_empty()
+    }
+    /// Where the production is in the header.
+    #[inline]
+    pub fn span(&self) -> Span {
+        (self.span.0 as usize, self.span.1 as usize)
+    }
+    /// cpfg: the predecessor's modules after the first.
+    #[inline]
+    pub fn rest(&self) -> &[Pat] {
+        self.cpfg.as_ref().map_or(&[], |c| &c.rest)
+    }
+    /// cpfg's pre-condition block.
+    #[inline]
+    pub fn pre(&self) -> Option<&crate::cpfg::blocks::Block> {
+        self.cpfg.as_ref().and_then(|c| c.pre.as_ref())
+    }
+    /// cpfg's post-condition block.
+    #[inline]
+    pub fn post(&self) -> Option<&crate::cpfg::blocks::Block> {
+        self.cpfg.as_ref().and_then(|c| c.post.as_ref())
+    }
+    /// The cpfg-only parts, made on first use.
+    pub fn cpfg_mut(&mut self) -> &mut CpfgParts {
+        self.cpfg.get_or_insert_with(Box::default)
     }
 }
 
-/// The productions of one key, in file order, split by kind.
+/// The productions of one key, in file order, split by kind: a range of
+/// the table's production numbers ([`Table::context`], [`Table::free`]),
+/// 24 bytes a key (a header may name millions of symbols).
 #[derive(Clone, Debug, Default)]
 pub struct KeyRules {
-    /// Context-sensitive productions: a match beats every context-free one.
-    pub context: Vec<u32>,
-    pub free: Vec<u32>,
+    /// Where the key's numbers start: context-sensitive productions (a
+    /// match beats every context-free one), then context-free ones.
+    start: u32,
+    ncontext: u32,
+    nfree: u32,
     pub context_stochastic: bool,
     pub free_stochastic: bool,
     /// Group 0's productions of the key, tried when a numbered group's
@@ -400,18 +438,25 @@ pub struct KeyRules {
 }
 
 impl KeyRules {
-    fn offset(mut self, by: u32) -> KeyRules {
-        for i in self.context.iter_mut().chain(self.free.iter_mut()) {
-            *i += by;
-        }
-        self
+    /// Has the key context-sensitive productions?
+    #[inline]
+    pub fn has_context(&self) -> bool {
+        self.ncontext != 0
+    }
+    /// Has the key context-free productions?
+    #[inline]
+    pub fn has_free(&self) -> bool {
+        self.nfree != 0
     }
 }
 
 #[derive(Debug, Default)]
 pub struct Table {
     pub prods: Vec<Production>,
+    /// Each key's productions ([`index`](Self::index)): a range of `ids`.
     by_key: Vec<Option<KeyRules>>,
+    /// Production numbers grouped by key, each key's in file order.
+    ids: Vec<u32>,
     /// Longest left context.
     pub max_left: usize,
     pub has_right: bool,
@@ -443,13 +488,13 @@ impl Table {
         let Some(kr) = self.get(key) else {
             return Some(None);
         };
-        let p = &self.prods[*kr.free.first()? as usize];
+        let p = &self.prods[*self.free(kr).first()? as usize];
         // (cpfg's blocks run whenever the production is tried.)
-        if !kr.context.is_empty()
+        if kr.has_context()
             || kr.free_stochastic
             || p.cond.is_some()
-            || p.pre.is_some()
-            || p.post.is_some()
+            || p.pre().is_some()
+            || p.post().is_some()
         {
             return None;
         }
@@ -474,39 +519,75 @@ impl Table {
     pub fn push(&mut self, p: Production) {
         self.max_left = self.max_left.max(p.left.len());
         self.has_right |= !p.right.is_empty();
-        self.has_multi |= !p.rest.is_empty();
+        self.has_multi |= !p.rest().is_empty();
         if p.right_simple {
             self.max_right_simple = self.max_right_simple.max(p.right.len());
         }
         self.check_balance |= p.depth_delta != 0 || p.depth_min < 0;
-        let key = p.key as usize;
-        if self.by_key.len() <= key {
-            self.by_key.resize(key + 1, None);
-        }
-        let kr = self.by_key[key].get_or_insert_with(KeyRules::default);
-        let idx = self.prods.len() as u32;
-        if p.has_context() {
-            kr.context.push(idx);
-            kr.context_stochastic |= p.prob.is_some();
-        } else {
-            kr.free.push(idx);
-            kr.free_stochastic |= p.prob.is_some();
-        }
         self.prods.push(p);
     }
 
-    /// Drop the spare capacity the table grew with.
+    /// Drop the spare capacity the table grew with, and find each key's
+    /// productions (before [`get`](Self::get)).
     fn shrink(&mut self) {
         self.prods.shrink_to_fit();
-        for kr in self.by_key.iter_mut().flatten() {
-            kr.context.shrink_to_fit();
-            kr.free.shrink_to_fit();
+        self.index(self.prods.len());
+    }
+
+    /// Group `prods[..own]` by key (counting sort: in file order within
+    /// a key, context-sensitive ones first); no per-key list of its own.
+    fn index(&mut self, own: usize) {
+        let keys = self.prods[..own]
+            .iter()
+            .map(|p| p.key as usize + 1)
+            .max()
+            .unwrap_or(0);
+        let mut by_key: Vec<Option<KeyRules>> = vec![None; keys];
+        for p in &self.prods[..own] {
+            let kr = by_key[p.key as usize].get_or_insert_with(KeyRules::default);
+            if p.has_context() {
+                kr.ncontext += 1;
+                kr.context_stochastic |= p.prob.is_some();
+            } else {
+                kr.nfree += 1;
+                kr.free_stochastic |= p.prob.is_some();
+            }
         }
+        let mut at = 0;
+        for kr in by_key.iter_mut().flatten() {
+            kr.start = at;
+            at += kr.ncontext + kr.nfree;
+        }
+        // Where each key's next context-sensitive and context-free
+        // numbers go.
+        let mut next: Vec<[u32; 2]> = by_key
+            .iter()
+            .map(|kr| kr.as_ref().map_or([0; 2], |k| [k.start, k.start + k.ncontext]))
+            .collect();
+        let mut ids = vec![0; at as usize];
+        for (i, p) in self.prods[..own].iter().enumerate() {
+            let n = &mut next[p.key as usize][usize::from(!p.has_context())];
+            ids[*n as usize] = i as u32;
+            *n += 1;
+        }
+        self.by_key = by_key;
+        self.ids = ids;
     }
 
     #[inline]
     pub fn get(&self, key: u32) -> Option<&KeyRules> {
         self.by_key.get(key as usize).and_then(Option::as_ref)
+    }
+    /// `kr`'s context-sensitive productions (numbers in `prods`), in file
+    /// order.
+    #[inline]
+    pub fn context(&self, kr: &KeyRules) -> &[u32] {
+        &self.ids[kr.start as usize..][..kr.ncontext as usize]
+    }
+    /// `kr`'s context-free productions, in file order.
+    #[inline]
+    pub fn free(&self, kr: &KeyRules) -> &[u32] {
+        &self.ids[(kr.start + kr.ncontext) as usize..][..kr.nfree as usize]
     }
     pub fn is_empty(&self) -> bool {
         self.prods.is_empty()
@@ -537,11 +618,10 @@ impl Table {
     /// by the one chooser as it tries a context group.
     fn cpfg_order(&mut self) {
         for kr in self.by_key.iter_mut().flatten() {
-            if !kr.context.is_empty() && !kr.free.is_empty() {
-                let mut all = std::mem::take(&mut kr.free);
-                all.append(&mut kr.context);
-                all.sort_unstable();
-                kr.context = all;
+            if kr.ncontext != 0 && kr.nfree != 0 {
+                let (s, n) = (kr.start as usize, (kr.ncontext + kr.nfree) as usize);
+                self.ids[s..s + n].sort_unstable();
+                kr.ncontext += std::mem::take(&mut kr.nfree);
                 kr.context_stochastic |= std::mem::take(&mut kr.free_stochastic);
             }
         }
@@ -552,13 +632,18 @@ impl Table {
     /// productions in both tries the group's first.
     fn with_fallback(mut self, base: &Table) -> Table {
         let by = self.prods.len() as u32;
+        let at = self.ids.len() as u32;
         self.prods.extend(base.prods.iter().cloned());
+        self.ids.extend(base.ids.iter().map(|i| i + by));
         if self.by_key.len() < base.by_key.len() {
             self.by_key.resize(base.by_key.len(), None);
         }
         for (key, b) in base.by_key.iter().enumerate() {
             let Some(b) = b else { continue };
-            let b = b.clone().offset(by);
+            let b = KeyRules {
+                start: b.start + at,
+                ..b.clone()
+            };
             match &mut self.by_key[key] {
                 Some(kr) => kr.fallback = Some(Box::new(b)),
                 none => *none = Some(b),
@@ -1205,7 +1290,7 @@ fn balanced(t: &Table, kind: CompileError) -> R<()> {
         .iter()
         .find(|p| p.depth_delta != 0 || p.depth_min < 0)
     {
-        Some(p) => err(p.span, kind),
+        Some(p) => err(p.span(), kind),
         None => Ok(()),
     }
 }
@@ -1335,21 +1420,27 @@ fn compile_production(
     let (succ, depth_delta, depth_min) =
         compile_successor(&p.succ, alphabet, &names, consts, num, cpfg)?;
     let right_simple = !right.is_empty() && right.iter().all(|r| matches!(r, RPat::Module(_)));
+    // (Depths and offsets fit: a header is at most 64 MiB.)
+    let narrow = |x: i64| i32::try_from(x).expect("a header under 2 GiB");
+    let offset = |x: usize| u32::try_from(x).expect("a header under 4 GiB");
     Ok(Production {
         key,
         nslots,
         left: exact(left),
-        rest: exact(rest),
         right: exact(right),
         right_simple,
         cond,
         prob,
         succ: Succ::from(succ),
-        span: p.span,
-        depth_delta,
-        depth_min,
-        pre: None,
-        post: None,
+        span: (offset(p.span.0), offset(p.span.1)),
+        depth_delta: narrow(depth_delta),
+        depth_min: narrow(depth_min),
+        cpfg: (!rest.is_empty()).then(|| {
+            Box::new(CpfgParts {
+                rest: exact(rest),
+                ..CpfgParts::default()
+            })
+        }),
     })
 }
 
@@ -1474,8 +1565,8 @@ mod tests {
     fn lookup_by_key_and_kinds() {
         let s = sys("productions:\nA < B -> C\nB -> D\nB -> E : 2\n").unwrap();
         let kr = s.productions.get(b'B' as u32).unwrap();
-        assert_eq!(kr.context, vec![0]);
-        assert_eq!(kr.free, vec![1, 2]);
+        assert_eq!(s.productions.context(kr), [0]);
+        assert_eq!(s.productions.free(kr), [1, 2]);
         assert!(kr.free_stochastic && !kr.context_stochastic);
         assert!(s.productions.get(b'A' as u32).is_none());
         assert_eq!(s.productions.max_left, 1);
