@@ -301,8 +301,9 @@ impl ConstBuilder {
 pub enum Item {
     /// A run of modules known at load time, in every format.
     Const(ConstRun),
-    /// A module whose parameters are computed.
-    Module { key: u32, params: Box<[Code]> },
+    /// A module whose parameters are computed (its expressions in one
+    /// block).
+    Module { key: u32, params: expr::Params },
 }
 
 /// A successor's items: a slice ([`Deref`](std::ops::Deref)). Most
@@ -562,7 +563,10 @@ impl Table {
         // numbers go.
         let mut next: Vec<[u32; 2]> = by_key
             .iter()
-            .map(|kr| kr.as_ref().map_or([0; 2], |k| [k.start, k.start + k.ncontext]))
+            .map(|kr| {
+                kr.as_ref()
+                    .map_or([0; 2], |k| [k.start, k.start + k.ncontext])
+            })
             .collect();
         let mut ids = vec![0; at as usize];
         for (i, p) in self.prods[..own].iter().enumerate() {
@@ -1506,7 +1510,7 @@ fn compile_successor(
                 }
                 items.push(Item::Module {
                     key,
-                    params: exact(codes),
+                    params: expr::Params::new(&codes),
                 });
             }
         }
