@@ -1565,6 +1565,16 @@ mod tests {
         assert!(!s.productions.check_balance);
     }
 
+    /// A table may hold millions of productions and keys (issue 9 item
+    /// 6): 152 and 64 bytes before the cpfg parts were boxed, offsets
+    /// narrowed and keys' lists moved to one array.
+    #[test]
+    fn compiled_parts_stay_small() {
+        assert_eq!(std::mem::size_of::<Production>(), 112);
+        assert_eq!(std::mem::size_of::<KeyRules>(), 24);
+        assert_eq!(std::mem::size_of::<Item>(), 24);
+    }
+
     #[test]
     fn lookup_by_key_and_kinds() {
         let s = sys("productions:\nA < B -> C\nB -> D\nB -> E : 2\n").unwrap();
