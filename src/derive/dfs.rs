@@ -19,7 +19,7 @@ use super::random::Random;
 use crate::derive::{Origin, Out, Pass, PosReader, ASCII};
 use crate::diag::Error;
 use crate::rules::codec::Modules;
-use crate::rules::{Alphabet, ConstRun, Item, Table};
+use crate::rules::{Alphabet, ConstRun, Item, Production, Table};
 use std::fs::File;
 
 /// Deepest derivation expanded depth first (the stack holds one frame per
@@ -324,28 +324,39 @@ pub struct ParamPlan<'t> {
     inert: std::sync::OnceLock<Inert>,
 }
 
-/// One bit per successor item of every production, items of a production
+/// One byte per successor item of every production, items of a production
 /// from `start[production]` on: is the item a constant run that goes out
-/// as its text ([`ParamPlan::inert_runs`])? `now` for a step before the
-/// last, `last` for the last step. A few bits and 4 bytes a production,
-/// where a list per production cost a block or two each (issue 9 item 6).
+/// as its text ([`ParamPlan::inert_runs`])? Bit [`NOW`] for a step before
+/// the last, [`LAST`] for the last step. A byte an item and 4 bytes a
+/// production, where a list per production cost a block or two each
+/// (issue 9 item 6).
 struct Inert {
     start: Vec<u32>,
-    now: Vec<u64>,
-    last: Vec<u64>,
+    flags: Vec<u8>,
 }
+
+const NOW: u8 = 1;
+const LAST: u8 = 2;
 
 impl Inert {
     #[inline]
     fn first(&self, production: u32) -> usize {
         self.start[production as usize] as usize
     }
+    /// Is item `i` (counted over all productions) inert, by `which`?
+    #[inline]
+    fn is(&self, i: usize, which: u8) -> bool {
+        self.flags.get(i).is_some_and(|f| f & which != 0)
+    }
 }
 
-/// Bit `i` of `bits`.
+/// The constant run at `prod`'s successor item `i`.
 #[inline]
-fn bit(bits: &[u64], i: usize) -> bool {
-    bits[i / 64] >> (i % 64) & 1 == 1
+fn run_at(prod: &Production, i: usize) -> Option<&ConstRun> {
+    match prod.succ.get(i) {
+        Some(Item::Const(c)) => Some(c),
+        _ => None,
+    }
 }
 
 /// Modules of one generation along the current path, and the next one to
@@ -436,29 +447,19 @@ impl<'t> ParamPlan<'t> {
             };
             let mut r = Inert {
                 start: Vec::with_capacity(self.prods.prods.len()),
-                now: Vec::new(),
-                last: Vec::new(),
+                flags: Vec::new(),
             };
-            let mut n = 0usize;
             for p in &self.prods.prods {
-                r.start.push(n as u32);
-                for i in &*p.succ {
-                    if n % 64 == 0 {
-                        r.now.push(0);
-                        r.last.push(0);
+                r.start.push(r.flags.len() as u32);
+                r.flags.extend(p.succ.iter().map(|i| match i {
+                    Item::Const(c) => {
+                        (if inert(c, false) { NOW } else { 0 })
+                            | (if inert(c, true) { LAST } else { 0 })
                     }
-                    if let Item::Const(c) = i {
-                        let b = 1u64 << (n % 64);
-                        if inert(c, false) {
-                            r.now[n / 64] |= b;
-                        }
-                        if inert(c, true) {
-                            r.last[n / 64] |= b;
-                        }
-                    }
-                    n += 1;
-                }
+                    Item::Module { .. } => 0,
+                }));
             }
+            r.flags.shrink_to_fit();
             r
         })
     }
@@ -557,15 +558,20 @@ impl<'t> ParamPlan<'t> {
                 let prod = &self.prods.prods[pi as usize];
                 let next = &mut next[0];
                 next.clear();
-                let (mut item, mut items) = (inert.first(pi), prod.succ.iter());
+                let first = inert.first(pi);
+                let mut item = 0;
                 ch.successor(p, prod, &mut rng, origin, pass, |piece| {
-                    let whole = bit(&inert.now, item);
-                    item += 1;
-                    match (piece, items.next()) {
-                        (Piece::Const(_), Some(Item::Const(c))) if whole => next.push_inert(c),
-                        (Piece::Const(c), _) => next.push_bin(c.bin(), al),
-                        (Piece::Module(key, vals), _) => next.modules.push(key, vals),
+                    match piece {
+                        Piece::Const(c) => match inert.is(first + item, NOW) {
+                            true => match run_at(prod, item) {
+                                Some(r) => next.push_inert(r),
+                                None => next.push_bin(c.bin(), al),
+                            },
+                            false => next.push_bin(c.bin(), al),
+                        },
+                        Piece::Module(key, vals) => next.modules.push(key, vals),
                     }
+                    item += 1;
                     Ok(())
                 })?;
                 j += 1;
@@ -710,13 +716,13 @@ impl<'p, 't> Walker<'p, 't> {
             if j + 1 == n {
                 // The last step: its successor goes straight out (a
                 // module rewritten to itself too: it would be a leaf).
-                let mut item = inert.first(pi);
+                let first = inert.first(pi);
+                let mut item = 0;
                 ch.successor(p, prod, rng, origin, pass, |piece| {
-                    let whole = bit(&inert.last, item);
                     item += 1;
-                    match (piece, whole) {
-                        (Piece::Const(c), true) => out.constant(c)?,
-                        (Piece::Const(c), false) => {
+                    match piece {
+                        Piece::Const(c) if inert.is(first + item - 1, LAST) => out.constant(c)?,
+                        Piece::Const(c) => {
                             let mut bin = c.bin();
                             while !bin.is_empty() {
                                 let (key, kl) = crate::rules::codec::get_key(bin);
@@ -730,7 +736,7 @@ impl<'p, 't> Walker<'p, 't> {
                                 bin = &bin[kl + 8 * a..];
                             }
                         }
-                        (Piece::Module(key, vals), _) => {
+                        Piece::Module(key, vals) => {
                             scratch.clear();
                             scratch.extend_from_slice(vals);
                             let m = (key, &mut scratch[..]);
@@ -744,15 +750,20 @@ impl<'p, 't> Walker<'p, 't> {
             // Evaluate the successor into the next level.
             let next = &mut next[0];
             next.clear();
-            let (mut item, mut items) = (inert.first(pi), prod.succ.iter());
+            let first = inert.first(pi);
+            let mut item = 0;
             ch.successor(p, prod, rng, origin, pass, |piece| {
-                let whole = bit(&inert.now, item);
-                item += 1;
-                match (piece, items.next()) {
-                    (Piece::Const(_), Some(Item::Const(c))) if whole => next.push_inert(c),
-                    (Piece::Const(c), _) => next.push_bin(c.bin(), al),
-                    (Piece::Module(key, vals), _) => next.modules.push(key, vals),
+                match piece {
+                    Piece::Const(c) => match inert.is(first + item, NOW) {
+                        true => match run_at(prod, item) {
+                            Some(r) => next.push_inert(r),
+                            None => next.push_bin(c.bin(), al),
+                        },
+                        false => next.push_bin(c.bin(), al),
+                    },
+                    Piece::Module(key, vals) => next.modules.push(key, vals),
                 }
+                item += 1;
                 Ok(())
             })?;
             // A module rewritten to itself is a fixed point: the same

@@ -511,10 +511,11 @@ impl<'a> Iterator for ParamsIter<'a> {
     type Item = CodeRef<'a>;
     #[inline]
     fn next(&mut self) -> Option<CodeRef<'a>> {
-        let (&Op::At(n, len), rest) = self.0.split_first()? else {
-            return None;
+        let (n, len) = match self.0.first() {
+            Some(&Op::At(n, len)) => (n, len as usize),
+            _ => return None,
         };
-        let (packed, rest) = rest.split_at(len as usize);
+        let (packed, rest) = self.0[1..].split_at_checked(len)?;
         self.0 = rest;
         Some(CodeRef { packed, n })
     }

@@ -47,9 +47,7 @@ impl Filter {
 pub struct Alphabet {
     sym: Vec<char>,
     arity: Vec<u16>,
-    /// Each key's symbol in UTF-8, in place (its length from the first
-    /// byte): a header may name millions of symbols.
-    text: Vec<[u8; 4]>,
+    text: Vec<Box<[u8]>>,
     ignored: Vec<bool>,
     map: HashMap<(char, u16), u32>,
     filter: Filter,
@@ -69,7 +67,7 @@ impl Alphabet {
             let c = b as char;
             a.sym.push(c);
             a.arity.push(0);
-            a.text.push([b, 0, 0, 0]);
+            a.text.push(vec![b].into_boxed_slice());
             a.ignored.push(a.filter.ignores(c));
         }
         a
@@ -91,8 +89,12 @@ impl Alphabet {
         self.sym.push(sym);
         self.arity.push(arity);
         let mut t = [0u8; 4];
-        sym.encode_utf8(&mut t);
-        self.text.push(t);
+        self.text.push(
+            sym.encode_utf8(&mut t)
+                .as_bytes()
+                .to_vec()
+                .into_boxed_slice(),
+        );
         self.ignored.push(self.filter.ignores(sym));
         self.map.insert((sym, arity), k);
         Ok(k)
@@ -104,10 +106,7 @@ impl Alphabet {
     }
     #[inline]
     pub fn text(&self, key: u32) -> &[u8] {
-        let t = &self.text[key as usize];
-        // UTF-8: a leading byte's high one bits count the bytes (none:
-        // ASCII, one byte).
-        &t[..(t[0].leading_ones() as usize).max(1)]
+        &self.text[key as usize]
     }
     #[inline]
     pub fn symbol(&self, key: u32) -> char {
@@ -426,11 +425,12 @@ impl Production {
 /// 24 bytes a key (a header may name millions of symbols).
 #[derive(Clone, Debug, Default)]
 pub struct KeyRules {
-    /// Where the key's numbers start: context-sensitive productions (a
-    /// match beats every context-free one), then context-free ones.
+    /// The key's numbers: context-sensitive productions (a match beats
+    /// every context-free one) in `ids[start..mid]`, then context-free
+    /// ones in `ids[mid..end]`.
     start: u32,
-    ncontext: u32,
-    nfree: u32,
+    mid: u32,
+    end: u32,
     pub context_stochastic: bool,
     pub free_stochastic: bool,
     /// Group 0's productions of the key, tried when a numbered group's
@@ -442,12 +442,12 @@ impl KeyRules {
     /// Has the key context-sensitive productions?
     #[inline]
     pub fn has_context(&self) -> bool {
-        self.ncontext != 0
+        self.mid != self.start
     }
     /// Has the key context-free productions?
     #[inline]
     pub fn has_free(&self) -> bool {
-        self.nfree != 0
+        self.end != self.mid
     }
 }
 
@@ -546,27 +546,28 @@ impl Table {
         let mut by_key: Vec<Option<KeyRules>> = vec![None; keys];
         for p in &self.prods[..own] {
             let kr = by_key[p.key as usize].get_or_insert_with(KeyRules::default);
+            // (Counts first: `mid` the context-sensitive, `end` the rest.)
             if p.has_context() {
-                kr.ncontext += 1;
+                kr.mid += 1;
                 kr.context_stochastic |= p.prob.is_some();
             } else {
-                kr.nfree += 1;
+                kr.end += 1;
                 kr.free_stochastic |= p.prob.is_some();
             }
         }
         let mut at = 0;
         for kr in by_key.iter_mut().flatten() {
+            let (ncontext, nfree) = (kr.mid, kr.end);
             kr.start = at;
-            at += kr.ncontext + kr.nfree;
+            kr.mid = at + ncontext;
+            kr.end = kr.mid + nfree;
+            at = kr.end;
         }
         // Where each key's next context-sensitive and context-free
         // numbers go.
         let mut next: Vec<[u32; 2]> = by_key
             .iter()
-            .map(|kr| {
-                kr.as_ref()
-                    .map_or([0; 2], |k| [k.start, k.start + k.ncontext])
-            })
+            .map(|kr| kr.as_ref().map_or([0; 2], |k| [k.start, k.mid]))
             .collect();
         let mut ids = vec![0; at as usize];
         for (i, p) in self.prods[..own].iter().enumerate() {
@@ -586,12 +587,16 @@ impl Table {
     /// order.
     #[inline]
     pub fn context(&self, kr: &KeyRules) -> &[u32] {
-        &self.ids[kr.start as usize..][..kr.ncontext as usize]
+        self.ids
+            .get(kr.start as usize..kr.mid as usize)
+            .unwrap_or(&[])
     }
     /// `kr`'s context-free productions, in file order.
     #[inline]
     pub fn free(&self, kr: &KeyRules) -> &[u32] {
-        &self.ids[(kr.start + kr.ncontext) as usize..][..kr.nfree as usize]
+        self.ids
+            .get(kr.mid as usize..kr.end as usize)
+            .unwrap_or(&[])
     }
     pub fn is_empty(&self) -> bool {
         self.prods.is_empty()
@@ -622,10 +627,9 @@ impl Table {
     /// by the one chooser as it tries a context group.
     fn cpfg_order(&mut self) {
         for kr in self.by_key.iter_mut().flatten() {
-            if kr.ncontext != 0 && kr.nfree != 0 {
-                let (s, n) = (kr.start as usize, (kr.ncontext + kr.nfree) as usize);
-                self.ids[s..s + n].sort_unstable();
-                kr.ncontext += std::mem::take(&mut kr.nfree);
+            if kr.has_context() && kr.has_free() {
+                self.ids[kr.start as usize..kr.end as usize].sort_unstable();
+                kr.mid = kr.end;
                 kr.context_stochastic |= std::mem::take(&mut kr.free_stochastic);
             }
         }
@@ -646,6 +650,8 @@ impl Table {
             let Some(b) = b else { continue };
             let b = KeyRules {
                 start: b.start + at,
+                mid: b.mid + at,
+                end: b.end + at,
                 ..b.clone()
             };
             match &mut self.by_key[key] {
