@@ -318,12 +318,14 @@ impl Code {
 
     /// Does evaluating this expression draw random numbers?
     pub fn uses_random(&self) -> bool {
-        self.view().uses_random()
+        self.ops()
+            .iter()
+            .any(|o| matches!(o, Op::Ran(_) | Op::Nran(_) | Op::CpfgRan(..)))
     }
 
     /// Does this expression read the built-in `step`?
     pub fn uses_step(&self) -> bool {
-        self.view().uses_step()
+        self.ops().iter().any(|o| matches!(o, Op::Step))
     }
 }
 
@@ -456,94 +458,6 @@ impl Code {
     #[inline]
     pub fn eval<D: Draw + ?Sized>(
         &self,
-        slots: &[f64],
-        stack: &mut Vec<f64>,
-        rng: &mut D,
-    ) -> Result<f64, EvalError> {
-        self.view().eval(slots, stack, rng)
-    }
-
-    #[inline(always)]
-    fn view(&self) -> CodeRef<'_> {
-        CodeRef {
-            packed: &self.packed,
-            n: self.n,
-        }
-    }
-}
-
-/// A compiled expression's instructions and spans (as [`Code`] packs
-/// them), borrowed: from a [`Code`] or from a module's [`Params`].
-#[derive(Clone, Copy)]
-pub struct CodeRef<'a> {
-    packed: &'a [Op],
-    n: u32,
-}
-
-/// A successor module's parameter expressions in one block (a table may
-/// hold millions): for each, a header `At(n, len)` (its instruction
-/// count, and its length with the spans), then its instructions and spans.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Params(Box<[Op]>);
-
-impl Params {
-    /// The expressions of `codes`, in one block.
-    pub fn new(codes: &[Code]) -> Params {
-        let mut all = Vec::with_capacity(codes.iter().map(|c| 1 + c.packed.len()).sum());
-        for c in codes {
-            all.push(Op::At(c.n, c.packed.len() as u32));
-            all.extend_from_slice(&c.packed);
-        }
-        Params(all.into_boxed_slice())
-    }
-
-    /// The expressions, in order.
-    #[inline]
-    pub fn iter(&self) -> ParamsIter<'_> {
-        ParamsIter(&self.0)
-    }
-}
-
-/// The expressions of a [`Params`].
-pub struct ParamsIter<'a>(&'a [Op]);
-
-impl<'a> Iterator for ParamsIter<'a> {
-    type Item = CodeRef<'a>;
-    #[inline]
-    fn next(&mut self) -> Option<CodeRef<'a>> {
-        let (n, len) = match self.0.first() {
-            Some(&Op::At(n, len)) => (n, len as usize),
-            _ => return None,
-        };
-        let (packed, rest) = self.0[1..].split_at_checked(len)?;
-        self.0 = rest;
-        Some(CodeRef { packed, n })
-    }
-}
-
-impl<'a> CodeRef<'a> {
-    /// The instructions.
-    #[inline]
-    fn ops(&self) -> &'a [Op] {
-        &self.packed[..self.n as usize]
-    }
-
-    /// Does evaluating this expression draw random numbers?
-    pub fn uses_random(&self) -> bool {
-        self.ops()
-            .iter()
-            .any(|o| matches!(o, Op::Ran(_) | Op::Nran(_) | Op::CpfgRan(..)))
-    }
-
-    /// Does this expression read the built-in `step`?
-    pub fn uses_step(&self) -> bool {
-        self.ops().iter().any(|o| matches!(o, Op::Step))
-    }
-
-    /// [`Code::eval`].
-    #[inline]
-    pub fn eval<D: Draw + ?Sized>(
-        self,
         slots: &[f64],
         stack: &mut Vec<f64>,
         rng: &mut D,

@@ -300,9 +300,8 @@ impl ConstBuilder {
 pub enum Item {
     /// A run of modules known at load time, in every format.
     Const(ConstRun),
-    /// A module whose parameters are computed (its expressions in one
-    /// block).
-    Module { key: u32, params: expr::Params },
+    /// A module whose parameters are computed.
+    Module { key: u32, params: Box<[Code]> },
 }
 
 /// A successor's items: a slice ([`Deref`](std::ops::Deref)). Most
@@ -1516,7 +1515,7 @@ fn compile_successor(
                 }
                 items.push(Item::Module {
                     key,
-                    params: expr::Params::new(&codes),
+                    params: exact(codes),
                 });
             }
         }
