@@ -12,7 +12,7 @@ use crate::rules::{ConstRun, Item, KeyRules, Production, Table};
 /// A `.l` file's productions of a key: one list (the front end merges
 /// them).
 #[inline(always)]
-fn cpfg_list<'t>(table: &'t Table, kr: &KeyRules) -> &'t [u32] {
+fn cpfg_list<'t>(table: &'t Table, kr: &'t KeyRules) -> &'t [u32] {
     if kr.has_context() {
         table.context(kr)
     } else {

@@ -419,17 +419,15 @@ impl Production {
     }
 }
 
-/// The productions of one key, in file order, split by kind: a range of
-/// the table's production numbers ([`Table::context`], [`Table::free`]),
-/// 24 bytes a key (a header may name millions of symbols).
+/// The productions of one key, in file order, split by kind (numbers in
+/// the table's `prods`): lists of their exact size, made once the table is
+/// complete ([`Table::index`]), no spare capacity (a header may name
+/// millions of symbols).
 #[derive(Clone, Debug, Default)]
 pub struct KeyRules {
-    /// The key's numbers: context-sensitive productions (a match beats
-    /// every context-free one) in `ids[start..mid]`, then context-free
-    /// ones in `ids[mid..end]`.
-    start: u32,
-    mid: u32,
-    end: u32,
+    /// Context-sensitive productions: a match beats every context-free one.
+    context: Box<[u32]>,
+    free: Box<[u32]>,
     pub context_stochastic: bool,
     pub free_stochastic: bool,
     /// Group 0's productions of the key, tried when a numbered group's
@@ -441,22 +439,20 @@ impl KeyRules {
     /// Has the key context-sensitive productions?
     #[inline]
     pub fn has_context(&self) -> bool {
-        self.mid != self.start
+        !self.context.is_empty()
     }
     /// Has the key context-free productions?
     #[inline]
     pub fn has_free(&self) -> bool {
-        self.end != self.mid
+        !self.free.is_empty()
     }
 }
 
 #[derive(Debug, Default)]
 pub struct Table {
     pub prods: Vec<Production>,
-    /// Each key's productions ([`index`](Self::index)): a range of `ids`.
+    /// Each key's productions ([`index`](Self::index)).
     by_key: Vec<Option<KeyRules>>,
-    /// Production numbers grouped by key, each key's in file order.
-    ids: Vec<u32>,
     /// Longest left context.
     pub max_left: usize,
     pub has_right: bool,
@@ -534,48 +530,52 @@ impl Table {
         self.index(self.prods.len());
     }
 
-    /// Group `prods[..own]` by key (counting sort: in file order within
-    /// a key, context-sensitive ones first); no per-key list of its own.
+    /// Group `prods[..own]` by key: each key's lists in file order, made
+    /// at their exact size (counted first), context-sensitive and
+    /// context-free apart.
     fn index(&mut self, own: usize) {
         let keys = self.prods[..own]
             .iter()
             .map(|p| p.key as usize + 1)
             .max()
             .unwrap_or(0);
-        let mut by_key: Vec<Option<KeyRules>> = vec![None; keys];
+        let mut counts = vec![[0usize; 2]; keys];
         for p in &self.prods[..own] {
-            let kr = by_key[p.key as usize].get_or_insert_with(KeyRules::default);
-            // (Counts first: `mid` the context-sensitive, `end` the rest.)
-            if p.has_context() {
-                kr.mid += 1;
-                kr.context_stochastic |= p.prob.is_some();
-            } else {
-                kr.end += 1;
-                kr.free_stochastic |= p.prob.is_some();
+            counts[p.key as usize][usize::from(!p.has_context())] += 1;
+        }
+        // A key's context-sensitive and context-free lists, and whether
+        // each has a probability.
+        type Lists = (Vec<u32>, Vec<u32>, bool, bool);
+        let mut lists: Vec<Option<Lists>> = counts
+            .iter()
+            .map(|&[c, f]| {
+                (c + f > 0).then(|| (Vec::with_capacity(c), Vec::with_capacity(f), false, false))
+            })
+            .collect();
+        drop(counts);
+        for (i, p) in self.prods[..own].iter().enumerate() {
+            if let Some((c, f, cs, fs)) = &mut lists[p.key as usize] {
+                if p.has_context() {
+                    c.push(i as u32);
+                    *cs |= p.prob.is_some();
+                } else {
+                    f.push(i as u32);
+                    *fs |= p.prob.is_some();
+                }
             }
         }
-        let mut at = 0;
-        for kr in by_key.iter_mut().flatten() {
-            let (ncontext, nfree) = (kr.mid, kr.end);
-            kr.start = at;
-            kr.mid = at + ncontext;
-            kr.end = kr.mid + nfree;
-            at = kr.end;
-        }
-        // Where each key's next context-sensitive and context-free
-        // numbers go.
-        let mut next: Vec<[u32; 2]> = by_key
-            .iter()
-            .map(|kr| kr.as_ref().map_or([0; 2], |k| [k.start, k.mid]))
+        self.by_key = lists
+            .into_iter()
+            .map(|l| {
+                l.map(|(c, f, cs, fs)| KeyRules {
+                    context: c.into_boxed_slice(),
+                    free: f.into_boxed_slice(),
+                    context_stochastic: cs,
+                    free_stochastic: fs,
+                    fallback: None,
+                })
+            })
             .collect();
-        let mut ids = vec![0; at as usize];
-        for (i, p) in self.prods[..own].iter().enumerate() {
-            let n = &mut next[p.key as usize][usize::from(!p.has_context())];
-            ids[*n as usize] = i as u32;
-            *n += 1;
-        }
-        self.by_key = by_key;
-        self.ids = ids;
     }
 
     #[inline]
@@ -585,17 +585,13 @@ impl Table {
     /// `kr`'s context-sensitive productions (numbers in `prods`), in file
     /// order.
     #[inline]
-    pub fn context(&self, kr: &KeyRules) -> &[u32] {
-        self.ids
-            .get(kr.start as usize..kr.mid as usize)
-            .unwrap_or(&[])
+    pub fn context<'a>(&'a self, kr: &'a KeyRules) -> &'a [u32] {
+        &kr.context
     }
     /// `kr`'s context-free productions, in file order.
     #[inline]
-    pub fn free(&self, kr: &KeyRules) -> &[u32] {
-        self.ids
-            .get(kr.mid as usize..kr.end as usize)
-            .unwrap_or(&[])
+    pub fn free<'a>(&'a self, kr: &'a KeyRules) -> &'a [u32] {
+        &kr.free
     }
     pub fn is_empty(&self) -> bool {
         self.prods.is_empty()
@@ -627,8 +623,10 @@ impl Table {
     fn cpfg_order(&mut self) {
         for kr in self.by_key.iter_mut().flatten() {
             if kr.has_context() && kr.has_free() {
-                self.ids[kr.start as usize..kr.end as usize].sort_unstable();
-                kr.mid = kr.end;
+                let mut all: Vec<u32> = kr.context.iter().chain(&*kr.free).copied().collect();
+                all.sort_unstable();
+                kr.context = all.into_boxed_slice();
+                kr.free = Box::default();
                 kr.context_stochastic |= std::mem::take(&mut kr.free_stochastic);
             }
         }
@@ -639,18 +637,15 @@ impl Table {
     /// productions in both tries the group's first.
     fn with_fallback(mut self, base: &Table) -> Table {
         let by = self.prods.len() as u32;
-        let at = self.ids.len() as u32;
         self.prods.extend(base.prods.iter().cloned());
-        self.ids.extend(base.ids.iter().map(|i| i + by));
         if self.by_key.len() < base.by_key.len() {
             self.by_key.resize(base.by_key.len(), None);
         }
         for (key, b) in base.by_key.iter().enumerate() {
             let Some(b) = b else { continue };
             let b = KeyRules {
-                start: b.start + at,
-                mid: b.mid + at,
-                end: b.end + at,
+                context: b.context.iter().map(|i| i + by).collect(),
+                free: b.free.iter().map(|i| i + by).collect(),
                 ..b.clone()
             };
             match &mut self.by_key[key] {
@@ -1572,11 +1567,11 @@ mod tests {
 
     /// A table may hold millions of productions and keys (issue 9 item
     /// 6): 152 and 64 bytes before the cpfg parts were boxed, offsets
-    /// narrowed and keys' lists moved to one array.
+    /// narrowed and keys' lists made exact boxes.
     #[test]
     fn compiled_parts_stay_small() {
         assert_eq!(std::mem::size_of::<Production>(), 112);
-        assert_eq!(std::mem::size_of::<KeyRules>(), 24);
+        assert_eq!(std::mem::size_of::<KeyRules>(), 48);
         assert_eq!(std::mem::size_of::<Item>(), 24);
     }
 
