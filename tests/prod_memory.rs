@@ -58,6 +58,9 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static A: Counting = Counting;
 
+/// The counters are global: one test at a time.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// 2^17: the production array grows by doubling, so at this count it is
 /// full (no spare capacity counted, as peak RSS does not count untouched
 /// pages).
@@ -113,6 +116,7 @@ fn check(
 
 #[test]
 fn bytes_per_production_stay_near_the_source_size() {
+    let _one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     // One after the other: the counters are global.
     // Measured at 20.8x, 11.4x, 20.6x, 15.4x, 23.7x and 16.9x; before the
     // second round (issue 9 item 6: cpfg parts boxed, u32 spans and i32
@@ -167,6 +171,7 @@ fn bytes_per_production_stay_near_the_source_size() {
 /// thread).
 #[test]
 fn deriving_adds_little_per_production() {
+    let _one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let line = |_: usize| "F(x) : x > 1 -> F(x/2)F(x/2)".to_string();
     let (_, mut ls) = load(header(&line, "F(4)"));
     let base = LIVE.load(Ordering::Relaxed);
