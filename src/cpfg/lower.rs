@@ -72,8 +72,11 @@ pub fn attach(run: &CpfgRun, extra: &[Vec<ProdExtra>; 3], system: &mut crate::ru
             let Some(t) = t else { continue };
             for (p, x) in t.prods.iter_mut().zip(extra) {
                 p.nslots = p.nslots.max(x.nslots);
-                p.pre = x.pre.clone().map(Box::new);
-                p.post = x.post.clone().map(Box::new);
+                if x.pre.is_some() || x.post.is_some() {
+                    let c = p.cpfg_mut();
+                    c.pre.clone_from(&x.pre);
+                    c.post.clone_from(&x.post);
+                }
             }
         }
     }

@@ -12,11 +12,11 @@ use crate::rules::{ConstRun, Item, KeyRules, Production, Table};
 /// A `.l` file's productions of a key: one list (the front end merges
 /// them).
 #[inline(always)]
-fn cpfg_list(kr: &KeyRules) -> &[u32] {
-    if kr.context.is_empty() {
-        &kr.free[..]
+fn cpfg_list<'t>(table: &'t Table, kr: &'t KeyRules) -> &'t [u32] {
+    if kr.has_context() {
+        table.context(kr)
     } else {
-        &kr.context[..]
+        table.free(kr)
     }
 }
 
@@ -81,7 +81,7 @@ impl Chooser {
             return self.choose_cpfg(
                 slots,
                 table,
-                cpfg_list(kr),
+                cpfg_list(table, kr),
                 rng,
                 origin,
                 pass,
@@ -111,7 +111,7 @@ impl Chooser {
         self.choose_cpfg_in(
             slots,
             table,
-            cpfg_list(kr),
+            cpfg_list(table, kr),
             rng,
             origin,
             pass,
@@ -140,12 +140,12 @@ impl Chooser {
         let mut chosen = None;
         let mut kr = kr;
         loop {
-            if !kr.context.is_empty() {
-                let group = (&kr.context[..], kr.context_stochastic);
+            if kr.has_context() {
+                let group = (table.context(kr), kr.context_stochastic);
                 chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
             }
-            if chosen.is_none() && !kr.free.is_empty() {
-                let group = (&kr.free[..], kr.free_stochastic);
+            if chosen.is_none() && kr.has_free() {
+                let group = (table.free(kr), kr.free_stochastic);
                 chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
             }
             // A numbered group that chose nothing falls back to group 0.
@@ -224,7 +224,7 @@ impl Chooser {
                 let u = rng.uniform().map_err(|m| {
                     let p = &table.prods[self.cand[0].0 as usize];
                     Error::at(
-                        origin.locate(p.span.0),
+                        origin.locate(p.span().0),
                         crate::diag::RuntimeError::Eval {
                             error: crate::diag::ExprError::Random(m),
                             pass,
@@ -404,7 +404,7 @@ impl Chooser {
         if !contexts(p, slots)? {
             return Ok(false);
         }
-        if let Some(b) = &p.pre {
+        if let Some(b) = p.pre() {
             b.run(slots, &mut self.stack, rng)
                 .map_err(|e| origin.eval_error(e, pass))?;
         }
@@ -429,7 +429,7 @@ impl Chooser {
                 c.hom_successor();
             }
         }
-        match &p.post {
+        match p.post() {
             Some(b) => b
                 .run(slots, &mut self.stack, rng)
                 .map_err(|e| origin.eval_error(e, pass)),

@@ -19,7 +19,7 @@ use super::random::Random;
 use crate::derive::{Origin, Out, Pass, PosReader, ASCII};
 use crate::diag::Error;
 use crate::rules::codec::Modules;
-use crate::rules::{Alphabet, ConstRun, Item, Table};
+use crate::rules::{Alphabet, ConstRun, Item, Production, Table};
 use std::fs::File;
 
 /// Deepest derivation expanded depth first (the stack holds one frame per
@@ -319,6 +319,44 @@ pub fn census(input: &File, al: &Alphabet) -> Result<Census, Error> {
 pub struct ParamPlan<'t> {
     prods: &'t Table,
     hom: Option<&'t Table>,
+    /// Which successor items are inert constant runs, made on first use
+    /// and shared by every thread.
+    inert: std::sync::OnceLock<Inert>,
+}
+
+/// One byte per successor item of every production, items of a production
+/// from `start[production]` on: is the item a constant run that goes out
+/// as its text ([`ParamPlan::inert_runs`])? Bit [`NOW`] for a step before
+/// the last, [`LAST`] for the last step. A byte an item and 4 bytes a
+/// production, where a list per production cost a block or two each
+/// (issue 9 item 6).
+struct Inert {
+    start: Vec<u32>,
+    flags: Vec<u8>,
+}
+
+const NOW: u8 = 1;
+const LAST: u8 = 2;
+
+impl Inert {
+    #[inline]
+    fn first(&self, production: u32) -> usize {
+        self.start[production as usize] as usize
+    }
+    /// Is item `i` (counted over all productions) inert, by `which`?
+    #[inline]
+    fn is(&self, i: usize, which: u8) -> bool {
+        self.flags.get(i).is_some_and(|f| f & which != 0)
+    }
+}
+
+/// The constant run at `prod`'s successor item `i`.
+#[inline]
+fn run_at(prod: &Production, i: usize) -> Option<&ConstRun> {
+    match prod.succ.get(i) {
+        Some(Item::Const(c)) => Some(c),
+        _ => None,
+    }
 }
 
 /// Modules of one generation along the current path, and the next one to
@@ -380,42 +418,50 @@ impl<'t> ParamPlan<'t> {
         let ok = (1..=MAX_DEPTH).contains(&steps)
             && deterministic_free(prods)
             && hom.is_none_or(deterministic_free);
-        ok.then_some(ParamPlan { prods, hom })
+        ok.then_some(ParamPlan {
+            prods,
+            hom,
+            inert: std::sync::OnceLock::new(),
+        })
     }
 
-    /// Per production of `prods`, per successor item: the constant run if
-    /// none of its modules is rewritten by the homomorphism nor, unless
-    /// `last` (made by the last step), by any production: it goes out as
-    /// its text.
-    fn inert_runs(&self, al: &Alphabet, last: bool) -> Vec<Box<[Option<&'t ConstRun>]>> {
-        let ruled = |key: u32| {
-            (!last && self.prods.get(key).is_some())
-                || self.hom.is_some_and(|h| h.get(key).is_some())
-        };
-        let inert = |c: &ConstRun| {
-            let mut bin = c.bin();
-            while !bin.is_empty() {
-                let (key, kl) = crate::rules::codec::get_key(bin);
-                if ruled(key) {
-                    return false;
+    /// Per production of `prods`, per successor item: is it a constant run
+    /// none of whose modules the homomorphism rewrites nor, unless `last`
+    /// (made by the last step), any production? It goes out as its text.
+    fn inert_runs(&self, al: &Alphabet) -> &Inert {
+        self.inert.get_or_init(|| {
+            let ruled = |key: u32, last: bool| {
+                (!last && self.prods.get(key).is_some())
+                    || self.hom.is_some_and(|h| h.get(key).is_some())
+            };
+            let inert = |c: &ConstRun, last: bool| {
+                let mut bin = c.bin();
+                while !bin.is_empty() {
+                    let (key, kl) = crate::rules::codec::get_key(bin);
+                    if ruled(key, last) {
+                        return false;
+                    }
+                    bin = &bin[kl + 8 * al.arity(key)..];
                 }
-                bin = &bin[kl + 8 * al.arity(key)..];
+                true
+            };
+            let mut r = Inert {
+                start: Vec::with_capacity(self.prods.prods.len()),
+                flags: Vec::new(),
+            };
+            for p in &self.prods.prods {
+                r.start.push(r.flags.len() as u32);
+                r.flags.extend(p.succ.iter().map(|i| match i {
+                    Item::Const(c) => {
+                        (if inert(c, false) { NOW } else { 0 })
+                            | (if inert(c, true) { LAST } else { 0 })
+                    }
+                    Item::Module { .. } => 0,
+                }));
             }
-            true
-        };
-        self.prods
-            .prods
-            .iter()
-            .map(|p| {
-                p.succ
-                    .iter()
-                    .map(|i| match i {
-                        Item::Const(c) if inert(c) => Some(c),
-                        _ => None,
-                    })
-                    .collect()
-            })
-            .collect()
+            r.flags.shrink_to_fit();
+            r
+        })
     }
 
     /// The production of `table` applying to (key, params), if any, with
@@ -469,7 +515,7 @@ impl<'t> ParamPlan<'t> {
         mut visit: impl FnMut(Split<'_, 't>) -> Result<bool, Error>,
     ) -> Result<(), Error> {
         let mut levels: Vec<Level> = (0..=depth).map(|_| Level::default()).collect();
-        let inert = self.inert_runs(al, false);
+        let inert = self.inert_runs(al);
         let mut ch = Chooser::default();
         let mut rng = Random::new(0); // never drawn from
         let mut rd = PosReader::new(input, 1 << 16, false);
@@ -512,14 +558,20 @@ impl<'t> ParamPlan<'t> {
                 let prod = &self.prods.prods[pi as usize];
                 let next = &mut next[0];
                 next.clear();
-                let mut inert = inert[pi as usize].iter();
+                let first = inert.first(pi);
+                let mut item = 0;
                 ch.successor(p, prod, &mut rng, origin, pass, |piece| {
-                    let whole = inert.next().copied().flatten();
-                    match (piece, whole) {
-                        (Piece::Const(_), Some(c)) => next.push_inert(c),
-                        (Piece::Const(c), None) => next.push_bin(c.bin(), al),
-                        (Piece::Module(key, vals), _) => next.modules.push(key, vals),
+                    match piece {
+                        Piece::Const(c) => match inert.is(first + item, NOW) {
+                            true => match run_at(prod, item) {
+                                Some(r) => next.push_inert(r),
+                                None => next.push_bin(c.bin(), al),
+                            },
+                            false => next.push_bin(c.bin(), al),
+                        },
+                        Piece::Module(key, vals) => next.modules.push(key, vals),
                     }
+                    item += 1;
                     Ok(())
                 })?;
                 j += 1;
@@ -574,8 +626,6 @@ pub(crate) struct Walker<'p, 't> {
     plan: &'p ParamPlan<'t>,
     n: usize,
     levels: Vec<Level<'t>>,
-    inert: Vec<Box<[Option<&'t ConstRun>]>>,
-    inert_last: Vec<Box<[Option<&'t ConstRun>]>>,
     // The homomorphism's own chooser and generator (never drawn from),
     // so a module of the last step goes out while `ch` still holds the
     // successor being evaluated; `scratch` holds that module's
@@ -588,14 +638,12 @@ pub(crate) struct Walker<'p, 't> {
 }
 
 impl<'p, 't> Walker<'p, 't> {
-    pub(crate) fn new(plan: &'p ParamPlan<'t>, al: &Alphabet, steps: u64) -> Self {
+    pub(crate) fn new(plan: &'p ParamPlan<'t>, _al: &Alphabet, steps: u64) -> Self {
         let n = steps as usize;
         Walker {
             plan,
             n,
             levels: (0..=n.min(64)).map(|_| Level::default()).collect(),
-            inert: plan.inert_runs(al, false),
-            inert_last: plan.inert_runs(al, true),
             hch: Chooser::default(),
             hrng: Random::new(0),
             scratch: Vec::new(),
@@ -618,8 +666,6 @@ impl<'p, 't> Walker<'p, 't> {
             plan,
             n,
             levels,
-            inert,
-            inert_last,
             hch,
             hrng,
             scratch,
@@ -627,6 +673,7 @@ impl<'p, 't> Walker<'p, 't> {
             rng,
         } = self;
         let (plan, n) = (*plan, *n);
+        let inert = plan.inert_runs(al);
         while levels.len() <= depth {
             levels.push(Level::default());
         }
@@ -669,12 +716,13 @@ impl<'p, 't> Walker<'p, 't> {
             if j + 1 == n {
                 // The last step: its successor goes straight out (a
                 // module rewritten to itself too: it would be a leaf).
-                let mut runs = inert_last[pi as usize].iter();
+                let first = inert.first(pi);
+                let mut item = 0;
                 ch.successor(p, prod, rng, origin, pass, |piece| {
-                    let whole = runs.next().copied().flatten();
-                    match (piece, whole) {
-                        (Piece::Const(_), Some(c)) => out.constant(c)?,
-                        (Piece::Const(c), None) => {
+                    item += 1;
+                    match piece {
+                        Piece::Const(c) if inert.is(first + item - 1, LAST) => out.constant(c)?,
+                        Piece::Const(c) => {
                             let mut bin = c.bin();
                             while !bin.is_empty() {
                                 let (key, kl) = crate::rules::codec::get_key(bin);
@@ -688,7 +736,7 @@ impl<'p, 't> Walker<'p, 't> {
                                 bin = &bin[kl + 8 * a..];
                             }
                         }
-                        (Piece::Module(key, vals), _) => {
+                        Piece::Module(key, vals) => {
                             scratch.clear();
                             scratch.extend_from_slice(vals);
                             let m = (key, &mut scratch[..]);
@@ -702,14 +750,20 @@ impl<'p, 't> Walker<'p, 't> {
             // Evaluate the successor into the next level.
             let next = &mut next[0];
             next.clear();
-            let mut inert = inert[pi as usize].iter();
+            let first = inert.first(pi);
+            let mut item = 0;
             ch.successor(p, prod, rng, origin, pass, |piece| {
-                let whole = inert.next().copied().flatten();
-                match (piece, whole) {
-                    (Piece::Const(_), Some(c)) => next.push_inert(c),
-                    (Piece::Const(c), None) => next.push_bin(c.bin(), al),
-                    (Piece::Module(key, vals), _) => next.modules.push(key, vals),
+                match piece {
+                    Piece::Const(c) => match inert.is(first + item, NOW) {
+                        true => match run_at(prod, item) {
+                            Some(r) => next.push_inert(r),
+                            None => next.push_bin(c.bin(), al),
+                        },
+                        false => next.push_bin(c.bin(), al),
+                    },
+                    Piece::Module(key, vals) => next.modules.push(key, vals),
                 }
+                item += 1;
                 Ok(())
             })?;
             // A module rewritten to itself is a fixed point: the same

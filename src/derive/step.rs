@@ -119,7 +119,7 @@ fn depth_warning(
         return;
     };
     let mut first: Option<u32> = None;
-    for &pi in kr.context.iter().chain(kr.free.iter()) {
+    for &pi in cx.table.context(kr).iter().chain(cx.table.free(kr)) {
         if first.is_some_and(|f| f < pi) {
             continue;
         }
@@ -148,7 +148,7 @@ fn depth_warning(
         symbol: sym,
         pass: cx.pass,
     };
-    crate::diag::warn(cx.origin.locate(p.span.0), &warning);
+    crate::diag::warn(cx.origin.locate(p.span().0), &warning);
 }
 
 /// Rewrite each module of `rc.levels[depth]` (its modules have depth
@@ -878,19 +878,19 @@ impl<'a> Deriver<'a> {
             return Ok(false);
         };
         let p = &table.prods[pi as usize];
-        if !p.rest.is_empty() {
+        if !p.rest().is_empty() {
             // The run the chosen production matched (parameters bound again,
             // to the same values): skipped by the caller.
-            st.run_end = st.match_run(end_off, &p.rest, al, slots)?;
+            st.run_end = st.match_run(end_off, p.rest(), al, slots)?;
         }
         if table.check_balance {
-            if st.depth + p.depth_min < 0 {
+            if st.depth + i64::from(p.depth_min) < 0 {
                 match balance {
-                    Some(b) => b.dip(st.depth + p.depth_min, Some(pi)),
+                    Some(b) => b.dip(st.depth + i64::from(p.depth_min), Some(pi)),
                     None => return Err(unbalanced(origin, table, Some(pi), pass)),
                 }
             }
-            st.depth += p.depth_delta;
+            st.depth += i64::from(p.depth_delta);
             if p.depth_delta > 0 {
                 st.last_opener = Some(pi);
             }
@@ -995,10 +995,10 @@ fn run_contexts(
     end_off: u64,
 ) -> Result<bool, Error> {
     // The right context of a run starts after it.
-    let end = if p.rest.is_empty() {
+    let end = if p.rest().is_empty() {
         end_off
     } else {
-        match st.match_run(end_off, &p.rest, al, slots)? {
+        match st.match_run(end_off, p.rest(), al, slots)? {
             Some(e) => e,
             None => return Ok(false),
         }
@@ -1011,7 +1011,7 @@ fn run_contexts(
 pub(crate) fn unclosed(origin: &Origin, table: &Table, culprit: Option<u32>, pass: Pass) -> Error {
     let p = &table.prods[culprit.unwrap_or(0) as usize];
     Error::at(
-        origin.locate(p.span.0),
+        origin.locate(p.span().0),
         crate::diag::RuntimeError::UnclosedBracket(pass),
     )
 }
@@ -1025,7 +1025,7 @@ pub(crate) fn unbalanced(
 ) -> Error {
     let p = &table.prods[culprit.unwrap_or(0) as usize];
     Error::at(
-        origin.locate(p.span.0),
+        origin.locate(p.span().0),
         crate::diag::RuntimeError::UnopenedBracket(pass),
     )
 }

@@ -351,47 +351,83 @@ impl From<Box<[Item]>> for Succ {
 }
 
 /// A compiled production. Kept small (boxed slices, boxed expressions, a
-/// one-item successor in place): a table may hold millions.
+/// one-item successor in place, u32 offsets and depths, the cpfg-only
+/// parts behind one optional box): a table may hold millions.
 #[derive(Clone, Debug)]
 pub struct Production {
     pub key: u32,
-    /// Slots: predecessor parameters, then left context, then right context.
-    pub nslots: usize,
-    pub left: Box<[Pat]>,
-    /// The modules after the first of a predecessor of several modules
-    /// (cpfg dialect), matched strictly one after the other.
-    pub rest: Box<[Pat]>,
-    pub right: Box<[RPat]>,
     /// The right context has no brackets: it is matched against the cached
     /// list of the next considered modules.
     pub right_simple: bool,
+    /// Slots: predecessor parameters, then left context, then right context.
+    pub nslots: usize,
+    pub left: Box<[Pat]>,
+    pub right: Box<[RPat]>,
     pub cond: Option<Box<Code>>,
     pub prob: Option<Box<Code>>,
     pub succ: Succ,
-    /// Where the production starts in the header, for runtime errors.
-    pub span: Span,
+    /// Where the production starts and ends in the header, for runtime
+    /// errors ([`span`](Self::span); headers are far below 4 GiB).
+    span: (u32, u32),
     /// Bracket depth change of the successor, and its lowest prefix.
-    pub depth_delta: i64,
-    pub depth_min: i64,
-    /// cpfg's pre-condition block (runs before the condition, also when
-    /// it fails) and post-condition block (runs when the production is
-    /// applied, before its successor), issue 12.
-    pub pre: Option<Box<crate::cpfg::blocks::Block>>,
-    pub post: Option<Box<crate::cpfg::blocks::Block>>,
+    pub depth_delta: i32,
+    pub depth_min: i32,
+    /// What only the cpfg dialect has (None in `.ls`).
+    pub cpfg: Option<Box<CpfgParts>>,
+}
+
+/// A production's cpfg-only parts (issue 12).
+#[derive(Clone, Debug, Default)]
+pub struct CpfgParts {
+    /// The modules after the first of a predecessor of several modules,
+    /// matched strictly one after the other.
+    pub rest: Box<[Pat]>,
+    /// The pre-condition block (runs before the condition, also when it
+    /// fails) and the post-condition block (runs when the production is
+    /// applied, before its successor).
+    pub pre: Option<crate::cpfg::blocks::Block>,
+    pub post: Option<crate::cpfg::blocks::Block>,
 }
 
 impl Production {
     pub fn has_context(&self) -> bool {
-        !self.left.is_empty() || !self.right.is_empty() || !self.rest.is_empty()
+        !self.left.is_empty() || !self.right.is_empty() || !self.rest().is_empty()
+    }
+    /// Where the production is in the header.
+    #[inline]
+    pub fn span(&self) -> Span {
+        (self.span.0 as usize, self.span.1 as usize)
+    }
+    /// cpfg: the predecessor's modules after the first.
+    #[inline]
+    pub fn rest(&self) -> &[Pat] {
+        self.cpfg.as_ref().map_or(&[], |c| &c.rest)
+    }
+    /// cpfg's pre-condition block.
+    #[inline]
+    pub fn pre(&self) -> Option<&crate::cpfg::blocks::Block> {
+        self.cpfg.as_ref().and_then(|c| c.pre.as_ref())
+    }
+    /// cpfg's post-condition block.
+    #[inline]
+    pub fn post(&self) -> Option<&crate::cpfg::blocks::Block> {
+        self.cpfg.as_ref().and_then(|c| c.post.as_ref())
+    }
+    /// The cpfg-only parts, made on first use.
+    pub fn cpfg_mut(&mut self) -> &mut CpfgParts {
+        self.cpfg.get_or_insert_with(Box::default)
     }
 }
 
-/// The productions of one key, in file order, split by kind.
+/// The productions of one key, in file order, split by kind (numbers in
+/// the table's `prods`): lists of their exact size, made once the table is
+/// complete ([`Table::index`]), no spare capacity (a header may name
+/// millions of symbols).
 #[derive(Clone, Debug, Default)]
 pub struct KeyRules {
     /// Context-sensitive productions: a match beats every context-free one.
-    pub context: Vec<u32>,
-    pub free: Vec<u32>,
+    context: Box<[u32]>,
+    free: Box<[u32]>,
     pub context_stochastic: bool,
     pub free_stochastic: bool,
     /// Group 0's productions of the key, tried when a numbered group's
@@ -400,17 +436,22 @@ pub struct KeyRules {
 }
 
 impl KeyRules {
-    fn offset(mut self, by: u32) -> KeyRules {
-        for i in self.context.iter_mut().chain(self.free.iter_mut()) {
-            *i += by;
-        }
-        self
+    /// Has the key context-sensitive productions?
+    #[inline]
+    pub fn has_context(&self) -> bool {
+        !self.context.is_empty()
+    }
+    /// Has the key context-free productions?
+    #[inline]
+    pub fn has_free(&self) -> bool {
+        !self.free.is_empty()
     }
 }
 
 #[derive(Debug, Default)]
 pub struct Table {
     pub prods: Vec<Production>,
+    /// Each key's productions ([`index`](Self::index)).
     by_key: Vec<Option<KeyRules>>,
     /// Longest left context.
     pub max_left: usize,
@@ -443,13 +484,13 @@ impl Table {
         let Some(kr) = self.get(key) else {
             return Some(None);
         };
-        let p = &self.prods[*kr.free.first()? as usize];
+        let p = &self.prods[*self.free(kr).first()? as usize];
         // (cpfg's blocks run whenever the production is tried.)
-        if !kr.context.is_empty()
+        if kr.has_context()
             || kr.free_stochastic
             || p.cond.is_some()
-            || p.pre.is_some()
-            || p.post.is_some()
+            || p.pre().is_some()
+            || p.post().is_some()
         {
             return None;
         }
@@ -474,39 +515,83 @@ impl Table {
     pub fn push(&mut self, p: Production) {
         self.max_left = self.max_left.max(p.left.len());
         self.has_right |= !p.right.is_empty();
-        self.has_multi |= !p.rest.is_empty();
+        self.has_multi |= !p.rest().is_empty();
         if p.right_simple {
             self.max_right_simple = self.max_right_simple.max(p.right.len());
         }
         self.check_balance |= p.depth_delta != 0 || p.depth_min < 0;
-        let key = p.key as usize;
-        if self.by_key.len() <= key {
-            self.by_key.resize(key + 1, None);
-        }
-        let kr = self.by_key[key].get_or_insert_with(KeyRules::default);
-        let idx = self.prods.len() as u32;
-        if p.has_context() {
-            kr.context.push(idx);
-            kr.context_stochastic |= p.prob.is_some();
-        } else {
-            kr.free.push(idx);
-            kr.free_stochastic |= p.prob.is_some();
-        }
         self.prods.push(p);
     }
 
-    /// Drop the spare capacity the table grew with.
+    /// Drop the spare capacity the table grew with, and find each key's
+    /// productions (before [`get`](Self::get)).
     fn shrink(&mut self) {
         self.prods.shrink_to_fit();
-        for kr in self.by_key.iter_mut().flatten() {
-            kr.context.shrink_to_fit();
-            kr.free.shrink_to_fit();
+        self.index(self.prods.len());
+    }
+
+    /// Group `prods[..own]` by key: each key's lists in file order, made
+    /// at their exact size (counted first), context-sensitive and
+    /// context-free apart.
+    fn index(&mut self, own: usize) {
+        let keys = self.prods[..own]
+            .iter()
+            .map(|p| p.key as usize + 1)
+            .max()
+            .unwrap_or(0);
+        let mut counts = vec![[0usize; 2]; keys];
+        for p in &self.prods[..own] {
+            counts[p.key as usize][usize::from(!p.has_context())] += 1;
         }
+        // A key's context-sensitive and context-free lists, and whether
+        // each has a probability.
+        type Lists = (Vec<u32>, Vec<u32>, bool, bool);
+        let mut lists: Vec<Option<Lists>> = counts
+            .iter()
+            .map(|&[c, f]| {
+                (c + f > 0).then(|| (Vec::with_capacity(c), Vec::with_capacity(f), false, false))
+            })
+            .collect();
+        drop(counts);
+        for (i, p) in self.prods[..own].iter().enumerate() {
+            if let Some((c, f, cs, fs)) = &mut lists[p.key as usize] {
+                if p.has_context() {
+                    c.push(i as u32);
+                    *cs |= p.prob.is_some();
+                } else {
+                    f.push(i as u32);
+                    *fs |= p.prob.is_some();
+                }
+            }
+        }
+        self.by_key = lists
+            .into_iter()
+            .map(|l| {
+                l.map(|(c, f, cs, fs)| KeyRules {
+                    context: c.into_boxed_slice(),
+                    free: f.into_boxed_slice(),
+                    context_stochastic: cs,
+                    free_stochastic: fs,
+                    fallback: None,
+                })
+            })
+            .collect();
     }
 
     #[inline]
     pub fn get(&self, key: u32) -> Option<&KeyRules> {
         self.by_key.get(key as usize).and_then(Option::as_ref)
+    }
+    /// `kr`'s context-sensitive productions (numbers in `prods`), in file
+    /// order.
+    #[inline]
+    pub fn context<'a>(&'a self, kr: &'a KeyRules) -> &'a [u32] {
+        &kr.context
+    }
+    /// `kr`'s context-free productions, in file order.
+    #[inline]
+    pub fn free<'a>(&'a self, kr: &'a KeyRules) -> &'a [u32] {
+        &kr.free
     }
     pub fn is_empty(&self) -> bool {
         self.prods.is_empty()
@@ -537,11 +622,11 @@ impl Table {
     /// by the one chooser as it tries a context group.
     fn cpfg_order(&mut self) {
         for kr in self.by_key.iter_mut().flatten() {
-            if !kr.context.is_empty() && !kr.free.is_empty() {
-                let mut all = std::mem::take(&mut kr.free);
-                all.append(&mut kr.context);
+            if kr.has_context() && kr.has_free() {
+                let mut all: Vec<u32> = kr.context.iter().chain(&*kr.free).copied().collect();
                 all.sort_unstable();
-                kr.context = all;
+                kr.context = all.into_boxed_slice();
+                kr.free = Box::default();
                 kr.context_stochastic |= std::mem::take(&mut kr.free_stochastic);
             }
         }
@@ -558,7 +643,11 @@ impl Table {
         }
         for (key, b) in base.by_key.iter().enumerate() {
             let Some(b) = b else { continue };
-            let b = b.clone().offset(by);
+            let b = KeyRules {
+                context: b.context.iter().map(|i| i + by).collect(),
+                free: b.free.iter().map(|i| i + by).collect(),
+                ..b.clone()
+            };
             match &mut self.by_key[key] {
                 Some(kr) => kr.fallback = Some(Box::new(b)),
                 none => *none = Some(b),
@@ -1205,7 +1294,7 @@ fn balanced(t: &Table, kind: CompileError) -> R<()> {
         .iter()
         .find(|p| p.depth_delta != 0 || p.depth_min < 0)
     {
-        Some(p) => err(p.span, kind),
+        Some(p) => err(p.span(), kind),
         None => Ok(()),
     }
 }
@@ -1335,21 +1424,27 @@ fn compile_production(
     let (succ, depth_delta, depth_min) =
         compile_successor(&p.succ, alphabet, &names, consts, num, cpfg)?;
     let right_simple = !right.is_empty() && right.iter().all(|r| matches!(r, RPat::Module(_)));
+    // (Depths and offsets fit: a header is at most 64 MiB.)
+    let narrow = |x: i64| i32::try_from(x).expect("a header under 2 GiB");
+    let offset = |x: usize| u32::try_from(x).expect("a header under 4 GiB");
     Ok(Production {
         key,
         nslots,
         left: exact(left),
-        rest: exact(rest),
         right: exact(right),
         right_simple,
         cond,
         prob,
         succ: Succ::from(succ),
-        span: p.span,
-        depth_delta,
-        depth_min,
-        pre: None,
-        post: None,
+        span: (offset(p.span.0), offset(p.span.1)),
+        depth_delta: narrow(depth_delta),
+        depth_min: narrow(depth_min),
+        cpfg: (!rest.is_empty()).then(|| {
+            Box::new(CpfgParts {
+                rest: exact(rest),
+                ..CpfgParts::default()
+            })
+        }),
     })
 }
 
@@ -1470,12 +1565,22 @@ mod tests {
         assert!(!s.productions.check_balance);
     }
 
+    /// A table may hold millions of productions and keys (issue 9 item
+    /// 6): 152 and 64 bytes before the cpfg parts were boxed, offsets
+    /// narrowed and keys' lists made exact boxes.
+    #[test]
+    fn compiled_parts_stay_small() {
+        assert_eq!(std::mem::size_of::<Production>(), 112);
+        assert_eq!(std::mem::size_of::<KeyRules>(), 48);
+        assert_eq!(std::mem::size_of::<Item>(), 24);
+    }
+
     #[test]
     fn lookup_by_key_and_kinds() {
         let s = sys("productions:\nA < B -> C\nB -> D\nB -> E : 2\n").unwrap();
         let kr = s.productions.get(b'B' as u32).unwrap();
-        assert_eq!(kr.context, vec![0]);
-        assert_eq!(kr.free, vec![1, 2]);
+        assert_eq!(s.productions.context(kr), [0]);
+        assert_eq!(s.productions.free(kr), [1, 2]);
         assert!(kr.free_stochastic && !kr.context_stochastic);
         assert!(s.productions.get(b'A' as u32).is_none());
         assert_eq!(s.productions.max_left, 1);
