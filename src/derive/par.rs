@@ -31,25 +31,31 @@
 
 use super::dfs::{ParamPlan, Split, Walker};
 use super::{Deriver, Origin, Out, Strategy};
-use crate::diag::Error;
+use crate::diag::{Error, IoAction};
 use crate::rules::codec;
 use crate::rules::{Alphabet, ConstRun};
 use std::cell::{Cell, RefCell};
 use std::fs::File;
-use std::io::Write;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::os::unix::fs::FileExt;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{self, Receiver, SyncSender};
 use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 /// A worker sends its text in blocks of about this size.
 const CHUNK: usize = 256 << 10;
-/// Text blocks a task may hold ahead of the writer.
-const BLOCKS: usize = 1;
+/// Text blocks a task not being written keeps in memory, at most; the
+/// rest of its text goes to a spill file until the writer reaches it.
+const QUEUE: usize = 4;
+/// Text blocks kept in memory by all the tasks not being written, at
+/// most (about; beyond it they spill).
+const BUDGET: usize = 8;
 /// Tasks handed out ahead of the writer, per thread.
-const IN_FLIGHT: usize = 2;
+const IN_FLIGHT: usize = 8;
 /// Split at the first generation with at least this many modules per
 /// thread (or the one before the last step).
-const PER_THREAD: u64 = 256;
+const PER_THREAD: u64 = 2048;
 /// Aim for tasks of about this much text (the producer batches modules
 /// by the text each module gave so far).
 const TASK_BYTES: u64 = 256 << 10;
@@ -131,18 +137,18 @@ pub(crate) fn step_pass(
     d: &Deriver,
     table: &crate::rules::Table,
     src: &File,
-    (threads, split): (usize, Option<u64>),
+    (threads, split, tmpdir): (usize, Option<u64>, &Option<PathBuf>),
     out: &mut Out,
     pass: super::Pass,
 ) -> Result<Option<u64>, Error> {
     let draws = AtomicU64::new(0);
     let draws = &draws;
-    let pool = &Pool::default();
+    let shared = &Shared::new(tmpdir);
     let text = out.text;
     let al = &d.alphabet;
     let done = std::thread::scope(|s| -> Result<bool, Error> {
         type Chunk = (u64, u64, u64);
-        let (task_tx, task_rx) = mpsc::channel::<(Chunk, SyncSender<Msg>)>();
+        let (task_tx, task_rx) = mpsc::channel::<(Chunk, Slot)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
         let (order_tx, order_rx) = mpsc::sync_channel::<Receiver<Msg>>(threads * IN_FLIGHT);
         let mut workers = 0;
@@ -161,21 +167,16 @@ pub(crate) fn step_pass(
             let h = std::thread::Builder::new()
                 .name(format!("lsgen-step-{w}"))
                 .spawn_scoped(s, move || {
-                    let current = Current {
-                        tx: RefCell::new(None),
-                        bytes: Cell::new(0),
-                        pool,
-                    };
-                    let mut w = ChannelWriter(&current);
-                    let mut out = Out::new(&mut w, "output", text, super::Limits::default());
-                    out.chunk = CHUNK;
+                    let current = Current::new(shared);
+                    let mut sink = std::io::sink();
+                    let mut out = Out::new(&mut sink, "output", text, super::Limits::default());
+                    out.chunk = shared.chunk;
+                    out.taker = Some(&current);
                     loop {
-                        let next = match task_rx.lock() {
-                            Ok(rx) => rx.recv(),
-                            Err(_) => return,
+                        let Some((chunk, slot)) = current.next(&task_rx) else {
+                            break;
                         };
-                        let Ok((chunk, tx)) = next else { return };
-                        *current.tx.borrow_mut() = Some(tx);
+                        current.start(slot);
                         let before = (out.modules, wd.rng.draws());
                         wd.range = Some(chunk);
                         let r = wd
@@ -183,12 +184,9 @@ pub(crate) fn step_pass(
                             .and_then(|()| out.flush());
                         out.buf.clear();
                         draws.fetch_add(wd.rng.draws() - before.1, Ordering::Relaxed);
-                        let tx = current.tx.borrow_mut().take().expect("the task's channel");
-                        let _ = tx.send(match r {
-                            Ok(()) => Msg::End(out.modules - before.0),
-                            Err(e) => Msg::Err(e),
-                        });
+                        current.end(r.map(|()| out.modules - before.0));
                     }
+                    current.report();
                 });
             if h.is_err() {
                 break;
@@ -201,13 +199,15 @@ pub(crate) fn step_pass(
         let producer = std::thread::Builder::new()
             .name("lsgen-chunks".into())
             .spawn_scoped(s, move || {
+                let order = Order::new(order_tx, shared);
                 // Cut at the first module boundary past every `size` bytes.
                 let size = split.unwrap_or(CHUNK_IN);
                 let mut rd = super::PosReader::new(src, 256 << 10, false);
                 let (mut start, mut first, mut index) = (0u64, 0u64, 0u64);
                 let send = |chunk: Chunk| {
-                    let (tx, rx) = mpsc::sync_channel(BLOCKS);
-                    order_tx.send(rx).is_ok() && task_tx.send((chunk, tx)).is_ok()
+                    order
+                        .open()
+                        .is_some_and(|slot| task_tx.send((chunk, slot)).is_ok())
                 };
                 loop {
                     match rd.next_module(al) {
@@ -216,7 +216,7 @@ pub(crate) fn step_pass(
                             let off = rd.offset();
                             if off - start >= size {
                                 if !send((start, off, first)) {
-                                    return;
+                                    break;
                                 }
                                 (start, first) = (off, index);
                             }
@@ -225,56 +225,112 @@ pub(crate) fn step_pass(
                             if rd.offset() > start {
                                 send((start, rd.offset(), first));
                             }
-                            return;
+                            break;
                         }
                         Err(e) => {
-                            let (tx, rx) = mpsc::sync_channel(1);
-                            let e = Error::io("temporary file", crate::diag::IoAction::Read, e);
-                            let _ = tx.send(Msg::Err(e));
-                            let _ = order_tx.send(rx);
-                            return;
+                            order.fail(Error::io("temporary file", IoAction::Read, e));
+                            break;
                         }
                     }
                 }
+                order.report();
             });
         if producer.is_err() {
             // The workers end when their task channel closes.
             return Ok(false);
         }
-        write_in_order(order_rx, out, pool, threads).map(|()| true)
+        write_in_order(order_rx, out, shared).map(|()| true)
     })?;
     Ok(done.then(|| draws.load(Ordering::Relaxed)))
 }
 
-/// The writer: each task's blocks, task after task, into `out`.
+/// The writer: each task's text, task after task, into `out`: its blocks
+/// as they come, and what it spilled while it was not the one written.
 fn write_in_order(
     order_rx: Receiver<Receiver<Msg>>,
     out: &mut Out,
-    pool: &Pool,
-    threads: usize,
+    shared: &Shared,
 ) -> Result<(), Error> {
-    for rx in order_rx {
-        loop {
-            match rx.recv() {
+    let cpu = thread_cpu();
+    let (mut waited, mut idle) = (Duration::ZERO, Duration::ZERO);
+    let mut copy = Vec::new();
+    let mut seq = 0;
+    let r = loop {
+        let t = Instant::now();
+        let Ok(rx) = order_rx.recv() else {
+            break Ok(());
+        };
+        idle += t.elapsed();
+        shared.writing.store(seq, Ordering::SeqCst);
+        seq += 1;
+        let r = loop {
+            let t = Instant::now();
+            let msg = rx.recv();
+            waited += t.elapsed();
+            match msg {
                 Ok(Msg::Text(block)) => {
-                    out.extend(&block, 0);
-                    out.maybe_flush()?;
-                    if let Ok(mut pool) = pool.lock() {
-                        if pool.len() <= threads {
-                            pool.push(block);
-                        }
+                    shared.queued.fetch_sub(1, Ordering::Relaxed);
+                    if let Err(e) = out.put_block(&block, 0) {
+                        break Err(e);
                     }
+                    shared.recycle(block);
+                }
+                Ok(Msg::Spilled(file, len)) => {
+                    if let Err(e) = copy_spill(&file, len, &mut copy, out) {
+                        break Err(e);
+                    }
+                    shared.give_back(file);
                 }
                 Ok(Msg::End(modules)) => {
                     out.extend(&[], modules);
-                    break;
+                    break Ok(());
                 }
-                Ok(Msg::Err(e)) => return Err(e),
-                Err(_) => return Err(Error::new("internal error: a worker thread stopped")),
+                Ok(Msg::Err(e)) => break Err(e),
+                Err(_) => break Err(Error::new("internal error: a worker thread stopped")),
             }
+        };
+        if r.is_err() {
+            break r;
         }
+    };
+    if shared.debug {
+        crate::diag::eprint(&format!(
+            "lsgen: par: writer: cpu {:.3} s, waited {:.3} s for text, {:.3} s for tasks; {seq} tasks\n",
+            (thread_cpu() - cpu).as_secs_f64(),
+            waited.as_secs_f64(),
+            idle.as_secs_f64(),
+        ));
+    }
+    r
+}
+
+/// Write the `len` bytes of a spill file into `out`, through `buf`.
+fn copy_spill(file: &File, len: u64, buf: &mut Vec<u8>, out: &mut Out) -> Result<(), Error> {
+    buf.resize(CHUNK, 0);
+    let mut at = 0;
+    while at < len {
+        let want = (len - at).min(CHUNK as u64) as usize;
+        file.read_exact_at(&mut buf[..want], at)
+            .map_err(|e| Error::io("temporary file", IoAction::Read, e))?;
+        out.put_block(&buf[..want], 0)?;
+        at += want as u64;
     }
     Ok(())
+}
+
+/// This thread's CPU time.
+fn thread_cpu() -> Duration {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid timespec for the call to fill.
+    let ok = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) } == 0;
+    if ok {
+        Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
+    } else {
+        Duration::ZERO
+    }
 }
 
 /// One task: modules (binary) of various generations, or inert runs, in
@@ -290,62 +346,340 @@ enum Item<'t> {
     Inert(&'t ConstRun),
 }
 
-/// The workers' queue: each task with its result channel.
-type Tasks<'t> = mpsc::Sender<(Task<'t>, SyncSender<Msg>)>;
+/// Where a task's text goes: its number in string order, and its channel
+/// to the writer.
+type Slot = (u64, SyncSender<Msg>);
 
-/// The workers' end of it.
-type Queue<'t> = Mutex<Receiver<(Task<'t>, SyncSender<Msg>)>>;
+/// The workers' queue: each task with its slot.
+type Tasks<'t> = mpsc::Sender<(Task<'t>, Slot)>;
+
+/// The workers' end of a queue.
+type Queue<T> = Mutex<Receiver<(T, Slot)>>;
 
 /// What a task sends to the writer.
 enum Msg {
     Text(Vec<u8>),
+    /// Text the task wrote to a spill file (from offset 0) before the
+    /// writer reached it; the file goes back to [`Shared::spills`].
+    Spilled(File, u64),
     /// The task is complete: its number of modules.
     End(u64),
     Err(Error),
 }
 
-/// The task a worker is on: its result channel and the bytes sent to it;
-/// and the blocks the writer has written, for reuse.
-struct Current<'a> {
-    tx: RefCell<Option<SyncSender<Msg>>>,
-    bytes: Cell<u64>,
-    pool: &'a Pool,
+/// What the writer, the producer and the workers share.
+struct Shared<'a> {
+    /// The number of the task being written.
+    writing: AtomicU64,
+    /// Text blocks sent and not yet written.
+    queued: AtomicUsize,
+    /// Written blocks, for reuse.
+    pool: Mutex<Vec<Vec<u8>>>,
+    /// Emptied spill files, for reuse.
+    spills: Mutex<Vec<File>>,
+    /// Where spill files are made (the run's `--tmpdir`).
+    tmpdir: &'a Option<PathBuf>,
+    /// `LSGEN_DEBUG_PAR`: each thread reports its CPU time and waits.
+    debug: bool,
+    /// The size of a block, the blocks a task not being written keeps in
+    /// memory and all such tasks keep: [`CHUNK`], [`QUEUE`] and
+    /// [`BUDGET`], or for tests (`LSGEN_TEST_SPILL=N`) N bytes, 1 and 1,
+    /// so that small strings spill.
+    chunk: usize,
+    queue: usize,
+    budget: usize,
 }
 
-/// Written blocks, for reuse (at most one per thread, and one more, are
-/// kept).
-type Pool = Mutex<Vec<Vec<u8>>>;
-
-/// A writer sending its blocks to the current task's channel (one per
-/// worker, under the worker's one [`Out`]).
-struct ChannelWriter<'a>(&'a Current<'a>);
-
-impl Write for ChannelWriter<'_> {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.write_all(buf)?;
-        Ok(buf.len())
+impl<'a> Shared<'a> {
+    fn new(tmpdir: &'a Option<PathBuf>) -> Self {
+        let test = std::env::var("LSGEN_TEST_SPILL")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .filter(|&n| n > 0);
+        let (chunk, queue, budget) = test.map_or((CHUNK, QUEUE, BUDGET), |n| (n, 1, 1));
+        Shared {
+            writing: AtomicU64::new(0),
+            queued: AtomicUsize::new(0),
+            pool: Mutex::default(),
+            spills: Mutex::default(),
+            tmpdir,
+            debug: std::env::var_os("LSGEN_DEBUG_PAR").is_some_and(|v| v == "1"),
+            chunk,
+            queue,
+            budget,
+        }
     }
 
-    fn write_all(&mut self, buf: &[u8]) -> std::io::Result<()> {
+    /// An empty block, written before if there is one.
+    fn block(&self) -> Vec<u8> {
+        let b = self.pool.lock().ok().and_then(|mut p| p.pop());
+        let mut b = b.unwrap_or_else(|| Vec::with_capacity(CHUNK + codec::MAX_MODULE_BYTES * 4));
+        b.clear();
+        b
+    }
+
+    /// Keep a written block for reuse (a few).
+    fn recycle(&self, block: Vec<u8>) {
+        if let Ok(mut pool) = self.pool.lock() {
+            if pool.len() < self.budget + self.queue {
+                pool.push(block);
+            }
+        }
+    }
+
+    /// A spill file, emptied.
+    fn spill_file(&self) -> Result<File, Error> {
+        match self.spills.lock().ok().and_then(|mut s| s.pop()) {
+            Some(f) => Ok(f),
+            None => super::tempfile(self.tmpdir),
+        }
+    }
+
+    /// Empty a spill file and keep it for reuse (or drop it).
+    fn give_back(&self, file: File) {
+        if file.set_len(0).is_ok() {
+            if let Ok(mut s) = self.spills.lock() {
+                s.push(file);
+            }
+        }
+    }
+}
+
+/// The producer's end of the writer's queue: numbers the tasks.
+struct Order<'a> {
+    tx: SyncSender<Receiver<Msg>>,
+    next: Cell<u64>,
+    waited: Cell<Duration>,
+    cpu: Duration,
+    shared: &'a Shared<'a>,
+}
+
+impl<'a> Order<'a> {
+    fn new(tx: SyncSender<Receiver<Msg>>, shared: &'a Shared<'a>) -> Self {
+        Order {
+            tx,
+            next: Cell::new(0),
+            waited: Cell::new(Duration::ZERO),
+            cpu: thread_cpu(),
+            shared,
+        }
+    }
+
+    /// The next task's slot, its channel queued for the writer (waiting
+    /// while [`IN_FLIGHT`] tasks per thread are ahead of it); None when
+    /// the writer is gone.
+    fn open(&self) -> Option<Slot> {
+        // Room for QUEUE blocks, the spill file and the end: a task not
+        // being written never waits for the writer.
+        let (tx, rx) = mpsc::sync_channel(QUEUE + 2);
+        let t = Instant::now();
+        let sent = self.tx.send(rx).is_ok();
+        self.waited.set(self.waited.get() + t.elapsed());
+        let seq = self.next.get();
+        self.next.set(seq + 1);
+        sent.then_some((seq, tx))
+    }
+
+    /// `e` in place of the next task.
+    fn fail(&self, e: Error) {
+        if let Some((_, tx)) = self.open() {
+            let _ = tx.send(Msg::Err(e));
+        }
+    }
+
+    fn report(&self) {
+        if self.shared.debug {
+            crate::diag::eprint(&format!(
+                "lsgen: par: producer: cpu {:.3} s, waited {:.3} s for the writer; {} tasks\n",
+                (thread_cpu() - self.cpu).as_secs_f64(),
+                self.waited.get().as_secs_f64(),
+                self.next.get(),
+            ));
+        }
+    }
+}
+
+/// The task a worker is on, and how its text reaches the writer: while
+/// the writer is on the task, blocks go to its channel (waiting when it
+/// is full); before, up to [`QUEUE`] blocks (and [`BUDGET`] in all) go to
+/// the channel and the rest to a spill file, handed to the writer when it
+/// reaches the task or at the task's end. So a worker never waits for the
+/// writer to finish another task, and memory stays bounded.
+struct Current<'a> {
+    tx: RefCell<Option<SyncSender<Msg>>>,
+    seq: Cell<u64>,
+    /// Blocks sent before the writer reached the task.
+    ahead: Cell<usize>,
+    /// Bytes of text of the task so far.
+    bytes: Cell<u64>,
+    /// The spill file and its length.
+    spill: RefCell<Option<(File, u64)>>,
+    /// A spill file's error (reported as such, not as the output's).
+    spill_err: RefCell<Option<Error>>,
+    shared: &'a Shared<'a>,
+    // For `LSGEN_DEBUG_PAR`.
+    cpu: Duration,
+    waited: Cell<Duration>,
+    idle: Cell<Duration>,
+    spilled: Cell<u64>,
+    tasks: Cell<u64>,
+    largest: Cell<u64>,
+    spills: Cell<u64>,
+    spills_failed: Cell<u64>,
+}
+
+impl<'a> Current<'a> {
+    fn new(shared: &'a Shared<'a>) -> Self {
+        Current {
+            tx: RefCell::new(None),
+            seq: Cell::new(0),
+            ahead: Cell::new(0),
+            bytes: Cell::new(0),
+            spill: RefCell::new(None),
+            spill_err: RefCell::new(None),
+            shared,
+            cpu: thread_cpu(),
+            waited: Cell::new(Duration::ZERO),
+            idle: Cell::new(Duration::ZERO),
+            spilled: Cell::new(0),
+            tasks: Cell::new(0),
+            largest: Cell::new(0),
+            spills: Cell::new(0),
+            spills_failed: Cell::new(0),
+        }
+    }
+
+    /// The next task from `queue`, None when there are no more.
+    fn next<T>(&self, queue: &Queue<T>) -> Option<(T, Slot)> {
+        let t = Instant::now();
+        let next = match queue.lock() {
+            Ok(rx) => rx.recv().ok(),
+            Err(_) => None,
+        };
+        self.idle.set(self.idle.get() + t.elapsed());
+        next
+    }
+
+    fn start(&self, (seq, tx): Slot) {
+        *self.tx.borrow_mut() = Some(tx);
+        self.seq.set(seq);
+        self.ahead.set(0);
+        self.bytes.set(0);
+        self.tasks.set(self.tasks.get() + 1);
+    }
+
+    /// The task is done (its number of modules) or failed: tell the
+    /// writer, after what the task spilled.
+    fn end(&self, r: Result<u64, Error>) {
+        let spill = self.spill.borrow_mut().take();
+        let err = self.spill_err.borrow_mut().take();
+        self.largest.set(self.largest.get().max(self.bytes.get()));
+        let Some(tx) = self.tx.borrow_mut().take() else {
+            return;
+        };
+        match r {
+            Ok(modules) => {
+                if let Some((file, len)) = spill {
+                    if tx.send(Msg::Spilled(file, len)).is_err() {
+                        return;
+                    }
+                }
+                let _ = tx.send(Msg::End(modules));
+            }
+            Err(e) => {
+                if let Some((file, _)) = spill {
+                    self.spills_failed.set(self.spills_failed.get() + 1);
+                    self.shared.give_back(file);
+                }
+                let _ = tx.send(Msg::Err(err.unwrap_or(e)));
+            }
+        }
+    }
+
+    /// Send `block` of the task's text on its way to the writer.
+    fn send(&self, block: Vec<u8>) -> std::io::Result<()> {
+        let gone = || std::io::Error::from(std::io::ErrorKind::BrokenPipe);
+        let tx = self.tx.borrow();
+        let tx = tx.as_ref().ok_or_else(gone)?;
+        let shared = self.shared;
+        if shared.writing.load(Ordering::SeqCst) == self.seq.get() {
+            // Being written: what was spilled first, then the block,
+            // waiting while the channel is full.
+            let t = Instant::now();
+            if let Some((file, len)) = self.spill.borrow_mut().take() {
+                tx.send(Msg::Spilled(file, len)).map_err(|_| gone())?;
+            }
+            shared.queued.fetch_add(1, Ordering::Relaxed);
+            tx.send(Msg::Text(block)).map_err(|_| gone())?;
+            self.waited.set(self.waited.get() + t.elapsed());
+            return Ok(());
+        }
+        let mut spill = self.spill.borrow_mut();
+        if spill.is_none()
+            && self.ahead.get() < shared.queue
+            && shared.queued.load(Ordering::Relaxed) < shared.budget
+        {
+            // (Never waits: the channel has room for QUEUE blocks.)
+            self.ahead.set(self.ahead.get() + 1);
+            shared.queued.fetch_add(1, Ordering::Relaxed);
+            return tx.send(Msg::Text(block)).map_err(|_| gone());
+        }
+        if spill.is_none() {
+            match shared.spill_file() {
+                Ok(f) => {
+                    *spill = Some((f, 0));
+                    self.spills.set(self.spills.get() + 1);
+                }
+                Err(e) => return Err(self.failed(e)),
+            }
+        }
+        let (file, len) = spill.as_mut().expect("a spill file");
+        if let Err(e) = file.write_all_at(&block, *len) {
+            let e = Error::io("temporary file", IoAction::Write, e);
+            return Err(self.failed(e));
+        }
+        *len += block.len() as u64;
+        self.spilled.set(self.spilled.get() + block.len() as u64);
+        shared.recycle(block);
+        Ok(())
+    }
+
+    /// Keep `e` to report, and fail the write.
+    fn failed(&self, e: Error) -> std::io::Error {
+        *self.spill_err.borrow_mut() = Some(e);
+        std::io::Error::other("spill file")
+    }
+
+    fn report(&self) {
+        if self.shared.debug {
+            let name = std::thread::current()
+                .name()
+                .unwrap_or("worker")
+                .to_string();
+            crate::diag::eprint(&format!(
+                "lsgen: par: {name}: cpu {:.3} s, waited {:.3} s for the writer, {:.3} s for tasks; \
+                 {} tasks (largest {} bytes), {} spilled {} bytes, {} failed after spilling\n",
+                (thread_cpu() - self.cpu).as_secs_f64(),
+                self.waited.get().as_secs_f64(),
+                self.idle.get().as_secs_f64(),
+                self.tasks.get(),
+                self.largest.get(),
+                self.spills.get(),
+                self.spilled.get(),
+                self.spills_failed.get(),
+            ));
+        }
+    }
+}
+
+impl super::sink::Take for Current<'_> {
+    fn take(&self, buf: &mut Vec<u8>) -> std::io::Result<()> {
         if buf.is_empty() {
             return Ok(());
         }
-        let gone = || std::io::Error::from(std::io::ErrorKind::BrokenPipe);
-        let tx = self.0.tx.borrow();
-        let tx = tx.as_ref().ok_or_else(gone)?;
-        let mut block = match self.0.pool.lock() {
-            Ok(mut pool) => pool.pop().unwrap_or_default(),
-            Err(_) => Vec::new(),
-        };
-        block.clear();
-        block.extend_from_slice(buf);
-        tx.send(Msg::Text(block)).map_err(|_| gone())?;
-        self.0.bytes.set(self.0.bytes.get() + buf.len() as u64);
-        Ok(())
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        Ok(())
+        self.bytes.set(self.bytes.get() + buf.len() as u64);
+        let block = std::mem::replace(buf, self.shared.block());
+        self.send(block)
     }
 }
 
@@ -361,7 +695,7 @@ pub(crate) fn expand(
     al: &Alphabet,
     origin: &Origin,
     steps: u64,
-    (threads, split): (usize, Option<u64>),
+    (threads, split, tmpdir): (usize, Option<u64>, &Option<PathBuf>),
     out: &mut Out,
 ) -> Result<(), Error> {
     let per_thread = split.unwrap_or(PER_THREAD);
@@ -371,9 +705,9 @@ pub(crate) fn expand(
     let done_modules = AtomicU64::new(0);
     let done_bytes = AtomicU64::new(0);
     let (done_modules, done_bytes) = (&done_modules, &done_bytes);
-    let pool = &Pool::default();
+    let shared = &Shared::new(tmpdir);
     std::thread::scope(|s| -> Result<(), Error> {
-        let (task_tx, task_rx) = mpsc::channel::<(Task, SyncSender<Msg>)>();
+        let (task_tx, task_rx) = mpsc::channel::<(Task, Slot)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
         let (order_tx, order_rx) = mpsc::sync_channel::<Receiver<Msg>>(threads * IN_FLIGHT);
         let mut workers = 0;
@@ -387,7 +721,7 @@ pub(crate) fn expand(
                         al,
                         origin,
                         steps,
-                        (&task_rx, pool),
+                        (&task_rx, shared),
                         (done_modules, done_bytes),
                     )
                 });
@@ -400,15 +734,17 @@ pub(crate) fn expand(
             std::thread::Builder::new()
                 .name("lsgen-split".into())
                 .spawn_scoped(s, move || {
+                    let order = Order::new(order_tx, shared);
                     produce(
                         plan,
                         input,
                         al,
                         origin,
                         (depth, most),
-                        (task_tx, order_tx),
+                        (task_tx, &order),
                         (done_modules, done_bytes),
-                    )
+                    );
+                    order.report();
                 })
         });
         if !matches!(producer, Some(Ok(_))) {
@@ -418,7 +754,7 @@ pub(crate) fn expand(
             return plan.expand(input, al, origin, steps, out);
         }
         // Write the tasks' text in task order.
-        write_in_order(order_rx, out, pool, threads)
+        write_in_order(order_rx, out, shared)
     })
 }
 
@@ -460,7 +796,7 @@ fn produce<'t>(
     al: &Alphabet,
     origin: &Origin,
     (depth, most): (usize, u64),
-    (task_tx, order_tx): (Tasks<'t>, SyncSender<Receiver<Msg>>),
+    (task_tx, order): (Tasks<'t>, &Order),
     (done_modules, done_bytes): (&AtomicU64, &AtomicU64),
 ) {
     let mut task = Task {
@@ -470,7 +806,6 @@ fn produce<'t>(
     let mut stopped = false;
     let mut last_batch = 1u64;
     let send = |task: &mut Task<'t>| -> bool {
-        let (tx, rx) = mpsc::sync_channel(BLOCKS);
         let task = std::mem::replace(
             task,
             Task {
@@ -478,7 +813,9 @@ fn produce<'t>(
                 bin: Vec::new(),
             },
         );
-        order_tx.send(rx).is_ok() && task_tx.send((task, tx)).is_ok()
+        order
+            .open()
+            .is_some_and(|slot| task_tx.send((task, slot)).is_ok())
     };
     let r = plan.split(input, al, origin, depth, |item| {
         match item {
@@ -523,9 +860,7 @@ fn produce<'t>(
             if !task.items.is_empty() && !send(&mut task) {
                 return;
             }
-            let (tx, rx) = mpsc::sync_channel(1);
-            let _ = tx.send(Msg::Err(e));
-            let _ = order_tx.send(rx);
+            order.fail(e);
         }
     }
 }
@@ -537,26 +872,17 @@ fn work(
     al: &Alphabet,
     origin: &Origin,
     steps: u64,
-    (tasks, pool): (&Queue, &Pool),
+    (tasks, shared): (&Queue<Task>, &Shared),
     (done_modules, done_bytes): (&AtomicU64, &AtomicU64),
 ) {
     let mut walker = Walker::new(plan, al, steps);
-    let current = Current {
-        tx: RefCell::new(None),
-        bytes: Cell::new(0),
-        pool,
-    };
-    let mut w = ChannelWriter(&current);
-    let mut out = Out::new(&mut w, "output", true, super::Limits::default());
-    out.chunk = CHUNK;
-    loop {
-        let next = match tasks.lock() {
-            Ok(rx) => rx.recv(),
-            Err(_) => return,
-        };
-        let Ok((task, tx)) = next else { return };
-        *current.tx.borrow_mut() = Some(tx);
-        current.bytes.set(0);
+    let current = Current::new(shared);
+    let mut sink = std::io::sink();
+    let mut out = Out::new(&mut sink, "output", true, super::Limits::default());
+    out.chunk = shared.chunk;
+    out.taker = Some(&current);
+    while let Some((task, slot)) = current.next(tasks) {
+        current.start(slot);
         let before = out.modules;
         let r = task
             .items
@@ -568,18 +894,13 @@ fn work(
             .and_then(|()| out.flush());
         // After an error the buffer holds text of this task only.
         out.buf.clear();
-        let tx = current.tx.borrow_mut().take().expect("the task's channel");
-        match r {
-            Ok(()) => {
-                done_modules.fetch_add(task.items.len() as u64, Ordering::Relaxed);
-                done_bytes.fetch_add(current.bytes.get(), Ordering::Relaxed);
-                let _ = tx.send(Msg::End(out.modules - before));
-            }
-            Err(e) => {
-                let _ = tx.send(Msg::Err(e));
-            }
+        if r.is_ok() {
+            done_modules.fetch_add(task.items.len() as u64, Ordering::Relaxed);
+            done_bytes.fetch_add(current.bytes.get(), Ordering::Relaxed);
         }
+        current.end(r.map(|()| out.modules - before));
     }
+    current.report();
 }
 
 #[cfg(test)]
