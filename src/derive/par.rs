@@ -19,15 +19,22 @@
 //!   whose draws are placed by module index, so a chunk draws what one
 //!   thread draws there.
 //!
-//! In both, workers write into bounded channels of blocks, and the calling
-//! thread writes the tasks' blocks in task order ([`write_in_order`]).
-//! Nothing a worker computes depends on which thread runs it or when, so
-//! the output is the same for every thread count.
+//! In both, workers hand their text to the calling thread in blocks of
+//! about [`CHUNK`] bytes, and it writes the tasks' text in task order
+//! ([`write_in_order`]). Nothing a worker computes depends on which thread
+//! runs it or when, so the output is the same for every thread count.
 //!
-//! Memory stays flat: each task's channel holds at most [`BLOCKS`] blocks
-//! of about [`CHUNK`] bytes, at most [`IN_FLIGHT`] tasks per thread are
-//! handed out ahead of the writer, and a worker whose task is not the one
-//! being written waits when its channel is full.
+//! A worker never waits for the writer to finish another task while that
+//! task is the bottleneck ([`Current`]): a task the writer has not reached
+//! keeps up to [`QUEUE`] blocks in memory ([`BUDGET`] for all such tasks),
+//! and beyond that, while the writer waits for the task it is on, writes
+//! its text to an unnamed spill file in the run's temporary directory,
+//! which the writer copies out when it reaches the task; while the writer
+//! is busy, spilling would only add to its work, so the worker waits.
+//! Memory stays flat (bounded blocks per thread, whatever the string's
+//! length); the spill files hold at most the text of the tasks handed out
+//! ahead of the writer ([`IN_FLIGHT`] per thread). `LSGEN_DEBUG_PAR=1`
+//! reports each thread's CPU time, waits and spills (benches/RESULTS.md).
 
 use super::dfs::{ParamPlan, Split, Walker};
 use super::{Deriver, Origin, Out, Strategy};
@@ -38,7 +45,7 @@ use std::cell::{Cell, RefCell};
 use std::fs::File;
 use std::os::unix::fs::FileExt;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{self, Receiver, SyncSender};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -46,16 +53,18 @@ use std::time::{Duration, Instant};
 /// A worker sends its text in blocks of about this size.
 const CHUNK: usize = 256 << 10;
 /// Text blocks a task not being written keeps in memory, at most; the
-/// rest of its text goes to a spill file until the writer reaches it.
+/// rest waits, or goes to a spill file until the writer reaches it.
 const QUEUE: usize = 4;
 /// Text blocks kept in memory by all the tasks not being written, at
-/// most (about; beyond it they spill).
-const BUDGET: usize = 8;
+/// most (about; beyond it they wait or spill).
+const BUDGET: usize = 12;
 /// Tasks handed out ahead of the writer, per thread.
-const IN_FLIGHT: usize = 8;
+const IN_FLIGHT: usize = 16;
 /// Split at the first generation with at least this many modules per
-/// thread (or the one before the last step).
-const PER_THREAD: u64 = 2048;
+/// thread (or the one before the last step): deep enough that a module's
+/// expansion is rarely more than a few blocks (at 256, a module of
+/// parametric_tree -n 16 gave tens of MB).
+const PER_THREAD: u64 = 16384;
 /// Aim for tasks of about this much text (the producer batches modules
 /// by the text each module gave so far).
 const TASK_BYTES: u64 = 256 << 10;
@@ -264,9 +273,17 @@ fn write_in_order(
         shared.writing.store(seq, Ordering::SeqCst);
         seq += 1;
         let r = loop {
-            let t = Instant::now();
-            let msg = rx.recv();
-            waited += t.elapsed();
+            let msg = match rx.try_recv() {
+                Ok(msg) => Ok(msg),
+                Err(_) => {
+                    let t = Instant::now();
+                    shared.starving.store(true, Ordering::Relaxed);
+                    let msg = rx.recv();
+                    shared.starving.store(false, Ordering::Relaxed);
+                    waited += t.elapsed();
+                    msg
+                }
+            };
             match msg {
                 Ok(Msg::Text(block)) => {
                     shared.queued.fetch_sub(1, Ordering::Relaxed);
@@ -293,6 +310,8 @@ fn write_in_order(
             break r;
         }
     };
+    // Workers waiting for room must not wait for a writer that is gone.
+    shared.closed.store(true, Ordering::Relaxed);
     if shared.debug {
         crate::diag::eprint(&format!(
             "lsgen: par: writer: cpu {:.3} s, waited {:.3} s for text, {:.3} s for tasks; {seq} tasks\n",
@@ -373,6 +392,10 @@ struct Shared<'a> {
     writing: AtomicU64,
     /// Text blocks sent and not yet written.
     queued: AtomicUsize,
+    /// The writer is waiting for text of the task it is on.
+    starving: AtomicBool,
+    /// The writer has stopped (done, or on an error).
+    closed: AtomicBool,
     /// Written blocks, for reuse.
     pool: Mutex<Vec<Vec<u8>>>,
     /// Emptied spill files, for reuse.
@@ -388,6 +411,8 @@ struct Shared<'a> {
     chunk: usize,
     queue: usize,
     budget: usize,
+    /// Spill as soon as there is no room in memory (tests).
+    eager: bool,
 }
 
 impl<'a> Shared<'a> {
@@ -400,6 +425,8 @@ impl<'a> Shared<'a> {
         Shared {
             writing: AtomicU64::new(0),
             queued: AtomicUsize::new(0),
+            starving: AtomicBool::new(false),
+            closed: AtomicBool::new(false),
             pool: Mutex::default(),
             spills: Mutex::default(),
             tmpdir,
@@ -407,6 +434,7 @@ impl<'a> Shared<'a> {
             chunk,
             queue,
             budget,
+            eager: test.is_some(),
         }
     }
 
@@ -502,9 +530,11 @@ impl<'a> Order<'a> {
 /// The task a worker is on, and how its text reaches the writer: while
 /// the writer is on the task, blocks go to its channel (waiting when it
 /// is full); before, up to [`QUEUE`] blocks (and [`BUDGET`] in all) go to
-/// the channel and the rest to a spill file, handed to the writer when it
-/// reaches the task or at the task's end. So a worker never waits for the
-/// writer to finish another task, and memory stays bounded.
+/// the channel, and the rest, while the writer waits for text of the task
+/// it is on, to a spill file, handed to the writer when it reaches the
+/// task or at the task's end (while the writer is busy, the worker waits
+/// instead). So memory stays bounded, and a worker waits for the writer
+/// only while the writer is the bottleneck.
 struct Current<'a> {
     tx: RefCell<Option<SyncSender<Msg>>>,
     seq: Cell<u64>,
@@ -602,30 +632,57 @@ impl<'a> Current<'a> {
         let tx = self.tx.borrow();
         let tx = tx.as_ref().ok_or_else(gone)?;
         let shared = self.shared;
-        if shared.writing.load(Ordering::SeqCst) == self.seq.get() {
-            // Being written: what was spilled first, then the block,
-            // waiting while the channel is full.
-            let t = Instant::now();
-            if let Some((file, len)) = self.spill.borrow_mut().take() {
-                tx.send(Msg::Spilled(file, len)).map_err(|_| gone())?;
+        let mut since = None;
+        loop {
+            if shared.writing.load(Ordering::SeqCst) == self.seq.get() {
+                // Being written: what was spilled first, then the block,
+                // waiting while the channel is full.
+                let t = *since.get_or_insert_with(Instant::now);
+                if let Some((file, len)) = self.spill.borrow_mut().take() {
+                    tx.send(Msg::Spilled(file, len)).map_err(|_| gone())?;
+                }
+                shared.queued.fetch_add(1, Ordering::Relaxed);
+                tx.send(Msg::Text(block)).map_err(|_| gone())?;
+                self.waited.set(self.waited.get() + t.elapsed());
+                return Ok(());
             }
-            shared.queued.fetch_add(1, Ordering::Relaxed);
-            tx.send(Msg::Text(block)).map_err(|_| gone())?;
-            self.waited.set(self.waited.get() + t.elapsed());
-            return Ok(());
+            let spilling = self.spill.borrow().is_some();
+            if !spilling
+                && self.ahead.get() < shared.queue
+                && shared.queued.load(Ordering::Relaxed) < shared.budget
+            {
+                // (Never waits: the channel has room for QUEUE blocks.)
+                self.ahead.set(self.ahead.get() + 1);
+                shared.queued.fetch_add(1, Ordering::Relaxed);
+                if let Some(t) = since {
+                    self.waited.set(self.waited.get() + t.elapsed());
+                }
+                return tx.send(Msg::Text(block)).map_err(|_| gone());
+            }
+            // No room in memory. While the writer is waiting for the task
+            // it is on, spill: that task is the bottleneck, and this
+            // worker must not wait for it. Otherwise the writer is busy
+            // (the bottleneck itself): spilling would only add to its
+            // work, so wait a little for it.
+            if shared.eager || shared.starving.load(Ordering::Relaxed) {
+                if let Some(t) = since {
+                    self.waited.set(self.waited.get() + t.elapsed());
+                }
+                return self.spill(block);
+            }
+            if shared.closed.load(Ordering::Relaxed) {
+                return Err(gone());
+            }
+            since.get_or_insert_with(Instant::now);
+            std::thread::sleep(Duration::from_micros(100));
         }
+    }
+
+    /// Append `block` to the task's spill file.
+    fn spill(&self, block: Vec<u8>) -> std::io::Result<()> {
         let mut spill = self.spill.borrow_mut();
-        if spill.is_none()
-            && self.ahead.get() < shared.queue
-            && shared.queued.load(Ordering::Relaxed) < shared.budget
-        {
-            // (Never waits: the channel has room for QUEUE blocks.)
-            self.ahead.set(self.ahead.get() + 1);
-            shared.queued.fetch_add(1, Ordering::Relaxed);
-            return tx.send(Msg::Text(block)).map_err(|_| gone());
-        }
         if spill.is_none() {
-            match shared.spill_file() {
+            match self.shared.spill_file() {
                 Ok(f) => {
                     *spill = Some((f, 0));
                     self.spills.set(self.spills.get() + 1);
@@ -640,7 +697,7 @@ impl<'a> Current<'a> {
         }
         *len += block.len() as u64;
         self.spilled.set(self.spilled.get() + block.len() as u64);
-        shared.recycle(block);
+        self.shared.recycle(block);
         Ok(())
     }
 
