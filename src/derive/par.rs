@@ -62,14 +62,15 @@ const BUDGET: usize = 12;
 const IN_FLIGHT: usize = 16;
 /// Split at the first generation with at least this many modules per
 /// thread (or the one before the last step): deep enough that a module's
-/// expansion is rarely more than a few blocks (at 256, a module of
-/// parametric_tree -n 16 gave tens of MB).
+/// expansion is rarely more than a few blocks.
 const PER_THREAD: u64 = 16384;
 /// Aim for tasks of about this much text (the producer batches modules
 /// by the text each module gave so far).
 const TASK_BYTES: u64 = 256 << 10;
-/// Most modules of the split generation in one task.
-const MAX_BATCH: u64 = 1 << 16;
+/// Most modules of the split generation in one task (the text per module
+/// so far is a poor guide: a module gives from one module to a large
+/// subtree, and a batch of 65536 once gave a 43 MB task).
+const MAX_BATCH: u64 = 64;
 /// Tasks per thread, at least (see [`split_depth`]).
 const TASKS: u64 = 16;
 
@@ -829,7 +830,9 @@ fn split_depth(
 ) -> Result<(usize, u64), Error> {
     let want = per_thread * threads as u64;
     let last = (steps - 1) as usize;
-    let cap = want * 64;
+    // (Counting stops at `want`: past it the count only sizes `most`, and
+    // a deep split generation costs a walk of all of it.)
+    let cap = want;
     let mut depth = 0;
     loop {
         let mut n = 0u64;

@@ -387,7 +387,9 @@ impl<'w> Out<'w> {
     /// `super::par`) after what is buffered, without copying it into the
     /// buffer.
     pub(crate) fn put_block(&mut self, bytes: &[u8], modules: u64) -> Result<(), Error> {
-        if self.indexed.is_some() || bytes.len() < self.chunk / 4 {
+        // (A short block, the end of a task, is copied: one write call
+        // instead of two.)
+        if self.indexed.is_some() || bytes.len() < self.chunk / 32 {
             self.extend(bytes, modules);
             return self.maybe_flush();
         }
