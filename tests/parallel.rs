@@ -390,3 +390,117 @@ fn bracket_balance_errors_are_the_same_on_1_2_and_8_threads() {
         );
     }
 }
+
+/// The debug lines of `LSGEN_DEBUG_PAR=1` in `stderr`: the bytes the
+/// workers spilled and the tasks that failed after spilling; and the rest
+/// of `stderr`.
+fn spill_report(stderr: &str) -> (u64, u64, String) {
+    let (mut bytes, mut failed, mut rest) = (0, 0, String::new());
+    for line in stderr.split_inclusive('\n') {
+        if !line.starts_with("lsgen: par: ") {
+            rest.push_str(line);
+            continue;
+        }
+        let words: Vec<&str> = line.split_whitespace().collect();
+        for (i, w) in words.iter().enumerate() {
+            if *w == "spilled" && words.get(i + 2) == Some(&"bytes,") {
+                bytes += words[i + 1].parse::<u64>().unwrap();
+            }
+            if *w == "failed" && i > 0 && words.get(i + 1) == Some(&"after") {
+                failed += words[i - 1].parse::<u64>().unwrap();
+            }
+        }
+    }
+    (bytes, failed, rest)
+}
+
+#[test]
+fn text_spilled_ahead_of_the_writer_is_the_same_and_leaves_no_file() {
+    // Blocks of 64 bytes, one kept in memory ahead of the writer
+    // (LSGEN_TEST_SPILL): the tasks the writer has not reached spill
+    // their text to unnamed files in --tmpdir, copied out in order; the
+    // same bytes as one thread, and nothing left in the directory.
+    let dir = tempdir();
+    let tmp = dir.path().join("tmp");
+    std::fs::create_dir(&tmp).unwrap();
+    for (file, args) in [
+        ("benches/workloads/parametric_tree.ls", &["-n", "11"][..]),
+        (
+            "examples/stochastic_plant.ls",
+            &["-n", "7", "--seed", "3"][..],
+        ),
+    ] {
+        let file = Path::new(ROOT).join(file);
+        let one = run(lsgen().args(["-j", "1"]).args(args).arg(&file)).ok();
+        assert!(one.len() > 10_000, "{}", one.len());
+        let mut spilled = 0;
+        for j in ["2", "8"] {
+            let r = run(lsgen()
+                .env("LSGEN_TEST_SPLIT", "5")
+                .env("LSGEN_TEST_SPILL", "64")
+                .env("LSGEN_DEBUG_PAR", "1")
+                .args(["-j", j, "--tmpdir"])
+                .arg(&tmp)
+                .args(args)
+                .arg(&file));
+            assert_eq!(r.code(), Some(0), "{}", r.stderr);
+            let (bytes, _, rest) = spill_report(&r.stderr);
+            assert_eq!(rest, "", "{}", file.display());
+            assert!(one.as_bytes() == r.stdout, "{} -j {j}", file.display());
+            spilled += bytes;
+            let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().collect();
+            assert!(left.is_empty(), "{left:?}");
+        }
+        assert!(spilled > 0, "{}: nothing spilled", file.display());
+    }
+}
+
+#[test]
+fn an_error_in_a_task_that_spilled_is_the_first_error() {
+    // Step by step (probabilities): C(0) reaches C(9) in step 10 and
+    // divides by 9 - 9 there, in the middle of a generation of about
+    // 10^5 modules; the chunk holding it has spilled text before the
+    // error when the writer has not reached it. The error is the one of
+    // one thread; no output file, nothing in --tmpdir.
+    let src = "productions:\nF -> FF : 1\nF -> F[+F] : 1\nC(x) : x < 9 -> C(x+1)\n\
+               C(x) : x >= 9 -> C(1/(x-x))\naxiom: FFFFFFFFC(0)FFFFFFFF\n";
+    let dir = tempdir();
+    let p = common::write(dir.path(), "p.ls", src);
+    let tmp = dir.path().join("tmp");
+    std::fs::create_dir(&tmp).unwrap();
+    let o = dir.path().join("out.txt");
+    let one = run(lsgen()
+        .args(["-n", "12", "--seed", "5", "-j", "1", "-o"])
+        .arg(&o)
+        .arg(&p));
+    let one = one.one_error().to_string();
+    assert!(
+        one.contains("p.ls:5:20: error: division by zero (in step 10)\n"),
+        "{one}"
+    );
+    let mut failed_after_spilling = 0;
+    for attempt in 0..10 {
+        for j in ["2", "8"] {
+            let r = run(lsgen()
+                .env("LSGEN_TEST_SPLIT", "1000")
+                .env("LSGEN_TEST_SPILL", "64")
+                .env("LSGEN_DEBUG_PAR", "1")
+                .args(["-n", "12", "--seed", "5", "-j", j, "--tmpdir"])
+                .arg(&tmp)
+                .arg("-o")
+                .arg(&o)
+                .arg(&p));
+            assert_eq!(r.code(), Some(1), "{}", r.stderr);
+            let (_, failed, rest) = spill_report(&r.stderr);
+            assert_eq!(rest, one, "-j {j}");
+            assert!(!o.exists());
+            let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().collect();
+            assert!(left.is_empty(), "{left:?}");
+            failed_after_spilling += failed;
+        }
+        if failed_after_spilling > 0 && attempt > 0 {
+            break;
+        }
+    }
+    assert!(failed_after_spilling > 0, "no failing task had spilled");
+}

@@ -500,7 +500,11 @@ pub(crate) fn derive(
         )?;
         let threads = par::threads_for(settings.threads, steps, strategy);
         let expanded = if threads > 1 {
-            let split = (threads, settings.split.or_else(par::test_split));
+            let split = (
+                threads,
+                settings.split.or_else(par::test_split),
+                &settings.tmpdir,
+            );
             par::expand(&plan, src, &d.alphabet, &d.origin, steps, split, &mut out)
         } else {
             plan.expand(src, &d.alphabet, &d.origin, steps, &mut out)
@@ -616,7 +620,7 @@ fn step_passes(
             let len = src.metadata().map_or(u64::MAX, |m| m.len());
             let flags = (tables.plain, indexed, limited);
             let threads = par::step_threads(settings.threads, table, flags, (len, split));
-            let split = (threads, split);
+            let split = (threads, split, tmpdir);
             match (threads > 1)
                 .then(|| par::step_pass(d, table, (&src, indexed), split, &mut out, pass))
                 .transpose()?

@@ -19,42 +19,58 @@
 //!   whose draws are placed by module index, so a chunk draws what one
 //!   thread draws there.
 //!
-//! In both, workers write into bounded channels of blocks, and the calling
-//! thread writes the tasks' blocks in task order ([`write_in_order`]).
-//! Nothing a worker computes depends on which thread runs it or when, so
-//! the output is the same for every thread count.
+//! In both, workers hand their text to the calling thread in blocks of
+//! about [`CHUNK`] bytes, and it writes the tasks' text in task order
+//! ([`write_in_order`]). Nothing a worker computes depends on which thread
+//! runs it or when, so the output is the same for every thread count.
 //!
-//! Memory stays flat: each task's channel holds at most [`BLOCKS`] blocks
-//! of about [`CHUNK`] bytes, at most [`IN_FLIGHT`] tasks per thread are
-//! handed out ahead of the writer, and a worker whose task is not the one
-//! being written waits when its channel is full.
+//! A worker never waits for the writer to finish another task while that
+//! task is the bottleneck ([`Current`]): a task the writer has not reached
+//! keeps up to [`QUEUE`] blocks in memory ([`BUDGET`] for all such tasks),
+//! and beyond that, while the writer waits for the task it is on, writes
+//! its text to an unnamed spill file in the run's temporary directory,
+//! which the writer copies out when it reaches the task; while the writer
+//! is busy, spilling would only add to its work, so the worker waits.
+//! Memory stays flat (bounded blocks per thread, whatever the string's
+//! length); the spill files hold at most the text of the tasks handed out
+//! ahead of the writer ([`IN_FLIGHT`] per thread). `LSGEN_DEBUG_PAR=1`
+//! reports each thread's CPU time, waits and spills (benches/RESULTS.md).
 
 use super::dfs::{ParamPlan, Split, Walker};
 use super::{Deriver, Origin, Out, Strategy};
-use crate::diag::Error;
+use crate::diag::{Error, IoAction};
 use crate::rules::codec;
 use crate::rules::{Alphabet, ConstRun};
 use std::cell::{Cell, RefCell};
 use std::fs::File;
-use std::io::Write;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::os::unix::fs::FileExt;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{self, Receiver, SyncSender};
 use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 /// A worker sends its text in blocks of about this size.
 const CHUNK: usize = 256 << 10;
-/// Text blocks a task may hold ahead of the writer.
-const BLOCKS: usize = 1;
+/// Text blocks a task not being written keeps in memory, at most; the
+/// rest waits, or goes to a spill file until the writer reaches it.
+const QUEUE: usize = 4;
+/// Text blocks kept in memory by all the tasks not being written, at
+/// most (about; beyond it they wait or spill).
+const BUDGET: usize = 12;
 /// Tasks handed out ahead of the writer, per thread.
-const IN_FLIGHT: usize = 2;
+const IN_FLIGHT: usize = 16;
 /// Split at the first generation with at least this many modules per
-/// thread (or the one before the last step).
-const PER_THREAD: u64 = 256;
+/// thread (or the one before the last step): deep enough that a module's
+/// expansion is rarely more than a few blocks.
+const PER_THREAD: u64 = 16384;
 /// Aim for tasks of about this much text (the producer batches modules
 /// by the text each module gave so far).
 const TASK_BYTES: u64 = 256 << 10;
-/// Most modules of the split generation in one task.
-const MAX_BATCH: u64 = 1 << 16;
+/// Most modules of the split generation in one task (the text per module
+/// so far is a poor guide: a module gives from one module to a large
+/// subtree, and a batch of 65536 once gave a 43 MB task).
+const MAX_BATCH: u64 = 64;
 /// Tasks per thread, at least (see [`split_depth`]).
 const TASKS: u64 = 16;
 
@@ -140,13 +156,13 @@ pub(crate) fn step_pass(
     d: &Deriver,
     table: &crate::rules::Table,
     (src, indexed): (&File, bool),
-    (threads, split): (usize, Option<u64>),
+    (threads, split, tmpdir): (usize, Option<u64>, &Option<PathBuf>),
     out: &mut Out,
     pass: super::Pass,
 ) -> Result<Option<u64>, Error> {
     let draws = AtomicU64::new(0);
     let draws = &draws;
-    let pool = &Pool::default();
+    let shared = &Shared::new(tmpdir);
     let text = out.text;
     let al = &d.alphabet;
     let counts = d.counts;
@@ -155,7 +171,7 @@ pub(crate) fn step_pass(
     // Some(the writer's CPU time) when the pass was split.
     let done = std::thread::scope(|s| -> Result<Option<u64>, Error> {
         use super::split::{Chunk, Scan};
-        let (task_tx, task_rx) = mpsc::channel::<(Chunk, SyncSender<Msg>)>();
+        let (task_tx, task_rx) = mpsc::channel::<(Chunk, Slot)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
         let (order_tx, order_rx) = mpsc::sync_channel::<Receiver<Msg>>(threads * IN_FLIGHT);
         let mut workers = 0;
@@ -174,22 +190,17 @@ pub(crate) fn step_pass(
             let h = std::thread::Builder::new()
                 .name(format!("lsgen-step-{w}"))
                 .spawn_scoped(s, move || {
-                    let current = Current {
-                        tx: RefCell::new(None),
-                        bytes: Cell::new(0),
-                        pool,
-                    };
-                    let mut w = ChannelWriter(&current);
-                    let mut out = Out::new(&mut w, "output", text, super::Limits::default());
-                    out.chunk = CHUNK;
+                    let current = Current::new(shared);
+                    let mut sink = std::io::sink();
+                    let mut out = Out::new(&mut sink, "output", text, super::Limits::default());
+                    out.chunk = shared.chunk;
+                    out.taker = Some(&current);
                     let _timed = times.map(|t| super::split::Timed(t, false));
                     loop {
-                        let next = match task_rx.lock() {
-                            Ok(rx) => rx.recv(),
-                            Err(_) => return,
+                        let Some((chunk, slot)) = current.next(&task_rx) else {
+                            break;
                         };
-                        let Ok((chunk, tx)) = next else { return };
-                        *current.tx.borrow_mut() = Some(tx);
+                        current.start(slot);
                         let before = (out.modules, wd.rng.draws());
                         wd.range = Some((chunk.start, chunk.end, chunk.first));
                         wd.chunk_start = Some(chunk.at);
@@ -199,17 +210,12 @@ pub(crate) fn step_pass(
                             .and_then(|()| out.flush());
                         out.buf.clear();
                         draws.fetch_add(wd.rng.draws() - before.1, Ordering::Relaxed);
-                        let tx = current.tx.borrow_mut().take().expect("the task's channel");
-                        if let Some(b) = wd.balance.take() {
-                            // Before the chunk's end or error: its lows
-                            // come first in string order.
-                            let _ = tx.send(Msg::Balance(Box::new(b)));
-                        }
-                        let _ = tx.send(match r {
-                            Ok(()) => Msg::End(out.modules - before.0),
-                            Err(e) => Msg::Err(e),
-                        });
+                        // A chunk's balance goes before its end or error:
+                        // its lows come first in string order.
+                        let balance = wd.balance.take().map(Box::new);
+                        current.end(r.map(|()| out.modules - before.0), balance);
                     }
+                    current.report();
                 });
             if h.is_err() {
                 break;
@@ -222,31 +228,31 @@ pub(crate) fn step_pass(
         let producer = std::thread::Builder::new()
             .name("lsgen-chunks".into())
             .spawn_scoped(s, move || {
+                let order = Order::new(order_tx, shared);
                 // Cut at the first module boundary past every `size` bytes.
                 let size = split.unwrap_or(CHUNK_IN);
                 let _timed = times.map(|t| super::split::Timed(t, true));
                 let mut scan = Scan::new(src, (indexed, counts), table, al, size);
                 let send = |chunk: Chunk| {
-                    let (tx, rx) = mpsc::sync_channel(BLOCKS);
-                    order_tx.send(rx).is_ok() && task_tx.send((chunk, tx)).is_ok()
+                    order
+                        .open()
+                        .is_some_and(|slot| task_tx.send((chunk, slot)).is_ok())
                 };
                 loop {
                     match scan.next_chunk(al) {
                         Ok(Some(chunk)) => {
                             if !send(chunk) {
-                                return;
+                                break;
                             }
                         }
-                        Ok(None) => return,
+                        Ok(None) => break,
                         Err(e) => {
-                            let (tx, rx) = mpsc::sync_channel(1);
-                            let e = Error::io("temporary file", crate::diag::IoAction::Read, e);
-                            let _ = tx.send(Msg::Err(e));
-                            let _ = order_tx.send(rx);
-                            return;
+                            order.fail(Error::io("temporary file", IoAction::Read, e));
+                            break;
                         }
                     }
                 }
+                order.report();
             });
         if producer.is_err() {
             // The workers end when their task channel closes.
@@ -264,7 +270,7 @@ pub(crate) fn step_pass(
         let judge = table
             .check_balance
             .then_some(&mut judge as &mut dyn FnMut(&super::split::Balance) -> Result<(), Error>);
-        write_in_order(order_rx, out, pool, (threads, reindex, judge))?;
+        write_in_order(order_rx, out, shared, (reindex, judge))?;
         if table.check_balance && check.depth() != 0 {
             return Err(super::step::unclosed(
                 &d.origin,
@@ -286,47 +292,150 @@ pub(crate) fn step_pass(
 /// Judges each chunk's bracket balance ([`write_in_order`]).
 type Judge<'j> = Option<&'j mut dyn FnMut(&super::split::Balance) -> Result<(), Error>>;
 
-/// The writer: each task's blocks, task after task, into `out`. With
+/// The writer: each task's text, task after task, into `out`: its blocks
+/// as they come, and what it spilled while it was not the one written. With
 /// `reindex`, the blocks are binary modules without a bracket index, and
 /// their brackets go through `out`'s ([`super::split::put_indexed`]).
 /// `judge` judges each chunk's bracket balance.
 fn write_in_order(
     order_rx: Receiver<Receiver<Msg>>,
     out: &mut Out,
-    pool: &Pool,
-    (threads, reindex, mut judge): (usize, Option<&Alphabet>, Judge),
+    shared: &Shared,
+    (reindex, mut judge): (Option<&Alphabet>, Judge),
 ) -> Result<(), Error> {
-    for rx in order_rx {
-        loop {
-            match rx.recv() {
+    let cpu = thread_cpu();
+    let (mut waited, mut idle) = (Duration::ZERO, Duration::ZERO);
+    let mut copy = Vec::new();
+    let mut seq = 0;
+    let r = loop {
+        let t = Instant::now();
+        let Ok(rx) = order_rx.recv() else {
+            break Ok(());
+        };
+        idle += t.elapsed();
+        shared.writing.store(seq, Ordering::SeqCst);
+        seq += 1;
+        let r = loop {
+            let msg = match rx.try_recv() {
+                Ok(msg) => Ok(msg),
+                Err(_) => {
+                    let t = Instant::now();
+                    shared.starving.store(true, Ordering::Relaxed);
+                    let msg = rx.recv();
+                    shared.starving.store(false, Ordering::Relaxed);
+                    waited += t.elapsed();
+                    msg
+                }
+            };
+            match msg {
                 Ok(Msg::Text(block)) => {
-                    match reindex {
-                        Some(al) => super::split::put_indexed(out, &block, al)?,
-                        None => out.extend(&block, 0),
+                    shared.queued.fetch_sub(1, Ordering::Relaxed);
+                    let r = match reindex {
+                        Some(al) => super::split::put_indexed(out, &block, al)
+                            .and_then(|()| out.maybe_flush()),
+                        None => out.put_block(&block, 0),
+                    };
+                    if let Err(e) = r {
+                        break Err(e);
                     }
-                    out.maybe_flush()?;
-                    if let Ok(mut pool) = pool.lock() {
-                        if pool.len() <= threads {
-                            pool.push(block);
-                        }
+                    shared.recycle(block);
+                }
+                Ok(Msg::Spilled(file, len)) => {
+                    if let Err(e) = copy_spill(&file, len, &mut copy, out, reindex) {
+                        break Err(e);
                     }
+                    shared.give_back(file);
                 }
                 Ok(Msg::End(modules)) => {
                     // (Reindexed blocks are counted module by module.)
                     out.extend(&[], if reindex.is_some() { 0 } else { modules });
-                    break;
+                    break Ok(());
                 }
                 Ok(Msg::Balance(b)) => {
                     if let Some(judge) = &mut judge {
-                        judge(&b)?;
+                        if let Err(e) = judge(&b) {
+                            break Err(e);
+                        }
                     }
                 }
-                Ok(Msg::Err(e)) => return Err(e),
-                Err(_) => return Err(Error::new(crate::diag::RuntimeError::WorkerStopped)),
+                Ok(Msg::Err(e)) => break Err(e),
+                Err(_) => break Err(Error::new(crate::diag::RuntimeError::WorkerStopped)),
             }
+        };
+        if r.is_err() {
+            break r;
+        }
+    };
+    // Workers waiting for room must not wait for a writer that is gone.
+    shared.closed.store(true, Ordering::Relaxed);
+    if shared.debug {
+        crate::diag::eprint(&format!(
+            "lsgen: par: writer: cpu {:.3} s, waited {:.3} s for text, {:.3} s for tasks; {seq} tasks\n",
+            (thread_cpu() - cpu).as_secs_f64(),
+            waited.as_secs_f64(),
+            idle.as_secs_f64(),
+        ));
+    }
+    r
+}
+
+/// Write the `len` bytes of a spill file into `out`, through `buf` (with
+/// `reindex`, its brackets through `out`'s index: [`super::split::put_indexed`]).
+fn copy_spill(
+    file: &File,
+    len: u64,
+    buf: &mut Vec<u8>,
+    out: &mut Out,
+    reindex: Option<&Alphabet>,
+) -> Result<(), Error> {
+    let read = |buf: &mut [u8], at: u64| {
+        file.read_exact_at(buf, at)
+            .map_err(|e| Error::io("temporary file", IoAction::Read, e))
+    };
+    let Some(al) = reindex else {
+        buf.resize(CHUNK, 0);
+        let mut at = 0;
+        while at < len {
+            let want = (len - at).min(CHUNK as u64) as usize;
+            read(&mut buf[..want], at)?;
+            out.put_block(&buf[..want], 0)?;
+            at += want as u64;
+        }
+        return Ok(());
+    };
+    // Reindexed: whole modules only, so a module cut by the end of a read
+    // waits in `buf` for the rest of its bytes.
+    buf.clear();
+    let mut at = 0;
+    loop {
+        let keep = buf.len();
+        let want = (len - at).min(CHUNK as u64) as usize;
+        buf.resize(keep + want, 0);
+        read(&mut buf[keep..], at)?;
+        at += want as u64;
+        let last = at == len;
+        let used = super::split::put_indexed_part(out, buf, al, last)?;
+        out.maybe_flush()?;
+        buf.drain(..used);
+        if last {
+            return Ok(());
         }
     }
-    Ok(())
+}
+
+/// This thread's CPU time.
+fn thread_cpu() -> Duration {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid timespec for the call to fill.
+    let ok = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) } == 0;
+    if ok {
+        Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
+    } else {
+        Duration::ZERO
+    }
 }
 
 /// One task: modules (binary) of various generations, or inert runs, in
@@ -342,15 +451,22 @@ enum Item<'t> {
     Inert(&'t ConstRun),
 }
 
-/// The workers' queue: each task with its result channel.
-type Tasks<'t> = mpsc::Sender<(Task<'t>, SyncSender<Msg>)>;
+/// Where a task's text goes: its number in string order, and its channel
+/// to the writer.
+type Slot = (u64, SyncSender<Msg>);
 
-/// The workers' end of it.
-type Queue<'t> = Mutex<Receiver<(Task<'t>, SyncSender<Msg>)>>;
+/// The workers' queue: each task with its slot.
+type Tasks<'t> = mpsc::Sender<(Task<'t>, Slot)>;
+
+/// The workers' end of a queue.
+type Queue<T> = Mutex<Receiver<(T, Slot)>>;
 
 /// What a task sends to the writer.
 enum Msg {
     Text(Vec<u8>),
+    /// Text the task wrote to a spill file (from offset 0) before the
+    /// writer reached it; the file goes back to [`Shared::spills`].
+    Spilled(File, u64),
     /// The task is complete: its number of modules.
     End(u64),
     /// A chunk's bracket balance (sent before its end or error).
@@ -358,48 +474,362 @@ enum Msg {
     Err(Error),
 }
 
-/// The task a worker is on: its result channel and the bytes sent to it;
-/// and the blocks the writer has written, for reuse.
-struct Current<'a> {
-    tx: RefCell<Option<SyncSender<Msg>>>,
-    bytes: Cell<u64>,
-    pool: &'a Pool,
+/// What the writer, the producer and the workers share.
+struct Shared<'a> {
+    /// The number of the task being written.
+    writing: AtomicU64,
+    /// Text blocks sent and not yet written.
+    queued: AtomicUsize,
+    /// The writer is waiting for text of the task it is on.
+    starving: AtomicBool,
+    /// The writer has stopped (done, or on an error).
+    closed: AtomicBool,
+    /// Written blocks, for reuse.
+    pool: Mutex<Vec<Vec<u8>>>,
+    /// Emptied spill files, for reuse.
+    spills: Mutex<Vec<File>>,
+    /// Where spill files are made (the run's `--tmpdir`).
+    tmpdir: &'a Option<PathBuf>,
+    /// `LSGEN_DEBUG_PAR`: each thread reports its CPU time and waits.
+    debug: bool,
+    /// The size of a block, the blocks a task not being written keeps in
+    /// memory and all such tasks keep: [`CHUNK`], [`QUEUE`] and
+    /// [`BUDGET`], or for tests (`LSGEN_TEST_SPILL=N`) N bytes, 1 and 1,
+    /// so that small strings spill.
+    chunk: usize,
+    queue: usize,
+    budget: usize,
+    /// Spill as soon as there is no room in memory (tests).
+    eager: bool,
 }
 
-/// Written blocks, for reuse (at most one per thread, and one more, are
-/// kept).
-type Pool = Mutex<Vec<Vec<u8>>>;
-
-/// A writer sending its blocks to the current task's channel (one per
-/// worker, under the worker's one [`Out`]).
-struct ChannelWriter<'a>(&'a Current<'a>);
-
-impl Write for ChannelWriter<'_> {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.write_all(buf)?;
-        Ok(buf.len())
+impl<'a> Shared<'a> {
+    fn new(tmpdir: &'a Option<PathBuf>) -> Self {
+        let test = std::env::var("LSGEN_TEST_SPILL")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .filter(|&n| n > 0);
+        let (chunk, queue, budget) = test.map_or((CHUNK, QUEUE, BUDGET), |n| (n, 1, 1));
+        Shared {
+            writing: AtomicU64::new(0),
+            queued: AtomicUsize::new(0),
+            starving: AtomicBool::new(false),
+            closed: AtomicBool::new(false),
+            pool: Mutex::default(),
+            spills: Mutex::default(),
+            tmpdir,
+            debug: std::env::var_os("LSGEN_DEBUG_PAR").is_some_and(|v| v == "1"),
+            chunk,
+            queue,
+            budget,
+            eager: test.is_some(),
+        }
     }
 
-    fn write_all(&mut self, buf: &[u8]) -> std::io::Result<()> {
+    /// An empty block, written before if there is one.
+    fn block(&self) -> Vec<u8> {
+        let b = self.pool.lock().ok().and_then(|mut p| p.pop());
+        let mut b = b.unwrap_or_else(|| Vec::with_capacity(CHUNK + codec::MAX_MODULE_BYTES * 4));
+        b.clear();
+        b
+    }
+
+    /// Keep a written block for reuse (a few).
+    fn recycle(&self, block: Vec<u8>) {
+        if let Ok(mut pool) = self.pool.lock() {
+            if pool.len() < self.budget + self.queue {
+                pool.push(block);
+            }
+        }
+    }
+
+    /// A spill file, emptied.
+    fn spill_file(&self) -> Result<File, Error> {
+        match self.spills.lock().ok().and_then(|mut s| s.pop()) {
+            Some(f) => Ok(f),
+            None => super::tempfile(self.tmpdir),
+        }
+    }
+
+    /// Empty a spill file and keep it for reuse (or drop it).
+    fn give_back(&self, file: File) {
+        if file.set_len(0).is_ok() {
+            if let Ok(mut s) = self.spills.lock() {
+                s.push(file);
+            }
+        }
+    }
+}
+
+/// The producer's end of the writer's queue: numbers the tasks.
+struct Order<'a> {
+    tx: SyncSender<Receiver<Msg>>,
+    next: Cell<u64>,
+    waited: Cell<Duration>,
+    cpu: Duration,
+    shared: &'a Shared<'a>,
+}
+
+impl<'a> Order<'a> {
+    fn new(tx: SyncSender<Receiver<Msg>>, shared: &'a Shared<'a>) -> Self {
+        Order {
+            tx,
+            next: Cell::new(0),
+            waited: Cell::new(Duration::ZERO),
+            cpu: thread_cpu(),
+            shared,
+        }
+    }
+
+    /// The next task's slot, its channel queued for the writer (waiting
+    /// while [`IN_FLIGHT`] tasks per thread are ahead of it); None when
+    /// the writer is gone.
+    fn open(&self) -> Option<Slot> {
+        // Room for QUEUE blocks, a chunk's balance, the spill file and the end: a task not
+        // being written never waits for the writer.
+        let (tx, rx) = mpsc::sync_channel(QUEUE + 3);
+        let t = Instant::now();
+        let sent = self.tx.send(rx).is_ok();
+        self.waited.set(self.waited.get() + t.elapsed());
+        let seq = self.next.get();
+        self.next.set(seq + 1);
+        sent.then_some((seq, tx))
+    }
+
+    /// `e` in place of the next task.
+    fn fail(&self, e: Error) {
+        if let Some((_, tx)) = self.open() {
+            let _ = tx.send(Msg::Err(e));
+        }
+    }
+
+    fn report(&self) {
+        if self.shared.debug {
+            crate::diag::eprint(&format!(
+                "lsgen: par: producer: cpu {:.3} s, waited {:.3} s for the writer; {} tasks\n",
+                (thread_cpu() - self.cpu).as_secs_f64(),
+                self.waited.get().as_secs_f64(),
+                self.next.get(),
+            ));
+        }
+    }
+}
+
+/// The task a worker is on, and how its text reaches the writer: while
+/// the writer is on the task, blocks go to its channel (waiting when it
+/// is full); before, up to [`QUEUE`] blocks (and [`BUDGET`] in all) go to
+/// the channel, and the rest, while the writer waits for text of the task
+/// it is on, to a spill file, handed to the writer when it reaches the
+/// task or at the task's end (while the writer is busy, the worker waits
+/// instead). So memory stays bounded, and a worker waits for the writer
+/// only while the writer is the bottleneck.
+struct Current<'a> {
+    tx: RefCell<Option<SyncSender<Msg>>>,
+    seq: Cell<u64>,
+    /// Blocks sent before the writer reached the task.
+    ahead: Cell<usize>,
+    /// Bytes of text of the task so far.
+    bytes: Cell<u64>,
+    /// The spill file and its length.
+    spill: RefCell<Option<(File, u64)>>,
+    /// A spill file's error (reported as such, not as the output's).
+    spill_err: RefCell<Option<Error>>,
+    shared: &'a Shared<'a>,
+    // For `LSGEN_DEBUG_PAR`.
+    cpu: Duration,
+    waited: Cell<Duration>,
+    idle: Cell<Duration>,
+    spilled: Cell<u64>,
+    tasks: Cell<u64>,
+    largest: Cell<u64>,
+    spills: Cell<u64>,
+    spills_failed: Cell<u64>,
+}
+
+impl<'a> Current<'a> {
+    fn new(shared: &'a Shared<'a>) -> Self {
+        Current {
+            tx: RefCell::new(None),
+            seq: Cell::new(0),
+            ahead: Cell::new(0),
+            bytes: Cell::new(0),
+            spill: RefCell::new(None),
+            spill_err: RefCell::new(None),
+            shared,
+            cpu: thread_cpu(),
+            waited: Cell::new(Duration::ZERO),
+            idle: Cell::new(Duration::ZERO),
+            spilled: Cell::new(0),
+            tasks: Cell::new(0),
+            largest: Cell::new(0),
+            spills: Cell::new(0),
+            spills_failed: Cell::new(0),
+        }
+    }
+
+    /// The next task from `queue`, None when there are no more.
+    fn next<T>(&self, queue: &Queue<T>) -> Option<(T, Slot)> {
+        let t = Instant::now();
+        let next = match queue.lock() {
+            Ok(rx) => rx.recv().ok(),
+            Err(_) => None,
+        };
+        self.idle.set(self.idle.get() + t.elapsed());
+        next
+    }
+
+    fn start(&self, (seq, tx): Slot) {
+        *self.tx.borrow_mut() = Some(tx);
+        self.seq.set(seq);
+        self.ahead.set(0);
+        self.bytes.set(0);
+        self.tasks.set(self.tasks.get() + 1);
+    }
+
+    /// The task is done (its number of modules) or failed: tell the
+    /// writer, after what the task spilled.
+    fn end(&self, r: Result<u64, Error>, balance: Option<Box<super::split::Balance>>) {
+        let spill = self.spill.borrow_mut().take();
+        let err = self.spill_err.borrow_mut().take();
+        self.largest.set(self.largest.get().max(self.bytes.get()));
+        let Some(tx) = self.tx.borrow_mut().take() else {
+            return;
+        };
+        if let Some(b) = balance {
+            if tx.send(Msg::Balance(b)).is_err() {
+                return;
+            }
+        }
+        match r {
+            Ok(modules) => {
+                if let Some((file, len)) = spill {
+                    if tx.send(Msg::Spilled(file, len)).is_err() {
+                        return;
+                    }
+                }
+                let _ = tx.send(Msg::End(modules));
+            }
+            Err(e) => {
+                if let Some((file, _)) = spill {
+                    self.spills_failed.set(self.spills_failed.get() + 1);
+                    self.shared.give_back(file);
+                }
+                let _ = tx.send(Msg::Err(err.unwrap_or(e)));
+            }
+        }
+    }
+
+    /// Send `block` of the task's text on its way to the writer.
+    fn send(&self, block: Vec<u8>) -> std::io::Result<()> {
+        let gone = || std::io::Error::from(std::io::ErrorKind::BrokenPipe);
+        let tx = self.tx.borrow();
+        let tx = tx.as_ref().ok_or_else(gone)?;
+        let shared = self.shared;
+        let mut since = None;
+        loop {
+            if shared.writing.load(Ordering::SeqCst) == self.seq.get() {
+                // Being written: what was spilled first, then the block,
+                // waiting while the channel is full.
+                let t = *since.get_or_insert_with(Instant::now);
+                if let Some((file, len)) = self.spill.borrow_mut().take() {
+                    tx.send(Msg::Spilled(file, len)).map_err(|_| gone())?;
+                }
+                shared.queued.fetch_add(1, Ordering::Relaxed);
+                tx.send(Msg::Text(block)).map_err(|_| gone())?;
+                self.waited.set(self.waited.get() + t.elapsed());
+                return Ok(());
+            }
+            let spilling = self.spill.borrow().is_some();
+            if !spilling
+                && self.ahead.get() < shared.queue
+                && shared.queued.load(Ordering::Relaxed) < shared.budget
+            {
+                // (Never waits: the channel has room for QUEUE blocks.)
+                self.ahead.set(self.ahead.get() + 1);
+                shared.queued.fetch_add(1, Ordering::Relaxed);
+                if let Some(t) = since {
+                    self.waited.set(self.waited.get() + t.elapsed());
+                }
+                return tx.send(Msg::Text(block)).map_err(|_| gone());
+            }
+            // No room in memory. While the writer is waiting for the task
+            // it is on, spill: that task is the bottleneck, and this
+            // worker must not wait for it. Otherwise the writer is busy
+            // (the bottleneck itself): spilling would only add to its
+            // work, so wait a little for it.
+            if shared.eager || shared.starving.load(Ordering::Relaxed) {
+                if let Some(t) = since {
+                    self.waited.set(self.waited.get() + t.elapsed());
+                }
+                return self.spill(block);
+            }
+            if shared.closed.load(Ordering::Relaxed) {
+                return Err(gone());
+            }
+            since.get_or_insert_with(Instant::now);
+            std::thread::sleep(Duration::from_micros(100));
+        }
+    }
+
+    /// Append `block` to the task's spill file.
+    fn spill(&self, block: Vec<u8>) -> std::io::Result<()> {
+        let mut spill = self.spill.borrow_mut();
+        if spill.is_none() {
+            match self.shared.spill_file() {
+                Ok(f) => {
+                    *spill = Some((f, 0));
+                    self.spills.set(self.spills.get() + 1);
+                }
+                Err(e) => return Err(self.failed(e)),
+            }
+        }
+        let (file, len) = spill.as_mut().expect("a spill file");
+        if let Err(e) = file.write_all_at(&block, *len) {
+            let e = Error::io("temporary file", IoAction::Write, e);
+            return Err(self.failed(e));
+        }
+        *len += block.len() as u64;
+        self.spilled.set(self.spilled.get() + block.len() as u64);
+        self.shared.recycle(block);
+        Ok(())
+    }
+
+    /// Keep `e` to report, and fail the write.
+    fn failed(&self, e: Error) -> std::io::Error {
+        *self.spill_err.borrow_mut() = Some(e);
+        std::io::Error::other("spill file")
+    }
+
+    fn report(&self) {
+        if self.shared.debug {
+            let name = std::thread::current()
+                .name()
+                .unwrap_or("worker")
+                .to_string();
+            crate::diag::eprint(&format!(
+                "lsgen: par: {name}: cpu {:.3} s, waited {:.3} s for the writer, {:.3} s for tasks; \
+                 {} tasks (largest {} bytes), {} spilled {} bytes, {} failed after spilling\n",
+                (thread_cpu() - self.cpu).as_secs_f64(),
+                self.waited.get().as_secs_f64(),
+                self.idle.get().as_secs_f64(),
+                self.tasks.get(),
+                self.largest.get(),
+                self.spills.get(),
+                self.spilled.get(),
+                self.spills_failed.get(),
+            ));
+        }
+    }
+}
+
+impl super::sink::Take for Current<'_> {
+    fn take(&self, buf: &mut Vec<u8>) -> std::io::Result<()> {
         if buf.is_empty() {
             return Ok(());
         }
-        let gone = || std::io::Error::from(std::io::ErrorKind::BrokenPipe);
-        let tx = self.0.tx.borrow();
-        let tx = tx.as_ref().ok_or_else(gone)?;
-        let mut block = match self.0.pool.lock() {
-            Ok(mut pool) => pool.pop().unwrap_or_default(),
-            Err(_) => Vec::new(),
-        };
-        block.clear();
-        block.extend_from_slice(buf);
-        tx.send(Msg::Text(block)).map_err(|_| gone())?;
-        self.0.bytes.set(self.0.bytes.get() + buf.len() as u64);
-        Ok(())
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        Ok(())
+        self.bytes.set(self.bytes.get() + buf.len() as u64);
+        let block = std::mem::replace(buf, self.shared.block());
+        self.send(block)
     }
 }
 
@@ -415,7 +845,7 @@ pub(crate) fn expand(
     al: &Alphabet,
     origin: &Origin,
     steps: u64,
-    (threads, split): (usize, Option<u64>),
+    (threads, split, tmpdir): (usize, Option<u64>, &Option<PathBuf>),
     out: &mut Out,
 ) -> Result<(), Error> {
     let per_thread = split.unwrap_or(PER_THREAD);
@@ -425,9 +855,9 @@ pub(crate) fn expand(
     let done_modules = AtomicU64::new(0);
     let done_bytes = AtomicU64::new(0);
     let (done_modules, done_bytes) = (&done_modules, &done_bytes);
-    let pool = &Pool::default();
+    let shared = &Shared::new(tmpdir);
     std::thread::scope(|s| -> Result<(), Error> {
-        let (task_tx, task_rx) = mpsc::channel::<(Task, SyncSender<Msg>)>();
+        let (task_tx, task_rx) = mpsc::channel::<(Task, Slot)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
         let (order_tx, order_rx) = mpsc::sync_channel::<Receiver<Msg>>(threads * IN_FLIGHT);
         let mut workers = 0;
@@ -441,7 +871,7 @@ pub(crate) fn expand(
                         al,
                         origin,
                         steps,
-                        (&task_rx, pool),
+                        (&task_rx, shared),
                         (done_modules, done_bytes),
                     )
                 });
@@ -454,15 +884,17 @@ pub(crate) fn expand(
             std::thread::Builder::new()
                 .name("lsgen-split".into())
                 .spawn_scoped(s, move || {
+                    let order = Order::new(order_tx, shared);
                     produce(
                         plan,
                         input,
                         al,
                         origin,
                         (depth, most),
-                        (task_tx, order_tx),
+                        (task_tx, &order),
                         (done_modules, done_bytes),
-                    )
+                    );
+                    order.report();
                 })
         });
         if !matches!(producer, Some(Ok(_))) {
@@ -472,7 +904,7 @@ pub(crate) fn expand(
             return plan.expand(input, al, origin, steps, out);
         }
         // Write the tasks' text in task order.
-        write_in_order(order_rx, out, pool, (threads, None, None))
+        write_in_order(order_rx, out, shared, (None, None))
     })
 }
 
@@ -490,7 +922,9 @@ fn split_depth(
 ) -> Result<(usize, u64), Error> {
     let want = per_thread * threads as u64;
     let last = (steps - 1) as usize;
-    let cap = want * 64;
+    // (Counting stops at `want`: past it the count only sizes `most`, and
+    // a deep split generation costs a walk of all of it.)
+    let cap = want;
     let mut depth = 0;
     loop {
         let mut n = 0u64;
@@ -514,7 +948,7 @@ fn produce<'t>(
     al: &Alphabet,
     origin: &Origin,
     (depth, most): (usize, u64),
-    (task_tx, order_tx): (Tasks<'t>, SyncSender<Receiver<Msg>>),
+    (task_tx, order): (Tasks<'t>, &Order),
     (done_modules, done_bytes): (&AtomicU64, &AtomicU64),
 ) {
     let mut task = Task {
@@ -524,7 +958,6 @@ fn produce<'t>(
     let mut stopped = false;
     let mut last_batch = 1u64;
     let send = |task: &mut Task<'t>| -> bool {
-        let (tx, rx) = mpsc::sync_channel(BLOCKS);
         let task = std::mem::replace(
             task,
             Task {
@@ -532,7 +965,9 @@ fn produce<'t>(
                 bin: Vec::new(),
             },
         );
-        order_tx.send(rx).is_ok() && task_tx.send((task, tx)).is_ok()
+        order
+            .open()
+            .is_some_and(|slot| task_tx.send((task, slot)).is_ok())
     };
     let r = plan.split(input, al, origin, depth, |item| {
         match item {
@@ -577,9 +1012,7 @@ fn produce<'t>(
             if !task.items.is_empty() && !send(&mut task) {
                 return;
             }
-            let (tx, rx) = mpsc::sync_channel(1);
-            let _ = tx.send(Msg::Err(e));
-            let _ = order_tx.send(rx);
+            order.fail(e);
         }
     }
 }
@@ -591,26 +1024,17 @@ fn work(
     al: &Alphabet,
     origin: &Origin,
     steps: u64,
-    (tasks, pool): (&Queue, &Pool),
+    (tasks, shared): (&Queue<Task>, &Shared),
     (done_modules, done_bytes): (&AtomicU64, &AtomicU64),
 ) {
     let mut walker = Walker::new(plan, al, steps);
-    let current = Current {
-        tx: RefCell::new(None),
-        bytes: Cell::new(0),
-        pool,
-    };
-    let mut w = ChannelWriter(&current);
-    let mut out = Out::new(&mut w, "output", true, super::Limits::default());
-    out.chunk = CHUNK;
-    loop {
-        let next = match tasks.lock() {
-            Ok(rx) => rx.recv(),
-            Err(_) => return,
-        };
-        let Ok((task, tx)) = next else { return };
-        *current.tx.borrow_mut() = Some(tx);
-        current.bytes.set(0);
+    let current = Current::new(shared);
+    let mut sink = std::io::sink();
+    let mut out = Out::new(&mut sink, "output", true, super::Limits::default());
+    out.chunk = shared.chunk;
+    out.taker = Some(&current);
+    while let Some((task, slot)) = current.next(tasks) {
+        current.start(slot);
         let before = out.modules;
         let r = task
             .items
@@ -622,18 +1046,13 @@ fn work(
             .and_then(|()| out.flush());
         // After an error the buffer holds text of this task only.
         out.buf.clear();
-        let tx = current.tx.borrow_mut().take().expect("the task's channel");
-        match r {
-            Ok(()) => {
-                done_modules.fetch_add(task.items.len() as u64, Ordering::Relaxed);
-                done_bytes.fetch_add(current.bytes.get(), Ordering::Relaxed);
-                let _ = tx.send(Msg::End(out.modules - before));
-            }
-            Err(e) => {
-                let _ = tx.send(Msg::Err(e));
-            }
+        if r.is_ok() {
+            done_modules.fetch_add(task.items.len() as u64, Ordering::Relaxed);
+            done_bytes.fetch_add(current.bytes.get(), Ordering::Relaxed);
         }
+        current.end(r.map(|()| out.modules - before), None);
     }
+    current.report();
 }
 
 #[cfg(test)]

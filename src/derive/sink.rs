@@ -99,6 +99,15 @@ pub struct Out<'w> {
     /// Flush when the buffer holds this much (`OUT_CHUNK`; less for the
     /// blocks of parallel tasks, `super::par`).
     pub(crate) chunk: usize,
+    /// Where full buffers go whole, in place of `w` (a parallel task's
+    /// blocks, `super::par`): no copy.
+    pub(crate) taker: Option<&'w dyn Take>,
+}
+
+/// A destination that takes a full buffer over (leaving an empty one in
+/// its place) rather than copying it: the workers of `super::par`.
+pub(crate) trait Take {
+    fn take(&self, buf: &mut Vec<u8>) -> std::io::Result<()>;
 }
 
 impl<'w> Out<'w> {
@@ -118,6 +127,7 @@ impl<'w> Out<'w> {
             pass: Pass::Axiom,
             meter: super::meter::current(),
             chunk: OUT_CHUNK,
+            taker: None,
         }
     }
 
@@ -361,10 +371,37 @@ impl<'w> Out<'w> {
         self.written += self.buf.len() as u64;
         self.limits
             .check(self.modules, self.written - uncounted, self.pass)?;
-        self.w
-            .write_all(&self.buf)
-            .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
+        match self.taker {
+            Some(t) => t.take(&mut self.buf),
+            None => self.w.write_all(&self.buf),
+        }
+        .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
         self.buf.clear();
+        if let Some(m) = &self.meter {
+            m.record(self.modules, self.written);
+        }
+        Ok(())
+    }
+
+    /// Write `bytes` (text of `modules` modules another thread formatted,
+    /// `super::par`) after what is buffered, without copying it into the
+    /// buffer.
+    pub(crate) fn put_block(&mut self, bytes: &[u8], modules: u64) -> Result<(), Error> {
+        // (A short block, the end of a task, is copied: one write call
+        // instead of two.)
+        if self.indexed.is_some() || bytes.len() < self.chunk / 32 {
+            self.extend(bytes, modules);
+            return self.maybe_flush();
+        }
+        if !self.buf.is_empty() {
+            self.flush()?;
+        }
+        self.modules += modules;
+        self.written += bytes.len() as u64;
+        self.limits.check(self.modules, self.written, self.pass)?;
+        self.w
+            .write_all(bytes)
+            .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
         if let Some(m) = &self.meter {
             m.record(self.modules, self.written);
         }

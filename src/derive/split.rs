@@ -225,8 +225,28 @@ pub(crate) fn put_indexed(
     block: &[u8],
     al: &Alphabet,
 ) -> Result<(), crate::diag::Error> {
+    put_indexed_part(out, block, al, true).map(|_| ())
+}
+
+/// [`put_indexed`] for the whole modules at the start of `block`: all of
+/// it if `whole`, else the modules that begin at least a longest module's
+/// bytes ([`crate::rules::codec::MAX_MODULE_BYTES`]) before its end (the
+/// rest may be cut). Returns the bytes put.
+pub(crate) fn put_indexed_part(
+    out: &mut super::Out,
+    block: &[u8],
+    al: &Alphabet,
+    whole: bool,
+) -> Result<usize, crate::diag::Error> {
+    let end = if whole {
+        block.len()
+    } else {
+        block
+            .len()
+            .saturating_sub(crate::rules::codec::MAX_MODULE_BYTES)
+    };
     let (mut i, mut run, mut modules) = (0, 0, 0u64);
-    while i < block.len() {
+    while i < end {
         let b = block[i];
         if b == b'[' || b == b']' {
             out.extend(&block[run..i], modules);
@@ -243,8 +263,8 @@ pub(crate) fn put_indexed(
         };
         modules += 1;
     }
-    out.extend(&block[run..], modules);
-    Ok(())
+    out.extend(&block[run..i], modules);
+    Ok(i)
 }
 
 #[cfg(test)]
