@@ -504,3 +504,52 @@ fn an_error_in_a_task_that_spilled_is_the_first_error() {
     }
     assert!(failed_after_spilling > 0, "no failing task had spilled");
 }
+
+#[test]
+fn spilled_chunks_of_context_passes_keep_the_bracket_index() {
+    // context_signal's passes write a bracket index for the next pass,
+    // which the writer fills in from the chunks' brackets; with blocks of
+    // 64 bytes (LSGEN_TEST_SPILL) the chunks the writer has not reached
+    // spill, and the writer reads the spill files back in pieces that cut
+    // modules: the same string as one thread, nothing left in --tmpdir.
+    let dir = tempdir();
+    let tmp = dir.path().join("tmp");
+    std::fs::create_dir(&tmp).unwrap();
+    let w = Path::new(ROOT).join("benches/workloads");
+    let axiom = dir.path().join("axiom.txt");
+    let r = run(lsgen()
+        .args(["-n", "8", "-o"])
+        .arg(&axiom)
+        .arg(w.join("signal_axiom.ls")));
+    assert_eq!(r.ok(), "");
+    let args = |cmd: &mut std::process::Command| {
+        cmd.args(["-n", "3", "--tmpdir"])
+            .arg(&tmp)
+            .arg("--axiom")
+            .arg(&axiom)
+            .arg(w.join("context_signal.ls"));
+    };
+    let mut cmd = lsgen();
+    args(cmd.args(["-j", "1"]));
+    let one = run(&mut cmd).ok();
+    assert!(one.len() > 10_000, "{}", one.len());
+    let mut spilled = 0;
+    for j in ["2", "8"] {
+        for split in ["700", "5000"] {
+            let mut cmd = lsgen();
+            cmd.env("LSGEN_TEST_SPLIT", split)
+                .env("LSGEN_TEST_SPILL", "64")
+                .env("LSGEN_DEBUG_PAR", "1")
+                .args(["-j", j]);
+            args(&mut cmd);
+            let r = run(&mut cmd);
+            assert_eq!(r.code(), Some(0), "{}", r.stderr);
+            let (bytes, _, _) = spill_report(&r.stderr);
+            assert!(one.as_bytes() == r.stdout, "-j {j}, chunks of {split}");
+            spilled += bytes;
+            let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().collect();
+            assert!(left.is_empty(), "{left:?}");
+        }
+    }
+    assert!(spilled > 0, "nothing spilled");
+}

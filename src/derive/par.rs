@@ -341,7 +341,8 @@ fn write_in_order(
                     shared.recycle(block);
                 }
                 Ok(Msg::Spilled(file, len)) => {
-                    if let Err(e) = copy_spill(&file, len, &mut copy, out, reindex) {
+                    if let Err(e) = copy_spill(&file, (len, shared.chunk), &mut copy, out, reindex)
+                    {
                         break Err(e);
                     }
                     shared.give_back(file);
@@ -379,11 +380,12 @@ fn write_in_order(
     r
 }
 
-/// Write the `len` bytes of a spill file into `out`, through `buf` (with
+/// Write the `len` bytes of a spill file into `out`, through `buf`, in
+/// pieces of `piece` bytes (a block: small in tests) (with
 /// `reindex`, its brackets through `out`'s index: [`super::split::put_indexed`]).
 fn copy_spill(
     file: &File,
-    len: u64,
+    (len, piece): (u64, usize),
     buf: &mut Vec<u8>,
     out: &mut Out,
     reindex: Option<&Alphabet>,
@@ -393,10 +395,10 @@ fn copy_spill(
             .map_err(|e| Error::io("temporary file", IoAction::Read, e))
     };
     let Some(al) = reindex else {
-        buf.resize(CHUNK, 0);
+        buf.resize(piece, 0);
         let mut at = 0;
         while at < len {
-            let want = (len - at).min(CHUNK as u64) as usize;
+            let want = (len - at).min(piece as u64) as usize;
             read(&mut buf[..want], at)?;
             out.put_block(&buf[..want], 0)?;
             at += want as u64;
@@ -409,7 +411,7 @@ fn copy_spill(
     let mut at = 0;
     loop {
         let keep = buf.len();
-        let want = (len - at).min(CHUNK as u64) as usize;
+        let want = (len - at).min(piece as u64) as usize;
         buf.resize(keep + want, 0);
         read(&mut buf[keep..], at)?;
         at += want as u64;
