@@ -1,0 +1,820 @@
+//! Compiling a header: settings, constants and productions from the
+//! syntax tree (or production by production as the parser reduces them:
+//! [`Compiler`]) into a [`System`]'s tables.
+
+use super::*;
+
+/// Formal parameters named `step` (issue 11) in a production.
+fn hidden_step(p: &ast::Production, out: &mut Vec<Span>) {
+    for m in p.left.iter().chain([&p.pred]).chain(p.right.iter()) {
+        for e in &m.params {
+            if let Expr::Var(name, span) = e {
+                if name == "step" {
+                    out.push(*span);
+                }
+            }
+        }
+    }
+}
+
+type R<T> = Result<T, UserError>;
+
+fn err<T>(span: Span, kind: CompileError) -> R<T> {
+    Err(UserError::new(span, kind))
+}
+
+fn compile_code(e: &Expr, params: &HashMap<String, u32>, consts: &HashMap<String, f64>) -> R<Code> {
+    compile_code_in(e, params, consts, false)
+}
+
+fn compile_code_in(
+    e: &Expr,
+    params: &HashMap<String, u32>,
+    consts: &HashMap<String, f64>,
+    cpfg: bool,
+) -> R<Code> {
+    Code::compile(
+        e,
+        &Scope {
+            params,
+            consts,
+            cpfg,
+        },
+    )
+    .map_err(|e| UserError::new(e.span, e.kind))
+}
+
+/// Evaluate a setting's expression: constants only.
+fn constant(e: &Expr, consts: &HashMap<String, f64>, rng: &mut Random) -> R<f64> {
+    let code = compile_code(e, &HashMap::new(), consts)?;
+    code.eval(&[], &mut Vec::new(), rng)
+        .map_err(|e| UserError::new(e.span, e.kind))
+}
+
+fn whole_number(e: &Expr, consts: &HashMap<String, f64>, what: &'static str) -> R<u64> {
+    let v = constant(e, consts, &mut Random::new(0))?;
+    if v < 0.0 || v.fract() != 0.0 || v > 9.007_199_254_740_992e15 {
+        return err(e.span(), CompileError::NotWholeNumber { what, value: v });
+    }
+    Ok(v as u64)
+}
+
+fn symbols(mods: &[ast::Module]) -> R<HashSet<char>> {
+    let mut s = HashSet::new();
+    for m in mods {
+        if !m.params.is_empty() {
+            return err(m.span, CompileError::SymbolsOnly);
+        }
+        s.insert(m.sym);
+    }
+    Ok(s)
+}
+
+/// 2^53: from there on, a computed whole number may have been rounded
+/// (2^53 + 1 evaluates to 2^53).
+const EXACT_LIMIT: f64 = 9_007_199_254_740_992.0;
+
+/// `seed:`: a whole-number literal is read exactly (0 to 2^64 - 1, from the
+/// source `src` when given); any other expression must give a whole number
+/// below 2^53, where floating point is exact.
+fn seed_value(e: &Expr, consts: &HashMap<String, f64>, src: Option<&str>) -> R<u64> {
+    if let (Expr::Num(_, (a, b)), Some(src)) = (e, src) {
+        if let Some(text) = src.get(*a..*b) {
+            if !text.is_empty() && text.bytes().all(|c| c.is_ascii_digit()) {
+                return text
+                    .parse::<u64>()
+                    .or_else(|_| err(e.span(), CompileError::SeedLiteralRange(text.to_string())));
+            }
+        }
+    }
+    let v = constant(e, consts, &mut Random::new(0))?;
+    if v < 0.0 || v.fract() != 0.0 || v >= EXACT_LIMIT {
+        return err(e.span(), CompileError::SeedComputedRange(v));
+    }
+    Ok(v as u64)
+}
+
+/// Does `e` draw random numbers, itself or through a random constant?
+fn is_random(e: &Expr, random: &HashSet<String>) -> bool {
+    match e {
+        Expr::Num(..) => false,
+        Expr::Var(name, _) => random.contains(name),
+        Expr::Call(name, args, _) => {
+            name == "ran" || name == "nran" || args.iter().any(|a| is_random(a, random))
+        }
+        Expr::Unary(_, a, _) => is_random(a, random),
+        Expr::Binary(_, a, b, _) => is_random(a, random) || is_random(b, random),
+        Expr::Cond(c, a, b, _) => [c, a, b].iter().any(|e| is_random(e, random)),
+    }
+}
+
+/// The file's seed, read ahead of the constants (random constants are
+/// drawn with the run's seed, wherever `seed:` stands). None if there is
+/// none or it cannot be read: then the settings report the error in order.
+fn file_seed(settings: &[Setting], src: Option<&str>) -> Option<R<u64>> {
+    let mut consts = HashMap::new();
+    let mut random = HashSet::new();
+    for s in settings {
+        match s {
+            Setting::Define(name, e, _) if is_random(e, &random) => {
+                random.insert(name.clone());
+            }
+            Setting::Define(name, e, _) => {
+                let v = constant(e, &consts, &mut Random::new(0)).ok()?;
+                consts.insert(name.clone(), v);
+            }
+            Setting::Seed(e, _) if is_random(e, &random) => {
+                return Some(err(e.span(), CompileError::SeedRandom));
+            }
+            Setting::Seed(e, _) => return Some(seed_value(e, &consts, src)),
+            _ => {}
+        }
+    }
+    None
+}
+
+/// The seeds a run can have.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Seeds {
+    /// `--seed`, which wins over the file's `seed:`.
+    pub command_line: Option<u64>,
+    /// The seed without either (fresh from the system).
+    pub fallback: u64,
+}
+
+/// Compile a parsed header (no source text: a large `seed:` literal is
+/// read as a number; no `--seed`; fallback seed 0).
+pub fn compile(h: &ast::Header) -> R<System> {
+    compile_with(h.clone(), None, Seeds::default())
+}
+
+/// Compile a parsed header whose text is `src`: hands the tree to a
+/// [`Compiler`] as the parser would, production by production.
+pub fn compile_with(h: ast::Header, src: Option<&str>, seeds: Seeds) -> R<System> {
+    compile_dialect(h, src, seeds, false)
+}
+
+/// [`compile_with`] for a dialect: `cpfg` (a header lowered from a `.l`
+/// file, see `src/cpfg/lower.rs`) takes cpfg's functions, `/` and `%`,
+/// rounds every computed parameter to a 32-bit float, and chooses the
+/// first applicable production in file order, context or not.
+pub fn compile_dialect(h: ast::Header, src: Option<&str>, seeds: Seeds, cpfg: bool) -> R<System> {
+    let mut c = Compiler::new(src, seeds);
+    c.cpfg = cpfg;
+    c.settings(h.settings);
+    c.section(SectionStart {
+        kind: SectionKind::Group(0),
+        span: (0, 0),
+        warnings: false,
+        settings: Vec::new(),
+    });
+    for p in h.productions {
+        c.production(p);
+    }
+    for (n, span, prods) in h.groups {
+        c.section(SectionStart {
+            kind: SectionKind::Group(n),
+            span,
+            warnings: false,
+            settings: Vec::new(),
+        });
+        for p in prods {
+            c.production(p);
+        }
+    }
+    if let Some(d) = h.decomposition {
+        c.section(SectionStart {
+            kind: SectionKind::Decomposition,
+            span: d.span,
+            warnings: d.warnings,
+            settings: d.settings,
+        });
+        for p in d.productions {
+            c.production(p);
+        }
+    }
+    if let Some(s) = h.hom {
+        c.section(SectionStart {
+            kind: SectionKind::Homomorphism,
+            span: s.span,
+            warnings: s.warnings,
+            settings: s.settings,
+        });
+    }
+    if !h.homomorphism.is_empty() && !c.in_section(SectionKind::Homomorphism) {
+        c.section(SectionStart {
+            kind: SectionKind::Homomorphism,
+            span: (0, 0),
+            warnings: false,
+            settings: Vec::new(),
+        });
+    }
+    for p in h.homomorphism {
+        c.production(p);
+    }
+    c.finish()
+}
+
+/// A header's parse error, or its compile error (found only if it parses).
+#[derive(Clone, Debug, PartialEq)]
+pub enum LoadError {
+    Parse(UserError),
+    Compile(UserError),
+}
+
+/// Parse and compile the header text `src`, each production as it is
+/// read: the whole syntax tree never exists. Errors as [`parse_header`]
+/// then [`compile_with`] would report them. Random constants (`ran` and
+/// `nran` in `define:`) are drawn in file order from a generator of their
+/// own seeded with the run's seed: `--seed`, else `seed:`, else the
+/// fallback.
+///
+/// [`parse_header`]: crate::lang::parse::parse_header
+pub fn compile_text(src: &str, seeds: Seeds) -> Result<System, LoadError> {
+    let mut c = Compiler::new(Some(src), seeds);
+    crate::lang::parse::parse_into(src, &mut c).map_err(LoadError::Parse)?;
+    c.finish().map_err(LoadError::Compile)
+}
+
+/// Where a compile error was found, in the order the checks are made: the
+/// first error of the lowest stage is the one reported. Sections are
+/// compiled in file order as they arrive, but group 0 is checked before
+/// the numbered groups wherever it stands.
+mod stage {
+    pub const SETTINGS: u8 = 0;
+    pub const GROUP0: u8 = 1;
+    pub const GROUPS: u8 = 2;
+    pub const UNUSED: u8 = 3;
+    pub const DECOMPOSITION: u8 = 4;
+    pub const HOMOMORPHISM: u8 = 5;
+}
+
+/// What the settings give the productions.
+struct Settled {
+    derivation_length: Option<u64>,
+    seed: Option<u64>,
+    consts: HashMap<String, f64>,
+    schedule: Vec<u32>,
+    scheduled: bool,
+    group_expr: Option<Code>,
+    alphabet: Alphabet,
+}
+
+/// Compiles a header handed over by the parser ([`HeaderSink`]): the
+/// settings, then each production into its section's table as soon as it
+/// is read. After an error it keeps reading (the parser may still find a
+/// syntax error, which comes first) but compiles only what could still
+/// hold an earlier error.
+pub struct Compiler<'a> {
+    src: Option<&'a str>,
+    /// The cpfg dialect ([`compile_dialect`]).
+    cpfg: bool,
+    seeds: Seeds,
+    settled: Option<Settled>,
+    /// The first error of the lowest stage so far.
+    error: Option<(u8, UserError)>,
+    /// `groups:` entries to check once every section is known: (group, where).
+    scheduled_groups: Vec<(u32, Span)>,
+    /// `step` hidden by a constant or a formal parameter, with its stage
+    /// (warned in the stages' order).
+    step_hidden: Vec<(u8, Span)>,
+    num: codec::NumFmt,
+    section: SectionKind,
+    productions: Table,
+    groups: Vec<(u32, Span, Table)>,
+    decomposition: Option<(Table, usize)>,
+    hom: Option<(usize, Option<u64>)>,
+    homomorphism: Table,
+    warnings: [bool; 2],
+}
+
+impl<'a> Compiler<'a> {
+    /// `src` is the header text, for reading a large `seed:` literal
+    /// exactly.
+    pub fn new(src: Option<&'a str>, seeds: Seeds) -> Compiler<'a> {
+        Compiler {
+            src,
+            cpfg: false,
+            seeds,
+            settled: None,
+            error: None,
+            scheduled_groups: Vec::new(),
+            step_hidden: Vec::new(),
+            num: codec::NumFmt::new(),
+            section: SectionKind::Group(0),
+            productions: Table::default(),
+            groups: Vec::new(),
+            decomposition: None,
+            hom: None,
+            homomorphism: Table::default(),
+            warnings: [false; 2],
+        }
+    }
+
+    fn in_section(&self, kind: SectionKind) -> bool {
+        self.section == kind
+    }
+
+    fn stage(&self) -> u8 {
+        match self.section {
+            SectionKind::Group(0) => stage::GROUP0,
+            SectionKind::Group(_) => stage::GROUPS,
+            SectionKind::Decomposition => stage::DECOMPOSITION,
+            SectionKind::Homomorphism => stage::HOMOMORPHISM,
+        }
+    }
+
+    /// Could an error found at `stage` still be the one reported?
+    fn open(&self, stage: u8) -> bool {
+        self.settled.is_some() && self.error.as_ref().is_none_or(|(s, _)| stage < *s)
+    }
+
+    fn fail(&mut self, stage: u8, e: UserError) {
+        if self.error.as_ref().is_none_or(|(s, _)| stage < *s) {
+            self.error = Some((stage, e));
+        }
+    }
+
+    fn settle(&mut self, settings: &[Setting]) -> R<Settled> {
+        let mut derivation_length = None;
+        let mut seed = None;
+        let mut filter: Option<(Filter, Span)> = None;
+        let mut consts: HashMap<String, f64> = HashMap::new();
+        let src = self.src;
+        let ahead = file_seed(settings, src);
+        let run_seed = self.seeds.command_line.unwrap_or(match &ahead {
+            Some(Ok(s)) => *s,
+            _ => self.seeds.fallback,
+        });
+        let mut define_rng = Random::for_constants(run_seed);
+        let mut schedule: Vec<u32> = Vec::new();
+        let mut schedule_span: Option<Span> = None;
+        let mut group_expr: Option<Code> = None;
+        for s in settings {
+            match s {
+                Setting::Groups(list, span) => {
+                    if schedule_span.is_some() {
+                        return err(*span, CompileError::GroupsAndGroup);
+                    }
+                    schedule_span = Some(*span);
+                    for &(n, at) in list {
+                        if n != 0 {
+                            // Checked when every section is known.
+                            self.scheduled_groups.push((n, at));
+                        }
+                        schedule.push(n);
+                    }
+                }
+                Setting::Group(e, span) => {
+                    if schedule_span.is_some() {
+                        return err(*span, CompileError::GroupsAndGroup);
+                    }
+                    schedule_span = Some(*span);
+                    if is_random(e, &HashSet::new()) {
+                        return err(e.span(), CompileError::GroupRandom);
+                    }
+                    let mut names = HashMap::new();
+                    if !consts.contains_key("step") {
+                        names.insert("step".to_string(), expr::STEP_SLOT);
+                    }
+                    group_expr = Some(compile_code(e, &names, &consts)?);
+                }
+                Setting::DerivationLength(e, span) => {
+                    if derivation_length.is_some() {
+                        return err(*span, CompileError::SetTwice("derivation length"));
+                    }
+                    derivation_length = Some(whole_number(e, &consts, "the derivation length")?);
+                }
+                Setting::Seed(e, span) => {
+                    if seed.is_some() {
+                        return err(*span, CompileError::SetTwice("seed"));
+                    }
+                    seed = Some(match &ahead {
+                        Some(Ok(v)) => *v,
+                        Some(Err(e)) => return Err(e.clone()),
+                        None => seed_value(e, &consts, src)?,
+                    });
+                }
+                Setting::Define(name, e, span) => {
+                    if consts.contains_key(name) {
+                        return err(*span, CompileError::DefinedTwice(name.clone()));
+                    }
+                    let v = constant(e, &consts, &mut define_rng)?;
+                    consts.insert(name.clone(), v);
+                }
+                Setting::Ignore(m, span) | Setting::Consider(m, span) => {
+                    let set = symbols(m)?;
+                    let f = if matches!(s, Setting::Ignore(..)) {
+                        Filter::Ignore(set)
+                    } else {
+                        Filter::Consider(set)
+                    };
+                    match (&mut filter, f) {
+                        (None, f) => filter = Some((f, *span)),
+                        (Some((Filter::Ignore(a), _)), Filter::Ignore(b))
+                        | (Some((Filter::Consider(a), _)), Filter::Consider(b)) => a.extend(b),
+                        (Some(_), _) => return err(*span, CompileError::IgnoreAndConsider),
+                    }
+                }
+            }
+        }
+        Ok(Settled {
+            derivation_length,
+            seed,
+            consts,
+            schedule,
+            scheduled: schedule_span.is_some(),
+            group_expr,
+            alphabet: Alphabet::new(filter.map(|f| f.0).unwrap_or_default()),
+        })
+    }
+
+    /// The compiled system, or the first error of the earliest stage.
+    pub fn finish(mut self) -> R<System> {
+        // A `groups:` entry naming no section is an error of the settings,
+        // before any later setting's.
+        let declared: Vec<u32> = self.groups.iter().map(|g| g.0).collect();
+        if let Some(&(n, at)) = self
+            .scheduled_groups
+            .iter()
+            .find(|(n, _)| !declared.contains(n))
+        {
+            return err(at, CompileError::UnknownGroup(n));
+        }
+        if let Some(st) = &self.settled {
+            if let (Some((n, span, _)), false) = (self.groups.first(), st.scheduled) {
+                let e = UserError::new(*span, CompileError::GroupUnused(*n));
+                self.fail(stage::UNUSED, e);
+            }
+        }
+        if let Some((t, _)) = &self.decomposition {
+            if let Err(e) = balanced(t, CompileError::DecompositionUnbalanced) {
+                self.fail(stage::DECOMPOSITION, e);
+            }
+        }
+        let (hom_depth, hom_seed) = self.hom.unwrap_or((1, None));
+        if hom_depth > 1 {
+            if let Err(e) = balanced(&self.homomorphism, CompileError::HomomorphismUnbalanced) {
+                self.fail(stage::HOMOMORPHISM, e);
+            }
+        }
+        if let Some((_, e)) = self.error {
+            return Err(e);
+        }
+        let st = self.settled.expect("settings come first");
+        let cpfg = self.cpfg;
+        let done = |t: &mut Table| {
+            t.shrink();
+            if cpfg {
+                t.cpfg_order();
+            }
+        };
+        let mut productions = self.productions;
+        done(&mut productions);
+        let groups = self
+            .groups
+            .into_iter()
+            .map(|(n, _, mut t)| {
+                done(&mut t);
+                (n, t.with_fallback(&productions))
+            })
+            .collect();
+        let decomposition = self.decomposition.map(|(mut t, depth)| {
+            done(&mut t);
+            (t, depth)
+        });
+        let mut homomorphism = self.homomorphism;
+        done(&mut homomorphism);
+        let mut step_hidden = self.step_hidden;
+        step_hidden.sort_by_key(|h| h.0);
+        Ok(System {
+            alphabet: st.alphabet,
+            productions,
+            homomorphism,
+            derivation_length: st.derivation_length,
+            seed: st.seed,
+            consts: st.consts,
+            groups,
+            schedule: st.schedule,
+            group_expr: st.group_expr,
+            decomposition,
+            hom_depth,
+            hom_seed,
+            warnings: self.warnings,
+            step_hidden: step_hidden.into_iter().map(|h| h.1).collect(),
+            cpfg: cpfg.then(|| Box::new(crate::cpfg::run::CpfgRun::default())),
+            source_map: None,
+        })
+    }
+}
+
+impl HeaderSink for Compiler<'_> {
+    fn settings(&mut self, settings: Vec<Setting>) {
+        for s in &settings {
+            if let Setting::Define(name, _, span) = s {
+                if name == "step" {
+                    self.step_hidden.push((stage::SETTINGS, *span));
+                }
+            }
+        }
+        match self.settle(&settings) {
+            Ok(st) => self.settled = Some(st),
+            Err(e) => self.fail(stage::SETTINGS, e),
+        }
+    }
+
+    fn section(&mut self, start: SectionStart) {
+        self.section = start.kind;
+        let stage = self.stage();
+        match start.kind {
+            SectionKind::Group(0) => {}
+            SectionKind::Group(n) => self.groups.push((n, start.span, Table::default())),
+            SectionKind::Decomposition => {
+                self.warnings[0] = start.warnings;
+                self.decomposition = Some((Table::default(), 1));
+                if !self.open(stage) {
+                    return;
+                }
+                let consts = &self.settled.as_ref().unwrap().consts;
+                match section_settings(&start.settings, consts) {
+                    Ok((depth, None)) => self.decomposition = Some((Table::default(), depth)),
+                    Ok((_, Some(span))) => {
+                        self.fail(stage, UserError::new(span, CompileError::DecompositionSeed))
+                    }
+                    Err(e) => self.fail(stage, e),
+                }
+            }
+            SectionKind::Homomorphism => {
+                self.warnings[1] = start.warnings;
+                if !self.open(stage) {
+                    return;
+                }
+                let consts = &self.settled.as_ref().unwrap().consts;
+                let hom = section_settings(&start.settings, consts).and_then(|(depth, _)| {
+                    let seed = start
+                        .settings
+                        .iter()
+                        .find_map(|x| match x {
+                            ast::SectionSetting::Seed(e, _) => Some(e),
+                            _ => None,
+                        })
+                        .map(|e| seed_value(e, consts, self.src))
+                        .transpose()?;
+                    Ok((depth, seed))
+                });
+                match hom {
+                    Ok(h) => self.hom = Some(h),
+                    Err(e) => self.fail(stage, e),
+                }
+            }
+        }
+    }
+
+    fn production(&mut self, p: ast::Production) {
+        let stage = self.stage();
+        if !self.open(stage) {
+            return;
+        }
+        hidden_step_at(&p, stage, &mut self.step_hidden);
+        let st = self.settled.as_mut().unwrap();
+        let table = match self.section {
+            SectionKind::Group(0) => &mut self.productions,
+            SectionKind::Group(_) => &mut self.groups.last_mut().unwrap().2,
+            SectionKind::Decomposition => &mut self.decomposition.as_mut().unwrap().0,
+            SectionKind::Homomorphism => &mut self.homomorphism,
+        };
+        match compile_production(&p, &mut st.alphabet, &st.consts, &mut self.num, self.cpfg) {
+            Ok(cp) => table.push(cp),
+            Err(e) => self.fail(stage, e),
+        }
+    }
+}
+
+fn hidden_step_at(p: &ast::Production, stage: u8, out: &mut Vec<(u8, Span)>) {
+    let mut spans = Vec::new();
+    hidden_step(p, &mut spans);
+    out.extend(spans.into_iter().map(|s| (stage, s)));
+}
+
+/// Recursive rewriting does not track brackets: every successor of `t`
+/// must balance (each `]` after its `[`).
+fn balanced(t: &Table, kind: CompileError) -> R<()> {
+    match t
+        .prods
+        .iter()
+        .find(|p| p.depth_delta != 0 || p.depth_min < 0)
+    {
+        Some(p) => err(p.span(), kind),
+        None => Ok(()),
+    }
+}
+
+/// A decomposition or homomorphism section's `maximum depth:` (default 1)
+/// and where its `seed:` is, if any.
+fn section_settings(
+    settings: &[ast::SectionSetting],
+    consts: &HashMap<String, f64>,
+) -> R<(usize, Option<Span>)> {
+    let mut depth = None;
+    let mut seed = None;
+    for x in settings {
+        match x {
+            ast::SectionSetting::MaximumDepth(e, span) => {
+                if depth.is_some() {
+                    return err(*span, CompileError::MaximumDepthTwice);
+                }
+                let v = constant(e, consts, &mut Random::new(0))?;
+                if !(1.0..=10000.0).contains(&v) || v.fract() != 0.0 {
+                    return err(e.span(), CompileError::MaximumDepthRange);
+                }
+                depth = Some(v as usize);
+            }
+            ast::SectionSetting::Seed(_, span) => {
+                if seed.is_some() {
+                    return err(*span, CompileError::SetTwice("seed"));
+                }
+                seed = Some(*span);
+            }
+        }
+    }
+    Ok((depth.unwrap_or(1), seed))
+}
+
+fn bind_formals(m: &ast::Module, names: &mut HashMap<String, u32>, nslots: &mut usize) -> R<u32> {
+    let first = *nslots as u32;
+    for e in &m.params {
+        match e {
+            Expr::Var(name, span) => {
+                if names.insert(name.clone(), *nslots as u32).is_some() {
+                    return err(*span, CompileError::BoundTwice(name.clone()));
+                }
+                *nslots += 1;
+            }
+            other => return err(other.span(), CompileError::FormalNotName),
+        }
+    }
+    Ok(first)
+}
+
+fn compile_production(
+    p: &ast::Production,
+    alphabet: &mut Alphabet,
+    consts: &HashMap<String, f64>,
+    num: &mut codec::NumFmt,
+    cpfg: bool,
+) -> R<Production> {
+    let intern = |a: &mut Alphabet, m: &ast::Module| {
+        a.intern(m.sym, m.params.len())
+            .map_err(|e| UserError::new(m.span, e))
+    };
+    if matches!(p.pred.sym, '[' | ']') {
+        return err(p.pred.span, CompileError::BracketRewritten);
+    }
+    let mut names = HashMap::new();
+    let mut nslots = 0;
+    let key = intern(alphabet, &p.pred)?;
+    bind_formals(&p.pred, &mut names, &mut nslots)?;
+    let mut rest = Vec::new();
+    for m in &p.pred_rest {
+        if matches!(m.sym, '[' | ']') {
+            return err(m.span, CompileError::BracketRewritten);
+        }
+        let k = intern(alphabet, m)?;
+        let slot = bind_formals(m, &mut names, &mut nslots)?;
+        rest.push(Pat { key: k, slot });
+    }
+    let mut left = Vec::new();
+    for m in &p.left {
+        if matches!(m.sym, '[' | ']') {
+            return err(m.span, CompileError::LeftContextBracket);
+        }
+        let k = intern(alphabet, m)?;
+        let slot = bind_formals(m, &mut names, &mut nslots)?;
+        left.push(Pat { key: k, slot });
+    }
+    let mut right = Vec::new();
+    for m in &p.right {
+        match m.sym {
+            '[' | ']' if !m.params.is_empty() => return err(m.span, CompileError::BracketParams),
+            '[' => right.push(RPat::Open),
+            ']' => right.push(RPat::Close),
+            _ => {
+                let k = intern(alphabet, m)?;
+                let slot = bind_formals(m, &mut names, &mut nslots)?;
+                right.push(RPat::Module(Pat { key: k, slot }));
+            }
+        }
+    }
+    // The built-in step number, unless a parameter or constant hides it.
+    if !consts.contains_key("step") {
+        names.entry("step".to_string()).or_insert(expr::STEP_SLOT);
+    }
+    let cond = p
+        .cond
+        .as_ref()
+        .map(|e| compile_code_in(e, &names, consts, cpfg))
+        .transpose()?
+        // A condition folded to a non-zero constant always holds.
+        .filter(|c| c.constant().is_none_or(|v| v == 0.0))
+        .map(Box::new);
+    let prob = p
+        .prob
+        .as_ref()
+        .map(|e| compile_code_in(e, &names, consts, cpfg))
+        .transpose()?
+        .map(Box::new);
+    if let Some(w) = prob.as_ref().and_then(|c| c.constant()) {
+        if w < 0.0 {
+            return err(
+                prob.as_ref().unwrap().span,
+                CompileError::NegativeProbability(w),
+            );
+        }
+    }
+    let (succ, depth_delta, depth_min) =
+        compile_successor(&p.succ, alphabet, &names, consts, num, cpfg)?;
+    let right_simple = !right.is_empty() && right.iter().all(|r| matches!(r, RPat::Module(_)));
+    // (Depths and offsets fit: a header is at most 64 MiB.)
+    let narrow = |x: i64| i32::try_from(x).expect("a header under 2 GiB");
+    let offset = |x: usize| u32::try_from(x).expect("a header under 4 GiB");
+    Ok(Production {
+        key,
+        nslots,
+        left: exact(left),
+        right: exact(right),
+        right_simple,
+        cond,
+        prob,
+        succ: Succ::from(succ),
+        span: (offset(p.span.0), offset(p.span.1)),
+        depth_delta: narrow(depth_delta),
+        depth_min: narrow(depth_min),
+        cpfg: (!rest.is_empty()).then(|| {
+            Box::new(CpfgParts {
+                rest: exact(rest),
+                ..CpfgParts::default()
+            })
+        }),
+    })
+}
+
+/// Successor to items: runs of modules whose parameters are all constant
+/// become precomputed bytes.
+fn compile_successor(
+    succ: &[ast::Module],
+    alphabet: &mut Alphabet,
+    names: &HashMap<String, u32>,
+    consts: &HashMap<String, f64>,
+    num: &mut codec::NumFmt,
+    cpfg: bool,
+) -> R<(Vec<Item>, i64, i64)> {
+    let mut items = Vec::new();
+    let mut run = ConstBuilder::default();
+    let mut depth = 0i64;
+    let mut min = 0i64;
+    for m in succ {
+        let key = alphabet
+            .intern(m.sym, m.params.len())
+            .map_err(|e| UserError::new(m.span, e))?;
+        if m.params.is_empty() {
+            match m.sym {
+                '[' => depth += 1,
+                ']' => {
+                    depth -= 1;
+                    min = min.min(depth);
+                }
+                _ => {}
+            }
+        }
+        let codes = m
+            .params
+            .iter()
+            .map(|e| {
+                if cpfg {
+                    // cpfg stores parameters as 32-bit floats.
+                    let e = Expr::Call(CPFG_F32.to_string(), vec![e.clone()], e.span());
+                    compile_code_in(&e, names, consts, true)
+                } else {
+                    compile_code(e, names, consts)
+                }
+            })
+            .collect::<R<Vec<Code>>>()?;
+        let values: Option<Vec<f64>> = codes.iter().map(Code::constant).collect();
+        match values {
+            Some(vals) => run.push(key, &vals, alphabet, num),
+            None => {
+                if let Some(c) = run.take() {
+                    items.push(Item::Const(c));
+                }
+                items.push(Item::Module {
+                    key,
+                    params: exact(codes),
+                });
+            }
+        }
+    }
+    if let Some(c) = run.take() {
+        items.push(Item::Const(c));
+    }
+    Ok((items, depth, min))
+}
