@@ -11,6 +11,7 @@ pub(crate) mod bytetable;
 pub(crate) mod choose;
 pub(crate) mod context;
 pub mod dfs;
+pub(crate) mod handoff;
 pub mod meter;
 pub(crate) mod par;
 pub mod random;

@@ -1,0 +1,558 @@
+//! How the split's threads hand their text to the writer (`-j N`, issue
+//! 15), shared by both splits of [`super::par`]: each task's text reaches
+//! the calling thread in blocks, in task order ([`write_in_order`]); a
+//! task the writer has not reached keeps up to [`QUEUE`] blocks in memory
+//! ([`BUDGET`] for all such tasks) and beyond that, while the writer waits
+//! for the task it is on, spills to an unnamed file in the run's temporary
+//! directory ([`Current`]); a chunk's bracket balance is judged in order.
+
+use super::Out;
+use crate::diag::{Error, IoAction};
+use crate::rules::codec;
+use crate::rules::Alphabet;
+use std::cell::{Cell, RefCell};
+use std::fs::File;
+use std::os::unix::fs::FileExt;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::mpsc::{self, Receiver, SyncSender};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// A worker sends its text in blocks of about this size.
+pub(super) const CHUNK: usize = 256 << 10;
+/// Text blocks a task not being written keeps in memory, at most; the
+/// rest waits, or goes to a spill file until the writer reaches it.
+pub(super) const QUEUE: usize = 4;
+/// Text blocks kept in memory by all the tasks not being written, at
+/// most (about; beyond it they wait or spill).
+pub(super) const BUDGET: usize = 12;
+/// Judges each chunk's bracket balance ([`write_in_order`]).
+pub(super) type Judge<'j> = Option<&'j mut dyn FnMut(&super::split::Balance) -> Result<(), Error>>;
+
+/// The writer: each task's text, task after task, into `out`: its blocks
+/// as they come, and what it spilled while it was not the one written. With
+/// `reindex`, the blocks are binary modules without a bracket index, and
+/// their brackets go through `out`'s ([`super::split::put_indexed`]).
+/// `judge` judges each chunk's bracket balance.
+pub(super) fn write_in_order(
+    order_rx: Receiver<Receiver<Msg>>,
+    out: &mut Out,
+    shared: &Shared,
+    (reindex, mut judge): (Option<&Alphabet>, Judge),
+) -> Result<(), Error> {
+    let cpu = thread_cpu();
+    let (mut waited, mut idle) = (Duration::ZERO, Duration::ZERO);
+    let mut copy = Vec::new();
+    let mut seq = 0;
+    let r = loop {
+        let t = Instant::now();
+        let Ok(rx) = order_rx.recv() else {
+            break Ok(());
+        };
+        idle += t.elapsed();
+        shared.writing.store(seq, Ordering::SeqCst);
+        seq += 1;
+        let r = loop {
+            let msg = match rx.try_recv() {
+                Ok(msg) => Ok(msg),
+                Err(_) => {
+                    let t = Instant::now();
+                    shared.starving.store(true, Ordering::Relaxed);
+                    let msg = rx.recv();
+                    shared.starving.store(false, Ordering::Relaxed);
+                    waited += t.elapsed();
+                    msg
+                }
+            };
+            match msg {
+                Ok(Msg::Text(block)) => {
+                    shared.queued.fetch_sub(1, Ordering::Relaxed);
+                    let r = match reindex {
+                        Some(al) => super::split::put_indexed(out, &block, al)
+                            .and_then(|()| out.maybe_flush()),
+                        None => out.put_block(&block, 0),
+                    };
+                    if let Err(e) = r {
+                        break Err(e);
+                    }
+                    shared.recycle(block);
+                }
+                Ok(Msg::Spilled(file, len)) => {
+                    if let Err(e) = copy_spill(&file, (len, shared.chunk), &mut copy, out, reindex)
+                    {
+                        break Err(e);
+                    }
+                    shared.give_back(file);
+                }
+                Ok(Msg::End(modules)) => {
+                    // (Reindexed blocks are counted module by module.)
+                    out.extend(&[], if reindex.is_some() { 0 } else { modules });
+                    break Ok(());
+                }
+                Ok(Msg::Balance(b)) => {
+                    if let Some(judge) = &mut judge {
+                        if let Err(e) = judge(&b) {
+                            break Err(e);
+                        }
+                    }
+                }
+                Ok(Msg::Err(e)) => break Err(e),
+                Err(_) => break Err(Error::new(crate::diag::RuntimeError::WorkerStopped)),
+            }
+        };
+        if r.is_err() {
+            break r;
+        }
+    };
+    // Workers waiting for room must not wait for a writer that is gone.
+    shared.closed.store(true, Ordering::Relaxed);
+    if shared.debug {
+        crate::diag::eprint(&format!(
+            "lsgen: par: writer: cpu {:.3} s, waited {:.3} s for text, {:.3} s for tasks; {seq} tasks\n",
+            (thread_cpu() - cpu).as_secs_f64(),
+            waited.as_secs_f64(),
+            idle.as_secs_f64(),
+        ));
+    }
+    r
+}
+
+/// Write the `len` bytes of a spill file into `out`, through `buf`, in
+/// pieces of `piece` bytes (a block: small in tests) (with
+/// `reindex`, its brackets through `out`'s index: [`super::split::put_indexed`]).
+pub(super) fn copy_spill(
+    file: &File,
+    (len, piece): (u64, usize),
+    buf: &mut Vec<u8>,
+    out: &mut Out,
+    reindex: Option<&Alphabet>,
+) -> Result<(), Error> {
+    let read = |buf: &mut [u8], at: u64| {
+        file.read_exact_at(buf, at)
+            .map_err(|e| Error::io("temporary file", IoAction::Read, e))
+    };
+    let Some(al) = reindex else {
+        buf.resize(piece, 0);
+        let mut at = 0;
+        while at < len {
+            let want = (len - at).min(piece as u64) as usize;
+            read(&mut buf[..want], at)?;
+            out.put_block(&buf[..want], 0)?;
+            at += want as u64;
+        }
+        return Ok(());
+    };
+    // Reindexed: whole modules only, so a module cut by the end of a read
+    // waits in `buf` for the rest of its bytes.
+    buf.clear();
+    let mut at = 0;
+    loop {
+        let keep = buf.len();
+        let want = (len - at).min(piece as u64) as usize;
+        buf.resize(keep + want, 0);
+        read(&mut buf[keep..], at)?;
+        at += want as u64;
+        let last = at == len;
+        let used = super::split::put_indexed_part(out, buf, al, last)?;
+        out.maybe_flush()?;
+        buf.drain(..used);
+        if last {
+            return Ok(());
+        }
+    }
+}
+
+/// This thread's CPU time.
+pub(super) fn thread_cpu() -> Duration {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid timespec for the call to fill.
+    let ok = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) } == 0;
+    if ok {
+        Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
+    } else {
+        Duration::ZERO
+    }
+}
+
+/// Where a task's text goes: its number in string order, and its channel
+/// to the writer.
+pub(super) type Slot = (u64, SyncSender<Msg>);
+
+/// The workers' end of a queue.
+pub(super) type Queue<T> = Mutex<Receiver<(T, Slot)>>;
+
+/// What a task sends to the writer.
+pub(super) enum Msg {
+    Text(Vec<u8>),
+    /// Text the task wrote to a spill file (from offset 0) before the
+    /// writer reached it; the file goes back to [`Shared::spills`].
+    Spilled(File, u64),
+    /// The task is complete: its number of modules.
+    End(u64),
+    /// A chunk's bracket balance (sent before its end or error).
+    Balance(Box<super::split::Balance>),
+    Err(Error),
+}
+
+/// What the writer, the producer and the workers share.
+pub(super) struct Shared<'a> {
+    /// The number of the task being written.
+    pub(super) writing: AtomicU64,
+    /// Text blocks sent and not yet written.
+    pub(super) queued: AtomicUsize,
+    /// The writer is waiting for text of the task it is on.
+    pub(super) starving: AtomicBool,
+    /// The writer has stopped (done, or on an error).
+    pub(super) closed: AtomicBool,
+    /// Written blocks, for reuse.
+    pub(super) pool: Mutex<Vec<Vec<u8>>>,
+    /// Emptied spill files, for reuse.
+    pub(super) spills: Mutex<Vec<File>>,
+    /// Where spill files are made (the run's `--tmpdir`).
+    pub(super) tmpdir: &'a Option<PathBuf>,
+    /// `LSGEN_DEBUG_PAR`: each thread reports its CPU time and waits.
+    pub(super) debug: bool,
+    /// The size of a block, the blocks a task not being written keeps in
+    /// memory and all such tasks keep: [`CHUNK`], [`QUEUE`] and
+    /// [`BUDGET`], or for tests (`LSGEN_TEST_SPILL=N`) N bytes, 1 and 1,
+    /// so that small strings spill.
+    pub(super) chunk: usize,
+    pub(super) queue: usize,
+    pub(super) budget: usize,
+    /// Spill as soon as there is no room in memory (tests).
+    pub(super) eager: bool,
+}
+
+impl<'a> Shared<'a> {
+    pub(super) fn new(tmpdir: &'a Option<PathBuf>) -> Self {
+        let test = std::env::var("LSGEN_TEST_SPILL")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .filter(|&n| n > 0);
+        let (chunk, queue, budget) = test.map_or((CHUNK, QUEUE, BUDGET), |n| (n, 1, 1));
+        Shared {
+            writing: AtomicU64::new(0),
+            queued: AtomicUsize::new(0),
+            starving: AtomicBool::new(false),
+            closed: AtomicBool::new(false),
+            pool: Mutex::default(),
+            spills: Mutex::default(),
+            tmpdir,
+            debug: std::env::var_os("LSGEN_DEBUG_PAR").is_some_and(|v| v == "1"),
+            chunk,
+            queue,
+            budget,
+            eager: test.is_some(),
+        }
+    }
+
+    /// An empty block, written before if there is one.
+    pub(super) fn block(&self) -> Vec<u8> {
+        let b = self.pool.lock().ok().and_then(|mut p| p.pop());
+        let mut b = b.unwrap_or_else(|| Vec::with_capacity(CHUNK + codec::MAX_MODULE_BYTES * 4));
+        b.clear();
+        b
+    }
+
+    /// Keep a written block for reuse (a few).
+    pub(super) fn recycle(&self, block: Vec<u8>) {
+        if let Ok(mut pool) = self.pool.lock() {
+            if pool.len() < self.budget + self.queue {
+                pool.push(block);
+            }
+        }
+    }
+
+    /// A spill file, emptied.
+    pub(super) fn spill_file(&self) -> Result<File, Error> {
+        match self.spills.lock().ok().and_then(|mut s| s.pop()) {
+            Some(f) => Ok(f),
+            None => super::tempfile(self.tmpdir),
+        }
+    }
+
+    /// Empty a spill file and keep it for reuse (or drop it).
+    pub(super) fn give_back(&self, file: File) {
+        if file.set_len(0).is_ok() {
+            if let Ok(mut s) = self.spills.lock() {
+                s.push(file);
+            }
+        }
+    }
+}
+
+/// The producer's end of the writer's queue: numbers the tasks.
+pub(super) struct Order<'a> {
+    pub(super) tx: SyncSender<Receiver<Msg>>,
+    pub(super) next: Cell<u64>,
+    pub(super) waited: Cell<Duration>,
+    pub(super) cpu: Duration,
+    pub(super) shared: &'a Shared<'a>,
+}
+
+impl<'a> Order<'a> {
+    pub(super) fn new(tx: SyncSender<Receiver<Msg>>, shared: &'a Shared<'a>) -> Self {
+        Order {
+            tx,
+            next: Cell::new(0),
+            waited: Cell::new(Duration::ZERO),
+            cpu: thread_cpu(),
+            shared,
+        }
+    }
+
+    /// The next task's slot, its channel queued for the writer (waiting
+    /// while [`IN_FLIGHT`] tasks per thread are ahead of it); None when
+    /// the writer is gone.
+    pub(super) fn open(&self) -> Option<Slot> {
+        // Room for QUEUE blocks, a chunk's balance, the spill file and the end: a task not
+        // being written never waits for the writer.
+        let (tx, rx) = mpsc::sync_channel(QUEUE + 3);
+        let t = Instant::now();
+        let sent = self.tx.send(rx).is_ok();
+        self.waited.set(self.waited.get() + t.elapsed());
+        let seq = self.next.get();
+        self.next.set(seq + 1);
+        sent.then_some((seq, tx))
+    }
+
+    /// `e` in place of the next task.
+    pub(super) fn fail(&self, e: Error) {
+        if let Some((_, tx)) = self.open() {
+            let _ = tx.send(Msg::Err(e));
+        }
+    }
+
+    pub(super) fn report(&self) {
+        if self.shared.debug {
+            crate::diag::eprint(&format!(
+                "lsgen: par: producer: cpu {:.3} s, waited {:.3} s for the writer; {} tasks\n",
+                (thread_cpu() - self.cpu).as_secs_f64(),
+                self.waited.get().as_secs_f64(),
+                self.next.get(),
+            ));
+        }
+    }
+}
+
+/// The task a worker is on, and how its text reaches the writer: while
+/// the writer is on the task, blocks go to its channel (waiting when it
+/// is full); before, up to [`QUEUE`] blocks (and [`BUDGET`] in all) go to
+/// the channel, and the rest, while the writer waits for text of the task
+/// it is on, to a spill file, handed to the writer when it reaches the
+/// task or at the task's end (while the writer is busy, the worker waits
+/// instead). So memory stays bounded, and a worker waits for the writer
+/// only while the writer is the bottleneck.
+pub(super) struct Current<'a> {
+    pub(super) tx: RefCell<Option<SyncSender<Msg>>>,
+    pub(super) seq: Cell<u64>,
+    /// Blocks sent before the writer reached the task.
+    pub(super) ahead: Cell<usize>,
+    /// Bytes of text of the task so far.
+    pub(super) bytes: Cell<u64>,
+    /// The spill file and its length.
+    pub(super) spill: RefCell<Option<(File, u64)>>,
+    /// A spill file's error (reported as such, not as the output's).
+    pub(super) spill_err: RefCell<Option<Error>>,
+    pub(super) shared: &'a Shared<'a>,
+    // For `LSGEN_DEBUG_PAR`.
+    pub(super) cpu: Duration,
+    pub(super) waited: Cell<Duration>,
+    pub(super) idle: Cell<Duration>,
+    pub(super) spilled: Cell<u64>,
+    pub(super) tasks: Cell<u64>,
+    pub(super) largest: Cell<u64>,
+    pub(super) spills: Cell<u64>,
+    pub(super) spills_failed: Cell<u64>,
+}
+
+impl<'a> Current<'a> {
+    pub(super) fn new(shared: &'a Shared<'a>) -> Self {
+        Current {
+            tx: RefCell::new(None),
+            seq: Cell::new(0),
+            ahead: Cell::new(0),
+            bytes: Cell::new(0),
+            spill: RefCell::new(None),
+            spill_err: RefCell::new(None),
+            shared,
+            cpu: thread_cpu(),
+            waited: Cell::new(Duration::ZERO),
+            idle: Cell::new(Duration::ZERO),
+            spilled: Cell::new(0),
+            tasks: Cell::new(0),
+            largest: Cell::new(0),
+            spills: Cell::new(0),
+            spills_failed: Cell::new(0),
+        }
+    }
+
+    /// The next task from `queue`, None when there are no more.
+    pub(super) fn next<T>(&self, queue: &Queue<T>) -> Option<(T, Slot)> {
+        let t = Instant::now();
+        let next = match queue.lock() {
+            Ok(rx) => rx.recv().ok(),
+            Err(_) => None,
+        };
+        self.idle.set(self.idle.get() + t.elapsed());
+        next
+    }
+
+    pub(super) fn start(&self, (seq, tx): Slot) {
+        *self.tx.borrow_mut() = Some(tx);
+        self.seq.set(seq);
+        self.ahead.set(0);
+        self.bytes.set(0);
+        self.tasks.set(self.tasks.get() + 1);
+    }
+
+    /// The task is done (its number of modules) or failed: tell the
+    /// writer, after what the task spilled.
+    pub(super) fn end(&self, r: Result<u64, Error>, balance: Option<Box<super::split::Balance>>) {
+        let spill = self.spill.borrow_mut().take();
+        let err = self.spill_err.borrow_mut().take();
+        self.largest.set(self.largest.get().max(self.bytes.get()));
+        let Some(tx) = self.tx.borrow_mut().take() else {
+            return;
+        };
+        if let Some(b) = balance {
+            if tx.send(Msg::Balance(b)).is_err() {
+                return;
+            }
+        }
+        match r {
+            Ok(modules) => {
+                if let Some((file, len)) = spill {
+                    if tx.send(Msg::Spilled(file, len)).is_err() {
+                        return;
+                    }
+                }
+                let _ = tx.send(Msg::End(modules));
+            }
+            Err(e) => {
+                if let Some((file, _)) = spill {
+                    self.spills_failed.set(self.spills_failed.get() + 1);
+                    self.shared.give_back(file);
+                }
+                let _ = tx.send(Msg::Err(err.unwrap_or(e)));
+            }
+        }
+    }
+
+    /// Send `block` of the task's text on its way to the writer.
+    pub(super) fn send(&self, block: Vec<u8>) -> std::io::Result<()> {
+        let gone = || std::io::Error::from(std::io::ErrorKind::BrokenPipe);
+        let tx = self.tx.borrow();
+        let tx = tx.as_ref().ok_or_else(gone)?;
+        let shared = self.shared;
+        let mut since = None;
+        loop {
+            if shared.writing.load(Ordering::SeqCst) == self.seq.get() {
+                // Being written: what was spilled first, then the block,
+                // waiting while the channel is full.
+                let t = *since.get_or_insert_with(Instant::now);
+                if let Some((file, len)) = self.spill.borrow_mut().take() {
+                    tx.send(Msg::Spilled(file, len)).map_err(|_| gone())?;
+                }
+                shared.queued.fetch_add(1, Ordering::Relaxed);
+                tx.send(Msg::Text(block)).map_err(|_| gone())?;
+                self.waited.set(self.waited.get() + t.elapsed());
+                return Ok(());
+            }
+            let spilling = self.spill.borrow().is_some();
+            if !spilling
+                && self.ahead.get() < shared.queue
+                && shared.queued.load(Ordering::Relaxed) < shared.budget
+            {
+                // (Never waits: the channel has room for QUEUE blocks.)
+                self.ahead.set(self.ahead.get() + 1);
+                shared.queued.fetch_add(1, Ordering::Relaxed);
+                if let Some(t) = since {
+                    self.waited.set(self.waited.get() + t.elapsed());
+                }
+                return tx.send(Msg::Text(block)).map_err(|_| gone());
+            }
+            // No room in memory. While the writer is waiting for the task
+            // it is on, spill: that task is the bottleneck, and this
+            // worker must not wait for it. Otherwise the writer is busy
+            // (the bottleneck itself): spilling would only add to its
+            // work, so wait a little for it.
+            if shared.eager || shared.starving.load(Ordering::Relaxed) {
+                if let Some(t) = since {
+                    self.waited.set(self.waited.get() + t.elapsed());
+                }
+                return self.spill(block);
+            }
+            if shared.closed.load(Ordering::Relaxed) {
+                return Err(gone());
+            }
+            since.get_or_insert_with(Instant::now);
+            std::thread::sleep(Duration::from_micros(100));
+        }
+    }
+
+    /// Append `block` to the task's spill file.
+    pub(super) fn spill(&self, block: Vec<u8>) -> std::io::Result<()> {
+        let mut spill = self.spill.borrow_mut();
+        if spill.is_none() {
+            match self.shared.spill_file() {
+                Ok(f) => {
+                    *spill = Some((f, 0));
+                    self.spills.set(self.spills.get() + 1);
+                }
+                Err(e) => return Err(self.failed(e)),
+            }
+        }
+        let (file, len) = spill.as_mut().expect("a spill file");
+        if let Err(e) = file.write_all_at(&block, *len) {
+            let e = Error::io("temporary file", IoAction::Write, e);
+            return Err(self.failed(e));
+        }
+        *len += block.len() as u64;
+        self.spilled.set(self.spilled.get() + block.len() as u64);
+        self.shared.recycle(block);
+        Ok(())
+    }
+
+    /// Keep `e` to report, and fail the write.
+    pub(super) fn failed(&self, e: Error) -> std::io::Error {
+        *self.spill_err.borrow_mut() = Some(e);
+        std::io::Error::other("spill file")
+    }
+
+    pub(super) fn report(&self) {
+        if self.shared.debug {
+            let name = std::thread::current()
+                .name()
+                .unwrap_or("worker")
+                .to_string();
+            crate::diag::eprint(&format!(
+                "lsgen: par: {name}: cpu {:.3} s, waited {:.3} s for the writer, {:.3} s for tasks; \
+                 {} tasks (largest {} bytes), {} spilled {} bytes, {} failed after spilling\n",
+                (thread_cpu() - self.cpu).as_secs_f64(),
+                self.waited.get().as_secs_f64(),
+                self.idle.get().as_secs_f64(),
+                self.tasks.get(),
+                self.largest.get(),
+                self.spills.get(),
+                self.spilled.get(),
+                self.spills_failed.get(),
+            ));
+        }
+    }
+}
+
+impl super::sink::Take for Current<'_> {
+    fn take(&self, buf: &mut Vec<u8>) -> std::io::Result<()> {
+        if buf.is_empty() {
+            return Ok(());
+        }
+        self.bytes.set(self.bytes.get() + buf.len() as u64);
+        let block = std::mem::replace(buf, self.shared.block());
+        self.send(block)
+    }
+}
