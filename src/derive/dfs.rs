@@ -392,6 +392,27 @@ impl<'t> Level<'t> {
         }
     }
 
+    /// Append successor piece `item` of `prod`: a constant run the plan
+    /// marks inert `now` as one inert item, anything else as its modules.
+    #[inline(always)]
+    fn push_piece(
+        &mut self,
+        piece: Piece,
+        (prod, item, now): (&'t Production, usize, bool),
+        al: &Alphabet,
+    ) {
+        match piece {
+            Piece::Const(c) => match now {
+                true => match run_at(prod, item) {
+                    Some(r) => self.push_inert(r),
+                    None => self.push_bin(c.bin(), al),
+                },
+                false => self.push_bin(c.bin(), al),
+            },
+            Piece::Module(key, vals) => self.modules.push(key, vals),
+        }
+    }
+
     /// Append a constant run that stays as it is until the end.
     fn push_inert(&mut self, c: &'t ConstRun) {
         self.modules.keys.push(INERT);
@@ -561,16 +582,7 @@ impl<'t> ParamPlan<'t> {
                 let first = inert.first(pi);
                 let mut item = 0;
                 ch.successor(p, prod, &mut rng, origin, pass, |piece| {
-                    match piece {
-                        Piece::Const(c) => match inert.is(first + item, NOW) {
-                            true => match run_at(prod, item) {
-                                Some(r) => next.push_inert(r),
-                                None => next.push_bin(c.bin(), al),
-                            },
-                            false => next.push_bin(c.bin(), al),
-                        },
-                        Piece::Module(key, vals) => next.modules.push(key, vals),
-                    }
+                    next.push_piece(piece, (prod, item, inert.is(first + item, NOW)), al);
                     item += 1;
                     Ok(())
                 })?;
@@ -753,16 +765,7 @@ impl<'p, 't> Walker<'p, 't> {
             let first = inert.first(pi);
             let mut item = 0;
             ch.successor(p, prod, rng, origin, pass, |piece| {
-                match piece {
-                    Piece::Const(c) => match inert.is(first + item, NOW) {
-                        true => match run_at(prod, item) {
-                            Some(r) => next.push_inert(r),
-                            None => next.push_bin(c.bin(), al),
-                        },
-                        false => next.push_bin(c.bin(), al),
-                    },
-                    Piece::Module(key, vals) => next.modules.push(key, vals),
-                }
+                next.push_piece(piece, (prod, item, inert.is(first + item, NOW)), al);
                 item += 1;
                 Ok(())
             })?;
