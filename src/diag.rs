@@ -29,23 +29,35 @@ impl<'a> CodeMap<'a> {
     /// Location of byte `offset`: line and column (both 1-based, column in
     /// characters) plus the text of that line.
     pub fn locate(&self, offset: usize) -> (usize, usize, &'a str) {
-        let offset = offset.min(self.text.len());
-        let idx = match self.line_starts.binary_search(&offset) {
-            Ok(i) => i,
-            Err(i) => i - 1,
-        };
-        let start = self.line_starts[idx];
-        let end = self.text[start..]
-            .find('\n')
-            .map_or(self.text.len(), |e| start + e);
-        let line = &self.text[start..end];
-        let line = line.strip_suffix('\r').unwrap_or(line);
-        // The `\r` of a CRLF line end is not a column: an error at the end
-        // of the line sits just after its last character.
-        let offset = offset.min(start + line.len());
-        let col = self.text[start..offset].chars().count() + 1;
+        let (idx, col, line) = line_col(self.text, &self.line_starts, offset);
         (self.first_line + idx, col, line)
     }
+}
+
+/// The line of byte `offset` of `text` (lines starting at `line_starts`):
+/// its index (0-based), the column (1-based, in characters) and its text
+/// without the line end. The `\r` of a CRLF line end is not a column: an
+/// error at the end of the line sits just after its last character. An
+/// offset inside a character counts that character once. One copy for
+/// both dialects (the cpfg preprocessor's source files too).
+pub(crate) fn line_col<'t>(
+    text: &'t str,
+    line_starts: &[usize],
+    offset: usize,
+) -> (usize, usize, &'t str) {
+    let offset = offset.min(text.len());
+    let idx = line_starts.partition_point(|&s| s <= offset) - 1;
+    let start = line_starts[idx];
+    let end = text[start..].find('\n').map_or(text.len(), |e| start + e);
+    let line = &text[start..end];
+    let line = line.strip_suffix('\r').unwrap_or(line);
+    let offset = offset.min(start + line.len());
+    let col = text.as_bytes()[start..offset]
+        .iter()
+        .filter(|&&b| (b & 0xC0) != 0x80)
+        .count()
+        + 1;
+    (idx, col, line)
 }
 
 /// A located error: where, and the source line to show.
@@ -337,6 +349,23 @@ pub fn caret_pad(snippet: &str, caret_col: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn line_col_counts_characters_and_not_the_cr_of_a_crlf_end() {
+        let text = "ab\r\nxé\u{4e2d}z\r\nlast";
+        let starts = [0, 4, 13];
+        // 'a', the end of line 1 (its '\r', then its '\n').
+        assert_eq!(line_col(text, &starts, 0), (0, 1, "ab"));
+        assert_eq!(line_col(text, &starts, 2), (0, 3, "ab"));
+        assert_eq!(line_col(text, &starts, 3), (0, 3, "ab"));
+        // 'z' after a 2-byte and a 3-byte character; inside the 3-byte one.
+        assert_eq!(line_col(text, &starts, 10), (1, 4, "xé\u{4e2d}z"));
+        assert_eq!(line_col(text, &starts, 8), (1, 4, "xé\u{4e2d}z"));
+        // Past the end: the last line's end.
+        assert_eq!(line_col(text, &starts, 99), (2, 5, "last"));
+        let map = CodeMap::new(text);
+        assert_eq!(map.locate(3), (1, 3, "ab"));
+    }
 
     #[test]
     fn errors_are_std_errors_and_keep_the_io_source() {

@@ -64,19 +64,7 @@ impl SourceFile {
     /// Line, column (1-based, column in characters) and line text of a
     /// byte offset of the original text.
     pub(super) fn line_col(&self, off: usize) -> (usize, usize, &str) {
-        let off = off.min(self.text.len());
-        let idx = self.line_starts.partition_point(|&s| s <= off) - 1;
-        let start = self.line_starts[idx];
-        let end = self.text[start..]
-            .find('\n')
-            .map_or(self.text.len(), |e| start + e);
-        let line = &self.text[start..end];
-        let line = line.strip_suffix('\r').unwrap_or(line);
-        let col = self.text.as_bytes()[start..off]
-            .iter()
-            .filter(|&&b| (b & 0xC0) != 0x80)
-            .count()
-            + 1;
+        let (idx, col, line) = crate::diag::line_col(&self.text, &self.line_starts, off);
         (idx + 1, col, line)
     }
 
