@@ -12,6 +12,10 @@ set -euo pipefail
 cd "$(dirname "$0")/workloads"
 [ $# -ge 1 ] || { echo "usage: benches/callgrind.sh BIN [BIN...]" >&2; exit 2; }
 tmp=$(mktemp -d)
+# One thread (LSGEN_JOBS=1; 9bc7f68 ignores it): callgrind adds up every
+# thread's instructions, so these rows compare the one-thread engine; the
+# parallel split's extra work is measured apart (benches/RESULTS.md).
+export LSGEN_JOBS=1
 trap 'rm -rf "$tmp"' EXIT
 # name | file | -n | axiom generator and its -n (or -)
 rows=(
