@@ -425,7 +425,7 @@ impl Production {
 
 /// The productions of one key, in file order, split by kind (numbers in
 /// the table's `prods`): lists of their exact size, made once the table is
-/// complete ([`Table::index`]), no spare capacity (a header may name
+/// complete (`Table::index`), no spare capacity (a header may name
 /// millions of symbols).
 #[derive(Clone, Debug, Default)]
 pub struct KeyRules {
