@@ -116,6 +116,12 @@ impl<'f> Scan<'f> {
             level: self.level,
         };
         let (start, first) = (self.start, self.index);
+        let chunk = |end| Chunk {
+            start,
+            end,
+            first,
+            at,
+        };
         // Cut once the chunk reaches this offset.
         let stop = start + self.size;
         let open_len = self.rd.open_len();
@@ -173,24 +179,14 @@ impl<'f> Scan<'f> {
             if i > 0 {
                 if end >= stop {
                     self.start = end;
-                    return Ok(Some(Chunk {
-                        start,
-                        end,
-                        first,
-                        at,
-                    }));
+                    return Ok(Some(chunk(end)));
                 }
                 continue;
             }
             let Some((key, s, e)) = self.rd.next_module(al)? else {
                 self.done = true;
                 let end = self.rd.offset();
-                return Ok((end > start).then_some(Chunk {
-                    start,
-                    end,
-                    first,
-                    at,
-                }));
+                return Ok((end > start).then(|| chunk(end)));
             };
             self.index += 1;
             if key == OPEN {
@@ -204,12 +200,7 @@ impl<'f> Scan<'f> {
             let end = self.rd.offset();
             if end - start >= self.size {
                 self.start = end;
-                return Ok(Some(Chunk {
-                    start,
-                    end,
-                    first,
-                    at,
-                }));
+                return Ok(Some(chunk(end)));
             }
         }
     }
