@@ -453,13 +453,10 @@ pub(crate) fn thread_times() -> bool {
     std::env::var_os("LSGEN_THREAD_TIMES").is_some_and(|v| v == "1")
 }
 
-/// Nanoseconds the calling thread has run on a CPU (Linux's
-/// /proc/thread-self/schedstat; 0 where there is none).
+/// Nanoseconds the calling thread has run on a CPU (the one thread clock,
+/// [`super::handoff::thread_cpu`], shared with `LSGEN_DEBUG_PAR`).
 pub(crate) fn thread_cpu_ns() -> u64 {
-    std::fs::read_to_string("/proc/thread-self/schedstat")
-        .ok()
-        .and_then(|s| s.split_whitespace().next()?.parse().ok())
-        .unwrap_or(0)
+    super::handoff::thread_cpu().as_nanos() as u64
 }
 
 /// One line per split pass: the CPU time (ms) of the producer, the
