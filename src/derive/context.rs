@@ -600,7 +600,9 @@ pub(crate) fn skip_branch(
         if key == OPEN {
             if peek.indexed {
                 // Jump over the nested branch.
-                let end = u64::from_le_bytes(peek.buf[s + 1..s + 9].try_into().unwrap());
+                let Some(end) = peek.indexed_end(s) else {
+                    return Ok(None); // never closed: nor is this branch
+                };
                 peek.seek(end);
                 continue;
             }

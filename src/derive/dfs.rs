@@ -422,16 +422,7 @@ impl<'t> Level<'t> {
 }
 
 fn deterministic_free(t: &Table) -> bool {
-    !t.has_context()
-        && !t.check_balance
-        && t.prods.iter().all(|p| {
-            p.prob.is_none()
-                && !p.cond.as_ref().is_some_and(|c| c.uses_random())
-                && p.succ.iter().all(|i| match i {
-                    Item::Const(_) => true,
-                    Item::Module { params, .. } => params.iter().all(|c| !c.uses_random()),
-                })
-        })
+    !t.has_context() && !t.check_balance && !t.may_draw()
 }
 
 impl<'t> ParamPlan<'t> {

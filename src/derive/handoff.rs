@@ -9,7 +9,6 @@
 use super::Out;
 use crate::diag::{Error, IoAction};
 use crate::rules::codec;
-use crate::rules::Alphabet;
 use std::cell::{Cell, RefCell};
 use std::fs::File;
 use std::os::unix::fs::FileExt;
@@ -31,15 +30,14 @@ pub(super) const BUDGET: usize = 12;
 pub(super) type Judge<'j> = Option<&'j mut dyn FnMut(&super::split::Balance) -> Result<(), Error>>;
 
 /// The writer: each task's text, task after task, into `out`: its blocks
-/// as they come, and what it spilled while it was not the one written. With
-/// `reindex`, the blocks are binary modules without a bracket index, and
-/// their brackets go through `out`'s ([`super::split::put_indexed`]).
+/// as they come, and what it spilled while it was not the one written; a
+/// chunk's bracket index is completed where it ends ([`Msg::Index`]).
 /// `judge` judges each chunk's bracket balance.
 pub(super) fn write_in_order(
     order_rx: Receiver<Receiver<Msg>>,
     out: &mut Out,
     shared: &Shared,
-    (reindex, mut judge): (Option<&Alphabet>, Judge),
+    mut judge: Judge,
 ) -> Result<(), Error> {
     let cpu = thread_cpu();
     let (mut waited, mut idle) = (Duration::ZERO, Duration::ZERO);
@@ -53,6 +51,8 @@ pub(super) fn write_in_order(
         idle += t.elapsed();
         shared.writing.store(seq, Ordering::SeqCst);
         seq += 1;
+        // Where the task's text starts, for its bracket index.
+        let base = out.position();
         let r = loop {
             let msg = match rx.try_recv() {
                 Ok(msg) => Ok(msg),
@@ -68,26 +68,24 @@ pub(super) fn write_in_order(
             match msg {
                 Ok(Msg::Text(block)) => {
                     shared.queued.fetch_sub(1, Ordering::Relaxed);
-                    let r = match reindex {
-                        Some(al) => super::split::put_indexed(out, &block, al)
-                            .and_then(|()| out.maybe_flush()),
-                        None => out.put_block(&block, 0),
-                    };
-                    if let Err(e) = r {
+                    if let Err(e) = out.put_block(&block, 0) {
                         break Err(e);
                     }
                     shared.recycle(block);
                 }
                 Ok(Msg::Spilled(file, len)) => {
-                    if let Err(e) = copy_spill(&file, (len, shared.chunk), &mut copy, out, reindex)
-                    {
+                    if let Err(e) = copy_spill(&file, (len, shared.chunk), &mut copy, out) {
                         break Err(e);
                     }
                     shared.give_back(file);
                 }
+                Ok(Msg::Index(ci)) => {
+                    if let Err(e) = out.apply(&ci, base) {
+                        break Err(e);
+                    }
+                }
                 Ok(Msg::End(modules)) => {
-                    // (Reindexed blocks are counted module by module.)
-                    out.extend(&[], if reindex.is_some() { 0 } else { modules });
+                    out.extend(&[], modules);
                     break Ok(());
                 }
                 Ok(Msg::Balance(b)) => {
@@ -119,48 +117,23 @@ pub(super) fn write_in_order(
 }
 
 /// Write the `len` bytes of a spill file into `out`, through `buf`, in
-/// pieces of `piece` bytes (a block: small in tests) (with
-/// `reindex`, its brackets through `out`'s index: [`super::split::put_indexed`]).
+/// pieces of `piece` bytes (a block: small in tests).
 pub(super) fn copy_spill(
     file: &File,
     (len, piece): (u64, usize),
     buf: &mut Vec<u8>,
     out: &mut Out,
-    reindex: Option<&Alphabet>,
 ) -> Result<(), Error> {
-    let read = |buf: &mut [u8], at: u64| {
-        file.read_exact_at(buf, at)
-            .map_err(|e| Error::io("temporary file", IoAction::Read, e))
-    };
-    let Some(al) = reindex else {
-        buf.resize(piece, 0);
-        let mut at = 0;
-        while at < len {
-            let want = (len - at).min(piece as u64) as usize;
-            read(&mut buf[..want], at)?;
-            out.put_block(&buf[..want], 0)?;
-            at += want as u64;
-        }
-        return Ok(());
-    };
-    // Reindexed: whole modules only, so a module cut by the end of a read
-    // waits in `buf` for the rest of its bytes.
-    buf.clear();
+    buf.resize(piece, 0);
     let mut at = 0;
-    loop {
-        let keep = buf.len();
+    while at < len {
         let want = (len - at).min(piece as u64) as usize;
-        buf.resize(keep + want, 0);
-        read(&mut buf[keep..], at)?;
+        file.read_exact_at(&mut buf[..want], at)
+            .map_err(|e| Error::io("temporary file", IoAction::Read, e))?;
+        out.put_block(&buf[..want], 0)?;
         at += want as u64;
-        let last = at == len;
-        let used = super::split::put_indexed_part(out, buf, al, last)?;
-        out.maybe_flush()?;
-        buf.drain(..used);
-        if last {
-            return Ok(());
-        }
     }
+    Ok(())
 }
 
 /// This thread's CPU time.
@@ -195,6 +168,9 @@ pub(super) enum Msg {
     End(u64),
     /// A chunk's bracket balance (sent before its end or error).
     Balance(Box<super::split::Balance>),
+    /// What of a chunk's bracket index its worker left to the writer (sent
+    /// after all its text, before its end).
+    Index(Box<super::sink::ChunkIndex>),
     Err(Error),
 }
 
@@ -412,7 +388,12 @@ impl<'a> Current<'a> {
 
     /// The task is done (its number of modules) or failed: tell the
     /// writer, after what the task spilled.
-    pub(super) fn end(&self, r: Result<u64, Error>, balance: Option<Box<super::split::Balance>>) {
+    pub(super) fn end(
+        &self,
+        r: Result<u64, Error>,
+        balance: Option<Box<super::split::Balance>>,
+        index: Option<Box<super::sink::ChunkIndex>>,
+    ) {
         let spill = self.spill.borrow_mut().take();
         let err = self.spill_err.borrow_mut().take();
         self.largest.set(self.largest.get().max(self.bytes.get()));
@@ -428,6 +409,11 @@ impl<'a> Current<'a> {
             Ok(modules) => {
                 if let Some((file, len)) = spill {
                     if tx.send(Msg::Spilled(file, len)).is_err() {
+                        return;
+                    }
+                }
+                if let Some(ci) = index {
+                    if tx.send(Msg::Index(ci)).is_err() {
                         return;
                     }
                 }

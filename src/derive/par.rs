@@ -154,6 +154,8 @@ pub(crate) fn step_pass(
     let draws = &draws;
     let shared = &Shared::new(tmpdir);
     let text = out.text;
+    // The workers write the output's bracket index where they can.
+    let out_index = (out.indexed, out.counts());
     let al = &d.alphabet;
     let counts = d.counts;
     let times = super::split::thread_times().then(super::split::CpuTimes::default);
@@ -183,6 +185,9 @@ pub(crate) fn step_pass(
                     let current = Current::new(shared);
                     let mut sink = std::io::sink();
                     let mut out = Out::new(&mut sink, "output", text, super::Limits::default());
+                    if out_index.0 {
+                        out = out.with_chunk_index(out_index.1);
+                    }
                     out.chunk = shared.chunk;
                     out.taker = Some(&current);
                     let _timed = times.map(|t| super::split::Timed(t, false));
@@ -191,7 +196,9 @@ pub(crate) fn step_pass(
                             break;
                         };
                         current.start(slot);
+                        out.begin_chunk();
                         let before = (out.modules, wd.rng.draws());
+                        let chunk_exact = chunk.exact;
                         wd.range = Some((chunk.start, chunk.end, chunk.first));
                         wd.chunk_start = Some(chunk.at);
                         wd.balance = table.check_balance.then(Default::default);
@@ -199,11 +206,15 @@ pub(crate) fn step_pass(
                             .pass(table, src, indexed, &mut out, pass)
                             .and_then(|()| out.flush());
                         out.buf.clear();
+                        // (Module indices are only left uncounted where
+                        // nothing draws: `Scan::skip`.)
+                        debug_assert!(chunk_exact || wd.rng.draws() == before.1);
                         draws.fetch_add(wd.rng.draws() - before.1, Ordering::Relaxed);
                         // A chunk's balance goes before its end or error:
                         // its lows come first in string order.
                         let balance = wd.balance.take().map(Box::new);
-                        current.end(r.map(|()| out.modules - before.0), balance);
+                        let index = out.end_chunk();
+                        current.end(r.map(|()| out.modules - before.0), balance, index);
                     }
                     current.report();
                 });
@@ -248,8 +259,6 @@ pub(crate) fn step_pass(
             // The workers end when their task channel closes.
             return Ok(None);
         }
-        // Brackets through `out`'s index, if it has one.
-        let reindex = out.indexed.is_some().then_some(al);
         let writer = times.map(|_| super::split::thread_cpu_ns());
         let mut check = super::split::BalanceCheck::default();
         let mut judge = |b: &super::split::Balance| {
@@ -260,7 +269,7 @@ pub(crate) fn step_pass(
         let judge = table
             .check_balance
             .then_some(&mut judge as &mut dyn FnMut(&super::split::Balance) -> Result<(), Error>);
-        write_in_order(order_rx, out, shared, (reindex, judge))?;
+        write_in_order(order_rx, out, shared, judge)?;
         if table.check_balance && check.depth() != 0 {
             return Err(super::step::unclosed(
                 &d.origin,
@@ -366,7 +375,7 @@ pub(crate) fn expand(
             return plan.expand(input, al, origin, steps, out);
         }
         // Write the tasks' text in task order.
-        write_in_order(order_rx, out, shared, (None, None))
+        write_in_order(order_rx, out, shared, None)
     })
 }
 
@@ -512,7 +521,7 @@ fn work(
             done_modules.fetch_add(task.items.len() as u64, Ordering::Relaxed);
             done_bytes.fetch_add(current.bytes.get(), Ordering::Relaxed);
         }
-        current.end(r.map(|()| out.modules - before), None);
+        current.end(r.map(|()| out.modules - before), None, None);
     }
     current.report();
 }

@@ -165,7 +165,16 @@ impl<'f> PosReader<'f> {
     #[inline]
     pub(crate) fn branch_index(&self, s: usize) -> (u64, u64) {
         let word = |i: usize| u64::from_le_bytes(self.buf[i..i + 8].try_into().unwrap());
-        (word(s + 1), word(s + 9))
+        (self.indexed_end(s).unwrap_or(0), word(s + 9))
+    }
+
+    /// For a `[` read at `s` of an indexed generation: the offset just
+    /// past its `]` (the index holds the distance to it), None if it is
+    /// never closed (its index is 0).
+    #[inline]
+    pub(crate) fn indexed_end(&self, s: usize) -> Option<u64> {
+        let dist = u64::from_le_bytes(self.buf[s + 1..s + 9].try_into().unwrap());
+        (dist > 0).then(|| self.start + s as u64 + dist)
     }
 
     /// For a `[` read at `s` (next module at `next`): the offset just past
@@ -178,9 +187,7 @@ impl<'f> PosReader<'f> {
         next: u64,
     ) -> io::Result<Option<u64>> {
         if self.indexed {
-            Ok(Some(u64::from_le_bytes(
-                self.buf[s + 1..s + 9].try_into().unwrap(),
-            )))
+            Ok(self.indexed_end(s))
         } else {
             skip_branch(self, al, next)
         }

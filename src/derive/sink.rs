@@ -75,13 +75,36 @@ impl Default for Limits {
     }
 }
 
+/// What of a chunk's bracket index a worker cannot write itself (it does
+/// not know where the writer puts the chunk, and hands blocks over as they
+/// fill), relative to the chunk's start (offset in the output, modules
+/// before): [`Out::with_chunk_index`].
+#[derive(Default, Debug)]
+pub(crate) struct ChunkIndex {
+    /// The worker's stream position where the chunk started.
+    base: (u64, u64),
+    /// `]`s that close a `[` of an earlier chunk, in order: (offset just
+    /// past the `]`, modules through it).
+    closes: Vec<(u64, u64)>,
+    /// `[`s closed in this chunk after their block was handed over:
+    /// (offset of the `[`, its distance, its module count).
+    late: Vec<(u64, u64, u64)>,
+    /// `[`s still open at the chunk's end: (offset, modules before it).
+    opens: Vec<(u64, u64)>,
+}
+
 /// A buffered sink for one generation, binary or text.
 pub struct Out<'w> {
     pub(crate) buf: Vec<u8>,
     w: &'w mut dyn Write,
-    /// Bracket index mode: each `[` carries the offset just past its `]`,
-    /// patched in the buffer or, once flushed, in `file`.
-    pub(crate) indexed: Option<File>,
+    /// Bracket index mode: each `[` carries the distance from it to just
+    /// past its `]`, patched in the buffer or, once flushed, in
+    /// `index_file` (or noted in `chunk_index`).
+    pub(crate) indexed: bool,
+    index_file: Option<File>,
+    /// A worker's sink of a split pass (`super::split`): what of the index
+    /// its chunk cannot complete itself, for the writer.
+    chunk_index: Option<ChunkIndex>,
     /// Each open `[`: its offset, and the modules written before it.
     opens: Vec<(u64, u64)>,
     /// The index also holds each branch's module count.
@@ -115,7 +138,9 @@ impl<'w> Out<'w> {
         Out {
             buf: Vec::with_capacity(OUT_CHUNK + MAX_MODULE_BYTES * 4),
             w,
-            indexed: None,
+            indexed: false,
+            index_file: None,
+            chunk_index: None,
             opens: Vec::new(),
             counts: false,
             name,
@@ -139,8 +164,71 @@ impl<'w> Out<'w> {
 
     /// Write a bracket index: `file` is the file this sink writes to.
     pub fn with_index(mut self, file: File) -> Self {
-        self.indexed = Some(file);
+        self.indexed = true;
+        self.index_file = Some(file);
         self
+    }
+
+    /// A worker's sink of a split pass whose output has a bracket index
+    /// (`counts`: with module counts): the index of each chunk's output
+    /// is written where it can be (a branch within a block), and the rest
+    /// is handed to the writer ([`Out::end_chunk`], [`Out::apply`]).
+    pub(crate) fn with_chunk_index(mut self, counts: bool) -> Self {
+        self.indexed = true;
+        self.counts = counts;
+        self.chunk_index = Some(ChunkIndex::default());
+        self
+    }
+
+    /// Does the index hold module counts?
+    pub(crate) fn counts(&self) -> bool {
+        self.counts
+    }
+
+    /// Where the next module goes: (stream offset, modules before it).
+    pub(crate) fn position(&self) -> (u64, u64) {
+        (self.written + self.buf.len() as u64, self.modules)
+    }
+
+    /// A worker's next chunk starts here (its sink flushed).
+    pub(crate) fn begin_chunk(&mut self) {
+        let base = self.position();
+        if let Some(ci) = &mut self.chunk_index {
+            *ci = ChunkIndex {
+                base,
+                ..ChunkIndex::default()
+            };
+        }
+        self.opens.clear();
+    }
+
+    /// The chunk's index entries the writer completes, its `[`s still open
+    /// included; offsets and counts relative to the chunk's start.
+    pub(crate) fn end_chunk(&mut self) -> Option<Box<ChunkIndex>> {
+        let ci = self.chunk_index.as_mut()?;
+        let (w, m) = ci.base;
+        ci.opens.extend(
+            self.opens
+                .drain(..)
+                .map(|(at, before)| (at - w, before - m)),
+        );
+        Some(Box::new(std::mem::take(ci)))
+    }
+
+    /// The writer's side: complete the index of a chunk whose output
+    /// started at `base` ([`Out::position`] then) and is now all written
+    /// here. Its `]`s that close earlier chunks' `[`s in order, then the
+    /// late entries, then its open `[`s join this sink's.
+    pub(crate) fn apply(&mut self, ci: &ChunkIndex, (w, m): (u64, u64)) -> Result<(), Error> {
+        for &(end, through) in &ci.closes {
+            self.patch(w + end, m + through)?;
+        }
+        for &(at, dist, count) in &ci.late {
+            self.put_index(w + at, dist, count)?;
+        }
+        self.opens
+            .extend(ci.opens.iter().map(|&(at, before)| (w + at, m + before)));
+        Ok(())
     }
 
     /// With a bracket index, also write each branch's module count (see
@@ -175,7 +263,7 @@ impl<'w> Out<'w> {
     /// Write a `[` with `before` modules before it.
     #[inline(always)]
     fn open_after(&mut self, before: u64) {
-        if self.indexed.is_some() {
+        if self.indexed {
             self.opens
                 .push((self.written + self.buf.len() as u64, before));
             self.buf.push(b'[');
@@ -194,7 +282,7 @@ impl<'w> Out<'w> {
     #[inline(always)]
     fn close_after(&mut self, through: u64) -> Result<(), Error> {
         self.buf.push(b']');
-        if self.indexed.is_some() {
+        if self.indexed {
             let end = self.written + self.buf.len() as u64;
             self.patch(end, through)?;
         }
@@ -202,17 +290,27 @@ impl<'w> Out<'w> {
     }
 
     /// The `]` ending just before offset `end`, with `modules` modules
-    /// written up to it, closes the last open `[`: write `end` and the
-    /// branch's module count into that `[`'s index bytes, in the buffer
-    /// or, once flushed, in the file.
+    /// written up to it, closes the last open `[`: write the distance to
+    /// `end` and the branch's module count into that `[`'s index bytes.
     #[inline]
     pub(crate) fn patch(&mut self, end: u64, modules: u64) -> Result<(), Error> {
         let Some((at, before)) = self.opens.pop() else {
+            // A worker's `]` of a `[` in an earlier chunk: for the writer.
+            if let Some(ci) = &mut self.chunk_index {
+                ci.closes.push((end - ci.base.0, modules - ci.base.1));
+            }
             return Ok(()); // unbalanced: reported by the balance check
         };
+        self.put_index(at, end - at, modules - before)
+    }
+
+    /// Write the index of the `[` at `at`, in the buffer or, once flushed,
+    /// in the file (a worker: noted for the writer).
+    #[inline]
+    fn put_index(&mut self, at: u64, dist: u64, count: u64) -> Result<(), Error> {
         let mut index = [0; INDEX_BYTES];
-        index[..8].copy_from_slice(&end.to_le_bytes());
-        index[8..].copy_from_slice(&(modules - before).to_le_bytes());
+        index[..8].copy_from_slice(&dist.to_le_bytes());
+        index[8..].copy_from_slice(&count.to_le_bytes());
         if at >= self.written {
             let i = (at - self.written) as usize + 1;
             // (Fixed-size copies: no call to memcpy.)
@@ -221,7 +319,9 @@ impl<'w> Out<'w> {
             } else {
                 self.buf[i..i + ENDS_BYTES].copy_from_slice(&index[..ENDS_BYTES]);
             }
-        } else if let Some(file) = &self.indexed {
+        } else if let Some(ci) = &mut self.chunk_index {
+            ci.late.push((at - ci.base.0, dist, count));
+        } else if let Some(file) = &self.index_file {
             let index = &index[..self.index_len()];
             file.write_all_at(index, at + 1)
                 .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
@@ -273,7 +373,7 @@ impl<'w> Out<'w> {
     /// both formats.
     #[inline]
     pub fn plain(&mut self, run: &[u8]) -> Result<(), Error> {
-        if self.indexed.is_none() {
+        if !self.indexed {
             self.modules += run.len() as u64;
             self.buf.extend_from_slice(run);
             return Ok(());
@@ -296,7 +396,7 @@ impl<'w> Out<'w> {
         self.modules += modules;
         if self.text {
             self.buf.extend_from_slice(c.text());
-        } else if self.indexed.is_none() {
+        } else if !self.indexed {
             self.buf.extend_from_slice(c.bin());
         } else {
             let base = self.buf.len();
@@ -389,7 +489,7 @@ impl<'w> Out<'w> {
     pub(crate) fn put_block(&mut self, bytes: &[u8], modules: u64) -> Result<(), Error> {
         // (A short block, the end of a task, is copied: one write call
         // instead of two.)
-        if self.indexed.is_some() || bytes.len() < self.chunk / 32 {
+        if self.indexed || bytes.len() < self.chunk / 32 {
             self.extend(bytes, modules);
             return self.maybe_flush();
         }
@@ -467,7 +567,8 @@ mod tests {
             // [........ A [........ B ] C... ] D
             assert_eq!(bin[0], b'[');
             assert_eq!(bin[10], b'[');
-            assert_eq!(index_at(10), 21, "inner, filler {filler}");
+            // (The index holds the distance from the `[`.)
+            assert_eq!(10 + index_at(10), 21, "inner, filler {filler}");
             let outer_end = 21 + filler as u64 + 1;
             assert_eq!(index_at(0), outer_end, "outer, filler {filler}");
             assert_eq!(bin[outer_end as usize - 1], b']');
@@ -530,7 +631,11 @@ mod tests {
                 if key == CLOSE {
                     let (at, before) = open.pop().unwrap();
                     let word = |j: usize| u64::from_le_bytes(bin[j..j + 8].try_into().unwrap());
-                    assert_eq!(word(at + 1), i as u64, "filler {filler}, counts {counts}");
+                    assert_eq!(
+                        at as u64 + word(at + 1),
+                        i as u64,
+                        "filler {filler}, counts {counts}"
+                    );
                     if counts {
                         assert_eq!(word(at + 9), modules - before, "filler {filler}");
                     }
@@ -540,6 +645,104 @@ mod tests {
             assert!(open.is_empty());
             // `A[B...]D` and `[X...]`, and 3 in each successor.
             assert_eq!(checked, 2 + 2 * 3);
+        }
+    }
+
+    /// A split pass (issue 15): workers write their chunks' bracket index
+    /// where they can and leave the rest to the writer ([`ChunkIndex`]),
+    /// which completes it as it writes the chunks in order. The file is
+    /// the one a single sink writes, byte for byte: branches within a
+    /// block, across a worker's blocks (late), across chunks (closes and
+    /// opens), patched in the writer's buffer or in the file; with and
+    /// without counts; also when parameters hold the bytes of `[` and `]`.
+    #[test]
+    fn chunk_indices_completed_by_the_writer_give_one_sinks_file() {
+        use std::cell::RefCell;
+        #[derive(Default)]
+        struct Blocks(RefCell<Vec<Vec<u8>>>);
+        impl Take for Blocks {
+            fn take(&self, buf: &mut Vec<u8>) -> std::io::Result<()> {
+                self.0.borrow_mut().push(std::mem::take(buf));
+                Ok(())
+            }
+        }
+        let mut al = Alphabet::new(Filter::All);
+        let tricky = [f64::from_bits(0x5B5D_5B5D_5B5D_5B5D)];
+        let g = al.intern('G', 1).unwrap();
+        let mut string: Vec<(u32, &[f64])> = Vec::new();
+        for &c in b"A[B[G]C[D[E]]F]G[[H]][I" {
+            let key = if c == b'G' { g } else { u32::from(c) };
+            let params: &[f64] = if c == b'G' { &tricky } else { &[] };
+            string.push((key, params));
+        }
+        string.extend([(u32::from(b']'), &[][..]), (u32::from(b'J'), &[][..])]);
+        let read = |f: &mut File| {
+            let mut v = Vec::new();
+            f.rewind().unwrap();
+            f.read_to_end(&mut v).unwrap();
+            v
+        };
+        for counts in [false, true] {
+            let mut f = tempfile::tempfile().unwrap();
+            let index = f.try_clone().unwrap();
+            {
+                let mut out = Out::new(&mut f, "gen", false, Limits::default())
+                    .with_index(index)
+                    .with_counts(counts);
+                for &(key, params) in &string {
+                    out.module(key, params, &al).unwrap();
+                }
+                out.finish().unwrap();
+            }
+            let want = read(&mut f);
+            // Chunks of `per` modules; the worker hands over a block after
+            // every module or never; the writer flushes after every block
+            // or never.
+            for per in 1..=string.len() {
+                for (worker_flushes, writer_flushes) in
+                    [(false, false), (true, false), (false, true), (true, true)]
+                {
+                    let mut f = tempfile::tempfile().unwrap();
+                    let index = f.try_clone().unwrap();
+                    let blocks = Blocks::default();
+                    let mut sink = std::io::sink();
+                    let mut worker =
+                        Out::new(&mut sink, "w", false, Limits::default()).with_chunk_index(counts);
+                    worker.taker = Some(&blocks);
+                    {
+                        let mut out = Out::new(&mut f, "gen", false, Limits::default())
+                            .with_index(index)
+                            .with_counts(counts);
+                        for chunk in string.chunks(per) {
+                            worker.begin_chunk();
+                            let before = worker.modules;
+                            for &(key, params) in chunk {
+                                worker.module(key, params, &al).unwrap();
+                                if worker_flushes {
+                                    worker.flush().unwrap();
+                                }
+                            }
+                            worker.flush().unwrap();
+                            let ci = worker.end_chunk().unwrap();
+                            let base = out.position();
+                            for b in blocks.0.borrow_mut().drain(..) {
+                                out.put_block(&b, 0).unwrap();
+                                if writer_flushes {
+                                    out.flush().unwrap();
+                                }
+                            }
+                            out.apply(&ci, base).unwrap();
+                            out.extend(&[], worker.modules - before);
+                        }
+                        assert_eq!(out.finish().unwrap().0, string.len() as u64);
+                    }
+                    assert_eq!(
+                        read(&mut f),
+                        want,
+                        "counts {counts}, {per} a chunk, flushes {worker_flushes} {writer_flushes}"
+                    );
+                }
+            }
         }
     }
 

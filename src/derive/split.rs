@@ -47,6 +47,9 @@ pub(crate) struct Chunk {
     pub(crate) start: u64,
     pub(crate) end: u64,
     pub(crate) first: u64,
+    /// `first` is the module's index (else the pass draws nothing and the
+    /// scan jumped over branches without counting their modules).
+    pub(crate) exact: bool,
     pub(crate) at: ChunkStart,
 }
 
@@ -78,6 +81,11 @@ pub(crate) struct Scan<'f> {
     /// Per ASCII byte: the one-byte module is recorded by the left
     /// context (considered: not ignored, not a bracket).
     kept: [bool; 128],
+    /// Jump over whole branches before a cut by the bracket index: the
+    /// generation has one and the pass makes no random draw, so the
+    /// chunks' module indices are not needed (they are not counted
+    /// inside the branches jumped over; [`Chunk::exact`]).
+    skip: bool,
 }
 
 impl<'f> Scan<'f> {
@@ -95,6 +103,7 @@ impl<'f> Scan<'f> {
             left.is_some() && b != OPEN as usize && b != CLOSE as usize && !al.ignored(b as u32)
         });
         Scan {
+            skip: indexed && !table.may_draw(),
             rd: PosReader::new(src, 256 << 10, indexed).with_counts(counts),
             left,
             kept,
@@ -115,11 +124,12 @@ impl<'f> Scan<'f> {
             left: self.left.clone(),
             level: self.level,
         };
-        let (start, first) = (self.start, self.index);
+        let (start, first, exact) = (self.start, self.index, !self.skip);
         let chunk = |end| Chunk {
             start,
             end,
             first,
+            exact,
             at,
         };
         // Cut once the chunk reaches this offset.
@@ -134,10 +144,13 @@ impl<'f> Scan<'f> {
                 left,
                 level,
                 kept,
+                skip,
                 ..
             } = self;
             let w = rd.window()?;
             let (mut i, mut n) = (0, 0);
+            // A branch jumped over that ends past the window.
+            let mut jump = None;
             while i < w.len() {
                 let b = w[i];
                 if b >= 0x80 {
@@ -146,6 +159,28 @@ impl<'f> Scan<'f> {
                 if b == b'[' {
                     if i + open_len > w.len() {
                         break;
+                    }
+                    if *skip {
+                        // A whole branch before the cut leaves the left
+                        // context and the level as they were: jump to its
+                        // end (an unclosed `[`'s index is 0: not taken).
+                        let dist = u64::from_le_bytes(w[i + 1..i + 9].try_into().expect("8"));
+                        let end = base + i as u64 + dist;
+                        if dist > 0 && end <= stop {
+                            match usize::try_from(end - base) {
+                                Ok(e) if e <= w.len() => {
+                                    i = e;
+                                    if end == stop {
+                                        break;
+                                    }
+                                    continue;
+                                }
+                                _ => {
+                                    jump = Some(end);
+                                    break;
+                                }
+                            }
+                        }
                     }
                     *level += 1;
                     if let Some(left) = left {
@@ -174,9 +209,12 @@ impl<'f> Scan<'f> {
                 }
             }
             self.rd.advance(i);
+            if let Some(to) = jump {
+                self.rd.seek(to);
+            }
             self.index += n;
             let end = self.rd.offset();
-            if i > 0 {
+            if i > 0 || jump.is_some() {
                 if end >= stop {
                     self.start = end;
                     return Ok(Some(chunk(end)));
@@ -204,58 +242,6 @@ impl<'f> Scan<'f> {
             }
         }
     }
-}
-
-/// Append `block`, whole binary modules written without a bracket index
-/// (a chunk's output), to `out`, which writes one: runs without brackets
-/// are copied as they are, each bracket goes through `out` (which leaves
-/// room for a `[`'s index and fills it in at its `]`, whichever chunks
-/// they came from). Counts the modules.
-pub(crate) fn put_indexed(
-    out: &mut super::Out,
-    block: &[u8],
-    al: &Alphabet,
-) -> Result<(), crate::diag::Error> {
-    put_indexed_part(out, block, al, true).map(|_| ())
-}
-
-/// [`put_indexed`] for the whole modules at the start of `block`: all of
-/// it if `whole`, else the modules that begin at least a longest module's
-/// bytes ([`crate::rules::codec::MAX_MODULE_BYTES`]) before its end (the
-/// rest may be cut). Returns the bytes put.
-pub(crate) fn put_indexed_part(
-    out: &mut super::Out,
-    block: &[u8],
-    al: &Alphabet,
-    whole: bool,
-) -> Result<usize, crate::diag::Error> {
-    let end = if whole {
-        block.len()
-    } else {
-        block
-            .len()
-            .saturating_sub(crate::rules::codec::MAX_MODULE_BYTES)
-    };
-    let (mut i, mut run, mut modules) = (0, 0, 0u64);
-    while i < end {
-        let b = block[i];
-        if b == b'[' || b == b']' {
-            out.extend(&block[run..i], modules);
-            out.raw(u32::from(b), &block[i..i + 1], al)?;
-            i += 1;
-            (run, modules) = (i, 0);
-            continue;
-        }
-        i += if b < 0x80 {
-            1
-        } else {
-            let (key, kl) = crate::rules::codec::get_key(&block[i..]);
-            kl + 8 * al.arity(key)
-        };
-        modules += 1;
-    }
-    out.extend(&block[run..i], modules);
-    Ok(i)
 }
 
 #[cfg(test)]
@@ -321,6 +307,43 @@ mod tests {
     /// thread has there: the last two considered modules on the path to
     /// it (derived by hand), with the parameters a left context asks for
     /// (of A and B), and the nesting level.
+    /// A pass that draws nothing jumps over the whole branches before a
+    /// cut by the bracket index: every chunk starts where it would have
+    /// and from the same state (left context, level), and only the module
+    /// index, which nothing reads then, is left uncounted.
+    #[test]
+    fn the_scan_jumps_over_whole_branches_to_the_same_state() {
+        let src = "ignore: +\nproductions:\nA(a) B(b) < C(c) -> X\nF(f) -> F\n";
+        let mut s = system(src);
+        assert!(!s.productions.may_draw());
+        let mut string = STRING.to_vec();
+        string.extend_from_within(..);
+        string.extend_from_within(..);
+        let (f, bytes) = write(&mut s.alphabet, &string, (true, false), false);
+        let al = &s.alphabet;
+        let mut jumped = false;
+        for size in 1..=bytes.len() as u64 + 1 {
+            let chunks = |skip: bool| {
+                let mut scan = Scan::new(&f, (true, false), &s.productions, al, size);
+                assert!(scan.skip);
+                scan.skip = skip;
+                let mut v = Vec::new();
+                while let Some(ch) = scan.next_chunk(al).unwrap() {
+                    assert_eq!(ch.exact, !skip);
+                    let left = ch.at.left.expect("left contexts are kept");
+                    v.push(((ch.start, ch.end, left.path(), ch.at.level), ch.first));
+                }
+                v
+            };
+            let (with, without) = (chunks(true), chunks(false));
+            let state =
+                |v: &[((u64, u64, _, i64), u64)]| v.iter().map(|c| c.0.clone()).collect::<Vec<_>>();
+            assert_eq!(state(&with), state(&without), "size {size}");
+            jumped |= with.iter().zip(&without).any(|(a, b)| a.1 < b.1);
+        }
+        assert!(jumped, "some branch was jumped over");
+    }
+
     #[test]
     fn each_chunk_starts_from_the_path_to_its_first_module() {
         // The same string with parameters (module by module) and without
@@ -389,59 +412,6 @@ mod tests {
         // more than 4 bytes.
         let ch = scan.next_chunk(&s.alphabet).unwrap().unwrap();
         assert_eq!(ch.first, 1);
-    }
-
-    /// The writer rebuilds the bracket index of blocks written without one
-    /// (chunks' output): the same file, byte for byte, as one [`Out`]
-    /// writing the string, whatever blocks it arrives in (branches open in
-    /// one block and close in another, `]`s patching a `[` already in the
-    /// file), also when parameters hold the bytes of `[` and `]`.
-    #[test]
-    fn the_writer_rebuilds_the_bracket_index_across_blocks() {
-        let tricky = f64::from_bits(0x5B5D_5B5D_5B5D_5B5D);
-        let tricky = [tricky];
-        let mut string = STRING.to_vec();
-        string.insert(3, ('G', &tricky));
-        string.extend_from_slice(&[('[', &[]), ('G', &tricky), (']', &[]), ('H', &[])]);
-        let mut s = system("productions:\nA > B -> X\n");
-        let al = &mut s.alphabet;
-        for counts in [false, true] {
-            let (_, want) = write(al, &string, (true, counts), false);
-            let (_, plain) = write(al, &string, (false, false), false);
-            // Module boundaries of the plain string.
-            let mut ends = Vec::new();
-            let mut i = 0;
-            while i < plain.len() {
-                let (key, kl) = crate::rules::codec::get_key(&plain[i..]);
-                i += if plain[i] < 0x80 {
-                    1
-                } else {
-                    kl + 8 * al.arity(key)
-                };
-                ends.push(i);
-            }
-            for per_block in [1, 2, 3, ends.len()] {
-                let mut f = tempfile::tempfile().unwrap();
-                let index = f.try_clone().unwrap();
-                {
-                    let mut out = Out::new(&mut f, "gen", false, Limits::default())
-                        .with_index(index)
-                        .with_counts(counts);
-                    let mut from = 0;
-                    for chunk in ends.chunks(per_block) {
-                        let to = *chunk.last().unwrap();
-                        put_indexed(&mut out, &plain[from..to], al).unwrap();
-                        out.flush().unwrap();
-                        from = to;
-                    }
-                    assert_eq!(out.finish().unwrap().0, string.len() as u64);
-                }
-                let mut got = Vec::new();
-                f.rewind().unwrap();
-                f.read_to_end(&mut got).unwrap();
-                assert_eq!(got, want, "counts {counts}, {per_block} per block");
-            }
-        }
     }
 }
 

@@ -568,7 +568,7 @@ impl<'a> Deriver<'a> {
             let mut t = ByteTable::new(
                 table,
                 out.text,
-                !indexed && st.left.is_none() && out.indexed.is_none(),
+                !indexed && st.left.is_none() && !out.indexed,
             );
             if cut {
                 t.general(b'%');

@@ -604,6 +604,21 @@ impl Table {
         self.max_left > 0 || self.has_right || self.has_multi
     }
 
+    /// Can rewriting with this table draw a random number: a stochastic
+    /// choice, or `ran`/`nran` in a condition, a probability or a
+    /// successor's parameter? (cpfg's statement blocks are not looked at:
+    /// cpfg passes neither split nor go depth first.)
+    pub fn may_draw(&self) -> bool {
+        self.prods.iter().any(|p| {
+            p.prob.is_some()
+                || p.cond.as_ref().is_some_and(|c| c.uses_random())
+                || p.succ.iter().any(|i| match i {
+                    Item::Const(_) => false,
+                    Item::Module { params, .. } => params.iter().any(|c| c.uses_random()),
+                })
+        })
+    }
+
     /// cpfg's right contexts (issue 12): every one goes through cpfg's
     /// matcher (no cached bracket-free shortcut), and a `=` module in a
     /// right context is cpfg's "skip the rest of the branch".
