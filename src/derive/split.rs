@@ -151,7 +151,16 @@ impl<'f> Scan<'f> {
             let (mut i, mut n) = (0, 0);
             // A branch jumped over that ends past the window.
             let mut jump = None;
-            while i < w.len() {
+            if left.is_none() && open_len == 1 {
+                // Nothing to follow but the count and the level: up to
+                // the cut, every ASCII byte is a module, `[` and `]`
+                // included.
+                let cut = usize::try_from(stop - base).map_or(w.len(), |c| c.min(w.len()));
+                let (len, depth) = plain_counts(&w[..cut]);
+                *level += depth;
+                (i, n) = (len, len as u64);
+            }
+            while i < w.len() && base + (i as u64) < stop {
                 let b = w[i];
                 if b >= 0x80 {
                     break;
@@ -242,6 +251,33 @@ impl<'f> Scan<'f> {
             }
         }
     }
+}
+
+/// The length of `w`'s run of ASCII bytes from its start, and the
+/// `[`s less the `]`s in it; eight bytes at a time.
+fn plain_counts(w: &[u8]) -> (usize, i64) {
+    const LO: u64 = u64::from_le_bytes([1; 8]);
+    const LOW7: u64 = LO * 0x7f;
+    // Bit 7 of each byte of `v` that is 0, and no other bit.
+    let zeros = |v: u64| !(((v & LOW7) + LOW7) | v | LOW7);
+    let (mut i, mut depth) = (0, 0i64);
+    while let Some(word) = w.get(i..i + 8) {
+        let x = u64::from_le_bytes(word.try_into().expect("eight bytes"));
+        if x & (LO << 7) != 0 {
+            break;
+        }
+        depth += i64::from(zeros(x ^ (LO * u64::from(b'['))).count_ones());
+        depth -= i64::from(zeros(x ^ (LO * u64::from(b']'))).count_ones());
+        i += 8;
+    }
+    while let Some(&b) = w.get(i) {
+        if b >= 0x80 {
+            break;
+        }
+        depth += i64::from(b == b'[') - i64::from(b == b']');
+        i += 1;
+    }
+    (i, depth)
 }
 
 #[cfg(test)]
@@ -342,6 +378,41 @@ mod tests {
             jumped |= with.iter().zip(&without).any(|(a, b)| a.1 < b.1);
         }
         assert!(jumped, "some branch was jumped over");
+    }
+
+    /// Without left contexts or an index, the scan counts modules and
+    /// nesting eight bytes at a time: each chunk's first module index and
+    /// level are those of a walk module by module, wherever it cuts.
+    #[test]
+    fn a_scan_without_contexts_counts_modules_and_levels() {
+        let mut s = system("productions:\nA(a) -> B(a)\n");
+        let mut string: Vec<(char, &[f64])> = Vec::new();
+        for c in "AB[[C]D[E]]]FG[HIJKLMNOP[Q]RS]TU".chars() {
+            string.push((c, &[]));
+        }
+        string.insert(9, ('A', &[1.0]));
+        string.insert(20, ('A', &[93.0]));
+        let (f, bytes) = write(&mut s.alphabet, &string, (false, false), false);
+        // Module starts, indices and the level at each.
+        let (mut at, mut level, mut walk) = (0, 0i64, Vec::new());
+        for (c, p) in &string {
+            walk.push((at as u64, level));
+            let (_, kl) = crate::rules::codec::get_key(&bytes[at..]);
+            at += if p.is_empty() { 1 } else { kl + 8 * p.len() };
+            level += i64::from(*c == '[') - i64::from(*c == ']');
+        }
+        assert_eq!(at, bytes.len());
+        let al = &s.alphabet;
+        for size in 1..=bytes.len() as u64 + 1 {
+            let mut scan = Scan::new(&f, (false, false), &s.productions, al, size);
+            while let Some(ch) = scan.next_chunk(al).unwrap() {
+                assert!(ch.exact && ch.at.left.is_none());
+                let (start, lvl) = walk[ch.first as usize];
+                assert_eq!((ch.start, ch.at.level), (start, lvl), "size {size}");
+            }
+        }
+        assert_eq!(plain_counts(b"[[a]]]]xyz[[["), (13, 1));
+        assert_eq!(plain_counts(b"[]]]]]]]]]\x80[["), (10, -8));
     }
 
     #[test]
