@@ -22,10 +22,10 @@ use std::time::{Duration, Instant};
 pub(super) const CHUNK: usize = 256 << 10;
 /// Text blocks a task not being written keeps in memory, at most; the
 /// rest waits, or goes to a spill file until the writer reaches it.
-pub(super) const QUEUE: usize = 4;
+pub(super) const QUEUE: usize = 8;
 /// Text blocks kept in memory by all the tasks not being written, at
 /// most (about; beyond it they wait or spill).
-pub(super) const BUDGET: usize = 12;
+pub(super) const BUDGET: usize = 24;
 /// Judges each chunk's bracket balance ([`write_in_order`]).
 pub(super) type Judge<'j> = Option<&'j mut dyn FnMut(&super::split::Balance) -> Result<(), Error>>;
 
