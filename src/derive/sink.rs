@@ -295,35 +295,46 @@ impl<'w> Out<'w> {
     #[inline]
     pub(crate) fn patch(&mut self, end: u64, modules: u64) -> Result<(), Error> {
         let Some((at, before)) = self.opens.pop() else {
-            // A worker's `]` of a `[` in an earlier chunk: for the writer.
-            if let Some(ci) = &mut self.chunk_index {
-                ci.closes.push((end - ci.base.0, modules - ci.base.1));
-            }
+            self.close_unopened(end, modules);
             return Ok(()); // unbalanced: reported by the balance check
         };
         self.put_index(at, end - at, modules - before)
+    }
+
+    /// A `]` with no `[` open: a worker's `]` of a `[` in an earlier
+    /// chunk, noted for the writer; else unbalanced.
+    #[cold]
+    fn close_unopened(&mut self, end: u64, modules: u64) {
+        if let Some(ci) = &mut self.chunk_index {
+            ci.closes.push((end - ci.base.0, modules - ci.base.1));
+        }
     }
 
     /// Write the index of the `[` at `at`, in the buffer or, once flushed,
     /// in the file (a worker: noted for the writer).
     #[inline]
     fn put_index(&mut self, at: u64, dist: u64, count: u64) -> Result<(), Error> {
-        let mut index = [0; INDEX_BYTES];
-        index[..8].copy_from_slice(&dist.to_le_bytes());
-        index[8..].copy_from_slice(&count.to_le_bytes());
-        if at >= self.written {
-            let i = (at - self.written) as usize + 1;
-            // (Fixed-size copies: no call to memcpy.)
-            if self.counts {
-                self.buf[i..i + INDEX_BYTES].copy_from_slice(&index);
-            } else {
-                self.buf[i..i + ENDS_BYTES].copy_from_slice(&index[..ENDS_BYTES]);
-            }
-        } else if let Some(ci) = &mut self.chunk_index {
+        if at < self.written {
+            return self.put_index_flushed(at, dist, count);
+        }
+        let i = (at - self.written) as usize + 1;
+        // (Fixed-size copies: no call to memcpy.)
+        self.buf[i..i + ENDS_BYTES].copy_from_slice(&dist.to_le_bytes());
+        if self.counts {
+            self.buf[i + ENDS_BYTES..i + INDEX_BYTES].copy_from_slice(&count.to_le_bytes());
+        }
+        Ok(())
+    }
+
+    #[cold]
+    fn put_index_flushed(&mut self, at: u64, dist: u64, count: u64) -> Result<(), Error> {
+        if let Some(ci) = &mut self.chunk_index {
             ci.late.push((at - ci.base.0, dist, count));
         } else if let Some(file) = &self.index_file {
-            let index = &index[..self.index_len()];
-            file.write_all_at(index, at + 1)
+            let mut index = [0; INDEX_BYTES];
+            index[..8].copy_from_slice(&dist.to_le_bytes());
+            index[8..].copy_from_slice(&count.to_le_bytes());
+            file.write_all_at(&index[..self.index_len()], at + 1)
                 .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
         }
         Ok(())
