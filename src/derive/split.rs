@@ -502,13 +502,14 @@ pub(crate) fn thread_cpu_ns() -> u64 {
 
 /// One line per split pass: the CPU time (ms) of the producer, the
 /// workers and the writer, and the speed-up on free cores they imply: the
-/// sum over the critical one (the longest of producer, writer and the
-/// workers' share per thread).
+/// sum over the critical path, the longest of producer, writer, the
+/// workers' share per thread and the sum's share per core.
 pub(crate) fn report_times(pass: super::Pass, producer: u64, workers: &[u64], writer: u64) {
     let ms = |ns: u64| ns as f64 / 1e6;
     let total: u64 = producer + writer + workers.iter().sum::<u64>();
     let per = workers.iter().sum::<u64>() / workers.len().max(1) as u64;
-    let critical = producer.max(writer).max(per).max(1);
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get()) as u64;
+    let critical = producer.max(writer).max(per).max(total / cores).max(1);
     let w: Vec<String> = workers.iter().map(|&n| format!("{:.1}", ms(n))).collect();
     crate::diag::eprint(&format!(
         "lsgen: threads: {pass}: producer {:.1} ms, workers [{}] ms, writer {:.1} ms; \
