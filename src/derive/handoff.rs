@@ -24,8 +24,14 @@ pub(super) const CHUNK: usize = 256 << 10;
 /// rest waits, or goes to a spill file until the writer reaches it.
 pub(super) const QUEUE: usize = 8;
 /// Text blocks kept in memory by all the tasks not being written, at
-/// most (about; beyond it they wait or spill).
+/// most (about; beyond it they wait or spill), depth first: a task's
+/// text varies a lot in length, and a worker ahead of a long one would
+/// otherwise spill on a quiet machine.
 pub(super) const BUDGET: usize = 24;
+/// The same for the chunks of a step pass, which are each about a block
+/// and take about as long as each other (and whose start states take
+/// room of their own).
+pub(super) const STEP_BUDGET: usize = 12;
 /// Judges each chunk's bracket balance ([`write_in_order`]).
 pub(super) type Judge<'j> = Option<&'j mut dyn FnMut(&super::split::Balance) -> Result<(), Error>>;
 
@@ -204,12 +210,14 @@ pub(super) struct Shared<'a> {
 }
 
 impl<'a> Shared<'a> {
-    pub(super) fn new(tmpdir: &'a Option<PathBuf>) -> Self {
+    /// For a split whose tasks not being written keep `budget` blocks in
+    /// all ([`BUDGET`], [`STEP_BUDGET`]).
+    pub(super) fn new(tmpdir: &'a Option<PathBuf>, budget: usize) -> Self {
         let test = std::env::var("LSGEN_TEST_SPILL")
             .ok()
             .and_then(|v| v.parse().ok())
             .filter(|&n| n > 0);
-        let (chunk, queue, budget) = test.map_or((CHUNK, QUEUE, BUDGET), |n| (n, 1, 1));
+        let (chunk, queue, budget) = test.map_or((CHUNK, QUEUE, budget), |n| (n, 1, 1));
         Shared {
             writing: AtomicU64::new(0),
             queued: AtomicUsize::new(0),
@@ -285,9 +293,10 @@ impl<'a> Order<'a> {
     /// while [`IN_FLIGHT`] tasks per thread are ahead of it); None when
     /// the writer is gone.
     pub(super) fn open(&self) -> Option<Slot> {
-        // Room for QUEUE blocks, a chunk's balance, the spill file and the end: a task not
-        // being written never waits for the writer.
-        let (tx, rx) = mpsc::sync_channel(QUEUE + 3);
+        // Room for QUEUE blocks, a chunk's balance, the spill file, its
+        // index and the end: a task not being written never waits for the
+        // writer.
+        let (tx, rx) = mpsc::sync_channel(QUEUE + 4);
         let t = Instant::now();
         let sent = self.tx.send(rx).is_ok();
         self.waited.set(self.waited.get() + t.elapsed());

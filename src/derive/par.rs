@@ -152,7 +152,7 @@ pub(crate) fn step_pass(
 ) -> Result<Option<u64>, Error> {
     let draws = AtomicU64::new(0);
     let draws = &draws;
-    let shared = &Shared::new(tmpdir);
+    let shared = &Shared::new(tmpdir, super::handoff::STEP_BUDGET);
     let text = out.text;
     // The workers write the output's bracket index where they can.
     let out_index = (out.indexed, out.counts());
@@ -326,7 +326,7 @@ pub(crate) fn expand(
     let done_modules = AtomicU64::new(0);
     let done_bytes = AtomicU64::new(0);
     let (done_modules, done_bytes) = (&done_modules, &done_bytes);
-    let shared = &Shared::new(tmpdir);
+    let shared = &Shared::new(tmpdir, super::handoff::BUDGET);
     std::thread::scope(|s| -> Result<(), Error> {
         let (task_tx, task_rx) = mpsc::channel::<(Task, Slot)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
