@@ -486,12 +486,13 @@ mod tests {
     }
 }
 
-/// `LSGEN_THREAD_TIMES=1` (hidden, for measuring, benches/RESULTS.md):
-/// each split pass reports on stderr the CPU time of its producer, of each
-/// worker and of the writer, a speed-up proxy that does not depend on how
-/// loaded the machine is.
+/// `LSGEN_DEBUG_PAR=1` (hidden, for measuring, benches/RESULTS.md; the
+/// one switch of the split's diagnostics, `super::handoff::Shared::debug`
+/// too): each split step pass also reports on stderr the CPU time of its
+/// producer, of each worker and of the writer, a speed-up proxy that does
+/// not depend on how loaded the machine is.
 pub(crate) fn thread_times() -> bool {
-    std::env::var_os("LSGEN_THREAD_TIMES").is_some_and(|v| v == "1")
+    std::env::var_os("LSGEN_DEBUG_PAR").is_some_and(|v| v == "1")
 }
 
 /// Nanoseconds the calling thread has run on a CPU (the one thread clock,
