@@ -236,7 +236,7 @@ fn context_passes_are_the_same_on_1_2_and_8_threads() {
     // (of 1, 3 and 7 bytes of the generation: contexts span chunks, and
     // chunks start inside branches), each chunk starting from the left
     // context one thread has there and reading right contexts past its
-    // end; the bracket index of the next generation rebuilt by the
+    // end; the bracket index of the next generation completed by the
     // writer. Left, right, both, ignore:, brackets in right contexts,
     // nested branches, parameters, draws, and errors.
     let systems = [
@@ -260,7 +260,9 @@ fn context_passes_are_the_same_on_1_2_and_8_threads() {
         for n in ["3", "5", "7"] {
             let args = ["-n", n, "--seed", "5"];
             let one = ls_on(src, &args, "1", "3");
-            for split in ["1", "3", "7"] {
+            // (64: chunks long enough that the scan jumps over whole
+            // branches where nothing draws.)
+            for split in ["1", "3", "7", "64"] {
                 for j in ["2", "8"] {
                     let many = ls_on(src, &args, j, split);
                     assert!(
