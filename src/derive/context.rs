@@ -684,7 +684,7 @@ mod tests {
             let f = generation(&mut s.alphabet, README, indexed);
             let al = &s.alphabet;
             let p = &s.productions.prods[0];
-            let mut slots = vec![f64::NAN; p.nslots];
+            let mut slots = vec![f64::NAN; p.nslots()];
             let mut peek = PosReader::new(&f, 1 << 10, indexed);
             let pos = after(&f, al, 'B', indexed);
             let mut chains = Chains::default();

@@ -425,7 +425,7 @@ fn deterministic_free(t: &Table) -> bool {
     !t.has_context()
         && !t.check_balance
         && t.prods.iter().all(|p| {
-            p.prob.is_none()
+            p.prob().is_none()
                 && !p.cond.as_ref().is_some_and(|c| c.uses_random())
                 && p.succ.iter().all(|i| match i {
                     Item::Const(_) => true,

@@ -496,7 +496,7 @@ impl<'a> Deriver<'a> {
         out: &mut Out,
         pass: Pass,
     ) -> Result<(), Error> {
-        let max_slots = |t: &Table| t.prods.iter().map(|p| p.nslots).max().unwrap_or(0);
+        let max_slots = |t: &Table| t.prods.iter().map(|p| p.nslots()).max().unwrap_or(0);
         let n = max_slots(table).max(decomp.map_or(0, |(d, _)| max_slots(d)));
         self.slots.resize(max_slots(table).max(1), 0.0);
         if self.rc.slots.len() < n.max(1) {
@@ -900,7 +900,7 @@ impl<'a> Deriver<'a> {
         }
         if let Some((d, max)) = decomp {
             // The successor has depth 0: decompose it.
-            rc.slots[..p.nslots].copy_from_slice(&slots[..p.nslots]);
+            rc.slots[..p.nslots()].copy_from_slice(&slots[..p.nslots()]);
             fill_level(rc, al, 0, p, rng, origin, pass)?;
             let cx = RecCtx {
                 table: d,
@@ -922,7 +922,7 @@ impl<'a> Deriver<'a> {
         if pass == Pass::Homomorphism && (hom_depth > 1 || warnings[1]) {
             // The successor has depth 1; contexts are those of the
             // original module, at every depth.
-            rc.slots[..p.nslots].copy_from_slice(&slots[..p.nslots]);
+            rc.slots[..p.nslots()].copy_from_slice(&slots[..p.nslots()]);
             fill_level(rc, al, 1, p, rng, origin, pass)?;
             let cx = RecCtx {
                 table,
@@ -1046,7 +1046,7 @@ fn surely_not(
             return Ok(true);
         }
     }
-    if p.right_simple {
+    if p.right_simple() {
         let right = st.right_of(end_off, al)?;
         if let (Some(RPat::Module(pat)), first) = (p.right.first(), right.modules.keys.first()) {
             if first != Some(&pat.key) {
@@ -1086,7 +1086,7 @@ fn contexts_match(
     if !p.left.is_empty() && !st.left.as_ref().unwrap().matches(&p.left, al, slots) {
         return Ok(false);
     }
-    if p.right_simple {
+    if p.right_simple() {
         let right = st.right_of(end_off, al)?;
         if !right.matches(&p.right, al, slots) {
             return Ok(false);

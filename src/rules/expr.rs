@@ -222,8 +222,9 @@ pub struct Code {
     /// hold millions of these.
     packed: Box<[Op]>,
     n: u32,
-    /// Span of the whole expression.
-    pub span: Span,
+    /// Where the whole expression starts in the header (runtime errors
+    /// of a probability or `group:` are located there; 24 bytes in all).
+    start: u32,
 }
 
 /// A failed evaluation: what, and where in the header text.
@@ -284,6 +285,9 @@ impl Code {
                 (kept.len() - 1) as u32
             };
             all.push(match op {
+                // Comparisons and logic cannot fail: no span kept (a
+                // condition's block is one operation shorter).
+                Op::Bin(b, _) if !can_fail(b) => Op::Bin(b, u32::MAX),
                 Op::Bin(b, si) => Op::Bin(b, at(si)),
                 Op::DivOr1(si) => Op::DivOr1(at(si)),
                 Op::CpfgRan(f, si) => Op::CpfgRan(f, at(si)),
@@ -298,8 +302,14 @@ impl Code {
         Code {
             packed: all.into_boxed_slice(),
             n: ops.len() as u32,
-            span,
+            start: u(span.0),
         }
+    }
+
+    /// Where the expression starts in the header.
+    #[inline]
+    pub fn start(&self) -> usize {
+        self.start as usize
     }
 
     /// The instructions.
@@ -684,6 +694,15 @@ impl Code {
             kind,
         }
     }
+}
+
+/// Can the binary operation fail (division by zero, NaN, overflow)?
+/// Comparisons and logic give 0 or 1.
+fn can_fail(b: BinOp) -> bool {
+    matches!(
+        b,
+        BinOp::Add | BinOp::Sub | BinOp::Mul | BinOp::Div | BinOp::Rem | BinOp::Pow
+    )
 }
 
 #[inline(always)]

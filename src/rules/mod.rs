@@ -355,30 +355,39 @@ impl From<Box<[Item]>> for Succ {
 }
 
 /// A compiled production. Kept small (boxed slices, boxed expressions, a
-/// one-item successor in place, u32 offsets and depths, the cpfg-only
-/// parts behind one optional box): a table may hold millions.
+/// one-item successor in place, u32 offsets and depths, the parts few
+/// productions have behind one optional box): a table may hold millions.
 #[derive(Clone, Debug)]
 pub struct Production {
     pub key: u32,
-    /// The right context has no brackets: it is matched against the cached
-    /// list of the next considered modules.
-    pub right_simple: bool,
-    /// Slots: predecessor parameters, then left context, then right context.
-    pub nslots: usize,
-    pub left: Box<[Pat]>,
-    pub right: Box<[RPat]>,
-    pub cond: Option<Box<Code>>,
-    pub prob: Option<Box<Code>>,
-    pub succ: Succ,
+    /// Slots ([`nslots`](Self::nslots)) in the low 31 bits; the top bit
+    /// set: the right context has no brackets
+    /// ([`right_simple`](Self::right_simple)).
+    slots_simple: u32,
     /// Where the production starts and ends in the header, for runtime
     /// errors ([`span`](Self::span); headers are far below 4 GiB).
     span: (u32, u32),
     /// Bracket depth change of the successor, and its lowest prefix.
     pub depth_delta: i32,
     pub depth_min: i32,
-    /// What only the cpfg dialect has (None in `.ls`).
-    pub cpfg: Option<Box<CpfgParts>>,
+    pub left: Box<[Pat]>,
+    pub right: Box<[RPat]>,
+    pub cond: Option<Box<Code>>,
+    pub succ: Succ,
+    /// The probability and what only the cpfg dialect has (None for a
+    /// production with neither: most).
+    extra: Option<Box<Extra>>,
 }
+
+/// The parts of a production few productions have.
+#[derive(Clone, Debug, Default)]
+struct Extra {
+    prob: Option<Code>,
+    cpfg: Option<Box<CpfgParts>>,
+}
+
+/// The top bit of `Production::slots_simple`.
+const RIGHT_SIMPLE: u32 = 1 << 31;
 
 /// A production's cpfg-only parts (issue 12).
 #[derive(Clone, Debug, Default)]
@@ -394,32 +403,102 @@ pub struct CpfgParts {
 }
 
 impl Production {
+    /// A production; its slots are predecessor parameters, then left
+    /// context, then right context.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        key: u32,
+        nslots: usize,
+        left: Box<[Pat]>,
+        right: Box<[RPat]>,
+        cond: Option<Box<Code>>,
+        prob: Option<Code>,
+        succ: Succ,
+        span: (u32, u32),
+        depth: (i32, i32),
+    ) -> Production {
+        let right_simple = !right.is_empty() && right.iter().all(|r| matches!(r, RPat::Module(_)));
+        let mut p = Production {
+            key,
+            slots_simple: 0,
+            span,
+            depth_delta: depth.0,
+            depth_min: depth.1,
+            left,
+            right,
+            cond,
+            succ,
+            extra: prob.map(|c| {
+                Box::new(Extra {
+                    prob: Some(c),
+                    cpfg: None,
+                })
+            }),
+        };
+        p.set_nslots(nslots);
+        p.set_right_simple(right_simple);
+        p
+    }
     pub fn has_context(&self) -> bool {
         !self.left.is_empty() || !self.right.is_empty() || !self.rest().is_empty()
+    }
+    /// How many parameter slots matching the production fills.
+    #[inline(always)]
+    pub fn nslots(&self) -> usize {
+        (self.slots_simple & !RIGHT_SIMPLE) as usize
+    }
+    pub fn set_nslots(&mut self, n: usize) {
+        let n = u32::try_from(n)
+            .ok()
+            .filter(|n| n & RIGHT_SIMPLE == 0)
+            .expect("a header under 2 GiB");
+        self.slots_simple = (self.slots_simple & RIGHT_SIMPLE) | n;
+    }
+    /// The right context has no brackets: it is matched against the cached
+    /// list of the next considered modules.
+    #[inline(always)]
+    pub fn right_simple(&self) -> bool {
+        self.slots_simple & RIGHT_SIMPLE != 0
+    }
+    fn set_right_simple(&mut self, simple: bool) {
+        self.slots_simple =
+            (self.slots_simple & !RIGHT_SIMPLE) | if simple { RIGHT_SIMPLE } else { 0 };
+    }
+    /// The probability (weight) expression.
+    #[inline]
+    pub fn prob(&self) -> Option<&Code> {
+        self.extra.as_ref().and_then(|x| x.prob.as_ref())
     }
     /// Where the production is in the header.
     #[inline]
     pub fn span(&self) -> Span {
         (self.span.0 as usize, self.span.1 as usize)
     }
+    #[inline]
+    fn cpfg(&self) -> Option<&CpfgParts> {
+        self.extra.as_ref().and_then(|x| x.cpfg.as_deref())
+    }
     /// cpfg: the predecessor's modules after the first.
     #[inline]
     pub fn rest(&self) -> &[Pat] {
-        self.cpfg.as_ref().map_or(&[], |c| &c.rest)
+        self.cpfg().map_or(&[], |c| &c.rest)
     }
     /// cpfg's pre-condition block.
     #[inline]
     pub fn pre(&self) -> Option<&crate::cpfg::blocks::Block> {
-        self.cpfg.as_ref().and_then(|c| c.pre.as_ref())
+        self.cpfg().and_then(|c| c.pre.as_ref())
     }
     /// cpfg's post-condition block.
     #[inline]
     pub fn post(&self) -> Option<&crate::cpfg::blocks::Block> {
-        self.cpfg.as_ref().and_then(|c| c.post.as_ref())
+        self.cpfg().and_then(|c| c.post.as_ref())
     }
     /// The cpfg-only parts, made on first use.
     pub fn cpfg_mut(&mut self) -> &mut CpfgParts {
-        self.cpfg.get_or_insert_with(Box::default)
+        self.extra
+            .get_or_insert_with(Box::default)
+            .cpfg
+            .get_or_insert_with(Box::default)
     }
 }
 
@@ -520,7 +599,7 @@ impl Table {
         self.max_left = self.max_left.max(p.left.len());
         self.has_right |= !p.right.is_empty();
         self.has_multi |= !p.rest().is_empty();
-        if p.right_simple {
+        if p.right_simple() {
             self.max_right_simple = self.max_right_simple.max(p.right.len());
         }
         self.check_balance |= p.depth_delta != 0 || p.depth_min < 0;
@@ -561,10 +640,10 @@ impl Table {
             if let Some((c, f, cs, fs)) = &mut lists[p.key as usize] {
                 if p.has_context() {
                     c.push(i as u32);
-                    *cs |= p.prob.is_some();
+                    *cs |= p.prob().is_some();
                 } else {
                     f.push(i as u32);
-                    *fs |= p.prob.is_some();
+                    *fs |= p.prob().is_some();
                 }
             }
         }
@@ -609,7 +688,7 @@ impl Table {
     /// right context is cpfg's "skip the rest of the branch".
     pub fn for_cpfg(&mut self, al: &Alphabet) {
         for p in &mut self.prods {
-            p.right_simple = false;
+            p.set_right_simple(false);
             for r in p.right.iter_mut() {
                 if let RPat::Module(m) = r {
                     if m.key == u32::from(b'=') && al.arity(m.key) == 0 {
@@ -759,7 +838,8 @@ mod tests {
     /// narrowed and keys' lists made exact boxes.
     #[test]
     fn compiled_parts_stay_small() {
-        assert_eq!(std::mem::size_of::<Production>(), 112);
+        assert_eq!(std::mem::size_of::<Production>(), 96);
+        assert_eq!(std::mem::size_of::<Code>(), 24);
         assert_eq!(std::mem::size_of::<KeyRules>(), 48);
         assert_eq!(std::mem::size_of::<Item>(), 24);
     }
