@@ -738,8 +738,8 @@ fn compile_production(
     let mut prod = Production::new(
         key,
         nslots,
-        exact(left),
-        exact(right),
+        Thin::from(left),
+        Thin::from(right),
         cond,
         prob,
         Succ::from(succ),
@@ -802,7 +802,7 @@ fn compile_successor(
                 }
                 items.push(Item::Module {
                     key,
-                    params: exact(codes),
+                    params: Thin::from(codes),
                 });
             }
         }

@@ -19,6 +19,8 @@ pub use compile::{
     compile, compile_dialect, compile_text, compile_with, Compiler, LoadError, Seeds,
 };
 pub mod expr;
+mod thin;
+pub use thin::Thin;
 
 pub const OPEN: u32 = b'[' as u32;
 pub const CLOSE: u32 = b']' as u32;
@@ -162,16 +164,24 @@ pub enum RPat {
 }
 
 /// Modules known at load time, precomputed in each format, in one
-/// allocation (a production table may hold millions of these).
-#[derive(Clone, Debug)]
+/// allocation behind a thin pointer (a production table may hold millions
+/// of these: 8 bytes each, and the block no bigger than its bytes).
 pub struct ConstRun {
-    /// A 16-byte header (little-endian u32s: the module count, then where
-    /// the binary, the indexed binary and the text end), the binary format,
-    /// the binary with bracket index, the text, and for each bracket its
-    /// offset in the indexed binary (4 bytes), 1 if `[`, and how many of
-    /// the run's modules come before it (4 bytes).
-    data: Box<[u8]>,
+    /// A 16-byte header (little-endian u32s: the module count, its top
+    /// bit set if the run holds brackets; then where the binary, the
+    /// indexed binary and the text end), the binary format, the binary
+    /// with bracket index, the text; then, if it holds brackets, their
+    /// count (4 bytes) and for each its offset in the indexed binary (4
+    /// bytes), 1 if `[`, and how many of the run's modules come before it
+    /// (4 bytes).
+    data: NonNull<u8>,
 }
+
+use std::ptr::NonNull;
+
+// Safety: a `ConstRun` owns its block, never changed after it is made.
+unsafe impl Send for ConstRun {}
+unsafe impl Sync for ConstRun {}
 
 impl Default for ConstRun {
     fn default() -> ConstRun {
@@ -182,6 +192,8 @@ impl Default for ConstRun {
 const HEADER: usize = 16;
 /// The bytes of one bracket entry.
 const BRACKET: usize = 9;
+/// The module count's top bit: the run holds brackets.
+const HAS_BRACKETS: u32 = 1 << 31;
 
 impl ConstRun {
     fn new(
@@ -191,58 +203,113 @@ impl ConstRun {
         brackets: &[(u32, bool, u32)],
         modules: u32,
     ) -> Self {
-        let mut data = Vec::with_capacity(
-            HEADER + bin.len() + ibin.len() + text.len() + BRACKET * brackets.len(),
-        );
+        assert!(modules < HAS_BRACKETS, "a header under 2 GiB");
+        let tail = if brackets.is_empty() {
+            0
+        } else {
+            4 + BRACKET * brackets.len()
+        };
+        let mut data = Vec::with_capacity(HEADER + bin.len() + ibin.len() + text.len() + tail);
         let bin_end = HEADER + bin.len();
         let ibin_end = bin_end + ibin.len();
         let text_end = ibin_end + text.len();
-        for v in [modules as usize, bin_end, ibin_end, text_end] {
-            data.extend_from_slice(&(v as u32).to_le_bytes());
+        let flag = if brackets.is_empty() { 0 } else { HAS_BRACKETS };
+        for v in [(modules | flag) as usize, bin_end, ibin_end, text_end] {
+            let v = u32::try_from(v).expect("a header under 4 GiB");
+            data.extend_from_slice(&v.to_le_bytes());
         }
         data.extend_from_slice(bin);
         data.extend_from_slice(ibin);
         data.extend_from_slice(text);
+        if !brackets.is_empty() {
+            data.extend_from_slice(&(brackets.len() as u32).to_le_bytes());
+        }
         for &(at, open, before) in brackets {
             data.extend_from_slice(&at.to_le_bytes());
             data.push(u8::from(open));
             data.extend_from_slice(&before.to_le_bytes());
         }
-        ConstRun { data: data.into() }
+        debug_assert_eq!(data.len(), data.capacity());
+        let layout = Self::layout(data.len());
+        // Safety: the layout holds at least the header (not zero-sized);
+        // `data` fills it.
+        unsafe {
+            let p = std::alloc::alloc(layout);
+            let Some(ptr) = NonNull::new(p) else {
+                std::alloc::handle_alloc_error(layout)
+            };
+            std::ptr::copy_nonoverlapping(data.as_ptr(), p, data.len());
+            ConstRun { data: ptr }
+        }
+    }
+
+    fn layout(len: usize) -> std::alloc::Layout {
+        std::alloc::Layout::from_size_align(len, 1).expect("a header under 4 GiB")
+    }
+
+    /// The whole block.
+    fn bytes(&self) -> &[u8] {
+        let n = self.at(3);
+        let len = if self.has_brackets() {
+            n + 4 + BRACKET * self.word(n) as usize
+        } else {
+            n
+        };
+        // Safety: the block is `len` bytes (see `new`).
+        unsafe { std::slice::from_raw_parts(self.data.as_ptr(), len) }
+    }
+
+    /// The little-endian u32 at byte `at` of the block.
+    #[inline(always)]
+    fn word(&self, at: usize) -> u32 {
+        // Safety: callers read inside the block: the header, or the
+        // bracket count after the text.
+        u32::from_le_bytes(unsafe { self.data.as_ptr().add(at).cast::<[u8; 4]>().read() })
     }
 
     /// The header's `i`th number.
     #[inline(always)]
     fn at(&self, i: usize) -> usize {
-        let b: [u8; 4] = self.data[4 * i..4 * i + 4].try_into().unwrap();
-        u32::from_le_bytes(b) as usize
+        self.word(4 * i) as usize
+    }
+
+    /// Bytes `from..to` of the block.
+    #[inline(always)]
+    fn range(&self, from: usize, to: usize) -> &[u8] {
+        // Safety: the header's offsets are in order and inside the block.
+        unsafe { std::slice::from_raw_parts(self.data.as_ptr().add(from), to - from) }
     }
 
     /// Binary format.
     #[inline(always)]
     pub fn bin(&self) -> &[u8] {
-        &self.data[HEADER..self.at(1)]
+        self.range(HEADER, self.at(1))
     }
     /// Binary with bracket index: each `[` followed by
     /// [`codec::INDEX_BYTES`] that will hold the offset just past its `]`
     /// and the module count of its branch.
     #[inline(always)]
     pub fn ibin(&self) -> &[u8] {
-        &self.data[self.at(1)..self.at(2)]
+        self.range(self.at(1), self.at(2))
     }
     #[inline(always)]
     pub fn text(&self) -> &[u8] {
-        &self.data[self.at(2)..self.at(3)]
+        self.range(self.at(2), self.at(3))
     }
     /// How many modules.
     #[inline(always)]
     pub fn modules(&self) -> u64 {
-        self.at(0) as u64
+        u64::from(self.word(0) & !HAS_BRACKETS)
     }
     /// Offsets of the brackets in [`ibin`](Self::ibin) (true: `[`), and
     /// how many of the run's modules come before each.
     pub fn brackets(&self) -> impl Iterator<Item = (u32, bool, u64)> + '_ {
-        self.data[self.at(3)..].chunks_exact(BRACKET).map(|b| {
+        let from = if self.has_brackets() {
+            self.at(3) + 4
+        } else {
+            self.at(3)
+        };
+        self.bytes()[from..].chunks_exact(BRACKET).map(|b| {
             (
                 u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
                 b[4] == 1,
@@ -253,7 +320,40 @@ impl ConstRun {
     /// Does the run hold `[` or `]`?
     #[inline]
     pub fn has_brackets(&self) -> bool {
-        self.data.len() > self.at(3)
+        self.word(0) & HAS_BRACKETS != 0
+    }
+}
+
+impl Clone for ConstRun {
+    fn clone(&self) -> ConstRun {
+        let b = self.bytes();
+        let layout = Self::layout(b.len());
+        // Safety: as in `new`.
+        unsafe {
+            let p = std::alloc::alloc(layout);
+            let Some(ptr) = NonNull::new(p) else {
+                std::alloc::handle_alloc_error(layout)
+            };
+            std::ptr::copy_nonoverlapping(b.as_ptr(), p, b.len());
+            ConstRun { data: ptr }
+        }
+    }
+}
+
+impl Drop for ConstRun {
+    fn drop(&mut self) {
+        let layout = Self::layout(self.bytes().len());
+        // Safety: the block was allocated with this layout (`new`).
+        unsafe { std::alloc::dealloc(self.data.as_ptr(), layout) }
+    }
+}
+
+impl std::fmt::Debug for ConstRun {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ConstRun")
+            .field("modules", &self.modules())
+            .field("text", &String::from_utf8_lossy(self.text()))
+            .finish()
     }
 }
 
@@ -305,7 +405,7 @@ pub enum Item {
     /// A run of modules known at load time, in every format.
     Const(ConstRun),
     /// A module whose parameters are computed.
-    Module { key: u32, params: Box<[Code]> },
+    Module { key: u32, params: Thin<Code> },
 }
 
 /// A successor's items: a slice ([`Deref`](std::ops::Deref)). Most
@@ -313,7 +413,7 @@ pub enum Item {
 #[derive(Clone, Debug)]
 pub enum Succ {
     One(Item),
-    Many(Box<[Item]>),
+    Many(Thin<Item>),
 }
 
 impl std::ops::Deref for Succ {
@@ -341,9 +441,9 @@ impl From<Vec<Item>> for Succ {
             Some(i) if v.is_empty() => Succ::One(i),
             Some(i) => {
                 v.push(i);
-                Succ::Many(exact(v))
+                Succ::Many(Thin::from(v))
             }
-            None => Succ::Many(Box::default()),
+            None => Succ::Many(Thin::empty()),
         }
     }
 }
@@ -370,8 +470,8 @@ pub struct Production {
     /// Bracket depth change of the successor, and its lowest prefix.
     pub depth_delta: i32,
     pub depth_min: i32,
-    pub left: Box<[Pat]>,
-    pub right: Box<[RPat]>,
+    pub left: Thin<Pat>,
+    pub right: Thin<RPat>,
     pub cond: Option<Box<Code>>,
     pub succ: Succ,
     /// The probability and what only the cpfg dialect has (None for a
@@ -409,8 +509,8 @@ impl Production {
     pub fn new(
         key: u32,
         nslots: usize,
-        left: Box<[Pat]>,
-        right: Box<[RPat]>,
+        left: Thin<Pat>,
+        right: Thin<RPat>,
         cond: Option<Box<Code>>,
         prob: Option<Code>,
         succ: Succ,
@@ -615,50 +715,49 @@ impl Table {
 
     /// Group `prods[..own]` by key: each key's lists in file order, made
     /// at their exact size (counted first), context-sensitive and
-    /// context-free apart.
+    /// context-free apart. Filled in place: nothing per key but the counts
+    /// (8 bytes) exists beside the result (a header may name millions of
+    /// symbols).
     fn index(&mut self, own: usize) {
         let keys = self.prods[..own]
             .iter()
             .map(|p| p.key as usize + 1)
             .max()
             .unwrap_or(0);
-        let mut counts = vec![[0usize; 2]; keys];
+        let mut counts = vec![[0u32; 2]; keys];
         for p in &self.prods[..own] {
             counts[p.key as usize][usize::from(!p.has_context())] += 1;
         }
-        // A key's context-sensitive and context-free lists, and whether
-        // each has a probability.
-        type Lists = (Vec<u32>, Vec<u32>, bool, bool);
-        let mut lists: Vec<Option<Lists>> = counts
+        let list = |n: u32| vec![0u32; n as usize].into_boxed_slice();
+        self.by_key = counts
             .iter()
             .map(|&[c, f]| {
-                (c + f > 0).then(|| (Vec::with_capacity(c), Vec::with_capacity(f), false, false))
-            })
-            .collect();
-        drop(counts);
-        for (i, p) in self.prods[..own].iter().enumerate() {
-            if let Some((c, f, cs, fs)) = &mut lists[p.key as usize] {
-                if p.has_context() {
-                    c.push(i as u32);
-                    *cs |= p.prob().is_some();
-                } else {
-                    f.push(i as u32);
-                    *fs |= p.prob().is_some();
-                }
-            }
-        }
-        self.by_key = lists
-            .into_iter()
-            .map(|l| {
-                l.map(|(c, f, cs, fs)| KeyRules {
-                    context: c.into_boxed_slice(),
-                    free: f.into_boxed_slice(),
-                    context_stochastic: cs,
-                    free_stochastic: fs,
-                    fallback: None,
+                (c + f > 0).then(|| KeyRules {
+                    context: list(c),
+                    free: list(f),
+                    ..KeyRules::default()
                 })
             })
             .collect();
+        // Now the number of each key's entries filled so far.
+        counts.iter_mut().for_each(|c| *c = [0; 2]);
+        for (i, p) in self.prods[..own].iter().enumerate() {
+            let k = p.key as usize;
+            let Some(kr) = &mut self.by_key[k] else {
+                continue;
+            };
+            let free = !p.has_context();
+            let at = &mut counts[k][usize::from(free)];
+            let stochastic = p.prob().is_some();
+            if free {
+                kr.free[*at as usize] = i as u32;
+                kr.free_stochastic |= stochastic;
+            } else {
+                kr.context[*at as usize] = i as u32;
+                kr.context_stochastic |= stochastic;
+            }
+            *at += 1;
+        }
     }
 
     #[inline]
@@ -838,10 +937,11 @@ mod tests {
     /// narrowed and keys' lists made exact boxes.
     #[test]
     fn compiled_parts_stay_small() {
-        assert_eq!(std::mem::size_of::<Production>(), 96);
+        assert_eq!(std::mem::size_of::<Production>(), 72);
         assert_eq!(std::mem::size_of::<Code>(), 24);
         assert_eq!(std::mem::size_of::<KeyRules>(), 48);
-        assert_eq!(std::mem::size_of::<Item>(), 24);
+        assert_eq!(std::mem::size_of::<Item>(), 16);
+        assert_eq!(std::mem::size_of::<Succ>(), 16);
     }
 
     #[test]
