@@ -224,7 +224,7 @@ impl Chooser {
                 let u = rng.uniform().map_err(|m| {
                     let p = &table.prods[self.cand[0].0 as usize];
                     Error::at(
-                        origin.locate(p.span().0),
+                        origin.locate(p.start()),
                         crate::diag::RuntimeError::Eval {
                             error: crate::diag::ExprError::Random(m),
                             pass,

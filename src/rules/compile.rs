@@ -604,7 +604,7 @@ fn balanced(t: &Table, kind: CompileError) -> R<()> {
         .iter()
         .find(|p| p.depth_delta != 0 || p.depth_min < 0)
     {
-        Some(p) => err(p.span(), kind),
+        Some(p) => err((p.start(), p.start()), kind),
         None => Ok(()),
     }
 }
@@ -738,12 +738,12 @@ fn compile_production(
     let mut prod = Production::new(
         key,
         nslots,
-        Thin::from(left),
-        Thin::from(right),
+        &left,
+        &right,
         cond,
         prob,
         Succ::from(succ),
-        (offset(p.span.0), offset(p.span.1)),
+        offset(p.span.0),
         (narrow(depth_delta), narrow(depth_min)),
     );
     if !rest.is_empty() {

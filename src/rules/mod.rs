@@ -20,7 +20,7 @@ pub use compile::{
 };
 pub mod expr;
 mod thin;
-pub use thin::Thin;
+pub use thin::{Pair, Thin};
 
 pub const OPEN: u32 = b'[' as u32;
 pub const CLOSE: u32 = b']' as u32;
@@ -464,14 +464,15 @@ pub struct Production {
     /// set: the right context has no brackets
     /// ([`right_simple`](Self::right_simple)).
     slots_simple: u32,
-    /// Where the production starts and ends in the header, for runtime
-    /// errors ([`span`](Self::span); headers are far below 4 GiB).
-    span: (u32, u32),
+    /// Where the production starts in the header, for runtime errors
+    /// ([`start`](Self::start); headers are far below 4 GiB).
+    start: u32,
     /// Bracket depth change of the successor, and its lowest prefix.
     pub depth_delta: i32,
     pub depth_min: i32,
-    pub left: Thin<Pat>,
-    pub right: Thin<RPat>,
+    /// The left context ([`left`](Self::left)) and the right context
+    /// ([`right`](Self::right)), in one block.
+    contexts: Pair<Pat, RPat>,
     pub cond: Option<Box<Code>>,
     pub succ: Succ,
     /// The probability and what only the cpfg dialect has (None for a
@@ -509,23 +510,22 @@ impl Production {
     pub fn new(
         key: u32,
         nslots: usize,
-        left: Thin<Pat>,
-        right: Thin<RPat>,
+        left: &[Pat],
+        right: &[RPat],
         cond: Option<Box<Code>>,
         prob: Option<Code>,
         succ: Succ,
-        span: (u32, u32),
+        start: u32,
         depth: (i32, i32),
     ) -> Production {
         let right_simple = !right.is_empty() && right.iter().all(|r| matches!(r, RPat::Module(_)));
         let mut p = Production {
             key,
             slots_simple: 0,
-            span,
+            start,
             depth_delta: depth.0,
             depth_min: depth.1,
-            left,
-            right,
+            contexts: Pair::new(left, right),
             cond,
             succ,
             extra: prob.map(|c| {
@@ -540,7 +540,17 @@ impl Production {
         p
     }
     pub fn has_context(&self) -> bool {
-        !self.left.is_empty() || !self.right.is_empty() || !self.rest().is_empty()
+        !self.left().is_empty() || !self.right().is_empty() || !self.rest().is_empty()
+    }
+    /// The left context.
+    #[inline(always)]
+    pub fn left(&self) -> &[Pat] {
+        self.contexts.a()
+    }
+    /// The right context.
+    #[inline(always)]
+    pub fn right(&self) -> &[RPat] {
+        self.contexts.b()
     }
     /// How many parameter slots matching the production fills.
     #[inline(always)]
@@ -569,10 +579,10 @@ impl Production {
     pub fn prob(&self) -> Option<&Code> {
         self.extra.as_ref().and_then(|x| x.prob.as_ref())
     }
-    /// Where the production is in the header.
+    /// Where the production starts in the header.
     #[inline]
-    pub fn span(&self) -> Span {
-        (self.span.0 as usize, self.span.1 as usize)
+    pub fn start(&self) -> usize {
+        self.start as usize
     }
     #[inline]
     fn cpfg(&self) -> Option<&CpfgParts> {
@@ -696,11 +706,11 @@ impl Table {
 
     /// Add a compiled production after the others.
     pub fn push(&mut self, p: Production) {
-        self.max_left = self.max_left.max(p.left.len());
-        self.has_right |= !p.right.is_empty();
+        self.max_left = self.max_left.max(p.left().len());
+        self.has_right |= !p.right().is_empty();
         self.has_multi |= !p.rest().is_empty();
         if p.right_simple() {
-            self.max_right_simple = self.max_right_simple.max(p.right.len());
+            self.max_right_simple = self.max_right_simple.max(p.right().len());
         }
         self.check_balance |= p.depth_delta != 0 || p.depth_min < 0;
         self.prods.push(p);
@@ -788,7 +798,7 @@ impl Table {
     pub fn for_cpfg(&mut self, al: &Alphabet) {
         for p in &mut self.prods {
             p.set_right_simple(false);
-            for r in p.right.iter_mut() {
+            for r in p.contexts.b_mut() {
                 if let RPat::Module(m) = r {
                     if m.key == u32::from(b'=') && al.arity(m.key) == 0 {
                         *r = RPat::SkipRest;
@@ -937,7 +947,7 @@ mod tests {
     /// narrowed and keys' lists made exact boxes.
     #[test]
     fn compiled_parts_stay_small() {
-        assert_eq!(std::mem::size_of::<Production>(), 72);
+        assert_eq!(std::mem::size_of::<Production>(), 64);
         assert_eq!(std::mem::size_of::<Code>(), 24);
         assert_eq!(std::mem::size_of::<KeyRules>(), 48);
         assert_eq!(std::mem::size_of::<Item>(), 16);

@@ -161,6 +161,116 @@ impl<'a, T> IntoIterator for &'a Thin<T> {
     }
 }
 
+/// Two slices in one block behind one pointer: `A`s then `B`s, their
+/// counts (u32 each) in the header (a production's left and right
+/// contexts: 8 bytes and, when either is not empty, one block). Both
+/// types' alignment must be at most 4 and `A`'s size a multiple of it.
+pub struct Pair<A: Copy, B: Copy> {
+    ptr: NonNull<[u32; 2]>,
+    _items: PhantomData<(A, B)>,
+}
+
+/// Every empty pair's header.
+static NO_PAIR: [u32; 2] = [0, 0];
+
+// Safety: a `Pair` owns its items (plain `Copy` data).
+unsafe impl<A: Copy + Send, B: Copy + Send> Send for Pair<A, B> {}
+unsafe impl<A: Copy + Sync, B: Copy + Sync> Sync for Pair<A, B> {}
+
+impl<A: Copy, B: Copy> Pair<A, B> {
+    fn layout(na: usize, nb: usize) -> Layout {
+        assert!(std::mem::align_of::<A>() <= 4 && std::mem::align_of::<B>() <= 4);
+        assert!(std::mem::size_of::<A>() % std::mem::align_of::<B>() == 0);
+        let size = 8 + na * std::mem::size_of::<A>() + nb * std::mem::size_of::<B>();
+        Layout::from_size_align(size, 4).expect("a slice under isize::MAX")
+    }
+
+    pub fn new(a: &[A], b: &[B]) -> Pair<A, B> {
+        if a.is_empty() && b.is_empty() {
+            return Pair {
+                ptr: NonNull::from(&NO_PAIR),
+                _items: PhantomData,
+            };
+        }
+        let n = |x: usize| u32::try_from(x).expect("a header under 4 GiB");
+        let layout = Self::layout(a.len(), b.len());
+        // Safety: the layout is not zero-sized; the counts, then the `A`s,
+        // then the `B`s fill it, each at an offset aligned for it.
+        unsafe {
+            let p = alloc(layout);
+            let Some(ptr) = NonNull::new(p.cast::<[u32; 2]>()) else {
+                handle_alloc_error(layout)
+            };
+            ptr.as_ptr().write([n(a.len()), n(b.len())]);
+            let t = Pair {
+                ptr,
+                _items: PhantomData,
+            };
+            std::ptr::copy_nonoverlapping(a.as_ptr(), t.a_ptr(), a.len());
+            std::ptr::copy_nonoverlapping(b.as_ptr(), t.b_ptr(), b.len());
+            t
+        }
+    }
+
+    #[inline(always)]
+    fn counts(&self) -> [u32; 2] {
+        // Safety: the header is always there (the static one if empty).
+        unsafe { *self.ptr.as_ptr() }
+    }
+    #[inline(always)]
+    fn a_ptr(&self) -> *mut A {
+        unsafe { self.ptr.as_ptr().add(1).cast::<A>() }
+    }
+    #[inline(always)]
+    fn b_ptr(&self) -> *mut B {
+        unsafe { self.a_ptr().add(self.counts()[0] as usize).cast::<B>() }
+    }
+    #[inline(always)]
+    pub fn a(&self) -> &[A] {
+        // Safety: the header counts the initialised items.
+        unsafe { std::slice::from_raw_parts(self.a_ptr(), self.counts()[0] as usize) }
+    }
+    #[inline(always)]
+    pub fn b(&self) -> &[B] {
+        unsafe { std::slice::from_raw_parts(self.b_ptr(), self.counts()[1] as usize) }
+    }
+    pub fn b_mut(&mut self) -> &mut [B] {
+        // Safety: owned; an empty pair's slice has no items to write.
+        unsafe { std::slice::from_raw_parts_mut(self.b_ptr(), self.counts()[1] as usize) }
+    }
+}
+
+impl<A: Copy, B: Copy> Drop for Pair<A, B> {
+    fn drop(&mut self) {
+        if std::ptr::eq(self.ptr.as_ptr(), &NO_PAIR) {
+            return;
+        }
+        let [na, nb] = self.counts();
+        // Safety: made by `new` with this layout; the items need no drop.
+        unsafe {
+            dealloc(
+                self.ptr.as_ptr().cast(),
+                Self::layout(na as usize, nb as usize),
+            )
+        }
+    }
+}
+
+impl<A: Copy, B: Copy> Clone for Pair<A, B> {
+    fn clone(&self) -> Self {
+        Pair::new(self.a(), self.b())
+    }
+}
+
+impl<A: Copy + std::fmt::Debug, B: Copy + std::fmt::Debug> std::fmt::Debug for Pair<A, B> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_tuple("Pair")
+            .field(&self.a())
+            .field(&self.b())
+            .finish()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::Thin;
@@ -185,5 +295,19 @@ mod tests {
         assert_eq!(Rc::strong_count(&r), 1);
         let s: Thin<(u32, f64)> = Thin::from(vec![(1, 0.5)]);
         assert_eq!(s[0], (1, 0.5));
+    }
+
+    #[test]
+    fn pair_holds_both_slices() {
+        use super::Pair;
+        let e: Pair<(u32, u32), u8> = Pair::new(&[], &[]);
+        assert!(e.a().is_empty() && e.b().is_empty());
+        let mut p = Pair::new(&[(1u32, 2u32), (3, 4)], &[7u8, 8, 9]);
+        assert_eq!((p.a(), p.b()), (&[(1, 2), (3, 4)][..], &[7, 8, 9][..]));
+        p.b_mut()[0] = 0;
+        let q = p.clone();
+        assert_eq!((q.a(), q.b()), (&[(1, 2), (3, 4)][..], &[0, 8, 9][..]));
+        let r: Pair<(u32, u32), u8> = Pair::new(&[], &[5]);
+        assert_eq!((r.a(), r.b()), (&[][..], &[5][..]));
     }
 }
