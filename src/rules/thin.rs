@@ -161,28 +161,37 @@ impl<'a, T> IntoIterator for &'a Thin<T> {
     }
 }
 
-/// Two slices in one block behind one pointer: `A`s then `B`s, their
-/// counts (u32 each) in the header (a production's left and right
-/// contexts: 8 bytes and, when either is not empty, one block). Both
-/// types' alignment must be at most 4 and `A`'s size a multiple of it.
+/// Two slices in one block behind one pointer: `A`s then `B`s after a
+/// header that counts them (a production's left and right contexts: 8
+/// bytes and, when either is not empty, one block). The header is one
+/// u32 (`na | nb << 15`) when `na < 2^15` and `nb < 2^16`, so that a
+/// one-module context on each side fits glibc's smallest chunk; else
+/// [`BIG`] followed by the two counts. Both types' alignment must be at
+/// most 4 and `A`'s size a multiple of `B`'s alignment.
 pub struct Pair<A: Copy, B: Copy> {
-    ptr: NonNull<[u32; 2]>,
+    ptr: NonNull<u32>,
     _items: PhantomData<(A, B)>,
 }
 
+/// The header of a pair whose counts follow it.
+const BIG: u32 = 1 << 31;
+
 /// Every empty pair's header.
-static NO_PAIR: [u32; 2] = [0, 0];
+static NO_PAIR: u32 = 0;
 
 // Safety: a `Pair` owns its items (plain `Copy` data).
 unsafe impl<A: Copy + Send, B: Copy + Send> Send for Pair<A, B> {}
 unsafe impl<A: Copy + Sync, B: Copy + Sync> Sync for Pair<A, B> {}
 
 impl<A: Copy, B: Copy> Pair<A, B> {
-    fn layout(na: usize, nb: usize) -> Layout {
+    /// The header's bytes for these counts, and the block.
+    fn layout(na: usize, nb: usize) -> (usize, Layout) {
         assert!(std::mem::align_of::<A>() <= 4 && std::mem::align_of::<B>() <= 4);
         assert!(std::mem::size_of::<A>() % std::mem::align_of::<B>() == 0);
-        let size = 8 + na * std::mem::size_of::<A>() + nb * std::mem::size_of::<B>();
-        Layout::from_size_align(size, 4).expect("a slice under isize::MAX")
+        let header = if na < 1 << 15 && nb < 1 << 16 { 4 } else { 12 };
+        let size = header + na * std::mem::size_of::<A>() + nb * std::mem::size_of::<B>();
+        let layout = Layout::from_size_align(size, 4).expect("a slice under isize::MAX");
+        (header, layout)
     }
 
     pub fn new(a: &[A], b: &[B]) -> Pair<A, B> {
@@ -193,15 +202,21 @@ impl<A: Copy, B: Copy> Pair<A, B> {
             };
         }
         let n = |x: usize| u32::try_from(x).expect("a header under 4 GiB");
-        let layout = Self::layout(a.len(), b.len());
-        // Safety: the layout is not zero-sized; the counts, then the `A`s,
-        // then the `B`s fill it, each at an offset aligned for it.
+        let (header, layout) = Self::layout(a.len(), b.len());
+        // Safety: the layout is not zero-sized; the header, then the
+        // `A`s, then the `B`s fill it, each at an offset aligned for it.
         unsafe {
-            let p = alloc(layout);
-            let Some(ptr) = NonNull::new(p.cast::<[u32; 2]>()) else {
+            let p = alloc(layout).cast::<u32>();
+            let Some(ptr) = NonNull::new(p) else {
                 handle_alloc_error(layout)
             };
-            ptr.as_ptr().write([n(a.len()), n(b.len())]);
+            if header == 4 {
+                p.write(n(a.len()) | n(b.len()) << 15);
+            } else {
+                p.write(BIG);
+                p.add(1).write(n(a.len()));
+                p.add(2).write(n(b.len()));
+            }
             let t = Pair {
                 ptr,
                 _items: PhantomData,
@@ -212,31 +227,49 @@ impl<A: Copy, B: Copy> Pair<A, B> {
         }
     }
 
+    /// The two counts, and where the `A`s start.
     #[inline(always)]
-    fn counts(&self) -> [u32; 2] {
-        // Safety: the header is always there (the static one if empty).
-        unsafe { *self.ptr.as_ptr() }
+    fn counts(&self) -> (usize, usize, *mut A) {
+        let p = self.ptr.as_ptr();
+        // Safety: the header is always there (the static one if empty),
+        // with the counts after it if it says BIG.
+        unsafe {
+            let h = *p;
+            if h & BIG == 0 {
+                (
+                    (h & 0x7FFF) as usize,
+                    (h >> 15) as usize,
+                    p.add(1).cast::<A>(),
+                )
+            } else {
+                (*p.add(1) as usize, *p.add(2) as usize, p.add(3).cast::<A>())
+            }
+        }
     }
     #[inline(always)]
     fn a_ptr(&self) -> *mut A {
-        unsafe { self.ptr.as_ptr().add(1).cast::<A>() }
+        self.counts().2
     }
     #[inline(always)]
     fn b_ptr(&self) -> *mut B {
-        unsafe { self.a_ptr().add(self.counts()[0] as usize).cast::<B>() }
+        let (na, _, a) = self.counts();
+        unsafe { a.add(na).cast::<B>() }
     }
     #[inline(always)]
     pub fn a(&self) -> &[A] {
+        let (na, _, a) = self.counts();
         // Safety: the header counts the initialised items.
-        unsafe { std::slice::from_raw_parts(self.a_ptr(), self.counts()[0] as usize) }
+        unsafe { std::slice::from_raw_parts(a, na) }
     }
     #[inline(always)]
     pub fn b(&self) -> &[B] {
-        unsafe { std::slice::from_raw_parts(self.b_ptr(), self.counts()[1] as usize) }
+        let (na, nb, a) = self.counts();
+        unsafe { std::slice::from_raw_parts(a.add(na).cast::<B>(), nb) }
     }
     pub fn b_mut(&mut self) -> &mut [B] {
+        let (na, nb, a) = self.counts();
         // Safety: owned; an empty pair's slice has no items to write.
-        unsafe { std::slice::from_raw_parts_mut(self.b_ptr(), self.counts()[1] as usize) }
+        unsafe { std::slice::from_raw_parts_mut(a.add(na).cast::<B>(), nb) }
     }
 }
 
@@ -245,14 +278,9 @@ impl<A: Copy, B: Copy> Drop for Pair<A, B> {
         if std::ptr::eq(self.ptr.as_ptr(), &NO_PAIR) {
             return;
         }
-        let [na, nb] = self.counts();
+        let (na, nb, _) = self.counts();
         // Safety: made by `new` with this layout; the items need no drop.
-        unsafe {
-            dealloc(
-                self.ptr.as_ptr().cast(),
-                Self::layout(na as usize, nb as usize),
-            )
-        }
+        unsafe { dealloc(self.ptr.as_ptr().cast(), Self::layout(na, nb).1) }
     }
 }
 
@@ -309,5 +337,13 @@ mod tests {
         assert_eq!((q.a(), q.b()), (&[(1, 2), (3, 4)][..], &[0, 8, 9][..]));
         let r: Pair<(u32, u32), u8> = Pair::new(&[], &[5]);
         assert_eq!((r.a(), r.b()), (&[][..], &[5][..]));
+        // Counts past the one-word header.
+        for (na, nb) in [(1 << 15, 1), (1, 1 << 16), ((1 << 15) - 1, (1 << 16) - 1)] {
+            let a: Vec<(u32, u32)> = (0..na).map(|i| (i, i)).collect();
+            let b: Vec<u8> = (0..nb).map(|i| i as u8).collect();
+            let p = Pair::new(&a, &b);
+            assert_eq!((p.a(), p.b()), (&a[..], &b[..]));
+            assert_eq!((p.clone().a(), p.clone().b()), (&a[..], &b[..]));
+        }
     }
 }
