@@ -457,7 +457,7 @@ impl From<Box<[Item]>> for Succ {
 /// A compiled production. Kept small (boxed slices, boxed expressions, a
 /// one-item successor in place, u32 offsets and depths, the parts few
 /// productions have behind one optional box): a table may hold millions.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct Production {
     pub key: u32,
     /// Slots ([`nslots`](Self::nslots)) in the low 31 bits; the top bit
@@ -467,6 +467,9 @@ pub struct Production {
     /// Where the production starts in the header, for runtime errors
     /// ([`start`](Self::start); headers are far below 4 GiB).
     start: u32,
+    /// The left context's length (the count `contexts` leaves to its
+    /// owner; a word that would otherwise be padding).
+    nleft: u32,
     /// Bracket depth change of the successor, and its lowest prefix.
     pub depth_delta: i32,
     pub depth_min: i32,
@@ -478,6 +481,31 @@ pub struct Production {
     /// The probability and what only the cpfg dialect has (None for a
     /// production with neither: most).
     extra: Option<Box<Extra>>,
+}
+
+impl Clone for Production {
+    fn clone(&self) -> Production {
+        Production {
+            key: self.key,
+            slots_simple: self.slots_simple,
+            start: self.start,
+            nleft: self.nleft,
+            depth_delta: self.depth_delta,
+            depth_min: self.depth_min,
+            // Safety: `nleft` is the left context's length.
+            contexts: unsafe { self.contexts.copy(self.nleft as usize) },
+            cond: self.cond.clone(),
+            succ: self.succ.clone(),
+            extra: self.extra.clone(),
+        }
+    }
+}
+
+impl Drop for Production {
+    fn drop(&mut self) {
+        // Safety: `nleft` is the left context's length.
+        unsafe { self.contexts.free(self.nleft as usize) }
+    }
 }
 
 /// The parts of a production few productions have.
@@ -525,6 +553,7 @@ impl Production {
             start,
             depth_delta: depth.0,
             depth_min: depth.1,
+            nleft: u32::try_from(left.len()).expect("a header under 4 GiB"),
             contexts: Pair::new(left, right),
             cond,
             succ,
@@ -545,12 +574,14 @@ impl Production {
     /// The left context.
     #[inline(always)]
     pub fn left(&self) -> &[Pat] {
-        self.contexts.a()
+        // Safety: `nleft` is the left context's length.
+        unsafe { self.contexts.a(self.nleft as usize) }
     }
     /// The right context.
     #[inline(always)]
     pub fn right(&self) -> &[RPat] {
-        self.contexts.b()
+        // Safety: as `left`.
+        unsafe { self.contexts.b(self.nleft as usize) }
     }
     /// How many parameter slots matching the production fills.
     #[inline(always)]
@@ -798,7 +829,8 @@ impl Table {
     pub fn for_cpfg(&mut self, al: &Alphabet) {
         for p in &mut self.prods {
             p.set_right_simple(false);
-            for r in p.contexts.b_mut() {
+            // Safety: `nleft` is the left context's length.
+            for r in unsafe { p.contexts.b_mut(p.nleft as usize) } {
                 if let RPat::Module(m) = r {
                     if m.key == u32::from(b'=') && al.arity(m.key) == 0 {
                         *r = RPat::SkipRest;

@@ -161,20 +161,18 @@ impl<'a, T> IntoIterator for &'a Thin<T> {
     }
 }
 
-/// Two slices in one block behind one pointer: `A`s then `B`s after a
-/// header that counts them (a production's left and right contexts: 8
-/// bytes and, when either is not empty, one block). The header is one
-/// u32 (`na | nb << 15`) when `na < 2^15` and `nb < 2^16`, so that a
-/// one-module context on each side fits glibc's smallest chunk; else
-/// [`BIG`] followed by the two counts. Both types' alignment must be at
-/// most 4 and `A`'s size a multiple of `B`'s alignment.
+/// Two slices in one block behind one pointer: the second's count (a
+/// u32), then `A`s, then `B`s. The first's count is kept by the owner
+/// (a production keeps its left context's count in a spare word), so
+/// that a one-module context on each side (4 + 8 + 12 bytes) fits glibc's
+/// smallest chunk; the owner passes it back to every call and frees the
+/// block ([`free`](Self::free): a `Pair` has no destructor of its own).
+/// Both types' alignment must be at most 4 and `A`'s size a multiple of
+/// `B`'s alignment.
 pub struct Pair<A: Copy, B: Copy> {
     ptr: NonNull<u32>,
     _items: PhantomData<(A, B)>,
 }
-
-/// The header of a pair whose counts follow it.
-const BIG: u32 = 1 << 31;
 
 /// Every empty pair's header.
 static NO_PAIR: u32 = 0;
@@ -184,16 +182,14 @@ unsafe impl<A: Copy + Send, B: Copy + Send> Send for Pair<A, B> {}
 unsafe impl<A: Copy + Sync, B: Copy + Sync> Sync for Pair<A, B> {}
 
 impl<A: Copy, B: Copy> Pair<A, B> {
-    /// The header's bytes for these counts, and the block.
-    fn layout(na: usize, nb: usize) -> (usize, Layout) {
+    fn layout(na: usize, nb: usize) -> Layout {
         assert!(std::mem::align_of::<A>() <= 4 && std::mem::align_of::<B>() <= 4);
         assert!(std::mem::size_of::<A>() % std::mem::align_of::<B>() == 0);
-        let header = if na < 1 << 15 && nb < 1 << 16 { 4 } else { 12 };
-        let size = header + na * std::mem::size_of::<A>() + nb * std::mem::size_of::<B>();
-        let layout = Layout::from_size_align(size, 4).expect("a slice under isize::MAX");
-        (header, layout)
+        let size = 4 + na * std::mem::size_of::<A>() + nb * std::mem::size_of::<B>();
+        Layout::from_size_align(size, 4).expect("a slice under isize::MAX")
     }
 
+    /// `a` and `b` in one block; the owner keeps `a.len()`.
     pub fn new(a: &[A], b: &[B]) -> Pair<A, B> {
         if a.is_empty() && b.is_empty() {
             return Pair {
@@ -201,101 +197,84 @@ impl<A: Copy, B: Copy> Pair<A, B> {
                 _items: PhantomData,
             };
         }
-        let n = |x: usize| u32::try_from(x).expect("a header under 4 GiB");
-        let (header, layout) = Self::layout(a.len(), b.len());
-        // Safety: the layout is not zero-sized; the header, then the
-        // `A`s, then the `B`s fill it, each at an offset aligned for it.
+        let nb = u32::try_from(b.len()).expect("a header under 4 GiB");
+        let layout = Self::layout(a.len(), b.len());
+        // Safety: the layout is not zero-sized; the count, then the `A`s,
+        // then the `B`s fill it, each at an offset aligned for it.
         unsafe {
             let p = alloc(layout).cast::<u32>();
             let Some(ptr) = NonNull::new(p) else {
                 handle_alloc_error(layout)
             };
-            if header == 4 {
-                p.write(n(a.len()) | n(b.len()) << 15);
-            } else {
-                p.write(BIG);
-                p.add(1).write(n(a.len()));
-                p.add(2).write(n(b.len()));
-            }
+            p.write(nb);
             let t = Pair {
                 ptr,
                 _items: PhantomData,
             };
             std::ptr::copy_nonoverlapping(a.as_ptr(), t.a_ptr(), a.len());
-            std::ptr::copy_nonoverlapping(b.as_ptr(), t.b_ptr(), b.len());
+            std::ptr::copy_nonoverlapping(b.as_ptr(), t.a_ptr().add(a.len()).cast::<B>(), b.len());
             t
         }
     }
 
-    /// The two counts, and where the `A`s start.
-    #[inline(always)]
-    fn counts(&self) -> (usize, usize, *mut A) {
-        let p = self.ptr.as_ptr();
-        // Safety: the header is always there (the static one if empty),
-        // with the counts after it if it says BIG.
-        unsafe {
-            let h = *p;
-            if h & BIG == 0 {
-                (
-                    (h & 0x7FFF) as usize,
-                    (h >> 15) as usize,
-                    p.add(1).cast::<A>(),
-                )
-            } else {
-                (*p.add(1) as usize, *p.add(2) as usize, p.add(3).cast::<A>())
-            }
-        }
-    }
     #[inline(always)]
     fn a_ptr(&self) -> *mut A {
-        self.counts().2
+        // Safety: one past the count (for the static empty pair, one past
+        // its end: only ever a slice of length 0).
+        unsafe { self.ptr.as_ptr().add(1).cast::<A>() }
     }
     #[inline(always)]
-    fn b_ptr(&self) -> *mut B {
-        let (na, _, a) = self.counts();
-        unsafe { a.add(na).cast::<B>() }
+    fn nb(&self) -> usize {
+        // Safety: the count is always there (the static one if empty).
+        unsafe { *self.ptr.as_ptr() as usize }
     }
+    /// The `A`s.
+    ///
+    /// # Safety
+    /// `na` is the length of the `a` this pair was made with.
     #[inline(always)]
-    pub fn a(&self) -> &[A] {
-        let (na, _, a) = self.counts();
-        // Safety: the header counts the initialised items.
-        unsafe { std::slice::from_raw_parts(a, na) }
+    pub unsafe fn a(&self, na: usize) -> &[A] {
+        unsafe { std::slice::from_raw_parts(self.a_ptr(), na) }
     }
+    /// The `B`s.
+    ///
+    /// # Safety
+    /// As [`a`](Self::a).
     #[inline(always)]
-    pub fn b(&self) -> &[B] {
-        let (na, nb, a) = self.counts();
-        unsafe { std::slice::from_raw_parts(a.add(na).cast::<B>(), nb) }
+    pub unsafe fn b(&self, na: usize) -> &[B] {
+        unsafe { std::slice::from_raw_parts(self.a_ptr().add(na).cast::<B>(), self.nb()) }
     }
-    pub fn b_mut(&mut self) -> &mut [B] {
-        let (na, nb, a) = self.counts();
-        // Safety: owned; an empty pair's slice has no items to write.
-        unsafe { std::slice::from_raw_parts_mut(a.add(na).cast::<B>(), nb) }
+    /// # Safety
+    /// As [`a`](Self::a).
+    pub unsafe fn b_mut(&mut self, na: usize) -> &mut [B] {
+        // An empty pair's slice has no items to write.
+        unsafe { std::slice::from_raw_parts_mut(self.a_ptr().add(na).cast::<B>(), self.nb()) }
     }
-}
-
-impl<A: Copy, B: Copy> Drop for Pair<A, B> {
-    fn drop(&mut self) {
+    /// A copy.
+    ///
+    /// # Safety
+    /// As [`a`](Self::a).
+    pub unsafe fn copy(&self, na: usize) -> Pair<A, B> {
+        unsafe { Pair::new(self.a(na), self.b(na)) }
+    }
+    /// Free the block; the pair is empty after.
+    ///
+    /// # Safety
+    /// As [`a`](Self::a).
+    pub unsafe fn free(&mut self, na: usize) {
         if std::ptr::eq(self.ptr.as_ptr(), &NO_PAIR) {
             return;
         }
-        let (na, nb, _) = self.counts();
+        let layout = Self::layout(na, self.nb());
         // Safety: made by `new` with this layout; the items need no drop.
-        unsafe { dealloc(self.ptr.as_ptr().cast(), Self::layout(na, nb).1) }
+        unsafe { dealloc(self.ptr.as_ptr().cast(), layout) };
+        self.ptr = NonNull::from(&NO_PAIR);
     }
 }
 
-impl<A: Copy, B: Copy> Clone for Pair<A, B> {
-    fn clone(&self) -> Self {
-        Pair::new(self.a(), self.b())
-    }
-}
-
-impl<A: Copy + std::fmt::Debug, B: Copy + std::fmt::Debug> std::fmt::Debug for Pair<A, B> {
+impl<A: Copy, B: Copy> std::fmt::Debug for Pair<A, B> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_tuple("Pair")
-            .field(&self.a())
-            .field(&self.b())
-            .finish()
+        write!(f, "Pair({} B)", self.nb())
     }
 }
 
@@ -328,22 +307,20 @@ mod tests {
     #[test]
     fn pair_holds_both_slices() {
         use super::Pair;
-        let e: Pair<(u32, u32), u8> = Pair::new(&[], &[]);
-        assert!(e.a().is_empty() && e.b().is_empty());
-        let mut p = Pair::new(&[(1u32, 2u32), (3, 4)], &[7u8, 8, 9]);
-        assert_eq!((p.a(), p.b()), (&[(1, 2), (3, 4)][..], &[7, 8, 9][..]));
-        p.b_mut()[0] = 0;
-        let q = p.clone();
-        assert_eq!((q.a(), q.b()), (&[(1, 2), (3, 4)][..], &[0, 8, 9][..]));
-        let r: Pair<(u32, u32), u8> = Pair::new(&[], &[5]);
-        assert_eq!((r.a(), r.b()), (&[][..], &[5][..]));
-        // Counts past the one-word header.
-        for (na, nb) in [(1 << 15, 1), (1, 1 << 16), ((1 << 15) - 1, (1 << 16) - 1)] {
-            let a: Vec<(u32, u32)> = (0..na).map(|i| (i, i)).collect();
-            let b: Vec<u8> = (0..nb).map(|i| i as u8).collect();
-            let p = Pair::new(&a, &b);
-            assert_eq!((p.a(), p.b()), (&a[..], &b[..]));
-            assert_eq!((p.clone().a(), p.clone().b()), (&a[..], &b[..]));
+        let mut e: Pair<(u32, u32), u8> = Pair::new(&[], &[]);
+        unsafe {
+            assert!(e.a(0).is_empty() && e.b(0).is_empty());
+            e.free(0);
+            let mut p = Pair::new(&[(1u32, 2u32), (3, 4)], &[7u8, 8, 9]);
+            assert_eq!((p.a(2), p.b(2)), (&[(1, 2), (3, 4)][..], &[7, 8, 9][..]));
+            p.b_mut(2)[0] = 0;
+            let mut q = p.copy(2);
+            p.free(2);
+            assert_eq!((q.a(2), q.b(2)), (&[(1, 2), (3, 4)][..], &[0, 8, 9][..]));
+            q.free(2);
+            let mut r: Pair<(u32, u32), u8> = Pair::new(&[], &[5]);
+            assert_eq!((r.a(0), r.b(0)), (&[][..], &[5][..]));
+            r.free(0);
         }
     }
 }
