@@ -194,6 +194,12 @@ const HEADER: usize = 16;
 const BRACKET: usize = 9;
 /// The module count's top bit: the run holds brackets.
 const HAS_BRACKETS: u32 = 1 << 31;
+/// A run held in place (`ConstRun::new`): the pointer's word as bytes, the
+/// one holding its low bit (never set in a block's address) at `TAG` with
+/// the length times 2 plus 1, the bytes at `DATA..`.
+const INLINE: usize = 7;
+const TAG: usize = if cfg!(target_endian = "little") { 0 } else { 7 };
+const DATA: usize = if cfg!(target_endian = "little") { 1 } else { 0 };
 
 impl ConstRun {
     fn new(
@@ -204,6 +210,20 @@ impl ConstRun {
         modules: u32,
     ) -> Self {
         assert!(modules < HAS_BRACKETS, "a header under 2 GiB");
+        // Up to 7 ASCII symbols without parameters or brackets: the three
+        // formats are the same bytes, held in the pointer's place.
+        if text.len() <= INLINE
+            && bin == text
+            && ibin == text
+            && brackets.is_empty()
+            && modules as usize == text.len()
+        {
+            let mut w = [0u8; 8];
+            w[TAG] = (text.len() as u8) << 1 | 1;
+            w[DATA..DATA + text.len()].copy_from_slice(text);
+            let ptr = NonNull::new(usize::from_ne_bytes(w) as *mut u8).expect("the tag bit is set");
+            return ConstRun { data: ptr };
+        }
         let tail = if brackets.is_empty() {
             0
         } else {
@@ -247,7 +267,16 @@ impl ConstRun {
         std::alloc::Layout::from_size_align(len, 1).expect("a header under 4 GiB")
     }
 
-    /// The whole block.
+    /// The bytes of a run held in place (the same in every format).
+    #[inline(always)]
+    fn inline(&self) -> Option<&[u8]> {
+        // Safety: the pointer's own 8 bytes, read as bytes.
+        let w: &[u8; 8] = unsafe { &*(&self.data as *const NonNull<u8>).cast::<[u8; 8]>() };
+        let t = w[TAG];
+        (t & 1 == 1).then(|| &w[DATA..DATA + (t >> 1) as usize])
+    }
+
+    /// The whole block (not for a run in place).
     fn bytes(&self) -> &[u8] {
         let n = self.at(3);
         let len = if self.has_brackets() {
@@ -283,6 +312,9 @@ impl ConstRun {
     /// Binary format.
     #[inline(always)]
     pub fn bin(&self) -> &[u8] {
+        if let Some(b) = self.inline() {
+            return b;
+        }
         self.range(HEADER, self.at(1))
     }
     /// Binary with bracket index: each `[` followed by
@@ -290,26 +322,35 @@ impl ConstRun {
     /// and the module count of its branch.
     #[inline(always)]
     pub fn ibin(&self) -> &[u8] {
+        if let Some(b) = self.inline() {
+            return b;
+        }
         self.range(self.at(1), self.at(2))
     }
     #[inline(always)]
     pub fn text(&self) -> &[u8] {
+        if let Some(b) = self.inline() {
+            return b;
+        }
         self.range(self.at(2), self.at(3))
     }
     /// How many modules.
     #[inline(always)]
     pub fn modules(&self) -> u64 {
+        if let Some(b) = self.inline() {
+            return b.len() as u64;
+        }
         u64::from(self.word(0) & !HAS_BRACKETS)
     }
     /// Offsets of the brackets in [`ibin`](Self::ibin) (true: `[`), and
     /// how many of the run's modules come before each.
     pub fn brackets(&self) -> impl Iterator<Item = (u32, bool, u64)> + '_ {
-        let from = if self.has_brackets() {
-            self.at(3) + 4
+        let entries = if self.has_brackets() {
+            &self.bytes()[self.at(3) + 4..]
         } else {
-            self.at(3)
+            &[]
         };
-        self.bytes()[from..].chunks_exact(BRACKET).map(|b| {
+        entries.chunks_exact(BRACKET).map(|b| {
             (
                 u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
                 b[4] == 1,
@@ -320,12 +361,15 @@ impl ConstRun {
     /// Does the run hold `[` or `]`?
     #[inline]
     pub fn has_brackets(&self) -> bool {
-        self.word(0) & HAS_BRACKETS != 0
+        self.inline().is_none() && self.word(0) & HAS_BRACKETS != 0
     }
 }
 
 impl Clone for ConstRun {
     fn clone(&self) -> ConstRun {
+        if self.inline().is_some() {
+            return ConstRun { data: self.data };
+        }
         let b = self.bytes();
         let layout = Self::layout(b.len());
         // Safety: as in `new`.
@@ -342,6 +386,9 @@ impl Clone for ConstRun {
 
 impl Drop for ConstRun {
     fn drop(&mut self) {
+        if self.inline().is_some() {
+            return;
+        }
         let layout = Self::layout(self.bytes().len());
         // Safety: the block was allocated with this layout (`new`).
         unsafe { std::alloc::dealloc(self.data.as_ptr(), layout) }
@@ -972,6 +1019,36 @@ mod tests {
         }
         assert_eq!((p.depth_delta, p.depth_min), (0, 0));
         assert!(!s.productions.check_balance);
+    }
+
+    /// Up to 7 ASCII symbols without parameters or brackets sit in the
+    /// pointer's place (issue 9 item 6); longer runs, parameters or
+    /// brackets take a block. Every reader sees the same bytes.
+    #[test]
+    fn small_runs_sit_in_place() {
+        let s = sys("productions:\nA -> FF\nB -> F+F--FF\nC -> F+F--F+F\nD -> F(1)\nE -> [F]\n")
+            .unwrap();
+        let run = |i: usize| match &s.productions.prods[i].succ[0] {
+            Item::Const(c) => c.clone(),
+            other => panic!("{other:?}"),
+        };
+        for (i, text, inline) in [
+            (0, "FF", true),
+            (1, "F+F--FF", true),
+            (2, "F+F--F+F", false),
+            (3, "F(1)", false),
+            (4, "[F]", false),
+        ] {
+            let c = run(i);
+            assert_eq!(c.inline().is_some(), inline, "{text}");
+            assert_eq!(c.text(), text.as_bytes());
+            assert_eq!(c.modules(), if i == 3 { 1 } else { text.len() as u64 });
+            assert_eq!(c.has_brackets(), i == 4);
+            assert_eq!(c.brackets().count(), if i == 4 { 2 } else { 0 });
+            if i < 3 {
+                assert_eq!((c.bin(), c.ibin()), (text.as_bytes(), text.as_bytes()));
+            }
+        }
     }
 
     /// A table may hold millions of productions and keys (issue 9 item
