@@ -194,11 +194,16 @@ const HEADER: usize = 16;
 const BRACKET: usize = 9;
 /// The module count's top bit: the run holds brackets.
 const HAS_BRACKETS: u32 = 1 << 31;
-/// A run held in place (`ConstRun::new`): the pointer's word as bytes, the
+/// A run held in place (`ConstRun::new`): the pointer's `W` bytes, the
 /// one holding its low bit (never set in a block's address) at `TAG` with
-/// the length times 2 plus 1, the bytes at `DATA..`.
-const INLINE: usize = 7;
-const TAG: usize = if cfg!(target_endian = "little") { 0 } else { 7 };
+/// the length times 2 plus 1, the bytes at `DATA..` (up to `INLINE`).
+const W: usize = std::mem::size_of::<usize>();
+const INLINE: usize = W - 1;
+const TAG: usize = if cfg!(target_endian = "little") {
+    0
+} else {
+    W - 1
+};
 const DATA: usize = if cfg!(target_endian = "little") { 1 } else { 0 };
 
 impl ConstRun {
@@ -210,18 +215,21 @@ impl ConstRun {
         modules: u32,
     ) -> Self {
         assert!(modules < HAS_BRACKETS, "a header under 2 GiB");
-        // Up to 7 ASCII symbols without parameters or brackets: the three
-        // formats are the same bytes, held in the pointer's place.
+        // Up to 7 ASCII symbols (3 on a 32-bit target) without parameters
+        // or brackets: the three formats are the same bytes, held in the
+        // pointer's place.
         if text.len() <= INLINE
             && bin == text
             && ibin == text
             && brackets.is_empty()
             && modules as usize == text.len()
         {
-            let mut w = [0u8; 8];
+            let mut w = [0u8; W];
             w[TAG] = (text.len() as u8) << 1 | 1;
             w[DATA..DATA + text.len()].copy_from_slice(text);
-            let ptr = NonNull::new(usize::from_ne_bytes(w) as *mut u8).expect("the tag bit is set");
+            // Never dereferenced: a word of bytes in a pointer's place.
+            let word = std::ptr::without_provenance_mut(usize::from_ne_bytes(w));
+            let ptr = NonNull::new(word).expect("the tag bit is set");
             return ConstRun { data: ptr };
         }
         let tail = if brackets.is_empty() {
@@ -271,7 +279,7 @@ impl ConstRun {
     #[inline(always)]
     fn inline(&self) -> Option<&[u8]> {
         // Safety: the pointer's own 8 bytes, read as bytes.
-        let w: &[u8; 8] = unsafe { &*(&self.data as *const NonNull<u8>).cast::<[u8; 8]>() };
+        let w: &[u8; W] = unsafe { &*(&self.data as *const NonNull<u8>).cast::<[u8; W]>() };
         let t = w[TAG];
         (t & 1 == 1).then(|| &w[DATA..DATA + (t >> 1) as usize])
     }
