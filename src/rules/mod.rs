@@ -53,7 +53,9 @@ impl Filter {
 pub struct Alphabet {
     sym: Vec<char>,
     arity: Vec<u16>,
-    text: Vec<Box<[u8]>>,
+    /// Each key's symbol as UTF-8, in place (5 bytes a key; a boxed slice
+    /// was 16 and a 32-byte chunk, for a header naming millions).
+    text: Vec<KeyText>,
     ignored: Vec<bool>,
     map: HashMap<(char, u16), u32>,
     filter: Filter,
@@ -73,7 +75,7 @@ impl Alphabet {
             let c = b as char;
             a.sym.push(c);
             a.arity.push(0);
-            a.text.push(vec![b].into_boxed_slice());
+            a.text.push(KeyText::of(c));
             a.ignored.push(a.filter.ignores(c));
         }
         a
@@ -94,13 +96,7 @@ impl Alphabet {
         let k = self.sym.len() as u32;
         self.sym.push(sym);
         self.arity.push(arity);
-        let mut t = [0u8; 4];
-        self.text.push(
-            sym.encode_utf8(&mut t)
-                .as_bytes()
-                .to_vec()
-                .into_boxed_slice(),
-        );
+        self.text.push(KeyText::of(sym));
         self.ignored.push(self.filter.ignores(sym));
         self.map.insert((sym, arity), k);
         Ok(k)
@@ -112,7 +108,8 @@ impl Alphabet {
     }
     #[inline]
     pub fn text(&self, key: u32) -> &[u8] {
-        &self.text[key as usize]
+        let t = &self.text[key as usize];
+        &t.bytes[..t.len as usize]
     }
     #[inline]
     pub fn symbol(&self, key: u32) -> char {
@@ -139,6 +136,21 @@ impl Alphabet {
     }
     pub fn is_empty(&self) -> bool {
         self.sym.is_empty()
+    }
+}
+
+/// A symbol's UTF-8 bytes and their count.
+#[derive(Clone, Copy)]
+struct KeyText {
+    len: u8,
+    bytes: [u8; 4],
+}
+
+impl KeyText {
+    fn of(c: char) -> KeyText {
+        let mut bytes = [0u8; 4];
+        let len = c.encode_utf8(&mut bytes).len() as u8;
+        KeyText { len, bytes }
     }
 }
 
