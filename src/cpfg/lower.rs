@@ -71,7 +71,7 @@ pub fn attach(run: &CpfgRun, extra: &[Vec<ProdExtra>; 3], system: &mut crate::ru
         for (t, extra) in tables.into_iter().zip(extra) {
             let Some(t) = t else { continue };
             for (p, x) in t.prods.iter_mut().zip(extra) {
-                p.nslots = p.nslots.max(x.nslots);
+                p.set_nslots(p.nslots().max(x.nslots));
                 if x.pre.is_some() || x.post.is_some() {
                     let c = p.cpfg_mut();
                     c.pre.clone_from(&x.pre);

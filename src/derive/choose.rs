@@ -214,7 +214,7 @@ impl Chooser {
             if w > 0.0 {
                 total += w;
                 self.cand.push((pi, w));
-                self.cand_slots.extend_from_slice(&slots[..p.nslots]);
+                self.cand_slots.extend_from_slice(&slots[..p.nslots()]);
             }
         }
         let pick = match self.cand.len() {
@@ -224,7 +224,7 @@ impl Chooser {
                 let u = rng.uniform().map_err(|m| {
                     let p = &table.prods[self.cand[0].0 as usize];
                     Error::at(
-                        origin.locate(p.span().0),
+                        origin.locate(p.start()),
                         crate::diag::RuntimeError::Eval {
                             error: crate::diag::ExprError::Random(m),
                             pass,
@@ -257,7 +257,7 @@ impl Chooser {
         origin: &Origin,
         pass: Pass,
     ) -> Result<f64, Error> {
-        let Some(c) = &p.prob else {
+        let Some(c) = p.prob() else {
             return Ok(1.0);
         };
         let w = c
@@ -265,7 +265,7 @@ impl Chooser {
             .map_err(|e| origin.eval_error(e, pass))?;
         if w < 0.0 {
             return Err(Error::at(
-                origin.locate(c.span.0),
+                origin.locate(c.start()),
                 crate::diag::RuntimeError::NegativeProbability { value: w, pass },
             ));
         }
@@ -279,9 +279,9 @@ impl Chooser {
         let pi = self.cand[pick].0;
         let off: usize = self.cand[..pick]
             .iter()
-            .map(|(q, _)| table.prods[*q as usize].nslots)
+            .map(|(q, _)| table.prods[*q as usize].nslots())
             .sum();
-        let n = table.prods[pi as usize].nslots;
+        let n = table.prods[pi as usize].nslots();
         slots[..n].copy_from_slice(&self.cand_slots[off..off + n]);
         pi
     }
@@ -355,7 +355,7 @@ impl Chooser {
             }
             let w = self.weight(slots, p, rng, origin, pass)?;
             self.cand.push((pi, w));
-            self.cand_slots.extend_from_slice(&slots[..p.nslots]);
+            self.cand_slots.extend_from_slice(&slots[..p.nslots()]);
         }
         let Some(u) = rng.cpfg_choice() else {
             return Ok(None);

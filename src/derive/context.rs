@@ -55,7 +55,7 @@ impl LeftContext {
         let mut wanted = Vec::new();
         let mut width = 0;
         for p in tables.iter().flat_map(|t| t.prods.iter()) {
-            for pat in &p.left {
+            for pat in p.left() {
                 let n = al.arity(pat.key);
                 if n > 0 {
                     let key = pat.key as usize;
@@ -686,14 +686,16 @@ mod tests {
             let f = generation(&mut s.alphabet, README, indexed);
             let al = &s.alphabet;
             let p = &s.productions.prods[0];
-            let mut slots = vec![f64::NAN; p.nslots];
+            let mut slots = vec![f64::NAN; p.nslots()];
             let mut peek = PosReader::new(&f, 1 << 10, indexed);
             let pos = after(&f, al, 'B', indexed);
             let mut chains = Chains::default();
             // `B` is at nesting level 0, the `C` below at level 1.
-            assert!(match_right(&mut peek, al, pos, &p.right, &mut slots, &mut chains, 0).unwrap());
+            assert!(
+                match_right(&mut peek, al, pos, p.right(), &mut slots, &mut chains, 0).unwrap()
+            );
             let bound: Vec<(char, f64)> = p
-                .right
+                .right()
                 .iter()
                 .filter_map(|r| match r {
                     RPat::Module(m) => Some((al.symbol(m.key), slots[m.slot as usize])),
@@ -704,7 +706,7 @@ mod tests {
             // From the `C`, the rest of its branch holds no `[C]D`.
             let pos = after(&f, al, 'C', indexed);
             assert!(
-                !match_right(&mut peek, al, pos, &p.right, &mut slots, &mut chains, 1).unwrap()
+                !match_right(&mut peek, al, pos, p.right(), &mut slots, &mut chains, 1).unwrap()
             );
         }
     }

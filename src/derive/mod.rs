@@ -803,7 +803,7 @@ impl<'t> Tables<'t> {
             let v = code
                 .eval(&[], &mut Vec::new(), &mut d.rng)
                 .map_err(|e| d.origin.eval_error(e, Pass::Step(step)))?;
-            let at = d.origin.locate(code.span.0);
+            let at = d.origin.locate(code.start());
             if !(0.0..=65535.0).contains(&v) || v.fract() != 0.0 {
                 return Err(Error::at(
                     at,
@@ -837,7 +837,11 @@ impl<'t> Tables<'t> {
 /// Does a production of `t` read the built-in `step`?
 fn uses_step(t: &crate::rules::Table) -> bool {
     t.prods.iter().any(|p| {
-        p.cond.iter().chain(p.prob.iter()).any(|c| c.uses_step())
+        p.cond
+            .as_deref()
+            .into_iter()
+            .chain(p.prob())
+            .any(|c| c.uses_step())
             || p.succ.iter().any(|i| match i {
                 crate::rules::Item::Module { params, .. } => params.iter().any(|c| c.uses_step()),
                 crate::rules::Item::Const(_) => false,

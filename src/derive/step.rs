@@ -148,7 +148,7 @@ fn depth_warning(
         symbol: sym,
         pass: cx.pass,
     };
-    crate::diag::warn(cx.origin.locate(p.span().0), &warning);
+    crate::diag::warn(cx.origin.locate(p.start()), &warning);
 }
 
 /// Rewrite each module of `rc.levels[depth]` (its modules have depth
@@ -496,7 +496,7 @@ impl<'a> Deriver<'a> {
         out: &mut Out,
         pass: Pass,
     ) -> Result<(), Error> {
-        let max_slots = |t: &Table| t.prods.iter().map(|p| p.nslots).max().unwrap_or(0);
+        let max_slots = |t: &Table| t.prods.iter().map(|p| p.nslots()).max().unwrap_or(0);
         let n = max_slots(table).max(decomp.map_or(0, |(d, _)| max_slots(d)));
         self.slots.resize(max_slots(table).max(1), 0.0);
         if self.rc.slots.len() < n.max(1) {
@@ -531,7 +531,7 @@ impl<'a> Deriver<'a> {
                 .prods
                 .iter()
                 .chain(d.iter().flat_map(|d| d.prods.iter()))
-                .any(|p| !p.right.is_empty() && self.alphabet.ignored(p.key)),
+                .any(|p| !p.right().is_empty() && self.alphabet.ignored(p.key)),
             chains: Chains::default(),
             level: 0,
             branches: (cut && indexed && self.counts).then(Vec::new),
@@ -900,7 +900,7 @@ impl<'a> Deriver<'a> {
         }
         if let Some((d, max)) = decomp {
             // The successor has depth 0: decompose it.
-            rc.slots[..p.nslots].copy_from_slice(&slots[..p.nslots]);
+            rc.slots[..p.nslots()].copy_from_slice(&slots[..p.nslots()]);
             fill_level(rc, al, 0, p, rng, origin, pass)?;
             let cx = RecCtx {
                 table: d,
@@ -922,7 +922,7 @@ impl<'a> Deriver<'a> {
         if pass == Pass::Homomorphism && (hom_depth > 1 || warnings[1]) {
             // The successor has depth 1; contexts are those of the
             // original module, at every depth.
-            rc.slots[..p.nslots].copy_from_slice(&slots[..p.nslots]);
+            rc.slots[..p.nslots()].copy_from_slice(&slots[..p.nslots()]);
             fill_level(rc, al, 1, p, rng, origin, pass)?;
             let cx = RecCtx {
                 table,
@@ -1011,7 +1011,7 @@ fn run_contexts(
 pub(crate) fn unclosed(origin: &Origin, table: &Table, culprit: Option<u32>, pass: Pass) -> Error {
     let p = &table.prods[culprit.unwrap_or(0) as usize];
     Error::at(
-        origin.locate(p.span().0),
+        origin.locate(p.start()),
         crate::diag::RuntimeError::UnclosedBracket(pass),
     )
 }
@@ -1025,7 +1025,7 @@ pub(crate) fn unbalanced(
 ) -> Error {
     let p = &table.prods[culprit.unwrap_or(0) as usize];
     Error::at(
-        origin.locate(p.span().0),
+        origin.locate(p.start()),
         crate::diag::RuntimeError::UnopenedBracket(pass),
     )
 }
@@ -1041,14 +1041,14 @@ fn surely_not(
     st: &mut StepState,
     al: &Alphabet,
 ) -> Result<bool, Error> {
-    if let (Some(pat), Some(last)) = (p.left.last(), last) {
+    if let (Some(pat), Some(last)) = (p.left().last(), last) {
         if last != Some(pat.key) {
             return Ok(true);
         }
     }
-    if p.right_simple {
+    if p.right_simple() {
         let right = st.right_of(end_off, al)?;
-        if let (Some(RPat::Module(pat)), first) = (p.right.first(), right.modules.keys.first()) {
+        if let (Some(RPat::Module(pat)), first) = (p.right().first(), right.modules.keys.first()) {
             if first != Some(&pat.key) {
                 return Ok(true);
             }
@@ -1070,7 +1070,7 @@ fn right_cpfg(
 ) -> Result<bool, Error> {
     // From just after the predecessor.
     let peek = st.peek.as_mut().unwrap();
-    match_right_cpfg(peek, al, end_off, &p.right, slots, passed)
+    match_right_cpfg(peek, al, end_off, p.right(), slots, passed)
         .map_err(|e| Error::io("temporary file", crate::diag::IoAction::Read, e))
 }
 
@@ -1083,15 +1083,15 @@ fn contexts_match(
     al: &Alphabet,
     slots: &mut [f64],
 ) -> Result<bool, Error> {
-    if !p.left.is_empty() && !st.left.as_ref().unwrap().matches(&p.left, al, slots) {
+    if !p.left().is_empty() && !st.left.as_ref().unwrap().matches(p.left(), al, slots) {
         return Ok(false);
     }
-    if p.right_simple {
+    if p.right_simple() {
         let right = st.right_of(end_off, al)?;
-        if !right.matches(&p.right, al, slots) {
+        if !right.matches(p.right(), al, slots) {
             return Ok(false);
         }
-    } else if !p.right.is_empty() {
+    } else if !p.right().is_empty() {
         let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         if let Some(passed) = st.cpfg {
             return right_cpfg(p, end_off, st, al, slots, passed);
@@ -1101,7 +1101,7 @@ fn contexts_match(
         let start = st.right_start(end_off, al).map_err(read_err)?;
         let level = st.level();
         let peek = st.peek.as_mut().unwrap();
-        if !match_right(peek, al, start, &p.right, slots, &mut st.chains, level)
+        if !match_right(peek, al, start, p.right(), slots, &mut st.chains, level)
             .map_err(read_err)?
         {
             return Ok(false);

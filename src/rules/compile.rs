@@ -604,7 +604,7 @@ fn balanced(t: &Table, kind: CompileError) -> R<()> {
         .iter()
         .find(|p| p.depth_delta != 0 || p.depth_min < 0)
     {
-        Some(p) => err(p.span(), kind),
+        Some(p) => err((p.start(), p.start()), kind),
         None => Ok(()),
     }
 }
@@ -721,41 +721,35 @@ fn compile_production(
         .prob
         .as_ref()
         .map(|e| compile_code_in(e, &names, consts, cpfg))
-        .transpose()?
-        .map(Box::new);
+        .transpose()?;
     if let Some(w) = prob.as_ref().and_then(|c| c.constant()) {
         if w < 0.0 {
             return err(
-                prob.as_ref().unwrap().span,
+                p.prob.as_ref().unwrap().span(),
                 CompileError::NegativeProbability(w),
             );
         }
     }
     let (succ, depth_delta, depth_min) =
         compile_successor(&p.succ, alphabet, &names, consts, num, cpfg)?;
-    let right_simple = !right.is_empty() && right.iter().all(|r| matches!(r, RPat::Module(_)));
     // (Depths and offsets fit: a header is at most 64 MiB.)
     let narrow = |x: i64| i32::try_from(x).expect("a header under 2 GiB");
     let offset = |x: usize| u32::try_from(x).expect("a header under 4 GiB");
-    Ok(Production {
+    let mut prod = Production::new(
         key,
         nslots,
-        left: exact(left),
-        right: exact(right),
-        right_simple,
+        &left,
+        &right,
         cond,
         prob,
-        succ: Succ::from(succ),
-        span: (offset(p.span.0), offset(p.span.1)),
-        depth_delta: narrow(depth_delta),
-        depth_min: narrow(depth_min),
-        cpfg: (!rest.is_empty()).then(|| {
-            Box::new(CpfgParts {
-                rest: exact(rest),
-                ..CpfgParts::default()
-            })
-        }),
-    })
+        Succ::from(succ),
+        offset(p.span.0),
+        (narrow(depth_delta), narrow(depth_min)),
+    );
+    if !rest.is_empty() {
+        prod.cpfg_mut().rest = exact(rest);
+    }
+    Ok(prod)
 }
 
 /// Successor to items: runs of modules whose parameters are all constant
@@ -808,7 +802,7 @@ fn compile_successor(
                 }
                 items.push(Item::Module {
                     key,
-                    params: exact(codes),
+                    params: Thin::from(codes),
                 });
             }
         }

@@ -6,6 +6,7 @@
 //! division by zero, an overflow or a NaN stops the run with the span of
 //! the operation.
 
+use super::Thin;
 use crate::derive::random::{Draw, Random};
 use crate::diag::ExprError;
 use crate::lang::ast::{BinOp, Expr, UnOp};
@@ -214,16 +215,88 @@ pub const STEP_SLOT: u32 = u32::MAX;
 /// ([`Draw::global`]), not from the production's slots.
 pub const GLOBAL_SLOT: u32 = 1 << 31;
 
-/// A compiled expression.
+/// A compiled expression: the shapes most successor parameters and
+/// conditions have (a constant, a parameter, one binary operation on two
+/// of those) in place, 24 bytes and no block of their own; others as a
+/// block of instructions (a production table may hold millions of these).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Code {
+pub struct Code(Repr);
+
+#[derive(Clone, Debug, PartialEq)]
+enum Repr {
+    Const {
+        v: f64,
+        start: u32,
+    },
+    /// A parameter, then (`f32`, the cpfg dialect) rounded to a 32-bit
+    /// float, which fails at `span`.
+    Load {
+        slot: u32,
+        f32: bool,
+        span: (u32, u32),
+    },
+    /// `slot OP constant` (then `f32`); the operation and the rounding
+    /// fail at `span`, which starts the expression.
+    LoadConst {
+        a: u32,
+        c: f64,
+        op: Bin2,
+        f32: bool,
+        span: (u32, u32),
+    },
+    /// `constant OP slot`.
+    ConstLoad {
+        c: f64,
+        b: u32,
+        op: Bin2,
+        f32: bool,
+        span: (u32, u32),
+    },
+    /// `slot OP slot`.
+    LoadLoad {
+        a: u32,
+        b: u32,
+        op: Bin2,
+        f32: bool,
+        span: (u32, u32),
+    },
     /// The `n` instructions ([`ops`](Code::ops)), then the spans of those
-    /// that can fail (`At`), in one allocation: a production table may
-    /// hold millions of these.
-    packed: Box<[Op]>,
-    n: u32,
-    /// Span of the whole expression.
-    pub span: Span,
+    /// that can fail (`At`), in one block; where the expression starts
+    /// (runtime errors of a probability or `group:` are located there).
+    Packed {
+        packed: Thin<Op>,
+        n: u32,
+        start: u32,
+    },
+}
+
+/// A binary operation of [`Repr`]'s in-place shapes (an [`Op`] without
+/// its span index).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Bin2 {
+    Bin(BinOp),
+    DivOr1,
+    F2(Func2),
+}
+
+impl Bin2 {
+    fn of(op: Op) -> Option<Bin2> {
+        match op {
+            Op::Bin(b, _) => Some(Bin2::Bin(b)),
+            Op::DivOr1(_) => Some(Bin2::DivOr1),
+            Op::F2(f, _) => Some(Bin2::F2(f)),
+            _ => None,
+        }
+    }
+    /// The operation ([`Code::binary`]; an in-place shape has one span).
+    #[inline(always)]
+    fn op(self) -> Op {
+        match self {
+            Bin2::Bin(b) => Op::Bin(b, 0),
+            Bin2::DivOr1 => Op::DivOr1(0),
+            Bin2::F2(f) => Op::F2(f, 0),
+        }
+    }
 }
 
 /// A failed evaluation: what, and where in the header text.
@@ -273,7 +346,8 @@ impl Code {
     }
 
     /// The instructions, then the span of each one that can fail, in
-    /// order (spans of folded or infallible operations are dropped).
+    /// order (spans of folded or infallible operations are dropped); the
+    /// common shapes in place ([`Repr`]).
     fn pack(ops: &[Op], spans: &[Span], span: Span) -> Code {
         let u = |x: usize| u32::try_from(x).unwrap_or(u32::MAX);
         let mut all = Vec::with_capacity(ops.len() + spans.len());
@@ -284,6 +358,9 @@ impl Code {
                 (kept.len() - 1) as u32
             };
             all.push(match op {
+                // Comparisons and logic cannot fail: no span kept (a
+                // condition's block is one operation shorter).
+                Op::Bin(b, _) if !can_fail(b) => Op::Bin(b, u32::MAX),
                 Op::Bin(b, si) => Op::Bin(b, at(si)),
                 Op::DivOr1(si) => Op::DivOr1(at(si)),
                 Op::CpfgRan(f, si) => Op::CpfgRan(f, at(si)),
@@ -294,24 +371,116 @@ impl Code {
                 other => other,
             });
         }
-        all.extend(kept.iter().map(|s| Op::At(u(s.0), u(s.1))));
-        Code {
-            packed: all.into_boxed_slice(),
-            n: ops.len() as u32,
-            span,
+        let whole = (u(span.0), u(span.1));
+        let kept: Vec<(u32, u32)> = kept.iter().map(|s| (u(s.0), u(s.1))).collect();
+        if let Some(r) = Code::in_place(&all, &kept, whole) {
+            return Code(r);
         }
+        all.extend(kept.iter().map(|&(a, b)| Op::At(a, b)));
+        Code(Repr::Packed {
+            packed: Thin::from(all),
+            n: ops.len() as u32,
+            start: whole.0,
+        })
     }
 
-    /// The instructions.
+    /// `ops` (spans in `kept`, the whole expression at `whole`) as an
+    /// in-place shape, if it is one whose every failure is at one span
+    /// that starts where the expression does.
+    fn in_place(ops: &[Op], kept: &[(u32, u32)], whole: (u32, u32)) -> Option<Repr> {
+        // The span of a fallible operation, or of the whole expression.
+        let span_of = |op: Op| match op {
+            Op::Bin(b, _) if !can_fail(b) => Some(whole),
+            Op::Bin(_, si) | Op::DivOr1(si) | Op::F2(_, si) | Op::F1(_, si) => {
+                kept.get(si as usize).copied()
+            }
+            _ => None,
+        };
+        // The binary operation and the optional rounding after it fail at
+        // one span, which starts the expression.
+        let one = |op: Op, rest: &[Op]| -> Option<(Bin2, bool, (u32, u32))> {
+            let span = span_of(op)?;
+            let f32 = match rest {
+                [] => false,
+                [r @ Op::F1(Func1::Float32, _)] if span_of(*r)? == span => true,
+                _ => return None,
+            };
+            (span.0 == whole.0).then_some((Bin2::of(op)?, f32, span))
+        };
+        Some(match *ops {
+            [Op::Const(v)] => Repr::Const { v, start: whole.0 },
+            [Op::Load(slot)] => Repr::Load {
+                slot,
+                f32: false,
+                span: whole,
+            },
+            [Op::Load(slot), r @ Op::F1(Func1::Float32, _)] => {
+                let span = span_of(r)?;
+                (span.0 == whole.0).then_some(Repr::Load {
+                    slot,
+                    f32: true,
+                    span,
+                })?
+            }
+            [Op::Load(a), Op::Const(c), op, ref rest @ ..] => {
+                let (op, f32, span) = one(op, rest)?;
+                Repr::LoadConst {
+                    a,
+                    c,
+                    op,
+                    f32,
+                    span,
+                }
+            }
+            [Op::Const(c), Op::Load(b), op, ref rest @ ..] => {
+                let (op, f32, span) = one(op, rest)?;
+                Repr::ConstLoad {
+                    c,
+                    b,
+                    op,
+                    f32,
+                    span,
+                }
+            }
+            [Op::Load(a), Op::Load(b), op, ref rest @ ..] => {
+                let (op, f32, span) = one(op, rest)?;
+                Repr::LoadLoad {
+                    a,
+                    b,
+                    op,
+                    f32,
+                    span,
+                }
+            }
+            _ => return None,
+        })
+    }
+
+    /// Where the expression starts in the header.
+    #[inline]
+    pub fn start(&self) -> usize {
+        (match self.0 {
+            Repr::Const { start, .. } | Repr::Packed { start, .. } => start,
+            Repr::Load { span, .. }
+            | Repr::LoadConst { span, .. }
+            | Repr::ConstLoad { span, .. }
+            | Repr::LoadLoad { span, .. } => span.0,
+        }) as usize
+    }
+
+    /// The instructions of a block (none for an in-place shape).
     #[inline]
     fn ops(&self) -> &[Op] {
-        &self.packed[..self.n as usize]
+        match &self.0 {
+            Repr::Packed { packed, n, .. } => &packed[..*n as usize],
+            _ => &[],
+        }
     }
 
     /// The value, if the expression needs no parameter and no draw.
     pub fn constant(&self) -> Option<f64> {
-        match self.ops() {
-            [Op::Const(v)] => Some(*v),
+        match self.0 {
+            Repr::Const { v, .. } => Some(v),
             _ => None,
         }
     }
@@ -462,46 +631,36 @@ impl Code {
         stack: &mut Vec<f64>,
         rng: &mut D,
     ) -> Result<f64, EvalError> {
-        // The shapes most successors and conditions have, without the stack.
-        // Matched on the whole block: an operation that can fail is
-        // followed by its span.
-        match *self.packed {
-            [Op::Const(v)] => return Ok(v),
-            [Op::Load(s)] => return Ok(slots[s as usize]),
-            [Op::Load(a), Op::Const(c), op] | [Op::Load(a), Op::Const(c), op, Op::At(..)]
-                if is_binary(op) =>
-            {
-                return self.binary(op, slots[a as usize], c)
+        // The shapes most successors and conditions have, in place.
+        let (r, f32) = match self.0 {
+            Repr::Const { v, .. } => return Ok(v),
+            Repr::Load { slot, f32, .. } => (slots[slot as usize], f32),
+            Repr::LoadConst { a, c, op, f32, .. } => {
+                (self.binary(op.op(), slots[a as usize], c)?, f32)
             }
-            [Op::Const(c), Op::Load(b), op] | [Op::Const(c), Op::Load(b), op, Op::At(..)]
-                if is_binary(op) =>
-            {
-                return self.binary(op, c, slots[b as usize])
+            Repr::ConstLoad { c, b, op, f32, .. } => {
+                (self.binary(op.op(), c, slots[b as usize])?, f32)
             }
-            [Op::Load(a), Op::Load(b), op] | [Op::Load(a), Op::Load(b), op, Op::At(..)]
-                if is_binary(op) =>
-            {
-                return self.binary(op, slots[a as usize], slots[b as usize])
-            }
-            _ => {}
+            Repr::LoadLoad { a, b, op, f32, .. } => (
+                self.binary(op.op(), slots[a as usize], slots[b as usize])?,
+                f32,
+            ),
+            Repr::Packed { .. } => return self.eval_block(slots, stack, rng),
+        };
+        if f32 {
+            self.float32(r, 0)
+        } else {
+            Ok(r)
         }
-        // The cpfg dialect: a successor's parameter ends with the float
-        // rounding.
-        match *self.ops() {
-            [Op::Load(s), Op::F1(Func1::Float32, si)] => {
-                return self.float32(slots[s as usize], si)
-            }
-            [Op::Load(a), Op::Const(c), op, Op::F1(Func1::Float32, si)] if is_binary(op) => {
-                return self.float32(self.binary(op, slots[a as usize], c)?, si)
-            }
-            [Op::Const(c), Op::Load(b), op, Op::F1(Func1::Float32, si)] if is_binary(op) => {
-                return self.float32(self.binary(op, c, slots[b as usize])?, si)
-            }
-            [Op::Load(a), Op::Load(b), op, Op::F1(Func1::Float32, si)] if is_binary(op) => {
-                return self.float32(self.binary(op, slots[a as usize], slots[b as usize])?, si)
-            }
-            _ => {}
-        }
+    }
+
+    /// [`eval`](Self::eval) of a block of instructions.
+    fn eval_block<D: Draw + ?Sized>(
+        &self,
+        slots: &[f64],
+        stack: &mut Vec<f64>,
+        rng: &mut D,
+    ) -> Result<f64, EvalError> {
         stack.clear();
         for op in self.ops() {
             match *op {
@@ -675,20 +834,33 @@ impl Code {
         }
     }
 
+    #[cold]
     fn fail(&self, si: u32, kind: ExprError) -> EvalError {
-        EvalError {
-            span: match self.packed[self.n as usize + si as usize] {
-                Op::At(a, b) => (a as usize, b as usize),
+        let (a, b) = match &self.0 {
+            Repr::Packed { packed, n, .. } => match packed[*n as usize + si as usize] {
+                Op::At(a, b) => (a, b),
                 _ => unreachable!("no span at {si}"),
             },
+            Repr::Load { span, .. }
+            | Repr::LoadConst { span, .. }
+            | Repr::ConstLoad { span, .. }
+            | Repr::LoadLoad { span, .. } => *span,
+            Repr::Const { .. } => unreachable!("a constant cannot fail"),
+        };
+        EvalError {
+            span: (a as usize, b as usize),
             kind,
         }
     }
 }
 
-#[inline(always)]
-fn is_binary(op: Op) -> bool {
-    matches!(op, Op::Bin(..) | Op::DivOr1(_) | Op::F2(..))
+/// Can the binary operation fail (division by zero, NaN, overflow)?
+/// Comparisons and logic give 0 or 1.
+fn can_fail(b: BinOp) -> bool {
+    matches!(
+        b,
+        BinOp::Add | BinOp::Sub | BinOp::Mul | BinOp::Div | BinOp::Rem | BinOp::Pow
+    )
 }
 
 /// cpfg divides by 1 instead of 0, with a warning: once per process here

@@ -19,6 +19,8 @@ pub use compile::{
     compile, compile_dialect, compile_text, compile_with, Compiler, LoadError, Seeds,
 };
 pub mod expr;
+mod thin;
+pub use thin::{Pair, Thin};
 
 pub const OPEN: u32 = b'[' as u32;
 pub const CLOSE: u32 = b']' as u32;
@@ -51,7 +53,9 @@ impl Filter {
 pub struct Alphabet {
     sym: Vec<char>,
     arity: Vec<u16>,
-    text: Vec<Box<[u8]>>,
+    /// Each key's symbol as UTF-8, in place (5 bytes a key; a boxed slice
+    /// was 16 and a 32-byte chunk, for a header naming millions).
+    text: Vec<KeyText>,
     ignored: Vec<bool>,
     map: HashMap<(char, u16), u32>,
     filter: Filter,
@@ -71,7 +75,7 @@ impl Alphabet {
             let c = b as char;
             a.sym.push(c);
             a.arity.push(0);
-            a.text.push(vec![b].into_boxed_slice());
+            a.text.push(KeyText::of(c));
             a.ignored.push(a.filter.ignores(c));
         }
         a
@@ -92,13 +96,7 @@ impl Alphabet {
         let k = self.sym.len() as u32;
         self.sym.push(sym);
         self.arity.push(arity);
-        let mut t = [0u8; 4];
-        self.text.push(
-            sym.encode_utf8(&mut t)
-                .as_bytes()
-                .to_vec()
-                .into_boxed_slice(),
-        );
+        self.text.push(KeyText::of(sym));
         self.ignored.push(self.filter.ignores(sym));
         self.map.insert((sym, arity), k);
         Ok(k)
@@ -110,7 +108,8 @@ impl Alphabet {
     }
     #[inline]
     pub fn text(&self, key: u32) -> &[u8] {
-        &self.text[key as usize]
+        let t = &self.text[key as usize];
+        &t.bytes[..t.len as usize]
     }
     #[inline]
     pub fn symbol(&self, key: u32) -> char {
@@ -140,6 +139,21 @@ impl Alphabet {
     }
 }
 
+/// A symbol's UTF-8 bytes and their count.
+#[derive(Clone, Copy)]
+struct KeyText {
+    len: u8,
+    bytes: [u8; 4],
+}
+
+impl KeyText {
+    fn of(c: char) -> KeyText {
+        let mut bytes = [0u8; 4];
+        let len = c.encode_utf8(&mut bytes).len() as u8;
+        KeyText { len, bytes }
+    }
+}
+
 /// A context module to match: its key and the slot of its first parameter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pat {
@@ -162,16 +176,24 @@ pub enum RPat {
 }
 
 /// Modules known at load time, precomputed in each format, in one
-/// allocation (a production table may hold millions of these).
-#[derive(Clone, Debug)]
+/// allocation behind a thin pointer (a production table may hold millions
+/// of these: 8 bytes each, and the block no bigger than its bytes).
 pub struct ConstRun {
-    /// A 16-byte header (little-endian u32s: the module count, then where
-    /// the binary, the indexed binary and the text end), the binary format,
-    /// the binary with bracket index, the text, and for each bracket its
-    /// offset in the indexed binary (4 bytes), 1 if `[`, and how many of
-    /// the run's modules come before it (4 bytes).
-    data: Box<[u8]>,
+    /// A 16-byte header (little-endian u32s: the module count, its top
+    /// bit set if the run holds brackets; then where the binary, the
+    /// indexed binary and the text end), the binary format, the binary
+    /// with bracket index, the text; then, if it holds brackets, their
+    /// count (4 bytes) and for each its offset in the indexed binary (4
+    /// bytes), 1 if `[`, and how many of the run's modules come before it
+    /// (4 bytes).
+    data: NonNull<u8>,
 }
+
+use std::ptr::NonNull;
+
+// Safety: a `ConstRun` owns its block, never changed after it is made.
+unsafe impl Send for ConstRun {}
+unsafe impl Sync for ConstRun {}
 
 impl Default for ConstRun {
     fn default() -> ConstRun {
@@ -182,6 +204,19 @@ impl Default for ConstRun {
 const HEADER: usize = 16;
 /// The bytes of one bracket entry.
 const BRACKET: usize = 9;
+/// The module count's top bit: the run holds brackets.
+const HAS_BRACKETS: u32 = 1 << 31;
+/// A run held in place (`ConstRun::new`): the pointer's `W` bytes, the
+/// one holding its low bit (never set in a block's address) at `TAG` with
+/// the length times 2 plus 1, the bytes at `DATA..` (up to `INLINE`).
+const W: usize = std::mem::size_of::<usize>();
+const INLINE: usize = W - 1;
+const TAG: usize = if cfg!(target_endian = "little") {
+    0
+} else {
+    W - 1
+};
+const DATA: usize = if cfg!(target_endian = "little") { 1 } else { 0 };
 
 impl ConstRun {
     fn new(
@@ -191,58 +226,151 @@ impl ConstRun {
         brackets: &[(u32, bool, u32)],
         modules: u32,
     ) -> Self {
-        let mut data = Vec::with_capacity(
-            HEADER + bin.len() + ibin.len() + text.len() + BRACKET * brackets.len(),
-        );
+        assert!(modules < HAS_BRACKETS, "a header under 2 GiB");
+        // Up to 7 ASCII symbols (3 on a 32-bit target) without parameters
+        // or brackets: the three formats are the same bytes, held in the
+        // pointer's place.
+        if text.len() <= INLINE
+            && bin == text
+            && ibin == text
+            && brackets.is_empty()
+            && modules as usize == text.len()
+        {
+            let mut w = [0u8; W];
+            w[TAG] = (text.len() as u8) << 1 | 1;
+            w[DATA..DATA + text.len()].copy_from_slice(text);
+            // Never dereferenced: a word of bytes in a pointer's place.
+            let word = std::ptr::without_provenance_mut(usize::from_ne_bytes(w));
+            let ptr = NonNull::new(word).expect("the tag bit is set");
+            return ConstRun { data: ptr };
+        }
+        let tail = if brackets.is_empty() {
+            0
+        } else {
+            4 + BRACKET * brackets.len()
+        };
+        let mut data = Vec::with_capacity(HEADER + bin.len() + ibin.len() + text.len() + tail);
         let bin_end = HEADER + bin.len();
         let ibin_end = bin_end + ibin.len();
         let text_end = ibin_end + text.len();
-        for v in [modules as usize, bin_end, ibin_end, text_end] {
-            data.extend_from_slice(&(v as u32).to_le_bytes());
+        let flag = if brackets.is_empty() { 0 } else { HAS_BRACKETS };
+        for v in [(modules | flag) as usize, bin_end, ibin_end, text_end] {
+            let v = u32::try_from(v).expect("a header under 4 GiB");
+            data.extend_from_slice(&v.to_le_bytes());
         }
         data.extend_from_slice(bin);
         data.extend_from_slice(ibin);
         data.extend_from_slice(text);
+        if !brackets.is_empty() {
+            data.extend_from_slice(&(brackets.len() as u32).to_le_bytes());
+        }
         for &(at, open, before) in brackets {
             data.extend_from_slice(&at.to_le_bytes());
             data.push(u8::from(open));
             data.extend_from_slice(&before.to_le_bytes());
         }
-        ConstRun { data: data.into() }
+        debug_assert_eq!(data.len(), data.capacity());
+        let layout = Self::layout(data.len());
+        // Safety: the layout holds at least the header (not zero-sized);
+        // `data` fills it.
+        unsafe {
+            let p = std::alloc::alloc(layout);
+            let Some(ptr) = NonNull::new(p) else {
+                std::alloc::handle_alloc_error(layout)
+            };
+            std::ptr::copy_nonoverlapping(data.as_ptr(), p, data.len());
+            ConstRun { data: ptr }
+        }
+    }
+
+    fn layout(len: usize) -> std::alloc::Layout {
+        std::alloc::Layout::from_size_align(len, 1).expect("a header under 4 GiB")
+    }
+
+    /// The bytes of a run held in place (the same in every format).
+    #[inline(always)]
+    fn inline(&self) -> Option<&[u8]> {
+        // Safety: the pointer's own 8 bytes, read as bytes.
+        let w: &[u8; W] = unsafe { &*(&self.data as *const NonNull<u8>).cast::<[u8; W]>() };
+        let t = w[TAG];
+        (t & 1 == 1).then(|| &w[DATA..DATA + (t >> 1) as usize])
+    }
+
+    /// The whole block (not for a run in place).
+    fn bytes(&self) -> &[u8] {
+        let n = self.at(3);
+        let len = if self.has_brackets() {
+            n + 4 + BRACKET * self.word(n) as usize
+        } else {
+            n
+        };
+        // Safety: the block is `len` bytes (see `new`).
+        unsafe { std::slice::from_raw_parts(self.data.as_ptr(), len) }
+    }
+
+    /// The little-endian u32 at byte `at` of the block.
+    #[inline(always)]
+    fn word(&self, at: usize) -> u32 {
+        // Safety: callers read inside the block: the header, or the
+        // bracket count after the text.
+        u32::from_le_bytes(unsafe { self.data.as_ptr().add(at).cast::<[u8; 4]>().read() })
     }
 
     /// The header's `i`th number.
     #[inline(always)]
     fn at(&self, i: usize) -> usize {
-        let b: [u8; 4] = self.data[4 * i..4 * i + 4].try_into().unwrap();
-        u32::from_le_bytes(b) as usize
+        self.word(4 * i) as usize
+    }
+
+    /// Bytes `from..to` of the block.
+    #[inline(always)]
+    fn range(&self, from: usize, to: usize) -> &[u8] {
+        // Safety: the header's offsets are in order and inside the block.
+        unsafe { std::slice::from_raw_parts(self.data.as_ptr().add(from), to - from) }
     }
 
     /// Binary format.
     #[inline(always)]
     pub fn bin(&self) -> &[u8] {
-        &self.data[HEADER..self.at(1)]
+        if let Some(b) = self.inline() {
+            return b;
+        }
+        self.range(HEADER, self.at(1))
     }
     /// Binary with bracket index: each `[` followed by
     /// [`codec::INDEX_BYTES`] that will hold the offset just past its `]`
     /// and the module count of its branch.
     #[inline(always)]
     pub fn ibin(&self) -> &[u8] {
-        &self.data[self.at(1)..self.at(2)]
+        if let Some(b) = self.inline() {
+            return b;
+        }
+        self.range(self.at(1), self.at(2))
     }
     #[inline(always)]
     pub fn text(&self) -> &[u8] {
-        &self.data[self.at(2)..self.at(3)]
+        if let Some(b) = self.inline() {
+            return b;
+        }
+        self.range(self.at(2), self.at(3))
     }
     /// How many modules.
     #[inline(always)]
     pub fn modules(&self) -> u64 {
-        self.at(0) as u64
+        if let Some(b) = self.inline() {
+            return b.len() as u64;
+        }
+        u64::from(self.word(0) & !HAS_BRACKETS)
     }
     /// Offsets of the brackets in [`ibin`](Self::ibin) (true: `[`), and
     /// how many of the run's modules come before each.
     pub fn brackets(&self) -> impl Iterator<Item = (u32, bool, u64)> + '_ {
-        self.data[self.at(3)..].chunks_exact(BRACKET).map(|b| {
+        let entries = if self.has_brackets() {
+            &self.bytes()[self.at(3) + 4..]
+        } else {
+            &[]
+        };
+        entries.chunks_exact(BRACKET).map(|b| {
             (
                 u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
                 b[4] == 1,
@@ -253,7 +381,46 @@ impl ConstRun {
     /// Does the run hold `[` or `]`?
     #[inline]
     pub fn has_brackets(&self) -> bool {
-        self.data.len() > self.at(3)
+        self.inline().is_none() && self.word(0) & HAS_BRACKETS != 0
+    }
+}
+
+impl Clone for ConstRun {
+    fn clone(&self) -> ConstRun {
+        if self.inline().is_some() {
+            return ConstRun { data: self.data };
+        }
+        let b = self.bytes();
+        let layout = Self::layout(b.len());
+        // Safety: as in `new`.
+        unsafe {
+            let p = std::alloc::alloc(layout);
+            let Some(ptr) = NonNull::new(p) else {
+                std::alloc::handle_alloc_error(layout)
+            };
+            std::ptr::copy_nonoverlapping(b.as_ptr(), p, b.len());
+            ConstRun { data: ptr }
+        }
+    }
+}
+
+impl Drop for ConstRun {
+    fn drop(&mut self) {
+        if self.inline().is_some() {
+            return;
+        }
+        let layout = Self::layout(self.bytes().len());
+        // Safety: the block was allocated with this layout (`new`).
+        unsafe { std::alloc::dealloc(self.data.as_ptr(), layout) }
+    }
+}
+
+impl std::fmt::Debug for ConstRun {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ConstRun")
+            .field("modules", &self.modules())
+            .field("text", &String::from_utf8_lossy(self.text()))
+            .finish()
     }
 }
 
@@ -305,7 +472,7 @@ pub enum Item {
     /// A run of modules known at load time, in every format.
     Const(ConstRun),
     /// A module whose parameters are computed.
-    Module { key: u32, params: Box<[Code]> },
+    Module { key: u32, params: Thin<Code> },
 }
 
 /// A successor's items: a slice ([`Deref`](std::ops::Deref)). Most
@@ -313,7 +480,7 @@ pub enum Item {
 #[derive(Clone, Debug)]
 pub enum Succ {
     One(Item),
-    Many(Box<[Item]>),
+    Many(Thin<Item>),
 }
 
 impl std::ops::Deref for Succ {
@@ -341,9 +508,9 @@ impl From<Vec<Item>> for Succ {
             Some(i) if v.is_empty() => Succ::One(i),
             Some(i) => {
                 v.push(i);
-                Succ::Many(exact(v))
+                Succ::Many(Thin::from(v))
             }
-            None => Succ::Many(Box::default()),
+            None => Succ::Many(Thin::empty()),
         }
     }
 }
@@ -355,30 +522,68 @@ impl From<Box<[Item]>> for Succ {
 }
 
 /// A compiled production. Kept small (boxed slices, boxed expressions, a
-/// one-item successor in place, u32 offsets and depths, the cpfg-only
-/// parts behind one optional box): a table may hold millions.
-#[derive(Clone, Debug)]
+/// one-item successor in place, u32 offsets and depths, the parts few
+/// productions have behind one optional box): a table may hold millions.
+#[derive(Debug)]
 pub struct Production {
     pub key: u32,
-    /// The right context has no brackets: it is matched against the cached
-    /// list of the next considered modules.
-    pub right_simple: bool,
-    /// Slots: predecessor parameters, then left context, then right context.
-    pub nslots: usize,
-    pub left: Box<[Pat]>,
-    pub right: Box<[RPat]>,
-    pub cond: Option<Box<Code>>,
-    pub prob: Option<Box<Code>>,
-    pub succ: Succ,
-    /// Where the production starts and ends in the header, for runtime
-    /// errors ([`span`](Self::span); headers are far below 4 GiB).
-    span: (u32, u32),
+    /// Slots ([`nslots`](Self::nslots)) in the low 31 bits; the top bit
+    /// set: the right context has no brackets
+    /// ([`right_simple`](Self::right_simple)).
+    slots_simple: u32,
+    /// Where the production starts in the header, for runtime errors
+    /// ([`start`](Self::start); headers are far below 4 GiB).
+    start: u32,
+    /// The left context's length (the count `contexts` leaves to its
+    /// owner; a word that would otherwise be padding).
+    nleft: u32,
     /// Bracket depth change of the successor, and its lowest prefix.
     pub depth_delta: i32,
     pub depth_min: i32,
-    /// What only the cpfg dialect has (None in `.ls`).
-    pub cpfg: Option<Box<CpfgParts>>,
+    /// The left context ([`left`](Self::left)) and the right context
+    /// ([`right`](Self::right)), in one block.
+    contexts: Pair<Pat, RPat>,
+    pub cond: Option<Box<Code>>,
+    pub succ: Succ,
+    /// The probability and what only the cpfg dialect has (None for a
+    /// production with neither: most).
+    extra: Option<Box<Extra>>,
 }
+
+impl Clone for Production {
+    fn clone(&self) -> Production {
+        Production {
+            key: self.key,
+            slots_simple: self.slots_simple,
+            start: self.start,
+            nleft: self.nleft,
+            depth_delta: self.depth_delta,
+            depth_min: self.depth_min,
+            // Safety: `nleft` is the left context's length.
+            contexts: unsafe { self.contexts.copy(self.nleft as usize) },
+            cond: self.cond.clone(),
+            succ: self.succ.clone(),
+            extra: self.extra.clone(),
+        }
+    }
+}
+
+impl Drop for Production {
+    fn drop(&mut self) {
+        // Safety: `nleft` is the left context's length.
+        unsafe { self.contexts.free(self.nleft as usize) }
+    }
+}
+
+/// The parts of a production few productions have.
+#[derive(Clone, Debug, Default)]
+struct Extra {
+    prob: Option<Code>,
+    cpfg: Option<Box<CpfgParts>>,
+}
+
+/// The top bit of `Production::slots_simple`.
+const RIGHT_SIMPLE: u32 = 1 << 31;
 
 /// A production's cpfg-only parts (issue 12).
 #[derive(Clone, Debug, Default)]
@@ -394,32 +599,114 @@ pub struct CpfgParts {
 }
 
 impl Production {
-    pub fn has_context(&self) -> bool {
-        !self.left.is_empty() || !self.right.is_empty() || !self.rest().is_empty()
+    /// A production; its slots are predecessor parameters, then left
+    /// context, then right context.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        key: u32,
+        nslots: usize,
+        left: &[Pat],
+        right: &[RPat],
+        cond: Option<Box<Code>>,
+        prob: Option<Code>,
+        succ: Succ,
+        start: u32,
+        depth: (i32, i32),
+    ) -> Production {
+        let right_simple = !right.is_empty() && right.iter().all(|r| matches!(r, RPat::Module(_)));
+        let mut p = Production {
+            key,
+            slots_simple: 0,
+            start,
+            depth_delta: depth.0,
+            depth_min: depth.1,
+            nleft: u32::try_from(left.len()).expect("a header under 4 GiB"),
+            contexts: Pair::new(left, right),
+            cond,
+            succ,
+            extra: prob.map(|c| {
+                Box::new(Extra {
+                    prob: Some(c),
+                    cpfg: None,
+                })
+            }),
+        };
+        p.set_nslots(nslots);
+        p.set_right_simple(right_simple);
+        p
     }
-    /// Where the production is in the header.
+    pub fn has_context(&self) -> bool {
+        !self.left().is_empty() || !self.right().is_empty() || !self.rest().is_empty()
+    }
+    /// The left context.
+    #[inline(always)]
+    pub fn left(&self) -> &[Pat] {
+        // Safety: `nleft` is the left context's length.
+        unsafe { self.contexts.a(self.nleft as usize) }
+    }
+    /// The right context.
+    #[inline(always)]
+    pub fn right(&self) -> &[RPat] {
+        // Safety: as `left`.
+        unsafe { self.contexts.b(self.nleft as usize) }
+    }
+    /// How many parameter slots matching the production fills.
+    #[inline(always)]
+    pub fn nslots(&self) -> usize {
+        (self.slots_simple & !RIGHT_SIMPLE) as usize
+    }
+    pub fn set_nslots(&mut self, n: usize) {
+        let n = u32::try_from(n)
+            .ok()
+            .filter(|n| n & RIGHT_SIMPLE == 0)
+            .expect("a header under 2 GiB");
+        self.slots_simple = (self.slots_simple & RIGHT_SIMPLE) | n;
+    }
+    /// The right context has no brackets: it is matched against the cached
+    /// list of the next considered modules.
+    #[inline(always)]
+    pub fn right_simple(&self) -> bool {
+        self.slots_simple & RIGHT_SIMPLE != 0
+    }
+    fn set_right_simple(&mut self, simple: bool) {
+        self.slots_simple =
+            (self.slots_simple & !RIGHT_SIMPLE) | if simple { RIGHT_SIMPLE } else { 0 };
+    }
+    /// The probability (weight) expression.
     #[inline]
-    pub fn span(&self) -> Span {
-        (self.span.0 as usize, self.span.1 as usize)
+    pub fn prob(&self) -> Option<&Code> {
+        self.extra.as_ref().and_then(|x| x.prob.as_ref())
+    }
+    /// Where the production starts in the header.
+    #[inline]
+    pub fn start(&self) -> usize {
+        self.start as usize
+    }
+    #[inline]
+    fn cpfg(&self) -> Option<&CpfgParts> {
+        self.extra.as_ref().and_then(|x| x.cpfg.as_deref())
     }
     /// cpfg: the predecessor's modules after the first.
     #[inline]
     pub fn rest(&self) -> &[Pat] {
-        self.cpfg.as_ref().map_or(&[], |c| &c.rest)
+        self.cpfg().map_or(&[], |c| &c.rest)
     }
     /// cpfg's pre-condition block.
     #[inline]
     pub fn pre(&self) -> Option<&crate::cpfg::blocks::Block> {
-        self.cpfg.as_ref().and_then(|c| c.pre.as_ref())
+        self.cpfg().and_then(|c| c.pre.as_ref())
     }
     /// cpfg's post-condition block.
     #[inline]
     pub fn post(&self) -> Option<&crate::cpfg::blocks::Block> {
-        self.cpfg.as_ref().and_then(|c| c.post.as_ref())
+        self.cpfg().and_then(|c| c.post.as_ref())
     }
     /// The cpfg-only parts, made on first use.
     pub fn cpfg_mut(&mut self) -> &mut CpfgParts {
-        self.cpfg.get_or_insert_with(Box::default)
+        self.extra
+            .get_or_insert_with(Box::default)
+            .cpfg
+            .get_or_insert_with(Box::default)
     }
 }
 
@@ -517,11 +804,11 @@ impl Table {
 
     /// Add a compiled production after the others.
     pub fn push(&mut self, p: Production) {
-        self.max_left = self.max_left.max(p.left.len());
-        self.has_right |= !p.right.is_empty();
+        self.max_left = self.max_left.max(p.left().len());
+        self.has_right |= !p.right().is_empty();
         self.has_multi |= !p.rest().is_empty();
-        if p.right_simple {
-            self.max_right_simple = self.max_right_simple.max(p.right.len());
+        if p.right_simple() {
+            self.max_right_simple = self.max_right_simple.max(p.right().len());
         }
         self.check_balance |= p.depth_delta != 0 || p.depth_min < 0;
         self.prods.push(p);
@@ -536,50 +823,49 @@ impl Table {
 
     /// Group `prods[..own]` by key: each key's lists in file order, made
     /// at their exact size (counted first), context-sensitive and
-    /// context-free apart.
+    /// context-free apart. Filled in place: nothing per key but the counts
+    /// (8 bytes) exists beside the result (a header may name millions of
+    /// symbols).
     fn index(&mut self, own: usize) {
         let keys = self.prods[..own]
             .iter()
             .map(|p| p.key as usize + 1)
             .max()
             .unwrap_or(0);
-        let mut counts = vec![[0usize; 2]; keys];
+        let mut counts = vec![[0u32; 2]; keys];
         for p in &self.prods[..own] {
             counts[p.key as usize][usize::from(!p.has_context())] += 1;
         }
-        // A key's context-sensitive and context-free lists, and whether
-        // each has a probability.
-        type Lists = (Vec<u32>, Vec<u32>, bool, bool);
-        let mut lists: Vec<Option<Lists>> = counts
+        let list = |n: u32| vec![0u32; n as usize].into_boxed_slice();
+        self.by_key = counts
             .iter()
             .map(|&[c, f]| {
-                (c + f > 0).then(|| (Vec::with_capacity(c), Vec::with_capacity(f), false, false))
-            })
-            .collect();
-        drop(counts);
-        for (i, p) in self.prods[..own].iter().enumerate() {
-            if let Some((c, f, cs, fs)) = &mut lists[p.key as usize] {
-                if p.has_context() {
-                    c.push(i as u32);
-                    *cs |= p.prob.is_some();
-                } else {
-                    f.push(i as u32);
-                    *fs |= p.prob.is_some();
-                }
-            }
-        }
-        self.by_key = lists
-            .into_iter()
-            .map(|l| {
-                l.map(|(c, f, cs, fs)| KeyRules {
-                    context: c.into_boxed_slice(),
-                    free: f.into_boxed_slice(),
-                    context_stochastic: cs,
-                    free_stochastic: fs,
-                    fallback: None,
+                (c + f > 0).then(|| KeyRules {
+                    context: list(c),
+                    free: list(f),
+                    ..KeyRules::default()
                 })
             })
             .collect();
+        // Now the number of each key's entries filled so far.
+        counts.iter_mut().for_each(|c| *c = [0; 2]);
+        for (i, p) in self.prods[..own].iter().enumerate() {
+            let k = p.key as usize;
+            let Some(kr) = &mut self.by_key[k] else {
+                continue;
+            };
+            let free = !p.has_context();
+            let at = &mut counts[k][usize::from(free)];
+            let stochastic = p.prob().is_some();
+            if free {
+                kr.free[*at as usize] = i as u32;
+                kr.free_stochastic |= stochastic;
+            } else {
+                kr.context[*at as usize] = i as u32;
+                kr.context_stochastic |= stochastic;
+            }
+            *at += 1;
+        }
     }
 
     #[inline]
@@ -610,7 +896,7 @@ impl Table {
     /// cpfg passes neither split nor go depth first.)
     pub fn may_draw(&self) -> bool {
         self.prods.iter().any(|p| {
-            p.prob.is_some()
+            p.prob().is_some()
                 || p.cond.as_ref().is_some_and(|c| c.uses_random())
                 || p.succ.iter().any(|i| match i {
                     Item::Const(_) => false,
@@ -624,8 +910,9 @@ impl Table {
     /// right context is cpfg's "skip the rest of the branch".
     pub fn for_cpfg(&mut self, al: &Alphabet) {
         for p in &mut self.prods {
-            p.right_simple = false;
-            for r in p.right.iter_mut() {
+            p.set_right_simple(false);
+            // Safety: `nleft` is the left context's length.
+            for r in unsafe { p.contexts.b_mut(p.nleft as usize) } {
                 if let RPat::Module(m) = r {
                     if m.key == u32::from(b'=') && al.arity(m.key) == 0 {
                         *r = RPat::SkipRest;
@@ -769,14 +1056,46 @@ mod tests {
         assert!(!s.productions.check_balance);
     }
 
+    /// Up to 7 ASCII symbols without parameters or brackets sit in the
+    /// pointer's place (issue 9 item 6); longer runs, parameters or
+    /// brackets take a block. Every reader sees the same bytes.
+    #[test]
+    fn small_runs_sit_in_place() {
+        let s = sys("productions:\nA -> FF\nB -> F+F--FF\nC -> F+F--F+F\nD -> F(1)\nE -> [F]\n")
+            .unwrap();
+        let run = |i: usize| match &s.productions.prods[i].succ[0] {
+            Item::Const(c) => c.clone(),
+            other => panic!("{other:?}"),
+        };
+        for (i, text, inline) in [
+            (0, "FF", true),
+            (1, "F+F--FF", true),
+            (2, "F+F--F+F", false),
+            (3, "F(1)", false),
+            (4, "[F]", false),
+        ] {
+            let c = run(i);
+            assert_eq!(c.inline().is_some(), inline, "{text}");
+            assert_eq!(c.text(), text.as_bytes());
+            assert_eq!(c.modules(), if i == 3 { 1 } else { text.len() as u64 });
+            assert_eq!(c.has_brackets(), i == 4);
+            assert_eq!(c.brackets().count(), if i == 4 { 2 } else { 0 });
+            if i < 3 {
+                assert_eq!((c.bin(), c.ibin()), (text.as_bytes(), text.as_bytes()));
+            }
+        }
+    }
+
     /// A table may hold millions of productions and keys (issue 9 item
     /// 6): 152 and 64 bytes before the cpfg parts were boxed, offsets
     /// narrowed and keys' lists made exact boxes.
     #[test]
     fn compiled_parts_stay_small() {
-        assert_eq!(std::mem::size_of::<Production>(), 112);
+        assert_eq!(std::mem::size_of::<Production>(), 64);
+        assert_eq!(std::mem::size_of::<Code>(), 24);
         assert_eq!(std::mem::size_of::<KeyRules>(), 48);
-        assert_eq!(std::mem::size_of::<Item>(), 24);
+        assert_eq!(std::mem::size_of::<Item>(), 16);
+        assert_eq!(std::mem::size_of::<Succ>(), 16);
     }
 
     #[test]
