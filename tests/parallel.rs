@@ -395,10 +395,13 @@ fn bracket_balance_errors_are_the_same_on_1_2_and_8_threads() {
 
 /// The debug lines of `LSGEN_DEBUG_PAR=1` in `stderr`: the bytes the
 /// workers spilled and the tasks that failed after spilling; and the rest
-/// of `stderr`.
+/// of `stderr` (without the per-pass CPU lines, `lsgen: threads: `).
 fn spill_report(stderr: &str) -> (u64, u64, String) {
     let (mut bytes, mut failed, mut rest) = (0, 0, String::new());
     for line in stderr.split_inclusive('\n') {
+        if line.starts_with("lsgen: threads: ") {
+            continue;
+        }
         if !line.starts_with("lsgen: par: ") {
             rest.push_str(line);
             continue;
