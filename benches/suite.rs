@@ -1031,9 +1031,9 @@ fn run_threads(
     let mut md = String::from(
         "\n### One string on several threads\n\n\
          `-j 1` and `-j 2` on the same workload (no `-v`; best wall time of the \
-         repetitions). Depth-first parametric systems and context-free step-by-step passes \
-         (stochastic) split between threads; passes with contexts run on one thread \
-         whatever `-j` (README, Design: parallel derivation).\n\n\
+         repetitions). Depth-first parametric systems and step-by-step passes \
+         (stochastic, and with contexts) split between threads (README, Design: \
+         parallel derivation).\n\n\
          | row | size | -n | wall s | cpu s | peak RSS MiB | speed-up over -j 1 | target |\n\
          |---|---|---|--:|--:|--:|--:|---|\n",
     );
