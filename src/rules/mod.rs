@@ -270,6 +270,11 @@ impl ConstRun {
             data.extend_from_slice(&before.to_le_bytes());
         }
         debug_assert_eq!(data.len(), data.capacity());
+        Self::in_block(&data)
+    }
+
+    /// A run whose block holds `data` (header included).
+    fn in_block(data: &[u8]) -> ConstRun {
         let layout = Self::layout(data.len());
         // Safety: the layout holds at least the header (not zero-sized);
         // `data` fills it.
@@ -390,17 +395,7 @@ impl Clone for ConstRun {
         if self.inline().is_some() {
             return ConstRun { data: self.data };
         }
-        let b = self.bytes();
-        let layout = Self::layout(b.len());
-        // Safety: as in `new`.
-        unsafe {
-            let p = std::alloc::alloc(layout);
-            let Some(ptr) = NonNull::new(p) else {
-                std::alloc::handle_alloc_error(layout)
-            };
-            std::ptr::copy_nonoverlapping(b.as_ptr(), p, b.len());
-            ConstRun { data: ptr }
-        }
+        ConstRun::in_block(self.bytes())
     }
 }
 
