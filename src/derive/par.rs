@@ -136,10 +136,11 @@ pub(crate) fn test_split() -> Option<u64> {
 /// and nesting level each chunk starts from), each chunk rewritten by a
 /// worker with its own [`Deriver`] (the same generator, positioned by
 /// module index; right contexts read past the chunk's end), and the
-/// chunks' output written to `out` in order. Workers write no bracket
-/// index (a branch may open in one chunk and close in another): when
-/// `out` has one, the writer puts each block's brackets through it. The
-/// same bytes, draws and first error as one thread. Returns the number of
+/// chunks' output written to `out` in order. When `out` has a bracket
+/// index, workers write it for the branches within their blocks and hand
+/// the rest (a branch across blocks or chunks) to the writer, which
+/// completes it ([`super::sink::ChunkIndex`]). The same bytes, draws and
+/// first error as one thread. Returns the number of
 /// draws made, or None when no thread could be started (then nothing was
 /// written: the caller derives the pass on its own thread).
 pub(crate) fn step_pass(

@@ -6,23 +6,26 @@
 //!
 //! - its left context: the last k considered modules on the path to it,
 //!   which the engine keeps in a [`LeftContext`] as it reads. The scan
-//!   here ([`Scan`]) follows every module of the generation with that same
+//!   here ([`Scan`]) follows the modules of the generation with that same
 //!   [`LeftContext::follow`] (no second implementation) and hands each
 //!   chunk a clone of it as it stands at the chunk's first module, with
 //!   the nesting level there ([`ChunkStart`]): the worker starts its pass
 //!   in the state one thread would have reached there. The clone holds at
 //!   most k modules per open branch, so it costs O(k x depth), not the
-//!   string;
+//!   string. A whole branch leaves both as they were, so where the
+//!   generation has a bracket index and the pass draws nothing the scan
+//!   jumps over the branches that end before the next cut;
 //! - its right context: read ahead by the worker's own look-ahead reader
 //!   (pread on the same file, its bracket index shared read-only), which
 //!   is not limited to the chunk;
-//! - its random draws: placed by module index, which the scan counts.
+//! - its random draws: placed by module index, which the scan counts
+//!   (where the pass can draw: [`Chunk::exact`]).
 //!
 //! So a chunk's output is a function of the generation and the chunk's
 //! bounds, whichever thread derives it and whenever. Passes that track
-//! bracket balance (`check_balance`: the output's depth at a chunk's start
-//! depends on what earlier chunks wrote) stay on one thread; so do the
-//! structural and cpfg features (`par::step_threads`).
+//! bracket balance judge each chunk's balance on the writer ([`Balance`],
+//! [`BalanceCheck`]); the structural and cpfg features stay on one thread
+//! (`par::step_threads`).
 
 use super::bytetable::ASCII;
 use super::context::LeftContext;
