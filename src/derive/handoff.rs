@@ -2,7 +2,8 @@
 //! 15), shared by both splits of [`super::par`]: each task's text reaches
 //! the calling thread in blocks, in task order ([`write_in_order`]); a
 //! task the writer has not reached keeps up to [`QUEUE`] blocks in memory
-//! ([`BUDGET`] for all such tasks) and beyond that, while the writer waits
+//! ([`BUDGET`] for all such tasks, [`STEP_BUDGET`] for a step pass's
+//! chunks) and beyond that, while the writer waits
 //! for the task it is on, spills to an unnamed file in the run's temporary
 //! directory ([`Current`]); a chunk's bracket balance is judged in order.
 

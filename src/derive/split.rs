@@ -296,28 +296,18 @@ mod tests {
     }
 
     /// `modules` (symbol, parameters) written through one [`Out`], binary,
-    /// with a bracket index if `indexed` (module counts too if `counts`),
-    /// flushed after every module if `flush` (so that `]`s patch their `[`
-    /// in the file); and the file's bytes.
-    fn write(
-        al: &mut Alphabet,
-        modules: &[(char, &[f64])],
-        (indexed, counts): (bool, bool),
-        flush: bool,
-    ) -> (File, Vec<u8>) {
+    /// with a bracket index if `indexed`; and the file's bytes.
+    fn write(al: &mut Alphabet, modules: &[(char, &[f64])], indexed: bool) -> (File, Vec<u8>) {
         let mut f = tempfile::tempfile().unwrap();
         let index = f.try_clone().unwrap();
         {
             let mut out = Out::new(&mut f, "gen", false, Limits::default());
             if indexed {
-                out = out.with_index(index).with_counts(counts);
+                out = out.with_index(index);
             }
             for &(sym, params) in modules {
                 let key = al.intern(sym, params.len()).unwrap();
                 out.module(key, params, al).unwrap();
-                if flush {
-                    out.flush().unwrap();
-                }
             }
             out.finish().unwrap();
         }
@@ -342,10 +332,6 @@ mod tests {
         ('F', &[6.0]),
     ];
 
-    /// Each chunk (here: each module) starts from the left context one
-    /// thread has there: the last two considered modules on the path to
-    /// it (derived by hand), with the parameters a left context asks for
-    /// (of A and B), and the nesting level.
     /// A pass that draws nothing jumps over the whole branches before a
     /// cut by the bracket index: every chunk starts where it would have
     /// and from the same state (left context, level), and only the module
@@ -358,7 +344,7 @@ mod tests {
         let mut string = STRING.to_vec();
         string.extend_from_within(..);
         string.extend_from_within(..);
-        let (f, bytes) = write(&mut s.alphabet, &string, (true, false), false);
+        let (f, bytes) = write(&mut s.alphabet, &string, true);
         let al = &s.alphabet;
         let mut jumped = false;
         for size in 1..=bytes.len() as u64 + 1 {
@@ -395,7 +381,7 @@ mod tests {
         }
         string.insert(9, ('A', &[1.0]));
         string.insert(20, ('A', &[93.0]));
-        let (f, bytes) = write(&mut s.alphabet, &string, (false, false), false);
+        let (f, bytes) = write(&mut s.alphabet, &string, false);
         // Module starts, indices and the level at each.
         let (mut at, mut level, mut walk) = (0, 0i64, Vec::new());
         for (c, p) in &string {
@@ -418,6 +404,10 @@ mod tests {
         assert_eq!(plain_counts(b"[]]]]]]]]]\x80[["), (10, -8));
     }
 
+    /// Each chunk (here: each module) starts from the left context one
+    /// thread has there: the last two considered modules on the path to
+    /// it (derived by hand), with the parameters a left context asks for
+    /// (of A and B), and the nesting level.
     #[test]
     fn each_chunk_starts_from_the_path_to_its_first_module() {
         // The same string with parameters (module by module) and without
@@ -433,7 +423,7 @@ mod tests {
                 let src = "ignore: +\nproductions:\nA(a) B(b) < C(c) -> X\nF(f) -> F\n";
                 (system(src), STRING)
             };
-            let (f, _) = write(&mut s.alphabet, string, (indexed, false), false);
+            let (f, _) = write(&mut s.alphabet, string, indexed);
             let arity = usize::from(!plain);
             let mut key = |c: char| s.alphabet.intern(c, arity).unwrap();
             let (a, b, c, d, e) = (key('A'), key('B'), key('C'), key('D'), key('E'));
@@ -478,7 +468,7 @@ mod tests {
         }
         // Without left contexts, only the nesting level is kept.
         let mut s = system("productions:\nA > B -> X\n");
-        let (f, _) = write(&mut s.alphabet, STRING, (true, false), false);
+        let (f, _) = write(&mut s.alphabet, STRING, true);
         let mut scan = Scan::new(&f, (true, false), &s.productions, &s.alphabet, 4);
         let ch = scan.next_chunk(&s.alphabet).unwrap().unwrap();
         assert!(ch.at.left.is_none());
