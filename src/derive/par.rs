@@ -56,7 +56,7 @@ const IN_FLIGHT: usize = 16;
 const PER_THREAD: u64 = 16384;
 /// Aim for tasks of about this much text (the producer batches modules
 /// by the text each module gave so far).
-const TASK_BYTES: u64 = 256 << 10;
+const TASK_BYTES: u64 = 1 << 20;
 /// Most modules of the split generation in one task (the text per module
 /// so far is a poor guide: a module gives from one module to a large
 /// subtree, and a batch of 65536 once gave a 43 MB task).
@@ -153,7 +153,11 @@ pub(crate) fn step_pass(
 ) -> Result<Option<u64>, Error> {
     let draws = AtomicU64::new(0);
     let draws = &draws;
-    let shared = &Shared::new(tmpdir, super::handoff::STEP_BUDGET);
+    let shared = &Shared::new(
+        tmpdir,
+        super::handoff::STEP_BUDGET,
+        (threads, threads * IN_FLIGHT),
+    );
     let text = out.text;
     // The workers write the output's bracket index where they can.
     let out_index = (out.indexed, out.counts());
@@ -166,7 +170,7 @@ pub(crate) fn step_pass(
         use super::split::{Chunk, Scan};
         let (task_tx, task_rx) = mpsc::channel::<(Chunk, Slot)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
-        let (order_tx, order_rx) = mpsc::sync_channel::<Receiver<Msg>>(threads * IN_FLIGHT);
+        let (order_tx, order_rx) = mpsc::channel::<Receiver<Msg>>();
         let mut workers = 0;
         for w in 0..threads {
             let task_rx = Arc::clone(&task_rx);
@@ -183,7 +187,7 @@ pub(crate) fn step_pass(
             let h = std::thread::Builder::new()
                 .name(format!("lsgen-step-{w}"))
                 .spawn_scoped(s, move || {
-                    let current = Current::new(shared);
+                    let current = Current::new(shared, w);
                     let mut sink = std::io::sink();
                     let mut out = Out::new(&mut sink, "output", text, super::Limits::default());
                     if out_index.0 {
@@ -327,11 +331,15 @@ pub(crate) fn expand(
     let done_modules = AtomicU64::new(0);
     let done_bytes = AtomicU64::new(0);
     let (done_modules, done_bytes) = (&done_modules, &done_bytes);
-    let shared = &Shared::new(tmpdir, super::handoff::BUDGET);
+    let shared = &Shared::new(
+        tmpdir,
+        super::handoff::BUDGET,
+        (threads, threads * IN_FLIGHT),
+    );
     std::thread::scope(|s| -> Result<(), Error> {
         let (task_tx, task_rx) = mpsc::channel::<(Task, Slot)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
-        let (order_tx, order_rx) = mpsc::sync_channel::<Receiver<Msg>>(threads * IN_FLIGHT);
+        let (order_tx, order_rx) = mpsc::channel::<Receiver<Msg>>();
         let mut workers = 0;
         for w in 0..threads {
             let task_rx = Arc::clone(&task_rx);
@@ -339,7 +347,7 @@ pub(crate) fn expand(
                 .name(format!("lsgen-par-{w}"))
                 .spawn_scoped(s, move || {
                     work(
-                        plan,
+                        (plan, w),
                         al,
                         origin,
                         steps,
@@ -492,7 +500,7 @@ fn produce<'t>(
 /// A worker: expand tasks until the producer is done. One [`Out`] (one
 /// buffer, one number cache) for all its tasks.
 fn work(
-    plan: &ParamPlan,
+    (plan, id): (&ParamPlan, usize),
     al: &Alphabet,
     origin: &Origin,
     steps: u64,
@@ -500,7 +508,7 @@ fn work(
     (done_modules, done_bytes): (&AtomicU64, &AtomicU64),
 ) {
     let mut walker = Walker::new(plan, al, steps);
-    let current = Current::new(shared);
+    let current = Current::new(shared, id);
     let mut sink = std::io::sink();
     let mut out = Out::new(&mut sink, "output", true, super::Limits::default());
     out.chunk = shared.chunk;
