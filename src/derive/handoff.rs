@@ -251,9 +251,12 @@ impl<'a> Shared<'a> {
         }
     }
 
-    /// An empty block, written before if there is one.
+    /// An empty block, written before if there is one:
+    /// Worker `owner`'s own first, then another's (so that no more blocks
+    /// exist than one pool for all would make).
     pub(super) fn block(&self, owner: usize) -> Vec<u8> {
-        let b = self.pool(owner).lock().ok().and_then(|mut p| p.pop());
+        let n = self.pools.len();
+        let b = (0..n).find_map(|i| self.pool(owner + i).lock().ok().and_then(|mut p| p.pop()));
         let mut b = b.unwrap_or_else(|| Vec::with_capacity(CHUNK + codec::MAX_MODULE_BYTES * 4));
         b.clear();
         b
@@ -676,11 +679,18 @@ mod tests {
     fn each_worker_gets_back_its_own_blocks() {
         let tmpdir = None;
         let shared = Shared::new(&tmpdir, 4, (2, 8));
-        let a = shared.block(0);
-        let pa = a.as_ptr();
+        let (a, b) = (shared.block(0), shared.block(1));
+        let (pa, pb) = (a.as_ptr(), b.as_ptr());
         shared.recycle(a, 0);
-        let b = shared.block(1);
-        assert_ne!(b.as_ptr(), pa, "worker 1 got worker 0's block");
+        shared.recycle(b, 1);
+        // LIFO in one pool for all would give worker 0 `b`.
         assert_eq!(shared.block(0).as_ptr(), pa);
+        assert_eq!(shared.block(1).as_ptr(), pb);
+        // With its own pool empty, a worker takes another's block rather
+        // than a new one.
+        let c = shared.block(1);
+        let pc = c.as_ptr();
+        shared.recycle(c, 0);
+        assert_eq!(shared.block(1).as_ptr(), pc);
     }
 }
