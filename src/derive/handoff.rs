@@ -684,13 +684,15 @@ mod tests {
         shared.recycle(a, 0);
         shared.recycle(b, 1);
         // LIFO in one pool for all would give worker 0 `b`.
-        assert_eq!(shared.block(0).as_ptr(), pa);
-        assert_eq!(shared.block(1).as_ptr(), pb);
+        let (a, b) = (shared.block(0), shared.block(1));
+        assert_eq!(a.as_ptr(), pa);
+        assert_eq!(b.as_ptr(), pb);
         // With its own pool empty, a worker takes another's block rather
         // than a new one.
         let c = shared.block(1);
         let pc = c.as_ptr();
         shared.recycle(c, 0);
-        assert_eq!(shared.block(1).as_ptr(), pc);
+        let c = shared.block(1);
+        assert_eq!(c.as_ptr(), pc);
     }
 }
