@@ -61,6 +61,7 @@ pub struct Options {
     space: Option<u64>,
     threads: usize,
     split: Option<u64>,
+    direct: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 impl Default for Options {
@@ -77,6 +78,7 @@ impl Default for Options {
             space: None,
             threads: 1,
             split: None,
+            direct: None,
         }
     }
 }
@@ -159,6 +161,15 @@ impl Options {
     #[doc(hidden)]
     pub fn threads_all(mut self) -> Self {
         self.threads = crate::derive::par::ALL_CPUS;
+        self
+    }
+
+    /// A switch the derivation turns on while it writes text made on
+    /// several threads, and off after: the binary's `-o` file then writes
+    /// around the page cache (`io::output::WriteBehind`).
+    #[doc(hidden)]
+    pub fn direct_output(mut self, switch: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Self {
+        self.direct = Some(switch);
         self
     }
 
@@ -505,6 +516,7 @@ impl LSystem {
             space: options.space,
             threads: options.threads,
             split: options.split,
+            direct: options.direct.clone(),
         };
         let consts = std::mem::take(&mut system.consts);
         let reader = AxiomReader::new(input, comments, line, col, &consts);

@@ -766,6 +766,9 @@ fn run_one(
     if let Some(space) = output.as_ref().and_then(Output::free_space) {
         options = options.free_space(space);
     }
+    if let Some(switch) = output.as_ref().and_then(Output::direct_switch) {
+        options = options.direct_output(switch);
+    }
     if let Some(p) = &args.axiom {
         ls.set_axiom(open_input(Some(p.as_path()))?);
     }

@@ -97,6 +97,48 @@ fn a_large_parametric_tree_is_the_same_on_1_2_and_8_threads() {
 }
 
 #[test]
+fn an_output_file_written_around_the_page_cache_is_the_same() {
+    // Text made on several threads goes to `-o`'s file with O_DIRECT
+    // (io::output::WriteBehind), in 1 MiB units and a tail through the
+    // page cache: depth first and in step passes, on the test directory's
+    // file system and on a tmpfs (/dev/shm), which refuses O_DIRECT and
+    // keeps the page cache. The same bytes as one thread on stdout.
+    let dir = tempdir();
+    let w = Path::new(ROOT).join("benches/workloads");
+    let shm = Path::new("/dev/shm");
+    let shm = shm
+        .is_dir()
+        .then(|| {
+            tempfile::Builder::new()
+                .prefix("lsgen-test-")
+                .tempdir_in(shm)
+                .ok()
+        })
+        .flatten();
+    for (file, n) in [("parametric_tree.ls", "11"), ("stochastic_plant.ls", "11")] {
+        let file = w.join(file);
+        let one = run(lsgen().args(["-n", n, "-j", "1"]).arg(&file)).ok();
+        assert!(one.len() > 3 << 20, "{}", one.len());
+        let mut dirs = vec![dir.path()];
+        dirs.extend(shm.as_ref().map(|d| d.path()));
+        for d in dirs {
+            let o = d.join("out.txt");
+            let r = run(lsgen().args(["-n", n, "-j", "2", "-o"]).arg(&o).arg(&file));
+            assert_eq!(r.ok(), "");
+            let many = std::fs::read(&o).unwrap();
+            assert!(
+                one.as_bytes() == many,
+                "{} in {}: {} bytes, one thread {}",
+                file.display(),
+                d.display(),
+                many.len(),
+                one.len()
+            );
+        }
+    }
+}
+
+#[test]
 fn a_hand_derived_string_on_many_threads() {
     // A(0) -> A(1)[B] -> A(2)[B][BB] -> A(2)[BB][BBBB]... with A(x) : x >= 2
     // staying: after 4 steps A(2)[BBBB][BBBBBBBB].

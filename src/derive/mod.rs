@@ -117,6 +117,9 @@ pub(crate) struct Settings {
     pub threads: usize,
     /// Tests: split into tasks this small (`par::test_split`).
     pub split: Option<u64>,
+    /// The output's switch for text made on several threads
+    /// ([`crate::Options::direct_output`]).
+    pub direct: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 /// Which generations `--frames A..B:K` writes: `from..=to`, every
@@ -506,6 +509,7 @@ pub(crate) fn derive(
                 settings.split.or_else(par::test_split),
                 &settings.tmpdir,
             );
+            out.direct = settings.direct.clone();
             par::expand(&plan, src, &d.alphabet, &d.origin, steps, split, &mut out)
         } else {
             plan.expand(src, &d.alphabet, &d.origin, steps, &mut out)
@@ -622,6 +626,9 @@ fn step_passes(
             let flags = (tables.plain, indexed, limited);
             let threads = par::step_threads(settings.threads, table, flags, (len, split));
             let split = (threads, split, tmpdir);
+            if threads > 1 {
+                out.direct = settings.direct.clone();
+            }
             match (threads > 1)
                 .then(|| par::step_pass(d, table, (&src, indexed), split, &mut out, pass))
                 .transpose()?

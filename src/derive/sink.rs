@@ -125,6 +125,9 @@ pub struct Out<'w> {
     /// Where full buffers go whole, in place of `w` (a parallel task's
     /// blocks, `super::par`): no copy.
     pub(crate) taker: Option<&'w dyn Take>,
+    /// The output's switch for text made on several threads, turned on by
+    /// the split's writer ([`crate::Options::direct_output`]).
+    pub(crate) direct: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 /// A destination that takes a full buffer over (leaving an empty one in
@@ -153,6 +156,7 @@ impl<'w> Out<'w> {
             meter: super::meter::current(),
             chunk: OUT_CHUNK,
             taker: None,
+            direct: None,
         }
     }
 
