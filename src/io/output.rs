@@ -678,26 +678,30 @@ impl WriteBehind {
     }
 
     /// Write the stage's whole units directly (the rest stays staged).
+    /// What a write took is dropped from the stage at once, so that after
+    /// a refusal (or a short write, which leaves the file's end out of
+    /// step) the page cache takes only the rest.
     fn write_staged(&mut self) -> io::Result<()> {
-        let Some(stage) = &mut self.stage else {
-            return Ok(());
-        };
-        let whole = stage.len / Stage::UNIT * Stage::UNIT;
-        if whole == 0 {
-            return Ok(());
-        }
-        match self.file.write_all(&stage.bytes()[..whole]) {
-            Ok(()) => {
-                stage.consume(whole);
-                Ok(())
+        loop {
+            let Some(stage) = &mut self.stage else {
+                return Ok(());
+            };
+            let whole = stage.len / Stage::UNIT * Stage::UNIT;
+            if whole == 0 {
+                return Ok(());
             }
-            // Accepted by fcntl, refused by the write: through the page
-            // cache from now on.
-            Err(e) if e.raw_os_error() == Some(libc::EINVAL) => {
-                self.refused = true;
-                self.leave_direct()
+            match self.file.write(&stage.bytes()[..whole]) {
+                Ok(0) => return Err(io::ErrorKind::WriteZero.into()),
+                Ok(n) => stage.consume(n),
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                // Accepted by fcntl, refused by the write: through the
+                // page cache from now on.
+                Err(e) if e.raw_os_error() == Some(libc::EINVAL) => {
+                    self.refused = true;
+                    return self.leave_direct();
+                }
+                Err(e) => return Err(e),
             }
-            Err(e) => Err(e),
         }
     }
 
