@@ -240,10 +240,9 @@ pub(super) struct Shared<'a> {
 }
 
 impl<'a> Shared<'a> {
-    /// For a split whose tasks not being written keep `budget` blocks in
-    /// all ([`BUDGET`], [`STEP_BUDGET`]).
-    /// At most `ahead` tasks are handed out ahead of the writer ([`Gate`]).
-    /// For `threads` workers.
+    /// For a split on `threads` workers whose tasks not being written keep
+    /// `budget` blocks in all ([`BUDGET`], [`STEP_BUDGET`]), with at most
+    /// `ahead` tasks handed out ahead of the writer ([`Gate`]).
     pub(super) fn new(
         tmpdir: &'a Option<PathBuf>,
         budget: usize,
@@ -271,9 +270,9 @@ impl<'a> Shared<'a> {
         }
     }
 
-    /// An empty block, written before if there is one:
-    /// Worker `owner`'s own first, then another's (so that no more blocks
-    /// exist than one pool for all would make).
+    /// An empty block, written before if there is one: worker `owner`'s
+    /// own first, then another's (so that no more blocks exist than one
+    /// pool for all would make).
     pub(super) fn block(&self, owner: usize) -> Vec<u8> {
         let n = self.pools.len();
         let b = (0..n).find_map(|i| self.pool(owner + i).lock().ok().and_then(|mut p| p.pop()));
