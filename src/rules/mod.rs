@@ -19,7 +19,9 @@ pub use compile::{
     compile, compile_dialect, compile_text, compile_with, Compiler, LoadError, Seeds,
 };
 pub mod expr;
+mod keys;
 mod thin;
+use keys::{KeyList, KeyMap};
 pub use thin::{Pair, Thin};
 
 pub const OPEN: u32 = b'[' as u32;
@@ -57,7 +59,8 @@ pub struct Alphabet {
     /// was 16 and a 32-byte chunk, for a header naming millions).
     text: Vec<KeyText>,
     ignored: Vec<bool>,
-    map: HashMap<(char, u16), u32>,
+    /// (symbol, arity) to key, beyond the ASCII ones.
+    map: KeyMap,
     filter: Filter,
 }
 
@@ -68,7 +71,7 @@ impl Alphabet {
             arity: Vec::new(),
             text: Vec::new(),
             ignored: Vec::new(),
-            map: HashMap::new(),
+            map: KeyMap::default(),
             filter,
         };
         for b in 0u8..128 {
@@ -90,7 +93,8 @@ impl Alphabet {
             return Ok(sym as u32);
         }
         let arity = arity as u16;
-        if let Some(&k) = self.map.get(&(sym, arity)) {
+        let is = |k: u32| self.sym[k as usize] == sym && self.arity[k as usize] == arity;
+        if let Some(k) = self.map.get(sym, arity, is) {
             return Ok(k);
         }
         let k = self.sym.len() as u32;
@@ -98,7 +102,9 @@ impl Alphabet {
         self.arity.push(arity);
         self.text.push(KeyText::of(sym));
         self.ignored.push(self.filter.ignores(sym));
-        self.map.insert((sym, arity), k);
+        let (syms, arities) = (&self.sym, &self.arity);
+        self.map
+            .insert(sym, arity, k, |o| (syms[o as usize], arities[o as usize]));
         Ok(k)
     }
 
@@ -707,18 +713,17 @@ impl Production {
 
 /// The productions of one key, in file order, split by kind (numbers in
 /// the table's `prods`): lists of their exact size, made once the table is
-/// complete (`Table::index`), no spare capacity (a header may name
-/// millions of symbols).
+/// complete (`Table::index`), each one word with its "stochastic" flag, a
+/// one-production list in place (a header may name millions of symbols:
+/// 24 bytes a key, no block for the common one).
 #[derive(Clone, Debug, Default)]
 pub struct KeyRules {
     /// Context-sensitive productions: a match beats every context-free one.
-    context: Box<[u32]>,
-    free: Box<[u32]>,
-    pub context_stochastic: bool,
-    pub free_stochastic: bool,
+    context: KeyList,
+    free: KeyList,
     /// Group 0's productions of the key, tried when a numbered group's
     /// choose nothing (issue 11, lpfg's rule).
-    pub fallback: Option<Box<KeyRules>>,
+    fallback: Option<Box<KeyRules>>,
 }
 
 impl KeyRules {
@@ -731,6 +736,21 @@ impl KeyRules {
     #[inline]
     pub fn has_free(&self) -> bool {
         !self.free.is_empty()
+    }
+    /// Is one of the context-sensitive productions stochastic?
+    #[inline]
+    pub fn context_stochastic(&self) -> bool {
+        self.context.stochastic()
+    }
+    /// Is one of the context-free productions stochastic?
+    #[inline]
+    pub fn free_stochastic(&self) -> bool {
+        self.free.stochastic()
+    }
+    /// Group 0's productions of the key, for a numbered group.
+    #[inline]
+    pub fn fallback(&self) -> Option<&KeyRules> {
+        self.fallback.as_deref()
     }
 }
 
@@ -773,7 +793,7 @@ impl Table {
         let p = &self.prods[*self.free(kr).first()? as usize];
         // (cpfg's blocks run whenever the production is tried.)
         if kr.has_context()
-            || kr.free_stochastic
+            || kr.free_stochastic()
             || p.cond.is_some()
             || p.pre().is_some()
             || p.post().is_some()
@@ -831,14 +851,14 @@ impl Table {
         for p in &self.prods[..own] {
             counts[p.key as usize][usize::from(!p.has_context())] += 1;
         }
-        let list = |n: u32| vec![0u32; n as usize].into_boxed_slice();
+        let list = |n: u32| KeyList::zeroed(n as usize);
         self.by_key = counts
             .iter()
             .map(|&[c, f]| {
                 (c + f > 0).then(|| KeyRules {
                     context: list(c),
                     free: list(f),
-                    ..KeyRules::default()
+                    fallback: None,
                 })
             })
             .collect();
@@ -851,13 +871,10 @@ impl Table {
             };
             let free = !p.has_context();
             let at = &mut counts[k][usize::from(free)];
-            let stochastic = p.prob().is_some();
-            if free {
-                kr.free[*at as usize] = i as u32;
-                kr.free_stochastic |= stochastic;
-            } else {
-                kr.context[*at as usize] = i as u32;
-                kr.context_stochastic |= stochastic;
+            let list = if free { &mut kr.free } else { &mut kr.context };
+            list.as_mut_slice()[*at as usize] = i as u32;
+            if p.prob().is_some() {
+                list.set_stochastic(true);
             }
             *at += 1;
         }
@@ -871,12 +888,12 @@ impl Table {
     /// order.
     #[inline]
     pub fn context<'a>(&'a self, kr: &'a KeyRules) -> &'a [u32] {
-        &kr.context
+        kr.context.as_slice()
     }
     /// `kr`'s context-free productions, in file order.
     #[inline]
     pub fn free<'a>(&'a self, kr: &'a KeyRules) -> &'a [u32] {
-        &kr.free
+        kr.free.as_slice()
     }
     pub fn is_empty(&self) -> bool {
         self.prods.is_empty()
@@ -924,11 +941,13 @@ impl Table {
     fn cpfg_order(&mut self) {
         for kr in self.by_key.iter_mut().flatten() {
             if kr.has_context() && kr.has_free() {
-                let mut all: Vec<u32> = kr.context.iter().chain(&*kr.free).copied().collect();
+                let (c, f) = (kr.context.as_slice(), kr.free.as_slice());
+                let mut all: Vec<u32> = c.iter().chain(f).copied().collect();
                 all.sort_unstable();
-                kr.context = all.into_boxed_slice();
-                kr.free = Box::default();
-                kr.context_stochastic |= std::mem::take(&mut kr.free_stochastic);
+                let stochastic = kr.context.stochastic() || kr.free.stochastic();
+                kr.context = KeyList::from_slice(&all);
+                kr.context.set_stochastic(stochastic);
+                kr.free = KeyList::empty();
             }
         }
     }
@@ -944,10 +963,16 @@ impl Table {
         }
         for (key, b) in base.by_key.iter().enumerate() {
             let Some(b) = b else { continue };
+            let moved = |l: &KeyList| {
+                let v: Vec<u32> = l.as_slice().iter().map(|i| i + by).collect();
+                let mut l2 = KeyList::from_slice(&v);
+                l2.set_stochastic(l.stochastic());
+                l2
+            };
             let b = KeyRules {
-                context: b.context.iter().map(|i| i + by).collect(),
-                free: b.free.iter().map(|i| i + by).collect(),
-                ..b.clone()
+                context: moved(&b.context),
+                free: moved(&b.free),
+                fallback: b.fallback.clone(),
             };
             match &mut self.by_key[key] {
                 Some(kr) => kr.fallback = Some(Box::new(b)),
@@ -1088,7 +1113,8 @@ mod tests {
     fn compiled_parts_stay_small() {
         assert_eq!(std::mem::size_of::<Production>(), 64);
         assert_eq!(std::mem::size_of::<Code>(), 24);
-        assert_eq!(std::mem::size_of::<KeyRules>(), 48);
+        assert_eq!(std::mem::size_of::<KeyRules>(), 24);
+        assert_eq!(std::mem::size_of::<Option<KeyRules>>(), 24);
         assert_eq!(std::mem::size_of::<Item>(), 16);
         assert_eq!(std::mem::size_of::<Succ>(), 16);
     }
@@ -1099,7 +1125,7 @@ mod tests {
         let kr = s.productions.get(b'B' as u32).unwrap();
         assert_eq!(s.productions.context(kr), [0]);
         assert_eq!(s.productions.free(kr), [1, 2]);
-        assert!(kr.free_stochastic && !kr.context_stochastic);
+        assert!(kr.free_stochastic() && !kr.context_stochastic());
         assert!(s.productions.get(b'A' as u32).is_none());
         assert_eq!(s.productions.max_left, 1);
     }
