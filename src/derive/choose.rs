@@ -149,9 +149,12 @@ impl Chooser {
                 chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
             }
             // A numbered group that chose nothing falls back to group 0.
-            match (&chosen, kr.fallback()) {
-                (None, Some(f)) => kr = f,
-                _ => break,
+            if chosen.is_some() {
+                break;
+            }
+            match table.fallback(kr) {
+                Some(f) => kr = f,
+                None => break,
             }
         }
         Ok(chosen)
