@@ -149,12 +149,9 @@ impl Chooser {
                 chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
             }
             // A numbered group that chose nothing falls back to group 0.
-            if chosen.is_some() {
-                break;
-            }
-            match table.fallback(kr) {
-                Some(f) => kr = f,
-                None => break,
+            match (&chosen, table.fallback(kr)) {
+                (None, Some(f)) => kr = f,
+                _ => break,
             }
         }
         Ok(chosen)

@@ -4,21 +4,30 @@
 //! interning map as an open-addressing table of key numbers only
 //! ([`KeyMap`]: the symbol and arity are read from the alphabet).
 
+use std::ptr::NonNull;
+
 /// The context-sensitive list, then the context-free one.
 const CONTEXT: usize = 0;
 const FREE: usize = 1;
 
+/// A list's numbers: its pointer without the stochastic flag (bit 0; the
+/// numbers are 4-byte aligned).
+#[inline(always)]
+fn untag(p: NonNull<u32>) -> *const u32 {
+    p.as_ptr().map_addr(|a| a & !1)
+}
+
 /// The productions of one key, in file order, split by kind (numbers in
 /// the table's `prods`): context-sensitive ones (a match beats every
 /// context-free one), then context-free ones. Each list is a pointer into
-/// its [`KeyIndex`]'s one array of numbers and a length (times 2, plus 1
-/// if some production of the list is stochastic): 24 bytes a key and no
-/// block of its own (a header may name millions of symbols; a list as an
-/// offset and a length cost the hot paths 1.8-2.5 %, a pointer reads as a
-/// boxed slice did).
+/// its [`KeyIndex`]'s one array of numbers (its low bit set if some
+/// production of the list is stochastic) and a length: 24 bytes a key and
+/// no block of its own (a header may name millions of symbols; a list as
+/// an offset and a length cost the hot paths 1.8-2.5 %, a pointer reads
+/// as the boxed slice did).
 pub struct KeyRules {
     len: [u32; 2],
-    data: [*const u32; 2],
+    data: [NonNull<u32>; 2],
 }
 
 // Safety: a `KeyRules` reads its index's numbers, never changed while
@@ -27,17 +36,17 @@ unsafe impl Send for KeyRules {}
 unsafe impl Sync for KeyRules {}
 
 impl KeyRules {
-    /// No productions.
+    /// No productions (while an index is built).
     const NONE: KeyRules = KeyRules {
         len: [0; 2],
-        data: [std::ptr::NonNull::<u32>::dangling().as_ptr(); 2],
+        data: [NonNull::dangling(); 2],
     };
 
     #[inline(always)]
     fn list(&self, which: usize) -> &[u32] {
-        // Safety: `len / 2` numbers at `data`, inside the index's array
-        // (which outlives `self`: both are the index's).
-        unsafe { std::slice::from_raw_parts(self.data[which], (self.len[which] >> 1) as usize) }
+        // Safety: `len` numbers at `data`, inside the index's array (which
+        // outlives `self`: both are the index's).
+        unsafe { std::slice::from_raw_parts(untag(self.data[which]), self.len[which] as usize) }
     }
 
     /// The context-sensitive productions.
@@ -68,12 +77,16 @@ impl KeyRules {
     /// Is one of the context-sensitive productions stochastic?
     #[inline(always)]
     pub fn context_stochastic(&self) -> bool {
-        self.len[CONTEXT] & 1 != 0
+        self.data[CONTEXT].as_ptr().addr() & 1 != 0
     }
     /// Is one of the context-free productions stochastic?
     #[inline(always)]
     pub fn free_stochastic(&self) -> bool {
-        self.len[FREE] & 1 != 0
+        self.data[FREE].as_ptr().addr() & 1 != 0
+    }
+
+    fn set_stochastic(&mut self, which: usize) {
+        self.data[which] = self.data[which].map_addr(|a| a | 1);
     }
 }
 
@@ -94,9 +107,9 @@ impl std::fmt::Debug for KeyRules {
 /// group 0's lists, the fallback (issue 11), in a second array.
 #[derive(Default)]
 pub struct KeyIndex {
-    by_key: Vec<KeyRules>,
+    by_key: Vec<Option<KeyRules>>,
     /// Empty unless the table has a fallback.
-    fallback: Vec<KeyRules>,
+    fallback: Vec<Option<KeyRules>>,
     /// The numbers `by_key`'s lists point into (never changed in size
     /// once they do).
     numbers: Vec<u32>,
@@ -114,40 +127,41 @@ impl KeyIndex {
         I: Iterator<Item = (u32, bool, bool)>,
     {
         let keys = entries().map(|e| e.0 as usize + 1).max().unwrap_or(0);
-        let mut by_key: Vec<KeyRules> = (0..keys).map(|_| KeyRules::NONE).collect();
+        let mut by_key: Vec<Option<KeyRules>> = (0..keys).map(|_| Some(KeyRules::NONE)).collect();
         let mut total = 0usize;
         for (k, free, _) in entries() {
-            let n = &mut by_key[k as usize].len[usize::from(free)];
-            *n = n
-                .checked_add(1)
-                .filter(|&n| n < 1 << 31)
-                .expect("fewer than 2^31 productions");
+            let kr = by_key[k as usize].as_mut().expect("counting");
+            let n = &mut kr.len[usize::from(free)];
+            *n = n.checked_add(1).expect("fewer than 2^32 productions");
             total += 1;
         }
         let mut numbers = vec![0u32; total];
         let base = numbers.as_mut_ptr();
         let mut at = 0;
-        for kr in &mut by_key {
+        for slot in &mut by_key {
+            let Some(kr) = slot else { continue };
+            if kr.is_none() {
+                *slot = None;
+                continue;
+            }
             for which in [CONTEXT, FREE] {
                 // Safety: the lists' counts add up to `total`.
-                kr.data[which] = unsafe { base.add(at) };
+                kr.data[which] = unsafe { NonNull::new_unchecked(base.add(at)) };
                 at += kr.len[which] as usize;
                 kr.len[which] = 0;
             }
         }
         for (i, (k, free, stochastic)) in entries().enumerate() {
             let which = usize::from(free);
-            let kr = &mut by_key[k as usize];
-            let n = kr.len[which] >> 1;
+            let kr = by_key[k as usize].as_mut().expect("a list for each key named");
+            let n = kr.len[which];
             // Safety: the list has room for the productions counted, and
             // `numbers` is not otherwise touched while it is filled.
-            unsafe {
-                kr.data[which]
-                    .cast_mut()
-                    .add(n as usize)
-                    .write(first + i as u32)
-            };
-            kr.len[which] = (n + 1) << 1 | kr.len[which] & 1 | u32::from(stochastic);
+            unsafe { untag(kr.data[which]).cast_mut().add(n as usize).write(first + i as u32) };
+            kr.len[which] = n + 1;
+            if stochastic {
+                kr.set_stochastic(which);
+            }
         }
         KeyIndex {
             by_key,
@@ -160,7 +174,7 @@ impl KeyIndex {
     /// The productions of `key`, if it has any.
     #[inline(always)]
     pub fn get(&self, key: u32) -> Option<&KeyRules> {
-        self.by_key.get(key as usize).filter(|kr| !kr.is_none())
+        self.by_key.get(key as usize).and_then(Option::as_ref)
     }
 
     /// Group 0's productions of `kr`'s key, in a numbered group's table
@@ -170,42 +184,38 @@ impl KeyIndex {
         if self.fallback.is_empty() {
             return None;
         }
-        self.fallback_of(kr)
-    }
-
-    #[cold]
-    #[inline(never)]
-    fn fallback_of(&self, kr: &KeyRules) -> Option<&KeyRules> {
         // Which key: where `kr` sits in `by_key` (a fallback's own entry
         // is not in it, and has no fallback).
         let at = (kr as *const KeyRules)
             .addr()
             .wrapping_sub(self.by_key.as_ptr().addr())
-            / std::mem::size_of::<KeyRules>();
-        self.fallback.get(at).filter(|f| !f.is_none())
+            / std::mem::size_of::<Option<KeyRules>>();
+        self.fallback.get(at).and_then(Option::as_ref)
     }
 
     /// Every key's lists.
     #[cfg(test)]
     fn iter(&self) -> impl Iterator<Item = &KeyRules> {
-        self.by_key.iter().filter(|kr| !kr.is_none())
+        self.by_key.iter().flatten()
     }
 
     /// cpfg's choice: one list per key in file order. A key with both
     /// kinds gets them merged into its context-sensitive list (the two
     /// lists are side by side in the array).
     pub fn merge_kinds(&mut self) {
-        for kr in &mut self.by_key {
+        for kr in self.by_key.iter_mut().flatten() {
             if kr.has_context() && kr.has_free() {
-                let n = (kr.len[CONTEXT] >> 1) + (kr.len[FREE] >> 1);
+                let n = kr.len[CONTEXT] + kr.len[FREE];
+                let at = untag(kr.data[CONTEXT]);
                 // Safety: the context-free list follows the context one
                 // in `numbers` (`build`), which `&mut self` holds alone.
-                let all = unsafe {
-                    std::slice::from_raw_parts_mut(kr.data[CONTEXT].cast_mut(), n as usize)
-                };
+                let all = unsafe { std::slice::from_raw_parts_mut(at.cast_mut(), n as usize) };
                 all.sort_unstable();
-                let stochastic = (kr.len[CONTEXT] | kr.len[FREE]) & 1;
-                kr.len = [n << 1 | stochastic, 0];
+                let stochastic = kr.context_stochastic() || kr.free_stochastic();
+                kr.len = [n, 0];
+                if stochastic {
+                    kr.set_stochastic(CONTEXT);
+                }
             }
         }
     }
@@ -215,24 +225,25 @@ impl KeyIndex {
     pub fn add_fallback(&mut self, base: &KeyIndex, by: u32) {
         let numbers: Vec<u32> = base.numbers.iter().map(|i| i + by).collect();
         let keys = self.by_key.len().max(base.by_key.len());
-        self.by_key.resize_with(keys, || KeyRules::NONE);
-        self.fallback = (0..keys).map(|_| KeyRules::NONE).collect();
+        self.by_key.resize_with(keys, || None);
+        self.fallback = (0..keys).map(|_| None).collect();
         for (key, b) in base.by_key.iter().enumerate() {
-            if b.is_none() {
-                continue;
-            }
+            let Some(b) = b else { continue };
             let mut moved = KeyRules {
                 len: b.len,
                 data: b.data,
             };
             for which in [CONTEXT, FREE] {
-                let at = (b.data[which].addr() - base.numbers.as_ptr().addr()) / 4;
-                // Safety: the same place in the copy as in `base.numbers`.
-                moved.data[which] = unsafe { numbers.as_ptr().add(at) };
+                let at = (untag(b.data[which]).addr() - base.numbers.as_ptr().addr()) / 4;
+                let tag = b.data[which].as_ptr().addr() & 1;
+                // Safety: the same place in the copy as in `base.numbers`
+                // (at most its end).
+                let p = unsafe { NonNull::new_unchecked(numbers.as_ptr().add(at).cast_mut()) };
+                moved.data[which] = p.map_addr(|a| a | tag);
             }
-            match self.by_key[key].is_none() {
-                true => self.by_key[key] = moved,
-                false => self.fallback[key] = moved,
+            match self.by_key[key] {
+                None => self.by_key[key] = Some(moved),
+                Some(_) => self.fallback[key] = Some(moved),
             }
         }
         self.fallback_numbers = numbers;
@@ -345,6 +356,7 @@ mod tests {
         );
         let empty = KeyIndex::build(|| ENTRIES.iter().copied().take(0), 0);
         assert!(empty.get(0).is_none() && empty.iter().count() == 0);
+        assert_eq!(std::mem::size_of::<Option<KeyRules>>(), std::mem::size_of::<KeyRules>());
         let none = KeyRules::NONE;
         assert!(none.is_none() && !none.has_context() && !none.has_free());
         assert_eq!((none.context(), none.free()), (&[][..], &[][..]));
