@@ -126,11 +126,12 @@ fn bytes_per_production_stay_near_the_source_size() {
     // spare capacity, which peak RSS does not: 9.8x there); 20.8x, 11.4x, 20.6x, 15.4x, 23.7x and 16.9x
     // before it (main 22555ac, where these bounds fail); 25.8x, 13.9x,
     // 22.0x, 17.9x, 25.6x and 18.0x before the second. The goal, the
-    // source's order of magnitude (about 10x), is not yet met by the
+    // source's order of magnitude (about 10x), was not met by the
     // distinct-symbol row (benches/RESULTS.md). Fourth round: that row at
-    // 11.2x (16.7x before: each key's lists in one table-wide array, the
-    // interning map of key numbers only, a short run of non-ASCII symbols
-    // in a 32-byte chunk; 9.8x in peak RSS), the others unchanged.
+    // 11.4x (16.7x on main 4baaef2, where its bound fails: a key's
+    // one-production list in place in a tagged word, the interning map of
+    // key numbers only, a short run of non-ASCII symbols in a 32-byte
+    // chunk; 9.7x in peak RSS), the others unchanged.
     let mut failed = Vec::new();
     let same = |l: &'static str| move |_: usize| l.to_string();
     check("F -> FF", &same("F -> FF"), "F", 11.3, &mut failed);

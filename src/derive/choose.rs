@@ -149,7 +149,7 @@ impl Chooser {
                 chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
             }
             // A numbered group that chose nothing falls back to group 0.
-            match (&chosen, table.fallback(kr)) {
+            match (&chosen, kr.fallback()) {
                 (None, Some(f)) => kr = f,
                 _ => break,
             }

@@ -1,260 +1,188 @@
 //! Per-key structures kept small for a header naming millions of symbols
-//! (issue 9 item 6): the keys' lists of production numbers ([`KeyIndex`]:
-//! one array for all, each key's [`KeyRules`] pointing into it), and the
+//! (issue 9 item 6): a key's list of production numbers in one tagged word
+//! ([`KeyList`]: one number in place, more in a block behind it), and the
 //! interning map as an open-addressing table of key numbers only
 //! ([`KeyMap`]: the symbol and arity are read from the alphabet).
 
+use std::alloc::{alloc, dealloc, handle_alloc_error, Layout};
 use std::ptr::NonNull;
 
-/// The context-sensitive list, then the context-free one.
-const CONTEXT: usize = 0;
-const FREE: usize = 1;
+/// Bit 0 of a [`KeyList`]'s word: one number, in place.
+const ONE: usize = 1;
+/// Bit 1: the list holds a stochastic production (either form).
+const STOCHASTIC: usize = 2;
+/// One number fits in place beside the tags on a 64-bit target only.
+const IN_PLACE: bool = usize::BITS == 64;
+/// Which `u32` of the word holds the number in place (its upper half).
+const HI: usize = if cfg!(target_endian = "little") { 1 } else { 0 };
 
-/// A list's numbers: its pointer without the stochastic flag (bit 0; the
-/// numbers are 4-byte aligned).
-#[inline(always)]
-fn untag(p: NonNull<u32>) -> *const u32 {
-    p.as_ptr().map_addr(|a| a & !1)
+/// Every empty list's block: its length, 0.
+static EMPTY: u32 = 0;
+
+/// A key's production numbers (indices in the table), in one word: its
+/// low bit set, the one number in the word's upper half; otherwise a
+/// pointer (4-byte aligned) to a block holding the count, then the
+/// numbers; the empty list points at a shared static count. Bit 1 is the
+/// "some production is stochastic" flag in both forms. A header of 10^6
+/// distinct symbols has 10^6 one-number lists: no block for any of them.
+/// (Lists as pointers into one table-wide array, with the flags in the
+/// pointers or beside them, measured 1.0-1.7 % more instructions on the
+/// context, stochastic and parametric rows: benches/RESULTS.md.)
+pub struct KeyList {
+    word: NonNull<u32>,
 }
 
-/// The productions of one key, in file order, split by kind (numbers in
-/// the table's `prods`): context-sensitive ones (a match beats every
-/// context-free one), then context-free ones. Each list is a pointer into
-/// its [`KeyIndex`]'s one array of numbers (its low bit set if some
-/// production of the list is stochastic) and a length: 24 bytes a key and
-/// no block of its own (a header may name millions of symbols; a list as
-/// an offset and a length cost the hot paths 1.8-2.5 %, a pointer reads
-/// as the boxed slice did).
-pub struct KeyRules {
-    len: [u32; 2],
-    data: [NonNull<u32>; 2],
-}
+// Safety: a `KeyList` owns its block as a `Box<[u32]>` does.
+unsafe impl Send for KeyList {}
+unsafe impl Sync for KeyList {}
 
-// Safety: a `KeyRules` reads its index's numbers, never changed while
-// the index is shared.
-unsafe impl Send for KeyRules {}
-unsafe impl Sync for KeyRules {}
-
-impl KeyRules {
-    /// No productions (while an index is built).
-    const NONE: KeyRules = KeyRules {
-        len: [0; 2],
-        data: [NonNull::dangling(); 2],
-    };
-
-    #[inline(always)]
-    fn list(&self, which: usize) -> &[u32] {
-        // Safety: `len` numbers at `data`, inside the index's array (which
-        // outlives `self`: both are the index's).
-        unsafe { std::slice::from_raw_parts(untag(self.data[which]), self.len[which] as usize) }
-    }
-
-    /// The context-sensitive productions.
-    #[inline(always)]
-    pub fn context(&self) -> &[u32] {
-        self.list(CONTEXT)
-    }
-    /// The context-free productions.
-    #[inline(always)]
-    pub fn free(&self) -> &[u32] {
-        self.list(FREE)
-    }
-    /// Has the key context-sensitive productions?
-    #[inline(always)]
-    pub fn has_context(&self) -> bool {
-        self.len[CONTEXT] != 0
-    }
-    /// Has the key context-free productions?
-    #[inline(always)]
-    pub fn has_free(&self) -> bool {
-        self.len[FREE] != 0
-    }
-    /// Has the key no production?
-    #[inline(always)]
-    fn is_none(&self) -> bool {
-        self.len == [0, 0]
-    }
-    /// Is one of the context-sensitive productions stochastic?
-    #[inline(always)]
-    pub fn context_stochastic(&self) -> bool {
-        self.data[CONTEXT].as_ptr().addr() & 1 != 0
-    }
-    /// Is one of the context-free productions stochastic?
-    #[inline(always)]
-    pub fn free_stochastic(&self) -> bool {
-        self.data[FREE].as_ptr().addr() & 1 != 0
-    }
-
-    fn set_stochastic(&mut self, which: usize) {
-        self.data[which] = self.data[which].map_addr(|a| a | 1);
-    }
-}
-
-impl std::fmt::Debug for KeyRules {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("KeyRules")
-            .field("context", &self.context())
-            .field("context_stochastic", &self.context_stochastic())
-            .field("free", &self.free())
-            .field("free_stochastic", &self.free_stochastic())
-            .finish()
-    }
-}
-
-/// Each key's productions: the lists of all keys in one array, in key
-/// order (a key's context-sensitive list, then its context-free one), the
-/// keys' [`KeyRules`] pointing into it. A numbered group's table also has
-/// group 0's lists, the fallback (issue 11), in a second array.
-#[derive(Default)]
-pub struct KeyIndex {
-    by_key: Vec<Option<KeyRules>>,
-    /// Empty unless the table has a fallback.
-    fallback: Vec<Option<KeyRules>>,
-    /// The numbers `by_key`'s lists point into (never changed in size
-    /// once they do).
-    numbers: Vec<u32>,
-    /// The numbers moved in `fallback`'s or `by_key`'s lists point into.
-    fallback_numbers: Vec<u32>,
-}
-
-impl KeyIndex {
-    /// The index of `entries()`: each production's (key, is it context
-    /// free, is it stochastic), numbered from `first` in order. Counted
-    /// first, in the lists' own lengths: nothing per key exists beside the
-    /// result.
-    pub fn build<I>(entries: impl Fn() -> I, first: u32) -> KeyIndex
-    where
-        I: Iterator<Item = (u32, bool, bool)>,
-    {
-        let keys = entries().map(|e| e.0 as usize + 1).max().unwrap_or(0);
-        let mut by_key: Vec<Option<KeyRules>> = (0..keys).map(|_| Some(KeyRules::NONE)).collect();
-        let mut total = 0usize;
-        for (k, free, _) in entries() {
-            let kr = by_key[k as usize].as_mut().expect("counting");
-            let n = &mut kr.len[usize::from(free)];
-            *n = n.checked_add(1).expect("fewer than 2^32 productions");
-            total += 1;
-        }
-        let mut numbers = vec![0u32; total];
-        let base = numbers.as_mut_ptr();
-        let mut at = 0;
-        for slot in &mut by_key {
-            let Some(kr) = slot else { continue };
-            if kr.is_none() {
-                *slot = None;
-                continue;
-            }
-            for which in [CONTEXT, FREE] {
-                // Safety: the lists' counts add up to `total`.
-                kr.data[which] = unsafe { NonNull::new_unchecked(base.add(at)) };
-                at += kr.len[which] as usize;
-                kr.len[which] = 0;
-            }
-        }
-        for (i, (k, free, stochastic)) in entries().enumerate() {
-            let which = usize::from(free);
-            let kr = by_key[k as usize].as_mut().expect("a list for each key named");
-            let n = kr.len[which];
-            // Safety: the list has room for the productions counted, and
-            // `numbers` is not otherwise touched while it is filled.
-            unsafe { untag(kr.data[which]).cast_mut().add(n as usize).write(first + i as u32) };
-            kr.len[which] = n + 1;
-            if stochastic {
-                kr.set_stochastic(which);
-            }
-        }
-        KeyIndex {
-            by_key,
-            fallback: Vec::new(),
-            numbers,
-            fallback_numbers: Vec::new(),
+impl KeyList {
+    /// The empty list.
+    pub fn empty() -> KeyList {
+        KeyList {
+            word: NonNull::from(&EMPTY),
         }
     }
 
-    /// The productions of `key`, if it has any.
-    #[inline(always)]
-    pub fn get(&self, key: u32) -> Option<&KeyRules> {
-        self.by_key.get(key as usize).and_then(Option::as_ref)
-    }
-
-    /// Group 0's productions of `kr`'s key, in a numbered group's table
-    /// (`kr` from [`get`](Self::get)).
-    #[inline(always)]
-    pub fn fallback(&self, kr: &KeyRules) -> Option<&KeyRules> {
-        if self.fallback.is_empty() {
-            return None;
-        }
-        // Which key: where `kr` sits in `by_key` (a fallback's own entry
-        // is not in it, and has no fallback).
-        let at = (kr as *const KeyRules)
-            .addr()
-            .wrapping_sub(self.by_key.as_ptr().addr())
-            / std::mem::size_of::<Option<KeyRules>>();
-        self.fallback.get(at).and_then(Option::as_ref)
-    }
-
-    /// Every key's lists.
-    #[cfg(test)]
-    fn iter(&self) -> impl Iterator<Item = &KeyRules> {
-        self.by_key.iter().flatten()
-    }
-
-    /// cpfg's choice: one list per key in file order. A key with both
-    /// kinds gets them merged into its context-sensitive list (the two
-    /// lists are side by side in the array).
-    pub fn merge_kinds(&mut self) {
-        for kr in self.by_key.iter_mut().flatten() {
-            if kr.has_context() && kr.has_free() {
-                let n = kr.len[CONTEXT] + kr.len[FREE];
-                let at = untag(kr.data[CONTEXT]);
-                // Safety: the context-free list follows the context one
-                // in `numbers` (`build`), which `&mut self` holds alone.
-                let all = unsafe { std::slice::from_raw_parts_mut(at.cast_mut(), n as usize) };
-                all.sort_unstable();
-                let stochastic = kr.context_stochastic() || kr.free_stochastic();
-                kr.len = [n, 0];
-                if stochastic {
-                    kr.set_stochastic(CONTEXT);
+    /// A list of `n` numbers, each 0 until set through
+    /// [`as_mut_slice`](Self::as_mut_slice).
+    pub fn zeroed(n: usize) -> KeyList {
+        match n {
+            0 => KeyList::empty(),
+            1 if IN_PLACE => KeyList {
+                // Never dereferenced: the number 0 in place, and the tag.
+                word: NonNull::new(std::ptr::without_provenance_mut(ONE))
+                    .expect("the tag bit is set"),
+            },
+            _ => {
+                let count = u32::try_from(n).expect("fewer than 2^32 productions");
+                let layout = Self::layout(n);
+                // Safety: the layout is not zero-sized (it holds the
+                // count); zeroed memory is a valid count and numbers.
+                unsafe {
+                    let p = alloc(layout).cast::<u32>();
+                    let Some(word) = NonNull::new(p) else {
+                        handle_alloc_error(layout)
+                    };
+                    p.write(count);
+                    std::ptr::write_bytes(p.add(1), 0, n);
+                    KeyList { word }
                 }
             }
         }
     }
 
-    /// Add `base`'s lists, each number plus `by`, as the fallback: where
-    /// this index has no list for a key, `base`'s becomes its own.
-    pub fn add_fallback(&mut self, base: &KeyIndex, by: u32) {
-        let numbers: Vec<u32> = base.numbers.iter().map(|i| i + by).collect();
-        let keys = self.by_key.len().max(base.by_key.len());
-        self.by_key.resize_with(keys, || None);
-        self.fallback = (0..keys).map(|_| None).collect();
-        for (key, b) in base.by_key.iter().enumerate() {
-            let Some(b) = b else { continue };
-            let mut moved = KeyRules {
-                len: b.len,
-                data: b.data,
-            };
-            for which in [CONTEXT, FREE] {
-                let at = (untag(b.data[which]).addr() - base.numbers.as_ptr().addr()) / 4;
-                let tag = b.data[which].as_ptr().addr() & 1;
-                // Safety: the same place in the copy as in `base.numbers`
-                // (at most its end).
-                let p = unsafe { NonNull::new_unchecked(numbers.as_ptr().add(at).cast_mut()) };
-                moved.data[which] = p.map_addr(|a| a | tag);
-            }
-            match self.by_key[key] {
-                None => self.by_key[key] = Some(moved),
-                Some(_) => self.fallback[key] = Some(moved),
-            }
+    fn layout(n: usize) -> Layout {
+        Layout::array::<u32>(n + 1).expect("fewer than 2^32 productions")
+    }
+
+    #[inline(always)]
+    fn bits(&self) -> usize {
+        self.word.as_ptr().addr()
+    }
+
+    /// The block's count (pointer form only).
+    #[inline(always)]
+    fn block(&self) -> *mut u32 {
+        self.word.as_ptr().map_addr(|a| a & !STOCHASTIC)
+    }
+
+    /// The numbers.
+    #[inline(always)]
+    pub fn as_slice(&self) -> &[u32] {
+        if self.bits() & ONE != 0 {
+            // Safety: the word's upper `u32`, read in place.
+            unsafe { std::slice::from_raw_parts((&raw const self.word).cast::<u32>().add(HI), 1) }
+        } else {
+            let p = self.block();
+            // Safety: the block holds its count, then that many numbers.
+            unsafe { std::slice::from_raw_parts(p.add(1), p.read() as usize) }
         }
-        self.fallback_numbers = numbers;
+    }
+
+    /// The numbers, to fill in.
+    pub fn as_mut_slice(&mut self) -> &mut [u32] {
+        if self.bits() & ONE != 0 {
+            // Safety: the word's upper `u32`, written in place.
+            unsafe { std::slice::from_raw_parts_mut((&raw mut self.word).cast::<u32>().add(HI), 1) }
+        } else {
+            let p = self.block();
+            // Safety: as in `as_slice`; the static empty block has no
+            // numbers to write.
+            unsafe { std::slice::from_raw_parts_mut(p.add(1), p.read() as usize) }
+        }
+    }
+
+    /// A list holding `items`.
+    pub fn from_slice(items: &[u32]) -> KeyList {
+        let mut l = KeyList::zeroed(items.len());
+        l.as_mut_slice().copy_from_slice(items);
+        l
+    }
+
+    /// (An empty list is never flagged stochastic: no mask needed.)
+    #[inline(always)]
+    pub fn is_empty(&self) -> bool {
+        self.bits() == (&raw const EMPTY).addr()
+    }
+
+    #[inline(always)]
+    pub fn stochastic(&self) -> bool {
+        self.bits() & STOCHASTIC != 0
+    }
+
+    pub fn set_stochastic(&mut self, on: bool) {
+        if self.is_empty() {
+            // An empty list has no stochastic production.
+            return;
+        }
+        let p = self.word.as_ptr();
+        let p = if on {
+            p.map_addr(|a| a | STOCHASTIC)
+        } else {
+            p.map_addr(|a| a & !STOCHASTIC)
+        };
+        self.word = NonNull::new(p).expect("a tagged word is not 0");
+    }
+
+    /// Does the list own a block?
+    fn owns_block(&self) -> bool {
+        self.bits() & ONE == 0 && !self.is_empty()
     }
 }
 
-impl std::fmt::Debug for KeyIndex {
+impl Default for KeyList {
+    fn default() -> KeyList {
+        KeyList::empty()
+    }
+}
+
+impl Clone for KeyList {
+    fn clone(&self) -> KeyList {
+        if !self.owns_block() {
+            return KeyList { word: self.word };
+        }
+        let mut l = KeyList::from_slice(self.as_slice());
+        l.set_stochastic(self.stochastic());
+        l
+    }
+}
+
+impl Drop for KeyList {
+    fn drop(&mut self) {
+        if self.owns_block() {
+            let layout = Self::layout(self.as_slice().len());
+            // Safety: the block was allocated with this layout (`zeroed`).
+            unsafe { dealloc(self.block().cast::<u8>(), layout) }
+        }
+    }
+}
+
+impl std::fmt::Debug for KeyList {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("KeyIndex")
-            .field("keys", &self.by_key.len())
-            .field("productions", &self.numbers.len())
+        f.debug_struct("KeyList")
+            .field("items", &self.as_slice())
+            .field("stochastic", &self.stochastic())
             .finish()
     }
 }
@@ -326,99 +254,53 @@ impl KeyMap {
 mod tests {
     use super::*;
 
-    /// (key, free, stochastic) of some productions.
-    const ENTRIES: [(u32, bool, bool); 9] = [
-        (5, true, false),
-        (2, false, false),
-        (5, false, true),
-        (9, true, false),
-        (5, true, false),
-        (2, false, false),
-        (0, true, true),
-        (5, false, false),
-        (9, true, false),
-    ];
-
-    fn lists(kr: &KeyRules) -> (Vec<u32>, bool, Vec<u32>, bool) {
-        (
-            kr.context().to_vec(),
-            kr.context_stochastic(),
-            kr.free().to_vec(),
-            kr.free_stochastic(),
-        )
-    }
-
     #[test]
-    fn key_index_lists_each_keys_productions() {
+    fn key_lists_in_every_form() {
+        assert_eq!(std::mem::size_of::<KeyList>(), std::mem::size_of::<usize>());
         assert_eq!(
-            std::mem::size_of::<KeyRules>(),
-            8 + 2 * std::mem::size_of::<usize>()
+            std::mem::size_of::<Option<KeyList>>(),
+            std::mem::size_of::<usize>()
         );
-        let empty = KeyIndex::build(|| ENTRIES.iter().copied().take(0), 0);
-        assert!(empty.get(0).is_none() && empty.iter().count() == 0);
-        assert_eq!(std::mem::size_of::<Option<KeyRules>>(), std::mem::size_of::<KeyRules>());
-        let none = KeyRules::NONE;
-        assert!(none.is_none() && !none.has_context() && !none.has_free());
-        assert_eq!((none.context(), none.free()), (&[][..], &[][..]));
-        let ix = KeyIndex::build(|| ENTRIES.iter().copied(), 10);
-        assert_eq!(ix.iter().count(), 4);
-        assert!(ix.get(1).is_none() && ix.get(3).is_none() && ix.get(10).is_none());
-        assert_eq!(lists(ix.get(0).unwrap()), (vec![], false, vec![16], true));
-        assert_eq!(
-            lists(ix.get(2).unwrap()),
-            (vec![11, 15], false, vec![], false)
-        );
-        assert_eq!(
-            lists(ix.get(5).unwrap()),
-            (vec![12, 17], true, vec![10, 14], false)
-        );
-        assert_eq!(
-            lists(ix.get(9).unwrap()),
-            (vec![], false, vec![13, 18], false)
-        );
-        let kr = ix.get(5).unwrap();
-        assert!(kr.has_context() && kr.has_free());
-        assert!(ix.fallback(kr).is_none());
-        // Moved, the index's lists stay where they are.
-        let moved = Box::new(ix);
-        assert_eq!(
-            lists(moved.get(9).unwrap()),
-            (vec![], false, vec![13, 18], false)
-        );
-    }
-
-    #[test]
-    fn key_index_merges_kinds_and_falls_back() {
-        let mut ix = KeyIndex::build(|| ENTRIES.iter().copied(), 0);
-        ix.merge_kinds();
-        assert_eq!(
-            lists(ix.get(5).unwrap()),
-            (vec![0, 2, 4, 7], true, vec![], false)
-        );
-        assert_eq!(
-            lists(ix.get(9).unwrap()),
-            (vec![], false, vec![3, 8], false)
-        );
-        // A group with productions for keys 5 and 7; group 0 is `ix`.
-        let mut group = KeyIndex::build(|| [(7, true, false), (5, true, true)].into_iter(), 0);
-        group.add_fallback(&ix, 2);
-        let five = group.get(5).unwrap();
-        assert_eq!(lists(five), (vec![], false, vec![1], true));
-        let back = group.fallback(five).unwrap();
-        assert_eq!(lists(back), (vec![2, 4, 6, 9], true, vec![], false));
-        assert!(group.fallback(back).is_none());
-        let seven = group.get(7).unwrap();
-        assert!(group.fallback(seven).is_none());
-        // Keys only group 0 rewrites take its lists as their own.
-        let nine = group.get(9).unwrap();
-        assert_eq!(lists(nine), (vec![], false, vec![5, 10], false));
-        assert!(group.fallback(nine).is_none());
-        assert_eq!(lists(group.get(0).unwrap()), (vec![], false, vec![8], true));
-        drop(ix);
-        assert_eq!(
-            lists(group.get(2).unwrap()),
-            (vec![3, 7], false, vec![], false)
-        );
+        let e = KeyList::empty();
+        assert!(e.is_empty() && !e.stochastic());
+        assert_eq!(e.as_slice(), &[] as &[u32]);
+        assert!(KeyList::from_slice(&[]).is_empty());
+        assert!(KeyList::default().is_empty());
+        for items in [
+            &[][..],
+            &[0][..],
+            &[7][..],
+            &[u32::MAX][..],
+            &[3, 5][..],
+            &[1, 2, 3, 4, 5, 6, 7, 8, 9][..],
+        ] {
+            for flag in [false, true, false] {
+                // An empty list is never stochastic.
+                let stochastic = flag && !items.is_empty();
+                let mut l = KeyList::from_slice(items);
+                l.set_stochastic(flag);
+                assert_eq!(l.as_slice(), items);
+                assert_eq!(l.is_empty(), items.is_empty());
+                assert_eq!(l.stochastic(), stochastic);
+                // The one-number form owns no block.
+                assert_eq!(l.owns_block(), items.len() > usize::from(IN_PLACE));
+                let c = l.clone();
+                assert_eq!(c.as_slice(), items);
+                assert_eq!(c.stochastic(), stochastic);
+                assert_eq!(c.owns_block(), l.owns_block());
+                if l.owns_block() {
+                    assert_ne!(c.block(), l.block());
+                }
+                drop(l);
+                assert_eq!(c.as_slice(), items);
+                let mut z = KeyList::zeroed(items.len());
+                z.set_stochastic(true);
+                z.as_mut_slice().copy_from_slice(items);
+                z.set_stochastic(false);
+                assert_eq!(z.as_slice(), items);
+                assert!(!z.stochastic());
+            }
+        }
     }
 
     #[test]

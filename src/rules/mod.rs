@@ -21,8 +21,7 @@ pub use compile::{
 pub mod expr;
 mod keys;
 mod thin;
-pub use keys::KeyRules;
-use keys::{KeyIndex, KeyMap};
+use keys::{KeyList, KeyMap};
 pub use thin::{Pair, Thin};
 
 pub const OPEN: u32 = b'[' as u32;
@@ -802,13 +801,54 @@ impl Production {
     }
 }
 
+/// The productions of one key, in file order, split by kind (numbers in
+/// the table's `prods`): lists of their exact size, made once the table is
+/// complete (`Table::index`), each one word with its "stochastic" flag, a
+/// one-production list in place (a header may name millions of symbols:
+/// 24 bytes a key, no block for the common one).
+#[derive(Clone, Debug, Default)]
+pub struct KeyRules {
+    /// Context-sensitive productions: a match beats every context-free one.
+    context: KeyList,
+    free: KeyList,
+    /// Group 0's productions of the key, tried when a numbered group's
+    /// choose nothing (issue 11, lpfg's rule).
+    fallback: Option<Box<KeyRules>>,
+}
+
+impl KeyRules {
+    /// Has the key context-sensitive productions?
+    #[inline]
+    pub fn has_context(&self) -> bool {
+        !self.context.is_empty()
+    }
+    /// Has the key context-free productions?
+    #[inline]
+    pub fn has_free(&self) -> bool {
+        !self.free.is_empty()
+    }
+    /// Is one of the context-sensitive productions stochastic?
+    #[inline]
+    pub fn context_stochastic(&self) -> bool {
+        self.context.stochastic()
+    }
+    /// Is one of the context-free productions stochastic?
+    #[inline]
+    pub fn free_stochastic(&self) -> bool {
+        self.free.stochastic()
+    }
+    /// Group 0's productions of the key, for a numbered group.
+    #[inline]
+    pub fn fallback(&self) -> Option<&KeyRules> {
+        self.fallback.as_deref()
+    }
+}
+
 #[derive(Debug, Default)]
 pub struct Table {
     pub prods: Vec<Production>,
-    /// Each key's productions ([`index`](Self::index)), and in a numbered
-    /// group's table group 0's, tried when the group's choose nothing
-    /// (issue 11, lpfg's rule).
-    keys: KeyIndex,
+    /// Each key's productions ([`index`](Self::index)).
+    by_key: Vec<Option<KeyRules>>,
     /// Longest left context.
     pub max_left: usize,
     pub has_right: bool,
@@ -886,42 +926,64 @@ impl Table {
         self.index(self.prods.len());
     }
 
-    /// Group `prods[..own]` by key: each key's lists in file order,
-    /// context-sensitive and context-free apart, in one array of their
-    /// exact size (`KeyIndex::build`).
+    /// Group `prods[..own]` by key: each key's lists in file order, made
+    /// at their exact size (counted first), context-sensitive and
+    /// context-free apart. Filled in place: nothing per key but the counts
+    /// (8 bytes) exists beside the result (a header may name millions of
+    /// symbols).
     fn index(&mut self, own: usize) {
-        let prods = &self.prods[..own];
-        self.keys = KeyIndex::build(
-            || {
-                prods
-                    .iter()
-                    .map(|p| (p.key, !p.has_context(), p.prob().is_some()))
-            },
-            0,
-        );
+        let keys = self.prods[..own]
+            .iter()
+            .map(|p| p.key as usize + 1)
+            .max()
+            .unwrap_or(0);
+        let mut counts = vec![[0u32; 2]; keys];
+        for p in &self.prods[..own] {
+            counts[p.key as usize][usize::from(!p.has_context())] += 1;
+        }
+        let list = |n: u32| KeyList::zeroed(n as usize);
+        self.by_key = counts
+            .iter()
+            .map(|&[c, f]| {
+                (c + f > 0).then(|| KeyRules {
+                    context: list(c),
+                    free: list(f),
+                    fallback: None,
+                })
+            })
+            .collect();
+        // Now the number of each key's entries filled so far.
+        counts.iter_mut().for_each(|c| *c = [0; 2]);
+        for (i, p) in self.prods[..own].iter().enumerate() {
+            let k = p.key as usize;
+            let Some(kr) = &mut self.by_key[k] else {
+                continue;
+            };
+            let free = !p.has_context();
+            let at = &mut counts[k][usize::from(free)];
+            let list = if free { &mut kr.free } else { &mut kr.context };
+            list.as_mut_slice()[*at as usize] = i as u32;
+            if p.prob().is_some() {
+                list.set_stochastic(true);
+            }
+            *at += 1;
+        }
     }
 
-    /// The productions of `key`, if it has any.
     #[inline]
     pub fn get(&self, key: u32) -> Option<&KeyRules> {
-        self.keys.get(key)
-    }
-    /// Group 0's productions of `kr`'s key, in a numbered group's table
-    /// (`kr` from [`get`](Self::get)).
-    #[inline]
-    pub fn fallback(&self, kr: &KeyRules) -> Option<&KeyRules> {
-        self.keys.fallback(kr)
+        self.by_key.get(key as usize).and_then(Option::as_ref)
     }
     /// `kr`'s context-sensitive productions (numbers in `prods`), in file
     /// order.
     #[inline]
     pub fn context<'a>(&'a self, kr: &'a KeyRules) -> &'a [u32] {
-        kr.context()
+        kr.context.as_slice()
     }
     /// `kr`'s context-free productions, in file order.
     #[inline]
     pub fn free<'a>(&'a self, kr: &'a KeyRules) -> &'a [u32] {
-        kr.free()
+        kr.free.as_slice()
     }
     pub fn is_empty(&self) -> bool {
         self.prods.is_empty()
@@ -967,7 +1029,17 @@ impl Table {
     /// context-sensitive or not. One list per key, in file order, tried
     /// by the one chooser as it tries a context group.
     fn cpfg_order(&mut self) {
-        self.keys.merge_kinds();
+        for kr in self.by_key.iter_mut().flatten() {
+            if kr.has_context() && kr.has_free() {
+                let (c, f) = (kr.context.as_slice(), kr.free.as_slice());
+                let mut all: Vec<u32> = c.iter().chain(f).copied().collect();
+                all.sort_unstable();
+                let stochastic = kr.context.stochastic() || kr.free.stochastic();
+                kr.context = KeyList::from_slice(&all);
+                kr.context.set_stochastic(stochastic);
+                kr.free = KeyList::empty();
+            }
+        }
     }
 
     /// A numbered group's table with group 0 (`base`) as its fallback:
@@ -976,7 +1048,27 @@ impl Table {
     fn with_fallback(mut self, base: &Table) -> Table {
         let by = self.prods.len() as u32;
         self.prods.extend(base.prods.iter().cloned());
-        self.keys.add_fallback(&base.keys, by);
+        if self.by_key.len() < base.by_key.len() {
+            self.by_key.resize(base.by_key.len(), None);
+        }
+        for (key, b) in base.by_key.iter().enumerate() {
+            let Some(b) = b else { continue };
+            let moved = |l: &KeyList| {
+                let v: Vec<u32> = l.as_slice().iter().map(|i| i + by).collect();
+                let mut l2 = KeyList::from_slice(&v);
+                l2.set_stochastic(l.stochastic());
+                l2
+            };
+            let b = KeyRules {
+                context: moved(&b.context),
+                free: moved(&b.free),
+                fallback: b.fallback.clone(),
+            };
+            match &mut self.by_key[key] {
+                Some(kr) => kr.fallback = Some(Box::new(b)),
+                none => *none = Some(b),
+            }
+        }
         self.max_left = self.max_left.max(base.max_left);
         self.has_right |= base.has_right;
         self.has_multi |= base.has_multi;
@@ -1179,6 +1271,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<Production>(), 64);
         assert_eq!(std::mem::size_of::<Code>(), 24);
         assert_eq!(std::mem::size_of::<KeyRules>(), 24);
+        assert_eq!(std::mem::size_of::<Option<KeyRules>>(), 24);
         assert_eq!(std::mem::size_of::<Item>(), 16);
         assert_eq!(std::mem::size_of::<Succ>(), 16);
     }
