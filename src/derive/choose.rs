@@ -141,15 +141,15 @@ impl Chooser {
         let mut kr = kr;
         loop {
             if kr.has_context() {
-                let group = (table.context(kr), kr.context_stochastic);
+                let group = (table.context(kr), kr.context_stochastic());
                 chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
             }
             if chosen.is_none() && kr.has_free() {
-                let group = (table.free(kr), kr.free_stochastic);
+                let group = (table.free(kr), kr.free_stochastic());
                 chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
             }
             // A numbered group that chose nothing falls back to group 0.
-            match (&chosen, &kr.fallback) {
+            match (&chosen, kr.fallback()) {
                 (None, Some(f)) => kr = f,
                 _ => break,
             }

@@ -19,7 +19,9 @@ pub use compile::{
     compile, compile_dialect, compile_text, compile_with, Compiler, LoadError, Seeds,
 };
 pub mod expr;
+mod keys;
 mod thin;
+use keys::{KeyList, KeyMap};
 pub use thin::{Pair, Thin};
 
 pub const OPEN: u32 = b'[' as u32;
@@ -57,7 +59,8 @@ pub struct Alphabet {
     /// was 16 and a 32-byte chunk, for a header naming millions).
     text: Vec<KeyText>,
     ignored: Vec<bool>,
-    map: HashMap<(char, u16), u32>,
+    /// (symbol, arity) to key, beyond the ASCII ones.
+    map: KeyMap,
     filter: Filter,
 }
 
@@ -68,7 +71,7 @@ impl Alphabet {
             arity: Vec::new(),
             text: Vec::new(),
             ignored: Vec::new(),
-            map: HashMap::new(),
+            map: KeyMap::default(),
             filter,
         };
         for b in 0u8..128 {
@@ -90,7 +93,8 @@ impl Alphabet {
             return Ok(sym as u32);
         }
         let arity = arity as u16;
-        if let Some(&k) = self.map.get(&(sym, arity)) {
+        let is = |k: u32| self.sym[k as usize] == sym && self.arity[k as usize] == arity;
+        if let Some(k) = self.map.get(sym, arity, is) {
             return Ok(k);
         }
         let k = self.sym.len() as u32;
@@ -98,7 +102,9 @@ impl Alphabet {
         self.arity.push(arity);
         self.text.push(KeyText::of(sym));
         self.ignored.push(self.filter.ignores(sym));
-        self.map.insert((sym, arity), k);
+        let (syms, arities) = (&self.sym, &self.arity);
+        self.map
+            .insert(sym, arity, k, |o| (syms[o as usize], arities[o as usize]));
         Ok(k)
     }
 
@@ -217,6 +223,16 @@ const TAG: usize = if cfg!(target_endian = "little") {
     W - 1
 };
 const DATA: usize = if cfg!(target_endian = "little") { 1 } else { 0 };
+/// Bit 1 of the word: a short block (a run without brackets whose block
+/// is at most 255 bytes, e.g. of non-ASCII symbols, which cannot sit in
+/// place): a 3-byte header (the module count, where the binary and where
+/// the text end), the binary (also the indexed binary: no brackets), the
+/// text. Two runs of a 4-byte symbol take 17 bytes, a 32-byte chunk, where
+/// the full header and both binaries took 36, a 48-byte chunk.
+const SHORT: usize = 2;
+const SHORT_HEADER: usize = 3;
+/// Blocks are 4-byte aligned: bits 0 and 1 of their address are tags.
+const ALIGN: usize = 4;
 
 impl ConstRun {
     fn new(
@@ -243,6 +259,20 @@ impl ConstRun {
             let word = std::ptr::without_provenance_mut(usize::from_ne_bytes(w));
             let ptr = NonNull::new(word).expect("the tag bit is set");
             return ConstRun { data: ptr };
+        }
+        let short = SHORT_HEADER + bin.len() + text.len();
+        // Only for runs naming a symbol outside ASCII (the ones that
+        // cannot sit in place; a table of millions has millions of them):
+        // reading the short form in the hot paths costs a little more.
+        if !text.is_ascii() && brackets.is_empty() && bin == ibin && short <= 255 && modules <= 255
+        {
+            let mut data = Vec::with_capacity(short);
+            data.extend_from_slice(&[modules as u8, (SHORT_HEADER + bin.len()) as u8, short as u8]);
+            data.extend_from_slice(bin);
+            data.extend_from_slice(text);
+            let mut run = Self::in_block(&data);
+            run.data = run.data.map_addr(|a| a | SHORT);
+            return run;
         }
         let tail = if brackets.is_empty() {
             0
@@ -289,7 +319,13 @@ impl ConstRun {
     }
 
     fn layout(len: usize) -> std::alloc::Layout {
-        std::alloc::Layout::from_size_align(len, 1).expect("a header under 4 GiB")
+        std::alloc::Layout::from_size_align(len, ALIGN).expect("a header under 4 GiB")
+    }
+
+    /// Is the run in place or in a short block (a tag bit set)?
+    #[inline(always)]
+    fn tagged(&self) -> bool {
+        self.data.as_ptr().addr() & (1 | SHORT) != 0
     }
 
     /// The bytes of a run held in place (the same in every format).
@@ -301,8 +337,50 @@ impl ConstRun {
         (t & 1 == 1).then(|| &w[DATA..DATA + (t >> 1) as usize])
     }
 
+    /// A short block's start.
+    #[inline(always)]
+    fn short(&self) -> *const u8 {
+        self.data.as_ptr().map_addr(|a| a & !SHORT)
+    }
+
+    /// Is the run in a short block?
+    #[inline(always)]
+    fn is_short(&self) -> bool {
+        self.data.as_ptr().addr() & SHORT != 0
+    }
+
+    /// A short block's binary (the same as its indexed binary).
+    #[cold]
+    #[inline(never)]
+    fn short_bin(&self) -> &[u8] {
+        let p = self.short();
+        // Safety: a short block: the 3-byte header, the binary up to
+        // where its second byte says.
+        unsafe {
+            std::slice::from_raw_parts(p.add(SHORT_HEADER), p.add(1).read() as usize - SHORT_HEADER)
+        }
+    }
+
+    /// A short block's text.
+    #[cold]
+    #[inline(never)]
+    fn short_text(&self) -> &[u8] {
+        let p = self.short();
+        // Safety: a short block: the text from the binary's end to the
+        // block's end (the header's second and third bytes).
+        unsafe {
+            let (from, to) = (p.add(1).read() as usize, p.add(2).read() as usize);
+            std::slice::from_raw_parts(p.add(from), to - from)
+        }
+    }
+
     /// The whole block (not for a run in place).
     fn bytes(&self) -> &[u8] {
+        if self.tagged() {
+            let p = self.data.as_ptr().map_addr(|a| a & !SHORT);
+            // Safety: a short block's length is its header's last number.
+            return unsafe { std::slice::from_raw_parts(p, p.add(2).read() as usize) };
+        }
         let n = self.at(3);
         let len = if self.has_brackets() {
             n + 4 + BRACKET * self.word(n) as usize
@@ -340,6 +418,9 @@ impl ConstRun {
         if let Some(b) = self.inline() {
             return b;
         }
+        if self.is_short() {
+            return self.short_bin();
+        }
         self.range(HEADER, self.at(1))
     }
     /// Binary with bracket index: each `[` followed by
@@ -350,12 +431,18 @@ impl ConstRun {
         if let Some(b) = self.inline() {
             return b;
         }
+        if self.is_short() {
+            return self.short_bin();
+        }
         self.range(self.at(1), self.at(2))
     }
     #[inline(always)]
     pub fn text(&self) -> &[u8] {
         if let Some(b) = self.inline() {
             return b;
+        }
+        if self.is_short() {
+            return self.short_text();
         }
         self.range(self.at(2), self.at(3))
     }
@@ -364,6 +451,10 @@ impl ConstRun {
     pub fn modules(&self) -> u64 {
         if let Some(b) = self.inline() {
             return b.len() as u64;
+        }
+        if self.is_short() {
+            // Safety: a short block's first byte is its module count.
+            return u64::from(unsafe { self.short().read() });
         }
         u64::from(self.word(0) & !HAS_BRACKETS)
     }
@@ -386,7 +477,7 @@ impl ConstRun {
     /// Does the run hold `[` or `]`?
     #[inline]
     pub fn has_brackets(&self) -> bool {
-        self.inline().is_none() && self.word(0) & HAS_BRACKETS != 0
+        !self.tagged() && self.word(0) & HAS_BRACKETS != 0
     }
 }
 
@@ -395,7 +486,11 @@ impl Clone for ConstRun {
         if self.inline().is_some() {
             return ConstRun { data: self.data };
         }
-        ConstRun::in_block(self.bytes())
+        let mut run = ConstRun::in_block(self.bytes());
+        // The same form: a short block's tag.
+        let tag = self.data.as_ptr().addr() & SHORT;
+        run.data = run.data.map_addr(|a| a | tag);
+        run
     }
 }
 
@@ -405,8 +500,9 @@ impl Drop for ConstRun {
             return;
         }
         let layout = Self::layout(self.bytes().len());
+        let block = self.data.as_ptr().map_addr(|a| a & !SHORT);
         // Safety: the block was allocated with this layout (`new`).
-        unsafe { std::alloc::dealloc(self.data.as_ptr(), layout) }
+        unsafe { std::alloc::dealloc(block, layout) }
     }
 }
 
@@ -707,18 +803,17 @@ impl Production {
 
 /// The productions of one key, in file order, split by kind (numbers in
 /// the table's `prods`): lists of their exact size, made once the table is
-/// complete (`Table::index`), no spare capacity (a header may name
-/// millions of symbols).
+/// complete (`Table::index`), each one word with its "stochastic" flag, a
+/// one-production list in place (a header may name millions of symbols:
+/// 24 bytes a key, no block for the common one).
 #[derive(Clone, Debug, Default)]
 pub struct KeyRules {
     /// Context-sensitive productions: a match beats every context-free one.
-    context: Box<[u32]>,
-    free: Box<[u32]>,
-    pub context_stochastic: bool,
-    pub free_stochastic: bool,
+    context: KeyList,
+    free: KeyList,
     /// Group 0's productions of the key, tried when a numbered group's
     /// choose nothing (issue 11, lpfg's rule).
-    pub fallback: Option<Box<KeyRules>>,
+    fallback: Option<Box<KeyRules>>,
 }
 
 impl KeyRules {
@@ -731,6 +826,21 @@ impl KeyRules {
     #[inline]
     pub fn has_free(&self) -> bool {
         !self.free.is_empty()
+    }
+    /// Is one of the context-sensitive productions stochastic?
+    #[inline]
+    pub fn context_stochastic(&self) -> bool {
+        self.context.stochastic()
+    }
+    /// Is one of the context-free productions stochastic?
+    #[inline]
+    pub fn free_stochastic(&self) -> bool {
+        self.free.stochastic()
+    }
+    /// Group 0's productions of the key, for a numbered group.
+    #[inline]
+    pub fn fallback(&self) -> Option<&KeyRules> {
+        self.fallback.as_deref()
     }
 }
 
@@ -773,7 +883,7 @@ impl Table {
         let p = &self.prods[*self.free(kr).first()? as usize];
         // (cpfg's blocks run whenever the production is tried.)
         if kr.has_context()
-            || kr.free_stochastic
+            || kr.free_stochastic()
             || p.cond.is_some()
             || p.pre().is_some()
             || p.post().is_some()
@@ -831,14 +941,14 @@ impl Table {
         for p in &self.prods[..own] {
             counts[p.key as usize][usize::from(!p.has_context())] += 1;
         }
-        let list = |n: u32| vec![0u32; n as usize].into_boxed_slice();
+        let list = |n: u32| KeyList::zeroed(n as usize);
         self.by_key = counts
             .iter()
             .map(|&[c, f]| {
                 (c + f > 0).then(|| KeyRules {
                     context: list(c),
                     free: list(f),
-                    ..KeyRules::default()
+                    fallback: None,
                 })
             })
             .collect();
@@ -851,13 +961,10 @@ impl Table {
             };
             let free = !p.has_context();
             let at = &mut counts[k][usize::from(free)];
-            let stochastic = p.prob().is_some();
-            if free {
-                kr.free[*at as usize] = i as u32;
-                kr.free_stochastic |= stochastic;
-            } else {
-                kr.context[*at as usize] = i as u32;
-                kr.context_stochastic |= stochastic;
+            let list = if free { &mut kr.free } else { &mut kr.context };
+            list.as_mut_slice()[*at as usize] = i as u32;
+            if p.prob().is_some() {
+                list.set_stochastic(true);
             }
             *at += 1;
         }
@@ -871,12 +978,12 @@ impl Table {
     /// order.
     #[inline]
     pub fn context<'a>(&'a self, kr: &'a KeyRules) -> &'a [u32] {
-        &kr.context
+        kr.context.as_slice()
     }
     /// `kr`'s context-free productions, in file order.
     #[inline]
     pub fn free<'a>(&'a self, kr: &'a KeyRules) -> &'a [u32] {
-        &kr.free
+        kr.free.as_slice()
     }
     pub fn is_empty(&self) -> bool {
         self.prods.is_empty()
@@ -924,11 +1031,13 @@ impl Table {
     fn cpfg_order(&mut self) {
         for kr in self.by_key.iter_mut().flatten() {
             if kr.has_context() && kr.has_free() {
-                let mut all: Vec<u32> = kr.context.iter().chain(&*kr.free).copied().collect();
+                let (c, f) = (kr.context.as_slice(), kr.free.as_slice());
+                let mut all: Vec<u32> = c.iter().chain(f).copied().collect();
                 all.sort_unstable();
-                kr.context = all.into_boxed_slice();
-                kr.free = Box::default();
-                kr.context_stochastic |= std::mem::take(&mut kr.free_stochastic);
+                let stochastic = kr.context.stochastic() || kr.free.stochastic();
+                kr.context = KeyList::from_slice(&all);
+                kr.context.set_stochastic(stochastic);
+                kr.free = KeyList::empty();
             }
         }
     }
@@ -944,10 +1053,16 @@ impl Table {
         }
         for (key, b) in base.by_key.iter().enumerate() {
             let Some(b) = b else { continue };
+            let moved = |l: &KeyList| {
+                let v: Vec<u32> = l.as_slice().iter().map(|i| i + by).collect();
+                let mut l2 = KeyList::from_slice(&v);
+                l2.set_stochastic(l.stochastic());
+                l2
+            };
             let b = KeyRules {
-                context: b.context.iter().map(|i| i + by).collect(),
-                free: b.free.iter().map(|i| i + by).collect(),
-                ..b.clone()
+                context: moved(&b.context),
+                free: moved(&b.free),
+                fallback: b.fallback.clone(),
             };
             match &mut self.by_key[key] {
                 Some(kr) => kr.fallback = Some(Box::new(b)),
@@ -1081,6 +1196,73 @@ mod tests {
         }
     }
 
+    /// A run naming a symbol outside ASCII, without brackets, in a short
+    /// block (3-byte header, one binary): its formats, clones and drops.
+    #[test]
+    fn non_ascii_runs_take_a_short_block() {
+        let long = "é".repeat(180);
+        let s = sys(&format!(
+            "productions:\nA -> {x}{x}\nB -> é(1)F{y}\nC -> é[F]\nD -> F+F--F+F\nE -> {long}\n",
+            x = '\u{10000}',
+            y = '\u{10FFFF}',
+        ))
+        .unwrap();
+        let al = &s.alphabet;
+        let run = |i: usize| match &s.productions.prods[i].succ[0] {
+            Item::Const(c) => c.clone(),
+            other => panic!("{other:?}"),
+        };
+        let bin = |mods: &[(char, &[f64])]| {
+            let mut b = Vec::new();
+            for &(c, vals) in mods {
+                let k = (0..al.len() as u32)
+                    .find(|&k| al.symbol(k) == c && al.arity(k) == vals.len())
+                    .unwrap();
+                codec::put_key(&mut b, k);
+                codec::put_params(&mut b, vals);
+            }
+            b
+        };
+        let x = '\u{10000}';
+        let y = '\u{10FFFF}';
+        let cases: [(usize, String, Vec<u8>, bool); 5] = [
+            (0, format!("{x}{x}"), bin(&[(x, &[]), (x, &[])]), true),
+            (
+                1,
+                format!("é(1)F{y}"),
+                bin(&[('é', &[1.0]), ('F', &[]), (y, &[])]),
+                true,
+            ),
+            (
+                2,
+                "é[F]".to_string(),
+                bin(&[('é', &[]), ('[', &[]), ('F', &[]), (']', &[])]),
+                false,
+            ),
+            (3, "F+F--F+F".to_string(), b"F+F--F+F".to_vec(), false),
+            (4, long.clone(), bin(&[('é', &[][..]); 180]), false),
+        ];
+        for (i, text, b, short) in cases {
+            let c = run(i);
+            assert_eq!(c.is_short(), short, "{text}");
+            assert!(c.inline().is_none());
+            let modules = text
+                .chars()
+                .filter(|&c| c != '(' && c != ')' && c != '1')
+                .count();
+            for c in [c.clone(), c] {
+                assert_eq!(c.text(), text.as_bytes(), "{text}");
+                assert_eq!(c.modules(), modules as u64, "{text}");
+                assert_eq!(c.bin(), &b[..], "{text}");
+                if i != 2 {
+                    assert_eq!(c.ibin(), &b[..], "{text}");
+                }
+                assert_eq!(c.has_brackets(), i == 2);
+                assert_eq!(c.brackets().count(), if i == 2 { 2 } else { 0 });
+            }
+        }
+    }
+
     /// A table may hold millions of productions and keys (issue 9 item
     /// 6): 152 and 64 bytes before the cpfg parts were boxed, offsets
     /// narrowed and keys' lists made exact boxes.
@@ -1088,7 +1270,8 @@ mod tests {
     fn compiled_parts_stay_small() {
         assert_eq!(std::mem::size_of::<Production>(), 64);
         assert_eq!(std::mem::size_of::<Code>(), 24);
-        assert_eq!(std::mem::size_of::<KeyRules>(), 48);
+        assert_eq!(std::mem::size_of::<KeyRules>(), 24);
+        assert_eq!(std::mem::size_of::<Option<KeyRules>>(), 24);
         assert_eq!(std::mem::size_of::<Item>(), 16);
         assert_eq!(std::mem::size_of::<Succ>(), 16);
     }
@@ -1099,7 +1282,7 @@ mod tests {
         let kr = s.productions.get(b'B' as u32).unwrap();
         assert_eq!(s.productions.context(kr), [0]);
         assert_eq!(s.productions.free(kr), [1, 2]);
-        assert!(kr.free_stochastic && !kr.context_stochastic);
+        assert!(kr.free_stochastic() && !kr.context_stochastic());
         assert!(s.productions.get(b'A' as u32).is_none());
         assert_eq!(s.productions.max_left, 1);
     }
