@@ -98,11 +98,12 @@ fn a_large_parametric_tree_is_the_same_on_1_2_and_8_threads() {
 
 #[test]
 fn an_output_file_written_around_the_page_cache_is_the_same() {
-    // Text made on several threads goes to `-o`'s file with O_DIRECT
-    // (io::output::WriteBehind), in 1 MiB units and a tail through the
-    // page cache: depth first and in step passes, on the test directory's
-    // file system and on a tmpfs (/dev/shm), which refuses O_DIRECT and
-    // keeps the page cache. The same bytes as one thread on stdout.
+    // Parametric and step-pass text goes to `-o`'s file with O_DIRECT
+    // (io::output::WriteBehind: 1 MiB stages written by a thread of their
+    // own, a tail through the page cache), on one thread and on several:
+    // depth first and in step passes, on the test directory's file system
+    // and on a tmpfs (/dev/shm), which may refuse O_DIRECT and keep the
+    // page cache. The same bytes as one thread on stdout.
     let dir = tempdir();
     let w = Path::new(ROOT).join("benches/workloads");
     let shm = Path::new("/dev/shm");
@@ -121,14 +122,14 @@ fn an_output_file_written_around_the_page_cache_is_the_same() {
         assert!(one.len() > 3 << 20, "{}", one.len());
         let mut dirs = vec![dir.path()];
         dirs.extend(shm.as_ref().map(|d| d.path()));
-        for d in dirs {
+        for (d, j) in dirs.into_iter().flat_map(|d| [(d, "1"), (d, "2")]) {
             let o = d.join("out.txt");
-            let r = run(lsgen().args(["-n", n, "-j", "2", "-o"]).arg(&o).arg(&file));
+            let r = run(lsgen().args(["-n", n, "-j", j, "-o"]).arg(&o).arg(&file));
             assert_eq!(r.ok(), "");
             let many = std::fs::read(&o).unwrap();
             assert!(
                 one.as_bytes() == many,
-                "{} in {}: {} bytes, one thread {}",
+                "{} in {}, -j {j}: {} bytes, stdout {}",
                 file.display(),
                 d.display(),
                 many.len(),

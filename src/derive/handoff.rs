@@ -48,9 +48,9 @@ pub(super) fn write_in_order(
 ) -> Result<(), Error> {
     let cpu = thread_cpu();
     let (mut waited, mut idle) = (Duration::ZERO, Duration::ZERO);
-    // The final text, from several threads: the output may write it around
-    // the page cache (`io::output::WriteBehind`), until this returns.
-    let _direct = out.direct.clone().filter(|_| out.text).map(Direct::on);
+    // The final text: the output may write it around the page cache
+    // (`io::output::WriteBehind`), until this returns.
+    let _direct = out.around_cache();
     let mut copy = Vec::new();
     let mut seq = 0;
     let r = loop {
@@ -127,23 +127,6 @@ pub(super) fn write_in_order(
         ));
     }
     r
-}
-
-/// The output's switch for text made on several threads, on while this
-/// lives.
-struct Direct(std::sync::Arc<std::sync::atomic::AtomicBool>);
-
-impl Direct {
-    fn on(switch: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Self {
-        switch.store(true, Ordering::Relaxed);
-        Direct(switch)
-    }
-}
-
-impl Drop for Direct {
-    fn drop(&mut self) {
-        self.0.store(false, Ordering::Relaxed);
-    }
 }
 
 /// Write the `len` bytes of a spill file into `out`, through `buf`, in

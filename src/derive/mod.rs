@@ -503,15 +503,16 @@ pub(crate) fn derive(
             (false, false),
         )?;
         let threads = par::threads_for(settings.threads, steps, strategy);
+        out.direct = settings.direct.clone();
         let expanded = if threads > 1 {
             let split = (
                 threads,
                 settings.split.or_else(par::test_split),
                 &settings.tmpdir,
             );
-            out.direct = settings.direct.clone();
             par::expand(&plan, src, &d.alphabet, &d.origin, steps, split, &mut out)
         } else {
+            let _direct = out.around_cache();
             plan.expand(src, &d.alphabet, &d.origin, steps, &mut out)
         };
         match expanded.and_then(|()| out.finish()) {
@@ -626,16 +627,17 @@ fn step_passes(
             let flags = (tables.plain, indexed, limited);
             let threads = par::step_threads(settings.threads, table, flags, (len, split));
             let split = (threads, split, tmpdir);
-            if threads > 1 {
-                out.direct = settings.direct.clone();
-            }
+            out.direct = settings.direct.clone();
             match (threads > 1)
                 .then(|| par::step_pass(d, table, (&src, indexed), split, &mut out, pass))
                 .transpose()?
                 .flatten()
             {
                 Some(n) => drew = n,
-                None => d.pass(table, &src, indexed, &mut out, pass)?,
+                None => {
+                    let _direct = out.around_cache();
+                    d.pass(table, &src, indexed, &mut out, pass)?
+                }
             }
             let (modules, bytes) = out.finish()?;
             events(&Event::Generation {

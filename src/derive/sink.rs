@@ -125,9 +125,19 @@ pub struct Out<'w> {
     /// Where full buffers go whole, in place of `w` (a parallel task's
     /// blocks, `super::par`): no copy.
     pub(crate) taker: Option<&'w dyn Take>,
-    /// The output's switch for text made on several threads, turned on by
-    /// the split's writer ([`crate::Options::direct_output`]).
+    /// The output's switch for writing around the page cache
+    /// ([`crate::Options::direct_output`], [`Out::around_cache`]).
     pub(crate) direct: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+}
+
+/// The output's switch for writing around the page cache, on while this
+/// lives ([`Out::around_cache`]).
+pub(crate) struct AroundCache(std::sync::Arc<std::sync::atomic::AtomicBool>);
+
+impl Drop for AroundCache {
+    fn drop(&mut self) {
+        self.0.store(false, std::sync::atomic::Ordering::Relaxed);
+    }
 }
 
 /// A destination that takes a full buffer over (leaving an empty one in
@@ -192,6 +202,17 @@ impl<'w> Out<'w> {
     /// Where the next module goes: (stream offset, modules before it).
     pub(crate) fn position(&self) -> (u64, u64) {
         (self.written + self.buf.len() as u64, self.modules)
+    }
+
+    /// While the guard lives, the output writes this sink's final text
+    /// around the page cache, if it can (`io::output::WriteBehind`): for
+    /// passes that make text slower than the disk takes it (parametric
+    /// and step-by-step passes, the split's writer), not D0L expansion.
+    /// None for a temporary generation or an output without the switch.
+    pub(crate) fn around_cache(&self) -> Option<AroundCache> {
+        let switch = self.direct.clone().filter(|_| self.text)?;
+        switch.store(true, std::sync::atomic::Ordering::Relaxed);
+        Some(AroundCache(switch))
     }
 
     /// A worker's next chunk starts here (its sink flushed).

@@ -345,6 +345,7 @@ impl Output {
         // (Out::finish flushed it; a stage left by anything else is written.)
         file.flush()
             .map_err(|e| Error::io(&name, crate::diag::IoAction::Write, e))?;
+        file.behind = None;
         let file = file.file;
         file.set_permissions(fs::Permissions::from_mode(mode))
             .and_then(|_| file.sync_all())
@@ -605,15 +606,17 @@ pub fn leave_termination_signals_to_other_threads() {
 /// while nothing else runs: about 0.6 s for 1.4 GB here, a serial tail that
 /// no thread count shortens.
 ///
-/// While the derivation writes text made on several threads ([`want`]
-/// set, by `derive::handoff`'s writer, which has a thread of its own), the
-/// text goes to disk directly (`O_DIRECT`, through an aligned [`Stage`])
-/// instead of through the page cache: the kernel's copy of every byte
-/// into the cache costs CPU time the workers need (parametric_tree 10^8,
-/// `-j 2`: 1.76 s → 1.58 s), while waiting for the disk costs the writer
-/// only time it would spend waiting for text. On one thread the copy is
-/// cheaper than the wait, so the page cache stays. A file system that
-/// refuses `O_DIRECT` (tmpfs) keeps the page cache.
+/// While the derivation writes its final text ([`want`] set, by the
+/// derive code around the passes whose text is made slower than a disk
+/// takes it: parametric and step-by-step passes, and the split's writer),
+/// the text goes to disk directly (`O_DIRECT`, through aligned [`Stage`]s)
+/// instead of through the page cache: the kernel's copy of every byte into
+/// the cache costs CPU time the derivation needs (parametric_tree 10^8:
+/// `-j 2` 1.76 s → 1.58 s; `-j 1` 0.41 s of system time). Full stages are
+/// written by a thread of their own ([`Behind`]), which only waits for the
+/// disk, while the caller fills the next one. D0L expansion, which makes
+/// text faster than this disk takes direct writes, keeps the page cache. A
+/// file system that refuses `O_DIRECT` (tmpfs) keeps the page cache.
 ///
 /// [`want`]: Output::direct_switch
 pub struct WriteBehind {
@@ -625,6 +628,8 @@ pub struct WriteBehind {
     stage: Option<Stage>,
     /// `O_DIRECT` was refused: never asked for again.
     refused: bool,
+    /// The thread writing full stages, once one was full.
+    behind: Option<Behind>,
 }
 
 impl WriteBehind {
@@ -638,6 +643,7 @@ impl WriteBehind {
             want: Default::default(),
             stage: None,
             refused: false,
+            behind: None,
         }
     }
 
@@ -661,53 +667,45 @@ impl WriteBehind {
 
     /// Turn `O_DIRECT` on or off; false if the file system refuses it.
     fn set_direct(&self, on: bool) -> bool {
-        let fd = std::os::fd::AsRawFd::as_raw_fd(&self.file);
-        // SAFETY: fcntl's flag calls on our own open descriptor.
-        unsafe {
-            let flags = libc::fcntl(fd, libc::F_GETFL);
-            if flags < 0 {
-                return false;
-            }
-            let flags = if on {
-                flags | libc::O_DIRECT
-            } else {
-                flags & !libc::O_DIRECT
-            };
-            libc::fcntl(fd, libc::F_SETFL, flags) == 0
-        }
+        set_direct(&self.file, on)
     }
 
-    /// Write the stage's whole units directly (the rest stays staged).
-    /// What a write took is dropped from the stage at once, so that after
-    /// a refusal (or a short write, which leaves the file's end out of
-    /// step) the page cache takes only the rest.
+    /// Write the stage's whole units directly, here (the rest stays
+    /// staged).
     fn write_staged(&mut self) -> io::Result<()> {
-        loop {
-            let Some(stage) = &mut self.stage else {
-                return Ok(());
-            };
-            let whole = stage.len / Stage::UNIT * Stage::UNIT;
-            if whole == 0 {
-                return Ok(());
+        if let Some(stage) = &mut self.stage {
+            self.refused |= write_units(&self.file, stage)?;
+        }
+        Ok(())
+    }
+
+    /// The stage is full: the writing thread takes it (started the first
+    /// time; without it the stage is written here) and an empty one takes
+    /// its place.
+    fn hand_over(&mut self) -> io::Result<()> {
+        if self.behind.is_none() {
+            self.behind = Behind::start(&self.file);
+        }
+        match (&mut self.behind, self.stage.take()) {
+            (Some(behind), Some(full)) => {
+                let (empty, refused) = behind.exchange(full)?;
+                self.refused |= refused;
+                self.stage = Some(empty);
+                Ok(())
             }
-            match self.file.write(&stage.bytes()[..whole]) {
-                Ok(0) => return Err(io::ErrorKind::WriteZero.into()),
-                Ok(n) => stage.consume(n),
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                // Accepted by fcntl, refused by the write: through the
-                // page cache from now on.
-                Err(e) if e.raw_os_error() == Some(libc::EINVAL) => {
-                    self.refused = true;
-                    return self.leave_direct();
-                }
-                Err(e) => return Err(e),
+            (_, stage) => {
+                self.stage = stage;
+                self.write_staged()
             }
         }
     }
 
-    /// Back to the page cache: what is staged is written (its whole units
-    /// directly, the rest through the cache).
+    /// Back to the page cache: what the thread has is written, then what
+    /// is staged (its whole units directly, the rest through the cache).
     fn leave_direct(&mut self) -> io::Result<()> {
+        if let Some(behind) = &mut self.behind {
+            self.refused |= behind.drain()?;
+        }
         if !self.refused {
             self.write_staged()?;
         }
@@ -742,7 +740,7 @@ impl Write for WriteBehind {
             Some(stage) => {
                 let n = stage.put(buf);
                 if stage.is_full() {
-                    self.write_staged()?;
+                    self.hand_over()?;
                 }
                 n
             }
@@ -756,6 +754,147 @@ impl Write for WriteBehind {
     fn flush(&mut self) -> io::Result<()> {
         self.leave_direct()?;
         self.file.flush()
+    }
+}
+
+/// Write a stage's whole units to a file in `O_DIRECT` mode, dropping
+/// what each write took from the stage at once. If the file system takes
+/// the mode but refuses the write (`EINVAL`), the file leaves the mode and
+/// the whole stage goes through the page cache: true. A short write
+/// leaves the rest staged.
+fn write_units(mut file: &File, stage: &mut Stage) -> io::Result<bool> {
+    loop {
+        let whole = stage.len / Stage::UNIT * Stage::UNIT;
+        if whole == 0 {
+            return Ok(false);
+        }
+        match file.write(&stage.bytes()[..whole]) {
+            Ok(0) => return Err(io::ErrorKind::WriteZero.into()),
+            Ok(n) => stage.consume(n),
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) if e.raw_os_error() == Some(libc::EINVAL) => {
+                set_direct(file, false);
+                file.write_all(stage.bytes())?;
+                stage.consume(stage.len);
+                return Ok(true);
+            }
+            Err(e) => return Err(e),
+        }
+    }
+}
+
+/// The thread that writes full stages to disk while the caller fills the
+/// next one: it only waits for the disk. At most [`Behind::AHEAD`] stages
+/// are out at a time, so the stages of a run hold at most
+/// `(AHEAD + 1) × Stage::SIZE` bytes.
+struct Behind {
+    to: Option<std::sync::mpsc::Sender<Stage>>,
+    back: std::sync::mpsc::Receiver<(Stage, io::Result<bool>)>,
+    /// Stages sent and not yet back.
+    out: usize,
+    /// Stages back, empty.
+    free: Vec<Stage>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Behind {
+    const AHEAD: usize = 1;
+
+    /// None if no thread can be started (the caller writes itself).
+    fn start(file: &File) -> Option<Behind> {
+        // A duplicate shares the file's offset and its `O_DIRECT` flag;
+        // while stages are out, only the thread writes.
+        let file = file.try_clone().ok()?;
+        let (to, stages) = std::sync::mpsc::channel::<Stage>();
+        let (done, back) = std::sync::mpsc::channel();
+        let thread = std::thread::Builder::new()
+            .name("lsgen-write".into())
+            .spawn(move || {
+                for mut stage in stages {
+                    let r = write_units(&file, &mut stage);
+                    if done.send((stage, r)).is_err() {
+                        break;
+                    }
+                }
+            })
+            .ok()?;
+        Some(Behind {
+            to: Some(to),
+            back,
+            out: 0,
+            free: Vec::new(),
+            thread: Some(thread),
+        })
+    }
+
+    /// Send a full stage; an empty one back, and whether the file system
+    /// refused a direct write (its stage went through the page cache).
+    fn exchange(&mut self, full: Stage) -> io::Result<(Stage, bool)> {
+        let gone = || io::Error::other("the writing thread ended");
+        self.to
+            .as_ref()
+            .ok_or_else(gone)?
+            .send(full)
+            .map_err(|_| gone())?;
+        self.out += 1;
+        let mut refused = false;
+        while let Ok(r) = self.back.try_recv() {
+            refused |= self.took(r)?;
+        }
+        while self.out > Self::AHEAD {
+            let r = self.back.recv().map_err(|_| gone())?;
+            refused |= self.took(r)?;
+        }
+        Ok((self.free.pop().unwrap_or_else(Stage::new), refused))
+    }
+
+    /// Wait until every stage is written.
+    fn drain(&mut self) -> io::Result<bool> {
+        let mut refused = false;
+        while self.out > 0 {
+            let r = self
+                .back
+                .recv()
+                .map_err(|_| io::Error::other("the writing thread ended"))?;
+            refused |= self.took(r)?;
+        }
+        Ok(refused)
+    }
+
+    fn took(&mut self, (mut stage, r): (Stage, io::Result<bool>)) -> io::Result<bool> {
+        self.out -= 1;
+        stage.len = 0;
+        self.free.push(stage);
+        r
+    }
+}
+
+impl Drop for Behind {
+    fn drop(&mut self) {
+        // The thread ends when the channel closes, after what it has.
+        self.to = None;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Turn `O_DIRECT` on or off for an open file (its open file description,
+/// shared by its duplicates); false if the file system refuses it.
+fn set_direct(file: &File, on: bool) -> bool {
+    let fd = std::os::fd::AsRawFd::as_raw_fd(file);
+    // SAFETY: fcntl's flag calls on our own open descriptor.
+    unsafe {
+        let flags = libc::fcntl(fd, libc::F_GETFL);
+        if flags < 0 {
+            return false;
+        }
+        let flags = if on {
+            flags | libc::O_DIRECT
+        } else {
+            flags & !libc::O_DIRECT
+        };
+        libc::fcntl(fd, libc::F_SETFL, flags) == 0
     }
 }
 
@@ -815,6 +954,10 @@ impl Stage {
     }
 }
 
+// SAFETY: a stage owns its allocation alone; it moves between the caller
+// and the writing thread whole.
+unsafe impl Send for Stage {}
+
 impl Drop for Stage {
     fn drop(&mut self) {
         // SAFETY: allocated in `new` with this layout.
@@ -872,6 +1015,8 @@ mod tests {
         }
         wb.flush().unwrap();
         assert!(direct_seen || wb.refused, "never wrote around the cache");
+        // Full stages went to the writing thread.
+        assert!(wb.refused || wb.behind.is_some(), "no writing thread");
         // Where the file system takes direct writes, none was refused (a
         // misaligned one would have been, and the rest gone through the
         // cache).
@@ -885,6 +1030,23 @@ mod tests {
         f.read_to_end(&mut got).unwrap();
         assert_eq!(got.len(), expected.len());
         assert!(got == expected, "the file's bytes differ");
+    }
+
+    /// A write the writing thread fails (here: the file is open for
+    /// reading only) is the caller's error, at a later write or the flush.
+    #[test]
+    fn an_error_of_the_writing_thread_reaches_the_caller() {
+        let tmp = tempfile::NamedTempFile::new().unwrap();
+        let file = std::fs::File::open(tmp.path()).unwrap();
+        let mut wb = WriteBehind::new(file);
+        wb.want.store(true, Ordering::Relaxed);
+        let piece = vec![7u8; Stage::SIZE];
+        let mut failed = false;
+        for _ in 0..4 {
+            failed |= wb.write_all(&piece).is_err();
+        }
+        failed |= wb.flush().is_err();
+        assert!(failed, "a failed write went unreported");
     }
 
     /// Does the temporary directory's file system take an aligned direct
