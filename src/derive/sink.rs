@@ -130,6 +130,45 @@ pub struct Out<'w> {
     pub(crate) direct: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
+/// Append `b` to `buf`: runs of at most 16 bytes (most constant runs:
+/// `[+(30)`, `]`) by two overlapping fixed-size copies, inline, where a
+/// call to `memcpy` cost parametric_tree about 3 % of its time.
+#[inline(always)]
+fn append_short(buf: &mut Vec<u8>, b: &[u8]) {
+    let (n, len) = (b.len(), buf.len());
+    if n > 16 || buf.capacity() - len < 16 {
+        buf.extend_from_slice(b);
+        return;
+    }
+    let (src, dst) = (b.as_ptr(), buf.as_mut_ptr());
+    // SAFETY: every read is within `b` (each copy's start and end lie in
+    // 0..n); every write is within `len..len + n`, spare capacity (16
+    // bytes of it checked above), which `set_len` then marks written.
+    unsafe {
+        let dst = dst.add(len);
+        if n >= 8 {
+            let (x, y) = (
+                src.cast::<u64>().read_unaligned(),
+                src.add(n - 8).cast::<u64>().read_unaligned(),
+            );
+            dst.cast::<u64>().write_unaligned(x);
+            dst.add(n - 8).cast::<u64>().write_unaligned(y);
+        } else if n >= 4 {
+            let (x, y) = (
+                src.cast::<u32>().read_unaligned(),
+                src.add(n - 4).cast::<u32>().read_unaligned(),
+            );
+            dst.cast::<u32>().write_unaligned(x);
+            dst.add(n - 4).cast::<u32>().write_unaligned(y);
+        } else if n > 0 {
+            *dst = *src;
+            *dst.add(n / 2) = *src.add(n / 2);
+            *dst.add(n - 1) = *src.add(n - 1);
+        }
+        buf.set_len(len + n);
+    }
+}
+
 /// The output's switch for writing around the page cache, on while this
 /// lives ([`Out::around_cache`]).
 pub(crate) struct AroundCache(std::sync::Arc<std::sync::atomic::AtomicBool>);
@@ -431,7 +470,7 @@ impl<'w> Out<'w> {
         let modules = c.modules();
         self.modules += modules;
         if self.text {
-            self.buf.extend_from_slice(c.text());
+            append_short(&mut self.buf, c.text());
         } else if !self.indexed {
             self.buf.extend_from_slice(c.bin());
         } else {
@@ -564,6 +603,24 @@ mod tests {
     use super::*;
     use crate::rules::{Alphabet, Filter};
     use std::io::{Read, Seek};
+
+    /// Every run length, with spare capacity and without, after any
+    /// content: the bytes of `extend_from_slice`.
+    #[test]
+    fn short_runs_append_exactly_their_bytes() {
+        let src: Vec<u8> = (1..=40).collect();
+        for n in 0..=20 {
+            for (cap, pre) in [(64, 0), (64, 3), (64, 47), (64, 48), (64, 60), (20, 19)] {
+                let mut buf = Vec::with_capacity(cap);
+                buf.extend(std::iter::repeat_n(0xEE, pre));
+                let mut want = buf.clone();
+                let run = &src[7..7 + n];
+                append_short(&mut buf, run);
+                want.extend_from_slice(run);
+                assert_eq!(buf, want, "n {n}, capacity {cap}, {pre} before");
+            }
+        }
+    }
 
     #[test]
     fn text_prints_parameters_in_their_shortest_form() {
