@@ -739,6 +739,11 @@ impl<'p, 't> Walker<'p, 't> {
                                 bin = &bin[kl + 8 * a..];
                             }
                         }
+                        // Without a homomorphism a leaf is written as it is:
+                        // no copy into `scratch` (a memcpy call a module).
+                        Piece::Module(key, vals) if plan.hom.is_none() => {
+                            out.module(key, vals, al)?
+                        }
                         Piece::Module(key, vals) => {
                             scratch.clear();
                             scratch.extend_from_slice(vals);
