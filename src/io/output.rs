@@ -606,7 +606,8 @@ pub fn leave_termination_signals_to_other_threads() {
 /// while nothing else runs: about 0.6 s for 1.4 GB here, a serial tail that
 /// no thread count shortens.
 ///
-/// While the derivation writes its final text ([`want`] set, by the
+/// While the derivation writes its final text past the file's first
+/// [`WriteBehind::DIRECT_AFTER`] bytes ([`want`] set, by the
 /// derive code around the passes whose text is made slower than a disk
 /// takes it: parametric and step-by-step passes, and the split's writer),
 /// the text goes to disk directly (`O_DIRECT`, through aligned [`Stage`]s)
@@ -634,6 +635,9 @@ pub struct WriteBehind {
 
 impl WriteBehind {
     const STEP: u64 = 32 << 20;
+    /// The first bytes of a file go through the page cache: a small file
+    /// (a frame, one of a forest of seeds) would only wait for the disk.
+    const DIRECT_AFTER: u64 = if cfg!(test) { 0 } else { 4 << 20 };
 
     fn new(file: File) -> Self {
         WriteBehind {
@@ -719,7 +723,9 @@ impl WriteBehind {
 
 impl Write for WriteBehind {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        let want = self.want.load(Ordering::Relaxed) && !self.refused;
+        let want = self.want.load(Ordering::Relaxed)
+            && !self.refused
+            && self.written >= Self::DIRECT_AFTER;
         if want != self.stage.is_some() {
             if !want {
                 self.leave_direct()?;
