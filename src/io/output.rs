@@ -607,14 +607,14 @@ pub fn leave_termination_signals_to_other_threads() {
 /// no thread count shortens.
 ///
 /// While the derivation writes its final text past the file's first
-/// [`WriteBehind::DIRECT_AFTER`] bytes ([`want`] set, by the
+/// 4 MiB (`DIRECT_AFTER`) ([`want`] set, by the
 /// derive code around the passes whose text is made slower than a disk
 /// takes it: parametric and step-by-step passes, and the split's writer),
-/// the text goes to disk directly (`O_DIRECT`, through aligned [`Stage`]s)
+/// the text goes to disk directly (`O_DIRECT`, through aligned `Stage`s)
 /// instead of through the page cache: the kernel's copy of every byte into
 /// the cache costs CPU time the derivation needs (parametric_tree 10^8:
 /// `-j 2` 1.76 s → 1.58 s; `-j 1` 0.41 s of system time). Full stages are
-/// written by a thread of their own ([`Behind`]), which only waits for the
+/// written by a thread of their own (`Behind`), which only waits for the
 /// disk, while the caller fills the next one. D0L expansion, which makes
 /// text faster than this disk takes direct writes, keeps the page cache. A
 /// file system that refuses `O_DIRECT` (tmpfs) keeps the page cache.
@@ -631,13 +631,15 @@ pub struct WriteBehind {
     refused: bool,
     /// The thread writing full stages, once one was full.
     behind: Option<Behind>,
+    /// `DIRECT_AFTER` (0 in unit tests).
+    direct_after: u64,
 }
 
 impl WriteBehind {
     const STEP: u64 = 32 << 20;
     /// The first bytes of a file go through the page cache: a small file
     /// (a frame, one of a forest of seeds) would only wait for the disk.
-    const DIRECT_AFTER: u64 = if cfg!(test) { 0 } else { 4 << 20 };
+    const DIRECT_AFTER: u64 = 4 << 20;
 
     fn new(file: File) -> Self {
         WriteBehind {
@@ -648,6 +650,7 @@ impl WriteBehind {
             stage: None,
             refused: false,
             behind: None,
+            direct_after: Self::DIRECT_AFTER,
         }
     }
 
@@ -723,9 +726,8 @@ impl WriteBehind {
 
 impl Write for WriteBehind {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        let want = self.want.load(Ordering::Relaxed)
-            && !self.refused
-            && self.written >= Self::DIRECT_AFTER;
+        let want =
+            self.want.load(Ordering::Relaxed) && !self.refused && self.written >= self.direct_after;
         if want != self.stage.is_some() {
             if !want {
                 self.leave_direct()?;
@@ -986,6 +988,7 @@ mod tests {
     fn writing_around_the_page_cache_keeps_every_byte_in_order() {
         let mut expected = Vec::new();
         let mut wb = WriteBehind::new(tempfile::tempfile().unwrap());
+        wb.direct_after = 0;
         let mut direct_seen = false;
         // Piece sizes and the switch, in a fixed pseudo-random pattern.
         let mut x: u64 = 12345;
@@ -1045,6 +1048,7 @@ mod tests {
         let tmp = tempfile::NamedTempFile::new().unwrap();
         let file = std::fs::File::open(tmp.path()).unwrap();
         let mut wb = WriteBehind::new(file);
+        wb.direct_after = 0;
         wb.want.store(true, Ordering::Relaxed);
         let piece = vec![7u8; Stage::SIZE];
         let mut failed = false;
