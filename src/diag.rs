@@ -130,9 +130,36 @@ pub fn group_digits(n: u64) -> String {
 }
 
 /// Print a located warning (`lsgen: FILE:LINE:COL: warning: ...`, the
-/// source line and a caret) on standard error.
+/// source line and a caret) on standard error, once per process: a
+/// batch's jobs load the same file each, and its warnings are said once.
 pub(crate) fn warn(location: Location, warning: &Warning) {
-    eprint(&warning_text(&location, warning));
+    let text = warning_text(&location, warning);
+    if first_time(&text) {
+        eprint(&text);
+    }
+}
+
+/// Has this text not been warned yet? The first 4096 distinct warnings
+/// are remembered (by a 64-bit hash); past them every warning is printed.
+fn first_time(text: &str) -> bool {
+    use std::hash::{Hash, Hasher};
+    use std::sync::Mutex;
+    static SEEN: Mutex<Vec<u64>> = Mutex::new(Vec::new());
+    let mut h = std::hash::DefaultHasher::new();
+    text.hash(&mut h);
+    let h = h.finish();
+    let Ok(mut seen) = SEEN.lock() else {
+        return true;
+    };
+    match seen.binary_search(&h) {
+        Ok(_) => false,
+        Err(at) => {
+            if seen.len() < 4096 {
+                seen.insert(at, h);
+            }
+            true
+        }
+    }
 }
 
 /// What [`warn`] prints.
@@ -143,7 +170,10 @@ pub(crate) fn warning_text(location: &Location, warning: &Warning) -> String {
 /// Print a warning without a place (`lsgen: warning: ...`) on standard
 /// error.
 pub(crate) fn warn_unlocated(warning: &Warning) {
-    eprint(&format!("lsgen: warning: {warning}\n"));
+    let text = format!("lsgen: warning: {warning}\n");
+    if first_time(&text) {
+        eprint(&text);
+    }
 }
 
 mod cpfg;

@@ -371,3 +371,32 @@ fn a_failing_job_names_the_seed_it_used() {
     );
     assert_eq!(read(d.path().join("ok.out")), "ABBB\n");
 }
+
+#[test]
+fn a_files_warning_is_said_once_for_all_its_jobs() {
+    // `x` is not defined (cpfg: 0, with a warning at 4:10). Every job of
+    // the batch loads the file; the warning is said once per file.
+    let src = "#define N 1\nLsystem: 1\nderivation length: 2\nAxiom: A(x)\n\
+               A(y) --> A(y+1)\nendlsystem\n";
+    let d = dir_with(&[("w.l", src), ("v.l", src)]);
+    for j in ["1", "2"] {
+        let out = format!("{{stem}}-{{seed}}-j{j}.txt");
+        let r = lsgen_in(
+            d.path(),
+            &["--seed", "1..4", "-j", j, "-o", &out, "w.l", "v.l"],
+        );
+        assert_eq!(r.code(), Some(0), "{}", r.stderr);
+        assert!(r.stdout.is_empty());
+        for f in ["w.l", "v.l"] {
+            let head = format!("lsgen: {f}:4:10: warning: `x` is not defined");
+            assert_eq!(r.stderr.matches(&head).count(), 1, "-j {j}:\n{}", r.stderr);
+        }
+        assert_eq!(
+            r.stderr.matches("warning").count(),
+            2,
+            "-j {j}:\n{}",
+            r.stderr
+        );
+        assert_eq!(read(d.path().join(format!("w-3-j{j}.txt"))), "A(2)\n");
+    }
+}
