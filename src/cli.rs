@@ -189,6 +189,22 @@ pub fn parse_dialect(s: &str) -> Result<crate::cpfg::Dialect, String> {
     }
 }
 
+/// The command line as completion scripts offer it: without hidden
+/// options (`--strategy`), which clap_complete's generators would list.
+fn completion_command() -> clap::Command {
+    let mut full = Args::command();
+    full.build();
+    let shown: Vec<clap::Arg> = full
+        .get_arguments()
+        .filter(|a| !a.is_hide_set())
+        .cloned()
+        .collect();
+    clap::Command::new("lsgen")
+        .disable_help_flag(true)
+        .disable_version_flag(true)
+        .args(shown)
+}
+
 /// `--strategy`: `auto`, `step` or `dfs`.
 pub fn parse_strategy(s: &str) -> Result<Strategy, String> {
     match s {
@@ -408,7 +424,7 @@ fn main_on_thread() -> i32 {
     };
     let result = if let Some(shell) = args.completions {
         let mut text = Vec::new();
-        clap_complete::generate(shell, &mut Args::command(), "lsgen", &mut text);
+        clap_complete::generate(shell, &mut completion_command(), "lsgen", &mut text);
         print_stdout(&text)
     } else if args.man {
         let mut text = Vec::new();

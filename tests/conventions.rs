@@ -21,9 +21,19 @@ fn completions_for_each_shell_name_the_options() {
     ] {
         let out = lsgen_run(&["--completions", shell]).ok();
         assert!(out.contains(marker), "{shell}: no `{marker}`:\n{out}");
-        for opt in ["seed", "jobs", "output", "max-length", "completions"] {
+        for opt in [
+            "seed",
+            "jobs",
+            "output",
+            "max-length",
+            "completions",
+            "help",
+            "version",
+        ] {
             assert!(out.contains(opt), "{shell}: no `{opt}`");
         }
+        // Hidden options (for tests) are not offered.
+        assert!(!out.contains("strategy"), "{shell} offers --strategy");
     }
 }
 
