@@ -192,9 +192,16 @@ impl NumFmt {
     /// `2`, `0.5`, `1.4142135623730951`, `1e-7`, `-0`.
     #[inline]
     pub fn put(&mut self, out: &mut Vec<u8>, v: f64) {
+        self.put_cached(out, v)
+    }
+
+    /// The cache's look-up, inlined into [`NumFmt::module`]'s loop; the
+    /// formatting of a number not in it is a call of its own.
+    #[inline(always)]
+    fn put_cached(&mut self, out: &mut Vec<u8>, v: f64) {
         let bits = v.to_bits();
         let slot = (bits.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - CACHE_BITS)) as usize;
-        let e = &mut self.cache[slot];
+        let e = &self.cache[slot];
         if e.len != 0 && e.bits == bits {
             // A fixed-size copy (inlined, no memcpy call), then cut.
             let end = out.len() + e.len as usize;
@@ -202,6 +209,13 @@ impl NumFmt {
             out.truncate(end);
             return;
         }
+        self.put_miss(out, v, slot);
+    }
+
+    /// A number not in the cache: formatted, and cached.
+    #[cold]
+    #[inline(never)]
+    fn put_miss(&mut self, out: &mut Vec<u8>, v: f64, slot: usize) {
         let s = self.ryu.format_finite(v).as_bytes();
         // ryu writes `2.0`, `1e-7`, `1.5e16`: only a trailing `.0` goes.
         let s = match s {
@@ -210,7 +224,8 @@ impl NumFmt {
         };
         out.extend_from_slice(s);
         if s.len() <= 24 {
-            e.bits = bits;
+            let e = &mut self.cache[slot];
+            e.bits = v.to_bits();
             e.len = s.len() as u8;
             e.text[..s.len()].copy_from_slice(s);
         }
@@ -225,10 +240,10 @@ impl NumFmt {
         }
         if let Some((first, rest)) = params.split_first() {
             out.push(b'(');
-            self.put(out, *first);
+            self.put_cached(out, *first);
             for p in rest {
                 out.push(b',');
-                self.put(out, *p);
+                self.put_cached(out, *p);
             }
             out.push(b')');
         }
