@@ -67,6 +67,20 @@ pub(crate) fn pick(
     Ok(i)
 }
 
+/// [`pick`] out of line: the general choice's, so that the step pass's
+/// loop (which holds the choice) stays as small as without it.
+#[inline(never)]
+fn pick_out_of_line(
+    cand: &[(u32, f64)],
+    total: f64,
+    rng: &mut Random,
+    table: &Table,
+    origin: &Origin,
+    pass: Pass,
+) -> Result<usize, Error> {
+    pick(cand, total, rng, table, origin, pass)
+}
+
 /// A key whose choice depends on nothing but the draw, folded once per
 /// pass: what [`Chooser::choose_ls`] computes for it at every module. Its
 /// productions are one context-free group (no context group, no numbered
@@ -226,11 +240,11 @@ impl Chooser {
         let mut kr = kr;
         loop {
             if kr.has_context() {
-                let group = (table.context(kr), kr.context_stochastic());
+                let group = (table.context(kr), kr.context_stochastic(), false);
                 chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
             }
             if chosen.is_none() && kr.has_free() {
-                let group = (table.free(kr), kr.free_stochastic());
+                let group = (table.free(kr), kr.free_stochastic(), true);
                 chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
             }
             // A numbered group that chose nothing falls back to group 0.
@@ -242,11 +256,14 @@ impl Chooser {
         Ok(chosen)
     }
 
-    /// Does `p` match: contexts, then its condition?
+    /// Does `p` match: contexts, then its condition? `free`: `p` is of a
+    /// context-free group, whose productions may skip the context test.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn matches<F>(
         &mut self,
         slots: &mut [f64],
+        free: bool,
         p: &Production,
         rng: &mut Random,
         origin: &Origin,
@@ -256,8 +273,10 @@ impl Chooser {
     where
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
-        // (Without contexts there is nothing to test or bind.)
-        if !p.context_free() && !contexts(p, slots)? {
+        // (Without contexts there is nothing to test or bind. A context
+        // group's productions have contexts: no flag to test there.)
+        let none = free && p.context_free();
+        if !none && !contexts(p, slots)? {
             return Ok(false);
         }
         self.condition(slots, p, rng, origin, pass)
@@ -269,7 +288,7 @@ impl Chooser {
         &mut self,
         slots: &mut [f64],
         table: &Table,
-        (list, stochastic): (&[u32], bool),
+        (list, stochastic, free): (&[u32], bool, bool),
         rng: &mut Random,
         origin: &Origin,
         pass: Pass,
@@ -281,7 +300,7 @@ impl Chooser {
         if !stochastic {
             for &pi in list {
                 let p = &table.prods[pi as usize];
-                if self.matches(slots, p, rng, origin, pass, contexts)? {
+                if self.matches(slots, free, p, rng, origin, pass, contexts)? {
                     return Ok(Some(pi));
                 }
             }
@@ -293,7 +312,7 @@ impl Chooser {
         let mut total = 0.0;
         for &pi in list {
             let p = &table.prods[pi as usize];
-            if !self.matches(slots, p, rng, origin, pass, contexts)? {
+            if !self.matches(slots, free, p, rng, origin, pass, contexts)? {
                 continue;
             }
             let w = self.weight(slots, p, rng, origin, pass)?;
@@ -306,7 +325,7 @@ impl Chooser {
         if self.cand.is_empty() {
             return Ok(None);
         }
-        let pick = pick(&self.cand, total, rng, table, origin, pass)?;
+        let pick = pick_out_of_line(&self.cand, total, rng, table, origin, pass)?;
         Ok(Some(self.restore(slots, table, pick)))
     }
 

@@ -597,28 +597,12 @@ impl<'a> Deriver<'a> {
                     open_len,
                     &mut st.level,
                 )?;
-                let next = window.get(used).copied();
                 rd.advance(used);
                 index += modules;
                 out.maybe_flush()?;
-                if let Some(Some(f)) = next.and_then(|b| folded.get(usize::from(b))) {
-                    // The module is this one byte: what `apply` does
-                    // with it, its draw at its index.
-                    let b = next.unwrap_or(0);
-                    rd.advance(1);
-                    self.rng.set_module(index);
-                    index += 1;
-                    let i = pick(&f.cand, f.total, &mut self.rng, table, &self.origin, pass)?;
-                    for item in table.prods[f.cand[i].0 as usize].succ.iter() {
-                        if let Item::Const(c) = item {
-                            out.constant(c)?;
-                        }
-                    }
-                    if let Some(left) = &mut st.left {
-                        let key = u32::from(b);
-                        left.follow(key, &ASCII[key as usize..][..1], &self.alphabet);
-                    }
-                    out.maybe_flush()?;
+                if !folded.is_empty()
+                    && self.folded_next(&folded, &mut rd, &mut index, table, &mut st, out, pass)?
+                {
                     continue;
                 }
                 if used > 0 {
@@ -766,6 +750,47 @@ impl<'a> Deriver<'a> {
             return Err(unclosed(&self.origin, table, st.last_opener, pass));
         }
         Ok(())
+    }
+
+    /// If the next module is of a key with a [`Folded`] choice (`folded`,
+    /// by key: ASCII keys without parameters, so the module is one byte),
+    /// rewrite it as [`Deriver::apply`] would, with the draw at its index,
+    /// and do the rest of the pass's work on it. Out of line: the loop of
+    /// passes without such keys stays as it was.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn folded_next(
+        &mut self,
+        folded: &[Option<Folded>],
+        rd: &mut PosReader,
+        index: &mut u64,
+        table: &Table,
+        st: &mut StepState,
+        out: &mut Out,
+        pass: Pass,
+    ) -> Result<bool, Error> {
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
+        let Some(&b) = rd.window().map_err(read_err)?.first() else {
+            return Ok(false);
+        };
+        let Some(Some(f)) = folded.get(usize::from(b)) else {
+            return Ok(false);
+        };
+        let key = u32::from(b);
+        rd.advance(1);
+        self.rng.set_module(*index);
+        *index += 1;
+        let i = pick(&f.cand, f.total, &mut self.rng, table, &self.origin, pass)?;
+        for item in table.prods[f.cand[i].0 as usize].succ.iter() {
+            if let Item::Const(c) = item {
+                out.constant(c)?;
+            }
+        }
+        if let Some(left) = &mut st.left {
+            left.follow(key, &ASCII[key as usize..][..1], &self.alphabet);
+        }
+        out.maybe_flush()?;
+        Ok(true)
     }
 
     /// The copied module (key, arity `n`, ending at `end_off`; in
