@@ -28,6 +28,105 @@ pub(crate) enum Piece<'a> {
     Module(u32, &'a [f64]),
 }
 
+/// The weighted draw (README "Choice"): which of the matching
+/// candidates `cand` (production, weight > 0; not empty), whose weights
+/// add up to `total` in order, wins. One candidate wins without a draw.
+/// Every weighted choice of an `.ls` file draws here.
+#[inline(always)]
+pub(crate) fn pick(
+    cand: &[(u32, f64)],
+    total: f64,
+    rng: &mut Random,
+    table: &Table,
+    origin: &Origin,
+    pass: Pass,
+) -> Result<usize, Error> {
+    let n = cand.len();
+    if n == 1 {
+        return Ok(0);
+    }
+    let u = rng.uniform().map_err(|m| {
+        let p = &table.prods[cand[0].0 as usize];
+        Error::at(
+            origin.locate(p.start()),
+            crate::diag::RuntimeError::Eval {
+                error: crate::diag::ExprError::Random(m),
+                pass,
+            },
+        )
+    })?;
+    let mut u = u * total;
+    let mut i = 0;
+    while i < n - 1 {
+        u -= cand[i].1;
+        if u < 0.0 {
+            break;
+        }
+        i += 1;
+    }
+    Ok(i)
+}
+
+/// [`pick`] out of line: the general choice's, so that the step pass's
+/// loop (which holds the choice) stays as small as without it.
+#[inline(never)]
+fn pick_out_of_line(
+    cand: &[(u32, f64)],
+    total: f64,
+    rng: &mut Random,
+    table: &Table,
+    origin: &Origin,
+    pass: Pass,
+) -> Result<usize, Error> {
+    pick(cand, total, rng, table, origin, pass)
+}
+
+/// A key whose choice depends on nothing but the draw, folded once per
+/// pass: what [`Chooser::choose_ls`] computes for it at every module. Its
+/// productions are one context-free group (no context group, no numbered
+/// group's fallback), none has a condition, each weight is a constant
+/// that is not negative (a negative one is an error at each module that
+/// tries it: the general path reports it), and each successor is known at
+/// load time.
+pub(crate) struct Folded {
+    /// The candidates of weight > 0, in file order, and their sum as the
+    /// choice adds it up; never empty.
+    pub(crate) cand: Box<[(u32, f64)]>,
+    pub(crate) total: f64,
+}
+
+impl Folded {
+    /// `kr`'s folded choice, if it depends on nothing but the draw.
+    pub(crate) fn of(table: &Table, kr: &KeyRules) -> Option<Folded> {
+        if kr.has_context() || kr.fallback().is_some() || !kr.free_stochastic() {
+            return None;
+        }
+        let mut cand = Vec::new();
+        let mut total = 0.0;
+        for &pi in table.free(kr) {
+            let p = &table.prods[pi as usize];
+            if !p.context_free() || p.cond.is_some() {
+                return None;
+            }
+            if !p.succ.iter().all(|i| matches!(i, Item::Const(_))) {
+                return None;
+            }
+            let w = match p.prob() {
+                None => 1.0,
+                Some(c) => c.constant().filter(|w| w.is_nan() || *w >= 0.0)?,
+            };
+            if w > 0.0 {
+                total += w;
+                cand.push((pi, w));
+            }
+        }
+        (!cand.is_empty()).then(|| Folded {
+            cand: cand.into_boxed_slice(),
+            total,
+        })
+    }
+}
+
 /// The reusable buffers of choice and evaluation: nothing is allocated per
 /// module once they have grown. The formal parameters of the production
 /// being tried (the predecessor's first, then its contexts') are the
@@ -141,11 +240,11 @@ impl Chooser {
         let mut kr = kr;
         loop {
             if kr.has_context() {
-                let group = (table.context(kr), kr.context_stochastic());
+                let group = (table.context(kr), kr.context_stochastic(), false);
                 chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
             }
             if chosen.is_none() && kr.has_free() {
-                let group = (table.free(kr), kr.free_stochastic());
+                let group = (table.free(kr), kr.free_stochastic(), true);
                 chosen = self.choose_in(slots, table, group, rng, origin, pass, &mut contexts)?;
             }
             // A numbered group that chose nothing falls back to group 0.
@@ -157,11 +256,14 @@ impl Chooser {
         Ok(chosen)
     }
 
-    /// Does `p` match: contexts, then its condition?
+    /// Does `p` match: contexts, then its condition? `free`: `p` is of a
+    /// context-free group, whose productions may skip the context test.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn matches<F>(
         &mut self,
         slots: &mut [f64],
+        free: bool,
         p: &Production,
         rng: &mut Random,
         origin: &Origin,
@@ -171,7 +273,10 @@ impl Chooser {
     where
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
-        if !contexts(p, slots)? {
+        // (Without contexts there is nothing to test or bind. A context
+        // group's productions have contexts: no flag to test there.)
+        let none = free && p.context_free();
+        if !none && !contexts(p, slots)? {
             return Ok(false);
         }
         self.condition(slots, p, rng, origin, pass)
@@ -183,7 +288,7 @@ impl Chooser {
         &mut self,
         slots: &mut [f64],
         table: &Table,
-        (list, stochastic): (&[u32], bool),
+        (list, stochastic, free): (&[u32], bool, bool),
         rng: &mut Random,
         origin: &Origin,
         pass: Pass,
@@ -195,7 +300,7 @@ impl Chooser {
         if !stochastic {
             for &pi in list {
                 let p = &table.prods[pi as usize];
-                if self.matches(slots, p, rng, origin, pass, contexts)? {
+                if self.matches(slots, free, p, rng, origin, pass, contexts)? {
                     return Ok(Some(pi));
                 }
             }
@@ -207,7 +312,7 @@ impl Chooser {
         let mut total = 0.0;
         for &pi in list {
             let p = &table.prods[pi as usize];
-            if !self.matches(slots, p, rng, origin, pass, contexts)? {
+            if !self.matches(slots, free, p, rng, origin, pass, contexts)? {
                 continue;
             }
             let w = self.weight(slots, p, rng, origin, pass)?;
@@ -217,32 +322,10 @@ impl Chooser {
                 self.cand_slots.extend_from_slice(&slots[..p.nslots()]);
             }
         }
-        let pick = match self.cand.len() {
-            0 => return Ok(None),
-            1 => 0,
-            n => {
-                let u = rng.uniform().map_err(|m| {
-                    let p = &table.prods[self.cand[0].0 as usize];
-                    Error::at(
-                        origin.locate(p.start()),
-                        crate::diag::RuntimeError::Eval {
-                            error: crate::diag::ExprError::Random(m),
-                            pass,
-                        },
-                    )
-                })?;
-                let mut u = u * total;
-                let mut i = 0;
-                while i < n - 1 {
-                    u -= self.cand[i].1;
-                    if u < 0.0 {
-                        break;
-                    }
-                    i += 1;
-                }
-                i
-            }
-        };
+        if self.cand.is_empty() {
+            return Ok(None);
+        }
+        let pick = pick_out_of_line(&self.cand, total, rng, table, origin, pass)?;
         Ok(Some(self.restore(slots, table, pick)))
     }
 
@@ -260,9 +343,13 @@ impl Chooser {
         let Some(c) = p.prob() else {
             return Ok(1.0);
         };
-        let w = c
-            .eval(slots, &mut self.stack, rng)
-            .map_err(|e| origin.eval_error(e, pass))?;
+        // (A constant is what `eval` would return, without the call.)
+        let w = match c.constant() {
+            Some(v) => v,
+            None => c
+                .eval(slots, &mut self.stack, rng)
+                .map_err(|e| origin.eval_error(e, pass))?,
+        };
         if w < 0.0 {
             return Err(Error::at(
                 origin.locate(c.start()),
@@ -401,7 +488,7 @@ impl Chooser {
     where
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
-        if !contexts(p, slots)? {
+        if !p.context_free() && !contexts(p, slots)? {
             return Ok(false);
         }
         if let Some(b) = p.pre() {

@@ -18,9 +18,12 @@
 //! - random constants (`define:`) draw in file order from P = 2·2^65 on
 //!   (region 2, stream 0).
 //!
-//! Modules that draw once each read consecutive positions, so the
-//! generator's buffer is used in order; other jumps cost one
-//! `set_word_pos`.
+//! Draws are read from windows of [`WINDOW`] consecutive positions, one
+//! for the draws of order 0 and one for the others: a module's first draw
+//! is an index into the window when an earlier module's fell in the same
+//! one, however many modules between them drew nothing; a window is
+//! refilled (`set_word_pos`, four ChaCha blocks) once per [`WINDOW`]
+//! positions.
 
 use crate::cpfg::random::CpfgRandom;
 use rand_chacha::rand_core::{Rng, SeedableRng};
@@ -30,6 +33,25 @@ use rand_chacha::ChaCha8Rng;
 pub const DRAWS_PER_MODULE: u64 = 64;
 /// Module indices must be below this.
 pub const MODULES_PER_GENERATION: u64 = 1 << 59;
+
+/// Draw positions per window (64-bit draws: four ChaCha blocks).
+const WINDOW: usize = 32;
+
+/// A window of the stream: the draws at positions `at..at + WINDOW`.
+#[derive(Clone)]
+struct Window {
+    /// The first position (a multiple of [`WINDOW`]); 2^127 when empty,
+    /// far from every position (below 2^67).
+    at: u128,
+    draws: [u64; WINDOW],
+}
+
+impl Window {
+    const EMPTY: Window = Window {
+        at: 1 << 127,
+        draws: [0; WINDOW],
+    };
+}
 
 /// Where a pass draws from (the region of the draw position).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -111,8 +133,9 @@ pub struct Random {
     base: u128,
     module: u64,
     draw: u64,
-    /// The draw position `rng` reads next (u128::MAX: unknown).
-    pos: u128,
+    /// The windows of the draws of order 0 and of the others (both of
+    /// the current stream).
+    windows: [Window; 2],
     /// Random constants: draws in order, no modules.
     sequential: bool,
     /// The step number the built-in `step` reads (issue 11).
@@ -135,7 +158,7 @@ impl Random {
             base: 0,
             module: 0,
             draw: 0,
-            pos: 0,
+            windows: [Window::EMPTY, Window::EMPTY],
             sequential: false,
             step: 0.0,
             cpfg: None,
@@ -217,7 +240,7 @@ impl Random {
         }
         if self.rng.get_stream() != stream {
             self.rng.set_stream(stream);
-            self.pos = u128::MAX;
+            self.windows = [Window::EMPTY, Window::EMPTY];
         }
         self.base = (region as u128) << 65;
         self.module = 0;
@@ -268,20 +291,32 @@ impl Random {
             }
             self.base | (self.draw as u128) << 59 | self.module as u128
         };
+        let w = &self.windows[usize::from(self.draw != 0)];
         self.draw += 1;
         self.draws += 1;
-        if p != self.pos {
-            if p > self.pos && p - self.pos <= 8 {
-                // A short gap: read past it in the buffer.
-                for _ in 0..(p - self.pos) {
-                    self.rng.next_u64();
-                }
-            } else {
-                self.rng.set_word_pos(2 * p);
-            }
+        let off = p.wrapping_sub(w.at);
+        if off < WINDOW as u128 {
+            return Ok(w.draws[off as usize]);
         }
-        self.pos = p + 1;
-        Ok(self.rng.next_u64())
+        Ok(self.refill(p))
+    }
+
+    /// Fill the window of draw `p` (of the current draw order) and return
+    /// the draw.
+    #[cold]
+    #[inline(never)]
+    fn refill(&mut self, p: u128) -> u64 {
+        let at = p & !(WINDOW as u128 - 1);
+        // Words 2P and 2P+1 of draw P: four whole blocks from `at`.
+        self.rng.set_word_pos(2 * at);
+        let mut bytes = [0u8; 8 * WINDOW];
+        self.rng.fill_bytes(&mut bytes);
+        let w = &mut self.windows[usize::from(self.draw != 1)];
+        for (d, b) in w.draws.iter_mut().zip(bytes.chunks_exact(8)) {
+            *d = u64::from_le_bytes(b.try_into().expect("8 bytes"));
+        }
+        w.at = at;
+        w.draws[(p - at) as usize]
     }
 }
 
@@ -380,6 +415,40 @@ mod tests {
         for i in 0..3u128 {
             let want = uniform_of(at(42, 0, 2 << 65 | i));
             assert_eq!(c.uniform().unwrap().to_bits(), want.to_bits());
+        }
+    }
+
+    #[test]
+    fn windows_are_positions() {
+        // Gaps inside and across windows, returns to an earlier window,
+        // several draws per module, and a stream change: each draw is the
+        // one at its position.
+        let mut r = Random::new(5);
+        let mut m = 0u64;
+        for (i, gap) in [0u64, 1, 1, 3, 30, 31, 32, 33, 1, 64, 2, 100, 5]
+            .into_iter()
+            .enumerate()
+        {
+            m += gap;
+            r.set_module(m);
+            for d in 0..(i as u64 % 4) {
+                let want = uniform_of(at(5, 0, (d as u128) << 59 | m as u128));
+                assert_eq!(r.uniform().unwrap().to_bits(), want.to_bits(), "{m} {d}");
+            }
+        }
+        for m in [3u64, 2, 40, 39] {
+            r.set_module(m);
+            let want = uniform_of(at(5, 0, m as u128));
+            assert_eq!(r.uniform().unwrap().to_bits(), want.to_bits(), "{m}");
+        }
+        r.start_pass(1, Region::Step);
+        r.set_module(39);
+        let want = uniform_of(at(5, 1, 39));
+        assert_eq!(r.uniform().unwrap().to_bits(), want.to_bits());
+        let mut c = Random::for_constants(5);
+        for i in 0..100u128 {
+            let want = uniform_of(at(5, 0, 2 << 65 | i));
+            assert_eq!(c.uniform().unwrap().to_bits(), want.to_bits(), "{i}");
         }
     }
 

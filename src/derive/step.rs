@@ -9,7 +9,8 @@
 //! memory.
 
 use super::bytetable::ByteTable;
-use super::choose::{Chooser, Piece};
+use super::bytetable::ASCII;
+use super::choose::{pick, Chooser, Folded, Piece};
 use super::context::{
     match_right, match_right_cpfg, walk_right, Chains, CpfgBrackets, LeftContext, RightCache, Walk,
 };
@@ -19,7 +20,7 @@ use super::{Origin, Pass};
 use crate::derive::random::Random;
 use crate::diag::Error;
 use crate::rules::codec::{self, Modules};
-use crate::rules::{Alphabet, KeyRules, Pat, Production, RPat, Table, CLOSE, OPEN};
+use crate::rules::{Alphabet, Item, KeyRules, Pat, Production, RPat, Table, CLOSE, OPEN};
 use std::cell::Cell;
 use std::fs::File;
 use std::io;
@@ -579,6 +580,12 @@ impl<'a> Deriver<'a> {
             }
             t
         });
+        // With the table, ASCII keys without parameters whose choice
+        // depends on nothing but the draw (`Folded`) take a short way too.
+        let folded = match &fast {
+            Some(_) if !st.cpfg_choice => folded_keys(table, &self.alphabet, cut),
+            _ => Vec::new(),
+        };
         loop {
             if let Some(fast) = &fast {
                 let window = rd.window().map_err(read_err)?;
@@ -593,6 +600,11 @@ impl<'a> Deriver<'a> {
                 rd.advance(used);
                 index += modules;
                 out.maybe_flush()?;
+                if !folded.is_empty()
+                    && self.folded_next(&folded, &mut rd, &mut index, table, &mut st, out, pass)?
+                {
+                    continue;
+                }
                 if used > 0 {
                     continue;
                 }
@@ -738,6 +750,47 @@ impl<'a> Deriver<'a> {
             return Err(unclosed(&self.origin, table, st.last_opener, pass));
         }
         Ok(())
+    }
+
+    /// If the next module is of a key with a [`Folded`] choice (`folded`,
+    /// by key: ASCII keys without parameters, so the module is one byte),
+    /// rewrite it as [`Deriver::apply`] would, with the draw at its index,
+    /// and do the rest of the pass's work on it. Out of line: the loop of
+    /// passes without such keys stays as it was.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn folded_next(
+        &mut self,
+        folded: &[Option<Folded>],
+        rd: &mut PosReader,
+        index: &mut u64,
+        table: &Table,
+        st: &mut StepState,
+        out: &mut Out,
+        pass: Pass,
+    ) -> Result<bool, Error> {
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
+        let Some(&b) = rd.window().map_err(read_err)?.first() else {
+            return Ok(false);
+        };
+        let Some(Some(f)) = folded.get(usize::from(b)) else {
+            return Ok(false);
+        };
+        let key = u32::from(b);
+        rd.advance(1);
+        self.rng.set_module(*index);
+        *index += 1;
+        let i = pick(&f.cand, f.total, &mut self.rng, table, &self.origin, pass)?;
+        for item in table.prods[f.cand[i].0 as usize].succ.iter() {
+            if let Item::Const(c) = item {
+                out.constant(c)?;
+            }
+        }
+        if let Some(left) = &mut st.left {
+            left.follow(key, &ASCII[key as usize..][..1], &self.alphabet);
+        }
+        out.maybe_flush()?;
+        Ok(true)
     }
 
     /// The copied module (key, arity `n`, ending at `end_off`; in
@@ -1004,6 +1057,28 @@ fn run_contexts(
         }
     };
     Ok(!surely_not(p, last, end, st, al)? && contexts_match(p, end, st, al, slots)?)
+}
+
+/// The [`Folded`] choice of each ASCII key without parameters that has
+/// one (indexed by the key; empty if none has).
+fn folded_keys(table: &Table, al: &Alphabet, cut: bool) -> Vec<Option<Folded>> {
+    let mut keys: Vec<Option<Folded>> = Vec::new();
+    for b in 0..128u32 {
+        if b == OPEN || b == CLOSE || (cut && b == u32::from(b'%')) {
+            continue;
+        }
+        let Some(kr) = table.get(b) else {
+            continue;
+        };
+        if al.arity(b) != 0 {
+            continue;
+        }
+        if let Some(f) = Folded::of(table, kr) {
+            keys.resize_with(b as usize + 1, || None);
+            keys[b as usize] = Some(f);
+        }
+    }
+    keys
 }
 
 /// A pass left a `[` open: blame `culprit`, the last production that

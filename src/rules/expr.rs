@@ -478,6 +478,7 @@ impl Code {
     }
 
     /// The value, if the expression needs no parameter and no draw.
+    #[inline]
     pub fn constant(&self) -> Option<f64> {
         match self.0 {
             Repr::Const { v, .. } => Some(v),

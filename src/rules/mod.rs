@@ -675,6 +675,10 @@ struct Extra {
 
 /// The top bit of `Production::slots_simple`.
 const RIGHT_SIMPLE: u32 = 1 << 31;
+/// The next bit: no context of any kind ([`Production::context_free`]).
+const NO_CONTEXT: u32 = 1 << 30;
+/// The bits of `slots_simple` that are flags.
+const FLAGS: u32 = RIGHT_SIMPLE | NO_CONTEXT;
 
 /// A production's cpfg-only parts (issue 12).
 #[derive(Clone, Debug, Default)]
@@ -724,7 +728,17 @@ impl Production {
         };
         p.set_nslots(nslots);
         p.set_right_simple(right_simple);
+        if left.is_empty() && right.is_empty() {
+            p.slots_simple |= NO_CONTEXT;
+        }
         p
+    }
+    /// No left or right context, and a predecessor of one module: every
+    /// context test passes without binding anything, so the choice skips
+    /// it. (A production given cpfg's parts loses the flag.)
+    #[inline(always)]
+    pub fn context_free(&self) -> bool {
+        self.slots_simple & NO_CONTEXT != 0
     }
     pub fn has_context(&self) -> bool {
         !self.left().is_empty() || !self.right().is_empty() || !self.rest().is_empty()
@@ -744,14 +758,14 @@ impl Production {
     /// How many parameter slots matching the production fills.
     #[inline(always)]
     pub fn nslots(&self) -> usize {
-        (self.slots_simple & !RIGHT_SIMPLE) as usize
+        (self.slots_simple & !FLAGS) as usize
     }
     pub fn set_nslots(&mut self, n: usize) {
         let n = u32::try_from(n)
             .ok()
-            .filter(|n| n & RIGHT_SIMPLE == 0)
-            .expect("a header under 2 GiB");
-        self.slots_simple = (self.slots_simple & RIGHT_SIMPLE) | n;
+            .filter(|n| n & FLAGS == 0)
+            .expect("a header under 1 GiB");
+        self.slots_simple = (self.slots_simple & FLAGS) | n;
     }
     /// The right context has no brackets: it is matched against the cached
     /// list of the next considered modules.
@@ -794,6 +808,8 @@ impl Production {
     }
     /// The cpfg-only parts, made on first use.
     pub fn cpfg_mut(&mut self) -> &mut CpfgParts {
+        // (Its `rest` may be set: a context for the choice.)
+        self.slots_simple &= !NO_CONTEXT;
         self.extra
             .get_or_insert_with(Box::default)
             .cpfg
