@@ -1153,7 +1153,7 @@ fn run_lsgen(
         wall,
         ..Run::default()
     };
-    // `lsgen: step 3: 448 modules, 448 bytes`, one line per generation.
+    // `lsgen: step 3: 1,448 modules, 1,448 bytes`, one line per generation.
     let mut last_bytes = 0;
     for line in stderr.lines() {
         let Some(rest) = line.rsplit(": ").next() else {
@@ -1163,6 +1163,8 @@ fn run_lsgen(
         if let (Some(m), Some("modules,"), Some(b), Some("bytes")) =
             (words.next(), words.next(), words.next(), words.next())
         {
+            // `-v` groups digits: `1,193 bytes`.
+            let (m, b) = (m.replace(',', ""), b.replace(',', ""));
             if let (Ok(m), Ok(b)) = (m.parse::<u64>(), b.parse::<u64>()) {
                 run.all_modules += m;
                 run.final_modules = m;
