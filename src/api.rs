@@ -61,7 +61,7 @@ pub struct Options {
     space: Option<u64>,
     threads: usize,
     split: Option<u64>,
-    direct: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+    direct: Option<std::sync::Arc<std::sync::atomic::AtomicU8>>,
 }
 
 impl Default for Options {
@@ -168,7 +168,7 @@ impl Options {
     /// several threads, and off after: the binary's `-o` file then writes
     /// around the page cache (`io::output::WriteBehind`).
     #[doc(hidden)]
-    pub fn direct_output(mut self, switch: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Self {
+    pub fn direct_output(mut self, switch: std::sync::Arc<std::sync::atomic::AtomicU8>) -> Self {
         self.direct = Some(switch);
         self
     }

@@ -50,7 +50,8 @@ pub(super) fn write_in_order(
     let (mut waited, mut idle) = (Duration::ZERO, Duration::ZERO);
     // The final text: the output may write it around the page cache
     // (`io::output::WriteBehind`), until this returns.
-    let _direct = out.around_cache();
+    // The writer has a thread of its own: it writes them itself.
+    let _direct = out.around_cache(false);
     let mut copy = Vec::new();
     let mut seq = 0;
     let r = loop {

@@ -119,7 +119,7 @@ pub(crate) struct Settings {
     pub split: Option<u64>,
     /// The output's switch for text made on several threads
     /// ([`crate::Options::direct_output`]).
-    pub direct: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+    pub direct: Option<std::sync::Arc<std::sync::atomic::AtomicU8>>,
 }
 
 /// Which generations `--frames A..B:K` writes: `from..=to`, every
@@ -512,7 +512,7 @@ pub(crate) fn derive(
             );
             par::expand(&plan, src, &d.alphabet, &d.origin, steps, split, &mut out)
         } else {
-            let _direct = out.around_cache();
+            let _direct = out.around_cache(true);
             plan.expand(src, &d.alphabet, &d.origin, steps, &mut out)
         };
         match expanded.and_then(|()| out.finish()) {
@@ -635,7 +635,7 @@ fn step_passes(
             {
                 Some(n) => drew = n,
                 None => {
-                    let _direct = out.around_cache();
+                    let _direct = out.around_cache(true);
                     d.pass(table, &src, indexed, &mut out, pass)?
                 }
             }

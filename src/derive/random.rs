@@ -18,11 +18,11 @@
 //! - random constants (`define:`) draw in file order from P = 2·2^65 on
 //!   (region 2, stream 0).
 //!
-//! Draws are read from windows of [`WINDOW`] consecutive positions, one
+//! Draws are read from windows of `WINDOW` consecutive positions, one
 //! for the draws of order 0 and one for the others: a module's first draw
 //! is an index into the window when an earlier module's fell in the same
 //! one, however many modules between them drew nothing; a window is
-//! refilled (`set_word_pos`, four ChaCha blocks) once per [`WINDOW`]
+//! refilled (`set_word_pos`, four ChaCha blocks) once per `WINDOW`
 //! positions.
 
 use crate::cpfg::random::CpfgRandom;

@@ -127,7 +127,7 @@ pub struct Out<'w> {
     pub(crate) taker: Option<&'w dyn Take>,
     /// The output's switch for writing around the page cache
     /// ([`crate::Options::direct_output`], [`Out::around_cache`]).
-    pub(crate) direct: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+    pub(crate) direct: Option<std::sync::Arc<std::sync::atomic::AtomicU8>>,
 }
 
 /// Append `b` to `buf`: runs of at most 16 bytes (most constant runs:
@@ -171,11 +171,12 @@ fn append_short(buf: &mut Vec<u8>, b: &[u8]) {
 
 /// The output's switch for writing around the page cache, on while this
 /// lives ([`Out::around_cache`]).
-pub(crate) struct AroundCache(std::sync::Arc<std::sync::atomic::AtomicBool>);
+pub(crate) struct AroundCache(std::sync::Arc<std::sync::atomic::AtomicU8>);
 
 impl Drop for AroundCache {
     fn drop(&mut self) {
-        self.0.store(false, std::sync::atomic::Ordering::Relaxed);
+        let off = crate::io::output::around_cache::OFF;
+        self.0.store(off, std::sync::atomic::Ordering::Relaxed);
     }
 }
 
@@ -248,9 +249,13 @@ impl<'w> Out<'w> {
     /// passes that make text slower than the disk takes it (parametric
     /// and step-by-step passes, the split's writer), not D0L expansion.
     /// None for a temporary generation or an output without the switch.
-    pub(crate) fn around_cache(&self) -> Option<AroundCache> {
+    /// `behind`: full buffers are written by a thread of the output's own
+    /// (`io::output::around_cache::BEHIND`), not by this one.
+    pub(crate) fn around_cache(&self, behind: bool) -> Option<AroundCache> {
+        use crate::io::output::around_cache::{BEHIND, HERE};
         let switch = self.direct.clone().filter(|_| self.text)?;
-        switch.store(true, std::sync::atomic::Ordering::Relaxed);
+        let mode = if behind { BEHIND } else { HERE };
+        switch.store(mode, std::sync::atomic::Ordering::Relaxed);
         Some(AroundCache(switch))
     }
 

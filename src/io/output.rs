@@ -314,7 +314,7 @@ impl Output {
     /// A regular file's switch for writing around the page cache while
     /// the text comes from several threads ([`WriteBehind`]), for
     /// [`crate::Options::direct_output`]; None for streams.
-    pub fn direct_switch(&self) -> Option<std::sync::Arc<std::sync::atomic::AtomicBool>> {
+    pub fn direct_switch(&self) -> Option<std::sync::Arc<std::sync::atomic::AtomicU8>> {
         match self {
             Output::Atomic { file, .. } => Some(file.want.clone()),
             _ => None,
@@ -599,6 +599,19 @@ pub fn leave_termination_signals_to_other_threads() {
     unsafe { libc::pthread_sigmask(libc::SIG_BLOCK, &set, std::ptr::null_mut()) };
 }
 
+/// How `-o`'s file takes the final text: the values of the switch
+/// ([`Output::direct_switch`]) that turns writing around the page cache on.
+pub mod around_cache {
+    /// Through the page cache.
+    pub const OFF: u8 = 0;
+    /// Around it, written by the thread that writes the text (the split's
+    /// writer, a thread of its own that would otherwise wait for text).
+    pub const HERE: u8 = 1;
+    /// Around it, full buffers written by a thread of the output's own
+    /// while the caller goes on (one thread deriving).
+    pub const BEHIND: u8 = 2;
+}
+
 /// The new file of `-o`, asking the kernel to start writing each 32 MiB
 /// to disk as soon as it is complete (`sync_file_range`, which does not
 /// wait). Without it a file smaller than the kernel's dirty limits waits in
@@ -613,9 +626,13 @@ pub fn leave_termination_signals_to_other_threads() {
 /// the text goes to disk directly (`O_DIRECT`, through aligned `Stage`s)
 /// instead of through the page cache: the kernel's copy of every byte into
 /// the cache costs CPU time the derivation needs (parametric_tree 10^8:
-/// `-j 2` 1.76 s → 1.58 s; `-j 1` 0.41 s of system time). Full stages are
-/// written by a thread of their own (`Behind`), which only waits for the
-/// disk, while the caller fills the next one. D0L expansion, which makes
+/// `-j 2` 1.76 s → 1.58 s; `-j 1` 0.41 s of system time). On one
+/// thread ([`around_cache::BEHIND`]) full stages are written by a thread
+/// of their own (`Behind`), which only waits for the disk, while the
+/// caller fills the next one; the split's writer, a thread of its own
+/// that would wait for text anyway, writes them itself
+/// ([`around_cache::HERE`]: one stage, not two and a thread, keeps `-j 2`
+/// under 16 MiB). D0L expansion, which makes
 /// text faster than this disk takes direct writes, keeps the page cache. A
 /// file system that refuses `O_DIRECT` (tmpfs) keeps the page cache.
 ///
@@ -624,7 +641,7 @@ pub struct WriteBehind {
     file: File,
     written: u64,
     started: u64,
-    want: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    want: std::sync::Arc<std::sync::atomic::AtomicU8>,
     /// Writing with `O_DIRECT`: the bytes not yet written.
     stage: Option<Stage>,
     /// `O_DIRECT` was refused: never asked for again.
@@ -690,6 +707,12 @@ impl WriteBehind {
     /// time; without it the stage is written here) and an empty one takes
     /// its place.
     fn hand_over(&mut self) -> io::Result<()> {
+        if self.want.load(Ordering::Relaxed) != around_cache::BEHIND {
+            if let Some(behind) = &mut self.behind {
+                self.refused |= behind.drain()?;
+            }
+            return self.write_staged();
+        }
         if self.behind.is_none() {
             self.behind = Behind::start(&self.file);
         }
@@ -726,8 +749,9 @@ impl WriteBehind {
 
 impl Write for WriteBehind {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        let want =
-            self.want.load(Ordering::Relaxed) && !self.refused && self.written >= self.direct_after;
+        let want = self.want.load(Ordering::Relaxed) != around_cache::OFF
+            && !self.refused
+            && self.written >= self.direct_after;
         if want != self.stage.is_some() {
             if !want {
                 self.leave_direct()?;
@@ -999,7 +1023,10 @@ mod tests {
             (x >> 33) % m
         };
         for round in 0..40u64 {
-            wb.want.store(round % 3 != 1, Ordering::Relaxed);
+            // Off, written here, written by the thread, every change.
+            let modes = [0u8, 1, 2, 1, 0, 2, 2, 0, 1];
+            wb.want
+                .store(modes[round as usize % modes.len()], Ordering::Relaxed);
             for _ in 0..next(12) {
                 let len = match next(4) {
                     0 => next(10) as usize,
@@ -1049,7 +1076,8 @@ mod tests {
         let file = std::fs::File::open(tmp.path()).unwrap();
         let mut wb = WriteBehind::new(file);
         wb.direct_after = 0;
-        wb.want.store(true, Ordering::Relaxed);
+        wb.want
+            .store(super::around_cache::BEHIND, Ordering::Relaxed);
         let piece = vec![7u8; Stage::SIZE];
         let mut failed = false;
         for _ in 0..4 {
