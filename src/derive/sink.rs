@@ -477,7 +477,7 @@ impl<'w> Out<'w> {
         if self.text {
             append_short(&mut self.buf, c.text());
         } else if !self.indexed {
-            self.buf.extend_from_slice(c.bin());
+            append_short(&mut self.buf, c.bin());
         } else {
             let base = self.buf.len();
             let start = self.modules - modules;
