@@ -199,7 +199,10 @@ fn completion_command() -> clap::Command {
         .filter(|a| !a.is_hide_set())
         .cloned()
         .collect();
+    // Its own help and version flags are among `shown`; clap asks for the
+    // version text that `--version` would print.
     clap::Command::new("lsgen")
+        .version(env!("CARGO_PKG_VERSION"))
         .disable_help_flag(true)
         .disable_version_flag(true)
         .args(shown)
