@@ -619,22 +619,21 @@ pub mod around_cache {
 /// while nothing else runs: about 0.6 s for 1.4 GB here, a serial tail that
 /// no thread count shortens.
 ///
-/// While the derivation writes its final text past the file's first
-/// 4 MiB (`DIRECT_AFTER`) ([`want`] set, by the
-/// derive code around the passes whose text is made slower than a disk
-/// takes it: parametric and step-by-step passes, and the split's writer),
-/// the text goes to disk directly (`O_DIRECT`, through aligned `Stage`s)
-/// instead of through the page cache: the kernel's copy of every byte into
-/// the cache costs CPU time the derivation needs (parametric_tree 10^8:
-/// `-j 2` 1.76 s → 1.58 s; `-j 1` 0.41 s of system time). On one
-/// thread ([`around_cache::BEHIND`]) full stages are written by a thread
-/// of their own (`Behind`), which only waits for the disk, while the
-/// caller fills the next one; the split's writer, a thread of its own
-/// that would wait for text anyway, writes them itself
-/// ([`around_cache::HERE`]: one stage, not two and a thread, keeps `-j 2`
-/// under 16 MiB). D0L expansion, which makes
-/// text faster than this disk takes direct writes, keeps the page cache. A
-/// file system that refuses `O_DIRECT` (tmpfs) keeps the page cache.
+/// While the derivation writes its final text ([`want`] set by the derive
+/// code around the passes that make text slower than a disk takes it:
+/// parametric and step-by-step passes, the split's writer), the text past
+/// the file's first 4 MiB (`DIRECT_AFTER`) goes to disk directly
+/// (`O_DIRECT`, through aligned `Stage`s) instead of through the page
+/// cache: the kernel's copy of every byte into the cache costs CPU time
+/// the derivation needs (parametric_tree 10^8: `-j 2` 1.76 s → 1.58 s;
+/// `-j 1` 0.41 s of system time). On one thread
+/// ([`around_cache::BEHIND`]) full stages are written by a thread of their
+/// own (`Behind`), which only waits for the disk, while the caller fills
+/// the next one; the split's writer, a thread of its own that would wait
+/// for text anyway, writes them itself ([`around_cache::HERE`]: one stage,
+/// not two and a thread, keeps `-j 2` under 16 MiB). D0L expansion, which
+/// makes text faster than this disk takes direct writes, keeps the page
+/// cache, as does a file system that refuses `O_DIRECT`.
 ///
 /// [`want`]: Output::direct_switch
 pub struct WriteBehind {
