@@ -113,3 +113,13 @@ fn negative_constant_weight_is_still_a_load_error() {
         );
     }
 }
+
+#[test]
+fn successors_with_parameters_and_the_key_seen_with_parameters() {
+    // F's successors carry constant parameters (1/3 folded at load, -0,
+    // 1e21, 1e-7) and a cut; G makes F(1), a module of F's symbol with a
+    // parameter that F's productions do not rewrite: it must stay as it is
+    // on the folded path too.
+    let src = "productions:\nF -> A(1/3)[+F]B(2)F : 1/3\nF -> F-G : 2/3\nF -> X(1e21,-0,1e-7)[%F] : 0.5\nA(x) -> A(x+1)\nB(x) : x > 1 -> B(x-1)F\nG -> F(1)G : 1\nG -> : 1\naxiom: F[F]GF\n";
+    check(src, &['F', 'G'], 4);
+}
