@@ -842,7 +842,18 @@ impl Behind {
             .name("lsgen-write".into())
             .spawn(move || {
                 for mut stage in stages {
-                    let r = write_units(&file, &mut stage);
+                    let r = write_units(&file, &mut stage).and_then(|refused| {
+                        if stage.len == 0 {
+                            return Ok(refused);
+                        }
+                        // A short write left less than a unit: the file's
+                        // end is off the units now, so this rest and all
+                        // that follows go through the page cache.
+                        set_direct(&file, false);
+                        (&file).write_all(stage.bytes())?;
+                        stage.consume(stage.len);
+                        Ok(true)
+                    });
                     if done.send((stage, r)).is_err() {
                         break;
                     }
