@@ -90,6 +90,18 @@ fn pattern_close_skips_rest_of_branch() {
 }
 
 #[test]
+fn every_module_of_a_branch_sees_what_follows_it() {
+    // `]` in a right context: the rest of the module's own branch is
+    // skipped, then B must follow. Each A of a branch (A of a nested
+    // branch: its `]` is followed by `A]`, not B); a later sibling branch.
+    // Remembered per level since the skip was quadratic in the branch.
+    assert_eq!(
+        one("productions:\nA > ]B -> C\naxiom: [AAAA]B[A[A]A[A]A]B[A]D\n"),
+        "[CCCC]B[C[A]C[A]C]B[A]D"
+    );
+}
+
+#[test]
 fn string_close_ends_the_search() {
     // A context never runs past the end of its own branch.
     assert_eq!(one("productions:\nA > B -> X\naxiom: [A]B\n"), "[A]B");

@@ -374,10 +374,16 @@ const WAYS: usize = 4;
 /// ask for a right context across it. A few per level, for patterns that
 /// walk several stretches of one level; memory grows with the nesting
 /// depth only.
+///
+/// Likewise the last [`skip_branch`] per level: from any offset in
+/// `lo..after` at that level, the branch ends just before `after`, so the
+/// modules of one long branch that each ask for a `]` in their right
+/// context (`A > ]B` on `[AA...A]B`) scan it once, not once each.
 #[derive(Default)]
 pub(crate) struct Chains {
     ways: Vec<[(u64, u64); WAYS]>,
     turn: Vec<usize>,
+    closes: Vec<(u64, u64)>,
 }
 
 impl Chains {
@@ -411,6 +417,30 @@ impl Chains {
             self.turn[level] = (t + 1) % WAYS;
         }
         Ok(at)
+    }
+
+    /// [`skip_branch`] from `pos`, at nesting level `level` of the input.
+    #[inline]
+    pub(crate) fn skip(
+        &mut self,
+        peek: &mut PosReader,
+        al: &Alphabet,
+        pos: u64,
+        level: usize,
+    ) -> io::Result<Option<u64>> {
+        if let Some(&(lo, after)) = self.closes.get(level) {
+            if lo <= pos && pos < after {
+                return Ok(Some(after));
+            }
+        }
+        let r = skip_branch(peek, al, pos)?;
+        if let Some(after) = r {
+            if self.closes.len() <= level {
+                self.closes.resize(level + 1, (u64::MAX, 0));
+            }
+            self.closes[level] = (pos, after);
+        }
+        Ok(r)
     }
 }
 
@@ -487,7 +517,7 @@ pub(crate) fn match_right(
             // The walk stays in the branch: skipping its rest from where
             // the walk stops is the same.
             let pos = chains.walk(peek, al, pos, level)?;
-            match skip_branch(peek, al, pos)? {
+            match chains.skip(peek, al, pos, level)? {
                 Some(after) => match_right(
                     peek,
                     al,
@@ -678,6 +708,47 @@ mod tests {
         (']', &[]),
         ('D', &[5.0]),
     ];
+
+    /// `Chains::skip` answers what `skip_branch` answers, and a second
+    /// module of the same branch gets it without reading: `A > ]B` on
+    /// `[AA...A]B` was quadratic.
+    #[test]
+    fn skipping_to_a_branch_end_is_remembered_per_level() {
+        // `[ A [ A ] A [ A ] A ] B [ A ] B`: levels 1, 2, 1, 2, 1, then a
+        // sibling branch at level 1.
+        let syms = "[A[A]A[A]A]B[A]B";
+        let modules: Vec<(char, &[f64])> = syms.chars().map(|c| (c, &[][..])).collect();
+        for indexed in [false, true] {
+            let mut s = system("productions:\nA > ]B -> X\n");
+            let f = generation(&mut s.alphabet, &modules, indexed);
+            let al = &s.alphabet;
+            // Each A: the offset after it and its level.
+            let mut rd = PosReader::new(&f, 1 << 10, indexed);
+            let (mut level, mut at) = (0usize, Vec::new());
+            while let Some((key, _, _)) = rd.next_module(al).unwrap() {
+                match al.symbol(key) {
+                    '[' => level += 1,
+                    ']' => level -= 1,
+                    'A' => at.push((rd.offset(), level)),
+                    _ => {}
+                }
+            }
+            let mut chains = Chains::default();
+            let mut peek = PosReader::new(&f, 1 << 10, indexed);
+            let mut fresh = PosReader::new(&f, 1 << 10, indexed);
+            for (i, &(pos, level)) in at.iter().enumerate() {
+                let want = skip_branch(&mut fresh, al, pos).unwrap();
+                peek.seek(0);
+                let got = chains.skip(&mut peek, al, pos, level).unwrap();
+                assert_eq!(got, want, "A number {i}, indexed {indexed}");
+                // The level-1 A after the first nested branch, and the
+                // one after the second: remembered, nothing read.
+                if i == 2 || i == 4 {
+                    assert_eq!(peek.offset(), 0, "A number {i} read the branch again");
+                }
+            }
+        }
+    }
 
     #[test]
     fn right_context_enters_a_branch_and_skips_the_rest() {
