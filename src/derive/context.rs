@@ -558,7 +558,9 @@ impl CpfgBrackets {
 /// else must equal the pattern element: so a `[` of the pattern enters
 /// only the first of several consecutive branches, a `]` of the pattern
 /// must meet a `]` and goes on after it, and a context never leaves its
-/// branch otherwise. `=` moves to the `]` that ends the current branch.
+/// branch otherwise. `=` moves to the `]` that ends the current branch
+/// (through `chains`, so that the modules of one long branch do not each
+/// scan it; `level` is the predecessor's nesting level, followed here).
 pub(crate) fn match_right_cpfg(
     peek: &mut PosReader,
     al: &Alphabet,
@@ -566,11 +568,12 @@ pub(crate) fn match_right_cpfg(
     pat: &[RPat],
     slots: &mut [f64],
     passed: CpfgBrackets,
+    (chains, mut level): (&mut Chains, usize),
 ) -> io::Result<bool> {
     let mut i = 0;
     while i < pat.len() {
         if pat[i] == RPat::SkipRest {
-            pos = match skip_branch(peek, al, pos)? {
+            pos = match chains.skip(peek, al, pos, level)? {
                 // `]` is one byte: stop on it.
                 Some(after) => after - 1,
                 None => u64::MAX,
@@ -589,6 +592,12 @@ pub(crate) fn match_right_cpfg(
             _ => al.ignored(key),
         };
         if ignored {
+            // A passed-over bracket enters or leaves a branch.
+            if key == OPEN {
+                level += 1;
+            } else if key == CLOSE {
+                level = level.saturating_sub(1);
+            }
             pos = next;
             continue;
         }
@@ -607,8 +616,8 @@ pub(crate) fn match_right_cpfg(
                     &mut slots[p.slot as usize..p.slot as usize + n],
                 );
             }
-            RPat::Open if key == OPEN => {}
-            RPat::Close if key == CLOSE => {}
+            RPat::Open if key == OPEN => level += 1,
+            RPat::Close if key == CLOSE => level = level.saturating_sub(1),
             _ => return Ok(false),
         }
         pos = next;

@@ -1143,9 +1143,11 @@ fn right_cpfg(
     slots: &mut [f64],
     passed: CpfgBrackets,
 ) -> Result<bool, Error> {
-    // From just after the predecessor.
+    // From just after the predecessor, at its level.
+    let level = st.level();
     let peek = st.peek.as_mut().unwrap();
-    match_right_cpfg(peek, al, end_off, p.right(), slots, passed)
+    let chains = (&mut st.chains, level);
+    match_right_cpfg(peek, al, end_off, p.right(), slots, passed, chains)
         .map_err(|e| Error::io("temporary file", crate::diag::IoAction::Read, e))
 }
 
