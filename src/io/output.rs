@@ -803,15 +803,19 @@ fn write_units(mut file: &File, stage: &mut Stage) -> io::Result<bool> {
             Ok(0) => return Err(io::ErrorKind::WriteZero.into()),
             Ok(n) => stage.consume(n),
             Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-            Err(e) if e.raw_os_error() == Some(libc::EINVAL) => {
-                set_direct(file, false);
-                file.write_all(stage.bytes())?;
-                stage.consume(stage.len);
-                return Ok(true);
-            }
+            Err(e) if e.raw_os_error() == Some(libc::EINVAL) => return through_cache(file, stage),
             Err(e) => return Err(e),
         }
     }
+}
+
+/// Leave `O_DIRECT` and write the rest of the stage through the page
+/// cache; true (direct writes are over for this file).
+fn through_cache(mut file: &File, stage: &mut Stage) -> io::Result<bool> {
+    set_direct(file, false);
+    file.write_all(stage.bytes())?;
+    stage.consume(stage.len);
+    Ok(true)
 }
 
 /// The thread that writes full stages to disk while the caller fills the
@@ -842,17 +846,12 @@ impl Behind {
             .name("lsgen-write".into())
             .spawn(move || {
                 for mut stage in stages {
-                    let r = write_units(&file, &mut stage).and_then(|refused| {
-                        if stage.len == 0 {
-                            return Ok(refused);
-                        }
-                        // A short write left less than a unit: the file's
-                        // end is off the units now, so this rest and all
-                        // that follows go through the page cache.
-                        set_direct(&file, false);
-                        (&file).write_all(stage.bytes())?;
-                        stage.consume(stage.len);
-                        Ok(true)
+                    // A short write that left less than a unit puts the
+                    // file's end off the units: this rest and all that
+                    // follows go through the page cache.
+                    let r = write_units(&file, &mut stage).and_then(|refused| match stage.len {
+                        0 => Ok(refused),
+                        _ => through_cache(&file, &mut stage),
                     });
                     if done.send((stage, r)).is_err() {
                         break;
