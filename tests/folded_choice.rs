@@ -123,3 +123,14 @@ fn successors_with_parameters_and_the_key_seen_with_parameters() {
     let src = "productions:\nF -> A(1/3)[+F]B(2)F : 1/3\nF -> F-G : 2/3\nF -> X(1e21,-0,1e-7)[%F] : 0.5\nA(x) -> A(x+1)\nB(x) : x > 1 -> B(x-1)F\nG -> F(1)G : 1\nG -> : 1\naxiom: F[F]GF\n";
     check(src, &['F', 'G'], 4);
 }
+
+#[test]
+fn in_the_table_beside_right_contexts_and_brackets() {
+    // A right context elsewhere makes every generation indexed (each `[`
+    // carries its branch's end): the table copies the brackets between
+    // F's, and F's draw positions must count each `[` as one module. F's
+    // and G's successors have no brackets, so the byte table draws for
+    // them; H's have brackets and go the folded path.
+    let src = "productions:\nA > B -> C\nB -> BA\nC -> A\nF -> F : 0.3\nF -> FF : 0.4\nF -> G : 0.3\nG -> F : 1\nG -> : 1\nH -> H[F] : 1\nH -> [G]H : 1\naxiom: F[AB]F[F[A]B]FAF[[F]G]HF\n";
+    check(src, &['F', 'G', 'H'], 6);
+}

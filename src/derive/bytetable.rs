@@ -1,10 +1,12 @@
 //! The D0L byte table: ASCII symbols whose step needs no decision are
 //! rewritten by a 128-entry table, in blocks.
 
+use super::choose::{by_weight, Folded};
 use super::context::LeftContext;
+use super::random::{Draw, Random};
 use super::sink::{Out, OUT_CHUNK};
 use crate::diag::Error;
-use crate::rules::{Alphabet, Table, CLOSE, OPEN};
+use crate::rules::{Alphabet, Item, Table, CLOSE, OPEN};
 
 /// Each ASCII byte, so a symbol can be copied as a one-byte slice.
 pub(crate) static ASCII: [u8; 128] = {
@@ -26,6 +28,45 @@ pub(crate) struct ByteTable<'t> {
     succ: [Option<FastSucc<'t>>; 128],
     /// Brackets take the general path too (it tracks branches for cuts).
     brackets_general: bool,
+    /// May successors with `[` or `]` be copied here?
+    brackets: bool,
+    text: bool,
+}
+
+/// The keys a [`ByteTable`] draws for ([`ByteTable::folds`]), by byte:
+/// looked at only where its `succ` has none. Apart from the table, so a
+/// pass without them has the table's loop as it was.
+#[derive(Default)]
+pub(crate) struct Folds<'t>(Vec<Option<FoldSucc<'t>>>);
+
+impl Folds<'_> {
+    /// Does the table draw for the folded key `b`?
+    pub(crate) fn has(&self, b: u8) -> bool {
+        matches!(self.0.get(usize::from(b)), Some(Some(_)))
+    }
+}
+
+/// A [`Folded`] key in the table: the draw at the module's index picks one
+/// of its successors, as [`super::choose::pick`] does.
+struct FoldSucc<'t> {
+    /// (weight, successor), in file order.
+    cand: Box<[(f64, FastSucc<'t>)]>,
+    total: f64,
+}
+
+impl<'t> FoldSucc<'t> {
+    /// The successor of the module at `index`; None if the draw fails
+    /// (the general path reports it).
+    #[inline]
+    fn pick(&self, rng: &mut Random, index: u64) -> Option<&FastSucc<'t>> {
+        let n = self.cand.len();
+        if n == 1 {
+            return Some(&self.cand[0].1);
+        }
+        rng.set_module(index);
+        let u = rng.uniform().ok()?;
+        Some(&self.cand[by_weight(u, self.total, n, |i| self.cand[i].0)].1)
+    }
 }
 
 /// A successor for the byte table. Short ones are padded to 16 bytes and
@@ -75,7 +116,45 @@ impl<'t> ByteTable<'t> {
         ByteTable {
             succ,
             brackets_general: false,
+            brackets,
+            text,
         }
+    }
+
+    /// The [`Folded`] keys (`folded`, by byte) whose successors are each
+    /// one run of modules the table may copy (no brackets where they may
+    /// not be copied here): [`ByteTable::run_folding`] draws for them at
+    /// the module's index instead of stopping. The others still stop it.
+    pub(crate) fn folds(&self, table: &'t Table, folded: &[Option<Folded>]) -> Folds<'t> {
+        let mut folds = Folds::default();
+        for (b, f) in folded.iter().enumerate() {
+            let Some(f) = f else {
+                continue;
+            };
+            if self.succ.get(b).is_none_or(|s| s.is_some()) {
+                continue;
+            }
+            let cand: Option<Box<[(f64, FastSucc)]>> = f
+                .cand
+                .iter()
+                .map(|&(pi, w)| match &*table.prods[pi as usize].succ {
+                    [] => Some((w, FastSucc::new(&[], 0))),
+                    [Item::Const(c)] if self.brackets || !c.has_brackets() => Some((
+                        w,
+                        FastSucc::new(if self.text { c.text() } else { c.bin() }, c.modules()),
+                    )),
+                    _ => None,
+                })
+                .collect();
+            if let Some(cand) = cand {
+                folds.0.resize_with(folds.0.len().max(b + 1), || None);
+                folds.0[b] = Some(FoldSucc {
+                    cand,
+                    total: f.total,
+                });
+            }
+        }
+        folds
     }
 
     /// Send byte `b` down the general path (the cut `%`).
@@ -94,9 +173,43 @@ impl<'t> ByteTable<'t> {
     /// bytes and how many modules it used. Modules that left contexts consider are recorded in
     /// `left`; brackets open and close its levels and the output's bracket
     /// index (`open_len`: the bytes of the input's `[`), and follow
-    /// the input's nesting `level`.
+    /// the input's nesting `level`. Folded keys stop it
+    /// ([`ByteTable::run_folding`] draws for them).
     #[inline]
     pub(crate) fn run(
+        &self,
+        input: &[u8],
+        out: &mut Out,
+        left: Option<&mut LeftContext>,
+        al: &Alphabet,
+        open_len: usize,
+        level: &mut i64,
+    ) -> Result<(usize, u64), Error> {
+        self.run_with::<false>(input, out, left, al, open_len, level, None)
+    }
+
+    /// [`ByteTable::run`], drawing for the keys of `folds` from `rng` at
+    /// their module's index (`index`: that of `input`'s first module). Out
+    /// of line: the loop of passes without them stays as it was.
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn run_folding(
+        &self,
+        folds: &Folds,
+        input: &[u8],
+        out: &mut Out,
+        left: Option<&mut LeftContext>,
+        al: &Alphabet,
+        open_len: usize,
+        level: &mut i64,
+        draws: (&mut Random, u64),
+    ) -> Result<(usize, u64), Error> {
+        self.run_with::<true>(input, out, left, al, open_len, level, Some((folds, draws)))
+    }
+
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn run_with<const FOLD: bool>(
         &self,
         input: &[u8],
         out: &mut Out,
@@ -104,7 +217,12 @@ impl<'t> ByteTable<'t> {
         al: &Alphabet,
         open_len: usize,
         level: &mut i64,
+        draws: Option<(&Folds, (&mut Random, u64))>,
     ) -> Result<(usize, u64), Error> {
+        let (folds, mut draws) = match draws {
+            Some((f, d)) => (Some(f), Some(d)),
+            None => (None, None),
+        };
         let mut i = 0;
         // Modules = bytes, less the index bytes of each `[`.
         let mut opens = 0u64;
@@ -114,7 +232,22 @@ impl<'t> ByteTable<'t> {
             if b >= 0x80 {
                 break;
             }
-            let Some(f) = &self.succ[b as usize] else {
+            let f = if let Some(f) = &self.succ[b as usize] {
+                f
+            } else if let Some(fs) = folds
+                .filter(|_| FOLD)
+                .and_then(|f| f.0.get(b as usize))
+                .and_then(Option::as_ref)
+            {
+                let Some((rng, index)) = &mut draws else {
+                    break;
+                };
+                let at = *index + i as u64 - (open_len as u64 - 1) * opens;
+                match fs.pick(rng, at) {
+                    Some(f) => f,
+                    None => break,
+                }
+            } else {
                 if self.brackets_general {
                     break;
                 }

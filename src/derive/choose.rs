@@ -55,16 +55,24 @@ pub(crate) fn pick(
             },
         )
     })?;
+    Ok(by_weight(u, total, n, |i| cand[i].1))
+}
+
+/// Which of `n` (> 1) candidates of weights `w(i)`, adding up to `total`
+/// in order, the draw `u` picks: the one copy of the weighted choice's
+/// arithmetic, for [`pick`] and the byte table's folded keys.
+#[inline(always)]
+pub(crate) fn by_weight(u: f64, total: f64, n: usize, w: impl Fn(usize) -> f64) -> usize {
     let mut u = u * total;
     let mut i = 0;
     while i < n - 1 {
-        u -= cand[i].1;
+        u -= w(i);
         if u < 0.0 {
             break;
         }
         i += 1;
     }
-    Ok(i)
+    i
 }
 
 /// [`pick`] out of line: the general choice's, so that the step pass's

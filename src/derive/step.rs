@@ -8,8 +8,8 @@
 //! over the same file, so skipping a branch of any size costs time, not
 //! memory.
 
-use super::bytetable::ByteTable;
 use super::bytetable::ASCII;
+use super::bytetable::{ByteTable, Folds};
 use super::choose::{pick, Chooser, Folded, Piece};
 use super::context::{
     match_right, match_right_cpfg, walk_right, Chains, CpfgBrackets, LeftContext, RightCache, Walk,
@@ -581,10 +581,16 @@ impl<'a> Deriver<'a> {
             t
         });
         // With the table, ASCII keys without parameters whose choice
-        // depends on nothing but the draw (`Folded`) take a short way too.
+        // depends on nothing but the draw (`Folded`) take a short way too
+        // (`folded_next`): the table draws for those whose successors it
+        // may copy.
         let folded = match &fast {
             Some(_) if !st.cpfg_choice => folded_keys(table, &self.alphabet, cut),
             _ => Vec::new(),
+        };
+        let folds = match &fast {
+            Some(t) if !folded.is_empty() => t.folds(table, &folded),
+            _ => Default::default(),
         };
         loop {
             if let Some(fast) = &fast {
@@ -601,7 +607,15 @@ impl<'a> Deriver<'a> {
                 index += modules;
                 out.maybe_flush()?;
                 if !folded.is_empty()
-                    && self.folded_next(&folded, &mut rd, &mut index, table, &mut st, out, pass)?
+                    && self.folded_next(
+                        (&folded, fast, &folds, open_len),
+                        &mut rd,
+                        &mut index,
+                        table,
+                        &mut st,
+                        out,
+                        pass,
+                    )?
                 {
                     continue;
                 }
@@ -755,13 +769,16 @@ impl<'a> Deriver<'a> {
     /// If the next module is of a key with a [`Folded`] choice (`folded`,
     /// by key: ASCII keys without parameters, so the module is one byte),
     /// rewrite it as [`Deriver::apply`] would, with the draw at its index,
-    /// and do the rest of the pass's work on it. Out of line: the loop of
-    /// passes without such keys stays as it was.
+    /// and do the rest of the pass's work on it; and so on while the next
+    /// module is one, with the byte table (`fast`, its input's `[` taking
+    /// `open_len` bytes) drawing for those it folds and copying what it
+    /// can between them. False if the next module was not one. Out of
+    /// line: the loop of passes without such keys stays as it was.
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn folded_next(
         &mut self,
-        folded: &[Option<Folded>],
+        (folded, fast, folds, open_len): (&[Option<Folded>], &ByteTable, &Folds, usize),
         rd: &mut PosReader,
         index: &mut u64,
         table: &Table,
@@ -770,27 +787,51 @@ impl<'a> Deriver<'a> {
         pass: Pass,
     ) -> Result<bool, Error> {
         let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
-        let Some(&b) = rd.window().map_err(read_err)?.first() else {
-            return Ok(false);
-        };
-        let Some(Some(f)) = folded.get(usize::from(b)) else {
-            return Ok(false);
-        };
-        let key = u32::from(b);
-        rd.advance(1);
-        self.rng.set_module(*index);
-        *index += 1;
-        let i = pick(&f.cand, f.total, &mut self.rng, table, &self.origin, pass)?;
-        for item in table.prods[f.cand[i].0 as usize].succ.iter() {
-            if let Item::Const(c) = item {
-                out.constant(c)?;
+        let mut any = false;
+        loop {
+            let window = rd.window().map_err(read_err)?;
+            let Some(&b) = window.first() else {
+                return Ok(any);
+            };
+            let Some(Some(f)) = folded.get(usize::from(b)) else {
+                return Ok(any);
+            };
+            if folds.has(b) {
+                let (used, modules) = fast.run_folding(
+                    folds,
+                    window,
+                    out,
+                    st.left.as_mut(),
+                    &self.alphabet,
+                    open_len,
+                    &mut st.level,
+                    (&mut self.rng, *index),
+                )?;
+                rd.advance(used);
+                *index += modules;
+                out.maybe_flush()?;
+                if used > 0 {
+                    any = true;
+                    continue;
+                }
+                // (The draw failed: `pick` below reports it.)
             }
+            let key = u32::from(b);
+            rd.advance(1);
+            self.rng.set_module(*index);
+            *index += 1;
+            let i = pick(&f.cand, f.total, &mut self.rng, table, &self.origin, pass)?;
+            for item in table.prods[f.cand[i].0 as usize].succ.iter() {
+                if let Item::Const(c) = item {
+                    out.constant(c)?;
+                }
+            }
+            if let Some(left) = &mut st.left {
+                left.follow(key, &ASCII[key as usize..][..1], &self.alphabet);
+            }
+            out.maybe_flush()?;
+            any = true;
         }
-        if let Some(left) = &mut st.left {
-            left.follow(key, &ASCII[key as usize..][..1], &self.alphabet);
-        }
-        out.maybe_flush()?;
-        Ok(true)
     }
 
     /// The copied module (key, arity `n`, ending at `end_off`; in
