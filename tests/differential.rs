@@ -1154,6 +1154,22 @@ fn right_contexts() {
 }
 
 #[test]
+fn one_module_contexts_around_ignored_modules() {
+    // At most one module (no parameters) on each side, deterministic,
+    // with ignored modules and branches between: keys whose choice
+    // depends on their neighbours' keys alone, which the step engine's
+    // byte table decides (derive::choose::Neighbours).
+    let cfg = Cfg {
+        left: 1,
+        right: 1,
+        filter: true,
+        context_share: 0.8,
+        ..CS
+    };
+    check_many("one_module_contexts", cfg, 500);
+}
+
+#[test]
 fn right_contexts_with_brackets() {
     let cfg = Cfg {
         right: 3,

@@ -1,10 +1,12 @@
-//! The D0L byte table: ASCII symbols whose step needs no decision are
-//! rewritten by a 128-entry table, in blocks.
+//! The byte table: ASCII symbols whose step needs no decision are
+//! rewritten by a 128-entry table, in blocks; keys whose decision needs
+//! only the draw or their neighbours' keys are decided there too
+//! ([`Choices`]).
 
-use super::choose::{by_weight, Folded};
+use super::choose::{by_weight, Folded, Neighbours, Pick};
 use super::context::LeftContext;
 use super::random::{Draw, Random};
-use super::sink::{Out, OUT_CHUNK};
+use super::sink::Out;
 use crate::diag::Error;
 use crate::rules::{Alphabet, Item, Table, CLOSE, OPEN};
 
@@ -33,16 +35,77 @@ pub(crate) struct ByteTable<'t> {
     text: bool,
 }
 
-/// The keys a [`ByteTable`] draws for ([`ByteTable::folds`]), by byte:
-/// looked at only where its `succ` has none. Apart from the table, so a
-/// pass without them has the table's loop as it was.
+/// The keys a [`ByteTable`] decides itself ([`ByteTable::choices`]),
+/// looked at only where its `succ` has none: folded keys, by the draw at
+/// the module's index, and keys chosen by their neighbours, by the keys of
+/// the nearest considered modules left and right. Apart from the table, so
+/// a pass without them has the table's loop as it was.
 #[derive(Default)]
-pub(crate) struct Folds<'t>(Vec<Option<FoldSucc<'t>>>);
+pub(crate) struct Choices<'t> {
+    folded: Vec<Option<FoldSucc<'t>>>,
+    /// By byte: what the step writes for each (left class, right class)
+    /// (`lclass * rn + rclass`): None copied, Some(None) nothing.
+    by_neighbours: Vec<Option<Box<[Pick<'t>]>>>,
+    /// The class of a left or right neighbour's byte: 0 for one no
+    /// context asks for (and for none, or a module of several bytes).
+    lclass: Vec<u8>,
+    rclass: Vec<u8>,
+    /// Right classes, 0 included.
+    rn: usize,
+    /// Bytes that contexts pass over.
+    ignored: Vec<bool>,
+}
 
-impl Folds<'_> {
-    /// Does the table draw for the folded key `b`?
+/// Most (left, right) entries of the neighbour tables in all: past it,
+/// further keys take the general path.
+const NEIGHBOUR_ENTRIES: usize = 1 << 16;
+
+impl Choices<'_> {
+    /// Does the table decide key `b` itself?
     pub(crate) fn has(&self, b: u8) -> bool {
-        matches!(self.0.get(usize::from(b)), Some(Some(_)))
+        let b = usize::from(b);
+        matches!(self.folded.get(b), Some(Some(_)))
+            || matches!(self.by_neighbours.get(b), Some(Some(_)))
+    }
+
+    /// Does it decide any key by its neighbours?
+    pub(crate) fn by_neighbours(&self) -> bool {
+        !self.by_neighbours.is_empty()
+    }
+
+    /// The right class of the module starting at `input[j]`'s nearest
+    /// considered module to the right, passing over ignored modules and
+    /// whole branches (their `[` holds the distance past their `]`:
+    /// `open_len` > 1) as `super::context::walk_right` does; None if
+    /// `input` does not tell (it ends first, a module of several bytes,
+    /// a branch without an index).
+    #[inline]
+    fn right_class(&self, input: &[u8], mut j: usize, open_len: usize) -> Option<usize> {
+        loop {
+            let b = *input.get(j)?;
+            if b >= 0x80 {
+                return None;
+            }
+            if b == b'[' {
+                if open_len < 9 {
+                    return None;
+                }
+                let dist = u64::from_le_bytes(input.get(j + 1..j + 9)?.try_into().ok()?);
+                if dist == 0 {
+                    return None;
+                }
+                j = j.checked_add(usize::try_from(dist).ok()?)?;
+                continue;
+            }
+            if b == b']' {
+                return Some(0);
+            }
+            if self.ignored[usize::from(b)] {
+                j += 1;
+                continue;
+            }
+            return Some(usize::from(self.rclass[usize::from(b)]));
+        }
     }
 }
 
@@ -121,12 +184,24 @@ impl<'t> ByteTable<'t> {
         }
     }
 
-    /// The [`Folded`] keys (`folded`, by byte) whose successors are each
-    /// one run of modules the table may copy (no brackets where they may
-    /// not be copied here): [`ByteTable::run_folding`] draws for them at
-    /// the module's index instead of stopping. The others still stop it.
-    pub(crate) fn folds(&self, table: &'t Table, folded: &[Option<Folded>]) -> Folds<'t> {
-        let mut folds = Folds::default();
+    /// The keys the table decides itself ([`ByteTable::run_choosing`]),
+    /// from those of `folded` and `neighbours` (by byte):
+    /// - [`Folded`] keys whose successors are each one run of modules the
+    ///   table may copy (no brackets where they may not be copied here):
+    ///   it draws for them at the module's index;
+    /// - [`Neighbours`] keys (not ignored): it reads their neighbours'
+    ///   keys, the left one from the left context (`left`: kept), the
+    ///   right one from its input where that tells.
+    ///
+    /// The others still stop it.
+    pub(crate) fn choices(
+        &self,
+        table: &'t Table,
+        (folded, neighbours): (&[Option<Folded>], &[Option<Neighbours<'t>>]),
+        al: &Alphabet,
+        left: bool,
+    ) -> Choices<'t> {
+        let mut ch = Choices::default();
         for (b, f) in folded.iter().enumerate() {
             let Some(f) = f else {
                 continue;
@@ -147,14 +222,62 @@ impl<'t> ByteTable<'t> {
                 })
                 .collect();
             if let Some(cand) = cand {
-                folds.0.resize_with(folds.0.len().max(b + 1), || None);
-                folds.0[b] = Some(FoldSucc {
+                ch.folded.resize_with(ch.folded.len().max(b + 1), || None);
+                ch.folded[b] = Some(FoldSucc {
                     cand,
                     total: f.total,
                 });
             }
         }
-        folds
+        // Classes: each key a context asks for, numbered from 1 in the
+        // order met; `lkeys`/`rkeys` hold them by class.
+        let (mut lkeys, mut rkeys) = (vec![None], vec![None]);
+        let (mut lclass, mut rclass) = (vec![0u8; 128], vec![0u8; 128]);
+        let keys: Vec<(usize, &Neighbours)> = neighbours
+            .iter()
+            .enumerate()
+            .filter_map(|(b, n)| Some((b, n.as_ref()?)))
+            .filter(|&(b, n)| {
+                self.succ.get(b).is_some_and(|s| s.is_none())
+                    && !al.ignored(b as u32)
+                    && (left || n.keys().all(|(l, _)| l.is_none()))
+            })
+            .collect();
+        for (_, n) in &keys {
+            for (l, r) in n.keys() {
+                for (k, class, keys) in [(l, &mut lclass, &mut lkeys), (r, &mut rclass, &mut rkeys)]
+                {
+                    if let Some(k) = k {
+                        if class[k as usize] == 0 {
+                            class[k as usize] = keys.len() as u8;
+                            keys.push(Some(k));
+                        }
+                    }
+                }
+            }
+        }
+        let entries = lkeys.len() * rkeys.len();
+        let mut total = 0;
+        for (b, n) in keys {
+            total += entries;
+            if total > NEIGHBOUR_ENTRIES {
+                break;
+            }
+            let by: Box<[Pick]> = lkeys
+                .iter()
+                .flat_map(|&l| rkeys.iter().map(move |&r| n.pick(l, r)))
+                .collect();
+            ch.by_neighbours
+                .resize_with(ch.by_neighbours.len().max(b + 1), || None);
+            ch.by_neighbours[b] = Some(by);
+        }
+        if !ch.by_neighbours.is_empty() {
+            ch.lclass = lclass;
+            ch.rclass = rclass;
+            ch.rn = rkeys.len();
+            ch.ignored = (0..128).map(|b| al.ignored(b)).collect();
+        }
+        ch
     }
 
     /// Send byte `b` down the general path (the cut `%`).
@@ -188,14 +311,15 @@ impl<'t> ByteTable<'t> {
         self.run_with::<false>(input, out, left, al, open_len, level, None)
     }
 
-    /// [`ByteTable::run`], drawing for the keys of `folds` from `rng` at
-    /// their module's index (`index`: that of `input`'s first module). Out
-    /// of line: the loop of passes without them stays as it was.
+    /// [`ByteTable::run`], deciding the keys of `choices` too: folded ones
+    /// draw from `rng` at their module's index (`index`: that of `input`'s
+    /// first module). Out of line: the loop of passes without them stays
+    /// as it was.
     #[inline(never)]
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn run_folding(
+    pub(crate) fn run_choosing(
         &self,
-        folds: &Folds,
+        choices: &Choices,
         input: &[u8],
         out: &mut Out,
         left: Option<&mut LeftContext>,
@@ -204,7 +328,15 @@ impl<'t> ByteTable<'t> {
         level: &mut i64,
         draws: (&mut Random, u64),
     ) -> Result<(usize, u64), Error> {
-        self.run_with::<true>(input, out, left, al, open_len, level, Some((folds, draws)))
+        self.run_with::<true>(
+            input,
+            out,
+            left,
+            al,
+            open_len,
+            level,
+            Some((choices, draws)),
+        )
     }
 
     #[inline(always)]
@@ -217,9 +349,12 @@ impl<'t> ByteTable<'t> {
         al: &Alphabet,
         open_len: usize,
         level: &mut i64,
-        draws: Option<(&Folds, (&mut Random, u64))>,
+        draws: Option<(&Choices, (&mut Random, u64))>,
     ) -> Result<(usize, u64), Error> {
-        let (folds, mut draws) = match draws {
+        // Stop where the output takes its buffer (a worker's block is
+        // smaller than a file's): it must not grow past it.
+        let limit = out.chunk;
+        let (choices, mut draws) = match draws {
             Some((f, d)) => (Some(f), Some(d)),
             None => (None, None),
         };
@@ -234,9 +369,9 @@ impl<'t> ByteTable<'t> {
             }
             let f = if let Some(f) = &self.succ[b as usize] {
                 f
-            } else if let Some(fs) = folds
+            } else if let Some(fs) = choices
                 .filter(|_| FOLD)
-                .and_then(|f| f.0.get(b as usize))
+                .and_then(|c| c.folded.get(b as usize))
                 .and_then(Option::as_ref)
             {
                 let Some((rng, index)) = &mut draws else {
@@ -247,6 +382,35 @@ impl<'t> ByteTable<'t> {
                     Some(f) => f,
                     None => break,
                 }
+            } else if let Some((ch, by)) = choices.filter(|_| FOLD).and_then(|c| {
+                let by = c.by_neighbours.get(b as usize)?.as_deref()?;
+                Some((c, by))
+            }) {
+                // Decided by its neighbours: the right one from the input,
+                // the left one from the left context.
+                let Some(r) = ch.right_class(input, i + 1, open_len) else {
+                    break;
+                };
+                let l = match left.as_deref().and_then(LeftContext::last_key) {
+                    Some(k) if k < 128 => usize::from(ch.lclass[k as usize]),
+                    _ => 0,
+                };
+                match by[l * ch.rn + r] {
+                    None => {
+                        out.buf.push(b);
+                        out.modules += 1;
+                    }
+                    Some(None) => {}
+                    Some(Some(c)) => out.constant(c)?,
+                }
+                if let Some(left) = &mut left {
+                    left.push(b as u32, &ASCII[b as usize..b as usize + 1], 0);
+                }
+                i += 1;
+                if out.buf.len() >= limit {
+                    break;
+                }
+                continue;
             } else {
                 if self.brackets_general {
                     break;
@@ -264,6 +428,9 @@ impl<'t> ByteTable<'t> {
                     }
                     i += n;
                     opens += 1;
+                    if out.buf.len() >= limit {
+                        break;
+                    }
                     continue;
                 }
                 if b == b']' {
@@ -274,6 +441,9 @@ impl<'t> ByteTable<'t> {
                         left.close();
                     }
                     i += 1;
+                    if out.buf.len() >= limit {
+                        break;
+                    }
                     continue;
                 }
                 break;
@@ -295,7 +465,7 @@ impl<'t> ByteTable<'t> {
                 }
             }
             i += 1;
-            if out.buf.len() >= OUT_CHUNK {
+            if out.buf.len() >= limit {
                 break;
             }
         }

@@ -135,6 +135,109 @@ impl Folded {
     }
 }
 
+/// A key whose choice depends on nothing but the keys of the nearest
+/// considered modules left and right of its module, each a one-byte module
+/// (ASCII, no parameters): what [`Chooser::choose_ls`] computes for it at
+/// every module, as a list. Its productions are a deterministic context
+/// group (no condition, no weight), each context at most one module of
+/// such a key, and optionally a deterministic context-free group whose
+/// first production (no condition) wins when no context matches; no
+/// numbered group's fallback; every successor known at load time.
+pub(crate) struct Neighbours<'t> {
+    /// The context group in order.
+    prods: Box<[ByNeighbours<'t>]>,
+    /// When none matches: the free group's winner, or the module is
+    /// copied (None).
+    otherwise: Pick<'t>,
+}
+
+/// A successor known at load time: None if empty.
+pub(crate) type Successor<'t> = Option<&'t ConstRun>;
+
+/// What a step writes for a module: a successor, or None: the module
+/// copied.
+pub(crate) type Pick<'t> = Option<Successor<'t>>;
+
+/// A production of a [`Neighbours`] key: its left and right context
+/// keys (None where it has no such context) and its successor.
+struct ByNeighbours<'t> {
+    left: Option<u32>,
+    right: Option<u32>,
+    succ: Successor<'t>,
+}
+
+impl<'t> Neighbours<'t> {
+    /// `kr`'s choice by neighbours, if it depends on nothing else.
+    pub(crate) fn of(table: &'t Table, kr: &KeyRules) -> Option<Neighbours<'t>> {
+        if !kr.has_context() || kr.fallback().is_some() || kr.context_stochastic() {
+            return None;
+        }
+        let succ = |p: &'t Production| -> Option<Successor<'t>> {
+            if p.cond.is_some() || p.pre().is_some() || p.post().is_some() || !p.rest().is_empty() {
+                return None;
+            }
+            match &*p.succ {
+                [] => Some(None),
+                [Item::Const(c)] => Some(Some(c)),
+                _ => None,
+            }
+        };
+        let byte = |k: u32| (k < 128).then_some(k);
+        let mut prods = Vec::new();
+        for &pi in table.context(kr) {
+            let p = &table.prods[pi as usize];
+            let left = match p.left() {
+                [] => None,
+                [pat] => Some(byte(pat.key)?),
+                _ => return None,
+            };
+            let right = match p.right() {
+                [] => None,
+                [crate::rules::RPat::Module(pat)] => Some(byte(pat.key)?),
+                _ => return None,
+            };
+            prods.push(ByNeighbours {
+                left,
+                right,
+                succ: succ(p)?,
+            });
+        }
+        let otherwise = if kr.has_free() {
+            if kr.free_stochastic() {
+                return None;
+            }
+            let p = &table.prods[*table.free(kr).first()? as usize];
+            if !p.context_free() {
+                return None;
+            }
+            Some(succ(p)?)
+        } else {
+            None
+        };
+        Some(Neighbours {
+            prods: prods.into_boxed_slice(),
+            otherwise,
+        })
+    }
+
+    /// The left and right context keys the productions ask for.
+    pub(crate) fn keys(&self) -> impl Iterator<Item = (Option<u32>, Option<u32>)> + '_ {
+        self.prods.iter().map(|p| (p.left, p.right))
+    }
+
+    /// What the step writes for a module whose nearest considered
+    /// modules are `left` and `right` (None: none, or not a one-byte
+    /// module).
+    pub(crate) fn pick(&self, left: Option<u32>, right: Option<u32>) -> Pick<'t> {
+        for p in self.prods.iter() {
+            if p.left.is_none_or(|l| left == Some(l)) && p.right.is_none_or(|r| right == Some(r)) {
+                return Some(p.succ);
+            }
+        }
+        self.otherwise
+    }
+}
+
 /// The reusable buffers of choice and evaluation: nothing is allocated per
 /// module once they have grown. The formal parameters of the production
 /// being tried (the predecessor's first, then its contexts') are the

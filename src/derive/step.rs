@@ -9,8 +9,8 @@
 //! memory.
 
 use super::bytetable::ASCII;
-use super::bytetable::{ByteTable, Folds};
-use super::choose::{pick, Chooser, Folded, Piece};
+use super::bytetable::{ByteTable, Choices};
+use super::choose::{pick, Chooser, Folded, Neighbours, Piece};
 use super::context::{
     match_right, match_right_cpfg, walk_right, Chains, CpfgBrackets, LeftContext, RightCache, Walk,
 };
@@ -581,17 +581,27 @@ impl<'a> Deriver<'a> {
             t
         });
         // With the table, ASCII keys without parameters whose choice
-        // depends on nothing but the draw (`Folded`) take a short way too
-        // (`folded_next`): the table draws for those whose successors it
-        // may copy.
-        let folded = match &fast {
-            Some(_) if !st.cpfg_choice => folded_keys(table, &self.alphabet, cut),
-            _ => Vec::new(),
+        // depends on nothing but the draw (`Folded`) or on the keys of
+        // their neighbours (`Neighbours`) take a short way too
+        // (`chosen_next`): the table decides those it can.
+        let (folded, neighbours) = match &fast {
+            Some(_) if !st.cpfg_choice => (
+                one_byte_keys(table, &self.alphabet, cut, Folded::of),
+                one_byte_keys(table, &self.alphabet, cut, Neighbours::of),
+            ),
+            _ => (Vec::new(), Vec::new()),
         };
-        let folds = match &fast {
-            Some(t) if !folded.is_empty() => t.folds(table, &folded),
-            _ => Default::default(),
+        let choices = match &fast {
+            Some(t) if !folded.is_empty() || !neighbours.is_empty() => t.choices(
+                table,
+                (&folded, &neighbours),
+                &self.alphabet,
+                st.left.is_some(),
+            ),
+            _ => Choices::default(),
         };
+        // Keys that take `chosen_next`.
+        let short = !folded.is_empty() || choices.by_neighbours();
         loop {
             if let Some(fast) = &fast {
                 let window = rd.window().map_err(read_err)?;
@@ -606,9 +616,9 @@ impl<'a> Deriver<'a> {
                 rd.advance(used);
                 index += modules;
                 out.maybe_flush()?;
-                if !folded.is_empty()
-                    && self.folded_next(
-                        (&folded, fast, &folds, open_len),
+                if short
+                    && self.chosen_next(
+                        (&folded, fast, &choices, open_len),
                         &mut rd,
                         &mut index,
                         table,
@@ -766,19 +776,19 @@ impl<'a> Deriver<'a> {
         Ok(())
     }
 
-    /// If the next module is of a key with a [`Folded`] choice (`folded`,
-    /// by key: ASCII keys without parameters, so the module is one byte),
-    /// rewrite it as [`Deriver::apply`] would, with the draw at its index,
-    /// and do the rest of the pass's work on it; and so on while the next
-    /// module is one, with the byte table (`fast`, its input's `[` taking
-    /// `open_len` bytes) drawing for those it folds and copying what it
+    /// If the next module is of a key the byte table decides (`choices`)
+    /// or of a key with a [`Folded`] choice (`folded`, by key: ASCII keys
+    /// without parameters, so the module is one byte), rewrite it as
+    /// [`Deriver::apply`] would and do the rest of the pass's work on it;
+    /// and so on while the next module is one, with the byte table
+    /// (`fast`, its input's `[` taking `open_len` bytes) copying what it
     /// can between them. False if the next module was not one. Out of
     /// line: the loop of passes without such keys stays as it was.
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
-    fn folded_next(
+    fn chosen_next(
         &mut self,
-        (folded, fast, folds, open_len): (&[Option<Folded>], &ByteTable, &Folds, usize),
+        (folded, fast, choices, open_len): (&[Option<Folded>], &ByteTable, &Choices, usize),
         rd: &mut PosReader,
         index: &mut u64,
         table: &Table,
@@ -793,12 +803,9 @@ impl<'a> Deriver<'a> {
             let Some(&b) = window.first() else {
                 return Ok(any);
             };
-            let Some(Some(f)) = folded.get(usize::from(b)) else {
-                return Ok(any);
-            };
-            if folds.has(b) {
-                let (used, modules) = fast.run_folding(
-                    folds,
+            if choices.has(b) {
+                let (used, modules) = fast.run_choosing(
+                    choices,
                     window,
                     out,
                     st.left.as_mut(),
@@ -814,8 +821,12 @@ impl<'a> Deriver<'a> {
                     any = true;
                     continue;
                 }
-                // (The draw failed: `pick` below reports it.)
+                // (A draw failed, `pick` below reports it; or the input
+                // does not tell a right neighbour: the general path.)
             }
+            let Some(Some(f)) = folded.get(usize::from(b)) else {
+                return Ok(any);
+            };
             let key = u32::from(b);
             rd.advance(1);
             self.rng.set_module(*index);
@@ -1100,10 +1111,16 @@ fn run_contexts(
     Ok(!surely_not(p, last, end, st, al)? && contexts_match(p, end, st, al, slots)?)
 }
 
-/// The [`Folded`] choice of each ASCII key without parameters that has
-/// one (indexed by the key; empty if none has).
-fn folded_keys(table: &Table, al: &Alphabet, cut: bool) -> Vec<Option<Folded>> {
-    let mut keys: Vec<Option<Folded>> = Vec::new();
+/// The choice `of` gives each ASCII key without parameters that has one
+/// ([`Folded`], [`Neighbours`]), indexed by the key (empty if none has).
+/// Not for brackets, nor the cut `%` (`cut`), whose copy is a cut.
+fn one_byte_keys<'t, T>(
+    table: &'t Table,
+    al: &Alphabet,
+    cut: bool,
+    of: impl Fn(&'t Table, &'t KeyRules) -> Option<T>,
+) -> Vec<Option<T>> {
+    let mut keys: Vec<Option<T>> = Vec::new();
     for b in 0..128u32 {
         if b == OPEN || b == CLOSE || (cut && b == u32::from(b'%')) {
             continue;
@@ -1114,7 +1131,7 @@ fn folded_keys(table: &Table, al: &Alphabet, cut: bool) -> Vec<Option<Folded>> {
         if al.arity(b) != 0 {
             continue;
         }
-        if let Some(f) = Folded::of(table, kr) {
+        if let Some(f) = of(table, kr) {
             keys.resize_with(b as usize + 1, || None);
             keys[b as usize] = Some(f);
         }
