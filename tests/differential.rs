@@ -1843,3 +1843,49 @@ fn frames_of_structural_systems_equal_single_runs() {
         assert!(hom.is_empty() || lines[2].contains("[%Q]") && lines[2].contains('J'));
     }
 }
+
+/// Keys decided by their neighbours in the byte table
+/// (derive::choose::Neighbours) over a generation larger than the step
+/// reader's window (1 MiB): windows and chunks end next to such keys, inside
+/// ignored runs longer than a window and inside branches, where the table
+/// must leave the module to the general path.
+#[test]
+fn one_module_contexts_across_reader_windows() {
+    let mut axiom = String::new();
+    let mut i = 0usize;
+    while axiom.len() < 4_000_000 {
+        let run = [0, 1, 3, 700, 5_000][i % 5] + (i % 7);
+        axiom.push_str(["ba", "ab", "ca", "a[", "da", "a]", "ac"][i % 7]);
+        axiom.push_str(&"+".repeat(run));
+        if i % 11 == 0 {
+            axiom.push_str("[c+a]");
+        }
+        if i % 1_001 == 500 {
+            axiom.push_str(&"+".repeat(1_200_000));
+        }
+        i += 1;
+    }
+    let depth = axiom.matches('[').count() - axiom.matches(']').count();
+    axiom.push_str(&"]".repeat(depth));
+    // (`]` never runs ahead of `[`: each `a]` follows an earlier `a[`.)
+    let src = format!(
+        "ignore: +\nproductions:\nb < a > c -> b[+c]\nc < a -> \na > d -> dd\nb > a -> c\nd < b -> a\nc > b -> [a]\na > a -> e\naxiom:\n{axiom}\n"
+    );
+    for steps in [1, 2] {
+        match compare(&src, Some(steps), None, 50_000_000) {
+            Outcome::Same { error: false, .. } => {}
+            Outcome::Same { error: true, .. } => panic!("{steps} steps: an error"),
+            Outcome::Skipped => panic!("{steps} steps: too long for the reference"),
+            Outcome::Differ { expected, actual } => panic!(
+                "{steps} steps differ:\nreference: {}\nlsgen:     {}",
+                clip(&expected),
+                clip(&actual)
+            ),
+        }
+        let one = lsgen_text(&src, Some(steps), None);
+        assert!(
+            one == lsgen_text_on(&src, Some(steps), None, (2, 65_536)),
+            "{steps} steps: -j 2 differs from -j 1"
+        );
+    }
+}
