@@ -296,8 +296,8 @@ impl<'t> ByteTable<'t> {
     /// bytes and how many modules it used. Modules that left contexts consider are recorded in
     /// `left`; brackets open and close its levels and the output's bracket
     /// index (`open_len`: the bytes of the input's `[`), and follow
-    /// the input's nesting `level`. Folded keys stop it
-    /// ([`ByteTable::run_folding`] draws for them).
+    /// the input's nesting `level`. The keys of [`Choices`] stop it
+    /// ([`ByteTable::run_choosing`] decides them).
     #[inline]
     pub(crate) fn run(
         &self,
@@ -388,8 +388,16 @@ impl<'t> ByteTable<'t> {
             }) {
                 // Decided by its neighbours: the right one from the input,
                 // the left one from the left context.
-                let Some(r) = ch.right_class(input, i + 1, open_len) else {
-                    break;
+                // (No production asks for a right neighbour: no need to
+                // read one, where an unindexed branch would stop the
+                // table.)
+                let r = if ch.rn == 1 {
+                    0
+                } else {
+                    match ch.right_class(input, i + 1, open_len) {
+                        Some(r) => r,
+                        None => break,
+                    }
                 };
                 let l = match left.as_deref().and_then(LeftContext::last_key) {
                     Some(k) if k < 128 => usize::from(ch.lclass[k as usize]),
