@@ -3,12 +3,12 @@
 //! only the draw or their neighbours' keys are decided there too
 //! ([`Choices`]).
 
-use super::choose::{by_weight, Folded, Neighbours, Pick};
+use super::choose::{draw_weighted, Folded, Neighbours, Pick};
 use super::context::LeftContext;
-use super::random::{Draw, Random};
+use super::random::Random;
 use super::sink::Out;
 use crate::diag::Error;
-use crate::rules::{Alphabet, Item, Table, CLOSE, OPEN};
+use crate::rules::{codec, Alphabet, Item, Table, CLOSE, OPEN};
 
 /// Each ASCII byte, so a symbol can be copied as a one-byte slice.
 pub(crate) static ASCII: [u8; 128] = {
@@ -52,8 +52,6 @@ pub(crate) struct Choices<'t> {
     rclass: Vec<u8>,
     /// Right classes, 0 included.
     rn: usize,
-    /// Bytes that contexts pass over.
-    ignored: Vec<bool>,
 }
 
 /// Most (left, right) entries of the neighbour tables in all: past it,
@@ -80,27 +78,30 @@ impl Choices<'_> {
     /// `input` does not tell (it ends first, a module of several bytes,
     /// a branch without an index).
     #[inline]
-    fn right_class(&self, input: &[u8], mut j: usize, open_len: usize) -> Option<usize> {
+    fn right_class(
+        &self,
+        input: &[u8],
+        mut j: usize,
+        open_len: usize,
+        al: &Alphabet,
+    ) -> Option<usize> {
         loop {
             let b = *input.get(j)?;
             if b >= 0x80 {
                 return None;
             }
             if b == b'[' {
-                if open_len < 9 {
+                if open_len == 1 {
                     return None;
                 }
-                let dist = u64::from_le_bytes(input.get(j + 1..j + 9)?.try_into().ok()?);
-                if dist == 0 {
-                    return None;
-                }
+                let dist = codec::branch_dist(input.get(j + 1..j + 1 + codec::ENDS_BYTES)?)?;
                 j = j.checked_add(usize::try_from(dist).ok()?)?;
                 continue;
             }
             if b == b']' {
                 return Some(0);
             }
-            if self.ignored[usize::from(b)] {
+            if al.ignored(u32::from(b)) {
                 j += 1;
                 continue;
             }
@@ -122,13 +123,9 @@ impl<'t> FoldSucc<'t> {
     /// (the general path reports it).
     #[inline]
     fn pick(&self, rng: &mut Random, index: u64) -> Option<&FastSucc<'t>> {
-        let n = self.cand.len();
-        if n == 1 {
-            return Some(&self.cand[0].1);
-        }
         rng.set_module(index);
-        let u = rng.uniform().ok()?;
-        Some(&self.cand[by_weight(u, self.total, n, |i| self.cand[i].0)].1)
+        let i = draw_weighted(rng, self.total, self.cand.len(), |i| self.cand[i].0).ok()?;
+        Some(&self.cand[i].1)
     }
 }
 
@@ -275,7 +272,6 @@ impl<'t> ByteTable<'t> {
             ch.lclass = lclass;
             ch.rclass = rclass;
             ch.rn = rkeys.len();
-            ch.ignored = (0..128).map(|b| al.ignored(b)).collect();
         }
         ch
     }
@@ -394,7 +390,7 @@ impl<'t> ByteTable<'t> {
                 let r = if ch.rn == 1 {
                     0
                 } else {
-                    match ch.right_class(input, i + 1, open_len) {
+                    match ch.right_class(input, i + 1, open_len, al) {
                         Some(r) => r,
                         None => break,
                     }

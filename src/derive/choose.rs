@@ -6,7 +6,7 @@
 use super::random::{Draw, Random};
 use super::{Origin, Pass};
 use crate::cpfg::random::select;
-use crate::diag::Error;
+use crate::diag::{Error, RandomError};
 use crate::rules::{ConstRun, Item, KeyRules, Production, Table};
 
 /// A `.l` file's productions of a key: one list (the front end merges
@@ -41,11 +41,7 @@ pub(crate) fn pick(
     origin: &Origin,
     pass: Pass,
 ) -> Result<usize, Error> {
-    let n = cand.len();
-    if n == 1 {
-        return Ok(0);
-    }
-    let u = rng.uniform().map_err(|m| {
+    draw_weighted(rng, total, cand.len(), |i| cand[i].1).map_err(|m| {
         let p = &table.prods[cand[0].0 as usize];
         Error::at(
             origin.locate(p.start()),
@@ -54,16 +50,24 @@ pub(crate) fn pick(
                 pass,
             },
         )
-    })?;
-    Ok(by_weight(u, total, n, |i| cand[i].1))
+    })
 }
 
-/// Which of `n` (> 1) candidates of weights `w(i)`, adding up to `total`
-/// in order, the draw `u` picks: the one copy of the weighted choice's
-/// arithmetic, for [`pick`] and the byte table's folded keys.
+/// Which of `n` (> 0) candidates of weights `w(i)`, adding up to `total`
+/// in order, the current module's draw picks; one wins without a draw.
+/// The one copy of the weighted choice, for [`pick`] and the byte table's
+/// folded keys.
 #[inline(always)]
-pub(crate) fn by_weight(u: f64, total: f64, n: usize, w: impl Fn(usize) -> f64) -> usize {
-    let mut u = u * total;
+pub(crate) fn draw_weighted(
+    rng: &mut Random,
+    total: f64,
+    n: usize,
+    w: impl Fn(usize) -> f64,
+) -> Result<usize, RandomError> {
+    if n == 1 {
+        return Ok(0);
+    }
+    let mut u = rng.uniform()? * total;
     let mut i = 0;
     while i < n - 1 {
         u -= w(i);
@@ -72,7 +76,7 @@ pub(crate) fn by_weight(u: f64, total: f64, n: usize, w: impl Fn(usize) -> f64) 
         }
         i += 1;
     }
-    i
+    Ok(i)
 }
 
 /// [`pick`] out of line: the general choice's, so that the step pass's

@@ -173,8 +173,7 @@ impl<'f> PosReader<'f> {
     /// never closed (its index is 0).
     #[inline]
     pub(crate) fn indexed_end(&self, s: usize) -> Option<u64> {
-        let dist = u64::from_le_bytes(self.buf[s + 1..s + 9].try_into().unwrap());
-        (dist > 0).then(|| self.start + s as u64 + dist)
+        codec::branch_dist(&self.buf[s + 1..]).map(|dist| self.start + s as u64 + dist)
     }
 
     /// For a `[` read at `s` (next module at `next`): the offset just past

@@ -19,6 +19,15 @@ pub const INDEX_BYTES: usize = 16;
 /// Index bytes of a `[` without module counts.
 pub const ENDS_BYTES: usize = 8;
 
+/// From the index bytes after a `[` (at least [`ENDS_BYTES`]): the
+/// distance from the `[` to just past its `]`, None if it is never
+/// closed (0).
+#[inline]
+pub fn branch_dist(index: &[u8]) -> Option<u64> {
+    let dist = u64::from_le_bytes(index[..ENDS_BYTES].try_into().expect("ENDS_BYTES bytes"));
+    (dist > 0).then_some(dist)
+}
+
 /// Longest encoded module: 5 key bytes + 255 parameters.
 pub const MAX_ARITY: usize = 255;
 pub const MAX_MODULE_BYTES: usize = 5 + 8 * MAX_ARITY;
