@@ -1064,7 +1064,10 @@ fn run_threads(
             };
             args.extend(["-o".into(), out.clone().into()]);
             args.extend(["--tmpdir".into(), scratch.into()]);
+            // One seed: every run must write the same string (checked).
+            args.extend(["--seed".into(), "1".into()]);
             let mut serial = None;
+            let mut string = None;
             for j in [1u32, 2] {
                 let mut a = args.clone();
                 a.extend(["-j".into(), j.to_string().into()]);
@@ -1072,7 +1075,15 @@ fn run_threads(
                 let mut best: Option<(f64, Option<f64>, Option<u64>)> = None;
                 for rep in 0..reps {
                     let r = timed(lsgen, &a, &time_file, gnu_time)?;
+                    let hash = hash_file(&out)?;
                     let _ = fs::remove_file(&out);
+                    if *string.get_or_insert(hash) != hash {
+                        return Err(format!(
+                            "threads {} 1e{} -j {j}: not the string of -j 1",
+                            w.name,
+                            log10(size)
+                        ));
+                    }
                     eprintln!(
                         "suite: threads {} 1e{} -j {j} [{}/{reps}]: {:.3} s",
                         w.name,
@@ -1106,6 +1117,23 @@ fn run_threads(
         }
     }
     Ok(md)
+}
+
+/// A hash of the file's bytes, to tell that two runs wrote the same.
+fn hash_file(path: &Path) -> Result<u64, String> {
+    use std::hash::Hasher;
+    use std::io::Read;
+    let mut f = fs::File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    let mut buf = vec![0; 1 << 20];
+    loop {
+        match f.read(&mut buf) {
+            Ok(0) => return Ok(h.finish()),
+            Ok(n) => h.write(&buf[..n]),
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(format!("{}: {e}", path.display())),
+        }
+    }
 }
 
 fn log10(size: u64) -> u32 {

@@ -561,6 +561,7 @@ fn spilled_chunks_of_context_passes_keep_the_bracket_index() {
     // 64 bytes (LSGEN_TEST_SPILL) the chunks the writer has not reached
     // spill, and the writer reads the spill files back in pieces that cut
     // modules: the same string as one thread, nothing left in --tmpdir.
+    // (Blocks of other sizes too, below.)
     let dir = tempdir();
     let tmp = dir.path().join("tmp");
     std::fs::create_dir(&tmp).unwrap();
@@ -583,22 +584,32 @@ fn spilled_chunks_of_context_passes_keep_the_bracket_index() {
     let one = run(&mut cmd).ok();
     assert!(one.len() > 10_000, "{}", one.len());
     let mut spilled = 0;
-    for j in ["2", "8"] {
-        for split in ["700", "5000"] {
-            let mut cmd = lsgen();
-            cmd.env("LSGEN_TEST_SPLIT", split)
-                .env("LSGEN_TEST_SPILL", "64")
-                .env("LSGEN_DEBUG_PAR", "1")
-                .args(["-j", j]);
-            args(&mut cmd);
-            let r = run(&mut cmd);
-            assert_eq!(r.code(), Some(0), "{}", r.stderr);
-            let (bytes, _, _) = spill_report(&r.stderr);
-            assert!(one.as_bytes() == r.stdout, "-j {j}, chunks of {split}");
-            spilled += bytes;
-            let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().collect();
-            assert!(left.is_empty(), "{left:?}");
-        }
+    // Blocks of 57 to 79 bytes: the writer's flushes (at a block's size
+    // in tests) fall at various places in the pieces it copies, also
+    // between a `[` and its index bytes, or inside them; the index of a
+    // branch closed after its block was handed over must still reach the
+    // file whole (it once lost the bytes still in the writer's buffer).
+    let runs = [("2", "700"), ("8", "700"), ("2", "5000"), ("8", "5000")]
+        .map(|(j, split)| (j, split, 64))
+        .into_iter()
+        .chain((57..=79).map(|block| ("2", "700", block)));
+    for (j, split, block) in runs {
+        let mut cmd = lsgen();
+        cmd.env("LSGEN_TEST_SPLIT", split)
+            .env("LSGEN_TEST_SPILL", block.to_string())
+            .env("LSGEN_DEBUG_PAR", "1")
+            .args(["-j", j]);
+        args(&mut cmd);
+        let r = run(&mut cmd);
+        assert_eq!(r.code(), Some(0), "{}", r.stderr);
+        let (bytes, _, _) = spill_report(&r.stderr);
+        assert!(
+            one.as_bytes() == r.stdout,
+            "-j {j}, chunks of {split}, blocks of {block}"
+        );
+        spilled += bytes;
+        let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().collect();
+        assert!(left.is_empty(), "{left:?}");
     }
     assert!(spilled > 0, "nothing spilled");
 }

@@ -52,6 +52,12 @@ pub(super) fn write_in_order(
     // (`io::output::WriteBehind`), until this returns.
     // The writer has a thread of its own: it writes them itself.
     let _direct = out.around_cache(false);
+    // Tests (`LSGEN_TEST_SPILL`): the writer flushes at the size of a
+    // block too, so that its flushes fall inside modules of spilled text.
+    let flush_at = out.chunk;
+    if shared.eager {
+        out.chunk = shared.chunk;
+    }
     let mut copy = Vec::new();
     let mut seq = 0;
     let r = loop {
@@ -119,6 +125,7 @@ pub(super) fn write_in_order(
     // nor the producer for room in the gate.
     shared.closed.store(true, Ordering::Relaxed);
     shared.gate.close();
+    out.chunk = flush_at;
     if shared.debug {
         crate::diag::eprint(&format!(
             "lsgen: par: writer: cpu {:.3} s, waited {:.3} s for text, {:.3} s for tasks; {seq} tasks\n",

@@ -395,6 +395,10 @@ impl<'w> Out<'w> {
         Ok(())
     }
 
+    /// The `[` at `at` is flushed; its index bytes may not all be: the
+    /// writer of a split pass copies spilled text in pieces that can cut
+    /// a `[` from its index. The flushed part goes to the file, the rest
+    /// to the buffer (which is written after it).
     #[cold]
     fn put_index_flushed(&mut self, at: u64, dist: u64, count: u64) -> Result<(), Error> {
         if let Some(ci) = &mut self.chunk_index {
@@ -403,8 +407,15 @@ impl<'w> Out<'w> {
             let mut index = [0; INDEX_BYTES];
             index[..8].copy_from_slice(&dist.to_le_bytes());
             index[8..].copy_from_slice(&count.to_le_bytes());
-            file.write_all_at(&index[..self.index_len()], at + 1)
+            let index = &index[..self.index_len()];
+            // Index bytes before the buffer (flushed): `at + 1` is at
+            // most `written`.
+            let flushed = usize::try_from(self.written - (at + 1))
+                .map_or(index.len(), |n| n.min(index.len()));
+            let (in_file, in_buf) = index.split_at(flushed);
+            file.write_all_at(in_file, at + 1)
                 .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
+            self.buf[..in_buf.len()].copy_from_slice(in_buf);
         }
         Ok(())
     }
@@ -795,11 +806,17 @@ mod tests {
             let want = read(&mut f);
             // Chunks of `per` modules; the worker hands over a block after
             // every module or never; the writer flushes after every block
-            // or never.
-            for per in 1..=string.len() {
-                for (worker_flushes, writer_flushes) in
-                    [(false, false), (true, false), (false, true), (true, true)]
-                {
+            // or never, or copies the chunk's blocks from a spill file in
+            // pieces of `piece` bytes, which cut modules (a `[` from its
+            // index bytes too), flushing after each.
+            let writers = [None, Some(None)]
+                .into_iter()
+                .chain((1..=INDEX_BYTES + 2).map(|p| Some(Some(p))));
+            for (per, writer) in
+                (1..=string.len()).flat_map(|p| writers.clone().map(move |w| (p, w)))
+            {
+                for worker_flushes in [false, true] {
+                    let writer_flushes = writer.is_some();
                     let mut f = tempfile::tempfile().unwrap();
                     let index = f.try_clone().unwrap();
                     let blocks = Blocks::default();
@@ -823,6 +840,23 @@ mod tests {
                             worker.flush().unwrap();
                             let ci = worker.end_chunk().unwrap();
                             let base = out.position();
+                            if let Some(Some(piece)) = writer {
+                                let spill = tempfile::tempfile().unwrap();
+                                let mut len = 0;
+                                for b in blocks.0.borrow_mut().drain(..) {
+                                    spill.write_all_at(&b, len).unwrap();
+                                    len += b.len() as u64;
+                                }
+                                out.chunk = piece;
+                                let mut copy = Vec::new();
+                                super::super::handoff::copy_spill(
+                                    &spill,
+                                    (len, piece),
+                                    &mut copy,
+                                    &mut out,
+                                )
+                                .unwrap();
+                            }
                             for b in blocks.0.borrow_mut().drain(..) {
                                 out.put_block(&b, 0).unwrap();
                                 if writer_flushes {
@@ -837,7 +871,7 @@ mod tests {
                     assert_eq!(
                         read(&mut f),
                         want,
-                        "counts {counts}, {per} a chunk, flushes {worker_flushes} {writer_flushes}"
+                        "counts {counts}, {per} a chunk, flushes {worker_flushes} {writer:?}"
                     );
                 }
             }
