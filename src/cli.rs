@@ -495,7 +495,18 @@ fn open_input(path: Option<&Path>) -> Result<Input, Error> {
                     io::Error::from(io::ErrorKind::IsADirectory),
                 ));
             }
-            Ok(Input::new(Box::new(f), name))
+            // A regular file may be read at any offset: a long axiom is
+            // read on several threads (`derive::par::axiom_prefix`).
+            let file = f
+                .metadata()
+                .is_ok_and(|m| m.is_file())
+                .then(|| f.try_clone().ok())
+                .flatten();
+            let input = Input::new(Box::new(f), name);
+            Ok(match file {
+                Some(file) => input.with_file(file),
+                None => input,
+            })
         }
     }
 }

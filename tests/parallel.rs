@@ -613,3 +613,164 @@ fn spilled_chunks_of_context_passes_keep_the_bracket_index() {
     }
     assert!(spilled > 0, "nothing spilled");
 }
+
+/// (stdout, stderr, exit status) of lsgen on `-j threads`, the axiom read
+/// in pieces of `split` bytes (`LSGEN_TEST_SPLIT`).
+fn axiom_run(
+    threads: &str,
+    split: &str,
+    args: &[&std::ffi::OsStr],
+) -> (Vec<u8>, String, Option<i32>) {
+    let r = run(lsgen()
+        .env("LSGEN_TEST_SPLIT", split)
+        .args(["-j", threads])
+        .args(args));
+    r.assert_no_crash();
+    let code = r.code();
+    (r.stdout, r.stderr, code)
+}
+
+#[test]
+fn a_long_axiom_is_read_on_several_threads_as_on_one() {
+    // The leading plain modules of an axiom in a regular file are read in
+    // pieces on several threads (`par::axiom_prefix`), the rest on one:
+    // pieces cut anywhere (3 to 1000 bytes), plain runs broken by
+    // parameters, blanks, line ends, comments, `/`, a `%` (a cut), UTF-8
+    // symbols; axioms in the .ls file (comments) and given with --axiom,
+    // with a byte-order mark and CRLF. The same string as one thread.
+    let dir = tempdir();
+    let signal =
+        std::fs::read_to_string(Path::new(ROOT).join("benches/workloads/context_signal.ls"))
+            .unwrap();
+    let header = signal.split("axiom:").next().unwrap().to_string();
+    let with_cut = "productions:\nA < B > C -> B[A]\nB -> C\nC > [ -> %\n";
+    let mut plain = String::new();
+    for i in 0..300 {
+        plain.push_str(["F1[+F0]", "F1F1", "[-1[+0]]", "F0", "1+[F]-"][i % 5]);
+    }
+    let mixed = format!(
+        "{plain}F(1)FF[F(2, 3)]F (4){plain}  F\n{plain}/F/F//[F]\u{e9}{plain}\r\n1 /* c */ 0{plain}%{plain}"
+    );
+    let abc = "ABC[AB[C]A]BCCAB".repeat(200);
+    let cases: Vec<(&str, String, String)> = vec![
+        ("signal", header.clone(), plain.clone()),
+        ("signal_mixed", header.clone(), mixed.clone()),
+        ("cut", with_cut.to_string(), format!("{abc}[{abc}]{abc}")),
+        (
+            "cut_mixed",
+            with_cut.to_string(),
+            format!("{abc}F(1){abc} {abc}"),
+        ),
+        (
+            "cut_in_axiom",
+            header.clone(),
+            format!("{plain}[F1%F0]{plain}"),
+        ),
+    ];
+    let mut runs = 0;
+    for (name, header, axiom) in &cases {
+        let ls = common::write(
+            dir.path(),
+            &format!("{name}.ls"),
+            format!("{header}axiom: {axiom}\n"),
+        );
+        let bare = common::write(
+            dir.path(),
+            &format!("{name}_h.ls"),
+            format!("{header}axiom: F\n"),
+        );
+        let ax = dir.path().join(format!("{name}.txt"));
+        std::fs::write(&ax, format!("\u{feff}{axiom}\n")).unwrap();
+        for n in ["1", "2"] {
+            let embedded = [std::ffi::OsStr::new("-n"), n.as_ref(), ls.as_os_str()];
+            let given = [
+                std::ffi::OsStr::new("-n"),
+                n.as_ref(),
+                "--axiom".as_ref(),
+                ax.as_os_str(),
+                bare.as_os_str(),
+            ];
+            for args in [&embedded[..], &given[..]] {
+                let one = axiom_run("1", "3", args);
+                assert_eq!(one.2, Some(0), "{name}: {}", one.1);
+                for split in ["3", "7", "64", "1000"] {
+                    for j in ["2", "8"] {
+                        let many = axiom_run(j, split, args);
+                        assert!(
+                            one == many,
+                            "{name} -n {n} {args:?}: -j {j}, pieces of {split}: {}",
+                            many.1
+                        );
+                        runs += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(runs > 100);
+    // The pieces are read on threads of their own (not one piece: the
+    // test would then prove nothing).
+    let ax = dir.path().join("signal.txt");
+    let r = run(lsgen()
+        .env("LSGEN_TEST_SPLIT", "64")
+        .env("LSGEN_DEBUG_PAR", "1")
+        .args(["-j", "2", "-n", "1", "--axiom"])
+        .arg(&ax)
+        .arg(dir.path().join("signal_h.ls")));
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    let pieces: u64 = r
+        .stderr
+        .lines()
+        .filter(|l| l.contains("lsgen-axiom-"))
+        .map(|l| {
+            let t = l.split(" tasks (").next().unwrap();
+            t.rsplit(' ').next().unwrap().parse::<u64>().unwrap()
+        })
+        .sum();
+    assert!(pieces > 10, "{}", r.stderr);
+}
+
+#[test]
+fn an_error_after_or_inside_a_split_axiom_is_the_one_of_one_thread() {
+    // The error, its location and its quote are those of one thread,
+    // whether it lies in the pieces read on several threads (a `]` that
+    // closes nothing) or after them; no output file is left.
+    let dir = tempdir();
+    let plain = "F1[+F0]F1F1[-1[+0]]F0".repeat(50);
+    let header = "ignore: +-F\nproductions:\n0 < 1 > 0 -> 1[+F1]\n1 -> 0\n";
+    let bad = [
+        format!("{plain}]{plain}"),
+        format!("{plain}[{plain}"),
+        format!("[{plain}"),
+        format!("{plain}F(1+){plain}"),
+        format!("{plain}\n{plain}:F"),
+        format!("{plain}F /* never closed {plain}"),
+        format!("{plain}]"),
+        format!("{plain}]]F"),
+    ];
+    for (i, axiom) in bad.iter().enumerate() {
+        let ls = common::write(
+            dir.path(),
+            &format!("e{i}.ls"),
+            format!("{header}axiom: {axiom}\n"),
+        );
+        let o = dir.path().join("out.txt");
+        let args = [
+            std::ffi::OsStr::new("-n"),
+            "2".as_ref(),
+            "-o".as_ref(),
+            o.as_os_str(),
+            ls.as_os_str(),
+        ];
+        let one = axiom_run("1", "5", &args);
+        assert_eq!(one.2, Some(1), "case {i}: {}", one.1);
+        assert!(one.1.contains("error"), "case {i}: {}", one.1);
+        for split in ["5", "64", "333"] {
+            for j in ["2", "8"] {
+                let many = axiom_run(j, split, &args);
+                assert_eq!(one, many, "case {i}: -j {j}, pieces of {split}");
+                assert!(!o.exists(), "case {i}");
+            }
+        }
+    }
+}

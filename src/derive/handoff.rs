@@ -39,13 +39,14 @@ pub(super) type Judge<'j> = Option<&'j mut dyn FnMut(&super::split::Balance) -> 
 /// The writer: each task's text, task after task, into `out`: its blocks
 /// as they come, and what it spilled while it was not the one written; a
 /// chunk's bracket index is completed where it ends ([`Msg::Index`]).
-/// `judge` judges each chunk's bracket balance.
+/// `judge` judges each chunk's bracket balance. Returns what a task marked
+/// the last ([`Msg::Last`]) said, after which nothing more is written.
 pub(super) fn write_in_order(
     order_rx: Receiver<Receiver<Msg>>,
     out: &mut Out,
     shared: &Shared,
     mut judge: Judge,
-) -> Result<(), Error> {
+) -> Result<Option<u64>, Error> {
     let cpu = thread_cpu();
     let (mut waited, mut idle) = (Duration::ZERO, Duration::ZERO);
     // The final text: the output may write it around the page cache
@@ -60,7 +61,11 @@ pub(super) fn write_in_order(
     }
     let mut copy = Vec::new();
     let mut seq = 0;
+    let mut last = None;
     let r = loop {
+        if last.is_some() {
+            break Ok(());
+        }
         let t = Instant::now();
         let Ok(rx) = order_rx.recv() else {
             break Ok(());
@@ -106,6 +111,7 @@ pub(super) fn write_in_order(
                     out.extend(&[], modules);
                     break Ok(());
                 }
+                Ok(Msg::Last(at)) => last = Some(at),
                 Ok(Msg::Balance(b)) => {
                     if let Some(judge) = &mut judge {
                         if let Err(e) = judge(&b) {
@@ -134,7 +140,7 @@ pub(super) fn write_in_order(
             idle.as_secs_f64(),
         ));
     }
-    r
+    r.map(|()| last)
 }
 
 /// Write the `len` bytes of a spill file into `out`, through `buf`, in
@@ -188,6 +194,10 @@ pub(super) enum Msg {
     Spilled(File, u64),
     /// The task is complete: its number of modules.
     End(u64),
+    /// The task is the last to write (sent before its end); what it tells
+    /// the caller ([`super::par::axiom_prefix`]: where the axiom's reader
+    /// goes on).
+    Last(u64),
     /// A chunk's bracket balance (sent before its end or error).
     Balance(Box<super::split::Balance>),
     /// What of a chunk's bracket index its worker left to the writer (sent
@@ -382,9 +392,9 @@ impl<'a> Order<'a> {
     /// for room in the [`Gate`]); None when the writer is gone.
     pub(super) fn open(&self) -> Option<Slot> {
         // Room for QUEUE blocks, a chunk's balance, the spill file, its
-        // index and the end: a task not being written never waits for the
-        // writer.
-        let (tx, rx) = mpsc::sync_channel(QUEUE + 4);
+        // index, whether it is the last, and the end: a task not being
+        // written never waits for the writer.
+        let (tx, rx) = mpsc::sync_channel(QUEUE + 5);
         let t = Instant::now();
         let sent = self.shared.gate.enter() && self.tx.send(rx).is_ok();
         self.waited.set(self.waited.get() + t.elapsed());
@@ -527,6 +537,13 @@ impl<'a> Current<'a> {
                 }
                 let _ = tx.send(Msg::Err(err.unwrap_or(e)));
             }
+        }
+    }
+
+    /// The task is the last one the writer writes ([`Msg::Last`]).
+    pub(super) fn last(&self, at: u64) {
+        if let Some(tx) = self.tx.borrow().as_ref() {
+            let _ = tx.send(Msg::Last(at));
         }
     }
 

@@ -227,6 +227,33 @@ fn sink<'a>(
     })
 }
 
+/// Read the rest of the axiom into `out`, module after module (`cuts`: a
+/// `%` was read).
+fn read_axiom(
+    reader: &mut AxiomReader,
+    out: &mut Out,
+    d: &mut Deriver,
+    params: &mut Vec<f64>,
+    cuts: &mut bool,
+) -> Result<(), Error> {
+    let pct = u32::from(b'%');
+    loop {
+        reader.plain_run(|run| {
+            *cuts |= run.contains(&b'%');
+            out.plain(run)
+        })??;
+        d.rng.set_module(out.modules);
+        match reader.next(&mut d.alphabet, params, &mut d.rng)? {
+            Some(key) => {
+                *cuts |= key == pct;
+                out.module(key, params, &d.alphabet)?
+            }
+            None => return Ok(()),
+        }
+        out.maybe_flush()?;
+    }
+}
+
 fn rewind(f: &mut File) -> Result<(), Error> {
     f.set_len(0)
         .and_then(|_| f.seek(SeekFrom::Start(0)).map(|_| ()))
@@ -276,7 +303,6 @@ pub(crate) fn derive(
         || decomposition.as_ref().is_some_and(|(d, _)| d.has_right)
         || groups.iter().any(|(_, t)| t.has_right)
         || (hom && homomorphism.has_right);
-    let pct = u32::from(b'%');
     let passes = steps + u64::from(hom);
     let strategy = settings.strategy;
     let not_depth_first = || Error::new(crate::diag::UsageError::NotDepthFirst);
@@ -357,24 +383,62 @@ pub(crate) fn derive(
     d.cpfg_block(When::Start, Pass::Axiom)?;
     {
         let index = (indexed, d.counts);
-        let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, index)?;
         let mut params = Vec::new();
-        loop {
-            reader.plain_run(|run| {
-                axiom_cuts |= run.contains(&b'%');
-                out.plain(run)
-            })??;
-            d.rng.set_module(out.modules);
-            match reader.next(&mut d.alphabet, &mut params, &mut d.rng)? {
-                Some(key) => {
-                    axiom_cuts |= key == pct;
-                    out.module(key, &params, &d.alphabet)?
+        let limited = limits.modules != u64::MAX || limits.bytes != u64::MAX;
+        // A long axiom in a regular file, written to a temporary file: its
+        // leading plain modules on several threads (`par::axiom_prefix`;
+        // not with `--max-length`, checked in order on one thread).
+        let split = (
+            settings.threads,
+            settings.split.or_else(par::test_split),
+            tmpdir,
+        );
+        let name = reader.name().to_string();
+        let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, index)?;
+        let mut start = None;
+        let prefix = match reader.file_rest()? {
+            Some(rest) if !out.text && !limited => {
+                let p = par::axiom_prefix(rest, split, (&name, &mut out))?;
+                if p.is_some() {
+                    // (Read there before the split.)
+                    start = Some(reader.state());
                 }
-                None => break,
+                p
             }
-            out.maybe_flush()?;
-        }
-        let len = generation(Pass::Axiom, out.finish()?);
+            _ => None,
+        };
+        let read = &mut |reader: &mut AxiomReader, out: &mut Out, cuts: &mut bool| {
+            read_axiom(reader, out, &mut d, &mut params, cuts)
+        };
+        let whole = match prefix {
+            None => {
+                read(&mut reader, &mut out, &mut axiom_cuts)?;
+                true
+            }
+            Some(par::AxiomPrefix::Upto { at, depth, percent }) => {
+                axiom_cuts |= percent;
+                reader.skip_plain(at, depth)?;
+                read(&mut reader, &mut out, &mut axiom_cuts).is_ok()
+            }
+            Some(par::AxiomPrefix::Again) => false,
+        };
+        let len = if whole {
+            out.finish()?
+        } else {
+            // An error after the split (or an unbalanced `]` in it): read
+            // the axiom again from its start on one thread, which reports
+            // the error as one thread does, with the same quote.
+            drop(out);
+            if let Some(f) = cur.as_mut() {
+                rewind(f)?;
+            }
+            reader.back_to(&start.expect("the state before the split"))?;
+            axiom_cuts = false;
+            let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, index)?;
+            read(&mut reader, &mut out, &mut axiom_cuts)?;
+            out.finish()?
+        };
+        let len = generation(Pass::Axiom, len);
         if passes == 0 && frames.is_none() {
             return Ok(len);
         }

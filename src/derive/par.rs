@@ -293,6 +293,165 @@ pub(crate) fn step_pass(
     Ok(done.map(|_| draws.load(Ordering::Relaxed)))
 }
 
+/// Bytes of the axiom's text per task of [`axiom_prefix`].
+const AXIOM_CHUNK: u64 = 256 << 10;
+
+/// What [`axiom_prefix`] wrote.
+pub(crate) enum AxiomPrefix {
+    /// Plain modules up to file offset `at`, where the reader goes on
+    /// ([`crate::io::axiom::AxiomReader::skip_plain`]) at nesting depth
+    /// `depth`; `percent`: they hold a `%`.
+    Upto { at: u64, depth: u64, percent: bool },
+    /// A `]` among them closes nothing, or the split stopped short: what
+    /// was written is to be dropped, and the axiom read on one thread
+    /// (which reports the error where one thread does).
+    Again,
+}
+
+/// Generation 0 on `threads` threads: the leading plain modules of the
+/// axiom in the regular file `file` from offset `from` (of `len` bytes;
+/// `comments`: `/` may open one), each its own byte (an axiom of many
+/// megabytes is mostly such). The text is cut into pieces of
+/// [`AXIOM_CHUNK`] bytes, at any byte: within plain modules every byte is
+/// a module. A worker reads a piece (and two bytes past it) and writes
+/// the modules [`crate::io::axiom::plain_prefix`] finds there, with the
+/// bracket index as a chunk of a step pass does ([`step_pass`]); a piece
+/// that ends early (parameters, blanks, a comment, the end of the axiom)
+/// is the last written, and the one-thread reader goes on after it. The
+/// writer judges each piece's brackets in order ([`super::split::Balance`]).
+/// None when no thread could be started or the text is short (nothing
+/// written).
+pub(crate) fn axiom_prefix(
+    (file, from, len, comments): (&File, u64, u64, bool),
+    (threads, split, tmpdir): (usize, Option<u64>, &Option<PathBuf>),
+    (name, out): (&str, &mut Out),
+) -> Result<Option<AxiomPrefix>, Error> {
+    use crate::io::axiom::plain_prefix;
+    use std::os::unix::fs::FileExt;
+    use std::sync::atomic::AtomicBool;
+    let size = split.unwrap_or(AXIOM_CHUNK).max(1);
+    if len.saturating_sub(from) <= 2 * size {
+        return Ok(None);
+    }
+    let threads = resolve(threads);
+    if threads < 2 {
+        return Ok(None);
+    }
+    let shared = &Shared::new(
+        tmpdir,
+        super::handoff::STEP_BUDGET,
+        (threads, threads * IN_FLIGHT),
+    );
+    let out_index = (out.indexed, out.counts());
+    let percent = &AtomicBool::new(false);
+    let mut check = super::split::BalanceCheck::default();
+    let mut unbalanced = false;
+    let written = std::thread::scope(|s| -> Result<Option<Option<u64>>, Error> {
+        let (task_tx, task_rx) = mpsc::channel::<((u64, u64), Slot)>();
+        let task_rx = Arc::new(Mutex::new(task_rx));
+        let (order_tx, order_rx) = mpsc::channel::<Receiver<Msg>>();
+        let mut workers = 0;
+        for w in 0..threads {
+            let task_rx = Arc::clone(&task_rx);
+            let h = std::thread::Builder::new()
+                .name(format!("lsgen-axiom-{w}"))
+                .spawn_scoped(s, move || {
+                    let current = Current::new(shared, w);
+                    let mut sink = std::io::sink();
+                    let mut out = Out::new(&mut sink, "output", false, super::Limits::default());
+                    if out_index.0 {
+                        out = out.with_chunk_index(out_index.1);
+                    }
+                    out.chunk = shared.chunk;
+                    out.taker = Some(&current);
+                    let mut bytes = Vec::new();
+                    while let Some(((start, end), slot)) = current.next(&task_rx) {
+                        current.start(slot);
+                        out.begin_chunk();
+                        let before = out.modules;
+                        let mut balance = super::split::Balance::default();
+                        let r = (|| {
+                            bytes.resize(((end + 2).min(len) - start) as usize, 0);
+                            file.read_exact_at(&mut bytes, start)
+                                .map_err(|e| Error::io(name, IoAction::Read, e))?;
+                            let p = plain_prefix(&bytes, (end - start) as usize, comments);
+                            let plain = &bytes[..p.len];
+                            if plain.contains(&b'%') {
+                                percent.store(true, Ordering::Relaxed);
+                            }
+                            // In pieces of half a block: the sink's buffer
+                            // stays about a block.
+                            for piece in plain.chunks((shared.chunk / 2).max(1)) {
+                                out.plain(piece)?;
+                                out.maybe_flush()?;
+                            }
+                            out.flush()?;
+                            if p.low < 0 {
+                                balance.lows.push((p.low, None));
+                            }
+                            balance.depth = p.depth;
+                            if p.stopped {
+                                current.last(start + p.len as u64);
+                            }
+                            Ok(())
+                        })();
+                        out.buf.clear();
+                        let index = out.end_chunk();
+                        let modules = out.modules - before;
+                        current.end(r.map(|()| modules), Some(Box::new(balance)), index);
+                    }
+                    current.report();
+                });
+            if h.is_err() {
+                break;
+            }
+            workers += 1;
+        }
+        if workers == 0 {
+            return Ok(None);
+        }
+        let producer = std::thread::Builder::new()
+            .name("lsgen-axiom".into())
+            .spawn_scoped(s, move || {
+                let order = Order::new(order_tx, shared);
+                let mut start = from;
+                while start < len {
+                    let end = (start + size).min(len);
+                    let sent = order
+                        .open()
+                        .is_some_and(|slot| task_tx.send(((start, end), slot)).is_ok());
+                    if !sent {
+                        break;
+                    }
+                    start = end;
+                }
+                order.report();
+            });
+        if producer.is_err() {
+            return Ok(None);
+        }
+        let mut judge = |b: &super::split::Balance| {
+            check.next(b).map_err(|_| {
+                unbalanced = true;
+                Error::new(crate::diag::RuntimeError::WorkerStopped)
+            })
+        };
+        match write_in_order(order_rx, out, shared, Some(&mut judge)) {
+            Ok(last) => Ok(Some(last)),
+            Err(_) if unbalanced => Ok(Some(None)),
+            Err(e) => Err(e),
+        }
+    })?;
+    Ok(written.map(|last| match last {
+        Some(at) => AxiomPrefix::Upto {
+            at,
+            depth: u64::try_from(check.depth()).unwrap_or(0),
+            percent: percent.load(Ordering::Relaxed),
+        },
+        None => AxiomPrefix::Again,
+    }))
+}
+
 /// One task: modules (binary) of various generations, or inert runs, in
 /// string order.
 struct Task<'t> {
@@ -384,7 +543,7 @@ pub(crate) fn expand(
             return plan.expand(input, al, origin, steps, out);
         }
         // Write the tasks' text in task order.
-        write_in_order(order_rx, out, shared, None)
+        write_in_order(order_rx, out, shared, None).map(|_| ())
     })
 }
 

@@ -471,11 +471,23 @@ impl<'w> Out<'w> {
         }
         let start = self.modules;
         self.modules += run.len() as u64;
+        // The run's bytes at their places, each `[` followed by its index
+        // bytes (zero until its `]` patches them): the buffer grows once,
+        // and the loop stores each byte without a push.
+        let il = self.index_len();
+        let opens = run.iter().filter(|&&b| b == b'[').count();
+        let mut j = self.buf.len();
+        self.buf.resize(j + run.len() + opens * il, 0);
         for (i, &b) in run.iter().enumerate() {
-            match b {
-                b'[' => self.open_after(start + i as u64),
-                b']' => self.close_after(start + i as u64 + 1)?,
-                _ => self.buf.push(b),
+            self.buf[j] = b;
+            j += 1;
+            if b == b'[' {
+                let at = self.written + j as u64 - 1;
+                self.opens.push((at, start + i as u64));
+                j += il;
+            } else if b == b']' {
+                let end = self.written + j as u64;
+                self.patch(end, start + i as u64 + 1)?;
             }
         }
         Ok(())

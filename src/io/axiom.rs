@@ -269,6 +269,78 @@ impl<'a> AxiomReader<'a> {
         Ok(r)
     }
 
+    /// The rest of the axiom as a regular file, for reading plain modules
+    /// on several threads ([`plain_prefix`]): the file, the offset of the
+    /// first module, the file's length and whether `/` may open a comment.
+    /// None for a stream.
+    pub(crate) fn file_rest(&mut self) -> Result<Option<(&std::fs::File, u64, u64, bool)>, Error> {
+        if !self.started {
+            self.start()?;
+        }
+        // (Blanks and comments before the first module: as `next` does.)
+        self.skip_blank()?;
+        let at = self.input.offset();
+        let comments = self.comments;
+        Ok(self.input.file().and_then(|f| {
+            let len = f.metadata().ok()?.len();
+            Some((f, at, len, comments))
+        }))
+    }
+
+    /// The input's name, for errors.
+    pub(crate) fn name(&self) -> &str {
+        &self.input.name
+    }
+
+    /// Where the reader is, its input's buffer included: to come back to
+    /// ([`AxiomReader::back_to`]).
+    pub(crate) fn state(&self) -> ReaderState {
+        ReaderState {
+            input: Some(self.input.state()),
+            at: self.input.offset(),
+            line: self.line,
+            col: self.col,
+            depth: self.depth,
+            first_open: self.first_open,
+            last: self.last,
+        }
+    }
+
+    /// Go back (or on) to `state`, in a regular file: as it was, or (no
+    /// buffer kept) with nothing buffered before it ([`Input::skip_to`]).
+    pub(crate) fn back_to(&mut self, state: &ReaderState) -> Result<(), Error> {
+        let done = match &state.input {
+            Some(input) => self.input.back_to(input)?,
+            None => self.input.skip_to(state.at)?,
+        };
+        if !done {
+            return Err(Error::new(crate::diag::RuntimeError::WorkerStopped));
+        }
+        self.line = state.line;
+        self.col = state.col;
+        self.depth = state.depth;
+        self.first_open = state.first_open;
+        self.last = state.last;
+        Ok(())
+    }
+
+    /// Go on at `at`, after plain modules read elsewhere (one line, one
+    /// column a byte) that left the nesting depth at `depth`. (Where their
+    /// first `[` was is not known: an error is found again by reading from
+    /// the start, [`AxiomReader::back_to`].)
+    pub(crate) fn skip_plain(&mut self, at: u64, depth: u64) -> Result<(), Error> {
+        let at_now = self.input.offset();
+        self.back_to(&ReaderState {
+            input: None,
+            at,
+            line: self.line,
+            col: self.col + (at - at_now) as usize,
+            depth,
+            first_open: self.first_open,
+            last: self.last,
+        })
+    }
+
     /// The next module: its key, with its parameters in `params`.
     pub fn next(
         &mut self,
@@ -473,6 +545,100 @@ impl<'a> AxiomReader<'a> {
     }
 }
 
+/// A reader's place ([`AxiomReader::state`]).
+#[derive(Clone, Debug)]
+pub(crate) struct ReaderState {
+    input: Option<crate::io::input::InputState>,
+    at: u64,
+    line: usize,
+    col: usize,
+    depth: u64,
+    first_open: (usize, usize, u64),
+    last: (usize, usize, u64),
+}
+
+/// What [`plain_prefix`] found.
+#[derive(Debug, PartialEq, Eq)]
+pub(crate) struct PlainPrefix {
+    /// Bytes of plain modules from the start (at most `whole`), each a
+    /// module of its own as [`AxiomReader::plain_run`] reads them.
+    pub len: usize,
+    /// Less than `whole`: the reader must go on after `len` bytes.
+    pub stopped: bool,
+    /// The nesting depth after them, and the lowest it reached, relative
+    /// to the start.
+    pub depth: i64,
+    pub low: i64,
+}
+
+/// The leading plain modules of `bytes[..whole]`, a piece of an axiom
+/// that starts where a module does, as [`AxiomReader::plain_run`] reads
+/// them: a run of [`PLAIN`] bytes (with `comments`, `/` only where it opens
+/// no comment) less its last byte, which may take parameters (it is known
+/// not to when a plain byte follows it). `bytes` goes on up to two bytes
+/// past `whole` where the axiom does (so a last `/` is judged); where it
+/// ends at `whole`, so does the axiom.
+pub(crate) fn plain_prefix(bytes: &[u8], whole: usize, comments: bool) -> PlainPrefix {
+    let class = if comments { &CLASS_BUT_SLASH } else { &CLASS };
+    let n = bytes.len();
+    let (mut depth, mut low, mut low_before) = (0i64, 0i64, 0i64);
+    let mut i = 0;
+    while i < n {
+        match class[bytes[i] as usize] {
+            C_PLAIN => {}
+            C_OPEN => depth += 1,
+            C_CLOSE => {
+                depth -= 1;
+                low_before = low;
+                low = low.min(depth);
+            }
+            _ if comments && bytes[i] == b'/' && i + 1 < n && !comment::opens(&bytes[i..]) => {}
+            _ => break,
+        }
+        if i == whole {
+            // The byte after the piece is plain: the piece is all modules.
+            i += 1;
+            break;
+        }
+        i += 1;
+    }
+    if i > whole {
+        // (The byte at `whole`, counted above, is not the piece's.)
+        match bytes[whole] {
+            b'[' => depth -= 1,
+            b']' => {
+                depth += 1;
+                low = low_before;
+            }
+            _ => {}
+        }
+        return PlainPrefix {
+            len: whole,
+            stopped: false,
+            depth,
+            low,
+        };
+    }
+    // A stop at `i` (or the end): the byte before it is left to the reader.
+    let len = i.saturating_sub(1);
+    if i > 0 {
+        match bytes[len] {
+            b'[' => depth -= 1,
+            b']' => {
+                depth += 1;
+                low = low_before;
+            }
+            _ => {}
+        }
+    }
+    PlainPrefix {
+        len,
+        stopped: true,
+        depth,
+        low,
+    }
+}
+
 /// Where byte `k` of a parameter's text is, the text starting at
 /// `line`:`col`: its line and column in the file, the text's line that
 /// holds it (without its line end) and the 1-based column in that.
@@ -558,6 +724,70 @@ mod tests {
             }
         }
         Ok(out)
+    }
+
+    /// `plain_prefix` against a model: the plain bytes from the start (as
+    /// `plain_run` classes them), less the last, which may take parameters;
+    /// a piece is whole only where the byte after it is plain too.
+    #[test]
+    fn plain_prefixes_are_what_the_reader_takes_as_plain() {
+        let alphabet = b"FF[]]+(/* \n\xc3";
+        let mut seed = 7u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for case in 0..4000 {
+            let n = (next() % 24) as usize;
+            let bytes: Vec<u8> = (0..n)
+                .map(|_| alphabet[(next() % alphabet.len() as u64) as usize])
+                .collect();
+            let whole = (next() % (n as u64 + 1)) as usize;
+            // Up to two bytes past the piece, or the end of the axiom.
+            let past = (next() % 3) as usize;
+            let bytes = &bytes[..(whole + past).min(n)];
+            for comments in [false, true] {
+                let p = plain_prefix(bytes, whole, comments);
+                // The model: plain bytes from the start, as the reader's
+                // own test of a byte says (a `/` needs the byte after it).
+                let plain_at = |i: usize| {
+                    let b = bytes[i];
+                    let class = if comments { &CLASS_BUT_SLASH } else { &CLASS };
+                    class[b as usize] != C_STOP
+                        || (comments && b == b'/' && i + 1 < bytes.len() && bytes[i + 1] != b'*')
+                };
+                let run = (0..bytes.len()).take_while(|&i| plain_at(i)).count();
+                let (len, stopped) = if run > whole {
+                    (whole, false)
+                } else {
+                    (run.saturating_sub(1), true)
+                };
+                let mut depth = 0i64;
+                let mut low = 0i64;
+                for &b in &bytes[..len] {
+                    match b {
+                        b'[' => depth += 1,
+                        b']' => {
+                            depth -= 1;
+                            low = low.min(depth);
+                        }
+                        _ => {}
+                    }
+                }
+                let want = PlainPrefix {
+                    len,
+                    stopped,
+                    depth,
+                    low,
+                };
+                assert_eq!(
+                    p, want,
+                    "case {case}: {bytes:?}, piece of {whole}, comments {comments}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -23,6 +23,22 @@ pub struct Input {
     mark: Option<u64>,
     saved: Vec<u8>,
     saved_base: u64,
+    /// The regular file `inner` reads (sharing its offset), if it is one:
+    /// then the stream may be read at any offset ([`Input::file`]) and
+    /// moved ([`Input::skip_to`]).
+    file: Option<std::fs::File>,
+}
+
+/// What [`Input::state`] keeps.
+#[derive(Clone, Debug)]
+pub struct InputState {
+    buf: Vec<u8>,
+    pos: usize,
+    eof: bool,
+    base: u64,
+    mark: Option<u64>,
+    saved: Vec<u8>,
+    saved_base: u64,
 }
 
 const CHUNK: usize = 1 << 16;
@@ -45,7 +61,74 @@ impl Input {
             mark: None,
             saved: Vec::new(),
             saved_base: 0,
+            file: None,
         }
+    }
+
+    /// `inner` reads the regular file `file` from its start (`file` shares
+    /// its offset: a `try_clone`).
+    pub fn with_file(mut self, file: std::fs::File) -> Input {
+        self.file = Some(file);
+        self
+    }
+
+    /// The regular file the stream is, its stream offsets being the file's.
+    pub fn file(&self) -> Option<&std::fs::File> {
+        self.file.as_ref()
+    }
+
+    /// The stream's state, buffer and all, to come back to
+    /// ([`Input::back_to`]; a regular file only).
+    pub fn state(&self) -> InputState {
+        InputState {
+            buf: self.buf[..self.end].to_vec(),
+            pos: self.pos,
+            eof: self.eof,
+            base: self.base,
+            mark: self.mark,
+            saved: self.saved.clone(),
+            saved_base: self.saved_base,
+        }
+    }
+
+    /// Back to `state`, as if nothing had been read since (a regular file
+    /// only: false otherwise).
+    pub fn back_to(&mut self, state: &InputState) -> Result<bool, Error> {
+        let at = state.base + state.buf.len() as u64;
+        if !self.skip_to(at)? {
+            return Ok(false);
+        }
+        let n = state.buf.len();
+        if self.buf.len() < n {
+            self.buf.resize(n, 0);
+        }
+        self.buf[..n].copy_from_slice(&state.buf);
+        self.end = n;
+        self.pos = state.pos;
+        self.eof = state.eof;
+        self.base = state.base;
+        self.mark = state.mark;
+        self.saved.clone_from(&state.saved);
+        self.saved_base = state.saved_base;
+        Ok(true)
+    }
+
+    /// Go on reading at stream offset `at` (a regular file only: false
+    /// otherwise), with nothing buffered before it.
+    pub fn skip_to(&mut self, at: u64) -> Result<bool, Error> {
+        use std::io::{Seek, SeekFrom};
+        let Some(mut f) = self.file.as_ref() else {
+            return Ok(false);
+        };
+        f.seek(SeekFrom::Start(at))
+            .map_err(|e| Error::io(self.name.clone(), crate::diag::IoAction::Read, e))?;
+        self.base = at;
+        self.pos = 0;
+        self.end = 0;
+        self.eof = false;
+        self.mark = None;
+        self.saved.clear();
+        Ok(true)
     }
 
     /// Keep the text around stream offset `at` (at most 512 bytes) quotable
