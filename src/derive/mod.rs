@@ -254,6 +254,17 @@ fn read_axiom(
     }
 }
 
+/// Empty the temporary generations before they are closed: ext4 writes a
+/// file that was truncated to 0 and written again (a reused generation)
+/// out to disk when it is closed (`auto_da_alloc`), on the closing thread:
+/// 0.14 s at the end of a 3-step context run at 10^8, 13 ms emptied.
+fn empty<'f>(files: impl Iterator<Item = &'f File>) {
+    for f in files {
+        // (A generation that cannot be emptied is closed as it is.)
+        let _ = f.set_len(0);
+    }
+}
+
 fn rewind(f: &mut File) -> Result<(), Error> {
     f.set_len(0)
         .and_then(|_| f.seek(SeekFrom::Start(0)).map(|_| ()))
@@ -741,6 +752,7 @@ fn step_passes(
         cur = dst;
         i += 1;
     }
+    empty(other.iter().chain(&cur));
     Ok(last_len)
 }
 
@@ -851,6 +863,7 @@ fn frame_passes(
             emit(d, &cur, i)?;
         }
     }
+    empty(other.iter().chain(std::iter::once(&cur)));
     Ok(last_len)
 }
 
