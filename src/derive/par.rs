@@ -189,12 +189,7 @@ pub(crate) fn step_pass(
                 .spawn_scoped(s, move || {
                     let current = Current::new(shared, w);
                     let mut sink = std::io::sink();
-                    let mut out = Out::new(&mut sink, "output", text, super::Limits::default());
-                    if out_index.0 {
-                        out = out.with_chunk_index(out_index.1);
-                    }
-                    out.chunk = shared.chunk;
-                    out.taker = Some(&current);
+                    let mut out = worker_out(&mut sink, &current, text, out_index);
                     let _timed = times.map(|t| super::split::Timed(t, false));
                     loop {
                         let Some((chunk, slot)) = current.next(&task_rx) else {
@@ -293,6 +288,24 @@ pub(crate) fn step_pass(
     Ok(done.map(|_| draws.load(Ordering::Relaxed)))
 }
 
+/// A worker's sink: its text goes to `current` in blocks; with the
+/// output's bracket index (`index`: indexed, with counts), what of it the
+/// worker cannot write goes to the writer ([`Out::with_chunk_index`]).
+fn worker_out<'w>(
+    sink: &'w mut std::io::Sink,
+    current: &'w Current,
+    text: bool,
+    (indexed, counts): (bool, bool),
+) -> Out<'w> {
+    let mut out = Out::new(sink, "output", text, super::Limits::default());
+    if indexed {
+        out = out.with_chunk_index(counts);
+    }
+    out.chunk = current.shared.chunk;
+    out.taker = Some(current);
+    out
+}
+
 /// Bytes of the axiom's text per task of [`axiom_prefix`].
 const AXIOM_CHUNK: u64 = 256 << 10;
 
@@ -358,12 +371,7 @@ pub(crate) fn axiom_prefix(
                 .spawn_scoped(s, move || {
                     let current = Current::new(shared, w);
                     let mut sink = std::io::sink();
-                    let mut out = Out::new(&mut sink, "output", false, super::Limits::default());
-                    if out_index.0 {
-                        out = out.with_chunk_index(out_index.1);
-                    }
-                    out.chunk = shared.chunk;
-                    out.taker = Some(&current);
+                    let mut out = worker_out(&mut sink, &current, false, out_index);
                     let mut bytes = Vec::new();
                     while let Some(((start, end), slot)) = current.next(&task_rx) {
                         current.start(slot);

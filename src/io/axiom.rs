@@ -602,26 +602,15 @@ pub(crate) fn plain_prefix(bytes: &[u8], whole: usize, comments: bool) -> PlainP
         }
         i += 1;
     }
-    if i > whole {
-        // (The byte at `whole`, counted above, is not the piece's.)
-        match bytes[whole] {
-            b'[' => depth -= 1,
-            b']' => {
-                depth += 1;
-                low = low_before;
-            }
-            _ => {}
-        }
-        return PlainPrefix {
-            len: whole,
-            stopped: false,
-            depth,
-            low,
-        };
-    }
-    // A stop at `i` (or the end): the byte before it is left to the reader.
-    let len = i.saturating_sub(1);
-    if i > 0 {
+    // A stop at `i` (or the end): the byte before it is left to the
+    // reader; else the piece is whole. The byte at `len` was counted above
+    // and is not the prefix's.
+    let (len, stopped) = if i > whole {
+        (whole, false)
+    } else {
+        (i.saturating_sub(1), true)
+    };
+    if i > len {
         match bytes[len] {
             b'[' => depth -= 1,
             b']' => {
@@ -633,7 +622,7 @@ pub(crate) fn plain_prefix(bytes: &[u8], whole: usize, comments: bool) -> PlainP
     }
     PlainPrefix {
         len,
-        stopped: true,
+        stopped,
         depth,
         low,
     }
