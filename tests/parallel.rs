@@ -774,3 +774,33 @@ fn an_error_after_or_inside_a_split_axiom_is_the_one_of_one_thread() {
         }
     }
 }
+
+#[test]
+fn a_percent_past_the_split_axioms_plain_modules_is_no_cut() {
+    // Review of issue 15: a worker reads the piece after the one where the
+    // plain modules stop, and found a `%` there, in a comment the
+    // one-thread reader skips; the run then took the axiom as holding a
+    // cut, and `--strategy dfs` failed where one thread derives it.
+    let dir = tempdir();
+    let ls = common::write(
+        dir.path(),
+        "c.ls",
+        "productions:\nF -> FG\naxiom: FFFFFFFFFFFF/*%%%%*/FFFFFFFFFFFF\n",
+    );
+    let args = [
+        std::ffi::OsStr::new("-n"),
+        "1".as_ref(),
+        "--strategy".as_ref(),
+        "dfs".as_ref(),
+        ls.as_os_str(),
+    ];
+    let one = axiom_run("1", "1", &args);
+    assert_eq!(one.2, Some(0), "{}", one.1);
+    assert_eq!(one.0, b"FGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFG\n");
+    for split in 1..=12 {
+        for j in ["2", "8"] {
+            let many = axiom_run(j, &split.to_string(), &args);
+            assert!(one == many, "-j {j}, pieces of {split}: {}", many.1);
+        }
+    }
+}

@@ -328,7 +328,6 @@ pub(crate) fn axiom_prefix(
 ) -> Result<Option<AxiomPrefix>, Error> {
     use crate::io::axiom::plain_prefix;
     use std::os::unix::fs::FileExt;
-    use std::sync::atomic::AtomicBool;
     let size = split.unwrap_or(AXIOM_CHUNK).max(1);
     if len.saturating_sub(from) <= 2 * size {
         return Ok(None);
@@ -343,7 +342,11 @@ pub(crate) fn axiom_prefix(
         (threads, threads * IN_FLIGHT),
     );
     let out_index = (out.indexed, out.counts());
-    let percent = &AtomicBool::new(false);
+    // The start of the first piece whose plain modules hold a `%`: only
+    // those before where the reader goes on are written (a worker may read
+    // a piece after that, whose `%` the reader may then take as a comment's
+    // or a parameter's).
+    let percent = &AtomicU64::new(u64::MAX);
     let mut check = super::split::BalanceCheck::default();
     let mut unbalanced = false;
     let written = std::thread::scope(|s| -> Result<Option<Option<u64>>, Error> {
@@ -377,7 +380,7 @@ pub(crate) fn axiom_prefix(
                             let p = plain_prefix(&bytes, (end - start) as usize, comments);
                             let plain = &bytes[..p.len];
                             if plain.contains(&b'%') {
-                                percent.store(true, Ordering::Relaxed);
+                                percent.fetch_min(start, Ordering::Relaxed);
                             }
                             // In pieces of half a block: the sink's buffer
                             // stays about a block.
@@ -446,7 +449,7 @@ pub(crate) fn axiom_prefix(
         Some(at) => AxiomPrefix::Upto {
             at,
             depth: u64::try_from(check.depth()).unwrap_or(0),
-            percent: percent.load(Ordering::Relaxed),
+            percent: percent.load(Ordering::Relaxed) < at,
         },
         None => AxiomPrefix::Again,
     }))
