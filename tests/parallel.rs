@@ -804,3 +804,32 @@ fn a_percent_past_the_split_axioms_plain_modules_is_no_cut() {
         }
     }
 }
+
+#[test]
+fn an_axiom_file_shorter_than_its_size_is_read_as_on_one_thread() {
+    // Review of issue 15: a regular file may hold less than its size says
+    // (sysfs files say 4096 bytes; a file truncated while it is read): a
+    // worker read its piece past the end and failed ("failed to fill whole
+    // buffer") where one thread reads the axiom up to its end.
+    let f = Path::new("/sys/devices/system/cpu/online");
+    let meta = std::fs::metadata(f).expect("sysfs mounted (Linux)");
+    assert!(meta.is_file() && meta.len() > 64, "{meta:?}");
+    let dir = tempdir();
+    let ls = common::write(dir.path(), "h.ls", "productions:\nF -> FG\naxiom: F\n");
+    let args = [
+        std::ffi::OsStr::new("-n"),
+        "1".as_ref(),
+        "--axiom".as_ref(),
+        f.as_os_str(),
+        ls.as_os_str(),
+    ];
+    let one = axiom_run("1", "1", &args);
+    assert_eq!(one.2, Some(0), "{}", one.1);
+    assert!(one.0.len() > 1, "{:?}", one.0);
+    for split in ["1", "2", "5", "31"] {
+        for j in ["2", "8"] {
+            let many = axiom_run(j, split, &args);
+            assert!(one == many, "-j {j}, pieces of {split}: {}", many.1);
+        }
+    }
+}

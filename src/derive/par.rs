@@ -327,7 +327,6 @@ pub(crate) fn axiom_prefix(
     (name, out): (&str, &mut Out),
 ) -> Result<Option<AxiomPrefix>, Error> {
     use crate::io::axiom::plain_prefix;
-    use std::os::unix::fs::FileExt;
     let size = split.unwrap_or(AXIOM_CHUNK).max(1);
     if len.saturating_sub(from) <= 2 * size {
         return Ok(None);
@@ -375,9 +374,14 @@ pub(crate) fn axiom_prefix(
                         let mut balance = super::split::Balance::default();
                         let r = (|| {
                             bytes.resize(((end + 2).min(len) - start) as usize, 0);
-                            file.read_exact_at(&mut bytes, start)
+                            // The file may hold less than its size said
+                            // (sysfs; truncated meanwhile): its end is then
+                            // the axiom's, as the reader finds it.
+                            let got = read_upto_at(file, &mut bytes, start)
                                 .map_err(|e| Error::io(name, IoAction::Read, e))?;
-                            let p = plain_prefix(&bytes, (end - start) as usize, comments);
+                            bytes.truncate(got);
+                            let whole = ((end - start) as usize).min(got);
+                            let p = plain_prefix(&bytes, whole, comments);
                             let plain = &bytes[..p.len];
                             if plain.contains(&b'%') {
                                 percent.fetch_min(start, Ordering::Relaxed);
@@ -453,6 +457,22 @@ pub(crate) fn axiom_prefix(
         },
         None => AxiomPrefix::Again,
     }))
+}
+
+/// Read `buf.len()` bytes of `file` from offset `at`, fewer where the
+/// file ends first: the number read.
+fn read_upto_at(file: &File, buf: &mut [u8], at: u64) -> std::io::Result<usize> {
+    use std::os::unix::fs::FileExt;
+    let mut got = 0;
+    while got < buf.len() {
+        match file.read_at(&mut buf[got..], at + got as u64) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(got)
 }
 
 /// One task: modules (binary) of various generations, or inert runs, in
