@@ -833,3 +833,51 @@ fn an_axiom_file_shorter_than_its_size_is_read_as_on_one_thread() {
         }
     }
 }
+
+#[test]
+fn an_axiom_read_through_spill_files_keeps_every_bracket_index() {
+    // Review of issue 15 (97372b9 on the axiom's split): with blocks of 17
+    // to 79 bytes (LSGEN_TEST_SPILL) the axiom's pieces spill, and the
+    // writer's flushes, at a block's size, cut the spilled text between a
+    // `[` and its index bytes or inside them; an index completed late must
+    // still reach the file whole. Step 1 reads generation 0's index: right
+    // contexts skip branches (`B > C`), a cut skips the rest of its branch.
+    // 8 index bytes, and 16 where the system can make `%`. Without that
+    // fix, pieces of 29 bytes and blocks of 24 already lose a `D`.
+    let dir = tempdir();
+    let plain = "AB[AAA[AA[A]]AA]CB[A]CAB[[A][AA]]C".repeat(30);
+    let cut = "AB[AAA[A%A[A]]AA]CB[A%A]CAB[[A][AA%]A]C".repeat(30);
+    let mut spilled = 0;
+    for (name, productions, axiom) in [
+        ("ends", "B > C -> D\n", plain),
+        ("counts", "B > C -> D\nX -> %\n", cut),
+    ] {
+        let ls = common::write(
+            dir.path(),
+            &format!("{name}.ls"),
+            format!("productions:\n{productions}axiom: {axiom}\n"),
+        );
+        let args = [std::ffi::OsStr::new("-n"), "1".as_ref(), ls.as_os_str()];
+        let one = axiom_run("1", "1", &args);
+        assert_eq!(one.2, Some(0), "{name}: {}", one.1);
+        // Every `B` before its branch and `C` is rewritten.
+        assert_eq!(one.0.iter().filter(|&&b| b == b'D').count(), 90, "{name}");
+        for block in 17..=79u32 {
+            for split in ["29", "61"] {
+                let r = run(lsgen()
+                    .env("LSGEN_TEST_SPLIT", split)
+                    .env("LSGEN_TEST_SPILL", block.to_string())
+                    .env("LSGEN_DEBUG_PAR", "1")
+                    .args(["-j", "2"])
+                    .args(args));
+                assert_eq!(r.code(), Some(0), "{}", r.stderr);
+                assert!(
+                    one.0 == r.stdout,
+                    "{name}: pieces of {split}, blocks of {block}"
+                );
+                spilled += spill_report(&r.stderr).0;
+            }
+        }
+    }
+    assert!(spilled > 0, "nothing spilled");
+}
