@@ -774,3 +774,110 @@ fn an_error_after_or_inside_a_split_axiom_is_the_one_of_one_thread() {
         }
     }
 }
+
+#[test]
+fn a_percent_past_the_split_axioms_plain_modules_is_no_cut() {
+    // Review of issue 15: a worker reads the piece after the one where the
+    // plain modules stop, and found a `%` there, in a comment the
+    // one-thread reader skips; the run then took the axiom as holding a
+    // cut, and `--strategy dfs` failed where one thread derives it.
+    let dir = tempdir();
+    let ls = common::write(
+        dir.path(),
+        "c.ls",
+        "productions:\nF -> FG\naxiom: FFFFFFFFFFFF/*%%%%*/FFFFFFFFFFFF\n",
+    );
+    let args = [
+        std::ffi::OsStr::new("-n"),
+        "1".as_ref(),
+        "--strategy".as_ref(),
+        "dfs".as_ref(),
+        ls.as_os_str(),
+    ];
+    let one = axiom_run("1", "1", &args);
+    assert_eq!(one.2, Some(0), "{}", one.1);
+    assert_eq!(one.0, b"FGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFGFG\n");
+    for split in 1..=12 {
+        for j in ["2", "8"] {
+            let many = axiom_run(j, &split.to_string(), &args);
+            assert!(one == many, "-j {j}, pieces of {split}: {}", many.1);
+        }
+    }
+}
+
+#[test]
+fn an_axiom_file_shorter_than_its_size_is_read_as_on_one_thread() {
+    // Review of issue 15: a regular file may hold less than its size says
+    // (sysfs files say 4096 bytes; a file truncated while it is read): a
+    // worker read its piece past the end and failed ("failed to fill whole
+    // buffer") where one thread reads the axiom up to its end.
+    let f = Path::new("/sys/devices/system/cpu/online");
+    let meta = std::fs::metadata(f).expect("sysfs mounted (Linux)");
+    assert!(meta.is_file() && meta.len() > 64, "{meta:?}");
+    let dir = tempdir();
+    let ls = common::write(dir.path(), "h.ls", "productions:\nF -> FG\naxiom: F\n");
+    let args = [
+        std::ffi::OsStr::new("-n"),
+        "1".as_ref(),
+        "--axiom".as_ref(),
+        f.as_os_str(),
+        ls.as_os_str(),
+    ];
+    let one = axiom_run("1", "1", &args);
+    assert_eq!(one.2, Some(0), "{}", one.1);
+    assert!(one.0.len() > 1, "{:?}", one.0);
+    for split in ["1", "2", "5", "31"] {
+        for j in ["2", "8"] {
+            let many = axiom_run(j, split, &args);
+            assert!(one == many, "-j {j}, pieces of {split}: {}", many.1);
+        }
+    }
+}
+
+#[test]
+fn an_axiom_read_through_spill_files_keeps_every_bracket_index() {
+    // Review of issue 15 (97372b9 on the axiom's split): with blocks of 17
+    // to 79 bytes (LSGEN_TEST_SPILL) the axiom's pieces spill, and the
+    // writer's flushes, at a block's size, cut the spilled text between a
+    // `[` and its index bytes or inside them; an index completed late must
+    // still reach the file whole. Step 1 reads generation 0's index: right
+    // contexts skip branches (`B > C`), a cut skips the rest of its branch.
+    // 8 index bytes, and 16 where the system can make `%`. Without that
+    // fix, pieces of 29 bytes and blocks of 24 already lose a `D`.
+    let dir = tempdir();
+    let plain = "AB[AAA[AA[A]]AA]CB[A]CAB[[A][AA]]C".repeat(30);
+    let cut = "AB[AAA[A%A[A]]AA]CB[A%A]CAB[[A][AA%]A]C".repeat(30);
+    let mut spilled = 0;
+    for (name, productions, axiom) in [
+        ("ends", "B > C -> D\n", plain),
+        ("counts", "B > C -> D\nX -> %\n", cut),
+    ] {
+        let ls = common::write(
+            dir.path(),
+            &format!("{name}.ls"),
+            format!("productions:\n{productions}axiom: {axiom}\n"),
+        );
+        let args = [std::ffi::OsStr::new("-n"), "1".as_ref(), ls.as_os_str()];
+        let one = axiom_run("1", "1", &args);
+        assert_eq!(one.2, Some(0), "{name}: {}", one.1);
+        // Every `B` before its branch and `C` is rewritten.
+        assert_eq!(one.0.iter().filter(|&&b| b == b'D').count(), 90, "{name}");
+        for block in 17..=79u32 {
+            for split in ["29", "61"] {
+                let r = run(lsgen()
+                    .env("LSGEN_TEST_SPLIT", split)
+                    .env("LSGEN_TEST_SPILL", block.to_string())
+                    .env("LSGEN_DEBUG_PAR", "1")
+                    .args(["-j", "2"])
+                    .args(args));
+                assert_eq!(r.code(), Some(0), "{}", r.stderr);
+                assert!(
+                    one.0 == r.stdout,
+                    "{name}: pieces of {split}, blocks of {block}"
+                );
+                spilled += spill_report(&r.stderr).0;
+            }
+        }
+    }
+    assert!(spilled > 0, "nothing spilled");
+}

@@ -340,8 +340,6 @@ pub(crate) fn axiom_prefix(
     (name, out): (&str, &mut Out),
 ) -> Result<Option<AxiomPrefix>, Error> {
     use crate::io::axiom::plain_prefix;
-    use std::os::unix::fs::FileExt;
-    use std::sync::atomic::AtomicBool;
     let size = split.unwrap_or(AXIOM_CHUNK).max(1);
     if len.saturating_sub(from) <= 2 * size {
         return Ok(None);
@@ -356,7 +354,11 @@ pub(crate) fn axiom_prefix(
         (threads, threads * IN_FLIGHT),
     );
     let out_index = (out.indexed, out.counts());
-    let percent = &AtomicBool::new(false);
+    // The start of the first piece whose plain modules hold a `%`: only
+    // those before where the reader goes on are written (a worker may read
+    // a piece after that, whose `%` the reader may then take as a comment's
+    // or a parameter's).
+    let percent = &AtomicU64::new(u64::MAX);
     let mut check = super::split::BalanceCheck::default();
     let mut unbalanced = false;
     let written = std::thread::scope(|s| -> Result<Option<Option<u64>>, Error> {
@@ -380,12 +382,17 @@ pub(crate) fn axiom_prefix(
                         let mut balance = super::split::Balance::default();
                         let r = (|| {
                             bytes.resize(((end + 2).min(len) - start) as usize, 0);
-                            file.read_exact_at(&mut bytes, start)
+                            // The file may hold less than its size said
+                            // (sysfs; truncated meanwhile): its end is then
+                            // the axiom's, as the reader finds it.
+                            let got = read_upto_at(file, &mut bytes, start)
                                 .map_err(|e| Error::io(name, IoAction::Read, e))?;
-                            let p = plain_prefix(&bytes, (end - start) as usize, comments);
+                            bytes.truncate(got);
+                            let whole = ((end - start) as usize).min(got);
+                            let p = plain_prefix(&bytes, whole, comments);
                             let plain = &bytes[..p.len];
                             if plain.contains(&b'%') {
-                                percent.store(true, Ordering::Relaxed);
+                                percent.fetch_min(start, Ordering::Relaxed);
                             }
                             // In pieces of half a block: the sink's buffer
                             // stays about a block.
@@ -454,10 +461,26 @@ pub(crate) fn axiom_prefix(
         Some(at) => AxiomPrefix::Upto {
             at,
             depth: u64::try_from(check.depth()).unwrap_or(0),
-            percent: percent.load(Ordering::Relaxed),
+            percent: percent.load(Ordering::Relaxed) < at,
         },
         None => AxiomPrefix::Again,
     }))
+}
+
+/// Read `buf.len()` bytes of `file` from offset `at`, fewer where the
+/// file ends first: the number read.
+fn read_upto_at(file: &File, buf: &mut [u8], at: u64) -> std::io::Result<usize> {
+    use std::os::unix::fs::FileExt;
+    let mut got = 0;
+    while got < buf.len() {
+        match file.read_at(&mut buf[got..], at + got as u64) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(got)
 }
 
 /// One task: modules (binary) of various generations, or inert runs, in
