@@ -171,8 +171,7 @@ pub(crate) fn step_pass(
         let (task_tx, task_rx) = mpsc::channel::<(Chunk, Slot)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
         let (order_tx, order_rx) = mpsc::channel::<Receiver<Msg>>();
-        let mut workers = 0;
-        for w in 0..threads {
+        let workers = spawn_workers(s, (threads, "lsgen-step"), |w| {
             let task_rx = Arc::clone(&task_rx);
             let mut wd = Deriver::new(
                 d.alphabet.clone(),
@@ -184,45 +183,39 @@ pub(crate) fn step_pass(
                 },
             );
             wd.warnings = d.warnings;
-            let h = std::thread::Builder::new()
-                .name(format!("lsgen-step-{w}"))
-                .spawn_scoped(s, move || {
-                    let current = Current::new(shared, w);
-                    let mut sink = std::io::sink();
-                    let mut out = worker_out(&mut sink, &current, text, out_index);
-                    let _timed = times.map(|t| super::split::Timed(t, false));
-                    loop {
-                        let Some((chunk, slot)) = current.next(&task_rx) else {
-                            break;
-                        };
-                        current.start(slot);
-                        out.begin_chunk();
-                        let before = (out.modules, wd.rng.draws());
-                        let chunk_exact = chunk.exact;
-                        wd.range = Some((chunk.start, chunk.end, chunk.first));
-                        wd.chunk_start = Some(chunk.at);
-                        wd.balance = table.check_balance.then(Default::default);
-                        let r = wd
-                            .pass(table, src, indexed, &mut out, pass)
-                            .and_then(|()| out.flush());
-                        out.buf.clear();
-                        // (Module indices are only left uncounted where
-                        // nothing draws: `Scan::skip`.)
-                        debug_assert!(chunk_exact || wd.rng.draws() == before.1);
-                        draws.fetch_add(wd.rng.draws() - before.1, Ordering::Relaxed);
-                        // A chunk's balance goes before its end or error:
-                        // its lows come first in string order.
-                        let balance = wd.balance.take().map(Box::new);
-                        let index = out.end_chunk();
-                        current.end(r.map(|()| out.modules - before.0), balance, index);
-                    }
-                    current.report();
-                });
-            if h.is_err() {
-                break;
+            move || {
+                let current = Current::new(shared, w);
+                let mut sink = std::io::sink();
+                let mut out = worker_out(&mut sink, &current, text, out_index);
+                let _timed = times.map(|t| super::split::Timed(t, false));
+                loop {
+                    let Some((chunk, slot)) = current.next(&task_rx) else {
+                        break;
+                    };
+                    current.start(slot);
+                    out.begin_chunk();
+                    let before = (out.modules, wd.rng.draws());
+                    let chunk_exact = chunk.exact;
+                    wd.range = Some((chunk.start, chunk.end, chunk.first));
+                    wd.chunk_start = Some(chunk.at);
+                    wd.balance = table.check_balance.then(Default::default);
+                    let r = wd
+                        .pass(table, src, indexed, &mut out, pass)
+                        .and_then(|()| out.flush());
+                    out.buf.clear();
+                    // (Module indices are only left uncounted where
+                    // nothing draws: `Scan::skip`.)
+                    debug_assert!(chunk_exact || wd.rng.draws() == before.1);
+                    draws.fetch_add(wd.rng.draws() - before.1, Ordering::Relaxed);
+                    // A chunk's balance goes before its end or error:
+                    // its lows come first in string order.
+                    let balance = wd.balance.take().map(Box::new);
+                    let index = out.end_chunk();
+                    current.end(r.map(|()| out.modules - before.0), balance, index);
+                }
+                current.report();
             }
-            workers += 1;
-        }
+        });
         if workers == 0 {
             return Ok(None);
         }
@@ -286,6 +279,29 @@ pub(crate) fn step_pass(
         t.report(pass, writer);
     }
     Ok(done.map(|_| draws.load(Ordering::Relaxed)))
+}
+
+/// Start up to `threads` workers, named `name-w`, worker `w` running
+/// `make(w)`: the number started (none past a thread that cannot be had).
+fn spawn_workers<'scope, F>(
+    s: &'scope std::thread::Scope<'scope, '_>,
+    (threads, name): (usize, &str),
+    mut make: impl FnMut(usize) -> F,
+) -> usize
+where
+    F: FnOnce() + Send + 'scope,
+{
+    let mut workers = 0;
+    for w in 0..threads {
+        let spawned = std::thread::Builder::new()
+            .name(format!("{name}-{w}"))
+            .spawn_scoped(s, make(w));
+        if spawned.is_err() {
+            break;
+        }
+        workers += 1;
+    }
+    workers
 }
 
 /// A worker's sink: its text goes to `current` in blocks; with the
@@ -365,63 +381,56 @@ pub(crate) fn axiom_prefix(
         let (task_tx, task_rx) = mpsc::channel::<((u64, u64), Slot)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
         let (order_tx, order_rx) = mpsc::channel::<Receiver<Msg>>();
-        let mut workers = 0;
-        for w in 0..threads {
+        let workers = spawn_workers(s, (threads, "lsgen-axiom"), |w| {
             let task_rx = Arc::clone(&task_rx);
-            let h = std::thread::Builder::new()
-                .name(format!("lsgen-axiom-{w}"))
-                .spawn_scoped(s, move || {
-                    let current = Current::new(shared, w);
-                    let mut sink = std::io::sink();
-                    let mut out = worker_out(&mut sink, &current, false, out_index);
-                    let mut bytes = Vec::new();
-                    while let Some(((start, end), slot)) = current.next(&task_rx) {
-                        current.start(slot);
-                        out.begin_chunk();
-                        let before = out.modules;
-                        let mut balance = super::split::Balance::default();
-                        let r = (|| {
-                            bytes.resize(((end + 2).min(len) - start) as usize, 0);
-                            // The file may hold less than its size said
-                            // (sysfs; truncated meanwhile): its end is then
-                            // the axiom's, as the reader finds it.
-                            let got = read_upto_at(file, &mut bytes, start)
-                                .map_err(|e| Error::io(name, IoAction::Read, e))?;
-                            bytes.truncate(got);
-                            let whole = ((end - start) as usize).min(got);
-                            let p = plain_prefix(&bytes, whole, comments);
-                            let plain = &bytes[..p.len];
-                            if plain.contains(&b'%') {
-                                percent.fetch_min(start, Ordering::Relaxed);
-                            }
-                            // In pieces of half a block: the sink's buffer
-                            // stays about a block.
-                            for piece in plain.chunks((shared.chunk / 2).max(1)) {
-                                out.plain(piece)?;
-                                out.maybe_flush()?;
-                            }
-                            out.flush()?;
-                            if p.low < 0 {
-                                balance.lows.push((p.low, None));
-                            }
-                            balance.depth = p.depth;
-                            if p.stopped {
-                                current.last(start + p.len as u64);
-                            }
-                            Ok(())
-                        })();
-                        out.buf.clear();
-                        let index = out.end_chunk();
-                        let modules = out.modules - before;
-                        current.end(r.map(|()| modules), Some(Box::new(balance)), index);
-                    }
-                    current.report();
-                });
-            if h.is_err() {
-                break;
+            move || {
+                let current = Current::new(shared, w);
+                let mut sink = std::io::sink();
+                let mut out = worker_out(&mut sink, &current, false, out_index);
+                let mut bytes = Vec::new();
+                while let Some(((start, end), slot)) = current.next(&task_rx) {
+                    current.start(slot);
+                    out.begin_chunk();
+                    let before = out.modules;
+                    let mut balance = super::split::Balance::default();
+                    let r = (|| {
+                        bytes.resize(((end + 2).min(len) - start) as usize, 0);
+                        // The file may hold less than its size said
+                        // (sysfs; truncated meanwhile): its end is then
+                        // the axiom's, as the reader finds it.
+                        let got = read_upto_at(file, &mut bytes, start)
+                            .map_err(|e| Error::io(name, IoAction::Read, e))?;
+                        bytes.truncate(got);
+                        let whole = ((end - start) as usize).min(got);
+                        let p = plain_prefix(&bytes, whole, comments);
+                        let plain = &bytes[..p.len];
+                        if plain.contains(&b'%') {
+                            percent.fetch_min(start, Ordering::Relaxed);
+                        }
+                        // In pieces of half a block: the sink's buffer
+                        // stays about a block.
+                        for piece in plain.chunks((shared.chunk / 2).max(1)) {
+                            out.plain(piece)?;
+                            out.maybe_flush()?;
+                        }
+                        out.flush()?;
+                        if p.low < 0 {
+                            balance.lows.push((p.low, None));
+                        }
+                        balance.depth = p.depth;
+                        if p.stopped {
+                            current.last(start + p.len as u64);
+                        }
+                        Ok(())
+                    })();
+                    out.buf.clear();
+                    let index = out.end_chunk();
+                    let modules = out.modules - before;
+                    current.end(r.map(|()| modules), Some(Box::new(balance)), index);
+                }
+                current.report();
             }
-            workers += 1;
-        }
+        });
         if workers == 0 {
             return Ok(None);
         }
@@ -530,26 +539,19 @@ pub(crate) fn expand(
         let (task_tx, task_rx) = mpsc::channel::<(Task, Slot)>();
         let task_rx = Arc::new(Mutex::new(task_rx));
         let (order_tx, order_rx) = mpsc::channel::<Receiver<Msg>>();
-        let mut workers = 0;
-        for w in 0..threads {
+        let workers = spawn_workers(s, (threads, "lsgen-par"), |w| {
             let task_rx = Arc::clone(&task_rx);
-            let h = std::thread::Builder::new()
-                .name(format!("lsgen-par-{w}"))
-                .spawn_scoped(s, move || {
-                    work(
-                        (plan, w),
-                        al,
-                        origin,
-                        steps,
-                        (&task_rx, shared),
-                        (done_modules, done_bytes),
-                    )
-                });
-            if h.is_err() {
-                break;
+            move || {
+                work(
+                    (plan, w),
+                    al,
+                    origin,
+                    steps,
+                    (&task_rx, shared),
+                    (done_modules, done_bytes),
+                )
             }
-            workers += 1;
-        }
+        });
         let producer = (workers > 0).then(|| {
             std::thread::Builder::new()
                 .name("lsgen-split".into())
