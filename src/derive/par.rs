@@ -407,12 +407,7 @@ pub(crate) fn axiom_prefix(
                         if plain.contains(&b'%') {
                             percent.fetch_min(start, Ordering::Relaxed);
                         }
-                        // In pieces of half a block: the sink's buffer
-                        // stays about a block.
-                        for piece in plain.chunks((shared.chunk / 2).max(1)) {
-                            out.plain(piece)?;
-                            out.maybe_flush()?;
-                        }
+                        out.plain_in_blocks(plain, shared.chunk)?;
                         out.flush()?;
                         if p.low < 0 {
                             balance.lows.push((p.low, None));

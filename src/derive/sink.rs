@@ -460,6 +460,29 @@ impl<'w> Out<'w> {
         self.buf.extend_from_slice(bytes);
     }
 
+    /// Plain modules ([`Self::plain`]), flushed as the buffer fills: in
+    /// pieces whose bytes (each `[` with its index) are at most a quarter
+    /// of `block`, flushed once past three quarters, so that the buffer
+    /// never holds more than `block` bytes and a module. A worker's buffer
+    /// is a block that is reused: it must not grow (`par::axiom_prefix`;
+    /// a piece of the signal axiom, a `[` in about six bytes, made blocks
+    /// of 600 KiB).
+    pub(crate) fn plain_in_blocks(&mut self, run: &[u8], block: usize) -> Result<(), Error> {
+        let most = if self.indexed {
+            1 + self.index_len()
+        } else {
+            1
+        };
+        let quarter = (block / 4).max(1);
+        for piece in run.chunks((quarter / most).max(1)) {
+            self.plain(piece)?;
+            if self.buf.len() > block - quarter {
+                self.flush()?;
+            }
+        }
+        Ok(())
+    }
+
     /// Plain modules: ASCII symbols without parameters, one byte each in
     /// both formats.
     #[inline]
@@ -918,5 +941,53 @@ mod tests {
         );
         // The last (text) generation's bytes are checked as written.
         assert!(bytes.check_generations(&[(1, 1), (2, 20)], true).is_ok());
+    }
+
+    /// A worker writes plain modules in blocks no larger than its block
+    /// (but for a `[`'s index bytes), whatever the share of `[`s: every
+    /// byte kept, each `[` with its index bytes.
+    #[test]
+    fn plain_modules_in_blocks_stay_within_the_block() {
+        use std::cell::RefCell;
+        #[derive(Default)]
+        struct Blocks(RefCell<Vec<Vec<u8>>>);
+        impl Take for Blocks {
+            fn take(&self, buf: &mut Vec<u8>) -> std::io::Result<()> {
+                self.0.borrow_mut().push(std::mem::take(buf));
+                Ok(())
+            }
+        }
+        let mixed: Vec<u8> = b"F1[+F1F1]".iter().copied().cycle().take(5000).collect();
+        let opens = vec![b'['; 3000];
+        for run in [&mixed, &opens] {
+            for counts in [false, true] {
+                let il = if counts { INDEX_BYTES } else { ENDS_BYTES };
+                for block in [1, 2, 7, 64, 1000, 4096] {
+                    let blocks = Blocks::default();
+                    let mut sink = std::io::sink();
+                    let mut out =
+                        Out::new(&mut sink, "w", false, Limits::default()).with_chunk_index(counts);
+                    out.taker = Some(&blocks);
+                    out.begin_chunk();
+                    out.plain_in_blocks(run, block).unwrap();
+                    out.flush().unwrap();
+                    assert_eq!(out.modules, run.len() as u64);
+                    let _ = out.end_chunk();
+                    drop(out);
+                    let mut text = Vec::new();
+                    for b in blocks.0.borrow().iter() {
+                        assert!(b.len() <= block + il, "{} > {block}", b.len());
+                        text.extend_from_slice(b);
+                    }
+                    let mut bytes = Vec::new();
+                    let mut i = 0;
+                    while i < text.len() {
+                        bytes.push(text[i]);
+                        i += if text[i] == b'[' { 1 + il } else { 1 };
+                    }
+                    assert_eq!(&bytes, run, "block {block}, counts {counts}");
+                }
+            }
+        }
     }
 }
