@@ -33,6 +33,29 @@ pub(super) const BUDGET: usize = 24;
 /// and take about as long as each other (and whose start states take
 /// room of their own).
 pub(super) const STEP_BUDGET: usize = 12;
+
+/// What a run's splits keep from one pass to the next: written text
+/// blocks and emptied spill files, and where spill files are made (the
+/// run's `--tmpdir`). Each pass starts new threads; blocks made and freed
+/// per pass landed in different malloc arenas, and a run's peak RSS grew
+/// from pass to pass by megabytes that varied from run to run. Kept here,
+/// a run holds the blocks of its busiest pass.
+pub(crate) struct Reuse<'a> {
+    tmpdir: &'a Option<PathBuf>,
+    blocks: Mutex<Vec<Vec<u8>>>,
+    spills: Mutex<Vec<File>>,
+}
+
+impl<'a> Reuse<'a> {
+    pub(crate) fn new(tmpdir: &'a Option<PathBuf>) -> Self {
+        Reuse {
+            tmpdir,
+            blocks: Mutex::default(),
+            spills: Mutex::default(),
+        }
+    }
+}
+
 /// Judges each chunk's bracket balance ([`write_in_order`]).
 pub(super) type Judge<'j> = Option<&'j mut dyn FnMut(&super::split::Balance) -> Result<(), Error>>;
 
@@ -47,7 +70,7 @@ pub(super) fn write_in_order(
     shared: &Shared,
     mut judge: Judge,
 ) -> Result<Option<u64>, Error> {
-    let cpu = thread_cpu();
+    let (cpu, began) = (thread_cpu(), Instant::now());
     let (mut waited, mut idle) = (Duration::ZERO, Duration::ZERO);
     // The final text: the output may write it around the page cache
     // (`io::output::WriteBehind`), until this returns.
@@ -134,7 +157,8 @@ pub(super) fn write_in_order(
     out.chunk = flush_at;
     if shared.debug {
         crate::diag::eprint(&format!(
-            "lsgen: par: writer: cpu {:.3} s, waited {:.3} s for text, {:.3} s for tasks; {seq} tasks\n",
+            "lsgen: par: writer: wall {:.3} s, cpu {:.3} s, waited {:.3} s for text, {:.3} s for tasks; {seq} tasks\n",
+            began.elapsed().as_secs_f64(),
             (thread_cpu() - cpu).as_secs_f64(),
             waited.as_secs_f64(),
             idle.as_secs_f64(),
@@ -221,12 +245,11 @@ pub(super) struct Shared<'a> {
     /// block another core wrote last costs a transfer per cache line: about
     /// a tenth of parametric_tree's CPU time at `-j 2`).
     pub(super) pools: Vec<Mutex<Vec<Vec<u8>>>>,
-    /// Emptied spill files, for reuse.
-    pub(super) spills: Mutex<Vec<File>>,
     /// Tasks handed out ahead of the writer.
     pub(super) gate: Gate,
-    /// Where spill files are made (the run's `--tmpdir`).
-    pub(super) tmpdir: &'a Option<PathBuf>,
+    /// Blocks and spill files of the run's passes before, and for those
+    /// after (emptied spill files go there at once, blocks at the end).
+    pub(super) reuse: &'a Reuse<'a>,
     /// `LSGEN_DEBUG_PAR`: each thread reports its CPU time and waits.
     pub(super) debug: bool,
     /// The size of a block, the blocks a task not being written keeps in
@@ -245,7 +268,7 @@ impl<'a> Shared<'a> {
     /// `budget` blocks in all ([`BUDGET`], [`STEP_BUDGET`]), with at most
     /// `ahead` tasks handed out ahead of the writer ([`Gate`]).
     pub(super) fn new(
-        tmpdir: &'a Option<PathBuf>,
+        reuse: &'a Reuse<'a>,
         budget: usize,
         (threads, ahead): (usize, usize),
     ) -> Self {
@@ -260,9 +283,8 @@ impl<'a> Shared<'a> {
             starving: AtomicBool::new(false),
             closed: AtomicBool::new(false),
             pools: (0..threads.max(1)).map(|_| Mutex::default()).collect(),
-            spills: Mutex::default(),
             gate: Gate::new(ahead),
-            tmpdir,
+            reuse,
             debug: std::env::var_os("LSGEN_DEBUG_PAR").is_some_and(|v| v == "1"),
             chunk,
             queue,
@@ -273,10 +295,12 @@ impl<'a> Shared<'a> {
 
     /// An empty block, written before if there is one: worker `owner`'s
     /// own first, then another's (so that no more blocks exist than one
-    /// pool for all would make).
+    /// pool for all would make), then one a pass before wrote.
     pub(super) fn block(&self, owner: usize) -> Vec<u8> {
         let n = self.pools.len();
-        let b = (0..n).find_map(|i| self.pool(owner + i).lock().ok().and_then(|mut p| p.pop()));
+        let b = (0..n)
+            .find_map(|i| self.pool(owner + i).lock().ok().and_then(|mut p| p.pop()))
+            .or_else(|| self.reuse.blocks.lock().ok().and_then(|mut p| p.pop()));
         let mut b = b.unwrap_or_else(|| Vec::with_capacity(CHUNK + codec::MAX_MODULE_BYTES * 4));
         b.clear();
         b
@@ -298,17 +322,30 @@ impl<'a> Shared<'a> {
 
     /// A spill file, emptied.
     pub(super) fn spill_file(&self) -> Result<File, Error> {
-        match self.spills.lock().ok().and_then(|mut s| s.pop()) {
+        match self.reuse.spills.lock().ok().and_then(|mut s| s.pop()) {
             Some(f) => Ok(f),
-            None => super::tempfile(self.tmpdir),
+            None => super::tempfile(self.reuse.tmpdir),
         }
     }
 
     /// Empty a spill file and keep it for reuse (or drop it).
     pub(super) fn give_back(&self, file: File) {
         if file.set_len(0).is_ok() {
-            if let Ok(mut s) = self.spills.lock() {
+            if let Ok(mut s) = self.reuse.spills.lock() {
                 s.push(file);
+            }
+        }
+    }
+}
+
+impl Drop for Shared<'_> {
+    /// The pass's blocks go to the run's next pass.
+    fn drop(&mut self) {
+        if let Ok(mut kept) = self.reuse.blocks.lock() {
+            for pool in &self.pools {
+                if let Ok(mut pool) = pool.lock() {
+                    kept.append(&mut pool);
+                }
             }
         }
     }
@@ -705,7 +742,8 @@ mod tests {
     #[test]
     fn each_worker_gets_back_its_own_blocks() {
         let tmpdir = None;
-        let shared = Shared::new(&tmpdir, 4, (2, 8));
+        let reuse = super::Reuse::new(&tmpdir);
+        let shared = Shared::new(&reuse, 4, (2, 8));
         let (a, b) = (shared.block(0), shared.block(1));
         let (pa, pb) = (a.as_ptr(), b.as_ptr());
         shared.recycle(a, 0);
@@ -721,5 +759,23 @@ mod tests {
         shared.recycle(c, 0);
         let c = shared.block(1);
         assert_eq!(c.as_ptr(), pc);
+    }
+
+    /// The next pass of a run writes into the blocks of the pass before
+    /// (through the run's [`super::Reuse`]), not new ones.
+    #[test]
+    fn a_pass_reuses_the_blocks_of_the_pass_before() {
+        let tmpdir = None;
+        let reuse = super::Reuse::new(&tmpdir);
+        {
+            let shared = Shared::new(&reuse, 4, (2, 8));
+            // (Capacities no new block has.)
+            shared.recycle(Vec::with_capacity(1001), 0);
+            shared.recycle(Vec::with_capacity(1002), 1);
+        }
+        let shared = Shared::new(&reuse, 4, (2, 8));
+        let mut got = [shared.block(0).capacity(), shared.block(1).capacity()];
+        got.sort();
+        assert_eq!(got, [1001, 1002]);
     }
 }

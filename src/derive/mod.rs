@@ -290,6 +290,8 @@ pub(crate) fn derive(
         first_step,
         ..
     } = *settings;
+    // Blocks and spill files the splits keep from pass to pass.
+    let reuse = par::Reuse::new(tmpdir);
     // The number of the i-th step of this run.
     let step_no = |i: u64| first_step + (i - 1);
     let System {
@@ -402,7 +404,7 @@ pub(crate) fn derive(
         let split = (
             settings.threads,
             settings.split.or_else(par::test_split),
-            tmpdir,
+            &reuse,
         );
         let name = reader.name().to_string();
         let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, index)?;
@@ -580,11 +582,7 @@ pub(crate) fn derive(
         let threads = par::threads_for(settings.threads, steps, strategy);
         out.direct = settings.direct.clone();
         let expanded = if threads > 1 {
-            let split = (
-                threads,
-                settings.split.or_else(par::test_split),
-                &settings.tmpdir,
-            );
+            let split = (threads, settings.split.or_else(par::test_split), &reuse);
             par::expand(&plan, src, &d.alphabet, &d.origin, steps, split, &mut out)
         } else {
             let _direct = out.around_cache(true);
@@ -613,7 +611,7 @@ pub(crate) fn derive(
         &mut d,
         cur,
         (&tables, &homomorphism, hom),
-        settings,
+        (settings, &reuse),
         (output, out_name, &tmp_name),
         indexed,
         events,
@@ -630,7 +628,7 @@ fn step_passes(
     d: &mut Deriver,
     mut cur: Option<File>,
     (tables, homomorphism, hom): (&Tables, &crate::rules::Table, bool),
-    settings: &Settings,
+    (settings, reuse): (&Settings, &par::Reuse),
     (output, out_name, tmp_name): (&mut dyn Write, &str, &str),
     indexed: bool,
     events: &mut dyn FnMut(&Event),
@@ -701,7 +699,7 @@ fn step_passes(
             let len = src.metadata().map_or(u64::MAX, |m| m.len());
             let flags = (tables.plain, indexed, limited);
             let threads = par::step_threads(settings.threads, table, flags, (len, split));
-            let split = (threads, split, tmpdir);
+            let split = (threads, split, reuse);
             out.direct = settings.direct.clone();
             match (threads > 1)
                 .then(|| par::step_pass(d, table, (&src, indexed), split, &mut out, pass))

@@ -37,13 +37,13 @@
 //! reports each thread's CPU time, waits and spills (benches/RESULTS.md).
 
 use super::dfs::{ParamPlan, Split, Walker};
+pub(crate) use super::handoff::Reuse;
 use super::handoff::{write_in_order, Current, Msg, Order, Queue, Shared, Slot};
 use super::{Deriver, Origin, Out, Strategy};
 use crate::diag::{Error, IoAction};
 use crate::rules::codec;
 use crate::rules::{Alphabet, ConstRun};
 use std::fs::File;
-use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver};
 use std::sync::{Arc, Mutex};
@@ -147,14 +147,14 @@ pub(crate) fn step_pass(
     d: &Deriver,
     table: &crate::rules::Table,
     (src, indexed): (&File, bool),
-    (threads, split, tmpdir): (usize, Option<u64>, &Option<PathBuf>),
+    (threads, split, reuse): (usize, Option<u64>, &Reuse),
     out: &mut Out,
     pass: super::Pass,
 ) -> Result<Option<u64>, Error> {
     let draws = AtomicU64::new(0);
     let draws = &draws;
     let shared = &Shared::new(
-        tmpdir,
+        reuse,
         super::handoff::STEP_BUDGET,
         (threads, threads * IN_FLIGHT),
     );
@@ -352,7 +352,7 @@ pub(crate) enum AxiomPrefix {
 /// written).
 pub(crate) fn axiom_prefix(
     (file, from, len, comments): (&File, u64, u64, bool),
-    (threads, split, tmpdir): (usize, Option<u64>, &Option<PathBuf>),
+    (threads, split, reuse): (usize, Option<u64>, &Reuse),
     (name, out): (&str, &mut Out),
 ) -> Result<Option<AxiomPrefix>, Error> {
     use crate::io::axiom::plain_prefix;
@@ -365,7 +365,7 @@ pub(crate) fn axiom_prefix(
         return Ok(None);
     }
     let shared = &Shared::new(
-        tmpdir,
+        reuse,
         super::handoff::STEP_BUDGET,
         (threads, threads * IN_FLIGHT),
     );
@@ -515,7 +515,7 @@ pub(crate) fn expand(
     al: &Alphabet,
     origin: &Origin,
     steps: u64,
-    (threads, split, tmpdir): (usize, Option<u64>, &Option<PathBuf>),
+    (threads, split, reuse): (usize, Option<u64>, &Reuse),
     out: &mut Out,
 ) -> Result<(), Error> {
     let per_thread = split.unwrap_or(PER_THREAD);
@@ -526,7 +526,7 @@ pub(crate) fn expand(
     let done_bytes = AtomicU64::new(0);
     let (done_modules, done_bytes) = (&done_modules, &done_bytes);
     let shared = &Shared::new(
-        tmpdir,
+        reuse,
         super::handoff::BUDGET,
         (threads, threads * IN_FLIGHT),
     );
