@@ -33,6 +33,16 @@ pub(super) const BUDGET: usize = 24;
 /// and take about as long as each other (and whose start states take
 /// room of their own).
 pub(super) const STEP_BUDGET: usize = 12;
+/// How long a worker with no room in memory waits for the writer before it
+/// spills, in a step pass (and the axiom's split): its chunks are of one
+/// size and take about as long as each other, so a worker far ahead of the
+/// writer means that the one on the chunk being written lost its core to
+/// another thread (more threads than cores: the writer, the producer);
+/// spilling would take more of the cores it needs. Sleeping gives it one.
+/// (Depth first, a task may take far longer than the others, and the
+/// worker spills at once.) At 10^8, context_signal spilled 45-50 MB in the
+/// axiom's split without it, 0.5 MB with 0.5 ms.
+pub(super) const STEP_PATIENCE: Duration = Duration::from_millis(1);
 
 /// What a run's splits keep from one pass to the next: written text
 /// blocks and emptied spill files, and where spill files are made (the
@@ -259,17 +269,21 @@ pub(super) struct Shared<'a> {
     pub(super) chunk: usize,
     pub(super) queue: usize,
     pub(super) budget: usize,
+    /// How long a worker with no room waits before it spills
+    /// ([`STEP_PATIENCE`], or none).
+    patience: Duration,
     /// Spill as soon as there is no room in memory (tests).
     pub(super) eager: bool,
 }
 
 impl<'a> Shared<'a> {
     /// For a split on `threads` workers whose tasks not being written keep
-    /// `budget` blocks in all ([`BUDGET`], [`STEP_BUDGET`]), with at most
-    /// `ahead` tasks handed out ahead of the writer ([`Gate`]).
+    /// `budget` blocks in all ([`BUDGET`], [`STEP_BUDGET`]), a worker with
+    /// no room waiting `patience` for the writer before it spills, with at
+    /// most `ahead` tasks handed out ahead of the writer ([`Gate`]).
     pub(super) fn new(
         reuse: &'a Reuse<'a>,
-        budget: usize,
+        (budget, patience): (usize, Duration),
         (threads, ahead): (usize, usize),
     ) -> Self {
         let test = std::env::var("LSGEN_TEST_SPILL")
@@ -289,6 +303,7 @@ impl<'a> Shared<'a> {
             chunk,
             queue,
             budget,
+            patience,
             eager: test.is_some(),
         }
     }
@@ -618,20 +633,20 @@ impl<'a> Current<'a> {
                 return tx.send(Msg::Text(block, self.id)).map_err(|_| gone());
             }
             // No room in memory. While the writer is waiting for the task
-            // it is on, spill: that task is the bottleneck, and this
-            // worker must not wait for it. Otherwise the writer is busy
-            // (the bottleneck itself): spilling would only add to its
-            // work, so wait a little for it.
-            if shared.eager || shared.starving.load(Ordering::Relaxed) {
-                if let Some(t) = since {
-                    self.waited.set(self.waited.get() + t.elapsed());
-                }
+            // it is on, spill (after `patience`, [`STEP_PATIENCE`]): that
+            // task is the bottleneck, and this worker must not wait for
+            // it. Otherwise the writer is busy (the bottleneck itself):
+            // spilling would only add to its work, so wait a little for it.
+            let t = *since.get_or_insert_with(Instant::now);
+            if shared.eager
+                || (shared.starving.load(Ordering::Relaxed) && t.elapsed() >= shared.patience)
+            {
+                self.waited.set(self.waited.get() + t.elapsed());
                 return self.spill(block);
             }
             if shared.closed.load(Ordering::Relaxed) {
                 return Err(gone());
             }
-            since.get_or_insert_with(Instant::now);
             std::thread::sleep(Duration::from_micros(100));
         }
     }
@@ -701,6 +716,7 @@ impl super::sink::Take for Current<'_> {
 #[cfg(test)]
 mod tests {
     use super::{Gate, Shared};
+    use std::time::Duration;
 
     /// The producer waits while `most` tasks are ahead of the writer and
     /// is let in again only once half of them are reached; closing lets
@@ -743,7 +759,7 @@ mod tests {
     fn each_worker_gets_back_its_own_blocks() {
         let tmpdir = None;
         let reuse = super::Reuse::new(&tmpdir);
-        let shared = Shared::new(&reuse, 4, (2, 8));
+        let shared = Shared::new(&reuse, (4, Duration::ZERO), (2, 8));
         let (a, b) = (shared.block(0), shared.block(1));
         let (pa, pb) = (a.as_ptr(), b.as_ptr());
         shared.recycle(a, 0);
@@ -761,6 +777,38 @@ mod tests {
         assert_eq!(c.as_ptr(), pc);
     }
 
+    /// A worker ahead of the writer with no room in memory, while the
+    /// writer waits for text, spills: at once without patience, after it
+    /// with ([`super::STEP_PATIENCE`]).
+    #[test]
+    fn a_worker_without_room_waits_its_patience_then_spills() {
+        use super::Current;
+        use std::sync::atomic::Ordering;
+        use std::time::Instant;
+        let patience = Duration::from_millis(300);
+        for p in [Duration::ZERO, patience] {
+            let tmpdir = None;
+            let reuse = super::Reuse::new(&tmpdir);
+            let shared = Shared::new(&reuse, (1, p), (2, 8));
+            shared.starving.store(true, Ordering::Relaxed);
+            let current = Current::new(&shared, 0);
+            let (tx, _rx) = std::sync::mpsc::sync_channel(16);
+            // Task 1; the writer is on task 0.
+            current.start((1, tx));
+            current.send(vec![1; 10]).unwrap();
+            assert!(current.spill.borrow().is_none(), "spilled with room");
+            let t = Instant::now();
+            current.send(vec![2; 10]).unwrap();
+            let took = t.elapsed();
+            assert!(current.spill.borrow().is_some(), "no spill");
+            if p.is_zero() {
+                assert!(took < patience, "waited {took:?} without patience");
+            } else {
+                assert!(took >= p, "spilled after {took:?}");
+            }
+        }
+    }
+
     /// The next pass of a run writes into the blocks of the pass before
     /// (through the run's [`super::Reuse`]), not new ones.
     #[test]
@@ -768,12 +816,12 @@ mod tests {
         let tmpdir = None;
         let reuse = super::Reuse::new(&tmpdir);
         {
-            let shared = Shared::new(&reuse, 4, (2, 8));
+            let shared = Shared::new(&reuse, (4, Duration::ZERO), (2, 8));
             // (Capacities no new block has.)
             shared.recycle(Vec::with_capacity(1001), 0);
             shared.recycle(Vec::with_capacity(1002), 1);
         }
-        let shared = Shared::new(&reuse, 4, (2, 8));
+        let shared = Shared::new(&reuse, (4, Duration::ZERO), (2, 8));
         let mut got = [shared.block(0).capacity(), shared.block(1).capacity()];
         got.sort();
         assert_eq!(got, [1001, 1002]);

@@ -155,7 +155,7 @@ pub(crate) fn step_pass(
     let draws = &draws;
     let shared = &Shared::new(
         reuse,
-        super::handoff::STEP_BUDGET,
+        (super::handoff::STEP_BUDGET, super::handoff::STEP_PATIENCE),
         (threads, threads * IN_FLIGHT),
     );
     let text = out.text;
@@ -366,7 +366,7 @@ pub(crate) fn axiom_prefix(
     }
     let shared = &Shared::new(
         reuse,
-        super::handoff::STEP_BUDGET,
+        (super::handoff::STEP_BUDGET, super::handoff::STEP_PATIENCE),
         (threads, threads * IN_FLIGHT),
     );
     let out_index = (out.indexed, out.counts());
@@ -527,7 +527,7 @@ pub(crate) fn expand(
     let (done_modules, done_bytes) = (&done_modules, &done_bytes);
     let shared = &Shared::new(
         reuse,
-        super::handoff::BUDGET,
+        (super::handoff::BUDGET, std::time::Duration::ZERO),
         (threads, threads * IN_FLIGHT),
     );
     std::thread::scope(|s| -> Result<(), Error> {
