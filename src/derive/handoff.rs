@@ -33,15 +33,16 @@ pub(super) const BUDGET: usize = 24;
 /// and take about as long as each other (and whose start states take
 /// room of their own).
 pub(super) const STEP_BUDGET: usize = 12;
-/// How long a worker with no room in memory waits for the writer before it
-/// spills, in a step pass (and the axiom's split): its chunks are of one
-/// size and take about as long as each other, so a worker far ahead of the
-/// writer means that the one on the chunk being written lost its core to
-/// another thread (more threads than cores: the writer, the producer);
-/// spilling would take more of the cores it needs. Sleeping gives it one.
-/// (Depth first, a task may take far longer than the others, and the
-/// worker spills at once.) At 10^8, context_signal spilled 45-50 MB in the
-/// axiom's split without it, 0.5 MB with 0.5 ms.
+/// How long a worker with no room in memory waits, from when it found none,
+/// before a task's first spill, in a step pass (and the axiom's split): its
+/// chunks are of one size and take about as long as each other, so a
+/// worker far ahead of the writer means that the one on the chunk being
+/// written lost its core to another thread (more threads than cores: the
+/// writer, the producer); spilling would take more of the cores it needs.
+/// Sleeping gives it one. (Depth first, a task may take far longer than
+/// the others, and the worker spills at once.) context_signal 3 steps at
+/// 10^8, `-j 2`, spilled 45-50 MB in the axiom's split alone without it,
+/// 0.5 MB with 0.5 ms, nothing in any pass with 1 ms.
 pub(super) const STEP_PATIENCE: Duration = Duration::from_millis(1);
 
 /// What a run's splits keep from one pass to the next: written text
@@ -224,7 +225,7 @@ pub(super) enum Msg {
     /// A block of text, and the number of the worker that wrote it.
     Text(Vec<u8>, usize),
     /// Text the task wrote to a spill file (from offset 0) before the
-    /// writer reached it; the file goes back to [`Shared::spills`].
+    /// writer reached it; the file goes back to [`Reuse`].
     Spilled(File, u64),
     /// The task is complete: its number of modules.
     End(u64),
@@ -478,7 +479,8 @@ impl<'a> Order<'a> {
 /// the writer is on the task, blocks go to its channel (waiting when it
 /// is full); before, up to [`QUEUE`] blocks (and [`BUDGET`] in all) go to
 /// the channel, and the rest, while the writer waits for text of the task
-/// it is on, to a spill file, handed to the writer when it reaches the
+/// it is on, to a spill file (in a step pass after waiting up to
+/// [`STEP_PATIENCE`] for room), handed to the writer when it reaches the
 /// task or at the task's end (while the writer is busy, the worker waits
 /// instead). So memory stays bounded, and a worker waits for the writer
 /// only while the writer is the bottleneck.
@@ -633,14 +635,14 @@ impl<'a> Current<'a> {
                 return tx.send(Msg::Text(block, self.id)).map_err(|_| gone());
             }
             // No room in memory. While the writer is waiting for the task
-            // it is on, spill (after `patience`, [`STEP_PATIENCE`]): that
-            // task is the bottleneck, and this worker must not wait for
-            // it. Otherwise the writer is busy (the bottleneck itself):
-            // spilling would only add to its work, so wait a little for it.
+            // it is on, spill (a task's first spill after `patience`,
+            // [`STEP_PATIENCE`]): that task is the bottleneck, and this
+            // worker must not wait for it. Otherwise the writer is busy
+            // (the bottleneck itself): spilling would only add to its
+            // work, so wait a little for it.
             let t = *since.get_or_insert_with(Instant::now);
-            if shared.eager
-                || (shared.starving.load(Ordering::Relaxed) && t.elapsed() >= shared.patience)
-            {
+            let patient = !spilling && t.elapsed() < shared.patience;
+            if shared.eager || (shared.starving.load(Ordering::Relaxed) && !patient) {
                 self.waited.set(self.waited.get() + t.elapsed());
                 return self.spill(block);
             }
@@ -779,7 +781,7 @@ mod tests {
 
     /// A worker ahead of the writer with no room in memory, while the
     /// writer waits for text, spills: at once without patience, after it
-    /// with ([`super::STEP_PATIENCE`]).
+    /// with ([`super::STEP_PATIENCE`]), and once spilling, at once.
     #[test]
     fn a_worker_without_room_waits_its_patience_then_spills() {
         use super::Current;
@@ -806,6 +808,11 @@ mod tests {
             } else {
                 assert!(took >= p, "spilled after {took:?}");
             }
+            // Spilling, it goes on spilling at once.
+            let t = Instant::now();
+            current.send(vec![3; 10]).unwrap();
+            assert!(t.elapsed() < patience, "waited again: {:?}", t.elapsed());
+            assert_eq!(current.spill.borrow().as_ref().map(|s| s.1), Some(20));
         }
     }
 

@@ -407,7 +407,7 @@ pub(crate) fn axiom_prefix(
                         if plain.contains(&b'%') {
                             percent.fetch_min(start, Ordering::Relaxed);
                         }
-                        out.plain_in_blocks(plain, shared.chunk)?;
+                        out.plain_in_blocks(plain)?;
                         out.flush()?;
                         if p.low < 0 {
                             balance.lows.push((p.low, None));

@@ -462,12 +462,13 @@ impl<'w> Out<'w> {
 
     /// Plain modules ([`Self::plain`]), flushed as the buffer fills: in
     /// pieces whose bytes (each `[` with its index) are at most a quarter
-    /// of `block`, flushed once past three quarters, so that the buffer
-    /// never holds more than `block` bytes and a module. A worker's buffer
-    /// is a block that is reused: it must not grow (`par::axiom_prefix`;
-    /// a piece of the signal axiom, a `[` in about six bytes, made blocks
-    /// of 600 KiB).
-    pub(crate) fn plain_in_blocks(&mut self, run: &[u8], block: usize) -> Result<(), Error> {
+    /// of a block (`chunk`), flushed once past three quarters, so that a
+    /// buffer that held at most that many bytes before never holds more
+    /// than a block and a module. A worker's buffer is a block that is
+    /// reused: it must not grow (`par::axiom_prefix`; a piece of the signal
+    /// axiom, a `[` in about six bytes, made blocks of 600 KiB).
+    pub(crate) fn plain_in_blocks(&mut self, run: &[u8]) -> Result<(), Error> {
+        let block = self.chunk;
         let most = if self.indexed {
             1 + self.index_len()
         } else {
@@ -968,8 +969,9 @@ mod tests {
                     let mut out =
                         Out::new(&mut sink, "w", false, Limits::default()).with_chunk_index(counts);
                     out.taker = Some(&blocks);
+                    out.chunk = block;
                     out.begin_chunk();
-                    out.plain_in_blocks(run, block).unwrap();
+                    out.plain_in_blocks(run).unwrap();
                     out.flush().unwrap();
                     assert_eq!(out.modules, run.len() as u64);
                     let _ = out.end_chunk();
