@@ -793,6 +793,17 @@ mod tests {
         }
     }
 
+    /// A worker's taker for tests: keeps the blocks handed over.
+    #[derive(Default)]
+    struct Blocks(std::cell::RefCell<Vec<Vec<u8>>>);
+
+    impl Take for Blocks {
+        fn take(&self, buf: &mut Vec<u8>) -> std::io::Result<()> {
+            self.0.borrow_mut().push(std::mem::take(buf));
+            Ok(())
+        }
+    }
+
     /// A split pass (issue 15): workers write their chunks' bracket index
     /// where they can and leave the rest to the writer ([`ChunkIndex`]),
     /// which completes it as it writes the chunks in order. The file is
@@ -802,15 +813,6 @@ mod tests {
     /// without counts; also when parameters hold the bytes of `[` and `]`.
     #[test]
     fn chunk_indices_completed_by_the_writer_give_one_sinks_file() {
-        use std::cell::RefCell;
-        #[derive(Default)]
-        struct Blocks(RefCell<Vec<Vec<u8>>>);
-        impl Take for Blocks {
-            fn take(&self, buf: &mut Vec<u8>) -> std::io::Result<()> {
-                self.0.borrow_mut().push(std::mem::take(buf));
-                Ok(())
-            }
-        }
         let mut al = Alphabet::new(Filter::All);
         let tricky = [f64::from_bits(0x5B5D_5B5D_5B5D_5B5D)];
         let g = al.intern('G', 1).unwrap();
@@ -949,15 +951,6 @@ mod tests {
     /// byte kept, each `[` with its index bytes.
     #[test]
     fn plain_modules_in_blocks_stay_within_the_block() {
-        use std::cell::RefCell;
-        #[derive(Default)]
-        struct Blocks(RefCell<Vec<Vec<u8>>>);
-        impl Take for Blocks {
-            fn take(&self, buf: &mut Vec<u8>) -> std::io::Result<()> {
-                self.0.borrow_mut().push(std::mem::take(buf));
-                Ok(())
-            }
-        }
         let mixed: Vec<u8> = b"F1[+F1F1]".iter().copied().cycle().take(5000).collect();
         let opens = vec![b'['; 3000];
         for run in [&mixed, &opens] {
