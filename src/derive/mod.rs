@@ -408,36 +408,33 @@ pub(crate) fn derive(
         );
         let name = reader.name().to_string();
         let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, index)?;
-        let mut start = None;
         let prefix = match reader.file_rest()? {
+            // With where the reader is (the split's workers read the file
+            // at their own offsets: it has not moved).
             Some(rest) if !out.text && !limited => {
-                let p = par::axiom_prefix(rest, split, (&name, &mut out))?;
-                if p.is_some() {
-                    // (Read there before the split.)
-                    start = Some(reader.state());
-                }
-                p
+                par::axiom_prefix(rest, split, (&name, &mut out))?.map(|p| (p, reader.state()))
             }
             _ => None,
         };
         let read = &mut |reader: &mut AxiomReader, out: &mut Out, cuts: &mut bool| {
             read_axiom(reader, out, &mut d, &mut params, cuts)
         };
-        let whole = match prefix {
+        // Where to read the axiom again from, if it must be.
+        let again = match prefix {
             None => {
                 read(&mut reader, &mut out, &mut axiom_cuts)?;
-                true
+                None
             }
-            Some(par::AxiomPrefix::Upto { at, depth, percent }) => {
+            Some((par::AxiomPrefix::Upto { at, depth, percent }, start)) => {
                 axiom_cuts |= percent;
                 reader.skip_plain(at, depth)?;
-                read(&mut reader, &mut out, &mut axiom_cuts).is_ok()
+                read(&mut reader, &mut out, &mut axiom_cuts)
+                    .is_err()
+                    .then_some(start)
             }
-            Some(par::AxiomPrefix::Again) => false,
+            Some((par::AxiomPrefix::Again, start)) => Some(start),
         };
-        let len = if whole {
-            out.finish()?
-        } else {
+        let len = if let Some(start) = again {
             // An error after the split (or an unbalanced `]` in it): read
             // the axiom again from its start on one thread, which reports
             // the error as one thread does, with the same quote.
@@ -445,10 +442,12 @@ pub(crate) fn derive(
             if let Some(f) = cur.as_mut() {
                 rewind(f)?;
             }
-            reader.back_to(&start.expect("the state before the split"))?;
+            reader.back_to(&start)?;
             axiom_cuts = false;
             let mut out = sink(&mut cur, &tmp_name, output, out_name, limits, index)?;
             read(&mut reader, &mut out, &mut axiom_cuts)?;
+            out.finish()?
+        } else {
             out.finish()?
         };
         let len = generation(Pass::Axiom, len);
