@@ -44,14 +44,24 @@ pub(crate) struct ByteTable<'t> {
 pub(crate) struct Choices<'t> {
     folded: Vec<Option<FoldSucc<'t>>>,
     /// By byte: what the step writes for each (left class, right class)
-    /// (`lclass * rn + rclass`): None copied, Some(None) nothing.
-    by_neighbours: Vec<Option<Box<[Pick<'t>]>>>,
+    /// (`lclass * rn + rclass`).
+    by_neighbours: Vec<Option<ByClass<'t>>>,
     /// The class of a left or right neighbour's byte: 0 for one no
     /// context asks for (and for none, or a module of several bytes).
     lclass: Vec<u8>,
     rclass: Vec<u8>,
     /// Right classes, 0 included.
     rn: usize,
+}
+
+/// A neighbour-decided key's successors by (left class, right class).
+enum ByClass<'t> {
+    /// For an output without bracket index: each a copy, as the table's
+    /// own successors.
+    Copy(Box<[FastSucc<'t>]>),
+    /// For an indexed output (through [`Out::constant`], which indexes
+    /// its brackets): None copied, Some(None) nothing.
+    Sink(Box<[Pick<'t>]>),
 }
 
 /// Most (left, right) entries of the neighbour tables in all: past it,
@@ -190,13 +200,14 @@ impl<'t> ByteTable<'t> {
     ///   keys, the left one from the left context (`left`: kept), the
     ///   right one from its input where that tells.
     ///
-    /// The others still stop it.
+    /// The others still stop it. `indexed`: does the output take a bracket
+    /// index?
     pub(crate) fn choices(
         &self,
         table: &'t Table,
         (folded, neighbours): (&[Option<Folded>], &[Option<Neighbours<'t>>]),
         al: &Alphabet,
-        left: bool,
+        (left, indexed): (bool, bool),
     ) -> Choices<'t> {
         let mut ch = Choices::default();
         for (b, f) in folded.iter().enumerate() {
@@ -260,10 +271,25 @@ impl<'t> ByteTable<'t> {
             if total > NEIGHBOUR_ENTRIES {
                 break;
             }
-            let by: Box<[Pick]> = lkeys
+            let picks = lkeys
                 .iter()
-                .flat_map(|&l| rkeys.iter().map(move |&r| n.pick(l, r)))
-                .collect();
+                .flat_map(|&l| rkeys.iter().map(move |&r| n.pick(l, r)));
+            let by = if indexed {
+                ByClass::Sink(picks.collect())
+            } else {
+                ByClass::Copy(
+                    picks
+                        .map(|p| match p {
+                            None => FastSucc::new(&ASCII[b..b + 1], 1),
+                            Some(None) => FastSucc::new(&[], 0),
+                            Some(Some(c)) => FastSucc::new(
+                                if self.text { c.text() } else { c.bin() },
+                                c.modules(),
+                            ),
+                        })
+                        .collect(),
+                )
+            };
             ch.by_neighbours
                 .resize_with(ch.by_neighbours.len().max(b + 1), || None);
             ch.by_neighbours[b] = Some(by);
@@ -379,7 +405,7 @@ impl<'t> ByteTable<'t> {
                     None => break,
                 }
             } else if let Some((ch, by)) = choices.filter(|_| FOLD).and_then(|c| {
-                let by = c.by_neighbours.get(b as usize)?.as_deref()?;
+                let by = c.by_neighbours.get(b as usize)?.as_ref()?;
                 Some((c, by))
             }) {
                 // Decided by its neighbours: the right one from the input,
@@ -399,22 +425,28 @@ impl<'t> ByteTable<'t> {
                     Some(k) if k < 128 => usize::from(ch.lclass[k as usize]),
                     _ => 0,
                 };
-                match by[l * ch.rn + r] {
-                    None => {
-                        out.buf.push(b);
-                        out.modules += 1;
+                let at = l * ch.rn + r;
+                match by {
+                    ByClass::Copy(by) => &by[at],
+                    ByClass::Sink(by) => {
+                        match by[at] {
+                            None => {
+                                out.buf.push(b);
+                                out.modules += 1;
+                            }
+                            Some(None) => {}
+                            Some(Some(c)) => out.constant(c)?,
+                        }
+                        if let Some(left) = &mut left {
+                            left.push(b as u32, &ASCII[b as usize..b as usize + 1], 0);
+                        }
+                        i += 1;
+                        if out.buf.len() >= limit {
+                            break;
+                        }
+                        continue;
                     }
-                    Some(None) => {}
-                    Some(Some(c)) => out.constant(c)?,
                 }
-                if let Some(left) = &mut left {
-                    left.push(b as u32, &ASCII[b as usize..b as usize + 1], 0);
-                }
-                i += 1;
-                if out.buf.len() >= limit {
-                    break;
-                }
-                continue;
             } else {
                 if self.brackets_general {
                     break;

@@ -596,7 +596,7 @@ impl<'a> Deriver<'a> {
                 table,
                 (&folded, &neighbours),
                 &self.alphabet,
-                st.left.is_some(),
+                (st.left.is_some(), out.indexed),
             ),
             _ => Choices::default(),
         };
