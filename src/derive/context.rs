@@ -30,7 +30,14 @@ pub(crate) struct LeftContext {
     params: Vec<f64>,
     /// One per open level (reused as branches open and close).
     levels: Vec<Level>,
+    /// The nearest considered module to the left ([`LeftContext::last_key`]),
+    /// or [`NO_KEY`]: kept as modules are pushed and branches close, so the
+    /// step's byte table reads it without walking the levels.
+    last: u32,
 }
+
+/// No module (for [`LeftContext::last`]).
+const NO_KEY: u32 = u32::MAX;
 
 /// No such level.
 pub(crate) const NONE: usize = usize::MAX;
@@ -45,6 +52,9 @@ pub(crate) struct Level {
     head: usize,
     /// Nearest enclosing level that keeps any module, or NONE.
     up: usize,
+    /// The nearest considered module to the left when the level opened
+    /// (its parent's: [`LeftContext::last`] again once it closes).
+    before: u32,
 }
 
 impl LeftContext {
@@ -79,10 +89,13 @@ impl LeftContext {
                 cnt: 0,
                 head: 0,
                 up: NONE,
+                before: NO_KEY,
             }],
+            last: NO_KEY,
         }
     }
 
+    #[inline]
     pub(crate) fn open(&mut self) {
         let d = self.depth;
         let cur = self.levels[d];
@@ -91,6 +104,7 @@ impl LeftContext {
             cnt: 0,
             head: 0,
             up: if cur.cnt > 0 { d } else { cur.up },
+            before: self.last,
         };
         self.depth += 1;
         if self.levels.len() <= self.depth {
@@ -100,19 +114,30 @@ impl LeftContext {
         }
     }
 
+    #[inline]
     pub(crate) fn close(&mut self) {
         if self.depth == 0 {
             return; // unbalanced: reported by the balance check
         }
-        let start = self.levels[self.depth].start;
+        let Level { start, before, .. } = self.levels[self.depth];
         self.keys.truncate(start);
         self.params.truncate(start * self.width);
         self.depth -= 1;
+        self.last = before;
     }
 
     /// The nearest considered module to the left, if any.
     #[inline(always)]
     pub(crate) fn last_key(&self) -> Option<u32> {
+        #[cfg(debug_assertions)]
+        assert_eq!(self.walk_last(), (self.last != NO_KEY).then_some(self.last));
+        (self.last != NO_KEY).then_some(self.last)
+    }
+
+    /// [`LeftContext::last_key`] from the levels (debug builds check the
+    /// one kept against it).
+    #[cfg(debug_assertions)]
+    fn walk_last(&self) -> Option<u32> {
         let mut l = self.levels[self.depth];
         if l.cnt == 0 {
             if l.up == NONE {
@@ -144,6 +169,7 @@ impl LeftContext {
             self.keys[slot] = key;
             slot
         };
+        self.last = key;
         if self.wanted.get(key as usize).copied().unwrap_or(false) {
             codec::read_params(module, &mut self.params[slot * w..slot * w + arity]);
         }
