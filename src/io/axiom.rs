@@ -216,24 +216,41 @@ impl<'a> AxiomReader<'a> {
         let mut unbalanced = false;
         'scan: loop {
             while i < n {
-                match class[avail[i] as usize] {
-                    C_PLAIN => {}
-                    C_OPEN => {
-                        if depth == 0 {
-                            open_at = Some(i);
-                        }
-                        depth += 1;
+                // A block of plain bytes whose `]`s cannot close the run
+                // (and so no `[` opens at depth 0): counted at once,
+                // without a branch on each byte's class.
+                if let Some(block) = avail.get(i..i + BLOCK) {
+                    let (plain, opens, closes) = block_counts(block, self.comments);
+                    if plain && closes < depth {
+                        depth = depth + opens - closes;
+                        i += BLOCK;
+                        continue;
                     }
-                    C_CLOSE => {
-                        if depth == 0 {
-                            unbalanced = true;
-                            break 'scan;
-                        }
-                        depth -= 1;
-                    }
-                    _ => break,
                 }
-                i += 1;
+                let end = n.min(i + BLOCK);
+                while i < end {
+                    match class[avail[i] as usize] {
+                        C_PLAIN => {}
+                        C_OPEN => {
+                            if depth == 0 {
+                                open_at = Some(i);
+                            }
+                            depth += 1;
+                        }
+                        C_CLOSE => {
+                            if depth == 0 {
+                                unbalanced = true;
+                                break 'scan;
+                            }
+                            depth -= 1;
+                        }
+                        _ => break,
+                    }
+                    i += 1;
+                }
+                if i < end {
+                    break; // a stop
+                }
             }
             if self.comments && i + 1 < n && avail[i] == b'/' && !comment::opens(&avail[i..]) {
                 i += 1;
@@ -583,24 +600,41 @@ pub(crate) fn plain_prefix(bytes: &[u8], whole: usize, comments: bool) -> PlainP
     let n = bytes.len();
     let (mut depth, mut low, mut low_before) = (0i64, 0i64, 0i64);
     let mut i = 0;
-    while i < n {
-        match class[bytes[i] as usize] {
-            C_PLAIN => {}
-            C_OPEN => depth += 1,
-            C_CLOSE => {
-                depth -= 1;
-                low_before = low;
-                low = low.min(depth);
+    'scan: while i < n {
+        // A block of plain bytes inside the piece whose `]`s cannot take
+        // the depth below its lowest: counted at once ([`block_counts`]).
+        if i + BLOCK <= whole {
+            let (plain, opens, closes) = block_counts(&bytes[i..i + BLOCK], comments);
+            let (opens, closes) = (opens as i64, closes as i64);
+            if plain && depth - closes >= low {
+                if closes > 0 {
+                    low_before = low;
+                }
+                depth += opens - closes;
+                i += BLOCK;
+                continue;
             }
-            _ if comments && bytes[i] == b'/' && i + 1 < n && !comment::opens(&bytes[i..]) => {}
-            _ => break,
         }
-        if i == whole {
-            // The byte after the piece is plain: the piece is all modules.
+        let end = n.min(i + BLOCK);
+        while i < end {
+            match class[bytes[i] as usize] {
+                C_PLAIN => {}
+                C_OPEN => depth += 1,
+                C_CLOSE => {
+                    depth -= 1;
+                    low_before = low;
+                    low = low.min(depth);
+                }
+                _ if comments && bytes[i] == b'/' && i + 1 < n && !comment::opens(&bytes[i..]) => {}
+                _ => break 'scan,
+            }
+            if i == whole {
+                // The byte after the piece is plain: the piece is all modules.
+                i += 1;
+                break 'scan;
+            }
             i += 1;
-            break;
         }
-        i += 1;
     }
     // A stop at `i` (or the end): the byte before it is left to the
     // reader; else the piece is whole. The byte at `len` was counted above
@@ -660,6 +694,30 @@ static PLAIN: [bool; 256] = {
     t
 };
 
+/// Bytes [`block_counts`] looks at together.
+const BLOCK: usize = 32;
+
+/// Are all of `block`'s bytes [`PLAIN`] (`/` not, with `comments`), and
+/// how many `[` and `]` it holds. Compares only, no table: the compiler
+/// makes vector code of it.
+#[inline]
+fn block_counts(block: &[u8], comments: bool) -> (bool, u64, u64) {
+    let (mut stops, mut opens, mut closes) = (0u8, 0u8, 0u8);
+    for &b in block {
+        let plain = (0x21..0x7f).contains(&b)
+            & (b != b'(')
+            & (b != b')')
+            & (b != b':')
+            & (b != b'<')
+            & (b != b'>')
+            & !(comments & (b == b'/'));
+        stops |= u8::from(!plain);
+        opens += u8::from(b == b'[');
+        closes += u8::from(b == b']');
+    }
+    (stops == 0, u64::from(opens), u64::from(closes))
+}
+
 /// Byte classes of [`AxiomReader::plain_run`]'s loop: [`PLAIN`] bytes,
 /// the brackets among them, and the rest (a stop).
 const C_STOP: u8 = 0;
@@ -693,6 +751,11 @@ mod tests {
     use crate::rules::Filter;
 
     fn read(src: &str) -> Result<Vec<(char, Vec<f64>)>, Error> {
+        read_with(src, true)
+    }
+
+    /// The axiom's modules, read with or without plain runs.
+    fn read_with(src: &str, runs: bool) -> Result<Vec<(char, Vec<f64>)>, Error> {
         let consts: HashMap<String, f64> = [("R".to_string(), 2.0)].into_iter().collect();
         let input = Input::new(
             Box::new(std::io::Cursor::new(src.as_bytes().to_vec())),
@@ -705,7 +768,9 @@ mod tests {
         let mut rng = Random::new(0);
         loop {
             let mut run = Vec::new();
-            r.plain_run(|b| run.extend_from_slice(b))?;
+            if runs {
+                r.plain_run(|b| run.extend_from_slice(b))?;
+            }
             out.extend(run.iter().map(|&b| (b as char, vec![])));
             match r.next(&mut al, &mut p, &mut rng)? {
                 Some(k) => out.push((al.symbol(k), p.clone())),
@@ -720,7 +785,8 @@ mod tests {
     /// a piece is whole only where the byte after it is plain too.
     #[test]
     fn plain_prefixes_are_what_the_reader_takes_as_plain() {
-        let alphabet = b"FF[]]+(/* \n\xc3";
+        // The second: long runs of plain bytes, for the blocks.
+        let alphabets: [&[u8]; 2] = [b"FF[]]+(/* \n\xc3", b"FFFFF[[]]]+/FFFFFFFF[]["];
         let mut seed = 7u64;
         let mut next = move || {
             seed ^= seed << 13;
@@ -728,15 +794,26 @@ mod tests {
             seed ^= seed << 17;
             seed
         };
-        for case in 0..4000 {
-            let n = (next() % 24) as usize;
+        let check = check_plain_prefix;
+        for case in 0..8000 {
+            let alphabet = alphabets[case % 2];
+            let n = (next() % [24, 300][case % 2]) as usize;
             let bytes: Vec<u8> = (0..n)
                 .map(|_| alphabet[(next() % alphabet.len() as u64) as usize])
                 .collect();
             let whole = (next() % (n as u64 + 1)) as usize;
             // Up to two bytes past the piece, or the end of the axiom.
             let past = (next() % 3) as usize;
-            let bytes = &bytes[..(whole + past).min(n)];
+            check(case, &bytes[..(whole + past).min(n)], whole);
+        }
+        // A block whose only `]` is the prefix's last byte, after a `]`
+        // that took the depth lowest.
+        let bytes = format!("][[{}{}]", "F".repeat(BLOCK - 3), "F".repeat(BLOCK - 1));
+        check(8000, bytes.as_bytes(), bytes.len());
+    }
+
+    fn check_plain_prefix(case: usize, bytes: &[u8], whole: usize) {
+        {
             for comments in [false, true] {
                 let p = plain_prefix(bytes, whole, comments);
                 // The model: plain bytes from the start, as the reader's
@@ -777,6 +854,78 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Plain runs (blocks of [`BLOCK`] bytes counted at once where the
+    /// depth allows) read what the reader reads a module at a time: the
+    /// same modules, the same error at the same place. Long strings,
+    /// mostly deep, with stops, comments and unbalanced brackets.
+    #[test]
+    fn plain_runs_read_what_modules_read() {
+        let alphabet: &[&str] = &[
+            "F",
+            "F",
+            "+",
+            "[",
+            "[",
+            "]",
+            "]",
+            "[[[[",
+            "]]]]",
+            "(1)",
+            " ",
+            "/*c*/",
+            "/",
+            "\n",
+            "A(2)",
+            "FFFFFFFFFFFFFFFFFFFFFFFFFFFFFFFF",
+        ];
+        let mut seed = 11u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let (mut long_ok, mut errors) = (0, 0);
+        for case in 0..3000 {
+            let n = (next() % 120) as usize;
+            let mut depth = (next() % 40) as i64;
+            let mut src = "[".repeat(depth as usize);
+            for _ in 0..n {
+                let t = alphabet[(next() % alphabet.len() as u64) as usize];
+                let d = t.matches('[').count() as i64 - t.matches(']').count() as i64;
+                // Mostly balanced: few `]`s of nothing.
+                if depth + d < 0 && next() % 8 != 0 {
+                    continue;
+                }
+                depth += d;
+                src.push_str(&t.replace("\\n", "\n"));
+            }
+            if next() % 4 != 0 {
+                src.push_str(&"]".repeat(depth.max(0) as usize));
+            }
+            let a = read_with(&src, true);
+            let b = read_with(&src, false);
+            match (&a, &b) {
+                (Ok(x), Ok(y)) => {
+                    assert_eq!(x, y, "case {case}: {src:?}");
+                    long_ok += usize::from(x.len() > 3 * BLOCK);
+                }
+                (Err(x), Err(y)) => {
+                    assert_eq!(x.message(), y.message(), "case {case}: {src:?}");
+                    assert_eq!(x.location(), y.location(), "case {case}: {src:?}");
+                    errors += 1;
+                }
+                _ => panic!(
+                    "case {case}: {src:?}: {:?} against {:?}",
+                    a.is_ok(),
+                    b.is_ok()
+                ),
+            }
+        }
+        // The cases reach long runs, and errors.
+        assert!(long_ok > 100 && errors > 300, "{long_ok} {errors}");
     }
 
     #[test]
