@@ -3,12 +3,12 @@
 //! only the draw or their neighbours' keys are decided there too
 //! ([`Choices`]).
 
-use super::choose::{draw_weighted, Folded, Neighbours, Pick};
+use super::choose::{draw_weighted, Folded, Neighbours};
 use super::context::LeftContext;
 use super::random::Random;
 use super::sink::Out;
 use crate::diag::Error;
-use crate::rules::{codec, Alphabet, Item, Table, CLOSE, OPEN};
+use crate::rules::{codec, Alphabet, ConstRun, Item, Table, CLOSE, OPEN};
 
 /// Each ASCII byte, so a symbol can be copied as a one-byte slice.
 pub(crate) static ASCII: [u8; 128] = {
@@ -45,7 +45,7 @@ pub(crate) struct Choices<'t> {
     folded: Vec<Option<FoldSucc<'t>>>,
     /// By byte: what the step writes for each (left class, right class)
     /// (`lclass * rn + rclass`).
-    by_neighbours: Vec<Option<ByClass<'t>>>,
+    by_neighbours: Vec<Option<Box<[ByClass<'t>]>>>,
     /// The class of a left or right neighbour's byte: 0 for one no
     /// context asks for (and for none, or a module of several bytes).
     lclass: Vec<u8>,
@@ -54,14 +54,15 @@ pub(crate) struct Choices<'t> {
     rn: usize,
 }
 
-/// A neighbour-decided key's successors by (left class, right class).
+/// What the table writes for a neighbour-decided key in one (left class,
+/// right class).
 enum ByClass<'t> {
-    /// For an output without bracket index: each a copy, as the table's
-    /// own successors.
-    Copy(Box<[FastSucc<'t>]>),
-    /// For an indexed output (through [`Out::constant`], which indexes
-    /// its brackets): None copied, Some(None) nothing.
-    Sink(Box<[Pick<'t>]>),
+    /// A copy, as the table's own successors (also the key itself, or
+    /// nothing).
+    Copy(FastSucc<'t>),
+    /// A successor with brackets into an indexed output: through
+    /// [`Out::constant`], which indexes them.
+    Sink(&'t ConstRun),
 }
 
 /// Most (left, right) entries of the neighbour tables in all: past it,
@@ -271,25 +272,19 @@ impl<'t> ByteTable<'t> {
             if total > NEIGHBOUR_ENTRIES {
                 break;
             }
-            let picks = lkeys
+            let by = lkeys
                 .iter()
-                .flat_map(|&l| rkeys.iter().map(move |&r| n.pick(l, r)));
-            let by = if indexed {
-                ByClass::Sink(picks.collect())
-            } else {
-                ByClass::Copy(
-                    picks
-                        .map(|p| match p {
-                            None => FastSucc::new(&ASCII[b..b + 1], 1),
-                            Some(None) => FastSucc::new(&[], 0),
-                            Some(Some(c)) => FastSucc::new(
-                                if self.text { c.text() } else { c.bin() },
-                                c.modules(),
-                            ),
-                        })
-                        .collect(),
-                )
-            };
+                .flat_map(|&l| rkeys.iter().map(move |&r| n.pick(l, r)))
+                .map(|p| match p {
+                    None => ByClass::Copy(FastSucc::new(&ASCII[b..b + 1], 1)),
+                    Some(None) => ByClass::Copy(FastSucc::new(&[], 0)),
+                    Some(Some(c)) if indexed && c.has_brackets() => ByClass::Sink(c),
+                    Some(Some(c)) => ByClass::Copy(FastSucc::new(
+                        if self.text { c.text() } else { c.bin() },
+                        c.modules(),
+                    )),
+                })
+                .collect();
             ch.by_neighbours
                 .resize_with(ch.by_neighbours.len().max(b + 1), || None);
             ch.by_neighbours[b] = Some(by);
@@ -426,17 +421,10 @@ impl<'t> ByteTable<'t> {
                     _ => 0,
                 };
                 let at = l * ch.rn + r;
-                match by {
-                    ByClass::Copy(by) => &by[at],
-                    ByClass::Sink(by) => {
-                        match by[at] {
-                            None => {
-                                out.buf.push(b);
-                                out.modules += 1;
-                            }
-                            Some(None) => {}
-                            Some(Some(c)) => out.constant(c)?,
-                        }
+                match &by[at] {
+                    ByClass::Copy(f) => f,
+                    ByClass::Sink(c) => {
+                        out.constant(c)?;
                         if let Some(left) = &mut left {
                             left.push(b as u32, &ASCII[b as usize..b as usize + 1], 0);
                         }
