@@ -683,12 +683,19 @@ fn place(text: &str, k: usize, line: usize, col: usize) -> (usize, usize, &str, 
     (line + lines, c, text_line, in_line + 1)
 }
 
+/// Is `b` a whole module on its own when no `(` follows? ([`PLAIN`], and
+/// [`block_counts`], which must not look it up.)
+#[inline(always)]
+const fn is_plain(b: u8) -> bool {
+    (b >= 0x21) & (b < 0x7f) & !matches!(b, b'(' | b')' | b':' | b'<' | b'>')
+}
+
 /// Bytes that are a whole module on their own when no `(` follows.
 static PLAIN: [bool; 256] = {
     let mut t = [false; 256];
-    let mut b = 0x21;
-    while b < 0x7f {
-        t[b] = !matches!(b as u8, b'(' | b')' | b':' | b'<' | b'>');
+    let mut b = 0;
+    while b < 256 {
+        t[b] = is_plain(b as u8);
         b += 1;
     }
     t
@@ -698,19 +705,13 @@ static PLAIN: [bool; 256] = {
 const BLOCK: usize = 32;
 
 /// Are all of `block`'s bytes [`PLAIN`] (`/` not, with `comments`), and
-/// how many `[` and `]` it holds. Compares only, no table: the compiler
-/// makes vector code of it.
+/// how many `[` and `]` it holds. Compares only ([`is_plain`]), no table:
+/// the compiler makes vector code of it.
 #[inline]
 fn block_counts(block: &[u8], comments: bool) -> (bool, u64, u64) {
     let (mut stops, mut opens, mut closes) = (0u8, 0u8, 0u8);
     for &b in block {
-        let plain = (0x21..0x7f).contains(&b)
-            & (b != b'(')
-            & (b != b')')
-            & (b != b':')
-            & (b != b'<')
-            & (b != b'>')
-            & !(comments & (b == b'/'));
+        let plain = is_plain(b) & !(comments & (b == b'/'));
         stops |= u8::from(!plain);
         opens += u8::from(b == b'[');
         closes += u8::from(b == b']');
@@ -900,7 +901,7 @@ mod tests {
                     continue;
                 }
                 depth += d;
-                src.push_str(&t.replace("\\n", "\n"));
+                src.push_str(t);
             }
             if next() % 4 != 0 {
                 src.push_str(&"]".repeat(depth.max(0) as usize));
