@@ -29,21 +29,36 @@ pub struct PosReader<'f> {
 
 impl<'f> PosReader<'f> {
     pub fn new(file: &'f File, capacity: usize, indexed: bool) -> Self {
+        Self::reusing(file, capacity, indexed, Vec::new())
+    }
+
+    /// [`PosReader::new`] with `buf` as its buffer (what it held is
+    /// overwritten before it is read): a split's worker reads chunk after
+    /// chunk, and a new buffer for each cost an allocation and its zeroing
+    /// (or, where the allocator maps large blocks, page faults) per chunk.
+    /// [`PosReader::into_buffer`] gives it back.
+    pub fn reusing(file: &'f File, capacity: usize, indexed: bool, mut buf: Vec<u8>) -> Self {
         // No bigger than the file: many steps over a short string must not
         // pay for a large buffer each time.
         let len = file.metadata().map_or(u64::MAX, |m| m.len());
         let eof = len;
         let capacity = capacity.min(usize::try_from(len).unwrap_or(usize::MAX));
+        buf.resize(capacity.max(2 * MAX_MODULE_BYTES), 0);
         PosReader {
             file,
             indexed,
             open_len: if indexed { 1 + ENDS_BYTES } else { 1 },
-            buf: vec![0; capacity.max(2 * MAX_MODULE_BYTES)],
+            buf,
             start: 0,
             pos: 0,
             end: 0,
             eof,
         }
+    }
+
+    /// Its buffer, for [`PosReader::reusing`].
+    pub fn into_buffer(self) -> Vec<u8> {
+        self.buf
     }
 
     /// The index also holds module counts (see [`Out::with_counts`]).

@@ -59,6 +59,8 @@ pub struct Deriver<'a> {
     /// A chunk of a pass that checks bracket balance: its balance, for
     /// the writer to judge (`super::split::Balance`).
     pub(crate) balance: Option<super::split::Balance>,
+    /// The pass's reader's buffer, kept for the next pass or chunk.
+    read_buf: Vec<u8>,
 }
 
 /// Recursive rewriting (decomposition, homomorphism depth): one chooser,
@@ -439,6 +441,7 @@ impl<'a> Deriver<'a> {
             range: None,
             chunk_start: None,
             balance: None,
+            read_buf: Vec::new(),
         }
     }
 
@@ -546,7 +549,8 @@ impl<'a> Deriver<'a> {
         let capacity = self.range.map_or(1 << 20, |(start, end, _)| {
             (end - start).min(1 << 20) as usize
         });
-        let mut rd = PosReader::new(input, capacity, indexed).with_counts(self.counts);
+        let buf = std::mem::take(&mut self.read_buf);
+        let mut rd = PosReader::reusing(input, capacity, indexed, buf).with_counts(self.counts);
         let open_len = rd.open_len();
         // The index of the module being rewritten, for the random draws.
         let mut index: u64 = 0;
@@ -763,6 +767,7 @@ impl<'a> Deriver<'a> {
             }
             out.maybe_flush()?;
         }
+        self.read_buf = rd.into_buffer();
         if let (Some(c), Pass::Step(_)) = (self.rng.cpfg_mut(), pass) {
             // cpfg's choice generator: every module of the step drew once.
             c.end_pass(index);
