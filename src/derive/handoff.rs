@@ -33,6 +33,11 @@ pub(super) const BUDGET: usize = 24;
 /// and take about as long as each other (and whose start states take
 /// room of their own).
 pub(super) const STEP_BUDGET: usize = 12;
+/// Text blocks the task being written may add to those in memory past
+/// the budget (which the tasks not being written fill): the writer always
+/// has some of its text at hand, and memory stays within the budget and
+/// these, however long the writer takes to write.
+pub(super) const WRITTEN_ROOM: usize = 4;
 /// How long a worker with no room in memory waits, from when it found none,
 /// before a task's first spill, in a step pass (and the axiom's split): its
 /// chunks are of one size and take about as long as each other, so a
@@ -477,7 +482,7 @@ impl<'a> Order<'a> {
 
 /// The task a worker is on, and how its text reaches the writer: while
 /// the writer is on the task, blocks go to its channel (waiting when it
-/// is full); before, up to [`QUEUE`] blocks (and [`BUDGET`] in all) go to
+/// is full, or [`WRITTEN_ROOM`] past the budget); before, up to [`QUEUE`] blocks (and [`BUDGET`] in all) go to
 /// the channel, and the rest, while the writer waits for text of the task
 /// it is on, to a spill file (in a step pass after waiting up to
 /// [`STEP_PATIENCE`] for room), handed to the writer when it reaches the
@@ -541,6 +546,11 @@ impl<'a> Current<'a> {
         };
         self.idle.set(self.idle.get() + t.elapsed());
         next
+    }
+
+    /// An empty block for the worker's sink to start with.
+    pub(super) fn block(&self) -> Vec<u8> {
+        self.shared.block(self.id)
     }
 
     pub(super) fn start(&self, (seq, tx): Slot) {
@@ -611,8 +621,19 @@ impl<'a> Current<'a> {
         loop {
             if shared.writing.load(Ordering::SeqCst) == self.seq.get() {
                 // Being written: what was spilled first, then the block,
-                // waiting while the channel is full.
+                // waiting while the channel is full, and while the blocks
+                // in memory are [`WRITTEN_ROOM`] past the budget, unless
+                // the writer waits for this task's text: so a writer held
+                // up in its writes does not let this task's blocks pile
+                // up on top of the budget the others keep.
                 let t = *since.get_or_insert_with(Instant::now);
+                if shared.queued.load(Ordering::Relaxed) >= shared.budget + WRITTEN_ROOM
+                    && !shared.starving.load(Ordering::Relaxed)
+                    && !shared.closed.load(Ordering::Relaxed)
+                {
+                    std::thread::sleep(Duration::from_micros(100));
+                    continue;
+                }
                 if let Some((file, len)) = self.spill.borrow_mut().take() {
                     tx.send(Msg::Spilled(file, len)).map_err(|_| gone())?;
                 }
@@ -814,6 +835,63 @@ mod tests {
             assert!(t.elapsed() < patience, "waited again: {:?}", t.elapsed());
             assert_eq!(current.spill.borrow().as_ref().map(|s| s.1), Some(20));
         }
+    }
+
+    /// The task being written adds at most [`super::WRITTEN_ROOM`] blocks
+    /// past the budget while the writer is busy (held up in its writes),
+    /// and sends at once when the writer waits for its text.
+    #[test]
+    fn the_task_being_written_waits_past_the_budget_unless_the_writer_waits() {
+        use super::{Current, Msg, WRITTEN_ROOM};
+        use std::sync::atomic::Ordering;
+        use std::sync::mpsc::TryRecvError;
+        let tmpdir = None;
+        let reuse = super::Reuse::new(&tmpdir);
+        let shared = Shared::new(&reuse, (2, Duration::ZERO), (2, 8));
+        let full = shared.budget + WRITTEN_ROOM;
+        shared.queued.store(full, Ordering::Relaxed);
+        let (tx, rx) = std::sync::mpsc::sync_channel(16);
+        let text = |rx: &std::sync::mpsc::Receiver<Msg>| match rx.try_recv() {
+            Ok(Msg::Text(b, _)) => Ok(b[0]),
+            Ok(_) => panic!("not text"),
+            Err(e) => Err(e),
+        };
+        let settle = || std::thread::sleep(Duration::from_millis(100));
+        // A failed assertion must not leave the sender waiting: the
+        // writer closes.
+        struct Close<'s, 'a>(&'s Shared<'a>);
+        impl Drop for Close<'_, '_> {
+            fn drop(&mut self) {
+                self.0
+                    .closed
+                    .store(true, std::sync::atomic::Ordering::Relaxed);
+            }
+        }
+        std::thread::scope(|s| {
+            let _close = Close(&shared);
+            let sender = s.spawn(|| {
+                let current = Current::new(&shared, 0);
+                // Task 0: the one being written.
+                current.start((0, tx));
+                let _ = current.send(vec![1; 10]);
+                let _ = current.send(vec![2; 10]);
+            });
+            settle();
+            assert_eq!(text(&rx), Err(TryRecvError::Empty), "sent past the room");
+            // The writer takes a block: room for one.
+            shared.queued.fetch_sub(1, Ordering::Relaxed);
+            settle();
+            assert_eq!(text(&rx), Ok(1));
+            assert_eq!(text(&rx), Err(TryRecvError::Empty), "sent past the room");
+            assert_eq!(shared.queued.load(Ordering::Relaxed), full);
+            // The writer waits for this task's text: no waiting for room.
+            shared.starving.store(true, Ordering::Relaxed);
+            match rx.recv_timeout(Duration::from_secs(10)) {
+                Ok(Msg::Text(b, _)) => assert_eq!(b[0], 2),
+                _ => panic!("waited while the writer waited for its text"),
+            }
+            assert!(sender.join().is_ok());
+        });
     }
 
     /// The next pass of a run writes into the blocks of the pass before

@@ -313,7 +313,8 @@ fn worker_out<'w>(
     text: bool,
     (indexed, counts): (bool, bool),
 ) -> Out<'w> {
-    let mut out = Out::new(sink, "output", text, super::Limits::default());
+    let block = current.block();
+    let mut out = Out::with_buffer(sink, "output", text, super::Limits::default(), block);
     if indexed {
         out = out.with_chunk_index(counts);
     }
@@ -697,7 +698,8 @@ fn work(
     let mut walker = Walker::new(plan, al, steps);
     let current = Current::new(shared, id);
     let mut sink = std::io::sink();
-    let mut out = Out::new(&mut sink, "output", true, super::Limits::default());
+    let block = current.block();
+    let mut out = Out::with_buffer(&mut sink, "output", true, super::Limits::default(), block);
     out.chunk = shared.chunk;
     out.taker = Some(&current);
     while let Some((task, slot)) = current.next(tasks) {

@@ -188,8 +188,24 @@ pub(crate) trait Take {
 
 impl<'w> Out<'w> {
     pub fn new(w: &'w mut dyn Write, name: &'w str, text: bool, limits: Limits) -> Out<'w> {
+        let buf = Vec::with_capacity(OUT_CHUNK + MAX_MODULE_BYTES * 4);
+        Self::with_buffer(w, name, text, limits, buf)
+    }
+
+    /// [`Out::new`] with `buf` (emptied) as its buffer: a split's worker
+    /// takes a block of its own size, which is what it sends on, instead
+    /// of a new buffer of a file's size (which would join the blocks in
+    /// use).
+    pub(crate) fn with_buffer(
+        w: &'w mut dyn Write,
+        name: &'w str,
+        text: bool,
+        limits: Limits,
+        mut buf: Vec<u8>,
+    ) -> Out<'w> {
+        buf.clear();
         Out {
-            buf: Vec::with_capacity(OUT_CHUNK + MAX_MODULE_BYTES * 4),
+            buf,
             w,
             indexed: false,
             index_file: None,
@@ -617,6 +633,11 @@ impl<'w> Out<'w> {
         // (A short block, the end of a task, is copied: one write call
         // instead of two.)
         if self.indexed || bytes.len() < self.chunk / 32 {
+            // Flush first where the block would not fit: the buffer must
+            // not grow (a file's buffer, almost full, doubled to 2 MiB).
+            if self.buf.len() + bytes.len() > self.buf.capacity() && !self.buf.is_empty() {
+                self.flush()?;
+            }
             self.extend(bytes, modules);
             return self.maybe_flush();
         }
@@ -719,6 +740,35 @@ mod tests {
             assert_eq!(bin[outer_end as usize - 1], b']');
             assert_eq!(&bin[outer_end as usize..], b"D");
         }
+    }
+
+    /// The writer of a split pass puts blocks of another thread's text
+    /// into an indexed output's buffer: it flushes before one that would
+    /// not fit, so the buffer never grows (it doubled to 2 MiB), and what
+    /// is written is the blocks in order.
+    #[test]
+    fn blocks_put_into_an_indexed_output_never_grow_its_buffer() {
+        let mut file = tempfile::tempfile().unwrap();
+        let index = file.try_clone().unwrap();
+        let mut out = Out::new(&mut file, "tmp", false, Limits::default()).with_index(index);
+        let cap = out.buf.capacity();
+        let mut want = Vec::new();
+        for (i, len) in [100usize, 300 << 10, 7, 299 << 10, 301 << 10, 1, 280 << 10]
+            .into_iter()
+            .cycle()
+            .take(40)
+            .enumerate()
+        {
+            let block = vec![b'A' + (i % 26) as u8; len];
+            out.put_block(&block, len as u64).unwrap();
+            want.extend_from_slice(&block);
+            assert_eq!(out.buf.capacity(), cap, "grew at block {i}");
+        }
+        assert_eq!(out.finish().unwrap().0, want.len() as u64);
+        let mut got = Vec::new();
+        file.rewind().unwrap();
+        file.read_to_end(&mut got).unwrap();
+        assert!(got == want, "the blocks were not written in order");
     }
 
     /// Issue 11: every way of writing a `[` (plain runs, precompiled
