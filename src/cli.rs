@@ -329,6 +329,7 @@ pub fn parse_limit(s: &str) -> Result<Limits, String> {
 /// status. A bug shows as one line, not a backtrace.
 pub fn main_exit_code() -> i32 {
     ignore_sigxfsz();
+    map_large_blocks();
     install_panic_hook();
     let worker = std::thread::Builder::new()
         .name("lsgen".into())
@@ -357,6 +358,24 @@ pub fn main_exit_code() -> i32 {
 pub fn ignore_sigxfsz() {
     // SAFETY: setting a signal's disposition to SIG_IGN.
     unsafe { libc::signal(libc::SIGXFSZ, libc::SIG_IGN) };
+}
+
+/// Allocations of 256 KiB and more (the text blocks of `-j N`, buffers)
+/// get pages of their own from glibc, given back when freed, instead of
+/// coming from the heap of the thread that asks. glibc's default moves
+/// this threshold up to the size of the first such block freed, after
+/// which the blocks came from the heaps of several threads and a freed
+/// one stayed in its thread's heap while another thread took new pages:
+/// context_signal 3 steps at 10^9, `-j 2`, peaked at 13.7-14.7 MB of RSS
+/// (16.8 MB in one run), 11.8-12.0 MB with this. Blocks are reused, so
+/// few are mapped. (Other C libraries: nothing to do.)
+pub fn map_large_blocks() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: mallopt only sets a parameter of glibc's allocator; called
+    // before this process starts any thread.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 256 << 10);
+    }
 }
 
 /// Print clap's `--help` or `--version` text. A failed write
