@@ -643,13 +643,20 @@ impl<'a> Current<'a> {
                 return Ok(());
             }
             let spilling = self.spill.borrow().is_some();
+            // (Counted only below the budget, in one step: workers that
+            // looked and then counted could pass it together, by up to a
+            // block each, and hold the task being written back.)
             if !spilling
                 && self.ahead.get() < shared.queue
-                && shared.queued.load(Ordering::Relaxed) < shared.budget
+                && shared
+                    .queued
+                    .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |q| {
+                        (q < shared.budget).then_some(q + 1)
+                    })
+                    .is_ok()
             {
                 // (Never waits: the channel has room for QUEUE blocks.)
                 self.ahead.set(self.ahead.get() + 1);
-                shared.queued.fetch_add(1, Ordering::Relaxed);
                 if let Some(t) = since {
                     self.waited.set(self.waited.get() + t.elapsed());
                 }
