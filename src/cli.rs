@@ -366,9 +366,10 @@ pub fn ignore_sigxfsz() {
 /// this threshold up to the size of the first such block freed, after
 /// which the blocks came from the heaps of several threads and a freed
 /// one stayed in its thread's heap while another thread took new pages:
-/// context_signal 3 steps at 10^9, `-j 2`, peaked at 13.7-14.7 MB of RSS
-/// (16.8 MB in one run), 11.8-12.0 MB with this. Blocks are reused, so
-/// few are mapped. (Other C libraries: nothing to do.)
+/// context_signal 3 steps at 10^9, `-j 2`, peaked at 13.9-14.9 MB of RSS
+/// (16.8 MB in one run with the split's other memory fixes), 11.8-12.0 MB
+/// with this. Blocks are reused, so few are mapped. (Other C libraries:
+/// nothing to do.)
 pub fn map_large_blocks() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: mallopt only sets a parameter of glibc's allocator; called

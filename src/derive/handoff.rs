@@ -482,12 +482,12 @@ impl<'a> Order<'a> {
 
 /// The task a worker is on, and how its text reaches the writer: while
 /// the writer is on the task, blocks go to its channel (waiting when it
-/// is full, or [`WRITTEN_ROOM`] past the budget); before, up to [`QUEUE`] blocks (and [`BUDGET`] in all) go to
-/// the channel, and the rest, while the writer waits for text of the task
-/// it is on, to a spill file (in a step pass after waiting up to
-/// [`STEP_PATIENCE`] for room), handed to the writer when it reaches the
-/// task or at the task's end (while the writer is busy, the worker waits
-/// instead). So memory stays bounded, and a worker waits for the writer
+/// is full, or [`WRITTEN_ROOM`] past the budget); before, up to
+/// [`QUEUE`] blocks (and [`BUDGET`] in all) go to the channel, and the
+/// rest, while the writer waits for text of the task it is on, to a
+/// spill file (in a step pass after waiting up to [`STEP_PATIENCE`] for
+/// room), handed to the writer when it reaches the task or at the task's
+/// end (while the writer is busy, the worker waits instead). So memory stays bounded, and a worker waits for the writer
 /// only while the writer is the bottleneck.
 pub(super) struct Current<'a> {
     pub(super) tx: RefCell<Option<SyncSender<Msg>>>,
