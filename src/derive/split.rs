@@ -264,21 +264,26 @@ impl<'f> Scan<'f> {
 }
 
 /// The length of `w`'s run of ASCII bytes from its start, and the
-/// `[`s less the `]`s in it; eight bytes at a time.
+/// `[`s less the `]`s in it. Blocks of 32 bytes are counted with compares
+/// and byte sums the compiler makes vector code of (an 8-byte word with
+/// `count_ones` cost a multiply per word: no `popcnt` in the baseline
+/// target); the rest, and a block with a byte of 0x80 or more, byte by
+/// byte.
 fn plain_counts(w: &[u8]) -> (usize, i64) {
-    const LO: u64 = u64::from_le_bytes([1; 8]);
-    const LOW7: u64 = LO * 0x7f;
-    // Bit 7 of each byte of `v` that is 0, and no other bit.
-    let zeros = |v: u64| !(((v & LOW7) + LOW7) | v | LOW7);
+    const BLOCK: usize = 32;
     let (mut i, mut depth) = (0, 0i64);
-    while let Some(word) = w.get(i..i + 8) {
-        let x = u64::from_le_bytes(word.try_into().expect("eight bytes"));
-        if x & (LO << 7) != 0 {
+    while let Some(block) = w.get(i..i + BLOCK) {
+        // (In one byte: the sum of 32 bytes of -1, 0 or 1 fits.)
+        let (mut high, mut delta) = (0u8, 0i8);
+        for &b in block {
+            high |= b;
+            delta = delta.wrapping_add(i8::from(b == b'[') - i8::from(b == b']'));
+        }
+        if high >= 0x80 {
             break;
         }
-        depth += i64::from(zeros(x ^ (LO * u64::from(b'['))).count_ones());
-        depth -= i64::from(zeros(x ^ (LO * u64::from(b']'))).count_ones());
-        i += 8;
+        depth += i64::from(delta);
+        i += BLOCK;
     }
     while let Some(&b) = w.get(i) {
         if b >= 0x80 {
@@ -454,6 +459,45 @@ mod tests {
         }
         assert_eq!(plain_counts(b"[[a]]]]xyz[[["), (13, 1));
         assert_eq!(plain_counts(b"[]]]]]]]]]\x80[["), (10, -8));
+    }
+
+    /// The block count agrees with a byte-by-byte one on strings longer
+    /// than a block, with the stop (a byte of 0x80 or more) before,
+    /// inside and after blocks, and deep levels either way.
+    #[test]
+    fn plain_counts_agrees_with_counting_byte_by_byte() {
+        let by_byte = |w: &[u8]| {
+            let len = w.iter().position(|&b| b >= 0x80).unwrap_or(w.len());
+            let depth = w[..len]
+                .iter()
+                .map(|&b| i64::from(b == b'[') - i64::from(b == b']'))
+                .sum::<i64>();
+            (len, depth)
+        };
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for round in 0..4000 {
+            let len = (next() % 300) as usize;
+            let w: Vec<u8> = (0..len)
+                .map(|_| match next() % 16 {
+                    0..=5 => b'[',
+                    6..=9 if round % 2 == 0 => b']',
+                    10 if round % 3 == 0 => 0x80 | (next() % 128) as u8,
+                    _ => b"AF+-01%"[(next() % 7) as usize],
+                })
+                .collect();
+            assert_eq!(plain_counts(&w), by_byte(&w), "{w:?}");
+        }
+        let long = [b'['; 1000];
+        assert_eq!(plain_counts(&long), (1000, 1000));
+        let mut stop = [b']'; 100];
+        stop[64] = 0xff;
+        assert_eq!(plain_counts(&stop), (64, -64));
     }
 
     /// Each chunk (here: each module) starts from the left context one
