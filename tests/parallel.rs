@@ -881,3 +881,35 @@ fn an_axiom_read_through_spill_files_keeps_every_bracket_index() {
     }
     assert!(spilled > 0, "nothing spilled");
 }
+
+/// Two temporary files take turns holding the generations, each written
+/// over the one before the last: a shorter generation written over a
+/// longer one must end where it ends, whatever the threads and with
+/// `--frames` too. Derived by hand: `C -> D`, `D ->` (nothing) give
+/// A C^22, A D^22, A, A, ...; a leftover tail of generation 0 under
+/// generation 2 would bring C's back in step 3.
+#[test]
+fn a_shorter_generation_written_over_a_longer_one_ends_where_it_ends() {
+    let cs = "C".repeat(22);
+    let ds = "D".repeat(22);
+    let src = format!("productions:\nC -> D\nD ->\nA < A -> A\naxiom: A{cs}\n");
+    for threads in ["1", "2", "8"] {
+        for split in ["1", "3", "1000"] {
+            for n in ["2", "3", "4", "5"] {
+                let got = ls_on(&src, &["-n", n], threads, split);
+                assert_eq!(
+                    got,
+                    (b"A\n".to_vec(), String::new(), Some(0)),
+                    "-n {n} -j {threads}"
+                );
+            }
+            let got = ls_on(&src, &["--frames", "0..5"], threads, split);
+            let want = format!("A{cs}\nA{ds}\nA\nA\nA\nA\n");
+            assert_eq!(
+                got,
+                (want.into_bytes(), String::new(), Some(0)),
+                "-j {threads}"
+            );
+        }
+    }
+}

@@ -254,10 +254,13 @@ fn read_axiom(
     }
 }
 
-/// Empty the temporary generations before they are closed: ext4 writes a
-/// file that was truncated to 0 and written again (a reused generation)
-/// out to disk when it is closed (`auto_da_alloc`), on the closing thread:
+/// Empty the temporary generations before they are closed. It was for
+/// ext4, which writes a file that was truncated to 0 and written again out
+/// to disk when it is closed (`auto_da_alloc`), on the closing thread:
 /// 0.14 s at the end of a 3-step context run at 10^8, 13 ms emptied.
+/// Generations are now written over in place ([`overwrite`]), never
+/// truncated to 0 first, and emptying them still pays: without it the same
+/// run spent 0.53-0.56 s of system time instead of 0.22-0.25 s.
 fn empty<'f>(files: impl Iterator<Item = &'f File>) {
     for f in files {
         // (A generation that cannot be emptied is closed as it is.)
@@ -265,10 +268,26 @@ fn empty<'f>(files: impl Iterator<Item = &'f File>) {
     }
 }
 
-fn rewind(f: &mut File) -> Result<(), Error> {
-    f.set_len(0)
-        .and_then(|_| f.seek(SeekFrom::Start(0)).map(|_| ()))
-        .map_err(|e| Error::io("temporary file", crate::diag::IoAction::Write, e))
+/// Make `f`, a generation no longer needed, ready to take the next one,
+/// written over it in place (then cut at its end, [`cut_to_written`]). Not
+/// truncated first: the new generation overwrites the old one's cached
+/// pages instead of freeing them and taking fresh ones (a 3-step context
+/// run at 10^8 spends a quarter less system time), and ext4 does not
+/// write out on close a file truncated to 0 and written again
+/// (`auto_da_alloc`, see [`empty`]) when a run ends early.
+fn overwrite(f: &mut File, name: &str) -> Result<(), Error> {
+    f.seek(SeekFrom::Start(0))
+        .map(drop)
+        .map_err(|e| Error::io(name, crate::diag::IoAction::Write, e))
+}
+
+/// End the generation just written to `f` where its writing stopped: an
+/// older, longer one it was written over ([`overwrite`]) must not show
+/// through. Before anything reads it (readers stop at the file's length).
+fn cut_to_written(f: &mut File, name: &str) -> Result<(), Error> {
+    f.stream_position()
+        .and_then(|end| f.set_len(end))
+        .map_err(|e| Error::io(name, crate::diag::IoAction::Write, e))
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -440,7 +459,7 @@ pub(crate) fn derive(
             // the error as one thread does, with the same quote.
             drop(out);
             if let Some(f) = cur.as_mut() {
-                rewind(f)?;
+                overwrite(f, &tmp_name)?;
             }
             reader.back_to(&start)?;
             axiom_cuts = false;
@@ -450,6 +469,9 @@ pub(crate) fn derive(
         } else {
             out.finish()?
         };
+        if let Some(f) = cur.as_mut() {
+            cut_to_written(f, &tmp_name)?;
+        }
         let len = generation(Pass::Axiom, len);
         if passes == 0 && frames.is_none() {
             return Ok(len);
@@ -671,7 +693,7 @@ fn step_passes(
         } else {
             Some(match other.take() {
                 Some(mut f) => {
-                    rewind(&mut f)?;
+                    overwrite(&mut f, tmp_name)?;
                     f
                 }
                 None => tempfile(tmpdir)?,
@@ -712,6 +734,9 @@ fn step_passes(
                 }
             }
             let (modules, bytes) = out.finish()?;
+            if let Some(f) = &mut dst {
+                cut_to_written(f, tmp_name)?;
+            }
             events(&Event::Generation {
                 pass,
                 modules,
@@ -826,7 +851,7 @@ fn frame_passes(
         let pass = Pass::Step(k);
         let mut dst = Some(match other.take() {
             Some(mut f) => {
-                rewind(&mut f)?;
+                overwrite(&mut f, tmp_name)?;
                 f
             }
             None => tempfile(tmpdir)?,
@@ -845,6 +870,9 @@ fn frame_passes(
             .for_pass(pass);
             d.pass(table, &cur, indexed, &mut out, pass)?;
             let (modules, bytes) = out.finish()?;
+            if let Some(f) = &mut dst {
+                cut_to_written(f, tmp_name)?;
+            }
             events(&Event::Generation {
                 pass,
                 modules,
