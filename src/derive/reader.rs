@@ -179,8 +179,8 @@ impl<'f> PosReader<'f> {
     /// brackets included.
     #[inline]
     pub(crate) fn branch_index(&self, s: usize) -> (u64, u64) {
-        let word = |i: usize| u64::from_le_bytes(self.buf[i..i + 8].try_into().unwrap());
-        (self.indexed_end(s).unwrap_or(0), word(s + 9))
+        let count = codec::get_word(&self.buf[s + 1 + ENDS_BYTES..]);
+        (self.indexed_end(s).unwrap_or(0), count)
     }
 
     /// For a `[` read at `s` of an indexed generation: the offset just

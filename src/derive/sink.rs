@@ -399,16 +399,25 @@ impl<'w> Out<'w> {
     /// in the file (a worker: noted for the writer).
     #[inline]
     fn put_index(&mut self, at: u64, dist: u64, count: u64) -> Result<(), Error> {
+        // (A branch has no more modules than bytes: `count` fits too.)
+        if dist > codec::WORD_MAX {
+            return Err(self.branch_too_long());
+        }
         if at < self.written {
             return self.put_index_flushed(at, dist, count);
         }
         let i = (at - self.written) as usize + 1;
         // (Fixed-size copies: no call to memcpy.)
-        self.buf[i..i + ENDS_BYTES].copy_from_slice(&dist.to_le_bytes());
+        codec::put_word(&mut self.buf[i..], dist);
         if self.counts {
-            self.buf[i + ENDS_BYTES..i + INDEX_BYTES].copy_from_slice(&count.to_le_bytes());
+            codec::put_word(&mut self.buf[i + ENDS_BYTES..], count);
         }
         Ok(())
+    }
+
+    #[cold]
+    fn branch_too_long(&self) -> Error {
+        Error::new(RuntimeError::BranchTooLong(self.pass))
     }
 
     /// The `[` at `at` is flushed; its index bytes may not all be: the
@@ -421,8 +430,8 @@ impl<'w> Out<'w> {
             ci.late.push((at - ci.base.0, dist, count));
         } else if let Some(file) = &self.index_file {
             let mut index = [0; INDEX_BYTES];
-            index[..8].copy_from_slice(&dist.to_le_bytes());
-            index[8..].copy_from_slice(&count.to_le_bytes());
+            codec::put_word(&mut index, dist);
+            codec::put_word(&mut index[ENDS_BYTES..], count);
             let index = &index[..self.index_len()];
             // Index bytes before the buffer (flushed): `at + 1` is at
             // most `written`.
@@ -709,6 +718,26 @@ mod tests {
         assert_eq!(v, b"F(1.5,2)+[G]F(-0,1e-7)\n");
     }
 
+    /// A branch longer than an index word holds is an error, not a
+    /// distance cut to its low bits (which would skip to a wrong place).
+    #[test]
+    fn a_branch_longer_than_an_index_word_holds_is_an_error() {
+        let mut file = tempfile::tempfile().unwrap();
+        let index = file.try_clone().unwrap();
+        let mut out = Out::new(&mut file, "tmp", false, Limits::default())
+            .with_index(index)
+            .for_pass(Pass::Step(3));
+        out.plain(b"A[").unwrap();
+        // Its `]` as if just past WORD_MAX bytes from the `[` at 1.
+        let e = out.patch(1 + codec::WORD_MAX + 1, 2).unwrap_err();
+        assert!(e.to_string().contains("256 TiB"), "{e}");
+        let mut file = tempfile::tempfile().unwrap();
+        let index = file.try_clone().unwrap();
+        let mut out = Out::new(&mut file, "tmp", false, Limits::default()).with_index(index);
+        out.plain(b"A[").unwrap();
+        out.patch(1 + codec::WORD_MAX, 2).unwrap();
+    }
+
     #[test]
     fn each_open_bracket_carries_the_offset_past_its_close() {
         // Small enough to stay in the buffer, and large enough that the
@@ -729,13 +758,19 @@ mod tests {
             let mut bin = Vec::new();
             file.rewind().unwrap();
             file.read_to_end(&mut bin).unwrap();
-            let index_at = |i: usize| u64::from_le_bytes(bin[i + 1..i + 9].try_into().unwrap());
-            // [........ A [........ B ] C... ] D
+            let index_at = |i: usize| codec::get_word(&bin[i + 1..]);
+            // [ index A [ index B ] C... ] D
+            let inner = 2 + ENDS_BYTES;
+            let inner_end = inner + 3 + ENDS_BYTES;
             assert_eq!(bin[0], b'[');
-            assert_eq!(bin[10], b'[');
+            assert_eq!(bin[inner], b'[');
             // (The index holds the distance from the `[`.)
-            assert_eq!(10 + index_at(10), 21, "inner, filler {filler}");
-            let outer_end = 21 + filler as u64 + 1;
+            assert_eq!(
+                inner as u64 + index_at(inner),
+                inner_end as u64,
+                "inner, filler {filler}"
+            );
+            let outer_end = inner_end as u64 + filler as u64 + 1;
             assert_eq!(index_at(0), outer_end, "outer, filler {filler}");
             assert_eq!(bin[outer_end as usize - 1], b']');
             assert_eq!(&bin[outer_end as usize..], b"D");
@@ -825,14 +860,18 @@ mod tests {
                 i += kl + 8 * al.arity(key);
                 if key == CLOSE {
                     let (at, before) = open.pop().unwrap();
-                    let word = |j: usize| u64::from_le_bytes(bin[j..j + 8].try_into().unwrap());
+                    let word = |j: usize| codec::get_word(&bin[j..]);
                     assert_eq!(
                         at as u64 + word(at + 1),
                         i as u64,
                         "filler {filler}, counts {counts}"
                     );
                     if counts {
-                        assert_eq!(word(at + 9), modules - before, "filler {filler}");
+                        assert_eq!(
+                            word(at + 1 + ENDS_BYTES),
+                            modules - before,
+                            "filler {filler}"
+                        );
                     }
                     checked += 1;
                 }

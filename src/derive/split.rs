@@ -30,7 +30,7 @@
 use super::bytetable::ASCII;
 use super::context::LeftContext;
 use super::reader::PosReader;
-use crate::rules::{Alphabet, Table, CLOSE, OPEN};
+use crate::rules::{codec, Alphabet, Table, CLOSE, OPEN};
 use std::fs::File;
 use std::io;
 
@@ -183,7 +183,7 @@ impl<'f> Scan<'f> {
                         // A whole branch before the cut leaves the left
                         // context and the level as they were: jump to its
                         // end (an unclosed `[`'s index is 0: not taken).
-                        let dist = u64::from_le_bytes(w[i + 1..i + 9].try_into().expect("8"));
+                        let dist = codec::get_word(&w[i + 1..]);
                         let end = base + i as u64 + dist;
                         if dist > 0 && end <= stop {
                             match usize::try_from(end - base) {

@@ -709,6 +709,9 @@ pub enum RuntimeError {
     UnclosedBracket(Pass),
     /// A pass produced a `]` without `[`.
     UnopenedBracket(Pass),
+    /// A branch too long for the bracket index of a temporary generation
+    /// (`codec::WORD_MAX` bytes).
+    BranchTooLong(Pass),
     /// An [`crate::LSystem`] read from a stream was derived twice.
     AlreadyDerived,
     /// Jobs of a batch failed (how many, of how many).
@@ -760,6 +763,11 @@ impl fmt::Display for RuntimeError {
             UnopenedBracket(pass) => write!(
                 f,
                 "unbalanced brackets: {pass} produces a `]` without `[`, from this production"
+            ),
+            BranchTooLong(pass) => write!(
+                f,
+                "{pass} makes a branch of 256 TiB or more, longer than a temporary \
+                 generation can index"
             ),
             AlreadyDerived => f.write_str("the axiom stream was already derived"),
             JobsFailed { failed, total } => write!(

@@ -1170,9 +1170,10 @@ mod tests {
                 assert_eq!(c.modules(), 6);
                 // F(2) is 10 bytes; the `[` carries the index; modules
                 // F(2) [ + F ] G: the `[` is the second, the `]` the fifth.
+                let close = 13 + codec::INDEX_BYTES as u32;
                 assert_eq!(
                     c.brackets().collect::<Vec<_>>(),
-                    [(10, true, 1), (29, false, 4)]
+                    [(10, true, 1), (close, false, 4)]
                 );
                 assert_eq!(c.ibin().len(), c.bin().len() + codec::INDEX_BYTES);
             }
