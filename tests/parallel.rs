@@ -842,8 +842,9 @@ fn an_axiom_read_through_spill_files_keeps_every_bracket_index() {
     // `[` and its index bytes or inside them; an index completed late must
     // still reach the file whole. Step 1 reads generation 0's index: right
     // contexts skip branches (`B > C`), a cut skips the rest of its branch.
-    // 8 index bytes, and 16 where the system can make `%`. Without that
-    // fix, pieces of 29 bytes and blocks of 24 already lose a `D`.
+    // 6 index bytes, and 12 where the system can make `%`. Without that
+    // fix (with the 8- and 16-byte index of then), pieces of 29 bytes and
+    // blocks of 24 already lost a `D`.
     let dir = tempdir();
     let plain = "AB[AAA[AA[A]]AA]CB[A]CAB[[A][AA]]C".repeat(30);
     let cut = "AB[AAA[A%A[A]]AA]CB[A%A]CAB[[A][AA%]A]C".repeat(30);

@@ -22,7 +22,7 @@ pub const ENDS_BYTES: usize = WORD_BYTES;
 /// Bytes of an index word: little-endian, 48 bits. Not 64: in a bracketed
 /// string one module in six or so is a `[`, and its index was more than
 /// half of an indexed generation (208 MB for a 93 MB axiom with 8-byte
-/// words, 177 MB with 6), all of it written and read again each step.
+/// words, 179 MB with 6), all of it written and read again each step.
 /// 2^48 bytes (256 TiB) is more than any generation a disk holds; a larger
 /// branch is an error ([`WORD_MAX`]), never a wrong skip.
 pub const WORD_BYTES: usize = 6;
