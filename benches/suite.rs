@@ -1037,9 +1037,10 @@ fn run_threads(
          The last column is what the machine gave two independent threads right \
          after the `-j 2` runs: two `-j 1` runs of the row started together, 2 × \
          the `-j 1` wall time over the later one's (about 2.00 if they did not \
-         slow each other down; the best of as many pairs as runs of each `-j`). `-j 2` splits one run, with \
-         overheads of its own, so expect it near or under that; where the pair got \
-         under 1.7, the machine could not give 1.7 at that moment.\n\n\
+         slow each other down; the best of as many pairs as runs of each `-j`). \
+         `-j 2` splits one run, with overheads of its own, so expect it near or \
+         under that; where the pair got under 1.7, the machine could not give \
+         1.7 at that moment.\n\n\
          | row | size | -n | wall s | cpu s | peak RSS MiB | speed-up over -j 1 | target | two -j 1 at once |\n\
          |---|---|---|--:|--:|--:|--:|---|--:|\n",
     );

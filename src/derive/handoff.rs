@@ -487,8 +487,9 @@ impl<'a> Order<'a> {
 /// rest, while the writer waits for text of the task it is on, to a
 /// spill file (in a step pass after waiting up to [`STEP_PATIENCE`] for
 /// room), handed to the writer when it reaches the task or at the task's
-/// end (while the writer is busy, the worker waits instead). So memory stays bounded, and a worker waits for the writer
-/// only while the writer is the bottleneck.
+/// end (while the writer is busy, the worker waits instead). So memory
+/// stays bounded, and a worker waits for the writer only while the writer
+/// is the bottleneck.
 pub(super) struct Current<'a> {
     pub(super) tx: RefCell<Option<SyncSender<Msg>>>,
     pub(super) seq: Cell<u64>,

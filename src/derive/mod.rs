@@ -293,9 +293,7 @@ fn read_axiom(
 /// written over it in place (then cut at its end, [`cut_to_written`]). Not
 /// truncated first: the new generation overwrites the old one's cached
 /// pages instead of freeing them and taking fresh ones (a 3-step context
-/// run at 10^8 spends a quarter less system time), and ext4 does not
-/// write out on close a file truncated to 0 and written again
-/// (`auto_da_alloc`, see [`empty`]) when a run ends early.
+/// run at 10^8 spends a quarter less system time).
 fn overwrite(f: &mut File, name: &str) -> Result<(), Error> {
     f.seek(SeekFrom::Start(0))
         .map(drop)
