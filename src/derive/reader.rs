@@ -11,7 +11,7 @@ use std::os::unix::fs::FileExt;
 /// A buffered reader at file offsets (pread), so two can share one file.
 pub struct PosReader<'f> {
     file: &'f File,
-    /// The file has a bracket index (see [`Out::with_index`]).
+    /// The file has a bracket index (see [`Out::with_index`](super::sink::Out::with_index)).
     pub(crate) indexed: bool,
     /// Bytes of a `[`: 1, or with the index 1 + its index bytes.
     open_len: usize,
@@ -61,7 +61,8 @@ impl<'f> PosReader<'f> {
         self.buf
     }
 
-    /// The index also holds module counts (see [`Out::with_counts`]).
+    /// The index also holds module counts (see
+    /// [`Out::with_counts`](super::sink::Out::with_counts)).
     pub(crate) fn with_counts(mut self, counts: bool) -> Self {
         if self.indexed && counts {
             self.open_len = 1 + INDEX_BYTES;
