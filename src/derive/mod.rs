@@ -432,7 +432,7 @@ pub(crate) fn derive(
     };
     // cpfg's `Start:` runs before the axiom is read.
     d.cpfg_block(When::Start, Pass::Axiom)?;
-    {
+    let axiom_len = {
         let index = (indexed, d.counts);
         let mut params = Vec::new();
         let limited = limits.modules != u64::MAX || limits.bytes != u64::MAX;
@@ -495,7 +495,8 @@ pub(crate) fn derive(
         if passes == 0 && frames.is_none() {
             return Ok(len);
         }
-    }
+        len
+    };
     drop(reader);
     // Issue 11: groups, decomposition, homomorphism depth and cuts are
     // implemented by the step engine only; a `%` that can be a cut makes a
@@ -649,7 +650,7 @@ pub(crate) fn derive(
     };
     let stepwise = step_passes(
         &mut d,
-        cur,
+        (cur, axiom_len),
         (&tables, &homomorphism, hom),
         (settings, &reuse),
         (output, out_name, &tmp_name),
@@ -663,10 +664,10 @@ pub(crate) fn derive(
 }
 
 /// The steps, then the homomorphism, one temp file each, from generation 0
-/// in `cur`.
+/// in `cur` (of `cur_len`: modules, bytes).
 fn step_passes(
     d: &mut Deriver,
-    mut cur: Option<Generation>,
+    (mut cur, mut cur_len): (Option<Generation>, (u64, u64)),
     (tables, homomorphism, hom): (&Tables, &crate::rules::Table, bool),
     (settings, reuse): (&Settings, &par::Reuse),
     (output, out_name, tmp_name): (&mut dyn Write, &str, &str),
@@ -742,7 +743,12 @@ fn step_passes(
             let split = (threads, split, reuse);
             out.direct = settings.direct.clone();
             match (threads > 1)
-                .then(|| par::step_pass(d, table, (&src, indexed), split, &mut out, pass))
+                .then(|| {
+                    // Each module one byte (as many as bytes)?
+                    let one_byte = (cur_len.0 == cur_len.1).then_some(cur_len.1);
+                    let src = (&*src, indexed, one_byte);
+                    par::step_pass(d, table, src, split, &mut out, pass)
+                })
                 .transpose()?
                 .flatten()
             {
@@ -784,6 +790,7 @@ fn step_passes(
                     });
                     other = Some(src);
                     cur = dst;
+                    cur_len = last_len;
                     i = last;
                     continue;
                 }
@@ -791,6 +798,7 @@ fn step_passes(
         }
         other = Some(src);
         cur = dst;
+        cur_len = last_len;
         i += 1;
     }
     Ok(last_len)

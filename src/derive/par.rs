@@ -130,7 +130,8 @@ pub(crate) fn test_split() -> Option<u64> {
 }
 
 /// One pass of the step engine on `threads` threads: the generation in
-/// `src` (`indexed`: with a bracket index) is cut into chunks at module
+/// `src` (`indexed`: with a bracket index; `one_byte`: Some(its length)
+/// if each of its modules is one byte) is cut into chunks at module
 /// boundaries (a scan on the producer thread, [`super::split::Scan`],
 /// counting modules for the draw positions and keeping the left context
 /// and nesting level each chunk starts from), each chunk rewritten by a
@@ -146,11 +147,12 @@ pub(crate) fn test_split() -> Option<u64> {
 pub(crate) fn step_pass(
     d: &Deriver,
     table: &crate::rules::Table,
-    (src, indexed): (&File, bool),
+    (src, indexed, one_byte): (&File, bool, Option<u64>),
     (threads, split, reuse): (usize, Option<u64>, &Reuse),
     out: &mut Out,
     pass: super::Pass,
 ) -> Result<Option<u64>, Error> {
+    debug_assert!(one_byte.is_none_or(|l| src.metadata().is_ok_and(|m| m.len() == l)));
     let draws = AtomicU64::new(0);
     let draws = &draws;
     let shared = &Shared::new(
@@ -226,7 +228,8 @@ pub(crate) fn step_pass(
                 // Cut at the first module boundary past every `size` bytes.
                 let size = split.unwrap_or(CHUNK_IN);
                 let _timed = times.map(|t| super::split::Timed(t, true));
-                let mut scan = Scan::new(src, (indexed, counts), table, al, size);
+                let mut scan =
+                    Scan::new(src, (indexed, counts), table, al, size).one_byte(one_byte);
                 let send = |chunk: Chunk| {
                     order
                         .open()

@@ -89,6 +89,8 @@ pub(crate) struct Scan<'f> {
     /// chunks' module indices are not needed (they are not counted
     /// inside the branches jumped over; [`Chunk::exact`]).
     skip: bool,
+    /// Cut without reading ([`Scan::one_byte`]): the generation's length.
+    flat: Option<u64>,
 }
 
 impl<'f> Scan<'f> {
@@ -122,13 +124,53 @@ impl<'f> Scan<'f> {
             index: 0,
             size: size.max(1),
             done: false,
+            flat: None,
         }
+    }
+
+    /// The generation is `len` bytes of one-byte modules (as many modules
+    /// as bytes, which the pass that wrote it counted): without a left
+    /// context to follow or a bracket index, the scan cuts it every `size`
+    /// bytes without reading it. Each byte is a module boundary and a
+    /// module's index is its offset. The level each chunk starts at is
+    /// left at 0: only right contexts read it (by level), and a pass with
+    /// them has an indexed input.
+    pub(crate) fn one_byte(mut self, len: Option<u64>) -> Self {
+        if self.left.is_none() && self.rd.open_len() == 1 {
+            self.flat = len;
+        }
+        self
+    }
+
+    /// [`Scan::next_chunk`] for [`Scan::one_byte`].
+    fn next_flat(&mut self, len: u64) -> Option<Chunk> {
+        let start = self.start;
+        if start >= len {
+            self.done = true;
+            return None;
+        }
+        let end = len.min(start.saturating_add(self.size));
+        self.start = end;
+        self.done = end == len;
+        Some(Chunk {
+            start,
+            end,
+            first: start,
+            exact: true,
+            at: ChunkStart {
+                left: None,
+                level: 0,
+            },
+        })
     }
 
     /// The next chunk, None after the last.
     pub(crate) fn next_chunk(&mut self, al: &Alphabet) -> io::Result<Option<Chunk>> {
         if self.done {
             return Ok(None);
+        }
+        if let Some(len) = self.flat {
+            return Ok(self.next_flat(len));
         }
         let at = ChunkStart {
             left: self.left.clone(),
@@ -459,6 +501,46 @@ mod tests {
         }
         assert_eq!(plain_counts(b"[[a]]]]xyz[[["), (13, 1));
         assert_eq!(plain_counts(b"[]]]]]]]]]\x80[["), (10, -8));
+    }
+
+    /// A generation of one-byte modules is cut without being read
+    /// ([`Scan::one_byte`]) where the reading scan cuts it, with the same
+    /// first module indices; not where it has a left context to follow or
+    /// a bracket index.
+    #[test]
+    fn a_one_byte_generation_is_cut_where_the_reading_scan_cuts_it() {
+        let s = system("productions:\nA -> B\n");
+        let mut al = s.alphabet.clone();
+        let string: Vec<(char, &[f64])> = "AB[[C]D[E]]]FG[HIJK]"
+            .chars()
+            .map(|c| (c, &[][..]))
+            .collect();
+        let (f, bytes) = write(&mut al, &string, false);
+        let len = bytes.len() as u64;
+        assert_eq!(len, string.len() as u64);
+        for size in 1..=len + 1 {
+            let cuts = |one_byte: Option<u64>| {
+                let mut scan =
+                    Scan::new(&f, (false, false), &s.productions, &al, size).one_byte(one_byte);
+                let mut v = Vec::new();
+                while let Some(ch) = scan.next_chunk(&al).unwrap() {
+                    assert!(ch.exact && ch.at.left.is_none());
+                    v.push((ch.start, ch.end, ch.first));
+                }
+                (v, scan.flat.is_some())
+            };
+            let (read, _) = cuts(None);
+            let (flat, cut_unread) = cuts(Some(len));
+            assert!(cut_unread);
+            assert_eq!(flat, read, "size {size}");
+            assert_eq!(flat.last().map(|c| c.1), Some(len));
+        }
+        // A left context to follow, or an index: the scan reads.
+        let ctx = system("productions:\nA < B -> C\n");
+        let scan = Scan::new(&f, (false, false), &ctx.productions, &al, 4).one_byte(Some(len));
+        assert!(scan.flat.is_none());
+        let scan = Scan::new(&f, (true, false), &s.productions, &al, 4).one_byte(Some(len));
+        assert!(scan.flat.is_none());
     }
 
     /// The block count agrees with a byte-by-byte one on strings longer
