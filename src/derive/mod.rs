@@ -2,10 +2,10 @@
 //! ([`dfs`]: D0L byte plans and deterministic parametric systems, no temp
 //! files) or step by step ([`step`], one temp file per generation).
 //!
-//! The step engine's parts: [`sink`](mod@sink) (output formats, bracket index,
-//! limits), [`reader`] (buffered pread readers), [`context`] (left contexts
-//! and the right-walker), [`bytetable`] (the D0L byte table). [`par`]
-//! splits either strategy between threads (`-j N`).
+//! The step engine's parts: [`sink`](mod@sink) (output formats, bracket
+//! index, limits), [`reader`] (buffered pread readers), [`context`] (left
+//! contexts and the right-walker), [`bytetable`] (the D0L byte table).
+//! [`par`] splits either strategy between threads (`-j N`).
 
 pub(crate) mod bytetable;
 pub(crate) mod choose;

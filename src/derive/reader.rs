@@ -11,7 +11,8 @@ use std::os::unix::fs::FileExt;
 /// A buffered reader at file offsets (pread), so two can share one file.
 pub struct PosReader<'f> {
     file: &'f File,
-    /// The file has a bracket index (see [`Out::with_index`](super::sink::Out::with_index)).
+    /// The file has a bracket index (see
+    /// [`Out::with_index`](super::sink::Out::with_index)).
     pub(crate) indexed: bool,
     /// Bytes of a `[`: 1, or with the index 1 + its index bytes.
     open_len: usize,
