@@ -170,11 +170,7 @@ pub(crate) fn step_pass(
     // Some(the writer's CPU time) when the pass was split.
     let done = std::thread::scope(|s| -> Result<Option<u64>, Error> {
         use super::split::{Chunk, Scan};
-        let (task_tx, task_rx) = mpsc::channel::<(Chunk, Slot)>();
-        let task_rx = Arc::new(Mutex::new(task_rx));
-        let (order_tx, order_rx) = mpsc::channel::<Receiver<Msg>>();
-        let workers = spawn_workers(s, (threads, "lsgen-step"), |w| {
-            let task_rx = Arc::clone(&task_rx);
+        let workers = |w, task_rx: Arc<Queue<Chunk>>| {
             let mut wd = Deriver::new(
                 d.alphabet.clone(),
                 d.rng.clone(),
@@ -217,44 +213,36 @@ pub(crate) fn step_pass(
                 }
                 current.report();
             }
-        });
-        if workers == 0 {
-            return Ok(None);
-        }
-        let producer = std::thread::Builder::new()
-            .name("lsgen-chunks".into())
-            .spawn_scoped(s, move || {
-                let order = Order::new(order_tx, shared);
-                // Cut at the first module boundary past every `size` bytes.
-                let size = split.unwrap_or(CHUNK_IN);
-                let _timed = times.map(|t| super::split::Timed(t, true));
-                let mut scan =
-                    Scan::new(src, (indexed, counts), table, al, size).one_byte(one_byte);
-                let send = |chunk: Chunk| {
-                    order
-                        .open()
-                        .is_some_and(|slot| task_tx.send((chunk, slot)).is_ok())
-                };
-                loop {
-                    match scan.next_chunk(al) {
-                        Ok(Some(chunk)) => {
-                            if !send(chunk) {
-                                break;
-                            }
-                        }
-                        Ok(None) => break,
-                        Err(e) => {
-                            order.fail(Error::io("temporary file", IoAction::Read, e));
+        };
+        let producer = move |order: &Order, task_tx: mpsc::Sender<(Chunk, Slot)>| {
+            // Cut at the first module boundary past every `size` bytes.
+            let size = split.unwrap_or(CHUNK_IN);
+            let _timed = times.map(|t| super::split::Timed(t, true));
+            let mut scan = Scan::new(src, (indexed, counts), table, al, size).one_byte(one_byte);
+            let send = |chunk: Chunk| {
+                order
+                    .open()
+                    .is_some_and(|slot| task_tx.send((chunk, slot)).is_ok())
+            };
+            loop {
+                match scan.next_chunk(al) {
+                    Ok(Some(chunk)) => {
+                        if !send(chunk) {
                             break;
                         }
                     }
+                    Ok(None) => break,
+                    Err(e) => {
+                        order.fail(Error::io("temporary file", IoAction::Read, e));
+                        break;
+                    }
                 }
-                order.report();
-            });
-        if producer.is_err() {
-            // The workers end when their task channel closes.
+            }
+        };
+        let names = ("lsgen-step", "lsgen-chunks");
+        let Some(order_rx) = spawn_split(s, shared, (threads, names), workers, producer) else {
             return Ok(None);
-        }
+        };
         let writer = times.map(|_| super::split::thread_cpu_ns());
         let mut check = super::split::BalanceCheck::default();
         let mut judge = |b: &super::split::Balance| {
@@ -282,6 +270,41 @@ pub(crate) fn step_pass(
         t.report(pass, writer);
     }
     Ok(done.map(|_| draws.load(Ordering::Relaxed)))
+}
+
+/// The threads of a split: up to `threads` workers (`names.0`-w), worker
+/// `w` running `make(w, queue)` over the one task queue, and a producer
+/// (`names.1`) running `produce(order, tasks)`, which makes the tasks in
+/// string order, each with its slot in the writer's order. The order's
+/// receiver, for the writer ([`write_in_order`], on this thread); None
+/// when no worker or no producer could be started: nothing was written,
+/// and the workers end as the queue closes.
+fn spawn_split<'scope, T, F>(
+    s: &'scope std::thread::Scope<'scope, '_>,
+    shared: &'scope Shared<'scope>,
+    (threads, names): (usize, (&str, &str)),
+    mut make: impl FnMut(usize, Arc<Queue<T>>) -> F,
+    produce: impl FnOnce(&Order, mpsc::Sender<(T, Slot)>) + Send + 'scope,
+) -> Option<Receiver<Receiver<Msg>>>
+where
+    T: Send + 'scope,
+    F: FnOnce() + Send + 'scope,
+{
+    let (task_tx, task_rx) = mpsc::channel::<(T, Slot)>();
+    let task_rx = Arc::new(Mutex::new(task_rx));
+    let (order_tx, order_rx) = mpsc::channel::<Receiver<Msg>>();
+    let workers = spawn_workers(s, (threads, names.0), |w| make(w, Arc::clone(&task_rx)));
+    if workers == 0 {
+        return None;
+    }
+    let producer = std::thread::Builder::new()
+        .name(names.1.into())
+        .spawn_scoped(s, move || {
+            let order = Order::new(order_tx, shared);
+            produce(&order, task_tx);
+            order.report();
+        });
+    producer.is_ok().then_some(order_rx)
 }
 
 /// Start up to `threads` workers, named `name-w`, worker `w` running
@@ -382,11 +405,7 @@ pub(crate) fn axiom_prefix(
     let mut check = super::split::BalanceCheck::default();
     let mut unbalanced = false;
     let written = std::thread::scope(|s| -> Result<Option<Option<u64>>, Error> {
-        let (task_tx, task_rx) = mpsc::channel::<((u64, u64), Slot)>();
-        let task_rx = Arc::new(Mutex::new(task_rx));
-        let (order_tx, order_rx) = mpsc::channel::<Receiver<Msg>>();
-        let workers = spawn_workers(s, (threads, "lsgen-axiom"), |w| {
-            let task_rx = Arc::clone(&task_rx);
+        let workers = |w, task_rx: Arc<Queue<(u64, u64)>>| {
             move || {
                 let current = Current::new(shared, w);
                 let mut sink = std::io::sink();
@@ -429,30 +448,24 @@ pub(crate) fn axiom_prefix(
                 }
                 current.report();
             }
-        });
-        if workers == 0 {
-            return Ok(None);
-        }
-        let producer = std::thread::Builder::new()
-            .name("lsgen-axiom".into())
-            .spawn_scoped(s, move || {
-                let order = Order::new(order_tx, shared);
-                let mut start = from;
-                while start < len {
-                    let end = (start + size).min(len);
-                    let sent = order
-                        .open()
-                        .is_some_and(|slot| task_tx.send(((start, end), slot)).is_ok());
-                    if !sent {
-                        break;
-                    }
-                    start = end;
+        };
+        let producer = move |order: &Order, task_tx: mpsc::Sender<((u64, u64), Slot)>| {
+            let mut start = from;
+            while start < len {
+                let end = (start + size).min(len);
+                let sent = order
+                    .open()
+                    .is_some_and(|slot| task_tx.send(((start, end), slot)).is_ok());
+                if !sent {
+                    break;
                 }
-                order.report();
-            });
-        if producer.is_err() {
+                start = end;
+            }
+        };
+        let names = ("lsgen-axiom", "lsgen-axiom");
+        let Some(order_rx) = spawn_split(s, shared, (threads, names), workers, producer) else {
             return Ok(None);
-        }
+        };
         let mut judge = |b: &super::split::Balance| {
             check.next(b).map_err(|_| {
                 unbalanced = true;
@@ -513,8 +526,8 @@ type Tasks<'t> = mpsc::Sender<(Task<'t>, Slot)>;
 /// those the split found (a runtime error is then looked for again step by
 /// step by the caller, as for one thread).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn expand(
-    plan: &ParamPlan,
+pub(crate) fn expand<'t>(
+    plan: &ParamPlan<'t>,
     input: &File,
     al: &Alphabet,
     origin: &Origin,
@@ -535,11 +548,7 @@ pub(crate) fn expand(
         (threads, threads * IN_FLIGHT),
     );
     std::thread::scope(|s| -> Result<(), Error> {
-        let (task_tx, task_rx) = mpsc::channel::<(Task, Slot)>();
-        let task_rx = Arc::new(Mutex::new(task_rx));
-        let (order_tx, order_rx) = mpsc::channel::<Receiver<Msg>>();
-        let workers = spawn_workers(s, (threads, "lsgen-par"), |w| {
-            let task_rx = Arc::clone(&task_rx);
+        let workers = |w, task_rx: Arc<Queue<Task<'t>>>| {
             move || {
                 work(
                     (plan, w),
@@ -550,30 +559,23 @@ pub(crate) fn expand(
                     (done_modules, done_bytes),
                 )
             }
-        });
-        let producer = (workers > 0).then(|| {
-            std::thread::Builder::new()
-                .name("lsgen-split".into())
-                .spawn_scoped(s, move || {
-                    let order = Order::new(order_tx, shared);
-                    produce(
-                        plan,
-                        input,
-                        al,
-                        origin,
-                        (depth, most),
-                        (task_tx, &order),
-                        (done_modules, done_bytes),
-                    );
-                    order.report();
-                })
-        });
-        if !matches!(producer, Some(Ok(_))) {
-            // No thread to be had: one thread does it all (the workers
-            // end when their task channel closes).
-            drop(order_rx);
+        };
+        let producer = move |order: &Order, task_tx: Tasks<'t>| {
+            produce(
+                plan,
+                input,
+                al,
+                origin,
+                (depth, most),
+                (task_tx, order),
+                (done_modules, done_bytes),
+            );
+        };
+        let names = ("lsgen-par", "lsgen-split");
+        let Some(order_rx) = spawn_split(s, shared, (threads, names), workers, producer) else {
+            // No thread to be had: one thread does it all.
             return plan.expand(input, al, origin, steps, out);
-        }
+        };
         // Write the tasks' text in task order.
         write_in_order(order_rx, out, shared, None).map(|_| ())
     })
