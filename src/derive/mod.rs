@@ -300,6 +300,22 @@ fn overwrite(f: &mut File, name: &str) -> Result<(), Error> {
         .map_err(|e| Error::io(name, crate::diag::IoAction::Write, e))
 }
 
+/// The file for the next generation: `other`, the one before the last,
+/// to be written over ([`overwrite`]), or a new one in `dir`.
+fn next_generation(
+    other: Option<Generation>,
+    dir: &Option<PathBuf>,
+    name: &str,
+) -> Result<Generation, Error> {
+    match other {
+        Some(mut f) => {
+            overwrite(&mut f, name)?;
+            Ok(f)
+        }
+        None => generation_file(dir),
+    }
+}
+
 /// End the generation just written to `f` where its writing stopped: an
 /// older, longer one it was written over ([`overwrite`]) must not show
 /// through. Before anything reads it (readers stop at the file's length).
@@ -664,10 +680,10 @@ pub(crate) fn derive(
 }
 
 /// The steps, then the homomorphism, one temp file each, from generation 0
-/// in `cur` (of `cur_len`: modules, bytes).
+/// in `cur` (of `len`: modules, bytes).
 fn step_passes(
     d: &mut Deriver,
-    (mut cur, mut cur_len): (Option<Generation>, (u64, u64)),
+    (mut cur, len): (Option<Generation>, (u64, u64)),
     (tables, homomorphism, hom): (&Tables, &crate::rules::Table, bool),
     (settings, reuse): (&Settings, &par::Reuse),
     (output, out_name, tmp_name): (&mut dyn Write, &str, &str),
@@ -682,7 +698,8 @@ fn step_passes(
         ..
     } = *settings;
     let passes = steps + u64::from(hom);
-    let mut last_len = (0, 0);
+    // The last generation's (modules, bytes): `cur`'s, until the last pass.
+    let mut last_len = len;
     let mut other: Option<Generation> = None;
     let mut i = 1;
     while i <= passes {
@@ -711,13 +728,7 @@ fn step_passes(
         let mut dst = if i == passes {
             None
         } else {
-            Some(match other.take() {
-                Some(mut f) => {
-                    overwrite(&mut f, tmp_name)?;
-                    f
-                }
-                None => generation_file(tmpdir)?,
-            })
+            Some(next_generation(other.take(), tmpdir, tmp_name)?)
         };
         let draws = d.rng.draws();
         let mut drew = 0;
@@ -745,7 +756,7 @@ fn step_passes(
             match (threads > 1)
                 .then(|| {
                     // Each module one byte (as many as bytes)?
-                    let one_byte = (cur_len.0 == cur_len.1).then_some(cur_len.1);
+                    let one_byte = (last_len.0 == last_len.1).then_some(last_len.1);
                     let src = (&*src, indexed, one_byte);
                     par::step_pass(d, table, src, split, &mut out, pass)
                 })
@@ -790,7 +801,6 @@ fn step_passes(
                     });
                     other = Some(src);
                     cur = dst;
-                    cur_len = last_len;
                     i = last;
                     continue;
                 }
@@ -798,7 +808,6 @@ fn step_passes(
         }
         other = Some(src);
         cur = dst;
-        cur_len = last_len;
         i += 1;
     }
     Ok(last_len)
@@ -875,13 +884,7 @@ fn frame_passes(
         d.rng.set_step(k);
         let table = tables.table_for(k, d)?;
         let pass = Pass::Step(k);
-        let mut dst = Some(match other.take() {
-            Some(mut f) => {
-                overwrite(&mut f, tmp_name)?;
-                f
-            }
-            None => generation_file(tmpdir)?,
-        });
+        let mut dst = Some(next_generation(other.take(), tmpdir, tmp_name)?);
         d.cpfg_block(When::StartEach, pass)?;
         {
             let mut discard = io::sink();
