@@ -303,6 +303,63 @@ fn errors_are_located_in_the_original_file() {
     assert!(e.starts_with(&format!("lsgen: {path}:7:")), "{e}");
 }
 
+/// An unbalanced axiom is located where the bracket is in the source:
+/// on its own line of a multi-line axiom, behind a macro, in an included
+/// file (the axiom used to be checked as lowered text, `t.l:1:4` and a
+/// line the file does not have), by `--check` too.
+#[test]
+fn an_unbalanced_axiom_is_located_in_the_source() {
+    let dir = tempdir();
+    let d = dir.path();
+    let cases: [(&str, &str, &str); 4] = [
+        (
+            "close.l",
+            "Lsystem: 1\nderivation length: 1\nAxiom: A\n\tB C\n\t] D\nendlsystem\n",
+            ":5:2: error: unbalanced brackets: `]` without `[`\n\t] D\n\t^\n",
+        ),
+        (
+            "cut.l",
+            "Lsystem: 1\n\n#define X ]]\nAxiom: A[B]%X C\nendlsystem\n",
+            ":4:13: error: unbalanced brackets: `]` without `[`\nAxiom: A[B]%X C\n            ^\n",
+        ),
+        (
+            "open.l",
+            "Lsystem: 1\nAxiom: A [B [C] D\n\t[E]\nendlsystem\n",
+            ":2:10: error: unbalanced brackets: the `[` at 2:10 is never closed\n\
+             Axiom: A [B [C] D\n         ^\n",
+        ),
+        (
+            "inc.l",
+            "Lsystem: 1\nAxiom: A\n#include \"axiom.inc\"\nendlsystem\n",
+            "",
+        ),
+    ];
+    write(d, "axiom.inc", "\tB ] C\n");
+    for (name, text, want) in cases {
+        let f = write(d, name, text);
+        let path = f.display().to_string();
+        let want = if name == "inc.l" {
+            let inc = d.join("axiom.inc").display().to_string();
+            format!(
+                "lsgen: {inc}:1:4: error: unbalanced brackets: `]` without `[`\n\tB ] C\n\t  ^\n"
+            )
+        } else {
+            format!("lsgen: {path}{want}")
+        };
+        for check in [false, true] {
+            let mut cmd = lsgen();
+            cmd.arg(&f);
+            if check {
+                cmd.arg("--check");
+            }
+            let r = run(&mut cmd);
+            assert_eq!(r.code(), Some(1), "{name}: {}", r.stderr);
+            assert_eq!(r.stderr, want, "{name}");
+            assert!(r.stdout.is_empty(), "{name}");
+        }
+    }
+}
+
 /// Both dialects' parameters: stored as 32-bit floats and printed with
 /// C's `%g` in cpfg; `--precision` still chooses the digits.
 #[test]

@@ -139,6 +139,7 @@ pub struct Lsystem {
     pub end: Option<(Block, Span)>,
     pub axiom: Vec<AxiomPiece>,
     pub axiom_span: Span,
+    pub axiom_brackets: AxiomBrackets,
     pub productions: Vec<Production>,
     pub decomposition: Option<Section>,
     pub homomorphism: Option<Section>,
@@ -172,6 +173,45 @@ impl AxiomPiece {
             Some(AxiomPiece::Symbols(s)) => s.push(m.sym),
             _ => v.push(AxiomPiece::Symbols(m.sym.to_string())),
         }
+    }
+}
+
+/// The axiom's bracket balance, judged as the grammar reads it (its
+/// pieces keep no spans): the first `]` without `[`, and the `[` still
+/// open at the end (the first of the outermost level), as the axiom
+/// reader of `.ls` files reports them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AxiomBrackets {
+    depth: usize,
+    first_open: Span,
+    /// The first `]` without `[`.
+    pub bad_close: Option<Span>,
+}
+
+impl AxiomBrackets {
+    /// Count the module `m` (a bracket with parameters is a module).
+    pub fn push(&mut self, m: &Module) {
+        if !m.params.is_empty() {
+            return;
+        }
+        match m.sym {
+            '[' => {
+                if self.depth == 0 {
+                    self.first_open = m.span;
+                }
+                self.depth += 1;
+            }
+            ']' if self.depth == 0 => {
+                self.bad_close.get_or_insert(m.span);
+            }
+            ']' => self.depth -= 1,
+            _ => {}
+        }
+    }
+
+    /// The `[` never closed, if any.
+    pub fn unclosed(&self) -> Option<Span> {
+        (self.depth > 0).then_some(self.first_open)
     }
 }
 

@@ -37,7 +37,7 @@ pub mod preprocess;
 pub mod random;
 pub mod run;
 
-use crate::diag::{Error, ErrorKind};
+use crate::diag::{Error, ErrorKind, ParseError};
 use crate::lang::ast::Header;
 use crate::lang::parse::UserError;
 use preprocess::SourceMap;
@@ -132,6 +132,7 @@ pub fn load(name: &str, source: &str) -> Result<Loaded, Error> {
     let map = out.map;
     let text = out.text;
     let tree = parse::parse(&text).map_err(|e| locate(&map, e))?;
+    axiom_brackets(&tree.axiom_brackets, &map)?;
     let lowered = lower::lower(&tree, &mut |span, warning| {
         crate::diag::warn(map.location(span.0), &warning)
     })
@@ -144,6 +145,20 @@ pub fn load(name: &str, source: &str) -> Result<Loaded, Error> {
         run: lowered.run,
         extra: lowered.extra,
     })
+}
+
+/// An unbalanced axiom, located in the original files (the axiom reader
+/// that reads the lowered axiom would point into that text instead).
+fn axiom_brackets(b: &ast::AxiomBrackets, map: &SourceMap) -> Result<(), Error> {
+    if let Some(s) = b.bad_close {
+        return Err(Error::at(map.location(s.0), ParseError::UnbalancedClose));
+    }
+    if let Some(s) = b.unclosed() {
+        let at = map.location(s.0);
+        let (line, col) = (at.line, at.col);
+        return Err(Error::at(at, ParseError::UnclosedBracket { line, col }));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
