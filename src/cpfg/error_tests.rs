@@ -113,6 +113,28 @@ fn a_lowering_error_is_a_compile_error() {
         e.message(),
         "`Q` cannot be assigned (cpfg's built-in variables `Q` and `Z` are read only)"
     );
+    // In a production's block too, before or after, also nested (it used
+    // to make a private copy of `Q` for that production); a formal
+    // parameter named `Q` is the production's own and can be assigned.
+    for (src, name, line, col) in [
+        ("A : {Q = 7;} * --> A", "Q", 4, 6),
+        ("A : * {if (1) {Z = 2;}} --> A", "Z", 4, 16),
+    ] {
+        let e = load_error(&format!(
+            "Lsystem: 1\nderivation length: 2\nAxiom: A\n{src}\nendlsystem\n"
+        ));
+        assert!(
+            matches!(e.kind(), ErrorKind::Compile(CompileError::ReadOnly(n)) if n == name),
+            "{e:?}"
+        );
+        let at = e.location().expect("located");
+        assert_eq!((at.line, at.col), (line, col), "{src}");
+    }
+    assert!(super::load(
+        "t.l",
+        "Lsystem: 1\nAxiom: A(1)\nA(Q) : {Q = 7;} * --> B(Q)\nendlsystem\n"
+    )
+    .is_ok());
     let e = load_error("Lsystem: 1\nderivation length: -1\nAxiom: A\nendlsystem\n");
     assert!(
         matches!(

@@ -430,7 +430,10 @@ impl Lowerer<'_> {
         block_names(&p.post, &mut assigned, true);
         self.locals.clear();
         for n in assigned {
+            // `Q` and `Z` are built in and read only: assigning one is an
+            // error (below), as in a header block, never a private copy.
             if !formals.contains_key(&n)
+                && !matches!(n.as_str(), "Q" | "Z")
                 && !self.globals.contains_key(&n)
                 && !self.locals.contains_key(&n)
             {
