@@ -275,7 +275,7 @@ impl LSystem {
             }
         };
         if cpfg {
-            return Self::load_cpfg(input);
+            return Self::load_cpfg(input, seed);
         }
         let fresh = Random::fresh_seed();
         let split = split_header(&mut input)?;
@@ -295,7 +295,7 @@ impl LSystem {
 
     /// Read a cpfg `.l` file whole (at most the preprocessor's limit),
     /// preprocess, parse, lower and compile it.
-    fn load_cpfg(mut input: Input) -> Result<LSystem, Error> {
+    fn load_cpfg(mut input: Input, seed: Option<u64>) -> Result<LSystem, Error> {
         let path = input.name.clone();
         let mut bytes = Vec::new();
         let limit = crate::cpfg::preprocess::MAX_FILE_SIZE as usize;
@@ -329,7 +329,7 @@ impl LSystem {
             }
         };
         let loaded = crate::cpfg::load(&path, source)?;
-        let system = compile_cpfg(&loaded)?;
+        let system = compile_cpfg(&loaded, seed)?;
         Ok(LSystem {
             path,
             split: Split {
@@ -341,7 +341,7 @@ impl LSystem {
             input: None,
             text: None,
             axiom: None,
-            system: Some((system, None)),
+            system: Some((system, seed)),
             fresh: 0,
             cpfg: Some(loaded),
         })
@@ -350,7 +350,7 @@ impl LSystem {
     /// The compiled rules for `seed`.
     fn compile_system(&self, seed: Option<u64>) -> Result<System, Error> {
         match &self.cpfg {
-            Some(c) => compile_cpfg(c),
+            Some(c) => compile_cpfg(c, seed),
             None => compile(&self.path, &self.split, seed, self.fresh),
         }
     }
@@ -403,8 +403,17 @@ impl LSystem {
     /// The compiled rules for `seed`, and the axiom reader's input.
     fn take(&mut self, seed: Option<u64>) -> Result<(System, Input, bool, usize, usize), Error> {
         let system = match self.system.take() {
-            // A cpfg system draws no random constants: any seed will do.
-            Some((s, with)) if with == seed || self.cpfg.is_some() => s,
+            // A cpfg system draws no random constants: any seed will do
+            // that agrees on whether the weights count.
+            Some((s, with))
+                if with == seed
+                    || self
+                        .cpfg
+                        .as_ref()
+                        .is_some_and(|c| weights_count(c, with) == weights_count(c, seed)) =>
+            {
+                s
+            }
             _ => self.compile_system(seed)?,
         };
         if let Some(a) = self.axiom.take() {
@@ -586,11 +595,28 @@ impl LSystem {
 /// Bytes looked at to tell a cpfg file from an `.ls` one.
 const SNIFF: usize = 1 << 16;
 
-/// Compile a lowered cpfg file.
-fn compile_cpfg(c: &crate::cpfg::Loaded) -> Result<System, Error> {
-    let mut s =
-        crate::rules::compile_dialect(c.header.clone(), Some(&c.text), Seeds::default(), true)
-            .map_err(|e| crate::cpfg::locate(&c.map, e))?;
+/// Do a cpfg file's production weights count, derived with `seed`
+/// (`--seed`)? Only with a seed: without one cpfg never evaluates them.
+fn weights_count(c: &crate::cpfg::Loaded, seed: Option<u64>) -> bool {
+    seed.is_some()
+        || c.header
+            .settings
+            .iter()
+            .any(|s| matches!(s, crate::lang::ast::Setting::Seed(..)))
+}
+
+/// Compile a lowered cpfg file, to be derived with `seed` (`--seed`).
+/// Where its weights do not count they are left out, unevaluated, as cpfg
+/// leaves them: `A --> B : -1` is no error there.
+fn compile_cpfg(c: &crate::cpfg::Loaded, seed: Option<u64>) -> Result<System, Error> {
+    let mut header = c.header.clone();
+    if !weights_count(c, seed) {
+        for p in &mut header.productions {
+            p.prob = None;
+        }
+    }
+    let mut s = crate::rules::compile_dialect(header, Some(&c.text), Seeds::default(), true)
+        .map_err(|e| crate::cpfg::locate(&c.map, e))?;
     s.source_map = Some(c.map.clone());
     crate::cpfg::lower::attach(&c.run, &c.extra, &mut s);
     Ok(s)
