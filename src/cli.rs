@@ -946,10 +946,25 @@ pub struct ExitOnOom(pub &'static str);
 impl ExitOnOom {
     #[cold]
     fn fail(&self, size: usize) -> ! {
-        fn put(b: &[u8]) {
-            // SAFETY: writing a valid buffer to descriptor 2; errors ignored.
-            let _ = unsafe { libc::write(2, b.as_ptr().cast(), b.len()) };
+        use std::sync::atomic::{AtomicBool, Ordering};
+        static FAILED: AtomicBool = AtomicBool::new(false);
+        if FAILED.swap(true, Ordering::SeqCst) {
+            // Another thread is saying it and ending the process: two
+            // threads out of memory at once used to interleave their
+            // pieces of the line (`lsgenlsgen: error: ...`).
+            loop {
+                // SAFETY: waits for a signal; the process ends first.
+                unsafe { libc::pause() };
+            }
         }
+        // The line in one buffer (no allocation), written in one call.
+        let mut line = [0u8; 192];
+        let mut len = 0;
+        let mut put = |b: &[u8]| {
+            let n = b.len().min(line.len() - len);
+            line[len..len + n].copy_from_slice(&b[..n]);
+            len += n;
+        };
         let mut digits = [0u8; 20];
         let mut i = digits.len();
         let mut n = size;
@@ -961,10 +976,12 @@ impl ExitOnOom {
                 break;
             }
         }
-        put(self.0.as_bytes());
+        put(&self.0.as_bytes()[..self.0.len().min(64)]);
         put(b": error: out of memory (");
         put(&digits[i..]);
         put(b" more bytes wanted; see `ulimit -v`)\n");
+        // SAFETY: writing a valid buffer to descriptor 2; errors ignored.
+        let _ = unsafe { libc::write(2, line.as_ptr().cast(), len) };
         // SAFETY: ending the process without running anything else.
         unsafe { libc::_exit(1) }
     }

@@ -597,3 +597,35 @@ fn out_of_memory_is_an_error_not_an_abort() {
     let e = r.error();
     assert!(e.starts_with("lsgen: error: out of memory ("), "{e}");
 }
+
+/// Threads that run out of memory at once still give one line: each
+/// wrote its message in four pieces, and about one run in four of this
+/// one (eight step workers under a 293 MiB cap) printed
+/// `lsgenlsgen: error: out of memory ...`.
+#[test]
+fn threads_out_of_memory_at_once_give_one_line() {
+    let src = std::fs::read_to_string(common::example("stochastic_plant")).unwrap();
+    let args = [
+        "-q",
+        "-j",
+        "8",
+        "-n",
+        "12",
+        "--seed",
+        "2",
+        "--strategy",
+        "step",
+    ];
+    for _ in 0..12 {
+        let r = run_with(&src, &args, Some(300_000), Duration::from_secs(120));
+        assert_eq!(r.code(), Some(1), "stderr:\n{}", r.stderr);
+        let lines: Vec<&str> = r.stderr.lines().collect();
+        assert_eq!(lines.len(), 1, "{}", r.stderr);
+        assert!(
+            lines[0].starts_with("lsgen: error: out of memory (")
+                && lines[0].ends_with(" more bytes wanted; see `ulimit -v`)"),
+            "{}",
+            r.stderr
+        );
+    }
+}
