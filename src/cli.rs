@@ -47,8 +47,9 @@ pub struct Args {
 
     /// Write the string to FILE (`-`: standard output); a regular file is
     /// put in place only when complete, through symbolic links. A template:
-    /// {stem} (input file name without extension), {seed}, {n}; {{ and }}
-    /// for literal braces. A batch needs one that names each job apart.
+    /// {stem} (input file name without extension), {seed}, and n in braces
+    /// (the generation number of --frames); {{ and }} for literal braces.
+    /// A batch needs one that names each job apart.
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
 
@@ -105,7 +106,8 @@ pub struct Args {
 
     /// Write generations A to B (every K-th with `A..B:K`) from one
     /// derivation, each as `-n` would print it: one line each, or with
-    /// `-o` one file each, `{n}` in its name the generation number.
+    /// `-o` one file each, n in braces in its name the generation number.
+    // (Not the placeholder itself: clap's help turns it into a line break.)
     #[arg(long, value_name = "A..B[:K]", value_parser = parse_frames)]
     pub frames: Option<Frames>,
 

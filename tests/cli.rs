@@ -779,6 +779,16 @@ fn help_and_version_exit_zero() {
         ] {
             assert!(out.contains(opt), "{flag} does not mention {opt}");
         }
+        // No line broken where clap's help would turn a `{n}` into one
+        // (`{seed}, ` then `; {{ and }}` on the next line).
+        assert!(
+            !out.lines().any(|l| l.trim_end().ends_with(", ")
+                || l.trim() == "`"
+                || l.trim_start().starts_with("; ")
+                || l.trim_start().starts_with("` ")),
+            "{out}"
+        );
+        assert!(out.contains("{seed}, and n in braces"), "{out}");
     }
     for flag in ["--version", "-V"] {
         let out = run(&[flag]).ok();
