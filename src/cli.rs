@@ -647,10 +647,10 @@ fn check_batch(
     if seeds > 1 && !t.uses(Field::Seed) {
         return Err(Error::new(crate::diag::UsageError::SeedRangeNeedsSeed));
     }
+    if files.len() > 1 && !t.uses(Field::Stem) {
+        return Err(Error::new(crate::diag::UsageError::FilesNeedStem));
+    }
     if files.len() > 1 {
-        if !t.uses(Field::Stem) {
-            return Err(Error::new(crate::diag::UsageError::FilesNeedStem));
-        }
         let mut stems: Vec<(String, &Path)> = files
             .iter()
             .flatten()
@@ -666,6 +666,43 @@ fn check_batch(
                 }));
             }
         }
+    }
+    // No two outputs of one name (`{stem}{seed}` gives `a11` for a.ls
+    // seed 11 and a1.ls seed 1; `{n}{seed}` frame 1 seed 11 and frame 11
+    // seed 1): one would replace the other, as the threads' order has it.
+    let stems: Vec<String> = files.iter().map(|p| template::stem(*p)).collect();
+    let ranges = template::Ranges {
+        stems: &stems,
+        seeds: args.seed.map(|s| (s.first, seeds)),
+        frames: args
+            .frames
+            .filter(|_| t.uses(Field::N))
+            .map(|f| (f.from, (f.to - f.from) / f.every + 1, f.every)),
+    };
+    if let Some((a, b, name)) = t.collision(&ranges)? {
+        let label = |v: &template::Vars| {
+            let at = stems.iter().position(|s| Some(s.as_str()) == v.stem);
+            let file = at
+                .and_then(|i| files[i])
+                .map_or(String::new(), |p| p.display().to_string());
+            let mut what = Vec::new();
+            if let Some(s) = v.seed {
+                what.push(format!("seed {s}"));
+            }
+            if let Some(n) = v.n {
+                what.push(format!("generation {n}"));
+            }
+            match (file.is_empty(), what.is_empty()) {
+                (_, true) => file,
+                (true, false) => what.join(", "),
+                (false, false) => format!("{file} ({})", what.join(", ")),
+            }
+        };
+        return Err(Error::new(crate::diag::UsageError::SameOutput {
+            first: label(&a),
+            second: label(&b),
+            name,
+        }));
     }
     Ok(())
 }

@@ -160,6 +160,70 @@ fn batch_usage_errors() {
     common::assert_listing(d.path(), &["a.ls", "b.ls", "sub"]);
 }
 
+/// Two outputs the template names alike are a usage error before any job
+/// runs (they used to replace each other, the last thread's winning, so
+/// the files depended on -j): `{stem}{seed}` makes `a11` of a.ls seed 11
+/// and a1.ls seed 1, `{n}{seed}` `111` of generation 1 seed 11 and
+/// generation 11 seed 1. With a separator they are apart and all written.
+#[test]
+fn outputs_named_alike_are_refused_before_any_job() {
+    let sys = "productions:\nA -> AB\naxiom: A\n";
+    let d = dir_with(&[("a.ls", sys), ("a1.ls", sys)]);
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &[
+                "-n",
+                "2",
+                "--seed",
+                "1..11",
+                "-o",
+                "{stem}{seed}",
+                "a.ls",
+                "a1.ls",
+            ],
+            "a.ls (seed 11) and a1.ls (seed 1) would both write `a11`",
+        ),
+        (
+            &[
+                "--frames",
+                "1..11",
+                "--seed",
+                "1..11",
+                "-o",
+                "{n}{seed}",
+                "a.ls",
+            ],
+            "a.ls (seed 1, generation 11) and a.ls (seed 11, generation 1) would both write `111`",
+        ),
+    ];
+    for (args, needle) in cases {
+        for j in ["1", "2"] {
+            let mut a = args.to_vec();
+            a.extend(["-j", j]);
+            let r = lsgen_in(d.path(), &a);
+            let err = r.fails(2);
+            assert!(err.contains(needle), "{args:?}: {err}");
+        }
+    }
+    common::assert_listing(d.path(), &["a.ls", "a1.ls"]);
+    let r = lsgen_in(
+        d.path(),
+        &[
+            "-n",
+            "2",
+            "--seed",
+            "1..11",
+            "-o",
+            "{stem}-{seed}",
+            "a.ls",
+            "a1.ls",
+        ],
+    );
+    r.ok();
+    assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 2 + 22);
+    assert_eq!(read(d.path().join("a1-1")), "ABB\n");
+}
+
 #[test]
 fn lsgen_jobs_is_read_from_the_environment() {
     let d = dir_with(&[("a.ls", "productions:\nA -> AB\naxiom: A\n")]);

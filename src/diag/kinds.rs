@@ -910,6 +910,15 @@ pub enum UsageError {
     SeedRangeNeedsSeed,
     /// Several files with an `-o` template without `{stem}`.
     FilesNeedStem,
+    /// Two outputs of a batch that the `-o` template names alike.
+    SameOutput {
+        first: String,
+        second: String,
+        name: PathBuf,
+    },
+    /// A batch too large to check its output names one by one, whose
+    /// template does not show them distinct.
+    OutputNamesUnchecked(u64),
     /// Two files of a batch with the same `{stem}`.
     SameStem {
         first: PathBuf,
@@ -971,6 +980,24 @@ impl fmt::Display for UsageError {
             ),
             FilesNeedStem => f.write_str(
                 "several files need `{stem}` in the -o template, so that each has its own file",
+            ),
+            SameOutput {
+                first,
+                second,
+                name,
+            } => write!(
+                f,
+                "{first} and {second} would both write `{}`: the -o template \
+                 must name each output apart (put a separator such as `-` between \
+                 its placeholders)",
+                name.display()
+            ),
+            OutputNamesUnchecked(n) => write!(
+                f,
+                "cannot check that the -o template names the {} outputs apart: \
+                 put a character that is no digit and in no file's {{stem}} (such \
+                 as `-`) between its placeholders",
+                crate::diag::group_digits(*n)
             ),
             SameStem {
                 first,

@@ -142,6 +142,132 @@ impl Template {
     }
 }
 
+/// What a batch expands its template with: one stem per file (distinct),
+/// a seed range, the frames (`first`, `count`, step).
+#[derive(Clone, Copy, Debug)]
+pub struct Ranges<'a> {
+    pub stems: &'a [String],
+    pub seeds: Option<(u64, u64)>,
+    pub frames: Option<(u64, u64, u64)>,
+}
+
+/// Outputs a batch checks one by one for two of the same name, at most
+/// (16 bytes each), when the template alone does not show them distinct.
+pub const MAX_CHECKED_OUTPUTS: u64 = 1 << 21;
+
+impl Ranges<'_> {
+    fn count(&self) -> u64 {
+        let s = self.seeds.map_or(1, |r| r.1);
+        let f = self.frames.map_or(1, |r| r.1);
+        (self.stems.len().max(1) as u64)
+            .saturating_mul(s)
+            .saturating_mul(f)
+    }
+
+    /// The values of output `i` (file-major, then seed, then frame).
+    fn vars(&self, i: u64) -> Vars<'_> {
+        let f = self.frames.map_or(1, |r| r.1);
+        let s = self.seeds.map_or(1, |r| r.1);
+        Vars {
+            stem: self.stems.get((i / f / s) as usize).map(String::as_str),
+            seed: self.seeds.map(|(first, _)| first + (i / f) % s),
+            n: self.frames.map(|(first, _, every)| first + (i % f) * every),
+        }
+    }
+}
+
+impl Template {
+    /// Two outputs of a batch that the template gives the same name:
+    /// their values and the name. The template shows its names distinct
+    /// when at most one of its placeholders varies (stems are distinct),
+    /// or when some character, not a digit and in no stem, stands in its
+    /// text between every two varying placeholders: a name then splits at
+    /// that character into the same pieces, each holding at most one
+    /// varying value. Otherwise up to [`MAX_CHECKED_OUTPUTS`] names are
+    /// compared by hash (equal hashes by name); past that, an error.
+    pub fn collision<'r>(
+        &self,
+        r: &'r Ranges<'r>,
+    ) -> Result<Option<(Vars<'r>, Vars<'r>, PathBuf)>, Error> {
+        if self.raw.is_some() || self.distinct(r) {
+            return Ok(None);
+        }
+        let total = r.count();
+        if total > MAX_CHECKED_OUTPUTS {
+            return Err(Error::new(UsageError::OutputNamesUnchecked(total)));
+        }
+        let name = |i: u64| self.expand(&r.vars(i));
+        let mut hashes = Vec::with_capacity(total as usize);
+        for i in 0..total {
+            use std::hash::{Hash, Hasher};
+            let mut h = std::hash::DefaultHasher::new();
+            name(i)?.hash(&mut h);
+            hashes.push((h.finish(), i));
+        }
+        hashes.sort_unstable();
+        let mut first: Option<(u64, u64, PathBuf)> = None;
+        for w in hashes.windows(2) {
+            let ((ha, a), (hb, b)) = (w[0], w[1]);
+            if ha == hb
+                && first
+                    .as_ref()
+                    .is_none_or(|f| (a.min(b), a.max(b)) < (f.0, f.1))
+            {
+                let na = name(a)?;
+                if na == name(b)? {
+                    first = Some((a.min(b), a.max(b), na));
+                }
+            }
+        }
+        Ok(first.map(|(a, b, n)| (r.vars(a), r.vars(b), n)))
+    }
+
+    /// Does the template alone show the names of `r` distinct?
+    fn distinct(&self, r: &Ranges) -> bool {
+        let varies = |f: Field| match f {
+            Field::Stem => r.stems.len() > 1,
+            Field::Seed => r.seeds.is_some_and(|s| s.1 > 1),
+            Field::N => r.frames.is_some_and(|f| f.1 > 1),
+        };
+        let fields = [Field::Stem, Field::Seed, Field::N];
+        if fields
+            .iter()
+            .filter(|&&f| self.uses(f) && varies(f))
+            .count()
+            <= 1
+        {
+            return true;
+        }
+        // The text between consecutive varying placeholders (a fixed one
+        // is text too: the same in every name, ignored here).
+        let mut between: Vec<String> = Vec::new();
+        let mut text = String::new();
+        let mut seen = false;
+        for p in &self.parts {
+            match p {
+                Part::Text(t) => text.push_str(t),
+                Part::Field(f) if varies(*f) => {
+                    if seen {
+                        between.push(std::mem::take(&mut text));
+                    }
+                    text.clear();
+                    seen = true;
+                }
+                Part::Field(_) => {}
+            }
+        }
+        let stems_vary = self.uses(Field::Stem) && varies(Field::Stem);
+        let Some(first) = between.first() else {
+            return true;
+        };
+        first.chars().any(|c| {
+            let in_a_value =
+                c.is_ascii_digit() || stems_vary && r.stems.iter().any(|s| s.contains(c));
+            !in_a_value && between.iter().all(|t| t.contains(c))
+        })
+    }
+}
+
 /// `{stem}` of an input: its file name without directory and extension;
 /// `stdin` for standard input (None or `-`).
 pub fn stem(file: Option<&Path>) -> String {
@@ -158,6 +284,122 @@ pub fn stem(file: Option<&Path>) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Random small batches: the template's proof of distinct names is
+    /// never wrong, and `collision` finds two names alike exactly when
+    /// expanding every output and comparing (by a set) does.
+    #[test]
+    fn collisions_are_found_exactly_and_proofs_are_sound() {
+        use std::collections::HashSet;
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = |m: u64| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x % m
+        };
+        let texts = ["", "", "", "", "1", "0", "-", "a", "x-", "_"];
+        let stem_pool = ["a", "a1", "1", "11", "a-1", "b_", "", "x"];
+        let (mut proofs, mut found) = (0, 0);
+        for _ in 0..20_000 {
+            let mut t = String::new();
+            for _ in 0..1 + next(4) {
+                t.push_str(texts[next(texts.len() as u64) as usize]);
+                t.push_str(["{stem}", "{seed}", "{n}"][next(3) as usize]);
+            }
+            t.push_str(texts[next(texts.len() as u64) as usize]);
+            let t = Template::parse(&t).unwrap();
+            // As a batch must (the usage checks before this one): each
+            // placeholder that varies is in the template.
+            let mut stems: Vec<String> = Vec::new();
+            let files = if t.uses(Field::Stem) { 1 + next(3) } else { 1 };
+            for _ in 0..files {
+                let s = stem_pool[next(stem_pool.len() as u64) as usize].to_string();
+                if !stems.contains(&s) {
+                    stems.push(s);
+                }
+            }
+            let vary = |f: Field, n: u64| if t.uses(f) { n } else { 1 };
+            let r = Ranges {
+                stems: &stems,
+                seeds: Some((next(12), vary(Field::Seed, 1 + next(30)))),
+                frames: Some((next(12), vary(Field::N, 1 + next(30)), 1 + next(3))),
+            };
+            let mut names = HashSet::new();
+            let mut dup = false;
+            for stem in &stems {
+                for seed in r.seeds.unwrap().0..r.seeds.unwrap().0 + r.seeds.unwrap().1 {
+                    let (f0, fc, fe) = r.frames.unwrap();
+                    for k in 0..fc {
+                        let v = Vars {
+                            stem: Some(stem),
+                            seed: Some(seed),
+                            n: Some(f0 + k * fe),
+                        };
+                        dup |= !names.insert(t.expand(&v).unwrap());
+                    }
+                }
+            }
+            if t.distinct(&r) {
+                proofs += 1;
+                assert!(!dup, "{t:?} {r:?}");
+            }
+            let c = t.collision(&r).unwrap();
+            assert_eq!(c.is_some(), dup, "{t:?} {r:?}");
+            if let Some((a, b, name)) = c {
+                found += 1;
+                assert_eq!(t.expand(&a).unwrap(), name);
+                assert_eq!(t.expand(&b).unwrap(), name);
+                assert!((a.stem, a.seed, a.n) != (b.stem, b.seed, b.n));
+            }
+        }
+        // Both kinds of batch were met, often.
+        assert!(proofs > 2_000 && found > 100, "{proofs} {found}");
+        // The two of the review: stems `a` and `a1` with seeds 1..11, and
+        // frames 1..11 with seeds 1..11; with a `-` between, none.
+        let stems = ["a".to_string(), "a1".to_string()];
+        let r = Ranges {
+            stems: &stems,
+            seeds: Some((1, 11)),
+            frames: None,
+        };
+        let t = Template::parse("out/{stem}{seed}").unwrap();
+        let (a, b, name) = t.collision(&r).unwrap().unwrap();
+        assert_eq!(name, PathBuf::from("out/a11"));
+        assert_eq!(
+            (a.stem, a.seed, b.stem, b.seed),
+            (Some("a"), Some(11), Some("a1"), Some(1))
+        );
+        assert!(Template::parse("out/{stem}-{seed}").unwrap().distinct(&r));
+        let one = ["a".to_string()];
+        let r = Ranges {
+            stems: &one,
+            seeds: Some((1, 11)),
+            frames: Some((1, 11, 1)),
+        };
+        let (a, b, name) = Template::parse("fr/{n}{seed}")
+            .unwrap()
+            .collision(&r)
+            .unwrap()
+            .unwrap();
+        assert_eq!(name, PathBuf::from("fr/111"));
+        assert_eq!(
+            (a.seed, a.n, b.seed, b.n),
+            (Some(1), Some(11), Some(11), Some(1))
+        );
+        // Too many to check one by one, and not shown distinct: an error.
+        let r = Ranges {
+            stems: &one,
+            seeds: Some((1, MAX_CHECKED_OUTPUTS)),
+            frames: Some((1, 2, 1)),
+        };
+        assert!(Template::parse("{n}{seed}").unwrap().collision(&r).is_err());
+        assert!(Template::parse("{n}.{seed}")
+            .unwrap()
+            .collision(&r)
+            .unwrap()
+            .is_none());
+    }
 
     fn vars() -> Vars<'static> {
         Vars {
