@@ -224,6 +224,18 @@ fn outputs_named_alike_are_refused_before_any_job() {
     assert_eq!(read(d.path().join("a1-1")), "ABB\n");
 }
 
+/// A template that makes a job's name `-` (`{stem}` of `-.ls`) names a
+/// file: only `-o -` is standard output (the job's string used to go
+/// there, in a batch, which refuses standard input).
+#[test]
+fn a_job_named_dash_writes_a_file() {
+    let d = dir_with(&[("-.ls", "axiom:\nF\n"), ("x.ls", "axiom:\nG\n")]);
+    let r = lsgen_in(d.path(), &["-o", "{stem}", "./-.ls", "x.ls"]);
+    assert_eq!(r.ok(), "");
+    assert_eq!(read(d.path().join("-")), "F\n");
+    assert_eq!(read(d.path().join("x")), "G\n");
+}
+
 #[test]
 fn lsgen_jobs_is_read_from_the_environment() {
     let d = dir_with(&[("a.ls", "productions:\nA -> AB\naxiom: A\n")]);

@@ -138,6 +138,11 @@ impl Template {
                 }
             }
         }
+        if s == "-" && !self.is_plain() {
+            // A name made `-` (`{stem}` of `-.ls`) is a file: only `-o -`
+            // itself is standard output.
+            s.insert_str(0, "./");
+        }
         Ok(PathBuf::from(s))
     }
 }
@@ -288,6 +293,18 @@ mod tests {
     /// Random small batches: the template's proof of distinct names is
     /// never wrong, and `collision` finds two names alike exactly when
     /// expanding every output and comparing (by a set) does.
+    #[test]
+    fn a_name_made_a_dash_is_a_file() {
+        let v = Vars {
+            stem: Some("-"),
+            ..Vars::default()
+        };
+        let t = Template::parse("{stem}").unwrap();
+        assert_eq!(t.expand(&v).unwrap(), PathBuf::from("./-"));
+        let t = Template::parse("-").unwrap();
+        assert_eq!(t.expand(&v).unwrap(), PathBuf::from("-"));
+    }
+
     #[test]
     fn collisions_are_found_exactly_and_proofs_are_sound() {
         use std::collections::HashSet;
