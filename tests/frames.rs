@@ -232,3 +232,57 @@ fn frames_honour_precision() {
     let f = std::fs::read_to_string(dir.path().join("f-2.txt")).unwrap();
     assert_eq!(f, "A(0.11)\n");
 }
+
+/// A fixed point ends the stepping: the later frames are its generation
+/// (a `--frames` range up to 2^53 used to step through every generation,
+/// one temporary file each). Every frame is still what `-n k` prints, also
+/// for a stochastic system whose string stays the same for some steps
+/// while it draws (no fixed point: a later draw changes it).
+#[test]
+fn frames_after_a_fixed_point_are_not_derived() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    let fixed = common::write(
+        d,
+        "fixed.ls",
+        "productions:\nA -> B\nB -> C\nhomomorphism:\nC -> X\naxiom:\nA\n",
+    );
+    let drawing = common::write(
+        d,
+        "drawing.ls",
+        "seed: 5\nproductions:\nA -> A : 0.9\nA -> B : 0.1\nB -> C\naxiom:\nAA\n",
+    );
+    let each = |file: &Path, range: &str, ks: &[u64], extra: &[&str]| {
+        let file = file.to_str().unwrap();
+        let mut args = vec!["--frames", range];
+        args.extend_from_slice(extra);
+        let got = ok(&args, file);
+        let mut want = String::new();
+        for k in ks {
+            let n = k.to_string();
+            let mut args = vec!["-n", n.as_str()];
+            args.extend_from_slice(extra);
+            want.push_str(&ok(&args, file));
+        }
+        assert_eq!(got, want, "{file} --frames {range} {extra:?}");
+        got
+    };
+    let got = each(&fixed, "0..9:3", &[0, 3, 6, 9], &[]);
+    assert_eq!(got, "A\nX\nX\nX\n");
+    each(
+        &fixed,
+        "1..8",
+        &[1, 2, 3, 4, 5, 6, 7, 8],
+        &["--no-homomorphism"],
+    );
+    each(&fixed, "5..7", &[5, 6, 7], &[]);
+    let ks: Vec<u64> = (0..=40).collect();
+    let got = each(&drawing, "0..40", &ks, &[]);
+    let first_b = got.lines().position(|l| l != "AA").expect("a B by step 40");
+    assert!(first_b > 1, "AA for a few steps first: {got}");
+    let far = run(lsgen()
+        .args(["--frames", "9007199254740990..9007199254740992"])
+        .arg(&fixed));
+    assert_eq!(far.code(), Some(0), "{}", far.stderr);
+    assert_eq!(far.out(), "X\nX\nX\n");
+}

@@ -885,6 +885,7 @@ fn frame_passes(
         let table = tables.table_for(k, d)?;
         let pass = Pass::Step(k);
         let mut dst = Some(next_generation(other.take(), tmpdir, tmp_name)?);
+        let draws = d.rng.draws();
         d.cpfg_block(When::StartEach, pass)?;
         {
             let mut discard = io::sink();
@@ -912,9 +913,34 @@ fn frame_passes(
         if i == frames.last() && d.cpfg.as_ref().is_some_and(|c| i >= c.derivation_length) {
             d.cpfg_block(When::End, pass)?;
         }
-        other = Some(std::mem::replace(&mut cur, dst.expect("a generation")));
+        let dst = dst.expect("a generation");
+        // A step that drew nothing and left the string as it was is a
+        // fixed point (as in `step_passes`): the later frames are this
+        // generation, and are written without deriving the steps between
+        // (`--frames` up to 2^53 would otherwise step through them all).
+        let fixed = tables.fixed_points
+            && i < frames.last()
+            && d.rng.draws() == draws
+            && same_contents(&cur, &dst)?;
+        other = Some(std::mem::replace(&mut cur, dst));
         if frames.contains(i) {
             emit(d, &cur, i)?;
+        }
+        if fixed {
+            events(&Event::FixedPoint {
+                from: first_step + i,
+                to: first_step + (frames.last() - 1),
+            });
+            let mut k = if i < frames.from {
+                frames.from
+            } else {
+                frames.from + ((i - frames.from) / frames.every + 1) * frames.every
+            };
+            while k <= frames.last() {
+                emit(d, &cur, k)?;
+                k += frames.every;
+            }
+            break;
         }
     }
     Ok(last_len)
