@@ -478,6 +478,28 @@ fn if_expressions() {
         ("2 >= 2 && 2 <= 1", false),
         ("SUM(1, 2) == 3", true),
         ("1 != 1, 1", true),
+        // C's intmax_t / uintmax_t: an unsigned operand makes the
+        // operation unsigned. Expected values: gcc -E 12.2 on each line.
+        ("18446744073709551615 > 0", true),
+        ("0xFFFFFFFFFFFFFFFF > 0", true),
+        ("9223372036854775808 > 0", true),
+        ("-1 > 0u", true),
+        ("-1 < 0", true),
+        ("0u - 1 == 0xFFFFFFFFFFFFFFFF", true),
+        ("(0u - 1) / 2 == 0x7FFFFFFFFFFFFFFF", true),
+        ("-1 / 2u > 0", true),
+        ("(0u - 1) >> 63 == 1", true),
+        ("(-1) >> 63 == -1", true),
+        ("-8 % 3u == 2", true),
+        ("(1 ? -1 : 0u) > 0", true),
+        ("(0 ? 1u : -1) < 0", false),
+        ("(!0u) - 2 < 0", true),
+        ("(1 < 2u) - 2 < 0", true),
+        ("~0u > 0", true),
+        ("1u << 63 > 0", true),
+        ("1 << 63 < 0", true),
+        ("-0x8000000000000000 < 0", false),
+        ("0x7FFFFFFFFFFFFFFF + 1 < 0", true),
     ];
     for (e, want) in cases {
         let src =

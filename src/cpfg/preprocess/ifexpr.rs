@@ -4,8 +4,33 @@ use super::*;
 
 #[derive(Clone, Copy, Debug)]
 pub(super) enum E {
-    Num(i64),
+    Num(V),
     Op(&'static str),
+}
+
+/// A value of an `#if` expression, as C computes it there: `intmax_t` or
+/// `uintmax_t` (`unsigned`), both 64 bits here. An operation with an
+/// unsigned operand is unsigned (C's usual arithmetic conversions), so
+/// `-1 > 0u` holds and `0xFFFFFFFFFFFFFFFF > 0` too.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct V {
+    /// The bits (two's complement when signed).
+    pub(super) v: i64,
+    pub(super) unsigned: bool,
+}
+
+impl V {
+    pub(super) fn signed(v: i64) -> V {
+        V { v, unsigned: false }
+    }
+
+    fn truth(b: bool) -> V {
+        V::signed(b as i64)
+    }
+
+    fn is_true(self) -> bool {
+        self.v != 0
+    }
 }
 
 /// Longest first.
@@ -14,8 +39,11 @@ pub(super) const OPS: &[&str] = &[
     "^", "!", "~", "?", ":",
 ];
 
-pub(super) fn parse_int(s: &str) -> Result<i64, IfError> {
+/// An integer literal: unsigned with a `u` suffix, or when it does not
+/// fit `intmax_t` (as gcc and cpfg's cccp take it).
+pub(super) fn parse_int(s: &str) -> Result<V, IfError> {
     let body = s.trim_end_matches(['u', 'U', 'l', 'L']);
+    let suffix_u = s[body.len()..].contains(['u', 'U']);
     let bad = || IfError::NotInteger(s.to_string());
     let (digits, radix) = if let Some(h) = body.strip_prefix("0x").or(body.strip_prefix("0X")) {
         (h, 16)
@@ -28,11 +56,14 @@ pub(super) fn parse_int(s: &str) -> Result<i64, IfError> {
         return Err(bad());
     }
     u64::from_str_radix(digits, radix)
-        .map(|v| v as i64)
+        .map(|v| V {
+            v: v as i64,
+            unsigned: suffix_u || v > i64::MAX as u64,
+        })
         .map_err(|_| IfError::IntegerTooLarge(s.to_string()))
 }
 
-pub(super) fn parse_char(s: &str) -> Result<i64, IfError> {
+pub(super) fn parse_char(s: &str) -> Result<V, IfError> {
     let inner = &s[1..s.len() - 1];
     let mut cs = inner.chars();
     let v = match (cs.next(), cs.next(), cs.next()) {
@@ -51,10 +82,10 @@ pub(super) fn parse_char(s: &str) -> Result<i64, IfError> {
         (Some(c), None, None) if c != '\\' => c as i64,
         _ => return Err(IfError::NotSingleChar(s.to_string())),
     };
-    Ok(v)
+    Ok(V::signed(v))
 }
 
-pub(super) type ERes = Result<i64, (IfError, Pos)>;
+pub(super) type ERes = Result<V, (IfError, Pos)>;
 
 /// Precedence climbing over `#if` tokens; `ev == false` parses without
 /// evaluating (the untaken side of `&&`, `||`, `?:`).
@@ -105,14 +136,17 @@ impl ExprParser<'_> {
         }
         self.enter()?;
         self.i += 1;
-        let a = self.comma(ev && c != 0)?;
+        let a = self.comma(ev && c.is_true())?;
         if self.peek_op() != Some(":") {
             return Err((IfError::MissingColon, self.pos()));
         }
         self.i += 1;
-        let b = self.cond(ev && c == 0)?;
+        let b = self.cond(ev && !c.is_true())?;
         self.depth -= 1;
-        Ok(if c != 0 { a } else { b })
+        // The type of both branches' usual conversions.
+        let unsigned = a.unsigned || b.unsigned;
+        let v = if c.is_true() { a.v } else { b.v };
+        Ok(V { v, unsigned })
     }
 
     /// Operators of precedence `level` and higher (0 is `||`).
@@ -141,37 +175,12 @@ impl ExprParser<'_> {
             let at = self.pos();
             self.i += 1;
             let ev_b = match op {
-                "||" => ev && a == 0,
-                "&&" => ev && a != 0,
+                "||" => ev && !a.is_true(),
+                "&&" => ev && a.is_true(),
                 _ => ev,
             };
             let b = self.binary(p + 1, ev_b)?;
-            a = match op {
-                "||" => (a != 0 || b != 0) as i64,
-                "&&" => (a != 0 && b != 0) as i64,
-                "|" => a | b,
-                "^" => a ^ b,
-                "&" => a & b,
-                "==" => (a == b) as i64,
-                "!=" => (a != b) as i64,
-                "<" => (a < b) as i64,
-                ">" => (a > b) as i64,
-                "<=" => (a <= b) as i64,
-                ">=" => (a >= b) as i64,
-                "<<" => shift(a, b),
-                ">>" => shift(a, b.wrapping_neg()),
-                "+" => a.wrapping_add(b),
-                "-" => a.wrapping_sub(b),
-                "*" => a.wrapping_mul(b),
-                _ if b == 0 => {
-                    if ev {
-                        return Err((IfError::DivisionByZero, at));
-                    }
-                    0
-                }
-                "/" => a.wrapping_div(b),
-                _ => a.wrapping_rem(b),
-            };
+            a = binary_op(op, a, b, ev).map_err(|e| (e, at))?;
         }
         Ok(a)
     }
@@ -198,29 +207,92 @@ impl ExprParser<'_> {
                 self.i += 1;
                 Ok(v)
             }
-            E::Op("-") => Ok(self.unary(ev)?.wrapping_neg()),
+            E::Op("-") => {
+                let a = self.unary(ev)?;
+                Ok(V {
+                    v: a.v.wrapping_neg(),
+                    ..a
+                })
+            }
             E::Op("+") => self.unary(ev),
-            E::Op("!") => Ok((self.unary(ev)? == 0) as i64),
-            E::Op("~") => Ok(!self.unary(ev)?),
+            E::Op("!") => Ok(V::truth(!self.unary(ev)?.is_true())),
+            E::Op("~") => {
+                let a = self.unary(ev)?;
+                Ok(V { v: !a.v, ..a })
+            }
             E::Op(o) => Err((IfError::Unexpected(o.to_string()), at)),
         }
     }
 }
 
-/// `a << s` for s >= 0, `a >> -s` otherwise (arithmetic, saturating).
-pub(super) fn shift(a: i64, s: i64) -> i64 {
+/// `a op b` for a binary operator other than `&&`, `||` (whose right side
+/// `ev == false` did not evaluate: a division by zero there is no error).
+fn binary_op(op: &str, a: V, b: V, ev: bool) -> Result<V, IfError> {
+    let unsigned = a.unsigned || b.unsigned;
+    let (x, y) = (a.v, b.v);
+    let (ux, uy) = (x as u64, y as u64);
+    let arith = |v: i64| V { v, unsigned };
+    let cmp = |signed: bool, unsigned_: bool| V::truth(if unsigned { unsigned_ } else { signed });
+    Ok(match op {
+        "||" => V::truth(a.is_true() || b.is_true()),
+        "&&" => V::truth(a.is_true() && b.is_true()),
+        "|" => arith(x | y),
+        "^" => arith(x ^ y),
+        "&" => arith(x & y),
+        "==" => V::truth(x == y),
+        "!=" => V::truth(x != y),
+        "<" => cmp(x < y, ux < uy),
+        ">" => cmp(x > y, ux > uy),
+        "<=" => cmp(x <= y, ux <= uy),
+        ">=" => cmp(x >= y, ux >= uy),
+        // A shift has its left operand's type; a count past 63 (or, signed,
+        // below -63) shifts everything out.
+        "<<" | ">>" => {
+            let count = if b.unsigned && y < 0 { i64::MAX } else { y };
+            let count = if op == ">>" {
+                count.saturating_neg()
+            } else {
+                count
+            };
+            V {
+                v: shift(a, count),
+                unsigned: a.unsigned,
+            }
+        }
+        "+" => arith(x.wrapping_add(y)),
+        "-" => arith(x.wrapping_sub(y)),
+        "*" => arith(x.wrapping_mul(y)),
+        _ if y == 0 => {
+            if ev {
+                return Err(IfError::DivisionByZero);
+            }
+            arith(0)
+        }
+        "/" if unsigned => arith((ux / uy) as i64),
+        "/" => arith(x.wrapping_div(y)),
+        _ if unsigned => arith((ux % uy) as i64),
+        _ => arith(x.wrapping_rem(y)),
+    })
+}
+
+/// `a << s` for s >= 0, `a >> -s` otherwise (arithmetic when `a` is
+/// signed, logical when unsigned; saturating).
+pub(super) fn shift(a: V, s: i64) -> i64 {
+    let x = a.v;
     if s >= 64 {
         0
     } else if s >= 0 {
-        a << s
+        x << s
     } else if s <= -64 {
-        if a < 0 {
+        if x < 0 && !a.unsigned {
             -1
         } else {
             0
         }
+    } else if a.unsigned {
+        ((x as u64) >> -s) as i64
     } else {
-        a >> -s
+        x >> -s
     }
 }
 
@@ -276,7 +348,7 @@ impl Pp<'_> {
             match t.kind {
                 K::Number => ex.push((E::Num(parse_int(s).map_err(bad)?), p)),
                 K::Char => ex.push((E::Num(parse_char(s).map_err(bad)?), p)),
-                K::Ident => ex.push((E::Num(0), p)),
+                K::Ident => ex.push((E::Num(V::signed(0)), p)),
                 K::LParen => ex.push((E::Op("("), p)),
                 K::RParen => ex.push((E::Op(")"), p)),
                 K::Comma => ex.push((E::Op(","), p)),
@@ -327,7 +399,7 @@ impl Pp<'_> {
             Some((E::Op(o), q)) => Err((IfError::Unexpected(o.to_string()), *q)),
             Some((E::Num(_), q)) => Err((IfError::MissingOperator, *q)),
         });
-        r.map(|v| v != 0)
+        r.map(V::is_true)
             .map_err(|(e, q)| self.err(q, PpErrorKind::BadExpression(e)))
     }
 }
