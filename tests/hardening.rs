@@ -616,8 +616,15 @@ fn threads_out_of_memory_at_once_give_one_line() {
         "--strategy",
         "step",
     ];
-    for _ in 0..12 {
+    // (Under the cap, a run that cannot start all its threads may fall
+    // back to fewer and finish: such runs say nothing.)
+    let mut failed = 0;
+    for _ in 0..16 {
         let r = run_with(&src, &args, Some(300_000), Duration::from_secs(120));
+        if r.code() == Some(0) && r.stderr.is_empty() {
+            continue;
+        }
+        failed += 1;
         assert_eq!(r.code(), Some(1), "stderr:\n{}", r.stderr);
         let lines: Vec<&str> = r.stderr.lines().collect();
         assert_eq!(lines.len(), 1, "{}", r.stderr);
@@ -628,4 +635,5 @@ fn threads_out_of_memory_at_once_give_one_line() {
             r.stderr
         );
     }
+    assert!(failed >= 4, "only {failed} of 16 runs ran out of memory");
 }
