@@ -597,7 +597,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .min(total);
     let display = crate::progress::wanted(args.progress, args.quiet, args.verbose, false)
         .then(|| crate::progress::Batch::start(total));
-    let failed = run_batch(total, workers as usize, |i| {
+    let (failed, failures) = run_batch(total, workers as usize, |i| {
         let job = jobs(i);
         let mut seed = None;
         let r = run_one(args, job, template.as_ref(), Some(&mut seed)).map_err(|e| {
@@ -611,14 +611,21 @@ pub fn run(args: &Args) -> Result<(), Error> {
         r
     });
     drop(display);
-    if failed.is_empty() {
+    if failures == 0 {
         return Ok(());
     }
     for (_, e) in &failed {
         crate::diag::eprint(&format!("lsgen: {e}"));
     }
+    if failures > failed.len() as u64 {
+        crate::diag::eprint(&format!(
+            "lsgen: ... and {} more failed jobs, not shown (the first {} are)\n",
+            crate::diag::group_digits(failures - failed.len() as u64),
+            crate::diag::group_digits(failed.len() as u64)
+        ));
+    }
     Err(Error::new(RuntimeError::JobsFailed {
-        failed: failed.len() as u64,
+        failed: failures,
         total,
     }))
 }
@@ -707,16 +714,23 @@ fn check_batch(
     Ok(())
 }
 
-/// Run jobs `0..total` on `workers` threads; the failures, in job order.
-/// A job that panics (a bug) fails; the others go on.
+/// Failed jobs whose errors a batch keeps to print (the first in job
+/// order); the others are counted: a failing seed range of 10^8 jobs
+/// would otherwise hold 10^8 errors until the end.
+const SHOWN_FAILURES: usize = 1000;
+
+/// Run jobs `0..total` on `workers` threads; the first [`SHOWN_FAILURES`]
+/// failures in job order, and how many failed. A job that panics (a bug)
+/// fails; the others go on.
 fn run_batch(
     total: u64,
     workers: usize,
     job: impl Fn(u64) -> Result<(), Error> + Sync,
-) -> Vec<(u64, Error)> {
+) -> (Vec<(u64, Error)>, u64) {
     use std::sync::atomic::{AtomicU64, Ordering};
     use std::sync::Mutex;
     let next = AtomicU64::new(0);
+    let count = AtomicU64::new(0);
     let failed: Mutex<Vec<(u64, Error)>> = Mutex::new(Vec::new());
     let work = || loop {
         let i = next.fetch_add(1, Ordering::Relaxed);
@@ -726,8 +740,13 @@ fn run_batch(
         let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(i)))
             .unwrap_or_else(|_| Err(Error::new(RuntimeError::Internal)));
         if let Err(e) = r {
+            count.fetch_add(1, Ordering::Relaxed);
             if let Ok(mut f) = failed.lock() {
                 f.push((i, e));
+                if f.len() >= 2 * SHOWN_FAILURES {
+                    f.sort_by_key(|(i, _)| *i);
+                    f.truncate(SHOWN_FAILURES);
+                }
             }
         }
     };
@@ -753,7 +772,8 @@ fn run_batch(
     });
     let mut f = failed.into_inner().unwrap_or_default();
     f.sort_by_key(|(i, _)| *i);
-    f
+    f.truncate(SHOWN_FAILURES);
+    (f, count.into_inner())
 }
 
 /// A count for `-v`: grouped digits; `u64::MAX` stands for a count that

@@ -476,3 +476,30 @@ fn a_files_warning_is_said_once_for_all_its_jobs() {
         assert_eq!(read(d.path().join(format!("w-3-j{j}.txt"))), "A(2)\n");
     }
 }
+
+/// A batch prints the first 1,000 failures in job order and counts the
+/// rest (it used to hold every failed job's error until the end: 550
+/// bytes each, 220 MB for 400,000 failing seeds).
+#[test]
+fn a_batch_keeps_the_first_thousand_failures() {
+    let d = dir_with(&[("a.ls", "axiom: A\n")]);
+    let r = lsgen_in(
+        d.path(),
+        &["-q", "--seed", "1..1500", "-o", "nodir/{seed}", "a.ls"],
+    );
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    let lines: Vec<&str> = r.stderr.lines().collect();
+    assert_eq!(lines.len(), 1002, "{}", r.stderr);
+    for (k, l) in lines[..1000].iter().enumerate() {
+        assert!(
+            l.starts_with(&format!("lsgen: nodir/{}: error: ", k + 1))
+                && l.ends_with(&format!("(seed {})]", k + 1)),
+            "{l}"
+        );
+    }
+    assert_eq!(
+        lines[1000],
+        "lsgen: ... and 500 more failed jobs, not shown (the first 1,000 are)"
+    );
+    assert_eq!(lines[1001], "lsgen: error: 1,500 of 1,500 jobs failed");
+}

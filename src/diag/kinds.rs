@@ -772,8 +772,9 @@ impl fmt::Display for RuntimeError {
             AlreadyDerived => f.write_str("the axiom stream was already derived"),
             JobsFailed { failed, total } => write!(
                 f,
-                "{} of {total} jobs failed",
-                super::group_digits(*failed)
+                "{} of {} jobs failed",
+                super::group_digits(*failed),
+                super::group_digits(*total)
             ),
             Internal => f.write_str("internal error (please report this)"),
             WorkerStopped => f.write_str("internal error: a worker thread stopped"),
