@@ -1499,3 +1499,51 @@ fn byte_order_mark_in_an_axiom_file_is_skipped() {
     let r = run_in(d.path(), &["p.ls", "--axiom", "ax.txt"], None);
     assert_eq!(r.ok(), "F(1)G\n");
 }
+
+/// `-o` does not replace a file its user could not write with `>` (the
+/// rename would, as the directory allows it): a read-only file stays, the
+/// run fails with the system's message. As root, through `setpriv` to
+/// user 65534; root itself may write it, as with `>`.
+#[test]
+fn output_refuses_a_file_its_user_cannot_write() {
+    use std::os::unix::fs::PermissionsExt;
+    let d = common::tempdir();
+    let dir = d.path();
+    std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o777)).unwrap();
+    let src = common::write(dir, "a.ls", "axiom:\nF\n");
+    std::fs::set_permissions(&src, std::fs::Permissions::from_mode(0o644)).unwrap();
+    let ro = common::write(dir, "ro.txt", "old\n");
+    std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o444)).unwrap();
+    // SAFETY: geteuid has no preconditions.
+    let root = unsafe { libc::geteuid() } == 0;
+    let mut cmd = if root {
+        let mut c = std::process::Command::new("setpriv");
+        c.args([
+            "--reuid=65534",
+            "--regid=65534",
+            "--clear-groups",
+            common::LSGEN,
+        ]);
+        c
+    } else {
+        std::process::Command::new(common::LSGEN)
+    };
+    cmd.arg(&src).arg("-o").arg(&ro);
+    let r = common::run(&mut cmd);
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert_eq!(
+        r.stderr,
+        format!(
+            "lsgen: {}: error: cannot write: Permission denied\n",
+            ro.display()
+        )
+    );
+    assert_eq!(std::fs::read_to_string(&ro).unwrap(), "old\n");
+    let left: Vec<_> = std::fs::read_dir(dir).unwrap().collect();
+    assert_eq!(left.len(), 2, "a temporary file was left");
+    if root {
+        let r = common::run(lsgen().arg(&src).arg("-o").arg(&ro));
+        assert_eq!(r.code(), Some(0), "{}", r.stderr);
+        assert_eq!(std::fs::read_to_string(&ro).unwrap(), "F\n");
+    }
+}
