@@ -849,3 +849,35 @@ fn out_of_memory_is_an_error_not_an_abort() {
     );
     assert!(!d.join("big.png").exists());
 }
+
+#[test]
+fn comma_is_the_colour_decrement_module() {
+    // lsgen writes `,` outside a parameter list as a module (`F,G` is
+    // three modules): the turtle reads it, as cpfg's colour decrement.
+    let dir = tempfile::tempdir().unwrap();
+    let ls = common::write(dir.path(), "c.ls", "axiom:\nF;F,F\n");
+    let string = derive(&[ls.to_str().unwrap()]);
+    assert_eq!(string, b"F;F,F\n");
+    let seg = |args: &[&str], s: &[u8]| {
+        let mut a = vec!["-f", "segments"];
+        a.extend_from_slice(args);
+        text(ok(&turtle(&a, s)))
+    };
+    // Colour 0, then 0 + 1, then 1 - 1 (the default increment).
+    same_segments(
+        &seg(&[], &string),
+        "0 0 0 0 1 0 1 0\n0 1 0 0 2 0 1 1\n0 2 0 0 3 0 1 0\n",
+        ",",
+    );
+    // With a parameter it sets the colour, also right after another
+    // module's parameter list; the increment is --colour-increment.
+    same_segments(
+        &seg(&["--colour-increment", "2"], b",(3)F(2),(1)F;;,F"),
+        "0 0 0 0 2 0 1 3\n0 2 0 0 3 0 1 1\n0 3 0 0 4 0 1 3\n",
+        ",(c)",
+    );
+    // Still an error inside a parameter list's place: `(` and `)` alone.
+    let r = turtle(&["-f", "segments"], b"F)");
+    assert_eq!(r.code(), Some(1));
+    assert_eq!(r.stderr, "lsgen-turtle: <stdin>:1: error: unexpected `)`\n");
+}

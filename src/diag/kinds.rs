@@ -1035,7 +1035,7 @@ impl fmt::Display for UsageError {
 pub enum TurtleError {
     /// A control byte where a module would be.
     ControlByte(u8),
-    /// `(`, `)` or `,` where a module would be.
+    /// `(` or `)` where a module would be.
     Unexpected(char),
     /// Bytes that are not UTF-8.
     InvalidUtf8,

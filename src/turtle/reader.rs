@@ -112,7 +112,9 @@ impl<R: Read> Reader<R> {
             if b < 0x20 || b == 0x7f {
                 return Err(self.error_at(at, TurtleError::ControlByte(b)));
             }
-            if matches!(b, b'(' | b')' | b',') {
+            // `,` outside a parameter list is a module (cpfg's colour
+            // decrement), as in lsgen's language: `F,G` is three modules.
+            if matches!(b, b'(' | b')') {
                 return Err(self.error_at(at, TurtleError::Unexpected(b as char)));
             }
             b as char
@@ -209,6 +211,20 @@ mod tests {
                 Err(e) => return Err(e.to_string()),
             }
         }
+    }
+
+    #[test]
+    fn comma_is_a_module() {
+        assert_eq!(
+            all("F,G,(2) ,").unwrap(),
+            vec![
+                ('F', vec![]),
+                (',', vec![]),
+                ('G', vec![]),
+                (',', vec![2.0]),
+                (',', vec![]),
+            ]
+        );
     }
 
     #[test]
