@@ -881,3 +881,34 @@ fn comma_is_the_colour_decrement_module() {
     assert_eq!(r.code(), Some(1));
     assert_eq!(r.stderr, "lsgen-turtle: <stdin>:1: error: unexpected `)`\n");
 }
+
+#[test]
+fn at_takes_a_letter_only() {
+    // lsgen splits `@[` into `@` and `[` (every symbol is one character),
+    // and so does the turtle: `@` followed by a letter is a two-character
+    // module (`@o`, `@M`, ...), followed by anything else it is `@` alone
+    // (ignored) and the next character is the next module.
+    let dir = tempfile::tempdir().unwrap();
+    let ls = common::write(dir.path(), "a.ls", "axiom:\n@[F]F@+(90)F\n");
+    let string = derive(&[ls.to_str().unwrap()]);
+    assert_eq!(string, b"@[F]F@+(90)F\n");
+    let seg = |s: &[u8]| text(ok(&turtle(&["-f", "segments"], s)));
+    same_segments(
+        &seg(&string),
+        "0 0 0 0 1 0 1 0\n0 0 0 0 1 0 1 0\n0 1 0 -1 1 0 1 0\n",
+        "@[ and @+",
+    );
+    // `@.` in a polygon records the vertex; `@@o` is `@` then `@o`;
+    // `@(1)` is `@` with a parameter; `@X` is ignored, `@M` moves.
+    same_segments(
+        &seg(b"{@.f+(90)f+(90)f}"),
+        "polygon 0 0 0 0 0 1 0 -1 1 0 -1 0 0\n",
+        "@.",
+    );
+    same_segments(&seg(b"@@o(2)"), "dot 0 0 0 2 0\n", "@@o");
+    same_segments(
+        &seg(b"@(1)F@XF@M(1,2,3)F"),
+        "0 0 0 0 1 0 1 0\n0 1 0 0 2 0 1 0\n1 2 3 1 3 3 1 0\n",
+        "@(1) @X @M",
+    );
+}

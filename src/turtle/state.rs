@@ -75,7 +75,8 @@ pub struct Turtle {
     colour_inc: f64,
     tropism: V3,
     elasticity: f64,
-    /// The previous module was `@`: this one names a two-character module.
+    /// The previous module was `@` (without parameters): a letter now
+    /// makes a two-character module with it.
     at: bool,
 }
 
@@ -210,7 +211,12 @@ impl Turtle {
     pub fn module(&mut self, sym: char, p: &[f64], sink: &mut dyn Sink) -> Result<(), ModErr> {
         if self.at {
             self.at = false;
-            return self.at_module(sym, p, sink);
+            // `@` and a letter are one module (`@o`, `@M`, ...); before
+            // anything else `@` stood alone and `sym` is a module of its
+            // own, as lsgen (every symbol one character) reads `@[`.
+            if sym.is_alphabetic() {
+                return self.at_module(sym, p, sink);
+            }
         }
         match sym {
             'F' | 'G' => {
