@@ -912,3 +912,28 @@ fn at_takes_a_letter_only() {
         "@(1) @X @M",
     );
 }
+
+#[test]
+fn svg_width_zero_is_a_hairline_and_small_widths_stay_nonzero() {
+    // Width 0 draws a hairline, as in PNG: one pixel whatever the zoom.
+    let svg = text(ok(&turtle(&["--width", "0", "--size", "100"], b"F")));
+    assert!(
+        svg.contains("stroke-width=\"1\" vector-effect=\"non-scaling-stroke\" points=\""),
+        "{svg}"
+    );
+    assert!(!svg.contains("stroke-width=\"0\""), "{svg}");
+    // A width of 0.004 over a 1000-long line: the box is 1000.004 high,
+    // drawn 752 pixels high (800 less two 24-pixel margins), so the
+    // stroke is 0.004 * 752 / 1000.004 pixels: not 0.
+    let svg = text(ok(&turtle(&[], b"!(0.004)F(1000)@o(0.004)")));
+    let want = 0.004 * 752.0 / 1000.004;
+    let w = svg_numbers(&svg, "stroke-width")[0];
+    assert!((w - want).abs() <= want * 0.01, "{w} vs {want}: {svg}");
+    assert!(!svg.contains("vector-effect"), "{svg}");
+    let r = svg_numbers(&svg, "r")[0];
+    assert!(
+        (r - want / 2.0).abs() <= want * 0.005,
+        "{r} vs {}: {svg}",
+        want / 2.0
+    );
+}

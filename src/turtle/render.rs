@@ -207,6 +207,21 @@ fn num2(out: &mut Vec<u8>, x: f64) {
     }
 }
 
+/// Append a stroke width or a radius in pixels: two decimals from one
+/// pixel up, three significant digits below, so that a small width is
+/// never written as 0 (which draws nothing).
+fn num_width(out: &mut Vec<u8>, x: f64) {
+    let x = x.max(0.0);
+    if x >= 1.0 || x == 0.0 || !x.is_finite() {
+        return num2(out, x);
+    }
+    let r: f64 = format!("{x:.2e}").parse().unwrap_or(x);
+    if r >= 1.0 {
+        return num2(out, r);
+    }
+    out.extend_from_slice(ryu::Buffer::new().format_finite(r).as_bytes());
+}
+
 /// Consecutive segments that join, with one width and colour, become one
 /// polyline.
 struct Run {
@@ -313,8 +328,15 @@ impl Sink for Svg<'_> {
             let _ = write!(self.buf, "<polyline stroke=\"");
             self.buf
                 .extend_from_slice(pick(&self.hex, colour).as_bytes());
-            self.buf.extend_from_slice(b"\" stroke-width=\"");
-            num2(&mut self.buf, (width * self.layout.scale).max(0.0));
+            let w = width * self.layout.scale;
+            if w > 0.0 {
+                self.buf.extend_from_slice(b"\" stroke-width=\"");
+                num_width(&mut self.buf, w);
+            } else {
+                // Width 0 is a hairline, as in PNG: one pixel at any zoom.
+                self.buf
+                    .extend_from_slice(b"\" stroke-width=\"1\" vector-effect=\"non-scaling-stroke");
+            }
             self.buf.extend_from_slice(b"\" points=\"");
             self.point(a);
             self.buf.push(b' ');
@@ -353,7 +375,7 @@ impl Sink for Svg<'_> {
         self.buf.extend_from_slice(b"\" cy=\"");
         num2(&mut self.buf, y);
         self.buf.extend_from_slice(b"\" r=\"");
-        num2(&mut self.buf, (d / 2.0 * self.layout.scale).max(0.0));
+        num_width(&mut self.buf, d / 2.0 * self.layout.scale);
         self.buf.extend_from_slice(b"\"/>\n");
         self.flush_buf()
     }
@@ -752,5 +774,27 @@ impl Sink for Segments<'_> {
         self.nums(&[c[0], c[1], c[2], d]);
         let _ = write!(self.line, " {colour}");
         self.emit()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn widths_below_a_pixel_keep_three_digits() {
+        let w = |x: f64| {
+            let mut v = Vec::new();
+            num_width(&mut v, x);
+            String::from_utf8(v).unwrap()
+        };
+        assert_eq!(w(376.0), "376");
+        assert_eq!(w(125.0 + 1.0 / 3.0), "125.33");
+        assert_eq!(w(0.752), "0.752");
+        assert_eq!(w(0.0030079), "0.00301");
+        assert_eq!(w(1e-10), "1e-10");
+        assert_eq!(w(0.9996), "1");
+        assert_eq!(w(0.0), "0");
+        assert_eq!(w(-1.0), "0");
     }
 }
