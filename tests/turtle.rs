@@ -937,3 +937,28 @@ fn svg_width_zero_is_a_hairline_and_small_widths_stay_nonzero() {
         want / 2.0
     );
 }
+
+#[test]
+fn drawings_far_from_the_origin_are_fitted_to_size() {
+    // By hand: the box is x in [1e12 - 900.5, 1e12 + 0.5] (901 wide) and
+    // y in [1e12 - 0.5, 1e12 + 999.5] (1000 high, the strokes' half
+    // width included); scale 752 / 1000 = 0.752 (800 less two margins
+    // of 24), width ceil(901 * 0.752 + 48) = 726; a point (x, y) is at
+    // ((x - min x) * 0.752 + 24, (max y - y) * 0.752 + 24).
+    let svg = text(ok(&turtle(&[], b"@M(1e12,1e12,0)F(999)+(90)F(900)")));
+    assert!(svg.contains(" viewBox=\"0 0 726 800\""), "{svg}");
+    assert!(
+        svg.contains(" stroke-width=\"0.752\" points=\"701.18,775.62 701.18,24.38 24.38,24.38\""),
+        "{svg}"
+    );
+    // x in [1e10 - 0.5, 1e10 + 0.5], y in [-0.5, 5.5]: scale 752 / 6.
+    let svg = text(ok(&turtle(&[], b"@M(1e10,0,0)F(5)")));
+    assert!(svg.contains(" viewBox=\"0 0 174 800\""), "{svg}");
+    assert!(
+        svg.contains(" stroke-width=\"125.33\" points=\"86.67,713.33 86.67,86.67\""),
+        "{svg}"
+    );
+    // The PNG has the same size.
+    let png = ok(&turtle(&["-f", "png"], b"@M(1e10,0,0)F(5)"));
+    assert_eq!(png_size(&png), (174, 800));
+}

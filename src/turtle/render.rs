@@ -49,8 +49,8 @@ pub struct BBox {
     pub min: (f64, f64),
     pub max: (f64, f64),
     pub any: bool,
-    /// Largest coordinate magnitude seen: projected extents far below it
-    /// are rounding noise (a line seen end-on).
+    /// Largest coordinate magnitude seen: projected extents within a few
+    /// hundred ulps of it are rounding noise (a line seen end-on).
     pub reach: f64,
 }
 
@@ -138,7 +138,15 @@ impl Layout {
         } else {
             ((0.0, 0.0), (0.0, 0.0))
         };
-        let noise = b.reach * 1e-9;
+        // A projected coordinate is exact to a few ulps of the largest
+        // coordinate (`reach`), and each rotation of the turtle's frame
+        // adds about one: an extent within 512 ulps of reach (2^-43, about
+        // 1.1e-13 of it) is below what the numbers resolve, a point or a
+        // line seen end-on. (Far larger, 1e-9, flattened real drawings
+        // far from the origin: `@M(1e10,0,0)F(5)`.) Points are then laid
+        // out relative to the box's corner, so a large offset costs no
+        // precision of its own.
+        let noise = b.reach * (512.0 * f64::EPSILON);
         let flat = |x: f64| if x <= noise { 0.0 } else { x };
         let (bw, bh) = (flat(max.0 - min.0), flat(max.1 - min.1));
         let inner = (size as f64 - 2.0 * margin).max(1.0);
