@@ -962,3 +962,62 @@ fn drawings_far_from_the_origin_are_fitted_to_size() {
     let png = ok(&turtle(&["-f", "png"], b"@M(1e10,0,0)F(5)"));
     assert_eq!(png_size(&png), (174, 800));
 }
+
+#[test]
+fn obj_cylinders_never_write_non_finite_numbers() {
+    let obj = |input: &[u8]| text(ok(&turtle(&["-f", "obj", "--cylinders"], input)));
+    let verts = |o: &str| -> Vec<[f64; 3]> {
+        o.lines()
+            .filter_map(|l| l.strip_prefix("v "))
+            .map(|l| {
+                let v: Vec<f64> = l.split(' ').map(|x| x.parse().unwrap()).collect();
+                [v[0], v[1], v[2]]
+            })
+            .collect()
+    };
+    // A segment 1e200 long: |d|² overflows, its direction does not. Two
+    // rings of radius 0.5 about the Y axis, at y = 0 and y = 1e200.
+    let o = obj(b"F(1e200)");
+    let v = verts(&o);
+    assert_eq!(v.len(), 16, "{o}");
+    for (i, p) in v.iter().enumerate() {
+        assert_eq!(p[1], if i < 8 { 0.0 } else { 1e200 }, "{o}");
+        assert!((p[0] * p[0] + p[2] * p[2] - 0.25).abs() < 1e-12, "{o}");
+    }
+    // A segment 1e-320 long: |d|² underflows to 0, yet it has a
+    // direction (Y): a tube too. Only a segment of length 0 has none.
+    let o = obj(b"F(1e-320)");
+    let v = verts(&o);
+    assert_eq!(v.len(), 16, "{o}");
+    assert!(
+        v.iter()
+            .all(|p| (p[0] * p[0] + p[2] * p[2] - 0.25).abs() < 1e-12),
+        "{o}"
+    );
+    assert_eq!(
+        obj(b"F(0)").lines().filter(|l| l.starts_with("v ")).count(),
+        0
+    );
+    // Vertices past the largest number: the error of SVG and PNG at the
+    // module (offsets by hand), exit 1, no output file.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.obj");
+    let o = out.to_str().unwrap();
+    for (args, input, at) in [
+        (&["--width-scale", "10"][..], &b"!(1e308)F"[..], 8),
+        (&[][..], &b"@M(1.7e308,0,0)!(1e308)F"[..], 23),
+    ] {
+        let mut a = vec!["--cylinders", "-o", o];
+        a.extend_from_slice(args);
+        let r = turtle(&a, input);
+        assert_eq!(r.code(), Some(1), "{}", r.stderr);
+        assert_eq!(
+            r.stderr,
+            format!(
+                "lsgen-turtle: <stdin>:{at}: error: the drawing is too large to lay out \
+                 (its extent overflows)\n"
+            )
+        );
+        common::assert_listing(dir.path(), &[]);
+    }
+}

@@ -547,6 +547,29 @@ fn png_err(e: png::EncodingError) -> io::Error {
     }
 }
 
+/// The unit vector from `a` to `b` (finite points), without overflow or
+/// underflow: the difference is scaled by its largest component before
+/// its length is taken, so any two distinct points have a direction
+/// (`F(1e200)`, `F(1e-320)`); `None` when they are equal.
+fn direction(a: V3, b: V3) -> Option<V3> {
+    let mut d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    if !d.iter().all(|x| x.is_finite()) {
+        // The difference itself overflows: halve first.
+        d = [
+            b[0] * 0.5 - a[0] * 0.5,
+            b[1] * 0.5 - a[1] * 0.5,
+            b[2] * 0.5 - a[2] * 0.5,
+        ];
+    }
+    let m = d[0].abs().max(d[1].abs()).max(d[2].abs());
+    if m == 0.0 || !m.is_finite() {
+        return None;
+    }
+    let d = [d[0] / m, d[1] / m, d[2] / m];
+    let n = norm(d);
+    Some([d[0] / n, d[1] / n, d[2] / n])
+}
+
 /// Sides of a `--cylinders` tube.
 const SIDES: usize = 8;
 
@@ -595,7 +618,12 @@ impl<'w> Obj<'w> {
         })
     }
 
+    /// Write vertex `p`. A coordinate past the largest number (a tube of
+    /// huge width) cannot be written: [`ExtentOverflow`], as in SVG/PNG.
     fn v(&mut self, p: V3) -> io::Result<u64> {
+        if !p.iter().all(|x| x.is_finite()) {
+            return Err(io::Error::other(ExtentOverflow));
+        }
         self.line.clear();
         self.line.push(b'v');
         for x in p {
@@ -618,12 +646,12 @@ impl<'w> Obj<'w> {
     }
 
     fn cylinder(&mut self, a: V3, b: V3, r: f64) -> io::Result<()> {
-        let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let len = norm(d);
-        if len == 0.0 || r <= 0.0 {
+        let Some(d) = direction(a, b) else {
+            return Ok(());
+        };
+        if r <= 0.0 {
             return Ok(());
         }
-        let d = [d[0] / len, d[1] / len, d[2] / len];
         let other = if d[0].abs() < 0.9 {
             [1.0, 0.0, 0.0]
         } else {
@@ -633,17 +661,25 @@ impl<'w> Obj<'w> {
         let n1 = norm(e1);
         let e1 = [e1[0] / n1, e1[1] / n1, e1[2] / n1];
         let e2 = cross(d, e1);
-        let first = self.vertices + 1;
-        for end in [a, b] {
+        // All 16 vertices first: one past the largest number is an error
+        // before any of the tube is written.
+        let mut ring = [[0.0; 3]; 2 * SIDES];
+        for (i, end) in [a, b].into_iter().enumerate() {
             for k in 0..SIDES {
                 let (s, c) = (k as f64 * std::f64::consts::TAU / SIDES as f64).sin_cos();
-                let p = [
+                ring[i * SIDES + k] = [
                     end[0] + r * (c * e1[0] + s * e2[0]),
                     end[1] + r * (c * e1[1] + s * e2[1]),
                     end[2] + r * (c * e1[2] + s * e2[2]),
                 ];
-                self.v(p)?;
             }
+        }
+        if !ring.iter().flatten().all(|x| x.is_finite()) {
+            return Err(io::Error::other(ExtentOverflow));
+        }
+        let first = self.vertices + 1;
+        for p in ring {
+            self.v(p)?;
         }
         for k in 0..SIDES as u64 {
             let k1 = (k + 1) % SIDES as u64;
@@ -804,5 +840,20 @@ mod tests {
         assert_eq!(w(0.9996), "1");
         assert_eq!(w(0.0), "0");
         assert_eq!(w(-1.0), "0");
+    }
+
+    #[test]
+    fn directions_neither_overflow_nor_underflow() {
+        let o = [0.0; 3];
+        assert_eq!(direction(o, [0.0, 1e200, 0.0]), Some([0.0, 1.0, 0.0]));
+        assert_eq!(direction(o, [0.0, 0.0, -1e-320]), Some([0.0, 0.0, -1.0]));
+        assert_eq!(
+            direction([-1e308, 0.0, 0.0], [1e308, 0.0, 0.0]),
+            Some([1.0, 0.0, 0.0])
+        );
+        let d = direction([1e300, 1e300, 0.0], [-1e300, -1e300, 0.0]).unwrap();
+        let h = -std::f64::consts::FRAC_1_SQRT_2;
+        assert!((d[0] - h).abs() < 1e-15 && (d[1] - h).abs() < 1e-15 && d[2] == 0.0);
+        assert_eq!(direction([5e-324, 1.0, 2.0], [5e-324, 1.0, 2.0]), None);
     }
 }
