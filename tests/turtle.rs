@@ -1021,3 +1021,23 @@ fn obj_cylinders_never_write_non_finite_numbers() {
         common::assert_listing(dir.path(), &[]);
     }
 }
+
+#[test]
+fn closed_standard_input_is_an_error() {
+    // `<&-`: lsgen's rule and message, exit 1, no output file.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for file in [&[][..], &["-"]] {
+        let r = run(turtle_under_sh("exec <&-", d)
+            .args(["-o", "out.svg"])
+            .args(file));
+        r.assert_no_crash();
+        assert_eq!(r.code(), Some(1), "{}", r.stderr);
+        assert_eq!(
+            r.stderr,
+            "lsgen-turtle: standard input: error: cannot read: Bad file descriptor \
+             (closed when lsgen started)\n"
+        );
+        common::assert_listing(d, &[]);
+    }
+}

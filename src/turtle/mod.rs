@@ -160,11 +160,15 @@ pub fn run(o: &Options) -> Result<(), Error> {
                 (Source::Stream, name, Box::new(f))
             }
         }
-        _ => (
-            Source::Stream,
-            "<stdin>".to_string(),
-            Box::new(std::io::stdin()),
-        ),
+        _ => {
+            // Closed (`<&-`), it would read as empty: lsgen's error.
+            crate::output::check_stdin_open()?;
+            (
+                Source::Stream,
+                "<stdin>".to_string(),
+                Box::new(std::io::stdin()),
+            )
+        }
     };
     let mut out = match &o.output {
         Some(p) => Output::file(p)?,
