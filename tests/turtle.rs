@@ -1041,3 +1041,26 @@ fn closed_standard_input_is_an_error() {
         common::assert_listing(d, &[]);
     }
 }
+
+#[test]
+fn a_spool_that_cannot_be_written_is_named() {
+    // Standard input is spooled for SVG's second pass; past `ulimit -f`
+    // the spool's write fails: that error, not a parse error of the
+    // input cut short ("polygon not closed").
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let r = run(turtle_under_sh(
+        "awk 'BEGIN{printf \"{\"; for(i=0;i<200000;i++) printf \"F.\"; print \"}\"}' >in; \
+         ulimit -f 200; exec <in",
+        d,
+    )
+    .args(["-f", "svg", "-o", "out.svg"]));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert_eq!(
+        r.stderr,
+        "lsgen-turtle: temporary file: error: cannot write: File too large \
+         (past `ulimit -f`, or the file system's largest file)\n"
+    );
+    common::assert_listing(d, &["in"]);
+}

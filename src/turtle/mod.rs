@@ -136,9 +136,11 @@ impl<R: Read> Read for Tee<R> {
         use std::io::Write;
         let n = self.inner.read(buf)?;
         if let Err(e) = self.spool.write_all(&buf[..n]) {
-            // Report it as a spool failure, not as a read failure.
+            // Stop reading with an error (not an early end of input, which
+            // would be reported as a malformed string); [`run`] reports
+            // the spool's own error, kept here.
             self.error = Some(e);
-            return Ok(0);
+            return Err(std::io::Error::other("spool write failed"));
         }
         Ok(n)
     }
@@ -235,10 +237,11 @@ pub fn run(o: &Options) -> Result<(), Error> {
                         spool,
                         error: None,
                     };
-                    interpret(&mut tee, &in_name, &out_name, &o.view, &mut bbox)?;
+                    let r = interpret(&mut tee, &in_name, &out_name, &o.view, &mut bbox);
                     if let Some(e) = tee.error {
                         return Err(Error::io("temporary file", crate::diag::IoAction::Write, e));
                     }
+                    r?;
                     let mut spool = tee.spool;
                     spool
                         .rewind()
