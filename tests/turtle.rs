@@ -1064,3 +1064,37 @@ fn a_spool_that_cannot_be_written_is_named() {
     );
     common::assert_listing(d, &["in"]);
 }
+
+#[test]
+fn a_file_replaced_between_the_passes_is_read_as_it_was() {
+    // The output is a FIFO: lsgen-turtle opens the input, then waits for
+    // a reader of the FIFO, before either pass. Meanwhile the input is
+    // replaced (as `lsgen -o` replaces a file, by renaming): both passes
+    // must read the file that was opened, `F`.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut c = common::command("sh");
+    c.arg("-c")
+        .arg(
+            "printf F >in.txt && mkfifo out.svg || exit 9
+             \"$0\" -f svg in.txt -o out.svg & pid=$!
+             n=0
+             until ls -l /proc/$pid/fd 2>/dev/null | grep -q 'in\\.txt'; do
+                 n=$((n+1)); [ $n -lt 2000 ] || exit 8; sleep 0.01
+             done
+             printf 'F(3)+F(7)' >new.txt && mv new.txt in.txt
+             cat out.svg; wait $pid",
+        )
+        .arg(common::TURTLE)
+        .current_dir(d);
+    let r = run(&mut c);
+    r.assert_no_crash();
+    // By hand, `F`: the box is x in [-0.5, 0.5], y in [-0.5, 1.5], scale
+    // 752 / 2 = 376, width ceil(376 + 48) = 424.
+    let svg = text(ok(&r));
+    assert!(svg.contains(" viewBox=\"0 0 424 800\""), "{svg}");
+    assert!(
+        svg.contains(" stroke-width=\"376\" points=\"212,588 212,212\"/>\n</g>"),
+        "{svg}"
+    );
+}

@@ -6,7 +6,8 @@
 //! [`render`] turns what the turtle draws into the output formats. Memory
 //! is the branch stack and the polygon being built, never the string: SVG
 //! and PNG need the bounding box first, so the input is read twice (a file
-//! is opened again, any other input is spooled to an unnamed temp file).
+//! from its start again, through the descriptor already open; any other
+//! input is spooled to an unnamed temp file).
 
 pub mod reader;
 pub mod render;
@@ -104,11 +105,14 @@ pub struct Options {
     pub cylinders: bool,
 }
 
-/// The input, once or twice: a regular file is opened again, anything
-/// else (standard input, a FIFO, `<(...)`, a device) is read once and
-/// spooled to an unnamed temp file.
+/// The input, once or twice: a regular file is read again from its
+/// start through a second handle of the descriptor already open (never
+/// reopened by name: a file replaced in between, as `lsgen -o` replaces
+/// one, would give a picture of the new file laid out for the old);
+/// anything else (standard input, a FIFO, `<(...)`, a device) is read
+/// once and spooled to an unnamed temp file.
 enum Source {
-    File(std::path::PathBuf, String),
+    File(std::fs::File),
     Stream,
 }
 
@@ -156,7 +160,10 @@ pub fn run(o: &Options) -> Result<(), Error> {
             let name = p.display().to_string();
             let f = open_file(p, &name)?;
             if f.metadata().is_ok_and(|m| m.is_file()) {
-                (Source::File(p.clone(), name.clone()), name, Box::new(f))
+                let again = f
+                    .try_clone()
+                    .map_err(|e| Error::io(name.clone(), crate::diag::IoAction::Open, e))?;
+                (Source::File(again), name, Box::new(f))
             } else {
                 // Reading it again would find it empty (or block).
                 (Source::Stream, name, Box::new(f))
@@ -223,10 +230,12 @@ pub fn run(o: &Options) -> Result<(), Error> {
             let proj = render::Projection::new(o.view.direction, o.view.twist);
             let mut bbox = render::BBox::new(proj);
             // Pass 1: the bounding box (a stream is spooled meanwhile).
-            let second: Box<dyn Read> = match &src {
-                Source::File(p, n) => {
+            let second: Box<dyn Read> = match src {
+                Source::File(mut f) => {
                     interpret(first, &in_name, &out_name, &o.view, &mut bbox)?;
-                    Box::new(open_file(p, n)?)
+                    f.rewind()
+                        .map_err(|e| Error::io(in_name.clone(), crate::diag::IoAction::Read, e))?;
+                    Box::new(f)
                 }
                 Source::Stream => {
                     let spool = tempfile::tempfile().map_err(|e| {
