@@ -804,7 +804,7 @@ fn unclosed_polygons_long_numbers_and_tropism_overflow_are_named() {
     fails(
         &["-f", "segments"],
         &big,
-        "1048577: error: polygon too large (over 1048576 vertices)",
+        "1048577: error: open polygons too large (over 1048576 vertices in all)",
     );
     // 64 characters are a number; 65 are too long.
     let n64 = format!("F({})", "1".repeat(64));
@@ -1097,4 +1097,37 @@ fn a_file_replaced_between_the_passes_is_read_as_it_was() {
         svg.contains(" stroke-width=\"376\" points=\"212,588 212,212\"/>\n</g>"),
         "{svg}"
     );
+}
+
+#[test]
+fn open_polygons_hold_at_most_2_20_vertices_in_all() {
+    // Two nested polygons of 2^19 + 1 vertices each: each within 2^20,
+    // together past it; refused at the vertex past 2^20, offset
+    // 1 + 2^19 + 1 + 2^19 (counted by hand).
+    let a = 1 << 19;
+    let mut s = b"{".to_vec();
+    s.extend(std::iter::repeat_n(b'.', a));
+    s.push(b'{');
+    s.extend(std::iter::repeat_n(b'.', a + 1));
+    s.extend(b"}}");
+    let r = turtle(&["-f", "segments"], &s);
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert_eq!(
+        r.stderr,
+        format!(
+            "lsgen-turtle: <stdin>:{}: error: open polygons too large \
+             (over 1048576 vertices in all)\n",
+            2 * a + 2
+        )
+    );
+    // 2^20 in all are kept: the outer polygon holds 2^20 - 3 when the
+    // last inner one opens; a closed polygon gives its vertices back.
+    let mut s = b"{".to_vec();
+    s.extend(std::iter::repeat_n(b'.', a));
+    s.extend(b"{...}");
+    s.extend(std::iter::repeat_n(b'.', a - 3));
+    s.extend(b"{...}}{...}");
+    let seg = text(ok(&turtle(&["-f", "segments"], &s)));
+    let firsts: Vec<usize> = seg.lines().map(|l| l.split(' ').count()).collect();
+    assert_eq!(firsts, [11, 11, 2 + 3 * (2 * a - 3), 11]);
 }

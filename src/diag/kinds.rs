@@ -1055,7 +1055,7 @@ pub enum TurtleError {
     Overflow,
     /// The tropism bend overflowed.
     TropismOverflow,
-    /// A polygon with more than this many vertices.
+    /// Open polygons with more than this many vertices in all.
     PolygonTooLarge(usize),
     /// Branches or polygons nested past the limit.
     TooDeep,
@@ -1099,7 +1099,9 @@ impl fmt::Display for TurtleError {
             TropismOverflow => {
                 f.write_str("the tropism bend overflows (elasticity × |tropism| is too large)")
             }
-            PolygonTooLarge(n) => write!(f, "polygon too large (over {n} vertices)"),
+            PolygonTooLarge(n) => {
+                write!(f, "open polygons too large (over {n} vertices in all)")
+            }
             TooDeep => f.write_str("branches or polygons nested too deeply"),
             ExtentOverflow => {
                 f.write_str("the drawing is too large to lay out (its extent overflows)")

@@ -4,7 +4,7 @@
 //! [`reader`] streams modules from the input; [`state`] is the turtle;
 //! [`view`] holds the view settings (`view:` lines of an `.ls` file);
 //! [`render`] turns what the turtle draws into the output formats. Memory
-//! is the branch stack and the polygon being built, never the string: SVG
+//! is the branch stack and the open polygons' vertices, never the string: SVG
 //! and PNG need the bounding box first, so the input is read twice (a file
 //! from its start again, through the descriptor already open; any other
 //! input is spooled to an unnamed temp file).

@@ -56,17 +56,19 @@ struct State {
 /// Deepest branch nesting accepted (each level is one saved state).
 pub const MAX_DEPTH: usize = 1 << 20;
 
-/// Most vertices a polygon (`{ ... }`) may have: it is held in memory
-/// until its `}`.
+/// Most vertices the open polygons (`{ ... }`) may hold together: each
+/// is held in memory until its `}`.
 pub const MAX_VERTICES: usize = 1 << 20;
 
 pub struct Turtle {
     s: State,
     stack: Vec<State>,
-    /// Polygons (`{`), each its vertices; the first `open` are open and
-    /// only the innermost collects. Closed ones keep their buffers for reuse.
-    polygons: Vec<Vec<V3>>,
-    open: usize,
+    /// The vertices of all open polygons (`{`), outermost first: only the
+    /// innermost collects, so it is always the top of this one stack and
+    /// its `}` gives its vertices back. At most [`MAX_VERTICES`] in all.
+    vertices: Vec<V3>,
+    /// Where each open polygon's vertices start in `vertices`.
+    polygon_starts: Vec<usize>,
     cos_a: f64,
     sin_a: f64,
     step: f64,
@@ -89,7 +91,7 @@ pub enum Fault {
     Overflow,
     /// elasticity × |tropism| is past the largest number.
     TropismOverflow,
-    /// A polygon with more than [`MAX_VERTICES`] vertices.
+    /// Open polygons with more than [`MAX_VERTICES`] vertices in all.
     PolygonTooLarge,
 }
 
@@ -106,8 +108,8 @@ impl Turtle {
                 colour: v.colour,
             },
             stack: Vec::new(),
-            polygons: Vec::new(),
-            open: 0,
+            vertices: Vec::new(),
+            polygon_starts: Vec::new(),
             cos_a: a.cos(),
             sin_a: a.sin(),
             step: v.step,
@@ -262,25 +264,21 @@ impl Turtle {
                 None => return Err(ModErr::Fault(Fault::UnmatchedClose(']'))),
             },
             '{' => {
-                if self.open >= MAX_DEPTH {
+                if self.polygon_starts.len() >= MAX_DEPTH {
                     return Err(ModErr::Fault(Fault::TooDeep));
                 }
-                if self.polygons.len() == self.open {
-                    self.polygons.push(Vec::new());
-                }
-                self.polygons[self.open].clear();
-                self.open += 1;
+                self.polygon_starts.push(self.vertices.len());
             }
             '}' => {
-                if self.open == 0 {
+                let Some(start) = self.polygon_starts.pop() else {
                     return Err(ModErr::Fault(Fault::UnmatchedClose('}')));
-                }
-                self.open -= 1;
+                };
                 let colour = self.colour();
-                let poly = &self.polygons[self.open];
+                let poly = &self.vertices[start..];
                 if poly.len() >= 3 {
                     sink.polygon(poly, colour)?;
                 }
+                self.vertices.truncate(start);
             }
             '.' => {
                 self.vertex(self.s.pos)?;
@@ -325,19 +323,18 @@ impl Turtle {
 
     #[inline]
     fn vertex(&mut self, p: V3) -> Result<(), ModErr> {
-        if self.open > 0 {
-            let poly = &mut self.polygons[self.open - 1];
-            if poly.len() >= MAX_VERTICES {
+        if !self.polygon_starts.is_empty() {
+            if self.vertices.len() >= MAX_VERTICES {
                 return Err(ModErr::Fault(Fault::PolygonTooLarge));
             }
-            poly.push(p);
+            self.vertices.push(p);
         }
         Ok(())
     }
 
     /// Polygons opened (`{`) and not closed yet.
     pub fn open_polygons(&self) -> usize {
-        self.open
+        self.polygon_starts.len()
     }
 
     /// Branches and polygons left open at the end are dropped, as cpfg does.
