@@ -1131,3 +1131,31 @@ fn open_polygons_hold_at_most_2_20_vertices_in_all() {
     let firsts: Vec<usize> = seg.lines().map(|l| l.split(' ').count()).collect();
     assert_eq!(firsts, [11, 11, 2 + 3 * (2 * a - 3), 11]);
 }
+
+#[test]
+fn an_obj_name_with_blanks_is_refused() {
+    // `mtllib a b.mtl` names two files for OBJ readers: refused, a usage
+    // error (exit 2), nothing written.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let r = run_with_stdin(
+        common::turtle().args(["-o", "a b.obj"]).current_dir(d),
+        b"F".to_vec(),
+    );
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(2), "{}", r.stderr);
+    assert_eq!(
+        r.stderr,
+        "lsgen-turtle: error: the OBJ would name its materials `mtllib a b.mtl`, but OBJ \
+         readers split that line at blanks: give -o a name without blanks\n"
+    );
+    common::assert_listing(d, &[]);
+    // To a stream (no MTL, no mtllib) the name does not matter.
+    let r = run_with_stdin(
+        common::turtle()
+            .args(["-f", "obj", "-o", "/dev/stdout"])
+            .current_dir(d),
+        b"F".to_vec(),
+    );
+    assert!(text(ok(&r)).starts_with("# lsgen-turtle\n"));
+}

@@ -934,6 +934,9 @@ pub enum UsageError {
     UnknownFormat(String),
     /// lsgen-turtle: an output name whose extension names no format.
     FormatFromName(PathBuf),
+    /// lsgen-turtle: an OBJ's MTL file name (as it would be written in
+    /// `mtllib`) with blanks, which OBJ readers take as separators.
+    MtlNameWithBlanks(String),
 }
 
 impl fmt::Display for UsageError {
@@ -1023,6 +1026,11 @@ impl fmt::Display for UsageError {
                 f,
                 "cannot tell the format from `{}`: give -f svg|png|obj|segments",
                 path.display()
+            ),
+            MtlNameWithBlanks(name) => write!(
+                f,
+                "the OBJ would name its materials `mtllib {name}`, but OBJ readers split that \
+                 line at blanks: give -o a name without blanks"
             ),
         }
     }

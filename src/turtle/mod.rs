@@ -207,6 +207,13 @@ pub fn run(o: &Options) -> Result<(), Error> {
                         .as_ref()
                         .and_then(|p| p.file_name())
                         .map(|n| n.to_string_lossy().into_owned());
+                    // `mtllib` takes names separated by blanks: one with
+                    // blanks (or a line break) would not be found.
+                    if let Some(n) = lib.as_ref().filter(|n| n.contains(char::is_whitespace)) {
+                        return Err(Error::new(crate::diag::UsageError::MtlNameWithBlanks(
+                            n.clone(),
+                        )));
+                    }
                     let mut s = render::Obj::begin(w, &o.view, lib.as_deref(), o.cylinders)
                         .map_err(werr)?;
                     interpret(first, &in_name, &out_name, &o.view, &mut s)?;
