@@ -1159,3 +1159,38 @@ fn an_obj_name_with_blanks_is_refused() {
     );
     assert!(text(ok(&r)).starts_with("# lsgen-turtle\n"));
 }
+
+#[test]
+fn numbers_past_the_largest_are_out_of_range() {
+    // Not "`inf` is not a number": a usage error naming the number.
+    let out_of_range =
+        |w: &str| format!("`{w}` is out of range (past the largest number, about 1.8e308)");
+    for (args, w) in [
+        (&["--angle", "1e400"][..], "1e400"),
+        (&["--step=-1e400"], "-1e400"),
+        (&["--width", "1e999"], "1e999"),
+    ] {
+        let r = turtle(args, b"F");
+        assert_eq!(r.code(), Some(2), "{args:?}: {}", r.stderr);
+        assert!(
+            r.stderr.contains(&out_of_range(w)),
+            "{args:?}: {}",
+            r.stderr
+        );
+    }
+    let r = turtle(&["--tropism", "0 1e400 0"], b"F");
+    assert_eq!(r.code(), Some(2), "{}", r.stderr);
+    assert_eq!(
+        r.stderr,
+        format!(
+            "lsgen-turtle: error: --tropism: {}\n",
+            out_of_range("1e400")
+        )
+    );
+    // `inf` itself is still no number.
+    let r = turtle(&["--angle", "inf"], b"F");
+    assert_eq!(
+        r.stderr,
+        "lsgen-turtle: error: --angle: `inf` is not a number\n"
+    );
+}

@@ -1128,6 +1128,8 @@ pub enum ViewError {
     Unknown(String),
     /// A word that is not a number.
     NotANumber(String),
+    /// A number past the largest one (`1e400`).
+    OutOfRange(String),
     /// A word that is not a colour.
     NotAColour(String),
     /// Not exactly one number.
@@ -1157,6 +1159,10 @@ impl fmt::Display for ViewError {
                 crate::turtle::view::NAMES.join(", ")
             ),
             NotANumber(w) => write!(f, "`{w}` is not a number"),
+            OutOfRange(w) => write!(
+                f,
+                "`{w}` is out of range (past the largest number, about 1.8e308)"
+            ),
             NotAColour(w) => write!(f, "`{w}` is not a colour `#rrggbb`"),
             OneNumber => f.write_str("expected one number"),
             Negative => f.write_str("must not be negative"),

@@ -138,14 +138,26 @@ fn words(s: &str) -> Vec<(usize, &str)> {
     v
 }
 
-fn number(at: usize, w: &str) -> Result<f64, SettingError> {
+/// `w` as a number; `inf`, `nan` and a leading `+` are refused.
+pub fn number_word(w: &str) -> Result<f64, ViewError> {
     match w.parse::<f64>() {
-        Ok(v) if v.is_finite() && !w.starts_with(['i', 'I', 'n', 'N', '+']) => Ok(v),
-        _ => Err(err(
-            (at, at + w.len()),
-            ViewError::NotANumber(w.to_string()),
-        )),
+        Ok(_) if w.starts_with(['i', 'I', 'n', 'N', '+']) => {
+            Err(ViewError::NotANumber(w.to_string()))
+        }
+        Ok(v) if v.is_finite() => Ok(v),
+        // Digits past the largest number (`1e400`, `-1e400`), not `-inf`.
+        Ok(_)
+            if w.trim_start_matches('-')
+                .starts_with(|c: char| c.is_ascii_digit() || c == '.') =>
+        {
+            Err(ViewError::OutOfRange(w.to_string()))
+        }
+        _ => Err(ViewError::NotANumber(w.to_string())),
     }
+}
+
+fn number(at: usize, w: &str) -> Result<f64, SettingError> {
+    number_word(w).map_err(|kind| err((at, at + w.len()), kind))
 }
 
 fn colour(at: usize, w: &str) -> Result<Rgb, SettingError> {
@@ -369,6 +381,9 @@ mod tests {
         assert_eq!(e.span, (11, 17));
         assert!(parse_setting(" angle 3").is_err());
         assert!(parse_setting(" angle = inf").is_err());
+        let e = parse_setting(" angle = 1e400").unwrap_err();
+        assert_eq!(e.kind, ViewError::OutOfRange("1e400".into()));
+        assert_eq!(e.span, (9, 14));
         assert!(parse_setting(" width = -1").is_err());
     }
 
