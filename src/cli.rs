@@ -657,12 +657,11 @@ fn check_batch(
     if files.len() > 1 && !t.uses(Field::Stem) {
         return Err(Error::new(crate::diag::UsageError::FilesNeedStem));
     }
+    // (No standard input here: every file has a path.)
+    let stems: Vec<String> = files.iter().map(|p| template::stem(*p)).collect();
     if files.len() > 1 {
-        let mut stems: Vec<(String, &Path)> = files
-            .iter()
-            .flatten()
-            .map(|p| (template::stem(Some(p)), *p))
-            .collect();
+        let mut stems: Vec<(&String, &Path)> =
+            stems.iter().zip(files.iter().flatten().copied()).collect();
         stems.sort();
         for w in stems.windows(2) {
             if w[0].0 == w[1].0 {
@@ -677,7 +676,6 @@ fn check_batch(
     // No two outputs of one name (`{stem}{seed}` gives `a11` for a.ls
     // seed 11 and a1.ls seed 1; `{n}{seed}` frame 1 seed 11 and frame 11
     // seed 1): one would replace the other, as the threads' order has it.
-    let stems: Vec<String> = files.iter().map(|p| template::stem(*p)).collect();
     let ranges = template::Ranges {
         stems: &stems,
         seeds: args.seed.map(|s| (s.first, seeds)),

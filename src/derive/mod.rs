@@ -792,9 +792,9 @@ fn step_passes(
         // point: every later step does the same. Go on with the last pass
         // (the homomorphism, or the last step, which writes the text).
         let last = if hom { passes } else { steps };
-        if i < steps && last > i + 1 && d.rng.draws() == draws && drew == 0 && tables.fixed_points {
+        if i < steps && last > i + 1 {
             if let Some(next) = &dst {
-                if same_contents(&src, next)? {
+                if fixed_point(tables, d.rng.draws() == draws && drew == 0, &src, next)? {
                     events(&Event::FixedPoint {
                         from: first_step + i,
                         to: first_step + (steps - 1),
@@ -918,10 +918,7 @@ fn frame_passes(
         // fixed point (as in `step_passes`): the later frames are this
         // generation, and are written without deriving the steps between
         // (`--frames` up to 2^53 would otherwise step through them all).
-        let fixed = tables.fixed_points
-            && i < frames.last()
-            && d.rng.draws() == draws
-            && same_contents(&cur, &dst)?;
+        let fixed = i < frames.last() && fixed_point(tables, d.rng.draws() == draws, &cur, &dst)?;
         other = Some(std::mem::replace(&mut cur, dst));
         if frames.contains(i) {
             emit(d, &cur, i)?;
@@ -1044,6 +1041,18 @@ fn makes_percent(
 }
 
 /// Do two generation files hold the same bytes?
+/// Is a step from `before` to `after` a fixed point, every later step
+/// doing the same: it drew nothing (`drew_nothing`), its rules allow it
+/// ([`Tables::fixed_points`]) and it left the string as it was.
+fn fixed_point(
+    tables: &Tables,
+    drew_nothing: bool,
+    before: &File,
+    after: &File,
+) -> Result<bool, Error> {
+    Ok(tables.fixed_points && drew_nothing && same_contents(before, after)?)
+}
+
 fn same_contents(a: &File, b: &File) -> Result<bool, Error> {
     use std::os::unix::fs::FileExt;
     let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);

@@ -264,14 +264,13 @@ impl Output {
         };
         // A file `>` could not write is not replaced either (the rename
         // would do it, as the directory allows): refused, as the shell does.
-        if fs::symlink_metadata(&p).is_ok() {
-            use rustix::fs::{accessat, Access, AtFlags, CWD};
-            if let Err(e) = accessat(CWD, &p, Access::WRITE_OK, AtFlags::EACCESS) {
-                if e == rustix::io::Errno::ACCESS {
-                    let e = std::io::Error::from_raw_os_error(e.raw_os_error());
-                    return Err(Error::io(&name, crate::diag::IoAction::Write, e));
-                }
-            }
+        // (A file not there yet is ENOENT: nothing to refuse.)
+        use rustix::fs::{accessat, Access, AtFlags, CWD};
+        if let Err(rustix::io::Errno::ACCESS) =
+            accessat(CWD, &p, Access::WRITE_OK, AtFlags::EACCESS)
+        {
+            let e = std::io::Error::from_raw_os_error(rustix::io::Errno::ACCESS.raw_os_error());
+            return Err(Error::io(&name, crate::diag::IoAction::Write, e));
         }
         let mode = match fs::metadata(&p) {
             Ok(m) => m.mode() & 0o7777,
