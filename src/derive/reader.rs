@@ -26,7 +26,17 @@ pub struct PosReader<'f> {
     /// Reads stop there, so the end of file costs no `pread` returning 0
     /// each time the reader nears it.
     eof: u64,
+    /// The last `seek` left the buffer: the next read takes only
+    /// [`JUMP_READ`] bytes. A right context that jumps over a branch reads
+    /// a few modules after its end, not a whole buffer (issue 15: at `-j 2`
+    /// each chunk's look-ahead jumps past the chunk several times, and
+    /// whole buffers read there doubled the bytes a context step read).
+    jumped: bool,
 }
+
+/// Bytes read after a jump: two of the largest modules (a refill comes
+/// when fewer than one is left), rounded up to 8 KiB.
+const JUMP_READ: usize = (2 * MAX_MODULE_BYTES).next_multiple_of(8 << 10);
 
 impl<'f> PosReader<'f> {
     pub fn new(file: &'f File, capacity: usize, indexed: bool) -> Self {
@@ -39,12 +49,23 @@ impl<'f> PosReader<'f> {
     /// (or, where the allocator maps large blocks, page faults) per chunk.
     /// [`PosReader::into_buffer`] gives it back.
     pub fn reusing(file: &'f File, capacity: usize, indexed: bool, mut buf: Vec<u8>) -> Self {
-        // No bigger than the file: many steps over a short string must not
-        // pay for a large buffer each time.
-        let len = file.metadata().map_or(u64::MAX, |m| m.len());
-        let eof = len;
-        let capacity = capacity.min(usize::try_from(len).unwrap_or(usize::MAX));
-        buf.resize(capacity.max(2 * MAX_MODULE_BYTES), 0);
+        let least = 2 * MAX_MODULE_BYTES;
+        // Where the file ends, if asked: else found by the first short read.
+        let mut eof = u64::MAX;
+        if buf.is_empty() {
+            // A new buffer: no bigger than the file, so a short string does
+            // not pay for a large buffer.
+            let len = file.metadata().map_or(u64::MAX, |m| m.len());
+            eof = len;
+            let capacity = capacity.min(usize::try_from(len).unwrap_or(usize::MAX));
+            buf.resize(capacity.max(least), 0);
+        } else {
+            // A reused one, cut or grown to `capacity` (no read larger than
+            // asked), without asking the file its length: a split pass
+            // makes two readers per chunk, thousands per step. (It grows
+            // at most once to the largest capacity asked.)
+            buf.resize(capacity.max(least), 0);
+        }
         PosReader {
             file,
             indexed,
@@ -54,6 +75,7 @@ impl<'f> PosReader<'f> {
             pos: 0,
             end: 0,
             eof,
+            jumped: false,
         }
     }
 
@@ -100,6 +122,7 @@ impl<'f> PosReader<'f> {
             self.start = off;
             self.pos = 0;
             self.end = 0;
+            self.jumped = true;
         }
     }
 
@@ -114,8 +137,12 @@ impl<'f> PosReader<'f> {
         self.pos = 0;
         // Never past `eof`: a reader limited to a range (`limit`) must not
         // see the bytes after it.
-        let room = usize::try_from(self.eof - self.start)
-            .map_or(self.buf.len(), |r| r.min(self.buf.len()));
+        let want = if std::mem::take(&mut self.jumped) {
+            JUMP_READ.min(self.buf.len())
+        } else {
+            self.buf.len()
+        };
+        let room = usize::try_from(self.eof - self.start).map_or(want, |r| r.min(want));
         while self.end < room {
             let n = match self
                 .file
@@ -240,5 +267,55 @@ mod tests {
         // Going back within the buffer still reads the generation.
         rd.seek(4);
         assert_eq!(rd.next_module(&al).unwrap(), Some((b']' as u32, 4, 5)));
+    }
+
+    /// A reader on a reused buffer does not ask the file its length (a
+    /// split pass makes readers per chunk): it finds the end by one short
+    /// read, and asks no more after it.
+    #[test]
+    fn a_reused_buffer_finds_the_end_by_reading() {
+        let al = Alphabet::new(Filter::All);
+        let mut f = tempfile::tempfile().unwrap();
+        f.write_all(b"F1[F]1").unwrap();
+        let mut rd = PosReader::reusing(&f, 1 << 16, false, vec![7; 100]);
+        assert_eq!(rd.eof, u64::MAX);
+        let mut keys = Vec::new();
+        while let Some((key, _, _)) = rd.next_module(&al).unwrap() {
+            keys.push(key as u8);
+        }
+        assert_eq!(keys, b"F1[F]1");
+        let mut w = &f;
+        w.seek(SeekFrom::End(0)).unwrap();
+        w.write_all(b"FF").unwrap();
+        assert_eq!(rd.next_module(&al).unwrap(), None);
+    }
+
+    /// After a jump (a seek outside the buffer) the reader reads a few
+    /// modules' worth, not a whole buffer; reading on from there, whole
+    /// buffers again.
+    #[test]
+    fn a_jump_reads_little_and_reading_on_reads_whole_buffers() {
+        let al = Alphabet::new(Filter::All);
+        let mut f = tempfile::tempfile().unwrap();
+        f.write_all(&vec![b'F'; 1 << 20]).unwrap();
+        let mut rd = PosReader::new(&f, 1 << 16, false);
+        assert_eq!(rd.window().unwrap().len(), 1 << 16);
+        rd.seek(1 << 19);
+        assert_eq!(rd.window().unwrap().len(), JUMP_READ);
+        const { assert!(JUMP_READ < 1 << 16) };
+        // Every byte is read, in order, across the small read.
+        for i in 0..(1 << 17) {
+            assert_eq!(rd.offset(), (1 << 19) + i);
+            assert_eq!(
+                rd.next_module(&al).unwrap().map(|m| m.0),
+                Some(u32::from(b'F'))
+            );
+        }
+        assert_eq!(rd.window().unwrap().len() + rd.pos, 1 << 16);
+        // A seek within the buffer is no jump.
+        let at = rd.offset() - 10;
+        rd.seek(at);
+        assert!(!rd.jumped);
+        assert_eq!(rd.offset(), at);
     }
 }

@@ -61,6 +61,8 @@ pub struct Deriver<'a> {
     pub(crate) balance: Option<super::split::Balance>,
     /// The pass's reader's buffer, kept for the next pass or chunk.
     read_buf: Vec<u8>,
+    /// Its look-ahead reader's, likewise.
+    peek_buf: Vec<u8>,
 }
 
 /// Recursive rewriting (decomposition, homomorphism depth): one chooser,
@@ -442,6 +444,7 @@ impl<'a> Deriver<'a> {
             chunk_start: None,
             balance: None,
             read_buf: Vec::new(),
+            peek_buf: Vec::new(),
         }
     }
 
@@ -519,8 +522,12 @@ impl<'a> Deriver<'a> {
         // around the predecessor.
         let d = decomp.map(|(d, _)| d);
         let mut st = StepState {
-            peek: (table.has_right || table.has_multi || d.is_some_and(|d| d.has_right))
-                .then(|| PosReader::new(input, 1 << 16, indexed).with_counts(self.counts)),
+            peek: (table.has_right || table.has_multi || d.is_some_and(|d| d.has_right)).then(
+                || {
+                    let buf = std::mem::take(&mut self.peek_buf);
+                    PosReader::reusing(input, 1 << 16, indexed, buf).with_counts(self.counts)
+                },
+            ),
             cpfg: self.cpfg_contexts.then(|| CpfgBrackets::of(&self.alphabet)),
             right: RightCache::new(),
             max_right_simple: table
@@ -768,6 +775,9 @@ impl<'a> Deriver<'a> {
             out.maybe_flush()?;
         }
         self.read_buf = rd.into_buffer();
+        if let Some(peek) = st.peek.take() {
+            self.peek_buf = peek.into_buffer();
+        }
         if let (Some(c), Pass::Step(_)) = (self.rng.cpfg_mut(), pass) {
             // cpfg's choice generator: every module of the step drew once.
             c.end_pass(index);
