@@ -18,7 +18,6 @@ use std::io;
 /// that some left context asks for are kept, up to their largest arity.
 /// A clone is the state at one point of a scan: a chunk of a split pass
 /// starts from it (`super::split`).
-#[derive(Clone)]
 pub(crate) struct LeftContext {
     k: usize,
     /// Parameters kept per slot.
@@ -57,7 +56,34 @@ pub(crate) struct Level {
     before: u32,
 }
 
+/// A copy holds the open levels only: `levels` keeps the deepest nesting
+/// met so far for reuse, and a split pass copies the left context for
+/// each chunk (`super::split`).
+impl Clone for LeftContext {
+    fn clone(&self) -> Self {
+        LeftContext {
+            k: self.k,
+            width: self.width,
+            wanted: self.wanted.clone(),
+            depth: self.depth,
+            keys: self.keys.clone(),
+            params: self.params.clone(),
+            levels: self.levels[..=self.depth].to_vec(),
+            last: self.last,
+        }
+    }
+}
+
 impl LeftContext {
+    /// The bytes a copy of it holds ([`Clone`]), about.
+    pub(crate) fn copy_bytes(&self) -> usize {
+        std::mem::size_of::<Self>()
+            + self.wanted.len()
+            + self.keys.len() * std::mem::size_of::<u32>()
+            + self.params.len() * std::mem::size_of::<f64>()
+            + (self.depth + 1) * std::mem::size_of::<Level>()
+    }
+
     /// The left context `tables` need together (a step's productions and
     /// the decomposition, whose contexts are read in the same string).
     pub(crate) fn new_for(tables: &[&Table], al: &Alphabet) -> Self {

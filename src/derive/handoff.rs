@@ -376,42 +376,81 @@ impl Drop for Shared<'_> {
 /// while `most` are, and the writer wakes it only once half of them are
 /// reached, so that the producer (and the thread it takes the place of)
 /// switches once per `most / 2` tasks, not once per task.
+///
+/// A task may weigh more than one ([`Order::open_weighing`]): a chunk of a
+/// deeply nested string carries a large start state (the left context of
+/// every open branch), and `most` of those ahead would hold `most` copies
+/// of it. A task heavier than the room left waits until nothing is ahead.
 pub(super) struct Gate {
-    ahead: Mutex<(usize, bool)>,
+    ahead: Mutex<Ahead>,
     room: Condvar,
     most: usize,
+}
+
+struct Ahead {
+    /// The weight of the tasks ahead of the writer.
+    weight: usize,
+    /// Their weights, oldest first, where some weighs more than one (the
+    /// writer reaches tasks in the order they entered).
+    heavy: std::collections::VecDeque<usize>,
+    /// Tasks ahead that entered after the last heavy one, or while none
+    /// was ahead, weigh one each: how many lead `heavy`.
+    light: usize,
+    closed: bool,
 }
 
 impl Gate {
     fn new(most: usize) -> Self {
         Gate {
-            ahead: Mutex::new((0, false)),
+            ahead: Mutex::new(Ahead {
+                weight: 0,
+                heavy: std::collections::VecDeque::new(),
+                light: 0,
+                closed: false,
+            }),
             room: Condvar::new(),
             most: most.max(2),
         }
     }
 
-    /// Wait for room for one more task and count it; false when the
-    /// writer has stopped.
-    fn enter(&self) -> bool {
+    /// Wait for room for one more task of weight `w` (at least 1) and
+    /// count it; false when the writer has stopped.
+    fn enter(&self, w: usize) -> bool {
+        let w = w.max(1);
         let Ok(mut g) = self.ahead.lock() else {
             return false;
         };
-        while g.0 >= self.most && !g.1 {
+        while g.weight > 0 && g.weight + w > self.most && !g.closed {
             g = match self.room.wait(g) {
                 Ok(g) => g,
                 Err(_) => return false,
             };
         }
-        g.0 += 1;
-        !g.1
+        g.weight += w;
+        if w > 1 || !g.heavy.is_empty() {
+            // Lights before the first heavy one are counted in `light`;
+            // after it, each is queued.
+            g.heavy.push_back(w);
+        } else {
+            g.light += 1;
+        }
+        !g.closed
     }
 
     /// The writer reached a task.
     fn reached(&self) {
         if let Ok(mut g) = self.ahead.lock() {
-            g.0 = g.0.saturating_sub(1);
-            if g.0 == self.most / 2 {
+            let w = if g.light > 0 {
+                g.light -= 1;
+                1
+            } else {
+                g.heavy.pop_front().unwrap_or(1)
+            };
+            let before = g.weight;
+            g.weight = before.saturating_sub(w);
+            // Wake the producer once half the room is free (not at every
+            // task), or when nothing is ahead (a heavy task waits for it).
+            if (before > self.most / 2 && g.weight <= self.most / 2) || g.weight == 0 {
                 self.room.notify_one();
             }
         }
@@ -420,7 +459,7 @@ impl Gate {
     /// The writer has stopped: nothing waits for room any more.
     fn close(&self) {
         if let Ok(mut g) = self.ahead.lock() {
-            g.1 = true;
+            g.closed = true;
         }
         self.room.notify_all();
     }
@@ -449,12 +488,17 @@ impl<'a> Order<'a> {
     /// The next task's slot, its channel queued for the writer (waiting
     /// for room in the [`Gate`]); None when the writer is gone.
     pub(super) fn open(&self) -> Option<Slot> {
+        self.open_weighing(1)
+    }
+
+    /// [`Order::open`] for a task that weighs `w` in the [`Gate`].
+    pub(super) fn open_weighing(&self, w: usize) -> Option<Slot> {
         // Room for QUEUE blocks, a chunk's balance, the spill file, its
         // index, whether it is the last, and the end: a task not being
         // written never waits for the writer.
         let (tx, rx) = mpsc::sync_channel(QUEUE + 5);
         let t = Instant::now();
-        let sent = self.shared.gate.enter() && self.tx.send(rx).is_ok();
+        let sent = self.shared.gate.enter(w) && self.tx.send(rx).is_ok();
         self.waited.set(self.waited.get() + t.elapsed());
         let seq = self.next.get();
         self.next.set(seq + 1);
@@ -757,15 +801,15 @@ mod tests {
         use std::sync::atomic::{AtomicUsize, Ordering};
         let gate = Gate::new(4);
         for _ in 0..4 {
-            assert!(gate.enter());
+            assert!(gate.enter(1));
         }
         let entered = AtomicUsize::new(0);
         std::thread::scope(|s| {
             s.spawn(|| {
-                assert!(gate.enter());
+                assert!(gate.enter(1));
                 entered.fetch_add(1, Ordering::SeqCst);
                 // Refused once closed (it waits for room before).
-                while gate.enter() {}
+                while gate.enter(1) {}
                 entered.fetch_add(1, Ordering::SeqCst);
             });
             let settle = || std::thread::sleep(std::time::Duration::from_millis(50));
@@ -782,6 +826,46 @@ mod tests {
             gate.close();
         });
         assert_eq!(entered.load(Ordering::SeqCst), 2);
+    }
+
+    /// A heavy task takes the room of its weight, and one heavier than the
+    /// room left waits until nothing is ahead; the writer gives back each
+    /// task's own weight, in the order they entered.
+    #[test]
+    fn heavy_tasks_take_their_weight_in_the_gate() {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        let gate = Gate::new(8);
+        // Ahead: 1, 5, 1 (7 of 8).
+        assert!(gate.enter(1));
+        assert!(gate.enter(5));
+        assert!(gate.enter(1));
+        let entered = AtomicUsize::new(0);
+        std::thread::scope(|s| {
+            s.spawn(|| {
+                // 20: more than the gate holds, waits for an empty gate.
+                assert!(gate.enter(20));
+                entered.fetch_add(1, Ordering::SeqCst);
+            });
+            let settle = || std::thread::sleep(std::time::Duration::from_millis(50));
+            settle();
+            assert_eq!(entered.load(Ordering::SeqCst), 0);
+            gate.reached(); // the 1: 6 ahead
+            gate.reached(); // the 5: 1 ahead
+            settle();
+            assert_eq!(
+                entered.load(Ordering::SeqCst),
+                0,
+                "let in with a task ahead"
+            );
+            gate.reached(); // the last 1: none ahead
+            settle();
+            assert_eq!(entered.load(Ordering::SeqCst), 1);
+        });
+        // The 20 is ahead alone: a task of 1 waits for it to be reached.
+        assert_eq!(gate.ahead.lock().unwrap().weight, 20);
+        gate.reached();
+        assert_eq!(gate.ahead.lock().unwrap().weight, 0);
+        assert!(gate.ahead.lock().unwrap().heavy.is_empty());
     }
 
     /// A block goes back to the pool of the worker that wrote it, and that

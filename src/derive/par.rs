@@ -50,6 +50,12 @@ use std::sync::{Arc, Mutex};
 
 /// Tasks handed out ahead of the writer, per thread.
 const IN_FLIGHT: usize = 16;
+/// A chunk of a step pass weighs one task in the gate per this many bytes
+/// of its start state (its left context: O(k x depth)), so that
+/// the states ahead of the writer hold about `IN_FLIGHT` of these per
+/// thread in all, and a deeply nested string's chunks go one at a time
+/// (each start state is the size of one thread's own).
+const STATE_UNIT: usize = 64 << 10;
 /// Split at the first generation with at least this many modules per
 /// thread (or the one before the last step): deep enough that a module's
 /// expansion is rarely more than a few blocks.
@@ -220,8 +226,9 @@ pub(crate) fn step_pass(
             let _timed = times.map(|t| super::split::Timed(t, true));
             let mut scan = Scan::new(src, (indexed, counts), table, al, size).one_byte(one_byte);
             let send = |chunk: Chunk| {
+                let state = chunk.at.left.as_ref().map_or(0, |l| l.copy_bytes());
                 order
-                    .open()
+                    .open_weighing(1 + state / STATE_UNIT)
                     .is_some_and(|slot| task_tx.send((chunk, slot)).is_ok())
             };
             loop {

@@ -172,6 +172,7 @@ impl<'f> Scan<'f> {
         if let Some(len) = self.flat {
             return Ok(self.next_flat(len));
         }
+        let state = self.left.as_ref().map_or(0, LeftContext::copy_bytes) as u64;
         let at = ChunkStart {
             left: self.left.clone(),
             level: self.level,
@@ -184,8 +185,11 @@ impl<'f> Scan<'f> {
             exact,
             at,
         };
-        // Cut once the chunk reaches this offset.
-        let stop = start + self.size;
+        // Cut once the chunk reaches this offset: past `size` bytes, and
+        // past as many bytes as its start state holds, so that copying the
+        // state of a deeply nested string stays a small part of a chunk's
+        // work (the worker spends some ns per byte, the copy a fraction).
+        let stop = start + self.size.max(state);
         let open_len = self.rd.open_len();
         loop {
             // One-byte symbols and `[`s in a tight loop (the bytes of
@@ -297,7 +301,7 @@ impl<'f> Scan<'f> {
                 left.follow(key, self.rd.bytes(s, e), al);
             }
             let end = self.rd.offset();
-            if end - start >= self.size {
+            if end >= stop {
                 self.start = end;
                 return Ok(Some(chunk(end)));
             }
