@@ -70,6 +70,10 @@ pub(crate) fn left_for(
     })
 }
 
+/// A chunk's start state of this many bytes or more makes the chunk at
+/// least as long ([`Scan::next_chunk`]).
+const LARGE_STATE: u64 = 64 << 10;
+
 /// The producer's scan: reads the generation once, module by module,
 /// cutting it at the first module boundary past every `size` bytes.
 pub(crate) struct Scan<'f> {
@@ -186,10 +190,13 @@ impl<'f> Scan<'f> {
             at,
         };
         // Cut once the chunk reaches this offset: past `size` bytes, and
-        // past as many bytes as its start state holds, so that copying the
-        // state of a deeply nested string stays a small part of a chunk's
-        // work (the worker spends some ns per byte, the copy a fraction).
-        let stop = start + self.size.max(state);
+        // past as many bytes as a large start state holds, so that copying
+        // the state of a deeply nested string stays a small part of a
+        // chunk's work (the worker spends some ns per byte, the copy a
+        // fraction). (Small states do not count: tests cut chunks of a few
+        // bytes.)
+        let least = if state >= LARGE_STATE { state } else { 0 };
+        let stop = start + self.size.max(least);
         let open_len = self.rd.open_len();
         loop {
             // One-byte symbols and `[`s in a tight loop (the bytes of
