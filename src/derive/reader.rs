@@ -27,16 +27,23 @@ pub struct PosReader<'f> {
     /// each time the reader nears it.
     eof: u64,
     /// The last `seek` left the buffer: the next read takes only
-    /// [`JUMP_READ`] bytes. A right context that jumps over a branch reads
+    /// [`JUMP_READ`] bytes around the target. A right context that jumps over a branch reads
     /// a few modules after its end, not a whole buffer (issue 15: at `-j 2`
     /// each chunk's look-ahead jumps past the chunk several times, and
     /// whole buffers read there doubled the bytes a context step read).
     jumped: bool,
+    /// The bytes buffered before the last jump (`alt.1..alt.1 + alt.2` of
+    /// the file in `alt.0`), kept: a walk goes back and forth between the
+    /// modules being rewritten and the far end of a branch, and each of
+    /// those with one buffer was a read.
+    alt: (Vec<u8>, u64, usize),
 }
 
-/// Bytes read after a jump: two of the largest modules (a refill comes
-/// when fewer than one is left), rounded up to 8 KiB.
-const JUMP_READ: usize = (2 * MAX_MODULE_BYTES).next_multiple_of(8 << 10);
+/// Bytes read after a jump: four of the largest modules, rounded up to
+/// 8 KiB; a quarter before the target ([`PosReader::read_around`]), so at
+/// least one largest module after it (a refill comes when fewer are
+/// left).
+const JUMP_READ: usize = (4 * MAX_MODULE_BYTES).next_multiple_of(8 << 10);
 
 impl<'f> PosReader<'f> {
     pub fn new(file: &'f File, capacity: usize, indexed: bool) -> Self {
@@ -76,12 +83,18 @@ impl<'f> PosReader<'f> {
             end: 0,
             eof,
             jumped: false,
+            alt: (Vec::new(), 0, 0),
         }
     }
 
     /// Its buffer, for [`PosReader::reusing`].
     pub fn into_buffer(self) -> Vec<u8> {
-        self.buf
+        // The larger: the reader's own, whichever slot it is in.
+        if self.alt.0.len() > self.buf.len() {
+            self.alt.0
+        } else {
+            self.buf
+        }
     }
 
     /// The index also holds module counts (see
@@ -119,11 +132,35 @@ impl<'f> PosReader<'f> {
         if off >= self.start && off <= self.start + self.end as u64 {
             self.pos = (off - self.start) as usize;
         } else {
-            self.start = off;
-            self.pos = 0;
-            self.end = 0;
-            self.jumped = true;
+            self.jump(off);
         }
+    }
+
+    /// [`PosReader::seek`] outside the buffer: back to the bytes buffered
+    /// before the last jump if they cover `off`, else keep the buffer's
+    /// bytes for that and read around `off` ([`PosReader::read_around`]).
+    #[cold]
+    fn jump(&mut self, off: u64) {
+        let (alt, alt_start, alt_end) = &mut self.alt;
+        let covered = off >= *alt_start && off <= *alt_start + *alt_end as u64;
+        if self.end > 0 || covered {
+            std::mem::swap(&mut self.buf, alt);
+            std::mem::swap(&mut self.start, alt_start);
+            std::mem::swap(&mut self.end, alt_end);
+        }
+        if covered {
+            self.pos = (off - self.start) as usize;
+            return;
+        }
+        if self.buf.len() < JUMP_READ {
+            // (Made once per reader; reading on from a jump goes on in
+            // the larger buffer: `refill`.)
+            self.buf.resize(JUMP_READ, 0);
+        }
+        self.start = off;
+        self.pos = 0;
+        self.end = 0;
+        self.jumped = true;
     }
 
     #[cold]
@@ -131,18 +168,61 @@ impl<'f> PosReader<'f> {
         if self.start + self.end as u64 >= self.eof {
             return Ok(()); // all the rest is buffered
         }
-        self.buf.copy_within(self.pos..self.end, 0);
-        self.start += self.pos as u64;
-        self.end -= self.pos;
-        self.pos = 0;
+        if std::mem::take(&mut self.jumped) {
+            return self.read_around();
+        }
+        if self.alt.0.len() > self.buf.len() {
+            // Reading on from a jump: on in the larger buffer (what it
+            // held before the jump is given up for it; the smaller one
+            // keeps what it holds).
+            std::mem::swap(&mut self.buf, &mut self.alt.0);
+            let rest = self.end - self.pos;
+            self.buf[..rest].copy_from_slice(&self.alt.0[self.pos..self.end]);
+            self.alt.1 = self.start;
+            self.alt.2 = self.end;
+            self.start += self.pos as u64;
+            self.end = rest;
+            self.pos = 0;
+        } else {
+            self.buf.copy_within(self.pos..self.end, 0);
+            self.start += self.pos as u64;
+            self.end -= self.pos;
+            self.pos = 0;
+        }
         // Never past `eof`: a reader limited to a range (`limit`) must not
         // see the bytes after it.
-        let want = if std::mem::take(&mut self.jumped) {
-            JUMP_READ.min(self.buf.len())
-        } else {
-            self.buf.len()
-        };
+        let want = self.buf.len();
         let room = usize::try_from(self.eof - self.start).map_or(want, |r| r.min(want));
+        self.read_to(room)
+    }
+
+    /// After a jump (the buffer is empty at `start`): read [`JUMP_READ`]
+    /// bytes around the target, a quarter of them before it, so that walks
+    /// that jump to the ends of nested branches, which lie side by side
+    /// (`...]]]`) and are met from the innermost or the outermost first,
+    /// share one read.
+    fn read_around(&mut self) -> io::Result<()> {
+        let target = self.start;
+        let size = JUMP_READ.min(self.buf.len());
+        let back = (size / 4).min(usize::try_from(target).unwrap_or(usize::MAX));
+        self.start = target - back as u64;
+        self.pos = 0;
+        self.end = 0;
+        let room = usize::try_from(self.eof - self.start).map_or(size, |r| r.min(size));
+        self.read_to(room)?;
+        if self.end < back {
+            // The file ends before the target: nothing there.
+            self.start = target;
+            self.end = 0;
+        } else {
+            self.pos = back;
+        }
+        Ok(())
+    }
+
+    /// Read into the buffer up to `room` bytes (less at the end of the
+    /// file, which is then known).
+    fn read_to(&mut self, room: usize) -> io::Result<()> {
         while self.end < room {
             let n = match self
                 .file
@@ -301,8 +381,22 @@ mod tests {
         let mut rd = PosReader::new(&f, 1 << 16, false);
         assert_eq!(rd.window().unwrap().len(), 1 << 16);
         rd.seek(1 << 19);
-        assert_eq!(rd.window().unwrap().len(), JUMP_READ);
+        // Half the read after the target, half before it.
+        assert_eq!(rd.window().unwrap().len(), JUMP_READ * 3 / 4);
+        // Back where the jump came from, and there again: the bytes of
+        // both are kept, neither seek reads.
+        rd.seek(100);
+        assert!(!rd.jumped);
+        assert_eq!(rd.window().unwrap().len(), (1 << 16) - 100);
+        rd.seek(1 << 19);
+        assert!(!rd.jumped);
+        assert_eq!(rd.window().unwrap().len(), JUMP_READ * 3 / 4);
         const { assert!(JUMP_READ < 1 << 16) };
+        // A jump back to just before the target is no jump.
+        rd.seek((1 << 19) - 100);
+        assert!(!rd.jumped);
+        assert_eq!(rd.window().unwrap().len(), JUMP_READ * 3 / 4 + 100);
+        rd.seek(1 << 19);
         // Every byte is read, in order, across the small read.
         for i in 0..(1 << 17) {
             assert_eq!(rd.offset(), (1 << 19) + i);
@@ -312,6 +406,20 @@ mod tests {
             );
         }
         assert_eq!(rd.window().unwrap().len() + rd.pos, 1 << 16);
+        // Near the start of the file, less before the target.
+        rd.seek(10);
+        assert_eq!(rd.offset(), 10);
+        assert_eq!(rd.window().unwrap().len(), JUMP_READ - 10);
+        // Past the end of the file, nothing.
+        rd.seek((1 << 20) + 5);
+        assert!(rd.window().unwrap().is_empty());
+        assert_eq!(rd.offset(), (1 << 20) + 5);
+        rd.seek((1 << 20) - 1);
+        assert_eq!(
+            rd.next_module(&al).unwrap().map(|m| m.0),
+            Some(u32::from(b'F'))
+        );
+        assert_eq!(rd.next_module(&al).unwrap(), None);
         // A seek within the buffer is no jump.
         let at = rd.offset() - 10;
         rd.seek(at);
