@@ -28,7 +28,7 @@ pub use step::Deriver;
 use crate::cpfg::run::When;
 use crate::diag::{CodeMap, Error, Location};
 use crate::io::axiom::AxiomReader;
-use crate::rules::System;
+use crate::rules::{Laid, System};
 use random::{Random, Region};
 use std::fs::File;
 use std::io::{self, Seek, SeekFrom, Write};
@@ -368,7 +368,7 @@ pub(crate) fn derive(
     // Right contexts skip branches in O(1) through a bracket index.
     let indexed = productions.has_right
         || decomposition.as_ref().is_some_and(|(d, _)| d.has_right)
-        || groups.iter().any(|(_, t)| t.has_right)
+        || groups.iter().any(|(_, g)| g.own().has_right)
         || (hom && homomorphism.has_right);
     let passes = steps + u64::from(hom);
     let strategy = settings.strategy;
@@ -381,8 +381,8 @@ pub(crate) fn derive(
         Some(c) => Random::cpfg(c.seed),
         None => Random::new(seed),
     };
-    let (mut productions, mut homomorphism, mut decomposition) =
-        (productions, homomorphism, decomposition);
+    let (mut productions, mut homomorphism, mut decomposition, mut groups) =
+        (productions, homomorphism, decomposition, groups);
     if cpfg.is_some() {
         // cpfg's right contexts (README, "Coming from cpfg").
         productions.for_cpfg(&alphabet);
@@ -416,7 +416,7 @@ pub(crate) fn derive(
         || hom_depth > 1
         || (hom && warnings[1])
         || std::iter::once(&productions)
-            .chain(groups.iter().map(|(_, t)| t))
+            .chain(groups.iter().map(|(_, g)| g.own()))
             .chain(decomposition.iter().map(|(t, _)| t))
             .chain(std::iter::once(&homomorphism))
             .any(uses_step);
@@ -535,9 +535,9 @@ pub(crate) fn derive(
         strategy
     };
     // The step engine's tables, for frames and for step-by-step passes.
-    let tables = Tables {
-        productions: &productions,
-        groups: &groups,
+    let mut tables = Tables {
+        productions: &mut productions,
+        groups: &mut groups,
         schedule: &schedule,
         group_expr: group_expr.as_ref(),
         hom_seed,
@@ -546,7 +546,7 @@ pub(crate) fn derive(
     };
     if let Some((frames, frame_sink)) = frames {
         let cur = cur.take().expect("generation 0 in a file");
-        let tables = (&tables, &homomorphism, hom);
+        let tables = (&mut tables, &homomorphism, hom);
         let names = (frame_sink, tmp_name.as_str());
         return frame_passes(
             &mut d, cur, tables, settings, frames, names, indexed, events,
@@ -555,7 +555,7 @@ pub(crate) fn derive(
 
     // Deterministic context-free byte systems: depth first, no temp files.
     let plan = crate::derive::dfs::Plan::new(
-        &productions,
+        tables.productions,
         hom.then_some(&homomorphism),
         &d.alphabet,
         steps,
@@ -614,7 +614,7 @@ pub(crate) fn derive(
     // unless generation lengths are asked for (-v, --max-length).
     let quiet = !settings.lengths && limits.modules == u64::MAX && limits.bytes == u64::MAX;
     let plan =
-        crate::derive::dfs::ParamPlan::new(&productions, hom.then_some(&homomorphism), steps)
+        crate::derive::dfs::ParamPlan::new(tables.productions, hom.then_some(&homomorphism), steps)
             .filter(|_| strategy != Strategy::Step);
     if strategy == Strategy::DepthFirst && !(plan.is_some() && quiet) {
         return Err(not_depth_first());
@@ -667,7 +667,7 @@ pub(crate) fn derive(
     let stepwise = step_passes(
         &mut d,
         (cur, axiom_len),
-        (&tables, &homomorphism, hom),
+        (&mut tables, &homomorphism, hom),
         (settings, &reuse),
         (output, out_name, &tmp_name),
         indexed,
@@ -684,7 +684,7 @@ pub(crate) fn derive(
 fn step_passes(
     d: &mut Deriver,
     (mut cur, len): (Option<Generation>, (u64, u64)),
-    (tables, homomorphism, hom): (&Tables, &crate::rules::Table, bool),
+    (tables, homomorphism, hom): (&mut Tables, &crate::rules::Table, bool),
     (settings, reuse): (&Settings, &par::Reuse),
     (output, out_name, tmp_name): (&mut dyn Write, &str, &str),
     indexed: bool,
@@ -698,23 +698,27 @@ fn step_passes(
         ..
     } = *settings;
     let passes = steps + u64::from(hom);
+    let (hom_seed, plain, fixed_points) = (tables.hom_seed, tables.plain, tables.fixed_points);
     // The last generation's (modules, bytes): `cur`'s, until the last pass.
     let mut last_len = len;
     let mut other: Option<Generation> = None;
     let mut i = 1;
     while i <= passes {
         // Step i of this run draws on stream `first_step + i - 1`; the
-        // homomorphism on the last step's.
-        let (table, pass) = if i <= steps {
+        // homomorphism on the last step's. (A step's table is laid for
+        // the pass and taken off at the end of this iteration.)
+        let laid;
+        let (table, pass): (&crate::rules::Table, Pass) = if i <= steps {
             let k = first_step + (i - 1);
             d.rng.start_pass(k, Region::Step);
             // The built-in `step` and the group schedule count the steps
             // as the draws do (`--first-step`), so chained runs agree.
             d.rng.set_step(k);
-            (tables.table_for(k, d)?, Pass::Step(k))
+            laid = tables.table_for(k, d)?;
+            (&*laid, Pass::Step(k))
         } else {
             let k = first_step + steps - 1;
-            if let Some(s) = tables.hom_seed {
+            if let Some(s) = hom_seed {
                 // The homomorphism's own key (its `seed:`); same stream
                 // and positions (docs/structural.md, section 8). The last
                 // pass: nothing to restore.
@@ -749,7 +753,7 @@ fn step_passes(
             let limited = limits.modules != u64::MAX || limits.bytes != u64::MAX;
             let split = settings.split.or_else(par::test_split);
             let len = src.metadata().map_or(u64::MAX, |m| m.len());
-            let flags = (tables.plain, indexed, limited);
+            let flags = (plain, indexed, limited);
             let threads = par::step_threads(settings.threads, table, flags, (len, split));
             let split = (threads, split, reuse);
             out.direct = settings.direct.clone();
@@ -794,7 +798,12 @@ fn step_passes(
         let last = if hom { passes } else { steps };
         if i < steps && last > i + 1 {
             if let Some(next) = &dst {
-                if fixed_point(tables, d.rng.draws() == draws && drew == 0, &src, next)? {
+                if fixed_point(
+                    fixed_points,
+                    d.rng.draws() == draws && drew == 0,
+                    &src,
+                    next,
+                )? {
                     events(&Event::FixedPoint {
                         from: first_step + i,
                         to: first_step + (steps - 1),
@@ -821,7 +830,7 @@ fn step_passes(
 fn frame_passes(
     d: &mut Deriver,
     mut cur: Generation,
-    (tables, homomorphism, hom): (&Tables, &crate::rules::Table, bool),
+    (tables, homomorphism, hom): (&mut Tables, &crate::rules::Table, bool),
     settings: &Settings,
     frames: Frames,
     (sink_of_frames, tmp_name): (&mut dyn FrameSink, &str),
@@ -835,6 +844,7 @@ fn frame_passes(
         ..
     } = *settings;
     let copy = crate::rules::Table::default();
+    let (hom_seed, fixed_points) = (tables.hom_seed, tables.fixed_points);
     let mut last_len = (0, 0);
     let mut emit = |d: &mut Deriver, gen: &File, k: u64| -> Result<(), Error> {
         last_len = sink_of_frames.frame(k, &mut |w, name| {
@@ -844,7 +854,7 @@ fn frame_passes(
                 // The homomorphism of generation k, as `lsgen -n k` applies
                 // it: with its own `seed:`, a generator for this frame only.
                 let stream = first_step + k - 1;
-                let main = tables.hom_seed.map(|s| d.rng.begin_homomorphism(s));
+                let main = hom_seed.map(|s| d.rng.begin_homomorphism(s));
                 d.rng.start_pass(stream, Region::Homomorphism);
                 d.rng.set_step(stream);
                 let mut out = out.for_pass(Pass::Homomorphism);
@@ -898,7 +908,7 @@ fn frame_passes(
                 (indexed, d.counts),
             )?
             .for_pass(pass);
-            d.pass(table, &cur, indexed, &mut out, pass)?;
+            d.pass(&table, &cur, indexed, &mut out, pass)?;
             let (modules, bytes) = out.finish()?;
             if let Some(f) = &mut dst {
                 cut_to_written(f, tmp_name)?;
@@ -918,7 +928,9 @@ fn frame_passes(
         // fixed point (as in `step_passes`): the later frames are this
         // generation, and are written without deriving the steps between
         // (`--frames` up to 2^53 would otherwise step through them all).
-        let fixed = i < frames.last() && fixed_point(tables, d.rng.draws() == draws, &cur, &dst)?;
+        drop(table);
+        let fixed =
+            i < frames.last() && fixed_point(fixed_points, d.rng.draws() == draws, &cur, &dst)?;
         other = Some(std::mem::replace(&mut cur, dst));
         if frames.contains(i) {
             emit(d, &cur, i)?;
@@ -945,8 +957,8 @@ fn frame_passes(
 
 /// The production tables of the steps (issue 11: groups and schedule).
 struct Tables<'t> {
-    productions: &'t crate::rules::Table,
-    groups: &'t [(u32, crate::rules::Table)],
+    productions: &'t mut crate::rules::Table,
+    groups: &'t mut [(u32, crate::rules::Group)],
     schedule: &'t [u32],
     group_expr: Option<&'t crate::rules::expr::Code>,
     hom_seed: Option<u64>,
@@ -959,8 +971,10 @@ struct Tables<'t> {
 }
 
 impl<'t> Tables<'t> {
-    /// The table of step `step` (1 for the first; `d.rng` has its number).
-    fn table_for(&self, step: u64, d: &mut Deriver) -> Result<&'t crate::rules::Table, Error> {
+    /// The table of step `step` (1 for the first; `d.rng` has its number):
+    /// group 0's, or the step's group laid over it until the result is
+    /// dropped.
+    fn table_for(&mut self, step: u64, d: &mut Deriver) -> Result<Laid<'_>, Error> {
         let g = if let Some(code) = self.group_expr {
             let v = code
                 .eval(&[], &mut Vec::new(), &mut d.rng)
@@ -984,15 +998,14 @@ impl<'t> Tables<'t> {
             }
             g
         } else if self.schedule.is_empty() {
-            return Ok(self.productions);
+            return Ok(Laid::plain(self.productions));
         } else {
             self.schedule[((step - 1) % self.schedule.len() as u64) as usize]
         };
-        Ok(self
-            .groups
-            .iter()
-            .find(|(n, _)| *n == g)
-            .map_or(self.productions, |(_, t)| t))
+        Ok(match self.groups.iter_mut().find(|(n, _)| *n == g) {
+            Some((_, group)) => self.productions.lay(group),
+            None => Laid::plain(self.productions),
+        })
     }
 }
 
@@ -1015,11 +1028,11 @@ fn uses_step(t: &crate::rules::Table) -> bool {
 fn makes_percent(
     d: &Deriver,
     productions: &crate::rules::Table,
-    groups: &[(u32, crate::rules::Table)],
+    groups: &[(u32, crate::rules::Group)],
 ) -> bool {
     let pct = u32::from(b'%');
     let tables = std::iter::once(productions)
-        .chain(groups.iter().map(|(_, t)| t))
+        .chain(groups.iter().map(|(_, g)| g.own()))
         .chain(d.decomp.iter().map(|(t, _)| t));
     tables.flat_map(|t| t.prods.iter()).any(|p| {
         p.succ.iter().any(|i| match i {
@@ -1045,12 +1058,12 @@ fn makes_percent(
 /// doing the same: it drew nothing (`drew_nothing`), its rules allow it
 /// ([`Tables::fixed_points`]) and it left the string as it was.
 fn fixed_point(
-    tables: &Tables,
+    fixed_points: bool,
     drew_nothing: bool,
     before: &File,
     after: &File,
 ) -> Result<bool, Error> {
-    Ok(tables.fixed_points && drew_nothing && same_contents(before, after)?)
+    Ok(fixed_points && drew_nothing && same_contents(before, after)?)
 }
 
 fn same_contents(a: &File, b: &File) -> Result<bool, Error> {

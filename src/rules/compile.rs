@@ -474,10 +474,7 @@ impl<'a> Compiler<'a> {
         let groups = self
             .groups
             .into_iter()
-            .map(|(n, _, mut t)| {
-                done(&mut t);
-                (n, t.with_fallback(&productions))
-            })
+            .map(|(n, _, t)| (n, Group::new(t, &productions, cpfg)))
             .collect();
         let decomposition = self.decomposition.map(|(mut t, depth)| {
             done(&mut t);

@@ -858,6 +858,18 @@ impl KeyRules {
     pub fn fallback(&self) -> Option<&KeyRules> {
         self.fallback.as_deref()
     }
+    /// cpfg's order ([`Table::cpfg_order`]) for this key.
+    fn cpfg_order(&mut self) {
+        if self.has_context() && self.has_free() {
+            let (c, f) = (self.context.as_slice(), self.free.as_slice());
+            let mut all: Vec<u32> = c.iter().chain(f).copied().collect();
+            all.sort_unstable();
+            let stochastic = self.context.stochastic() || self.free.stochastic();
+            self.context = KeyList::from_slice(&all);
+            self.context.set_stochastic(stochastic);
+            self.free = KeyList::empty();
+        }
+    }
 }
 
 #[derive(Debug, Default)]
@@ -1046,51 +1058,172 @@ impl Table {
     /// by the one chooser as it tries a context group.
     fn cpfg_order(&mut self) {
         for kr in self.by_key.iter_mut().flatten() {
-            if kr.has_context() && kr.has_free() {
-                let (c, f) = (kr.context.as_slice(), kr.free.as_slice());
-                let mut all: Vec<u32> = c.iter().chain(f).copied().collect();
-                all.sort_unstable();
-                let stochastic = kr.context.stochastic() || kr.free.stochastic();
-                kr.context = KeyList::from_slice(&all);
-                kr.context.set_stochastic(stochastic);
-                kr.free = KeyList::empty();
-            }
+            kr.cpfg_order();
         }
     }
 
-    /// A numbered group's table with group 0 (`base`) as its fallback:
-    /// group 0's productions come after the group's own, and a key with
-    /// productions in both tries the group's first.
-    fn with_fallback(mut self, base: &Table) -> Table {
-        let by = self.prods.len() as u32;
-        self.prods.extend(base.prods.iter().cloned());
-        if self.by_key.len() < base.by_key.len() {
-            self.by_key.resize(base.by_key.len(), None);
+    /// Lay numbered group `g` over this table, group 0's, for one step
+    /// (issue 11): the group's productions go after group 0's, each key
+    /// of the group gets the group's lists with group 0's (if any) as
+    /// their fallback, and every other key keeps group 0's. Taken off
+    /// again when the result is dropped. Costs the group's size, not
+    /// group 0's: nothing of group 0 is copied.
+    pub fn lay<'a>(&'a mut self, g: &'a mut Group) -> Laid<'a> {
+        assert_eq!(
+            self.prods.len(),
+            g.at as usize,
+            "a group's numbers follow group 0's productions"
+        );
+        let saved = Saved {
+            keys: self.by_key.len(),
+            max_left: self.max_left,
+            has_right: self.has_right,
+            has_multi: self.has_multi,
+            max_right_simple: self.max_right_simple,
+            check_balance: self.check_balance,
+        };
+        // (The group's vector keeps its capacity for `lift`; group 0's
+        // keeps the room it gets here for the next time.)
+        self.prods.reserve_exact(g.own.prods.len());
+        self.prods.append(&mut g.own.prods);
+        let top = g.keys.last().map_or(0, |(k, _)| *k as usize + 1);
+        if self.by_key.len() < top {
+            self.by_key.resize_with(top, || None);
         }
-        for (key, b) in base.by_key.iter().enumerate() {
-            let Some(b) = b else { continue };
-            let moved = |l: &KeyList| {
-                let v: Vec<u32> = l.as_slice().iter().map(|i| i + by).collect();
-                let mut l2 = KeyList::from_slice(&v);
-                l2.set_stochastic(l.stochastic());
-                l2
+        for (key, kr) in &mut g.keys {
+            let slot = &mut self.by_key[*key as usize];
+            let under = slot.take().map(Box::new);
+            *slot = Some(KeyRules {
+                fallback: under,
+                ..std::mem::take(kr)
+            });
+        }
+        let own = &g.own;
+        self.max_left = self.max_left.max(own.max_left);
+        self.has_right |= own.has_right;
+        self.has_multi |= own.has_multi;
+        self.max_right_simple = self.max_right_simple.max(own.max_right_simple);
+        self.check_balance |= own.check_balance;
+        Laid {
+            base: self,
+            group: Some((g, saved)),
+        }
+    }
+}
+
+/// A numbered production group (issue 11): its own productions only, and
+/// the lists of the keys it has (sorted by key: a group naming a few keys
+/// of a large alphabet holds a few entries), numbered as they are while
+/// the group is laid over group 0 ([`Table::lay`]), after group 0's
+/// productions. Memory: the group's own size, however large group 0 or
+/// the alphabet.
+#[derive(Debug)]
+pub struct Group {
+    /// The group's productions and their flags (`by_key` unused: the
+    /// lists are `keys`); empty while the group is laid.
+    own: Table,
+    keys: Vec<(u32, KeyRules)>,
+    /// Group 0's number of productions: the group's first production's
+    /// number while it is laid.
+    at: u32,
+}
+
+impl Group {
+    /// The group of the productions of `t` (in file order), over group 0
+    /// (`base`, complete).
+    fn new(mut t: Table, base: &Table, cpfg: bool) -> Group {
+        t.prods.shrink_to_fit();
+        let at = u32::try_from(base.prods.len()).expect("a header under 4 GiB");
+        let mut order: Vec<u32> = (0..t.prods.len() as u32).collect();
+        // (Stable: each key's productions stay in file order.)
+        order.sort_by_key(|&i| t.prods[i as usize].key);
+        let prods = &t.prods;
+        let mut keys = Vec::new();
+        for run in order.chunk_by(|&a, &b| prods[a as usize].key == prods[b as usize].key) {
+            // Context-sensitive, then context-free, each in file order.
+            let list = |context: bool| {
+                let mine = run
+                    .iter()
+                    .filter(|&&i| prods[i as usize].has_context() == context);
+                let v: Vec<u32> = mine.clone().map(|i| at + i).collect();
+                let mut l = KeyList::from_slice(&v);
+                l.set_stochastic(mine.clone().any(|&i| prods[i as usize].prob().is_some()));
+                l
             };
-            let b = KeyRules {
-                context: moved(&b.context),
-                free: moved(&b.free),
-                fallback: b.fallback.clone(),
+            let mut kr = KeyRules {
+                context: list(true),
+                free: list(false),
+                fallback: None,
             };
-            match &mut self.by_key[key] {
-                Some(kr) => kr.fallback = Some(Box::new(b)),
-                none => *none = Some(b),
+            if cpfg {
+                kr.cpfg_order();
             }
+            keys.push((prods[run[0] as usize].key, kr));
         }
-        self.max_left = self.max_left.max(base.max_left);
-        self.has_right |= base.has_right;
-        self.has_multi |= base.has_multi;
-        self.max_right_simple = self.max_right_simple.max(base.max_right_simple);
-        self.check_balance |= base.check_balance;
-        self
+        keys.shrink_to_fit();
+        Group { own: t, keys, at }
+    }
+
+    /// The group's own productions and flags (not a table to rewrite
+    /// with: see [`Table::lay`]).
+    pub fn own(&self) -> &Table {
+        &self.own
+    }
+}
+
+/// What [`Table::lay`] changed in group 0's table, to restore.
+struct Saved {
+    keys: usize,
+    max_left: usize,
+    has_right: bool,
+    has_multi: bool,
+    max_right_simple: usize,
+    check_balance: bool,
+}
+
+/// The table of one step: group 0's, or a numbered group laid over it
+/// ([`Table::lay`]), taken off when this is dropped.
+pub struct Laid<'a> {
+    base: &'a mut Table,
+    group: Option<(&'a mut Group, Saved)>,
+}
+
+impl<'a> Laid<'a> {
+    /// Group 0's table as it is.
+    pub fn plain(base: &'a mut Table) -> Laid<'a> {
+        Laid { base, group: None }
+    }
+}
+
+impl std::ops::Deref for Laid<'_> {
+    type Target = Table;
+    fn deref(&self) -> &Table {
+        self.base
+    }
+}
+
+impl Drop for Laid<'_> {
+    fn drop(&mut self) {
+        let Some((g, saved)) = self.group.take() else {
+            return;
+        };
+        let base = &mut *self.base;
+        for (key, kr) in &mut g.keys {
+            let slot = &mut base.by_key[*key as usize];
+            let laid = slot.take().expect("a laid group's key");
+            *slot = laid.fallback.map(|b| *b);
+            *kr = KeyRules {
+                fallback: None,
+                ..laid
+            };
+        }
+        base.by_key.truncate(saved.keys);
+        g.own.prods.extend(base.prods.drain(g.at as usize..));
+        base.max_left = saved.max_left;
+        base.has_right = saved.has_right;
+        base.has_multi = saved.has_multi;
+        base.max_right_simple = saved.max_right_simple;
+        base.check_balance = saved.check_balance;
     }
 }
 
@@ -1101,10 +1234,10 @@ pub struct System {
     pub derivation_length: Option<u64>,
     pub seed: Option<u64>,
     pub consts: HashMap<String, f64>,
-    /// Issue 11: numbered production groups, each with group 0 as its
-    /// fallback, and the schedule (group numbers, cycling; empty: every
-    /// step uses group 0).
-    pub groups: Vec<(u32, Table)>,
+    /// Issue 11: numbered production groups, each laid over group 0 (its
+    /// fallback) for its steps, and the schedule (group numbers, cycling;
+    /// empty: every step uses group 0).
+    pub groups: Vec<(u32, Group)>,
     pub schedule: Vec<u32>,
     /// `group: EXPR`, evaluated with `step` before each step.
     pub group_expr: Option<Code>,
@@ -1157,6 +1290,45 @@ mod tests {
         let o = a.intern('Ω', 0).unwrap();
         assert_eq!(a.text(o), "Ω".as_bytes());
         assert_eq!(a.arity(k), 1);
+    }
+
+    /// A numbered group holds its own productions only (issue 11). Laid
+    /// over group 0 for a step, a key of the group tries the group's
+    /// lists, then group 0's as their fallback; every other key has group
+    /// 0's; the flags are both tables'. Taken off, group 0's table is as
+    /// it was, and the group can be laid again.
+    #[test]
+    fn a_group_is_laid_over_group_0_and_taken_off() {
+        let src = "groups: 1\nproductions:\nA -> X\nA : 1 -> Y\nB < C -> Z\n\
+                   productions 1:\nA : 0 -> W\nD > E -> V\nD -> U\n";
+        let mut s = sys(src).unwrap();
+        let (base, g) = (&mut s.productions, &mut s.groups[0].1);
+        assert_eq!(g.own().prods.len(), 3);
+        assert!(g.own().get(u32::from(b'A')).is_none());
+        let before = format!("{base:?}");
+        let key = |c: u8| u32::from(c);
+        for _ in 0..2 {
+            let t = base.lay(g);
+            assert_eq!(t.prods.len(), 6);
+            // The group's productions are numbered after group 0's.
+            let a = t.get(key(b'A')).unwrap();
+            assert_eq!(t.free(a), [3]);
+            let under = a.fallback().unwrap();
+            assert_eq!(
+                (t.free(under), under.fallback().is_none()),
+                (&[0, 1][..], true)
+            );
+            let c = t.get(key(b'C')).unwrap();
+            assert_eq!((t.context(c), c.fallback().is_none()), (&[2][..], true));
+            let d = t.get(key(b'D')).unwrap();
+            assert_eq!((t.context(d), t.free(d)), (&[4][..], &[5][..]));
+            assert!(d.fallback().is_none());
+            assert!(t.get(key(b'E')).is_none());
+            assert_eq!((t.max_left, t.has_right), (1, true));
+            drop(t);
+            assert_eq!(format!("{base:?}"), before);
+            assert_eq!(g.own().prods.len(), 3);
+        }
     }
 
     #[test]
