@@ -570,6 +570,40 @@ fn a_large_production_table_fits_a_memory_cap() {
     assert_eq!(r.ok(), "F(1)F(1)");
 }
 
+/// A numbered production group holds its own productions (issue 11):
+/// group 0's are its fallback by lookup while a step of the group is
+/// derived, not copied into it, and it lists the keys it has, not the
+/// alphabet. Each header here has 1000 groups, each with one production,
+/// over 20,000 productions of group 0 (about 300 KB): lsgen 9b99c7d held
+/// (groups × group 0) for them, 1.3 GB for one key's 20,000 conditions and
+/// 1.7 GB for 20,000 symbols, out of memory under this cap; now they peak
+/// at about 6 MB (and the worker stack's 256 MiB of address space).
+#[test]
+fn production_groups_do_not_copy_group_0() {
+    let schedule: Vec<String> = (1..1000).map(|g| g.to_string()).collect();
+    let header = |group0: &str, group: &str, axiom: &str| {
+        let mut src = format!("groups: {}\nproductions:\n{group0}", schedule.join(" "));
+        for g in 1..1000 {
+            src.push_str(&format!("productions {g}:\n{group}\n"));
+        }
+        src + "axiom: " + axiom + "\n"
+    };
+    // A has no production in groups 1 to 3: group 0's first true
+    // condition (1) gives B; then group 2 and group 3 each make B BC.
+    let conditions: String = (0..20_000).map(|i| format!("A : {i} -> B\n")).collect();
+    let src = header(&conditions, "B -> BC", "A");
+    let r = run_with(&src, &["-n", "3"], Some(400 * MIB), Duration::from_secs(60));
+    assert_eq!(r.ok(), "BCC");
+    // 20,000 symbols, each rewritten to the next by group 0 only.
+    let cjk = |i: u32| char::from_u32(0x4e00 + i).unwrap();
+    let chain: String = (0..20_000)
+        .map(|i| format!("{} -> {}\n", cjk(i), cjk(i + 1)))
+        .collect();
+    let src = header(&chain, "B -> BC", &cjk(0).to_string());
+    let r = run_with(&src, &["-n", "3"], Some(400 * MIB), Duration::from_secs(60));
+    assert_eq!(r.ok(), cjk(3).to_string());
+}
+
 /// Under an address-space cap below the worker thread's stack reservation,
 /// lsgen cannot start: it says so and exits 1 (it used to exit 70 with no
 /// message).
