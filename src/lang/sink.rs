@@ -42,7 +42,8 @@ pub trait HeaderSink {
 pub struct Reader<'s> {
     sink: &'s mut dyn HeaderSink,
     section: SectionKind,
-    seen: Vec<u32>,
+    /// The groups declared so far (a set: up to 65,536 of them).
+    seen: std::collections::HashSet<u32>,
     twice: Option<UserError>,
     /// The first decomposition production with a context: where to look
     /// for its `<` (or `>`), and where to point if it is not found.
@@ -71,7 +72,7 @@ impl<'s> Reader<'s> {
         Reader {
             sink,
             section: SectionKind::Group(0),
-            seen: Vec::new(),
+            seen: std::collections::HashSet::new(),
             twice: None,
             context: None,
         }
@@ -83,15 +84,11 @@ impl<'s> Reader<'s> {
 
     pub fn section(&mut self, start: SectionStart) {
         if let SectionKind::Group(n) = start.kind {
-            if self.seen.contains(&n) {
-                if self.twice.is_none() {
-                    self.twice = Some(UserError::new(
-                        start.span,
-                        crate::diag::ParseError::GroupDeclaredTwice(n),
-                    ));
-                }
-            } else {
-                self.seen.push(n);
+            if !self.seen.insert(n) && self.twice.is_none() {
+                self.twice = Some(UserError::new(
+                    start.span,
+                    crate::diag::ParseError::GroupDeclaredTwice(n),
+                ));
             }
         }
         self.section = start.kind;

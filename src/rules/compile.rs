@@ -433,7 +433,8 @@ impl<'a> Compiler<'a> {
     pub fn finish(mut self) -> R<System> {
         // A `groups:` entry naming no section is an error of the settings,
         // before any later setting's.
-        let declared: Vec<u32> = self.groups.iter().map(|g| g.0).collect();
+        // (A set: a header may declare 65,536 groups and schedule each.)
+        let declared: HashSet<u32> = self.groups.iter().map(|g| g.0).collect();
         if let Some(&(n, at)) = self
             .scheduled_groups
             .iter()
