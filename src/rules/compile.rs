@@ -273,7 +273,8 @@ pub struct Compiler<'a> {
     settled: Option<Settled>,
     /// The first error of the lowest stage so far.
     error: Option<(u8, UserError)>,
-    /// `groups:` entries to check once every section is known: (group, where).
+    /// Each group's first `groups:` entry, to check once every section is
+    /// known: (group, where).
     scheduled_groups: Vec<(u32, Span)>,
     /// `step` hidden by a constant or a formal parameter, with its stage
     /// (warned in the stages' order).
@@ -357,13 +358,17 @@ impl<'a> Compiler<'a> {
                         return err(*span, CompileError::GroupsAndGroup);
                     }
                     schedule_span = Some(*span);
+                    // Each group's first entry, checked when every section
+                    // is known (a list of 33 million entries names at most
+                    // 65,536 groups).
+                    let mut named = HashSet::new();
                     for &(n, at) in list {
-                        if n != 0 {
-                            // Checked when every section is known.
+                        if n != 0 && named.insert(n) {
                             self.scheduled_groups.push((n, at));
                         }
                         schedule.push(n);
                     }
+                    schedule.shrink_to_fit();
                 }
                 Setting::Group(e, span) => {
                     if schedule_span.is_some() {
