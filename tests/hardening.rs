@@ -604,6 +604,30 @@ fn production_groups_do_not_copy_group_0() {
     assert_eq!(r.ok(), cjk(3).to_string());
 }
 
+/// The most groups a header can declare, 65,536, each with a production
+/// for the last of 20,000 symbols of group 0 (2.3 MB): each group's key
+/// lists cover its one key, not the alphabet. lsgen 9b99c7d needed more
+/// than 3.7 GB (out of memory here), and checked the declared and
+/// scheduled groups in quadratic time (about 1 s); now about 40 MB.
+#[test]
+fn the_most_groups_fit_a_memory_cap() {
+    let cjk = |i: u32| char::from_u32(0x4e00 + i).unwrap();
+    let last = cjk(19_999);
+    let groups: Vec<String> = (0..65_536).map(|g| g.to_string()).collect();
+    let mut src = format!("groups: {}\nproductions:\n", groups.join(" "));
+    for i in 0..20_000 {
+        src.push_str(&format!("{} -> {}\n", cjk(i), cjk(i + 1)));
+    }
+    for g in 1..65_536 {
+        src.push_str(&format!("productions {g}:\n{last} -> F{last}\n"));
+    }
+    src.push_str(&format!("axiom: {}\n", cjk(19_997)));
+    // Step 1 (group 0) and 2 (group 1): two symbols on; step 3 (group 2)
+    // prefixes F.
+    let r = run_with(&src, &["-n", "3"], Some(400 * MIB), Duration::from_secs(60));
+    assert_eq!(r.ok(), format!("F{last}"));
+}
+
 /// Under an address-space cap below the worker thread's stack reservation,
 /// lsgen cannot start: it says so and exits 1 (it used to exit 70 with no
 /// message).
