@@ -157,12 +157,14 @@ fn describe_expected(expected: &[String]) -> Expected {
     Expected::OneOf(
         expected
             .iter()
-            .map(|e| match e.as_str() {
-                "Nl" => "end of line".to_string(),
-                "Sym" => "a symbol".to_string(),
-                "Num" => "a number".to_string(),
-                "Ident" => "an identifier".to_string(),
-                other => format!("`{}`", other.trim_matches('"')),
+            .flat_map(|e| match e.as_str() {
+                "Nl" => vec!["end of line".to_string()],
+                "Sym" => vec!["a symbol".to_string()],
+                "Num" => vec!["a number".to_string()],
+                "Ident" => vec!["an identifier".to_string()],
+                // The token after `decomposition:` / `homomorphism:`.
+                "Warnings" => vec!["`warnings`".to_string(), "`no warnings`".to_string()],
+                other => vec![format!("`{}`", other.trim_matches('"'))],
             })
             .collect(),
     )
@@ -334,6 +336,17 @@ C -> F(R)
         assert!(e.message().contains("do not chain"), "{}", e.message());
         let e = parse_header("productions:\nA(x -> B\n").unwrap_err();
         assert!(e.message().contains("unexpected"), "{}", e.message());
+    }
+
+    /// The grammar's `Warnings` token is named as it is written (the
+    /// message once said "expected end of line or `Warnings`").
+    #[test]
+    fn the_warnings_token_is_named_as_written() {
+        let e = describe_expected(&["Nl".to_string(), "Warnings".to_string()]);
+        assert_eq!(
+            e.to_string(),
+            "expected end of line, `warnings` or `no warnings`"
+        );
     }
 
     #[test]
