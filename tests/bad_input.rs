@@ -677,6 +677,27 @@ cases! {
         err("productions:\n  view: step = 1x /* c */\nF -> FF\naxiom: F\n", 2, 16, "`1x` is not a number");
     view_bad_colour =>
         err("view: palette = #2e7d32 green\naxiom: F\n", 1, 25, "not a colour");
+    // --- keyword lines with comments and Unicode blanks between their words:
+    // still keyword lines, their errors at their place (lsgen 9b99c7d took
+    // spaces and tabs only there, and refused or misplaced every one) ---
+    keyword_line_derivation_length_after_a_blank =>
+        err("derivation\u{a0}length: -1\naxiom: F\n", 1, 20, "the derivation length must be a whole number");
+    keyword_line_derivation_length_after_a_comment =>
+        err("derivation /* c */ length: 2.5\naxiom: F\n", 1, 28, "the derivation length must be a whole number");
+    keyword_line_groups_not_a_number_after_a_comment =>
+        err("groups: 1 /* 漢字 */ x\nproductions 1:\nL -> F\naxiom: L\n", 1, 20, "`groups:` takes whole group numbers");
+    keyword_line_groups_out_of_range_after_blanks =>
+        err("groups:\u{a0}1\u{a0}70000\nproductions 1:\nL -> F\naxiom: L\n", 1, 11, "a production group is a whole number from 0 to 65535");
+    keyword_line_production_group_after_a_comment =>
+        err("productions\u{a0}/* c */ 1.5:\nL -> F\naxiom: L\n", 1, 21, "a production group is a whole number from 0 to 65535");
+    keyword_line_decomposition_group_after_a_comment =>
+        err("decomposition /* c */ 1:\nL -> F\naxiom: L\n", 1, 23, "decomposition has no groups");
+    keyword_line_warnings_typo_after_a_comment =>
+        err("homomorphism:\u{a0}/* c */ no maybe\nL -> F\naxiom: L\n", 1, 23, "expected `warnings` or `no warnings` after `homomorphism:`");
+    keyword_line_maximum_depth_after_blanks =>
+        err("homomorphism:\nmaximum\u{a0}/* c */\u{a0}depth: 0\nL -> F\naxiom: L\n", 2, 24, "maximum depth must be a whole number from 1 to 10000");
+    keyword_line_view_setting_after_comments =>
+        err("view: width /* c */ increment = /* 漢 */ 1x\naxiom: F\n", 1, 41, "`1x` is not a number");
     // --- issue 11: structural rewriting (docs/structural.md, section 9) ----
     decomposition_left_context =>
         err("productions:\nA -> AL\ndecomposition:\nA < L -> X\naxiom: A\n", 4, 3, "decomposition production has no context");

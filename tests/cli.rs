@@ -1365,6 +1365,39 @@ fn keywords_after_comments_on_their_line() {
     assert_eq!(run_stdin(&["-"], src.as_bytes()).ok(), "FG\n");
 }
 
+/// Between the words of a keyword (`derivation length:`) and in a `view:`
+/// setting stand any blanks (the no-break space here) and comments, as
+/// between tokens (lsgen 9b99c7d took spaces and tabs only there, and
+/// ended a view setting at its first comment).
+#[test]
+fn keyword_lines_take_unicode_blanks_and_comments() {
+    for kw in [
+        "derivation /* c */ length:",
+        "derivation\u{a0}length:",
+        "derivation\u{a0}/* c */\u{a0}length:",
+        "derivation/**/length:",
+    ] {
+        let src = format!("{kw} 2\nproductions:\nA -> AB\naxiom: A\n");
+        assert_eq!(run_stdin(&["-"], src.as_bytes()).ok(), "ABB\n", "{src:?}");
+    }
+    for view in [
+        "view: angle = /* c */ 30",
+        "view:\u{a0}angle\u{a0}=\u{a0}30\u{a0}/* c */",
+        "view: width /* c */ increment = 1",
+        "view: direction = 30 /* c */ 20",
+    ] {
+        let src = format!("{view}\naxiom: A\n");
+        assert_eq!(run_stdin(&["-"], src.as_bytes()).ok(), "A\n", "{src:?}");
+    }
+    // The setting is every word of the line: a comment no longer ends it.
+    let r = run_stdin(&["-"], b"view: angle = 30 /* c */ 40\naxiom: A\n");
+    assert!(
+        r.fails(1).contains("1:14: error: expected one number"),
+        "{}",
+        r.stderr
+    );
+}
+
 /// (13) A `,` or `)` in a comment in a parameter list: the same in the
 /// axiom as in a successor.
 #[test]

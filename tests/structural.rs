@@ -290,3 +290,100 @@ fn a_huge_decomposition_meets_max_length() {
     );
     assert!(!out.exists());
 }
+
+/// Structural keyword lines take any blank README calls a blank (the
+/// no-break space here) and comments between their words, as other lines
+/// do between tokens: `groups:`, `productions N:`, `warnings` / `no
+/// warnings` and `maximum depth:` (lsgen 9b99c7d split them at spaces and
+/// tabs only, and stopped reading them at a comment).
+#[test]
+fn keyword_lines_take_unicode_blanks_and_comments() {
+    const NBSP: &str = "\u{a0}";
+    let dir = tempdir();
+    let file = dir.path().join("p.ls");
+    let lsgen = |src: &str, n: &str| {
+        std::fs::write(&file, src).unwrap();
+        let r = run(lsgen().args(["-n", n]).arg(&file));
+        assert!(r.status.success(), "{src:?}: {}", r.stderr);
+        (String::from_utf8(r.stdout).unwrap(), r.stderr)
+    };
+    // Step 1 in group 1 (A -> AB), step 2 in group 2 (B -> C): both
+    // groups read.
+    let two_groups = "productions 1:\nA -> AB\nproductions 2:\nB -> C\naxiom: A\n";
+    for groups in [
+        "groups: 1 /* c */ 2".to_string(),
+        "groups: /* c */ 1 2".to_string(),
+        format!("groups: 1{NBSP}2"),
+        format!("groups:{NBSP}1{NBSP}/* c */{NBSP}2{NBSP}/* c */"),
+        "groups:/* c */1/**/2".to_string(),
+    ] {
+        let src = format!("{groups}\n{two_groups}");
+        assert_eq!(
+            lsgen(&src, "2"),
+            ("AC\n".to_string(), String::new()),
+            "{src:?}"
+        );
+    }
+    for section in [
+        "productions /* c */ 1:".to_string(),
+        format!("productions{NBSP}1:"),
+        format!("productions 1{NBSP}:"),
+        format!("productions{NBSP}/* c */ 1 /* c */{NBSP}:"),
+    ] {
+        let src = format!("groups: 1\n{section}\nA -> AB\naxiom: A\n");
+        assert_eq!(
+            lsgen(&src, "1"),
+            ("AB\n".to_string(), String::new()),
+            "{src:?}"
+        );
+    }
+    // `warnings` heard: the warning of `depth_warnings` above.
+    let decomposition = |kw: &str| {
+        format!("productions:\nA -> AL\n{kw}\nmaximum depth: 1\nL -> M\nM -> N\naxiom: A\n")
+    };
+    for (kw, warns) in [
+        ("decomposition: /* c */ warnings".to_string(), true),
+        (format!("decomposition:{NBSP}warnings{NBSP}/* c */"), true),
+        ("decomposition: no /* c */ warnings".to_string(), false),
+        (format!("decomposition: no{NBSP}warnings"), false),
+    ] {
+        let (out, err) = lsgen(&decomposition(&kw), "1");
+        assert_eq!(out, "AM\n", "{kw:?}");
+        assert_eq!(
+            err.contains("warning: decomposition stopped at maximum depth 1"),
+            warns,
+            "{kw:?}: {err}"
+        );
+    }
+    let homomorphism = |kw: &str| format!("{kw}\nA -> B\nB -> C\naxiom: A\n");
+    for (kw, warns) in [
+        ("homomorphism: no /* c */ warnings".to_string(), false),
+        (format!("homomorphism:{NBSP}warnings"), true),
+        (format!("homomorphism: no{NBSP}warnings"), false),
+        (
+            format!("Homomorphism:{NBSP}/* c */No/**/Warnings /* c */"),
+            false,
+        ),
+    ] {
+        let (out, err) = lsgen(&homomorphism(&kw), "0");
+        assert_eq!(out, "B\n", "{kw:?}");
+        assert_eq!(
+            err.contains("warning: homomorphism stopped at maximum depth 1"),
+            warns,
+            "{kw:?}: {err}"
+        );
+    }
+    // Depth 2 rewrites the B that A -> B made (depth 1 would leave it).
+    for depth in [
+        "maximum /* c */ depth: 2".to_string(),
+        format!("maximum{NBSP}depth: 2"),
+        format!("maximum{NBSP}/* c */{NBSP}depth:{NBSP}2"),
+    ] {
+        let src = format!("homomorphism:\n{depth}\nA -> B\nB -> C\naxiom: A\n");
+        assert_eq!(
+            lsgen(&src, "0"),
+            ("C\n".to_string(), String::new()),
+            "{src:?}"
+        );
+    }
+}

@@ -174,6 +174,30 @@ fn view_settings_from_ls_and_options() {
     );
 }
 
+/// A `view:` setting may hold comments and any blanks (the no-break
+/// space here) between its words, as lsgen's lexer reads it (lsgen
+/// 9b99c7d ended a setting at its first comment).
+#[test]
+fn view_settings_with_comments_and_unicode_blanks() {
+    let dir = tempfile::tempdir().unwrap();
+    let ls = dir.path().join("m.ls");
+    std::fs::write(
+        &ls,
+        "view: angle = /* c */ 90\nview:\u{a0}step\u{a0}=\u{a0}2\u{a0}/* c */\n\
+         view: width /* a */ = /* b */ 0.5\nview: width /* c */ increment = 1\naxiom: F\n",
+    )
+    .unwrap();
+    let got = text(ok(&turtle(
+        &["-f", "segments", "--ls", ls.to_str().unwrap()],
+        b"+F#F",
+    )));
+    same_segments(
+        &got,
+        "0 0 0 -2 0 0 0.5 0\n-2 0 0 -4 0 0 1.5 0\n",
+        "view lines",
+    );
+}
+
 fn svg_numbers(svg: &str, attr: &str) -> Vec<f64> {
     let key = format!(" {attr}=\"");
     let i = svg.find(&key).unwrap() + key.len();

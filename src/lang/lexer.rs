@@ -226,45 +226,79 @@ const KEYWORDS: &[(&str, Tok<'static>, bool)] = &[
     ("group:", Tok::KwGroup, true),
 ];
 
-/// The rest of a line from `rest`, up to a newline or a comment.
-fn line_rest(rest: &str) -> &str {
-    let end = rest.find(['\n', '\r']).unwrap_or(rest.len());
-    let line = &rest[..end];
-    match line.find(comment::OPEN) {
-        Some(c) => &line[..c],
-        None => line,
+/// A blank: any white space but a line break (README: space, tab,
+/// no-break space, vertical tab, ...), as between tokens.
+fn is_blank(c: char) -> bool {
+    c != '\n' && c.is_whitespace()
+}
+
+/// The length of the blanks and comments at the start of `s`: what may
+/// stand between the words of a keyword line, as between tokens. A comment
+/// that spans lines ends its line, and one never closed is an error: the
+/// token lexer finds both, so neither is taken here.
+fn gap(s: &str) -> usize {
+    let mut n = 0;
+    loop {
+        let t = s[n..].trim_start_matches(is_blank);
+        n = s.len() - t.len();
+        match t
+            .starts_with(comment::OPEN)
+            .then(|| comment::len(t))
+            .flatten()
+        {
+            Some(len) if !t[..len].contains('\n') => n += len,
+            _ => return n,
+        }
+    }
+}
+
+/// The length of the word at the start of `s`: up to a blank, a line
+/// break or a comment (`/*` always starts one).
+fn word_len(s: &str) -> usize {
+    s.char_indices()
+        .find(|&(i, c)| c.is_whitespace() || s[i..].starts_with(comment::OPEN))
+        .map_or(s.len(), |(i, _)| i)
+}
+
+/// The words on the rest of a line from `rest`, as byte ranges of `rest`:
+/// between them blanks and comments, after the last one only blanks and
+/// comments up to the end of the line (or a comment that ends it).
+fn line_words(rest: &str) -> Vec<Span> {
+    let mut words = Vec::new();
+    let mut at = 0;
+    loop {
+        at += gap(&rest[at..]);
+        let n = word_len(&rest[at..]);
+        if n == 0 {
+            return words;
+        }
+        words.push((at, at + n));
+        at += n;
     }
 }
 
 /// Is `line` (from its first non-blank byte) a keyword line? Returns the
 /// keyword's byte length. Keywords are matched case-insensitively, so cpfg's
-/// `Derivation length:` works, and inner runs of blanks are allowed.
+/// `Derivation length:` works, and between the words of a keyword any
+/// blanks and comments are allowed (at least one).
 pub fn match_keyword(rest: &str, keyword: &str) -> Option<usize> {
-    let mut r = rest.char_indices().peekable();
-    let mut end = 0;
-    for kc in keyword.chars() {
-        if kc == ' ' {
-            // one or more blanks
-            let mut n = 0;
-            while let Some(&(_, c)) = r.peek() {
-                if c == ' ' || c == '\t' {
-                    r.next();
-                    n += 1;
-                } else {
-                    break;
-                }
-            }
+    let mut at = 0;
+    for (i, word) in keyword.split(' ').enumerate() {
+        if i > 0 {
+            let n = gap(&rest[at..]);
             if n == 0 {
                 return None;
             }
-            continue;
+            at += n;
         }
-        match r.next() {
-            Some((i, c)) if c.eq_ignore_ascii_case(&kc) => end = i + c.len_utf8(),
-            _ => return None,
+        // Keywords are ASCII: a match is as long as the keyword's word.
+        let text = rest.as_bytes().get(at..at + word.len())?;
+        if !text.eq_ignore_ascii_case(word.as_bytes()) {
+            return None;
         }
+        at += word.len();
     }
-    Some(end)
+    Some(at)
 }
 
 /// The mode-switching lexer over the header text.
@@ -279,9 +313,9 @@ pub struct Lexer<'a> {
     expr_tokens: usize,
     /// The settings of the `view:` lines met, when collected.
     views: Option<Vec<crate::turtle::view::Setting>>,
-    /// Just after `decomposition:` / `homomorphism:` (at this offset):
-    /// look for `warnings` / `no warnings`.
-    pending_warnings: Option<usize>,
+    /// Just after `decomposition:` / `homomorphism:` (at this offset,
+    /// that keyword): look for `warnings` / `no warnings`.
+    pending_warnings: Option<(usize, &'static str)>,
 }
 
 /// The settings of a header's `view:` lines, in order, found by the lexer
@@ -432,8 +466,8 @@ impl<'a> Iterator for Lexer<'a> {
                 }
                 Line::Empty | Line::Tokens => {}
             }
-            if let Some(at) = self.pending_warnings.take() {
-                if let Some(t) = self.warnings(at) {
+            if let Some((at, keyword)) = self.pending_warnings.take() {
+                if let Some(t) = self.warnings(at, keyword) {
                     return Some(t);
                 }
             }
@@ -498,46 +532,28 @@ impl<'a> Iterator for Lexer<'a> {
     }
 }
 
-/// Keyword lines, `view:` lines and the blanks before them.
+/// Keyword lines, `view:` lines and the blanks before them. Between the
+/// words of a keyword line stand blanks and comments, as between tokens
+/// (`gap`); a comment that spans lines ends the line there.
 impl<'a> Lexer<'a> {
-    fn lead(&self, pos: usize) -> usize {
-        let mut blank = 0;
-        loop {
-            let rest = &self.src[pos + blank..];
-            let t = rest.trim_start_matches(|c: char| c != '\n' && c.is_whitespace());
-            blank += rest.len() - t.len();
-            match t
-                .starts_with(comment::OPEN)
-                .then(|| comment::len(t))
-                .flatten()
-            {
-                Some(len) if !t[..len].contains('\n') => blank += len,
-                _ => break,
-            }
-        }
-        blank
-    }
-
     /// At the start of a line: skip blanks and look for a keyword.
     /// Blanks and comments may come before the keyword.
     fn keyword(&mut self) -> Option<Spanned<'a>> {
-        let pos = self.pos;
-        let blank = self.lead(pos);
-        let rest = &self.src[pos + blank..];
-        let at = pos + blank;
+        let at = self.pos + gap(&self.src[self.pos..]);
+        let rest = &self.src[at..];
         if let Some(t) = self.structural_keyword(rest, at) {
             return Some(t);
         }
         for (kw, tok, expr) in KEYWORDS {
             if let Some(len) = match_keyword(rest, kw) {
-                self.pos += blank + len;
+                self.pos = at + len;
                 self.enter(if *expr {
                     Mode::Expr { depth: 0 }
                 } else {
                     Mode::Module
                 });
                 if matches!(tok, Tok::KwHomomorphism | Tok::KwDecomposition) {
-                    self.pending_warnings = Some(at + len);
+                    self.pending_warnings = Some((at + len, *kw));
                 }
                 return Some(Ok((at, tok.clone(), at + len)));
             }
@@ -552,43 +568,42 @@ impl<'a> Lexer<'a> {
         let err =
             |s: usize, e: usize, kind: LexicalError| Some(Err(LexError { span: (s, e), kind }));
         if let Some(len) = match_keyword(rest, "groups:") {
-            let line = line_rest(&rest[len..]);
             let mut groups = Vec::new();
-            let mut off = 0;
-            for word in line.split([' ', '\t']) {
-                let s = at + len + off;
-                off += word.len() + 1;
-                if word.is_empty() {
-                    continue;
-                }
+            let mut end = at + len;
+            for (ws, we) in line_words(&rest[len..]) {
+                let word = &rest[len + ws..len + we];
+                let (s, e) = (at + len + ws, at + len + we);
                 if !word.bytes().all(|b| b.is_ascii_digit()) {
-                    return err(s, s + word.len(), LexicalError::GroupsNotNumbers);
+                    return err(s, e, LexicalError::GroupsNotNumbers);
                 }
                 match word.parse::<u32>() {
-                    Ok(n) if n <= 65535 => groups.push((n, (s, s + word.len()))),
-                    _ => return err(s, s + word.len(), LexicalError::GroupOutOfRange),
+                    Ok(n) if n <= 65535 => groups.push((n, (s, e))),
+                    _ => return err(s, e, LexicalError::GroupOutOfRange),
                 }
+                end = e;
             }
             if groups.is_empty() {
                 return err(at, at + len, LexicalError::GroupsNotNumbers);
             }
-            self.pos = at + len + line.len();
+            // What follows the last group (blanks, comments, the line's
+            // end) is the token lexer's.
+            self.pos = end;
             self.enter(Mode::Module);
-            return Some(Ok((at, Tok::KwGroups(groups), at + len + line.len())));
+            return Some(Ok((at, Tok::KwGroups(groups), end)));
         }
         for word in ["productions", "decomposition", "homomorphism"] {
             let Some(len) = match_keyword(rest, word) else {
                 continue;
             };
-            let after = &rest[len..];
-            let blanks = after.len() - after.trim_start_matches([' ', '\t']).len();
+            let blanks = gap(&rest[len..]);
             if blanks == 0 {
                 continue;
             }
-            let t = &after[blanks..];
-            let wlen = t.find([' ', '\t', ':', '\n', '\r']).unwrap_or(t.len());
+            let t = &rest[len + blanks..];
+            // The group: up to a blank, a comment or the colon.
+            let wlen = t[..word_len(t)].find(':').unwrap_or(word_len(t));
             let tail = &t[wlen..];
-            let colon = tail.len() - tail.trim_start_matches([' ', '\t']).len();
+            let colon = gap(tail);
             if wlen == 0 || !tail[colon..].starts_with(':') {
                 continue;
             }
@@ -608,53 +623,43 @@ impl<'a> Lexer<'a> {
         None
     }
 
-    /// After `decomposition:` or `homomorphism:`: `warnings`, `no
-    /// warnings`, or nothing on the rest of the line.
-    fn warnings(&mut self, at: usize) -> Option<Spanned<'a>> {
+    /// After `decomposition:` or `homomorphism:` (`keyword`, ending at
+    /// `at`): `warnings`, `no warnings`, or nothing but blanks and comments
+    /// on the rest of the line.
+    fn warnings(&mut self, at: usize, keyword: &'static str) -> Option<Spanned<'a>> {
         let rest = &self.src[at..];
-        let line = line_rest(rest);
-        let blank = line.len() - line.trim_start_matches([' ', '\t']).len();
-        let word = line[blank..].trim_end();
-        if word.is_empty() {
-            return None;
-        }
-        let s = at + blank;
-        let which = if word.eq_ignore_ascii_case("warnings") {
-            true
-        } else if let Some(len) = match_keyword(word, "no warnings").filter(|&l| l == word.len()) {
-            let _ = len;
-            false
-        } else {
-            let kw = if self.src[..at]
-                .trim_end()
-                .to_ascii_lowercase()
-                .ends_with("homomorphism:")
-            {
-                "homomorphism:"
-            } else {
-                "decomposition:"
-            };
-            return Some(Err(LexError {
-                span: (s, s + word.len()),
-                kind: LexicalError::ExpectedWarnings(kw),
-            }));
+        let words = line_words(rest);
+        let (&(s, _), &(_, e)) = (words.first()?, words.last()?);
+        let is = |(a, b): Span, w: &str| rest[a..b].eq_ignore_ascii_case(w);
+        let which = match *words.as_slice() {
+            [w] if is(w, "warnings") => true,
+            [n, w] if is(n, "no") && is(w, "warnings") => false,
+            _ => {
+                return Some(Err(LexError {
+                    span: (at + s, at + e),
+                    kind: LexicalError::ExpectedWarnings(keyword),
+                }))
+            }
         };
-        self.pos += blank + word.len();
-        Some(Ok((s, Tok::Warnings(which), s + word.len())))
+        self.pos = at + e;
+        Some(Ok((at + s, Tok::Warnings(which), at + e)))
     }
 
     /// A `view:` line holds lsgen-turtle's view settings: a keyword like
     /// the others (blanks and comments may come first), checked by the
-    /// same parser, then skipped up to the end of the line (or a comment).
+    /// same parser. The setting is the line's words after `view:`, with
+    /// the blanks and comments between them; what follows the last word
+    /// (blanks, comments, the line's end) is left to the token lexer.
     fn view_line(&mut self) -> Result<(), LexError> {
-        let pos = self.pos;
-        let blank = self.lead(pos);
-        let Some(kl) = match_keyword(&self.src[pos + blank..], "view:") else {
+        let pos = self.pos + gap(&self.src[self.pos..]);
+        let Some(kl) = match_keyword(&self.src[pos..], "view:") else {
             return Ok(());
         };
-        let at = pos + blank + kl;
-        let end = crate::turtle::view::setting_end(&self.src[at..]);
-        match crate::turtle::view::parse_setting(&self.src[at..at + end]) {
+        let at = pos + kl;
+        let end = line_words(&self.src[at..]).last().map_or(0, |&(_, e)| e);
+        // Comments become blanks of the same length: offsets still hold.
+        let setting = blank_comments(&self.src[at..at + end]);
+        match crate::turtle::view::parse_setting(&setting) {
             Ok(v) => {
                 if let Some(views) = &mut self.views {
                     views.push(v);
@@ -667,9 +672,24 @@ impl<'a> Lexer<'a> {
                 })
             }
         }
-        self.pos += blank + kl + end;
+        self.pos = at + end;
         Ok(())
     }
+}
+
+/// `text` with each comment in it (closed, as [`gap`] takes them) turned
+/// into as many spaces as it has bytes.
+fn blank_comments(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(i) = rest.find(comment::OPEN) {
+        out.push_str(&rest[..i]);
+        let n = comment::len(&rest[i..]).unwrap_or(rest.len() - i);
+        out.extend(std::iter::repeat_n(' ', n));
+        rest = &rest[i + n..];
+    }
+    out.push_str(rest);
+    out
 }
 
 #[cfg(test)]
@@ -842,6 +862,71 @@ mod tests {
                 Tok::Nl
             ]
         );
+    }
+
+    /// Between the words of a keyword line stand any blanks and comments,
+    /// as between tokens; a comment may stand for the blank.
+    #[test]
+    fn keyword_lines_take_any_blank_and_comments_between_words() {
+        for sep in [
+            " ",
+            "\t",
+            "\u{a0}",
+            "\u{2003}",
+            " /* c */ ",
+            "/**/",
+            "\u{a0}/* c */\t",
+        ] {
+            let src = format!(
+                "derivation{sep}length: 2\ngroups:{sep}1{sep}2{sep}\n\
+                 productions{sep}1{sep}:\ndecomposition:{sep}no{sep}warnings{sep}\n\
+                 maximum{sep}depth: 3\nhomomorphism:{sep}warnings{sep}\n"
+            );
+            let t = toks(&src);
+            assert_eq!(
+                t,
+                vec![
+                    Tok::KwDerivationLength,
+                    Tok::Num(2.0),
+                    Tok::Nl,
+                    Tok::KwGroups(t[3].clone().groups()),
+                    Tok::Nl,
+                    Tok::KwProductionsN(1),
+                    Tok::Nl,
+                    Tok::KwDecomposition,
+                    Tok::Warnings(false),
+                    Tok::Nl,
+                    Tok::KwMaximumDepth,
+                    Tok::Num(3.0),
+                    Tok::Nl,
+                    Tok::KwHomomorphism,
+                    Tok::Warnings(true),
+                    Tok::Nl,
+                ],
+                "{sep:?}"
+            );
+            let groups = t[3].clone().groups();
+            let spans: Vec<&str> = groups.iter().map(|&(_, (s, e))| &src[s..e]).collect();
+            assert_eq!(groups.iter().map(|g| g.0).collect::<Vec<_>>(), [1, 2]);
+            assert_eq!(spans, ["1", "2"], "{sep:?}");
+            let view = format!("view:{sep}width{sep}increment{sep}={sep}2{sep}\n");
+            assert_eq!(
+                view_settings(&view),
+                Ok(vec![crate::turtle::view::Setting::WidthIncrement(2.0)]),
+                "{sep:?}"
+            );
+        }
+        // A comment that spans lines ends the line: no keyword across it.
+        assert_eq!(toks("derivation /* a\n */ length: 2\n")[0], Tok::Sym('d'));
+    }
+
+    impl Tok<'_> {
+        fn groups(self) -> Vec<(u32, Span)> {
+            match self {
+                Tok::KwGroups(g) => g,
+                other => panic!("not `groups:`: {other:?}"),
+            }
+        }
     }
 
     #[test]

@@ -298,13 +298,6 @@ impl View {
     }
 }
 
-/// Where a `view:` line's setting text ends: at the end of the line or at
-/// a comment `/*`.
-pub fn setting_end(rest: &str) -> usize {
-    let line = rest.find('\n').unwrap_or(rest.len());
-    rest[..line].find("/*").unwrap_or(line)
-}
-
 /// Read the `view:` lines of an `.ls` file's header into `view`, the way
 /// lsgen reads that header: lsgen's header reader (at most
 /// [`crate::input::MAX_HEADER`] bytes, UTF-8 without NUL, a byte-order
