@@ -3,7 +3,7 @@
 use crate::cpfg::Dialect;
 use crate::derive::random::Random;
 use crate::derive::{derive, Event, FrameSink, Frames, Limits, Settings, Strategy};
-use crate::diag::{Error, ParseError, RuntimeError, UsageError};
+use crate::diag::{Error, OptionNames, ParseError, RuntimeError, UsageError};
 use crate::io::axiom::AxiomReader;
 use crate::io::input::{split_header, Input, Split};
 use crate::io::precision::Significant;
@@ -62,6 +62,9 @@ pub struct Options {
     threads: usize,
     split: Option<u64>,
     direct: Option<std::sync::Arc<std::sync::atomic::AtomicU8>>,
+    /// How errors name the options: by these methods, or by the binary's
+    /// flags.
+    names: OptionNames,
 }
 
 impl Default for Options {
@@ -79,6 +82,7 @@ impl Default for Options {
             threads: 1,
             split: None,
             direct: None,
+            names: OptionNames::Library,
         }
     }
 }
@@ -170,6 +174,14 @@ impl Options {
     #[doc(hidden)]
     pub fn direct_output(mut self, switch: std::sync::Arc<std::sync::atomic::AtomicU8>) -> Self {
         self.direct = Some(switch);
+        self
+    }
+
+    /// Errors name the options by the binary's flags (`--first-step`),
+    /// not by these methods: the binary's.
+    #[doc(hidden)]
+    pub fn command_line_names(mut self) -> Self {
+        self.names = OptionNames::CommandLine;
         self
     }
 
@@ -503,6 +515,7 @@ impl LSystem {
             return Err(Error::new(UsageError::StepsOverflow {
                 first: options.first_step,
                 steps,
+                names: options.names,
             }));
         }
         let seed = options.seed.or(system.seed).unwrap_or(self.fresh);

@@ -819,6 +819,7 @@ fn run_one(
         return Ok(());
     }
     let mut options = Options::new()
+        .command_line_names()
         .homomorphism(!args.no_homomorphism)
         .limits(args.max_length.unwrap_or_default())
         .strategy(args.strategy);

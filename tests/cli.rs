@@ -1398,6 +1398,32 @@ fn keyword_lines_take_unicode_blanks_and_comments() {
     );
 }
 
+/// Step numbers past 2^64 - 1 are a usage error that names lsgen's flags
+/// (the library names its methods instead: tests/library.rs).
+#[test]
+fn steps_past_the_last_step_number_name_the_flags() {
+    let r = run_stdin(
+        &["-", "-n", "2", "--first-step", "18446744073709551614"],
+        DOUBLING.as_bytes(),
+    );
+    assert_eq!(
+        r.fails(2),
+        "lsgen: error: `--first-step 18446744073709551614` with 2 steps: \
+         step numbers must stay below 2^64 - 1\n"
+    );
+    // The file's `derivation length:` (1 here) counts too.
+    let r = run_stdin(
+        &["-", "--first-step", "18446744073709551615"],
+        DOUBLING.as_bytes(),
+    );
+    assert!(
+        r.fails(2)
+            .contains("`--first-step 18446744073709551615` with 1 steps"),
+        "{}",
+        r.stderr
+    );
+}
+
 /// (13) A `,` or `)` in a comment in a parameter list: the same in the
 /// axiom as in a successor.
 #[test]

@@ -216,3 +216,41 @@ fn errors_carry_typed_payloads() {
         "/nonexistent/dir: error: cannot create a temporary file: No such file or directory\n"
     );
 }
+
+/// A usage error of the options names them as the library does, by
+/// [`lsgen::Options`]' methods, not by the binary's flags (lsgen 9b99c7d
+/// said "`--first-step 1` with 18446744073709551615 steps" to a caller of
+/// `steps(u64::MAX)`); the binary keeps its flags (tests/cli.rs).
+#[test]
+fn usage_errors_name_the_options_methods() {
+    use lsgen::diag::{OptionNames, UsageError};
+    let derive = |o: lsgen::Options| {
+        lsgen::LSystem::parse("productions:\nA -> AB\naxiom: A\n")
+            .unwrap()
+            .derive(&o, Vec::new())
+            .expect_err("step numbers past 2^64 - 1")
+    };
+    let e = derive(lsgen::Options::new().steps(u64::MAX));
+    assert_eq!(e.stage(), lsgen::Stage::Usage);
+    assert!(
+        matches!(
+            e.kind(),
+            lsgen::ErrorKind::Usage(UsageError::StepsOverflow {
+                first: 1,
+                steps: u64::MAX,
+                names: OptionNames::Library,
+            })
+        ),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.to_string(),
+        "error: `first_step(1)` with 18446744073709551615 steps: step numbers must stay below 2^64 - 1\n"
+    );
+    let e = derive(lsgen::Options::new().first_step(u64::MAX - 1).steps(2));
+    assert_eq!(
+        e.message(),
+        "`first_step(18446744073709551614)` with 2 steps: step numbers must stay below 2^64 - 1"
+    );
+    assert!(!e.to_string().contains("--"), "{e}");
+}

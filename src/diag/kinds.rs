@@ -878,6 +878,17 @@ impl fmt::Display for IoError {
 /// A placeholder of an `-o` template.
 pub type Placeholder = &'static str;
 
+/// Whose names an error gives the options it mentions: the library's
+/// [`crate::Options`] methods (`first_step(K)`) or lsgen's flags
+/// (`--first-step K`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OptionNames {
+    /// The methods of [`crate::Options`].
+    Library,
+    /// The flags of the `lsgen` binary.
+    CommandLine,
+}
+
 /// The request itself is wrong.
 #[derive(Clone, Debug, PartialEq)]
 #[non_exhaustive]
@@ -894,8 +905,13 @@ pub enum UsageError {
     NotDepthFirst,
     /// `--first-step 0`.
     FirstStepZero,
-    /// Step numbers past 2^64 - 1.
-    StepsOverflow { first: u64, steps: u64 },
+    /// Step numbers past 2^64 - 1: the first step, the number of steps,
+    /// and the names the message gives the first step's option.
+    StepsOverflow {
+        first: u64,
+        steps: u64,
+        names: OptionNames,
+    },
     /// A view option of lsgen-turtle (its name, `view` for the
     /// direction) that cannot be read.
     ViewOption { option: String, error: ViewError },
@@ -962,10 +978,20 @@ impl fmt::Display for UsageError {
                 "`--strategy dfs`: this system cannot be derived depth first with these options",
             ),
             FirstStepZero => f.write_str("the first step is step 1 or later"),
-            StepsOverflow { first, steps } => write!(
-                f,
-                "`--first-step {first}` with {steps} steps: step numbers must stay below 2^64 - 1"
-            ),
+            StepsOverflow {
+                first,
+                steps,
+                names,
+            } => {
+                match names {
+                    OptionNames::Library => write!(f, "`first_step({first})`")?,
+                    OptionNames::CommandLine => write!(f, "`--first-step {first}`")?,
+                }
+                write!(
+                    f,
+                    " with {steps} steps: step numbers must stay below 2^64 - 1"
+                )
+            }
             ViewOption { option, error } => write!(f, "--{option}: {error}"),
             FramesNeedN => f.write_str(
                 "`--frames` with `-o` needs `{n}` (the generation number) in the file name",
