@@ -204,8 +204,13 @@ impl Options {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub struct Stats {
-    /// The seed of the random generator.
-    pub seed: u64,
+    /// The seed of the random generator: [`Options::seed`], else the
+    /// file's `seed:`, else for an `.ls` system the fresh one it drew (so
+    /// `Options::seed` with it derives the same string again). `None` for
+    /// a cpfg `.l` system without either: as in cpfg, it uses no seed
+    /// (its weights are ignored; README, "Coming from cpfg: randomness"),
+    /// and giving it one would make it stochastic.
+    pub seed: Option<u64>,
     /// Derivation steps asked for.
     pub steps: u64,
     /// Modules written.
@@ -523,6 +528,12 @@ impl LSystem {
             // `--seed N` on a `.l` file: as if it said `seed: N`.
             c.seed = Some(s);
         }
+        // A `.l` file seeds its generators only with a seed (`seed:` or
+        // `--seed`); `seed` above then serves nothing.
+        let seed_used = match &system.cpfg {
+            Some(c) => c.seed,
+            None => Some(seed),
+        };
         // cpfg prints parameters with C's `%g`: 6 significant digits.
         let precision = options.precision.or(system.cpfg.is_some().then_some(6));
         let cpfg = system.cpfg.is_some();
@@ -573,7 +584,7 @@ impl LSystem {
             frames,
         )?;
         Ok(Stats {
-            seed,
+            seed: seed_used,
             steps,
             modules,
             bytes,
@@ -587,10 +598,15 @@ impl LSystem {
         options.steps.or(file).unwrap_or(DEFAULT_DERIVATION_LENGTH)
     }
 
-    /// The seed a derivation with `options` would use.
-    pub fn seed(&self, options: &Options) -> u64 {
+    /// The seed a derivation with `options` would use, as
+    /// [`Stats::seed`] will report it: `None` for a cpfg `.l` system that
+    /// neither `options` nor its file seeds.
+    pub fn seed(&self, options: &Options) -> Option<u64> {
         let file = self.system.as_ref().and_then(|(s, _)| s.seed);
-        options.seed.or(file).unwrap_or(self.fresh)
+        match (options.seed.or(file), &self.cpfg) {
+            (None, Some(_)) => None,
+            (seed, _) => Some(seed.unwrap_or(self.fresh)),
+        }
     }
 
     /// Use `seed` when neither the options nor the file give one, instead

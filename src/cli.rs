@@ -844,7 +844,9 @@ fn run_one(
             None => options.threads_all(),
         };
     }
-    let seed = ls.seed(&options);
+    // A `.l` file without a seed uses none; lsgen has always said 0 for
+    // it (in `-v`, `{seed}` and a job's label), and still does.
+    let seed = ls.seed(&options).unwrap_or(0);
     let batch = batch.map(|used| *used = Some(seed)).is_some();
     // In a batch, -v lines name their job.
     let who = if batch {

@@ -43,7 +43,7 @@ fn reader_options_and_events() -> Result<(), Box<dyn Error>> {
         }
     })?;
     assert_eq!(String::from_utf8(out)?, "A(3)FF\n");
-    assert_eq!(stats.seed, 9);
+    assert_eq!(stats.seed, Some(9));
     assert_eq!(
         passes,
         [
@@ -253,4 +253,45 @@ fn usage_errors_name_the_options_methods() {
         "`first_step(18446744073709551614)` with 2 steps: step numbers must stay below 2^64 - 1"
     );
     assert!(!e.to_string().contains("--"), "{e}");
+}
+
+/// `Stats::seed` is the seed the derivation used, as documented: an `.ls`
+/// system without one reports the fresh seed it drew (which derives the
+/// same string again); a cpfg `.l` system without `seed:` uses none, and
+/// says so (lsgen 9b99c7d reported 0, which as `seed: 0` would make it
+/// stochastic). `LSystem::seed` tells the same in advance.
+#[test]
+fn stats_report_the_seed_used() -> Result<(), Box<dyn Error>> {
+    use lsgen::{LSystem, Options};
+    let ls_src = "productions:\nA -> AB : 1\nA -> BA : 1\naxiom: A\n";
+    let mut ls = LSystem::parse(ls_src)?;
+    let planned = ls.seed(&Options::new());
+    let mut first = Vec::new();
+    let stats = ls.derive(&Options::new().steps(12), &mut first)?;
+    assert!(stats.seed.is_some());
+    assert_eq!(stats.seed, planned);
+    let mut again = Vec::new();
+    let o = Options::new().steps(12).seed(stats.seed.unwrap());
+    assert_eq!(ls.derive(&o, &mut again)?.seed, stats.seed);
+    assert_eq!(first, again);
+
+    let cpfg = |seed: &str| {
+        format!(
+            "Lsystem: 1\n{seed}derivation length: 3\nAxiom: A\n\
+             A --> AB : 1\nA --> BA : 1\nendlsystem\n"
+        )
+    };
+    let mut l = LSystem::parse(&cpfg(""))?;
+    assert_eq!(l.seed(&Options::new()), None);
+    let mut out = Vec::new();
+    let stats = l.derive(&Options::new(), &mut out)?;
+    // No seed: the weights are ignored, the first production applies.
+    assert_eq!((stats.seed, out), (None, b"ABBB\n".to_vec()));
+    let stats = l.derive(&Options::new().seed(0), Vec::new())?;
+    assert_eq!(stats.seed, Some(0));
+    let l = &mut LSystem::parse(&cpfg("seed: 5\n"))?;
+    assert_eq!(l.seed(&Options::new()), Some(5));
+    assert_eq!(l.derive(&Options::new(), Vec::new())?.seed, Some(5));
+    assert_eq!(l.derive(&Options::new().seed(3), Vec::new())?.seed, Some(3));
+    Ok(())
 }
