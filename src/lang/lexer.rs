@@ -263,18 +263,17 @@ fn word_len(s: &str) -> usize {
 /// The words on the rest of a line from `rest`, as byte ranges of `rest`:
 /// between them blanks and comments, after the last one only blanks and
 /// comments up to the end of the line (or a comment that ends it).
-fn line_words(rest: &str) -> Vec<Span> {
-    let mut words = Vec::new();
+fn line_words(rest: &str) -> impl Iterator<Item = Span> + '_ {
+    // (An iterator: a `groups:` line may hold 33 million words.)
     let mut at = 0;
-    loop {
+    std::iter::from_fn(move || {
         at += gap(&rest[at..]);
         let n = word_len(&rest[at..]);
-        if n == 0 {
-            return words;
-        }
-        words.push((at, at + n));
-        at += n;
-    }
+        (n > 0).then(|| {
+            at += n;
+            (at - n, at)
+        })
+    })
 }
 
 /// Is `line` (from its first non-blank byte) a keyword line? Returns the
@@ -628,8 +627,16 @@ impl<'a> Lexer<'a> {
     /// on the rest of the line.
     fn warnings(&mut self, at: usize, keyword: &'static str) -> Option<Spanned<'a>> {
         let rest = &self.src[at..];
-        let words = line_words(rest);
-        let (&(s, _), &(_, e)) = (words.first()?, words.last()?);
+        // The first three words, and where the last one ends.
+        let mut words = Vec::with_capacity(3);
+        let mut last = None;
+        for w in line_words(rest) {
+            if words.len() < 3 {
+                words.push(w);
+            }
+            last = Some(w);
+        }
+        let (&(s, _), (_, e)) = (words.first()?, last?);
         let is = |(a, b): Span, w: &str| rest[a..b].eq_ignore_ascii_case(w);
         let which = match *words.as_slice() {
             [w] if is(w, "warnings") => true,
@@ -656,7 +663,7 @@ impl<'a> Lexer<'a> {
             return Ok(());
         };
         let at = pos + kl;
-        let end = line_words(&self.src[at..]).last().map_or(0, |&(_, e)| e);
+        let end = line_words(&self.src[at..]).last().map_or(0, |(_, e)| e);
         // Comments become blanks of the same length: offsets still hold.
         let setting = blank_comments(&self.src[at..at + end]);
         match crate::turtle::view::parse_setting(&setting) {
