@@ -333,16 +333,7 @@ mod tests {
         let mut f = tempfile::tempfile().unwrap();
         f.write_all(b"F1[F]1").unwrap();
         let mut rd = PosReader::new(&f, 1 << 16, false);
-        let mut keys = Vec::new();
-        while let Some((key, s, e)) = rd.next_module(&al).unwrap() {
-            assert_eq!(rd.bytes(s, e).len(), 1);
-            keys.push(key as u8);
-        }
-        assert_eq!(keys, b"F1[F]1");
-        let mut w = &f;
-        w.seek(SeekFrom::End(0)).unwrap();
-        w.write_all(b"FF").unwrap();
-        assert_eq!(rd.next_module(&al).unwrap(), None);
+        read_to_the_end_and_no_further(&mut rd, &f, &al);
         assert!(rd.window().unwrap().is_empty());
         // Going back within the buffer still reads the generation.
         rd.seek(4);
@@ -359,15 +350,22 @@ mod tests {
         f.write_all(b"F1[F]1").unwrap();
         let mut rd = PosReader::reusing(&f, 1 << 16, false, vec![7; 100]);
         assert_eq!(rd.eof, u64::MAX);
+        read_to_the_end_and_no_further(&mut rd, &f, &al);
+    }
+
+    /// `rd` reads `F1[F]1`, the whole of `f`; bytes appended to `f` then
+    /// are never seen, which shows that no read reached past the end.
+    fn read_to_the_end_and_no_further(rd: &mut PosReader, f: &File, al: &Alphabet) {
         let mut keys = Vec::new();
-        while let Some((key, _, _)) = rd.next_module(&al).unwrap() {
+        while let Some((key, s, e)) = rd.next_module(al).unwrap() {
+            assert_eq!(rd.bytes(s, e).len(), 1);
             keys.push(key as u8);
         }
         assert_eq!(keys, b"F1[F]1");
-        let mut w = &f;
+        let mut w = f;
         w.seek(SeekFrom::End(0)).unwrap();
         w.write_all(b"FF").unwrap();
-        assert_eq!(rd.next_module(&al).unwrap(), None);
+        assert_eq!(rd.next_module(al).unwrap(), None);
     }
 
     /// After a jump (a seek outside the buffer) the reader reads a few
