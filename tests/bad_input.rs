@@ -798,6 +798,8 @@ cases! {
         err(include_str!("cpfg/refused/remainder_zero.l"), 5, 16, "remainder by zero");
     cpfg_refused_ring =>
         err(include_str!("cpfg/refused/ring.l"), 3, 1, "`ring lsystem` is not supported");
+    cpfg_refused_right_context_ends_in_skip =>
+        err(include_str!("cpfg/refused/right_context_ends_in_skip.l"), 6, 6, "a right context cannot end with `=`");
     cpfg_refused_sublsystem =>
         err(include_str!("cpfg/refused/sublsystem.l"), 5, 7, "`?(id,s)` (a sub-L-system call)");
     cpfg_refused_two_lsystems =>

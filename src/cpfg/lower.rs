@@ -409,6 +409,14 @@ impl Lowerer<'_> {
         };
         let mut pred = self.formals(&p.pred, &mut formals)?;
         let pred_rest = pred.split_off(1);
+        if let Some(m) = p.right.as_ref().and_then(|r| r.last()) {
+            // cpfg's `RconDiff` skips the branch at `=` and then reads the
+            // next pattern module without checking that there is one: a
+            // segmentation fault wherever the match gets that far.
+            if m.sym == '=' {
+                return err(m.span, Invalid::RightContextEndsInSkip);
+            }
+        }
         let right = match &p.right {
             Some(r) => self.formals(r, &mut formals)?,
             None => Vec::new(),

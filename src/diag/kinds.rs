@@ -568,6 +568,9 @@ pub enum CompileError {
     OutOfF32,
     /// cpfg: `Axiom:` without modules.
     EmptyAxiom,
+    /// cpfg: a right context whose last module is `=` (cpfg's `RconDiff`
+    /// reads past the end of the pattern there and crashes).
+    RightContextEndsInSkip,
 }
 
 impl From<ExprError> for CompileError {
@@ -671,6 +674,9 @@ impl fmt::Display for CompileError {
             ),
             OutOfF32 => f.write_str("this value does not fit cpfg's 32-bit float"),
             EmptyAxiom => f.write_str("the axiom is empty"),
+            RightContextEndsInSkip => f.write_str(
+                "a right context cannot end with `=`: `=` skips to the end of the branch and needs a module after it (cpfg crashes here)",
+            ),
         }
     }
 }
