@@ -146,3 +146,61 @@ fn homomorphism_seed_is_for_successors() {
         "R(0.00804881)S(0.0912162)R(0.742382)S(0.0601525)\n"
     );
 }
+
+/// `maximum depth:` and `derivation length:` are cpfg's `(int) Eval(...)`
+/// (lsys_input.y): truncated, not rounded, and 0 or below is accepted. A
+/// decomposition of depth 0 or below decomposes nothing, silently
+/// (generate.c, ApplyRecursiveProductions returns 0 at once); a
+/// homomorphism of depth 0 applies nothing but warns where a production
+/// applies (interpret.c, InterpretHomomorphism); a negative derivation
+/// length derives no step (control.c, GenerateNSteps) and `Z` keeps it.
+/// Strings from tests/tools/cpfg_ref.py (by hand: `2.7` as 3 would give
+/// `E`, a depth of 1 `C`).
+#[test]
+fn depths_and_lengths_truncate_as_cpfg() {
+    let dir = tempdir();
+    let decomposition = |depth: &str| {
+        format!(
+            "Lsystem: 1\nderivation length: 1\nAxiom: A\nA --> B\ndecomposition\n\
+             maximum depth: {depth}\nB --> C\nC --> D\nD --> E\nendlsystem\n"
+        )
+    };
+    for (depth, want, warns) in [("0", "B", false), ("-3", "B", false), ("2.7", "D", true)] {
+        let file = write(dir.path(), "d.l", decomposition(depth));
+        let (out, err) = derive(&[], &file);
+        assert_eq!(out, format!("{want}\n"), "maximum depth: {depth}");
+        assert_eq!(
+            err.contains("stopped at maximum depth"),
+            warns,
+            "{depth}: {err}"
+        );
+    }
+    for (section, depth, warns) in [
+        ("homomorphism", "0", true),
+        ("homomorphism no warnings", "-1", false),
+    ] {
+        let file = write(
+            dir.path(),
+            "h.l",
+            format!(
+                "Lsystem: 1\nderivation length: 1\nAxiom: A\nA --> BAB\n{section}\n\
+                 maximum depth: {depth}\nB --> C\nendlsystem\n"
+            ),
+        );
+        let (out, err) = derive(&[], &file);
+        assert_eq!(out, "BAB\n", "{section}, {depth}");
+        assert_eq!(
+            err.contains("homomorphism stopped at maximum depth 0"),
+            warns,
+            "{section}: {err}"
+        );
+    }
+    for (length, want) in [("-2", "A(-2)"), ("2.7", "A(4)")] {
+        let file = write(
+            dir.path(),
+            "n.l",
+            format!("Lsystem: 1\nderivation length: {length}\nAxiom: A(Z)\nA(x) --> A(x+1)\nendlsystem\n"),
+        );
+        assert_eq!(derive(&[], &file).0, format!("{want}\n"), "{length}");
+    }
+}

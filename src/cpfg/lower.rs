@@ -261,12 +261,33 @@ impl Lowerer<'_> {
                 e.span(),
                 Invalid::OutOfRange {
                     what,
+                    min: 0.0,
                     max,
                     value: v,
                 },
             );
         }
         Ok(v)
+    }
+
+    /// A setting's value as cpfg's `(int) Eval(...)` of `lsys_input.y`
+    /// gives it: truncated toward zero. A value no `int` holds (or NaN) is
+    /// undefined behaviour in C: a located error here.
+    fn c_int(&mut self, e: &Expr, what: &'static str) -> R<i64> {
+        let v = self.constant(e)?.trunc();
+        let (min, max) = (f64::from(i32::MIN), f64::from(i32::MAX));
+        if !(min..=max).contains(&v) {
+            return err(
+                e.span(),
+                Invalid::OutOfRange {
+                    what,
+                    min,
+                    max,
+                    value: v,
+                },
+            );
+        }
+        Ok(v as i64)
     }
 
     fn module(&mut self, m: &Module, formals: &HashMap<String, ()>) -> R<ls::Module> {
@@ -505,9 +526,25 @@ impl Lowerer<'_> {
     ) -> R<(ls::Section, Vec<ls::Production>)> {
         let mut settings = Vec::new();
         if let Some((e, span)) = &s.depth {
-            let v = self.constant(e)?;
+            // `(int) Eval(...)` (lsys_input.y's ProdDepth): truncated; 0 or
+            // below stops at the top: no decomposition
+            // (ApplyRecursiveProductions returns at once), the
+            // homomorphism applies nothing but still warns
+            // (InterpretHomomorphism). lsgen recurses at most 10000 deep.
+            let v = self.c_int(e, "the maximum depth")?;
+            if v > 10_000 {
+                return err(
+                    e.span(),
+                    Invalid::OutOfRange {
+                        what: "the maximum depth",
+                        min: f64::from(i32::MIN),
+                        max: 10_000.0,
+                        value: v as f64,
+                    },
+                );
+            }
             settings.push(ls::SectionSetting::MaximumDepth(
-                ls::Expr::Num(v, e.span()),
+                ls::Expr::Num(v.max(0) as f64, e.span()),
                 *span,
             ));
         }
@@ -582,13 +619,15 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, Warning)) ->
                     .push(ls::Setting::Seed(ls::Expr::Num(v, e.span()), *span));
             }
             Setting::DerivationLength(e, span) => {
-                let n = lw.whole(e, "the derivation length", 9.007_199_254_740_992e15)?;
-                lw.z = Some(n);
+                // `(int) Eval(...)`: truncated; below 0 cpfg derives no
+                // step (GenerateNSteps' loop), but `Z` keeps the value.
+                let n = lw.c_int(e, "the derivation length")?;
+                lw.z = Some(n as f64);
                 header
                     .settings
                     .retain(|s| !matches!(s, ls::Setting::DerivationLength(..)));
                 header.settings.push(ls::Setting::DerivationLength(
-                    ls::Expr::Num(n, e.span()),
+                    ls::Expr::Num(n.max(0) as f64, e.span()),
                     *span,
                 ));
             }

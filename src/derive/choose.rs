@@ -333,6 +333,39 @@ impl Chooser {
         )
     }
 
+    /// The first of `kr`'s productions that applies, as cpfg's
+    /// homomorphism tries them (contexts, pre-condition block, condition),
+    /// without applying it: its post-condition block does not run. For a
+    /// homomorphism of `maximum depth:` 0 (cpfg's `InterpretHomomorphism`
+    /// stops there, keeping the module, with a warning if one applies).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn first_cpfg<F>(
+        &mut self,
+        slots: &mut [f64],
+        table: &Table,
+        kr: &KeyRules,
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        mut contexts: F,
+    ) -> Result<Option<u32>, Error>
+    where
+        F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    {
+        if pass == Pass::Homomorphism && !self.nested {
+            if let Some(c) = rng.cpfg_mut() {
+                c.hom_condition();
+            }
+        }
+        for &pi in cpfg_list(table, kr) {
+            let p = &table.prods[pi as usize];
+            if self.matches_cpfg(slots, p, rng, origin, pass, &mut contexts)? {
+                return Ok(Some(pi));
+            }
+        }
+        Ok(None)
+    }
+
     /// [`Chooser::choose`] for an `.ls` file (`rng` is not cpfg's): the
     /// step engine decides that once per pass, so its hot loop holds no
     /// cpfg path.

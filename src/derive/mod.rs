@@ -413,7 +413,7 @@ pub(crate) fn derive(
     let structural = !schedule.is_empty()
         || group_expr.is_some()
         || decomposition.is_some()
-        || hom_depth > 1
+        || hom_depth != 1
         || (hom && warnings[1])
         || std::iter::once(&productions)
             .chain(groups.iter().map(|(_, g)| g.own()))

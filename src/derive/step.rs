@@ -575,7 +575,7 @@ impl<'a> Deriver<'a> {
         let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         // Bytes that need no decision take the table; with contexts, keys
         // that have context productions and brackets still go the long way.
-        let hom_rec = pass == Pass::Homomorphism && (hom_depth > 1 || self.warnings[1]);
+        let hom_rec = pass == Pass::Homomorphism && (hom_depth != 1 || self.warnings[1]);
         let fast = (!table.check_balance && decomp.is_none() && !hom_rec).then(|| {
             let mut t = ByteTable::new(
                 table,
@@ -964,6 +964,28 @@ impl<'a> Deriver<'a> {
         }
         // The nearest considered module to the left, looked up once.
         let last = st.left.as_ref().map(|l| l.last_key());
+        if pass == Pass::Homomorphism && hom_depth == 0 {
+            // cpfg dialect, `maximum depth:` 0 or below: cpfg's
+            // `InterpretHomomorphism` tries the productions, then stops at
+            // depth 0 >= the maximum: the module stays, with the depth
+            // warning if one applied.
+            let found = chooser.first_cpfg(slots, table, kr, rng, origin, pass, |p, slots| {
+                run_contexts(p, slots, st, al, last, end_off)
+            })?;
+            if let Some(pi) = found {
+                if warnings[1] && !warned[1].get() {
+                    warned[1].set(true);
+                    let warning = crate::diag::Warning::MaximumDepth {
+                        max: 0,
+                        symbol: al.symbol(key),
+                        pass,
+                    };
+                    let at = origin.locate(table.prods[pi as usize].start());
+                    crate::diag::warn(at, &warning);
+                }
+            }
+            return Ok(false);
+        }
         let chosen = if st.cpfg_choice {
             choose_cpfg(
                 chooser,

@@ -544,9 +544,11 @@ pub enum CompileError {
     StatementAsValue(String),
     /// cpfg: a setting or axiom parameter that is not a constant.
     NotConstant,
-    /// cpfg: a setting (which) outside 0 to `max` (its value, truncated).
+    /// cpfg: a setting (which) outside `min` to `max` (its value,
+    /// truncated).
     OutOfRange {
         what: &'static str,
+        min: f64,
         max: f64,
         value: f64,
     },
@@ -649,9 +651,12 @@ impl fmt::Display for CompileError {
             NotConstant => f.write_str(
                 "this value must be known before the derivation (a constant expression)",
             ),
-            OutOfRange { what, max, value } => {
-                write!(f, "{what} must be from 0 to {max}, not {value}")
-            }
+            OutOfRange {
+                what,
+                min,
+                max,
+                value,
+            } => write!(f, "{what} must be from {min} to {max}, not {value}"),
             FormalTwice(name) => write!(
                 f,
                 "formal parameter `{name}` is named twice in this production (cpfg: multiple definition)"

@@ -482,10 +482,15 @@ impl<'a> Compiler<'a> {
             .into_iter()
             .map(|(n, _, t)| (n, Group::new(t, &productions, cpfg)))
             .collect();
-        let decomposition = self.decomposition.map(|(mut t, depth)| {
-            done(&mut t);
-            (t, depth)
-        });
+        // A decomposition of maximum depth 0 (cpfg dialect) decomposes
+        // nothing: cpfg's `ApplyRecursiveProductions` returns at depth 0.
+        let decomposition =
+            self.decomposition
+                .filter(|(_, depth)| *depth > 0)
+                .map(|(mut t, depth)| {
+                    done(&mut t);
+                    (t, depth)
+                });
         let mut homomorphism = self.homomorphism;
         done(&mut homomorphism);
         let mut step_hidden = self.step_hidden;
@@ -539,7 +544,7 @@ impl HeaderSink for Compiler<'_> {
                     return;
                 }
                 let consts = &self.settled.as_ref().unwrap().consts;
-                match section_settings(&start.settings, consts) {
+                match section_settings(&start.settings, consts, self.cpfg) {
                     Ok((depth, None)) => self.decomposition = Some((Table::default(), depth)),
                     Ok((_, Some(span))) => {
                         self.fail(stage, UserError::new(span, CompileError::DecompositionSeed))
@@ -553,18 +558,19 @@ impl HeaderSink for Compiler<'_> {
                     return;
                 }
                 let consts = &self.settled.as_ref().unwrap().consts;
-                let hom = section_settings(&start.settings, consts).and_then(|(depth, _)| {
-                    let seed = start
-                        .settings
-                        .iter()
-                        .find_map(|x| match x {
-                            ast::SectionSetting::Seed(e, _) => Some(e),
-                            _ => None,
-                        })
-                        .map(|e| seed_value(e, consts, self.src))
-                        .transpose()?;
-                    Ok((depth, seed))
-                });
+                let hom =
+                    section_settings(&start.settings, consts, self.cpfg).and_then(|(depth, _)| {
+                        let seed = start
+                            .settings
+                            .iter()
+                            .find_map(|x| match x {
+                                ast::SectionSetting::Seed(e, _) => Some(e),
+                                _ => None,
+                            })
+                            .map(|e| seed_value(e, consts, self.src))
+                            .transpose()?;
+                        Ok((depth, seed))
+                    });
                 match hom {
                     Ok(h) => self.hom = Some(h),
                     Err(e) => self.fail(stage, e),
@@ -614,9 +620,14 @@ fn balanced(t: &Table, kind: CompileError) -> R<()> {
 
 /// A decomposition or homomorphism section's `maximum depth:` (default 1)
 /// and where its `seed:` is, if any.
+///
+/// In the cpfg dialect the lowering has made the depth cpfg's `(int)` of
+/// the value, 0 for one at or below 0 (`src/cpfg/lower.rs`): 0 is no
+/// decomposition, and a homomorphism that applies nothing (but warns).
 fn section_settings(
     settings: &[ast::SectionSetting],
     consts: &HashMap<String, f64>,
+    cpfg: bool,
 ) -> R<(usize, Option<Span>)> {
     let mut depth = None;
     let mut seed = None;
@@ -627,7 +638,8 @@ fn section_settings(
                     return err(*span, CompileError::MaximumDepthTwice);
                 }
                 let v = constant(e, consts, &mut Random::new(0))?;
-                if !(1.0..=10000.0).contains(&v) || v.fract() != 0.0 {
+                let min = if cpfg { 0.0 } else { 1.0 };
+                if !(min..=10000.0).contains(&v) || v.fract() != 0.0 {
                     return err(e.span(), CompileError::MaximumDepthRange);
                 }
                 depth = Some(v as usize);

@@ -980,11 +980,11 @@ class Parser:
             elif k == "SEED":
                 self.take()
                 ls.stochastic = True
-                ls.seed = int(self.rt.eval(self.expression()))
+                ls.seed = c_int(self.rt.eval(self.expression()))
                 self.expect("EOL", "end of line")
             elif k == "DLENGTH":
                 self.take()
-                ls.n = int(self.rt.eval(self.expression()))
+                ls.n = c_int(self.rt.eval(self.expression()))
                 self.globals["Q"] = self.rt.q_cell
                 self.rt.z_cell.value = float(ls.n)
                 self.globals["Z"] = self.rt.z_cell
@@ -1029,7 +1029,7 @@ class Parser:
             self.eols()
             if self.peek()[0] == "MDEPTH":
                 self.take()
-                ls.decomp_depth = int(self.rt.eval(self.expression()))
+                ls.decomp_depth = c_int(self.rt.eval(self.expression()))
                 self.expect("EOL", "end of line")
             self.section = "D"
             ls.decomp = self.productions()
@@ -1042,11 +1042,11 @@ class Parser:
                 self.eols()
                 if self.peek()[0] == "SEED":
                     self.take()
-                    ls.homo_seed = int(self.rt.eval(self.expression()))
+                    ls.homo_seed = c_int(self.rt.eval(self.expression()))
                     self.expect("EOL", "end of line")
                 elif self.peek()[0] == "MDEPTH":
                     self.take()
-                    ls.homo_depth = int(self.rt.eval(self.expression()))
+                    ls.homo_depth = c_int(self.rt.eval(self.expression()))
                     self.expect("EOL", "end of line")
                 else:
                     break
@@ -1322,9 +1322,10 @@ class Parser:
 
 
 def c_int(v):
-    """C's (int) conversion of a double: truncation toward zero."""
-    if math.isnan(v) or math.isinf(v):
-        raise CpfgError("conversion of %r to an integer" % v)
+    """C's (int) conversion of a double: truncation toward zero; a value no
+    32-bit int holds (NaN, infinities included) is undefined behaviour."""
+    if math.isnan(v) or math.isinf(v) or not -2147483649.0 < v < 2147483648.0:
+        raise CpfgError("conversion of %r to an integer (undefined in C)" % v)
     return int(v)
 
 
@@ -1454,7 +1455,10 @@ class Runtime:
         if name == "biran":
             return self.rng.biran(c_int(v[0]), v[1])
         if name == "srand":
-            self.rng.srand(c_int(v[0]))
+            # (long int) in generate.c's Eval
+            if math.isnan(v[0]) or math.isinf(v[0]):
+                raise CpfgError("srand of %r (undefined in C)" % v[0])
+            self.rng.srand(int(v[0]))
             return 0.0
         raise CpfgError("unknown function %s" % name)
 
