@@ -204,3 +204,40 @@ fn depths_and_lengths_truncate_as_cpfg() {
         assert_eq!(derive(&[], &file).0, format!("{want}\n"), "{length}");
     }
 }
+
+/// A negative `seed:` is cpfg's: `(int)`, then control.c's
+/// `seed48({seed, 0, 155})` stores it in an `unsigned short`, modulo 2^16:
+/// -65529 seeds as 7, -1 as 65535, and -65536 (non-zero, so seed48 is
+/// called) as 0, which is X = 155 << 32, not the unseeded state of
+/// `seed: 0`. Strings of tests/cpfg/stochastic.l from
+/// tests/tools/cpfg_ref.py (-1 and 65535 agree, so do -65536 and 65536).
+#[test]
+fn negative_seeds_wrap_as_an_unsigned_short() {
+    let src = std::fs::read_to_string(Path::new(ROOT).join("tests/cpfg/stochastic.l")).unwrap();
+    assert!(src.contains("seed: 7\n"));
+    let dir = tempdir();
+    let seven =
+        std::fs::read_to_string(Path::new(ROOT).join("tests/expected/cpfg/stochastic.n5.txt"))
+            .unwrap();
+    let cases = [
+        ("-65529", seven.trim_end()),
+        (
+            "-1",
+            "H[+F(2)[-F(0)][-F(1)[+F(0)]F(1)]]H[-F(3)[-F(0)][-F(1)[-F(0)]][-F(2)[+F(0)]F(2)[-F(1)]]]\
+             [-H[+F(2)[+F(0)]F(2)[-F(1)]]H[-G[-F(1)][+F(2)[+F(1)]F(2)[-F(0)]]F(3)[-F(0)][-F(1)[-F(0)]]]]",
+        ),
+        ("-65536", "F(5)[+F(0)]F(5)[-F(1)[-F(0)]][-F(3)[-F(0)]][-H]"),
+    ];
+    for (seed, want) in cases {
+        let file = write(
+            dir.path(),
+            "s.l",
+            src.replace("seed: 7\n", &format!("seed: {seed}\n")),
+        );
+        assert_eq!(
+            derive(&["-n", "5"], &file).0,
+            format!("{want}\n"),
+            "seed: {seed}"
+        );
+    }
+}

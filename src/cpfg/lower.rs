@@ -608,8 +608,19 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, Warning)) ->
                 return err(*span, crate::diag::ParseError::Refused(what.clone()))
             }
             Setting::Seed(e, span) => {
-                // seed48 keeps 16 bits; the shared setting keeps the value.
-                let v = lw.whole(e, "the seed", 9.007_199_254_740_992e15)?;
+                // `(int) Eval(...)` (lsys_input.y); control.c seeds with
+                // `seed48({seed, 0, 155})` when it is not 0, the `int`
+                // stored in an `unsigned short`: its low 16 bits, modulo
+                // 2^16 for a negative one. The shared setting keeps a
+                // value that says the same (src/cpfg/random.rs keeps 16
+                // bits of a non-zero seed): a non-negative seed as it is,
+                // a negative one as the non-zero 65536 + (seed mod 2^16).
+                let v = lw.c_int(e, "the seed")?;
+                let v = if v >= 0 {
+                    v as f64
+                } else {
+                    f64::from(v as u16) + 65536.0
+                };
                 lw.seeded = true;
                 header
                     .settings
