@@ -388,13 +388,16 @@ fn first_applicable_production_in_cpfg_only() {
 
 /// Without `seed:` cpfg never evaluates a production's weight, so one
 /// that is negative or undefined is no error there (the first applicable
-/// production applies); where `--seed` makes the weights count it is the
-/// located error it is with `seed:`.
+/// production applies). Where `--seed` makes the weights count, cpfg's
+/// `SelectProd` uses them as they are (a negative weight below, by hand:
+/// the total is -1 + 1 = 0, so r = 0, 0 - (-1) = 1 > 0, 1 - 1 = 0 <= 0:
+/// `C` for every draw), and an undefined one is the located error it is
+/// with `seed:`.
 #[test]
 fn unseeded_weights_are_not_evaluated() {
-    for (w, msg) in [
-        ("-1", "error: a probability cannot be negative (-1)"),
-        ("sqrt(-1)", "error: sqrt is undefined here"),
+    for (w, seeded) in [
+        ("-1", Ok("CCC\n")),
+        ("sqrt(-1)", Err("error: sqrt is undefined here")),
     ] {
         let l = format!(
             "Lsystem: 1\nderivation length: 1\nAxiom: AAA\nA --> B : {w}\nA --> C : 1\nendlsystem\n"
@@ -403,34 +406,50 @@ fn unseeded_weights_are_not_evaluated() {
         assert_eq!(r.code(), Some(0), "{w}: {}", r.stderr);
         assert_eq!(String::from_utf8_lossy(&r.stdout), "BBB\n", "{w}");
         assert!(!r.stderr.contains("error"), "{w}: {}", r.stderr);
-        // (With `--seed`, the warnings of a file without `seed:` first.)
-        let r = run_with_stdin(lsgen().args(["-", "--seed", "3"]), l.as_str());
-        assert_eq!(r.code(), Some(1), "{w}: {}", r.stderr);
-        let errors: Vec<&str> = r.stderr.lines().filter(|x| x.contains("error")).collect();
-        assert_eq!(
-            errors,
-            [format!("lsgen: <stdin>:4:11: {msg}")],
-            "{}",
-            r.stderr
-        );
-        let seeded = l.replace("Lsystem: 1\n", "Lsystem: 1\nseed: 3\n");
-        let e = run_with_stdin(lsgen().arg("-"), seeded.as_str())
-            .one_error()
-            .to_string();
-        assert!(
-            e.starts_with(&format!("lsgen: <stdin>:5:11: {msg}\n")),
-            "{e}"
-        );
+        let with_seed = run_with_stdin(lsgen().args(["-", "--seed", "3"]), l.as_str());
+        let seeded_file = l.replace("Lsystem: 1\n", "Lsystem: 1\nseed: 3\n");
+        let with_setting = run_with_stdin(lsgen().arg("-"), seeded_file.as_str());
         // The library: loaded without a seed, derived with one.
         let mut ls = lsgen::LSystem::from_reader(std::io::Cursor::new(l.clone()), "t.l")
             .expect("loads: the weights do not count");
-        let e = ls
-            .derive(&lsgen::Options::new().seed(3), Vec::new())
-            .expect_err("the weights count");
-        assert!(
-            e.to_string().starts_with(&format!("t.l:4:11: {msg}")),
-            "{e}"
-        );
+        let mut out = Vec::new();
+        let library = ls.derive(&lsgen::Options::new().seed(3), &mut out);
+        match seeded {
+            Ok(want) => {
+                for r in [&with_seed, &with_setting] {
+                    assert_eq!(r.code(), Some(0), "{w}: {}", r.stderr);
+                    assert_eq!(String::from_utf8_lossy(&r.stdout), want, "{w}");
+                    assert!(!r.stderr.contains("error"), "{w}: {}", r.stderr);
+                }
+                library.expect("the weights count, and are fine");
+                assert_eq!(String::from_utf8_lossy(&out), want, "{w}");
+            }
+            Err(msg) => {
+                // (With `--seed`, the warnings of a file without `seed:` first.)
+                assert_eq!(with_seed.code(), Some(1), "{w}: {}", with_seed.stderr);
+                let errors: Vec<&str> = with_seed
+                    .stderr
+                    .lines()
+                    .filter(|x| x.contains("error"))
+                    .collect();
+                assert_eq!(
+                    errors,
+                    [format!("lsgen: <stdin>:4:11: {msg}")],
+                    "{}",
+                    with_seed.stderr
+                );
+                let e = with_setting.one_error().to_string();
+                assert!(
+                    e.starts_with(&format!("lsgen: <stdin>:5:11: {msg}\n")),
+                    "{e}"
+                );
+                let e = library.expect_err("the weights count");
+                assert!(
+                    e.to_string().starts_with(&format!("t.l:4:11: {msg}")),
+                    "{e}"
+                );
+            }
+        }
     }
 }
 

@@ -241,3 +241,25 @@ fn negative_seeds_wrap_as_an_unsigned_short() {
         );
     }
 }
+
+/// Negative weights take part in cpfg's stochastic choice as they are
+/// (generate.c: FindApplProductions adds each to the total, SelectProd
+/// draws r = total * drand48() as a float and subtracts the weights in
+/// file order, the first production where r <= 0 wins, none if r stays
+/// above 0). By hand: `A`'s weights 1, -1, 3 (total 3) give `B` for a
+/// draw up to 1/3 and `D` above, never `C`; `E`'s -1, 1 (total 0) always
+/// `Y`; `F`'s lone -2 (r = -2u, then r + 2 > 0) nothing, `F` is copied.
+/// The string (which `A` gets which) from tests/tools/cpfg_ref.py.
+#[test]
+fn negative_weights_compete_as_in_cpfg() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "neg.l",
+        "Lsystem: 1\nseed: 5\nderivation length: 2\nAxiom: A A A A A A A A E E F\n\
+         A --> B : 1\nA --> C : -1\nA --> D : 3\nE --> X : -1\nE --> Y : 1\nF --> Z : -2\nendlsystem\n",
+    );
+    let (out, err) = derive(&[], &file);
+    assert_eq!(out, "DDBDDBDBYYF\n");
+    assert_eq!(err, "");
+}

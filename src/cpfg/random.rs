@@ -75,9 +75,10 @@ impl Rand48 {
 /// applicable productions' `weights` in file order (already 32-bit
 /// floats). `totalprob * u` is a `float`; each weight is subtracted in
 /// turn and the first production where the remainder is `<= 0` wins, so a
-/// lone applicable production of weight 0 still wins. `None`: rounding
-/// left a remainder above 0 after the last one (cpfg then copies the
-/// module).
+/// lone applicable production of weight 0 still wins. Negative weights
+/// count as they are (cpfg checks none): they lower the total and raise
+/// the remainder. `None`: the remainder is still above 0 after the last
+/// one (rounding, or negative weights; cpfg then copies the module).
 pub fn select(weights: impl Iterator<Item = f32> + Clone, u: f64) -> Option<usize> {
     let total = weights.clone().fold(0f32, |t, w| t + w);
     let mut r = (f64::from(total) * u) as f32;
@@ -373,6 +374,13 @@ mod tests {
         assert_eq!(select([0f32, 1.0].into_iter(), 0.7), Some(1));
         assert_eq!(select([0f32, 1.0].into_iter(), 0.0), Some(0));
         assert_eq!(select(std::iter::empty(), 0.5), None);
+        // Negative weights: total 3, r = 3u; 1 wins up to u = 1/3, then the
+        // -1 raises r and 3 wins; a lone negative weight never does.
+        let w = [1f32, -1.0, 3.0];
+        assert_eq!(select(w.iter().copied(), 0.3), Some(0));
+        assert_eq!(select(w.iter().copied(), 0.34), Some(2));
+        assert_eq!(select([-2f32].into_iter(), 0.5), None);
+        assert_eq!(select([-1f32, 1.0].into_iter(), 0.9), Some(1));
     }
 
     #[test]

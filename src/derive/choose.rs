@@ -507,6 +507,27 @@ impl Chooser {
         Ok(w)
     }
 
+    /// A matching production's weight in cpfg's choice (1 without one):
+    /// any value, a negative one included, as cpfg's
+    /// `FindApplProductions` adds it to the total and `SelectProd`
+    /// subtracts it ([`crate::cpfg::random::select`]).
+    #[inline(always)]
+    fn weight_cpfg(
+        &mut self,
+        slots: &mut [f64],
+        p: &Production,
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+    ) -> Result<f64, Error> {
+        match p.prob() {
+            None => Ok(1.0),
+            Some(c) => c
+                .eval(slots, &mut self.stack, rng)
+                .map_err(|e| origin.eval_error(e, pass)),
+        }
+    }
+
     /// Candidate `pick` of a weighted choice: its production, with its
     /// bindings restored into `slots`.
     #[inline(always)]
@@ -588,7 +609,7 @@ impl Chooser {
             if !self.matches_cpfg(slots, p, rng, origin, pass, contexts)? {
                 continue;
             }
-            let w = self.weight(slots, p, rng, origin, pass)?;
+            let w = self.weight_cpfg(slots, p, rng, origin, pass)?;
             self.cand.push((pi, w));
             self.cand_slots.extend_from_slice(&slots[..p.nslots()]);
         }

@@ -737,7 +737,8 @@ fn compile_production(
         .as_ref()
         .map(|e| compile_code_in(e, &names, consts, cpfg))
         .transpose()?;
-    if let Some(w) = prob.as_ref().and_then(|c| c.constant()) {
+    // (cpfg takes a negative weight as it is: `SelectProd`.)
+    if let Some(w) = prob.as_ref().and_then(|c| c.constant()).filter(|_| !cpfg) {
         if w < 0.0 {
             return err(
                 p.prob.as_ref().unwrap().span(),
