@@ -513,3 +513,21 @@ fn huge_expression_is_a_located_error() {
         "{e}"
     );
 }
+
+/// A file that includes itself inside its include guard is read as cpp
+/// reads it: the included copy is skipped by the guard (no cycle error).
+/// By hand: N is 2, A --> AB twice gives ABB.
+#[test]
+fn a_guarded_self_include_is_followed() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "self.l",
+        "#ifndef SELF_L\n#define SELF_L\n#define N 2\n#include \"self.l\"\n\
+         Lsystem: 1\nderivation length: N\nAxiom: A\nA --> AB\nendlsystem\n#endif\n",
+    );
+    let r = run(lsgen().arg(&file));
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert_eq!(r.out(), "ABB\n");
+    assert_eq!(r.stderr, "");
+}

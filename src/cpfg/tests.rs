@@ -367,15 +367,25 @@ fn include_errors_point_into_the_included_file() {
 
 #[test]
 fn include_cycles_and_depth() {
+    // A cycle without a guard recurses to the depth limit: an error there,
+    // naming the cycle.
     let files = [
         ("a.h", "#include \"b.h\"\n"),
         ("b.h", "\n#include \"a.h\"\n"),
     ];
     let e = preprocess(Path::new("m.l"), "#include \"a.h\"\n", &mem(&files)).unwrap_err();
-    assert_eq!(place(&e), ("b.h", 2, 1));
-    assert_eq!(e.message(), "#include cycle: a.h -> b.h -> a.h");
+    // (m.l and 199 files: the 200th include is a.h's.)
+    assert_eq!(place(&e), ("a.h", 1, 1));
+    assert_eq!(
+        e.message(),
+        "#include recursion without end (over 200 files deep; an include guard would stop it): b.h -> a.h -> b.h"
+    );
     let e = preprocess(Path::new("m.l"), "#include \"./m.l\"\n", &mem(&[])).unwrap_err();
-    assert!(matches!(e.kind, PpErrorKind::IncludeCycle(_)), "{e}");
+    assert!(
+        matches!(e.kind, PpErrorKind::IncludeCycle { limit: 200, .. }),
+        "{e}"
+    );
+    assert!(e.message().ends_with(": m.l -> m.l"), "{e}");
 
     let files = [
         ("1.h", "#include \"2.h\"\n"),
@@ -407,6 +417,43 @@ fn include_cycles_and_depth() {
     )
     .unwrap();
     assert_eq!(o.text, "ok\n");
+}
+
+/// Guarded includes that come back to a file being included are cpp's:
+/// the guard ends the recursion (the expected texts are gcc's `cpp -P`
+/// output of the same files, its blank lines aside).
+#[test]
+fn guarded_include_cycles_are_followed() {
+    // The whole file guarded: its text once.
+    let m = "#ifndef M_L\n#define M_L\n#include \"m.l\"\nX\n#endif\n";
+    let o = preprocess(Path::new("m.l"), m, &mem(&[])).unwrap();
+    assert_eq!(o.text.split_whitespace().collect::<Vec<_>>(), ["X"]);
+    // Only the include guarded: the text after it twice, the included
+    // copy first.
+    let m = "#ifndef G\n#define G\n#include \"m.l\"\n#endif\nX\n";
+    let o = preprocess(Path::new("m.l"), m, &mem(&[])).unwrap();
+    assert_eq!(o.text.split_whitespace().collect::<Vec<_>>(), ["X", "X"]);
+    // Two headers that include each other, each guarded.
+    let files = [
+        (
+            "a.h",
+            "#ifndef A_H\n#define A_H\n#include \"b.h\"\nA\n#endif\n",
+        ),
+        (
+            "b.h",
+            "#ifndef B_H\n#define B_H\n#include \"a.h\"\nB\n#endif\n",
+        ),
+    ];
+    let o = preprocess(
+        Path::new("m.l"),
+        "#include \"a.h\"\n#include \"b.h\"\nM\n",
+        &mem(&files),
+    )
+    .unwrap();
+    assert_eq!(
+        o.text.split_whitespace().collect::<Vec<_>>(),
+        ["B", "A", "M"]
+    );
 }
 
 #[test]

@@ -136,8 +136,10 @@ pub enum PreprocessError {
         /// Why.
         source: std::io::Error,
     },
-    /// An `#include` that re-enters a file being included; the chain.
-    IncludeCycle(String),
+    /// An `#include` that re-enters a file being included, past the
+    /// include depth limit: a recursion without end; the chain from the
+    /// file's last entry, and the limit.
+    IncludeCycle { chain: String, limit: usize },
     /// A resource limit was reached.
     Limit {
         /// What outgrew it.
@@ -197,7 +199,10 @@ impl fmt::Display for PreprocessError {
                 path.display(),
                 super::io_message(source)
             ),
-            IncludeCycle(chain) => write!(f, "#include cycle: {chain}"),
+            IncludeCycle { chain, limit } => write!(
+                f,
+                "#include recursion without end (over {limit} files deep; an include guard would stop it): {chain}"
+            ),
             Limit { what, limit } => write!(f, "{what} (limit {limit})"),
             ErrorDirective(m) => write!(f, "#error {m}"),
         }

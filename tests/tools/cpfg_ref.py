@@ -273,10 +273,10 @@ class Preprocessor:
 
     def include(self, path, where):
         real = os.path.realpath(path)
-        if real in self.include_stack:
-            raise CpfgError("#include cycle: %s" % path, where)
-        if len(self.include_stack) >= 32:
-            raise CpfgError("#include nested too deeply", where)
+        # As cpp: a file may include itself (an include guard ends the
+        # recursion); only the depth is limited (gcc's cpp: 200 files).
+        if len(self.include_stack) >= 200:
+            raise CpfgError("#include nested too deeply (a recursion without end?)", where)
         try:
             with open(path, encoding="utf-8") as f:
                 text = f.read()

@@ -40,8 +40,6 @@
 //! - `#` in a function-like macro body must be followed by a parameter name
 //!   (C stringification), as in `vlabcpp`; a `##` that does not paste into
 //!   one token is an error.
-//! - A file that includes itself, directly or through others, is an error
-//!   even when include guards would stop the recursion.
 //! - Unsigned arithmetic is not distinguished in `#if` (`u` suffixes are
 //!   accepted and ignored); parentheses, unary operators and `?:` nest at
 //!   most 128 deep.
@@ -52,7 +50,9 @@
 //!
 //! Everything is bounded so that hostile input gives a located error instead
 //! of eating memory or time ([`Limits`], defaults in brackets): the output
-//! text (16 MiB), the `#include` nesting (32 files), the nesting of macro
+//! text (16 MiB), the `#include` nesting (200 files, so that a file that
+//! includes itself without a guard stops: an error naming the cycle), the
+//! nesting of macro
 //! argument expansions (64 levels), and the total number of tokens produced
 //! by macro expansion in one run (2^21, which stops a "macro bomb" such as
 //! `#define B A A` / `#define C B B` / ...).
@@ -101,7 +101,7 @@ impl Default for Limits {
     fn default() -> Limits {
         Limits {
             max_output: 16 << 20,
-            max_include_depth: 32,
+            max_include_depth: 200,
             max_expansion_depth: 64,
             max_expansion_tokens: 1 << 21,
         }
@@ -831,28 +831,42 @@ impl Pp<'_> {
             let e = DirectiveError::IncludeEmptyName;
             return Err(self.err(name_at, PpErrorKind::InvalidDirective(e)));
         }
-        if self.frames.len() >= self.limits.max_include_depth {
-            return Err(self.err(
-                at,
-                PpErrorKind::Limit {
-                    what: "#include nested too deeply",
-                    limit: self.limits.max_include_depth,
-                },
-            ));
-        }
         let path = include_path(&self.files[file as usize].path, &name);
         let key = normalize(&path);
-        if let Some(i) = self
-            .frames
-            .iter()
-            .position(|fr| self.files[fr.file as usize].key == key)
-        {
+        // A file may include itself (directly or not), as in cpp: include
+        // guards end the recursion. Only the depth is limited (vlabcpp
+        // stops at its input stack's end, gcc's cpp at 200 files).
+        let limit = self.limits.max_include_depth;
+        if self.frames.len() >= limit {
+            let again = self
+                .frames
+                .iter()
+                .rposition(|fr| self.files[fr.file as usize].key == key);
+            let Some(i) = again else {
+                return Err(self.err(
+                    at,
+                    PpErrorKind::Limit {
+                        what: "#include nested too deeply",
+                        limit,
+                    },
+                ));
+            };
             let mut chain: Vec<String> = self.frames[i..]
                 .iter()
                 .map(|fr| self.files[fr.file as usize].name.clone())
                 .collect();
             chain.push(path.display().to_string());
-            return Err(self.err(at, PpErrorKind::IncludeCycle(chain.join(" -> "))));
+            let chain = chain.join(" -> ");
+            return Err(self.err(at, PpErrorKind::IncludeCycle { chain, limit }));
+        }
+        // A file included again is read once (its text is kept).
+        if let Some(id) = self.files.iter().position(|f| f.key == key) {
+            self.frames.push(Frame {
+                file: id as u32,
+                pos: 0,
+                emitted: 0,
+            });
+            return Ok(());
         }
         let text = (self.loader)(&path).map_err(|source| {
             self.err(
