@@ -531,3 +531,32 @@ fn a_guarded_self_include_is_followed() {
     assert_eq!(r.out(), "ABB\n");
     assert_eq!(r.stderr, "");
 }
+
+/// A `'` not closed on its line is no fatal error: vlabcpp (cccp.c)
+/// reports "unterminated character constant", copies the rest of the line
+/// as it is (no macro expansion) and goes on, and cpfg reads its output
+/// (utility.c's PreprocessFile ignores its status). By hand: the first `X`
+/// becomes `Y`, the one after the quote stays, `'` is a module; the
+/// comment is skipped (by cpfg's scanner). tests/tools/cpfg_ref.py gives
+/// `YB'X` too.
+#[test]
+fn a_lone_quote_is_a_warning() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "q.l",
+        "#define X Y\nLsystem: 1\nderivation length: 1\nAxiom: A\nA --> X B' X /* c */\nendlsystem\n",
+    );
+    let r = run(lsgen().arg(&file));
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert_eq!(r.out(), "YB'X\n");
+    let path = file.display().to_string();
+    assert!(
+        r.stderr.starts_with(&format!(
+            "lsgen: {path}:5:10: warning: unterminated character constant"
+        )),
+        "{}",
+        r.stderr
+    );
+    assert!(!r.stderr.contains("error"), "{}", r.stderr);
+}

@@ -271,6 +271,10 @@ fn typed_messages_are_the_former_strings() {
         (Warning::PragmaIgnored.to_string(), "#pragma ignored"),
         (Warning::ExtraTokens("#undef X".into()).to_string(), "extra tokens after `#undef X` ignored"),
         (Warning::MacroRedefined("N".into()).to_string(), "macro `N` redefined"),
+        (
+            Warning::UnterminatedCharConstant.to_string(),
+            "unterminated character constant: the rest of the line is kept as it is, without macro expansion, as vlabcpp does",
+        ),
         (Warning::NotDefined("v".into()).to_string(), "`v` is not defined: it is 0 here, as in cpfg"),
         (Warning::ProbabilityWithoutSeed.to_string(), "a probability without `seed:` is ignored, as in cpfg (the first applicable production applies; `--seed` makes it count)"),
         (Warning::ProbabilityInSection("decomposition ").to_string(), "a probability in the decomposition section is ignored, as in cpfg (the first applicable decomposition production applies)"),

@@ -689,9 +689,22 @@ fn lexical_errors() {
     let e = err("A \\\n\"open\n");
     assert!(matches!(e.kind, PpErrorKind::UnterminatedLiteral('"')));
     assert_eq!(place(&e), ("m.l", 2, 1));
-    let e = err("don't\n");
+    // A `'` not closed on its line of text is vlabcpp's (cccp.c): a
+    // message, and the rest of the line as it is, without macro expansion
+    // (gcc's cpp does the same); a comment after it is still removed. In a
+    // directive it is an error.
+    let o = run("#define X Y\nX don't X /* c */\nX\n").unwrap();
+    assert_eq!(o.text, "\nY don't X  \nY\n");
+    assert_eq!(o.warnings.len(), 1);
+    assert_eq!(o.warnings[0].at.line, 2);
+    assert_eq!(o.warnings[0].at.col, 6);
+    assert_eq!(
+        o.warnings[0].message,
+        crate::diag::Warning::UnterminatedCharConstant
+    );
+    let e = err("#if 'a\n#endif\n");
     assert!(matches!(e.kind, PpErrorKind::UnterminatedLiteral('\'')));
-    assert_eq!(place(&e), ("m.l", 1, 4));
+    assert_eq!(place(&e), ("m.l", 1, 5));
 }
 
 // ---------------------------------------------------------------- limits

@@ -20,6 +20,8 @@ pub(crate) enum Warning {
     ExtraTokens(String),
     /// cpfg preprocessor: a macro defined again.
     MacroRedefined(String),
+    /// cpfg preprocessor: a `'` not closed on its line of text.
+    UnterminatedCharConstant,
     /// cpfg: a name that is neither a parameter nor a variable (it is 0).
     NotDefined(String),
     /// cpfg: a probability in a file without `seed:`.
@@ -52,6 +54,9 @@ impl fmt::Display for Warning {
             PragmaIgnored => f.write_str("#pragma ignored"),
             ExtraTokens(directive) => write!(f, "extra tokens after `{directive}` ignored"),
             MacroRedefined(name) => write!(f, "macro `{name}` redefined"),
+            UnterminatedCharConstant => f.write_str(
+                "unterminated character constant: the rest of the line is kept as it is, without macro expansion, as vlabcpp does",
+            ),
             NotDefined(name) => write!(f, "`{name}` is not defined: it is 0 here, as in cpfg"),
             ProbabilityWithoutSeed => f.write_str(
                 "a probability without `seed:` is ignored, as in cpfg (the first applicable production applies; `--seed` makes it count)",

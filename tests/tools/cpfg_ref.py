@@ -186,7 +186,10 @@ class Randomness:
 PP_TOKEN = re.compile(
     r"(?P<nl>\n)|(?P<ws>[ \t\r\f\v]+)|(?P<id>[A-Za-z_$][A-Za-z0-9_$]*)"
     r"|(?P<num>\.?[0-9](?:[eEpP][+-]|[A-Za-z0-9_.])*)"
-    r'|(?P<str>"(?:\\.|[^"\\\n])*")|(?P<other>.)',
+    r'|(?P<str>"(?:\\.|[^"\\\n])*")'
+    # a character constant, not macro-expanded; vlabcpp (cccp.c) ends one
+    # that is not closed at the end of its line, with a message, and goes on
+    r"|(?P<chr>'(?:\\.|[^'\\\n])*'?)|(?P<other>.)",
     re.S,
 )
 
@@ -237,11 +240,18 @@ def splice_and_strip(text, fname):
     n = len(s)
     while i < n:
         c = s[i]
-        if c == '"':
+        if c in "\"'":
             j = i + 1
-            while j < n and s[j] != '"' and s[j] != "\n":
+            while j < n and s[j] != c and s[j] != "\n":
                 j += 2 if s[j] == "\\" and j + 1 < n and s[j + 1] != "\n" else 1
-            j = j + 1 if j < n and s[j] == '"' else j
+            if j < n and s[j] == c:
+                j += 1
+            elif c == "'":
+                # a ' not closed on its line: cccp keeps the rest of the
+                # line, and cpfg's scanner skips a /* */ comment in it
+                res.append(c)
+                i += 1
+                continue
             res.append(s[i:j])
             i = j
         elif s.startswith("/*", i):
@@ -483,6 +493,9 @@ class Preprocessor:
 
     def emit_chunk(self, chunk, fname, start):
         toks = pp_lex("\n".join(chunk) + "\n")
+        for t in toks:
+            if t.kind == "chr" and (len(t.text) < 2 or not t.text.endswith("'")):
+                warn("unterminated character constant (kept as it is)", (fname, start))
         out = self.expand(toks, frozenset(), (fname, start))
         text = []
         pending = 0

@@ -127,7 +127,17 @@ pub(super) fn strip_comments(s: &str) -> Result<Stripped, usize> {
                         1
                     };
                 }
-                i = if j < b.len() && b[j] == q { j + 1 } else { j };
+                i = if j < b.len() && b[j] == q {
+                    j + 1
+                } else if q == b'\'' {
+                    // A `'` not closed on its line: vlabcpp keeps the rest
+                    // of the line as it is (a warning, in `next_tok`), and
+                    // cpfg's scanner skips a `/* */` comment there: strip
+                    // comments after it as anywhere.
+                    i + 1
+                } else {
+                    j
+                };
             }
             b'/' if matches!(b.get(i + 1), Some(b'*') | Some(b'/')) => {
                 let end = if b[i + 1] == b'*' {

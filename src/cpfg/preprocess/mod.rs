@@ -43,8 +43,12 @@
 //! - Unsigned arithmetic is not distinguished in `#if` (`u` suffixes are
 //!   accepted and ignored); parentheses, unary operators and `?:` nest at
 //!   most 128 deep.
-//! - `'` starts a character constant as in C (cpfg has no `'` module); one
-//!   not closed on its line is an error (`vlabcpp` reports it too).
+//! - `'` starts a character constant as in C: its text is not
+//!   macro-expanded. One not closed on its line of text is a warning and
+//!   the rest of the line is kept as it is, as `vlabcpp` (`cccp.c`)
+//!   reports it and goes on (cpfg reads its output whatever its status);
+//!   comments after it are still removed (cpfg's scanner skips them). In
+//!   a directive it is an error.
 //!
 //! # Limits
 //!
@@ -553,18 +557,22 @@ impl Pp<'_> {
         let mut v = Vec::new();
         let mut i = start;
         while i < end {
-            let t = self.lex_one(file, i, end)?;
+            let t = self.lex_one(file, i, end, false)?;
             i += t.len as usize;
             v.push(t);
         }
         Ok(v)
     }
 
-    fn lex_one(&self, file: u32, i: usize, end: usize) -> Res<Tok> {
+    /// The token at `i` (before `end`); `text`: in a line of text, where
+    /// a `'` not closed on the line is a `BadLit` token to the line's end
+    /// (elsewhere it is an error, as an unterminated `"` is everywhere).
+    fn lex_one(&self, file: u32, i: usize, end: usize, text: bool) -> Res<Tok> {
         let f = &self.files[file as usize];
         let (kind, j) = lex(f.clean.as_bytes(), i, end);
         let mut t = Tok::src(kind, file, i, j - i);
         match kind {
+            K::BadLit if text && f.clean.as_bytes()[i] == b'\'' => {}
             K::BadLit => {
                 let q = f.clean.as_bytes()[i] as char;
                 return Err(self.err(t.at, PpErrorKind::UnterminatedLiteral(q)));
@@ -593,7 +601,15 @@ impl Pp<'_> {
         let Some(cur) = cur else { return Ok(None) };
         loop {
             if cur.pos < cur.eol {
-                let t = self.lex_one(cur.file, cur.pos, cur.eol)?;
+                let mut t = self.lex_one(cur.file, cur.pos, cur.eol, true)?;
+                if t.kind == K::BadLit {
+                    // A `'` not closed on its line of text: vlabcpp
+                    // (cccp.c) reports it and goes on, the rest of the
+                    // line copied as it is (no macro expansion); cpfg
+                    // reads that output.
+                    self.warn(t.at, crate::diag::Warning::UnterminatedCharConstant);
+                    t.kind = K::Other;
+                }
                 cur.pos += t.len as usize;
                 return Ok(Some(t));
             }
