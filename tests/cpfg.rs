@@ -387,17 +387,22 @@ fn first_applicable_production_in_cpfg_only() {
 }
 
 /// Without `seed:` cpfg never evaluates a production's weight, so one
-/// that is negative or undefined is no error there (the first applicable
+/// that is negative, NaN or fails is no error there (the first applicable
 /// production applies). Where `--seed` makes the weights count, cpfg's
-/// `SelectProd` uses them as they are (a negative weight below, by hand:
-/// the total is -1 + 1 = 0, so r = 0, 0 - (-1) = 1 > 0, 1 - 1 = 0 <= 0:
-/// `C` for every draw), and an undefined one is the located error it is
-/// with `seed:`.
+/// `SelectProd` uses them as they are, by hand: a negative one, the total
+/// is -1 + 1 = 0, so r = 0, 0 - (-1) = 1 > 0, 1 - 1 = 0 <= 0: `C` for
+/// every draw; a NaN one (C's `sqrt(-1)`), the total and r are NaN, no
+/// `r <= 0` holds: no production, `A` is copied. One that cpfg cannot
+/// evaluate (`x % 0` crashes it) is the located error it is with `seed:`.
 #[test]
 fn unseeded_weights_are_not_evaluated() {
     for (w, seeded) in [
         ("-1", Ok("CCC\n")),
-        ("sqrt(-1)", Err("error: sqrt is undefined here")),
+        ("sqrt(-1)", Ok("AAA\n")),
+        (
+            "2 % (Q - 1)",
+            Err("error: remainder by zero (`x % 0` crashes cpfg) (in step 1)"),
+        ),
     ] {
         let l = format!(
             "Lsystem: 1\nderivation length: 1\nAxiom: AAA\nA --> B : {w}\nA --> C : 1\nendlsystem\n"

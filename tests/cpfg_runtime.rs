@@ -263,3 +263,32 @@ fn negative_weights_compete_as_in_cpfg() {
     assert_eq!(out, "DDBDDBDBYYF\n");
     assert_eq!(err, "");
 }
+
+/// NaN and infinities in cpfg expressions are C's doubles (generate.c's
+/// Eval: `stack > temp`, `!stack`, `stack ? a : b`, `&&`; CondDiff's
+/// `return !temp`), not errors: a comparison with NaN is false except
+/// `!=`, NaN is true as a condition and in `?:` / `&&`, `!NaN` is 0,
+/// inf - inf is NaN, `sign` of NaN is -1 (`x == 0 ? 0 : x > 0 ? 1 : -1`).
+/// By hand, and tests/tools/cpfg_ref.py gives the same string: Y(3), Y(4),
+/// Y(7) and Y(8) apply, the rest are copied.
+#[test]
+fn nan_and_infinities_are_values_as_in_c() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "nan.l",
+        "Lsystem: 1\nderivation length: 1\nAxiom: A(1) B(1) C(1) D(1) E(1) G(1) H(1) I(1)\n\
+         A(x) : sqrt(-x) > 0 --> Y(1)\n\
+         B(x) : sqrt(-x) <= 0 --> Y(2)\n\
+         C(x) : sqrt(-x) != 0 --> Y(3)\n\
+         D(x) : sqrt(-x) --> Y(4)\n\
+         E(x) : !sqrt(-x) --> Y(5)\n\
+         G(x) : exp(1000*x) - exp(1000*x) == 0 --> Y(6)\n\
+         H(x) : (log(-x) ? 1 : 0) && exp(1000) > 1 --> Y(7)\n\
+         I(x) : sign(asin(2*x)) < 0 --> Y(8)\n\
+         endlsystem\n",
+    );
+    let (out, err) = derive(&[], &file);
+    assert_eq!(out, "A(1)B(1)Y(3)Y(4)E(1)G(1)Y(7)Y(8)\n");
+    assert_eq!(err, "");
+}

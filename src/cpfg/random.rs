@@ -280,6 +280,9 @@ impl CpfgRandom {
         if n > BIRAN_MAX {
             return Err(RandomError::BiranTooManyTrials);
         }
+        if n.is_nan() || n <= -2_147_483_649.0 {
+            return Err(RandomError::BiranTrialsUndefined);
+        }
         let mut j = 0u32;
         for _ in 0..(n.max(0.0) as u32) {
             if self.xsubi.next_f64() <= p {
@@ -415,6 +418,11 @@ mod tests {
         assert_eq!(c.biran(10.0, 1.0).unwrap(), 10.0);
         assert_eq!(c.biran(10.0, -1.0).unwrap(), 0.0);
         assert!(c.biran(1e9, 0.5).is_err());
+        // (int) of NaN is undefined in C.
+        assert_eq!(
+            c.biran(f64::NAN, 0.5),
+            Err(RandomError::BiranTrialsUndefined)
+        );
         // biran draws exactly n times.
         let mut a = CpfgRandom::new(None);
         let mut b = CpfgRandom::new(None);

@@ -402,6 +402,9 @@ pub enum RandomError {
     BiranTooManyTrials,
     /// cpfg's `srand(x)` with x infinite or NaN.
     SrandNotFinite,
+    /// cpfg's `biran(n, p)` with n NaN or below a C `int` (its conversion
+    /// to `int` is undefined in C).
+    BiranTrialsUndefined,
 }
 
 impl fmt::Display for RandomError {
@@ -415,6 +418,9 @@ impl fmt::Display for RandomError {
             RandomError::BranNoValue => "bran() finds no value for these parameters",
             RandomError::BiranTooManyTrials => "biran() takes at most 16777216 trials",
             RandomError::SrandNotFinite => "srand() needs a finite number",
+            RandomError::BiranTrialsUndefined => {
+                "biran() needs a number of trials a C int holds (cpfg converts it to one)"
+            }
         })
     }
 }

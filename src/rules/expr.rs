@@ -4,7 +4,11 @@
 //! folded in at compile time, and so is any sub-expression without a
 //! parameter or a random draw. Every arithmetic result is checked: a
 //! division by zero, an overflow or a NaN stops the run with the span of
-//! the operation.
+//! the operation. The cpfg dialect computes as cpfg's C code does instead
+//! ([`Op::Ieee`], [`Op::F1Ieee`]): a NaN or an infinity is a value (a
+//! comparison with NaN is false, NaN is true as a condition), and only
+//! what C leaves undefined (converting one to an `int`) or what lsgen
+//! cannot store (a module parameter past a 32-bit float) is an error.
 
 use super::Thin;
 use crate::derive::random::{Draw, Random};
@@ -64,13 +68,15 @@ impl Func1 {
             Func1::Abs => x.abs(),
             Func1::Round => (x + 0.5).floor(),
             Func1::Float32 => f64::from(x as f32),
+            // cpfg's `sign` (generate.c): `x == 0 ? 0 : (x > 0 ? 1 : -1)`,
+            // so NaN is -1.
             Func1::Sign => {
-                if x > 0.0 {
-                    1.0
-                } else if x < 0.0 {
-                    -1.0
-                } else {
+                if x == 0.0 {
                     0.0
+                } else if x > 0.0 {
+                    1.0
+                } else {
+                    -1.0
                 }
             }
         }
@@ -166,10 +172,13 @@ enum Fun {
     Cpfg(CpfgFun),
 }
 
-/// cpfg's random functions besides `ran` and `nran` (issue 12), on its
-/// function generator.
+/// cpfg's random functions (issue 12), on its function generator.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum CpfgFun {
+    /// `ran(x)`: x times one draw (NaN and infinities are values).
+    Ran,
+    /// `nran(mean, sd)`: a normal deviate (likewise).
+    Nran,
     /// `bran(a, b)`: a beta deviate.
     Bran,
     /// `biran(n, p)`: a binomial deviate.
@@ -186,9 +195,16 @@ pub enum Op {
     /// The syntax tree's operators, one list for both (`lang::ast`).
     Un(UnOp),
     Bin(BinOp, u32),
-    /// cpfg's `/`: a zero divisor divides by 1 (with a warning).
+    /// cpfg's `/`: a zero divisor divides by 1 (with a warning). Cannot
+    /// fail: an infinite or NaN quotient is a value, as in C.
     DivOr1(u32),
     F1(Func1, u32),
+    /// cpfg's `+ - * ^`: C's double arithmetic, whose NaN and infinities
+    /// are values, not errors. Cannot fail.
+    Ieee(BinOp),
+    /// A function of the cpfg dialect (not [`Func1::Float32`]): C's
+    /// result, NaN (`sqrt(-1)`) and infinities included. Cannot fail.
+    F1Ieee(Func1),
     F2(Func2, u32),
     Ran(u32),
     Nran(u32),
@@ -277,6 +293,7 @@ enum Bin2 {
     Bin(BinOp),
     DivOr1,
     F2(Func2),
+    Ieee(BinOp),
 }
 
 impl Bin2 {
@@ -285,6 +302,7 @@ impl Bin2 {
             Op::Bin(b, _) => Some(Bin2::Bin(b)),
             Op::DivOr1(_) => Some(Bin2::DivOr1),
             Op::F2(f, _) => Some(Bin2::F2(f)),
+            Op::Ieee(b) => Some(Bin2::Ieee(b)),
             _ => None,
         }
     }
@@ -295,6 +313,7 @@ impl Bin2 {
             Bin2::Bin(b) => Op::Bin(b, 0),
             Bin2::DivOr1 => Op::DivOr1(0),
             Bin2::F2(f) => Op::F2(f, 0),
+            Bin2::Ieee(b) => Op::Ieee(b),
         }
     }
 }
@@ -391,6 +410,7 @@ impl Code {
         // The span of a fallible operation, or of the whole expression.
         let span_of = |op: Op| match op {
             Op::Bin(b, _) if !can_fail(b) => Some(whole),
+            Op::Ieee(_) => Some(whole),
             Op::Bin(_, si) | Op::DivOr1(si) | Op::F2(_, si) | Op::F1(_, si) => {
                 kept.get(si as usize).copied()
             }
@@ -556,8 +576,12 @@ impl Draft {
                 }
                 let si = self.span_index(*span);
                 self.ops.push(match fun {
+                    // cpfg: C's results, NaN and infinities included.
+                    Fun::F1(f) if scope.cpfg && f != Func1::Float32 => Op::F1Ieee(f),
                     Fun::F1(f) => Op::F1(f, si),
                     Fun::F2(f) => Op::F2(f, si),
+                    Fun::Ran if scope.cpfg => Op::CpfgRan(CpfgFun::Ran, si),
+                    Fun::Nran if scope.cpfg => Op::CpfgRan(CpfgFun::Nran, si),
                     Fun::Ran => Op::Ran(si),
                     Fun::Nran => Op::Nran(si),
                     Fun::Cpfg(f) => Op::CpfgRan(f, si),
@@ -579,6 +603,9 @@ impl Draft {
                 let si = self.span_index(*span);
                 self.ops.push(match op {
                     BinOp::Div if scope.cpfg => Op::DivOr1(si),
+                    BinOp::Add | BinOp::Sub | BinOp::Mul | BinOp::Pow if scope.cpfg => {
+                        Op::Ieee(*op)
+                    }
                     BinOp::Rem => {
                         if matches!(self.ops.last(), Some(Op::Const(v)) if v.trunc() == 0.0) {
                             return Err(EvalError {
@@ -684,7 +711,7 @@ impl Code {
                     let c = stack.last_mut().unwrap();
                     *c = if *c != 0.0 { a } else { b };
                 }
-                Op::Bin(..) | Op::DivOr1(_) | Op::F2(..) => {
+                Op::Bin(..) | Op::DivOr1(_) | Op::F2(..) | Op::Ieee(_) => {
                     let b = stack.pop().unwrap();
                     let a = stack.last_mut().unwrap();
                     *a = self.binary(*op, *a, b)?;
@@ -692,6 +719,10 @@ impl Code {
                 Op::F1(Func1::Float32, si) => {
                     let a = stack.last_mut().unwrap();
                     *a = self.float32(*a, si)?;
+                }
+                Op::F1Ieee(f) => {
+                    let a = stack.last_mut().unwrap();
+                    *a = f.apply(*a);
                 }
                 Op::F1(f, si) => {
                     let a = stack.last_mut().unwrap();
@@ -717,6 +748,17 @@ impl Code {
                 }
                 Op::CpfgRan(f, si) => {
                     let r = match f {
+                        // cpfg's `x * erand48()` (+ 0.0: no -0, as in the
+                        // `.ls` dialect) and `nrand`: any value.
+                        CpfgFun::Ran => {
+                            let a = stack.pop().unwrap();
+                            rng.uniform().map(|u| a * u + 0.0)
+                        }
+                        CpfgFun::Nran => {
+                            let sd = stack.pop().unwrap();
+                            let mean = stack.pop().unwrap();
+                            rng.normal(mean, sd)
+                        }
                         CpfgFun::Srand => {
                             let a = stack.pop().unwrap();
                             rng.srand(a)
@@ -789,6 +831,12 @@ impl Code {
             Op::Bin(BinOp::Ne, _) => return Ok(bool_f(a != b)),
             Op::Bin(BinOp::And, _) => return Ok(bool_f(a != 0.0 && b != 0.0)),
             Op::Bin(BinOp::Or, _) => return Ok(bool_f(a != 0.0 || b != 0.0)),
+            // cpfg: C's doubles (NaN and infinities are values).
+            Op::Ieee(BinOp::Add) => return Ok(a + b),
+            Op::Ieee(BinOp::Sub) => return Ok(a - b),
+            Op::Ieee(BinOp::Mul) => return Ok(a * b),
+            Op::Ieee(BinOp::Pow) => return Ok(a.powf(b)),
+            Op::F2(f @ Func2::AtanSecond, _) => return Ok(f.apply(a, b)),
             Op::Bin(BinOp::Add, si) => (a + b, si),
             Op::Bin(BinOp::Sub, si) => (a - b, si),
             Op::Bin(BinOp::Mul, si) => (a * b, si),
@@ -799,13 +847,12 @@ impl Code {
                 }
                 (a / b, si)
             }
-            Op::DivOr1(si) => {
+            Op::DivOr1(_) => {
                 if b == 0.0 {
                     warn_division_by_zero();
-                    (a, si)
-                } else {
-                    (a / b, si)
+                    return Ok(a);
                 }
+                return Ok(a / b);
             }
             Op::Bin(BinOp::Rem, si) => {
                 // C's (int) conversions and `%`: truncation toward zero.
@@ -813,7 +860,8 @@ impl Code {
                 if y == 0.0 {
                     return Err(self.fail(si, ExprError::RemainderByZero));
                 }
-                if x.abs() >= 2147483648.0 || y.abs() >= 2147483648.0 {
+                // (Also NaN: its conversion is undefined in C.)
+                if x.is_nan() || y.is_nan() || x.abs() >= 2147483648.0 || y.abs() >= 2147483648.0 {
                     return Err(self.fail(si, ExprError::RemainderOutOfRange));
                 }
                 (((x as i64) % (y as i64)) as f64, si)
@@ -980,6 +1028,61 @@ mod tests {
         assert!(e.message().contains("sqrt"), "{}", e.message());
         let e = eval_with("x * 1e308 * 10", &[("x", 1.0)]).unwrap_err();
         assert!(e.message().contains("overflow"), "{}", e.message());
+    }
+
+    /// The cpfg dialect computes as cpfg's C code: NaN and infinities are
+    /// values, in the in-place shapes and in blocks of code alike; only
+    /// storing one into a parameter (a 32-bit float) fails.
+    #[test]
+    fn cpfg_computes_as_c() {
+        let cp = |src: &str, x: f64, store: bool| {
+            let mut e = parse_expr(src).expect("parses");
+            if store {
+                e = Expr::Call(CPFG_F32.to_string(), vec![e.clone()], e.span());
+            }
+            let params: HashMap<String, u32> = [("x".to_string(), 0)].into_iter().collect();
+            let scope = Scope {
+                params: &params,
+                consts: &HashMap::new(),
+                cpfg: true,
+            };
+            let code = Code::compile(&e, &scope)?;
+            code.eval(&[x], &mut Vec::new(), &mut Random::new(1))
+        };
+        assert!(cp("sqrt(x)", -1.0, false).unwrap().is_nan());
+        assert_eq!(cp("sqrt(x) > 0", -1.0, false), Ok(0.0));
+        assert_eq!(cp("sqrt(x) != sqrt(x)", -1.0, false), Ok(1.0));
+        assert_eq!(cp("!log(x)", -1.0, false), Ok(0.0));
+        assert_eq!(cp("x * 1e308", 10.0, false), Ok(f64::INFINITY));
+        assert_eq!(cp("x * 1e308 * 10 > 1", 1.0, false), Ok(1.0));
+        assert!(cp("x ^ 0.5 + 1", -4.0, false).unwrap().is_nan());
+        assert!(cp("x * 1e308 * 10 - x * 1e308 * 10", 1.0, false)
+            .unwrap()
+            .is_nan());
+        assert_eq!(cp("log(x)", 0.0, false), Ok(f64::NEG_INFINITY));
+        // (A folded constant too.)
+        assert!(cp("sqrt(-1)", 0.0, false).unwrap().is_nan());
+        let e = cp("x * 1e308", 10.0, true).unwrap_err();
+        assert_eq!(e.kind, ExprError::OutOfF32);
+        let e = cp("sqrt(x) + 1", -1.0, true).unwrap_err();
+        assert_eq!(e.kind, ExprError::OutOfF32);
+        // A NaN operand of `%` (converted to an int) is undefined in C:
+        // an error.
+        let Expr::Binary(_, a, b, span) = parse_expr("sqrt(x) * 2").unwrap() else {
+            unreachable!()
+        };
+        let rem = Expr::Binary(BinOp::Rem, a, b, span);
+        let params: HashMap<String, u32> = [("x".to_string(), 0)].into_iter().collect();
+        let scope = Scope {
+            params: &params,
+            consts: &HashMap::new(),
+            cpfg: true,
+        };
+        let e = Code::compile(&rem, &scope)
+            .unwrap()
+            .eval(&[-1.0], &mut Vec::new(), &mut Random::new(1))
+            .unwrap_err();
+        assert_eq!(e.kind, ExprError::RemainderOutOfRange);
     }
 
     #[test]

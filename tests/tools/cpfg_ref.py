@@ -1407,7 +1407,13 @@ class Runtime:
             try:
                 return math.pow(a, b)
             except (ValueError, OverflowError):
-                return math.nan if a < 0 else math.inf
+                # C's pow: NaN for a negative base and a fraction, else an
+                # infinity (overflow, or 0 to a negative power), negative
+                # for a negative base and an odd power
+                odd = b == math.floor(b) and math.fmod(b, 2) != 0
+                if a < 0 and b != math.floor(b):
+                    return math.nan
+                return -math.inf if (a < 0 or math.copysign(1, a) < 0) and odd else math.inf
         raise CpfgError("bad operator %s" % op)
 
     def call(self, e):
@@ -1427,6 +1433,8 @@ class Runtime:
         v = [self.eval(a) for a in args]
         d = math.radians
         r = math.degrees
+        # C's libm results: NaN and infinities are values (a comparison
+        # with NaN is false, NaN is true as a condition).
         try:
             if name == "sin":
                 return math.sin(d(v[0]))
@@ -1444,11 +1452,15 @@ class Runtime:
             if name == "exp":
                 return math.exp(v[0])
             if name == "log":
-                return math.log(v[0])
+                return -math.inf if v[0] == 0 else math.log(v[0])
             if name == "sqrt":
                 return math.sqrt(v[0])
-        except (ValueError, OverflowError):
+        except OverflowError:
+            return math.inf
+        except ValueError:
             return math.nan
+        if name in ("floor", "ceil", "trunc") and not math.isfinite(v[0]):
+            return v[0]
         if name == "floor":
             return float(math.floor(v[0]))
         if name == "ceil":
