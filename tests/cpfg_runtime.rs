@@ -292,3 +292,47 @@ fn nan_and_infinities_are_values_as_in_c() {
     assert_eq!(out, "A(1)B(1)Y(3)Y(4)E(1)G(1)Y(7)Y(8)\n");
     assert_eq!(err, "");
 }
+
+/// The homomorphism's `seed:` and `maximum depth:` may come several times,
+/// the last of each winning (lsys_input.y: HomoItems is a list, each
+/// HomoSeed / ProdDepth assigns); a negative seed is as none (interpret.c
+/// seeds the homomorphism's generator only for `seed >= 0`, -1 being the
+/// default). The strings of `seed: 9` and of no seed are those of
+/// tests/tools/cpfg_ref.py (and `homomorphism_seed_is_for_successors`);
+/// depths by hand: 1 stops at `B`, 2 reaches `C`.
+#[test]
+fn homomorphism_settings_repeat_and_the_last_wins() {
+    let dir = tempdir();
+    let seeded = "R(0.00804881)S(0.0912162)R(0.742382)S(0.0601525)\n";
+    let unseeded = "R(0.749902)R(0.870465)S(0.785799)S(0.368766)\n";
+    for (settings, want) in [
+        ("seed: 1\nseed: 9\n", seeded),
+        ("seed: 9\nmaximum depth: 1\nseed: 9\n", seeded),
+        ("seed: 9\nseed: -5\n", unseeded),
+        ("", unseeded),
+    ] {
+        let file = write(
+            dir.path(),
+            "hs.l",
+            format!(
+                "Lsystem: 1\nderivation length: 1\nAxiom: A A A A\nA --> A\nhomomorphism\n{settings}\
+                 A : ran(1) < 0.5 --> R(ran(1))\nA --> S(ran(1))\nendlsystem\n"
+            ),
+        );
+        assert_eq!(derive(&[], &file).0, want, "{settings}");
+    }
+    for (settings, want) in [
+        ("maximum depth: 1\nmaximum depth: 2\n", "C\n"),
+        ("maximum depth: 2\nseed: 3\nmaximum depth: 1\n", "B\n"),
+    ] {
+        let file = write(
+            dir.path(),
+            "hd.l",
+            format!(
+                "Lsystem: 1\nderivation length: 1\nAxiom: X\nX --> A\nhomomorphism no warnings\n{settings}\
+                 A --> B\nB --> C\nendlsystem\n"
+            ),
+        );
+        assert_eq!(derive(&[], &file).0, want, "{settings}");
+    }
+}

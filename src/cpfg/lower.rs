@@ -252,24 +252,6 @@ impl Lowerer<'_> {
         }
     }
 
-    fn whole(&mut self, e: &Expr, what: &'static str, max: f64) -> R<f64> {
-        let v = self.constant(e)?;
-        // cpfg converts with C's (int): truncation.
-        let v = v.trunc();
-        if !(0.0..=max).contains(&v) {
-            return err(
-                e.span(),
-                Invalid::OutOfRange {
-                    what,
-                    min: 0.0,
-                    max,
-                    value: v,
-                },
-            );
-        }
-        Ok(v)
-    }
-
     /// A setting's value as cpfg's `(int) Eval(...)` of `lsys_input.y`
     /// gives it: truncated toward zero. A value no `int` holds (or NaN) is
     /// undefined behaviour in C: a located error here.
@@ -549,8 +531,16 @@ impl Lowerer<'_> {
             ));
         }
         if let Some((e, span)) = &s.seed {
-            let v = self.whole(e, "the homomorphism's seed", 9.007_199_254_740_992e15)?;
-            settings.push(ls::SectionSetting::Seed(ls::Expr::Num(v, e.span()), *span));
+            // `(int) Eval(...)` (lsys_input.y's HomoSeed); interpret.c
+            // gives the homomorphism its own generator only for a seed
+            // >= 0: a negative one is as none (its default is -1).
+            let v = self.c_int(e, "the homomorphism's seed")?;
+            if v >= 0 {
+                settings.push(ls::SectionSetting::Seed(
+                    ls::Expr::Num(v as f64, e.span()),
+                    *span,
+                ));
+            }
         }
         let prods = s
             .productions
