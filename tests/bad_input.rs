@@ -826,7 +826,7 @@ cases! {
     cpfg_printf_conversion =>
         err("Lsystem: 1\nEnd: {printf(\"%s\\n\", 1);}\nAxiom: A\nendlsystem\n", 2, 7, "printf: `%s` is not a conversion lsgen prints");
     cpfg_assign_q =>
-        err("Lsystem: 1\nStart: {Q = 1;}\nAxiom: A\nendlsystem\n", 2, 9, "`Q` cannot be assigned");
+        err("Lsystem: 1\nderivation length: 1\nStart: {Q = 1;}\nAxiom: A\nendlsystem\n", 3, 9, "`Q` cannot be assigned");
 }
 
 impl Case {

@@ -336,3 +336,62 @@ fn homomorphism_settings_repeat_and_the_last_wins() {
         assert_eq!(derive(&[], &file).0, want, "{settings}");
     }
 }
+
+/// `Q` and `Z` exist in cpfg from the `derivation length:` line on
+/// (lsys_input.y's Dlength adds them to the global symbol table; Derive
+/// then replaces `Q` there each step). Without that line they are
+/// undefined names: 0, with the warning, however many steps `-n` asks
+/// for. A name cpfg's parser does not find becomes a variable of the
+/// table in use, the L-system's in the header (settings, blocks, the
+/// axiom): a header item up to the line that names `Q` or `Z` makes it
+/// such a variable, which hides the built-in one from then on; in a
+/// production without the line, one assigned in its block is its own.
+/// Strings from tests/tools/cpfg_ref.py, which keeps cpfg's tables.
+#[test]
+fn q_and_z_come_with_the_derivation_length_line() {
+    let dir = tempdir();
+    let cases: [(&str, &str, &str); 5] = [
+        // Without the line: 0 in every step.
+        (
+            "2",
+            "Lsystem: 1\nAxiom: A(Q,Z)\nA(x,y) --> A(Q+x, Z+y+1)\nendlsystem\n",
+            "A(0,2)",
+        ),
+        // The line, and nothing before it: the step and the length.
+        (
+            "2",
+            "Lsystem: 1\nderivation length: 2\nStart: {g = Q + Z;}\nAxiom: A(Q,Z)\n\
+             A(x,y) --> A(Q+x, Z+y+1, g)\nendlsystem\n",
+            "A(1,5,2)",
+        ),
+        // `Z` read before the line: a variable of the L-system, 0 from
+        // then on (`Q` is still the step).
+        (
+            "2",
+            "Lsystem: 1\nseed: Z + 3\nderivation length: 2\nStart: {g = Q + Z;}\nAxiom: A(Q,Z)\n\
+             A(x,y) --> A(Q+x, Z+y+1, g)\nendlsystem\n",
+            "A(1,1,0)",
+        ),
+        // Without the line, `Q` assigned in a production's block is that
+        // production's variable...
+        (
+            "3",
+            "Lsystem: 1\nAxiom: A(0)\nA(x) : {Q = Q + 2;} * --> A(x+Q)\nB --> B(Q)\nendlsystem\n",
+            "A(12)",
+        ),
+        // ... and the L-system's once the axiom names it: `B` sees it.
+        (
+            "3",
+            "Lsystem: 1\nAxiom: A(Q) B\nA(x) : {Q = Q + 2;} * --> A(x+Q)\nB --> B(Q)\nendlsystem\n",
+            "A(12)B(2)",
+        ),
+    ];
+    for (n, src, want) in cases {
+        let file = write(dir.path(), "qz.l", src);
+        let (out, err) = derive(&["-n", n], &file);
+        assert_eq!(out, format!("{want}\n"), "{src}");
+        if !src.contains("derivation length") {
+            assert!(err.contains("`Q` is not defined"), "{src}: {err}");
+        }
+    }
+}

@@ -103,7 +103,7 @@ fn a_refused_construct_is_a_parse_error() {
 
 #[test]
 fn a_lowering_error_is_a_compile_error() {
-    let e = load_error("Lsystem: 1\nStart: {Q = 1;}\nAxiom: A\nendlsystem\n");
+    let e = load_error("Lsystem: 1\nderivation length: 1\nStart: {Q = 1;}\nAxiom: A\nendlsystem\n");
     assert_eq!(e.stage(), Stage::Compile);
     assert!(
         matches!(e.kind(), ErrorKind::Compile(CompileError::ReadOnly(n)) if n == "Q"),

@@ -4,8 +4,8 @@
 //! dialects.
 //!
 //! Names are resolved here, as cpfg resolves them: a formal parameter, `Q`
-//! (the step), `Z` (the derivation length), else an undefined name, which
-//! is 0 with a warning. The axiom's parameters are evaluated here (cpfg
+//! (the step), `Z` (the derivation length) once `derivation length:` has
+//! defined them, else an undefined name, which is 0 with a warning. The axiom's parameters are evaluated here (cpfg
 //! evaluates them once, as `float`s) and the axiom becomes module text.
 //!
 //! For the cpfg runtime (statement blocks, cpfg's generators), the
@@ -90,25 +90,28 @@ fn global_name(i: u32) -> String {
     format!("\u{1}g{i}")
 }
 
-/// Every name a block reads or assigns, in order.
-fn block_names(b: &Block, out: &mut Vec<String>, assigned_only: bool) {
-    fn expr(e: &Expr, out: &mut Vec<String>) {
-        match e {
-            Expr::Var(n, _) => out.push(n.clone()),
-            Expr::Num(..) | Expr::Str(..) => {}
-            Expr::Call(_, a, _) => a.iter().for_each(|e| expr(e, out)),
-            Expr::Unary(_, a, _) => expr(a, out),
-            Expr::Binary(_, a, b, _) => {
-                expr(a, out);
-                expr(b, out);
-            }
-            Expr::Cond(c, a, b, _) => {
-                expr(c, out);
-                expr(a, out);
-                expr(b, out);
-            }
+/// Every name an expression reads, in order.
+fn expr_names(e: &Expr, out: &mut Vec<String>) {
+    match e {
+        Expr::Var(n, _) => out.push(n.clone()),
+        Expr::Num(..) | Expr::Str(..) => {}
+        Expr::Call(_, a, _) => a.iter().for_each(|e| expr_names(e, out)),
+        Expr::Unary(_, a, _) => expr_names(a, out),
+        Expr::Binary(_, a, b, _) => {
+            expr_names(a, out);
+            expr_names(b, out);
+        }
+        Expr::Cond(c, a, b, _) => {
+            expr_names(c, out);
+            expr_names(a, out);
+            expr_names(b, out);
         }
     }
+}
+
+/// Every name a block reads or assigns, in order.
+fn block_names(b: &Block, out: &mut Vec<String>, assigned_only: bool) {
+    let expr = expr_names;
     for s in b {
         match s {
             ast::Stmt::Assign { name, value, .. } => {
@@ -160,6 +163,11 @@ fn formal_name(name: &str) -> String {
 struct Lowerer<'w> {
     /// The file's `derivation length:` (cpfg's `Z`), once read.
     z: Option<f64>,
+    /// `Q` and `Z` are cpfg's built-in variables (the step, the
+    /// derivation length) in the productions and header blocks: the file
+    /// has `derivation length:`, and no header item before it read or
+    /// assigned them (see [`lower`]).
+    builtin: [bool; 2],
     /// `seed:` given: cpfg's stochastic mode.
     seeded: bool,
     /// Lowering a value needed before the derivation (`Q` is 0).
@@ -182,23 +190,48 @@ struct Lowerer<'w> {
 }
 
 impl Lowerer<'_> {
+    /// Is `name` cpfg's built-in `Q` or `Z` here?
+    fn is_builtin(&self, name: &str) -> bool {
+        match name {
+            "Q" => self.builtin[0],
+            "Z" => self.builtin[1],
+            _ => false,
+        }
+    }
+
     fn expr(&mut self, e: &Expr, formals: &HashMap<String, ()>) -> R<ls::Expr> {
         Ok(match e {
             Expr::Num(v, s) => ls::Expr::Num(*v, *s),
             Expr::Var(name, s) => {
+                let q_or_z = name == "Q" || name == "Z";
                 if formals.contains_key(name) {
                     ls::Expr::Var(formal_name(name), *s)
-                } else if name == "Q" && self.constant {
-                    // Before the first step (settings, the axiom).
-                    ls::Expr::Num(0.0, *s)
+                } else if q_or_z && self.constant {
+                    // A setting or the axiom, read before any step or
+                    // block: `Q` is 0 and `Z` the length once
+                    // `derivation length:` has defined them; before that
+                    // line (or without it) they are undefined names, 0
+                    // with the warning (and, cpfg's parser having made
+                    // them variables of the L-system, not built in
+                    // afterwards: see `lower`).
+                    match self.z {
+                        Some(z) if self.is_builtin(name) => {
+                            ls::Expr::Num(if name == "Z" { z } else { 0.0 }, *s)
+                        }
+                        Some(_) => ls::Expr::Num(0.0, *s),
+                        None => {
+                            (self.warn)(*s, Warning::NotDefined(name.clone()));
+                            ls::Expr::Num(0.0, *s)
+                        }
+                    }
+                } else if name == "Q" && self.is_builtin(name) {
+                    ls::Expr::Var("step".to_string(), *s)
+                } else if let (Some(z), true) = (self.z, name == "Z" && self.is_builtin(name)) {
+                    ls::Expr::Num(z, *s)
                 } else if let Some(&g) = self.globals.get(name) {
                     ls::Expr::Var(global_name(g), *s)
                 } else if let Some(&l) = self.locals.get(name) {
                     ls::Expr::Var(global_name(l), *s)
-                } else if name == "Q" {
-                    ls::Expr::Var("step".to_string(), *s)
-                } else if let (Some(z), "Z") = (self.z, name.as_str()) {
-                    ls::Expr::Num(z, *s)
                 } else {
                     (self.warn)(*s, Warning::NotDefined(name.clone()));
                     ls::Expr::Num(0.0, *s)
@@ -441,10 +474,12 @@ impl Lowerer<'_> {
         block_names(&p.post, &mut assigned, true);
         self.locals.clear();
         for n in assigned {
-            // `Q` and `Z` are built in and read only: assigning one is an
-            // error (below), as in a header block, never a private copy.
+            // `Q` and `Z`, where built in, are read only: assigning one is
+            // an error (below), as in a header block, never a private
+            // copy. Where they are not (no `derivation length:`), they are
+            // names like any other, as in cpfg.
             if !formals.contains_key(&n)
-                && !matches!(n.as_str(), "Q" | "Z")
+                && !self.is_builtin(&n)
                 && !self.globals.contains_key(&n)
                 && !self.locals.contains_key(&n)
             {
@@ -562,8 +597,50 @@ impl Lowerer<'_> {
 
 /// Lower `ls`; `warn` receives each warning with its span.
 pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, Warning)) -> R<Lowered> {
+    // cpfg's parser defines `Q` and `Z` in the global symbol table at the
+    // `derivation length:` line (lsys_input.y, Dlength), after evaluating
+    // its value; a name it does not find is made a variable (0, with a
+    // warning) of the table in use: the L-system's, in the header. So a
+    // header item up to that line (or anywhere, without it) that reads or
+    // assigns `Q` or `Z` makes it an ordinary variable of the L-system,
+    // which hides the built-in one everywhere after (Derive updates only
+    // the global `Q`). Without such an item and without the line, they are
+    // undefined names (a production that assigns one has its own) unless
+    // the axiom names them.
+    let dl_at = lsys.settings.iter().find_map(|s| match s {
+        Setting::DerivationLength(_, span) => Some(span.0),
+        _ => None,
+    });
+    let before = |at: usize| dl_at.is_none_or(|d| at <= d);
+    let mut early = Vec::new();
+    for s in &lsys.settings {
+        match s {
+            Setting::Seed(e, span) | Setting::DerivationLength(e, span) if before(span.0) => {
+                expr_names(e, &mut early)
+            }
+            _ => {}
+        }
+    }
+    for (b, span) in [&lsys.start, &lsys.start_each, &lsys.end_each, &lsys.end]
+        .into_iter()
+        .flatten()
+    {
+        if before(span.0) {
+            block_names(b, &mut early, false);
+        }
+    }
+    if dl_at.is_none() {
+        // (The axiom is read in the L-system's table too.)
+        for piece in &lsys.axiom {
+            if let ast::AxiomPiece::Module(m) = piece {
+                m.params.iter().for_each(|e| expr_names(e, &mut early));
+            }
+        }
+    }
+    let builtin = ["Q", "Z"].map(|n| dl_at.is_some() && !early.iter().any(|e| e == n));
     let mut lw = Lowerer {
         z: None,
+        builtin,
         seeded: false,
         constant: false,
         warn,
@@ -574,7 +651,8 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, Warning)) ->
         section: 0,
     };
     // Every name of the header blocks is global (cpfg's L-system table);
-    // `Q` and `Z` are built in.
+    // so are `Q` and `Z` where they are not built in and a header item
+    // names them.
     let mut names = Vec::new();
     for (b, _) in [&lsys.start, &lsys.start_each, &lsys.end_each, &lsys.end]
         .into_iter()
@@ -582,8 +660,9 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, Warning)) ->
     {
         block_names(b, &mut names, false);
     }
+    names.extend(early.iter().filter(|n| *n == "Q" || *n == "Z").cloned());
     for n in names {
-        if n != "Q" && n != "Z" {
+        if !lw.is_builtin(&n) {
             let k = lw.globals.len() as u32;
             lw.globals.entry(n).or_insert(k);
         }
