@@ -345,7 +345,7 @@ impl LSystem {
                 ));
             }
         };
-        let loaded = crate::cpfg::load(&path, source)?;
+        let loaded = crate::cpfg::load(&path, source, seed.is_some())?;
         let system = compile_cpfg(&loaded, seed)?;
         Ok(LSystem {
             path,

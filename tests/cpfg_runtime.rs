@@ -395,3 +395,23 @@ fn q_and_z_come_with_the_derivation_length_line() {
         }
     }
 }
+
+/// The warning that weights are ignored without `seed:` is not given
+/// where `--seed` makes them count.
+#[test]
+fn seed_option_has_no_ignored_weights_warning() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "w.l",
+        "Lsystem: 1\nderivation length: 1\nAxiom: A\nA --> B : 1\nendlsystem\n",
+    );
+    let (_, err) = derive(&[], &file);
+    assert!(
+        err.contains("a probability without `seed:` is ignored"),
+        "{err}"
+    );
+    let (out, err) = derive(&["--seed", "3"], &file);
+    assert_eq!(out, "B\n");
+    assert_eq!(err, "");
+}

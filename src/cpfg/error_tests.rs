@@ -14,7 +14,7 @@ use crate::Pass;
 
 /// The error of loading the `.l` text `src` (named `dir/t.l`).
 fn load_error(src: &str) -> Error {
-    match super::load("/nonexistent-lsgen-dir/t.l", src) {
+    match super::load("/nonexistent-lsgen-dir/t.l", src, false) {
         Ok(_) => panic!("expected an error for {src:?}"),
         Err(e) => e,
     }
@@ -132,7 +132,8 @@ fn a_lowering_error_is_a_compile_error() {
     }
     assert!(super::load(
         "t.l",
-        "Lsystem: 1\nAxiom: A(1)\nA(Q) : {Q = 7;} * --> B(Q)\nendlsystem\n"
+        "Lsystem: 1\nAxiom: A(1)\nA(Q) : {Q = 7;} * --> B(Q)\nendlsystem\n",
+        false
     )
     .is_ok());
     // cpfg's `(int)` of a value no `int` holds is undefined behaviour.

@@ -124,7 +124,9 @@ pub fn locate(map: &SourceMap, e: UserError) -> Error {
 
 /// Preprocess, parse and lower `source`, the text of the file `name`
 /// (includes are read relative to it); warnings go to standard error.
-pub fn load(name: &str, source: &str) -> Result<Loaded, Error> {
+/// `seed_option`: it is derived with `--seed`, which makes its weights
+/// count (no warning that they are ignored).
+pub fn load(name: &str, source: &str, seed_option: bool) -> Result<Loaded, Error> {
     let out = preprocess::preprocess(Path::new(name), source, &preprocess::read_file)?;
     for w in &out.warnings {
         crate::diag::warn(w.at.clone(), &w.message);
@@ -134,6 +136,9 @@ pub fn load(name: &str, source: &str) -> Result<Loaded, Error> {
     let tree = parse::parse(&text).map_err(|e| locate(&map, e))?;
     axiom_brackets(&tree.axiom_brackets, &map)?;
     let lowered = lower::lower(&tree, &mut |span, warning| {
+        if seed_option && warning == crate::diag::Warning::ProbabilityWithoutSeed {
+            return;
+        }
         crate::diag::warn(map.location(span.0), &warning)
     })
     .map_err(|e| locate(&map, e))?;
