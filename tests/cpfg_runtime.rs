@@ -415,3 +415,32 @@ fn seed_option_has_no_ignored_weights_warning() {
     assert_eq!(out, "B\n");
     assert_eq!(err, "");
 }
+
+/// A left context with `[` or `]` never matches in cpfg: generate.c's
+/// LconDiff passes over the string's brackets (`]` skips a branch, `[` is
+/// stepped over) and compares the pattern only with other modules, so the
+/// production never applies, and its pre-condition block never runs
+/// (LconDiff fails before CondDiff). lsgen warns. By hand (and
+/// tests/tools/cpfg_ref.py): B's left context is A (`A < B`: V), C's is A
+/// past the branch (the last production: T, its block printing once).
+#[test]
+fn a_bracket_in_a_left_context_never_matches() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "lcb.l",
+        "Lsystem: 1\nderivation length: 1\nAxiom: A[B]C[D]E\n\
+         [ < B --> X\nA[ < B : {printf(\"never\\n\");} * --> Y\n] < C --> Z\nA] < C --> W\n\
+         A < B --> V\nB --> U\nC : {printf(\"tried\\n\");} * --> T\nendlsystem\n",
+    );
+    let (out, err) = derive(&[], &file);
+    assert_eq!(out, "A[V]T[D]E\n");
+    assert_eq!(
+        err.matches("a left context with `[` or `]` never matches")
+            .count(),
+        4,
+        "{err}"
+    );
+    assert!(!err.contains("never\n"), "{err}");
+    assert_eq!(err.matches("tried\n").count(), 1, "{err}");
+}

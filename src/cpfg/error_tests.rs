@@ -281,6 +281,10 @@ fn typed_messages_are_the_former_strings() {
         (Warning::ProbabilityInSection("decomposition ").to_string(), "a probability in the decomposition section is ignored, as in cpfg (the first applicable decomposition production applies)"),
         (Warning::StepHidden.to_string(), "`step` hides the built-in step number"),
         (
+            Warning::LeftContextBracket.to_string(),
+            "a left context with `[` or `]` never matches, as in cpfg (its matcher passes over the string's brackets): this production never applies",
+        ),
+        (
             Warning::DivisionByZero.to_string(),
             "division by zero in a cpfg expression: divided by 1 instead, as cpfg does",
         ),

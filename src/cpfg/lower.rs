@@ -524,6 +524,21 @@ impl Lowerer<'_> {
             }
         };
         self.locals.clear();
+        let (mut left, mut cond) = (left, cond);
+        if let Some(m) = p.left.iter().flatten().find(|m| matches!(m.sym, '[' | ']')) {
+            // cpfg's `LconDiff` passes over the string's brackets (`]`
+            // skips a branch, `[` is stepped over) and compares the pattern
+            // with other modules only: a bracket in a left context matches
+            // nothing, so the production never applies (its contexts fail
+            // before its pre-condition block or condition would run). Kept
+            // for its errors, with a false condition and no blocks.
+            (self.warn)(m.span, Warning::LeftContextBracket);
+            left.retain(|m| !matches!(m.sym, '[' | ']'));
+            cond = Some(Box::new(ls::Expr::Num(0.0, m.span)));
+            let x = self.extra[self.section].last_mut().expect("pushed above");
+            x.pre = None;
+            x.post = None;
+        }
         Ok(ls::Production {
             left,
             pred: pred.pop().expect("one module"),

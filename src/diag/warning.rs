@@ -26,6 +26,9 @@ pub(crate) enum Warning {
     NotDefined(String),
     /// cpfg: a probability in a file without `seed:`.
     ProbabilityWithoutSeed,
+    /// cpfg: a left context holding `[` or `]` (at this one), which never
+    /// matches.
+    LeftContextBracket,
     /// cpfg: a probability in a section (its name and a blank).
     ProbabilityInSection(&'static str),
     /// A parameter or constant named `step`.
@@ -60,6 +63,9 @@ impl fmt::Display for Warning {
             NotDefined(name) => write!(f, "`{name}` is not defined: it is 0 here, as in cpfg"),
             ProbabilityWithoutSeed => f.write_str(
                 "a probability without `seed:` is ignored, as in cpfg (the first applicable production applies; `--seed` makes it count)",
+            ),
+            LeftContextBracket => f.write_str(
+                "a left context with `[` or `]` never matches, as in cpfg (its matcher passes over the string's brackets): this production never applies",
             ),
             ProbabilityInSection(section) => write!(
                 f,
