@@ -444,3 +444,99 @@ fn a_bracket_in_a_left_context_never_matches() {
     assert!(!err.contains("never\n"), "{err}");
     assert_eq!(err.matches("tried\n").count(), 1, "{err}");
 }
+
+/// A `[` or `]` is rewritten like any module in cpfg: generate.c's Derive
+/// tries the productions of every module of the string, brackets included
+/// (FindProd by `firstProd['[']`), and so do the decomposition and the
+/// homomorphism; the right context of a `[` starts inside its branch, the
+/// left context of a `]` is the branch's last module (LconDiff, RconDiff
+/// from the bracket's neighbours). Strings from tests/tools/cpfg_ref.py
+/// (the first by hand too: each `[` gains a G and each `]` an H per step).
+#[test]
+fn brackets_are_rewritten_as_in_cpfg() {
+    let dir = tempdir();
+    let cases = [
+        (
+            "derivation length: 2\nAxiom: A[B]C[D[E]]F\n[ --> [G\n] --> H]\n",
+            "A[GGBHH]C[GGD[GGEHH]HH]F",
+        ),
+        // Contexts around a bracket, with `=` inside the branch.
+        (
+            "derivation length: 1\nAxiom: A[B]C\nA < [ > B --> [X\n] > C --> Y]\nB > ] --> Z\n",
+            "A[XZY]C",
+        ),
+        (
+            "derivation length: 1\nAxiom: A[B[C]D]E\n[ > C=]E --> [X\n[ > B=]E --> [Y\n",
+            "A[YB[C]D]E",
+        ),
+        (
+            "derivation length: 1\nAxiom: A[B[C]]D\nC < ] > ] --> Q]\nB < ] --> R]\n] > D --> S]\n",
+            "A[B[CQ]R]D",
+        ),
+        // `=` after a `[`'s first module skips to the end of the branch
+        // the `[` opens (B's `=` before it found the outer branch's end;
+        // the inner `[`'s C=]E must not reuse it).
+        (
+            "derivation length: 1\nAxiom: A[B[C]D]E[F]G\nB > =]E --> X\n[ > C=]E --> [P\n\
+             [ > B=]E --> [Q\n[ > F=]G --> [R\n",
+            "A[QX[C]D]E[RF]G",
+        ),
+        // Stochastic: a bracket draws and chooses like any module.
+        (
+            "derivation length: 3\nseed: 4\nAxiom: A[B][C]D\n[ --> [F : 1\n[ --> [G : 2\n\
+             ] --> ] : 1\n] --> H] : 1\nA --> A[B]\n",
+            "A[B][GB][GFBH][GFFBHH][GFGCH]D",
+        ),
+        // Decomposition (depth 1: `D` stays) and homomorphism (depth 2).
+        (
+            "derivation length: 1\nAxiom: A[B]C\nA --> A\ndecomposition no warnings\n[ --> [D\nD --> E\n",
+            "A[DB]C",
+        ),
+        (
+            "derivation length: 1\nAxiom: A[B]C\nA --> A\nhomomorphism no warnings\nmaximum depth: 2\n\
+             [ --> [;\n; --> ,\n",
+            "A[;,B]C",
+        ),
+    ];
+    for (body, want) in cases {
+        let file = write(dir.path(), "b.l", format!("Lsystem: 1\n{body}endlsystem\n"));
+        let (out, err) = derive(&[], &file);
+        assert_eq!(out, format!("{want}\n"), "{body}");
+        assert_eq!(err, "", "{body}");
+    }
+}
+
+/// What lsgen cannot follow: cpfg carries on with a string whose brackets
+/// no longer balance (`[ --> X` gives `AXB]C`), lsgen's strings must
+/// balance: a located error at the production; and a bracket inside a
+/// predecessor of several modules (`A[ --> X`, which cpfg's PredDiff
+/// matches) is refused where it is written.
+#[test]
+fn unbalancing_bracket_productions_are_located_errors() {
+    let dir = tempdir();
+    for (prods, at, words) in [
+        (
+            "A --> A\n[ --> X\n",
+            ":5:1: error: ",
+            "produces a `]` without `[`",
+        ),
+        ("A --> A\n] --> X\n", ":5:1: error: ", "leaves a `[` open"),
+        (
+            "A[ --> X\n",
+            ":4:2: error: ",
+            "a predecessor of several modules cannot hold `[` or `]`",
+        ),
+    ] {
+        let file = write(
+            dir.path(),
+            "u.l",
+            format!("Lsystem: 1\nderivation length: 1\nAxiom: A[B]C\n{prods}endlsystem\n"),
+        );
+        let r = run(lsgen().arg(&file));
+        let e = r.one_error().to_string();
+        assert!(
+            e.starts_with(&format!("lsgen: {}{at}", file.display())) && e.contains(words),
+            "{prods}: {e}"
+        );
+    }
+}

@@ -5,8 +5,9 @@
 //!
 //! Names are resolved here, as cpfg resolves them: a formal parameter, `Q`
 //! (the step), `Z` (the derivation length) once `derivation length:` has
-//! defined them, else an undefined name, which is 0 with a warning. The axiom's parameters are evaluated here (cpfg
-//! evaluates them once, as `float`s) and the axiom becomes module text.
+//! defined them, else an undefined name, which is 0 with a warning. The
+//! axiom's parameters are evaluated here (cpfg evaluates them once, as
+//! `float`s) and the axiom becomes module text.
 //!
 //! For the cpfg runtime (statement blocks, cpfg's generators), the
 //! refusals to lift are: `no_block` (blocks, here), the seeded

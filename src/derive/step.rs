@@ -651,6 +651,13 @@ impl<'a> Deriver<'a> {
             let bytes = rd.bytes(s, e);
             self.rng.set_module(index);
             index += 1;
+            // The input's level after this module: where the right context
+            // of a bracket predecessor (cpfg dialect) starts.
+            if key == OPEN {
+                st.level += 1;
+            } else if key == CLOSE {
+                st.level -= 1;
+            }
             let applied = match table.get(key) {
                 Some(kr) => self.apply(
                     table,
@@ -663,6 +670,7 @@ impl<'a> Deriver<'a> {
                 )?,
                 None => false,
             };
+            let mut decomposed = false;
             if !applied && (decomp.is_some() || (cut && key == u32::from(b'%'))) {
                 // The copied module, decomposed; a `%` that nothing
                 // rewrites is a cut.
@@ -670,13 +678,15 @@ impl<'a> Deriver<'a> {
                 self.rc.levels[0].clear();
                 self.rc.levels[0].push_encoded(key, bytes, n);
                 // (levels[0] holds the copied module for try_rewrite.)
-                let decomposed = match decomp {
+                decomposed = match decomp {
                     Some((d, max)) => {
                         self.decompose_copied((d, *max), (key, n, end_off), &mut st, out, pass)?
                     }
                     None => false,
                 };
-                if decomposed {
+                // (A decomposed bracket, cpfg dialect, goes on below: its
+                // decomposition balances against it.)
+                if decomposed && key != OPEN && key != CLOSE {
                     if let Some(left) = &mut st.left {
                         if key != OPEN && key != CLOSE && !self.alphabet.ignored(key) {
                             left.push(key, bytes, n);
@@ -731,6 +741,7 @@ impl<'a> Deriver<'a> {
                 }
             }
             if !applied {
+                // (A decomposed bracket counts as the bracket it was.)
                 if table.check_balance {
                     if key == OPEN {
                         st.depth += 1;
@@ -751,17 +762,17 @@ impl<'a> Deriver<'a> {
                         }
                     }
                 }
-                out.raw(key, bytes, &self.alphabet)?;
+                if !decomposed {
+                    out.raw(key, bytes, &self.alphabet)?;
+                }
             }
             if key == OPEN {
-                st.level += 1;
                 if let Some(b) = &mut st.branches {
                     // This `[` is module `index - 1`.
                     let (end, modules) = rd.branch_index(s);
                     b.push((end, index + modules - 2));
                 }
             } else if key == CLOSE {
-                st.level -= 1;
                 if let Some(b) = &mut st.branches {
                     b.pop();
                 }
@@ -1033,10 +1044,17 @@ impl<'a> Deriver<'a> {
                 }
             }
             st.depth += i64::from(p.depth_delta);
-            if p.depth_delta > 0 {
+            // Against the bracket it replaces, for a bracket predecessor
+            // (cpfg dialect): `[ --> X` closes more than it matched.
+            let d = match key {
+                OPEN => 1,
+                CLOSE => -1,
+                _ => 0,
+            };
+            if p.depth_delta > d {
                 st.last_opener = Some(pi);
             }
-            if p.depth_delta < 0 || p.depth_min < 0 {
+            if p.depth_delta < d || p.depth_min < d.min(0) {
                 st.last_closer = Some(pi);
             }
         }

@@ -538,6 +538,8 @@ pub enum CompileError {
     FormalNotName,
     /// `[` or `]` as a predecessor.
     BracketRewritten,
+    /// cpfg: `[` or `]` in a predecessor of several modules.
+    BracketInRun,
     /// `[` or `]` in a left context.
     LeftContextBracket,
     /// `[(1)`.
@@ -645,6 +647,9 @@ impl fmt::Display for CompileError {
                 "a formal parameter must be a name (values go in the successor or the condition)",
             ),
             BracketRewritten => f.write_str("brackets cannot be rewritten"),
+            BracketInRun => f.write_str(
+                "a predecessor of several modules cannot hold `[` or `]` (lsgen rewrites a bracket only as a predecessor of its own)",
+            ),
             LeftContextBracket => f.write_str(
                 "a left context cannot hold brackets: branches to the left are skipped by the matcher",
             ),

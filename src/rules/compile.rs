@@ -606,15 +606,24 @@ fn hidden_step_at(p: &ast::Production, stage: u8, out: &mut Vec<(u8, Span)>) {
 }
 
 /// Recursive rewriting does not track brackets: every successor of `t`
-/// must balance (each `]` after its `[`).
+/// must balance (each `]` after its `[`), against the bracket it replaces
+/// where the predecessor is one (cpfg): `[ --> [F`, `] --> F]`.
 fn balanced(t: &Table, kind: CompileError) -> R<()> {
-    match t
-        .prods
-        .iter()
-        .find(|p| p.depth_delta != 0 || p.depth_min < 0)
-    {
+    match t.prods.iter().find(|p| {
+        let d = bracket_depth(p.key);
+        p.depth_delta != d || p.depth_min < d.min(0)
+    }) {
         Some(p) => err((p.start(), p.start()), kind),
         None => Ok(()),
+    }
+}
+
+/// The depth a bracket key opens (1) or closes (-1); 0 for other keys.
+fn bracket_depth(key: u32) -> i32 {
+    match key {
+        OPEN => 1,
+        CLOSE => -1,
+        _ => 0,
     }
 }
 
@@ -682,8 +691,15 @@ fn compile_production(
         a.intern(m.sym, m.params.len())
             .map_err(|e| UserError::new(m.span, e))
     };
+    // cpfg rewrites a bracket like any module (generate.c's Derive tries
+    // the productions of every module of the string, `[` and `]` too).
     if matches!(p.pred.sym, '[' | ']') {
-        return err(p.pred.span, CompileError::BracketRewritten);
+        if !cpfg {
+            return err(p.pred.span, CompileError::BracketRewritten);
+        }
+        if !p.pred.params.is_empty() {
+            return err(p.pred.span, CompileError::BracketParams);
+        }
     }
     let mut names = HashMap::new();
     let mut nslots = 0;
@@ -692,7 +708,12 @@ fn compile_production(
     let mut rest = Vec::new();
     for m in &p.pred_rest {
         if matches!(m.sym, '[' | ']') {
-            return err(m.span, CompileError::BracketRewritten);
+            let kind = if cpfg {
+                CompileError::BracketInRun
+            } else {
+                CompileError::BracketRewritten
+            };
+            return err(m.span, kind);
         }
         let k = intern(alphabet, m)?;
         let slot = bind_formals(m, &mut names, &mut nslots)?;

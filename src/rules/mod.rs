@@ -943,7 +943,10 @@ impl Table {
         if p.right_simple() {
             self.max_right_simple = self.max_right_simple.max(p.right().len());
         }
-        self.check_balance |= p.depth_delta != 0 || p.depth_min < 0;
+        // (A bracket predecessor, cpfg's: the step checks what replaces
+        // it, on its general path.)
+        self.check_balance |=
+            p.depth_delta != 0 || p.depth_min < 0 || p.key == OPEN || p.key == CLOSE;
         self.prods.push(p);
     }
 
