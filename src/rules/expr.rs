@@ -682,7 +682,9 @@ impl Code {
         }
     }
 
-    /// [`eval`](Self::eval) of a block of instructions.
+    /// [`eval`](Self::eval) of a block of instructions. Out of line: the
+    /// in-place shapes' path stays short (saves fewer registers).
+    #[inline(never)]
     fn eval_block<D: Draw + ?Sized>(
         &self,
         slots: &[f64],
@@ -831,12 +833,6 @@ impl Code {
             Op::Bin(BinOp::Ne, _) => return Ok(bool_f(a != b)),
             Op::Bin(BinOp::And, _) => return Ok(bool_f(a != 0.0 && b != 0.0)),
             Op::Bin(BinOp::Or, _) => return Ok(bool_f(a != 0.0 || b != 0.0)),
-            // cpfg: C's doubles (NaN and infinities are values).
-            Op::Ieee(BinOp::Add) => return Ok(a + b),
-            Op::Ieee(BinOp::Sub) => return Ok(a - b),
-            Op::Ieee(BinOp::Mul) => return Ok(a * b),
-            Op::Ieee(BinOp::Pow) => return Ok(a.powf(b)),
-            Op::F2(f @ Func2::AtanSecond, _) => return Ok(f.apply(a, b)),
             Op::Bin(BinOp::Add, si) => (a + b, si),
             Op::Bin(BinOp::Sub, si) => (a - b, si),
             Op::Bin(BinOp::Mul, si) => (a * b, si),
@@ -846,13 +842,6 @@ impl Code {
                     return Err(self.fail(si, ExprError::DivisionByZero));
                 }
                 (a / b, si)
-            }
-            Op::DivOr1(_) => {
-                if b == 0.0 {
-                    warn_division_by_zero();
-                    return Ok(a);
-                }
-                return Ok(a / b);
             }
             Op::Bin(BinOp::Rem, si) => {
                 // C's (int) conversions and `%`: truncation toward zero.
@@ -865,6 +854,11 @@ impl Code {
                     return Err(self.fail(si, ExprError::RemainderOutOfRange));
                 }
                 (((x as i64) % (y as i64)) as f64, si)
+            }
+            // The cpfg dialect's: out of line, so that the `.ls` dialect's
+            // inlined copies of this match stay as small as they were.
+            Op::Ieee(_) | Op::DivOr1(_) | Op::F2(Func2::AtanSecond, _) => {
+                return Ok(cpfg_binary(op, a, b))
             }
             Op::F2(f, si) => (f.apply(a, b), si),
             _ => unreachable!("not a binary operation: {op:?}"),
@@ -910,6 +904,26 @@ fn can_fail(b: BinOp) -> bool {
         b,
         BinOp::Add | BinOp::Sub | BinOp::Mul | BinOp::Div | BinOp::Rem | BinOp::Pow
     )
+}
+
+/// cpfg's binary operations ([`Code::binary`]): C's doubles, whose NaN
+/// and infinities are values, and its `/` that divides by 1 for 0 (with a
+/// warning). Cannot fail.
+#[inline(never)]
+fn cpfg_binary(op: Op, a: f64, b: f64) -> f64 {
+    match op {
+        Op::Ieee(BinOp::Add) => a + b,
+        Op::Ieee(BinOp::Sub) => a - b,
+        Op::Ieee(BinOp::Mul) => a * b,
+        Op::Ieee(BinOp::Pow) => a.powf(b),
+        Op::F2(f @ Func2::AtanSecond, _) => f.apply(a, b),
+        Op::DivOr1(_) if b == 0.0 => {
+            warn_division_by_zero();
+            a
+        }
+        Op::DivOr1(_) => a / b,
+        _ => unreachable!("not a cpfg binary operation: {op:?}"),
+    }
 }
 
 /// cpfg divides by 1 instead of 0, with a warning: once per process here
