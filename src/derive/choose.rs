@@ -352,14 +352,40 @@ impl Chooser {
     where
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
+        self.hom_conditions(rng, pass);
+        let list = cpfg_list(table, kr);
+        self.first_matching_cpfg(slots, table, list, rng, origin, pass, &mut contexts)
+    }
+
+    /// Conditions at the top of a cpfg homomorphism draw on cpfg's first
+    /// function generator (a homomorphism `seed:` is for successors).
+    fn hom_conditions(&self, rng: &mut Random, pass: Pass) {
         if pass == Pass::Homomorphism && !self.nested {
             if let Some(c) = rng.cpfg_mut() {
                 c.hom_condition();
             }
         }
-        for &pi in cpfg_list(table, kr) {
+    }
+
+    /// The first production of `list` that matches (contexts,
+    /// pre-condition block, condition), its parameters bound in `slots`.
+    #[allow(clippy::too_many_arguments)]
+    fn first_matching_cpfg<F>(
+        &mut self,
+        slots: &mut [f64],
+        table: &Table,
+        list: &[u32],
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        contexts: &mut F,
+    ) -> Result<Option<u32>, Error>
+    where
+        F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
+    {
+        for &pi in list {
             let p = &table.prods[pi as usize];
-            if self.matches_cpfg(slots, p, rng, origin, pass, &mut contexts)? {
+            if self.matches_cpfg(slots, p, rng, origin, pass, contexts)? {
                 return Ok(Some(pi));
             }
         }
@@ -583,24 +609,17 @@ impl Chooser {
     where
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
-        let top_hom = pass == Pass::Homomorphism && !self.nested;
-        if top_hom {
-            // Conditions at the top of the homomorphism: cpfg's first
-            // function generator (a homomorphism `seed:` is for successors).
-            if let Some(c) = rng.cpfg_mut() {
-                c.hom_condition();
-            }
-        }
+        self.hom_conditions(rng, pass);
         // With `seed:` every production competes, weighted 1 by default.
         let stochastic = rng.cpfg_mut().is_some_and(|c| c.stochastic);
         if !stochastic || self.nested || !matches!(pass, Pass::Step(_)) {
-            for &pi in list {
-                let p = &table.prods[pi as usize];
-                if self.matches_cpfg(slots, p, rng, origin, pass, contexts)? {
-                    return self.post(slots, p, rng, origin, pass).map(|()| Some(pi));
-                }
-            }
-            return Ok(None);
+            let Some(pi) =
+                self.first_matching_cpfg(slots, table, list, rng, origin, pass, contexts)?
+            else {
+                return Ok(None);
+            };
+            let p = &table.prods[pi as usize];
+            return self.post(slots, p, rng, origin, pass).map(|()| Some(pi));
         }
         self.cand.clear();
         self.cand_slots.clear();
