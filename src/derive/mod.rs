@@ -14,6 +14,7 @@ pub mod dfs;
 pub(crate) mod handoff;
 pub mod meter;
 pub(crate) mod par;
+pub(crate) mod patches;
 pub mod random;
 pub(crate) mod reader;
 pub mod sink;

@@ -8,7 +8,6 @@ use crate::rules::codec::{self, ENDS_BYTES, INDEX_BYTES, MAX_MODULE_BYTES};
 use crate::rules::{Alphabet, ConstRun, CLOSE, OPEN};
 use std::fs::File;
 use std::io::Write;
-use std::os::unix::fs::FileExt;
 
 pub(crate) const OUT_CHUNK: usize = 1 << 20;
 
@@ -102,6 +101,8 @@ pub struct Out<'w> {
     /// `index_file` (or noted in `chunk_index`).
     pub(crate) indexed: bool,
     index_file: Option<File>,
+    /// Index words for `index_file`, written in batches.
+    patches: super::patches::Patches,
     /// A worker's sink of a split pass (`super::split`): what of the index
     /// its chunk cannot complete itself, for the writer.
     chunk_index: Option<ChunkIndex>,
@@ -209,6 +210,7 @@ impl<'w> Out<'w> {
             w,
             indexed: false,
             index_file: None,
+            patches: Default::default(),
             chunk_index: None,
             opens: Vec::new(),
             counts: false,
@@ -428,7 +430,7 @@ impl<'w> Out<'w> {
     fn put_index_flushed(&mut self, at: u64, dist: u64, count: u64) -> Result<(), Error> {
         if let Some(ci) = &mut self.chunk_index {
             ci.late.push((at - ci.base.0, dist, count));
-        } else if let Some(file) = &self.index_file {
+        } else if self.index_file.is_some() {
             let mut index = [0; INDEX_BYTES];
             codec::put_word(&mut index, dist);
             codec::put_word(&mut index[ENDS_BYTES..], count);
@@ -438,9 +440,21 @@ impl<'w> Out<'w> {
             let flushed = usize::try_from(self.written - (at + 1))
                 .map_or(index.len(), |n| n.min(index.len()));
             let (in_file, in_buf) = index.split_at(flushed);
-            file.write_all_at(in_file, at + 1)
-                .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
             self.buf[..in_buf.len()].copy_from_slice(in_buf);
+            if self.patches.push(at + 1, in_file) {
+                self.write_patches()?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Write the pending index patches to the file (all their bytes are
+    /// in it).
+    fn write_patches(&mut self) -> Result<(), Error> {
+        if let Some(file) = &self.index_file {
+            self.patches
+                .write(file)
+                .map_err(|(action, e)| Error::io(self.name, action, e))?;
         }
         Ok(())
     }
@@ -676,6 +690,9 @@ impl<'w> Out<'w> {
         self.w
             .flush()
             .map_err(|e| Error::io(self.name, crate::diag::IoAction::Write, e))?;
+        // (After the last bytes: the patches' groups read the bytes
+        // between them from the file.)
+        self.write_patches()?;
         Ok((self.modules, self.written - newline))
     }
 }
@@ -685,6 +702,7 @@ mod tests {
     use super::*;
     use crate::rules::{Alphabet, Filter};
     use std::io::{Read, Seek};
+    use std::os::unix::fs::FileExt;
 
     /// Every run length, with spare capacity and without, after any
     /// content: the bytes of `extend_from_slice`.
@@ -736,6 +754,57 @@ mod tests {
         let mut out = Out::new(&mut file, "tmp", false, Limits::default()).with_index(index);
         out.plain(b"A[").unwrap();
         out.patch(1 + codec::WORD_MAX, 2).unwrap();
+    }
+
+    /// A deep nest whose `[`s were all flushed before their `]`s: each
+    /// index is right (a scan with a stack finds the same ends), and the
+    /// patches went to the file in batches, not a `pwrite` each (a nest
+    /// 10^6 deep made 914,057).
+    #[test]
+    fn a_deep_nest_is_indexed_in_the_file_in_batches() {
+        const DEPTH: usize = 50_000;
+        let mut file = tempfile::tempfile().unwrap();
+        let index = file.try_clone().unwrap();
+        let al = Alphabet::new(Filter::All);
+        let mut out = Out::new(&mut file, "tmp", false, Limits::default()).with_index(index);
+        out.chunk = 4096;
+        for _ in 0..DEPTH {
+            out.plain(b"A[").unwrap();
+            out.maybe_flush().unwrap();
+        }
+        out.flush().unwrap();
+        for _ in 0..DEPTH {
+            out.raw(CLOSE, b"]", &al).unwrap();
+        }
+        out.plain(b"B").unwrap();
+        let calls = out.patches.calls;
+        out.finish().unwrap();
+        let calls = calls + 2; // (at most: the last batch's read and write)
+        assert!(
+            calls < DEPTH / 1000,
+            "{calls} system calls for {DEPTH} patches"
+        );
+        let mut bin = Vec::new();
+        file.rewind().unwrap();
+        file.read_to_end(&mut bin).unwrap();
+        let (mut i, mut open, mut checked) = (0, Vec::new(), 0);
+        while i < bin.len() {
+            match bin[i] {
+                b'[' => {
+                    open.push(i);
+                    i += 1 + ENDS_BYTES;
+                }
+                b']' => {
+                    let at = open.pop().unwrap();
+                    let dist = codec::get_word(&bin[at + 1..]);
+                    assert_eq!(at as u64 + dist, i as u64 + 1, "the `[` at {at}");
+                    checked += 1;
+                    i += 1;
+                }
+                _ => i += 1,
+            }
+        }
+        assert_eq!(checked, DEPTH);
     }
 
     #[test]
