@@ -360,18 +360,23 @@ impl std::error::Error for Error {
 
 /// The blanks that put a caret under character `caret_col` (1-based) of
 /// `snippet` on a terminal: a tab for a tab, else as many spaces as the
-/// character is wide (two for CJK and emoji, none for a combining mark).
+/// text before it is wide (two for CJK and emoji, none for a combining
+/// mark). The text between tabs is measured whole, not a character at a
+/// time: an emoji sequence joined by U+200D (`👩‍👩‍👧`), a flag or an
+/// emoji with U+FE0F is one picture two columns wide.
 pub fn caret_pad(snippet: &str, caret_col: usize) -> String {
-    use unicode_width::UnicodeWidthChar;
+    use unicode_width::UnicodeWidthStr;
+    let end = snippet
+        .char_indices()
+        .nth(caret_col.saturating_sub(1))
+        .map_or(snippet.len(), |(i, _)| i);
     let mut pad = String::new();
-    for c in snippet.chars().take(caret_col.saturating_sub(1)) {
-        if c == '\t' {
+    for (k, piece) in snippet[..end].split('\t').enumerate() {
+        if k > 0 {
             pad.push('\t');
-        } else {
-            // Control characters (no width) are counted as one column.
-            let w = c.width().unwrap_or(1);
-            pad.extend(std::iter::repeat_n(' ', w));
         }
+        // (Control characters count one column each.)
+        pad.extend(std::iter::repeat_n(' ', piece.width()));
     }
     pad
 }
@@ -496,6 +501,18 @@ mod tests {
     fn caret_under_wide_and_combining_characters() {
         // 漢 and 😀 are two columns wide, e\u{301} is one column.
         assert_eq!(caret_pad("漢😀e\u{301}\tx", 6), "     \t");
+        // A family (three emoji joined by U+200D), a flag and a heart
+        // with U+FE0F are two columns each on a terminal, not six, four
+        // and one.
+        let family = "\u{1f469}\u{200d}\u{1f469}\u{200d}\u{1f467}";
+        assert_eq!(caret_pad(&format!("F -> {family} F )"), 14), " ".repeat(10));
+        assert_eq!(
+            caret_pad("\u{1f1eb}\u{1f1f7}\t\u{2764}\u{fe0f}x", 6),
+            "  \t  "
+        );
+        // A control character is one column; the caret past the end pads
+        // the whole line.
+        assert_eq!(caret_pad("a\u{1}b", 9), "   ");
         let m = CodeMap::new("漢字 -> F>\n");
         let e = Error::at(
             Location::from_map("p.ls", &m, 11),
