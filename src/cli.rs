@@ -64,9 +64,10 @@ pub struct Args {
     pub seed: Option<Seeds>,
 
     /// Threads: a batch's jobs run on N workers, one derivation on N
-    /// threads (default: the number of CPUs).
-    #[arg(short, long, value_name = "N", env = "LSGEN_JOBS",
-          value_parser = clap::value_parser!(u32).range(1..=4096))]
+    /// threads (default: the environment variable LSGEN_JOBS if set and
+    /// not empty, else the number of CPUs).
+    #[arg(short, long, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(1..=JOBS_MAX))]
     pub jobs: Option<u32>,
 
     /// Do not apply the homomorphism productions.
@@ -428,8 +429,32 @@ fn parse_args() -> Result<Args, clap::Error> {
     Args::from_arg_matches_mut(&mut matches).map_err(|e| e.format(&mut cmd))
 }
 
+/// The most threads `-j` and `LSGEN_JOBS` take.
+const JOBS_MAX: i64 = 4096;
+
+/// `-j`, else `LSGEN_JOBS` (empty: not set), checked as `-j` is; its
+/// errors name the variable, not the option.
+fn jobs_from_env(jobs: Option<u32>) -> Result<Option<u32>, Error> {
+    let value = match (jobs, std::env::var_os("LSGEN_JOBS")) {
+        (Some(j), _) => return Ok(Some(j)),
+        (None, None) => return Ok(None),
+        (None, Some(v)) if v.is_empty() => return Ok(None),
+        (None, Some(v)) => v,
+    };
+    value
+        .to_str()
+        .and_then(|s| s.parse::<u32>().ok())
+        .filter(|&n| n >= 1 && i64::from(n) <= JOBS_MAX)
+        .map(Some)
+        .ok_or_else(|| {
+            Error::new(crate::diag::UsageError::JobsVariable(
+                value.to_string_lossy().into_owned(),
+            ))
+        })
+}
+
 fn main_on_thread() -> i32 {
-    let args = match parse_args() {
+    let mut args = match parse_args() {
         Ok(a) => a,
         Err(e) => {
             return match e.kind() {
@@ -458,7 +483,10 @@ fn main_on_thread() -> i32 {
             .map_err(|e| Error::io("the man page", crate::diag::IoAction::Render, e))
             .and_then(|()| print_stdout(&text))
     } else {
-        run(&args)
+        jobs_from_env(args.jobs).and_then(|jobs| {
+            args.jobs = jobs;
+            run(&args)
+        })
     };
     match result {
         Ok(()) => 0,

@@ -243,12 +243,49 @@ fn lsgen_jobs_is_read_from_the_environment() {
         .current_dir(d.path())
         .env("LSGEN_JOBS", "zero")
         .arg("a.ls"));
-    assert!(r.fails(2).contains("LSGEN_JOBS") || r.stderr.contains("zero"));
-    let r = run(lsgen()
-        .current_dir(d.path())
-        .env("LSGEN_JOBS", "3")
-        .args(["-n", "2", "a.ls"]));
-    assert_eq!(r.ok(), "ABB\n");
+    // The message names the variable, not `--jobs` (which was not given).
+    assert_eq!(
+        r.fails(2),
+        "lsgen: error: LSGEN_JOBS=`zero`: the number of threads must be a whole number \
+         from 1 to 4096 (or unset or empty: all CPUs)\n"
+    );
+    for bad in ["0", "4097", " 2", "-1"] {
+        let r = run(lsgen()
+            .current_dir(d.path())
+            .env("LSGEN_JOBS", bad)
+            .arg("a.ls"));
+        assert!(
+            r.fails(2)
+                .starts_with(&format!("lsgen: error: LSGEN_JOBS=`{bad}`: ")),
+            "{bad}: {}",
+            r.stderr
+        );
+    }
+    // Not UTF-8: the value shown lossily, still a usage error of the variable.
+    #[cfg(unix)]
+    {
+        use std::os::unix::ffi::OsStrExt;
+        let r = run(lsgen()
+            .current_dir(d.path())
+            .env("LSGEN_JOBS", std::ffi::OsStr::from_bytes(b"\xff"))
+            .arg("a.ls"));
+        assert!(
+            r.fails(2)
+                .starts_with("lsgen: error: LSGEN_JOBS=`\u{fffd}`: "),
+            "{}",
+            r.stderr
+        );
+    }
+    // `-j` wins over the variable, which is then not looked at; an empty
+    // variable is not set.
+    for (var, args) in [("zero", &["-j", "2"][..]), ("", &[][..]), ("3", &[][..])] {
+        let r = run(lsgen()
+            .current_dir(d.path())
+            .env("LSGEN_JOBS", var)
+            .args(args)
+            .args(["-n", "2", "a.ls"]));
+        assert_eq!(r.ok(), "ABB\n", "LSGEN_JOBS={var:?} {args:?}");
+    }
 }
 
 #[test]

@@ -975,6 +975,8 @@ pub enum UsageError {
     /// lsgen-turtle: an OBJ's MTL file name (as it would be written in
     /// `mtllib`) with blanks, which OBJ readers take as separators.
     MtlNameWithBlanks(String),
+    /// `LSGEN_JOBS` that is not a number of threads (its value, lossy).
+    JobsVariable(String),
 }
 
 impl fmt::Display for UsageError {
@@ -1079,6 +1081,10 @@ impl fmt::Display for UsageError {
                 f,
                 "the OBJ would name its materials `mtllib {name}`, but OBJ readers split that \
                  line at blanks: give -o a name without blanks"
+            ),
+            JobsVariable(value) => write!(
+                f,
+                "LSGEN_JOBS=`{value}`: the number of threads must be a whole number from 1 to 4096 (or unset or empty: all CPUs)"
             ),
         }
     }
