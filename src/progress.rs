@@ -208,6 +208,20 @@ fn short_duration(secs: u64) -> String {
     }
 }
 
+/// Jobs a second, to three significant digits at most (indicatif's
+/// `{per_sec}` printed `647.5313/s`).
+fn jobs_rate(per_sec: f64) -> String {
+    if !per_sec.is_finite() || per_sec <= 0.0 {
+        "0/s".to_string()
+    } else if per_sec >= 100.0 {
+        format!("{}/s", crate::diag::group_digits(per_sec.round() as u64))
+    } else if per_sec >= 10.0 {
+        format!("{per_sec:.1}/s")
+    } else {
+        format!("{per_sec:.2}/s")
+    }
+}
+
 /// A batch's display: jobs done of all, with an ETA.
 pub struct Batch {
     bar: ProgressBar,
@@ -216,9 +230,14 @@ pub struct Batch {
 impl Batch {
     pub fn start(jobs: u64) -> Batch {
         let bar = bar();
-        bar.set_style(style(
-            "jobs: [{bar:30}] {pos}/{len} ({per_sec}), ETA {eta} [{elapsed}]",
-        ));
+        bar.set_style(
+            style("jobs: [{bar:30}] {pos}/{len} ({rate}), ETA {eta} [{elapsed}]").with_key(
+                "rate",
+                |s: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                    let _ = w.write_str(&jobs_rate(s.per_sec()));
+                },
+            ),
+        );
         bar.set_length(jobs);
         bar.enable_steady_tick(Duration::from_millis(200));
         Batch { bar }
@@ -233,5 +252,21 @@ impl Batch {
 impl Drop for Batch {
     fn drop(&mut self) {
         self.bar.finish_and_clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::jobs_rate;
+
+    #[test]
+    fn a_batch_rate_has_three_significant_digits_at_most() {
+        assert_eq!(jobs_rate(647.5313), "648/s");
+        assert_eq!(jobs_rate(12_345.6), "12,346/s");
+        assert_eq!(jobs_rate(42.04), "42.0/s");
+        assert_eq!(jobs_rate(3.456), "3.46/s");
+        assert_eq!(jobs_rate(0.0), "0/s");
+        assert_eq!(jobs_rate(f64::NAN), "0/s");
+        assert_eq!(jobs_rate(f64::INFINITY), "0/s");
     }
 }
