@@ -153,7 +153,9 @@ impl Options {
 
     /// Derive one string on up to `n` threads (default 1; 0 counts as 1).
     /// The output is byte-identical for every `n`; systems that cannot be
-    /// split use one thread (README, Design: parallel derivation).
+    /// split use one thread (README, Design: parallel derivation). At most
+    /// 4 threads per CPU and 256 in all are started, whatever `n` is:
+    /// threads past the CPUs only hold memory.
     pub fn threads(mut self, n: usize) -> Self {
         self.threads = n.max(1);
         self

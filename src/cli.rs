@@ -618,11 +618,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
         file: files[(i / seeds) as usize],
         seed: args.seed.map(|s| s.first + i % seeds),
     };
+    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
     let workers = args
         .jobs
-        .map(|j| j as u64)
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get() as u64))
-        .min(total);
+        .map_or(cpus, |j| crate::derive::par::started(j as usize, cpus)) as u64;
+    let workers = workers.min(total);
     let display = crate::progress::wanted(args.progress, args.quiet, args.verbose, false)
         .then(|| crate::progress::Batch::start(total));
     let (failed, failures) = run_batch(total, workers as usize, |i| {

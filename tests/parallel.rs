@@ -957,3 +957,52 @@ fn a_shorter_generation_written_over_a_longer_one_ends_where_it_ends() {
         }
     }
 }
+
+/// `-j 4096` starts a few threads per CPU, at most 256, not 4096: past the
+/// CPUs, workers only ran ahead of the writer and spilled (on two CPUs
+/// 876 MB, or "too many open files" after ten minutes). The string is that
+/// of `-j 1`. `LSGEN_DEBUG_PAR=1` prints a line per worker of each split
+/// pass.
+#[test]
+fn a_huge_thread_count_starts_a_few_threads_per_cpu() {
+    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let most = (4 * cpus).min(256);
+    let file = Path::new(ROOT).join("benches/workloads/parametric_tree.ls");
+    let one = run(lsgen().args(["-j", "1", "-n", "8"]).arg(&file)).ok();
+    for (var, args) in [
+        (None, &["-j", "4096"][..]),
+        (Some("4096"), &[][..]),
+        (Some("100000"), &[][..]),
+    ] {
+        let mut cmd = lsgen();
+        cmd.env("LSGEN_DEBUG_PAR", "1")
+            .env("LSGEN_TEST_SPLIT", "5")
+            .env_remove("LSGEN_JOBS")
+            .args(args)
+            .args(["-n", "8"])
+            .arg(&file);
+        if let Some(v) = var {
+            cmd.env("LSGEN_JOBS", v);
+        }
+        let r = run(&mut cmd);
+        if var == Some("100000") {
+            // (Past 4096: the variable's own check.)
+            assert!(r.fails(2).contains("LSGEN_JOBS=`100000`"), "{}", r.stderr);
+            continue;
+        }
+        let workers = r
+            .stderr
+            .lines()
+            .filter(|l| l.starts_with("lsgen: par: lsgen-par-"))
+            .count();
+        assert!(
+            (1..=most).contains(&workers),
+            "{workers} workers for {args:?} LSGEN_JOBS={var:?} on {cpus} CPUs:\n{}",
+            r.stderr
+        );
+        assert!(
+            r.stdout == one.as_bytes(),
+            "{args:?}: not the string of -j 1"
+        );
+    }
+}

@@ -75,14 +75,36 @@ const TASKS: u64 = 16;
 /// 12 k instructions (cgroup files), a tenth of a small run's start-up.
 pub(crate) const ALL_CPUS: usize = 0;
 
-/// `threads`, with [`ALL_CPUS`] counted.
+/// `threads`, with [`ALL_CPUS`] counted, and at most [`started`] allows.
 fn resolve(threads: usize) -> usize {
+    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
     if threads == ALL_CPUS {
-        std::thread::available_parallelism().map_or(1, |n| n.get())
+        cpus
     } else {
-        threads
+        started(threads, cpus)
     }
 }
+
+/// The most threads lsgen starts for one derivation's split or for a
+/// batch's jobs: [`PER_CPU`] per CPU and [`MOST_THREADS`] in all, however
+/// large `-j` is. The work is CPU-bound: threads past the CPUs only
+/// run ahead of the writer, hold blocks and spill them to files (`-j
+/// 4096` on two CPUs: 876 MB, or "too many open files" after 10 minutes,
+/// for what `-j 2` does in 0.3 s and 12 MB). The output does not depend
+/// on the thread count, so this changes nothing but the cost.
+pub(crate) fn started(threads: usize, cpus: usize) -> usize {
+    threads
+        .min(cpus.saturating_mul(PER_CPU))
+        .clamp(1, MOST_THREADS)
+}
+
+/// Threads per CPU that [`started`] allows: a few, so that `-j 8` on a
+/// small machine still splits as it would on eight CPUs.
+const PER_CPU: usize = 4;
+/// Threads [`started`] allows in all (zstd stops at 200 workers): a
+/// pipe's or a file's worth of descriptors each stay far below the usual
+/// limit of 1024 open files.
+const MOST_THREADS: usize = 256;
 
 /// How many threads the depth-first parametric strategy uses: `threads`
 /// (`-j`) when there are at least two steps to split, else 1. (The D0L
@@ -755,6 +777,18 @@ mod tests {
     /// The binary's default `-j` (one thread per CPU) is counted only
     /// where a derivation can be split, and never reaches a split as 0.
     #[test]
+    fn started_threads_are_a_few_per_cpu_and_256_at_most() {
+        use super::started;
+        assert_eq!(started(8, 2), 8);
+        assert_eq!(started(9, 2), 8);
+        assert_eq!(started(4096, 2), 8);
+        assert_eq!(started(64, 64), 64);
+        assert_eq!(started(4096, 64), 256);
+        assert_eq!(started(3, 1), 3);
+        assert_eq!(started(0, 0), 1);
+    }
+
+    #[test]
     fn all_cpus_is_counted_where_a_derivation_splits() {
         use super::{threads_for, ALL_CPUS};
         use crate::derive::Strategy;
@@ -762,7 +796,11 @@ mod tests {
         assert_eq!(threads_for(ALL_CPUS, 1, Strategy::DepthFirst), 1);
         assert_eq!(threads_for(ALL_CPUS, 5, Strategy::Step), 1);
         assert_eq!(threads_for(ALL_CPUS, 5, Strategy::DepthFirst), cpus);
-        assert_eq!(threads_for(3, 5, Strategy::DepthFirst), 3);
+        assert_eq!(threads_for(3, 5, Strategy::DepthFirst), 3.min(4 * cpus));
+        assert_eq!(
+            threads_for(4096, 5, Strategy::DepthFirst),
+            (4 * cpus).min(256)
+        );
         let src = "productions:\nA(x) -> A(x+1)[B(x)]A(x+2)\naxiom: A(0)\n";
         let derive_all = || {
             let mut ls = LSystem::parse(src).unwrap();
