@@ -320,7 +320,7 @@ pub fn parse_limit(s: &str) -> Result<Limits, String> {
         "TiB" => l.bytes = mul(1 << 40)?,
         _ => {
             return Err(format!(
-                "unknown unit `{unit}`: modules take k, M, G; bytes take B, kB, MB, GB, TB, KiB, MiB, GiB, TiB"
+                "unknown unit `{unit}`: modules take k (or K), M, G; bytes take B, kB (or KB), MB, GB, TB, KiB, MiB, GiB, TiB"
             ))
         }
     }

@@ -640,7 +640,7 @@ fn max_length_in_modules() {
     let r = run(&["-n", "10", "--max-length", "100", "examples/algae.ls"]);
     assert!(r.one_error().contains("--max-length"));
     // Suffixes for modules.
-    for ok in ["1k", "5M", "2G", "1_000"] {
+    for ok in ["1k", "1K", "5M", "2G", "1_000"] {
         assert_eq!(
             run(&["-n", "10", "--max-length", ok, "examples/algae.ls"]).ok(),
             expected("algae", 10),
@@ -651,7 +651,7 @@ fn max_length_in_modules() {
 
 #[test]
 fn max_length_in_bytes() {
-    for ok in ["1kB", "1KiB", "2MB", "1GiB", "1000B"] {
+    for ok in ["1kB", "1KB", "1KiB", "2MB", "1GiB", "1000B"] {
         assert_eq!(
             run(&["-n", "10", "--max-length", ok, "examples/algae.ls"]).ok(),
             expected("algae", 10),
@@ -681,6 +681,16 @@ fn max_length_rejects_bad_values() {
         let r = run(&["--max-length", bad, "examples/algae.ls"]);
         r.fails(2);
     }
+    // The message lists every unit it takes, `K` and `KB` too.
+    let r = run(&["--max-length", "5X", "examples/algae.ls"]);
+    assert!(
+        r.fails(2).contains(
+            "unknown unit `X`: modules take k (or K), M, G; bytes take B, kB (or KB), \
+             MB, GB, TB, KiB, MiB, GiB, TiB"
+        ),
+        "{}",
+        r.stderr
+    );
 }
 
 // ---------------------------------------------------------------- --tmpdir
