@@ -962,6 +962,57 @@ fn svg_width_zero_is_a_hairline_and_small_widths_stay_nonzero() {
     );
 }
 
+/// A width that overflows when scaled (`!(1e308)` with `--width-scale
+/// 10`) is an error at the module that draws with it, in every format:
+/// `-f segments` printed `inf`, and `#` repeated past the largest number
+/// too.
+#[test]
+fn a_width_past_the_largest_number_is_an_error_where_it_is_drawn() {
+    let want = "error: the line width overflows (width × --width-scale is past the largest number)";
+    for format in ["segments", "svg", "png", "obj"] {
+        for (args, input, at) in [
+            // (The place is the module's byte offset.)
+            (&["--width-scale", "10"][..], &b"F!(1e308)F"[..], 9),
+            (&["--width-scale", "10"][..], &b"!(1e308)@o"[..], 8),
+            (&["--width-increment", "1e308"][..], &b"####F"[..], 4),
+        ] {
+            let mut a = vec!["-f", format];
+            a.extend_from_slice(args);
+            let r = turtle(&a, input);
+            assert_eq!(r.code(), Some(1), "{format} {args:?}: {}", r.stderr);
+            assert_eq!(
+                r.stderr,
+                format!("lsgen-turtle: <stdin>:{at}: {want}\n"),
+                "{format} {args:?}"
+            );
+            assert!(
+                !String::from_utf8_lossy(&r.stdout).contains("inf"),
+                "{format}"
+            );
+        }
+    }
+}
+
+/// A dot of diameter 0 (or less) is one pixel wide in SVG, as in PNG and
+/// as a line of width 0 is a hairline; `r="0"` drew nothing.
+#[test]
+fn a_dot_of_diameter_zero_is_one_pixel_in_svg_and_png() {
+    for dot in [&b"F@o(0)"[..], b"F!(0)@o", b"F@O(-3)"] {
+        let svg = text(ok(&turtle(&[], dot)));
+        let r = svg_numbers(&svg, "r");
+        assert_eq!(r, vec![0.5], "{}: {svg}", String::from_utf8_lossy(dot));
+    }
+    // PNG: the dot's pixel is painted (the turtle moves without drawing,
+    // so the dot is all there is).
+    let png = ok(&turtle(&["-f", "png", "--size", "64"], b"f(1)@o(0)"));
+    let (_, _, px) = decode_png(&png);
+    let background = &px[..4];
+    assert!(
+        px.chunks(4).any(|p| p != background),
+        "the diameter-0 dot painted no pixel"
+    );
+}
+
 #[test]
 fn drawings_far_from_the_origin_are_fitted_to_size() {
     // By hand: the box is x in [1e12 - 900.5, 1e12 + 0.5] (901 wide) and
@@ -1027,9 +1078,12 @@ fn obj_cylinders_never_write_non_finite_numbers() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("t.obj");
     let o = out.to_str().unwrap();
-    for (args, input, at) in [
-        (&["--width-scale", "10"][..], &b"!(1e308)F"[..], 8),
-        (&[][..], &b"@M(1.7e308,0,0)!(1e308)F"[..], 23),
+    // (A width that overflows when scaled is the width's own error.)
+    let width = "the line width overflows (width × --width-scale is past the largest number)";
+    let extent = "the drawing is too large to lay out (its extent overflows)";
+    for (args, input, at, error) in [
+        (&["--width-scale", "10"][..], &b"!(1e308)F"[..], 8, width),
+        (&[][..], &b"@M(1.7e308,0,0)!(1e308)F"[..], 23, extent),
     ] {
         let mut a = vec!["--cylinders", "-o", o];
         a.extend_from_slice(args);
@@ -1037,10 +1091,7 @@ fn obj_cylinders_never_write_non_finite_numbers() {
         assert_eq!(r.code(), Some(1), "{}", r.stderr);
         assert_eq!(
             r.stderr,
-            format!(
-                "lsgen-turtle: <stdin>:{at}: error: the drawing is too large to lay out \
-                 (its extent overflows)\n"
-            )
+            format!("lsgen-turtle: <stdin>:{at}: error: {error}\n")
         );
         common::assert_listing(dir.path(), &[]);
     }

@@ -1117,6 +1117,8 @@ pub enum TurtleError {
     Overflow,
     /// The tropism bend overflowed.
     TropismOverflow,
+    /// The width drawn (width × width scale) overflowed.
+    WidthOverflow,
     /// Open polygons with more than this many vertices in all.
     PolygonTooLarge(usize),
     /// Branches or polygons nested past the limit.
@@ -1135,6 +1137,7 @@ impl TurtleError {
                 | UnmatchedClose(_)
                 | Overflow
                 | TropismOverflow
+                | WidthOverflow
                 | PolygonTooLarge(_)
                 | TooDeep
                 | ExtentOverflow
@@ -1161,6 +1164,9 @@ impl fmt::Display for TurtleError {
             TropismOverflow => {
                 f.write_str("the tropism bend overflows (elasticity × |tropism| is too large)")
             }
+            WidthOverflow => f.write_str(
+                "the line width overflows (width × --width-scale is past the largest number)",
+            ),
             PolygonTooLarge(n) => {
                 write!(f, "open polygons too large (over {n} vertices in all)")
             }

@@ -32,6 +32,9 @@ pub fn interpret<R: Read>(
     let mut t = Turtle::new(view);
     // Where the outermost open polygon began.
     let mut polygon_at = 0;
+    // A bare `@` just read: a letter after it is one module with it
+    // (`@o`), whose errors point at the `@`.
+    let mut at_sign: Option<u64> = None;
     loop {
         let Some(sym) = r.next_module()? else {
             if t.open_polygons() > 0 {
@@ -44,6 +47,14 @@ pub fn interpret<R: Read>(
         }
         let n = r.nparams;
         let params = r.params;
+        let start = match at_sign.take() {
+            Some(at) if sym.is_alphabetic() => at,
+            _ => r.last_at,
+        };
+        if sym == '@' && n == 0 {
+            at_sign = Some(r.last_at);
+        }
+        r.last_at = start;
         match t.module(sym, &params[..n], sink) {
             Ok(()) => {}
             Err(ModErr::Io(e)) => {
@@ -62,6 +73,9 @@ pub fn interpret<R: Read>(
             }
             Err(ModErr::Fault(Fault::TropismOverflow)) => {
                 return Err(r.error_at(r.last_at, TurtleError::TropismOverflow))
+            }
+            Err(ModErr::Fault(Fault::WidthOverflow)) => {
+                return Err(r.error_at(r.last_at, TurtleError::WidthOverflow))
             }
             Err(ModErr::Fault(Fault::PolygonTooLarge)) => {
                 return Err(r.error_at(r.last_at, TurtleError::PolygonTooLarge(state::MAX_VERTICES)))

@@ -383,7 +383,10 @@ impl Sink for Svg<'_> {
         self.buf.extend_from_slice(b"\" cy=\"");
         num2(&mut self.buf, y);
         self.buf.extend_from_slice(b"\" r=\"");
-        num_width(&mut self.buf, d / 2.0 * self.layout.scale);
+        // A diameter of 0 or less is a dot of one pixel, as in PNG and as
+        // a line of width 0 is a hairline (`r="0"` drew nothing).
+        let r = d / 2.0 * self.layout.scale;
+        num_width(&mut self.buf, if r > 0.0 { r } else { 0.5 });
         self.buf.extend_from_slice(b"\"/>\n");
         self.flush_buf()
     }

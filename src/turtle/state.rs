@@ -91,6 +91,8 @@ pub enum Fault {
     Overflow,
     /// elasticity × |tropism| is past the largest number.
     TropismOverflow,
+    /// The width drawn (width × width scale) is past the largest number.
+    WidthOverflow,
     /// Open polygons with more than [`MAX_VERTICES`] vertices in all.
     PolygonTooLarge,
 }
@@ -224,7 +226,8 @@ impl Turtle {
             'F' | 'G' => {
                 let from = self.forward(p)?;
                 let to = self.s.pos;
-                sink.segment(from, to, self.s.width * self.width_scale, self.colour())?;
+                let width = self.drawn_width()?;
+                sink.segment(from, to, width, self.colour())?;
                 if sym == 'F' {
                     self.vertex(to)?;
                 }
@@ -308,10 +311,10 @@ impl Turtle {
     fn at_module(&mut self, sym: char, p: &[f64], sink: &mut dyn Sink) -> Result<(), ModErr> {
         match sym {
             'o' | 'O' => {
-                let d = p
-                    .first()
-                    .copied()
-                    .unwrap_or(self.s.width * self.width_scale);
+                let d = match p.first() {
+                    Some(&d) => d,
+                    None => self.drawn_width()?,
+                };
                 sink.dot(self.s.pos, d, self.colour(), sym == 'O')?;
             }
             'v' => self.level(),
@@ -319,6 +322,18 @@ impl Turtle {
             _ => {}
         }
         Ok(())
+    }
+
+    /// The width a line or a dot is drawn with: an error where it
+    /// overflows (`!(1e308)` with `--width-scale 10`), which formats
+    /// would print as `inf` or take as no width.
+    fn drawn_width(&self) -> Result<f64, ModErr> {
+        let w = self.s.width * self.width_scale;
+        if w.is_finite() {
+            Ok(w)
+        } else {
+            Err(ModErr::Fault(Fault::WidthOverflow))
+        }
     }
 
     #[inline]
