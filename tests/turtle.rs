@@ -847,7 +847,7 @@ fn unclosed_polygons_long_numbers_and_tropism_overflow_are_named() {
             "--tropism",
             "1e308 1e308 1e308",
             "--elasticity",
-            "1",
+            "10",
         ],
         b"FF",
         "0: error: the tropism bend overflows (elasticity × |tropism| is too large)",
@@ -988,6 +988,42 @@ fn a_width_past_the_largest_number_is_an_error_where_it_is_drawn() {
             assert!(
                 !String::from_utf8_lossy(&r.stdout).contains("inf"),
                 "{format}"
+            );
+        }
+    }
+}
+
+/// The bend is elasticity × |H × T| whatever the magnitudes: a tropism of
+/// 1e200 with elasticity 1e-200 (refused as an overflow) and one of
+/// 1e-200 with elasticity 1e200 (no bend at all) bend as a unit tropism
+/// with elasticity 1 does.
+#[test]
+fn tropism_magnitudes_near_the_float_range_bend_as_their_product() {
+    let points = |tropism: &str, elasticity: &str| -> Vec<f64> {
+        let args = [
+            "-f",
+            "segments",
+            "--tropism",
+            tropism,
+            "--elasticity",
+            elasticity,
+        ];
+        let seg = text(ok(&turtle(&args, b"FFFF")));
+        seg.split_whitespace().map(|w| w.parse().unwrap()).collect()
+    };
+    let unit = points("1 0 0", "0.25");
+    // By hand: H starts at (0, 1, 0) and T is (1, 0, 0), |H × T| = 1, so
+    // the first segment (x1 y1 z1 x2 y2 z2 width colour) is straight and
+    // H turns 0.25 rad towards T after it: the second ends at x = sin 0.25.
+    assert_eq!(&unit[..8], &[0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0]);
+    assert!((unit[11] - 0.25f64.sin()).abs() < 1e-12, "{unit:?}");
+    for (t, e) in [("1e200 0 0", "0.25e-200"), ("1e-200 0 0", "0.25e200")] {
+        let got = points(t, e);
+        assert_eq!(got.len(), unit.len());
+        for (g, u) in got.iter().zip(&unit) {
+            assert!(
+                (g - u).abs() < 1e-9,
+                "tropism {t} elasticity {e}: {got:?} vs {unit:?}"
             );
         }
     }

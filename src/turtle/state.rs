@@ -163,16 +163,27 @@ impl Turtle {
         if self.elasticity == 0.0 {
             return Ok(());
         }
-        let axis = cross(self.s.h, self.tropism);
+        // The angle is elasticity × |H × T|, about the axis H × T. T is
+        // scaled to its largest component first: |H × T| of a tropism of
+        // 1e200 overflowed when squared, one of 1e-200 underflowed to 0 (no
+        // bend at any elasticity).
+        let t = self.tropism;
+        let big = t[0].abs().max(t[1].abs()).max(t[2].abs());
+        if big == 0.0 {
+            return Ok(());
+        }
+        let axis = cross(self.s.h, scale(t, 1.0 / big));
         let n = norm(axis);
-        if !(n.is_finite() && (self.elasticity * n).is_finite()) {
+        let angle = self.elasticity * (n * big);
+        if !angle.is_finite() {
             return Err(ModErr::Fault(Fault::TropismOverflow));
         }
-        if n < 1e-12 {
+        if n == 0.0 || angle == 0.0 {
+            // (H along T: no axis, no bend.)
             return Ok(());
         }
         let k = scale(axis, 1.0 / n);
-        let (sa, ca) = (self.elasticity * n).sin_cos();
+        let (sa, ca) = angle.sin_cos();
         let r = |v: V3| -> V3 {
             let kv = cross(k, v);
             let kd = dot(k, v) * (1.0 - ca);
