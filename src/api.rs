@@ -584,7 +584,8 @@ impl LSystem {
             (out, out_name),
             events,
             frames,
-        )?;
+        )
+        .map_err(|e| e.with_option_names(options.names))?;
         Ok(Stats {
             seed: seed_used,
             steps,

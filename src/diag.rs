@@ -247,6 +247,20 @@ impl Error {
         self
     }
 
+    /// The same error, naming the options it mentions by `names`: the
+    /// derivation engine makes its errors with the library's names, and
+    /// `LSystem::run` gives them the caller's.
+    pub(crate) fn with_option_names(mut self, names: OptionNames) -> Error {
+        match &mut self.0.kind {
+            ErrorKind::Runtime(
+                RuntimeError::TooLong { names: n, .. } | RuntimeError::NoSpace { names: n, .. },
+            )
+            | ErrorKind::Usage(UsageError::StepsOverflow { names: n, .. }) => *n = names,
+            _ => {}
+        }
+        self
+    }
+
     /// What went wrong.
     pub fn kind(&self) -> &ErrorKind {
         &self.0.kind

@@ -1408,6 +1408,25 @@ fn keyword_lines_take_unicode_blanks_and_comments() {
     );
 }
 
+/// `--max-length` errors name the flag, byte for byte (the library names
+/// its `Limits` fields instead: tests/library.rs).
+#[test]
+fn max_length_errors_name_the_flag() {
+    let r = run_stdin(&["-", "-n", "4", "--max-length", "5"], DOUBLING.as_bytes());
+    assert_eq!(
+        r.fails(1),
+        "lsgen: error: the string grew past --max-length (5 modules) in step 3\n"
+    );
+    let r = run_stdin(
+        &["-", "-n", "4", "--max-length", "15B"],
+        DOUBLING.as_bytes(),
+    );
+    assert_eq!(
+        r.fails(1),
+        "lsgen: error: the string grew past --max-length (15 bytes) in step 4\n"
+    );
+}
+
 /// Step numbers past 2^64 - 1 are a usage error that names lsgen's flags
 /// (the library names its methods instead: tests/library.rs).
 #[test]

@@ -88,10 +88,9 @@ fn errors_are_located_and_limits_apply() {
     let e = ls
         .derive(&lsgen::Options::new().steps(10).limits(limits), Vec::new())
         .expect_err("past the limit");
-    assert!(
-        e.message().contains("--max-length (100 modules)"),
-        "{}",
-        e.message()
+    assert_eq!(
+        e.message(),
+        "the string grew past `Limits::modules` (100 modules) in step 7"
     );
 }
 
@@ -294,4 +293,76 @@ fn stats_report_the_seed_used() -> Result<(), Box<dyn Error>> {
     assert_eq!(l.derive(&Options::new(), Vec::new())?.seed, Some(5));
     assert_eq!(l.derive(&Options::new().seed(3), Vec::new())?.seed, Some(3));
     Ok(())
+}
+
+/// The limits' errors name the library's settings, not the binary's
+/// `--max-length` (which a library caller never saw): `Limits::modules`,
+/// `Limits::bytes`, `free_space(N)`; the binary keeps its flag
+/// (tests/cli.rs, tests/batch.rs).
+#[test]
+fn limit_errors_name_the_library_settings() {
+    use lsgen::diag::{LengthUnit, OptionNames, RuntimeError};
+    use lsgen::{ErrorKind, Limits, Options, Pass};
+    let derive = |o: Options| {
+        lsgen::LSystem::parse("productions:\nA -> AA\naxiom: A\n")
+            .unwrap()
+            .derive(&o, Vec::new())
+            .expect_err("past a limit")
+    };
+    let modules = Limits {
+        modules: 5,
+        bytes: u64::MAX,
+    };
+    let e = derive(Options::new().steps(4).limits(modules));
+    assert!(
+        matches!(
+            e.kind(),
+            ErrorKind::Runtime(RuntimeError::TooLong {
+                limit: 5,
+                unit: LengthUnit::Modules,
+                pass: Pass::Step(3),
+                names: OptionNames::Library,
+            })
+        ),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.to_string(),
+        "error: the string grew past `Limits::modules` (5 modules) in step 3\n"
+    );
+    // The final text (16 bytes) against a byte limit.
+    let bytes = Limits {
+        modules: u64::MAX,
+        bytes: 15,
+    };
+    let e = derive(Options::new().steps(4).limits(bytes));
+    assert_eq!(
+        e.message(),
+        "the string grew past `Limits::bytes` (15 bytes) in step 4"
+    );
+    // A depth-first plan's final size against `free_space`.
+    let e = derive(Options::new().steps(4).free_space(15));
+    assert!(
+        matches!(
+            e.kind(),
+            ErrorKind::Runtime(RuntimeError::NoSpace {
+                free: 15,
+                names: OptionNames::Library,
+                ..
+            })
+        ),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.to_string(),
+        "output: error: the final string would be 17 bytes, more than `free_space(15)`: \
+         nothing written (fewer steps; `limits()` stops any run early)\n"
+    );
+    for e in [
+        derive(Options::new().steps(4).limits(modules)),
+        derive(Options::new().steps(4).limits(bytes)),
+        derive(Options::new().steps(4).free_space(15)),
+    ] {
+        assert!(!e.to_string().contains("--"), "{e}");
+    }
 }

@@ -581,7 +581,11 @@ pub(crate) fn derive(
                 };
                 return Err(Error::about(
                     out_name,
-                    crate::diag::RuntimeError::NoSpace { size, free: space },
+                    crate::diag::RuntimeError::NoSpace {
+                        size,
+                        free: space,
+                        names: crate::diag::OptionNames::Library,
+                    },
                 ));
             }
         }

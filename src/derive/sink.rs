@@ -3,7 +3,7 @@
 //! bytes against `--max-length`.
 
 use super::Pass;
-use crate::diag::{Error, LengthUnit, RuntimeError};
+use crate::diag::{Error, LengthUnit, OptionNames, RuntimeError};
 use crate::rules::codec::{self, ENDS_BYTES, INDEX_BYTES, MAX_MODULE_BYTES};
 use crate::rules::{Alphabet, ConstRun, CLOSE, OPEN};
 use std::fs::File;
@@ -23,13 +23,15 @@ pub struct Limits {
 
 impl Limits {
     /// Is a generation of `modules` modules and `bytes` bytes, made by
-    /// `pass`, too long?
+    /// `pass`, too long? (The error names the limits as the library has
+    /// them; `LSystem::run` renames them for the binary.)
     pub fn check(&self, modules: u64, bytes: u64, pass: Pass) -> Result<(), Error> {
         if modules > self.modules {
             return Err(Error::new(RuntimeError::TooLong {
                 limit: self.modules,
                 unit: LengthUnit::Modules,
                 pass,
+                names: OptionNames::Library,
             }));
         }
         if bytes > self.bytes {
@@ -37,6 +39,7 @@ impl Limits {
                 limit: self.bytes,
                 unit: LengthUnit::Bytes,
                 pass,
+                names: OptionNames::Library,
             }));
         }
         Ok(())
@@ -1084,6 +1087,12 @@ mod tests {
         let mut out = Out::new(&mut v, "out", false, limits).for_pass(Pass::Step(7));
         out.plain(b"ABCD").unwrap();
         let e = out.finish().unwrap_err();
+        assert_eq!(
+            e.message(),
+            "the string grew past `Limits::modules` (3 modules) in step 7"
+        );
+        // The binary's names, as `LSystem::run` gives them for it.
+        let e = e.with_option_names(crate::diag::OptionNames::CommandLine);
         assert_eq!(
             e.message(),
             "the string grew past --max-length (3 modules) in step 7"

@@ -714,15 +714,24 @@ pub enum RuntimeError {
     Eval { error: ExprError, pass: Pass },
     /// A probability evaluated negative in a pass.
     NegativeProbability { value: f64, pass: Pass },
-    /// The string outgrew `--max-length`.
+    /// The string outgrew a limit of [`crate::Options::limits`]
+    /// (`--max-length`), made by `pass`; `names`: whose names the message
+    /// gives the limit.
     TooLong {
         limit: u64,
         unit: LengthUnit,
         pass: Pass,
+        names: OptionNames,
     },
-    /// The final string would not fit on the output's file system
-    /// (its size as the message says it, the bytes free).
-    NoSpace { size: String, free: u64 },
+    /// The final string would not fit on the output's file system, or in
+    /// [`crate::Options::free_space`] (its size as the message says it,
+    /// the bytes free); `names`: whose names the message gives the
+    /// options.
+    NoSpace {
+        size: String,
+        free: u64,
+        names: OptionNames,
+    },
     /// `group:` gave something else than a whole number.
     GroupNotNumber { value: f64, step: u64 },
     /// `group:` gave a group without a section.
@@ -754,21 +763,39 @@ impl fmt::Display for RuntimeError {
             NegativeProbability { value, pass } => {
                 write!(f, "a probability cannot be negative ({value}, in {pass})")
             }
-            TooLong { limit, unit, pass } => write!(
-                f,
-                "the string grew past --max-length ({limit} {}) in {pass}",
-                match unit {
+            TooLong {
+                limit,
+                unit,
+                pass,
+                names,
+            } => {
+                let unit = match unit {
                     LengthUnit::Modules => "modules",
                     LengthUnit::Bytes => "bytes",
-                }
-            ),
-            NoSpace { size, free } => write!(
-                f,
-                "the final string would be {size}, more than the {} bytes free on \
-                 its file system: nothing written (fewer steps; --max-length stops \
-                 any run early)",
-                super::group_digits(*free)
-            ),
+                };
+                let option = match names {
+                    OptionNames::Library => format!("`Limits::{unit}`"),
+                    OptionNames::CommandLine => "--max-length".to_string(),
+                };
+                write!(
+                    f,
+                    "the string grew past {option} ({limit} {unit}) in {pass}"
+                )
+            }
+            NoSpace { size, free, names } => match names {
+                OptionNames::Library => write!(
+                    f,
+                    "the final string would be {size}, more than `free_space({free})`: \
+                     nothing written (fewer steps; `limits()` stops any run early)"
+                ),
+                OptionNames::CommandLine => write!(
+                    f,
+                    "the final string would be {size}, more than the {} bytes free on \
+                     its file system: nothing written (fewer steps; --max-length stops \
+                     any run early)",
+                    super::group_digits(*free)
+                ),
+            },
             GroupNotNumber { value, step } => write!(
                 f,
                 "group: gives {} in step {step}, not a group number",
@@ -901,8 +928,9 @@ impl fmt::Display for IoError {
 pub type Placeholder = &'static str;
 
 /// Whose names an error gives the options it mentions: the library's
-/// [`crate::Options`] methods (`first_step(K)`) or lsgen's flags
-/// (`--first-step K`).
+/// [`crate::Options`] methods and [`crate::Limits`] fields
+/// (`first_step(K)`, `Limits::modules`) or lsgen's flags
+/// (`--first-step K`, `--max-length`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OptionNames {
     /// The methods of [`crate::Options`].
