@@ -41,6 +41,9 @@ pub struct LSystem {
     system: Option<(System, Option<u64>)>,
     /// The seed used when neither the options nor the file give one.
     fresh: u64,
+    /// The file's `seed:` (kept apart from `system`, which a derivation
+    /// takes).
+    file_seed: Option<u64>,
     /// A cpfg `.l` file, lowered: the rules are compiled from it, the
     /// axiom is read from its text.
     cpfg: Option<crate::cpfg::Loaded>,
@@ -306,6 +309,7 @@ impl LSystem {
             input: Some(input),
             text: None,
             axiom: None,
+            file_seed: system.seed,
             system: Some((system, seed)),
             fresh,
             cpfg: None,
@@ -360,6 +364,7 @@ impl LSystem {
             input: None,
             text: None,
             axiom: None,
+            file_seed: system.seed,
             system: Some((system, seed)),
             fresh: 0,
             cpfg: Some(loaded),
@@ -536,6 +541,7 @@ impl LSystem {
             Some(c) => c.seed,
             None => Some(seed),
         };
+        debug_assert_eq!(seed_used, self.seed(options), "LSystem::seed");
         // cpfg prints parameters with C's `%g`: 6 significant digits.
         let precision = options.precision.or(system.cpfg.is_some().then_some(6));
         let cpfg = system.cpfg.is_some();
@@ -601,12 +607,17 @@ impl LSystem {
         options.steps.or(file).unwrap_or(DEFAULT_DERIVATION_LENGTH)
     }
 
-    /// The seed a derivation with `options` would use, as
-    /// [`Stats::seed`] will report it: `None` for a cpfg `.l` system that
-    /// neither `options` nor its file seeds.
+    /// The seed of the random generator of a derivation with `options`,
+    /// as its [`Stats::seed`] reports it: [`Options::seed`], else the
+    /// file's `seed:`, else for an `.ls` system the fresh seed drawn when
+    /// it was read (every derivation of this `LSystem` without a seed
+    /// uses that one); `None` for a cpfg `.l` system that neither
+    /// `options` nor its file seeds (it uses no seed). The answer is the
+    /// same before and after a derivation: the seed the next one uses,
+    /// or for a system read from a stream (which derives once) the one
+    /// its derivation used.
     pub fn seed(&self, options: &Options) -> Option<u64> {
-        let file = self.system.as_ref().and_then(|(s, _)| s.seed);
-        match (options.seed.or(file), &self.cpfg) {
+        match (options.seed.or(self.file_seed), &self.cpfg) {
             (None, Some(_)) => None,
             (seed, _) => Some(seed.unwrap_or(self.fresh)),
         }

@@ -366,3 +366,77 @@ fn limit_errors_name_the_library_settings() {
         assert!(!e.to_string().contains("--"), "{e}");
     }
 }
+
+/// `LSystem::seed` is the seed a derivation uses, before and after one:
+/// `Options::seed`, else the file's `seed:`, else (`.ls`) the system's
+/// fresh seed, else (`.l`) none; and it is what that derivation's
+/// `Stats::seed` says. (After a derivation it used to forget the file's
+/// `seed:`: the fresh seed for an `.ls` file, `None` for a `.l` one.)
+#[test]
+fn the_seed_is_the_one_a_derivation_uses_before_and_after() -> Result<(), Box<dyn Error>> {
+    use lsgen::{LSystem, Options};
+    let ls = |seed: &str| format!("{seed}productions:\nA -> AB : 1\nA -> BA : 1\naxiom: A\n");
+    let l = |seed: &str| {
+        format!(
+            "Lsystem: 1\n{seed}derivation length: 3\nAxiom: A\n\
+             A --> AB : 1\nA --> BA : 1\nendlsystem\n"
+        )
+    };
+    // (source, the seed without and with `Options::seed(3)`); the fresh
+    // seed of an `.ls` system is 77 here.
+    let cases = [
+        (ls(""), Some(77)),
+        (ls("seed: 9\n"), Some(9)),
+        (l(""), None),
+        (l("seed: 5\n"), Some(5)),
+    ];
+    let three = Options::new().seed(3);
+    for (src, file) in &cases {
+        for stream in [false, true] {
+            let mut sys = if stream {
+                LSystem::from_reader(std::io::Cursor::new(src.clone()), "s")?
+            } else {
+                LSystem::parse(src)?
+            }
+            .with_fallback_seed(77)?;
+            let what = format!("{src:?}, from a stream: {stream}");
+            assert_eq!(sys.seed(&Options::new()), *file, "{what}");
+            assert_eq!(sys.seed(&three), Some(3), "{what}");
+            // Derived with the options' seed, then with its own.
+            let stats = sys.derive(&three, Vec::new())?;
+            assert_eq!(stats.seed, Some(3), "{what}");
+            assert_eq!(sys.seed(&three), Some(3), "{what}");
+            assert_eq!(sys.seed(&Options::new()), *file, "{what}");
+            // A stream's `.ls` axiom is read once; a `.l` file's axiom is
+            // in its text, and derives again.
+            let cpfg = src.starts_with("Lsystem");
+            if cpfg || !stream {
+                let stats = sys.derive(&Options::new(), Vec::new())?;
+                assert_eq!(stats.seed, *file, "{what}");
+            }
+            assert_eq!(sys.seed(&Options::new()), *file, "{what}");
+            assert_eq!(sys.seed(&three), Some(3), "{what}");
+        }
+        // Derived with its own seed first, and after a failed derivation.
+        let mut sys = LSystem::parse(src)?.with_fallback_seed(77)?;
+        assert_eq!(sys.derive(&Options::new(), Vec::new())?.seed, *file);
+        assert_eq!(sys.seed(&Options::new()), *file, "{src:?}");
+        let limits = lsgen::Limits {
+            modules: 1,
+            bytes: u64::MAX,
+        };
+        let o = Options::new().steps(3).limits(limits);
+        assert!(sys.derive(&o, Vec::new()).is_err(), "{src:?}");
+        assert_eq!(sys.seed(&Options::new()), *file, "{src:?}");
+        assert_eq!(sys.seed(&three), Some(3), "{src:?}");
+    }
+    // The fresh seed is drawn once per system, and reported the same.
+    let mut sys = LSystem::parse(&ls(""))?;
+    let fresh = sys.seed(&Options::new());
+    assert!(fresh.is_some());
+    assert_eq!(sys.derive(&Options::new(), Vec::new())?.seed, fresh);
+    assert_eq!(sys.derive(&three, Vec::new())?.seed, Some(3));
+    assert_eq!(sys.seed(&Options::new()), fresh);
+    assert_eq!(sys.derive(&Options::new(), Vec::new())?.seed, fresh);
+    Ok(())
+}
