@@ -1,5 +1,6 @@
 //! lsgen as a library: derive an L-system from a string, streaming the
-//! result into standard output, and report each generation's length.
+//! result into standard output, and report each generation's length and
+//! each warning.
 //!
 //! `cargo run --example embed -- 5` derives ABOP's Koch curve 5 steps.
 
@@ -15,10 +16,13 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     let options = lsgen::Options::new().steps(steps);
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
-    let stats = koch.derive_with(&options, &mut out, |event| {
-        if let lsgen::Event::Generation { pass, modules, .. } = event {
+    let stats = koch.derive_with(&options, &mut out, |event| match event {
+        lsgen::Event::Generation { pass, modules, .. } => {
             eprintln!("{pass}: {modules} modules");
         }
+        // Rendered as lsgen prints it: place, message, source line, caret.
+        lsgen::Event::Warning(w) => eprint!("{w}"),
+        _ => {}
     })?;
     out.flush()?;
     eprintln!("{} modules, {} bytes", stats.modules, stats.bytes);

@@ -3,7 +3,7 @@
 use crate::cpfg::Dialect;
 use crate::derive::random::Random;
 use crate::derive::{derive, Event, FrameSink, Frames, Limits, Settings, Strategy};
-use crate::diag::{Error, OptionNames, ParseError, RuntimeError, UsageError};
+use crate::diag::{Error, OptionNames, ParseError, RuntimeError, UsageError, Warning, WarningKind};
 use crate::io::axiom::AxiomReader;
 use crate::io::input::{split_header, Input, Split};
 use crate::io::precision::Significant;
@@ -44,6 +44,10 @@ pub struct LSystem {
     /// The file's `seed:` (kept apart from `system`, which a derivation
     /// takes).
     file_seed: Option<u64>,
+    /// The warnings found when the file was read by [`LSystem::parse`] or
+    /// [`LSystem::from_reader`], for each [`LSystem::derive_with`] (the
+    /// binary prints its own at once).
+    warnings: Vec<Warning>,
     /// A cpfg `.l` file, lowered: the rules are compiled from it, the
     /// axiom is read from its text.
     cpfg: Option<crate::cpfg::Loaded>,
@@ -68,6 +72,9 @@ pub struct Options {
     /// How errors name the options: by these methods, or by the binary's
     /// flags.
     names: OptionNames,
+    /// Warnings go to standard error as they are found, not to the
+    /// events.
+    print_warnings: bool,
 }
 
 impl Default for Options {
@@ -86,6 +93,7 @@ impl Default for Options {
             split: None,
             direct: None,
             names: OptionNames::Library,
+            print_warnings: false,
         }
     }
 }
@@ -190,6 +198,16 @@ impl Options {
         self
     }
 
+    /// Warnings go to standard error as they are found (each text once
+    /// per process), not to [`LSystem::derive_with`]'s events: the
+    /// binary's, so that they keep their place among the other lines
+    /// there (cpfg's `printf`, `-v`).
+    #[doc(hidden)]
+    pub fn print_warnings(mut self) -> Self {
+        self.print_warnings = true;
+        self
+    }
+
     /// Split the work between threads into tasks this small (for tests).
     #[doc(hidden)]
     pub fn split(mut self, n: u64) -> Self {
@@ -246,12 +264,14 @@ impl LSystem {
     /// );
     /// ```
     pub fn parse(text: &str) -> Result<LSystem, Error> {
+        let collecting = crate::diag::collect_warnings();
         let mut ls = Self::load_named(
             Input::new(Box::new(io::Cursor::new(text.to_string())), "<input>"),
             None,
         )?;
         ls.require_axiom()?;
         ls.text = Some(text.to_string());
+        ls.warnings = collecting.take();
         Ok(ls)
     }
 
@@ -261,23 +281,27 @@ impl LSystem {
     ///
     /// [`derive`]: LSystem::derive
     pub fn from_reader(reader: impl Read + 'static, name: &str) -> Result<LSystem, Error> {
-        let ls = Self::load_named(Input::new(Box::new(reader), name), None)?;
+        let collecting = crate::diag::collect_warnings();
+        let mut ls = Self::load_named(Input::new(Box::new(reader), name), None)?;
         ls.require_axiom()?;
+        ls.warnings = collecting.take();
         Ok(ls)
     }
 
     /// Read and compile the header from `input` (leaving it at the axiom);
     /// random constants drawn with `seed` (else the file's or a fresh one).
     pub(crate) fn load_named(input: Input, seed: Option<u64>) -> Result<LSystem, Error> {
-        Self::load_dialect(input, seed, Dialect::Auto)
+        Self::load_dialect(input, seed, Dialect::Auto, OptionNames::Library)
     }
 
     /// [`load_named`](Self::load_named) in `dialect` (`Auto`: the file's,
-    /// see [`crate::cpfg::sniff`]).
+    /// see [`crate::cpfg::sniff`]), its warnings naming the options by
+    /// `names`.
     pub(crate) fn load_dialect(
         mut input: Input,
         seed: Option<u64>,
         dialect: Dialect,
+        names: OptionNames,
     ) -> Result<LSystem, Error> {
         let cpfg = match dialect {
             Dialect::Cpfg => true,
@@ -297,7 +321,7 @@ impl LSystem {
             }
         };
         if cpfg {
-            return Self::load_cpfg(input, seed);
+            return Self::load_cpfg(input, seed, names);
         }
         let fresh = Random::fresh_seed();
         let split = split_header(&mut input)?;
@@ -310,6 +334,7 @@ impl LSystem {
             text: None,
             axiom: None,
             file_seed: system.seed,
+            warnings: Vec::new(),
             system: Some((system, seed)),
             fresh,
             cpfg: None,
@@ -318,7 +343,11 @@ impl LSystem {
 
     /// Read a cpfg `.l` file whole (at most the preprocessor's limit),
     /// preprocess, parse, lower and compile it.
-    fn load_cpfg(mut input: Input, seed: Option<u64>) -> Result<LSystem, Error> {
+    fn load_cpfg(
+        mut input: Input,
+        seed: Option<u64>,
+        names: OptionNames,
+    ) -> Result<LSystem, Error> {
         let path = input.name.clone();
         let mut bytes = Vec::new();
         let limit = crate::cpfg::preprocess::MAX_FILE_SIZE as usize;
@@ -351,7 +380,7 @@ impl LSystem {
                 ));
             }
         };
-        let loaded = crate::cpfg::load(&path, source, seed.is_some())?;
+        let loaded = crate::cpfg::load(&path, source, seed.is_some(), names)?;
         let system = compile_cpfg(&loaded, seed)?;
         Ok(LSystem {
             path,
@@ -365,6 +394,7 @@ impl LSystem {
             text: None,
             axiom: None,
             file_seed: system.seed,
+            warnings: Vec::new(),
             system: Some((system, seed)),
             fresh: 0,
             cpfg: Some(loaded),
@@ -461,8 +491,16 @@ impl LSystem {
         Ok((system, input, true, line, col))
     }
 
-    /// Read the axiom, reporting its errors, and derive nothing.
+    /// Read the axiom, reporting its errors, and derive nothing (its
+    /// warnings are not reported).
     pub fn check(&mut self) -> Result<(), Error> {
+        let _silent = crate::diag::collect_warnings();
+        self.check_axiom()
+    }
+
+    /// [`check`](LSystem::check), its warnings reported as
+    /// [`crate::diag::warn`] does (the binary collects them).
+    pub(crate) fn check_axiom(&mut self) -> Result<(), Error> {
         let (mut system, input, comments, line, col) = self.take(None)?;
         let consts = std::mem::take(&mut system.consts);
         let mut reader = AxiomReader::new(input, comments, line, col, &consts);
@@ -485,15 +523,36 @@ impl LSystem {
 
     /// Derive and stream the final string, one line, into `out`.
     /// Generations in between live in temporary files, so memory does not
-    /// grow with the string.
+    /// grow with the string. Warnings are not reported:
+    /// [`derive_with`](LSystem::derive_with) reports them.
     pub fn derive(&mut self, options: &Options, out: impl Write) -> Result<Stats, Error> {
         self.run(options, out, "output", false, &mut |_| {}, None)
     }
 
     /// [`derive`](LSystem::derive), calling `on_event` as each generation
-    /// is complete (with its length) and when a fixed point ends the steps
-    /// early. Asking for every generation's length may take the
+    /// is complete (with its length), when a fixed point ends the steps
+    /// early, and with each warning ([`Event::Warning`]): the file's, found
+    /// when it was read, first (each derivation reports them again), then
+    /// the derivation's own, each before the event of the generation it
+    /// was found in. Asking for every generation's length may take the
     /// step-by-step strategy where depth first would do.
+    ///
+    /// ```
+    /// // `step` is a built-in name: a parameter of that name hides it.
+    /// let src = "productions:\nA(step) -> A(step+1)\naxiom: A(0)\n";
+    /// let mut ls = lsgen::LSystem::parse(src)?;
+    /// let mut warnings = Vec::new();
+    /// ls.derive_with(&lsgen::Options::new(), Vec::new(), |e| {
+    ///     if let lsgen::Event::Warning(w) = e {
+    ///         warnings.push(w.to_string());
+    ///     }
+    /// })?;
+    /// assert_eq!(
+    ///     warnings,
+    ///     ["<input>:2:3: warning: `step` hides the built-in step number\nA(step) -> A(step+1)\n  ^\n"]
+    /// );
+    /// # Ok::<(), lsgen::Error>(())
+    /// ```
     pub fn derive_with(
         &mut self,
         options: &Options,
@@ -504,6 +563,53 @@ impl LSystem {
     }
 
     pub(crate) fn run(
+        &mut self,
+        options: &Options,
+        out: impl Write,
+        out_name: &str,
+        lengths: bool,
+        events: &mut dyn FnMut(&Event),
+        frames: Option<(Frames, &mut dyn FrameSink)>,
+    ) -> Result<Stats, Error> {
+        if options.print_warnings {
+            // The binary loaded the file with its own names, and its
+            // warnings went to standard error then.
+            return self.run_inner(options, out, out_name, lengths, events, frames);
+        }
+        // Warnings go to `events`: the file's first, then those found on
+        // the way, each before the next event (and the last ones at the
+        // end, whatever the outcome), with the caller's option names.
+        let collecting = crate::diag::collect_warnings();
+        let names = options.names;
+        let mut forward = |event: Option<&Event>| {
+            for w in collecting.take() {
+                events(&Event::Warning(w.with_option_names(names)));
+            }
+            if let Some(e) = event {
+                events(e);
+            }
+        };
+        for w in &self.warnings {
+            // `Options::seed` makes a `.l` file's weights count.
+            let counted = options.seed.is_some()
+                && matches!(w.kind(), WarningKind::ProbabilityWithoutSeed { .. });
+            if !counted {
+                forward(Some(&Event::Warning(w.clone().with_option_names(names))));
+            }
+        }
+        let r = self.run_inner(
+            options,
+            out,
+            out_name,
+            lengths,
+            &mut |e| forward(Some(e)),
+            frames,
+        );
+        forward(None);
+        r
+    }
+
+    fn run_inner(
         &mut self,
         options: &Options,
         mut out: impl Write,

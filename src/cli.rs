@@ -3,7 +3,7 @@
 pub use crate::api::DEFAULT_DERIVATION_LENGTH;
 use crate::api::{LSystem, Options};
 use crate::derive::{Event, FrameSink, Frames, Limits, Pass, Strategy};
-use crate::diag::{Error, RuntimeError, Stage};
+use crate::diag::{Error, OptionNames, RuntimeError, Stage};
 use crate::io::input::Input;
 use crate::io::output::Output;
 use crate::io::template::{self, Field, Template, Vars};
@@ -827,7 +827,8 @@ fn run_one(
         return Err(Error::new(crate::diag::UsageError::BothFromStdin));
     }
     let input = open_input(job.file)?;
-    let mut ls = LSystem::load_dialect(input, job.seed, args.dialect.unwrap_or_default())?;
+    let dialect = args.dialect.unwrap_or_default();
+    let mut ls = LSystem::load_dialect(input, job.seed, dialect, OptionNames::CommandLine)?;
     if args.axiom.is_none() {
         ls.require_axiom()?;
     }
@@ -836,7 +837,7 @@ fn run_one(
         if let Some(p) = &args.axiom {
             ls.set_axiom(open_input(Some(p.as_path()))?);
         }
-        ls.check()?;
+        ls.check_axiom()?;
         if args.verbose {
             let (prods, hom) = ls.counts();
             crate::diag::eprint(&format!(
@@ -848,6 +849,7 @@ fn run_one(
     }
     let mut options = Options::new()
         .command_line_names()
+        .print_warnings()
         .homomorphism(!args.no_homomorphism)
         .limits(args.max_length.unwrap_or_default())
         .strategy(args.strategy);
@@ -952,6 +954,8 @@ fn run_one(
             Event::FixedPoint { from, to } => {
                 format!("lsgen: {who}steps {from}..{to}: unchanged (fixed point)\n")
             }
+            // Printed as they are found (`print_warnings`).
+            Event::Warning(_) => return,
         };
         crate::diag::eprint(&line);
     };

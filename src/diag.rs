@@ -61,7 +61,7 @@ pub(crate) fn line_col<'t>(
 }
 
 /// A located error: where, and the source line to show.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Location {
     pub path: String,
     pub line: usize,
@@ -129,11 +129,49 @@ pub fn group_digits(n: u64) -> String {
     out
 }
 
-/// Print a located warning (`lsgen: FILE:LINE:COL: warning: ...`, the
-/// source line and a caret) on standard error, once per process: a
-/// batch's jobs load the same file each, and its warnings are said once.
-pub(crate) fn warn(location: Location, warning: &Warning) {
-    let text = warning_text(&location, warning);
+/// Report a located warning: to this thread's collection if there is one
+/// ([`collect_warnings`]: a library derivation's, handed to its caller
+/// as [`crate::Event::Warning`]), else on standard error
+/// ([`print_warning`]).
+pub(crate) fn warn(location: Location, kind: &WarningKind) {
+    let w = Warning::new(kind.clone(), Some(location));
+    let unheard = COLLECTED.with(|c| match c.borrow_mut().as_mut() {
+        Some(c) => {
+            c.warnings.push(w);
+            None
+        }
+        None => Some(w),
+    });
+    if let Some(w) = unheard {
+        print_warning(&w);
+    }
+}
+
+/// Report a warning without a place, however often it is found, once per
+/// collection (a derivation), or once per process on standard error
+/// (`printed`: whether it was): the cheap test comes first, for a model
+/// that finds it at every module.
+pub(crate) fn warn_once(kind: &WarningKind, printed: &std::sync::atomic::AtomicBool) {
+    let collected = COLLECTED.with(|c| match c.borrow_mut().as_mut() {
+        Some(c) => {
+            if !c.once.contains(kind) {
+                c.once.push(kind.clone());
+                c.warnings.push(Warning::new(kind.clone(), None));
+            }
+            true
+        }
+        None => false,
+    });
+    if !collected && !printed.swap(true, std::sync::atomic::Ordering::Relaxed) {
+        print_warning(&Warning::new(kind.clone(), None));
+    }
+}
+
+/// Print a warning on standard error (`lsgen: FILE:LINE:COL: warning:
+/// ...`, the source line and a caret), once per process: a batch's jobs
+/// load the same file each, and its warnings are said once.
+pub(crate) fn print_warning(w: &Warning) {
+    let text = format!("lsgen: {w}");
     if first_time(&text) {
         eprint(&text);
     }
@@ -162,17 +200,66 @@ fn first_time(text: &str) -> bool {
     }
 }
 
-/// What [`warn`] prints.
-pub(crate) fn warning_text(location: &Location, warning: &Warning) -> String {
-    format!("lsgen: {}", AsWarning(location, &warning.to_string()))
+/// What [`print_warning`] prints for a located warning (the cpfg
+/// preprocessor's `Display`).
+pub(crate) fn warning_text(location: &Location, kind: &WarningKind) -> String {
+    format!("lsgen: {}", AsWarning(location, &kind.to_string()))
 }
 
-/// Print a warning without a place (`lsgen: warning: ...`) on standard
-/// error.
-pub(crate) fn warn_unlocated(warning: &Warning) {
-    let text = format!("lsgen: warning: {warning}\n");
-    if first_time(&text) {
-        eprint(&text);
+/// The warnings of this thread's collection.
+struct Collected {
+    warnings: Vec<Warning>,
+    /// Those said once per collection, already said.
+    once: Vec<WarningKind>,
+}
+
+thread_local! {
+    /// Where this thread's warnings go: `None`, standard error.
+    static COLLECTED: std::cell::RefCell<Option<Collected>> =
+        const { std::cell::RefCell::new(None) };
+}
+
+/// While the returned guard lives, the warnings raised on this thread are
+/// collected ([`Collecting::take`]), not printed. A derivation raises
+/// every warning on the thread that derives: the passes that can warn
+/// (decomposition, the homomorphism's depth, the cpfg dialect) are never
+/// split between threads (`derive::par::step_threads`).
+pub(crate) fn collect_warnings() -> Collecting {
+    let fresh = Collected {
+        warnings: Vec::new(),
+        once: Vec::new(),
+    };
+    let outer = COLLECTED.with(|c| c.replace(Some(fresh)));
+    Collecting {
+        outer,
+        _thread: std::marker::PhantomData,
+    }
+}
+
+/// A collection of this thread's warnings; the one before it (if any)
+/// comes back when it is dropped.
+pub(crate) struct Collecting {
+    outer: Option<Collected>,
+    /// Bound to its thread.
+    _thread: std::marker::PhantomData<*const ()>,
+}
+
+impl Collecting {
+    /// The warnings collected since the last call, in order.
+    pub(crate) fn take(&self) -> Vec<Warning> {
+        COLLECTED.with(|c| {
+            c.borrow_mut()
+                .as_mut()
+                .map(|c| std::mem::take(&mut c.warnings))
+                .unwrap_or_default()
+        })
+    }
+}
+
+impl Drop for Collecting {
+    fn drop(&mut self) {
+        let outer = self.outer.take();
+        COLLECTED.with(|c| *c.borrow_mut() = outer);
     }
 }
 
@@ -180,7 +267,7 @@ mod cpfg;
 mod kinds;
 mod warning;
 pub use kinds::*;
-pub(crate) use warning::Warning;
+pub use warning::{Warning, WarningKind};
 
 /// An error: what went wrong ([`ErrorKind`], typed by stage), where (a
 /// [`Location`] in the source, or a subject such as a file name), boxed so
@@ -325,7 +412,7 @@ fn render(f: &mut fmt::Formatter<'_>, e: &Error, severity: &str) -> fmt::Result 
     }
 }
 
-fn render_at(
+pub(crate) fn render_at(
     f: &mut fmt::Formatter<'_>,
     l: &Location,
     severity: &str,

@@ -4,8 +4,8 @@
 //! [`Options`], and [`derive`](LSystem::derive) it into any
 //! [`Write`](std::io::Write): the final string is streamed, generations in
 //! between live in temporary files, so memory does not grow with the
-//! string. [`LSystem::derive_with`] also reports each generation
-//! ([`Event`]). Errors ([`Error`]) carry what went wrong, typed by stage
+//! string. [`LSystem::derive_with`] also reports each generation and
+//! each warning ([`Event`]). Errors ([`Error`]) carry what went wrong, typed by stage
 //! ([`ErrorKind`], payloads in [`diag`]), and their location; they render
 //! as `FILE:LINE:COL: error: ...`, the source line and a caret.
 //!

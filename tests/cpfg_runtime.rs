@@ -540,3 +540,47 @@ fn unbalancing_bracket_productions_are_located_errors() {
         );
     }
 }
+
+/// lsgen prints each warning as it is found, in its place among the
+/// lines of cpfg's `printf` and of `-v` (the library hands them over as
+/// events instead, tests/library.rs): the division by zero of the first
+/// `A`'s production comes between the two `A`s' `printf`s, and once per
+/// run; the file's warnings come first, with `--seed` named.
+#[test]
+fn warnings_keep_their_place_among_printf_lines() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "order.l",
+        "Lsystem: 1\nderivation length: 2\nEndEach: {printf(\"end %g\\n\", Q);}\n\
+         Axiom: A(1) A(2)\nA(x) : {printf(\"A(%g)\\n\", x);} * --> A(x/0)B(y)\n\
+         B(x) --> C : 1\nendlsystem\n",
+    );
+    let (out, err) = derive(&["-v"], &file);
+    assert_eq!(out, "A(1)B(0)CA(2)B(0)C\n");
+    let f = file.display();
+    assert_eq!(
+        err,
+        format!(
+            "lsgen: {f}:5:46: warning: `y` is not defined: it is 0 here, as in cpfg\n\
+             A(x) : {{printf(\"A(%g)\\n\", x);}} * --> A(x/0)B(y)\n{}^\n\
+             lsgen: {f}:6:14: warning: a probability without `seed:` is ignored, as in \
+             cpfg (the first applicable production applies; `--seed` makes it count)\n\
+             B(x) --> C : 1\n{}^\n\
+             lsgen: seed 0\n\
+             lsgen: axiom: 2 modules, 20 bytes\n\
+             A(1)\n\
+             lsgen: warning: division by zero in a cpfg expression: divided by 1 instead, \
+             as cpfg does\n\
+             A(2)\n\
+             lsgen: step 1: 4 modules, 40 bytes\n\
+             end 1\n\
+             A(1)\n\
+             A(2)\n\
+             lsgen: step 2: 6 modules, 18 bytes\n\
+             end 2\n",
+            " ".repeat(45),
+            " ".repeat(13)
+        )
+    );
+}

@@ -440,3 +440,182 @@ fn the_seed_is_the_one_a_derivation_uses_before_and_after() -> Result<(), Box<dy
     assert_eq!(sys.derive(&Options::new(), Vec::new())?.seed, fresh);
     Ok(())
 }
+
+/// Each event of `derive_with` as a line: a generation's pass and
+/// modules, or a warning as it renders.
+fn event_lines(
+    ls: &mut lsgen::LSystem,
+    options: &lsgen::Options,
+) -> Result<(String, Vec<String>), lsgen::Error> {
+    let mut out = Vec::new();
+    let mut lines = Vec::new();
+    ls.derive_with(options, &mut out, |e| {
+        lines.push(match e {
+            lsgen::Event::Generation { pass, modules, .. } => format!("{pass}: {modules}"),
+            lsgen::Event::FixedPoint { from, to } => format!("fixed {from}..{to}"),
+            lsgen::Event::Warning(w) => w.to_string(),
+            other => format!("{other:?}"),
+        })
+    })?;
+    Ok((String::from_utf8(out).unwrap(), lines))
+}
+
+/// A derivation hands its warnings to the caller as `Event::Warning`, in
+/// their place among the generations (they went to standard error only,
+/// where a library caller could neither see nor silence them): located
+/// ones render as errors do, without a program name.
+#[test]
+fn warnings_are_events() -> Result<(), Box<dyn Error>> {
+    use lsgen::diag::WarningKind;
+    use lsgen::{LSystem, Options, Pass};
+    // Decomposition at its maximum depth, in step 1.
+    let src = "derivation length: 3\nproductions:\nA -> AL\ndecomposition: warnings\n\
+               maximum depth: 2\nL -> [+P][-P]\nP : 2 < 1 -> S\nP -> Q\nQ -> R\naxiom:\nA\n";
+    let mut ls = LSystem::parse(src)?;
+    let (out, lines) = event_lines(&mut ls, &Options::new())?;
+    assert_eq!(out, "A[+Q][-Q][+R][-R][+R][-R]\n");
+    assert_eq!(
+        lines,
+        [
+            "the axiom: 1",
+            "<input>:9:1: warning: decomposition stopped at maximum depth 2, but this \
+             production still applies (to module Q, in step 1)\nQ -> R\n^\n",
+            "step 1: 9",
+            "step 2: 17",
+            "step 3: 25",
+        ]
+    );
+    // Typed, with its place.
+    let mut warnings = Vec::new();
+    ls.derive_with(&Options::new().steps(1), Vec::new(), |e| {
+        if let lsgen::Event::Warning(w) = e {
+            warnings.push(w.clone());
+        }
+    })?;
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert_eq!(
+        warnings[0].kind(),
+        &WarningKind::MaximumDepth {
+            max: 2,
+            symbol: 'Q',
+            pass: Pass::Step(1)
+        }
+    );
+    let at = warnings[0].location().expect("located");
+    assert_eq!((at.path.as_str(), at.line, at.col), ("<input>", 9, 1));
+    assert_eq!(
+        warnings[0].message(),
+        "decomposition stopped at maximum depth 2, but this production still \
+         applies (to module Q, in step 1)"
+    );
+
+    // `step` hidden: found as the derivation starts, before the axiom.
+    let mut ls = LSystem::parse("productions:\nA(step) -> A(step+1)\naxiom: A(0)\n")?;
+    let (_, lines) = event_lines(&mut ls, &Options::new().steps(2))?;
+    assert_eq!(
+        lines,
+        [
+            "<input>:2:3: warning: `step` hides the built-in step number\n\
+             A(step) -> A(step+1)\n  ^\n",
+            "the axiom: 1",
+            "step 1: 1",
+            "step 2: 1",
+        ]
+    );
+    Ok(())
+}
+
+/// A cpfg `.l` text's warnings: those found when it is read come first,
+/// at every derivation; a division by zero (divided by 1, as cpfg does)
+/// is said once per derivation, without a place (it was said once per
+/// process: a second derivation said nothing); the ignored weights name
+/// `Options::seed`, not `--seed`, and are not said where it makes them
+/// count.
+#[test]
+fn cpfg_warnings_are_events() -> Result<(), Box<dyn Error>> {
+    use lsgen::diag::WarningKind;
+    use lsgen::{LSystem, Options};
+    let src = "Lsystem: 1\nderivation length: 2\nAxiom: A(1)\n\
+               A(x) --> A(x/0)B(y)\nB(x) --> C : 1\nendlsystem\n";
+    let mut ls = LSystem::parse(src)?;
+    let undefined = "<input>:4:18: warning: `y` is not defined: it is 0 here, as in cpfg\n\
+                     A(x) --> A(x/0)B(y)\n                 ^\n";
+    let weights = "<input>:5:14: warning: a probability without `seed:` is ignored, as in \
+                   cpfg (the first applicable production applies; `seed(N)` makes it \
+                   count)\nB(x) --> C : 1\n             ^\n";
+    let division = "warning: division by zero in a cpfg expression: divided by 1 \
+                    instead, as cpfg does\n";
+    let want = [
+        undefined,
+        weights,
+        "the axiom: 1",
+        division,
+        "step 1: 2",
+        "step 2: 3",
+    ];
+    for _ in 0..2 {
+        let (out, lines) = event_lines(&mut ls, &Options::new())?;
+        assert_eq!(out, "A(1)B(0)C\n");
+        assert_eq!(lines, want);
+    }
+    // With a seed the weights count: no warning about them.
+    let (_, lines) = event_lines(&mut ls, &Options::new().seed(1))?;
+    assert_eq!(
+        lines,
+        [
+            undefined,
+            "the axiom: 1",
+            division,
+            "step 1: 2",
+            "step 2: 3"
+        ]
+    );
+    // The division is typed, without a place.
+    let mut division = Vec::new();
+    ls.derive_with(&Options::new(), Vec::new(), |e| match e {
+        lsgen::Event::Warning(w) if w.location().is_none() => division.push(w.kind().clone()),
+        _ => {}
+    })?;
+    assert_eq!(division, [WarningKind::DivisionByZero]);
+    Ok(())
+}
+
+/// A library caller that does not ask for events hears no warning on
+/// standard error: `parse`, `from_reader`, `derive` and `check` say
+/// nothing there (they printed every warning). Run in a child process,
+/// whose standard error the parent reads.
+#[test]
+fn the_library_writes_no_warning_on_standard_error() -> Result<(), Box<dyn Error>> {
+    use lsgen::{LSystem, Options};
+    const CHILD: &str = "LSGEN_LIBRARY_TEST_CHILD";
+    if std::env::var_os(CHILD).is_none() {
+        let me = std::env::current_exe()?;
+        let r = std::process::Command::new(me)
+            .args([
+                "--exact",
+                "the_library_writes_no_warning_on_standard_error",
+                "--test-threads",
+                "1",
+            ])
+            .env(CHILD, "1")
+            .output()?;
+        let stdout = String::from_utf8_lossy(&r.stdout);
+        assert!(r.status.success(), "{stdout}");
+        assert!(stdout.contains("1 passed"), "{stdout}");
+        assert_eq!(String::from_utf8_lossy(&r.stderr), "");
+        return Ok(());
+    }
+    let cpfg = "Lsystem: 1\nderivation length: 2\nAxiom: A(1)\n\
+                A(x) --> A(x/0)B(y)\nB(x) --> C : 1\nendlsystem\n";
+    let structural = "derivation length: 3\nproductions:\nA -> AL\ndecomposition: warnings\n\
+                      maximum depth: 2\nL -> [+P][-P]\nP -> Q\nQ -> R\naxiom:\nA\n";
+    let step = "productions:\nA(step) -> A(step+1)\naxiom: A(0)\n";
+    for src in [cpfg, structural, step] {
+        let mut ls = LSystem::parse(src)?;
+        ls.check()?;
+        ls.derive(&Options::new(), Vec::new())?;
+        let mut ls = LSystem::from_reader(std::io::Cursor::new(src.to_string()), "r")?;
+        ls.derive(&Options::new(), Vec::new())?;
+    }
+    Ok(())
+}

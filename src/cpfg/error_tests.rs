@@ -7,14 +7,19 @@
 use crate::diag::PreprocessError::{BadExpression, InvalidDirective, Macro, NotSupported};
 use crate::diag::{
     Block, CompileError, DirectiveError, Error, ErrorKind, ExprError, IfError, LexicalError,
-    MacroError, ParseError, PpConstruct, PreprocessError, RandomError, Refused, RuntimeError,
-    Stage, UsageError, Warning,
+    MacroError, OptionNames, ParseError, PpConstruct, PreprocessError, RandomError, Refused,
+    RuntimeError, Stage, UsageError, WarningKind,
 };
 use crate::Pass;
 
 /// The error of loading the `.l` text `src` (named `dir/t.l`).
 fn load_error(src: &str) -> Error {
-    match super::load("/nonexistent-lsgen-dir/t.l", src, false) {
+    match super::load(
+        "/nonexistent-lsgen-dir/t.l",
+        src,
+        false,
+        OptionNames::Library,
+    ) {
         Ok(_) => panic!("expected an error for {src:?}"),
         Err(e) => e,
     }
@@ -133,7 +138,8 @@ fn a_lowering_error_is_a_compile_error() {
     assert!(super::load(
         "t.l",
         "Lsystem: 1\nAxiom: A(1)\nA(Q) : {Q = 7;} * --> B(Q)\nendlsystem\n",
-        false
+        false,
+        OptionNames::Library,
     )
     .is_ok());
     // cpfg's `(int)` of a value no `int` holds is undefined behaviour.
@@ -267,33 +273,34 @@ fn typed_messages_are_the_former_strings() {
         (Block::Start.to_string(), "`Start:`"),
         (Block::StartEach(Pass::Step(3)).to_string(), "`StartEach:` before step 3"),
         (Block::End.to_string(), "`End:`"),
-        (Warning::HashModule.to_string(), "`#` followed by a symbol is taken as a module, not a directive"),
-        (Warning::UserDirective("hi".into()).to_string(), "#warning hi"),
-        (Warning::PragmaIgnored.to_string(), "#pragma ignored"),
-        (Warning::ExtraTokens("#undef X".into()).to_string(), "extra tokens after `#undef X` ignored"),
-        (Warning::MacroRedefined("N".into()).to_string(), "macro `N` redefined"),
+        (WarningKind::HashModule.to_string(), "`#` followed by a symbol is taken as a module, not a directive"),
+        (WarningKind::UserDirective("hi".into()).to_string(), "#warning hi"),
+        (WarningKind::PragmaIgnored.to_string(), "#pragma ignored"),
+        (WarningKind::ExtraTokens("#undef X".into()).to_string(), "extra tokens after `#undef X` ignored"),
+        (WarningKind::MacroRedefined("N".into()).to_string(), "macro `N` redefined"),
         (
-            Warning::UnterminatedCharConstant.to_string(),
+            WarningKind::UnterminatedCharConstant.to_string(),
             "unterminated character constant: the rest of the line is kept as it is, without macro expansion, as vlabcpp does",
         ),
-        (Warning::NotDefined("v".into()).to_string(), "`v` is not defined: it is 0 here, as in cpfg"),
-        (Warning::ProbabilityWithoutSeed.to_string(), "a probability without `seed:` is ignored, as in cpfg (the first applicable production applies; `--seed` makes it count)"),
-        (Warning::ProbabilityInSection("decomposition ").to_string(), "a probability in the decomposition section is ignored, as in cpfg (the first applicable decomposition production applies)"),
-        (Warning::StepHidden.to_string(), "`step` hides the built-in step number"),
+        (WarningKind::NotDefined("v".into()).to_string(), "`v` is not defined: it is 0 here, as in cpfg"),
+        (WarningKind::ProbabilityWithoutSeed { names: OptionNames::CommandLine }.to_string(), "a probability without `seed:` is ignored, as in cpfg (the first applicable production applies; `--seed` makes it count)"),
+        (WarningKind::ProbabilityWithoutSeed { names: OptionNames::Library }.to_string(), "a probability without `seed:` is ignored, as in cpfg (the first applicable production applies; `seed(N)` makes it count)"),
+        (WarningKind::ProbabilityInSection("decomposition ").to_string(), "a probability in the decomposition section is ignored, as in cpfg (the first applicable decomposition production applies)"),
+        (WarningKind::StepHidden.to_string(), "`step` hides the built-in step number"),
         (
-            Warning::LeftContextBracket.to_string(),
+            WarningKind::LeftContextBracket.to_string(),
             "a left context with `[` or `]` never matches, as in cpfg (its matcher passes over the string's brackets): this production never applies",
         ),
         (
-            Warning::DivisionByZero.to_string(),
+            WarningKind::DivisionByZero.to_string(),
             "division by zero in a cpfg expression: divided by 1 instead, as cpfg does",
         ),
         (
-            Warning::MaximumDepth { max: 3, symbol: 'A', pass: Pass::Step(2) }.to_string(),
+            WarningKind::MaximumDepth { max: 3, symbol: 'A', pass: Pass::Step(2) }.to_string(),
             "decomposition stopped at maximum depth 3, but this production still applies (to module A, in step 2)",
         ),
         (
-            Warning::MaximumDepth { max: 4, symbol: 'B', pass: Pass::Homomorphism }.to_string(),
+            WarningKind::MaximumDepth { max: 4, symbol: 'B', pass: Pass::Homomorphism }.to_string(),
             "homomorphism stopped at maximum depth 4, but this production still applies (to module B)",
         ),
         (UsageError::FramesNeedN.to_string(), "`--frames` with `-o` needs `{n}` (the generation number) in the file name"),

@@ -19,7 +19,7 @@
 use super::ast::{self, Block, Expr, Module, Production, Section, Setting};
 use super::blocks;
 use super::run::CpfgRun;
-use crate::diag::{CompileError as Invalid, Warning};
+use crate::diag::{CompileError as Invalid, WarningKind};
 use crate::lang::ast as ls;
 use crate::lang::lexer::Span;
 use crate::lang::parse::{HeaderError, UserError};
@@ -173,7 +173,7 @@ struct Lowerer<'w> {
     seeded: bool,
     /// Lowering a value needed before the derivation (`Q` is 0).
     constant: bool,
-    warn: &'w mut dyn FnMut(Span, Warning),
+    warn: &'w mut dyn FnMut(Span, WarningKind),
     /// Global variables: every name of the header blocks (cpfg's L-system
     /// symbol table), by number.
     globals: HashMap<String, u32>,
@@ -221,7 +221,7 @@ impl Lowerer<'_> {
                         }
                         Some(_) => ls::Expr::Num(0.0, *s),
                         None => {
-                            (self.warn)(*s, Warning::NotDefined(name.clone()));
+                            (self.warn)(*s, WarningKind::NotDefined(name.clone()));
                             ls::Expr::Num(0.0, *s)
                         }
                     }
@@ -234,7 +234,7 @@ impl Lowerer<'_> {
                 } else if let Some(&l) = self.locals.get(name) {
                     ls::Expr::Var(global_name(l), *s)
                 } else {
-                    (self.warn)(*s, Warning::NotDefined(name.clone()));
+                    (self.warn)(*s, WarningKind::NotDefined(name.clone()));
                     ls::Expr::Num(0.0, *s)
                 }
             }
@@ -516,11 +516,13 @@ impl Lowerer<'_> {
             // Without `seed:` the weights are ignored at run time, as in
             // cpfg, unless `--seed` stands for `seed:` (README).
             Some(e) if section.is_empty() => {
-                (self.warn)(e.span(), Warning::ProbabilityWithoutSeed);
+                // The library's names; `cpfg::load` gives it the caller's.
+                let names = crate::diag::OptionNames::Library;
+                (self.warn)(e.span(), WarningKind::ProbabilityWithoutSeed { names });
                 Some(Box::new(self.expr(e, &formals)?))
             }
             Some(e) => {
-                (self.warn)(e.span(), Warning::ProbabilityInSection(section));
+                (self.warn)(e.span(), WarningKind::ProbabilityInSection(section));
                 None
             }
         };
@@ -533,7 +535,7 @@ impl Lowerer<'_> {
             // nothing, so the production never applies (its contexts fail
             // before its pre-condition block or condition would run). Kept
             // for its errors, with a false condition and no blocks.
-            (self.warn)(m.span, Warning::LeftContextBracket);
+            (self.warn)(m.span, WarningKind::LeftContextBracket);
             left.retain(|m| !matches!(m.sym, '[' | ']'));
             cond = Some(Box::new(ls::Expr::Num(0.0, m.span)));
             let x = self.extra[self.section].last_mut().expect("pushed above");
@@ -612,7 +614,7 @@ impl Lowerer<'_> {
 }
 
 /// Lower `ls`; `warn` receives each warning with its span.
-pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, Warning)) -> R<Lowered> {
+pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)) -> R<Lowered> {
     // cpfg's parser defines `Q` and `Z` in the global symbol table at the
     // `derivation length:` line (lsys_input.y, Dlength), after evaluating
     // its value; a name it does not find is made a variable (0, with a

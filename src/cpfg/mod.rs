@@ -123,10 +123,17 @@ pub fn locate(map: &SourceMap, e: UserError) -> Error {
 }
 
 /// Preprocess, parse and lower `source`, the text of the file `name`
-/// (includes are read relative to it); warnings go to standard error.
+/// (includes are read relative to it); warnings are reported
+/// (`crate::diag::warn`).
 /// `seed_option`: it is derived with `--seed`, which makes its weights
-/// count (no warning that they are ignored).
-pub fn load(name: &str, source: &str, seed_option: bool) -> Result<Loaded, Error> {
+/// count (no warning that they are ignored); `names`: how the warnings
+/// name the options.
+pub fn load(
+    name: &str,
+    source: &str,
+    seed_option: bool,
+    names: crate::diag::OptionNames,
+) -> Result<Loaded, Error> {
     let out = preprocess::preprocess(Path::new(name), source, &preprocess::read_file)?;
     for w in &out.warnings {
         crate::diag::warn(w.at.clone(), &w.message);
@@ -136,10 +143,15 @@ pub fn load(name: &str, source: &str, seed_option: bool) -> Result<Loaded, Error
     let tree = parse::parse(&text).map_err(|e| locate(&map, e))?;
     axiom_brackets(&tree.axiom_brackets, &map)?;
     let lowered = lower::lower(&tree, &mut |span, warning| {
-        if seed_option && warning == crate::diag::Warning::ProbabilityWithoutSeed {
+        if seed_option
+            && matches!(
+                warning,
+                crate::diag::WarningKind::ProbabilityWithoutSeed { .. }
+            )
+        {
             return;
         }
-        crate::diag::warn(map.location(span.0), &warning)
+        crate::diag::warn(map.location(span.0), &warning.with_option_names(names))
     })
     .map_err(|e| locate(&map, e))?;
     Ok(Loaded {

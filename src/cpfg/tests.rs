@@ -700,7 +700,7 @@ fn lexical_errors() {
     assert_eq!(o.warnings[0].at.col, 6);
     assert_eq!(
         o.warnings[0].message,
-        crate::diag::Warning::UnterminatedCharConstant
+        crate::diag::WarningKind::UnterminatedCharConstant
     );
     let e = err("#if 'a\n#endif\n");
     assert!(matches!(e.kind, PpErrorKind::UnterminatedLiteral('\'')));

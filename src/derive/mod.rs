@@ -156,7 +156,7 @@ pub trait FrameSink {
 }
 
 /// What a derivation reports as it goes (see `LSystem::derive_with`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub enum Event {
     /// A generation is complete: the axiom (generation 0), a step, or the
@@ -179,6 +179,10 @@ pub enum Event {
         /// Last step.
         to: u64,
     },
+    /// A warning: the input was derived anyway. The file's warnings
+    /// (found when it was read) come first; one found in a pass comes
+    /// before that pass's [`Generation`](Event::Generation).
+    Warning(crate::diag::Warning),
 }
 
 fn tempfile(dir: &Option<PathBuf>) -> Result<File, Error> {
@@ -407,7 +411,10 @@ pub(crate) fn derive(
     let blocks = cpfg.as_ref().is_some_and(|c| c.has_blocks());
     d.cpfg = cpfg;
     for span in step_hidden {
-        crate::diag::warn(d.origin.locate(span.0), &crate::diag::Warning::StepHidden);
+        crate::diag::warn(
+            d.origin.locate(span.0),
+            &crate::diag::WarningKind::StepHidden,
+        );
     }
     d.hom_depth = hom_depth;
     d.warnings = warnings;
@@ -1102,7 +1109,7 @@ mod tests {
         let mut ls = LSystem::parse(src)?;
         let mut out = Vec::new();
         let mut events = Vec::new();
-        ls.derive_with(options, &mut out, |e| events.push(*e))?;
+        ls.derive_with(options, &mut out, |e| events.push(e.clone()))?;
         Ok((String::from_utf8(out).unwrap(), events))
     }
 

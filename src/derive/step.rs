@@ -148,7 +148,7 @@ fn depth_warning(
     done.set(true);
     let p = &cx.table.prods[pi as usize];
     let sym = cx.al.symbol(key);
-    let warning = crate::diag::Warning::MaximumDepth {
+    let warning = crate::diag::WarningKind::MaximumDepth {
         max: cx.max,
         symbol: sym,
         pass: cx.pass,
@@ -986,7 +986,7 @@ impl<'a> Deriver<'a> {
             if let Some(pi) = found {
                 if warnings[1] && !warned[1].get() {
                     warned[1].set(true);
-                    let warning = crate::diag::Warning::MaximumDepth {
+                    let warning = crate::diag::WarningKind::MaximumDepth {
                         max: 0,
                         symbol: al.symbol(key),
                         pass,

@@ -1,14 +1,17 @@
-//! The warnings, one variant each; `Display` writes the message that
-//! [`super::warn`] shows after `FILE:LINE:COL: warning: `. Warnings go to
-//! standard error only (no API hands them to a library user), so the enum
-//! is the crate's own.
+//! The warnings: what each says ([`WarningKind`], one variant each, whose
+//! `Display` is the message) and where ([`Warning`], rendered as an error
+//! is, `FILE:LINE:COL: warning: `, the line and a caret). A derivation
+//! hands them to its caller as [`crate::Event::Warning`]; the binaries
+//! print them on standard error ([`super::warn`]).
 
+use super::{Location, OptionNames};
 use crate::derive::Pass;
 use std::fmt;
 
-/// A warning: the input was processed anyway.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) enum Warning {
+/// What a warning says: the input was processed anyway.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum WarningKind {
     /// cpfg preprocessor: a line starting with `#` and a symbol.
     HashModule,
     /// cpfg preprocessor: `#warning` with its text.
@@ -24,8 +27,9 @@ pub(crate) enum Warning {
     UnterminatedCharConstant,
     /// cpfg: a name that is neither a parameter nor a variable (it is 0).
     NotDefined(String),
-    /// cpfg: a probability in a file without `seed:`.
-    ProbabilityWithoutSeed,
+    /// cpfg: a probability in a file without `seed:`; `names`: whose
+    /// name the message gives the seed's option.
+    ProbabilityWithoutSeed { names: OptionNames },
     /// cpfg: a left context holding `[` or `]` (at this one), which never
     /// matches.
     LeftContextBracket,
@@ -46,9 +50,9 @@ pub(crate) enum Warning {
     },
 }
 
-impl fmt::Display for Warning {
+impl fmt::Display for WarningKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        use Warning::*;
+        use WarningKind::*;
         match self {
             HashModule => {
                 f.write_str("`#` followed by a symbol is taken as a module, not a directive")
@@ -61,8 +65,13 @@ impl fmt::Display for Warning {
                 "unterminated character constant: the rest of the line is kept as it is, without macro expansion, as vlabcpp does",
             ),
             NotDefined(name) => write!(f, "`{name}` is not defined: it is 0 here, as in cpfg"),
-            ProbabilityWithoutSeed => f.write_str(
-                "a probability without `seed:` is ignored, as in cpfg (the first applicable production applies; `--seed` makes it count)",
+            ProbabilityWithoutSeed { names } => write!(
+                f,
+                "a probability without `seed:` is ignored, as in cpfg (the first applicable production applies; {} makes it count)",
+                match names {
+                    OptionNames::Library => "`seed(N)`",
+                    OptionNames::CommandLine => "`--seed`",
+                }
             ),
             LeftContextBracket => f.write_str(
                 "a left context with `[` or `]` never matches, as in cpfg (its matcher passes over the string's brackets): this production never applies",
@@ -85,6 +94,66 @@ impl fmt::Display for Warning {
                     "homomorphism stopped at maximum depth {max}, but this production still applies (to module {symbol})"
                 ),
             },
+        }
+    }
+}
+
+impl WarningKind {
+    /// The same warning, naming the options it mentions by `names`.
+    pub(crate) fn with_option_names(mut self, names: OptionNames) -> WarningKind {
+        if let WarningKind::ProbabilityWithoutSeed { names: n } = &mut self {
+            *n = names;
+        }
+        self
+    }
+}
+
+/// A warning: what it says ([`kind`](Warning::kind)) and where in the
+/// source, if it has a place. `Display` renders it as an [`Error`] is,
+/// without a program's name: `FILE:LINE:COL: warning: message`, the source
+/// line and a caret (`warning: message` without a place).
+///
+/// [`Error`]: super::Error
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Warning {
+    kind: WarningKind,
+    location: Option<Location>,
+}
+
+impl Warning {
+    pub(crate) fn new(kind: WarningKind, location: Option<Location>) -> Warning {
+        Warning { kind, location }
+    }
+
+    /// What it says.
+    pub fn kind(&self) -> &WarningKind {
+        &self.kind
+    }
+
+    /// Where in the source, if anywhere.
+    pub fn location(&self) -> Option<&Location> {
+        self.location.as_ref()
+    }
+
+    /// The message alone, without its place.
+    pub fn message(&self) -> String {
+        self.kind.to_string()
+    }
+
+    /// The same warning, naming the options it mentions by `names`.
+    pub(crate) fn with_option_names(self, names: OptionNames) -> Warning {
+        Warning {
+            kind: self.kind.with_option_names(names),
+            location: self.location,
+        }
+    }
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match &self.location {
+            Some(l) => super::render_at(f, l, "warning", &self.message()),
+            None => writeln!(f, "warning: {}", self.kind),
         }
     }
 }

@@ -926,16 +926,15 @@ fn cpfg_binary(op: Op, a: f64, b: f64) -> f64 {
     }
 }
 
-/// cpfg divides by 1 instead of 0, with a warning: once per process here
-/// (the evaluator has no place to report to; the division is cpfg's rule,
-/// not an error).
+/// cpfg divides by 1 instead of 0, with a warning: once per library
+/// derivation, once per process on standard error (unlocated: the
+/// evaluator has no place to report; the division is cpfg's rule, not an
+/// error).
 #[cold]
 fn warn_division_by_zero() {
-    use std::sync::atomic::{AtomicBool, Ordering};
-    static WARNED: AtomicBool = AtomicBool::new(false);
-    if !WARNED.swap(true, Ordering::Relaxed) {
-        crate::diag::warn_unlocated(&crate::diag::Warning::DivisionByZero);
-    }
+    use std::sync::atomic::AtomicBool;
+    static PRINTED: AtomicBool = AtomicBool::new(false);
+    crate::diag::warn_once(&crate::diag::WarningKind::DivisionByZero, &PRINTED);
 }
 
 #[inline]

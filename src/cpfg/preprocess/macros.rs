@@ -160,7 +160,10 @@ impl Pp<'_> {
         let m = Macro { params, body };
         if let Some(&old) = self.macros.get(&name) {
             if !self.same_macro(&self.defs[old], &m) {
-                self.warn(nt.at, crate::diag::Warning::MacroRedefined(name.clone()));
+                self.warn(
+                    nt.at,
+                    crate::diag::WarningKind::MacroRedefined(name.clone()),
+                );
             }
         }
         self.defs.push(m);

@@ -181,7 +181,7 @@ impl From<PpError> for crate::diag::Error {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Warning {
     pub at: Location,
-    pub(crate) message: crate::diag::Warning,
+    pub(crate) message: crate::diag::WarningKind,
 }
 
 impl fmt::Display for Warning {
@@ -307,7 +307,7 @@ impl Pp<'_> {
         }
     }
 
-    fn warn(&mut self, p: Pos, message: crate::diag::Warning) {
+    fn warn(&mut self, p: Pos, message: crate::diag::WarningKind) {
         let at = self.location(p);
         self.warnings.push(Warning { at, message });
     }
@@ -534,7 +534,7 @@ impl Pp<'_> {
                         file,
                         off: i as u32,
                     };
-                    self.warn(p, crate::diag::Warning::HashModule);
+                    self.warn(p, crate::diag::WarningKind::HashModule);
                 }
                 let mut cur = Cursor {
                     file,
@@ -607,7 +607,7 @@ impl Pp<'_> {
                     // (cccp.c) reports it and goes on, the rest of the
                     // line copied as it is (no macro expansion); cpfg
                     // reads that output.
-                    self.warn(t.at, crate::diag::Warning::UnterminatedCharConstant);
+                    self.warn(t.at, crate::diag::WarningKind::UnterminatedCharConstant);
                     t.kind = K::Other;
                 }
                 cur.pos += t.len as usize;
@@ -761,8 +761,8 @@ impl Pp<'_> {
                 let msg = self.files[file as usize].clean[ne..eol].trim().to_string();
                 match word.as_str() {
                     "error" => return Err(self.err(at, PpErrorKind::ErrorDirective(msg))),
-                    "warning" => self.warn(at, crate::diag::Warning::UserDirective(msg)),
-                    _ => self.warn(at, crate::diag::Warning::PragmaIgnored),
+                    "warning" => self.warn(at, crate::diag::WarningKind::UserDirective(msg)),
+                    _ => self.warn(at, crate::diag::WarningKind::PragmaIgnored),
                 }
             }
             "line" | "include_next" | "import" | "ident" | "sccs" | "assert" | "unassert" => {
@@ -780,7 +780,7 @@ impl Pp<'_> {
         if let Some(t) = toks.iter().find(|t| !t.is_space()) {
             self.warn(
                 t.at,
-                crate::diag::Warning::ExtraTokens(directive.to_string()),
+                crate::diag::WarningKind::ExtraTokens(directive.to_string()),
             );
         }
         Ok(())
@@ -803,7 +803,7 @@ impl Pp<'_> {
             let p = x.at;
             self.warn(
                 p,
-                crate::diag::Warning::ExtraTokens(format!("{directive} {n}")),
+                crate::diag::WarningKind::ExtraTokens(format!("{directive} {n}")),
             );
         }
         Ok(n)
@@ -839,7 +839,10 @@ impl Pp<'_> {
         let name_at = toks[k].primary();
         if let Some(x) = toks[k + 1..].iter().find(|t| !t.is_space()) {
             let p = x.primary();
-            self.warn(p, crate::diag::Warning::ExtraTokens("#include".to_string()));
+            self.warn(
+                p,
+                crate::diag::WarningKind::ExtraTokens("#include".to_string()),
+            );
         }
         let quoted = self.text(&toks[k]);
         let name = quoted[1..quoted.len() - 1].to_string();
