@@ -557,3 +557,84 @@ fn a_lone_quote_is_a_warning() {
     );
     assert!(!r.stderr.contains("error"), "{}", r.stderr);
 }
+
+/// The preprocessor's work is bounded over the whole run, not only in
+/// depth: 30 headers that each include the next one twice would include
+/// the last (empty) one 2^30 times, which the depth limit of 200 never
+/// stops. The `#include` past 65,536 of them is a located error; by hand
+/// (main's own `#include` is the first, then h0's subtree in order, each
+/// subtree of h_k holding 2^(31-k) - 2 of them), the 65,537th is line 1
+/// of h27.h. A flat list shows the count exactly: the 65,537th `#include`
+/// of the empty header, at line 65,538. The bytes brought in are bounded
+/// too (256 MiB, each inclusion counted): the 257th inclusion of a
+/// header of exactly 1 MiB crosses it.
+#[test]
+fn include_work_is_bounded() {
+    use std::time::{Duration, Instant};
+    let dir = tempdir();
+    let d = dir.path();
+    for k in 0..30 {
+        let next = format!("#include \"h{}.h\"\n", k + 1);
+        write(d, &format!("h{k}.h"), next.repeat(2));
+    }
+    write(d, "h30.h", "");
+    let main = write(
+        d,
+        "m.l",
+        "#include \"h0.h\"\nLsystem: 1\nAxiom: A\nendlsystem\n",
+    );
+    let t = Instant::now();
+    let r = common::run_within(lsgen().arg(&main), Duration::from_secs(120));
+    let e = r.one_error().to_string();
+    assert!(t.elapsed() < Duration::from_secs(60), "{:?}", t.elapsed());
+    let h27 = d.join("h27.h").display().to_string();
+    assert_eq!(
+        e,
+        format!(
+            "lsgen: {h27}:1:1: error: too many `#include`s carried out in one run (limit 65536)\n\
+             #include \"h28.h\"\n^\n"
+        )
+    );
+
+    write(d, "e.h", "");
+    let flat = write(
+        d,
+        "flat.l",
+        format!("Lsystem: 1\n{}", "#include \"e.h\"\n".repeat(65537)),
+    );
+    let e = run(lsgen().arg(&flat)).one_error().to_string();
+    let path = flat.display().to_string();
+    assert!(
+        e.starts_with(&format!(
+            "lsgen: {path}:65538:1: error: too many `#include`s"
+        )),
+        "{e}"
+    );
+    // 65,536 of them are carried out.
+    let ok = write(
+        d,
+        "ok.l",
+        format!(
+            "Lsystem: 1\nderivation length: 1\n{}Axiom: A\nA --> B\nendlsystem\n",
+            "#include \"e.h\"\n".repeat(65536)
+        ),
+    );
+    assert_eq!(run(lsgen().arg(&ok)).ok(), "B\n");
+
+    let mib = format!("/*{}*/\n", "x".repeat((1 << 20) - 5));
+    assert_eq!(mib.len(), 1 << 20);
+    write(d, "mib.h", mib);
+    let big = write(
+        d,
+        "big.l",
+        format!("Lsystem: 1\n{}", "#include \"mib.h\"\n".repeat(257)),
+    );
+    let e = run(lsgen().arg(&big)).one_error().to_string();
+    let path = big.display().to_string();
+    assert!(
+        e.starts_with(&format!(
+            "lsgen: {path}:258:1: error: too much text included: the bytes of the `#include`d files, each inclusion counted (limit 268435456)"
+        )),
+        "{e}"
+    );
+}

@@ -739,6 +739,57 @@ fn macro_bomb_is_a_located_error() {
     assert_eq!(o.text, "\n\n\nx x x x x x x x\n");
 }
 
+/// The work of `#include` is bounded over the whole run, not only in
+/// depth: the `#include` past the count, or past the bytes of included
+/// text (each inclusion counted), is the error.
+#[test]
+fn includes_are_bounded_in_number_and_bytes() {
+    let files = [
+        ("e.h", ""),
+        ("k.h", "0123456789"),
+        ("two.h", "#include \"e.h\"\n#include \"e.h\"\n"),
+    ];
+    let limits = Limits {
+        max_includes: 3,
+        ..Limits::default()
+    };
+    let pp =
+        |src: &str, limits: &Limits| preprocess_with(Path::new("m.l"), src, &mem(&files), limits);
+    // Three are fine (`A` stays on its line 4).
+    let o = pp(
+        "#include \"e.h\"\n#include \"e.h\"\n#include \"e.h\"\nA\n",
+        &limits,
+    )
+    .unwrap();
+    assert_eq!(o.text, "\n\n\nA\n");
+    // The fourth, here the second one inside two.h, is one too many.
+    let e = pp("#include \"e.h\"\n  #include \"two.h\"\nA\n", &limits).unwrap_err();
+    assert!(matches!(e.kind, PpErrorKind::Limit { limit: 3, .. }), "{e}");
+    assert_eq!(place(&e), ("two.h", 2, 1));
+    assert!(e.message().contains("too many `#include`s"), "{e}");
+    // 25 bytes: two inclusions of k.h's 10 bytes, not a third.
+    let limits = Limits {
+        max_included_bytes: 25,
+        ..Limits::default()
+    };
+    let o = pp("#include \"k.h\"\n#include \"k.h\"\n", &limits).unwrap();
+    assert_eq!(o.text.matches("0123456789").count(), 2);
+    let e = pp(
+        "#include \"k.h\"\n#include \"k.h\"\n #include \"k.h\"\n",
+        &limits,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(e.kind, PpErrorKind::Limit { limit: 25, .. }),
+        "{e}"
+    );
+    assert_eq!(place(&e), ("m.l", 3, 2));
+    assert!(e.message().contains("too much text included"), "{e}");
+    // The defaults.
+    let d = Limits::default();
+    assert_eq!((d.max_includes, d.max_included_bytes), (1 << 16, 256 << 20));
+}
+
 #[test]
 fn deep_macro_nesting_is_a_located_error() {
     let mut src = String::from("#define F(x) x\n");

@@ -56,10 +56,14 @@
 //! of eating memory or time ([`Limits`], defaults in brackets): the output
 //! text (16 MiB), the `#include` nesting (200 files, so that a file that
 //! includes itself without a guard stops: an error naming the cycle), the
-//! nesting of macro
-//! argument expansions (64 levels), and the total number of tokens produced
-//! by macro expansion in one run (2^21, which stops a "macro bomb" such as
-//! `#define B A A` / `#define C B B` / ...).
+//! number of `#include`s carried out in one run (65,536, which stops a
+//! "diamond" of headers that each include the next one twice: 30 levels
+//! of them would include an empty header 2^30 times) and the bytes of
+//! the files they include, each inclusion counted (256 MiB), the nesting
+//! of macro argument expansions (64 levels), and the total number of
+//! tokens produced by macro expansion in one run (2^21, which stops a
+//! "macro bomb" such as `#define B A A` / `#define C B B` / ...). Each is
+//! an error at the directive or text that crosses it.
 //!
 //! # Lines
 //!
@@ -95,6 +99,12 @@ pub struct Limits {
     pub max_output: usize,
     /// Files open at once through `#include` (the main file counts).
     pub max_include_depth: usize,
+    /// `#include`s carried out in the whole run (the work of a file
+    /// included again is done again).
+    pub max_includes: usize,
+    /// Bytes of the files that `#include`s bring in, summed over every
+    /// `#include` carried out (the main file does not count).
+    pub max_included_bytes: usize,
     /// Nesting of macro calls inside macro arguments.
     pub max_expansion_depth: usize,
     /// Tokens produced by macro expansion in the whole run.
@@ -106,6 +116,8 @@ impl Default for Limits {
         Limits {
             max_output: 16 << 20,
             max_include_depth: 200,
+            max_includes: 1 << 16,
+            max_included_bytes: 256 << 20,
             max_expansion_depth: 64,
             max_expansion_tokens: 1 << 21,
         }
@@ -242,6 +254,9 @@ struct Pp<'l> {
     loader: &'l dyn Fn(&Path) -> io::Result<String>,
     limits: Limits,
     work: usize,
+    /// `#include`s carried out, and the bytes of the files they brought.
+    includes: usize,
+    included_bytes: usize,
 }
 
 type Res<T> = Result<T, PpError>;
@@ -278,6 +293,8 @@ pub fn preprocess_with(
         loader,
         limits: limits.clone(),
         work: 0,
+        includes: 0,
+        included_bytes: 0,
     };
     let name = path.display().to_string();
     pp.open(name, path.to_path_buf(), source.to_string())?;
@@ -878,8 +895,22 @@ impl Pp<'_> {
             let chain = chain.join(" -> ");
             return Err(self.err(at, PpErrorKind::IncludeCycle { chain, limit }));
         }
+        // The work of the whole run is bounded too: headers that each
+        // include the next one twice would otherwise include the last one
+        // 2^depth times, within the depth limit.
+        self.includes += 1;
+        if self.includes > self.limits.max_includes {
+            return Err(self.err(
+                at,
+                PpErrorKind::Limit {
+                    what: "too many `#include`s carried out in one run",
+                    limit: self.limits.max_includes,
+                },
+            ));
+        }
         // A file included again is read once (its text is kept).
         if let Some(id) = self.files.iter().position(|f| f.key == key) {
+            self.count_included(at, self.files[id].text.len())?;
             self.frames.push(Frame {
                 file: id as u32,
                 pos: 0,
@@ -896,7 +927,23 @@ impl Pp<'_> {
                 },
             )
         })?;
+        self.count_included(at, text.len())?;
         self.open(path.display().to_string(), path, text)
+    }
+
+    /// Count the bytes of a file that an `#include` at `at` brings in.
+    fn count_included(&mut self, at: Pos, bytes: usize) -> Res<()> {
+        self.included_bytes = self.included_bytes.saturating_add(bytes);
+        if self.included_bytes > self.limits.max_included_bytes {
+            return Err(self.err(
+                at,
+                PpErrorKind::Limit {
+                    what: "too much text included: the bytes of the `#include`d files, each inclusion counted",
+                    limit: self.limits.max_included_bytes,
+                },
+            ));
+        }
+        Ok(())
     }
 
     // ------------------------------------------------------------ expansion
