@@ -359,10 +359,12 @@ impl LSystem {
             bytes.extend_from_slice(&input.available()[..n]);
             input.consume(n);
             if bytes.len() > limit {
-                return Err(Error::new(crate::diag::LexicalError::FileTooLarge {
+                return Err(Error::about(
                     path,
-                    mib: limit as u64 >> 20,
-                }));
+                    crate::diag::LexicalError::FileTooLarge {
+                        mib: limit as u64 >> 20,
+                    },
+                ));
             }
         }
         let bytes = bytes

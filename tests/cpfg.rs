@@ -638,3 +638,34 @@ fn include_work_is_bounded() {
         "{e}"
     );
 }
+
+/// A `.l` file is read whole, at most 64 MiB: past that, the error names
+/// the file as the other errors about a file do (`lsgen: FILE: error:
+/// ...`, as `cannot open`), not after `error:`; standard input is
+/// `<stdin>`.
+#[test]
+fn an_oversized_file_is_named_before_error() {
+    let dir = tempdir();
+    let mut text = String::from("Lsystem: 1\nAxiom: A\nendlsystem\n");
+    text.push_str(&" ".repeat((64 << 20) + 1 - text.len()));
+    let big = write(dir.path(), "big.l", &text);
+    let r = run(lsgen().arg(&big));
+    assert_eq!(
+        r.one_error(),
+        format!("lsgen: {}: error: file larger than 64 MiB\n", big.display())
+    );
+    let r = run_with_stdin(lsgen().args(["--dialect", "cpfg", "-"]), text);
+    assert_eq!(
+        r.one_error(),
+        "lsgen: <stdin>: error: file larger than 64 MiB\n"
+    );
+    // The same form as a file that cannot be opened.
+    let missing = dir.path().join("missing.l");
+    let r = run(lsgen().arg(&missing));
+    assert!(
+        r.one_error()
+            .starts_with(&format!("lsgen: {}: error: cannot open", missing.display())),
+        "{}",
+        r.stderr
+    );
+}

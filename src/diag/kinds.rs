@@ -145,8 +145,9 @@ pub enum LexicalError {
     UnterminatedString,
     /// cpfg: more than [`MAX_BLOCK_DEPTH`] nested blocks.
     BlocksNestedTooDeeply,
-    /// cpfg: a file (its name) past the size that is read whole, in MiB.
-    FileTooLarge { path: String, mib: u64 },
+    /// cpfg: a file past the size that is read whole, in MiB (the file is
+    /// the error's subject).
+    FileTooLarge { mib: u64 },
 }
 
 impl fmt::Display for LexicalError {
@@ -194,7 +195,7 @@ impl fmt::Display for LexicalError {
             BlocksNestedTooDeeply => {
                 write!(f, "blocks nested too deep (over {MAX_BLOCK_DEPTH})")
             }
-            FileTooLarge { path, mib } => write!(f, "{path}: file larger than {mib} MiB"),
+            FileTooLarge { mib } => write!(f, "file larger than {mib} MiB"),
         }
     }
 }
