@@ -669,3 +669,59 @@ fn an_oversized_file_is_named_before_error() {
         r.stderr
     );
 }
+
+/// A module of the axiom with more than 255 parameters is an error at the
+/// module, in the file: its line and column (here on a continuation line,
+/// behind a macro, and in an included file), not a column of the axiom
+/// as lowered text on line 1. By hand: `G` is at column 4 of line 5
+/// (after a TAB, `F` and a space); in the header, at column 2 of line 1
+/// (after the TAB that continues the axiom).
+#[test]
+fn too_many_axiom_parameters_are_located_in_the_file() {
+    let dir = tempdir();
+    let d = dir.path();
+    let ones = vec!["1"; 256].join(",");
+    let main = write(
+        d,
+        "p.l",
+        format!(
+            "#define ONE 1\nLsystem: 1\nderivation length: 1\nAxiom: F\n\tF G(ONE,{})\nF --> FF\nendlsystem\n",
+            vec!["1"; 255].join(",")
+        ),
+    );
+    let e = run(lsgen().arg(&main)).one_error().to_string();
+    assert!(
+        e.starts_with(&format!(
+            "lsgen: {}:5:4: error: a module has at most 255 parameters\n",
+            main.display()
+        )),
+        "{e}"
+    );
+    write(d, "axiom.h", format!("\tG({ones}) F\n"));
+    let inc = write(
+        d,
+        "i.l",
+        "Lsystem: 1\nAxiom: F\n#include \"axiom.h\"\nendlsystem\n",
+    );
+    let e = run(lsgen().arg(&inc)).one_error().to_string();
+    let h = d.join("axiom.h").display().to_string();
+    assert!(
+        e.starts_with(&format!(
+            "lsgen: {h}:1:2: error: a module has at most 255 parameters\n\tG(1,1,"
+        )),
+        "{e}"
+    );
+    // 255 are fine.
+    let ok = write(
+        d,
+        "ok.l",
+        format!(
+            "Lsystem: 1\nAxiom: G({})\nendlsystem\n",
+            vec!["2"; 255].join(",")
+        ),
+    );
+    assert_eq!(
+        run(lsgen().arg(&ok)).ok(),
+        format!("G({})\n", vec!["2"; 255].join(","))
+    );
+}

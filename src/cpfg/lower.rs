@@ -766,6 +766,11 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
             }
             ast::AxiomPiece::Module(m) => m,
         };
+        // Here, where the module's place in the file is known: the axiom
+        // reader that reads the lowered text would point into that text.
+        if m.params.len() > crate::rules::codec::MAX_ARITY {
+            return err(m.span, crate::diag::ParseError::TooManyParams);
+        }
         axiom.push(m.sym);
         axiom.push('(');
         for (i, e) in m.params.iter().enumerate() {
