@@ -725,3 +725,84 @@ fn too_many_axiom_parameters_are_located_in_the_file() {
         format!("G({})\n", vec!["2"; 255].join(","))
     );
 }
+
+/// Keyword lines are read as cpfg reads them: vlabcpp turns a comment
+/// into one space, then cpfg's scanner (lsys_input.l) matches
+/// `(D|d)erivation" "?(L|l)ength":"`, `(M|m)aximum" "(D|d)epth":"`,
+/// `"no warnings"` ...: one space between the words (or none where the
+/// pattern has `" "?`) and the `:` right after. So `derivation/* c
+/// */length:` is `derivation length:` and works, while several blanks
+/// (`derivation /* c */ length:` is three spaces), a tab, a no-break
+/// space or a blank before `:` leave the words as symbols: a syntax
+/// error in cpfg, an error at the blanks here. Where cpfg reads those
+/// symbols as a valid line (a predecessor of several modules), so does
+/// lsgen. By hand: derivation length 2 of F --> FF gives FFFF.
+#[test]
+fn keyword_lines_are_spaced_as_cpfg_reads_them() {
+    let dir = tempdir();
+    let model = |setting: &str| format!("Lsystem: 1\n{setting}\nAxiom: F\nF --> FF\nendlsystem\n");
+    for ok in [
+        "derivation/* c */length: 2",
+        "derivationlength: 2",
+        "Derivation Length: 2",
+        "  derivation length: /* two */ 2",
+    ] {
+        let f = write(dir.path(), "ok.l", model(ok));
+        assert_eq!(run(lsgen().arg(&f)).ok(), "FFFF\n", "{ok}");
+    }
+    let between = |found: &str| {
+        format!(
+            "error: `derivation length:` takes one space or none between `derivation` and `length`, \
+             as cpfg's scanner reads it (a comment counts as a space): found {found}\n"
+        )
+    };
+    let cases = [
+        ("derivation /* c */ length: 2", 11, between("3 spaces")),
+        ("derivation  length: 2", 11, between("2 spaces")),
+        ("derivation\tlength: 2", 11, between("a tab")),
+        ("derivation\u{a0}length: 2", 11, between("a no-break space (U+00A0)")),
+        (
+            "derivation length : 2",
+            18,
+            "error: `derivation length:` takes no blank before `:`, as cpfg's scanner reads it: found a space\n"
+                .to_string(),
+        ),
+    ];
+    for (setting, col, message) in cases {
+        let f = write(dir.path(), "bad.l", model(setting));
+        let e = run(lsgen().arg(&f)).one_error().to_string();
+        let want = format!("lsgen: {}:2:{col}: {message}{setting}\n", f.display());
+        assert!(e.starts_with(&want), "{setting}:\n{e}\nwant:\n{want}");
+    }
+    // In the sections: `maximum depth:` and `no warnings` have one space.
+    for (section, line, col, words) in [
+        (
+            "homomorphism no  warnings\n",
+            5,
+            16,
+            "`no warnings` takes exactly one space between `no` and `warnings`",
+        ),
+        (
+            "decomposition\nmaximum /**/ depth: 2\n",
+            6,
+            8,
+            "`maximum depth:` takes exactly one space between `maximum` and `depth`",
+        ),
+    ] {
+        let f = write(
+            dir.path(),
+            "s.l",
+            format!("Lsystem: 1\nderivation length: 1\nAxiom: F\nF --> FF\n{section}endlsystem\n"),
+        );
+        let e = run(lsgen().arg(&f)).one_error().to_string();
+        let want = format!("lsgen: {}:{line}:{col}: error: {words}", f.display());
+        assert!(e.starts_with(&want), "{section}:\n{e}");
+    }
+    // cpfg reads `maximum  depth` here as twelve symbols: a predecessor.
+    let f = write(
+        dir.path(),
+        "p.l",
+        "Lsystem: 1\nderivation length: 1\nAxiom: maximumdepth\nmaximum  depth : 1 --> X\nendlsystem\n",
+    );
+    assert_eq!(run(lsgen().arg(&f)).ok(), "X\n");
+}

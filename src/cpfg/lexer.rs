@@ -290,6 +290,107 @@ fn match_pattern(pat: &str, s: &[u8]) -> Option<usize> {
     Some(j)
 }
 
+/// A keyword at the start of `line` (after its blanks) that cpfg's
+/// scanner does not read because of its spacing: several blanks, a
+/// comment and blanks, a tab or a no-break space between its words, a
+/// blank before its `:`, no space where one is needed
+/// (`derivation  length:`, `maximum\u{a0}depth:`, `Axiom :`,
+/// `homomorphism no  warnings`). cpfg's patterns (`lsys_input.l`) have a
+/// single `" "` (or `" "?`) between words and the `:` right after the
+/// last word; there the words are symbols and the line a syntax error.
+/// The offset of the misplaced blanks in `line`, and the error.
+pub fn misspaced_keyword(line: &str) -> Option<(usize, LexicalError)> {
+    let lead = line.len() - line.trim_start_matches([' ', '\t']).len();
+    let mut at = lead;
+    // `no warnings` after a section's keyword.
+    let mut section = false;
+    if let Some((n, Kw::Homomorphism | Kw::Decomposition)) = keyword(&line.as_bytes()[at..]) {
+        section = true;
+        at += n;
+        at += line.len() - at - line[at..].trim_start_matches([' ', '\t']).len();
+    }
+    let rest = &line[at..];
+    KEYWORDS
+        .iter()
+        .filter(|&&(_, kw)| !section || kw == Kw::NoWarnings)
+        .find_map(|&(pat, _)| {
+            let (off, e) = loose_match(pat, rest)?;
+            Some((at + off, e))
+        })
+}
+
+/// Is `c` a blank within a line (a space, a tab, a no-break space ...)?
+fn is_line_blank(c: char) -> bool {
+    c != '\n' && c.is_whitespace()
+}
+
+/// [`match_pattern`] with any run of blanks where the pattern has a space
+/// (or none) and before its final `:`: the offset and error of the first
+/// run that the strict pattern would refuse, if the rest matches.
+fn loose_match(pat: &str, s: &str) -> Option<(usize, LexicalError)> {
+    let p = pat.as_bytes();
+    let (mut i, mut j) = (0, 0);
+    let mut bad: Option<(usize, Option<usize>, bool, String)> = None;
+    let mut words = vec![String::new()];
+    while i < p.len() {
+        let c = p[i];
+        let optional = p.get(i + 1) == Some(&b'?');
+        if c == b' ' || (c == b':' && i + 1 == p.len()) {
+            let run: String = s[j..].chars().take_while(|&c| is_line_blank(c)).collect();
+            let strict = if c == b' ' {
+                run == " " || (optional && run.is_empty())
+            } else {
+                run.is_empty()
+            };
+            if !strict && bad.is_none() {
+                let pos = (c == b' ').then_some(words.len() - 1);
+                bad = Some((j, pos, optional, describe_blanks(&run)));
+            }
+            j += run.len();
+            i += if optional { 2 } else { 1 };
+            if c == b' ' {
+                words.push(String::new());
+                continue;
+            }
+        }
+        let b = *s.as_bytes().get(j)?;
+        if b == c || (c.is_ascii_uppercase() && b == c.to_ascii_lowercase()) {
+            j += 1;
+            if c != b':' {
+                words.last_mut().unwrap().push(b as char);
+            }
+        } else if !optional {
+            return None;
+        }
+        i += if optional { 2 } else { 1 };
+    }
+    let (off, pos, optional, found) = bad?;
+    let colon = if pat.ends_with(':') { ":" } else { "" };
+    let keyword = format!("{}{colon}", words.join(" "));
+    let between = pos.map(|k| (words[k].clone(), words[k + 1].clone()));
+    Some((
+        off,
+        LexicalError::KeywordSpacing {
+            keyword,
+            between,
+            optional,
+            found,
+        },
+    ))
+}
+
+/// A run of blanks as a message names it.
+fn describe_blanks(run: &str) -> String {
+    match run.chars().find(|&c| c != ' ') {
+        None if run.is_empty() => "none".to_string(),
+        None if run.len() == 1 => "a space".to_string(),
+        None => format!("{} spaces", run.len()),
+        Some('\t') => "a tab".to_string(),
+        Some('\u{a0}') => "a no-break space (U+00A0)".to_string(),
+        Some(c) => format!("a blank U+{:04X}", c as u32),
+    }
+}
+
 /// The longest keyword at the start of `s`.
 fn keyword(s: &[u8]) -> Option<(usize, Kw)> {
     let mut best: Option<(usize, Kw)> = None;
@@ -688,6 +789,87 @@ mod tests {
         assert_eq!(toks("homomorphism no warnings")[1], Tok::Warnings(false));
         assert_eq!(toks("EndLsystem"), vec![Tok::KwEndLsystem, Tok::Eol]);
         assert_eq!(toks("StartEach: {\nx = 1;\n}")[2], Tok::Name("x"));
+    }
+
+    /// cpfg's patterns (lsys_input.l): one `" "` between words (`" "?` in
+    /// `derivation length:`, `start each:`, `end each:`), `:` right after.
+    #[test]
+    fn misspaced_keywords() {
+        let found = |line: &str| {
+            misspaced_keyword(line).map(|(at, e)| match e {
+                LexicalError::KeywordSpacing {
+                    keyword,
+                    between,
+                    optional,
+                    found,
+                } => (at, keyword, between.map(|(a, _)| a), optional, found),
+                e => panic!("{e:?}"),
+            })
+        };
+        for ok in [
+            "derivation length: 3",
+            "Derivationlength: 3",
+            "  maximum Depth: 2",
+            "Start Each: {",
+            "EndEach: {",
+            "homomorphism: no warnings",
+            "decomposition  warnings",
+            "A --> B",
+            "derivation",
+        ] {
+            assert_eq!(found(ok), None, "{ok}");
+        }
+        let d = Some("derivation".to_string());
+        assert_eq!(
+            found("derivation   length: 3"),
+            Some((
+                10,
+                "derivation length:".into(),
+                d.clone(),
+                true,
+                "3 spaces".into()
+            ))
+        );
+        assert_eq!(
+            found("\tDerivation\u{a0}Length: 3"),
+            Some((
+                11,
+                "Derivation Length:".into(),
+                Some("Derivation".into()),
+                true,
+                "a no-break space (U+00A0)".into()
+            ))
+        );
+        assert_eq!(
+            found("derivation \tlength: 3"),
+            Some((10, "derivation length:".into(), d, true, "a tab".into()))
+        );
+        assert_eq!(
+            found("maximumdepth: 2"),
+            Some((
+                7,
+                "maximum depth:".into(),
+                Some("maximum".into()),
+                false,
+                "none".into()
+            ))
+        );
+        assert_eq!(
+            found("Axiom  : A"),
+            Some((5, "Axiom:".into(), None, false, "2 spaces".into()))
+        );
+        assert_eq!(
+            found("homomorphism no  warnings"),
+            Some((
+                15,
+                "no warnings".into(),
+                Some("no".into()),
+                false,
+                "2 spaces".into()
+            ))
+        );
+        // Only `no warnings` after a section keyword.
+        assert_eq!(found("homomorphism maximum  depth: 2"), None);
     }
 
     #[test]

@@ -3,9 +3,9 @@
 //! LALRPOP grammar, and located parse errors.
 
 use super::ast;
-use super::lexer::{Lexer, Spanned, Tok};
+use super::lexer::{misspaced_keyword, Lexer, Spanned, Tok};
 use crate::diag::{Expected, ParseError as Syntax, Refused};
-use crate::lang::parse::UserError;
+use crate::lang::parse::{HeaderError, UserError};
 use lalrpop_util::{lalrpop_mod, ParseError};
 
 lalrpop_mod!(
@@ -55,7 +55,26 @@ pub fn parse(text: &str) -> Result<ast::Lsystem, UserError> {
     };
     grammar::FileParser::new()
         .parse(checked)
-        .map_err(|e| convert(e, text, text.len()))
+        .map_err(|e| respaced(text, convert(e, text, text.len())))
+}
+
+/// An error on a line that starts with a keyword spaced otherwise than
+/// cpfg's scanner reads it (`derivation /* c */ length: 3` is
+/// `derivation   length: 3` after the preprocessor, which cpfg reads as
+/// symbols: a syntax error) is that spacing, at the blanks. Only an error
+/// is replaced: where cpfg reads the words as symbols of a valid line (a
+/// predecessor of several modules), so does lsgen.
+fn respaced(text: &str, e: UserError) -> UserError {
+    if matches!(e.kind, HeaderError::Parse(Syntax::Refused(_))) {
+        return e;
+    }
+    let at = e.span.0.min(text.len());
+    let start = text[..at].rfind('\n').map_or(0, |i| i + 1);
+    let end = text[start..].find('\n').map_or(text.len(), |i| start + i);
+    match misspaced_keyword(&text[start..end]) {
+        Some((off, kind)) => UserError::new((start + off, start + off + 1), kind),
+        None => e,
+    }
 }
 
 /// The lexer's tokens, each checked with [`refusal`] before the parser

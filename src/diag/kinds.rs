@@ -148,6 +148,18 @@ pub enum LexicalError {
     /// cpfg: a file past the size that is read whole, in MiB (the file is
     /// the error's subject).
     FileTooLarge { mib: u64 },
+    /// cpfg: a keyword whose words, or whose `:`, are not spaced as cpfg's
+    /// scanner matches them (`derivation  length:`, `Axiom :`).
+    KeywordSpacing {
+        /// The keyword as written, one space between its words.
+        keyword: String,
+        /// The words the blanks stand between; `None`: before the `:`.
+        between: Option<(String, String)>,
+        /// No space at all would do there too (`derivationlength:`).
+        optional: bool,
+        /// What stands there ("3 spaces", "a tab", ...).
+        found: String,
+    },
 }
 
 impl fmt::Display for LexicalError {
@@ -196,6 +208,25 @@ impl fmt::Display for LexicalError {
                 write!(f, "blocks nested too deep (over {MAX_BLOCK_DEPTH})")
             }
             FileTooLarge { mib } => write!(f, "file larger than {mib} MiB"),
+            KeywordSpacing {
+                keyword,
+                between: Some((a, b)),
+                optional,
+                found,
+            } => write!(
+                f,
+                "`{keyword}` takes {} between `{a}` and `{b}`, as cpfg's scanner reads it (a comment counts as a space): found {found}",
+                if *optional { "one space or none" } else { "exactly one space" }
+            ),
+            KeywordSpacing {
+                keyword,
+                between: None,
+                found,
+                ..
+            } => write!(
+                f,
+                "`{keyword}` takes no blank before `:`, as cpfg's scanner reads it: found {found}"
+            ),
         }
     }
 }
