@@ -584,3 +584,22 @@ fn warnings_keep_their_place_among_printf_lines() {
         )
     );
 }
+
+/// A production's block runs wherever the production is tried, so a step
+/// that leaves the string as it was is no fixed point when the block
+/// changed a variable: `g` counts the steps in `A`'s block (its own
+/// variable, kept between applications), and `A` becomes `B` in step 4
+/// (cpfg: generate.c's Derive runs the pre-condition block before the
+/// condition each step). By hand, and tests/tools/cpfg_ref.py agrees: B.
+/// lsgen used to stop stepping after step 1 (the string unchanged, no
+/// draw) and print A, unless a header block existed.
+#[test]
+fn a_production_block_keeps_an_unchanged_string_stepping() {
+    let dir = tempdir();
+    let src =
+        "Lsystem: 1\nderivation length: 5\nAxiom: A\nA : {g = g + 1;} g > 3 --> B\nendlsystem\n";
+    let file = write(dir.path(), "pb.l", src);
+    assert_eq!(derive(&[], &file).0, "B\n");
+    // Three steps are not enough.
+    assert_eq!(derive(&["-n", "3"], &file).0, "A\n");
+}

@@ -63,6 +63,10 @@ pub fn attach(run: &CpfgRun, extra: &[Vec<ProdExtra>; 3], system: &mut crate::ru
         let mut run = run.clone();
         run.seed = system.seed;
         run.derivation_length = system.derivation_length.unwrap_or(0);
+        run.production_blocks = extra
+            .iter()
+            .flatten()
+            .any(|x| x.pre.is_some() || x.post.is_some());
         system.cpfg = Some(Box::new(run));
         let tables = [
             Some(&mut system.productions),

@@ -25,15 +25,21 @@ pub struct CpfgRun {
     /// `derivation length:` of the file: `End:` runs after the last step's
     /// `EndEach:` when the run reaches it (cpfg ends there).
     pub derivation_length: u64,
+    /// A production (of any section) has a block: one that runs may
+    /// change a variable that a later step reads, whatever the string.
+    pub production_blocks: bool,
 }
 
 impl CpfgRun {
-    /// Does a header block run? (Then every step counts: no fixed point.)
+    /// Does a block run? A header block, or a production's block (which
+    /// runs where the production is tried, the string unchanged or not):
+    /// then every step counts, no fixed point.
     pub fn has_blocks(&self) -> bool {
-        !(self.start.is_empty()
-            && self.start_each.is_empty()
-            && self.end_each.is_empty()
-            && self.end.is_empty())
+        self.production_blocks
+            || !(self.start.is_empty()
+                && self.start_each.is_empty()
+                && self.end_each.is_empty()
+                && self.end.is_empty())
     }
 
     /// Run a header block, globals in `rng`.

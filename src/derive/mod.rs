@@ -407,7 +407,8 @@ pub(crate) fn derive(
     );
     d.cpfg_contexts = cpfg.is_some();
     let is_cpfg = cpfg.is_some();
-    // Header blocks run every step: no fixed point.
+    // Blocks run every step (header blocks) or where a production is
+    // tried (a production's): no fixed point.
     let blocks = cpfg.as_ref().is_some_and(|c| c.has_blocks());
     d.cpfg = cpfg;
     for span in step_hidden {
