@@ -603,3 +603,22 @@ fn a_production_block_keeps_an_unchanged_string_stepping() {
     // Three steps are not enough.
     assert_eq!(derive(&["-n", "3"], &file).0, "A\n");
 }
+
+/// Several `derivation length:` lines: the last sets the number of steps
+/// (lsys_input.y's Dlength assigns `LsysPtr->n` each time) but `Z` keeps
+/// the first's value: each line also calls SymbolTableAdd("Z"), which
+/// appends a second entry to the global table, and SymbolTableFind
+/// returns the first (generate.c). (With `-v`, cpfg reports that second
+/// entry as an error and refuses the file; by default it says nothing.)
+/// By hand: 3 steps from A(2), each adding 1, and B reads Z: A(5)B(2).
+#[test]
+fn the_last_derivation_length_counts_the_first_is_z() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "dl.l",
+        "Lsystem: 1\nderivation length: 2\nderivation length: Z + 1\nAxiom: A(Z) C\n\
+         A(x) --> A(x+1)\nC --> B(Z)\nendlsystem\n",
+    );
+    assert_eq!(derive(&[], &file).0, "A(5)B(2)\n");
+}

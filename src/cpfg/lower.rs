@@ -723,8 +723,12 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
             Setting::DerivationLength(e, span) => {
                 // `(int) Eval(...)`: truncated; below 0 cpfg derives no
                 // step (GenerateNSteps' loop), but `Z` keeps the value.
+                // A later line sets the length (lsys_input.y's Dlength
+                // assigns it) but not `Z`: its SymbolTableAdd appends a
+                // second `Z` that SymbolTableFind, which returns the
+                // first, never reaches.
                 let n = lw.c_int(e, "the derivation length")?;
-                lw.z = Some(n as f64);
+                lw.z.get_or_insert(n as f64);
                 header
                     .settings
                     .retain(|s| !matches!(s, ls::Setting::DerivationLength(..)));

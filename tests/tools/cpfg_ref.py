@@ -998,8 +998,13 @@ class Parser:
             elif k == "DLENGTH":
                 self.take()
                 ls.n = c_int(self.rt.eval(self.expression()))
+                # A later line sets the length but adds a second `Z` to
+                # cpfg's symbol table (SymbolTableAdd appends), which
+                # SymbolTableFind never reaches: `Z` keeps the first value.
+                if not getattr(self, "dlength_seen", False):
+                    self.rt.z_cell.value = float(ls.n)
+                self.dlength_seen = True
                 self.globals["Q"] = self.rt.q_cell
-                self.rt.z_cell.value = float(ls.n)
                 self.globals["Z"] = self.rt.z_cell
                 self.expect("EOL", "end of line")
             elif k in ("IGNORE", "CONSIDER"):
