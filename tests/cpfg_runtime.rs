@@ -622,3 +622,31 @@ fn the_last_derivation_length_counts_the_first_is_z() {
     );
     assert_eq!(derive(&[], &file).0, "A(5)B(2)\n");
 }
+
+/// `=(x)` in a right context skips the branch as `=` does, whatever its
+/// parameters: generate.c's RconDiff switches on the symbol `=` alone,
+/// and GetRconVars binds nothing from it, so `x` stays the production's
+/// variable: 0 until a block assigns it, kept between applications (the
+/// production's symbol table). By hand, and tests/tools/cpfg_ref.py
+/// gives both strings: `B`'s context skips `D(5)`, reaches `]` and
+/// `C(7)`: X(0,1,7); counting in `x` over three steps gives B(3). lsgen
+/// used to read `=(x)` as a module `=` with one parameter, which nothing
+/// matched.
+#[test]
+fn a_skip_with_parameters_skips_and_binds_nothing() {
+    let dir = tempdir();
+    for (n, succ, want) in [
+        ("1", "* --> X(x,y,z)", "A[X(0,1,7)D(5)]C(7)"),
+        ("3", "{x = x + 1;} * --> B(x)", "A[B(3)D(5)]C(7)"),
+    ] {
+        let file = write(
+            dir.path(),
+            "skip.l",
+            format!(
+                "Lsystem: 1\nderivation length: {n}\nAxiom: A[B(1)D(5)]C(7)\n\
+                 B(y) > =(x)]C(z) : {succ}\nendlsystem\n"
+            ),
+        );
+        assert_eq!(derive(&[], &file).0, format!("{want}\n"), "{succ}");
+    }
+}

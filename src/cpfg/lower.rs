@@ -458,10 +458,27 @@ impl Lowerer<'_> {
                 return err(m.span, Invalid::RightContextEndsInSkip);
             }
         }
-        let right = match &p.right {
+        let mut right = match &p.right {
             Some(r) => self.formals(r, &mut formals)?,
             None => Vec::new(),
         };
+        // `=(x)`: cpfg's RconDiff skips the branch at any `=`, whatever
+        // its parameters, and GetRconVars binds nothing from it (generate.c
+        // passes over `=`): its names stay the production's variables,
+        // 0 until a block assigns them, kept between applications (cpfg's
+        // per-production symbol table) — a local here.
+        let mut skipped = Vec::new();
+        for m in p.right.iter().flatten().filter(|m| m.sym == '=') {
+            for e in &m.params {
+                if let Expr::Var(name, _) = e {
+                    formals.remove(name);
+                    skipped.push(name.clone());
+                }
+            }
+        }
+        for m in right.iter_mut().filter(|m| m.sym == '=') {
+            m.params.clear();
+        }
         // Slots as the shared compiler numbers them: predecessor (its
         // first module, then the rest), left context, right context.
         let mut names = HashMap::new();
@@ -478,6 +495,12 @@ impl Lowerer<'_> {
         block_names(&p.pre, &mut assigned, true);
         block_names(&p.post, &mut assigned, true);
         self.locals.clear();
+        for n in skipped {
+            if !self.globals.contains_key(&n) {
+                self.locals.insert(n, self.variables);
+                self.variables += 1;
+            }
+        }
         for n in assigned {
             // `Q` and `Z`, where built in, are read only: assigning one is
             // an error (below), as in a header block, never a private
