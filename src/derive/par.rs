@@ -75,13 +75,15 @@ const TASKS: u64 = 16;
 /// 12 k instructions (cgroup files), a tenth of a small run's start-up.
 pub(crate) const ALL_CPUS: usize = 0;
 
-/// `threads`, with [`ALL_CPUS`] counted, and at most [`started`] allows.
+/// `threads`, with [`ALL_CPUS`] counted, and at most [`started`] allows
+/// (the CPUs are counted only where that cap can bind: past
+/// [`PER_CPU`] threads).
 fn resolve(threads: usize) -> usize {
-    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
-    if threads == ALL_CPUS {
-        cpus
-    } else {
-        started(threads, cpus)
+    let cpus = || std::thread::available_parallelism().map_or(1, |n| n.get());
+    match threads {
+        ALL_CPUS => cpus(),
+        1..=PER_CPU => threads,
+        _ => started(threads, cpus()),
     }
 }
 
