@@ -32,9 +32,10 @@ pub fn interpret<R: Read>(
     let mut t = Turtle::new(view);
     // Where the outermost open polygon began.
     let mut polygon_at = 0;
-    // A bare `@` just read: a letter after it is one module with it
-    // (`@o`), whose errors point at the `@`.
-    let mut at_sign: Option<u64> = None;
+    // Where the last module began: a letter that joins the bare `@`
+    // before it (`@o`) is one module with it, whose errors point at the
+    // `@`.
+    let mut last_start = 0;
     loop {
         let Some(sym) = r.next_module()? else {
             if t.open_polygons() > 0 {
@@ -47,14 +48,10 @@ pub fn interpret<R: Read>(
         }
         let n = r.nparams;
         let params = r.params;
-        let start = match at_sign.take() {
-            Some(at) if sym.is_alphabetic() => at,
-            _ => r.last_at,
-        };
-        if sym == '@' && n == 0 {
-            at_sign = Some(r.last_at);
+        if t.joins_at(sym) {
+            r.last_at = last_start;
         }
-        r.last_at = start;
+        last_start = r.last_at;
         match t.module(sym, &params[..n], sink) {
             Ok(()) => {}
             Err(ModErr::Io(e)) => {

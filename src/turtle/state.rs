@@ -222,14 +222,20 @@ impl Turtle {
         Ok(from)
     }
 
+    /// Does `sym`, read next, make one module with the bare `@` before
+    /// it (`@o`, `@M`, ...)? Before anything else `@` stood alone and
+    /// `sym` is a module of its own, as lsgen (every symbol one
+    /// character) reads `@[`.
+    pub fn joins_at(&self, sym: char) -> bool {
+        self.at && sym.is_alphabetic()
+    }
+
     /// Interpret one module.
     pub fn module(&mut self, sym: char, p: &[f64], sink: &mut dyn Sink) -> Result<(), ModErr> {
         if self.at {
+            let joins = self.joins_at(sym);
             self.at = false;
-            // `@` and a letter are one module (`@o`, `@M`, ...); before
-            // anything else `@` stood alone and `sym` is a module of its
-            // own, as lsgen (every symbol one character) reads `@[`.
-            if sym.is_alphabetic() {
+            if joins {
                 return self.at_module(sym, p, sink);
             }
         }
