@@ -1,6 +1,6 @@
 //! lsgen as a library: derive an L-system from a string, streaming the
-//! result into standard output, and report each generation's length and
-//! each warning.
+//! result into standard output, and report each generation's length,
+//! each warning and what a cpfg model's `printf` prints.
 //!
 //! `cargo run --example embed -- 5` derives ABOP's Koch curve 5 steps.
 
@@ -22,6 +22,8 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
         }
         // Rendered as lsgen prints it: place, message, source line, caret.
         lsgen::Event::Warning(w) => eprint!("{w}"),
+        // A cpfg `.l` model's `printf` (none in this one).
+        lsgen::Event::Printf(text) => eprint!("{text}"),
         _ => {}
     })?;
     out.flush()?;

@@ -72,8 +72,8 @@ pub struct Options {
     /// How errors name the options: by these methods, or by the binary's
     /// flags.
     names: OptionNames,
-    /// Warnings go to standard error as they are found, not to the
-    /// events.
+    /// Warnings and cpfg's `printf` text go to standard error as they
+    /// are found, not to the events.
     print_warnings: bool,
 }
 
@@ -199,9 +199,10 @@ impl Options {
     }
 
     /// Warnings go to standard error as they are found (each text once
-    /// per process), not to [`LSystem::derive_with`]'s events: the
-    /// binary's, so that they keep their place among the other lines
-    /// there (cpfg's `printf`, `-v`).
+    /// per process), and so does what a cpfg block's `printf` prints, not
+    /// to [`LSystem::derive_with`]'s events: the binary's, so that they
+    /// keep their place among each other and the other lines there
+    /// (`-v`).
     #[doc(hidden)]
     pub fn print_warnings(mut self) -> Self {
         self.print_warnings = true;
@@ -271,7 +272,7 @@ impl LSystem {
         )?;
         ls.require_axiom()?;
         ls.text = Some(text.to_string());
-        ls.warnings = collecting.take();
+        ls.warnings = collecting.take_warnings();
         Ok(ls)
     }
 
@@ -284,7 +285,7 @@ impl LSystem {
         let collecting = crate::diag::collect_warnings();
         let mut ls = Self::load_named(Input::new(Box::new(reader), name), None)?;
         ls.require_axiom()?;
-        ls.warnings = collecting.take();
+        ls.warnings = collecting.take_warnings();
         Ok(ls)
     }
 
@@ -525,7 +526,8 @@ impl LSystem {
 
     /// Derive and stream the final string, one line, into `out`.
     /// Generations in between live in temporary files, so memory does not
-    /// grow with the string. Warnings are not reported:
+    /// grow with the string. Warnings and what a cpfg block's `printf`
+    /// prints are not reported (nor written on standard error):
     /// [`derive_with`](LSystem::derive_with) reports them.
     pub fn derive(&mut self, options: &Options, out: impl Write) -> Result<Stats, Error> {
         self.run(options, out, "output", false, &mut |_| {}, None)
@@ -536,8 +538,10 @@ impl LSystem {
     /// early, and with each warning ([`Event::Warning`]): the file's, found
     /// when it was read, first (each derivation reports them again), then
     /// the derivation's own, each before the event of the generation it
-    /// was found in. Asking for every generation's length may take the
-    /// step-by-step strategy where depth first would do.
+    /// was found in; and with the text each `printf` of a cpfg block
+    /// prints ([`Event::Printf`]), in its place among them. Asking for
+    /// every generation's length may take the step-by-step strategy where
+    /// depth first would do.
     ///
     /// ```
     /// // `step` is a built-in name: a parameter of that name hides it.
@@ -579,13 +583,17 @@ impl LSystem {
             return self.run_inner(options, out, out_name, lengths, events, frames);
         }
         // Warnings go to `events`: the file's first, then those found on
-        // the way, each before the next event (and the last ones at the
-        // end, whatever the outcome), with the caller's option names.
+        // the way, and what cpfg's `printf` prints, each before the next
+        // event (and the last ones at the end, whatever the outcome), the
+        // warnings with the caller's option names.
         let collecting = crate::diag::collect_warnings();
         let names = options.names;
         let mut forward = |event: Option<&Event>| {
-            for w in collecting.take() {
-                events(&Event::Warning(w.with_option_names(names)));
+            for said in collecting.take() {
+                events(&match said {
+                    Event::Warning(w) => Event::Warning(w.with_option_names(names)),
+                    other => other,
+                });
             }
             if let Some(e) = event {
                 events(e);

@@ -955,7 +955,7 @@ fn run_one(
                 format!("lsgen: {who}steps {from}..{to}: unchanged (fixed point)\n")
             }
             // Printed as they are found (`print_warnings`).
-            Event::Warning(_) => return,
+            Event::Warning(_) | Event::Printf(_) => return,
         };
         crate::diag::eprint(&line);
     };

@@ -135,16 +135,30 @@ pub fn group_digits(n: u64) -> String {
 /// ([`print_warning`]).
 pub(crate) fn warn(location: Location, kind: &WarningKind) {
     let w = Warning::new(kind.clone(), Some(location));
-    let unheard = COLLECTED.with(|c| match c.borrow_mut().as_mut() {
-        Some(c) => {
-            c.warnings.push(w);
-            None
-        }
-        None => Some(w),
-    });
-    if let Some(w) = unheard {
+    if let Some(crate::Event::Warning(w)) = collect(crate::Event::Warning(w)) {
         print_warning(&w);
     }
+}
+
+/// Report what a cpfg block's `printf` (or `fprintf(stderr, ...)`)
+/// printed: to this thread's collection if there is one (handed to a
+/// library caller as [`crate::Event::Printf`], in its place among the
+/// warnings), else on standard error at once, as cpfg does (the binary).
+pub(crate) fn printf(text: String) {
+    if let Some(crate::Event::Printf(text)) = collect(crate::Event::Printf(text)) {
+        eprint(&text);
+    }
+}
+
+/// Put `said` in this thread's collection; without one, give it back.
+fn collect(said: crate::Event) -> Option<crate::Event> {
+    COLLECTED.with(|c| match c.borrow_mut().as_mut() {
+        Some(c) => {
+            c.said.push(said);
+            None
+        }
+        None => Some(said),
+    })
 }
 
 /// Report a warning without a place, however often it is found, once per
@@ -156,7 +170,8 @@ pub(crate) fn warn_once(kind: &WarningKind, printed: &std::sync::atomic::AtomicB
         Some(c) => {
             if !c.once.contains(kind) {
                 c.once.push(kind.clone());
-                c.warnings.push(Warning::new(kind.clone(), None));
+                c.said
+                    .push(crate::Event::Warning(Warning::new(kind.clone(), None)));
             }
             true
         }
@@ -206,9 +221,11 @@ pub(crate) fn warning_text(location: &Location, kind: &WarningKind) -> String {
     format!("lsgen: {}", AsWarning(location, &kind.to_string()))
 }
 
-/// The warnings of this thread's collection.
+/// What this thread's collection holds: warnings and `printf` text
+/// ([`crate::Event::Warning`], [`crate::Event::Printf`]), in the order
+/// they were said.
 struct Collected {
-    warnings: Vec<Warning>,
+    said: Vec<crate::Event>,
     /// Those said once per collection, already said.
     once: Vec<WarningKind>,
 }
@@ -219,14 +236,15 @@ thread_local! {
         const { std::cell::RefCell::new(None) };
 }
 
-/// While the returned guard lives, the warnings raised on this thread are
-/// collected ([`Collecting::take`]), not printed. A derivation raises
-/// every warning on the thread that derives: the passes that can warn
-/// (decomposition, the homomorphism's depth, the cpfg dialect) are never
-/// split between threads (`derive::par::step_threads`).
+/// While the returned guard lives, the warnings raised on this thread and
+/// the text of cpfg's `printf` are collected ([`Collecting::take`]), not
+/// printed. A derivation raises every warning and runs every cpfg block
+/// on the thread that derives: the passes that can warn (decomposition,
+/// the homomorphism's depth, the cpfg dialect) are never split between
+/// threads (`derive::par::step_threads`).
 pub(crate) fn collect_warnings() -> Collecting {
     let fresh = Collected {
-        warnings: Vec::new(),
+        said: Vec::new(),
         once: Vec::new(),
     };
     let outer = COLLECTED.with(|c| c.replace(Some(fresh)));
@@ -245,14 +263,27 @@ pub(crate) struct Collecting {
 }
 
 impl Collecting {
-    /// The warnings collected since the last call, in order.
-    pub(crate) fn take(&self) -> Vec<Warning> {
+    /// The warnings and `printf` text collected since the last call, in
+    /// order.
+    pub(crate) fn take(&self) -> Vec<crate::Event> {
         COLLECTED.with(|c| {
             c.borrow_mut()
                 .as_mut()
-                .map(|c| std::mem::take(&mut c.warnings))
+                .map(|c| std::mem::take(&mut c.said))
                 .unwrap_or_default()
         })
+    }
+
+    /// The warnings collected since the last call, in order (of a load,
+    /// which runs no cpfg block: nothing else is said there).
+    pub(crate) fn take_warnings(&self) -> Vec<Warning> {
+        self.take()
+            .into_iter()
+            .filter_map(|e| match e {
+                crate::Event::Warning(w) => Some(w),
+                _ => None,
+            })
+            .collect()
     }
 }
 

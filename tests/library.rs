@@ -454,6 +454,7 @@ fn event_lines(
             lsgen::Event::Generation { pass, modules, .. } => format!("{pass}: {modules}"),
             lsgen::Event::FixedPoint { from, to } => format!("fixed {from}..{to}"),
             lsgen::Event::Warning(w) => w.to_string(),
+            lsgen::Event::Printf(text) => format!("printf: {text}"),
             other => format!("{other:?}"),
         })
     })?;
@@ -580,10 +581,46 @@ fn cpfg_warnings_are_events() -> Result<(), Box<dyn Error>> {
     Ok(())
 }
 
-/// A library caller that does not ask for events hears no warning on
-/// standard error: `parse`, `from_reader`, `derive` and `check` say
-/// nothing there (they printed every warning). Run in a child process,
-/// whose standard error the parent reads.
+/// What a cpfg block's `printf` (and `fprintf(stderr, ...)`) prints is
+/// handed to the caller as `Event::Printf`, in its place among the
+/// warnings and generations (it went to standard error, which the binary
+/// still writes): `Start:` before the axiom, the first `A`'s `printf`,
+/// then the division by zero its production finds, then the second
+/// `A`'s; each derivation prints again.
+#[test]
+fn cpfg_printf_is_an_event() -> Result<(), Box<dyn Error>> {
+    use lsgen::{LSystem, Options};
+    let src = "Lsystem: 1\nderivation length: 2\nStart: {printf(\"start\\n\");}\n\
+               EndEach: {fprintf(stderr, \"end %g\\n\", Q);}\nAxiom: A(1) A(2)\n\
+               A(x) : {printf(\"A(%g)\\n\", x);} * --> A(x/0)\nendlsystem\n";
+    let division = "warning: division by zero in a cpfg expression: divided by 1 \
+                    instead, as cpfg does\n";
+    let want = [
+        "printf: start\n",
+        "the axiom: 2",
+        "printf: A(1)\n",
+        division,
+        "printf: A(2)\n",
+        "step 1: 2",
+        "printf: end 1\n",
+        "printf: A(1)\n",
+        "printf: A(2)\n",
+        "step 2: 2",
+        "printf: end 2\n",
+    ];
+    let mut ls = LSystem::parse(src)?;
+    for _ in 0..2 {
+        let (out, lines) = event_lines(&mut ls, &Options::new())?;
+        assert_eq!(out, "A(1)A(2)\n");
+        assert_eq!(lines, want);
+    }
+    Ok(())
+}
+
+/// A library caller that does not ask for events hears no warning and no
+/// cpfg `printf` on standard error: `parse`, `from_reader`, `derive` and
+/// `check` say nothing there (they printed every warning, and `printf`'s
+/// text). Run in a child process, whose standard error the parent reads.
 #[test]
 fn the_library_writes_no_warning_on_standard_error() -> Result<(), Box<dyn Error>> {
     use lsgen::{LSystem, Options};
@@ -610,7 +647,9 @@ fn the_library_writes_no_warning_on_standard_error() -> Result<(), Box<dyn Error
     let structural = "derivation length: 3\nproductions:\nA -> AL\ndecomposition: warnings\n\
                       maximum depth: 2\nL -> [+P][-P]\nP -> Q\nQ -> R\naxiom:\nA\n";
     let step = "productions:\nA(step) -> A(step+1)\naxiom: A(0)\n";
-    for src in [cpfg, structural, step] {
+    let printf = "Lsystem: 1\nderivation length: 1\nStart: {printf(\"start\\n\");}\n\
+                  Axiom: A\nA : {fprintf(stderr, \"A\\n\");} * --> B\nendlsystem\n";
+    for src in [cpfg, structural, step, printf] {
         let mut ls = LSystem::parse(src)?;
         ls.check()?;
         ls.derive(&Options::new(), Vec::new())?;

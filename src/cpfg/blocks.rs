@@ -34,7 +34,8 @@ pub enum Stmt {
     If(Code, Block, Block),
     While(Code, Block, Span),
     DoWhile(Block, Code, Span),
-    /// `printf` / `fprintf(stderr, …)`: to standard error.
+    /// `printf` / `fprintf(stderr, …)`: to standard error in the binary,
+    /// an [`crate::Event::Printf`] in the library ([`crate::diag::printf`]).
     Printf(Format, Box<[Code]>, Span),
     /// An expression for its effect (`srand(3);`).
     Eval(Code),
@@ -100,7 +101,7 @@ impl Block {
                     for a in args.iter() {
                         vals.push(a.eval(slots, stack, rng)?);
                     }
-                    crate::diag::eprint(&f.render(&vals));
+                    crate::diag::printf(f.render(&vals));
                 }
                 Stmt::Eval(e) => {
                     e.eval(slots, stack, rng)?;

@@ -183,6 +183,13 @@ pub enum Event {
     /// (found when it was read) come first; one found in a pass comes
     /// before that pass's [`Generation`](Event::Generation).
     Warning(crate::diag::Warning),
+    /// The text a cpfg `.l` file's statement block printed with `printf`
+    /// or `fprintf(stderr, …)` (one event per call, formatted as C does;
+    /// the `lsgen` binary writes it on standard error), in its place
+    /// among the warnings and generations: a block of `Start:` before the
+    /// axiom's [`Generation`](Event::Generation), a production's block
+    /// before its step's, `EndEach:` and `End:` after it.
+    Printf(String),
 }
 
 fn tempfile(dir: &Option<PathBuf>) -> Result<File, Error> {
