@@ -744,11 +744,14 @@ impl LSystem {
     }
 
     /// Use `seed` when neither the options nor the file give one, instead
-    /// of a fresh one (for reproducible tests and fuzzing).
+    /// of a fresh one (for reproducible tests and fuzzing; the binary
+    /// does not call it). Compiling again says nothing on standard error:
+    /// the file's warnings were found when it was read.
     #[doc(hidden)]
     pub fn with_fallback_seed(mut self, seed: u64) -> Result<Self, Error> {
         self.fresh = seed;
         if let Some((_, with)) = self.system.take() {
+            let _known = crate::diag::collect_warnings();
             self.system = Some((self.compile_system(with)?, with));
         }
         Ok(self)
@@ -798,8 +801,11 @@ fn compile(path: &str, split: &Split, seed: Option<u64>, fresh: u64) -> Result<S
 }
 
 /// Load an L-system from `src` and derive it in full into a byte vector
-/// (temp files are still used between steps): for tests and fuzzing.
-/// `steps`/`seed` override the file's settings; without either seed, 0.
+/// (temp files are still used between steps): for tests and fuzzing (the
+/// binary does not call it). `steps`/`seed` override the file's settings;
+/// without either seed, 0. Warnings and a cpfg block's `printf` text are
+/// dropped, as [`LSystem::derive`] drops them: nothing is written on
+/// standard error.
 #[doc(hidden)]
 pub fn derive_bytes(
     src: &[u8],
@@ -821,8 +827,10 @@ pub fn derive_bytes_on(
     (threads, split): (usize, Option<u64>),
 ) -> Result<Vec<u8>, Error> {
     let input = Input::new(Box::new(io::Cursor::new(src.to_vec())), "<input>");
+    let loading = crate::diag::collect_warnings();
     let mut ls = LSystem::load_named(input, seed)?.with_fallback_seed(0)?;
     ls.require_axiom()?;
+    drop(loading);
     let mut options = Options::new().limits(limits).threads(threads);
     options.split = split;
     options.steps = steps;

@@ -624,22 +624,7 @@ fn cpfg_printf_is_an_event() -> Result<(), Box<dyn Error>> {
 #[test]
 fn the_library_writes_no_warning_on_standard_error() -> Result<(), Box<dyn Error>> {
     use lsgen::{LSystem, Options};
-    const CHILD: &str = "LSGEN_LIBRARY_TEST_CHILD";
-    if std::env::var_os(CHILD).is_none() {
-        let me = std::env::current_exe()?;
-        let r = std::process::Command::new(me)
-            .args([
-                "--exact",
-                "the_library_writes_no_warning_on_standard_error",
-                "--test-threads",
-                "1",
-            ])
-            .env(CHILD, "1")
-            .output()?;
-        let stdout = String::from_utf8_lossy(&r.stdout);
-        assert!(r.status.success(), "{stdout}");
-        assert!(stdout.contains("1 passed"), "{stdout}");
-        assert_eq!(String::from_utf8_lossy(&r.stderr), "");
+    if !in_child("the_library_writes_no_warning_on_standard_error")? {
         return Ok(());
     }
     let cpfg = "Lsystem: 1\nderivation length: 2\nAxiom: A(1)\n\
@@ -654,6 +639,56 @@ fn the_library_writes_no_warning_on_standard_error() -> Result<(), Box<dyn Error
         ls.check()?;
         ls.derive(&Options::new(), Vec::new())?;
         let mut ls = LSystem::from_reader(std::io::Cursor::new(src.to_string()), "r")?;
+        ls.derive(&Options::new(), Vec::new())?;
+    }
+    Ok(())
+}
+
+/// Run the test `name` again in a child process, and check that it passes
+/// there without a byte on standard error: false in the parent (its work
+/// is done), true in the child (do the test's work).
+fn in_child(name: &str) -> Result<bool, Box<dyn Error>> {
+    const CHILD: &str = "LSGEN_LIBRARY_TEST_CHILD";
+    if std::env::var_os(CHILD).is_some() {
+        return Ok(true);
+    }
+    let me = std::env::current_exe()?;
+    let r = std::process::Command::new(me)
+        .args(["--exact", name, "--test-threads", "1"])
+        .env(CHILD, "1")
+        .output()?;
+    let stdout = String::from_utf8_lossy(&r.stdout);
+    assert!(r.status.success(), "{stdout}");
+    assert!(stdout.contains("1 passed"), "{stdout}");
+    assert_eq!(String::from_utf8_lossy(&r.stderr), "");
+    Ok(false)
+}
+
+/// The hidden helpers for tests and fuzzing (`derive_bytes`,
+/// `derive_bytes_on`, `with_fallback_seed`; the binary calls none of
+/// them) are the library's too: they write no warning on standard error
+/// (`derive_bytes` printed a `.l` file's load warnings, the undefined
+/// name and the division by zero of its axiom).
+#[test]
+fn the_hidden_helpers_write_nothing_on_standard_error() -> Result<(), Box<dyn Error>> {
+    use lsgen::{LSystem, Limits, Options};
+    if !in_child("the_hidden_helpers_write_nothing_on_standard_error")? {
+        return Ok(());
+    }
+    let cpfg = "Lsystem: 1\nderivation length: 2\nStart: {printf(\"start\\n\");}\n\
+                Axiom: A(1/0)\nA(x) --> A(x/0)B(y)\nB(x) --> C(2/0) : 1\nendlsystem\n";
+    let step = "define: R = ran(1)\nproductions:\nA(step) -> A(step+R)\naxiom: A(0)\n";
+    for src in [cpfg, step] {
+        let out = lsgen::derive_bytes(src.as_bytes(), None, None, Limits::default())?;
+        assert!(!out.is_empty());
+        lsgen::derive_bytes_on(
+            src.as_bytes(),
+            Some(1),
+            Some(3),
+            Limits::default(),
+            (2, None),
+        )?;
+        let mut ls = LSystem::parse(src)?.with_fallback_seed(7)?;
         ls.derive(&Options::new(), Vec::new())?;
     }
     Ok(())
