@@ -247,7 +247,8 @@ impl LSystem {
     /// Parse an L-system from `.ls` text.
     ///
     /// A failure is an [`Error`] whose [`kind`](Error::kind) says what went
-    /// wrong, with its data; its `Display` is the located message:
+    /// wrong, with its data, and whose [`warnings`](Error::warnings) are
+    /// those found before it; its `Display` is the located message:
     ///
     /// ```
     /// use lsgen::diag::{CompileError, ExprError};
@@ -265,14 +266,9 @@ impl LSystem {
     /// );
     /// ```
     pub fn parse(text: &str) -> Result<LSystem, Error> {
-        let collecting = crate::diag::collect_warnings();
-        let mut ls = Self::load_named(
-            Input::new(Box::new(io::Cursor::new(text.to_string())), "<input>"),
-            None,
-        )?;
-        ls.require_axiom()?;
+        let input = Input::new(Box::new(io::Cursor::new(text.to_string())), "<input>");
+        let mut ls = Self::load_collecting(input)?;
         ls.text = Some(text.to_string());
-        ls.warnings = collecting.take_warnings();
         Ok(ls)
     }
 
@@ -282,11 +278,23 @@ impl LSystem {
     ///
     /// [`derive`]: LSystem::derive
     pub fn from_reader(reader: impl Read + 'static, name: &str) -> Result<LSystem, Error> {
+        Self::load_collecting(Input::new(Box::new(reader), name))
+    }
+
+    /// Load `input` for [`parse`](Self::parse) and
+    /// [`from_reader`](Self::from_reader): its warnings kept for each
+    /// derivation, or, if it fails, in the error ([`Error::warnings`]).
+    fn load_collecting(input: Input) -> Result<LSystem, Error> {
         let collecting = crate::diag::collect_warnings();
-        let mut ls = Self::load_named(Input::new(Box::new(reader), name), None)?;
-        ls.require_axiom()?;
-        ls.warnings = collecting.take_warnings();
-        Ok(ls)
+        let loaded = Self::load_named(input, None).and_then(|ls| ls.require_axiom().map(|()| ls));
+        let warnings = collecting.take_warnings();
+        match loaded {
+            Ok(mut ls) => {
+                ls.warnings = warnings;
+                Ok(ls)
+            }
+            Err(e) => Err(e.with_warnings(warnings)),
+        }
     }
 
     /// Read and compile the header from `input` (leaving it at the axiom);

@@ -318,6 +318,8 @@ struct ErrorInner {
     subject: Option<String>,
     /// The batch job that failed (`[job LABEL]` after the message).
     job: Option<String>,
+    /// The warnings found before it, by a load that failed.
+    warnings: Vec<Warning>,
 }
 
 pub type Result<T> = std::result::Result<T, Error>;
@@ -330,6 +332,7 @@ impl Error {
             location: None,
             subject: None,
             job: None,
+            warnings: Vec::new(),
         }))
     }
 
@@ -377,6 +380,39 @@ impl Error {
             _ => {}
         }
         self
+    }
+
+    /// The same error, with the warnings found before it.
+    pub(crate) fn with_warnings(mut self, warnings: Vec<Warning>) -> Error {
+        self.0.warnings = warnings;
+        self
+    }
+
+    /// The warnings found before the error, in order, when
+    /// [`LSystem::parse`] or [`LSystem::from_reader`] failed (a cpfg `.l`
+    /// file's preprocessor and lowering warnings, with a place each; its
+    /// `Display` does not show them). Empty for other errors: a
+    /// derivation hands its warnings to
+    /// [`LSystem::derive_with`]'s events, also when it fails.
+    ///
+    /// ```
+    /// let src = "Lsystem: 1\nderivation length: 1\nAxiom: A(y)\n\
+    ///            A : {Q = 1;} * --> B\nendlsystem\n";
+    /// let e = lsgen::LSystem::parse(src).err().unwrap();
+    /// assert_eq!(e.to_string().lines().next(), Some(
+    ///     "<input>:4:6: error: `Q` cannot be assigned (cpfg's built-in variables `Q` and `Z` are read only)"
+    /// ));
+    /// assert!(matches!(
+    ///     e.warnings()[0].kind(),
+    ///     lsgen::diag::WarningKind::NotDefined(y) if y == "y"
+    /// ));
+    /// ```
+    ///
+    /// [`LSystem::parse`]: crate::LSystem::parse
+    /// [`LSystem::from_reader`]: crate::LSystem::from_reader
+    /// [`LSystem::derive_with`]: crate::LSystem::derive_with
+    pub fn warnings(&self) -> &[Warning] {
+        &self.0.warnings
     }
 
     /// What went wrong.

@@ -581,6 +581,54 @@ fn cpfg_warnings_are_events() -> Result<(), Box<dyn Error>> {
     Ok(())
 }
 
+/// A text that fails to load keeps the warnings found before its error:
+/// `Error::warnings` gives them, in order (they were dropped with the
+/// collection). Here a `.l` file's preprocessor warning, an undefined
+/// name and ignored weights come before an assignment to `Q`; from a
+/// stream as from a string; an error without warnings has none.
+#[test]
+fn a_failed_load_keeps_its_warnings() {
+    use lsgen::diag::WarningKind;
+    use lsgen::LSystem;
+    let src = "#warning careful\nLsystem: 1\nderivation length: 1\nAxiom: A(y)\n\
+               A(x) --> B(x) : 1\nB : {Q = 1;} * --> C\nendlsystem\n";
+    let from_text = LSystem::parse(src).err().expect("Q is read only");
+    let from_stream = LSystem::from_reader(std::io::Cursor::new(src.to_string()), "m.l")
+        .err()
+        .expect("Q is read only");
+    for (e, name) in [(&from_text, "<input>"), (&from_stream, "m.l")] {
+        assert_eq!(e.location().map(|l| (l.line, l.col)), Some((6, 6)), "{e}");
+        let kinds: Vec<_> = e.warnings().iter().map(|w| w.kind().clone()).collect();
+        assert!(
+            matches!(
+                &kinds[..],
+                [
+                    WarningKind::UserDirective(m),
+                    WarningKind::NotDefined(y),
+                    WarningKind::ProbabilityWithoutSeed { .. },
+                ] if m == "careful" && y == "y"
+            ),
+            "{kinds:?}"
+        );
+        assert_eq!(
+            e.warnings()[1].to_string(),
+            format!(
+                "{name}:4:10: warning: `y` is not defined: it is 0 here, as in cpfg\n\
+                 Axiom: A(y)\n         ^\n"
+            )
+        );
+        // The error's own rendering is unchanged.
+        assert!(
+            e.to_string().starts_with(&format!("{name}:6:6: error: ")),
+            "{e}"
+        );
+    }
+    let e = LSystem::parse("productions:\nA -> B(\naxiom: A\n")
+        .err()
+        .unwrap();
+    assert!(e.warnings().is_empty());
+}
+
 /// What a cpfg block's `printf` (and `fprintf(stderr, ...)`) prints is
 /// handed to the caller as `Event::Printf`, in its place among the
 /// warnings and generations (it went to standard error, which the binary
