@@ -35,7 +35,7 @@ pub enum Stmt {
     While(Code, Block, Span),
     DoWhile(Block, Code, Span),
     /// `printf` / `fprintf(stderr, …)`: to standard error in the binary,
-    /// an [`crate::Event::Printf`] in the library ([`crate::diag::printf`]).
+    /// an [`crate::Event::Printf`] in the library (`diag::printf`).
     Printf(Format, Box<[Code]>, Span),
     /// An expression for its effect (`srand(3);`).
     Eval(Code),
