@@ -273,8 +273,15 @@ impl LSystem {
     }
 
     /// Parse an L-system from a reader, named `name` in error messages.
-    /// The header is read now; the axiom is streamed by [`derive`], so it
-    /// can be derived once.
+    /// Of an `.ls` text, the header is read now and the axiom streamed by
+    /// [`derive`], so it can be derived once (again, or after
+    /// [`check`](LSystem::check), which reads the axiom, is
+    /// [`RuntimeError::AlreadyDerived`]). A cpfg `.l` text is read whole
+    /// now (its preprocessor needs all of it; at most 64 MiB) and keeps
+    /// its axiom as text: it derives as often as one from
+    /// [`parse`](LSystem::parse), each derivation a whole run that gives
+    /// the same string and events (its `Start:` block runs in each, the
+    /// draws start again from the seed).
     ///
     /// [`derive`]: LSystem::derive
     pub fn from_reader(reader: impl Read + 'static, name: &str) -> Result<LSystem, Error> {
@@ -503,7 +510,9 @@ impl LSystem {
     }
 
     /// Read the axiom, reporting its errors, and derive nothing (its
-    /// warnings are not reported).
+    /// warnings are not reported). The axiom of an `.ls` text from
+    /// [`from_reader`](LSystem::from_reader) is streamed: once checked,
+    /// it cannot be derived.
     pub fn check(&mut self) -> Result<(), Error> {
         let _silent = crate::diag::collect_warnings();
         self.check_axiom()

@@ -665,6 +665,52 @@ fn cpfg_printf_is_an_event() -> Result<(), Box<dyn Error>> {
     Ok(())
 }
 
+/// `from_reader` derives an `.ls` text once (its axiom is streamed), but a
+/// cpfg `.l` text again and again: the whole file is read when it is
+/// loaded (the preprocessor needs all of it), its axiom kept as text.
+/// Each derivation is a whole run, the same as `parse`'s and as the
+/// first: the `Start:` block runs once per derivation and not at load,
+/// the draws start again from the seed (none consumed by the load or by
+/// the derivation before), the file's warnings come again; `check` reads
+/// the kept axiom without using it up.
+#[test]
+fn a_cpfg_text_from_a_reader_derives_again_the_same() -> Result<(), Box<dyn Error>> {
+    use lsgen::{LSystem, Options};
+    let src = "Lsystem: 1\nseed: 3\nderivation length: 4\n\
+               Start: {printf(\"start\\n\"); n = 0;}\n\
+               EndEach: {n = n + 1; printf(\"n=%g r=%g\\n\", n, ran(10));}\n\
+               Axiom: A(y)\nA(x) --> A(x+1)B : 1\nA(x) --> A(x+2) : 1\nendlsystem\n";
+    let mut parsed = LSystem::parse(src)?;
+    let want = event_lines(&mut parsed, &Options::new())?;
+    assert_eq!(want.1.iter().filter(|l| *l == "printf: start\n").count(), 1);
+    assert!(want.1[0].contains("`y` is not defined"), "{:?}", want.1);
+    let mut ls = LSystem::from_reader(std::io::Cursor::new(src.to_string()), "<input>")?;
+    ls.check()?;
+    for _ in 0..3 {
+        assert_eq!(event_lines(&mut ls, &Options::new())?, want);
+    }
+    // Another seed, then the file's again.
+    let mut other = LSystem::parse(src)?;
+    let seeded = event_lines(&mut other, &Options::new().seed(11))?;
+    assert_ne!(seeded.0, want.0);
+    assert_eq!(event_lines(&mut ls, &Options::new().seed(11))?, seeded);
+    assert_eq!(event_lines(&mut ls, &Options::new())?, want);
+    // An `.ls` text from a reader derives once.
+    let mut ls = LSystem::from_reader(
+        std::io::Cursor::new("productions:\nA -> AB\naxiom: A\n".to_string()),
+        "r",
+    )?;
+    ls.derive(&Options::new(), Vec::new())?;
+    let again = ls
+        .derive(&Options::new(), Vec::new())
+        .expect_err("streamed once");
+    assert!(matches!(
+        again.kind(),
+        lsgen::ErrorKind::Runtime(lsgen::diag::RuntimeError::AlreadyDerived)
+    ));
+    Ok(())
+}
+
 /// A library caller that does not ask for events hears no warning and no
 /// cpfg `printf` on standard error: `parse`, `from_reader`, `derive` and
 /// `check` say nothing there (they printed every warning, and `printf`'s

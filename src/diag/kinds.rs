@@ -775,7 +775,9 @@ pub enum RuntimeError {
     /// A branch too long for the bracket index of a temporary generation
     /// (`codec::WORD_MAX` bytes).
     BranchTooLong(Pass),
-    /// An [`crate::LSystem`] read from a stream was derived twice.
+    /// An [`crate::LSystem`] read from a stream as `.ls` text was derived
+    /// (or checked) before: its axiom was streamed (a cpfg `.l` text
+    /// keeps its axiom, and derives again).
     AlreadyDerived,
     /// Jobs of a batch failed (how many, of how many).
     JobsFailed { failed: u64, total: u64 },
