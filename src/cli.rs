@@ -536,6 +536,8 @@ fn open_input(path: Option<&Path>) -> Result<Input, Error> {
         }
         Some(p) => {
             let name = p.display().to_string();
+            // `/dev/stdin` with standard input closed (`<&-`).
+            crate::io::output::check_input_open(p, &name)?;
             let f = File::open(p)
                 .map_err(|e| Error::io(name.clone(), crate::diag::IoAction::Open, e))?;
             if f.metadata().map(|m| m.is_dir()).unwrap_or(false) {

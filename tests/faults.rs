@@ -1408,6 +1408,67 @@ fn closed_stdin_is_a_read_error() {
     assert_eq!(fs::read(&out).unwrap(), doubled(2));
 }
 
+/// Standard input closed (`<&-`), named by a path (`/dev/stdin`,
+/// `/dev/fd/0`, `/proc/self/fd/0`, as the file or `--axiom`): the same
+/// read error, naming the path, exit 1 (it read the /dev/null that fd 0
+/// holds then, and said "empty L-system"); so is a cpfg `#include` of
+/// it. (Files lsgen opens never take fd 0: /dev/null holds it.)
+#[test]
+fn closed_stdin_named_by_a_path_is_a_read_error() {
+    let dir = tempdir();
+    let d = dir.path();
+    let input = write(d, "in.ls", DOUBLING);
+    let out = d.join("out.txt");
+    for path in ["/dev/stdin", "/dev/fd/0", "/proc/self/fd/0"] {
+        let r = run(lsgen_under_sh("exec <&-").arg(path).arg("-o").arg(&out));
+        assert_eq!(r.code(), Some(1), "{path}: {}", r.stderr);
+        let line = plain_error(&r, path);
+        assert!(
+            line.ends_with("cannot read: Bad file descriptor (closed when lsgen started)"),
+            "{path}: {line}"
+        );
+        assert!(!out.exists());
+        let r = run(lsgen_under_sh("exec <&-")
+            .arg(&input)
+            .args(["--axiom", path, "-o"])
+            .arg(&out));
+        assert_eq!(r.code(), Some(1), "{path}: {}", r.stderr);
+        let line = plain_error(&r, path);
+        assert!(line.contains("cannot read"), "{path}: {line}");
+        assert!(!out.exists());
+    }
+    // Standard error closed too: the same status, no panic.
+    let r = run(lsgen_under_sh("exec <&- 2>&-")
+        .arg("/dev/stdin")
+        .arg("-o")
+        .arg(&out));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(1));
+    assert!(!out.exists());
+    // A cpfg file's `#include "/dev/stdin"`: the same, at the directive.
+    let inc = write(
+        d,
+        "inc.l",
+        "Lsystem: 1\n#include \"/dev/stdin\"\nAxiom: A\nendlsystem\n",
+    );
+    let r = run(lsgen_under_sh("exec <&-").arg(&inc).arg("-o").arg(&out));
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.assert_one_error().ends_with(
+            "error: cannot include `/dev/stdin`: Bad file descriptor (closed when lsgen started)"
+        ),
+        "{}",
+        r.stderr
+    );
+    assert!(!out.exists());
+    // An open standard input is read through its path as before.
+    let r = run(lsgen_under_sh(&format!("exec <{}", input.display()))
+        .args(["/dev/stdin", "-n", "2", "-o"])
+        .arg(&out));
+    assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
+    assert_eq!(fs::read(&out).unwrap(), doubled(2));
+}
+
 /// A pipe whose reading end is already closed: every write fails with
 /// EPIPE.
 fn widowed_pipe() -> fs::File {

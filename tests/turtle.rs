@@ -1154,6 +1154,34 @@ fn closed_standard_input_is_an_error() {
 }
 
 #[test]
+fn closed_standard_input_named_by_a_path_is_an_error() {
+    // `/dev/stdin` and `/dev/fd/0` with fd 0 closed, as the input or as
+    // `--ls`: the read error of `<&-`, naming the path (they read the
+    // /dev/null fd 0 holds then: an empty picture, no view settings).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("in.txt"), "F").unwrap();
+    for path in ["/dev/stdin", "/dev/fd/0"] {
+        for args in [&[path][..], &["--ls", path, "in.txt"][..]] {
+            let r = run(turtle_under_sh("exec <&-", d)
+                .args(["-o", "out.svg"])
+                .args(args));
+            r.assert_no_crash();
+            assert_eq!(r.code(), Some(1), "{args:?}: {}", r.stderr);
+            assert_eq!(
+                r.stderr,
+                format!(
+                    "lsgen-turtle: {path}: error: cannot read: Bad file descriptor \
+                     (closed when lsgen started)\n"
+                ),
+                "{args:?}"
+            );
+            common::assert_listing(d, &["in.txt"]);
+        }
+    }
+}
+
+#[test]
 fn a_spool_that_cannot_be_written_is_named() {
     // Standard input is spooled for SVG's second pass; past `ulimit -f`
     // the spool's write fails: that error, not a parse error of the

@@ -88,6 +88,8 @@ fn options(a: Args) -> Result<Options, Error> {
     let mut v = View::default();
     if let Some(ls) = &a.ls {
         let name = ls.display().to_string();
+        // `--ls /dev/stdin` with standard input closed (`<&-`).
+        lsgen::output::check_input_open(ls, &name)?;
         let f = std::fs::File::open(ls).map_err(|e| Error::io(name.clone(), IoAction::Open, e))?;
         if f.metadata().is_ok_and(|m| m.is_dir()) {
             let e = std::io::Error::from(std::io::ErrorKind::IsADirectory);

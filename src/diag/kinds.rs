@@ -911,7 +911,8 @@ pub enum IoReason {
     Os(std::io::Error),
     /// Standard output was closed when lsgen started.
     ClosedAtStartup,
-    /// Standard input was closed when lsgen started.
+    /// Standard input (or a standard descriptor read through a path, as
+    /// `/dev/stdin`) was closed when lsgen started.
     ClosedWhenStarted,
     /// `-o` names a directory.
     IsADirectory,

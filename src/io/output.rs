@@ -96,6 +96,48 @@ pub fn check_stdin_open() -> Result<(), Error> {
     Ok(())
 }
 
+/// The error for reading `path` (named `name`) when it leads to one of
+/// this process's standard descriptors that was closed when it started
+/// (`/dev/stdin`, `/dev/fd/0`, `/proc/self/fd/0`, a link to one): that
+/// descriptor holds /dev/null since ([`note_closed_standard_fds`]), and
+/// would read as empty, as `-` would without [`check_stdin_open`]. Its
+/// symbolic links are followed only when a descriptor was closed.
+pub fn check_input_open(path: &Path, name: &str) -> Result<(), Error> {
+    if leads_to_closed_fd(path) {
+        return Err(fail(name, IoAction::Read, IoReason::ClosedWhenStarted));
+    }
+    Ok(())
+}
+
+/// Does `path` lead to a standard descriptor closed at start (see
+/// [`check_input_open`])?
+pub(crate) fn leads_to_closed_fd(path: &Path) -> bool {
+    if CLOSED_AT_START.load(Ordering::Relaxed) == 0 {
+        return false;
+    }
+    let mut p = path.to_path_buf();
+    for _ in 0..MAX_LINKS {
+        if let Some((true, fd)) = proc_fd(&p) {
+            return closed_at_start(fd);
+        }
+        match fs::symlink_metadata(&p) {
+            Ok(m) if m.file_type().is_symlink() => {
+                let Ok(to) = fs::read_link(&p) else {
+                    return false;
+                };
+                // A relative target is relative to the link's directory.
+                p = match p.parent() {
+                    Some(d) => d.join(to),
+                    None => to,
+                };
+            }
+            // Not a link (or not there): opening it says what it is.
+            _ => return false,
+        }
+    }
+    false
+}
+
 /// An error about `-o NAME` with a reason of our own.
 fn fail(name: &str, action: IoAction, reason: IoReason) -> Error {
     Error::about(name, IoError { action, reason })

@@ -128,6 +128,8 @@ enum Source {
 }
 
 fn open_file(p: &std::path::Path, name: &str) -> Result<std::fs::File, Error> {
+    // `/dev/stdin` with standard input closed (`<&-`): lsgen's error.
+    crate::output::check_input_open(p, name)?;
     let f = std::fs::File::open(p).map_err(|e| Error::io(name, crate::diag::IoAction::Open, e))?;
     if f.metadata().map(|m| m.is_dir()).unwrap_or(false) {
         return Err(Error::io(

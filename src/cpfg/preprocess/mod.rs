@@ -130,6 +130,13 @@ pub const MAX_FILE_SIZE: u64 = 64 << 20;
 /// A loader for [`preprocess`] that reads from the file system (at most
 /// [`MAX_FILE_SIZE`] bytes, UTF-8).
 pub fn read_file(path: &Path) -> io::Result<String> {
+    // `#include "/dev/stdin"` with standard input closed (`<&-`) would
+    // read the /dev/null the binary put there.
+    if crate::io::output::leads_to_closed_fd(path) {
+        return Err(io::Error::other(
+            "Bad file descriptor (closed when lsgen started)",
+        ));
+    }
     let f = std::fs::File::open(path)?;
     let mut buf = Vec::new();
     f.take(MAX_FILE_SIZE + 1).read_to_end(&mut buf)?;
