@@ -547,6 +547,8 @@ impl LSystem {
     /// prints are not reported (nor written on standard error):
     /// [`derive_with`](LSystem::derive_with) reports them.
     pub fn derive(&mut self, options: &Options, out: impl Write) -> Result<Stats, Error> {
+        // No one reads it: not kept until the end of the pass.
+        let _unread = crate::diag::drop_printf();
         self.run(options, out, "output", false, &mut |_| {}, None)
     }
 
@@ -556,7 +558,9 @@ impl LSystem {
     /// when it was read, first (each derivation reports them again), then
     /// the derivation's own, each before the event of the generation it
     /// was found in; and with the text each `printf` of a cpfg block
-    /// prints ([`Event::Printf`]), in its place among them. Asking for
+    /// prints ([`Event::Printf`]), in its place among them (held until
+    /// the event that follows it: a model that prints at every module
+    /// holds a step's text in memory). Asking for
     /// every generation's length may take the step-by-step strategy where
     /// depth first would do.
     ///

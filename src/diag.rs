@@ -153,6 +153,7 @@ pub(crate) fn printf(text: String) {
 /// Put `said` in this thread's collection; without one, give it back.
 fn collect(said: crate::Event) -> Option<crate::Event> {
     COLLECTED.with(|c| match c.borrow_mut().as_mut() {
+        Some(c) if !c.keep_printf && matches!(said, crate::Event::Printf(_)) => None,
         Some(c) => {
             c.said.push(said);
             None
@@ -228,6 +229,8 @@ struct Collected {
     said: Vec<crate::Event>,
     /// Those said once per collection, already said.
     once: Vec<WarningKind>,
+    /// `printf` text is kept (else dropped at once: [`drop_printf`]).
+    keep_printf: bool,
 }
 
 thread_local! {
@@ -243,15 +246,32 @@ thread_local! {
 /// the homomorphism's depth, the cpfg dialect) are never split between
 /// threads (`derive::par::step_threads`).
 pub(crate) fn collect_warnings() -> Collecting {
+    // Inside a collection that drops `printf` text, this one drops it too.
+    let keep_printf = COLLECTED.with(|c| c.borrow().as_ref().is_none_or(|c| c.keep_printf));
     let fresh = Collected {
         said: Vec::new(),
         once: Vec::new(),
+        keep_printf,
     };
     let outer = COLLECTED.with(|c| c.replace(Some(fresh)));
     Collecting {
         outer,
         _thread: std::marker::PhantomData,
     }
+}
+
+/// A collection ([`collect_warnings`]) that drops cpfg's `printf` text at
+/// once, as do the collections opened while it lives: for
+/// `LSystem::derive`, which reports nothing, so that a model printing at
+/// every module does not fill memory with text no one reads.
+pub(crate) fn drop_printf() -> Collecting {
+    let c = collect_warnings();
+    COLLECTED.with(|c| {
+        if let Some(c) = c.borrow_mut().as_mut() {
+            c.keep_printf = false;
+        }
+    });
+    c
 }
 
 /// A collection of this thread's warnings; the one before it (if any)
@@ -693,6 +713,40 @@ mod tests {
             e.to_string(),
             "p.ls:1:8: error: unexpected `>`\n漢字 -> F>\n         ^\n"
         );
+    }
+
+    #[test]
+    fn printf_text_is_collected_in_order_or_dropped() {
+        let m = CodeMap::new("A\n");
+        let at = Location::from_map("p.l", &m, 0);
+        let said = |c: &Collecting| -> Vec<String> {
+            c.take()
+                .iter()
+                .map(|e| match e {
+                    crate::Event::Printf(t) => t.clone(),
+                    crate::Event::Warning(w) => w.message(),
+                    e => format!("{e:?}"),
+                })
+                .collect()
+        };
+        let c = collect_warnings();
+        printf("one\n".into());
+        warn(at.clone(), &WarningKind::StepHidden);
+        printf("two\n".into());
+        assert_eq!(
+            said(&c),
+            ["one\n", "`step` hides the built-in step number", "two\n"]
+        );
+        drop(c);
+        // Dropped where nothing is reported, also by a collection opened
+        // inside (a derivation's); warnings are still collected.
+        let outer = drop_printf();
+        let inner = collect_warnings();
+        printf("lost\n".into());
+        warn(at, &WarningKind::StepHidden);
+        assert_eq!(said(&inner), ["`step` hides the built-in step number"]);
+        drop(inner);
+        assert!(outer.take().is_empty());
     }
 
     #[test]
