@@ -664,7 +664,7 @@ mod tests {
         let e = Error::new(RuntimeError::AlreadyDerived).in_job("a.ls");
         assert_eq!(
             e.message(),
-            "the axiom stream was already derived [job a.ls]"
+            "the axiom stream was already read (by a derivation or a check): it can be read once [job a.ls]"
         );
     }
 

@@ -708,6 +708,19 @@ fn a_cpfg_text_from_a_reader_derives_again_the_same() -> Result<(), Box<dyn Erro
         again.kind(),
         lsgen::ErrorKind::Runtime(lsgen::diag::RuntimeError::AlreadyDerived)
     ));
+    // A check reads the stream too, and the error says so.
+    let mut ls = LSystem::from_reader(
+        std::io::Cursor::new("productions:\nA -> AB\naxiom: A\n".to_string()),
+        "r",
+    )?;
+    ls.check()?;
+    let after_check = ls
+        .derive(&Options::new(), Vec::new())
+        .expect_err("checked, so read");
+    assert_eq!(
+        after_check.to_string(),
+        "error: the axiom stream was already read (by a derivation or a check): it can be read once\n"
+    );
     Ok(())
 }
 

@@ -852,7 +852,9 @@ impl fmt::Display for RuntimeError {
                 "{pass} makes a branch of 256 TiB or more, longer than a temporary \
                  generation can index"
             ),
-            AlreadyDerived => f.write_str("the axiom stream was already derived"),
+            AlreadyDerived => f.write_str(
+                "the axiom stream was already read (by a derivation or a check): it can be read once",
+            ),
             JobsFailed { failed, total } => write!(
                 f,
                 "{} of {} jobs failed",
