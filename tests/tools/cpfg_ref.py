@@ -1697,9 +1697,11 @@ class Deriver:
         return True, k + len(found.pred)
 
     # -- one derivation step -------------------------------------------------
-    def step(self, S, last):
+    def step(self, S, last, k):
         rt = self.rt
-        rt.q_cell.value += 1.0
+        # generate.c's Derive: `current++`, then SymbolTableReplace("Q",
+        # current): the step number, whatever a block assigned to `Q`.
+        rt.q_cell.value = float(k)
         rt.run(self.ls.start_each)
         out = []
         n = len(S)
@@ -1817,7 +1819,7 @@ class Deriver:
         S = [(sym, tuple(f32(rt.eval(e)) for e in params)) for sym, params in self.ls.axiom]
         for k in range(1, steps + 1):
             last = k == steps and k >= self.ls.n
-            S = self.step(S, last)
+            S = self.step(S, last, k)
         if homomorphism and self.ls.homo:
             S = self.homomorphism(S)
         return S
