@@ -825,8 +825,10 @@ cases! {
         err("Lsystem: 1\nEnd: {printf(\"%g %g\\n\", 1);}\nAxiom: A\nendlsystem\n", 2, 7, "printf: the format takes 2 values, 1 given");
     cpfg_printf_conversion =>
         err("Lsystem: 1\nEnd: {printf(\"%s\\n\", 1);}\nAxiom: A\nendlsystem\n", 2, 7, "printf: `%s` is not a conversion lsgen prints");
-    cpfg_assign_q =>
-        err("Lsystem: 1\nderivation length: 1\nStart: {Q = 1;}\nAxiom: A\nendlsystem\n", 3, 9, "`Q` cannot be assigned");
+    // `Q` may be assigned (a global of cpfg's), and cpfg reads the axiom
+    // after `Start:`: the axiom's `Q` is no constant then.
+    cpfg_axiom_reads_q_assigned_in_start =>
+        err("Lsystem: 1\nderivation length: 1\nStart: {Q = 1;}\nAxiom: A(Q)\nendlsystem\n", 4, 10, "must be known before the derivation");
 }
 
 impl Case {

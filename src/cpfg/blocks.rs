@@ -25,6 +25,9 @@ pub enum Var {
     /// A run variable: a global, or a production's local (cpfg keeps
     /// those between applications).
     Global(u32),
+    /// cpfg's built-in `Q`, the step number: a global that Derive sets
+    /// to the step at the start of each step ([`Draw::assign_step`]).
+    Step,
 }
 
 /// A compiled statement.
@@ -64,6 +67,7 @@ impl Block {
                     match *v {
                         Var::Local(i) => slots[i as usize] = x,
                         Var::Global(i) => rng.set_global(i, x),
+                        Var::Step => rng.assign_step(x),
                     }
                 }
                 Stmt::If(c, then, els) => {

@@ -173,6 +173,19 @@ struct Lowerer<'w> {
     /// has `derivation length:`, and no header item before it read or
     /// assigned them (see [`lower`]).
     builtin: [bool; 2],
+    /// The variable that holds `Z` where it is built in and a block
+    /// assigns it (cpfg's global `Z` is an ordinary variable, the length
+    /// its first value): see [`lower`]. None: `Z` reads as the constant.
+    z_global: Option<u32>,
+    /// `Start:` assigns `Q`, `Z` (where built in): the axiom, which cpfg
+    /// reads after `Start:`, cannot take them as constants.
+    start_assigns: [bool; 2],
+    /// A block assigns the built-in `Q` (the step number, then, is the
+    /// value cpfg's Derive gives it at each step until a block changes it).
+    assigns_q: bool,
+    /// Lowering the axiom (read after `Start:`), not a setting (read
+    /// while the file is parsed).
+    axiom: bool,
     /// `seed:` given: cpfg's stochastic mode.
     seeded: bool,
     /// Lowering a value needed before the derivation (`Q` is 0).
@@ -220,6 +233,16 @@ impl Lowerer<'_> {
                     // them variables of the L-system, not built in
                     // afterwards: see `lower`).
                     match self.z {
+                        // The axiom is read after `Start:` (control.c's
+                        // InitializeDerivation): an assignment there is
+                        // seen, no constant.
+                        Some(_)
+                            if self.axiom
+                                && self.is_builtin(name)
+                                && self.start_assigns[usize::from(name == "Z")] =>
+                        {
+                            return err(*s, Invalid::NotConstant);
+                        }
                         Some(z) if self.is_builtin(name) => {
                             ls::Expr::Num(if name == "Z" { z } else { 0.0 }, *s)
                         }
@@ -232,7 +255,10 @@ impl Lowerer<'_> {
                 } else if name == "Q" && self.is_builtin(name) {
                     ls::Expr::Var("step".to_string(), *s)
                 } else if let (Some(z), true) = (self.z, name == "Z" && self.is_builtin(name)) {
-                    ls::Expr::Num(z, *s)
+                    match self.z_global {
+                        Some(g) => ls::Expr::Var(global_name(g), *s),
+                        None => ls::Expr::Num(z, *s),
+                    }
                 } else if let Some(&g) = self.globals.get(name) {
                     ls::Expr::Var(global_name(g), *s)
                 } else if let Some(&l) = self.locals.get(name) {
@@ -366,14 +392,25 @@ impl Lowerer<'_> {
                     name_span,
                     value,
                 } => {
+                    // cpfg's parser looks the name up in the production's
+                    // table, the L-system's, then the global one
+                    // (lsys_input.y's LHS, SymbolTableFind): the built-in
+                    // `Q` and `Z` are that global table's ordinary
+                    // variables, which an assignment changes (Derive sets
+                    // `Q` again at the next step; `Z` stays).
                     let var = if formals.contains_key(name) {
                         blocks::Var::Local(names[&formal_name(name)])
+                    } else if name == "Q" && self.is_builtin(name) {
+                        self.assigns_q = true;
+                        blocks::Var::Step
+                    } else if let (true, Some(g)) = (self.is_builtin(name), self.z_global) {
+                        blocks::Var::Global(g)
                     } else if let Some(&g) = self.globals.get(name) {
                         blocks::Var::Global(g)
                     } else if let Some(&l) = self.locals.get(name) {
                         blocks::Var::Global(l)
                     } else {
-                        return err(*name_span, Invalid::ReadOnly(name.clone()));
+                        unreachable!("`{name}` assigned in a block has a variable: {name_span:?}")
                     };
                     blocks::Stmt::Assign(var, self.code(value, formals, names)?)
                 }
@@ -502,10 +539,10 @@ impl Lowerer<'_> {
             }
         }
         for n in assigned {
-            // `Q` and `Z`, where built in, are read only: assigning one is
-            // an error (below), as in a header block, never a private
-            // copy. Where they are not (no `derivation length:`), they are
-            // names like any other, as in cpfg.
+            // `Q` and `Z`, where built in, are cpfg's global variables:
+            // assigning one assigns that (`Lowerer::block`), never a
+            // private copy. Where they are not (no `derivation length:`),
+            // they are names like any other, as in cpfg.
             if !formals.contains_key(&n)
                 && !self.is_builtin(&n)
                 && !self.globals.contains_key(&n)
@@ -683,9 +720,41 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
         }
     }
     let builtin = ["Q", "Z"].map(|n| dl_at.is_some() && !early.iter().any(|e| e == n));
+    // Where they are built in, `Q` and `Z` are ordinary variables of
+    // cpfg's global table: a block may assign them (`Lowerer::block`).
+    // `Start:` runs before the axiom is read; `Z` assigned anywhere
+    // becomes a run variable that starts at the length (below).
+    let assigned_in = |b: &Block| {
+        let mut names = Vec::new();
+        block_names(b, &mut names, true);
+        ["Q", "Z"].map(|n| names.iter().any(|x| x == n))
+    };
+    let start_assigns = lsys
+        .start
+        .as_ref()
+        .map_or([false; 2], |(b, _)| assigned_in(b));
+    let blocks = [&lsys.start, &lsys.start_each, &lsys.end_each, &lsys.end]
+        .into_iter()
+        .flatten()
+        .map(|(b, _)| b);
+    let sections = [&lsys.decomposition, &lsys.homomorphism]
+        .into_iter()
+        .flatten()
+        .flat_map(|s| &s.productions);
+    let prods = lsys.productions.iter().chain(sections);
+    // (A production's formal `Z` counts too: then `Z` is a variable that
+    // holds the length, which reads the same.)
+    let z_assigned = builtin[1]
+        && blocks
+            .chain(prods.flat_map(|p| [&p.pre, &p.post]))
+            .any(|b| assigned_in(b)[1]);
     let mut lw = Lowerer {
         z: None,
         builtin,
+        z_global: None,
+        start_assigns: [0, 1].map(|i| builtin[i] && start_assigns[i]),
+        assigns_q: false,
+        axiom: false,
         seeded: false,
         constant: false,
         warn,
@@ -712,7 +781,10 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
             lw.globals.entry(n).or_insert(k);
         }
     }
-    lw.variables = lw.globals.len() as u32;
+    if z_assigned {
+        lw.z_global = Some(lw.globals.len() as u32);
+    }
+    lw.variables = lw.globals.len() as u32 + u32::from(z_assigned);
     let mut header = ls::Header::default();
     // (ignore, symbols, span) of the last `ignore:`/`consider:`.
     let mut filter = None;
@@ -808,7 +880,10 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
             if i > 0 {
                 axiom.push(',');
             }
-            let v = f64::from(lw.constant(e)? as f32);
+            lw.axiom = true;
+            let v = lw.constant(e);
+            lw.axiom = false;
+            let v = f64::from(v? as f32);
             if !v.is_finite() {
                 return err(e.span(), Invalid::OutOfF32);
             }
@@ -833,6 +908,21 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
             *slot = lw.block(b, &HashMap::new(), &none)?;
         }
     }
+    if let (Some(g), Some(z)) = (lw.z_global, lw.z) {
+        // `Z` holds the length from the `derivation length:` line on
+        // (lsys_input.y's Dlength), before `Start:` runs.
+        let at = lsys.span;
+        let scope = Scope {
+            params: &HashMap::new(),
+            consts: &HashMap::new(),
+            cpfg: true,
+        };
+        let value = Code::compile(&ls::Expr::Num(z, at), &scope)
+            .map_err(|x| UserError::new(x.span, x.kind))?;
+        let mut start = vec![blocks::Stmt::Assign(blocks::Var::Global(g), value)];
+        start.extend(std::mem::take(&mut run.start).0.into_vec());
+        run.start = blocks::Block(start.into());
+    }
     header.productions = lsys
         .productions
         .iter()
@@ -850,6 +940,7 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
         header.homomorphism = prods;
         header.hom = Some(s);
     }
+    run.assigns_q = lw.assigns_q;
     Ok(Lowered {
         header,
         axiom,

@@ -28,6 +28,11 @@ pub struct CpfgRun {
     /// A production (of any section) has a block: one that runs may
     /// change a variable that a later step reads, whatever the string.
     pub production_blocks: bool,
+    /// A block assigns cpfg's built-in `Q`: it keeps the value a block
+    /// gave it into the homomorphism (cpfg interprets the string after the
+    /// steps, reading the global `Q` as the blocks left it), instead of
+    /// being set to the last step's number there.
+    pub assigns_q: bool,
 }
 
 impl CpfgRun {

@@ -745,7 +745,9 @@ fn step_passes(
                 d.rng.begin_homomorphism(s);
             }
             d.rng.start_pass(k, Region::Homomorphism);
-            d.rng.set_step(k);
+            if !d.keeps_q() {
+                d.rng.set_step(k);
+            }
             (homomorphism, Pass::Homomorphism)
         };
         let src = cur.take().expect("a generation to read");
@@ -876,7 +878,9 @@ fn frame_passes(
                 let stream = first_step + k - 1;
                 let main = hom_seed.map(|s| d.rng.begin_homomorphism(s));
                 d.rng.start_pass(stream, Region::Homomorphism);
-                d.rng.set_step(stream);
+                if !d.keeps_q() {
+                    d.rng.set_step(stream);
+                }
                 let mut out = out.for_pass(Pass::Homomorphism);
                 let r = d.pass(homomorphism, gen, indexed, &mut out, Pass::Homomorphism);
                 if let Some(main) = main {

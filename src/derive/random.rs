@@ -79,6 +79,9 @@ pub trait Draw {
     fn step(&self) -> f64 {
         0.0
     }
+    /// cpfg's `Q = x;` in a block (issue 12): the built-in `step` reads
+    /// `x` until the next step sets it again.
+    fn assign_step(&mut self, _x: f64) {}
     /// cpfg's `bran(a, b)`, `biran(n, p)` and `srand(x)` (issue 12): only
     /// the cpfg dialect's generator has them.
     fn bran(&mut self, _a: f64, _b: f64) -> Result<f64, RandomError> {
@@ -365,6 +368,10 @@ impl Draw for Random {
     #[inline]
     fn step(&self) -> f64 {
         self.step
+    }
+
+    fn assign_step(&mut self, x: f64) {
+        self.step = x;
     }
 
     #[inline]

@@ -448,6 +448,13 @@ impl<'a> Deriver<'a> {
         }
     }
 
+    /// A `.l` file whose blocks assign `Q`: the homomorphism reads the
+    /// value the blocks left (cpfg's global `Q`), not the last step's
+    /// number.
+    pub fn keeps_q(&self) -> bool {
+        self.cpfg.as_ref().is_some_and(|c| c.assigns_q)
+    }
+
     /// Run a `.l` file's header block `which` (its errors located in
     /// `pass`); nothing for other files.
     pub fn cpfg_block(&mut self, which: crate::cpfg::run::When, pass: Pass) -> Result<(), Error> {

@@ -594,8 +594,6 @@ pub enum CompileError {
     },
     /// cpfg: a formal parameter name used twice in a production.
     FormalTwice(String),
-    /// cpfg: an assignment to `Q` or `Z` (the name).
-    ReadOnly(String),
     /// cpfg: a `printf` conversion lsgen does not print (its letter).
     PrintfConversion(char),
     /// cpfg: a `printf` format that ends inside a conversion.
@@ -703,10 +701,6 @@ impl fmt::Display for CompileError {
             FormalTwice(name) => write!(
                 f,
                 "formal parameter `{name}` is named twice in this production (cpfg: multiple definition)"
-            ),
-            ReadOnly(name) => write!(
-                f,
-                "`{name}` cannot be assigned (cpfg's built-in variables `Q` and `Z` are read only)"
             ),
             PrintfConversion(c) => write!(f, "printf: `%{c}` is not a conversion lsgen prints"),
             PrintfUnfinished => f.write_str("printf: the format ends inside a `%` conversion"),
