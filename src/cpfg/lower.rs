@@ -84,6 +84,12 @@ pub fn attach(run: &CpfgRun, extra: &[Vec<ProdExtra>; 3], system: &mut crate::ru
                 }
             }
         }
+        // A decomposition of maximum depth 0 only tries its productions
+        // (cpfg's `ApplyRecursiveProductions` at depth 0): nothing to do
+        // unless a try changes something.
+        if matches!(&system.decomposition, Some((t, 0)) if !t.tries_have_effects()) {
+            system.decomposition = None;
+        }
     }
 }
 

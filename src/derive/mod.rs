@@ -425,6 +425,7 @@ pub(crate) fn derive(
         );
     }
     d.hom_depth = hom_depth;
+    d.hom_tries = is_cpfg && homomorphism.tries_have_effects();
     d.warnings = warnings;
     let structural = !schedule.is_empty()
         || group_expr.is_some()

@@ -37,6 +37,11 @@ pub struct Deriver<'a> {
     /// rewrites cuts its branch.
     pub decomp: Option<(Table, usize)>,
     pub hom_depth: usize,
+    /// A `.l` file's homomorphism whose tries have effects
+    /// ([`Table::tries_have_effects`]): its successors are gone through at
+    /// depth 1 also where nothing rewrites them there, so that the
+    /// productions are tried as cpfg tries them.
+    pub hom_tries: bool,
     pub cut: bool,
     /// Indexed generations also hold module counts (see
     /// [`Out::with_counts`]): set when the steps can cut.
@@ -156,6 +161,56 @@ fn depth_warning(
     crate::diag::warn(cx.origin.locate(p.start()), &warning);
 }
 
+/// The depth limit keeps (key, params), in the cpfg dialect: cpfg's
+/// `ApplyRecursiveProductions` (generate.c) and `InterpretHomomorphism`
+/// (interpret.c) look for the module's production before they compare the
+/// depth with the maximum, so the productions are tried there as at any
+/// depth, in file order up to the first that applies: contexts, then the
+/// pre-condition block, then the condition (generate.c's `CondDiff`), with
+/// their effects on the variables and generators. That production is not
+/// applied (no post-condition block); with `warnings`, the depth warning
+/// says that one applied (once), except for a decomposition of maximum
+/// depth 0, where cpfg acts as if there were none.
+#[cold]
+#[inline(never)]
+fn depth_limit_cpfg(
+    rc: &mut Recur,
+    cx: &RecCtx,
+    key: u32,
+    params: &[f64],
+    rng: &mut Random,
+    ctx: &mut ContextFn,
+) -> Result<(), Error> {
+    let Some(kr) = cx.table.get(key) else {
+        return Ok(());
+    };
+    rc.slots[..params.len()].copy_from_slice(params);
+    let found = rc.chooser.first_cpfg(
+        &mut rc.slots,
+        cx.table,
+        kr,
+        rng,
+        cx.origin,
+        cx.pass,
+        |p, s| ctx(p, s),
+    )?;
+    let Some(pi) = found else {
+        return Ok(());
+    };
+    let Some(done) = cx.warn.filter(|d| cx.max > 0 && !d.get()) else {
+        return Ok(());
+    };
+    done.set(true);
+    let p = &cx.table.prods[pi as usize];
+    let warning = crate::diag::WarningKind::MaximumDepth {
+        max: cx.max,
+        symbol: cx.al.symbol(key),
+        pass: cx.pass,
+    };
+    crate::diag::warn(cx.origin.locate(p.start()), &warning);
+    Ok(())
+}
+
 /// Rewrite each module of `rc.levels[depth]` (its modules have depth
 /// `depth`) recursively, writing what is left to `out`.
 fn expand_level(
@@ -202,7 +257,11 @@ fn try_rewrite(
     out: &mut Out,
 ) -> Result<bool, Error> {
     if depth >= cx.max {
-        depth_warning(rc, cx, key, params, rng, ctx);
+        if rng.cpfg_mut().is_some() {
+            depth_limit_cpfg(rc, cx, key, params, rng, ctx)?;
+        } else {
+            depth_warning(rc, cx, key, params, rng, ctx);
+        }
         return Ok(false);
     }
     let Some(kr) = cx.table.get(key) else {
@@ -430,6 +489,7 @@ impl<'a> Deriver<'a> {
             chooser: Chooser::default(),
             decomp: None,
             hom_depth: 1,
+            hom_tries: false,
             cut: false,
             counts: false,
             cpfg_contexts: false,
@@ -582,7 +642,8 @@ impl<'a> Deriver<'a> {
         let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         // Bytes that need no decision take the table; with contexts, keys
         // that have context productions and brackets still go the long way.
-        let hom_rec = pass == Pass::Homomorphism && (hom_depth != 1 || self.warnings[1]);
+        let hom_rec =
+            pass == Pass::Homomorphism && (hom_depth != 1 || self.warnings[1] || self.hom_tries);
         let fast = (!table.check_balance && decomp.is_none() && !hom_rec).then(|| {
             let mut t = ByteTable::new(
                 table,
@@ -973,6 +1034,7 @@ impl<'a> Deriver<'a> {
             warnings,
             warned,
             balance,
+            hom_tries,
             ..
         } = self;
         // Predecessor parameters into the first slots.
@@ -1086,7 +1148,7 @@ impl<'a> Deriver<'a> {
             };
             return expand_level(rc, &cx, 0, rng, &mut ctx, out).map(|()| true);
         }
-        if pass == Pass::Homomorphism && (hom_depth > 1 || warnings[1]) {
+        if pass == Pass::Homomorphism && (hom_depth > 1 || warnings[1] || *hom_tries) {
             // The successor has depth 1; contexts are those of the
             // original module, at every depth.
             rc.slots[..p.nslots()].copy_from_slice(&slots[..p.nslots()]);

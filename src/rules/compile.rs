@@ -483,14 +483,16 @@ impl<'a> Compiler<'a> {
             .map(|(n, _, t)| (n, Group::new(t, &productions, cpfg)))
             .collect();
         // A decomposition of maximum depth 0 (cpfg dialect) decomposes
-        // nothing: cpfg's `ApplyRecursiveProductions` returns at depth 0.
-        let decomposition =
-            self.decomposition
-                .filter(|(_, depth)| *depth > 0)
-                .map(|(mut t, depth)| {
-                    done(&mut t);
-                    (t, depth)
-                });
+        // nothing: cpfg's `ApplyRecursiveProductions` returns at depth 0,
+        // after trying the productions (kept for that: `cpfg::lower::attach`
+        // drops it if trying them changes nothing).
+        let decomposition = self
+            .decomposition
+            .filter(|(_, depth)| *depth > 0 || cpfg)
+            .map(|(mut t, depth)| {
+                done(&mut t);
+                (t, depth)
+            });
         let mut homomorphism = self.homomorphism;
         done(&mut homomorphism);
         let mut step_hidden = self.step_hidden;
