@@ -650,3 +650,198 @@ fn a_skip_with_parameters_skips_and_binds_nothing() {
         assert_eq!(derive(&[], &file).0, format!("{want}\n"), "{succ}");
     }
 }
+
+/// `Q` and `Z` are cpfg's global variables from the `derivation length:`
+/// line on (lsys_input.y's Dlength adds them to the global symbol table),
+/// and a block assigns them like any global (lsys_input.y's LHS finds
+/// them there): in a header block, a production's pre- or post-condition
+/// block, the decomposition's and the homomorphism's. generate.c's Derive
+/// sets `Q` to the step number at the start of each step, before
+/// `StartEach:`, so an assignment lasts until the next step; the
+/// homomorphism, interpreted after the steps, reads what the blocks left.
+/// Nothing sets `Z` again, and it does not change the number of steps
+/// (control.c's GenerateNSteps runs `LsysPtr->n` of them). lsgen used to
+/// refuse every such assignment. Each string by hand (below), and
+/// tests/tools/cpfg_ref.py gives the same.
+#[test]
+fn q_and_z_can_be_assigned_in_blocks() {
+    let dir = tempdir();
+    let cases: [(&[&str], &str, &str); 11] = [
+        // StartEach: step 1 Q=1: A B(1); step 2 Q=2, then 10: A B(10)
+        // B(1); step 3 Q=3: A B(3) B(10) B(1).
+        (
+            &[],
+            "derivation length: 3\nStartEach: {if (Q == 2) {Q = 10;}}\nAxiom: A\n\
+             A --> A B(Q)",
+            "AB(3)B(10)B(1)",
+        ),
+        // A post-condition block, seen by the modules after it in the
+        // step, and set again by the next step: step 1 Q=1: B(1), then
+        // Q=10: B(10); step 2 Q=2: B(2), Q=20: B(20).
+        (
+            &[],
+            "derivation length: 2\nAxiom: B(0) A B(0)\nA : * {Q = Q * 10;} --> A\n\
+             B(x) --> B(Q)",
+            "B(2)AB(20)",
+        ),
+        // A pre-condition block runs also where the condition fails: step
+        // 1 Q=9 before B(0); step 2 likewise.
+        (
+            &[],
+            "derivation length: 2\nAxiom: A B(0)\nA : {Q = 9;} 0 --> X\nB(x) --> B(Q)",
+            "AB(9)",
+        ),
+        // A decomposition's post-condition block: A -> C -> D sets Q=50
+        // before B(0) is rewritten.
+        (
+            &[],
+            "derivation length: 1\nAxiom: A B(0)\nA --> C\nB(x) --> B(Q)\n\
+             decomposition\nC : * {Q = 50;} --> D",
+            "DB(50)",
+        ),
+        // A homomorphism's pre-condition block, after step 1 (Q=1): the
+        // first A makes Q=2, the second Q=3.
+        (
+            &[],
+            "derivation length: 1\nAxiom: A A\nA --> A\nhomomorphism\n\
+             A : {Q = Q + 1;} * --> A(Q)",
+            "A(2)A(3)",
+        ),
+        // End: runs after the last step, before the homomorphism reads Q:
+        // B(100); with -n 1 End: does not run (cpfg's endFlag): B(1).
+        (
+            &[],
+            "derivation length: 2\nEnd: {Q = 100;}\nAxiom: A\nA --> A\nhomomorphism\n\
+             A --> B(Q)",
+            "B(100)",
+        ),
+        (
+            &["-n", "1"],
+            "derivation length: 2\nEnd: {Q = 100;}\nAxiom: A\nA --> A\nhomomorphism\n\
+             A --> B(Q)",
+            "B(1)",
+        ),
+        // Start: Q=5 (the axiom's interpretation, 0 steps); EndEach adds
+        // 100 after each step: 1 + 100, then 2 + 100.
+        (
+            &["-n", "0"],
+            "derivation length: 2\nStart: {Q = 5;}\nEndEach: {Q = Q + 100;}\nAxiom: A\n\
+             A --> A\nhomomorphism\nA --> B(Q)",
+            "B(5)",
+        ),
+        (
+            &[],
+            "derivation length: 2\nStart: {Q = 5;}\nEndEach: {Q = Q + 100;}\nAxiom: A\n\
+             A --> A\nhomomorphism\nA --> B(Q)",
+            "B(102)",
+        ),
+        // Z: Start: 3 + 1 = 4; step 1 A(4), then Z=8; step 2 A(8), Z=16;
+        // step 3 A(16), Z=32. Three steps still (not 4, 8 or 32).
+        (
+            &[],
+            "derivation length: 3\nStart: {Z = Z + 1;}\nEndEach: {Z = Z * 2;}\n\
+             Axiom: A(0)\nA(x) --> A(Z)",
+            "A(16)",
+        ),
+        // Z in a production's pre-condition block, read by the successor
+        // and the homomorphism: Z = 3 in step 1, A(3); 4 in step 2, A(4);
+        // the homomorphism's B(Z, Q) is B(4, 2) (its A(x) tried at depth
+        // 1 would warn, hence `no warnings`).
+        (
+            &[],
+            "derivation length: 2\nAxiom: A(0)\nA(x) : {Z = Z + 1;} * --> A(Z)\n\
+             homomorphism no warnings\nA(x) --> A(x) B(Z, Q)",
+            "A(4)B(4,2)",
+        ),
+    ];
+    for (args, body, want) in cases {
+        let src = format!("Lsystem: 1\n{body}\nendlsystem\n");
+        let file = write(dir.path(), "qz.l", &src);
+        let (out, err) = derive(args, &file);
+        assert_eq!(out, format!("{want}\n"), "{args:?} {src}");
+        assert_eq!(err, "", "{src}");
+    }
+    // The same blocks in frames: each frame is interpreted after its
+    // step's EndEach:, as cpfg's animation interprets it.
+    let file = write(
+        dir.path(),
+        "frames.l",
+        "Lsystem: 1\nderivation length: 2\nStart: {Q = 5;}\nEndEach: {Q = Q + 100;}\n\
+         Axiom: A\nA --> A\nhomomorphism\nA --> B(Q)\nendlsystem\n",
+    );
+    assert_eq!(
+        derive(&["--frames", "0..2"], &file).0,
+        "B(5)\nB(101)\nB(102)\n"
+    );
+}
+
+/// cpfg tries the productions at the depth limit: generate.c's
+/// ApplyRecursiveProductions and interpret.c's InterpretHomomorphism look
+/// for the module's first applicable production (contexts, then CondDiff:
+/// the pre-condition block, then the condition) before they compare the
+/// depth with `maximum depth:`, then keep the module there. So the blocks
+/// and conditions of the productions tried run, up to the first that
+/// applies (which is not applied: no post-condition block). lsgen used to
+/// only check whether one would apply, for the warning, without running
+/// them. By hand (below); tests/tools/cpfg_ref.py gives the same strings.
+#[test]
+fn productions_are_tried_at_the_depth_limit() {
+    let dir = tempdir();
+    let cases: [(&str, &str, &str); 5] = [
+        // Step 1: A -> B; B -> C at depth 0; C at depth 1 (the limit) is
+        // tried: n = 1, and kept. Step 2: X(0) -> X(1); C -> D at depth 0
+        // (n = 2), D kept. (Without the try: X(0)D.)
+        (
+            "derivation length: 2\nStart: {n = 0;}\nAxiom: X(0) A\nX(x) --> X(n)\nA --> B\n\
+             decomposition\nmaximum depth: 1\nB --> C\nC : {n = n + 1;} * --> D",
+            "X(1)D",
+            "maximum depth 1",
+        ),
+        // The homomorphism (depth 1, no warnings): A -> B C; C at depth 1
+        // is tried (n = 1) before Y reads n. (Without the try: Y(0).)
+        (
+            "derivation length: 1\nStart: {n = 0;}\nAxiom: A Y\nA --> A\n\
+             homomorphism no warnings\nA --> B C\nC : {n = n + 1;} * --> E\nY --> Y(n)",
+            "BCY(1)",
+            "",
+        ),
+        // A decomposition of maximum depth 0 decomposes nothing, but
+        // ApplyRecursiveProductions tries A at depth 0 in each step:
+        // n = 1 after step 1, read by X in step 2. (Without: X(0)A.)
+        (
+            "derivation length: 2\nStart: {n = 0;}\nAxiom: X(0) A\nX(x) --> X(n)\n\
+             decomposition\nmaximum depth: 0\nA : {n = n + 1;} * --> B",
+            "X(1)A",
+            "",
+        ),
+        // Only up to the first that applies: C's second production is
+        // not tried (m stays 0) and the third's post block does not run.
+        (
+            "derivation length: 2\nStart: {n = 0; m = 0;}\nAxiom: X(0,0) A\n\
+             X(x,y) --> X(n,m)\nA --> B\ndecomposition no warnings\nB --> C\n\
+             C : {n = n + 1;} * --> D\nC : {m = m + 1;} * --> E\nC : * {m = 5;} --> F",
+            "X(1,0)D",
+            "",
+        ),
+        // A condition that draws (`ran`) draws at the limit too: C's
+        // condition takes the first number of cpfg's ran generator
+        // (0.170828), Y's successor the second (0.749902).
+        (
+            "derivation length: 1\nAxiom: A\nA --> B Y\ndecomposition no warnings\n\
+             B --> C\nC : ran(1) > 2 --> D\nY --> Y(ran(1))",
+            "CY(0.749902)",
+            "",
+        ),
+    ];
+    for (body, want, warning) in cases {
+        let src = format!("Lsystem: 1\n{body}\nendlsystem\n");
+        let file = write(dir.path(), "limit.l", &src);
+        let (out, err) = derive(&[], &file);
+        assert_eq!(out, format!("{want}\n"), "{src}");
+        if warning.is_empty() {
+            assert_eq!(err, "", "{src}");
+        } else {
+            assert!(err.contains(warning), "{src}: {err}");
+        }
+    }
+}
