@@ -12,7 +12,10 @@ The generator covers the dialect's features together: parameters stored as
 multi-module predecessors, first-applicable choice, stochastic choice with
 `seed:` (drand48), `ran`, decomposition and homomorphism with `maximum
 depth:`, the cut `%`, `Q` and `Z`, header blocks with globals and
-pre-/post-condition blocks with locals.
+pre-/post-condition blocks with locals. A second batch of cases (its own
+generator) also assigns `Q` and `Z` in blocks and has more decomposition
+and homomorphism at small depths (0 included), where cpfg tries the
+productions at the depth limit.
 
 Usage (from anywhere):
     python3 tests/tools/gen_cpfg_cases.py          # write the file
@@ -39,13 +42,19 @@ import cpfg_ref  # noqa: E402
 
 OUT = os.path.join(ROOT, "tests", "expected", "cpfg", "random", "cases.txt")
 CASES = 300
+# The second batch (`generate`'s `extended`), after the first.
+EXTENDED = 100
 MAX_OUTPUT = 2000
 
 SYMS = "ABCD"
 
 
-def generate(r):
-    globals_ = r.random() < 0.3
+def generate(r, extended=False):
+    """A random system and a number of steps. `extended`: a second batch
+    (its own generator, so the first batch stays as it was) whose blocks
+    also assign `Q` and `Z`, with more decomposition and homomorphism at
+    small depths, where cpfg tries productions at the depth limit."""
+    globals_ = extended or r.random() < 0.3
     stochastic = r.random() < 0.3
 
     def expr(var, axiom=False):
@@ -108,10 +117,19 @@ def generate(r):
                 "%s > 1" % v, "%s <> 2" % v, "%s %% 2 == 0" % v, "Q < 3 && %s >= 1" % v,
                 "!(%s == 1) || Q == 2" % v, "Q > 1",
             ])
-        if globals_ and r.random() < 0.3:
+        if globals_ and not extended and r.random() < 0.3:
             cond = " : {g = g + 1; t = %s;}%s" % (var or "Q", cond[2:] if cond else " *")
             if r.random() < 0.5:
                 cond += " {g = g + t;}"
+        if extended:
+            # cpfg's Q and Z are globals a block may assign (never in
+            # Start:, which runs before the axiom, a constant in lsgen).
+            pre = r.choice(["", "", "{g = g + 1;}", "{Q = Q + 1;}", "{Z = Z - 1;}",
+                            "{if (g > 2) {Q = 0;}}", "{g = g + 1; Z = Z + Q;}"])
+            post = r.choice(["", "", "{g = g * 2;}", "{Q = g;}", "{Z = Z + g;}"])
+            if pre or post:
+                c = cond[3:] if cond else "*"
+                cond = " : " + (pre + " " if pre else "") + c + (" " + post if post else "")
         weight = ""
         if weights and r.random() < 0.6:
             weight = " : " + r.choice(["1", "2", "0.5", "Q", "%s+1" % (var or "1")])
@@ -126,17 +144,22 @@ def generate(r):
     if globals_:
         lines.append("Start: {g = 0;}")
         if r.random() < 0.5:
-            lines.append("StartEach: {g = g + 1;}")
+            lines.append("StartEach: {g = g + 1;}" if not extended else
+                         r.choice(["StartEach: {g = g + 1;}", "StartEach: {Q = Q * 2;}",
+                                   "StartEach: {Z = Z + Q;}"]))
+        if extended and r.random() < 0.5:
+            lines.append(r.choice(["EndEach: {Q = Q + 10;}", "EndEach: {Z = Z * 2;}",
+                                   "End: {Q = 100; Z = g;}"]))
     axiom = "[".join(succ(None, False, True) for _ in range(2)) + "]" + succ(None, False, True)
     axiom = axiom.replace("*", "")
     lines.append("Axiom: " + (axiom or "A"))
     lines += [production(weights=stochastic) for _ in range(r.randint(1, 5))]
-    if r.random() < 0.35:
+    if r.random() < (0.7 if extended else 0.35):
         lines.append("decomposition")
         if r.random() < 0.5:
-            lines.append("maximum depth: %d" % r.randint(1, 3))
+            lines.append("maximum depth: %d" % r.randint(0 if extended else 1, 3))
         lines += [production(contexts=False, multi=False) for _ in range(r.randint(1, 3))]
-    if r.random() < 0.35:
+    if r.random() < (0.7 if extended else 0.35):
         lines.append("homomorphism" + r.choice(["", ": no warnings"]))
         if r.random() < 0.5:
             lines.append("maximum depth: %d" % r.randint(1, 3))
@@ -163,13 +186,15 @@ def derive(text, steps):
 
 
 def main(argv):
-    r = random.Random(12)
     parts = []
     made = 0
     tried = 0
-    while made < CASES:
+    r = random.Random(12)
+    while made < CASES + EXTENDED:
+        if made == CASES:
+            r = random.Random(13)
         tried += 1
-        text, steps = generate(r)
+        text, steps = generate(r, made >= CASES)
         out = derive(text, steps)
         # lsgen refuses a parameter a 32-bit float cannot hold (README), where
         # cpfg stores inf.
