@@ -986,6 +986,45 @@ mod tests {
     }
 
     #[test]
+    fn assigned_q_and_z_are_variables() {
+        // Z assigned (here in EndEach:) is a run variable that `Start:`
+        // sets to the length first; productions read it; Q assigned is the
+        // step value, kept into the homomorphism.
+        let (r, w) = lowered(
+            "Lsystem: 1\nderivation length: 4\nEndEach: {Z = Z * 2; Q = 1;}\nAxiom: A\n\
+             A --> B(Z, Q)\nendlsystem\n",
+        );
+        let l = r.unwrap();
+        assert!(w.is_empty(), "{w:?}");
+        assert!(l.run.assigns_q);
+        let start = &l.run.start.0;
+        assert_eq!(start.len(), 1);
+        assert!(
+            matches!(&start[0], blocks::Stmt::Assign(blocks::Var::Global(_), c) if c.constant() == Some(4.0)),
+            "{start:?}"
+        );
+        assert!(matches!(
+            &l.run.end_each.0[1],
+            blocks::Stmt::Assign(blocks::Var::Step, _)
+        ));
+        let text = format!("{:?}", l.header.productions[0].succ[0].params);
+        assert!(
+            text.contains("\\u{1}g") && !text.contains("Num(4.0"),
+            "{text}"
+        );
+        // Neither assigned: Z is the constant, Q the step, nothing added.
+        let (r, _) = lowered(
+            "Lsystem: 1\nderivation length: 4\nEndEach: {x = Z + Q;}\nAxiom: A\n\
+             A --> B(Z, Q)\nendlsystem\n",
+        );
+        let l = r.unwrap();
+        assert!(!l.run.assigns_q);
+        assert_eq!(l.run.start.0.len(), 0);
+        let text = format!("{:?}", l.header.productions[0].succ[0].params);
+        assert!(text.contains("Num(4.0"), "{text}");
+    }
+
+    #[test]
     fn refusals_not_yet() {
         let (r, _) = lowered("Lsystem: 1\nAxiom: AB\nAB --> C\nendlsystem\n");
         assert_eq!(r.unwrap().header.productions[0].pred_rest.len(), 1);
