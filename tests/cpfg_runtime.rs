@@ -845,3 +845,26 @@ fn productions_are_tried_at_the_depth_limit() {
         }
     }
 }
+
+/// Blocks that assign `Q` run in string order on one thread, also with
+/// `-j` and chunks of one byte (`LSGEN_TEST_SPLIT=1`): a `.l` file is
+/// derived by the one-thread step engine (`par::step_threads`), since
+/// every block sees what the ones before it assigned. By hand: step 1,
+/// Q = 1, 10, 100 before each B; step 2, Q = 2, 20, 200 (cpfg_ref.py
+/// agrees).
+#[test]
+fn assigned_q_runs_in_string_order_with_threads() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "j.l",
+        "Lsystem: 1\nderivation length: 2\nAxiom: B(0) A B(0) A B(0)\n\
+         A : * {Q = Q * 10;} --> A\nB(x) --> B(Q)\nendlsystem\n",
+    );
+    let r = run(lsgen()
+        .env("LSGEN_TEST_SPLIT", "1")
+        .args(["-j", "2"])
+        .arg(&file));
+    assert!(r.status.success(), "{}", r.stderr);
+    assert_eq!(String::from_utf8(r.stdout).unwrap(), "B(2)AB(20)AB(200)\n");
+}
