@@ -666,7 +666,7 @@ fn a_skip_with_parameters_skips_and_binds_nothing() {
 #[test]
 fn q_and_z_can_be_assigned_in_blocks() {
     let dir = tempdir();
-    let cases: [(&[&str], &str, &str); 11] = [
+    let cases: [(&[&str], &str, &str); 12] = [
         // StartEach: step 1 Q=1: A B(1); step 2 Q=2, then 10: A B(10)
         // B(1); step 3 Q=3: A B(3) B(10) B(1).
         (
@@ -752,6 +752,16 @@ fn q_and_z_can_be_assigned_in_blocks() {
             "derivation length: 2\nAxiom: A(0)\nA(x) : {Z = Z + 1;} * --> A(Z)\n\
              homomorphism no warnings\nA(x) --> A(x) B(Z, Q)",
             "A(4)B(4,2)",
+        ),
+        // `=(Q)` in a right context makes `Q` the production's own
+        // variable (cpfg adds a formal to the production's table; the
+        // skip binds nothing): B counts 5, 10, 15 in it, while X reads
+        // the global Q, the step.
+        (
+            &[],
+            "derivation length: 3\nAxiom: A[B(1)D(5)]C(7) X(0)\n\
+             B(y) > =(Q)]C(z) : {Q = Q + 5;} * --> B(Q)\nX(x) --> X(Q)",
+            "A[B(15)D(5)]C(7)X(3)",
         ),
     ];
     for (args, body, want) in cases {

@@ -258,6 +258,11 @@ impl Lowerer<'_> {
                             ls::Expr::Num(0.0, *s)
                         }
                     }
+                } else if let (true, Some(&l)) = (q_or_z, self.locals.get(name)) {
+                    // `=(Q)` in a right context: the production's own
+                    // variable (cpfg adds it to the production's table),
+                    // which hides the global one.
+                    ls::Expr::Var(global_name(l), *s)
                 } else if name == "Q" && self.is_builtin(name) {
                     ls::Expr::Var("step".to_string(), *s)
                 } else if let (Some(z), true) = (self.z, name == "Z" && self.is_builtin(name)) {
@@ -406,6 +411,9 @@ impl Lowerer<'_> {
                     // `Q` again at the next step; `Z` stays).
                     let var = if formals.contains_key(name) {
                         blocks::Var::Local(names[&formal_name(name)])
+                    } else if let Some(&l) = self.locals.get(name) {
+                        // (A production's own, also an `=(Q)`'s.)
+                        blocks::Var::Global(l)
                     } else if name == "Q" && self.is_builtin(name) {
                         self.assigns_q = true;
                         blocks::Var::Step
@@ -413,8 +421,6 @@ impl Lowerer<'_> {
                         blocks::Var::Global(g)
                     } else if let Some(&g) = self.globals.get(name) {
                         blocks::Var::Global(g)
-                    } else if let Some(&l) = self.locals.get(name) {
-                        blocks::Var::Global(l)
                     } else {
                         unreachable!("`{name}` assigned in a block has a variable: {name_span:?}")
                     };
