@@ -437,6 +437,10 @@ pub(crate) fn derive(
             .chain(decomposition.iter().map(|(t, _)| t))
             .chain(std::iter::once(&homomorphism))
             .any(uses_step);
+    d.decomp_tries = is_cpfg
+        && decomposition
+            .as_ref()
+            .is_some_and(|(t, _)| t.tries_have_effects());
     d.decomp = decomposition;
     // Can a step make a `%`? Then indexed generations also hold module
     // counts, so a cut skips its branch in O(1) (an axiom's `%` alone cuts

@@ -42,6 +42,8 @@ pub struct Deriver<'a> {
     /// depth 1 also where nothing rewrites them there, so that the
     /// productions are tried as cpfg tries them.
     pub hom_tries: bool,
+    /// Likewise for a `.l` file's decomposition.
+    pub decomp_tries: bool,
     pub cut: bool,
     /// Indexed generations also hold module counts (see
     /// [`Out::with_counts`]): set when the steps can cut.
@@ -108,6 +110,10 @@ struct RecCtx<'r, 'o> {
     /// Warn (once: the cell) when the depth limit keeps a module that a
     /// production would still rewrite.
     warn: Option<&'r Cell<bool>>,
+    /// A `.l` file's table whose tries have effects
+    /// ([`Table::tries_have_effects`]): try its productions at the limit
+    /// even when no warning is due.
+    tries: bool,
 }
 
 /// The depth limit keeps (key, params): with `warnings`, say once if a
@@ -181,6 +187,11 @@ fn depth_limit_cpfg(
     rng: &mut Random,
     ctx: &mut ContextFn,
 ) -> Result<(), Error> {
+    let pending = cx.max > 0 && cx.warn.is_some_and(|d| !d.get());
+    if !(cx.tries || pending) {
+        // Nothing to see: no effect, no warning.
+        return Ok(());
+    }
     let Some(kr) = cx.table.get(key) else {
         return Ok(());
     };
@@ -197,7 +208,7 @@ fn depth_limit_cpfg(
     let Some(pi) = found else {
         return Ok(());
     };
-    let Some(done) = cx.warn.filter(|d| cx.max > 0 && !d.get()) else {
+    let Some(done) = cx.warn.filter(|_| pending) else {
         return Ok(());
     };
     done.set(true);
@@ -490,6 +501,7 @@ impl<'a> Deriver<'a> {
             decomp: None,
             hom_depth: 1,
             hom_tries: false,
+            decomp_tries: false,
             cut: false,
             counts: false,
             cpfg_contexts: false,
@@ -958,6 +970,7 @@ impl<'a> Deriver<'a> {
             origin: &self.origin,
             pass,
             warn: self.warnings[0].then_some(&self.warned[0]),
+            tries: self.decomp_tries,
         };
         let lv = std::mem::take(&mut self.rc.levels[0]);
         let (_, params) = lv.get(0, n);
@@ -1035,6 +1048,7 @@ impl<'a> Deriver<'a> {
             warned,
             balance,
             hom_tries,
+            decomp_tries,
             ..
         } = self;
         // Predecessor parameters into the first slots.
@@ -1138,6 +1152,7 @@ impl<'a> Deriver<'a> {
                 origin,
                 pass,
                 warn: warnings[0].then_some(&warned[0]),
+                tries: *decomp_tries,
             };
             // Contexts (cpfg dialect) are read around the predecessor in
             // the string before the step, at every depth.
@@ -1160,6 +1175,7 @@ impl<'a> Deriver<'a> {
                 origin,
                 pass,
                 warn: warnings[1].then_some(&warned[1]),
+                tries: *hom_tries,
             };
             let mut ctx = |p: &Production, slots: &mut [f64]| {
                 Ok(!surely_not(p, last, end_off, st, al)?
