@@ -333,11 +333,13 @@ impl Chooser {
         )
     }
 
-    /// The first of `kr`'s productions that applies, as cpfg's
-    /// homomorphism tries them (contexts, pre-condition block, condition),
-    /// without applying it: its post-condition block does not run. For a
-    /// homomorphism of `maximum depth:` 0 (cpfg's `InterpretHomomorphism`
-    /// stops there, keeping the module, with a warning if one applies).
+    /// The first of `kr`'s productions that applies, as cpfg tries them
+    /// (contexts, pre-condition block, condition), without applying it:
+    /// its post-condition block does not run. For the depth limit, where
+    /// cpfg's `InterpretHomomorphism` and `ApplyRecursiveProductions` try
+    /// a module's productions, then keep the module (with a warning if
+    /// one applies): a homomorphism of `maximum depth:` 0, and the limit
+    /// of the recursion (`step::depth_limit_cpfg`).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn first_cpfg<F>(
         &mut self,
