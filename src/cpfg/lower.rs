@@ -1031,6 +1031,32 @@ mod tests {
     }
 
     #[test]
+    fn depth_zero_decomposition_is_kept_only_for_its_tries() {
+        // cpfg tries the productions at depth 0 and applies none: kept
+        // where a try has an effect (a pre-condition block, a condition
+        // that draws), dropped otherwise (nothing to do).
+        for (prod, kept) in [
+            ("A : {n = n + 1;} * --> B", true),
+            ("A : ran(1) > 2 --> B", true),
+            ("A : * {n = n + 1;} --> B", false),
+            ("A : n > 0 --> B", false),
+        ] {
+            let src = format!(
+                "Lsystem: 1\nderivation length: 1\nStart: {{n = 0;}}\nAxiom: A\n\
+                 decomposition\nmaximum depth: 0\n{prod}\nendlsystem\n"
+            );
+            let l =
+                crate::cpfg::load("t.l", &src, false, crate::diag::OptionNames::Library).unwrap();
+            let seeds = crate::rules::Seeds::default();
+            let mut s = crate::rules::compile_dialect(l.header.clone(), Some(&l.text), seeds, true)
+                .unwrap();
+            assert!(s.decomposition.is_some(), "{prod}: compiled");
+            attach(&l.run, &l.extra, &mut s);
+            assert_eq!(s.decomposition.is_some(), kept, "{prod}");
+        }
+    }
+
+    #[test]
     fn refusals_not_yet() {
         let (r, _) = lowered("Lsystem: 1\nAxiom: AB\nAB --> C\nendlsystem\n");
         assert_eq!(r.unwrap().header.productions[0].pred_rest.len(), 1);
