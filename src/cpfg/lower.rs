@@ -240,8 +240,8 @@ impl Lowerer<'_> {
                     // afterwards: see `lower`).
                     match self.z {
                         // The axiom is read after `Start:` (control.c's
-                        // InitializeDerivation): an assignment there is
-                        // seen, no constant.
+                        // Rewind): an assignment there is seen, no
+                        // constant.
                         Some(_)
                             if self.axiom
                                 && self.is_builtin(name)
