@@ -42,7 +42,9 @@ pub struct Deriver<'a> {
     /// depth 1 also where nothing rewrites them there, so that the
     /// productions are tried as cpfg tries them.
     pub hom_tries: bool,
-    /// Likewise for a `.l` file's decomposition.
+    /// A `.l` file's decomposition whose tries have effects: its
+    /// productions are tried at the depth limit also when no warning is
+    /// due.
     pub decomp_tries: bool,
     pub cut: bool,
     /// Indexed generations also hold module counts (see
