@@ -584,20 +584,20 @@ fn cpfg_warnings_are_events() -> Result<(), Box<dyn Error>> {
 /// A text that fails to load keeps the warnings found before its error:
 /// `Error::warnings` gives them, in order (they were dropped with the
 /// collection). Here a `.l` file's preprocessor warning, an undefined
-/// name and ignored weights come before an assignment to `Q`; from a
+/// name and ignored weights come before a call of an unknown function; from a
 /// stream as from a string; an error without warnings has none.
 #[test]
 fn a_failed_load_keeps_its_warnings() {
     use lsgen::diag::WarningKind;
     use lsgen::LSystem;
     let src = "#warning careful\nLsystem: 1\nderivation length: 1\nAxiom: A(y)\n\
-               A(x) --> B(x) : 1\nB : {Q = 1;} * --> C\nendlsystem\n";
-    let from_text = LSystem::parse(src).err().expect("Q is read only");
+               A(x) --> B(x) : 1\nB : {z = foo(1);} * --> C\nendlsystem\n";
+    let from_text = LSystem::parse(src).err().expect("no function foo");
     let from_stream = LSystem::from_reader(std::io::Cursor::new(src.to_string()), "m.l")
         .err()
-        .expect("Q is read only");
+        .expect("no function foo");
     for (e, name) in [(&from_text, "<input>"), (&from_stream, "m.l")] {
-        assert_eq!(e.location().map(|l| (l.line, l.col)), Some((6, 6)), "{e}");
+        assert_eq!(e.location().map(|l| (l.line, l.col)), Some((6, 10)), "{e}");
         let kinds: Vec<_> = e.warnings().iter().map(|w| w.kind().clone()).collect();
         assert!(
             matches!(
@@ -619,7 +619,8 @@ fn a_failed_load_keeps_its_warnings() {
         );
         // The error's own rendering is unchanged.
         assert!(
-            e.to_string().starts_with(&format!("{name}:6:6: error: ")),
+            e.to_string()
+                .starts_with(&format!("{name}:6:10: error: unknown function `foo`")),
             "{e}"
         );
     }
