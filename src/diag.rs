@@ -417,10 +417,10 @@ impl Error {
     ///
     /// ```
     /// let src = "Lsystem: 1\nderivation length: 1\nAxiom: A(y)\n\
-    ///            A : {Q = 1;} * --> B\nendlsystem\n";
+    ///            A : {z = foo(1);} * --> B\nendlsystem\n";
     /// let e = lsgen::LSystem::parse(src).err().unwrap();
     /// assert_eq!(e.to_string().lines().next(), Some(
-    ///     "<input>:4:6: error: `Q` cannot be assigned (cpfg's built-in variables `Q` and `Z` are read only)"
+    ///     "<input>:4:10: error: unknown function `foo`"
     /// ));
     /// assert!(matches!(
     ///     e.warnings()[0].kind(),
