@@ -155,15 +155,19 @@ fn depth_warning(
             first = Some(pi);
         }
     }
-    let Some(pi) = first else {
-        return;
-    };
+    if let Some(pi) = first {
+        say_depth_limit(cx, key, pi, done);
+    }
+}
+
+/// The depth limit keeps a module (`key`) that production `pi` would
+/// still rewrite: say so, once (`done`), at the production.
+fn say_depth_limit(cx: &RecCtx, key: u32, pi: u32, done: &Cell<bool>) {
     done.set(true);
     let p = &cx.table.prods[pi as usize];
-    let sym = cx.al.symbol(key);
     let warning = crate::diag::WarningKind::MaximumDepth {
         max: cx.max,
-        symbol: sym,
+        symbol: cx.al.symbol(key),
         pass: cx.pass,
     };
     crate::diag::warn(cx.origin.locate(p.start()), &warning);
@@ -210,17 +214,9 @@ fn depth_limit_cpfg(
     let Some(pi) = found else {
         return Ok(());
     };
-    let Some(done) = cx.warn.filter(|_| pending) else {
-        return Ok(());
-    };
-    done.set(true);
-    let p = &cx.table.prods[pi as usize];
-    let warning = crate::diag::WarningKind::MaximumDepth {
-        max: cx.max,
-        symbol: cx.al.symbol(key),
-        pass: cx.pass,
-    };
-    crate::diag::warn(cx.origin.locate(p.start()), &warning);
+    if let Some(done) = cx.warn.filter(|_| pending) {
+        say_depth_limit(cx, key, pi, done);
+    }
     Ok(())
 }
 
