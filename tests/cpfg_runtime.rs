@@ -856,6 +856,45 @@ fn productions_are_tried_at_the_depth_limit() {
     }
 }
 
+/// A decomposition's contexts are those of the whole predecessor in the
+/// string before the step: cpfg's `ApplyProd` (generate.c) moves past the
+/// predecessor's `predLen` modules before `ApplyRecursiveProductions`, so
+/// the right context of a module made from `A B` is what follows `B`. By
+/// hand, for `X A B Y` and `A B --> A B C`: C's left context is X, its
+/// right context Y, so `C > Y` applies and `C > B` does not (lsgen read
+/// the right context after `A`: `B`, the other way round). Tries at the
+/// depth limit see the same contexts: with `maximum depth: 0` and a
+/// pre-condition block counting the tries that match (`C(x) > Y`), step 1
+/// makes C(0), tried with Y to its right (n = 1); step 2 makes C(1), tried
+/// with C(0) to its right (no match), and C(0), copied, is tried with Y
+/// (n = 2); step 3 makes C(2): `XABC(2)C(1)C(0)Y` (cpfg_ref.py agrees;
+/// lsgen gave `XABC(1)C(0)C(0)Y`).
+#[test]
+fn decomposition_contexts_follow_the_whole_predecessor() {
+    let dir = tempdir();
+    let cases = [
+        (
+            "derivation length: 1\nAxiom: X A B Y\nA B --> A B C\ndecomposition\nC > Y --> D",
+            "XABDY\n",
+        ),
+        (
+            "derivation length: 1\nAxiom: X A B Y\nA B --> A B C\ndecomposition\nC > B --> D",
+            "XABCY\n",
+        ),
+        (
+            "derivation length: 3\nStart: {n = 0;}\nAxiom: X A B Y\nA B --> A B C(n)\n\
+             decomposition\nmaximum depth: 0\nC(x) > Y : {n = n + 1;} * --> D",
+            "XABC(2)C(1)C(0)Y\n",
+        ),
+    ];
+    for (body, want) in cases {
+        let src = format!("Lsystem: 1\n{body}\nendlsystem\n");
+        let file = write(dir.path(), "pred.l", &src);
+        let (out, _) = derive(&[], &file);
+        assert_eq!(out, want, "{src}");
+    }
+}
+
 /// Blocks that assign `Q` run in string order on one thread, also with
 /// `-j` and chunks of one byte (`LSGEN_TEST_SPLIT=1`): a `.l` file is
 /// derived by the one-thread step engine (`par::step_threads`), since

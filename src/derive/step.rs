@@ -1153,7 +1153,10 @@ impl<'a> Deriver<'a> {
                 tries: *decomp_tries,
             };
             // Contexts (cpfg dialect) are read around the predecessor in
-            // the string before the step, at every depth.
+            // the string before the step, at every depth: the right one
+            // after the whole predecessor (generate.c's `ApplyProd` moves
+            // the string pointer past `predLen` before it decomposes).
+            let end_off = st.run_end.unwrap_or(end_off);
             let mut ctx = |p: &Production, slots: &mut [f64]| {
                 let last = st.left.as_ref().map(|l| l.last_key());
                 Ok(!surely_not(p, last, end_off, st, al)?
