@@ -183,8 +183,9 @@ struct Lowerer<'w> {
     /// assigns it (cpfg's global `Z` is an ordinary variable, the length
     /// its first value): see [`lower`]. None: `Z` reads as the constant.
     z_global: Option<u32>,
-    /// `Start:` assigns `Q`, `Z` (where built in): the axiom, which cpfg
-    /// reads after `Start:`, cannot take them as constants.
+    /// `Start:` assigns `Q`, `Z` (built in or the L-system's own
+    /// variables): the axiom, which cpfg reads after `Start:`, cannot take
+    /// them as constants.
     start_assigns: [bool; 2],
     /// A block assigns the built-in `Q` (the step number, then, is the
     /// value cpfg's Derive gives it at each step until a block changes it).
@@ -230,6 +231,15 @@ impl Lowerer<'_> {
                 let q_or_z = name == "Q" || name == "Z";
                 if formals.contains_key(name) {
                     ls::Expr::Var(formal_name(name), *s)
+                } else if q_or_z
+                    && self.constant
+                    && self.axiom
+                    && self.start_assigns[usize::from(name == "Z")]
+                {
+                    // The axiom is read after `Start:` (control.c's
+                    // Rewind), which assigns this `Q` or `Z` (built in or
+                    // the L-system's own variable): no constant.
+                    return err(*s, Invalid::NotConstant);
                 } else if q_or_z && self.constant {
                     // A setting or the axiom, read before any step or
                     // block: `Q` is 0 and `Z` the length once
@@ -239,16 +249,6 @@ impl Lowerer<'_> {
                     // them variables of the L-system, not built in
                     // afterwards: see `lower`).
                     match self.z {
-                        // The axiom is read after `Start:` (control.c's
-                        // Rewind): an assignment there is seen, no
-                        // constant.
-                        Some(_)
-                            if self.axiom
-                                && self.is_builtin(name)
-                                && self.start_assigns[usize::from(name == "Z")] =>
-                        {
-                            return err(*s, Invalid::NotConstant);
-                        }
                         Some(z) if self.is_builtin(name) => {
                             ls::Expr::Num(if name == "Z" { z } else { 0.0 }, *s)
                         }
@@ -764,7 +764,7 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
         z: None,
         builtin,
         z_global: None,
-        start_assigns: [0, 1].map(|i| builtin[i] && start_assigns[i]),
+        start_assigns,
         assigns_q: false,
         axiom: false,
         seeded: false,
