@@ -1,7 +1,8 @@
-//! The differential test of the cpfg dialect: 400 random `.l` systems
+//! The differential test of the cpfg dialect: 500 random `.l` systems
 //! (every feature of the dialect mixed, see tests/tools/gen_cpfg_cases.py;
-//! the last 100 also assign `Q` and `Z` in blocks and try productions at
-//! the decomposition's and the homomorphism's depth limit),
+//! cases 301-400 also assign `Q` and `Z` in blocks and try productions at
+//! the decomposition's and the homomorphism's depth limit, and 401-500
+//! add contexts to decomposition productions),
 //! derived by the independent reference tests/tools/cpfg_ref.py; lsgen must
 //! print the same string for each.
 
@@ -33,7 +34,7 @@ fn random_cases_match_cpfg_ref() {
         }
         cases += 1;
     }
-    assert_eq!(cases, 400);
+    assert_eq!(cases, 500);
     assert!(
         failures.is_empty(),
         "{} of {cases} cases differ from cpfg_ref.py:\n{}",

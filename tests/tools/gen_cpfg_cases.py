@@ -15,7 +15,9 @@ depth:`, the cut `%`, `Q` and `Z`, header blocks with globals and
 pre-/post-condition blocks with locals. A second batch of cases (its own
 generator) also assigns `Q` and `Z` in blocks and has more decomposition
 and homomorphism at small depths (0 included), where cpfg tries the
-productions at the depth limit.
+productions at the depth limit. A third (its own generator again) is the
+second with contexts in decomposition productions, which cpfg reads around
+the whole predecessor of the production that made the module.
 
 Usage (from anywhere):
     python3 tests/tools/gen_cpfg_cases.py          # write the file
@@ -44,16 +46,19 @@ OUT = os.path.join(ROOT, "tests", "expected", "cpfg", "random", "cases.txt")
 CASES = 300
 # The second batch (`generate`'s `extended`), after the first.
 EXTENDED = 100
+# The third (`extended` and `decomp_contexts`), after the second.
+DECOMP_CONTEXTS = 100
 MAX_OUTPUT = 2000
 
 SYMS = "ABCD"
 
 
-def generate(r, extended=False):
+def generate(r, extended=False, decomp_contexts=False):
     """A random system and a number of steps. `extended`: a second batch
     (its own generator, so the first batch stays as it was) whose blocks
     also assign `Q` and `Z`, with more decomposition and homomorphism at
-    small depths, where cpfg tries productions at the depth limit."""
+    small depths, where cpfg tries productions at the depth limit.
+    `decomp_contexts`: decomposition productions with contexts too."""
     globals_ = extended or r.random() < 0.3
     stochastic = r.random() < 0.3
 
@@ -101,11 +106,14 @@ def generate(r, extended=False):
 
     def production(contexts=True, multi=True, weights=False):
         lhs, var = pred_module()
-        if multi and r.random() < 0.1:
+        # The third batch: more multi-module predecessors, whose
+        # successors' decomposition reads contexts around all of them.
+        if multi and r.random() < (0.5 if decomp_contexts else 0.1):
             lhs += r.choice(SYMS)
-        if contexts and r.random() < 0.3:
+        ctx = 0.5 if decomp_contexts and not multi else 0.3
+        if contexts and r.random() < ctx:
             lhs = r.choice(["A", "B", "C", "*", "AB"]) + " < " + lhs
-        if contexts and r.random() < 0.3:
+        if contexts and r.random() < ctx:
             lhs = lhs + " > " + r.choice(["A", "B", "[C]", "C]", "*", "[A]B", "=B"])
         cond = ""
         x = r.random()
@@ -158,7 +166,8 @@ def generate(r, extended=False):
         lines.append("decomposition")
         if r.random() < 0.5:
             lines.append("maximum depth: %d" % r.randint(0 if extended else 1, 3))
-        lines += [production(contexts=False, multi=False) for _ in range(r.randint(1, 3))]
+        lines += [production(contexts=decomp_contexts, multi=False)
+                  for _ in range(r.randint(1, 3))]
     if r.random() < (0.7 if extended else 0.35):
         lines.append("homomorphism" + r.choice(["", ": no warnings"]))
         if r.random() < 0.5:
@@ -190,11 +199,13 @@ def main(argv):
     made = 0
     tried = 0
     r = random.Random(12)
-    while made < CASES + EXTENDED:
+    while made < CASES + EXTENDED + DECOMP_CONTEXTS:
         if made == CASES:
             r = random.Random(13)
+        if made == CASES + EXTENDED:
+            r = random.Random(14)
         tried += 1
-        text, steps = generate(r, made >= CASES)
+        text, steps = generate(r, made >= CASES, made >= CASES + EXTENDED)
         out = derive(text, steps)
         # lsgen refuses a parameter a 32-bit float cannot hold (README), where
         # cpfg stores inf.
