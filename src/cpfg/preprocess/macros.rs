@@ -225,17 +225,9 @@ impl Pp<'_> {
     }
 
     pub(super) fn charge(&mut self, n: usize, at: Pos) -> Res<()> {
-        self.work += n;
-        if self.work > self.limits.max_expansion_tokens {
-            return Err(self.err(
-                at,
-                PpErrorKind::Limit {
-                    what: "macro expansion too large",
-                    limit: self.limits.max_expansion_tokens,
-                },
-            ));
-        }
-        Ok(())
+        let most = self.limits.max_expansion_tokens;
+        super::spend(&mut self.work, n, most, "macro expansion too large")
+            .map_err(|k| self.err(at, k))
     }
 
     /// Expand `pending` followed by the cursor's text (if any), writing to

@@ -268,6 +268,16 @@ struct Pp<'l> {
 
 type Res<T> = Result<T, PpError>;
 
+/// Add `n` to a run's counter of work (`#include`s, included bytes, macro
+/// tokens); past `most`, the limit error `what` names.
+fn spend(used: &mut usize, n: usize, most: usize, what: &'static str) -> Result<(), PpErrorKind> {
+    *used = used.saturating_add(n);
+    if *used > most {
+        return Err(PpErrorKind::Limit { what, limit: most });
+    }
+    Ok(())
+}
+
 /// Preprocess `source`, the text of the file `path` (used for messages and
 /// as the base of relative includes), with default [`Limits`]. `loader`
 /// reads included files ([`read_file`] for the file system).
@@ -905,16 +915,14 @@ impl Pp<'_> {
         // The work of the whole run is bounded too: headers that each
         // include the next one twice would otherwise include the last one
         // 2^depth times, within the depth limit.
-        self.includes += 1;
-        if self.includes > self.limits.max_includes {
-            return Err(self.err(
-                at,
-                PpErrorKind::Limit {
-                    what: "too many `#include`s carried out in one run",
-                    limit: self.limits.max_includes,
-                },
-            ));
-        }
+        let most = self.limits.max_includes;
+        spend(
+            &mut self.includes,
+            1,
+            most,
+            "too many `#include`s carried out in one run",
+        )
+        .map_err(|k| self.err(at, k))?;
         // A file included again is read once (its text is kept).
         if let Some(id) = self.files.iter().position(|f| f.key == key) {
             self.count_included(at, self.files[id].text.len())?;
@@ -940,17 +948,10 @@ impl Pp<'_> {
 
     /// Count the bytes of a file that an `#include` at `at` brings in.
     fn count_included(&mut self, at: Pos, bytes: usize) -> Res<()> {
-        self.included_bytes = self.included_bytes.saturating_add(bytes);
-        if self.included_bytes > self.limits.max_included_bytes {
-            return Err(self.err(
-                at,
-                PpErrorKind::Limit {
-                    what: "too much text included: the bytes of the `#include`d files, each inclusion counted",
-                    limit: self.limits.max_included_bytes,
-                },
-            ));
-        }
-        Ok(())
+        let most = self.limits.max_included_bytes;
+        let what =
+            "too much text included: the bytes of the `#include`d files, each inclusion counted";
+        spend(&mut self.included_bytes, bytes, most, what).map_err(|k| self.err(at, k))
     }
 
     // ------------------------------------------------------------ expansion
