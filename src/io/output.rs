@@ -125,11 +125,7 @@ pub(crate) fn leads_to_closed_fd(path: &Path) -> bool {
                 let Ok(to) = fs::read_link(&p) else {
                     return false;
                 };
-                // A relative target is relative to the link's directory.
-                p = match p.parent() {
-                    Some(d) => d.join(to),
-                    None => to,
-                };
+                p = link_target(&p, to);
             }
             // Not a link (or not there): opening it says what it is.
             _ => return false,
@@ -175,11 +171,7 @@ fn resolve(path: &Path, name: &str) -> Result<Target, Error> {
             Ok(m) if m.file_type().is_symlink() => {
                 let to = fs::read_link(&p)
                     .map_err(|e| Error::io(name, crate::diag::IoAction::ReadLink, e))?;
-                // A relative target is relative to the link's directory.
-                p = match p.parent() {
-                    Some(d) => d.join(to),
-                    None => to,
-                };
+                p = link_target(&p, to);
             }
             Ok(m) if m.is_dir() => return Err(fail(name, IoAction::Write, IoReason::IsADirectory)),
             Ok(m) if !m.is_file() => return Ok(Target::Stream(p)),
@@ -199,6 +191,15 @@ fn resolve(path: &Path, name: &str) -> Result<Target, Error> {
         crate::diag::IoAction::Write,
         io::Error::from_raw_os_error(libc::ELOOP),
     ))
+}
+
+/// Where the symbolic link `link`, which holds `to`, leads: a relative
+/// target is relative to the link's directory.
+fn link_target(link: &Path, to: PathBuf) -> PathBuf {
+    match link.parent() {
+        Some(d) => d.join(to),
+        None => to,
+    }
 }
 
 /// `-o dir/` (or `.`, `..`): a name that can only be a directory.
