@@ -604,6 +604,27 @@ fn a_production_block_keeps_an_unchanged_string_stepping() {
     assert_eq!(derive(&["-n", "3"], &file).0, "A\n");
 }
 
+/// A homomorphism, whose depth warnings are on by default in cpfg, does
+/// not keep a string that stopped changing stepping: a billion steps end
+/// at the fixed point (lsgen stepped through all of them). By hand:
+/// A(0) -> A(1)B -> A(2)BB -> A(3)BBB, then unchanged; B -> C.
+#[test]
+fn a_homomorphism_keeps_the_fixed_point_stop() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "fp.l",
+        "Lsystem: 1\nderivation length: 1000000000\nAxiom: A(0)\n\
+         A(x) : x < 3 --> A(x+1)B\nhomomorphism\nB --> C\nendlsystem\n",
+    );
+    let (out, err) = derive(&["-v"], &file);
+    assert_eq!(out, "A(3)CCC\n");
+    assert!(
+        err.contains("steps 5..1000000000: unchanged (fixed point)"),
+        "{err}"
+    );
+}
+
 /// Several `derivation length:` lines: the last sets the number of steps
 /// (lsys_input.y's Dlength assigns `LsysPtr->n` each time) but `Z` keeps
 /// the first's value: each line also calls SymbolTableAdd("Z"), which

@@ -235,6 +235,36 @@ fn a_system_that_stops_changing_stops_stepping() {
     );
 }
 
+/// A decomposition and a homomorphism with depth (or with warnings) are
+/// functions of the string alone: a step that leaves the string as it was
+/// is still a fixed point. lsgen used to step through every step of such
+/// systems. By hand: A(0) -> A(1)C -> A(2)CC -> A(3)CCC, then unchanged;
+/// the homomorphism takes each C to D and, at depth 2, to E.
+#[test]
+fn decomposition_and_homomorphism_depth_keep_fixed_points() {
+    let limit = Duration::from_secs(60);
+    let base = "productions:\nA(x) : x < 3 -> A(x+1)B\ndecomposition:\nB -> C\n";
+    for (hom, want) in [
+        ("", "A(3)CCC"),
+        ("homomorphism: warnings\nC -> D\n", "A(3)DDD"),
+        (
+            "homomorphism:\nmaximum depth: 2\nC -> D\nD -> E\n",
+            "A(3)EEE",
+        ),
+    ] {
+        let src = format!("derivation length: 100\n{base}{hom}axiom: A(0)\n");
+        let r = run_with(&src, &["-v"], None, limit);
+        assert_eq!(r.ok(), want, "{src}");
+        assert!(
+            verbose_lines(&r).contains(&"lsgen: steps 5..100: unchanged (fixed point)"),
+            "{src}\n{}",
+            r.stderr
+        );
+        let src = src.replace("length: 100", "length: 9007199254740992");
+        assert_eq!(run_with(&src, &[], None, limit).ok(), want, "{src}");
+    }
+}
+
 #[test]
 fn fixed_points_in_the_depth_first_strategies() {
     // 65,536 steps (the most the depth-first strategies take) over 200,000

@@ -427,16 +427,20 @@ pub(crate) fn derive(
     d.hom_depth = hom_depth;
     d.hom_tries = is_cpfg && homomorphism.tries_have_effects();
     d.warnings = warnings;
-    let structural = !schedule.is_empty()
+    // Rules that change from step to step: a step that leaves the string
+    // as it was says nothing of the next one.
+    let varies_by_step = !schedule.is_empty()
         || group_expr.is_some()
-        || decomposition.is_some()
-        || hom_depth != 1
-        || (hom && warnings[1])
         || std::iter::once(&productions)
             .chain(groups.iter().map(|(_, g)| g.own()))
             .chain(decomposition.iter().map(|(t, _)| t))
             .chain(std::iter::once(&homomorphism))
             .any(uses_step);
+    // Passes only the step engine makes. A decomposition and a homomorphism
+    // with depth (or its depth warning) are functions of the string alone,
+    // and the warnings are said once: they do not stop a fixed point.
+    let structural =
+        varies_by_step || decomposition.is_some() || hom_depth != 1 || (hom && warnings[1]);
     d.decomp_tries = is_cpfg
         && decomposition
             .as_ref()
@@ -562,7 +566,7 @@ pub(crate) fn derive(
         schedule: &schedule,
         group_expr: group_expr.as_ref(),
         hom_seed,
-        fixed_points: !structural && !blocks,
+        fixed_points: !varies_by_step && !blocks,
         plain: !step_only,
     };
     if let Some((frames, frame_sink)) = frames {
