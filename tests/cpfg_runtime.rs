@@ -625,6 +625,30 @@ fn a_homomorphism_keeps_the_fixed_point_stop() {
     );
 }
 
+/// At the homomorphism's depth limit cpfg still tries the productions of
+/// the module it keeps (interpret.c, InterpretHomomorphism), evaluating
+/// their conditions: `1/x` with `x` 0 divides by 1 and warns there, with
+/// the homomorphism's warnings off too. lsgen skipped such tries unless
+/// they drew or ran a block, and said nothing. By hand: B(0) becomes C(0)
+/// at depth 1, which keeps it; C's condition is then evaluated.
+#[test]
+fn a_try_at_the_depth_limit_warns_of_a_division_by_zero() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "div.l",
+        "Lsystem: 1\nderivation length: 0\nAxiom: B(0)\nhomomorphism no warnings\n\
+         B(x) --> C(x)\nC(x) : 1/x > 0 --> D\nendlsystem\n",
+    );
+    let (out, err) = derive(&[], &file);
+    assert_eq!(out, "C(0)\n");
+    assert_eq!(
+        err,
+        "lsgen: warning: division by zero in a cpfg expression: divided by 1 instead, \
+         as cpfg does\n"
+    );
+}
+
 /// Several `derivation length:` lines: the last sets the number of steps
 /// (lsys_input.y's Dlength assigns `LsysPtr->n` each time) but `Z` keeps
 /// the first's value: each line also calls SymbolTableAdd("Z"), which

@@ -514,6 +514,11 @@ impl Code {
     }
 
     /// Does this expression read the built-in `step`?
+    /// Can evaluating it warn: cpfg's `/` by zero ([`Op::DivOr1`])?
+    pub fn may_warn(&self) -> bool {
+        self.ops().iter().any(|o| matches!(o, Op::DivOr1(_)))
+    }
+
     pub fn uses_step(&self) -> bool {
         self.ops().iter().any(|o| matches!(o, Op::Step))
     }

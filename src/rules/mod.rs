@@ -903,13 +903,17 @@ pub struct Fixed<'t> {
 impl Table {
     /// Does trying a production (not applying it) change anything, in the
     /// cpfg dialect: a pre-condition block, or a condition that draws or
-    /// reseeds (`ran`, `srand` ...)? cpfg tries a module's productions
-    /// also where it then does not apply them (at the depth limit of the
-    /// decomposition and the homomorphism): such tries must happen.
+    /// reseeds (`ran`, `srand` ...) or may warn (a division by zero)?
+    /// cpfg tries a module's productions also where it then does not
+    /// apply them (at the depth limit of the decomposition and the
+    /// homomorphism): such tries must happen.
     pub fn tries_have_effects(&self) -> bool {
-        self.prods
-            .iter()
-            .any(|p| p.pre().is_some() || p.cond.as_ref().is_some_and(|c| c.uses_random()))
+        self.prods.iter().any(|p| {
+            p.pre().is_some()
+                || p.cond
+                    .as_ref()
+                    .is_some_and(|c| c.uses_random() || c.may_warn())
+        })
     }
 
     /// How `key` is rewritten if no decision is needed: `Some(None)` it has
