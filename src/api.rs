@@ -131,7 +131,8 @@ impl Options {
         self
     }
 
-    /// Directory for the temporary generation files (default: `$TMPDIR`).
+    /// Directory for the temporary files: generations, and cpfg `printf`
+    /// text that [`LSystem::derive_with`] holds (default: `$TMPDIR`).
     pub fn tmpdir(mut self, dir: impl Into<PathBuf>) -> Self {
         self.tmpdir = Some(dir.into());
         self
@@ -559,8 +560,10 @@ impl LSystem {
     /// the derivation's own, each before the event of the generation it
     /// was found in; and with the text each `printf` of a cpfg block
     /// prints ([`Event::Printf`]), in its place among them (held until
-    /// the event that follows it: a model that prints at every module
-    /// holds a step's text in memory). Asking for
+    /// the event that follows it: past 1 MiB of such text, in a
+    /// temporary file in [`Options::tmpdir`]'s directory, so that a model
+    /// that prints at every module does not hold a step's text in
+    /// memory). Asking for
     /// every generation's length may take the step-by-step strategy where
     /// depth first would do.
     ///
@@ -608,14 +611,16 @@ impl LSystem {
         // event (and the last ones at the end, whatever the outcome), the
         // warnings with the caller's option names.
         let collecting = crate::diag::collect_warnings();
+        // (`printf` text past a bound waits in a file of its own.)
+        collecting.spill_in(options.tmpdir.clone());
         let names = options.names;
         let mut forward = |event: Option<&Event>| {
-            for said in collecting.take() {
+            collecting.drain(&mut |said| {
                 events(&match said {
                     Event::Warning(w) => Event::Warning(w.with_option_names(names)),
                     other => other,
-                });
-            }
+                })
+            });
             if let Some(e) = event {
                 events(e);
             }

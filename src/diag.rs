@@ -145,7 +145,14 @@ pub(crate) fn warn(location: Location, kind: &WarningKind) {
 /// library caller as [`crate::Event::Printf`], in its place among the
 /// warnings), else on standard error at once, as cpfg does (the binary).
 pub(crate) fn printf(text: String) {
-    if let Some(crate::Event::Printf(text)) = collect(crate::Event::Printf(text)) {
+    let back = COLLECTED.with(|c| match c.borrow_mut().as_mut() {
+        Some(c) => {
+            c.printf(text);
+            None
+        }
+        None => Some(text),
+    });
+    if let Some(text) = back {
         eprint(&text);
     }
 }
@@ -153,9 +160,8 @@ pub(crate) fn printf(text: String) {
 /// Put `said` in this thread's collection; without one, give it back.
 fn collect(said: crate::Event) -> Option<crate::Event> {
     COLLECTED.with(|c| match c.borrow_mut().as_mut() {
-        Some(c) if !c.keep_printf && matches!(said, crate::Event::Printf(_)) => None,
         Some(c) => {
-            c.said.push(said);
+            c.said.push(Said::Now(said));
             None
         }
         None => Some(said),
@@ -171,8 +177,10 @@ pub(crate) fn warn_once(kind: &WarningKind, printed: &std::sync::atomic::AtomicB
         Some(c) => {
             if !c.once.contains(kind) {
                 c.once.push(kind.clone());
-                c.said
-                    .push(crate::Event::Warning(Warning::new(kind.clone(), None)));
+                c.said.push(Said::Now(crate::Event::Warning(Warning::new(
+                    kind.clone(),
+                    None,
+                ))));
             }
             true
         }
@@ -226,11 +234,76 @@ pub(crate) fn warning_text(location: &Location, kind: &WarningKind) -> String {
 /// ([`crate::Event::Warning`], [`crate::Event::Printf`]), in the order
 /// they were said.
 struct Collected {
-    said: Vec<crate::Event>,
+    said: Vec<Said>,
     /// Those said once per collection, already said.
     once: Vec<WarningKind>,
     /// `printf` text is kept (else dropped at once: [`drop_printf`]).
     keep_printf: bool,
+    /// Bytes of `printf` text in `said` (at most [`spill::HELD_MAX`] while
+    /// a spill file can be had).
+    held: usize,
+    /// Past them, until the collection is drained, all text goes to the
+    /// file: one entry of `said` for all of it between two warnings.
+    spilling: bool,
+    /// Where `printf` text past them goes.
+    spill: Option<spill::Spill>,
+    /// The directory for it ([`Collecting::spill_in`]).
+    spill_dir: Option<std::path::PathBuf>,
+    /// No spill file could be made: text stays in memory.
+    spill_failed: bool,
+}
+
+/// One entry of a collection.
+enum Said {
+    Now(crate::Event),
+    /// `printf` texts in the spill file, this range of it.
+    Spilled(u64, u64),
+}
+
+impl Collected {
+    fn new(keep_printf: bool) -> Self {
+        Collected {
+            said: Vec::new(),
+            once: Vec::new(),
+            keep_printf,
+            held: 0,
+            spilling: false,
+            spill: None,
+            spill_dir: None,
+            spill_failed: false,
+        }
+    }
+
+    fn printf(&mut self, text: String) {
+        if !self.keep_printf {
+            return;
+        }
+        if (self.spilling || self.held + text.len() > spill::HELD_MAX) && self.spilled(&text) {
+            self.spilling = true;
+            return;
+        }
+        self.held += text.len();
+        self.said.push(Said::Now(crate::Event::Printf(text)));
+    }
+
+    /// Put `text` in the spill file (made at first); false if it cannot
+    /// be, and it is then kept in memory.
+    fn spilled(&mut self, text: &str) -> bool {
+        if self.spill.is_none() && !self.spill_failed {
+            match spill::Spill::new(self.spill_dir.as_deref()) {
+                Ok(s) => self.spill = Some(s),
+                Err(_) => self.spill_failed = true,
+            }
+        }
+        let Some(Ok((from, to))) = self.spill.as_mut().map(|s| s.push(text)) else {
+            return false;
+        };
+        match self.said.last_mut() {
+            Some(Said::Spilled(_, end)) if *end == from => *end = to,
+            _ => self.said.push(Said::Spilled(from, to)),
+        }
+        true
+    }
 }
 
 thread_local! {
@@ -248,11 +321,7 @@ thread_local! {
 pub(crate) fn collect_warnings() -> Collecting {
     // Inside a collection that drops `printf` text, this one drops it too.
     let keep_printf = COLLECTED.with(|c| c.borrow().as_ref().is_none_or(|c| c.keep_printf));
-    let fresh = Collected {
-        said: Vec::new(),
-        once: Vec::new(),
-        keep_printf,
-    };
+    let fresh = Collected::new(keep_printf);
     let outer = COLLECTED.with(|c| c.replace(Some(fresh)));
     Collecting {
         outer,
@@ -283,15 +352,60 @@ pub(crate) struct Collecting {
 }
 
 impl Collecting {
+    /// `printf` text past [`spill::HELD_MAX`] bytes goes to a temporary
+    /// file in `dir` (else the system's temporary directory).
+    pub(crate) fn spill_in(&self, dir: Option<std::path::PathBuf>) {
+        COLLECTED.with(|c| {
+            if let Some(c) = c.borrow_mut().as_mut() {
+                c.spill_dir = dir;
+            }
+        });
+    }
+
+    /// Hand the warnings and `printf` texts collected since the last call
+    /// to `f`, in order. The collection is not borrowed while `f` runs.
+    pub(crate) fn drain(&self, f: &mut dyn FnMut(crate::Event)) {
+        let (said, spill) = COLLECTED.with(|c| match c.borrow_mut().as_mut() {
+            Some(c) => {
+                (c.held, c.spilling) = (0, false);
+                (std::mem::take(&mut c.said), c.spill.take())
+            }
+            None => (Vec::new(), None),
+        });
+        for s in said {
+            let (from, to) = match s {
+                Said::Now(e) => {
+                    f(e);
+                    continue;
+                }
+                Said::Spilled(from, to) => (from, to),
+            };
+            let read = match &spill {
+                Some(sp) => sp.read((from, to), &mut |t| f(crate::Event::Printf(t))),
+                None => Err(std::io::Error::other("the file is gone")),
+            };
+            if let Err(e) = read {
+                let lost = WarningKind::PrintfLost(e.to_string());
+                f(crate::Event::Warning(Warning::new(lost, None)));
+            }
+        }
+        // The file serves the next texts.
+        if let Some(mut sp) = spill {
+            sp.reset();
+            COLLECTED.with(|c| {
+                if let Some(c) = c.borrow_mut().as_mut() {
+                    c.spill.get_or_insert(sp);
+                }
+            });
+        }
+    }
+
     /// The warnings and `printf` text collected since the last call, in
     /// order.
     pub(crate) fn take(&self) -> Vec<crate::Event> {
-        COLLECTED.with(|c| {
-            c.borrow_mut()
-                .as_mut()
-                .map(|c| std::mem::take(&mut c.said))
-                .unwrap_or_default()
-        })
+        let mut all = Vec::new();
+        self.drain(&mut |e| all.push(e));
+        all
     }
 
     /// The warnings collected since the last call, in order (of a load,
@@ -316,6 +430,7 @@ impl Drop for Collecting {
 
 mod cpfg;
 mod kinds;
+mod spill;
 mod warning;
 pub use kinds::*;
 pub use warning::{Warning, WarningKind};
@@ -747,6 +862,53 @@ mod tests {
         assert_eq!(said(&inner), ["`step` hides the built-in step number"]);
         drop(inner);
         assert!(outer.take().is_empty());
+    }
+
+    /// Text past the bound goes to the spill file: memory holds at most
+    /// the bound and one entry per stretch of spilled text; every text
+    /// comes back in its place, around a warning; the next round (the
+    /// file reused) too.
+    #[test]
+    fn printf_text_past_the_bound_is_spilled_in_order() {
+        use crate::Event::{Printf, Warning as W};
+        let m = CodeMap::new("A\n");
+        let at = Location::from_map("p.l", &m, 0);
+        let line = |k: usize| format!("line {k} {}\n", "x".repeat(k % 300));
+        let (lines, warn_at) = (40_000, 30_000);
+        let c = collect_warnings();
+        for (round, kind) in [WarningKind::DivisionByZero, WarningKind::StepHidden]
+            .into_iter()
+            .enumerate()
+        {
+            let mut total = 0;
+            for k in 0..lines {
+                printf(line(k));
+                total += line(k).len();
+                if k == warn_at {
+                    warn(at.clone(), &kind);
+                }
+            }
+            assert!(total > 3 * spill::HELD_MAX, "{total}");
+            COLLECTED.with(|c| {
+                let c = c.borrow();
+                let c = c.as_ref().unwrap();
+                assert!(c.held <= spill::HELD_MAX, "{}", c.held);
+                let spilled = c.said.iter().filter(|s| matches!(s, Said::Spilled(..)));
+                // Before and after the warning.
+                assert_eq!(spilled.count(), 2, "round {round}");
+                assert!(c.said.len() < 20_000, "{}", c.said.len());
+            });
+            let mut want: Vec<crate::Event> = (0..lines).map(|k| Printf(line(k))).collect();
+            want.insert(warn_at + 1, W(Warning::new(kind, Some(at.clone()))));
+            let mut got = Vec::new();
+            c.drain(&mut |e| got.push(e));
+            assert!(
+                got == want,
+                "round {round}: {} events, {} wanted",
+                got.len(),
+                want.len()
+            );
+        }
     }
 
     #[test]

@@ -666,6 +666,45 @@ fn cpfg_printf_is_an_event() -> Result<(), Box<dyn Error>> {
     Ok(())
 }
 
+/// A step's `printf` text past 1 MiB waits in a temporary file until its
+/// event, not in memory: every line still comes in its place, the
+/// division by zero found among them too. By hand: step k rewrites
+/// A(2^(k-1)) ... A(2^k - 1), in order, each printing its line; step 14
+/// prints 8192 lines of 170 bytes (1.4 MB), and the division is at x =
+/// 16000, past the first MiB.
+#[test]
+fn much_printf_text_comes_in_order() -> Result<(), Box<dyn Error>> {
+    use lsgen::{LSystem, Options};
+    let pad = "x".repeat(160);
+    let src = format!(
+        "Lsystem: 1\nderivation length: 14\nAxiom: A(1)\n\
+         A(x) : {{printf(\"A(%g) {pad}\\n\", x); y = 1/(x-16000);}} * --> A(2*x)A(2*x+1)\n\
+         endlsystem\n"
+    );
+    let mut want = vec!["the axiom: 1".to_string()];
+    for k in 1..=14u32 {
+        for x in 1u32 << (k - 1)..1 << k {
+            want.push(format!("printf: A({x}) {pad}\n"));
+            if x == 16000 {
+                want.push(
+                    "warning: division by zero in a cpfg expression: divided by 1 instead, \
+                     as cpfg does\n"
+                        .to_string(),
+                );
+            }
+        }
+        want.push(format!("step {k}: {}", 1u32 << k));
+    }
+    let dir = tempfile::tempdir()?;
+    let mut ls = LSystem::parse(&src)?;
+    let (out, lines) = event_lines(&mut ls, &Options::new().tmpdir(dir.path()))?;
+    let string: String = (1u32 << 14..1 << 15).map(|x| format!("A({x})")).collect();
+    assert_eq!(out, string + "\n");
+    assert_eq!(lines.len(), want.len());
+    assert!(lines == want);
+    Ok(())
+}
+
 /// `from_reader` derives an `.ls` text once (its axiom is streamed), but a
 /// cpfg `.l` text again and again: the whole file is read when it is
 /// loaded (the preprocessor needs all of it), its axiom kept as text.

@@ -48,6 +48,9 @@ pub enum WarningKind {
         symbol: char,
         pass: Pass,
     },
+    /// A library derivation: cpfg `printf` text held in a temporary file
+    /// could not be read back (why).
+    PrintfLost(String),
 }
 
 impl fmt::Display for WarningKind {
@@ -94,6 +97,10 @@ impl fmt::Display for WarningKind {
                     "homomorphism stopped at maximum depth {max}, but this production still applies (to module {symbol})"
                 ),
             },
+            PrintfLost(why) => write!(
+                f,
+                "text that cpfg's `printf` printed is lost: it was held in a temporary file that could not be read back ({why})"
+            ),
         }
     }
 }
