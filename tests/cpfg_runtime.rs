@@ -625,27 +625,81 @@ fn a_homomorphism_keeps_the_fixed_point_stop() {
     );
 }
 
-/// At the homomorphism's depth limit cpfg still tries the productions of
-/// the module it keeps (interpret.c, InterpretHomomorphism), evaluating
-/// their conditions: `1/x` with `x` 0 divides by 1 and warns there, with
-/// the homomorphism's warnings off too. lsgen skipped such tries unless
-/// they drew or ran a block, and said nothing. By hand: B(0) becomes C(0)
-/// at depth 1, which keeps it; C's condition is then evaluated.
+/// At the decomposition's and the homomorphism's depth limit cpfg still
+/// tries the productions of the module it keeps (generate.c,
+/// interpret.c's InterpretHomomorphism), evaluating their conditions:
+/// `1/x` with `x` 0 divides by 1 and warns there, and `x % x` crashes
+/// cpfg (a located error here), with the sections' warnings off too.
+/// lsgen skipped such tries unless they drew or ran a block (and missed
+/// a condition that is one division, such as `1/x`, when it first
+/// tested for divisions). By hand: B(0) becomes C(0) at depth 1, which
+/// keeps it; C's condition is then evaluated. tests/tools/cpfg_ref.py
+/// agrees on each case.
 #[test]
-fn a_try_at_the_depth_limit_warns_of_a_division_by_zero() {
+fn tries_at_the_depth_limit_warn_and_fail_as_in_cpfg() {
     let dir = tempdir();
+    let division = "lsgen: warning: division by zero in a cpfg expression: divided by 1 \
+                    instead, as cpfg does\n";
+    let hom = |cond: &str| {
+        format!(
+            "Lsystem: 1\nderivation length: 0\nAxiom: B(0)\nhomomorphism no warnings\n\
+             B(x) --> C(x)\nC(x) : {cond} --> D\nendlsystem\n"
+        )
+    };
+    let decomp = |cond: &str| {
+        format!(
+            "Lsystem: 1\nderivation length: 1\nAxiom: A(0)\nA(x) --> B(x)\n\
+             decomposition no warnings\nB(x) --> C(x)\nC(x) : {cond} --> D\nendlsystem\n"
+        )
+    };
+    for (i, src) in [
+        hom("1/x > 0"),
+        hom("1/x"),
+        hom("x/x"),
+        hom("(1/x)"),
+        decomp("1/x"),
+        decomp("2 < 1/x"),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let file = write(dir.path(), &format!("div{i}.l"), src);
+        let (out, err) = derive(&[], &file);
+        assert_eq!((out.as_str(), err.as_str()), ("C(0)\n", division), "{src}");
+    }
+    for (i, (src, line, pass)) in [
+        (hom("x % x > 0"), 6, "the homomorphism"),
+        (decomp("x % x"), 7, "step 1"),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let file = write(dir.path(), &format!("rem{i}.l"), src);
+        let r = run(lsgen().arg(&file));
+        let err = r.fails(1);
+        let want = format!(
+            "lsgen: {}:{line}:8: error: remainder by zero (`x % 0` crashes cpfg) (in {pass})\n",
+            file.display()
+        );
+        assert!(err.starts_with(&want), "{src}\n{err}");
+    }
+    // A successor that never applies is never evaluated: no warning (its
+    // constant division is not worked out when the file is read). The
+    // axiom is evaluated: there it warns.
     let file = write(
         dir.path(),
-        "div.l",
-        "Lsystem: 1\nderivation length: 0\nAxiom: B(0)\nhomomorphism no warnings\n\
-         B(x) --> C(x)\nC(x) : 1/x > 0 --> D\nendlsystem\n",
+        "never.l",
+        "Lsystem: 1\nderivation length: 1\nAxiom: A\nC --> B(1/0)\nendlsystem\n",
     );
-    let (out, err) = derive(&[], &file);
-    assert_eq!(out, "C(0)\n");
+    assert_eq!(derive(&[], &file), ("A\n".to_string(), String::new()));
+    let file = write(
+        dir.path(),
+        "axiom.l",
+        "Lsystem: 1\nderivation length: 1\nAxiom: A(1/0)\nC --> B(1/0)\nendlsystem\n",
+    );
     assert_eq!(
-        err,
-        "lsgen: warning: division by zero in a cpfg expression: divided by 1 instead, \
-         as cpfg does\n"
+        derive(&[], &file),
+        ("A(1)\n".to_string(), division.to_string())
     );
 }
 

@@ -321,8 +321,9 @@ impl Lowerer<'_> {
             cpfg: true,
         };
         let code = Code::compile(&e, &scope).map_err(|x| UserError::new(x.span, x.kind))?;
-        match code.constant() {
-            Some(v) => Ok(v),
+        match code.value_now() {
+            Some(Ok(v)) => Ok(v),
+            Some(Err(x)) => Err(UserError::new(x.span, x.kind)),
             None => err(e.span(), Invalid::NotConstant),
         }
     }

@@ -506,6 +506,31 @@ impl Code {
         }
     }
 
+    /// The value, worked out now, of an expression that needs no
+    /// parameter, draw, step or global but was left as code: one with
+    /// cpfg's `/` by zero, whose warning comes where it is evaluated (the
+    /// compiler does not fold it). None if it needs any of them.
+    pub fn value_now(&self) -> Option<Result<f64, EvalError>> {
+        match &self.0 {
+            Repr::Const { v, .. } => Some(Ok(*v)),
+            Repr::Packed { .. } => {
+                let needs = self.ops().iter().any(|o| {
+                    matches!(
+                        o,
+                        Op::Load(_)
+                            | Op::Ran(_)
+                            | Op::Nran(_)
+                            | Op::CpfgRan(..)
+                            | Op::Step
+                            | Op::Global(_)
+                    )
+                });
+                (!needs).then(|| self.eval(&[], &mut Vec::new(), &mut Random::new(0)))
+            }
+            _ => None,
+        }
+    }
+
     /// Does evaluating this expression draw random numbers?
     pub fn uses_random(&self) -> bool {
         self.ops()
@@ -513,12 +538,35 @@ impl Code {
             .any(|o| matches!(o, Op::Ran(_) | Op::Nran(_) | Op::CpfgRan(..)))
     }
 
-    /// Does this expression read the built-in `step`?
-    /// Can evaluating it warn: cpfg's `/` by zero ([`Op::DivOr1`])?
-    pub fn may_warn(&self) -> bool {
-        self.ops().iter().any(|o| matches!(o, Op::DivOr1(_)))
+    /// Can evaluating it do more than give a value: warn (cpfg's `/` by
+    /// zero, [`Op::DivOr1`]) or fail (a remainder by zero, a rounding to
+    /// a 32-bit float, a function's NaN ...)? In the in-place shapes too.
+    /// (Comparisons and logic, C's arithmetic of the cpfg dialect and its
+    /// functions cannot.)
+    pub fn may_warn_or_fail(&self) -> bool {
+        let bin = |op: Bin2| match op {
+            Bin2::DivOr1 => true,
+            Bin2::Bin(b) => can_fail(b),
+            Bin2::F2(f) => f != Func2::AtanSecond,
+            Bin2::Ieee(_) => false,
+        };
+        match &self.0 {
+            Repr::Const { .. } => false,
+            Repr::Load { f32, .. } => *f32,
+            Repr::LoadConst { op, f32, .. }
+            | Repr::ConstLoad { op, f32, .. }
+            | Repr::LoadLoad { op, f32, .. } => *f32 || bin(*op),
+            Repr::Packed { .. } => self.ops().iter().any(|&o| match o {
+                Op::Un(_) | Op::Const(_) | Op::Load(_) | Op::Step | Op::Global(_) => false,
+                Op::Select | Op::At(..) | Op::F1Ieee(_) => false,
+                // (Draws count as effects on their own: `uses_random`.)
+                Op::Ran(_) | Op::Nran(_) | Op::CpfgRan(..) => false,
+                o => Bin2::of(o).is_none_or(bin),
+            }),
+        }
     }
 
+    /// Does this expression read the built-in `step`?
     pub fn uses_step(&self) -> bool {
         self.ops().iter().any(|o| matches!(o, Op::Step))
     }
@@ -647,7 +695,14 @@ impl Draft {
             return Ok(());
         }
         let sub = Code::pack(tail, &self.spans, self.span);
+        // cpfg's `/` by zero warns where the expression is evaluated, as
+        // in cpfg, not here (a successor that never applies says
+        // nothing): such a division is left as it is.
+        let said = crate::diag::collect_warnings();
         let v = sub.eval(&[], &mut Vec::new(), &mut Random::new(0))?;
+        if !said.take().is_empty() {
+            return Ok(());
+        }
         self.ops.truncate(start);
         self.ops.push(Op::Const(v));
         Ok(())

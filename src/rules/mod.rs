@@ -903,7 +903,8 @@ pub struct Fixed<'t> {
 impl Table {
     /// Does trying a production (not applying it) change anything, in the
     /// cpfg dialect: a pre-condition block, or a condition that draws or
-    /// reseeds (`ran`, `srand` ...) or may warn (a division by zero)?
+    /// reseeds (`ran`, `srand` ...) or may warn or fail (a division or a
+    /// remainder by zero)?
     /// cpfg tries a module's productions also where it then does not
     /// apply them (at the depth limit of the decomposition and the
     /// homomorphism): such tries must happen.
@@ -912,7 +913,7 @@ impl Table {
             p.pre().is_some()
                 || p.cond
                     .as_ref()
-                    .is_some_and(|c| c.uses_random() || c.may_warn())
+                    .is_some_and(|c| c.uses_random() || c.may_warn_or_fail())
         })
     }
 
