@@ -514,17 +514,7 @@ impl Code {
         match &self.0 {
             Repr::Const { v, .. } => Some(Ok(*v)),
             Repr::Packed { .. } => {
-                let needs = self.ops().iter().any(|o| {
-                    matches!(
-                        o,
-                        Op::Load(_)
-                            | Op::Ran(_)
-                            | Op::Nran(_)
-                            | Op::CpfgRan(..)
-                            | Op::Step
-                            | Op::Global(_)
-                    )
-                });
+                let needs = self.ops().iter().any(needs_input);
                 (!needs).then(|| self.eval(&[], &mut Vec::new(), &mut Random::new(0)))
             }
             _ => None,
@@ -679,19 +669,7 @@ impl Draft {
     /// parameter and draws nothing.
     fn fold(&mut self, start: usize) -> Result<(), CompileError> {
         let tail = &self.ops[start..];
-        if tail.len() == 1
-            || tail.iter().any(|o| {
-                matches!(
-                    o,
-                    Op::Load(_)
-                        | Op::Ran(_)
-                        | Op::Nran(_)
-                        | Op::CpfgRan(..)
-                        | Op::Step
-                        | Op::Global(_)
-                )
-            })
-        {
+        if tail.len() == 1 || tail.iter().any(needs_input) {
             return Ok(());
         }
         let sub = Code::pack(tail, &self.spans, self.span);
@@ -955,6 +933,15 @@ impl Code {
             kind,
         }
     }
+}
+
+/// Does the instruction need what only a derivation has: a parameter, a
+/// draw, the step or a global? (An expression without one is a constant.)
+fn needs_input(o: &Op) -> bool {
+    matches!(
+        o,
+        Op::Load(_) | Op::Ran(_) | Op::Nran(_) | Op::CpfgRan(..) | Op::Step | Op::Global(_)
+    )
 }
 
 /// Can the binary operation fail (division by zero, NaN, overflow)?
