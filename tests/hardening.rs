@@ -265,6 +265,26 @@ fn decomposition_and_homomorphism_depth_keep_fixed_points() {
     }
 }
 
+/// A homomorphism that reads `step` does not keep a still string stepping
+/// either: it reads the number of the step it follows, also after a fixed
+/// point, and so does each frame's. By hand: F(0) -> F(1) -> F(2) -> F(3),
+/// then unchanged; the homomorphism of step k gives G(3,k) from step 3 on.
+#[test]
+fn a_homomorphism_reading_step_keeps_fixed_points() {
+    let limit = Duration::from_secs(60);
+    let src = "derivation length: 100\nproductions:\nF(x) : x < 3 -> F(x+1)\n\
+               homomorphism:\nF(x) -> G(x, step)\naxiom: F(0)\n";
+    let r = run_with(src, &["-v"], None, limit);
+    assert_eq!(r.ok(), "G(3,100)");
+    assert!(
+        verbose_lines(&r).contains(&"lsgen: steps 5..100: unchanged (fixed point)"),
+        "{}",
+        r.stderr
+    );
+    let r = run_with(src, &["--frames", "1..6"], None, limit);
+    assert_eq!(r.ok(), "G(1,1)\nG(2,2)\nG(3,3)\nG(3,4)\nG(3,5)\nG(3,6)");
+}
+
 #[test]
 fn fixed_points_in_the_depth_first_strategies() {
     // 65,536 steps (the most the depth-first strategies take) over 200,000

@@ -428,19 +428,23 @@ pub(crate) fn derive(
     d.hom_tries = is_cpfg && homomorphism.tries_have_effects();
     d.warnings = warnings;
     // Rules that change from step to step: a step that leaves the string
-    // as it was says nothing of the next one.
+    // as it was says nothing of the next one. (Not the homomorphism: it
+    // reads the number of the step it follows, also after a fixed point.)
     let varies_by_step = !schedule.is_empty()
         || group_expr.is_some()
         || std::iter::once(&productions)
             .chain(groups.iter().map(|(_, g)| g.own()))
             .chain(decomposition.iter().map(|(t, _)| t))
-            .chain(std::iter::once(&homomorphism))
             .any(uses_step);
+    let hom_uses_step = uses_step(&homomorphism);
     // Passes only the step engine makes. A decomposition and a homomorphism
     // with depth (or its depth warning) are functions of the string alone,
     // and the warnings are said once: they do not stop a fixed point.
-    let structural =
-        varies_by_step || decomposition.is_some() || hom_depth != 1 || (hom && warnings[1]);
+    let structural = varies_by_step
+        || hom_uses_step
+        || decomposition.is_some()
+        || hom_depth != 1
+        || (hom && warnings[1]);
     d.decomp_tries = is_cpfg
         && decomposition
             .as_ref()
