@@ -403,6 +403,56 @@ fn the_first_error_of_a_context_pass_in_string_order_whatever_the_threads() {
     assert!(errors.iter().all(|e| *e == errors[0]), "{errors:?}");
 }
 
+/// The last two passes give back the pages of the generations they read
+/// as they go, 16 MiB at a time (`derive::reclaim`): generations long
+/// enough for that, on one thread and split, give the string derived by
+/// hand, read from a file and from standard output, and leave no file in
+/// the temporary directory.
+#[test]
+fn generations_given_back_as_they_are_read_give_the_same_string() {
+    const N: usize = 20 << 20;
+    let dir = tempdir();
+    let tmp = dir.path().join("tmp");
+    std::fs::create_dir(&tmp).unwrap();
+    let axiom = dir.path().join("axiom.txt");
+    let mut text = Vec::with_capacity(N + 2);
+    text.push(b'B');
+    text.resize(N + 1, b'A');
+    text.push(b'C');
+    std::fs::write(&axiom, &text).unwrap();
+    // A signal moving right from B, one moving left from C.
+    let src = common::write(dir.path(), "s.ls", "productions:\nB < A -> B\nA > C -> C\n");
+    let mut want = text;
+    want[..4].fill(b'B');
+    want[N - 2..].fill(b'C');
+    want.push(b'\n');
+    let out = dir.path().join("out.txt");
+    for j in ["1", "2"] {
+        let r = run(lsgen()
+            .args(["-n", "3", "-j", j, "--axiom"])
+            .arg(&axiom)
+            .arg("--tmpdir")
+            .arg(&tmp)
+            .arg("-o")
+            .arg(&out)
+            .arg(&src));
+        assert_eq!(r.ok(), "", "-j {j}");
+        assert!(std::fs::read(&out).unwrap() == want, "-j {j}");
+        std::fs::remove_file(&out).unwrap();
+        let r = run(lsgen()
+            .args(["-n", "2", "-j", j, "--axiom"])
+            .arg(&axiom)
+            .arg("--tmpdir")
+            .arg(&tmp)
+            .arg(&src));
+        let mut two = want.clone();
+        two[3] = b'A';
+        two[N - 2] = b'A';
+        assert!(r.stdout == two, "-j {j}, 2 steps to stdout");
+        common::assert_listing(&tmp, &[]);
+    }
+}
+
 #[test]
 fn the_context_signal_workload_is_the_same_on_1_2_and_8_threads() {
     // The benchmark's context row at a small size: a bracketed axiom of

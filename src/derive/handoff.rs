@@ -146,6 +146,13 @@ pub(super) fn write_in_order(
                         break Err(e);
                     }
                 }
+                Ok(Msg::Read(to)) => {
+                    // The tasks before it are done: nothing reads below
+                    // the end of this one's input again.
+                    if let Some(r) = shared.reclaim {
+                        r.upto(to);
+                    }
+                }
                 Ok(Msg::End(modules)) => {
                     out.extend(&[], modules);
                     break Ok(());
@@ -234,6 +241,9 @@ pub(super) enum Msg {
     Spilled(File, u64),
     /// The task is complete: its number of modules.
     End(u64),
+    /// The task (a chunk of a step pass) has read all it reads of the
+    /// input, which ends at this offset (sent before its end).
+    Read(u64),
     /// The task is the last to write (sent before its end); what it tells
     /// the caller ([`super::par::axiom_prefix`]: where the axiom's reader
     /// goes on).
@@ -280,6 +290,9 @@ pub(super) struct Shared<'a> {
     patience: Duration,
     /// Spill as soon as there is no room in memory (tests).
     pub(super) eager: bool,
+    /// A step pass's input, given back as its chunks are done
+    /// ([`Msg::Read`]).
+    reclaim: Option<&'a super::reclaim::Reclaim<'a>>,
 }
 
 impl<'a> Shared<'a> {
@@ -311,7 +324,14 @@ impl<'a> Shared<'a> {
             budget,
             patience,
             eager: test.is_some(),
+            reclaim: None,
         }
+    }
+
+    /// A step pass whose input is given back as its chunks are done.
+    pub(super) fn giving_back(mut self, reclaim: Option<&'a super::reclaim::Reclaim<'a>>) -> Self {
+        self.reclaim = reclaim;
+        self
     }
 
     /// An empty block, written before if there is one: worker `owner`'s
@@ -494,9 +514,9 @@ impl<'a> Order<'a> {
     /// [`Order::open`] for a task that weighs `w` in the [`Gate`].
     pub(super) fn open_weighing(&self, w: usize) -> Option<Slot> {
         // Room for QUEUE blocks, a chunk's balance, the spill file, its
-        // index, whether it is the last, and the end: a task not being
-        // written never waits for the writer.
-        let (tx, rx) = mpsc::sync_channel(QUEUE + 5);
+        // index, whether it is the last, how far it read, and the end: a
+        // task not being written never waits for the writer.
+        let (tx, rx) = mpsc::sync_channel(QUEUE + 6);
         let t = Instant::now();
         let sent = self.shared.gate.enter(w) && self.tx.send(rx).is_ok();
         self.waited.set(self.waited.get() + t.elapsed());
@@ -604,6 +624,14 @@ impl<'a> Current<'a> {
         self.ahead.set(0);
         self.bytes.set(0);
         self.tasks.set(self.tasks.get() + 1);
+    }
+
+    /// The task (a chunk of a step pass) read its input up to `to`: the
+    /// writer gives that back when it reaches the task ([`Msg::Read`]).
+    pub(super) fn read_to(&self, to: u64) {
+        if let Some(tx) = &*self.tx.borrow() {
+            let _ = tx.send(Msg::Read(to));
+        }
     }
 
     /// The task is done (its number of modules) or failed: tell the

@@ -17,6 +17,7 @@ pub(crate) mod par;
 pub(crate) mod patches;
 pub mod random;
 pub(crate) mod reader;
+pub(crate) mod reclaim;
 pub mod sink;
 pub(crate) mod split;
 pub(crate) mod step;
@@ -772,6 +773,19 @@ fn step_passes(
         let draws = d.rng.draws();
         let mut drew = 0;
         let step = matches!(pass, Pass::Step(_));
+        // A step that drew nothing and left the string as it was is a fixed
+        // point: every later step does the same. Then the run goes on with
+        // the last pass (the homomorphism, or the last step, which writes
+        // the text). Asked after this pass, which reads `src` again.
+        let last = if hom { passes } else { steps };
+        let compares = fixed_points && i < steps && last > i + 1;
+        // The last two passes read generations whose files are not written
+        // over again (a generation's file takes the one two passes later):
+        // give back what each has read ([`reclaim`]), unless the fixed
+        // point is asked.
+        let reclaim = (i + 2 > passes && !compares)
+            .then(|| reclaim::Reclaim::new(&src, settings.split.is_some()));
+        let reclaim = reclaim.as_ref();
         if step {
             d.cpfg_block(When::StartEach, pass)?;
         }
@@ -796,7 +810,7 @@ fn step_passes(
                 .then(|| {
                     // Each module one byte (as many as bytes)?
                     let one_byte = (last_len.0 == last_len.1).then_some(last_len.1);
-                    let src = (&*src, indexed, one_byte);
+                    let src = (&*src, indexed, one_byte, reclaim);
                     par::step_pass(d, table, src, split, &mut out, pass)
                 })
                 .transpose()?
@@ -805,7 +819,7 @@ fn step_passes(
                 Some(n) => drew = n,
                 None => {
                     let _direct = out.around_cache(true);
-                    d.pass(table, &src, indexed, &mut out, pass)?
+                    d.pass(table, (&src, reclaim), indexed, &mut out, pass)?
                 }
             }
             let (modules, bytes) = out.finish()?;
@@ -827,11 +841,7 @@ fn step_passes(
                 d.cpfg_block(When::End, pass)?;
             }
         }
-        // A step that drew nothing and left the string as it was is a fixed
-        // point: every later step does the same. Go on with the last pass
-        // (the homomorphism, or the last step, which writes the text).
-        let last = if hom { passes } else { steps };
-        if i < steps && last > i + 1 {
+        if compares {
             if let Some(next) = &dst {
                 if fixed_point(
                     fixed_points,
@@ -895,7 +905,13 @@ fn frame_passes(
                     d.rng.set_step(stream);
                 }
                 let mut out = out.for_pass(Pass::Homomorphism);
-                let r = d.pass(homomorphism, gen, indexed, &mut out, Pass::Homomorphism);
+                let r = d.pass(
+                    homomorphism,
+                    (gen, None),
+                    indexed,
+                    &mut out,
+                    Pass::Homomorphism,
+                );
                 if let Some(main) = main {
                     d.rng.end_homomorphism(main);
                 }
@@ -912,7 +928,7 @@ fn frame_passes(
                 // already had them).
                 let decomp = d.decomp.take();
                 let cut = std::mem::replace(&mut d.cut, false);
-                let r = d.pass(&copy, gen, indexed, &mut out, pass);
+                let r = d.pass(&copy, (gen, None), indexed, &mut out, pass);
                 d.decomp = decomp;
                 d.cut = cut;
                 r?;
@@ -945,7 +961,7 @@ fn frame_passes(
                 (indexed, d.counts),
             )?
             .for_pass(pass);
-            d.pass(&table, &cur, indexed, &mut out, pass)?;
+            d.pass(&table, (&cur, None), indexed, &mut out, pass)?;
             let (modules, bytes) = out.finish()?;
             if let Some(f) = &mut dst {
                 cut_to_written(f, tmp_name)?;
@@ -1165,6 +1181,45 @@ mod tests {
                 assert_eq!(String::from_utf8(out).unwrap(), want, "{strategy:?}");
             }
         }
+    }
+
+    /// The last two passes give back what they have read of their input
+    /// (`reclaim`; byte by byte where tests split), on one thread or
+    /// split; the string is the one derived by hand.
+    #[test]
+    fn the_last_two_passes_give_back_what_they_read() {
+        use super::reclaim::GIVEN_BACK;
+        // A signal moving right from B, one moving left from C.
+        let src = "productions:\nB < A -> B\nA > C -> C\naxiom: BAAAAAAAAAC\n";
+        for threads in [1, 2, 8] {
+            for n in 1..=4 {
+                GIVEN_BACK.with(|g| g.set(0));
+                let options = Options::new()
+                    .steps(n)
+                    .strategy(Strategy::Step)
+                    .threads(threads)
+                    .split(1);
+                let (out, _) = run(src, &options).unwrap();
+                let n = n as usize;
+                let want = "B".repeat(n + 1) + &"A".repeat(9 - 2 * n) + &"C".repeat(n + 1) + "\n";
+                assert_eq!(out, want, "-j {threads}, {n} steps");
+                // All of each of the last two passes' input (11 bytes
+                // each; one pass when n = 1).
+                let given = GIVEN_BACK.with(|g| g.get());
+                assert_eq!(given, 11 * n.min(2) as u64, "-j {threads}, {n} steps");
+            }
+        }
+        // A fixed point is still found: the generations it compares are
+        // not given back.
+        GIVEN_BACK.with(|g| g.set(0));
+        let options = Options::new().steps(6).strategy(Strategy::Step).split(1);
+        let (out, events) = run("productions:\nA -> A\naxiom: AAAAAA\n", &options).unwrap();
+        assert_eq!(out, "AAAAAA\n");
+        assert!(events.iter().any(|e| matches!(e, Event::FixedPoint { .. })));
+        assert!(
+            GIVEN_BACK.with(|g| g.get()) <= 6,
+            "only the last pass's input"
+        );
     }
 
     #[test]

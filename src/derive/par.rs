@@ -39,6 +39,7 @@
 use super::dfs::{ParamPlan, Split, Walker};
 pub(crate) use super::handoff::Reuse;
 use super::handoff::{write_in_order, Current, Msg, Order, Queue, Shared, Slot};
+use super::reclaim::Reclaim;
 use super::{Deriver, Origin, Out, Strategy};
 use crate::diag::{Error, IoAction};
 use crate::rules::codec;
@@ -177,7 +178,7 @@ pub(crate) fn test_split() -> Option<u64> {
 pub(crate) fn step_pass(
     d: &Deriver,
     table: &crate::rules::Table,
-    (src, indexed, one_byte): (&File, bool, Option<u64>),
+    (src, indexed, one_byte, reclaim): (&File, bool, Option<u64>, Option<&Reclaim>),
     (threads, split, reuse): (usize, Option<u64>, &Reuse),
     out: &mut Out,
     pass: super::Pass,
@@ -189,7 +190,8 @@ pub(crate) fn step_pass(
         reuse,
         (super::handoff::STEP_BUDGET, super::handoff::STEP_PATIENCE),
         (threads, threads * IN_FLIGHT),
-    );
+    )
+    .giving_back(reclaim);
     let text = out.text;
     // The workers write the output's bracket index where they can.
     let out_index = (out.indexed, out.counts());
@@ -228,8 +230,13 @@ pub(crate) fn step_pass(
                     wd.chunk_start = Some(chunk.at);
                     wd.balance = table.check_balance.then(Default::default);
                     let r = wd
-                        .pass(table, src, indexed, &mut out, pass)
+                        .pass(table, (src, reclaim), indexed, &mut out, pass)
                         .and_then(|()| out.flush());
+                    if reclaim.is_some() {
+                        // Read: the writer gives it back once the chunks
+                        // before it are done too.
+                        current.read_to(chunk.end);
+                    }
                     out.buf.clear();
                     // (Module indices are only left uncounted where
                     // nothing draws: `Scan::skip`.)

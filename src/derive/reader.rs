@@ -2,6 +2,7 @@
 //! main reader and the look-ahead reader of right contexts share one file.
 
 use super::context::skip_branch;
+use super::reclaim::Reclaim;
 use crate::rules::codec::{self, ENDS_BYTES, INDEX_BYTES, MAX_MODULE_BYTES};
 use crate::rules::Alphabet;
 use std::fs::File;
@@ -37,6 +38,11 @@ pub struct PosReader<'f> {
     /// modules being rewritten and the far end of a branch, and each of
     /// those with one buffer was a read.
     alt: (Vec<u8>, u64, usize),
+    /// What of the file the pass gives back ([`Reclaim`]): never read
+    /// below it. `frees`: this reader gives back what lies before its
+    /// buffer as it reads on (the one reader of a whole generation).
+    floor: Option<&'f Reclaim<'f>>,
+    frees: bool,
 }
 
 /// Bytes read after a jump: four of the largest modules, rounded up to
@@ -84,7 +90,17 @@ impl<'f> PosReader<'f> {
             eof,
             jumped: false,
             alt: (Vec::new(), 0, 0),
+            floor: None,
+            frees: false,
         }
+    }
+
+    /// Reading a generation that the pass gives back as it goes
+    /// ([`Reclaim`]); `frees`: this reader is the one that says how far.
+    pub(crate) fn giving_back(mut self, floor: Option<&'f Reclaim<'f>>, frees: bool) -> Self {
+        self.floor = floor;
+        self.frees = frees && floor.is_some();
+        self
     }
 
     /// Its buffer, for [`PosReader::reusing`].
@@ -165,6 +181,15 @@ impl<'f> PosReader<'f> {
 
     #[cold]
     pub(crate) fn refill(&mut self) -> io::Result<()> {
+        if let Some(r) = self.floor {
+            // Nothing before the read position is read again by this
+            // reader; if it is the generation's one reader, by none.
+            let at = self.start + self.pos as u64;
+            if self.frees {
+                r.upto(at);
+            }
+            check_floor(r, at)?;
+        }
         if self.start + self.end as u64 >= self.eof {
             return Ok(()); // all the rest is buffered
         }
@@ -204,7 +229,10 @@ impl<'f> PosReader<'f> {
     fn read_around(&mut self) -> io::Result<()> {
         let target = self.start;
         let size = JUMP_READ.min(self.buf.len());
-        let back = (size / 4).min(usize::try_from(target).unwrap_or(usize::MAX));
+        // (Not back into what was given back.)
+        let floor = self.floor.map_or(0, |r| r.below());
+        let back =
+            (size / 4).min(usize::try_from(target.saturating_sub(floor)).unwrap_or(usize::MAX));
         self.start = target - back as u64;
         self.pos = 0;
         self.end = 0;
@@ -317,6 +345,18 @@ impl<'f> PosReader<'f> {
     }
 }
 
+/// A reader about to read from `at` on, which must not be given back.
+#[cold]
+fn check_floor(r: &Reclaim, at: u64) -> io::Result<()> {
+    if at < r.below() {
+        return Err(io::Error::other(format!(
+            "offset {at} was read after the pass gave it back (below {})",
+            r.below()
+        )));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -371,6 +411,46 @@ mod tests {
     /// After a jump (a seek outside the buffer) the reader reads a few
     /// modules' worth, not a whole buffer; reading on from there, whole
     /// buffers again.
+    #[test]
+    fn nothing_given_back_is_read_again() {
+        use crate::derive::reclaim::Reclaim;
+        const N: usize = 1 << 16;
+        let mut f = tempfile::tempfile().unwrap();
+        f.write_all(&[b'A'; N]).unwrap();
+        let al = Alphabet::new(Filter::All);
+        let r = Reclaim::new(&f, true);
+        // The generation's one reader gives back what lies before its
+        // buffer as it reads on.
+        let mut rd = PosReader::new(&f, 4096, false).giving_back(Some(&r), true);
+        for _ in 0..30_000 {
+            rd.next_module(&al).unwrap().unwrap();
+        }
+        let below = r.below();
+        assert!(below > 20_000 && below <= 30_000, "{below}");
+        let mut back = vec![1u8; N];
+        f.read_exact_at(&mut back, 0).unwrap();
+        assert!(back[..below as usize].iter().all(|&b| b == 0));
+        assert!(back[below as usize..].iter().all(|&b| b == b'A'));
+        // Another reader is refused there, also where it jumps to.
+        let mut peek = PosReader::new(&f, 4096, false).giving_back(Some(&r), false);
+        assert!(peek.next_module(&al).is_err());
+        peek.seek(below - 1);
+        assert!(peek.next_module(&al).is_err());
+        // From there on it reads, and never the bytes before it (a jump
+        // reads some bytes before its target).
+        peek.seek(below);
+        assert_eq!(peek.next_module(&al).unwrap().unwrap().0, u32::from(b'A'));
+        peek.seek(below + 100);
+        assert_eq!(peek.next_module(&al).unwrap().unwrap().0, u32::from(b'A'));
+        assert!(peek.start >= below);
+        // The one reader reads on to the end.
+        let mut n = 30_000;
+        while rd.next_module(&al).unwrap().is_some() {
+            n += 1;
+        }
+        assert_eq!(n, N);
+    }
+
     #[test]
     fn a_jump_reads_little_and_reading_on_reads_whole_buffers() {
         let al = Alphabet::new(Filter::All);

@@ -15,6 +15,7 @@ use super::context::{
     match_right, match_right_cpfg, walk_right, Chains, CpfgBrackets, LeftContext, RightCache, Walk,
 };
 use super::reader::PosReader;
+use super::reclaim::Reclaim;
 use super::sink::Out;
 use super::{Origin, Pass};
 use crate::derive::random::Random;
@@ -551,10 +552,13 @@ impl<'a> Deriver<'a> {
     }
 
     /// One pass: rewrite the generation in `input` into `out`.
+    ///
+    /// `reclaim`: what of `input` the pass gives back as it reads
+    /// ([`Reclaim`]); this pass gives back unless it reads a chunk only.
     pub fn pass(
         &mut self,
         table: &Table,
-        input: &File,
+        (input, reclaim): (&File, Option<&Reclaim>),
         indexed: bool,
         out: &mut Out,
         pass: Pass,
@@ -564,7 +568,7 @@ impl<'a> Deriver<'a> {
         } else {
             None
         };
-        let r = self.pass_with(table, decomp.as_ref(), input, indexed, out, pass);
+        let r = self.pass_with(table, decomp.as_ref(), (input, reclaim), indexed, out, pass);
         if decomp.is_some() {
             self.decomp = decomp;
         }
@@ -575,7 +579,7 @@ impl<'a> Deriver<'a> {
         &mut self,
         table: &Table,
         decomp: Option<&(Table, usize)>,
-        input: &File,
+        (input, reclaim): (&File, Option<&Reclaim>),
         indexed: bool,
         out: &mut Out,
         pass: Pass,
@@ -602,7 +606,9 @@ impl<'a> Deriver<'a> {
             peek: (table.has_right || table.has_multi || d.is_some_and(|d| d.has_right)).then(
                 || {
                     let buf = std::mem::take(&mut self.peek_buf);
-                    PosReader::reusing(input, 1 << 16, indexed, buf).with_counts(self.counts)
+                    PosReader::reusing(input, 1 << 16, indexed, buf)
+                        .with_counts(self.counts)
+                        .giving_back(reclaim, false)
                 },
             ),
             cpfg: self.cpfg_contexts.then(|| CpfgBrackets::of(&self.alphabet)),
@@ -634,7 +640,9 @@ impl<'a> Deriver<'a> {
             (end - start).min(1 << 20) as usize
         });
         let buf = std::mem::take(&mut self.read_buf);
-        let mut rd = PosReader::reusing(input, capacity, indexed, buf).with_counts(self.counts);
+        let mut rd = PosReader::reusing(input, capacity, indexed, buf)
+            .with_counts(self.counts)
+            .giving_back(reclaim, self.range.is_none());
         let open_len = rd.open_len();
         // The index of the module being rewritten, for the random draws.
         let mut index: u64 = 0;
