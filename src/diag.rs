@@ -289,20 +289,44 @@ impl Collected {
     /// Put `text` in the spill file (made at first); false if it cannot
     /// be, and it is then kept in memory.
     fn spilled(&mut self, text: &str) -> bool {
-        if self.spill.is_none() && !self.spill_failed {
+        if self.spill_failed {
+            return false;
+        }
+        if self.spill.is_none() {
             match spill::Spill::new(self.spill_dir.as_deref()) {
                 Ok(s) => self.spill = Some(s),
-                Err(_) => self.spill_failed = true,
+                Err(e) => {
+                    self.cannot_spill(e);
+                    return false;
+                }
             }
         }
-        let Some(Ok((from, to))) = self.spill.as_mut().map(|s| s.push(text)) else {
-            return false;
+        let pushed = self.spill.as_mut().map(|s| s.push(text));
+        let (from, to) = match pushed {
+            Some(Ok(range)) => range,
+            Some(Err(e)) => {
+                // (What the file holds is still read back.)
+                self.cannot_spill(e);
+                return false;
+            }
+            None => return false,
         };
         match self.said.last_mut() {
             Some(Said::Spilled(_, end)) if *end == from => *end = to,
             _ => self.said.push(Said::Spilled(from, to)),
         }
         true
+    }
+}
+
+impl Collected {
+    /// No spill file can take `printf` text (`e`): it stays in memory from
+    /// now on, said once in the collection.
+    fn cannot_spill(&mut self, e: std::io::Error) {
+        self.spill_failed = true;
+        let held = WarningKind::PrintfHeld(e.to_string());
+        self.said
+            .push(Said::Now(crate::Event::Warning(Warning::new(held, None))));
     }
 }
 
@@ -909,6 +933,39 @@ mod tests {
                 want.len()
             );
         }
+    }
+
+    /// Where no spill file can be made, the text stays in memory, all of
+    /// it in order, and a warning says so once, where it began.
+    #[test]
+    fn printf_text_that_cannot_spill_is_held_with_one_warning() {
+        use crate::Event::{Printf, Warning as W};
+        let line = |k: usize| format!("line {k} {}\n", "y".repeat(k % 200));
+        let c = collect_warnings();
+        c.spill_in(Some("/nonexistent/lsgen-spill-test".into()));
+        let (lines, mut total, mut first) = (30_000, 0, None);
+        for k in 0..lines {
+            if first.is_none() && total + line(k).len() > spill::HELD_MAX {
+                first = Some(k);
+            }
+            total += line(k).len();
+            printf(line(k));
+        }
+        assert!(total > 2 * spill::HELD_MAX, "{total}");
+        let mut got = Vec::new();
+        c.drain(&mut |e| got.push(e));
+        let held: Vec<usize> = (got.iter().enumerate())
+            .filter(|(_, e)| matches!(e, W(w) if matches!(w.kind(), WarningKind::PrintfHeld(_))))
+            .map(|(i, _)| i)
+            .collect();
+        assert_eq!(
+            held,
+            [first.unwrap()],
+            "one warning, before the first held text"
+        );
+        got.remove(held[0]);
+        let want: Vec<crate::Event> = (0..lines).map(|k| Printf(line(k))).collect();
+        assert!(got == want, "{} events", got.len());
     }
 
     #[test]

@@ -51,6 +51,9 @@ pub enum WarningKind {
     /// A library derivation: cpfg `printf` text held in a temporary file
     /// could not be read back (why).
     PrintfLost(String),
+    /// A library derivation: cpfg `printf` text past 1 MiB in one step
+    /// could not go to a temporary file (why), and is held in memory.
+    PrintfHeld(String),
 }
 
 impl fmt::Display for WarningKind {
@@ -97,6 +100,10 @@ impl fmt::Display for WarningKind {
                     "homomorphism stopped at maximum depth {max}, but this production still applies (to module {symbol})"
                 ),
             },
+            PrintfHeld(why) => write!(
+                f,
+                "text that cpfg's `printf` prints past 1 MiB in a step is held in memory: no temporary file could take it ({why})"
+            ),
             PrintfLost(why) => write!(
                 f,
                 "text that cpfg's `printf` printed is lost: it was held in a temporary file that could not be read back ({why})"
