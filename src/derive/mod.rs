@@ -783,8 +783,10 @@ fn step_passes(
         // over again (a generation's file takes the one two passes later):
         // give back what each has read ([`reclaim`]), unless the fixed
         // point is asked.
-        let reclaim = (i + 2 > passes && !compares)
-            .then(|| reclaim::Reclaim::new(&src, settings.split.is_some()));
+        let reclaim = (i + 2 > passes && !compares).then(|| {
+            let small = settings.split.or_else(par::test_split).is_some();
+            reclaim::Reclaim::new(&src, small)
+        });
         let reclaim = reclaim.as_ref();
         if step {
             d.cpfg_block(When::StartEach, pass)?;
