@@ -825,17 +825,6 @@ cases! {
         err("Lsystem: 1\nEnd: {printf(\"%g %g\\n\", 1);}\nAxiom: A\nendlsystem\n", 2, 7, "printf: the format takes 2 values, 1 given");
     cpfg_printf_conversion =>
         err("Lsystem: 1\nEnd: {printf(\"%s\\n\", 1);}\nAxiom: A\nendlsystem\n", 2, 7, "printf: `%s` is not a conversion lsgen prints");
-    // `Q` may be assigned (a global of cpfg's), and cpfg reads the axiom
-    // after `Start:`: the axiom's `Q` is no constant then.
-    cpfg_axiom_reads_q_assigned_in_start =>
-        err("Lsystem: 1\nderivation length: 1\nStart: {Q = 1;}\nAxiom: A(Q)\nendlsystem\n", 4, 10, "must be known before the derivation");
-    // The same where they are not built in: `Z` named in a block before
-    // `derivation length:`, `Q` without that line (the L-system's own
-    // variables, which `Start:` assigns). Both read as 0 before.
-    cpfg_axiom_reads_z_assigned_in_start_early =>
-        err("Lsystem: 1\nStart: {Z = 7;}\nderivation length: 2\nAxiom: A(Z)\nendlsystem\n", 4, 10, "must be known before the derivation");
-    cpfg_axiom_reads_q_assigned_in_start_no_length =>
-        err("Lsystem: 1\nStart: {Q = 7;}\nAxiom: A(Q)\nendlsystem\n", 3, 10, "must be known before the derivation");
 }
 
 impl Case {

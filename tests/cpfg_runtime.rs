@@ -1016,3 +1016,83 @@ fn assigned_q_runs_in_string_order_with_threads() {
     assert!(r.status.success(), "{}", r.stderr);
     assert_eq!(String::from_utf8(r.stdout).unwrap(), "B(2)AB(20)AB(200)\n");
 }
+
+/// cpfg reads the axiom after `Start:` (control.c's Rewind): a parameter
+/// of the axiom may read a global, draw with `ran`/`nran` (after the
+/// block's `srand`) and read the `Q` and `Z` it assigned; a global that
+/// only later blocks assign is still 0. Expected strings from
+/// tests/tools/cpfg_ref.py; the frames start from the same axiom.
+#[test]
+fn the_axiom_reads_what_start_assigned() {
+    let dir = tempdir();
+    let draws = write(
+        dir.path(),
+        "draws.l",
+        "Lsystem: 1\nStart: {srand(5); k = ran(10);}\nderivation length: 2\n\
+         Axiom: A(ran(1)) B(k) C(k/0) D(nran(1,2))\nA(x) --> A(x+1)\nendlsystem\n",
+    );
+    let (out, err) = derive(&[], &draws);
+    assert_eq!(out, "A(2.27285)B(5.2484)C(5.2484)D(-0.226458)\n");
+    assert!(err.contains("division by zero"), "{err}");
+    let frames = run(lsgen().args(["--frames", "0..2"]).arg(&draws));
+    assert_eq!(
+        String::from_utf8(frames.stdout).unwrap(),
+        "A(0.272854)B(5.2484)C(5.2484)D(-0.226458)\n\
+         A(1.27285)B(5.2484)C(5.2484)D(-0.226458)\n\
+         A(2.27285)B(5.2484)C(5.2484)D(-0.226458)\n"
+    );
+    let qz = write(
+        dir.path(),
+        "qz.l",
+        "Lsystem: 1\nStart: {Z = 9; Q = 4;}\nEndEach: {w = 3;}\nderivation length: 3\n\
+         Axiom: A(Z, Q, w) B(Q+Z*2)\nA(x,y,z) --> A(x+Q, y+Z, z)\nendlsystem\n",
+    );
+    for (n, want) in [("0", "A(9,4,0)B(22)\n"), ("3", "A(21,31,0)B(22)\n")] {
+        assert_eq!(derive(&["-n", n], &qz).0, want, "-n {n}");
+    }
+    // Also where `Q` and `Z` are the L-system's own variables: `Z` named
+    // in a block before `derivation length:`, `Q` without that line (these
+    // three were located errors once).
+    for (src, want) in [
+        (
+            "derivation length: 1\nStart: {Q = 1;}\nAxiom: A(Q)",
+            "A(1)\n",
+        ),
+        (
+            "Start: {Z = 7;}\nderivation length: 2\nAxiom: A(Z)",
+            "A(7)\n",
+        ),
+        ("Start: {Q = 7;}\nAxiom: A(Q)", "A(7)\n"),
+    ] {
+        let file = write(
+            dir.path(),
+            "v.l",
+            format!("Lsystem: 1\n{src}\nendlsystem\n"),
+        );
+        assert_eq!(derive(&[], &file).0, want, "{src}");
+    }
+    // Its errors are located in the axiom, as those of a constant one.
+    for (src, col, what) in [
+        ("Start: {z = 0;}\nAxiom: A(1, 1%z)", 13, "remainder by zero"),
+        (
+            "Start: {b = 1.0e30;}\nAxiom: A(b * 1.0e20)",
+            10,
+            "32-bit float",
+        ),
+    ] {
+        let file = write(
+            dir.path(),
+            "e.l",
+            format!("Lsystem: 1\nderivation length: 1\n{src}\nendlsystem\n"),
+        );
+        let r = run(lsgen().arg(&file));
+        let e = r.fails(1);
+        assert!(
+            e.starts_with(&format!("lsgen: {}:4:{col}: error: ", file.display()))
+                && e.contains(what)
+                && e.contains("(in the axiom)"),
+            "{e}"
+        );
+        assert!(r.stdout.is_empty());
+    }
+}

@@ -108,21 +108,23 @@ fn a_refused_construct_is_a_parse_error() {
 
 #[test]
 fn a_lowering_error_is_a_compile_error() {
-    // `Q` and `Z` are cpfg's global variables (lsys_input.y's Dlength adds
-    // them to the global table, LHS finds them there): a block may assign
-    // them. cpfg reads the axiom after `Start:` (control.c), so an axiom
-    // that reads one `Start:` assigns is no constant.
-    let e = load_error(
-        "Lsystem: 1\nderivation length: 1\nStart: {if (1) {Z = 2;}}\nAxiom: A(1, Z)\nendlsystem\n",
-    );
+    // A setting is read as the file is parsed, before any block: one that
+    // reads a global is no constant (lsgen's error; cpfg reads 0).
+    let e =
+        load_error("Lsystem: 1\nStart: {x = 2;}\nderivation length: 1 + x\nAxiom: A\nendlsystem\n");
     assert_eq!(e.stage(), Stage::Compile);
     assert!(
         matches!(e.kind(), ErrorKind::Compile(CompileError::NotConstant)),
         "{e:?}"
     );
     let at = e.location().expect("located");
-    assert_eq!((at.line, at.col), (4, 13));
+    assert_eq!((at.line, at.col), (3, 20));
+    // `Q` and `Z` are cpfg's global variables (lsys_input.y's Dlength adds
+    // them to the global table, LHS finds them there): a block may assign
+    // them. cpfg reads the axiom after `Start:` (control.c), so an axiom
+    // may read what `Start:` assigned, as any global (tests/cpfg_runtime.rs).
     for src in [
+        "Start: {if (1) {Z = 2;}}\nAxiom: A(1, Z)",
         "Start: {Q = 1;}\nAxiom: A\nA : {Q = 7;} * --> A",
         "Axiom: A(Q, Z)\nA(x, y) : * {if (1) {Z = 2;}} --> A",
         "StartEach: {Q = 1;}\nAxiom: A(Q)",

@@ -6,8 +6,10 @@
 //! Names are resolved here, as cpfg resolves them: a formal parameter, `Q`
 //! (the step), `Z` (the derivation length) once `derivation length:` has
 //! defined them, else an undefined name, which is 0 with a warning. The
-//! axiom's parameters are evaluated here (cpfg evaluates them once, as
-//! `float`s) and the axiom becomes module text.
+//! axiom's constant parameters are evaluated here (cpfg evaluates them
+//! once, as `float`s) and the axiom becomes module text; the others (a
+//! global, `ran`, a `Q` or `Z` that `Start:` assigns) are code worked out
+//! after `Start:` ([`CpfgRun::axiom`]).
 //!
 //! For the cpfg runtime (statement blocks, cpfg's generators), the
 //! refusals to lift are: `no_block` (blocks, here), the seeded
@@ -35,7 +37,8 @@ fn err<T>(span: Span, kind: impl Into<HeaderError>) -> R<T> {
 /// A lowered `.l` file.
 pub struct Lowered {
     pub header: ls::Header,
-    /// The axiom as module text (parameters evaluated, in full precision).
+    /// The axiom as module text (parameters evaluated, in full precision;
+    /// `0` in place of those worked out after `Start:`, [`CpfgRun::axiom`]).
     pub axiom: String,
     /// What the shared tree cannot hold, for [`attach`]: the
     /// header blocks, and per production (in file order) of the
@@ -185,7 +188,7 @@ struct Lowerer<'w> {
     z_global: Option<u32>,
     /// `Start:` assigns `Q`, `Z` (built in or the L-system's own
     /// variables): the axiom, which cpfg reads after `Start:`, cannot take
-    /// them as constants.
+    /// them as constants (it reads them after `Start:`, [`CpfgRun::axiom`]).
     start_assigns: [bool; 2],
     /// A block assigns the built-in `Q` (the step number, then, is the
     /// value cpfg's Derive gives it at each step until a block changes it).
@@ -198,6 +201,9 @@ struct Lowerer<'w> {
     /// Lowering a value needed before the derivation (`Q` is 0).
     constant: bool,
     warn: &'w mut dyn FnMut(Span, WarningKind),
+    /// Warnings held instead of said (an axiom parameter tried as a
+    /// constant first: said only if it is one).
+    held: Option<Vec<(Span, WarningKind)>>,
     /// Global variables: every name of the header blocks (cpfg's L-system
     /// symbol table), by number.
     globals: HashMap<String, u32>,
@@ -215,6 +221,14 @@ struct Lowerer<'w> {
 }
 
 impl Lowerer<'_> {
+    /// Say a warning (or hold it: [`Lowerer::held`]).
+    fn say(&mut self, at: Span, kind: WarningKind) {
+        match &mut self.held {
+            Some(h) => h.push((at, kind)),
+            None => (self.warn)(at, kind),
+        }
+    }
+
     /// Is `name` cpfg's built-in `Q` or `Z` here?
     fn is_builtin(&self, name: &str) -> bool {
         match name {
@@ -254,7 +268,7 @@ impl Lowerer<'_> {
                         }
                         Some(_) => ls::Expr::Num(0.0, *s),
                         None => {
-                            (self.warn)(*s, WarningKind::NotDefined(name.clone()));
+                            self.say(*s, WarningKind::NotDefined(name.clone()));
                             ls::Expr::Num(0.0, *s)
                         }
                     }
@@ -275,7 +289,7 @@ impl Lowerer<'_> {
                 } else if let Some(&l) = self.locals.get(name) {
                     ls::Expr::Var(global_name(l), *s)
                 } else {
-                    (self.warn)(*s, WarningKind::NotDefined(name.clone()));
+                    self.say(*s, WarningKind::NotDefined(name.clone()));
                     ls::Expr::Num(0.0, *s)
                 }
             }
@@ -468,6 +482,21 @@ impl Lowerer<'_> {
             });
         }
         Ok(blocks::Block(out.into()))
+    }
+
+    /// An axiom parameter worked out after `Start:`: its code, with the
+    /// value rounded to the 32-bit float cpfg stores (an overflow is the
+    /// located error of a successor's parameter).
+    fn late(&mut self, e: &Expr, names: &HashMap<String, u32>) -> R<Code> {
+        let e = self.expr(e, &HashMap::new())?;
+        let span = e.span();
+        let e = ls::Expr::Call(crate::rules::expr::CPFG_F32.to_string(), vec![e], span);
+        let scope = Scope {
+            params: names,
+            consts: &HashMap::new(),
+            cpfg: true,
+        };
+        Code::compile(&e, &scope).map_err(|x| UserError::new(x.span, x.kind))
     }
 
     fn code(
@@ -771,6 +800,7 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
         seeded: false,
         constant: false,
         warn,
+        held: None,
         globals: HashMap::new(),
         locals: HashMap::new(),
         variables: 0,
@@ -872,7 +902,13 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
             ls::Setting::Consider(mods, span)
         });
     }
-    // The axiom: values now, stored as cpfg stores them (32-bit floats).
+    // The axiom: values now, stored as cpfg stores them (32-bit floats);
+    // a parameter that is no constant (a global, `ran`, a `Q` or `Z` that
+    // `Start:` assigns) is worked out after `Start:`, as cpfg reads the
+    // axiom after it (control.c's Rewind): `0` holds its place in the
+    // text, and its code goes to `late`.
+    let step_names: HashMap<String, u32> = [("step".to_string(), STEP_SLOT)].into_iter().collect();
+    let mut late = Vec::new();
     let mut axiom = String::new();
     for piece in &lsys.axiom {
         let m = match piece {
@@ -894,9 +930,25 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
                 axiom.push(',');
             }
             lw.axiom = true;
+            lw.held = Some(Vec::new());
             let v = lw.constant(e);
             lw.axiom = false;
-            let v = f64::from(v? as f32);
+            let held = lw.held.take().unwrap_or_default();
+            let v = match v {
+                Err(x) if x.kind == HeaderError::Compile(Invalid::NotConstant) => {
+                    // (Its warnings come again as it is lowered as code.)
+                    late.push((axiom.len(), lw.late(e, &step_names)?));
+                    axiom.push('0');
+                    continue;
+                }
+                v => {
+                    for (at, kind) in held {
+                        (lw.warn)(at, kind);
+                    }
+                    v?
+                }
+            };
+            let v = f64::from(v as f32);
             if !v.is_finite() {
                 return err(e.span(), Invalid::OutOfF32);
             }
@@ -909,8 +961,11 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
     }
     // Header blocks: globals only (after the settings, which set `Z`).
     let mut run = CpfgRun::default();
+    if !late.is_empty() {
+        run.axiom = Some((axiom.clone(), late));
+    }
     // `Q` is the shared tree's built-in step number.
-    let none: HashMap<String, u32> = [("step".to_string(), STEP_SLOT)].into_iter().collect();
+    let none = step_names;
     for (b, slot) in [
         (&lsys.start, &mut run.start),
         (&lsys.start_each, &mut run.start_each),

@@ -33,6 +33,11 @@ pub struct CpfgRun {
     /// steps, reading the global `Q` as the blocks left it), instead of
     /// being set to the last step's number there.
     pub assigns_q: bool,
+    /// An axiom whose parameters are not all constants (a global, `ran`,
+    /// a `Q` or `Z` that `Start:` assigns): its text, `0` in place of each
+    /// such parameter, and each one's offset in the text and code, worked
+    /// out after `Start:` ([`CpfgRun::axiom_text`]).
+    pub axiom: Option<(String, Vec<(usize, crate::rules::expr::Code)>)>,
 }
 
 impl CpfgRun {
@@ -59,6 +64,29 @@ impl CpfgRun {
             return Ok(());
         }
         b.run(&mut [], &mut Vec::new(), rng)
+    }
+}
+
+impl CpfgRun {
+    /// The axiom's text with the values its late parameters have now
+    /// ([`CpfgRun::axiom`], after `Start:`, globals and generators in
+    /// `rng`), in file order; None if it has none.
+    pub fn axiom_text(&self, rng: &mut Random) -> Result<Option<String>, EvalError> {
+        let Some((text, late)) = &self.axiom else {
+            return Ok(None);
+        };
+        let mut out = String::with_capacity(text.len() + 16 * late.len());
+        let mut at = 0;
+        let mut stack = Vec::new();
+        for (off, code) in late {
+            out.push_str(&text[at..*off]);
+            let v = code.eval(&[], &mut stack, rng)?;
+            out.push_str(&crate::rules::codec::number_string(v));
+            // (Past the `0` that held its place.)
+            at = off + 1;
+        }
+        out.push_str(&text[at..]);
+        Ok(Some(out))
     }
 }
 

@@ -476,8 +476,12 @@ pub(crate) fn derive(
     } else {
         Some(generation_file(tmpdir)?)
     };
-    // cpfg's `Start:` runs before the axiom is read.
+    // cpfg's `Start:` runs before the axiom is read, and the axiom's
+    // parameters that are no constants see what it did.
     d.cpfg_block(When::Start, Pass::Axiom)?;
+    if let Some(text) = d.cpfg_axiom()? {
+        reader = reader.with_text(text);
+    }
     let axiom_len = {
         let index = (indexed, d.counts);
         let mut params = Vec::new();

@@ -551,6 +551,16 @@ impl<'a> Deriver<'a> {
         })
     }
 
+    /// A `.l` file's axiom with parameters worked out after `Start:` (a
+    /// global, `ran`): its text now; None for every other axiom.
+    pub fn cpfg_axiom(&mut self) -> Result<Option<String>, Error> {
+        let Some(c) = &self.cpfg else {
+            return Ok(None);
+        };
+        c.axiom_text(&mut self.rng)
+            .map_err(|e| self.origin.eval_error(e, Pass::Axiom))
+    }
+
     /// One pass: rewrite the generation in `input` into `out`.
     ///
     /// `reclaim`: what of `input` the pass gives back as it reads

@@ -309,6 +309,13 @@ impl<'a> AxiomReader<'a> {
         &self.input.name
     }
 
+    /// The same reader on `text` instead, before it has read anything: a
+    /// cpfg axiom whose parameters are worked out after `Start:`.
+    pub(crate) fn with_text(self, text: String) -> Self {
+        let input = Input::new(Box::new(std::io::Cursor::new(text)), self.input.name);
+        AxiomReader::new(input, self.comments, self.line, self.col, self.consts)
+    }
+
     /// Where the reader is, its input's buffer included: to come back to
     /// ([`AxiomReader::back_to`]).
     pub(crate) fn state(&self) -> ReaderState {

@@ -17,7 +17,9 @@ generator) also assigns `Q` and `Z` in blocks and has more decomposition
 and homomorphism at small depths (0 included), where cpfg tries the
 productions at the depth limit. A third (its own generator again) is the
 second with contexts in decomposition productions, which cpfg reads around
-the whole predecessor of the production that made the module.
+the whole predecessor of the production that made the module. A fourth is
+the second with an axiom whose parameters read globals, `ran` and a `Q` or
+`Z` that `Start:` assigns: cpfg reads the axiom after `Start:`.
 
 Usage (from anywhere):
     python3 tests/tools/gen_cpfg_cases.py          # write the file
@@ -48,17 +50,21 @@ CASES = 300
 EXTENDED = 100
 # The third (`extended` and `decomp_contexts`), after the second.
 DECOMP_CONTEXTS = 100
+# The fourth (`extended` and `late_axiom`), after the third.
+LATE_AXIOM = 60
 MAX_OUTPUT = 2000
 
 SYMS = "ABCD"
 
 
-def generate(r, extended=False, decomp_contexts=False):
+def generate(r, extended=False, decomp_contexts=False, late_axiom=False):
     """A random system and a number of steps. `extended`: a second batch
     (its own generator, so the first batch stays as it was) whose blocks
     also assign `Q` and `Z`, with more decomposition and homomorphism at
     small depths, where cpfg tries productions at the depth limit.
-    `decomp_contexts`: decomposition productions with contexts too."""
+    `decomp_contexts`: decomposition productions with contexts too.
+    `late_axiom`: the axiom's parameters read globals and draw too, and
+    `Start:` assigns them, `Q` or `Z`."""
     globals_ = extended or r.random() < 0.3
     stochastic = r.random() < 0.3
 
@@ -68,12 +74,14 @@ def generate(r, extended=False, decomp_contexts=False):
             "%s+1", "%s*2", "%s-1", "%s/2", "%s^2", "-%s^2", "%s%%3",
             "trunc(%s/3)", "%s/0", "(%s>1?%s:1)", "!%s", "Q", "Z-%s",
         ]
-        # lsgen reads the axiom's parameters as constant expressions (README,
-        # "Coming from cpfg"): no globals, no `ran` there.
-        if globals_ and not axiom:
+        # The first three batches keep globals and `ran` out of the axiom
+        # (lsgen once read its parameters as constant expressions).
+        if globals_ and (not axiom or late_axiom):
             ops.append("g+%s")
-        if not axiom and (stochastic or r.random() < 0.1):
+        if (not axiom or late_axiom) and (stochastic or r.random() < 0.1):
             ops.append("floor(ran(3))+%s")
+        if axiom and late_axiom and r.random() < 0.6:
+            ops = ["g+%s", "floor(ran(3))+%s", "Q+%s", "Z-%s", "g*Q+%s", "%s/(g-g)"]
         e = r.choice(ops)
         return e.replace("%s", a).replace("%%", "%")
 
@@ -130,8 +138,8 @@ def generate(r, extended=False, decomp_contexts=False):
             if r.random() < 0.5:
                 cond += " {g = g + t;}"
         if extended:
-            # cpfg's Q and Z are globals a block may assign (never in
-            # Start:, which runs before the axiom, a constant in lsgen).
+            # cpfg's Q and Z are globals a block may assign (`Start:`
+            # assigns them in the fourth batch only).
             pre = r.choice(["", "", "{g = g + 1;}", "{Q = Q + 1;}", "{Z = Z - 1;}",
                             "{if (g > 2) {Q = 0;}}", "{g = g + 1; Z = Z + Q;}"])
             post = r.choice(["", "", "{g = g * 2;}", "{Q = g;}", "{Z = Z + g;}"])
@@ -150,7 +158,10 @@ def generate(r, extended=False, decomp_contexts=False):
     if r.random() < 0.3:
         lines.append(r.choice(["ignore: F +", "ignore: C", "consider: A B [ ]", "consider: A B"]))
     if globals_:
-        lines.append("Start: {g = 0;}")
+        lines.append("Start: {g = 0;}" if not late_axiom else
+                     r.choice(["Start: {g = 2;}", "Start: {g = 1; Q = 3;}",
+                               "Start: {g = Z + 1; Z = 7;}", "Start: {srand(7); g = ran(4);}",
+                               "Start: {g = 1; srand(3);}"]))
         if r.random() < 0.5:
             lines.append("StartEach: {g = g + 1;}" if not extended else
                          r.choice(["StartEach: {g = g + 1;}", "StartEach: {Q = Q * 2;}",
@@ -199,13 +210,17 @@ def main(argv):
     made = 0
     tried = 0
     r = random.Random(12)
-    while made < CASES + EXTENDED + DECOMP_CONTEXTS:
+    third = CASES + EXTENDED + DECOMP_CONTEXTS
+    while made < third + LATE_AXIOM:
         if made == CASES:
             r = random.Random(13)
         if made == CASES + EXTENDED:
             r = random.Random(14)
+        if made == third:
+            r = random.Random(15)
         tried += 1
-        text, steps = generate(r, made >= CASES, made >= CASES + EXTENDED)
+        late = made >= third
+        text, steps = generate(r, made >= CASES, CASES + EXTENDED <= made < third, late)
         out = derive(text, steps)
         # lsgen refuses a parameter a 32-bit float cannot hold (README), where
         # cpfg stores inf.
