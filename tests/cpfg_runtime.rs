@@ -625,6 +625,33 @@ fn a_homomorphism_keeps_the_fixed_point_stop() {
     );
 }
 
+/// A decomposition of maximum depth 0 only tries its productions, never
+/// applies them: a post-condition block there never runs, and does not
+/// keep a string that stopped changing stepping (it did: a billion steps).
+/// A pre-condition block runs at each try, so it does. By hand: A stays A
+/// (cpfg_ref.py agrees at -n 5).
+#[test]
+fn a_depth_0_decomposition_keeps_the_fixed_point_unless_its_tries_run_blocks() {
+    let dir = tempdir();
+    let src = |block: &str| {
+        format!(
+            "Lsystem: 1\nderivation length: 1000000000\nAxiom: A\nA --> A\n\
+             decomposition\nmaximum depth: 0\nA : {block} --> B\nendlsystem\n"
+        )
+    };
+    let file = write(dir.path(), "post.l", src("* {g = g + 1;}"));
+    let (out, err) = derive(&["-v"], &file);
+    assert_eq!(out, "A\n");
+    assert!(
+        err.contains("steps 2..1000000000: unchanged (fixed point)"),
+        "{err}"
+    );
+    let file = write(dir.path(), "pre.l", src("{g = g + 1;} *"));
+    let (out, err) = derive(&["-v", "-n", "5"], &file);
+    assert_eq!(out, "A\n");
+    assert!(!err.contains("fixed point"), "{err}");
+}
+
 /// At the decomposition's and the homomorphism's depth limit cpfg still
 /// tries the productions of the module it keeps (generate.c,
 /// interpret.c's InterpretHomomorphism), evaluating their conditions:

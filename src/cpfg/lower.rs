@@ -66,11 +66,6 @@ pub fn attach(run: &CpfgRun, extra: &[Vec<ProdExtra>; 3], system: &mut crate::ru
         let mut run = run.clone();
         run.seed = system.seed;
         run.derivation_length = system.derivation_length.unwrap_or(0);
-        run.production_blocks = extra
-            .iter()
-            .flatten()
-            .any(|x| x.pre.is_some() || x.post.is_some());
-        system.cpfg = Some(Box::new(run));
         let tables = [
             Some(&mut system.productions),
             system.decomposition.as_mut().map(|(t, _)| t),
@@ -93,6 +88,19 @@ pub fn attach(run: &CpfgRun, extra: &[Vec<ProdExtra>; 3], system: &mut crate::ru
         if matches!(&system.decomposition, Some((t, 0)) if !t.tries_have_effects()) {
             system.decomposition = None;
         }
+        // Blocks that can run: a decomposition's only if it is kept, its
+        // post-condition blocks only past depth 0 (there a production is
+        // tried, never applied).
+        let decomposition = match &system.decomposition {
+            None => |_: &ProdExtra| false,
+            Some((_, 0)) => |x: &ProdExtra| x.pre.is_some(),
+            Some(_) => |x: &ProdExtra| x.pre.is_some() || x.post.is_some(),
+        };
+        let any = |x: &ProdExtra| x.pre.is_some() || x.post.is_some();
+        run.production_blocks = extra[0].iter().any(any)
+            || extra[1].iter().any(decomposition)
+            || extra[2].iter().any(any);
+        system.cpfg = Some(Box::new(run));
     }
 }
 
