@@ -255,7 +255,9 @@ pub(crate) fn step_pass(
             // Cut at the first module boundary past every `size` bytes.
             let size = split.unwrap_or(CHUNK_IN);
             let _timed = times.map(|t| super::split::Timed(t, true));
-            let mut scan = Scan::new(src, (indexed, counts), table, al, size).one_byte(one_byte);
+            let mut scan = Scan::new(src, (indexed, counts), table, al, size)
+                .one_byte(one_byte)
+                .giving_back(reclaim);
             let send = |chunk: Chunk| {
                 let state = chunk.at.left.as_ref().map_or(0, |l| l.copy_bytes());
                 order

@@ -98,9 +98,14 @@ impl<'f> PosReader<'f> {
     /// Reading a generation that the pass gives back as it goes
     /// ([`Reclaim`]); `frees`: this reader is the one that says how far.
     pub(crate) fn giving_back(mut self, floor: Option<&'f Reclaim<'f>>, frees: bool) -> Self {
+        self.set_floor(floor, frees);
+        self
+    }
+
+    /// [`PosReader::giving_back`] in place.
+    pub(crate) fn set_floor(&mut self, floor: Option<&'f Reclaim<'f>>, frees: bool) {
         self.floor = floor;
         self.frees = frees && floor.is_some();
-        self
     }
 
     /// Its buffer, for [`PosReader::reusing`].

@@ -132,6 +132,13 @@ impl<'f> Scan<'f> {
         }
     }
 
+    /// A generation the pass gives back behind the chunks it completes
+    /// ([`super::reclaim`]): the scan, ahead of them, never reads there.
+    pub(crate) fn giving_back(mut self, floor: Option<&'f super::reclaim::Reclaim<'f>>) -> Self {
+        self.rd.set_floor(floor, false);
+        self
+    }
+
     /// The generation is `len` bytes of one-byte modules (as many modules
     /// as bytes, which the pass that wrote it counted): without a left
     /// context to follow or a bracket index, the scan cuts it every `size`
