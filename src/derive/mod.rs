@@ -785,9 +785,11 @@ fn step_passes(
         let compares = fixed_points && i < steps && last > i + 1;
         // The last two passes read generations whose files are not written
         // over again (a generation's file takes the one two passes later):
-        // give back what each has read ([`reclaim`]), unless the fixed
-        // point is asked.
-        let reclaim = (i + 2 > passes && !compares).then(|| {
+        // give back what each has read ([`reclaim`]). (No fixed-point test,
+        // which reads a pass's input again, follows them: `compares` is
+        // false there.)
+        debug_assert!(i + 2 <= passes || !compares);
+        let reclaim = (i + 2 > passes).then(|| {
             let small = settings.split.or_else(par::test_split).is_some();
             reclaim::Reclaim::new(&src, small)
         });

@@ -1,23 +1,24 @@
 //! Giving back a temporary generation's pages as a pass reads it.
 //!
 //! The last two passes of a run read generations whose files are never
-//! written over again ([`super::step_passes`]: a file is reused two passes
-//! later). Without this they stay whole in the page cache until the run
-//! ends: a 3-step context run at 10^9 held two generations of 1.6-1.9 GB
-//! dirty beside the output, and the kernel wrote 2.3-2.5 GB of them to
-//! disk in each run, data deleted a moment later. Each pass now punches the
+//! written over again ([`super::step_passes`]: a generation's file takes
+//! the one two passes later). Without this they stay whole in the page
+//! cache until the run ends: a 3-step context run at 10^9 held 4.3 GB of
+//! page cache to its end, and the kernel wrote about 1 GB of temporary
+//! generations to disk in each run, data deleted a moment later
+//! (benches/RESULTS.md). Each pass now punches the
 //! part of its input it has read and will not read again out of the file
 //! (`fallocate(FALLOC_FL_PUNCH_HOLE)`): those pages are freed unwritten and
 //! the pass's output takes them, instead of fresh ones.
 //!
 //! Who may give what back: one thread reading the whole generation (the
 //! main reader of [`super::Deriver::pass`]) gives back what lies before
-//! its buffer whenever it reads on; in a split pass ([`super::par`]) the
+//! its read position whenever it refills; in a split pass ([`super::par`]) the
 //! writer, which completes chunks in string order, gives back what lies
 //! before the end of each chunk it completes. Every reader of the
-//! generation checks that it never reads below what was given back
-//! ([`super::PosReader`]): a read there is an error, never zeros taken
-//! for modules.
+//! generation (the workers', the split's scan) checks that it never reads
+//! below what was given back ([`super::PosReader`]): a read there is an
+//! error, never zeros taken for modules.
 
 use std::fs::File;
 use std::os::fd::AsRawFd;
