@@ -65,9 +65,7 @@ impl CpfgRun {
         }
         b.run(&mut [], &mut Vec::new(), rng)
     }
-}
 
-impl CpfgRun {
     /// The axiom's text with the values its late parameters have now
     /// ([`CpfgRun::axiom`], after `Start:`, globals and generators in
     /// `rng`), in file order; None if it has none.
