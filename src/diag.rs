@@ -317,9 +317,7 @@ impl Collected {
         }
         true
     }
-}
 
-impl Collected {
     /// No spill file can take `printf` text (`e`): it stays in memory from
     /// now on, said once in the collection.
     fn cannot_spill(&mut self, e: std::io::Error) {

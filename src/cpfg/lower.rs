@@ -496,15 +496,9 @@ impl Lowerer<'_> {
     /// value rounded to the 32-bit float cpfg stores (an overflow is the
     /// located error of a successor's parameter).
     fn late(&mut self, e: &Expr, names: &HashMap<String, u32>) -> R<Code> {
-        let e = self.expr(e, &HashMap::new())?;
-        let span = e.span();
-        let e = ls::Expr::Call(crate::rules::expr::CPFG_F32.to_string(), vec![e], span);
-        let scope = Scope {
-            params: names,
-            consts: &HashMap::new(),
-            cpfg: true,
-        };
-        Code::compile(&e, &scope).map_err(|x| UserError::new(x.span, x.kind))
+        let f32 = crate::rules::expr::CPFG_F32.to_string();
+        let rounded = Expr::Call(f32, vec![e.clone()], e.span());
+        self.code(&rounded, &HashMap::new(), names)
     }
 
     fn code(
