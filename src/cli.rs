@@ -12,6 +12,8 @@ use std::fs::File;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
+pub mod thread_exit;
+
 /// The end of `--help`: examples, exit codes, where to read more.
 const HELP_FOOTER: &str = "\
 Examples:

@@ -18,6 +18,21 @@
 #[global_allocator]
 static ALLOC: lsgen::cli::ExitOnOom = lsgen::cli::ExitOnOom("lsgen");
 
+/// Thread-local destructors are registered without allocating, so that
+/// starting a thread under an address-space cap cannot abort the process
+/// (`lsgen::cli::thread_exit`). The standard library calls this symbol,
+/// which takes the place of glibc's.
+#[cfg(not(test))]
+#[no_mangle]
+unsafe extern "C" fn __cxa_thread_atexit_impl(
+    dtor: lsgen::cli::thread_exit::Dtor,
+    obj: *mut std::ffi::c_void,
+    dso: *mut std::ffi::c_void,
+) -> std::ffi::c_int {
+    // SAFETY: the caller's contract is the C library's, which `register`'s is.
+    unsafe { lsgen::cli::thread_exit::register(dtor, obj, dso) }
+}
+
 #[cfg(not(test))]
 #[no_mangle]
 extern "C" fn main(

@@ -745,3 +745,89 @@ fn threads_out_of_memory_at_once_give_one_line() {
     }
     assert!(failed >= 4, "only {failed} of 16 runs ran out of memory");
 }
+
+/// Starting a thread cannot abort lsgen. The standard library registers a
+/// thread-local destructor in every thread it starts, and glibc's
+/// registration aborts the process when its allocation fails ("failed to
+/// register TLS destructor: out of memory"): under `ulimit -v 287000`,
+/// `-j 8` runs of parametric_tree died of SIGABRT about once in thirty.
+/// An address-space cap makes that failure a matter of chance; here a
+/// preloaded `calloc` refuses exactly that allocation (one 32-byte
+/// element, the size of glibc's destructor entry, off the main thread)
+/// every time, which made every split and batch below abort before
+/// lsgen registered destructors itself (`lsgen::cli::thread_exit`). Now
+/// they give the string they give without the shim.
+#[test]
+fn thread_start_cannot_abort_when_memory_runs_out() {
+    let dir = common::tempdir();
+    let c = common::write(
+        dir.path(),
+        "refuse.c",
+        r#"#define _GNU_SOURCE
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include <sys/syscall.h>
+void *calloc(size_t n, size_t size) {
+    if (n == 1 && size == 32 && syscall(SYS_gettid) != getpid())
+        return NULL;
+    if (size != 0 && n > (size_t)-1 / size)
+        return NULL;
+    void *p = malloc(n * size);
+    if (p != NULL)
+        memset(p, 0, n * size);
+    return p;
+}
+"#,
+    );
+    let so = dir.path().join("refuse.so");
+    // (`cc` links every Rust program on Linux: it is there.)
+    let built = std::process::Command::new("cc")
+        .args(["-shared", "-fPIC", "-O1", "-o"])
+        .arg(&so)
+        .arg(&c)
+        .output()
+        .expect("run cc");
+    assert!(
+        built.status.success(),
+        "{}",
+        String::from_utf8_lossy(&built.stderr)
+    );
+    let plant = common::example("stochastic_plant");
+    let tree = format!(
+        "{}/benches/workloads/parametric_tree.ls",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let runs: [&[&str]; 3] = [
+        // A step split (eight workers and its producer).
+        &["-n", "9", "--seed", "2", "--strategy", "step", &plant],
+        // A depth-first split.
+        &["-n", "9", &tree],
+        // A batch: a job per seed, each on its own thread.
+        &["-n", "6", "--seed", "1..4", "-o", "{seed}.txt", &plant],
+    ];
+    for (i, args) in runs.into_iter().enumerate() {
+        // Standard output and the files written, with the shim or not.
+        let mut got = Vec::new();
+        for shim in [false, true] {
+            let cwd = dir.path().join(format!("{i}-{shim}"));
+            std::fs::create_dir(&cwd).unwrap();
+            let mut cmd = common::lsgen();
+            cmd.current_dir(&cwd).args(["-q", "-j", "8"]).args(args);
+            if shim {
+                cmd.env("LD_PRELOAD", &so);
+            }
+            let out = common::run(&mut cmd).ok();
+            let files: Vec<(String, Vec<u8>)> = common::listing(&cwd)
+                .into_iter()
+                .map(|name| {
+                    let bytes = std::fs::read(cwd.join(&name)).unwrap();
+                    (name, bytes)
+                })
+                .collect();
+            got.push((out, files));
+        }
+        assert!(!got[0].0.is_empty() || !got[0].1.is_empty(), "{args:?}");
+        assert!(got[0] == got[1], "{args:?}: not the same with the shim");
+    }
+}
