@@ -87,3 +87,42 @@ fn dfs_is_a_usage_error_when_the_system_does_not_allow_it() {
     let (out, err, code) = run(ALGAE, &["--strategy", "sideways"]);
     assert_eq!((out.as_str(), code), ("", 2), "{err}");
 }
+
+/// `--max-length` errors name the step as `--first-step` numbers it,
+/// whatever the strategy: depth first, D0L lengths are worked out before
+/// anything is derived, and that check said "step 3" for the run's third
+/// step where the step engine says "step 7".
+#[test]
+fn a_length_error_names_the_step_by_first_step() {
+    // From A: AB (2 modules, step 5), ABA (3, step 6), ABAAB (5, step 7).
+    let want = "lsgen: error: the string grew past --max-length (3 modules) in step 7\n";
+    for s in ["auto", "step", "dfs"] {
+        let args = [
+            "--first-step",
+            "5",
+            "-n",
+            "3",
+            "--max-length",
+            "3",
+            "--strategy",
+            s,
+        ];
+        assert_eq!(run(ALGAE, &args), (String::new(), want.into(), 1), "{s}");
+    }
+    // Bytes: the binary generations before the last one count (AB is 2
+    // bytes, ABA 3): over 2 bytes at step 6.
+    let want = "lsgen: error: the string grew past --max-length (2 bytes) in step 6\n";
+    for s in ["auto", "step", "dfs"] {
+        let args = [
+            "--first-step",
+            "5",
+            "-n",
+            "3",
+            "--max-length",
+            "2B",
+            "--strategy",
+            s,
+        ];
+        assert_eq!(run(ALGAE, &args), (String::new(), want.into(), 1), "{s}");
+    }
+}

@@ -625,7 +625,7 @@ pub(crate) fn derive(
         if settings.lengths || limits.modules != u64::MAX || limits.bytes != u64::MAX {
             let census = crate::derive::dfs::census(src, &d.alphabet)?;
             let lengths = plan.lengths(&census, steps);
-            limits.check_generations(&lengths, !hom)?;
+            limits.check_generations(&lengths, !hom, first_step)?;
             let shown = if hom {
                 lengths.len()
             } else {

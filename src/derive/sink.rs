@@ -51,18 +51,21 @@ impl Limits {
     /// the step engine would: modules for every generation; bytes for those
     /// written in binary (all but the last, which is text, unless a
     /// homomorphism follows it: the text is checked as it is written).
+    /// `lengths[0]` is step `first_step`'s (`--first-step`), and the error
+    /// names the step so, as the step engine does.
     pub fn check_generations(
         &self,
         lengths: &[(u64, u64)],
         last_is_text: bool,
+        first_step: u64,
     ) -> Result<(), Error> {
-        for (i, &(n, bytes)) in lengths.iter().enumerate() {
+        for (i, (&(n, bytes), step)) in lengths.iter().zip(first_step..).enumerate() {
             let bytes = if last_is_text && i + 1 == lengths.len() {
                 0
             } else {
                 bytes
             };
-            self.check(n, bytes, Pass::Step(i as u64 + 1))?;
+            self.check(n, bytes, Pass::Step(step))?;
         }
         Ok(())
     }
@@ -1103,14 +1106,21 @@ mod tests {
             bytes: 10,
         };
         // Generation 2 is binary: its 20 bytes count.
-        let e = bytes.check_generations(&lengths, true).unwrap_err();
+        let e = bytes.check_generations(&lengths, true, 1).unwrap_err();
         assert!(
             e.message().ends_with("(10 bytes) in step 2"),
             "{}",
             e.message()
         );
         // The last (text) generation's bytes are checked as written.
-        assert!(bytes.check_generations(&[(1, 1), (2, 20)], true).is_ok());
+        assert!(bytes.check_generations(&[(1, 1), (2, 20)], true, 1).is_ok());
+        // Steps counted from `--first-step`.
+        let e = bytes.check_generations(&lengths, true, 5).unwrap_err();
+        assert!(
+            e.message().ends_with("(10 bytes) in step 6"),
+            "{}",
+            e.message()
+        );
     }
 
     /// A worker writes plain modules in blocks no larger than its block
