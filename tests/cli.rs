@@ -1635,3 +1635,15 @@ fn output_refuses_a_file_its_user_cannot_write() {
         assert_eq!(std::fs::read_to_string(&ro).unwrap(), "F\n");
     }
 }
+
+/// Blanks and comments may stand before a keyword's `:` as between its
+/// words (README, "Keywords"); a line break may not. Algae from A, three
+/// steps: AB, ABA, ABAAB; the comment `/* : */` holds a colon itself.
+#[test]
+fn keywords_take_blanks_and_comments_before_their_colon() {
+    let src = "derivation length /* : */ : 3\nseed\t: 1\nproductions :\nA -> AB\nB -> A\n\
+               homomorphism  :\nmaximum depth : 1\nB -> B\naxiom\u{a0}/* x */ : A\n";
+    assert_eq!(run_stdin(&["-"], src.as_bytes()).ok(), "ABAAB\n");
+    let r = run_stdin(&["-"], b"productions:\nA -> AB\naxiom\n: A\n");
+    assert_eq!(r.code(), Some(1));
+}

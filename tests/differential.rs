@@ -125,39 +125,50 @@ struct Case {
     groups: Vec<(u32, Vec<String>)>,
     decomposition: Option<(String, Vec<String>)>,
     hom_settings: Vec<String>,
+    /// Keyword lines written with blanks and a comment before their `:`
+    /// (`axiom /* : */ :`), as README allows.
+    spaced: bool,
 }
 
 impl Case {
+    /// A keyword line (`key: rest`), spaced or not.
+    fn kw(&self, line: &str) -> String {
+        match line.split_once(':') {
+            Some((key, rest)) if self.spaced => format!("{key} /* : */ :{rest}"),
+            _ => line.to_string(),
+        }
+    }
+
     fn text(&self) -> String {
         let mut t = String::new();
         for s in &self.settings {
-            t.push_str(s);
+            t.push_str(&self.kw(s));
             t.push('\n');
         }
-        t.push_str("productions:\n");
+        t.push_str(&self.kw("productions:\n"));
         for p in &self.prods {
             t.push_str(p);
             t.push('\n');
         }
         for (n, prods) in &self.groups {
-            let _ = writeln!(t, "productions {n}:");
+            t.push_str(&self.kw(&format!("productions {n}:\n")));
             for p in prods {
                 t.push_str(p);
                 t.push('\n');
             }
         }
         if let Some((depth, prods)) = &self.decomposition {
-            t.push_str("decomposition:\n");
-            t.push_str(depth);
+            t.push_str(&self.kw("decomposition:\n"));
+            t.push_str(&self.kw(depth));
             for p in prods {
                 t.push_str(p);
                 t.push('\n');
             }
         }
         if !self.hom.is_empty() {
-            t.push_str("homomorphism:\n");
+            t.push_str(&self.kw("homomorphism:\n"));
             for h in &self.hom_settings {
-                t.push_str(h);
+                t.push_str(&self.kw(h));
                 t.push('\n');
             }
             for p in &self.hom {
@@ -165,7 +176,7 @@ impl Case {
                 t.push('\n');
             }
         }
-        t.push_str("axiom:\n");
+        t.push_str(&self.kw("axiom:\n"));
         t.push_str(&axiom_text(&self.axiom));
         t.push('\n');
         t
@@ -725,6 +736,8 @@ fn gen_case(cfg: Cfg, seed: u64) -> Case {
         groups,
         decomposition,
         hom_settings,
+        // (The last draw: the cases before it are as they were.)
+        spaced: b.g.chance(0.25),
     }
 }
 

@@ -271,8 +271,9 @@ enum Stop {
 }
 
 /// Read the header: everything up to `axiom:` at the start of a line (only
-/// blanks and comments before it on its line, outside a comment). The
-/// stream is left just after the keyword.
+/// blanks and comments before it on its line, outside a comment; blanks
+/// and comments may stand before its `:` too, as in the lexer's
+/// keywords). The stream is left just after the keyword.
 ///
 /// The bytes are checked as they are read: NUL, invalid UTF-8 (comments
 /// included) and a header over [`MAX_HEADER`] stop the read at once with
@@ -292,6 +293,9 @@ pub fn split_header(input: &mut Input) -> Result<Split, Error> {
     // Only blanks and comments since the last line break: `axiom:` may
     // come next. A comment that spans lines ends a line, as in the lexer.
     let mut line_start = true;
+    // `axiom` read at the start of a line, only blanks and comments since:
+    // the header's length before it (a `:` next ends the header there).
+    let mut axiom_word: Option<usize> = None;
     let (mut line, mut col) = (1usize, 1usize);
     loop {
         let avail = input.fill(LOOK)?;
@@ -318,6 +322,7 @@ pub fn split_header(input: &mut Input) -> Result<Split, Error> {
                     line += 1;
                     col = 0;
                     line_start = true;
+                    axiom_word = None;
                     shebang = false;
                 }
                 0 => {
@@ -335,14 +340,30 @@ pub fn split_header(input: &mut Input) -> Result<Split, Error> {
                 }
                 _ if in_comment => {}
                 b' ' | b'\t' | b'\r' | 0x0B | 0x0C => {}
+                b':' if axiom_word.is_some() => {
+                    stop = Some(Stop::Axiom(1));
+                    break;
+                }
                 b'a' | b'A' if line_start && avail[i..].len() >= 6 => {
                     if avail[i..i + 6].eq_ignore_ascii_case(b"axiom:") {
                         stop = Some(Stop::Axiom(6));
                         break;
                     }
+                    let word = &avail[i..i + 6];
+                    if word[..5].eq_ignore_ascii_case(b"axiom")
+                        && (word[5].is_ascii_whitespace() || word[5] == b'/' || word[5] >= 0x80)
+                    {
+                        // Perhaps `axiom :`: the next byte is looked at as
+                        // any other (a blank, a comment or a character).
+                        axiom_word = Some(header.len() + i);
+                        n = 5;
+                    }
                     line_start = false;
                 }
-                _ if b < 0x80 => line_start = false,
+                _ if b < 0x80 => {
+                    line_start = false;
+                    axiom_word = None;
+                }
                 _ => {}
             }
             if b >= 0x80 {
@@ -353,6 +374,7 @@ pub fn split_header(input: &mut Input) -> Result<Split, Error> {
                         let c = s.chars().next().unwrap_or(' ');
                         if !in_comment && !shebang && !c.is_whitespace() {
                             line_start = false;
+                            axiom_word = None;
                         }
                     }
                     _ => {
@@ -366,9 +388,10 @@ pub fn split_header(input: &mut Input) -> Result<Split, Error> {
                 stop = Some(Stop::TooLong);
                 break;
             }
-            // Columns count characters: every byte here starts one, except
-            // the second of `/*` and `*/`.
-            col += if n == 2 && b < 0x80 { 2 } else { 1 };
+            // Columns count characters: a non-ASCII character is one, and
+            // what is taken at once of ASCII (`/*`, `*/`, `axiom`) is a
+            // character a byte.
+            col += if b < 0x80 { n } else { 1 };
             i += n;
         }
         let need = header.len() + i;
@@ -383,6 +406,10 @@ pub fn split_header(input: &mut Input) -> Result<Split, Error> {
             None => continue,
             Some(Stop::Axiom(kl)) => {
                 input.consume(kl);
+                if let Some(start) = axiom_word {
+                    // `axiom` and what stood before its `:`.
+                    header.truncate(start);
+                }
                 return finish(input, header, shebang_len, true, line, col + kl);
             }
             Some(Stop::Bad(msg)) => return Err(header_error(input, line, col, msg)),
@@ -474,6 +501,36 @@ mod tests {
         assert!(s.has_axiom);
         assert_eq!((s.axiom_line, s.axiom_col), (4, 9));
         assert_eq!(rest, " F+F\nF\n");
+    }
+
+    /// Blanks and comments may stand before `axiom`'s `:`, as before any
+    /// keyword's `:` (the lexer's `match_keyword`), however many.
+    #[test]
+    fn axiom_with_blanks_and_comments_before_its_colon() {
+        let (s, rest) = split("F -> G\naxiom /* c */ : X");
+        assert!(s.has_axiom);
+        assert_eq!(s.header, "F -> G\n");
+        assert_eq!((s.axiom_line, s.axiom_col), (2, 16));
+        assert_eq!(rest, " X");
+        // Past the scanner's buffer: the blanks go with the keyword.
+        let long = format!("F -> G\n  AXIOM{}\u{a0}:X", " ".repeat(300_000));
+        let (s, rest) = split(&long);
+        assert!(s.has_axiom);
+        assert_eq!(s.header, "F -> G\n  ");
+        assert_eq!((s.axiom_line, s.axiom_col), (2, 300_010));
+        assert_eq!(rest, "X");
+        // A line break, or anything but blanks and comments, before the
+        // colon: not the axiom.
+        for src in [
+            "F -> G\naxiom\n: X",
+            "F -> G\naxiomX: X",
+            "F -> G\naxiom X: Y",
+            "F -> G\naxiom /* a\n */ : X",
+            "F -> G\naxiom \u{e9}: X",
+        ] {
+            let (s, _) = split(src);
+            assert!(!s.has_axiom, "{src:?}");
+        }
     }
 
     #[test]

@@ -279,7 +279,8 @@ fn line_words(rest: &str) -> impl Iterator<Item = Span> + '_ {
 /// Is `line` (from its first non-blank byte) a keyword line? Returns the
 /// keyword's byte length. Keywords are matched case-insensitively, so cpfg's
 /// `Derivation length:` works, and between the words of a keyword any
-/// blanks and comments are allowed (at least one).
+/// blanks and comments are allowed (at least one), and before its `:`
+/// (any, or none: `seed : 3`, as between tokens).
 pub fn match_keyword(rest: &str, keyword: &str) -> Option<usize> {
     let mut at = 0;
     for (i, word) in keyword.split(' ').enumerate() {
@@ -290,12 +291,23 @@ pub fn match_keyword(rest: &str, keyword: &str) -> Option<usize> {
             }
             at += n;
         }
+        let (word, colon) = match word.strip_suffix(':') {
+            Some(w) => (w, true),
+            None => (word, false),
+        };
         // Keywords are ASCII: a match is as long as the keyword's word.
         let text = rest.as_bytes().get(at..at + word.len())?;
         if !text.eq_ignore_ascii_case(word.as_bytes()) {
             return None;
         }
         at += word.len();
+        if colon {
+            at += gap(&rest[at..]);
+            if !rest[at..].starts_with(':') {
+                return None;
+            }
+            at += 1;
+        }
     }
     Some(at)
 }
@@ -770,6 +782,32 @@ mod tests {
                 Tok::Num(7.0),
                 Tok::Nl
             ]
+        );
+    }
+
+    /// Blanks and comments before a keyword's `:` too (README,
+    /// "Keywords"), as in `productions N :`; not a line break.
+    #[test]
+    fn blanks_and_comments_before_a_keywords_colon() {
+        assert_eq!(
+            toks("derivation length : 4\nseed/* c */:7\nPRODUCTIONS\t:\ngroups : 1 2\n"),
+            vec![
+                Tok::KwDerivationLength,
+                Tok::Num(4.0),
+                Tok::Nl,
+                Tok::KwSeed,
+                Tok::Num(7.0),
+                Tok::Nl,
+                Tok::KwProductions,
+                Tok::Nl,
+                Tok::KwGroups(vec![(1, (59, 60)), (2, (61, 62))]),
+                Tok::Nl
+            ]
+        );
+        assert_eq!(match_keyword("maximum depth\n: 2", "maximum depth:"), None);
+        assert_eq!(
+            match_keyword("maximum  depth /**/ : 2", "maximum depth:"),
+            Some(21)
         );
     }
 

@@ -269,14 +269,33 @@ fn compile_rule(p: &ast::Production, consts: &HashMap<String, f64>) -> R<Rule> {
     })
 }
 
-/// Split an `.ls` text at the line that starts with `axiom:`.
+/// Split an `.ls` text at the line that starts with `axiom:` (blanks and
+/// comments on that line may stand before the `:`).
 fn split(src: &str) -> R<(&str, &str)> {
     let mut at = 0;
     for line in src.split_inclusive('\n') {
         let t = line.trim_start();
-        if t.get(..6).is_some_and(|k| k.eq_ignore_ascii_case("axiom:")) {
-            let kw = at + (line.len() - t.len());
-            return Ok((&src[..at], &src[kw + 6..]));
+        if t.get(..5).is_some_and(|k| k.eq_ignore_ascii_case("axiom")) {
+            // Past blanks and comments that end on this line.
+            let mut rest = &t[5..];
+            loop {
+                let r = rest.trim_start_matches(|c: char| c != '\n' && c.is_whitespace());
+                match r
+                    .strip_prefix("/*")
+                    .and_then(|c| c.find("*/").map(|e| (c, e)))
+                {
+                    Some((c, e)) if !c[..e].contains('\n') => rest = &c[e + 2..],
+                    _ => {
+                        rest = r;
+                        break;
+                    }
+                }
+            }
+            if rest.starts_with(':') {
+                // (`rest` is the end of `line`.)
+                let colon = at + line.len() - rest.len();
+                return Ok((&src[..at], &src[colon + 1..]));
+            }
         }
         at += line.len();
     }

@@ -515,8 +515,10 @@ def _uses_random(e):
     return False
 
 
-_SECTION = re.compile(r"^(productions|decomposition|homomorphism)(?:\s+([^:]*?))?\s*:\s*(.*)$")
+_SECTION = re.compile(r"^(productions|decomposition|homomorphism)(?:\s+([^:\s][^:]*?))?\s*:\s*(.*)$")
 _VIEW_LINE = re.compile(r"^view\s*:")
+# Blanks (and comments, already blanked) may stand before a keyword's `:`.
+_AXIOM_LINE = re.compile(r"^axiom\s*:")
 _SETTING_IN_SECTION = re.compile(r"^(maximum\s+depth|seed)\s*:(.*)$")
 
 
@@ -570,8 +572,9 @@ def parse_ls(text):
                 current = ls.homomorphism
             section, in_head, head_seen = name, True, set()
             continue
-        if low.startswith("axiom:"):
-            rest = line[len("axiom:") :] + "\n" + "\n".join(lines[i:])
+        ax = _AXIOM_LINE.match(low)
+        if ax:
+            rest = line[ax.end() :] + "\n" + "\n".join(lines[i:])
             env = dict(ls.defines)
             ls.axiom = [
                 (s, tuple(eval_expr(parse_expr(a), env) for a in args))
