@@ -336,10 +336,12 @@ pub fn main_exit_code() -> i32 {
     ignore_sigxfsz();
     map_large_blocks();
     install_panic_hook();
-    let worker = std::thread::Builder::new()
-        .name("lsgen".into())
-        .stack_size(STACK)
-        .spawn(main_on_thread);
+    let worker = crate::spawn::spawn(
+        std::thread::Builder::new()
+            .name("lsgen".into())
+            .stack_size(STACK),
+        main_on_thread,
+    );
     let worker = match worker {
         Ok(w) => w,
         Err(e) => {
@@ -785,10 +787,13 @@ fn run_batch(
         for w in 0..workers {
             // The parser recurses on nested expressions: big stacks, as
             // the main thread's.
-            let h = std::thread::Builder::new()
-                .name(format!("lsgen-{w}"))
-                .stack_size(256 << 20)
-                .spawn_scoped(s, work);
+            let h = crate::spawn::spawn_scoped(
+                std::thread::Builder::new()
+                    .name(format!("lsgen-{w}"))
+                    .stack_size(256 << 20),
+                s,
+                work,
+            );
             match h {
                 Ok(h) => handles.push(h),
                 // No thread to be had: the others (or this one) do the work.

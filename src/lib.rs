@@ -54,6 +54,7 @@ mod progress;
 #[allow(missing_docs)] // internal (tests and fuzzing reach it hidden)
 #[doc(hidden)]
 pub mod rules;
+mod spawn;
 #[cfg(feature = "turtle")]
 #[doc(hidden)]
 #[allow(missing_docs)] // internal (tests and fuzzing reach it hidden)

@@ -110,10 +110,11 @@ impl Derivation {
         let done = Arc::new(AtomicU64::new(0));
         let stop = Arc::new(AtomicBool::new(false));
         let (m, d, s) = (meter.clone(), done.clone(), stop.clone());
-        let ticker = std::thread::Builder::new()
-            .name("lsgen-progress".into())
-            .spawn(move || tick(&m, &d, &s, steps))
-            .ok();
+        let ticker = crate::spawn::spawn(
+            std::thread::Builder::new().name("lsgen-progress".into()),
+            move || tick(&m, &d, &s, steps),
+        )
+        .ok();
         Derivation {
             meter,
             done,

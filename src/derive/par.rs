@@ -337,13 +337,12 @@ where
     if workers == 0 {
         return None;
     }
-    let producer = std::thread::Builder::new()
-        .name(names.1.into())
-        .spawn_scoped(s, move || {
-            let order = Order::new(order_tx, shared);
-            produce(&order, task_tx);
-            order.report();
-        });
+    let builder = std::thread::Builder::new().name(names.1.into());
+    let producer = crate::spawn::spawn_scoped(builder, s, move || {
+        let order = Order::new(order_tx, shared);
+        produce(&order, task_tx);
+        order.report();
+    });
     producer.is_ok().then_some(order_rx)
 }
 
@@ -359,9 +358,8 @@ where
 {
     let mut workers = 0;
     for w in 0..threads {
-        let spawned = std::thread::Builder::new()
-            .name(format!("{name}-{w}"))
-            .spawn_scoped(s, make(w));
+        let builder = std::thread::Builder::new().name(format!("{name}-{w}"));
+        let spawned = crate::spawn::spawn_scoped(builder, s, make(w));
         if spawned.is_err() {
             break;
         }

@@ -895,23 +895,22 @@ impl Behind {
         let file = file.try_clone().ok()?;
         let (to, stages) = std::sync::mpsc::channel::<Stage>();
         let (done, back) = std::sync::mpsc::channel();
-        let thread = std::thread::Builder::new()
-            .name("lsgen-write".into())
-            .spawn(move || {
-                for mut stage in stages {
-                    // A short write that left less than a unit puts the
-                    // file's end off the units: this rest and all that
-                    // follows go through the page cache.
-                    let r = write_units(&file, &mut stage).and_then(|refused| match stage.len {
-                        0 => Ok(refused),
-                        _ => through_cache(&file, &mut stage),
-                    });
-                    if done.send((stage, r)).is_err() {
-                        break;
-                    }
+        let builder = std::thread::Builder::new().name("lsgen-write".into());
+        let thread = crate::spawn::spawn(builder, move || {
+            for mut stage in stages {
+                // A short write that left less than a unit puts the
+                // file's end off the units: this rest and all that
+                // follows go through the page cache.
+                let r = write_units(&file, &mut stage).and_then(|refused| match stage.len {
+                    0 => Ok(refused),
+                    _ => through_cache(&file, &mut stage),
+                });
+                if done.send((stage, r)).is_err() {
+                    break;
                 }
-            })
-            .ok()?;
+            }
+        })
+        .ok()?;
         Some(Behind {
             to: Some(to),
             back,
