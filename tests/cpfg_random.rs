@@ -1,9 +1,11 @@
-//! The differential test of the cpfg dialect: 500 random `.l` systems
+//! The differential test of the cpfg dialect: 600 random `.l` systems
 //! (every feature of the dialect mixed, see tests/tools/gen_cpfg_cases.py;
 //! cases 301-400 also assign `Q` and `Z` in blocks and try productions at
 //! the decomposition's and the homomorphism's depth limit, and 401-500
 //! add contexts to decomposition productions, and 501-560 have axioms whose
-//! parameters read globals, `ran` and a `Q` or `Z` that `Start:` assigns),
+//! parameters read globals, `ran` and a `Q` or `Z` that `Start:` assigns,
+//! and 561-600 are seeded, with keys without parameters that have several
+//! productions, mostly without weights: each weighs 1 and competes),
 //! derived by the independent reference tests/tools/cpfg_ref.py; lsgen must
 //! print the same string for each. Every other case runs with
 //! `LSGEN_TEST_SPLIT=1`: splits in tasks of one module or byte where a
@@ -42,7 +44,7 @@ fn random_cases_match_cpfg_ref() {
         }
         cases += 1;
     }
-    assert_eq!(cases, 560);
+    assert_eq!(cases, 600);
     assert!(
         failures.is_empty(),
         "{} of {cases} cases differ from cpfg_ref.py:\n{}",

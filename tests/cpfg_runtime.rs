@@ -264,6 +264,29 @@ fn negative_weights_compete_as_in_cpfg() {
     assert_eq!(err, "");
 }
 
+/// In a seeded system a production without a weight weighs 1 (cpfg's
+/// lsys_input.y), so `A`'s two plain productions compete, also where
+/// everything else is constant: lsgen's fast paths (the byte table, the
+/// depth-first plans) took `A`'s first production every time and printed
+/// XXXXXXXX. The strings from tests/tools/cpfg_ref.py (seed 3: drand48
+/// seeded {3, 0, 155}, one draw per module); `--seed` stands for `seed:`.
+#[test]
+fn unweighted_alternatives_compete_when_seeded() {
+    let dir = tempdir();
+    let body = "derivation length: 1\nAxiom: AAAAAAAA\nA --> X\nA --> Y\nendlsystem\n";
+    let seeded = write(dir.path(), "s.l", format!("Lsystem: 1\nseed: 3\n{body}"));
+    let plain = write(dir.path(), "p.l", format!("Lsystem: 1\n{body}"));
+    for args in [&[][..], &["--strategy", "step"], &["-j", "2"]] {
+        assert_eq!(derive(args, &seeded), ("YXYXXYXX\n".into(), String::new()));
+    }
+    assert_eq!(
+        derive(&["--seed", "3"], &plain),
+        ("YXYXXYXX\n".into(), String::new())
+    );
+    // Without a seed, the first applicable production: no draw.
+    assert_eq!(derive(&[], &plain), ("XXXXXXXX\n".into(), String::new()));
+}
+
 /// NaN and infinities in cpfg expressions are C's doubles (generate.c's
 /// Eval: `stack > temp`, `!stack`, `stack ? a : b`, `&&`; CondDiff's
 /// `return !temp`), not errors: a comparison with NaN is false except

@@ -396,7 +396,10 @@ pub(crate) fn derive(
     };
     let (mut productions, mut homomorphism, mut decomposition, mut groups) =
         (productions, homomorphism, decomposition, groups);
-    if cpfg.is_some() {
+    if let Some(c) = &cpfg {
+        if c.seed.is_some() {
+            productions.cpfg_seeded();
+        }
         // cpfg's right contexts (README, "Coming from cpfg").
         productions.for_cpfg(&alphabet);
         homomorphism.for_cpfg(&alphabet);

@@ -1072,6 +1072,23 @@ impl Table {
         self.max_right_simple = 0;
     }
 
+    /// A seeded cpfg system's productions (cpfg's `seed:`, or `--seed`):
+    /// each one without a probability has probability 1 (cpfg's
+    /// `lsys_input.y`), so every key with two productions or more draws
+    /// among them. Marked stochastic, so that no fast path that takes a
+    /// key's first production (`fixed`, the byte table, the depth-first
+    /// plans) takes theirs. (Decomposition and homomorphism productions
+    /// never compete: not for their tables.)
+    pub fn cpfg_seeded(&mut self) {
+        for kr in self.by_key.iter_mut().flatten() {
+            for list in [&mut kr.context, &mut kr.free] {
+                if list.as_slice().len() > 1 {
+                    list.set_stochastic(true);
+                }
+            }
+        }
+    }
+
     /// cpfg's choice: the first applicable production in file order,
     /// context-sensitive or not. One list per key, in file order, tried
     /// by the one chooser as it tries a context group.

@@ -52,21 +52,26 @@ EXTENDED = 100
 DECOMP_CONTEXTS = 100
 # The fourth (`extended` and `late_axiom`), after the third.
 LATE_AXIOM = 60
+# The fifth (`alternatives`, without decomposition), after the fourth.
+ALTERNATIVES = 40
 MAX_OUTPUT = 2000
 
 SYMS = "ABCD"
 
 
-def generate(r, extended=False, decomp_contexts=False, late_axiom=False):
+def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alternatives=False):
     """A random system and a number of steps. `extended`: a second batch
     (its own generator, so the first batch stays as it was) whose blocks
     also assign `Q` and `Z`, with more decomposition and homomorphism at
     small depths, where cpfg tries productions at the depth limit.
     `decomp_contexts`: decomposition productions with contexts too.
     `late_axiom`: the axiom's parameters read globals and draw too, and
-    `Start:` assigns them, `Q` or `Z`."""
+    `Start:` assigns them, `Q` or `Z`. `alternatives`: seeded, with two
+    keys without parameters (E, G) that have two or three productions of
+    their own, mostly without weights (each weighs 1 when the system is
+    seeded)."""
     globals_ = extended or r.random() < 0.3
-    stochastic = r.random() < 0.3
+    stochastic = r.random() < 0.3 or alternatives
 
     def expr(var, axiom=False):
         a = var if var and r.random() < 0.7 else str(r.randint(0, 3))
@@ -172,8 +177,20 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False):
     axiom = "[".join(succ(None, False, True) for _ in range(2)) + "]" + succ(None, False, True)
     axiom = axiom.replace("*", "")
     lines.append("Axiom: " + (axiom or "A"))
+    if alternatives:
+        # Keys of their own (E, G), in the axiom and in their successors,
+        # mostly without weights: no other production shares them.
+        lines[-1] += "".join(r.choice("EG") for _ in range(r.randint(2, 6)))
+        for s in "EG":
+            for _ in range(r.randint(2, 3)):
+                cond = " : *" if r.random() < 0.2 else ""
+                weight = " : " + r.choice(["1", "2", "0.5"]) if r.random() < 0.15 else ""
+                # (Constant successors, as the fast paths that took a
+                # key's first production had them.)
+                plain = "".join(r.choice("ABEGF+") for _ in range(r.randint(0, 3)))
+                lines.append("%s%s --> %s%s" % (s, cond, plain or "*", weight))
     lines += [production(weights=stochastic) for _ in range(r.randint(1, 5))]
-    if r.random() < (0.7 if extended else 0.35):
+    if not alternatives and r.random() < (0.7 if extended else 0.35):
         lines.append("decomposition")
         if r.random() < 0.5:
             lines.append("maximum depth: %d" % r.randint(0 if extended else 1, 3))
@@ -211,16 +228,22 @@ def main(argv):
     tried = 0
     r = random.Random(12)
     third = CASES + EXTENDED + DECOMP_CONTEXTS
-    while made < third + LATE_AXIOM:
+    fourth = third + LATE_AXIOM
+    while made < fourth + ALTERNATIVES:
         if made == CASES:
             r = random.Random(13)
         if made == CASES + EXTENDED:
             r = random.Random(14)
         if made == third:
             r = random.Random(15)
+        if made == fourth:
+            r = random.Random(16)
         tried += 1
-        late = made >= third
-        text, steps = generate(r, made >= CASES, CASES + EXTENDED <= made < third, late)
+        late = third <= made < fourth
+        alt = made >= fourth
+        text, steps = generate(
+            r, CASES <= made < fourth, CASES + EXTENDED <= made < third, late, alt
+        )
         out = derive(text, steps)
         # lsgen refuses a parameter a 32-bit float cannot hold (README), where
         # cpfg stores inf.
