@@ -95,34 +95,17 @@ fn dfs_is_a_usage_error_when_the_system_does_not_allow_it() {
 #[test]
 fn a_length_error_names_the_step_by_first_step() {
     // From A: AB (2 modules, step 5), ABA (3, step 6), ABAAB (5, step 7).
-    let want = "lsgen: error: the string grew past --max-length (3 modules) in step 7\n";
-    for s in ["auto", "step", "dfs"] {
-        let args = [
-            "--first-step",
-            "5",
-            "-n",
-            "3",
-            "--max-length",
-            "3",
-            "--strategy",
-            s,
-        ];
-        assert_eq!(run(ALGAE, &args), (String::new(), want.into(), 1), "{s}");
-    }
     // Bytes: the binary generations before the last one count (AB is 2
     // bytes, ABA 3): over 2 bytes at step 6.
-    let want = "lsgen: error: the string grew past --max-length (2 bytes) in step 6\n";
-    for s in ["auto", "step", "dfs"] {
-        let args = [
-            "--first-step",
-            "5",
-            "-n",
-            "3",
-            "--max-length",
-            "2B",
-            "--strategy",
-            s,
-        ];
-        assert_eq!(run(ALGAE, &args), (String::new(), want.into(), 1), "{s}");
+    for (limit, want) in [
+        ("3", "(3 modules) in step 7"),
+        ("2B", "(2 bytes) in step 6"),
+    ] {
+        let want = format!("lsgen: error: the string grew past --max-length {want}\n");
+        for s in ["auto", "step", "dfs"] {
+            let args = ["--first-step", "5", "-n", "3", "--max-length", limit];
+            let args = [&args[..], &["--strategy", s]].concat();
+            assert_eq!(run(ALGAE, &args), (String::new(), want.clone(), 1), "{s}");
+        }
     }
 }
