@@ -453,6 +453,12 @@ cases! {
         err("productions:\nA -> B : -1\nA -> C : 1\naxiom: A\n", 2, 10, "cannot be negative");
     negative_probability_at_runtime =>
         err("productions:\nA(x) -> B : x\nA(x) -> C : 1\naxiom: A(-2)\n", 2, 13, "cannot be negative").also("-2").also("step 1");
+    // Each weight finite, their sum not: every draw took the last one
+    // (BBBB) without a word. Also with weights worked out at run time.
+    probabilities_add_up_past_the_largest_number =>
+        err("productions:\nA -> A : 1e308\nA -> B : 1e308\naxiom: AAAA\n", 2, 1, "add up to more than the largest number").also("step 1");
+    probabilities_add_up_past_the_largest_number_at_runtime =>
+        err("productions:\nA(x) -> A(x) : x\nA(x) -> B : x\naxiom: A(1e308)\n", 2, 1, "add up to more than the largest number").also("step 1");
 
     // --- arithmetic --------------------------------------------------------
     division_by_zero_in_step_3 =>
@@ -818,9 +824,14 @@ cases! {
         err("Lsystem: 1\nAxiom: A(1)\nA(x) --> A(min(x, 2))\nendlsystem\n", 3, 12, "unknown function `min`");
     // cpfg's statement blocks (issue 12, the runtime)
     cpfg_runaway_while =>
-        err("Lsystem: 1\nderivation length: 1\nStart: {i = 0; while (i < 1) {j = 1;}}\nAxiom: A\nendlsystem\n", 3, 16, "this `while` loop ran 10000000 times: lsgen stops it (cpfg would hang)");
+        err("Lsystem: 1\nderivation length: 1\nStart: {i = 0; while (i < 1) {j = 1;}}\nAxiom: A\nendlsystem\n", 3, 16, "the loops of this block ran 10000000 times in one run of it: lsgen stops this `while` (cpfg would hang)");
     cpfg_runaway_do_while =>
-        err("Lsystem: 1\nderivation length: 1\nAxiom: A\nA : {do {k = 1;} while (1);} * --> B\nendlsystem\n", 4, 6, "this `do … while` loop ran 10000000 times");
+        err("Lsystem: 1\nderivation length: 1\nAxiom: A\nA : {do {k = 1;} while (1);} * --> B\nendlsystem\n", 4, 6, "ran 10000000 times in one run of it: lsgen stops this `do … while`");
+    // Nested loops share the block's budget: 9 million times 9 million
+    // iterations ran for days, each loop under its own limit. Stopped at
+    // the inner loop, the one running when the 10^7th iteration comes.
+    cpfg_runaway_nested_loops =>
+        err("Lsystem: 1\nderivation length: 1\nStart: {i = 0; while (i < 9000000) {i = i + 1; j = 0; while (j < 9000000) {j = j + 1;}}}\nAxiom: A\nendlsystem\n", 3, 55, "ran 10000000 times in one run of it: lsgen stops this `while`");
     cpfg_printf_values =>
         err("Lsystem: 1\nEnd: {printf(\"%g %g\\n\", 1);}\nAxiom: A\nendlsystem\n", 2, 7, "printf: the format takes 2 values, 1 given");
     cpfg_printf_conversion =>

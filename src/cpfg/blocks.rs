@@ -14,7 +14,9 @@ use crate::diag::{CompileError, ExprError};
 use crate::lang::lexer::Span;
 use crate::rules::expr::{Code, EvalError};
 
-/// Most iterations of one loop in one execution of its block.
+/// Most iterations of loops, all of a block's loops together (nested
+/// ones included), in one execution of the block: a budget per loop let
+/// two nested loops of 9 million iterations each run for days.
 pub const MAX_ITERATIONS: u64 = 10_000_000;
 
 /// Where an assignment stores.
@@ -60,6 +62,17 @@ impl Block {
         stack: &mut Vec<f64>,
         rng: &mut D,
     ) -> Result<(), EvalError> {
+        self.run_within(slots, stack, rng, &mut { MAX_ITERATIONS })
+    }
+
+    /// [`Block::run`], its loops' iterations counted down from `left`.
+    fn run_within<D: Draw + ?Sized>(
+        &self,
+        slots: &mut [f64],
+        stack: &mut Vec<f64>,
+        rng: &mut D,
+        left: &mut u64,
+    ) -> Result<(), EvalError> {
         for s in self.0.iter() {
             match s {
                 Stmt::Assign(v, e) => {
@@ -72,34 +85,24 @@ impl Block {
                 }
                 Stmt::If(c, then, els) => {
                     if c.eval(slots, stack, rng)? != 0.0 {
-                        then.run(slots, stack, rng)?;
+                        then.run_within(slots, stack, rng, left)?;
                     } else {
-                        els.run(slots, stack, rng)?;
+                        els.run_within(slots, stack, rng, left)?;
                     }
                 }
                 Stmt::While(c, body, span) => {
-                    let mut n = 0;
                     while c.eval(slots, stack, rng)? != 0.0 {
-                        n += 1;
-                        if n > MAX_ITERATIONS {
-                            return Err(runaway("while", *span));
-                        }
-                        body.run(slots, stack, rng)?;
+                        spend(left, "while", span)?;
+                        body.run_within(slots, stack, rng, left)?;
                     }
                 }
-                Stmt::DoWhile(body, c, span) => {
-                    let mut n = 0;
-                    loop {
-                        n += 1;
-                        if n > MAX_ITERATIONS {
-                            return Err(runaway("do … while", *span));
-                        }
-                        body.run(slots, stack, rng)?;
-                        if c.eval(slots, stack, rng)? == 0.0 {
-                            break;
-                        }
+                Stmt::DoWhile(body, c, span) => loop {
+                    spend(left, "do … while", span)?;
+                    body.run_within(slots, stack, rng, left)?;
+                    if c.eval(slots, stack, rng)? == 0.0 {
+                        break;
                     }
-                }
+                },
                 Stmt::Printf(f, args, _) => {
                     let mut vals = Vec::with_capacity(args.len());
                     for a in args.iter() {
@@ -114,6 +117,12 @@ impl Block {
         }
         Ok(())
     }
+}
+
+/// One more iteration of the loop at `span`, if the block has any left.
+fn spend(left: &mut u64, what: &'static str, span: &Span) -> Result<(), EvalError> {
+    *left = left.checked_sub(1).ok_or_else(|| runaway(what, *span))?;
+    Ok(())
 }
 
 fn runaway(what: &'static str, span: Span) -> EvalError {

@@ -67,6 +67,11 @@ pub(crate) fn draw_weighted(
     if n == 1 {
         return Ok(0);
     }
+    // (Each weight is finite; their sum may not be. An infinite total
+    // made every draw pick the last positive weight.)
+    if !total.is_finite() {
+        return Err(RandomError::WeightsOverflow);
+    }
     let mut u = rng.uniform()? * total;
     let mut i = 0;
     while i < n - 1 {

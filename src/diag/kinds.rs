@@ -437,6 +437,9 @@ pub enum RandomError {
     /// cpfg's `biran(n, p)` with n NaN or below a C `int` (its conversion
     /// to `int` is undefined in C).
     BiranTrialsUndefined,
+    /// The weights of a stochastic choice add up to more than the largest
+    /// finite number: the draw could not tell them apart.
+    WeightsOverflow,
 }
 
 impl fmt::Display for RandomError {
@@ -452,6 +455,9 @@ impl fmt::Display for RandomError {
             RandomError::SrandNotFinite => "srand() needs a finite number",
             RandomError::BiranTrialsUndefined => {
                 "biran() needs a number of trials a C int holds (cpfg converts it to one)"
+            }
+            RandomError::WeightsOverflow => {
+                "the probabilities of the applicable productions add up to more than the largest number"
             }
         })
     }
@@ -508,7 +514,7 @@ impl fmt::Display for ExprError {
             DivisionByZero => f.write_str("division by zero"),
             Runaway(what, n) => write!(
                 f,
-                "this `{what}` loop ran {n} times: lsgen stops it (cpfg would hang)"
+                "the loops of this block ran {n} times in one run of it: lsgen stops this `{what}` (cpfg would hang)"
             ),
             OutOfF32 => {
                 f.write_str("the value is out of the range of a 32-bit float (cpfg's parameters)")

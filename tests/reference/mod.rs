@@ -965,6 +965,9 @@ impl System {
         for c in &candidates {
             total += c.2;
         }
+        if !total.is_finite() {
+            return Err("the weights add up to more than the largest number".into());
+        }
         let mut st = self.stats.get();
         st.draws += 1;
         self.stats.set(st);
