@@ -19,7 +19,10 @@ productions at the depth limit. A third (its own generator again) is the
 second with contexts in decomposition productions, which cpfg reads around
 the whole predecessor of the production that made the module. A fourth is
 the second with an axiom whose parameters read globals, `ran` and a `Q` or
-`Z` that `Start:` assigns: cpfg reads the axiom after `Start:`.
+`Z` that `Start:` assigns: cpfg reads the axiom after `Start:`. A fifth
+is seeded, without decomposition, with two keys of their own (E, G) that
+have two or three productions each with constant successors, mostly
+without weights: in a seeded system each weighs 1 and they compete.
 
 Usage (from anywhere):
     python3 tests/tools/gen_cpfg_cases.py          # write the file
