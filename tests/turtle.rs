@@ -125,11 +125,26 @@ fn initial_frame_and_rotations_by_hand() {
         "polygon 0 0 0 0 0 1 0 -1 1 0 -1 0 0\n",
         "polygon",
     );
-    // $ levels L: after a pitch and a roll, L is horizontal again, on the
-    // side that puts U upwards (the pitch towards U = -Z turned U down, so
-    // L flips to +X).
-    same_segments(&seg("&(45)/(30)$+F"), "0 0 0 1 0 0 1 0\n", "$");
-    same_segments(&seg("^(45)/(30)$+F"), "0 0 0 -1 0 0 1 0\n", "$");
+    // $ levels L as cpfg's @v does (blackbox.c) and ABOP p. 57 says:
+    // L = Y x H / |Y x H|, U = L x H. After a pitch and a roll, L is
+    // horizontal again: for H leaning towards -Z (after &) L = -X, for H
+    // leaning towards +Z (after ^) L = +X.
+    same_segments(&seg("&(45)/(30)$+F"), "0 0 0 -1 0 0 1 0\n", "$");
+    same_segments(&seg("^(45)/(30)$+F"), "0 0 0 1 0 0 1 0\n", "$");
+    // U then points down, so & after $ pitches down (ABOP's "pitch down"):
+    // heading right along +X, $ and & go to -Y; ^ to +Y.
+    same_segments(&seg("-$&F"), "0 0 0 0 -1 0 1 0\n", "$&");
+    same_segments(&seg("-$^F"), "0 0 0 0 1 0 1 0\n", "$^");
+    // $ is a roll: a frame it has levelled is left as it is, and @v is $.
+    for s in ["-(30)&(20)/(70)", "^(10)+(100)\\(45)", "&(89)/(5)"] {
+        let once = seg(&format!("{s}$+F&F"));
+        same_segments(&seg(&format!("{s}$$+F&F")), &once, "$$");
+        same_segments(&seg(&format!("{s}@v+F&F")), &once, "@v");
+        same_segments(&seg(&format!("{s}$/(0)$+F&F")), &once, "$ $");
+    }
+    // Straight up or down there is no horizontal L: $ leaves the frame.
+    same_segments(&seg("$+F"), &seg("+F"), "$ vertical");
+    same_segments(&seg("|$+F"), &seg("|+F"), "$ vertical");
     // @o and @O draw dots; other modules are ignored.
     same_segments(
         &seg("F@o(2)XYZ@O"),

@@ -199,10 +199,12 @@ impl Turtle {
         Ok(())
     }
 
-    /// Roll about H so that L is horizontal and U is as close to up as can
-    /// be (`$` of ABOP, `@v` of cpfg).
+    /// Roll about H so that L is horizontal (`$` of ABOP, `@v` of cpfg):
+    /// L = Y × H / |Y × H| (ABOP p. 57's L = V × H, cpfg's `blackbox.c`),
+    /// U = L × H. A roll keeps the frame's handedness (H × L = −U, cpfg's),
+    /// so U then points as far *down* as it can and `&` pitches down.
     fn level(&mut self) {
-        let l = cross(self.s.h, [0.0, 1.0, 0.0]);
+        let l = cross([0.0, 1.0, 0.0], self.s.h);
         let n = norm(l);
         if n < 1e-12 {
             return;

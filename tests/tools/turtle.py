@@ -177,7 +177,9 @@ def interpret(text, v, out):
 
 
 def level(H, L, U):
-    a = cross(H, (0.0, 1.0, 0.0))
+    # ABOP p. 57: L = V x H (V = +Y, against gravity); cpfg's @v (blackbox.c)
+    # computes the same L and then U = L x H, its frame's handedness.
+    a = cross((0.0, 1.0, 0.0), H)
     n = math.sqrt(dotp(a, a))
     if n < 1e-12:
         return H, L, U
