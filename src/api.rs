@@ -1,5 +1,6 @@
 //! The library facade: [`LSystem`], [`Options`], [`Stats`].
 
+use crate::cpfg::func::Functions;
 use crate::cpfg::Dialect;
 use crate::derive::random::Random;
 use crate::derive::{derive, Event, FrameSink, Frames, Limits, Settings, Strategy};
@@ -11,6 +12,7 @@ use crate::lang::parse::{locate, UserError};
 use crate::rules::{compile_text, LoadError, Seeds, System};
 use std::io::{self, Read, Write};
 use std::path::PathBuf;
+use std::sync::Arc;
 
 /// Derivation length when neither the file nor [`Options::steps`] gives one.
 pub const DEFAULT_DERIVATION_LENGTH: u64 = 1;
@@ -268,7 +270,7 @@ impl LSystem {
     /// ```
     pub fn parse(text: &str) -> Result<LSystem, Error> {
         let input = Input::new(Box::new(io::Cursor::new(text.to_string())), "<input>");
-        let mut ls = Self::load_collecting(input)?;
+        let mut ls = Self::load_collecting(input, &Arc::default())?;
         ls.text = Some(text.to_string());
         Ok(ls)
     }
@@ -286,15 +288,31 @@ impl LSystem {
     ///
     /// [`derive`]: LSystem::derive
     pub fn from_reader(reader: impl Read + 'static, name: &str) -> Result<LSystem, Error> {
-        Self::load_collecting(Input::new(Box::new(reader), name))
+        Self::load_collecting(Input::new(Box::new(reader), name), &Arc::default())
+    }
+
+    /// [`from_reader`](LSystem::from_reader) with cpfg's functions for
+    /// `func(id, x)` in a `.l` text, read from `files` as lsgen's
+    /// `--functions` reads them: each a cpfg view file (its `function:`
+    /// and `function set:` lines), a function set or a `.func` file,
+    /// numbered in order (README, "Functions").
+    pub fn from_reader_with_functions(
+        reader: impl Read + 'static,
+        name: &str,
+        files: &[PathBuf],
+    ) -> Result<LSystem, Error> {
+        let functions = Arc::new(crate::cpfg::func::Functions::load(files)?);
+        Self::load_collecting(Input::new(Box::new(reader), name), &functions)
     }
 
     /// Load `input` for [`parse`](Self::parse) and
     /// [`from_reader`](Self::from_reader): its warnings kept for each
     /// derivation, or, if it fails, in the error ([`Error::warnings`]).
-    fn load_collecting(input: Input) -> Result<LSystem, Error> {
+    fn load_collecting(input: Input, functions: &Arc<Functions>) -> Result<LSystem, Error> {
         let collecting = crate::diag::collect_warnings();
-        let loaded = Self::load_named(input, None).and_then(|ls| ls.require_axiom().map(|()| ls));
+        let loaded =
+            Self::load_dialect(input, None, Dialect::Auto, OptionNames::Library, functions)
+                .and_then(|ls| ls.require_axiom().map(|()| ls));
         let warnings = collecting.take_warnings();
         match loaded {
             Ok(mut ls) => {
@@ -308,17 +326,24 @@ impl LSystem {
     /// Read and compile the header from `input` (leaving it at the axiom);
     /// random constants drawn with `seed` (else the file's or a fresh one).
     pub(crate) fn load_named(input: Input, seed: Option<u64>) -> Result<LSystem, Error> {
-        Self::load_dialect(input, seed, Dialect::Auto, OptionNames::Library)
+        Self::load_dialect(
+            input,
+            seed,
+            Dialect::Auto,
+            OptionNames::Library,
+            &Arc::default(),
+        )
     }
 
     /// [`load_named`](Self::load_named) in `dialect` (`Auto`: the file's,
     /// see [`crate::cpfg::sniff`]), its warnings naming the options by
-    /// `names`.
+    /// `names`; a `.l` file's `func` reads `functions`.
     pub(crate) fn load_dialect(
         mut input: Input,
         seed: Option<u64>,
         dialect: Dialect,
         names: OptionNames,
+        functions: &Arc<Functions>,
     ) -> Result<LSystem, Error> {
         let cpfg = match dialect {
             Dialect::Cpfg => true,
@@ -338,7 +363,7 @@ impl LSystem {
             }
         };
         if cpfg {
-            return Self::load_cpfg(input, seed, names);
+            return Self::load_cpfg(input, seed, names, functions);
         }
         let fresh = Random::fresh_seed();
         let split = split_header(&mut input)?;
@@ -364,6 +389,7 @@ impl LSystem {
         mut input: Input,
         seed: Option<u64>,
         names: OptionNames,
+        functions: &Arc<Functions>,
     ) -> Result<LSystem, Error> {
         let path = input.name.clone();
         let mut bytes = Vec::new();
@@ -399,7 +425,7 @@ impl LSystem {
                 ));
             }
         };
-        let loaded = crate::cpfg::load(&path, source, seed.is_some(), names)?;
+        let loaded = crate::cpfg::load(&path, source, seed.is_some(), names, functions)?;
         let system = compile_cpfg(&loaded, seed)?;
         Ok(LSystem {
             path,

@@ -11,6 +11,7 @@ use clap::{CommandFactory, Parser};
 use std::fs::File;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 pub mod thread_exit;
 
@@ -141,6 +142,13 @@ pub struct Args {
     /// statement is `Lsystem:` or a `#` directive, else ls.
     #[arg(long, value_name = "cpfg|ls", value_parser = parse_dialect)]
     pub dialect: Option<crate::cpfg::Dialect>,
+
+    /// cpfg's functions for `func(id, x)` in `.l` files: the model's view
+    /// file (its `function:` and `function set:` lines), a function set
+    /// (`.fset`) or a function file (`.func`); repeatable, the functions
+    /// numbered 1, 2, ... in order.
+    #[arg(long, value_name = "FILE")]
+    pub functions: Vec<PathBuf>,
 
     /// For tests (hidden): force the derivation strategy. `auto` (default)
     /// picks depth first when the system allows it, `step` always derives
@@ -612,12 +620,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
             n: args.frames.map(|f| f.from),
         })?;
     }
+    let functions = Arc::new(crate::cpfg::func::Functions::load(&args.functions)?);
     if total == 1 {
         let job = Job {
             file: files[0],
             seed: args.seed.map(|s| s.first),
         };
-        return run_one(args, job, template.as_ref(), None);
+        return run_one(args, job, template.as_ref(), &functions, None);
     }
     check_batch(args, &files, seeds, template.as_ref())?;
     let jobs = |i: u64| Job {
@@ -634,7 +643,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let (failed, failures) = run_batch(total, workers as usize, |i| {
         let job = jobs(i);
         let mut seed = None;
-        let r = run_one(args, job, template.as_ref(), Some(&mut seed)).map_err(|e| {
+        let r = run_one(args, job, template.as_ref(), &functions, Some(&mut seed)).map_err(|e| {
             // The seed the job used, once known (the file's `seed:`, or a
             // fresh one, without --seed).
             e.in_job(job.label(seed))
@@ -828,6 +837,7 @@ fn run_one(
     args: &Args,
     job: Job,
     template: Option<&Template>,
+    functions: &Arc<crate::cpfg::func::Functions>,
     batch: Option<&mut Option<u64>>,
 ) -> Result<(), Error> {
     let file_is_stdin = job.file.is_none_or(|p| p.as_os_str() == "-");
@@ -837,7 +847,13 @@ fn run_one(
     }
     let input = open_input(job.file)?;
     let dialect = args.dialect.unwrap_or_default();
-    let mut ls = LSystem::load_dialect(input, job.seed, dialect, OptionNames::CommandLine)?;
+    let mut ls = LSystem::load_dialect(
+        input,
+        job.seed,
+        dialect,
+        OptionNames::CommandLine,
+        functions,
+    )?;
     if args.axiom.is_none() {
         ls.require_axiom()?;
     }

@@ -678,6 +678,9 @@ impl std::error::Error for Error {
             ErrorKind::Preprocess(e) => e
                 .os_error()
                 .map(|e| e as &(dyn std::error::Error + 'static)),
+            ErrorKind::FunctionFile(e) => e
+                .os_error()
+                .map(|e| e as &(dyn std::error::Error + 'static)),
             _ => None,
         }
     }

@@ -793,7 +793,7 @@ cases! {
     cpfg_refused_exponent =>
         err(include_str!("cpfg/refused/exponent.l"), 4, 10, "a dot in an exponent literal");
     cpfg_refused_func =>
-        err(include_str!("cpfg/refused/func.l"), 5, 12, "`func` is not supported");
+        err(include_str!("cpfg/refused/func.l"), 5, 12, "`func` needs the model's function files");
     cpfg_refused_no_endlsystem =>
         err(include_str!("cpfg/refused/no_endlsystem.l"), 5, 8, "missing `endlsystem`");
     cpfg_refused_object_production =>

@@ -19,6 +19,7 @@ fn load_error(src: &str) -> Error {
         src,
         false,
         OptionNames::Library,
+        &Default::default(),
     ) {
         Ok(_) => panic!("expected an error for {src:?}"),
         Err(e) => e,
@@ -130,7 +131,13 @@ fn a_lowering_error_is_a_compile_error() {
         "StartEach: {Q = 1;}\nAxiom: A(Q)",
     ] {
         let src = format!("Lsystem: 1\nderivation length: 2\n{src}\nendlsystem\n");
-        let r = super::load("t.l", &src, false, OptionNames::Library);
+        let r = super::load(
+            "t.l",
+            &src,
+            false,
+            OptionNames::Library,
+            &Default::default(),
+        );
         assert!(r.is_ok(), "{src}: {:?}", r.err());
     }
     assert!(super::load(
@@ -138,6 +145,7 @@ fn a_lowering_error_is_a_compile_error() {
         "Lsystem: 1\nAxiom: A(1)\nA(Q) : {Q = 7;} * --> B(Q)\nendlsystem\n",
         false,
         OptionNames::Library,
+        &Default::default(),
     )
     .is_ok());
     // cpfg's `(int)` of a value no `int` holds is undefined behaviour.

@@ -1103,8 +1103,14 @@ mod tests {
                 "Lsystem: 1\nderivation length: 1\nStart: {{n = 0;}}\nAxiom: A\n\
                  decomposition\nmaximum depth: 0\n{prod}\nendlsystem\n"
             );
-            let l =
-                crate::cpfg::load("t.l", &src, false, crate::diag::OptionNames::Library).unwrap();
+            let l = crate::cpfg::load(
+                "t.l",
+                &src,
+                false,
+                crate::diag::OptionNames::Library,
+                &Default::default(),
+            )
+            .unwrap();
             let seeds = crate::rules::Seeds::default();
             let mut s = crate::rules::compile_dialect(l.header.clone(), Some(&l.text), seeds, true)
                 .unwrap();

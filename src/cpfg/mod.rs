@@ -30,6 +30,7 @@
 
 pub mod ast;
 pub mod blocks;
+pub mod func;
 pub mod lexer;
 pub mod lower;
 pub mod parse;
@@ -117,6 +118,13 @@ pub struct Loaded {
     pub extra: [Vec<lower::ProdExtra>; 3],
 }
 
+/// A view file beside the `.l` file `name` (same stem, `.v`), for the
+/// hint of a `func` without function files.
+fn view_beside(name: &str) -> Option<String> {
+    let v = Path::new(name).with_extension("v");
+    (name.ends_with(".l") && v.is_file()).then(|| v.display().to_string())
+}
+
 /// A located error of the preprocessed text.
 pub fn locate(map: &SourceMap, e: UserError) -> Error {
     Error::at(map.location(e.span.0), ErrorKind::from(e.kind))
@@ -127,20 +135,28 @@ pub fn locate(map: &SourceMap, e: UserError) -> Error {
 /// (`crate::diag::warn`).
 /// `seed_option`: it is derived with `--seed`, which makes its weights
 /// count (no warning that they are ignored); `names`: how the warnings
-/// name the options.
+/// name the options; `functions`: what `func` reads (a function set's
+/// names are macros).
 pub fn load(
     name: &str,
     source: &str,
     seed_option: bool,
     names: crate::diag::OptionNames,
+    functions: &Arc<func::Functions>,
 ) -> Result<Loaded, Error> {
-    let out = preprocess::preprocess(Path::new(name), source, &preprocess::read_file)?;
+    let out = preprocess::preprocess_defined(
+        Path::new(name),
+        source,
+        &preprocess::read_file,
+        functions.macros(),
+    )?;
     for w in &out.warnings {
         crate::diag::warn(w.at.clone(), &w.message);
     }
     let map = out.map;
     let text = out.text;
-    let tree = parse::parse(&text).map_err(|e| locate(&map, e))?;
+    let no_functions = functions.is_empty().then(|| view_beside(name));
+    let tree = parse::parse_with(&text, no_functions).map_err(|e| locate(&map, e))?;
     axiom_brackets(&tree.axiom_brackets, &map)?;
     let lowered = lower::lower(&tree, &mut |span, warning| {
         if seed_option
@@ -154,12 +170,16 @@ pub fn load(
         crate::diag::warn(map.location(span.0), &warning.with_option_names(names))
     })
     .map_err(|e| locate(&map, e))?;
+    let mut run = lowered.run;
+    if !functions.is_empty() {
+        run.functions = Some(functions.clone());
+    }
     Ok(Loaded {
         text,
         map: Arc::new(map),
         header: lowered.header,
         axiom: lowered.axiom,
-        run: lowered.run,
+        run,
         extra: lowered.extra,
     })
 }

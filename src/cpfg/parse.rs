@@ -16,7 +16,6 @@ lalrpop_mod!(
 
 /// cpfg functions that need cpfg's files, curves, view or animation.
 const UNSUPPORTED_FUNCTIONS: &[&str] = &[
-    "func",
     "play",
     "curveX",
     "curveY",
@@ -42,8 +41,18 @@ const UNSUPPORTED_FUNCTIONS: &[&str] = &[
     "array",
 ];
 
-/// Parse the preprocessed text of a `.l` file.
+/// Parse the preprocessed text of a `.l` file, whose run has no function
+/// files: `func` is refused.
 pub fn parse(text: &str) -> Result<ast::Lsystem, UserError> {
+    parse_with(text, Some(None))
+}
+
+/// [`parse`]; `no_functions`: the run has no function files, and `func`
+/// is refused with this hint (a view file to give), else None.
+pub fn parse_with(
+    text: &str,
+    no_functions: Option<Option<String>>,
+) -> Result<ast::Lsystem, UserError> {
     // Tokens are checked for refused constructs as they stream into the
     // parser (one token of look-ahead; no token list is kept: memory is
     // the tree's, not the text's times a token's size).
@@ -52,6 +61,7 @@ pub fn parse(text: &str) -> Result<ast::Lsystem, UserError> {
         next: None,
         lsystems: 0,
         failed: false,
+        no_functions,
     };
     grammar::FileParser::new()
         .parse(checked)
@@ -85,6 +95,8 @@ struct Checked<'a> {
     next: Option<Spanned<'a>>,
     lsystems: usize,
     failed: bool,
+    /// `func` is refused with this hint (no function files).
+    no_functions: Option<Option<String>>,
 }
 
 impl<'a> Iterator for Checked<'a> {
@@ -110,6 +122,14 @@ impl<'a> Iterator for Checked<'a> {
             Some(Ok(n)) => Some(n),
             _ => None,
         };
+        let func = matches!(t, Tok::Name("func"));
+        if let (true, Some(hint)) = (func, &self.no_functions) {
+            self.failed = true;
+            return Some(Err(UserError::new(
+                (l, r),
+                Syntax::Refused(Refused::FuncWithoutFunctions(hint.clone())),
+            )));
+        }
         if let Some(e) = refusal((l, &t, r), next, &mut self.lsystems) {
             self.failed = true;
             return Some(Err(e));

@@ -38,6 +38,8 @@ pub struct CpfgRun {
     /// such parameter, and each one's offset in the text and code, worked
     /// out after `Start:` ([`CpfgRun::axiom_text`]).
     pub axiom: Option<(String, Vec<(usize, crate::rules::expr::Code)>)>,
+    /// What `func(id, x)` reads (`--functions`).
+    pub functions: Option<std::sync::Arc<super::func::Functions>>,
 }
 
 impl CpfgRun {

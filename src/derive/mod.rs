@@ -391,7 +391,7 @@ pub(crate) fn derive(
     }
     // The cpfg dialect: cpfg's generators (README, "Coming from cpfg").
     let rng = match &cpfg {
-        Some(c) => Random::cpfg(c.seed),
+        Some(c) => Random::cpfg(c.seed, c.functions.clone()),
         None => Random::new(seed),
     };
     let (mut productions, mut homomorphism, mut decomposition, mut groups) =

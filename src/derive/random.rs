@@ -25,9 +25,12 @@
 //! refilled (`set_word_pos`, four ChaCha blocks) once per `WINDOW`
 //! positions.
 
+use crate::cpfg::func::Functions;
 use crate::cpfg::random::CpfgRandom;
+use crate::diag::FuncFault;
 use rand_chacha::rand_core::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use std::sync::Arc;
 
 /// Most draws one module may make in one pass.
 pub const DRAWS_PER_MODULE: u64 = 64;
@@ -98,6 +101,10 @@ pub trait Draw {
         0.0
     }
     fn set_global(&mut self, _i: u32, _v: f64) {}
+    /// cpfg's `func(id, x)`: only a cpfg run with function files has it.
+    fn func(&self, _id: f64, _x: f64) -> Result<f64, FuncFault> {
+        Err(FuncFault::NoFunctions)
+    }
 }
 
 /// The uniform value of a draw.
@@ -150,6 +157,8 @@ pub struct Random {
     /// cpfg's global variables (issue 12): the run's state that every
     /// expression reads, kept here with the step number.
     globals: Vec<f64>,
+    /// cpfg's functions (`func(id, x)`), read-only and shared.
+    functions: Option<Arc<Functions>>,
 }
 
 impl Random {
@@ -166,14 +175,16 @@ impl Random {
             step: 0.0,
             cpfg: None,
             globals: Vec::new(),
+            functions: None,
         }
     }
 
     /// cpfg's generators, for a file with `seed:` `seed` (None: no
     /// `seed:`, weights are ignored).
-    pub fn cpfg(seed: Option<u64>) -> Random {
+    pub fn cpfg(seed: Option<u64>, functions: Option<Arc<Functions>>) -> Random {
         let mut r = Random::new(0);
         r.cpfg = Some(Box::new(CpfgRandom::new(seed)));
+        r.functions = functions;
         r
     }
 
@@ -377,6 +388,13 @@ impl Draw for Random {
     #[inline]
     fn global(&self, i: u32) -> f64 {
         self.globals.get(i as usize).copied().unwrap_or(0.0)
+    }
+
+    fn func(&self, id: f64, x: f64) -> Result<f64, FuncFault> {
+        match &self.functions {
+            Some(f) => f.value(id, x),
+            None => Err(FuncFault::NoFunctions),
+        }
     }
 
     fn set_global(&mut self, i: u32, v: f64) {

@@ -46,6 +46,9 @@ pub enum Refused {
     Address,
     /// `fprintf` on something else than `stderr`.
     FprintfNotStderr,
+    /// `func` in a run without function files (`--functions`); the hint
+    /// names a view file beside the `.l` file, if there is one.
+    FuncWithoutFunctions(Option<String>),
 }
 
 impl fmt::Display for Refused {
@@ -97,6 +100,15 @@ impl fmt::Display for Refused {
             Array(n) => write!(f, "`{n}[...]`: arrays are not supported by lsgen"),
             Address => f.write_str("`&` (an address) is not supported: write `&&`"),
             FprintfNotStderr => f.write_str("lsgen supports `fprintf` only on `stderr`"),
+            FuncWithoutFunctions(hint) => {
+                f.write_str("`func` needs the model's function files: ")?;
+                match hint {
+                    Some(v) => write!(f, "give its view file with `--functions {v}`"),
+                    None => f.write_str(
+                        "give its view file (`function:` lines) or its `.func` files with `--functions FILE`",
+                    ),
+                }
+            }
         }
     }
 }
@@ -416,6 +428,91 @@ impl fmt::Display for PpConstruct {
             PpConstruct::SystemInclude => {
                 f.write_str("`#include <...>` (there is no system include path; use \"...\")")
             }
+        }
+    }
+}
+
+/// A file of cpfg functions (`--functions`: a view file's `function:` and
+/// `function set:` lines, a function set, a `.func` file) that lsgen
+/// cannot read: stage parse, at the place in that file.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum FunctionFileError {
+    /// A file a view file names that cannot be read (stage I/O).
+    Unreadable {
+        /// The file, relative to the view file's directory.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The first line is none of `fver 1 1`, `range: L U` (a function)
+    /// or `funcgalleryver 1 1` (a set).
+    UnknownFormat,
+    /// A version cpfg does not read either (`fver 2 0`).
+    Version {
+        what: &'static str,
+        major: i64,
+        minor: i64,
+    },
+    /// A line that should be this (`name: NAME`, ...).
+    Expected(&'static str),
+    /// A function needs 4 control points (cpfg's cubic B-spline).
+    TooFewPoints(u64),
+    /// More points, samples, functions or multiplicity than lsgen holds.
+    TooMany { what: &'static str, limit: u64 },
+    /// The curve never comes within 0.001 of this x: cpfg's search for
+    /// it never ends.
+    NeverReaches(f64),
+    /// A view file's `function:` / `function set:` line without a file.
+    MissingFile(&'static str),
+}
+
+impl FunctionFileError {
+    /// I/O for a file that cannot be read, else parse.
+    pub fn stage(&self) -> Stage {
+        match self {
+            FunctionFileError::Unreadable { .. } => Stage::Io,
+            _ => Stage::Parse,
+        }
+    }
+
+    /// The operating system's error of a file that cannot be read.
+    pub fn os_error(&self) -> Option<&std::io::Error> {
+        match self {
+            FunctionFileError::Unreadable { source, .. } => Some(source),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for FunctionFileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use FunctionFileError::*;
+        match self {
+            Unreadable { path, source } => write!(
+                f,
+                "cannot read `{}`: {}",
+                path.display(),
+                super::io_message(source)
+            ),
+            UnknownFormat => f.write_str(
+                "not a cpfg function file: its first line should be `fver 1 1` or `range: 0 1` (a function) or `funcgalleryver 1 1` (a function set)",
+            ),
+            Version { what, major, minor } => write!(
+                f,
+                "{what} version {major}.{minor} is not supported (cpfg reads 1.1)"
+            ),
+            Expected(what) => write!(f, "expected {what}"),
+            TooFewPoints(n) => write!(
+                f,
+                "a function needs at least 4 control points (a cubic B-spline), not {n}"
+            ),
+            TooMany { what, limit } => write!(f, "more than {limit} {what}"),
+            NeverReaches(x) => write!(
+                f,
+                "the curve never comes within 0.001 of x = {x}: cpfg would search for its value forever (its control points must cover x from 0 to 1)"
+            ),
+            MissingFile(what) => write!(f, "`{what}` needs a file name"),
         }
     }
 }

@@ -11,7 +11,8 @@ use std::fmt;
 use std::path::PathBuf;
 
 pub use super::cpfg::{
-    Block, DirectiveError, IfError, MacroError, PpConstruct, PreprocessError, Refused,
+    Block, DirectiveError, FunctionFileError, IfError, MacroError, PpConstruct, PreprocessError,
+    Refused,
 };
 
 /// What went wrong, by stage; [`super::Error::kind`] gives it.
@@ -39,6 +40,8 @@ pub enum ErrorKind {
     /// The cpfg dialect's C preprocessor; its stage depends on the error
     /// ([`PreprocessError::stage`]).
     Preprocess(PreprocessError),
+    /// A cpfg function file (`--functions`) that cannot be read as one.
+    FunctionFile(FunctionFileError),
 }
 
 /// Which stage found an error: [`ErrorKind`] without its data.
@@ -73,6 +76,7 @@ impl ErrorKind {
             ErrorKind::Turtle(e) if e.is_drawing() => Stage::Runtime,
             ErrorKind::Turtle(_) => Stage::Parse,
             ErrorKind::Preprocess(e) => e.stage(),
+            ErrorKind::FunctionFile(e) => e.stage(),
         }
     }
 }
@@ -88,6 +92,7 @@ impl fmt::Display for ErrorKind {
             ErrorKind::Usage(e) => e.fmt(f),
             ErrorKind::Turtle(e) => e.fmt(f),
             ErrorKind::Preprocess(e) => e.fmt(f),
+            ErrorKind::FunctionFile(e) => e.fmt(f),
         }
     }
 }
@@ -103,7 +108,7 @@ macro_rules! into_kind {
 }
 into_kind!(LexicalError => Lexical, ParseError => Parse, CompileError => Compile,
     RuntimeError => Runtime, IoError => Io, UsageError => Usage, TurtleError => Turtle,
-    PreprocessError => Preprocess);
+    PreprocessError => Preprocess, FunctionFileError => FunctionFile);
 
 /// Unreadable text.
 #[derive(Clone, Debug, PartialEq)]
@@ -497,6 +502,49 @@ pub enum ExprError {
     Overflow,
     /// The random generator's limits.
     Random(RandomError),
+    /// cpfg's `func(id, x)` that has no value.
+    Func(FuncFault),
+}
+
+/// Why cpfg's `func(id, x)` has no value.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum FuncFault {
+    /// No function was given (`--functions`); only the cpfg dialect has
+    /// them.
+    NoFunctions,
+    /// `id` (as C's `(int)` makes it) is not one of the functions 1 to
+    /// `count`.
+    NoSuchFunction { id: f64, count: usize },
+    /// `x` is NaN for a function with a table of samples (cpfg's index
+    /// into it is undefined).
+    NotANumber,
+    /// The curve of function `id` never comes within 0.001 of `x`.
+    NeverReaches { id: usize, x: f64 },
+}
+
+impl fmt::Display for FuncFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FuncFault::NoFunctions => {
+                f.write_str("func() needs cpfg's function files (`--functions`)")
+            }
+            FuncFault::NoSuchFunction { id, count: 0 } => {
+                write!(f, "func({id}, x): no function is defined")
+            }
+            FuncFault::NoSuchFunction { id, count } => write!(
+                f,
+                "func({id}, x): there is no function {id}; the function files define 1 to {count}"
+            ),
+            FuncFault::NotANumber => {
+                f.write_str("func(id, x) with x not a number (cpfg's table lookup is undefined)")
+            }
+            FuncFault::NeverReaches { id, x } => write!(
+                f,
+                "func({id}, {x}): the curve never comes within 0.001 of x = {x}: cpfg would search for its value forever"
+            ),
+        }
+    }
 }
 
 impl fmt::Display for ExprError {
@@ -524,6 +572,7 @@ impl fmt::Display for ExprError {
             NotANumber => f.write_str("result is not a number"),
             Overflow => f.write_str("result overflows a 64-bit float"),
             Random(e) => e.fmt(f),
+            Func(e) => e.fmt(f),
         }
     }
 }

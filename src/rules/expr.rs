@@ -159,6 +159,8 @@ fn lookup_cpfg_function(name: &str, args: usize) -> Option<(Fun, usize)> {
         "bran" => (Fun::Cpfg(CpfgFun::Bran), 2),
         "biran" => (Fun::Cpfg(CpfgFun::Biran), 2),
         "srand" => (Fun::Cpfg(CpfgFun::Srand), 1),
+        // cpfg's functions drawn in vlab (src/cpfg/func.rs).
+        "func" => (Fun::Func, 2),
         CPFG_F32 => (Fun::F1(Float32), 1),
         _ => return None,
     })
@@ -170,6 +172,7 @@ enum Fun {
     Ran,
     Nran,
     Cpfg(CpfgFun),
+    Func,
 }
 
 /// cpfg's random functions (issue 12), on its function generator.
@@ -210,6 +213,9 @@ pub enum Op {
     Nran(u32),
     /// `bran`, `biran` (two operands) or `srand` (one).
     CpfgRan(CpfgFun, u32),
+    /// cpfg's `func(id, x)` (two operands): the run's functions, read
+    /// through the generator ([`Draw::func`]).
+    Func(u32),
     /// The built-in step number (issue 11), kept by the generator.
     Step,
     /// Not an instruction: the span of a fallible one, stored after the
@@ -383,6 +389,7 @@ impl Code {
                 Op::Bin(b, si) => Op::Bin(b, at(si)),
                 Op::DivOr1(si) => Op::DivOr1(at(si)),
                 Op::CpfgRan(f, si) => Op::CpfgRan(f, at(si)),
+                Op::Func(si) => Op::Func(at(si)),
                 Op::F1(f, si) => Op::F1(f, at(si)),
                 Op::F2(f, si) => Op::F2(f, at(si)),
                 Op::Ran(si) => Op::Ran(at(si)),
@@ -628,6 +635,7 @@ impl Draft {
                     Fun::Ran => Op::Ran(si),
                     Fun::Nran => Op::Nran(si),
                     Fun::Cpfg(f) => Op::CpfgRan(f, si),
+                    Fun::Func => Op::Func(si),
                 });
             }
             Expr::Unary(op, a, _) => {
@@ -818,6 +826,13 @@ impl Code {
                     };
                     stack.push(r.map_err(|m| self.fail(si, ExprError::Random(m)))?);
                 }
+                Op::Func(si) => {
+                    let x = stack.pop().unwrap();
+                    let id = stack.last_mut().unwrap();
+                    *id = rng
+                        .func(*id, x)
+                        .map_err(|m| self.fail(si, ExprError::Func(m)))?;
+                }
                 Op::Nran(si) => {
                     let sd = stack.pop().unwrap();
                     let mean = stack.last_mut().unwrap();
@@ -943,7 +958,13 @@ impl Code {
 fn needs_input(o: &Op) -> bool {
     matches!(
         o,
-        Op::Load(_) | Op::Ran(_) | Op::Nran(_) | Op::CpfgRan(..) | Op::Step | Op::Global(_)
+        Op::Load(_)
+            | Op::Ran(_)
+            | Op::Nran(_)
+            | Op::CpfgRan(..)
+            | Op::Func(_)
+            | Op::Step
+            | Op::Global(_)
     )
 }
 

@@ -289,12 +289,33 @@ pub fn preprocess(
     preprocess_with(path, source, loader, &Limits::default())
 }
 
+/// [`preprocess`] with object-like macros defined first, each `NAME`
+/// as `VALUE` (cpfg's `-DNAME=VALUE` for a function set's names).
+pub fn preprocess_defined(
+    path: &Path,
+    source: &str,
+    loader: &dyn Fn(&Path) -> io::Result<String>,
+    defines: &[(String, usize)],
+) -> Result<Output, PpError> {
+    preprocess_full(path, source, loader, &Limits::default(), defines)
+}
+
 /// [`preprocess`] with explicit limits.
 pub fn preprocess_with(
     path: &Path,
     source: &str,
     loader: &dyn Fn(&Path) -> io::Result<String>,
     limits: &Limits,
+) -> Result<Output, PpError> {
+    preprocess_full(path, source, loader, limits, &[])
+}
+
+fn preprocess_full(
+    path: &Path,
+    source: &str,
+    loader: &dyn Fn(&Path) -> io::Result<String>,
+    limits: &Limits,
+    defines: &[(String, usize)],
 ) -> Result<Output, PpError> {
     let mut pp = Pp {
         files: Vec::new(),
@@ -313,6 +334,18 @@ pub fn preprocess_with(
         includes: 0,
         included_bytes: 0,
     };
+    if !defines.is_empty() {
+        // As `-D` options: a text of `#define`s read first, its (empty)
+        // output lines dropped, its macros kept.
+        let text: String = defines
+            .iter()
+            .map(|(n, v)| format!("#define {n} {v}\n"))
+            .collect();
+        pp.open("<command line>".to_string(), PathBuf::new(), text)?;
+        pp.run()?;
+        pp.text.clear();
+        pp.segs.clear();
+    }
     let name = path.display().to_string();
     pp.open(name, path.to_path_buf(), source.to_string())?;
     pp.run()?;
