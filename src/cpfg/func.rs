@@ -288,7 +288,7 @@ impl Functions {
                 _ => continue,
             };
             let what = if set { "function set:" } else { "function:" };
-            let rest_at = start + line.len() - rest.len();
+            let rest_at = start + line.len() - rest.trim_start().len();
             let mut words = rest.split_whitespace();
             let locate = |e: E| Error::at(out.map.location(rest_at), e);
             let Some(file) = words.next() else {
@@ -444,7 +444,7 @@ impl<'a> Reader<'a> {
         if first.trim_start().starts_with("range:") {
             let n = self.keyword_int("points:", "`points: N`")?;
             let points = self.points(n, false)?;
-            return self.finish(source, points, samples);
+            return self.finish(source, points, samples, first_at);
         }
         self.pos = first_at;
         let (major, minor) = self.version("fver", "function")?;
@@ -488,7 +488,7 @@ impl<'a> Reader<'a> {
         self.line();
         let n = self.keyword_int("points:", "`points: N`")?;
         let points = self.points(n, true)?;
-        self.finish(source, points, samples)
+        self.finish(source, points, samples, first_at)
     }
 
     /// `n` lines of `x y` (and, in the new format, a multiplicity).
@@ -544,11 +544,14 @@ impl<'a> Reader<'a> {
         Ok(points)
     }
 
+    /// The function read (it started at `first_at`, where a curve that
+    /// misses a sample's x is refused).
     fn finish(
         &mut self,
         source: String,
         points: Vec<[f64; 2]>,
         samples: i64,
+        first_at: usize,
     ) -> Result<Function, Error> {
         if samples as u64 > MAX_SAMPLES && samples > 0 {
             return self.fail(E::TooMany {
@@ -556,7 +559,10 @@ impl<'a> Reader<'a> {
                 limit: MAX_SAMPLES,
             });
         }
-        Function::new(source, points, samples).or_else(|x| self.fail(E::NeverReaches(x)))
+        Function::new(source, points, samples).or_else(|x| {
+            self.line_at = first_at;
+            self.fail(E::NeverReaches(x))
+        })
     }
 }
 

@@ -1,0 +1,246 @@
+//! cpfg's `func(id, x)` through the real binary (`--functions`; README,
+//! "Coming from cpfg: functions"). The expected values are worked out by
+//! hand below (straight-line and flat functions, where cpfg's bisection
+//! stops at a dyadic parameter); tests/cpfg_random.rs checks random
+//! functions against the independent reference tests/tools/cpfg_ref.py.
+
+mod common;
+
+use common::{lsgen, run, tempdir, write};
+use std::path::Path;
+
+/// The straight line y = x, old format (`range:`): its 4 control points
+/// are equally spaced on the diagonal, so the curve is the line and the
+/// point at parameter t is (t, t) (up to the 32-bit rounding of 1/3 and
+/// 2/3, below %g's 6 digits).
+const LINE_OLD: &str = "range: 0.0 1.0\npoints: 4\n0 0\n0.333333333 0.333333333\n\
+                        0.666666667 0.666666667\n1 1\n";
+
+fn ok(r: common::Run) -> String {
+    assert!(
+        r.status.success(),
+        "{}: {} ({})",
+        r.what,
+        r.stderr,
+        r.status
+    );
+    String::from_utf8(r.stdout).unwrap()
+}
+
+fn err(r: common::Run) -> String {
+    assert_eq!(r.status.code(), Some(1), "{}: {}", r.what, r.stderr);
+    assert!(r.stdout.is_empty(), "{}", r.what);
+    r.stderr
+}
+
+fn system(axiom: &str, production: &str) -> String {
+    format!("Lsystem: 1\nderivation length: 1\nAxiom: {axiom}\n{production}\nendlsystem\n")
+}
+
+/// cpfg bisects the parameter from [0, 1] until x is within 0.001: 0.5,
+/// 0.25 and 0.75 are met at the first or second halving, exactly; 0 is met
+/// at 2^-10 (0.000976562, the first within 0.001), 1 at 1 - 2^-10
+/// (0.999023). x outside [0, 1] is clamped. With 5 samples (x = 0, 0.25,
+/// 0.5, 0.75, 1) the table holds those values and `func` interpolates:
+/// at 0.375, half of 0.25 and 0.5; at 0.1 (index 0.4),
+/// 0.6 * 2^-10 + 0.4 * 0.25 = 0.1005859375, where the search for 0.1
+/// goes 0.5, 0.25, 0.125, 0.0625, 0.09375, 0.109375, 0.1015625,
+/// 0.09765625 and stops at 0.099609375 (the first within 0.001).
+#[test]
+fn a_view_file_gives_functions_as_cpfg_reads_them() {
+    let dir = tempdir();
+    std::fs::create_dir(dir.path().join("fn")).unwrap();
+    write(dir.path(), "fn/line.func", LINE_OLD);
+    write(dir.path(), "fn/line5.func", LINE_OLD);
+    // Other view settings are skipped; comments and the preprocessor work;
+    // file names are relative to the view file.
+    let view = write(
+        dir.path(),
+        "fn/plant.v",
+        "/* view */\nangle factor: 16\n#define SAMPLES 5\n\
+         function: line.func\nfunction:   line5.func SAMPLES /* samples */\nscale: 1.0\n",
+    );
+    let l = write(
+        dir.path(),
+        "plant.l",
+        system(
+            "A(0.5) A(0.25) A(0.75) A(-2) A(3) A(0.375) A(0.1)",
+            "A(x) --> B(func(1, x), func(2, x))",
+        ),
+    );
+    let out = ok(run(lsgen().arg(&l).arg("--functions").arg(&view)));
+    assert_eq!(
+        out,
+        "B(0.5,0.5)B(0.25,0.25)B(0.75,0.75)B(0.000976562,0.000976562)\
+         B(0.999023,0.999023)B(0.375,0.375)B(0.0996094,0.100586)\n"
+    );
+    // From another directory, with the functions' numbers truncated.
+    let l2 = write(
+        dir.path(),
+        "trunc.l",
+        system("A(0.5)", "A(x) --> B(func(1.9, x), func(2.99, x/2))"),
+    );
+    let out = ok(run(lsgen()
+        .current_dir("/")
+        .arg(&l2)
+        .arg("--functions")
+        .arg(&view)));
+    assert_eq!(out, "B(0.5,0.25)\n");
+}
+
+/// A function set's names are macros of the `.l` file (cpfg's
+/// `-DNAME=N`), numbered with the other `--functions` in order; the new
+/// format's multiplicity repeats a point; a flat function gives its
+/// height anywhere.
+#[test]
+fn function_sets_define_their_names() {
+    let dir = tempdir();
+    let set = write(
+        dir.path(),
+        "f.fset",
+        "funcgalleryver 1 1\nitems: 2\n\
+         fver 1 1\nname: flat\nsamples: 10\nflip: off\npoints: 4\n0 2 2\n0.5 2\n0.7 2\n1 2\n\
+         fver 1 1\nname: line\nsamples: 0\nflip: off\npoints: 4\n\
+         0 0\n0.333333333 0.333333333\n0.666666667 0.666666667\n1 1\n",
+    );
+    let single = write(dir.path(), "third.func", LINE_OLD);
+    let l = write(
+        dir.path(),
+        "m.l",
+        system(
+            "A(0.3) A(0.75)",
+            "A(x) --> B(func(flat, x), func(line, 0.25), func(3, 0.5), line)",
+        ),
+    );
+    let out = ok(run(lsgen()
+        .arg(&l)
+        .arg("--functions")
+        .arg(&set)
+        .arg("--functions")
+        .arg(&single)));
+    assert_eq!(out, "B(2,0.25,0.5,2)B(2,0.25,0.5,2)\n");
+    // The same functions in a batch, and on several threads.
+    let l2 = write(
+        dir.path(),
+        "n.l",
+        system("A(0.5)", "A(x) --> C(func(2, x))"),
+    );
+    let outdir = dir.path().join("out");
+    std::fs::create_dir(&outdir).unwrap();
+    let r = run(lsgen()
+        .args(["-j", "2", "--functions"])
+        .arg(&set)
+        .arg("--functions")
+        .arg(&single)
+        .arg("-o")
+        .arg(outdir.join("{stem}.txt"))
+        .arg(&l)
+        .arg(&l2));
+    ok(r);
+    let read = |n: &str| std::fs::read_to_string(outdir.join(n)).unwrap();
+    assert_eq!(read("m.txt"), "B(2,0.25,0.5,2)B(2,0.25,0.5,2)\n");
+    assert_eq!(read("n.txt"), "C(0.5)\n");
+}
+
+#[test]
+fn func_without_function_files_names_the_view_file_beside() {
+    let dir = tempdir();
+    let src = system("A(1)", "A(x) --> B(func(1, x))");
+    let l = write(dir.path(), "plant.l", &src);
+    let e = err(run(lsgen().arg(&l)));
+    assert!(
+        e.contains(":4:12: error: `func` needs the model's function files: give its view file (`function:` lines) or its `.func` files with `--functions FILE`"),
+        "{e}"
+    );
+    write(dir.path(), "plant.v", "function: x.func\n");
+    let e = err(run(lsgen().arg(&l)));
+    let v = dir.path().join("plant.v");
+    assert!(
+        e.contains(&format!(
+            "give its view file with `--functions {}`",
+            v.display()
+        )),
+        "{e}"
+    );
+}
+
+/// Errors, each located: a file the view names that does not exist (at
+/// the view's line), a function file that is none, too few points, a curve
+/// that never reaches some x (cpfg would search forever), a function
+/// number that is no function (at the call, in the step).
+#[test]
+fn bad_functions_are_located_errors() {
+    let dir = tempdir();
+    let d = dir.path();
+    let l = write(d, "m.l", system("A(0.5)", "A(x) --> B(func(1, x))"));
+    let with = |f: &Path| run(lsgen().arg(&l).arg("--functions").arg(f));
+
+    let v = write(d, "missing.v", "scale: 1\nfunction:  nope.func 10\n");
+    let e = err(with(&v));
+    assert!(
+        e.starts_with(&format!(
+            "lsgen: {}:2:12: error: cannot read `{}`: No such file or directory",
+            v.display(),
+            d.join("nope.func").display()
+        )),
+        "{e}"
+    );
+    assert!(
+        e.contains("\nfunction:  nope.func 10\n           ^\n"),
+        "{e}"
+    );
+
+    let f = write(
+        d,
+        "bad.func",
+        "fver 1 1\nname: x\nsamples: 0\nflip: off\npoints: 3\n0 0\n0.5 1\n1 0\n",
+    );
+    let e = err(with(&f));
+    assert!(
+        e.contains("bad.func:5:1: error: a function needs at least 4 control points"),
+        "{e}"
+    );
+
+    let f = write(
+        d,
+        "short.func",
+        "range: 0 1\npoints: 4\n0 0\n0.1 0\n0.2 0\n0.4 0\n",
+    );
+    // Sampled: refused when read.
+    let v = write(d, "short.v", "function: short.func 10\n");
+    let e = err(with(&v));
+    assert!(
+        e.contains("short.func:1:1: error: the curve never comes within 0.001 of x ="),
+        "{e}"
+    );
+    // Not sampled: at the call that asks for such an x; one it reaches is fine.
+    let e = err(with(&f));
+    assert!(
+        e.contains("m.l:4:12: error: func(1, 0.5): the curve never comes within 0.001 of x = 0.5"),
+        "{e}"
+    );
+    let near = write(d, "near.l", system("A(0.1)", "A(x) --> B(func(1, x))"));
+    assert!(run(lsgen().arg(&near).arg("--functions").arg(&f))
+        .status
+        .success());
+
+    let line = write(d, "line.func", LINE_OLD);
+    let three = write(d, "three.l", system("A(0.5)", "A(x) --> B(func(3, x))"));
+    let r = run(lsgen().arg(&three).arg("--functions").arg(&line));
+    let e = err(r);
+    assert!(
+        e.contains("three.l:4:12: error: func(3, x): there is no function 3; the function files define 1 to 1 (in step 1)"),
+        "{e}"
+    );
+
+    let e = err(with(&write(d, "text.func", "fver 1 1\n")));
+    assert!(
+        e.contains("text.func:2:1: error: expected `name: NAME`"),
+        "{e}"
+    );
+    let e = err(with(&write(d, "set.fset", "funcgalleryver 2 0\n")));
+    assert!(
+        e.contains("set.fset:1:1: error: function set version 2.0 is not supported"),
+        "{e}"
+    );
+}
