@@ -142,6 +142,31 @@ fn function_sets_define_their_names() {
     assert_eq!(read("n.txt"), "C(0.5)\n");
 }
 
+/// In a view file, as in cpfg (`interpret.c`, `splinearr.cpp`): a
+/// `function set:` replaces the functions listed before it (`Reset`), and
+/// a `function:` after it ends the set's names (they are no macros then:
+/// an unknown name is 0, with a warning, as cpfg reads it).
+#[test]
+fn a_view_files_set_replaces_what_came_before() {
+    let dir = tempdir();
+    let d = dir.path();
+    write(d, "line.func", LINE_OLD);
+    write(
+        d,
+        "s.fset",
+        "funcgalleryver 1 1\nitems: 1\n\
+         fver 1 1\nname: flat\nsamples: 0\nflip: off\npoints: 4\n0 3\n0.3 3\n0.6 3\n1 3\n",
+    );
+    let l = write(d, "m.l", system("A(0.25)", "A(x) --> B(func(1, x), flat)"));
+    let v = write(d, "a.v", "function: line.func\nfunction set: s.fset\n");
+    let out = ok(run(lsgen().arg(&l).arg("--functions").arg(&v)));
+    assert_eq!(out, "B(3,1)\n");
+    let v = write(d, "b.v", "function set: s.fset\nfunction: line.func\n");
+    let r = run(lsgen().arg(&l).arg("--functions").arg(&v));
+    assert!(r.stderr.contains("warning"), "{}", r.stderr);
+    assert_eq!(ok(r), "B(3,0)\n");
+}
+
 #[test]
 fn func_without_function_files_names_the_view_file_beside() {
     let dir = tempdir();

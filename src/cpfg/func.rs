@@ -270,10 +270,13 @@ impl Functions {
     }
 
     /// A view file: only its `function:` and `function set:` lines (after
-    /// the preprocessor, as cpfg runs it); file names relative to it.
+    /// the preprocessor, as cpfg runs it); file names relative to it. As
+    /// in cpfg, a `function set:` replaces the functions the file listed
+    /// before it, and a `function:` after a set ends the set's names.
     fn read_view(&mut self, path: &Path, text: &str) -> Result<(), Error> {
         let out = super::preprocess::preprocess(path, text, &super::preprocess::read_file)?;
         let dir = path.parent().unwrap_or(Path::new(""));
+        let (first, first_macro) = (self.items.len(), self.macros.len());
         let mut offset = 0;
         for line in out.text.split_inclusive('\n') {
             let start = offset;
@@ -303,9 +306,12 @@ impl Functions {
                 })
             })?;
             if set {
+                self.items.truncate(first);
+                self.macros.truncate(first_macro);
                 self.read_set(&fname, &body)?;
                 continue;
             }
+            self.macros.truncate(first_macro);
             // `function: FILE SAMPLES`: the samples of an old-format file
             // (cpfg's fscanf reads a number; anything else is none).
             let samples = words.next().and_then(leading_int).unwrap_or(-1);
