@@ -10,6 +10,7 @@ expected strings in tests/expected/cpfg/ come from here.
 
 Usage:
     python3 tests/tools/cpfg_ref.py FILE.l [-n STEPS] [--no-homomorphism]
+                                    [--functions FILE ...]
     python3 tests/tools/cpfg_ref.py --self-test
 
 Prints the final string on one line (cpfg's own `-str` file wraps lines at 70
@@ -25,12 +26,30 @@ layout (Lsystem:, settings in any order, Start:/StartEach:/EndEach:/End:
 blocks, Axiom:, productions with --> (and lsgen's ->), decomposition,
 homomorphism, endlsystem), newline+TAB continuation, cpfg expressions and
 statements, deterministic and stochastic choice, cpfg context matching,
-the cut symbol %, drand48 seeded as interactive cpfg seeds it, and the
-ran/nran/bran/biran/srand generator.
+the cut symbol %, drand48 seeded as interactive cpfg seeds it, the
+ran/nran/bran/biran/srand generator, and func(id, x) (splinefun.cpp,
+splinearr.cpp, interpret.c's `function:` and `function set:`, generate.c's
+PreprocessLsystem).
+
+func: each --functions FILE (repeatable, in order) is, by its first line, a
+function set (`funcgalleryver 1 1`), one function (`fver 1 1` or
+`range: LOW HIGH`) or else a view file, of which only the `function: FILE
+[SAMPLES]` and `function set: FILE` lines count (label before the first
+`:`, blanks collapsed; paths relative to the view file).  The functions are
+numbered from 1 in the order met; a function set's names (C identifiers)
+are object-like macros for their numbers.  A function is the uniform open
+cubic B-spline of its points (read as 32-bit floats, a point repeated by its
+multiplicity), evaluated as SplineFunction::GetValue: x clamped to [0, 1],
+then the bisection on the curve's parameter until its x is within 0.001,
+or, with more than 2 samples, a table of that at i/(samples-1) read with
+linear interpolation.  Samples: the file's `samples:`, the view line's
+SAMPLES for the old format (-1 without, or given directly; 100 in a
+function set).  Refused: fewer than 4 points, a bisection that never ends
+(cpfg hangs), func of NaN, an id out of range (cpfg warns and gives 0).
 
 Refused with an error (a string rewriter cannot do them, or the reference
 does not model them): ?P ?H ?L ?U ?E and any ? module, sub-L-systems
-(?(id,s), $, several Lsystem: blocks), @S, func/curve*/vv*/play/stop/
+(?(id,s), $, several Lsystem: blocks), @S, curve*/vv*/play/stop/
 fopen/fscanf/..., arrays and define: blocks, ring L-systems, -o> object
 productions, % with parameters, & addresses.
 """
@@ -688,10 +707,10 @@ FUNCTIONS = {
     "tan": 1, "sin": 1, "cos": 1, "atan": None, "asin": 1, "acos": 1,
     "atan2": None, "ran": 1, "nran": 2, "bran": 2, "biran": 2, "srand": 1,
     "exp": 1, "log": 1, "floor": 1, "ceil": 1, "trunc": 1, "fabs": 1,
-    "sign": 1, "sqrt": 1, "printf": None, "fprintf": None,
+    "sign": 1, "sqrt": 1, "printf": None, "fprintf": None, "func": 2,
 }
 UNSUPPORTED_FUNCTIONS = {
-    "func", "play", "curveX", "curveY", "curveZ", "curveGAL", "vvXmin",
+    "play", "curveX", "curveY", "curveZ", "curveGAL", "vvXmin",
     "vvXmax", "vvYmin", "vvYmax", "vvZmin", "vvZmax", "vvScale", "Display",
     "SetDerivationLength", "GetDerivationLength", "stop", "fopen", "fclose",
     "fflush", "fscanf", "inblob", "external", "array",
@@ -1335,6 +1354,394 @@ class Parser:
 
 
 # ---------------------------------------------------------------------------
+# cpfg's functions: func(id, x) (splinefun.cpp, splinearr.cpp), the view
+# file's `function:` / `function set:` lines (interpret.c) and the macros a
+# function set's names become (generate.c's PreprocessLsystem)
+# ---------------------------------------------------------------------------
+
+F32_TOKEN = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+
+
+def f32_bits(v):
+    return struct.unpack("<I", struct.pack("<f", v))[0]
+
+
+def f32_from_bits(b):
+    return struct.unpack("<f", struct.pack("<I", b))[0]
+
+
+def parse_f32(tok, where):
+    """A decimal number read as a 32-bit float (fscanf %f, std::stof): the
+    float nearest to the decimal value itself (ties to even), not the float
+    nearest to the double nearest to it (which can differ)."""
+    from fractions import Fraction
+
+    if not F32_TOKEN.fullmatch(tok):
+        raise CpfgError("%r is not a number (the reference reads plain decimals)" % tok, where)
+    exact = Fraction(tok)
+    v = f32(float(exact))
+    if math.isinf(v):
+        raise CpfgError("%s does not fit a 32-bit float" % tok, where)
+    if v == 0.0:
+        return math.copysign(0.0, -1.0) if tok.startswith("-") else 0.0
+    best = v
+    bits = f32_bits(v)
+    for nb in (bits - 1, bits + 1):
+        c = f32_from_bits(nb & 0xFFFFFFFF)
+        if math.isinf(c) or math.isnan(c) or (c > 0) != (v > 0):
+            continue
+        dc = abs(Fraction(c) - exact)
+        db = abs(Fraction(best) - exact)
+        if dc < db or (dc == db and f32_bits(c) % 2 == 0):
+            best = c
+    return best
+
+
+class SplineFunction:
+    """One function: a uniform open cubic B-spline through `points` (x, y)
+    in [0, 1], evaluated as SplineFunction::GetValue."""
+
+    ORDER = 4
+    MAX_ERROR = 0.001
+
+    def __init__(self, points, samples, name=None, where=None):
+        if len(points) < 4:
+            raise CpfgError("a function needs at least 4 points (it has %d)" % len(points), where)
+        self.points = [(float(x), float(y)) for x, y in points]
+        self.n = len(points) - 1
+        self.name = name
+        self.where = where
+        self.samples = samples
+        self.vals = None
+        if samples > 2:
+            # cpfg fills the table when it reads the file (with the
+            # bisection): a bisection that never ends hangs it there.
+            self.vals = [self.exact(i / float(samples - 1)) for i in range(samples)]
+
+    # knots: 0 0 0 0 1 2 ... n-3 n-2 n-2 n-2 n-2
+    def knot(self, j):
+        if j < self.ORDER:
+            return 0
+        if j > self.n:
+            return self.n - self.ORDER + 2
+        return j - self.ORDER + 1
+
+    def basis(self, k, t, u):
+        """Cox-de Boor, as splinefun.cpp's N/Nk1/Nkt order their
+        operations."""
+        if t == 1:
+            return 1.0 if self.knot(k) <= u < self.knot(k + 1) else 0.0
+        s = 0.0
+        div = self.knot(k + t - 1) - self.knot(k)
+        if div != 0:
+            s = (u - self.knot(k)) / div * self.basis(k, t - 1, u)
+        div = self.knot(k + t) - self.knot(k + 1)
+        if div != 0:
+            s += (self.knot(k + t) - u) / div * self.basis(k + 1, t - 1, u)
+        return s
+
+    def point(self, d):
+        u = d * (self.n - self.ORDER + 2)
+        sx = 0.0
+        sy = 0.0
+        for k in range(self.n + 1):
+            b = self.basis(k, self.ORDER, u)
+            x, y = self.points[k]
+            sx += x * b
+            sy += y * b
+        return sx, sy
+
+    def point_de_boor(self, d):
+        """The same curve by de Boor's algorithm (for the self-test): on the
+        span [knot(j), knot(j+1)) holding u, with the same knots; nothing
+        (0, 0) where no span holds u (u = n-2, d = 1), as in cpfg."""
+        p = self.ORDER - 1
+        u = d * (self.n - p + 1)
+        span = None
+        for j in range(p, self.n + 1):
+            if self.knot(j) <= u < self.knot(j + 1):
+                span = j
+                break
+        if span is None:
+            return 0.0, 0.0
+        dx = [self.points[span - p + i][0] for i in range(p + 1)]
+        dy = [self.points[span - p + i][1] for i in range(p + 1)]
+        for r in range(1, p + 1):
+            for i in range(p, r - 1, -1):
+                lo = self.knot(span - p + i)
+                hi = self.knot(span + 1 + i - r)
+                a = (u - lo) / (hi - lo)
+                dx[i] = (1 - a) * dx[i - 1] + a * dx[i]
+                dy[i] = (1 - a) * dy[i - 1] + a * dy[i]
+        return dx[p], dy[p]
+
+    def exact(self, x):
+        """The bisection of SplineFunction::_Value on the curve's
+        parameter until the curve's x is within 0.001 of `x`."""
+        if math.isnan(x):
+            raise CpfgError("func of NaN (cpfg reads outside its table, or "
+                            "gives the curve's y at the middle)")
+        low, high = 0.0, 1.0
+        while True:
+            check = (low + high) / 2.0
+            px, py = self.point(check)
+            if px > x:
+                nlow, nhigh = low, check
+            else:
+                nlow, nhigh = check, high
+            if abs(px - x) <= self.MAX_ERROR:
+                return py
+            if (nlow, nhigh) == (low, high):
+                raise CpfgError(
+                    "function %s: its curve's x never comes within 0.001 of %r "
+                    "(cpfg's bisection never ends)" % (self.label(), x), self.where)
+            low, high = nlow, nhigh
+
+    def label(self):
+        if self.name:
+            return self.name
+        if self.where:
+            return self.where[0]
+        return "?"
+
+    def value(self, x):
+        """SplineFunction::GetValue."""
+        if x < 0.0:
+            x = 0.0
+        elif x > 1.0:
+            x = 1.0
+        if self.vals is None:
+            return self.exact(x)
+        if math.isnan(x):
+            raise CpfgError("func of NaN (cpfg reads outside its table)")
+        s = self.samples
+        index = x * (s - 1)
+        i = int(math.floor(index))
+        w1 = 1 - index + i
+        w2 = index - i
+        if i == s - 1:
+            return self.vals[i]
+        return w1 * self.vals[i] + w2 * self.vals[i + 1]
+
+
+class TextStream:
+    """A file read as cpfg reads it: by lines (fgets) and by characters."""
+
+    def __init__(self, text, fname):
+        self.text = text
+        self.pos = 0
+        self.fname = fname
+
+    def line_no(self):
+        return self.text.count("\n", 0, self.pos) + 1
+
+    def where(self):
+        return (self.fname, self.line_no())
+
+    def eof(self):
+        return self.pos >= len(self.text)
+
+    def peek(self):
+        return self.text[self.pos] if self.pos < len(self.text) else ""
+
+    def gets(self):
+        """fgets: the rest of the line, its newline included."""
+        k = self.text.find("\n", self.pos)
+        k = len(self.text) if k < 0 else k + 1
+        s = self.text[self.pos:k]
+        self.pos = k
+        return s
+
+    def skip_space(self):
+        """A blank in an fscanf format: any white space, newlines too."""
+        while self.pos < len(self.text) and self.text[self.pos] in " \t\n\r\f\v":
+            self.pos += 1
+
+
+def scan_int(s):
+    """sscanf's %d at the start of s (after blanks), or None."""
+    m = re.match(r"[ \t\r\n\f\v]*([+-]?[0-9]+)", s)
+    return int(m.group(1)) if m else None
+
+
+def read_function(src, old_samples):
+    """One function from src (its first line next): SplineFunction's
+    constructors. `old_samples`: the samples of the old (`range:`)
+    format, which has none of its own."""
+    where = src.where()
+    first = src.gets()
+    if re.match(r"range:\s*" + F32_TOKEN.pattern + r"\s+" + F32_TOKEN.pattern, first):
+        # fscanf "points: %zd\n", then N times "%f %f\n"
+        rest = src.text[src.pos:]
+        m = re.match(r"points:\s*([0-9]+)\s*", rest)
+        if not m:
+            raise CpfgError("expected `points: N` after `range:`", src.where())
+        src.pos += m.end()
+        count = int(m.group(1))
+        pts = []
+        for _ in range(count):
+            w = src.where()
+            m = re.match(r"(\S+)\s+(\S+)\s*", src.text[src.pos:])
+            if not m:
+                raise CpfgError("expected a point `x y`", w)
+            pts.append((parse_f32(m.group(1), w), parse_f32(m.group(2), w)))
+            src.pos += m.end()
+        return SplineFunction(pts, old_samples, None, where)
+    m = re.match(r"fver\s*([+-]?[0-9]+)\s*([+-]?[0-9]+)", first)
+    if not m:
+        raise CpfgError("a function file starts with `fver 1 1` or `range: LOW HIGH`", where)
+    if (int(m.group(1)), int(m.group(2))) != (1, 1):
+        raise CpfgError("function format %s.%s is not supported (cpfg reads 1.1)"
+                        % (m.group(1), m.group(2)), where)
+    w = src.where()
+    m = re.match(r"name:\s*(\S+)", src.gets())
+    if not m:
+        raise CpfgError("expected `name: NAME`", w)
+    name = m.group(1)
+    w = src.where()
+    m = re.match(r"samples:\s*([+-]?[0-9]+)", src.gets())
+    if not m:
+        raise CpfgError("expected `samples: N`", w)
+    samples = int(m.group(1))
+    if src.peek() == "b":  # background: two lines, ignored
+        src.gets()
+        src.gets()
+    if src.peek() == "m":  # markers: K, then K lines, ignored
+        w = src.where()
+        k = scan_int(src.gets()[len("markers:"):])
+        if k is None:
+            raise CpfgError("expected `markers: K`", w)
+        for _ in range(k):
+            src.gets()
+    src.gets()  # the `flip:` line, whatever it says
+    w = src.where()
+    m = re.match(r"points:\s*([0-9]+)", src.gets())
+    if not m:
+        raise CpfgError("expected `points: N`", w)
+    count = int(m.group(1))
+    if count < 4:
+        raise CpfgError("a function needs at least 4 points (it has %d)" % count, w)
+    pts = []
+    for _ in range(count):
+        w = src.where()
+        k = src.text.find("\n", src.pos)
+        if k < 0:
+            # cpfg reads characters until a newline: it never stops
+            raise CpfgError("a point's line without a newline at the end of the file", w)
+        line = src.text[src.pos:k]
+        src.pos = k + 1
+        toks = [t for t in line.split(" ") if t != ""]
+        if not 2 <= len(toks) <= 3:
+            raise CpfgError("a point is `x y` or `x y multiplicity`, with blanks "
+                            "between (cpfg splits at spaces only)", w)
+        toks = [t.rstrip("\r") for t in toks]
+        x = parse_f32(toks[0], w)
+        y = parse_f32(toks[1], w)
+        mult = 1
+        if len(toks) == 3:
+            mv = parse_f32(toks[2], w)
+            mult = int(mv)  # (int) of a float: toward zero
+        pts.extend([(x, y)] * max(mult, 0))
+    return SplineFunction(pts, samples, name, where)
+
+
+C_IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
+class FunctionSet:
+    """The functions of the --functions files, numbered from 1 in the order
+    met, and the macros (name -> number) of the function sets' names."""
+
+    def __init__(self):
+        self.functions = []
+        self.macros = {}
+
+    def add_file(self, path, samples=-1):
+        try:
+            with open(path, encoding="utf-8") as f:
+                text = f.read()
+        except OSError as e:
+            raise CpfgError("cannot read %s: %s" % (path, e.strerror))
+        text = text.replace("\r\n", "\n")
+        src = TextStream(text, path)
+        first = text.split("\n", 1)[0]
+        if re.match(r"funcgalleryver\b", first):
+            self.add_gallery(src)
+        elif re.match(r"fver\b", first) or re.match(r"range:", first):
+            self.functions.append(read_function(src, samples))
+        else:
+            self.add_view(path, text)
+
+    def add_gallery(self, src):
+        """splinearr.cpp's ReadGallery: fscanf "funcgalleryver %d %d\\n",
+        "items: %d\\n", then the functions one after the other (an old
+        format one there has 100 samples)."""
+        w = src.where()
+        m = re.match(r"funcgalleryver\s*([+-]?[0-9]+)\s*([+-]?[0-9]+)\s*", src.text)
+        if not m:
+            raise CpfgError("expected `funcgalleryver 1 1`", w)
+        if (int(m.group(1)), int(m.group(2))) != (1, 1):
+            raise CpfgError("function set version %s.%s is not supported (cpfg reads 1.1)"
+                            % (m.group(1), m.group(2)), w)
+        src.pos = m.end()
+        w = src.where()
+        m = re.match(r"items:\s*([+-]?[0-9]+)\s*", src.text[src.pos:])
+        if not m:
+            raise CpfgError("expected `items: N`", w)
+        src.pos += m.end()
+        for _ in range(int(m.group(1))):
+            if src.eof():
+                raise CpfgError("the function set ends before its items", src.where())
+            fn = read_function(src, 100)
+            self.functions.append(fn)
+            if fn.name is not None:
+                if C_IDENT.fullmatch(fn.name):
+                    self.macros[fn.name] = len(self.functions)
+                else:
+                    warn("function name %s is not a C identifier: no macro" % fn.name, fn.where)
+
+    def add_view(self, path, text):
+        """The `function:` and `function set:` lines of a view file (the
+        label before the first `:`, blanks collapsed); the rest is not
+        read."""
+        text = splice_and_strip(text, path)
+        base = os.path.dirname(path)
+        for i, line in enumerate(text.split("\n")):
+            if ":" not in line:
+                continue
+            label, rest = line.split(":", 1)
+            label = " ".join(label.split())
+            if label not in ("function", "function set"):
+                continue
+            where = (path, i + 1)
+            args = rest.split()
+            if not args:
+                raise CpfgError("`%s:` needs a file" % label, where)
+            target = os.path.join(base, args[0])
+            if label == "function set":
+                self.add_file_kind(target, "set", -1, where)
+            else:
+                samples = -1
+                if len(args) > 1:
+                    v = scan_int(args[1])
+                    samples = -1 if v is None else v
+                self.add_file_kind(target, "function", samples, where)
+
+    def add_file_kind(self, path, kind, samples, where):
+        try:
+            with open(path, encoding="utf-8") as f:
+                text = f.read()
+        except OSError as e:
+            raise CpfgError("cannot read %s: %s" % (path, e.strerror), where)
+        src = TextStream(text.replace("\r\n", "\n"), path)
+        if kind == "set":
+            self.add_gallery(src)
+        else:
+            self.functions.append(read_function(src, samples))
+
+
+
+# ---------------------------------------------------------------------------
 # Runtime: expressions, statements, derivation
 # ---------------------------------------------------------------------------
 
@@ -1352,6 +1759,7 @@ class Runtime:
         self.q_cell = Cell("Q")
         self.z_cell = Cell("Z")
         self.rng = None
+        self.functions = []  # SplineFunction, func's id 1 first
 
     def eval(self, e):
         k = e[0]
@@ -1484,6 +1892,22 @@ class Runtime:
             return self.rng.bran(v[0], v[1])
         if name == "biran":
             return self.rng.biran(c_int(v[0]), v[1])
+        if name == "func":
+            # generate.c: id = (int) of the first value; splinefun.cpp's
+            # SplineFuncValue warns and gives 0 for an id out of range
+            # (an error here, as in lsgen)
+            fid = c_int(v[0])
+            if not 1 <= fid <= len(self.functions):
+                raise CpfgError("func(%d, ...): there %s %d function%s (--functions)"
+                                % (fid, "is" if len(self.functions) == 1 else "are",
+                                   len(self.functions), "" if len(self.functions) == 1 else "s"),
+                                e[3])
+            try:
+                return self.functions[fid - 1].value(v[1])
+            except CpfgError as err:
+                if err.where is None:
+                    err.where = e[3]
+                raise
         if name == "srand":
             # (long int) in generate.c's Eval
             if math.isnan(v[0]) or math.isinf(v[0]):
@@ -1835,17 +2259,26 @@ def format_string(S):
     return "".join(parts)
 
 
-def load(path):
-    lines = Preprocessor().run(path)
+def load(path, functions=()):
+    """`functions`: the --functions files, in order."""
+    fs = FunctionSet()
+    for f in functions:
+        fs.add_file(f)
+    pp = Preprocessor()
+    # cpfg's -Dname=i+1 for a function set's names (PreprocessLsystem)
+    for name, num in fs.macros.items():
+        pp.macros[name] = Macro(None, pp_lex(str(num)))
+    lines = pp.run(path)
     rt = Runtime()
+    rt.functions = fs.functions
     toks = Lexer(lines).tokens()
     ls = Parser(toks, rt).parse()
     rt.rng = Randomness(ls.seed)
     return ls, rt
 
 
-def run_file(path, n=None, homomorphism=True):
-    ls, rt = load(path)
+def run_file(path, n=None, homomorphism=True, functions=()):
+    ls, rt = load(path, functions)
     steps = ls.n if n is None else n
     return format_string(Deriver(ls, rt).derive(steps, homomorphism))
 
@@ -1901,8 +2334,156 @@ def self_test():
         p = Parser(toks, rt)
         p.pos = 4
         check(text, rt.eval(p.expression()), want)
+    ok = self_test_functions() and ok
     print("self-test %s" % ("passed" if ok else "FAILED"))
     return 0 if ok else 1
+
+
+def self_test_functions():
+    """func: the spline by a second method (de Boor's algorithm), values
+    known by hand, the file formats and the macros."""
+    import random
+    import tempfile
+
+    ok = True
+
+    def check(what, good, detail=""):
+        nonlocal ok
+        if not good:
+            ok = False
+            print("FAIL %s %s" % (what, detail))
+
+    # 1. cpfg's sum of basis functions against de Boor's algorithm, on
+    # random control points (repeated points too) at many parameters.
+    r = random.Random(5)
+    worst = 0.0
+    for _ in range(40):
+        pts = []
+        for _ in range(r.randint(4, 12)):
+            p = (f32(r.random()), f32(r.uniform(-2, 2)))
+            pts.extend([p] * r.choice([1, 1, 1, 2, 3]))
+        fn = SplineFunction(pts, -1)
+        for i in range(400):
+            d = i / 400.0 if i % 2 else r.random()
+            a = fn.point(d)
+            b = fn.point_de_boor(d)
+            worst = max(worst, abs(a[0] - b[0]), abs(a[1] - b[1]))
+        # cpfg's curve at d = 1 (u = n-2, in no span) is (0, 0)
+        check("P(1)", fn.point(1.0) == (0.0, 0.0) == fn.point_de_boor(1.0))
+        check("P(0)", max(abs(fn.point(0.0)[0] - pts[0][0]), abs(fn.point(0.0)[1] - pts[0][1])) < 1e-15)
+    check("de Boor", worst <= 1e-12, "worst %r" % worst)
+
+    # 2. four points on y = x, evenly spaced: one cubic segment, P(d) = (d, d)
+    third = [f32(0.0), f32(1 / 3.0), f32(2 / 3.0), f32(1.0)]
+    lin = SplineFunction([(v, v) for v in third], -1)
+    lin10 = SplineFunction([(v, v) for v in third], 10)
+    for x in [0.0, 0.001, 0.1, 0.25, 0.5, 0.7, 0.9999, 1.0]:
+        check("y = x at %r" % x, abs(lin.value(x) - x) <= 0.001 + 1e-7, repr(lin.value(x)))
+        check("y = x sampled at %r" % x, abs(lin10.value(x) - x) <= 0.001 + 1e-7, repr(lin10.value(x)))
+    check("clamp low", lin.value(-3.0) == lin.value(0.0))
+    check("clamp high", lin.value(7.0) == lin.value(1.0))
+    check("clamp inf", lin10.value(math.inf) == lin10.value(1.0) == lin10.vals[9])
+    # the table's ends and its linear interpolation
+    check("table", lin10.value(1 / 3.0 + 1e-9) != lin10.vals[3] and
+          abs(lin10.value(0.5) - (0.5 * lin10.vals[4] + 0.5 * lin10.vals[5])) < 1e-15)
+
+    # 3. the shape of a Lilac-like elasticity function (4 points, so one
+    # Bezier segment): the value at x against the Bezier solved for x by
+    # Newton's method; the bisection stops within 0.001 in x, so the
+    # difference is at most 0.001 times the slope (< 1 here).
+    elas = [(0.0, 0.49528), (0.301001, 0.479716), (0.621178, 0.408565), (1.0, 0.235135)]
+    elas = [(f32(x), f32(y)) for x, y in elas]
+    fe = SplineFunction(elas, -1)
+
+    def bez(c, d):
+        e = 1 - d
+        return e * e * e * c[0] + 3 * e * e * d * c[1] + 3 * e * d * d * c[2] + d * d * d * c[3]
+
+    xs = [p[0] for p in elas]
+    ys = [p[1] for p in elas]
+    for x in [0.0, 0.1, 0.3, 0.5, 0.75, 0.95, 1.0]:
+        d = x
+        for _ in range(60):
+            e = 1 - d
+            dx = 3 * (e * e * (xs[1] - xs[0]) + 2 * e * d * (xs[2] - xs[1]) + d * d * (xs[3] - xs[2]))
+            d = min(1.0, max(0.0, d - (bez(xs, d) - x) / dx))
+        want = bez(ys, d)
+        check("elas(%r)" % x, abs(fe.value(x) - want) < 0.001, "%r vs %r" % (fe.value(x), want))
+    check("elas decreasing", fe.value(0.2) > fe.value(0.6) > fe.value(0.9))
+
+    # 4. a curve whose x never reaches the target: cpfg's bisection hangs
+    flat = SplineFunction([(0.0, 1.0)] * 4, -1)
+    try:
+        flat.value(0.5)
+        check("no convergence", False, "not refused")
+    except CpfgError:
+        pass
+    check("flat at 0", flat.value(0.0) == 1.0)
+    try:
+        SplineFunction([(0.0, 1.0)] * 4, 5)
+        check("no convergence in the table", False, "not refused")
+    except CpfgError:
+        pass
+
+    # 5. decimals read as 32-bit floats: the nearest float to the decimal
+    # (1 + 2^-24 and a bit: the double rounds to the tie, the float up)
+    check("f32 read", parse_f32("1.000000059604644775390625000000000001", None)
+          == 1.0 + 2.0 ** -23)
+    check("f32 read 0.1", parse_f32("0.1", None) == f32(0.1))
+
+    # 6. the files: a view file, a function set with names, multiplicity,
+    # the old format, background and markers
+    with tempfile.TemporaryDirectory() as tmp:
+        def put(name, text):
+            with open(os.path.join(tmp, name), "w") as f:
+                f.write(text)
+            return os.path.join(tmp, name)
+
+        put("old.func", "range: 0.0 1.0\npoints: 4\n0 0\n0.333333 0.333333\n"
+            "0.666667\t0.666667\n1 1\n")
+        put("new.func", "fver 1 1\nname: new\nsamples: 3\nflip: off\npoints: 4\n"
+            "0 1\n0.5 2 2\n0.7 2.5\n1 3\n")
+        put("s.fset", "funcgalleryver 1 1\nitems: 2\nfver 1 1\nname: up\nsamples: 0\n"
+            "background: none\nbg line 2\nmarkers: 1\nm1 0.5 0.5\nflip: on\npoints: 4\n"
+            "0 0\n0.333333 0.333333\n0.666667 0.666667\n1 1\n"
+            "fver 1 1\nname: 2bad\nsamples: 10\nflip: off\npoints: 4\n"
+            "0 5\n0.25 5\n0.75 5\n1 5\n")
+        view = put("v.v", "/* a view file */\nangle factor: 3\nfunction: old.func\n"
+                   "function :  new.func 50\nfunction   set: s.fset\nfunction: old.func 7\n")
+        fs = FunctionSet()
+        fs.add_file(view)
+        got = [(len(f.points), f.samples) for f in fs.functions]
+        check("view", got == [(4, -1), (5, 3), (4, 0), (4, 10), (4, 7)], repr(got))
+        check("multiplicity", fs.functions[1].points[1] == fs.functions[1].points[2] == (0.5, 2.0))
+        check("tab in old format", fs.functions[0].points[2][0] == f32(0.666667))
+        check("macros", fs.macros == {"up": 3}, repr(fs.macros))
+        check("set value", abs(fs.functions[2].value(0.4) - 0.4) < 0.0011)
+        lfile = put("m.l", "Lsystem: 1\nderivation length: 1\nAxiom: A(0.4)\n"
+                    "A(x) --> B(up, func(up, x), func(5, 2))\nendlsystem\n")
+        out = run_file(lfile, functions=[view])
+        check("run", out == "B(3,%s,%s)" % (fmt_g(f32(fs.functions[2].value(0.4))),
+                                         fmt_g(f32(fs.functions[4].value(1.0)))), out)
+        for bad, text in [("few.func", "fver 1 1\nname: a\nsamples: 0\nflip: off\npoints: 3\n"
+                           "0 0\n0.5 0.5 3\n1 1\n"),
+                          ("zero.func", "fver 1 1\\nname: a\\nsamples: 0\\nflip: off\\npoints: 4\\n"
+                           "0 0\\n0.5 0.5 0\\n0.7 0.7\\n1 1\\n"),
+                          ("tab.func", "fver 1 1\nname: a\nsamples: 0\nflip: off\npoints: 4\n"
+                           "0\t0\n0.3 0.3\n0.6 0.6\n1 1\n"),
+                          ("eof.func", "fver 1 1\nname: a\nsamples: 0\nflip: off\npoints: 4\n"
+                           "0 0\n0.3 0.3\n0.6 0.6\n1 1"),
+                          ("ver.func", "fver 1 2\nname: a\n")]:
+            try:
+                FunctionSet().add_file(put(bad, text))
+                check(bad, False, "not refused")
+            except CpfgError:
+                pass
+        try:
+            run_file(lfile, functions=[put("one.func", "range: 0 1\npoints: 4\n0 0\n0.3 0\n"
+                                           "0.6 0\n1 0\n")])
+            check("func id out of range", False, "not refused")
+        except CpfgError as e:
+            check("func id located", e.where is not None)
+    return ok
 
 
 def main(argv=None):
@@ -1910,6 +2491,9 @@ def main(argv=None):
     ap.add_argument("file", nargs="?")
     ap.add_argument("-n", type=int, default=None, help="number of derivation steps")
     ap.add_argument("--no-homomorphism", action="store_true")
+    ap.add_argument("--functions", action="append", default=[], metavar="FILE",
+                    help="a view file (its function: and function set: lines), "
+                    "a function set (.fset) or a function (.func); repeatable")
     ap.add_argument("--self-test", action="store_true")
     args = ap.parse_args(argv)
     if args.self_test:
@@ -1917,7 +2501,7 @@ def main(argv=None):
     if not args.file:
         ap.error("a file is needed")
     try:
-        out = run_file(args.file, args.n, not args.no_homomorphism)
+        out = run_file(args.file, args.n, not args.no_homomorphism, args.functions)
     except CpfgError as e:
         print("cpfg_ref.py: %s" % e, file=sys.stderr)
         return 1
