@@ -22,14 +22,29 @@ the second with an axiom whose parameters read globals, `ran` and a `Q` or
 `Z` that `Start:` assigns: cpfg reads the axiom after `Start:`. A fifth
 is seeded, without decomposition, with two keys of their own (E, G) that
 have two or three productions each with constant successors, mostly
-without weights: in a seeded system each weighs 1 and they compete.
+without weights: in a seeded system each weighs 1 and they compete. A
+sixth (`generate_func`) calls `func(id, x)` in successors' parameters,
+conditions, pre-/post-condition blocks, `Start:` and `EndEach:`, with 1-3
+functions of its own: random control points (x from 0 to 1), the `fver 1
+1` format (multiplicities, background and markers lines) and the old
+`range:` one, samples <= 2 (the bisection) and more (the table), ids with
+a fraction (C's `(int)`) and out-of-[0, 1] arguments (clamped), in a view
+file or passed directly, sometimes in a function set whose names are
+macros for their numbers.
 
 Usage (from anywhere):
     python3 tests/tools/gen_cpfg_cases.py          # write the file
     python3 tests/tools/gen_cpfg_cases.py --check  # compare, exit 1 if stale
 
-File format: for each case, a line `=== STEPS`, the `.l` text, a line
-`--- expected`, the output line. Cases the reference refuses, that print
+File format: for each case, a line `=== STEPS`, the `.l` text, then (sixth
+batch) zero or more file sections, a line `--- file NAME` and the file's
+text (each ends with a newline), then optionally a line `--- args
+--functions A --functions B ...`, then a line `--- expected` and the output
+line. The files go beside case.l (in the case's own directory). The
+`--functions` arguments to pass, in order and relative to that directory:
+those of the `--- args` line if there is one, else `case.v` if the case
+has that file (a view file: its `function:` / `function set:` lines name
+the other files), else none. Cases the reference refuses, that print
 more than MAX_OUTPUT characters, or whose string holds `inf` / `nan` (an
 error in lsgen, README) are not kept.
 """
@@ -57,6 +72,9 @@ DECOMP_CONTEXTS = 100
 LATE_AXIOM = 60
 # The fifth (`alternatives`, without decomposition), after the fourth.
 ALTERNATIVES = 40
+# The sixth (`generate_func`: func with its own function files), after
+# the fifth.
+FUNC = 40
 MAX_OUTPUT = 2000
 
 SYMS = "ABCD"
@@ -208,17 +226,208 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
     return "\n".join(lines) + "\n", r.randint(0, 4)
 
 
-def derive(text, steps):
-    """The reference's string, or None if it refuses the system."""
+# Names a function set gives its functions (macros in the `.l` file): none
+# is a module, a variable of these systems or a word of cpfg.
+FUNC_NAMES = ["len", "ang", "width", "elas", "br_ang", "curv2", "Size", "k_up"]
+
+
+def func_points(r, multiplicity):
+    """Control points, x from 0 to 1 and never decreasing (sometimes twice
+    the same x), 6 decimals as cpfg's function editor writes them; each
+    point may carry a multiplicity (fver format only)."""
+    k = r.randint(4, 8)
+    inner = sorted(round(r.random(), 6) for _ in range(k - 2))
+    if k > 4 and r.random() < 0.2:
+        i = r.randrange(len(inner) - 1)
+        inner[i + 1] = inner[i]
+    xs = [0.0] + inner + [1.0]
+    lines = []
+    for x in xs:
+        y = round(r.uniform(-1.5, 2.5), r.choice([1, 2, 6, 6]))
+        line = "%.6f %s" % (x, ("%.6f" % y) if r.random() < 0.7 else repr(y))
+        if multiplicity and r.random() < 0.25:
+            line += " %d" % r.choice([1, 2, 2, 3])
+        elif multiplicity and r.random() < 0.5:
+            line += " 1"
+        lines.append(line)
+    return lines
+
+
+def func_file(r, name, old, samples):
+    """A function file's text: the old format (`range:`, samples from the
+    view file's line) or `fver 1 1` with its own `samples:` (sometimes a
+    background and markers, ignored)."""
+    if old:
+        pts = func_points(r, False)
+        sep = r.choice([" ", "\t", "  "])
+        return "range: 0.0 1.0\npoints: %d\n%s\n" % (
+            len(pts), "\n".join(p.replace(" ", sep) for p in pts))
+    pts = func_points(r, True)
+    text = "fver 1 1\nname: %s\nsamples: %d\n" % (name, samples)
+    if r.random() < 0.15:
+        text += "background: leaf.png\n0.0 0.0 1.0 1.0\n"
+    if r.random() < 0.15:
+        text += "markers: 2\nm1 0.25 0.5\nm2 0.75 0.5\n"
+    text += "flip: %s\npoints: %d\n%s\n" % (r.choice(["off", "on"]), len(pts), "\n".join(pts))
+    return text
+
+
+def generate_func(r):
+    """The sixth batch: a system that calls func in successors' parameters,
+    conditions and blocks, with 1-3 functions of its own (random points,
+    the old and the fver format, multiplicities, samples <= 2 for the
+    bisection and more for the table), in a view file `case.v` or passed
+    directly (an `args` line), sometimes in a function set whose names are
+    macros. Returns (text, steps, files, args): files a list of (name,
+    text), args None (lsgen reads case.v) or the --functions files."""
+    nfun = r.randint(1, 3)
+    use_set = r.random() < 0.3
+    direct = r.random() < 0.3
+    names = r.sample(FUNC_NAMES, nfun)
+    files = []
+    # the functions' ids in the .l file: numbers, or names from a set
+    ids = []
+    if use_set:
+        # A set, its names as macros (cpfg defines them only when the
+        # set is the view file's last function line, and a set drops the
+        # functions read before it: the set's line is the only one).
+        items = "".join(func_file(r, n, False, r.choice([0, 2, -1, 10, 100, 5]))
+                        for n in names)
+        files.append(("funcs.fset", "funcgalleryver 1 1\nitems: %d\n%s" % (nfun, items)))
+        args = None
+        extra = []
+        if direct and r.random() < 0.5:
+            # passed directly, after a function of its own (lsgen's
+            # numbering: in order, so the set's names start at 2)
+            extra.append(("first.func", func_file(r, "first", False, r.choice([0, 10]))))
+        if direct:
+            files = extra + files
+            args = [f for f, _ in files]
+        else:
+            files.insert(0, ("case.v", "/* view file */\nangle factor: 12\n"
+                             "function set: funcs.fset\ninitial color: 1\n"))
+        base = len(extra)
+        ids = ["%s" % n for n in names] + [str(base + i + 1) for i in range(nfun)]
+        nall = base + nfun
+    else:
+        view = ["/* view file of a func case */", "angle factor: 8"]
+        args = []
+        for i, n in enumerate(names):
+            old = r.random() < 0.3
+            fname = "%s.func" % n
+            samples = r.choice([0, 1, 2, -1, 3, 10, 10, 100, 100, 7])
+            if old:
+                line = "function: %s" % fname
+                vs = r.choice([None, None, 2, 10, 100, 4])
+                if vs is not None:
+                    line += " %d" % vs
+                if direct:
+                    line = None  # given directly: -1 samples
+            else:
+                line = "function: %s" % fname + (" %d" % r.choice([100, 10, 2]) if r.random() < 0.5 else "")
+            files.append((fname, func_file(r, n, old, samples)))
+            if line:
+                view.append(line)
+            args.append(fname)
+            if r.random() < 0.3:
+                view.append(r.choice(["initial line width: 2", "/* a comment */",
+                                      "line style: cylinder", "z buffer: on"]))
+        if not direct:
+            files.insert(0, ("case.v", "\n".join(view) + "\n"))
+            args = None
+        nall = nfun
+        ids = [str(i + 1) for i in range(nfun)]
+
+    def fid(has_x):
+        x = r.random()
+        i = r.choice(ids)
+        if x < 0.15 and i.isdigit():
+            return i + "." + str(r.randint(1, 9))  # (int) toward zero
+        if x < 0.2 and nall >= 2 and has_x:
+            return "(x > 0.5 ? 1 : %d)" % nall
+        return i
+
+    in_production = ["x", "x", "x/4", "x*0.3", "x-1", "1-x", "x/(x+1)", "0.5",
+                     "x+0.05", "-x", "x*x", "0", "1", "g/3", "t"]
+    in_start = ["0.5", "0.2", "1", "0", "-3", "0.999", "2"]
+    in_end_each = ["g/4", "g", "t", "1-g"]
+
+    def call(pool=in_production, depth=0):
+        a = r.choice(pool)
+        if depth == 0 and r.random() < 0.1:
+            a = call(pool, 1)
+        return "func(%s, %s)" % (fid(pool is in_production), a)
+
+    def pexpr():
+        return r.choice(["%s" % call(), "x+%s" % call(), "%s*10" % call(), "x+0.25",
+                         "x*2+0.1", "x+0.3", "t", "g+%s" % call(), "(%s)^2" % call(),
+                         "trunc(%s*100)" % call(), "%s" % call(), "x/2+%s" % call()])
+
+    def succ():
+        out = []
+        for _ in range(r.randint(1, 3)):
+            c = r.choice("ABCF+[")
+            if c in "ABC":
+                out.append("%s(%s)" % (c, pexpr()))
+            elif c == "[":
+                out.append("[B(%s)]" % pexpr())
+            else:
+                out.append(c)
+        return "".join(out)
+
+    lines = ["Lsystem: 1", "derivation length: %d" % r.randint(1, 4)]
+    lines.append(r.choice(["Start: {g = %s; t = 0;}" % call(in_start),
+                           "Start: {g = 0.5; t = 0.1;}", "Start: {g = 1; t = 0;}"]))
+    if r.random() < 0.4:
+        lines.append("EndEach: {g = g + %s;}" % call(in_end_each))
+    axiom = "".join("%s(%s)" % (r.choice("ABC"), r.choice(["0", "0.1", "0.5", "1", "2", "-1", "0.75"]))
+                    for _ in range(r.randint(1, 3)))
+    lines.append("Axiom: " + axiom)
+    # every module has a production (one of them is often false)
+    keys = list("ABC") + [r.choice("ABC") for _ in range(r.randint(0, 1))]
+    r.shuffle(keys)
+    for key in keys:
+        pred = key + "(x)"
+        if r.random() < 0.2:
+            pred = r.choice("ABC") + " < " + pred
+        k = r.random()
+        if k < 0.3:
+            cond = " : %s > %s" % (call(), r.choice(["0", "0.5", "1", "-0.2"]))
+        elif k < 0.45:
+            cond = " : %s < %s" % (call(), call())
+        elif k < 0.75:
+            cond = " : {t = %s;} %s" % (call(), r.choice(["t > 0.3", "*", "t <> 1", "x < 3"]))
+            if r.random() < 0.3:
+                cond += " {g = g + t;}"
+        else:
+            cond = ""
+        lines.append("%s%s --> %s" % (pred, cond, succ()))
+    if r.random() < 0.3:
+        lines.append("homomorphism")
+        lines.append("B(x) --> B(%s)" % call())
+    lines.append("endlsystem")
+    return "\n".join(lines) + "\n", r.randint(1, 4), files, args
+
+
+def derive(text, steps, files=(), args=None):
+    """The reference's string, or None if it refuses the system. `files`:
+    (name, text) written beside case.l; `args`: the --functions files (by
+    default case.v if there is one)."""
     with tempfile.TemporaryDirectory() as d:
         path = os.path.join(d, "case.l")
         with open(path, "w", encoding="utf-8") as f:
             f.write(text)
+        for name, body in files:
+            with open(os.path.join(d, name), "w", encoding="utf-8") as f:
+                f.write(body)
+        if args is None:
+            args = ["case.v"] if any(n == "case.v" for n, _ in files) else []
+        functions = [os.path.join(d, a) for a in args]
         try:
             # Warnings (undefined names, division by zero) are printed by
             # the reference; they are not part of the expected output.
             with contextlib.redirect_stderr(io.StringIO()):
-                return cpfg_ref.run_file(path, steps)
+                return cpfg_ref.run_file(path, steps, functions=functions)
         except cpfg_ref.CpfgError:
             return None
         except (OverflowError, ZeroDivisionError, ValueError, RecursionError):
@@ -229,10 +438,12 @@ def main(argv):
     parts = []
     made = 0
     tried = 0
+    func_started = False
     r = random.Random(12)
     third = CASES + EXTENDED + DECOMP_CONTEXTS
     fourth = third + LATE_AXIOM
-    while made < fourth + ALTERNATIVES:
+    fifth = fourth + ALTERNATIVES
+    while made < fifth + FUNC:
         if made == CASES:
             r = random.Random(13)
         if made == CASES + EXTENDED:
@@ -241,18 +452,28 @@ def main(argv):
             r = random.Random(15)
         if made == fourth:
             r = random.Random(16)
+        if made == fifth and not func_started:
+            r = random.Random(17)
+            func_started = True
         tried += 1
         late = third <= made < fourth
-        alt = made >= fourth
-        text, steps = generate(
-            r, CASES <= made < fourth, CASES + EXTENDED <= made < third, late, alt
-        )
-        out = derive(text, steps)
+        alt = fourth <= made < fifth
+        files, args = [], None
+        if made >= fifth:
+            text, steps, files, args = generate_func(r)
+        else:
+            text, steps = generate(
+                r, CASES <= made < fourth, CASES + EXTENDED <= made < third, late, alt
+            )
+        out = derive(text, steps, files, args)
         # lsgen refuses a parameter a 32-bit float cannot hold (README), where
         # cpfg stores inf.
         if out is None or len(out) > MAX_OUTPUT or "inf" in out or "nan" in out:
             continue
-        parts.append("=== %d\n%s--- expected\n%s\n" % (steps, text, out))
+        sections = "".join("--- file %s\n%s" % (name, body) for name, body in files)
+        if args is not None:
+            sections += "--- args %s\n" % " ".join("--functions " + a for a in args)
+        parts.append("=== %d\n%s%s--- expected\n%s\n" % (steps, text, sections, out))
         made += 1
     content = "".join(parts)
     if "--check" in argv:
