@@ -1,21 +1,48 @@
-//! The differential test of the cpfg dialect: 600 random `.l` systems
+//! The differential test of the cpfg dialect: 640 random `.l` systems
 //! (every feature of the dialect mixed, see tests/tools/gen_cpfg_cases.py;
 //! cases 301-400 also assign `Q` and `Z` in blocks and try productions at
 //! the decomposition's and the homomorphism's depth limit, and 401-500
 //! add contexts to decomposition productions, and 501-560 have axioms whose
 //! parameters read globals, `ran` and a `Q` or `Z` that `Start:` assigns,
 //! and 561-600 are seeded, with keys without parameters that have several
-//! productions, mostly without weights: each weighs 1 and competes),
+//! productions, mostly without weights: each weighs 1 and competes, and
+//! 601-640 call `func(id, x)` with function files of their own, given by a
+//! view file `case.v` or directly with `--functions`),
 //! derived by the independent reference tests/tools/cpfg_ref.py; lsgen must
 //! print the same string for each. Every other case runs with
 //! `LSGEN_TEST_SPLIT=1`: splits in tasks of one module or byte where a
 //! pass splits, and the last two passes give back their input byte by byte
 //! (`derive::reclaim`), so that a reader that went back into it fails.
+//!
+//! A case: `=== STEPS`, the `.l` text, then zero or more `--- file NAME`
+//! sections (the file's text, written beside case.l), an optional
+//! `--- args --functions A ...` line (the `--functions` arguments, relative
+//! to the case's directory; without it `--functions case.v` if the case
+//! has that file), then `--- expected` and the output line.
 
 mod common;
 
 use common::{lsgen, run, tempdir, ROOT};
 use std::path::Path;
+
+/// A case's `.l` text, its files (name, text) and its `--- args` words.
+fn split_case(body: &str) -> (String, Vec<(String, String)>, Option<Vec<String>>) {
+    let mut src = String::new();
+    let mut files: Vec<(String, String)> = Vec::new();
+    let mut args = None;
+    for line in body.split_inclusive('\n') {
+        if let Some(name) = line.strip_prefix("--- file ") {
+            files.push((name.trim_end_matches('\n').to_string(), String::new()));
+        } else if let Some(rest) = line.strip_prefix("--- args") {
+            args = Some(rest.split_whitespace().map(str::to_string).collect());
+        } else if let Some((_, text)) = files.last_mut() {
+            text.push_str(line);
+        } else {
+            src.push_str(line);
+        }
+    }
+    (src, files, args)
+}
 
 #[test]
 fn random_cases_match_cpfg_ref() {
@@ -23,28 +50,51 @@ fn random_cases_match_cpfg_ref() {
         std::fs::read_to_string(Path::new(ROOT).join("tests/expected/cpfg/random/cases.txt"))
             .unwrap();
     let dir = tempdir();
-    let file = dir.path().join("case.l");
     let mut cases = 0;
     let mut failures = Vec::new();
     for case in text.split("=== ").skip(1) {
         let (n, rest) = case.split_once('\n').unwrap();
-        let (src, want) = rest.split_once("--- expected\n").unwrap();
-        std::fs::write(&file, src).unwrap();
+        let (body, want) = rest.split_once("--- expected\n").unwrap();
+        let (src, files, args) = split_case(body);
+        // each case in a directory of its own: no file of another case
+        let case_dir = dir.path().join(format!("case{cases}"));
+        std::fs::create_dir(&case_dir).unwrap();
+        let file = case_dir.join("case.l");
+        std::fs::write(&file, &src).unwrap();
+        for (name, text) in &files {
+            std::fs::write(case_dir.join(name), text).unwrap();
+        }
+        let args = args.unwrap_or_else(|| {
+            if files.iter().any(|(name, _)| name == "case.v") {
+                vec!["--functions".to_string(), "case.v".to_string()]
+            } else {
+                Vec::new()
+            }
+        });
         let mut cmd = lsgen();
         if cases % 2 == 1 {
             cmd.env("LSGEN_TEST_SPLIT", "1");
         }
-        let r = run(cmd.args(["-n", n.trim()]).arg(&file));
+        cmd.args(["-n", n.trim()]);
+        let mut words = args.iter();
+        while let Some(w) = words.next() {
+            assert_eq!(w, "--functions", "case {cases}: bad `--- args` line");
+            let f = words.next().expect("--functions needs a file");
+            cmd.arg("--functions").arg(case_dir.join(f));
+        }
+        let r = run(cmd.arg(&file));
         let got = String::from_utf8_lossy(&r.stdout);
         if !r.status.success() || got.trim_end_matches('\n') != want.trim_end_matches('\n') {
             failures.push(format!(
-                "case {cases} (-n {n}):\n{src}--- want\n{want}--- got ({})\n{got}\n{}",
-                r.status, r.stderr
+                "case {cases} (-n {n}{}):\n{body}--- want\n{want}--- got ({})\n{got}\n{}",
+                args.iter().map(|a| format!(" {a}")).collect::<String>(),
+                r.status,
+                r.stderr
             ));
         }
         cases += 1;
     }
-    assert_eq!(cases, 600);
+    assert_eq!(cases, 640);
     assert!(
         failures.is_empty(),
         "{} of {cases} cases differ from cpfg_ref.py:\n{}",
