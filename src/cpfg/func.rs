@@ -25,6 +25,9 @@ pub const MAX_POINTS: u64 = 1 << 16;
 pub const MAX_SAMPLES: u64 = 1 << 16;
 /// Most functions in one run.
 pub const MAX_FUNCTIONS: u64 = 4096;
+/// Most control points, and most samples, of all the functions together
+/// (16 and 8 MiB).
+pub const MAX_TOTAL: u64 = 1 << 20;
 /// The bisection halves the interval until it stops changing (at most
 /// about 1,100 times for a double): past this many steps it never ends.
 const MAX_BISECTION: u32 = 2000;
@@ -215,6 +218,15 @@ impl Functions {
                 limit: MAX_FUNCTIONS,
             }));
         }
+        let total = |g: &dyn Fn(&Function) -> usize| {
+            self.items.iter().map(g).sum::<usize>() as u64 + g(&f) as u64
+        };
+        if total(&|g| g.points.len()) > MAX_TOTAL || total(&|g| g.table.len()) > MAX_TOTAL {
+            return Err(at.error(E::TooMany {
+                what: "control points or samples in all the functions",
+                limit: MAX_TOTAL,
+            }));
+        }
         self.items.push(f);
         Ok(())
     }
@@ -252,7 +264,8 @@ impl Functions {
             return Err(at.error(E::Expected("`items: N` with N at least 0")));
         }
         for _ in 0..items {
-            let f = r.function(String::new(), -1)?;
+            // (cpfg's gallery reads an old-format item with 100 samples.)
+            let f = r.function(String::new(), 100)?;
             let id = self.items.len() + 1;
             let fname = f.source.clone();
             self.push(
@@ -719,6 +732,13 @@ mod tests {
         assert_eq!(g.table.len(), 100);
         let mut r = Reader::new("o.func", old);
         assert!(r.function("o.func".into(), -1).unwrap().table.is_empty());
+        // In a set, an old-format function has 100 samples (cpfg's
+        // gallery constructor's default).
+        let mut set = Functions::default();
+        set.read_set("s.fset", &format!("funcgalleryver 1 1\nitems: 1\n{old}"))
+            .unwrap();
+        assert_eq!(set.items[0].table.len(), 100);
+        assert!(set.macros.is_empty());
         let with_markers = "fver 1 1\nname: m\nsamples: 0\nbackground: x\nsomething\nmarkers: 2\n\
                             m1 0.1 0.1\nm2 0.2 0.2\nflip: on\npoints: 4\n0 0\n0.3 1\n0.6 1\n1 0\n";
         let mut r = Reader::new("m.func", with_markers);

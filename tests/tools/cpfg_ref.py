@@ -1703,9 +1703,14 @@ class FunctionSet:
     def add_view(self, path, text):
         """The `function:` and `function set:` lines of a view file (the
         label before the first `:`, blanks collapsed); the rest is not
-        read."""
+        read. As cpfg's interpret.c reads them: a `function set:` resets
+        the functions (splinearr.cpp's Reset; here those this view file
+        listed before it), and a `function:` line after a set turns the
+        set's macros off (SetFunctionsFromGallery(FALSE))."""
         text = splice_and_strip(text, path)
         base = os.path.dirname(path)
+        first = len(self.functions)
+        before = dict(self.macros)
         for i, line in enumerate(text.split("\n")):
             if ":" not in line:
                 continue
@@ -1719,8 +1724,11 @@ class FunctionSet:
                 raise CpfgError("`%s:` needs a file" % label, where)
             target = os.path.join(base, args[0])
             if label == "function set":
+                del self.functions[first:]
+                self.macros = dict(before)
                 self.add_file_kind(target, "set", -1, where)
             else:
+                self.macros = dict(before)
                 samples = -1
                 if len(args) > 1:
                     v = scan_int(args[1])
@@ -2448,21 +2456,33 @@ def self_test_functions():
             "0 0\n0.333333 0.333333\n0.666667 0.666667\n1 1\n"
             "fver 1 1\nname: 2bad\nsamples: 10\nflip: off\npoints: 4\n"
             "0 5\n0.25 5\n0.75 5\n1 5\n")
-        view = put("v.v", "/* a view file */\nangle factor: 3\nfunction: old.func\n"
-                   "function :  new.func 50\nfunction   set: s.fset\nfunction: old.func 7\n")
+        plain = put("p.v", "/* a view file */\nangle factor: 3\nfunction: old.func\n"
+                    "function :  new.func 50\n")
+        fs = FunctionSet()
+        fs.add_file(plain)
+        got = [(len(f.points), f.samples) for f in fs.functions]
+        check("view", got == [(4, -1), (5, 3)], repr(got))
+        check("multiplicity", fs.functions[1].points[1] == fs.functions[1].points[2] == (0.5, 2.0))
+        check("tab in old format", fs.functions[0].points[2][0] == f32(0.666667))
+        # A set resets what the view file listed before it; a function: line
+        # after it turns its macros off (cpfg's Reset, SetFunctionsFromGallery).
+        view = put("v.v", "function: old.func\nfunction   set: s.fset\n")
         fs = FunctionSet()
         fs.add_file(view)
         got = [(len(f.points), f.samples) for f in fs.functions]
-        check("view", got == [(4, -1), (5, 3), (4, 0), (4, 10), (4, 7)], repr(got))
-        check("multiplicity", fs.functions[1].points[1] == fs.functions[1].points[2] == (0.5, 2.0))
-        check("tab in old format", fs.functions[0].points[2][0] == f32(0.666667))
-        check("macros", fs.macros == {"up": 3}, repr(fs.macros))
-        check("set value", abs(fs.functions[2].value(0.4) - 0.4) < 0.0011)
+        check("set resets", got == [(4, 0), (4, 10)], repr(got))
+        check("macros", fs.macros == {"up": 1}, repr(fs.macros))
+        later = FunctionSet()
+        later.add_file(put("w.v", "function set: s.fset\nfunction: old.func 7\n"))
+        got = [(len(f.points), f.samples) for f in later.functions]
+        check("function after set", got == [(4, 0), (4, 10), (4, 7)], repr(got))
+        check("macros off", later.macros == {}, repr(later.macros))
+        check("set value", abs(fs.functions[0].value(0.4) - 0.4) < 0.0011)
         lfile = put("m.l", "Lsystem: 1\nderivation length: 1\nAxiom: A(0.4)\n"
-                    "A(x) --> B(up, func(up, x), func(5, 2))\nendlsystem\n")
+                    "A(x) --> B(up, func(up, x), func(2, 2))\nendlsystem\n")
         out = run_file(lfile, functions=[view])
-        check("run", out == "B(3,%s,%s)" % (fmt_g(f32(fs.functions[2].value(0.4))),
-                                         fmt_g(f32(fs.functions[4].value(1.0)))), out)
+        check("run", out == "B(1,%s,%s)" % (fmt_g(f32(fs.functions[0].value(0.4))),
+                                         fmt_g(f32(fs.functions[1].value(1.0)))), out)
         for bad, text in [("few.func", "fver 1 1\nname: a\nsamples: 0\nflip: off\npoints: 3\n"
                            "0 0\n0.5 0.5 3\n1 1\n"),
                           ("zero.func", "fver 1 1\\nname: a\\nsamples: 0\\nflip: off\\npoints: 4\\n"
