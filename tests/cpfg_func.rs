@@ -269,3 +269,32 @@ fn bad_functions_are_located_errors() {
         "{e}"
     );
 }
+
+/// The func models of tests/cpfg/func (their own view, function and set
+/// files): lsgen with `--functions NAME.v` prints what the independent
+/// reference tests/tools/cpfg_ref.py derived (tests/expected/cpfg/func/,
+/// kept current by `gen_expected_cpfg.py --check`).
+#[test]
+fn func_models_match_the_reference() {
+    let root = Path::new(common::ROOT);
+    let expected = root.join("tests/expected/cpfg/func");
+    let mut n = 0;
+    for e in std::fs::read_dir(&expected).unwrap() {
+        let path = e.unwrap().path();
+        let file = path.file_name().unwrap().to_str().unwrap().to_string();
+        let Some((name, steps)) = file.strip_suffix(".txt").and_then(|f| f.rsplit_once(".n"))
+        else {
+            continue;
+        };
+        let model = root.join("tests/cpfg/func").join(format!("{name}.l"));
+        let view = root.join("tests/cpfg/func").join(format!("{name}.v"));
+        let out = ok(run(lsgen()
+            .args(["-n", steps])
+            .arg(&model)
+            .arg("--functions")
+            .arg(&view)));
+        assert_eq!(out, std::fs::read_to_string(&path).unwrap(), "{file}");
+        n += 1;
+    }
+    assert_eq!(n, 6);
+}

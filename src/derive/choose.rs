@@ -259,6 +259,9 @@ pub(crate) struct Chooser {
     /// Matching candidates of a weighted group, with their bindings.
     cand: Vec<(u32, f64)>,
     cand_slots: Vec<f64>,
+    /// The module's bound parameters before a cpfg pre-condition block
+    /// could assign to them ([`Chooser::rebind`]).
+    bound: Vec<f64>,
     /// Chooses for decomposition or a deep homomorphism: in a `.l` file,
     /// always the first applicable production, no draw.
     pub(crate) nested: bool,
@@ -390,13 +393,31 @@ impl Chooser {
     where
         F: FnMut(&Production, &mut [f64]) -> Result<bool, Error>,
     {
+        let mut saved = false;
         for &pi in list {
             let p = &table.prods[pi as usize];
+            self.rebind(slots, p, &mut saved);
             if self.matches_cpfg(slots, p, rng, origin, pass, contexts)? {
                 return Ok(Some(pi));
             }
         }
         Ok(None)
+    }
+
+    /// cpfg binds a production's formal parameters from the string each
+    /// time it tries one (generate.c's `CondDiff` calls `CreateVarTable`),
+    /// so what a pre-condition block assigned to them is gone for the next
+    /// production tried. Before the first production with such a block the
+    /// bindings are saved (`saved`), and restored before every later try.
+    #[inline(always)]
+    fn rebind(&mut self, slots: &mut [f64], p: &Production, saved: &mut bool) {
+        if *saved {
+            slots.copy_from_slice(&self.bound);
+        } else if p.pre().is_some() {
+            self.bound.clear();
+            self.bound.extend_from_slice(slots);
+            *saved = true;
+        }
     }
 
     /// [`Chooser::choose`] for an `.ls` file (`rng` is not cpfg's): the
@@ -630,8 +651,10 @@ impl Chooser {
         }
         self.cand.clear();
         self.cand_slots.clear();
+        let mut saved = false;
         for &pi in list {
             let p = &table.prods[pi as usize];
+            self.rebind(slots, p, &mut saved);
             if !self.matches_cpfg(slots, p, rng, origin, pass, contexts)? {
                 continue;
             }

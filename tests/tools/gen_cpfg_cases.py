@@ -30,7 +30,10 @@ functions of its own: random control points (x from 0 to 1), the `fver 1
 `range:` one, samples <= 2 (the bisection) and more (the table), ids with
 a fraction (C's `(int)`) and out-of-[0, 1] arguments (clamped), in a view
 file or passed directly, sometimes in a function set whose names are
-macros for their numbers.
+macros for their numbers. A seventh is the second with few keys (A, B),
+mostly with a parameter, many productions each, and pre-condition blocks
+that assign to the formal parameter: cpfg binds the formals again for
+every production it tries, so the next one sees the string's value.
 
 Usage (from anywhere):
     python3 tests/tools/gen_cpfg_cases.py          # write the file
@@ -75,12 +78,15 @@ ALTERNATIVES = 40
 # The sixth (`generate_func`: func with its own function files), after
 # the fifth.
 FUNC = 40
+# The seventh (`extended` and `formals`), after the sixth.
+FORMALS = 80
 MAX_OUTPUT = 2000
 
 SYMS = "ABCD"
 
 
-def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alternatives=False):
+def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alternatives=False,
+             formals=False):
     """A random system and a number of steps. `extended`: a second batch
     (its own generator, so the first batch stays as it was) whose blocks
     also assign `Q` and `Z`, with more decomposition and homomorphism at
@@ -90,7 +96,9 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
     `Start:` assigns them, `Q` or `Z`. `alternatives`: seeded, with two
     keys without parameters (E, G) that have two or three productions of
     their own, mostly without weights (each weighs 1 when the system is
-    seeded)."""
+    seeded). `formals`: pre-condition blocks also assign to the
+    production's formal parameter, and keys have several productions
+    (cpfg binds the formals again for each production it tries)."""
     globals_ = extended or r.random() < 0.3
     stochastic = r.random() < 0.3 or alternatives
 
@@ -133,6 +141,10 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
         return "".join(out)
 
     def pred_module():
+        if formals:
+            # Few keys, mostly with a parameter: productions compete.
+            s = r.choice("AB")
+            return (s + "(x)", "x") if r.random() < 0.8 else (s, None)
         s = r.choice(SYMS)
         if r.random() < 0.4:
             return s + "(x)", "x"
@@ -140,6 +152,7 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
 
     def production(contexts=True, multi=True, weights=False):
         lhs, var = pred_module()
+        contexts = contexts and not (formals and r.random() < 0.7)
         # The third batch: more multi-module predecessors, whose
         # successors' decomposition reads contexts around all of them.
         if multi and r.random() < (0.5 if decomp_contexts else 0.1):
@@ -151,6 +164,9 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
             lhs = lhs + " > " + r.choice(["A", "B", "[C]", "C]", "*", "[A]B", "=B"])
         cond = ""
         x = r.random()
+        if formals:
+            # Mostly conditions on the formal, which a block may change.
+            x = 0.15 + 0.3 * r.random() if r.random() < 0.8 else x
         if x < 0.15:
             cond = " : *"
         elif x < 0.45:
@@ -168,6 +184,10 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
             # assigns them in the fourth batch only).
             pre = r.choice(["", "", "{g = g + 1;}", "{Q = Q + 1;}", "{Z = Z - 1;}",
                             "{if (g > 2) {Q = 0;}}", "{g = g + 1; Z = Z + Q;}"])
+            if formals and var and r.random() < 0.8:
+                pre = r.choice(["{%s = %s + 2;}", "{%s = %s * 3; g = g + %s;}",
+                                "{%s = Q - %s;}", "{if (%s > 1) {%s = 0;}}", "{%s = -%s;}",
+                                "{%s = 0;}"]).replace("%s", var)
             post = r.choice(["", "", "{g = g * 2;}", "{Q = g;}", "{Z = Z + g;}"])
             if pre or post:
                 c = cond[3:] if cond else "*"
@@ -197,6 +217,11 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
                                    "End: {Q = 100; Z = g;}"]))
     axiom = "[".join(succ(None, False, True) for _ in range(2)) + "]" + succ(None, False, True)
     axiom = axiom.replace("*", "")
+    if formals:
+        # Modules the productions rewrite, with values on both sides of
+        # their conditions.
+        axiom += "".join("%s(%d)" % (r.choice("AB"), r.randint(-1, 4))
+                         for _ in range(r.randint(2, 5)))
     lines.append("Axiom: " + (axiom or "A"))
     if alternatives:
         # Keys of their own (E, G), in the axiom and in their successors,
@@ -210,7 +235,8 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
                 # key's first production had them.)
                 plain = "".join(r.choice("ABEGF+") for _ in range(r.randint(0, 3)))
                 lines.append("%s%s --> %s%s" % (s, cond, plain or "*", weight))
-    lines += [production(weights=stochastic) for _ in range(r.randint(1, 5))]
+    lines += [production(weights=stochastic)
+              for _ in range(r.randint(4, 8) if formals else r.randint(1, 5))]
     if not alternatives and r.random() < (0.7 if extended else 0.35):
         lines.append("decomposition")
         if r.random() < 0.5:
@@ -223,7 +249,7 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
             lines.append("maximum depth: %d" % r.randint(1, 3))
         lines += [production(multi=False) for _ in range(r.randint(1, 3))]
     lines.append("endlsystem")
-    return "\n".join(lines) + "\n", r.randint(0, 4)
+    return "\n".join(lines) + "\n", r.randint(1 if formals else 0, 4)
 
 
 # Names a function set gives its functions (macros in the `.l` file): none
@@ -443,7 +469,8 @@ def main(argv):
     third = CASES + EXTENDED + DECOMP_CONTEXTS
     fourth = third + LATE_AXIOM
     fifth = fourth + ALTERNATIVES
-    while made < fifth + FUNC:
+    sixth = fifth + FUNC
+    while made < sixth + FORMALS:
         if made == CASES:
             r = random.Random(13)
         if made == CASES + EXTENDED:
@@ -455,11 +482,16 @@ def main(argv):
         if made == fifth and not func_started:
             r = random.Random(17)
             func_started = True
+        if made == sixth and func_started:
+            r = random.Random(18)
+            func_started = False
         tried += 1
         late = third <= made < fourth
         alt = fourth <= made < fifth
         files, args = [], None
-        if made >= fifth:
+        if made >= sixth:
+            text, steps = generate(r, True, False, False, False, formals=True)
+        elif made >= fifth:
             text, steps, files, args = generate_func(r)
         else:
             text, steps = generate(

@@ -39,6 +39,7 @@ import ref  # noqa: E402
 
 # model name (tests/cpfg/NAME.l) -> derivation lengths; None: the file's own
 MANIFEST = {
+    "block_formals": [1],
     "vlab_typical": [0, 1, 2, 3, 4],
     "vlab_stochastic": [1, 2, 3, 6],
     "preprocessor": [0, 1, 2],
@@ -68,6 +69,7 @@ MANIFEST = {
 # Strings derived by hand (the derivations are in the models' comments);
 # the reference must agree with them.
 HAND = {
+    ("block_formals", 1): "K(0.95)Y(1)Q(2)W(1)",
     ("preprocessor", 1): "[+(45)F(1)]B(1.5)[[+(90)F(0.5)]]F(1)F(2)",
     ("layout", 1): "AxCAA,;",
     ("null_star", 1): "BBE",
@@ -144,6 +146,13 @@ def quiet(fn, *args):
         return fn(*args)
 
 
+# tests/cpfg/func/NAME.l with --functions tests/cpfg/func/NAME.v: steps.
+FUNC = {
+    "fset_macros": [1, 2, 3],
+    "lilac_like": [1, 3, 5],
+}
+
+
 def main(argv):
     check = "--check" in argv
     outdir = os.path.join(ROOT, "tests", "expected", "cpfg")
@@ -158,6 +167,12 @@ def main(argv):
             jobs.append((src, n, True, "%s.n%d.txt" % (name, n)))
             if has_homo:
                 jobs.append((src, n, False, "%s.n%d.nohomo.txt" % (name, n)))
+    # The func models, each with its view file (--functions).
+    os.makedirs(os.path.join(outdir, "func"), exist_ok=True)
+    for name, ns in sorted(FUNC.items()):
+        for n in ns:
+            jobs.append(("tests/cpfg/func/%s.l" % name, n, True, "func/%s.n%d.txt" % (name, n),
+                         "tests/cpfg/func/%s.v" % name))
     twins = sorted(f[:-2] for f in os.listdir(os.path.join(ROOT, "tests", "cpfg", "abop")) if f.endswith(".l"))
     for name in twins:
         for n in gen_expected.MANIFEST[name]:
@@ -187,11 +202,15 @@ def main(argv):
             continue
         print("not refused: tests/cpfg/refused/%s" % f)
         bad += 1
-    for src, n, homo, fname in jobs:
-        text = quiet(cpfg_ref.run_file, os.path.join(ROOT, src), n, homo) + "\n"
+    for job in jobs:
+        src, n, homo, fname = job[:4]
+        view = job[4] if len(job) > 4 else None
+        functions = [os.path.join(ROOT, view)] if view else []
+        text = quiet(cpfg_ref.run_file, os.path.join(ROOT, src), n, homo, functions) + "\n"
         path = os.path.join(outdir, fname)
-        cmd = "python3 tests/tools/cpfg_ref.py %s -n %d%s > tests/expected/cpfg/%s" % (
-            src, n, "" if homo else " --no-homomorphism", fname)
+        cmd = "python3 tests/tools/cpfg_ref.py %s -n %d%s%s > tests/expected/cpfg/%s" % (
+            src, n, "" if homo else " --no-homomorphism",
+            " --functions %s" % view if view else "", fname)
         rows.append("| `%s` | %d | `%s` |\n" % (fname, len(text), cmd))
         if check:
             try:
