@@ -779,7 +779,7 @@ cases! {
     // --- the cpfg dialect (issue 12): tests/cpfg/refused/, each construct
     // named with its reason; detected by the first statement `Lsystem:` ---
     cpfg_refused_array =>
-        err(include_str!("cpfg/refused/array.l"), 5, 6, "arrays are not supported");
+        err(include_str!("cpfg/refused/array.l"), 5, 6, "`a` is not an array of `define:`");
     cpfg_refused_at_s =>
         err(include_str!("cpfg/refused/at_s.l"), 5, 7, "`@S` (a surface");
     cpfg_refused_atan2 =>

@@ -1146,3 +1146,93 @@ fn the_axiom_reads_what_start_assigned() {
         assert!(r.stdout.is_empty());
     }
 }
+
+/// cpfg's arrays (`define: { array ... }`, generate.c's AllocateArray,
+/// ProcessArrayDef and tARRAYREF). By hand, one step of
+/// `A(0) A(1) A(5) A(-1)` with a = {{1,2,3},{4,5,6}}, b = {10,20,0,0}
+/// (too few initial values: the rest 0, a warning), `Start:` setting
+/// c[1] = 7 and b[3] = a[1][2] * 100 = 600:
+/// - A(0): the post-condition block makes b[0] 11: B(a[0][0], b[0], b[0],
+///   c[1], a[0.5][1]), and a[0.5][1] is element (int)(0.5 * 3 + 1) = 2,
+///   a[0][2] = 3: B(1,11,11,7,3).
+/// - A(1): b[0] = 12: B(a[1][1], b[1], 12, 7, 3) = B(5,20,12,7,3).
+/// - A(5): no block; b[5] is b[3] (clamped, with a warning), a[5][9] is
+///   a[1][2]: C(600,600,6).
+/// - A(-1): b[0] = 13; a[-1][-1] is a[0][0], b[-1] is b[0]: B(1,13,13,7,3).
+#[test]
+fn arrays_are_cpfgs() {
+    let dir = tempdir();
+    let src = "#define M 2\n#define N 3\nLsystem: 1\ndefine: {\n\
+               \tarray a[M][N] = {1, 2, 3,\n\t                 4, 5, 6};\n\
+               \tarray b[4] = {10, 20}, c[2];\n\t}\nderivation length: 2\n\
+               Start: {c[1] = 7; b[3] = a[1][2] * 100;}\n\
+               Axiom: A(0) A(1) A(5) A(-1)\n\
+               A(i) : i < 2 {b[0] = b[0] + 1;} --> B(a[i][i], b[i], b[0], c[1], a[0.5][1])\n\
+               A(i) --> C(b[i], b[3], a[i][9])\nendlsystem\n";
+    let file = write(dir.path(), "a.l", src);
+    for j in ["1", "4"] {
+        let (out, err) = derive(&["-j", j], &file);
+        assert_eq!(
+            out,
+            "B(1,11,11,7,3)B(5,20,12,7,3)C(600,600,6)B(1,13,13,7,3)\n"
+        );
+        assert!(
+            err.contains("a.l:7:8: warning: too few initial values for `b`: 2 for 4 elements"),
+            "{err}"
+        );
+        assert_eq!(
+            err.matches("warning: an array subscript out of range")
+                .count(),
+            1,
+            "{err}"
+        );
+    }
+    // The arrays start again in each run, before `Start:`; they keep
+    // their values from step to step.
+    let counting = write(
+        dir.path(),
+        "c.l",
+        "Lsystem: 1\ndefine: { array n[1] = {5}; }\nderivation length: 3\n\
+         EndEach: {n[0] = n[0] * 2;}\nAxiom: A\nA --> A B(n[0])\nendlsystem\n",
+    );
+    assert_eq!(derive(&[], &counting).0, "AB(20)B(10)B(5)\n");
+    assert_eq!(
+        derive(&["--frames", "1..2"], &counting).0,
+        "AB(5)\nAB(10)B(5)\n"
+    );
+}
+
+/// An array used wrongly is a located error: at load (a name that is no
+/// array, one without its subscripts, the wrong number of subscripts, a
+/// dimension below 1, too many elements, a name defined twice) or while
+/// deriving (a NaN subscript; fractional subscripts that make an element
+/// past the end, where cpfg reads outside the array).
+#[test]
+fn arrays_used_wrongly_are_located_errors() {
+    let dir = tempdir();
+    let cases: &[(&str, &str, &str)] = &[
+        ("define: { array a[2]; }", "A --> B(x[1])", "5:9: error: `x` is not an array of `define:`"),
+        ("define: { array a[2]; }", "A --> B(a)", "5:9: error: `a` is an array: an element needs its subscripts"),
+        ("define: { array a[2]; }", "A --> B(a[1][1])", "5:9: error: `a` has 1 dimension, not 2"),
+        ("define: { array a[2][2]; }", "A : {a = 1;} * --> B", "5:6: error: `a` is an array"),
+        ("define: { array a[0]; }", "A --> B", "2:19: error: an array dimension must be at least 1, not 0"),
+        ("define: { array a[1024][1025]; }", "A --> B", "2:25: error: the arrays of `define:` hold more than 1048576 elements"),
+        ("define: { array a[2], a[3]; }", "A --> B", "2:23: error: the array `a` is defined twice"),
+        ("define: { array a[2]; }", "A --> B(a[sqrt(0-1)])", "5:9: error: an array subscript is not a number (in step 1)"),
+        ("define: { array a[2][3]; }", "A --> B(a[1.9][2])", "5:9: error: the subscripts make element 7 of an array of 6 (cpfg goes past its end) (in step 1)"),
+    ];
+    for (define, prod, want) in cases {
+        let file = write(
+            dir.path(),
+            "e.l",
+            format!("Lsystem: 1\n{define}\nderivation length: 1\nAxiom: A\n{prod}\nendlsystem\n"),
+        );
+        let r = run(lsgen().arg(&file));
+        let e = r.fails(1);
+        assert!(
+            e.starts_with(&format!("lsgen: {}:{want}", file.display())),
+            "{want}\n{e}"
+        );
+        assert!(r.stdout.is_empty());
+    }
+}

@@ -22,6 +22,8 @@ pub enum Expr {
     Binary(BinOp, Box<Expr>, Box<Expr>, Span),
     /// `c ? a : b` (cpfg evaluates both branches).
     Cond(Box<Expr>, Box<Expr>, Box<Expr>, Span),
+    /// `a[i][j]`: an element of a `define:` array.
+    Index(String, Vec<Expr>, Span),
 }
 
 impl Expr {
@@ -33,7 +35,8 @@ impl Expr {
             | Expr::Call(_, _, s)
             | Expr::Unary(_, _, s)
             | Expr::Binary(_, _, _, s)
-            | Expr::Cond(_, _, _, s) => *s,
+            | Expr::Cond(_, _, _, s)
+            | Expr::Index(_, _, s) => *s,
         }
     }
 }
@@ -47,6 +50,13 @@ pub enum Stmt {
     Assign {
         name: String,
         name_span: Span,
+        value: Expr,
+    },
+    /// `name[i][j] = value;`: an element of a `define:` array.
+    AssignIndex {
+        name: String,
+        name_span: Span,
+        subs: Vec<Expr>,
         value: Expr,
     },
     /// `if (cond) { then } else { els }` (`els` empty without `else`).
@@ -113,8 +123,22 @@ pub enum Setting {
     /// earlier one.
     Ignore(Vec<(char, Span)>, Span),
     Consider(Vec<(char, Span)>, Span),
-    /// `ring lsystem`, `define: { ... }`: refused by the lowering.
+    /// `define: { array ... }`: cpfg's arrays.
+    Arrays(Vec<ArrayDef>, Span),
+    /// `ring lsystem`: refused by the lowering.
     Unsupported(crate::diag::Refused, Span),
+}
+
+/// An array of `define:`: `name[d1][d2]... = {init, ...}`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ArrayDef {
+    pub name: String,
+    /// The name's span.
+    pub span: Span,
+    /// The size of each dimension.
+    pub dims: Vec<Expr>,
+    /// The initial values, in row-major order (None: all 0).
+    pub init: Option<Vec<Expr>>,
 }
 
 /// A `decomposition` or `homomorphism` section.

@@ -44,6 +44,15 @@ pub enum Stmt {
     Printf(Format, Box<[Code]>, Span),
     /// An expression for its effect (`srand(3);`).
     Eval(Code),
+    /// `a[i][j] = value;`: the value, then the element's variable number
+    /// (the code of [`crate::rules::expr::cpfg_array`]'s write form), as
+    /// cpfg's `AssignArrayElement(LHS, Eval(value))` evaluates them.
+    AssignElement(Code, Code),
+    /// `define:`'s arrays at the start of a run (cpfg's
+    /// `ProcessArrayDef`, before `Start:`): the array at variable `.0` of
+    /// `.1` elements takes the initial values in order, 0 past their end
+    /// (values past its last element are not evaluated).
+    InitArray(u32, u32, Box<[Code]>),
 }
 
 /// A block: statements in order.
@@ -112,6 +121,20 @@ impl Block {
                 }
                 Stmt::Eval(e) => {
                     e.eval(slots, stack, rng)?;
+                }
+                Stmt::AssignElement(at, value) => {
+                    let x = value.eval(slots, stack, rng)?;
+                    let var = at.eval(slots, stack, rng)?;
+                    rng.set_global(var as u32, x);
+                }
+                Stmt::InitArray(base, total, init) => {
+                    for i in 0..*total {
+                        let x = match init.get(i as usize) {
+                            Some(c) => c.eval(slots, stack, rng)?,
+                            None => 0.0,
+                        };
+                        rng.set_global(base + i, x);
+                    }
                 }
             }
         }

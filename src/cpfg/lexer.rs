@@ -59,6 +59,7 @@ pub enum Tok<'a> {
     KwElse,
     KwWhile,
     KwDo,
+    KwArray,
     Plus,
     Minus,
     Star,
@@ -122,6 +123,7 @@ impl fmt::Display for Tok<'_> {
             Tok::KwElse => "`else`",
             Tok::KwWhile => "`while`",
             Tok::KwDo => "`do`",
+            Tok::KwArray => "`array`",
             Tok::Plus => "`+`",
             Tok::Minus => "`-`",
             Tok::Star => "`*`",
@@ -641,6 +643,7 @@ impl<'a> Lexer<'a> {
                 "else" => Tok::KwElse,
                 "while" => Tok::KwWhile,
                 "do" => Tok::KwDo,
+                "array" => Tok::KwArray,
                 n => Tok::Name(n),
             },
             ExprTok::Str => {

@@ -128,6 +128,8 @@ fn expr_names(e: &Expr, out: &mut Vec<String>) {
             expr_names(a, out);
             expr_names(b, out);
         }
+        // (An array's name is no variable.)
+        Expr::Index(_, subs, _) => subs.iter().for_each(|e| expr_names(e, out)),
     }
 }
 
@@ -167,9 +169,18 @@ fn block_names(b: &Block, out: &mut Vec<String>, assigned_only: bool) {
                     expr(e, out);
                 }
             }
+            ast::Stmt::AssignIndex { subs, value, .. } => {
+                if !assigned_only {
+                    expr(value, out);
+                    subs.iter().for_each(|e| expr(e, out));
+                }
+            }
         }
     }
 }
+
+/// Most elements of all the arrays of `define:` together (8 MiB).
+pub const MAX_ARRAY_ELEMENTS: u64 = 1 << 20;
 
 /// The name a formal parameter gets in the shared tree: `step` is the
 /// shared tree's built-in step number (cpfg's `Q`), so a cpfg formal named
@@ -222,6 +233,8 @@ struct Lowerer<'w> {
     locals: HashMap<String, u32>,
     /// Variables numbered so far (globals, then every production's locals).
     variables: u32,
+    /// `define:`'s arrays: first variable and dimensions, by name.
+    arrays: HashMap<String, (u32, Vec<u32>)>,
     /// Blocks and slots of the productions lowered so far, per section.
     extra: [Vec<ProdExtra>; 3],
     /// The section being lowered (index into `extra`).
@@ -253,6 +266,8 @@ impl Lowerer<'_> {
                 let q_or_z = name == "Q" || name == "Z";
                 if formals.contains_key(name) {
                     ls::Expr::Var(formal_name(name), *s)
+                } else if self.arrays.contains_key(name) {
+                    return err(*s, Invalid::ArrayWithoutSubscripts(name.clone()));
                 } else if q_or_z
                     && self.constant
                     && self.axiom
@@ -325,7 +340,39 @@ impl Lowerer<'_> {
                 Box::new(self.expr(b, formals)?),
                 *s,
             ),
+            Expr::Index(name, subs, s) => self.element(name, subs, *s, false, formals)?,
         })
+    }
+
+    /// `name[subs...]`: an array element's value, or (`write`) its
+    /// variable number, as the expression compiler reads
+    /// [`crate::rules::expr::cpfg_array`]'s call.
+    fn element(
+        &mut self,
+        name: &str,
+        subs: &[Expr],
+        s: Span,
+        write: bool,
+        formals: &HashMap<String, ()>,
+    ) -> R<ls::Expr> {
+        let name_span = (s.0, s.0 + name.len());
+        let Some((base, dims)) = self.arrays.get(name).cloned() else {
+            return err(name_span, Invalid::NotAnArray(name.to_string()));
+        };
+        if dims.len() != subs.len() {
+            let kind = Invalid::Subscripts {
+                name: name.to_string(),
+                dims: dims.len(),
+                given: subs.len(),
+            };
+            return err(s, kind);
+        }
+        let subs = subs
+            .iter()
+            .map(|e| self.expr(e, formals))
+            .collect::<R<Vec<_>>>()?;
+        let f = crate::rules::expr::cpfg_array(write, base, &dims);
+        Ok(ls::Expr::Call(f, subs, s))
     }
 
     /// A constant expression's value (settings, the axiom), in cpfg's
@@ -434,6 +481,8 @@ impl Lowerer<'_> {
                     // `Q` again at the next step; `Z` stays).
                     let var = if formals.contains_key(name) {
                         blocks::Var::Local(names[&formal_name(name)])
+                    } else if self.arrays.contains_key(name) {
+                        return err(*name_span, Invalid::ArrayWithoutSubscripts(name.clone()));
                     } else if let Some(&l) = self.locals.get(name) {
                         // (A production's own, also an `=(Q)`'s.)
                         blocks::Var::Global(l)
@@ -487,6 +536,27 @@ impl Lowerer<'_> {
                     blocks::Stmt::Printf(f, args.into(), *span)
                 }
                 ast::Stmt::Expr(e) => blocks::Stmt::Eval(self.code(e, formals, names)?),
+                ast::Stmt::AssignIndex {
+                    name,
+                    name_span,
+                    subs,
+                    value,
+                } => {
+                    let value = self.code(value, formals, names)?;
+                    let at = (
+                        name_span.0,
+                        subs.last().map_or(name_span.1, |e| e.span().1 + 1),
+                    );
+                    let element = self.element(name, subs, at, true, formals)?;
+                    let scope = Scope {
+                        params: names,
+                        consts: &HashMap::new(),
+                        cpfg: true,
+                    };
+                    let at = Code::compile(&element, &scope)
+                        .map_err(|x| UserError::new(x.span, x.kind))?;
+                    blocks::Stmt::AssignElement(at, value)
+                }
             });
         }
         Ok(blocks::Block(out.into()))
@@ -806,6 +876,7 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
         globals: HashMap::new(),
         locals: HashMap::new(),
         variables: 0,
+        arrays: HashMap::new(),
         extra: Default::default(),
         section: 0,
     };
@@ -830,6 +901,41 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
         lw.z_global = Some(lw.globals.len() as u32);
     }
     lw.variables = lw.globals.len() as u32 + u32::from(z_assigned);
+    // `define:`'s arrays: run variables after the globals, each its
+    // elements in row-major order (cpfg's AllocateArray).
+    let mut inits = Vec::new();
+    let mut elements = 0u64;
+    for s in &lsys.settings {
+        let Setting::Arrays(defs, _) = s else {
+            continue;
+        };
+        for d in defs {
+            if lw.arrays.contains_key(&d.name) || lw.globals.contains_key(&d.name) {
+                return err(d.span, Invalid::ArrayTwice(d.name.clone()));
+            }
+            let mut dims = Vec::new();
+            let mut size = 1u64;
+            for e in &d.dims {
+                let n = lw.c_int(e, "an array dimension")?;
+                if n < 1 {
+                    return err(e.span(), Invalid::ArrayDimension(n as f64));
+                }
+                size = size.saturating_mul(n as u64);
+                if size > MAX_ARRAY_ELEMENTS {
+                    return err(e.span(), Invalid::ArraysTooLarge(MAX_ARRAY_ELEMENTS));
+                }
+                dims.push(n as u32);
+            }
+            elements += size;
+            if elements > MAX_ARRAY_ELEMENTS {
+                return err(d.span, Invalid::ArraysTooLarge(MAX_ARRAY_ELEMENTS));
+            }
+            let base = lw.variables;
+            lw.variables += size as u32;
+            lw.arrays.insert(d.name.clone(), (base, dims));
+            inits.push((d, base, size));
+        }
+    }
     let mut header = ls::Header::default();
     // (ignore, symbols, span) of the last `ignore:`/`consider:`.
     let mut filter = None;
@@ -838,6 +944,7 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
             Setting::Unsupported(what, span) => {
                 return err(*span, crate::diag::ParseError::Refused(what.clone()))
             }
+            Setting::Arrays(..) => {}
             Setting::Seed(e, span) => {
                 // `(int) Eval(...)` (lsys_input.y); control.c seeds with
                 // `seed48({seed, 0, 155})` when it is not 0, the `int`
@@ -978,6 +1085,25 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
             *slot = lw.block(b, &HashMap::new(), &none)?;
         }
     }
+    // The arrays' initial values, evaluated at the start of the run before
+    // `Start:` (cpfg's ProcessArrayDef), as many as the array has elements.
+    let mut define = Vec::new();
+    for (d, base, size) in inits {
+        let given = d.init.as_ref().map_or(0, Vec::len);
+        if d.init.is_some() && given as u64 != size {
+            let name = d.name.clone();
+            lw.say(d.span, WarningKind::ArrayInitialisers { name, given, size });
+        }
+        let codes = d
+            .init
+            .iter()
+            .flatten()
+            .take(size as usize)
+            .map(|e| lw.code(e, &HashMap::new(), &none))
+            .collect::<R<Vec<_>>>()?;
+        define.push(blocks::Stmt::InitArray(base, size as u32, codes.into()));
+    }
+    run.define = blocks::Block(define.into());
     if let (Some(g), Some(z)) = (lw.z_global, lw.z) {
         // `Z` holds the length from the `derivation length:` line on
         // (lsys_input.y's Dlength), before `Start:` runs.

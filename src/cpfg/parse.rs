@@ -38,7 +38,6 @@ const UNSUPPORTED_FUNCTIONS: &[&str] = &[
     "fscanf",
     "inblob",
     "external",
-    "array",
 ];
 
 /// Parse the preprocessed text of a `.l` file, whose run has no function
@@ -159,7 +158,6 @@ fn refusal(
             }
         }
         Tok::KwRing => return at(span, Refused::Ring),
-        Tok::KwDefine => return at(span, Refused::Define),
         Tok::ObjArrow => return at(span, Refused::ObjectProduction),
         Tok::Sym('?') => {
             let what = match next {
@@ -179,9 +177,6 @@ fn refusal(
         }
         Tok::Name(n) if UNSUPPORTED_FUNCTIONS.contains(n) => {
             return at(span, Refused::Function(n.to_string()))
-        }
-        Tok::Name(n) if next == Some(&Tok::LBracket) => {
-            return at(span, Refused::Array(n.to_string()))
         }
         _ => {}
     }

@@ -16,6 +16,10 @@ pub struct CpfgRun {
     /// are ignored, as in cpfg). `--seed N` replaces it, as if the file
     /// said `seed: N`.
     pub seed: Option<u64>,
+    /// `define:`'s arrays set to their initial values, before `Start:`
+    /// (cpfg's `ProcessArrayDef`); not a block of the file: it alone does
+    /// not keep a derivation from stopping at a fixed point.
+    pub define: Block,
     /// `Start:`, `StartEach:`, `EndEach:`, `End:` (empty when absent):
     /// they assign global variables.
     pub start: Block,
@@ -57,6 +61,7 @@ impl CpfgRun {
     /// Run a header block, globals in `rng`.
     pub fn run(&self, which: When, rng: &mut Random) -> Result<(), EvalError> {
         let b = match which {
+            When::Define => &self.define,
             When::Start => &self.start,
             When::StartEach => &self.start_each,
             When::EndEach => &self.end_each,
@@ -93,6 +98,8 @@ impl CpfgRun {
 /// Which header block.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum When {
+    /// The arrays' initial values, before `Start:`.
+    Define,
     /// Before the axiom is read.
     Start,
     /// Before each step.

@@ -481,6 +481,7 @@ pub(crate) fn derive(
     };
     // cpfg's `Start:` runs before the axiom is read, and the axiom's
     // parameters that are no constants see what it did.
+    d.cpfg_block(When::Define, Pass::Axiom)?;
     d.cpfg_block(When::Start, Pass::Axiom)?;
     if let Some(text) = d.cpfg_axiom()? {
         reader = reader.with_text(text);

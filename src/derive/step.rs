@@ -536,6 +536,7 @@ impl<'a> Deriver<'a> {
         c.run(which, &mut self.rng).map_err(|e| {
             use crate::diag::Block;
             let block = match which {
+                When::Define => Block::Define,
                 When::Start => Block::Start,
                 When::StartEach => Block::StartEach(pass),
                 When::EndEach => Block::EndEach(pass),

@@ -20,8 +20,6 @@ pub enum Refused {
     Ring,
     /// `ring lsystem` as a setting.
     RingSetting,
-    /// `define:` (cpfg's arrays).
-    Define,
     /// `-o>`, an object production.
     ObjectProduction,
     /// `?P`, `?H`, `?L` or `?U` (the letter): a query of the turtle.
@@ -40,8 +38,6 @@ pub enum Refused {
     Atan2,
     /// A function that needs cpfg's files, curves, view or animation.
     Function(String),
-    /// `name[...]`: an array.
-    Array(String),
     /// `&` (an address) in an expression.
     Address,
     /// `fprintf` on something else than `stderr`.
@@ -63,9 +59,6 @@ impl fmt::Display for Refused {
                 "`ring lsystem` is not supported: lsgen derives open strings (no ring of modules)",
             ),
             RingSetting => f.write_str("ring L-systems (`ring lsystem`) are not supported"),
-            Define => f.write_str(
-                "`define:` (cpfg's arrays) is not supported: lsgen has no arrays; use `#define` for constants",
-            ),
             ObjectProduction => f.write_str(
                 "`-o>` (an object production, for cpfg's surfaces and objects) is not supported: lsgen rewrites strings only",
             ),
@@ -97,7 +90,6 @@ impl fmt::Display for Refused {
                 f,
                 "`{n}` is not supported: it needs cpfg's function files, curves, view or animation"
             ),
-            Array(n) => write!(f, "`{n}[...]`: arrays are not supported by lsgen"),
             Address => f.write_str("`&` (an address) is not supported: write `&&`"),
             FprintfNotStderr => f.write_str("lsgen supports `fprintf` only on `stderr`"),
             FuncWithoutFunctions(hint) => {
@@ -225,6 +217,8 @@ impl fmt::Display for PreprocessError {
 /// ran before or after.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Block {
+    /// `define:`'s arrays' initial values, before `Start:`.
+    Define,
     /// `Start:`, before the first step.
     Start,
     /// `StartEach:` before this pass.
@@ -238,6 +232,7 @@ pub enum Block {
 impl fmt::Display for Block {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            Block::Define => f.write_str("the initial values of `define:`"),
             Block::Start => f.write_str("`Start:`"),
             Block::StartEach(pass) => write!(f, "`StartEach:` before {pass}"),
             Block::EndEach(pass) => write!(f, "`EndEach:` after {pass}"),

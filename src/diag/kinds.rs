@@ -504,6 +504,11 @@ pub enum ExprError {
     Random(RandomError),
     /// cpfg's `func(id, x)` that has no value.
     Func(FuncFault),
+    /// A cpfg array subscript that is NaN.
+    SubscriptNaN,
+    /// A cpfg array's element number (from fractional subscripts) past its
+    /// last element: cpfg reads or writes outside the array.
+    OutsideArray { index: f64, size: u32 },
 }
 
 /// Why cpfg's `func(id, x)` has no value.
@@ -573,6 +578,11 @@ impl fmt::Display for ExprError {
             Overflow => f.write_str("result overflows a 64-bit float"),
             Random(e) => e.fmt(f),
             Func(e) => e.fmt(f),
+            SubscriptNaN => f.write_str("an array subscript is not a number"),
+            OutsideArray { index, size } => write!(
+                f,
+                "the subscripts make element {index} of an array of {size} (cpfg goes past its end)"
+            ),
         }
     }
 }
@@ -666,6 +676,24 @@ pub enum CompileError {
     /// cpfg: a right context whose last module is `=` (cpfg's `RconDiff`
     /// reads past the end of the pattern there and crashes).
     RightContextEndsInSkip,
+    /// cpfg: a name used with subscripts that is no array of `define:`.
+    NotAnArray(String),
+    /// cpfg: an array used without its subscripts (or assigned as a
+    /// variable).
+    ArrayWithoutSubscripts(String),
+    /// cpfg: an array given another number of subscripts than its
+    /// dimensions.
+    Subscripts {
+        name: String,
+        dims: usize,
+        given: usize,
+    },
+    /// cpfg: an array defined twice.
+    ArrayTwice(String),
+    /// cpfg: an array dimension below 1 (its value).
+    ArrayDimension(f64),
+    /// cpfg: the arrays of `define:` hold more than this many elements.
+    ArraysTooLarge(u64),
 }
 
 impl From<ExprError> for CompileError {
@@ -774,6 +802,22 @@ impl fmt::Display for CompileError {
             RightContextEndsInSkip => f.write_str(
                 "a right context cannot end with `=`: `=` skips to the end of the branch and needs a module after it (cpfg crashes here)",
             ),
+            NotAnArray(n) => write!(f, "`{n}` is not an array of `define:`"),
+            ArrayWithoutSubscripts(n) => {
+                write!(f, "`{n}` is an array: an element needs its subscripts, `{n}[i]`")
+            }
+            Subscripts { name, dims, given } => write!(
+                f,
+                "`{name}` has {dims} dimension{}, not {given}",
+                if *dims == 1 { "" } else { "s" }
+            ),
+            ArrayTwice(n) => write!(f, "the array `{n}` is defined twice"),
+            ArrayDimension(v) => write!(
+                f,
+                "an array dimension must be at least 1, not {}",
+                number_string(*v)
+            ),
+            ArraysTooLarge(n) => write!(f, "the arrays of `define:` hold more than {n} elements"),
         }
     }
 }

@@ -40,6 +40,16 @@ pub enum WarningKind {
     /// cpfg: a division by zero, which divides by 1 (given once per
     /// process, without a place).
     DivisionByZero,
+    /// cpfg: an array subscript past its dimension, which reads or writes
+    /// the nearest element (given once per process, without a place).
+    SubscriptClamped,
+    /// cpfg: an array's initial values, fewer or more than its elements
+    /// (the name, how many given, how many elements).
+    ArrayInitialisers {
+        name: String,
+        given: usize,
+        size: u64,
+    },
     /// Decomposition (in a step) or the homomorphism (in
     /// [`Pass::Homomorphism`]) reached its maximum depth with a production
     /// that still applies to this symbol.
@@ -89,6 +99,17 @@ impl fmt::Display for WarningKind {
             StepHidden => f.write_str("`step` hides the built-in step number"),
             DivisionByZero => f.write_str(
                 "division by zero in a cpfg expression: divided by 1 instead, as cpfg does",
+            ),
+            SubscriptClamped => f.write_str(
+                "an array subscript out of range: the nearest element is used instead, as cpfg does",
+            ),
+            ArrayInitialisers { name, given, size } if (*given as u64) < *size => write!(
+                f,
+                "too few initial values for `{name}`: {given} for {size} elements (the others are 0, as in cpfg)"
+            ),
+            ArrayInitialisers { name, given, size } => write!(
+                f,
+                "too many initial values for `{name}`: {given} for {size} elements (the rest are ignored, as in cpfg)"
             ),
             MaximumDepth { max, symbol, pass } => match pass {
                 Pass::Step(k) => write!(

@@ -125,6 +125,32 @@ fn lookup_function(name: &str) -> Option<(Fun, usize)> {
 /// lexer makes it a name).
 pub const CPFG_F32: &str = "\u{0}f32";
 
+/// An element of a cpfg array as `src/cpfg/lower.rs` names it, a call of
+/// this name with the subscripts as arguments: `\u{2}r` reads the element,
+/// `\u{2}w` gives its variable number (to assign), then the array's first
+/// variable and its dimensions, `\u{2}r12:3x4`.
+pub fn cpfg_array(write: bool, base: u32, dims: &[u32]) -> String {
+    let dims: Vec<String> = dims.iter().map(u32::to_string).collect();
+    format!(
+        "\u{2}{}{base}:{}",
+        if write { 'w' } else { 'r' },
+        dims.join("x")
+    )
+}
+
+/// [`cpfg_array`]'s name read back: (write, first variable, dimensions).
+fn cpfg_array_of(name: &str) -> Option<(bool, u32, Vec<u32>)> {
+    let rest = name.strip_prefix('\u{2}')?;
+    let write = rest.starts_with('w');
+    let (base, dims) = rest.get(1..)?.split_once(':')?;
+    let dims = dims
+        .split('x')
+        .map(str::parse)
+        .collect::<Result<Vec<u32>, _>>()
+        .ok()?;
+    Some((write, base.parse().ok()?, dims))
+}
+
 /// cpfg's variables as `src/cpfg/lower.rs` names them (issue 12):
 /// variable `i` (a global, or a production's local) is `\u{1}g<i>`.
 fn cpfg_variable(name: &str) -> Option<Op> {
@@ -216,6 +242,20 @@ pub enum Op {
     /// cpfg's `func(id, x)` (two operands): the run's functions, read
     /// through the generator ([`Draw::func`]).
     Func(u32),
+    /// A cpfg array subscript for a dimension of this size: one past the
+    /// last or below 0 becomes the nearest in range (with a warning, as
+    /// in cpfg); NaN fails.
+    Subscript(u32, u32),
+    /// A cpfg array element: the element number on the stack (the
+    /// subscripts combined row-major, truncated as C's `(int)`) of the
+    /// array of `total` elements at variable `base`; its value, or
+    /// (`write`) its variable number.
+    Element {
+        base: u32,
+        total: u32,
+        write: bool,
+        span: u32,
+    },
     /// The built-in step number (issue 11), kept by the generator.
     Step,
     /// Not an instruction: the span of a fallible one, stored after the
@@ -390,6 +430,18 @@ impl Code {
                 Op::DivOr1(si) => Op::DivOr1(at(si)),
                 Op::CpfgRan(f, si) => Op::CpfgRan(f, at(si)),
                 Op::Func(si) => Op::Func(at(si)),
+                Op::Subscript(n, si) => Op::Subscript(n, at(si)),
+                Op::Element {
+                    base,
+                    total,
+                    write,
+                    span,
+                } => Op::Element {
+                    base,
+                    total,
+                    write,
+                    span: at(span),
+                },
                 Op::F1(f, si) => Op::F1(f, at(si)),
                 Op::F2(f, si) => Op::F2(f, at(si)),
                 Op::Ran(si) => Op::Ran(at(si)),
@@ -598,6 +650,33 @@ impl Draft {
                         kind: ExprError::UnknownIdentifier(name.clone()),
                     });
                 }
+            }
+            Expr::Call(name, args, span) if scope.cpfg && name.starts_with('\u{2}') => {
+                let Some((write, base, dims)) = cpfg_array_of(name) else {
+                    unreachable!("an array name the lowering made: {name:?}");
+                };
+                // cpfg's tARRAYREF: each subscript clamped to its
+                // dimension, then temp = (temp + s[k-1]) * size[k] for
+                // each later dimension, plus the last subscript.
+                let si = self.span_index(*span);
+                for (k, (a, &size)) in args.iter().zip(&dims).enumerate() {
+                    if k > 0 {
+                        self.ops.push(Op::Const(f64::from(size)));
+                        self.ops.push(Op::Ieee(BinOp::Mul));
+                    }
+                    self.emit(a, scope)?;
+                    self.ops.push(Op::Subscript(size, si));
+                    if k > 0 {
+                        self.ops.push(Op::Ieee(BinOp::Add));
+                    }
+                }
+                let total = dims.iter().product::<u32>();
+                self.ops.push(Op::Element {
+                    base,
+                    total,
+                    write,
+                    span: si,
+                });
             }
             Expr::Call(name, args, span) => {
                 let found = if scope.cpfg {
@@ -826,6 +905,38 @@ impl Code {
                     };
                     stack.push(r.map_err(|m| self.fail(si, ExprError::Random(m)))?);
                 }
+                Op::Subscript(size, si) => {
+                    let s = stack.last_mut().unwrap();
+                    if s.is_nan() {
+                        return Err(self.fail(si, ExprError::SubscriptNaN));
+                    }
+                    if *s >= f64::from(size) || *s < 0.0 {
+                        warn_subscript_clamped();
+                        *s = if *s < 0.0 { 0.0 } else { f64::from(size - 1) };
+                    }
+                }
+                Op::Element {
+                    base,
+                    total,
+                    write,
+                    span,
+                } => {
+                    let e = stack.last_mut().unwrap();
+                    let i = e.trunc();
+                    if !(i >= 0.0 && i < f64::from(total)) {
+                        let kind = ExprError::OutsideArray {
+                            index: i,
+                            size: total,
+                        };
+                        return Err(self.fail(span, kind));
+                    }
+                    let var = base + i as u32;
+                    *e = if write {
+                        f64::from(var)
+                    } else {
+                        rng.global(var)
+                    };
+                }
                 Op::Func(si) => {
                     let x = stack.pop().unwrap();
                     let id = stack.last_mut().unwrap();
@@ -963,6 +1074,8 @@ fn needs_input(o: &Op) -> bool {
             | Op::Nran(_)
             | Op::CpfgRan(..)
             | Op::Func(_)
+            | Op::Subscript(..)
+            | Op::Element { .. }
             | Op::Step
             | Op::Global(_)
     )
@@ -1001,6 +1114,15 @@ fn cpfg_binary(op: Op, a: f64, b: f64) -> f64 {
 /// derivation, once per process on standard error (unlocated: the
 /// evaluator has no place to report; the division is cpfg's rule, not an
 /// error).
+/// cpfg uses the nearest element for a subscript out of range, with a
+/// warning: once, as [`warn_division_by_zero`].
+#[cold]
+fn warn_subscript_clamped() {
+    use std::sync::atomic::AtomicBool;
+    static PRINTED: AtomicBool = AtomicBool::new(false);
+    crate::diag::warn_once(&crate::diag::WarningKind::SubscriptClamped, &PRINTED);
+}
+
 #[cold]
 fn warn_division_by_zero() {
     use std::sync::atomic::AtomicBool;
