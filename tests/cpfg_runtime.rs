@@ -1236,3 +1236,21 @@ fn arrays_used_wrongly_are_located_errors() {
         assert!(r.stdout.is_empty());
     }
 }
+
+/// A string is a value: its number in cpfg's global string table, which
+/// takes every string literal of the file in order as the parser meets it
+/// (control.c's `GlobalStringIndex`), `printf` formats included. By hand:
+/// the `printf` format is string 0, `" %.f"` 1, `"x"` 2, `"y"` 3, `"z"` 4.
+#[test]
+fn strings_are_their_numbers() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "s.l",
+        "Lsystem: 1\nderivation length: 1\nStart: {printf(\"start\\n\");}\nAxiom: A(3)\n\
+         A(c) --> @L(\" %.f\", c) B(\"x\") C(\"y\", \"z\")\nendlsystem\n",
+    );
+    let (out, err) = derive(&[], &file);
+    assert_eq!(out, "@L(1,3)B(2)C(3,4)\n");
+    assert_eq!(err, "start\n");
+}

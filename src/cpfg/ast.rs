@@ -167,6 +167,10 @@ pub struct Lsystem {
     pub productions: Vec<Production>,
     pub decomposition: Option<Section>,
     pub homomorphism: Option<Section>,
+    /// Where each string literal of the file starts, in order: cpfg keeps
+    /// every string in a global table as the parser meets it (control.c's
+    /// `GlobalStringIndex`), and a string's value is its number there.
+    pub strings: Vec<usize>,
 }
 
 /// A statement block of the header (`Start:` ...).

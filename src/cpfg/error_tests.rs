@@ -254,7 +254,6 @@ fn typed_messages_are_the_former_strings() {
         (ParseError::SettingTwice.to_string(), "this setting is given twice"),
         (ParseError::NullPredecessor.to_string(), "the strict predecessor cannot be `*`"),
         (ParseError::NoFormat("printf".into()).to_string(), "`printf` needs a format string"),
-        (CompileError::StringValue.to_string(), "a string is only for `printf` and `fprintf`"),
         (CompileError::StatementAsValue("printf".into()).to_string(), "`printf` is a statement of a block, not a value"),
         (CompileError::NotConstant.to_string(), "this value must be known before the derivation (a constant expression)"),
         (

@@ -235,6 +235,8 @@ struct Lowerer<'w> {
     variables: u32,
     /// `define:`'s arrays: first variable and dimensions, by name.
     arrays: HashMap<String, (u32, Vec<u32>)>,
+    /// Where each string literal starts, in order ([`ast::Lsystem::strings`]).
+    strings: Vec<usize>,
     /// Blocks and slots of the productions lowered so far, per section.
     extra: [Vec<ProdExtra>; 3],
     /// The section being lowered (index into `extra`).
@@ -316,7 +318,12 @@ impl Lowerer<'_> {
                     ls::Expr::Num(0.0, *s)
                 }
             }
-            Expr::Str(_, s) => return err(*s, Invalid::StringValue),
+            // A string is the number cpfg's global string table gives it
+            // (`@L("%.f", x)` is `@L(0,x)` when it is the file's first).
+            Expr::Str(_, s) => {
+                let i = self.strings.partition_point(|&o| o < s.0);
+                ls::Expr::Num(i as f64, *s)
+            }
             Expr::Call(name, args, s) => {
                 if name == "printf" || name == "fprintf" {
                     return err(*s, Invalid::StatementAsValue(name.clone()));
@@ -877,6 +884,7 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
         locals: HashMap::new(),
         variables: 0,
         arrays: HashMap::new(),
+        strings: lsys.strings.clone(),
         extra: Default::default(),
         section: 0,
     };

@@ -55,16 +55,19 @@ pub fn parse_with(
     // Tokens are checked for refused constructs as they stream into the
     // parser (one token of look-ahead; no token list is kept: memory is
     // the tree's, not the text's times a token's size).
-    let checked = Checked {
+    let mut checked = Checked {
         lex: Lexer::new(text),
         next: None,
         lsystems: 0,
         failed: false,
         no_functions,
+        strings: Vec::new(),
     };
-    grammar::FileParser::new()
-        .parse(checked)
-        .map_err(|e| respaced(text, convert(e, text, text.len())))
+    let mut tree = grammar::FileParser::new()
+        .parse(&mut checked)
+        .map_err(|e| respaced(text, convert(e, text, text.len())))?;
+    tree.strings = checked.strings;
+    Ok(tree)
 }
 
 /// An error on a line that starts with a keyword spaced otherwise than
@@ -96,6 +99,8 @@ struct Checked<'a> {
     failed: bool,
     /// `func` is refused with this hint (no function files).
     no_functions: Option<Option<String>>,
+    /// Where each string literal starts, in order ([`ast::Lsystem::strings`]).
+    strings: Vec<usize>,
 }
 
 impl<'a> Iterator for Checked<'a> {
@@ -128,6 +133,9 @@ impl<'a> Iterator for Checked<'a> {
                 (l, r),
                 Syntax::Refused(Refused::FuncWithoutFunctions(hint.clone())),
             )));
+        }
+        if let Tok::Str(_) = t {
+            self.strings.push(l);
         }
         if let Some(e) = refusal((l, &t, r), next, &mut self.lsystems) {
             self.failed = true;

@@ -643,8 +643,6 @@ pub enum CompileError {
     BracketParams,
     /// A constant negative probability.
     NegativeProbability(f64),
-    /// cpfg: a string outside `printf` and `fprintf`.
-    StringValue,
     /// cpfg: `printf` or `fprintf` (the name) used as a value.
     StatementAsValue(String),
     /// cpfg: a setting or axiom parameter that is not a constant.
@@ -768,7 +766,6 @@ impl fmt::Display for CompileError {
             ),
             BracketParams => f.write_str("a bracket takes no parameters"),
             NegativeProbability(w) => write!(f, "a probability cannot be negative ({w})"),
-            StringValue => f.write_str("a string is only for `printf` and `fprintf`"),
             StatementAsValue(name) => {
                 write!(f, "`{name}` is a statement of a block, not a value")
             }
