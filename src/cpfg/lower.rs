@@ -321,7 +321,9 @@ impl Lowerer<'_> {
             // A string is the number cpfg's global string table gives it
             // (`@L("%.f", x)` is `@L(0,x)` when it is the file's first).
             Expr::Str(_, s) => {
-                let i = self.strings.partition_point(|&o| o < s.0);
+                // (The table has 255 places: past them, cpfg gives every
+                // string the last one's number.)
+                let i = self.strings.partition_point(|&o| o < s.0).min(254);
                 ls::Expr::Num(i as f64, *s)
             }
             Expr::Call(name, args, s) => {
