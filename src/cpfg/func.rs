@@ -49,6 +49,9 @@ pub struct Functions {
     items: Vec<Function>,
     /// A set's function names (C identifiers) and their numbers.
     macros: Vec<(String, usize)>,
+    /// Samples computed so far, also for functions a later `function
+    /// set:` replaced: the work of loading is bounded too.
+    computed: u64,
 }
 
 impl Function {
@@ -221,7 +224,11 @@ impl Functions {
         let total = |g: &dyn Fn(&Function) -> usize| {
             self.items.iter().map(g).sum::<usize>() as u64 + g(&f) as u64
         };
-        if total(&|g| g.points.len()) > MAX_TOTAL || total(&|g| g.table.len()) > MAX_TOTAL {
+        self.computed += f.table.len() as u64;
+        if total(&|g| g.points.len()) > MAX_TOTAL
+            || total(&|g| g.table.len()) > MAX_TOTAL
+            || self.computed > MAX_TOTAL
+        {
             return Err(at.error(E::TooMany {
                 what: "control points or samples in all the functions",
                 limit: MAX_TOTAL,
@@ -547,7 +554,7 @@ impl<'a> Reader<'a> {
                 },
                 None => 1,
             };
-            if points.len() as u64 + times > MAX_POINTS {
+            if (points.len() as u64).saturating_add(times) > MAX_POINTS {
                 return self.fail(E::TooMany {
                     what: "control points",
                     limit: MAX_POINTS,
@@ -702,6 +709,7 @@ mod tests {
         let all = Functions {
             items: vec![f(&[[0.0, 1.0], [0.3, 1.0], [0.6, 1.0], [1.0, 1.0]], 0)],
             macros: vec![],
+            computed: 0,
         };
         assert!((all.value(1.9, 0.5).unwrap() - 1.0).abs() < 1e-12);
         assert_eq!(
@@ -764,6 +772,13 @@ mod tests {
                 "range: 0 1\npoints: 4\n0 0\n0.5 0\n0.6 0\n",
                 6,
                 "expected a point",
+            ),
+            // A multiplicity past u64 saturates: no overflow to a small
+            // count (that pushed points without end).
+            (
+                "fver 1 1\nname: a\nsamples: 0\nflip: off\npoints: 4\n0 0\n0.3 0.3 1e20\n0.6 0.6\n1 1\n",
+                7,
+                "more than 65536 control points",
             ),
         ];
         for (text, line, msg) in cases {
