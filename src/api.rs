@@ -295,7 +295,7 @@ impl LSystem {
     /// `func(id, x)` in a `.l` text, read from `files` as lsgen's
     /// `--functions` reads them: each a cpfg view file (its `function:`
     /// and `function set:` lines), a function set or a `.func` file,
-    /// numbered in order (README, "Functions").
+    /// numbered in order (README, "Coming from cpfg: functions").
     pub fn from_reader_with_functions(
         reader: impl Read + 'static,
         name: &str,

@@ -258,6 +258,49 @@ fn bad_functions_are_located_errors() {
         "{e}"
     );
 
+    // A file that holds no functions at all is refused, not read as an
+    // empty view file (that would renumber the files after it).
+    let e = err(with(&write(d, "blank.func", &format!("\n{LINE_OLD}"))));
+    assert!(
+        e.contains("blank.func:1:1: error: no functions here"),
+        "{e}"
+    );
+    let e = err(with(&write(d, "empty.v", "/* nothing */\n")));
+    assert!(e.contains("empty.v:1:1: error: no functions here"), "{e}");
+    // A byte-order mark is skipped; a byte that is no UTF-8 in a view
+    // file's comment is read as cpfg reads it.
+    let bom = write(d, "bom.func", format!("\u{feff}{LINE_OLD}"));
+    assert_eq!(ok(with(&bom)), "B(0.5)\n");
+    let latin = d.join("latin.v");
+    std::fs::write(&latin, b"/* \xa9 1998 */\nfunction: line.func\n").unwrap();
+    assert_eq!(ok(with(&latin)), "B(0.5)\n");
+    // Places: an empty `function:` at its colon, too many samples at the
+    // line that asks for them.
+    let e = err(with(&write(d, "nofile.v", "scale: 1\nfunction:   \n\n")));
+    assert!(
+        e.contains("nofile.v:2:9: error: `function:` needs a file name"),
+        "{e}"
+    );
+    let e = err(with(&write(d, "many.v", "function: line.func 70000\n")));
+    assert!(
+        e.contains("many.v:1:11: error: more than 65536 samples"),
+        "{e}"
+    );
+    let many =
+        "fver 1 1\nname: a\nsamples: 99999999\nflip: off\npoints: 4\n0 0\n0.3 0.3\n0.6 0.6\n1 1\n";
+    let e = err(with(&write(d, "many.func", many)));
+    assert!(
+        e.contains("many.func:3:1: error: more than 65536 samples"),
+        "{e}"
+    );
+    // An id far out of range is shown as a number is.
+    let big = write(d, "big.l", system("A(0.5)", "A(x) --> B(func(1.0e300, x))"));
+    let e = err(run(lsgen().arg(&big).arg("--functions").arg(&line)));
+    assert!(
+        e.contains("func(1e300, x): there is no function 1e300"),
+        "{e}"
+    );
+
     let e = err(with(&write(d, "text.func", "fver 1 1\n")));
     assert!(
         e.contains("text.func:2:1: error: expected `name: NAME`"),

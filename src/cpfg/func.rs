@@ -214,12 +214,13 @@ impl Functions {
         self.items[i - 1].value(x, i)
     }
 
-    fn push(&mut self, f: Function, at: &Spot) -> Result<(), Error> {
+    /// Add `f`, within the limits (the error's place is the caller's).
+    fn push(&mut self, f: Function) -> Result<(), E> {
         if self.items.len() as u64 >= MAX_FUNCTIONS {
-            return Err(at.error(E::TooMany {
+            return Err(E::TooMany {
                 what: "functions",
                 limit: MAX_FUNCTIONS,
-            }));
+            });
         }
         let total = |g: &dyn Fn(&Function) -> usize| {
             self.items.iter().map(g).sum::<usize>() as u64 + g(&f) as u64
@@ -229,10 +230,10 @@ impl Functions {
             || total(&|g| g.table.len()) > MAX_TOTAL
             || self.computed > MAX_TOTAL
         {
-            return Err(at.error(E::TooMany {
+            return Err(E::TooMany {
                 what: "control points or samples in all the functions",
                 limit: MAX_TOTAL,
-            }));
+            });
         }
         self.items.push(f);
         Ok(())
@@ -240,17 +241,26 @@ impl Functions {
 
     fn read_any(&mut self, path: &Path) -> Result<(), Error> {
         let name = path.display().to_string();
-        let text = super::preprocess::read_file(path)
-            .map_err(|e| Error::io(name.clone(), IoAction::Read, e))?;
+        let text = read_text(path).map_err(|e| Error::io(name.clone(), IoAction::Read, e))?;
         let first = text.lines().next().unwrap_or("").trim_start();
+        let start = Spot {
+            name: name.clone(),
+            text: text.clone(),
+            offset: 0,
+        };
         if first.starts_with("funcgalleryver") {
             self.read_set(&name, &text)
         } else if first.starts_with("fver") || first.starts_with("range:") {
             let mut r = Reader::new(&name, &text);
             let f = r.function(name.clone(), -1)?;
-            self.push(f, &r.spot())
+            self.push(f).map_err(|e| start.error(e))
+        } else if self.read_view(path, &text)? == 0 {
+            // (Not a file of functions at all: a typo, an empty first
+            // line, a file of another kind. cpfg would count it as one
+            // flat function; lsgen says so rather than renumber the rest.)
+            Err(start.error(E::NoFunctions))
         } else {
-            self.read_view(path, &text)
+            Ok(())
         }
     }
 
@@ -275,14 +285,15 @@ impl Functions {
             let f = r.function(String::new(), 100)?;
             let id = self.items.len() + 1;
             let fname = f.source.clone();
-            self.push(
-                Function {
-                    source: format!("{name} ({fname})"),
-                    ..f
-                },
-                &at,
-            )?;
-            if is_identifier(&fname) {
+            self.push(Function {
+                source: format!("{name} ({fname})"),
+                ..f
+            })
+            .map_err(|e| at.error(e))?;
+            // (cpfg's `-DNAME=N`: a later name replaces an earlier one;
+            // `defined` cannot be a macro.)
+            if is_identifier(&fname) && fname != "defined" {
+                self.macros.retain(|(n, _)| *n != fname);
                 self.macros.push((fname, id));
             }
         }
@@ -293,10 +304,12 @@ impl Functions {
     /// the preprocessor, as cpfg runs it); file names relative to it. As
     /// in cpfg, a `function set:` replaces the functions the file listed
     /// before it, and a `function:` after a set ends the set's names.
-    fn read_view(&mut self, path: &Path, text: &str) -> Result<(), Error> {
+    /// Gives how many `function:` and `function set:` lines it has.
+    fn read_view(&mut self, path: &Path, text: &str) -> Result<usize, Error> {
         let out = super::preprocess::preprocess(path, text, &super::preprocess::read_file)?;
         let dir = path.parent().unwrap_or(Path::new(""));
         let (first, first_macro) = (self.items.len(), self.macros.len());
+        let mut lines = 0;
         let mut offset = 0;
         for line in out.text.split_inclusive('\n') {
             let start = offset;
@@ -310,16 +323,19 @@ impl Functions {
                 ["function", "set"] => true,
                 _ => continue,
             };
+            lines += 1;
             let what = if set { "function set:" } else { "function:" };
-            let rest_at = start + line.len() - rest.trim_start().len();
             let mut words = rest.split_whitespace();
-            let locate = |e: E| Error::at(out.map.location(rest_at), e);
             let Some(file) = words.next() else {
-                return Err(locate(E::MissingFile(what)));
+                // (At the colon: the rest of the line is empty.)
+                let colon = start + line.len() - rest.len() - 1;
+                return Err(Error::at(out.map.location(colon), E::MissingFile(what)));
             };
+            let rest_at = start + line.len() - rest.trim_start().len();
+            let locate = |e: E| Error::at(out.map.location(rest_at), e);
             let file = dir.join(file);
             let fname = file.display().to_string();
-            let body = super::preprocess::read_file(&file).map_err(|source| {
+            let body = read_text(&file).map_err(|source| {
                 locate(E::Unreadable {
                     path: file.clone(),
                     source,
@@ -335,12 +351,43 @@ impl Functions {
             // `function: FILE SAMPLES`: the samples of an old-format file
             // (cpfg's fscanf reads a number; anything else is none).
             let samples = words.next().and_then(leading_int).unwrap_or(-1);
+            if samples > MAX_SAMPLES as i64 {
+                return Err(locate(E::TooMany {
+                    what: "samples",
+                    limit: MAX_SAMPLES,
+                }));
+            }
             let mut r = Reader::new(&fname, &body);
             let f = r.function(fname.clone(), samples)?;
-            self.push(f, &r.spot())?;
+            self.push(f).map_err(locate)?;
         }
-        Ok(())
+        Ok(lines)
     }
+}
+
+/// A file's text as cpfg reads it (bytes: a byte that is no UTF-8, in a
+/// comment say, is read as U+FFFD), without a UTF-8 byte-order mark; at
+/// most the preprocessor's file size.
+fn read_text(path: &Path) -> std::io::Result<String> {
+    use std::io::Read;
+    if crate::io::output::leads_to_closed_fd(path) {
+        return Err(std::io::Error::other(
+            "Bad file descriptor (closed when lsgen started)",
+        ));
+    }
+    let limit = super::preprocess::MAX_FILE_SIZE;
+    let mut buf = Vec::new();
+    std::fs::File::open(path)?
+        .take(limit + 1)
+        .read_to_end(&mut buf)?;
+    if buf.len() as u64 > limit {
+        return Err(std::io::Error::other(format!(
+            "file larger than {} MiB",
+            limit >> 20
+        )));
+    }
+    let text = String::from_utf8_lossy(&buf);
+    Ok(text.strip_prefix('\u{feff}').unwrap_or(&text).to_string())
 }
 
 /// A C identifier (a name the preprocessor can define).
@@ -495,6 +542,12 @@ impl<'a> Reader<'a> {
             source
         };
         let samples = self.keyword_int("samples:", "`samples: N`")?;
+        if samples > MAX_SAMPLES as i64 {
+            return self.fail(E::TooMany {
+                what: "samples",
+                limit: MAX_SAMPLES,
+            });
+        }
         // A background image: two lines, ignored.
         if self.peek('b') {
             self.line();

@@ -534,13 +534,18 @@ impl fmt::Display for FuncFault {
             FuncFault::NoFunctions => {
                 f.write_str("func() needs cpfg's function files (`--functions`)")
             }
-            FuncFault::NoSuchFunction { id, count: 0 } => {
-                write!(f, "func({id}, x): no function is defined")
-            }
-            FuncFault::NoSuchFunction { id, count } => write!(
+            FuncFault::NoSuchFunction { id, count: 0 } => write!(
                 f,
-                "func({id}, x): there is no function {id}; the function files define 1 to {count}"
+                "func({}, x): no function is defined",
+                number_string(id + 0.0)
             ),
+            FuncFault::NoSuchFunction { id, count } => {
+                let id = number_string(id + 0.0);
+                write!(
+                    f,
+                    "func({id}, x): there is no function {id}; the function files define 1 to {count}"
+                )
+            }
             FuncFault::NotANumber => {
                 f.write_str("func(id, x) with x not a number (cpfg's table lookup is undefined)")
             }
