@@ -260,7 +260,7 @@ fn bad_functions_are_located_errors() {
 
     // A file that holds no functions at all is refused, not read as an
     // empty view file (that would renumber the files after it).
-    let e = err(with(&write(d, "blank.func", &format!("\n{LINE_OLD}"))));
+    let e = err(with(&write(d, "blank.func", format!("\n{LINE_OLD}"))));
     assert!(
         e.contains("blank.func:1:1: error: no functions here"),
         "{e}"
