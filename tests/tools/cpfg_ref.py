@@ -47,10 +47,29 @@ SAMPLES for the old format (-1 without, or given directly; 100 in a
 function set).  Refused: fewer than 4 points, a bisection that never ends
 (cpfg hangs), func of NaN, an id out of range (cpfg warns and gives 0).
 
+Arrays (lsys_input.y's Defines, ArrayDef, LHS and Name with ArrayRefs;
+generate.c's AllocateArray, InitializeArray, ProcessArrayDef, the
+tARRAYREF / tARRAYLHS evaluation and AssignArrayElement): `define: {
+array A[d1][d2] = {e, ...}, B[n]; ... }` among the settings (only `array`
+statements; a later block replaces the earlier one, whose arrays stay
+defined with their values as read).  Dimensions: (int) of their values
+when the file is read, each at least 1, at most 2^20 elements.  The
+initializers run when the file is read (as many as there are elements)
+and, for the last block, again right before Start: (0 past the
+initializers).  An array is one global of doubles; an element `A[i][j]`
+in any expression or as the left side of an assignment (the value is
+evaluated before the subscripts): each subscript out of [0, size) is
+replaced by 0 or size - 1, the index is (int)((s1 * size2 + s2) ...)
+row-major; an index past the storage (fractional subscripts) or a NaN
+subscript is an error (cpfg reads outside the array).  Errors: an array
+name without subscripts, subscripts on a non-array, the wrong number of
+subscripts, a name defined twice (or used before its definition), an
+array named Q or Z.
+
 Refused with an error (a string rewriter cannot do them, or the reference
 does not model them): ?P ?H ?L ?U ?E and any ? module, sub-L-systems
-(?(id,s), $, several Lsystem: blocks), @S, curve*/vv*/play/stop/
-fopen/fscanf/..., arrays and define: blocks, ring L-systems, -o> object
+(?(id,s), $, several Lsystem: blocks), `external` in define:, @S,
+curve*/vv*/play/stop/fopen/fscanf/..., ring L-systems, -o> object
 productions, % with parameters, & addresses.
 """
 
@@ -908,6 +927,24 @@ class Cell:
         self.value = value
 
 
+class ArrayCell:
+    """An array of `define:` (generate.c's AllocateArray): one copy for the
+    whole run, in the L-system's symbol table (a global); its values are
+    doubles, in row-major order."""
+
+    MAX_ELEMENTS = 1 << 20
+
+    def __init__(self, name, sizes, inits, where):
+        self.name = name
+        self.sizes = sizes
+        self.total = 1
+        for n in sizes:
+            self.total *= n
+        self.inits = inits  # list of expressions, or None
+        self.where = where
+        self.values = [0.0] * self.total
+
+
 class Production:
     def __init__(self, where):
         self.where = where
@@ -932,6 +969,7 @@ class LSystem:
         self.end = []
         self.start_each = []
         self.end_each = []
+        self.define = []  # the arrays of the last define: block, in order
         self.axiom = []
         self.prods = []
         self.decomp = None  # list of productions or None
@@ -1040,7 +1078,14 @@ class Parser:
                 else:
                     ls.ignore, ls.consider = set(), set(chars)
             elif k == "DEFINE":
-                raise self.err("define: blocks (arrays) are not supported by the reference")
+                self.take()
+                # Defines: tDEFINE DefineBlock tEOL; cpfg keeps the last
+                # block (LsysPtr->defineBlock = $2), whose arrays it
+                # initializes again at the start of the run; the arrays of
+                # an earlier block stay defined with the values their
+                # initializers had when the file was read.
+                ls.define = self.define_block()
+                self.expect("EOL", "end of line")
             elif k in ("STARTBLOCK", "ENDBLOCK", "STARTEACH", "ENDEACH"):
                 self.take()
                 block = self.block()
@@ -1217,6 +1262,84 @@ class Parser:
             mods.append((t[1], params))
         return mods
 
+    # -- define: { array A[d1][d2] = {e, ...}, B[n]; ... } ----------------
+    def define_block(self):
+        self.expect("LBRACE", "{")
+        arrays = []
+        if self.peek()[0] == "RBRACE":
+            raise self.err("an empty define: block (a syntax error in cpfg)")
+        while self.peek()[0] != "RBRACE":
+            t = self.peek()
+            if t[0] == "NAME" and t[1] == "external":
+                raise self.err("external (sub-L-systems' shared variables) is not supported")
+            if t[0] != "NAME" or t[1] != "array":
+                raise self.err("define: holds only `array` statements (found %r)"
+                               % (t[1] if t[1] is not None else t[0]))
+            self.take()
+            while True:
+                arrays.append(self.array_def())
+                if self.peek()[0] == "COMMA":
+                    self.take()
+                    continue
+                break
+            self.expect("SEMI", ";")
+        self.take()
+        return arrays
+
+    def array_def(self):
+        """ArrayDef (lsys_input.y): the dimensions are evaluated when the
+        file is read (AllocateArray, (int) of each), then the initializers
+        once (InitializeArray: as many as there are elements); the name is
+        defined only after its initializers were read."""
+        nt = self.expect("NAME", "an array name")
+        name = nt[1]
+        if name in FUNCTIONS or name in UNSUPPORTED_FUNCTIONS or name in STATEMENT_WORDS:
+            raise self.err("%s is reserved" % name, nt)
+        dims = []
+        while self.peek()[0] == "LBRACKET":
+            self.take()
+            dims.append(self.expression())
+            self.expect("RBRACKET", "]")
+        if not dims:
+            raise self.err("array %s needs its dimensions: %s[n]" % (name, name), nt)
+        inits = None
+        if self.peek()[0] == "ASSIGN":
+            self.take()
+            self.expect("LBRACE", "{")
+            inits = [self.expression()]
+            while self.peek()[0] == "COMMA":
+                self.take()
+                inits.append(self.expression())
+            self.expect("RBRACE", "}")
+        # CurrentSymbolTableFind: the L-system's own table
+        if name in self.lsys_table:
+            raise self.err("Identifier %s previously defined" % name, nt)
+        if name in ("Q", "Z"):
+            # cpfg would add a second Q or Z to the L-system's table,
+            # hiding the global one
+            raise self.err("%s is cpfg's global (the step, the derivation length): "
+                           "not an array name" % name, nt)
+        sizes = []
+        total = 1
+        for d in dims:
+            try:
+                n = c_int(self.rt.eval(d))
+            except CpfgError as e:
+                e.where = e.where or nt[2]
+                raise
+            if n < 1:
+                raise self.err("dimension %d of array %s is %d (it must be at least 1)"
+                               % (len(sizes) + 1, name, n), nt)
+            sizes.append(n)
+            total *= n
+            if total > ArrayCell.MAX_ELEMENTS:
+                raise self.err("array %s has more than %d elements" % (name, ArrayCell.MAX_ELEMENTS), nt)
+        cell = ArrayCell(name, sizes, inits, nt[2])
+        if inits is not None:
+            self.rt.initialize_array(cell, at_start=False)
+        self.lsys_table[name] = cell
+        return cell
+
     # -- statements -------------------------------------------------------
     def block(self):
         self.expect("LBRACE", "{")
@@ -1262,12 +1385,18 @@ class Parser:
             self.take()
             self.take()
             cell = self.lookup(t[1], t, assign=True)
+            if isinstance(cell, ArrayCell):
+                raise self.err("Identifier %s previously defined as an array" % t[1], t)
             e = self.expression()
             self.expect("SEMI", ";")
             return ("assign", cell, e)
-        if t[0] == "NAME" and self.peek(1)[0] == "LBRACKET":
-            raise self.err("arrays are not supported by the reference")
         e = self.expression()
+        if self.peek()[0] == "ASSIGN" and e[0] == "aref":
+            # LHS: tNAME ArrayRefs
+            self.take()
+            rhs = self.expression()
+            self.expect("SEMI", ";")
+            return ("aset", e, rhs)
         self.expect("SEMI", ";")
         return ("expr", e)
 
@@ -1346,11 +1475,36 @@ class Parser:
             if name in STATEMENT_WORDS:
                 raise self.err("unexpected %s" % name, t)
             if self.peek()[0] == "LBRACKET":
-                raise self.err("arrays are not supported by the reference")
+                return self.array_ref(t)
             if self.peek()[0] == "LPAREN":
                 raise self.err("unknown function %s" % name, t)
-            return ("var", self.lookup(name, t))
+            cell = self.lookup(name, t)
+            if isinstance(cell, ArrayCell):
+                raise self.err("Identifier %s previously defined as an array" % name, t)
+            return ("var", cell)
         raise self.err("unexpected %r in an expression" % (t[1] if t[1] is not None else t[0]), t)
+
+
+    def array_ref(self, t):
+        """Name: tNAME ArrayRefs (an element, in any expression), or the
+        LHS of an assignment."""
+        subs = []
+        while self.peek()[0] == "LBRACKET":
+            self.take()
+            subs.append(self.expression())
+            self.expect("RBRACKET", "]")
+        cell = None
+        for tab in self.tables:
+            if t[1] in tab:
+                cell = tab[t[1]]
+                break
+        if not isinstance(cell, ArrayCell):
+            raise self.err("Identifier %s not previously defined as an array" % t[1], t)
+        if len(subs) != len(cell.sizes):
+            # (cpfg checks this for an element read, not for an assignment)
+            raise self.err("Array identifier %s requires %d dimensions, not %d"
+                           % (t[1], len(cell.sizes), len(subs)), t)
+        return ("aref", cell, subs, t[2])
 
 
 # ---------------------------------------------------------------------------
@@ -1788,6 +1942,8 @@ class Runtime:
             raise CpfgError("a string used as a number")
         if k == "call":
             return self.call(e)
+        if k == "aref":
+            return e[1].values[self.array_index(e)]
         op = e[1]
         a = self.eval(e[2])
         b = self.eval(e[3])  # no short circuit
@@ -1924,11 +2080,62 @@ class Runtime:
             return 0.0
         raise CpfgError("unknown function %s" % name)
 
+    def array_index(self, e):
+        """generate.c's tARRAYREF / tARRAYLHS: the subscripts (doubles, left
+        to right), each out of [0, size) replaced by 0 or size - 1, then
+        temp = (temp + s[x-1]) * size[x] for x = 1..k-1 and the index
+        (int)(temp + s[k-1]). cpfg reads or writes outside the array for a
+        NaN subscript or an index past its end (fractional subscripts):
+        an error here."""
+        cell, where = e[1], e[3]
+        subs = [self.eval(x) for x in e[2]]
+        sizes = cell.sizes
+        for x in range(len(subs) - 1, -1, -1):
+            v = subs[x]
+            if math.isnan(v):
+                raise CpfgError("subscript %d of %s is NaN" % (x + 1, cell.name), where)
+            if v >= sizes[x] or v < 0:
+                fix = 0 if v < 0 else sizes[x] - 1
+                warn("Subscript # %d = %.0f out of range for %s; using %d"
+                     % (x + 1, v, cell.name, fix), where)
+                subs[x] = float(fix)
+        temp = 0.0
+        for x in range(1, len(subs)):
+            temp = (temp + subs[x - 1]) * sizes[x]
+        index = int(temp + subs[-1])  # finite and >= 0 here: C's (int)
+        if index >= cell.total:
+            raise CpfgError("%s[%s]: element %d of an array of %d (cpfg reads outside it)"
+                            % (cell.name, "][".join(fmt_g(v) for v in subs), index, cell.total),
+                            where)
+        return index
+
+    def initialize_array(self, cell, at_start):
+        """InitializeArray (when the file is read: only as many
+        initializers as there are elements are evaluated) or
+        ProcessArrayDef (at the start of the run, before Start:: every
+        element, 0 past the initializers)."""
+        inits = cell.inits or []
+        if at_start:
+            for i in range(cell.total):
+                cell.values[i] = self.eval(inits[i]) if i < len(inits) else 0.0
+        else:
+            for i in range(min(cell.total, len(inits))):
+                cell.values[i] = self.eval(inits[i])
+        if len(inits) > cell.total:
+            warn("Too many initialisers (array %s)" % cell.name, cell.where)
+        elif cell.inits is not None and len(inits) < cell.total:
+            warn("Too few initialisers (array %s)" % cell.name, cell.where)
+
     def run(self, stmts):
         for s in stmts:
             k = s[0]
             if k == "assign":
                 s[1].value = self.eval(s[2])
+            elif k == "aset":
+                # AssignArrayElement(LHS, Eval(expression)): the value
+                # first, then the subscripts
+                v = self.eval(s[2])
+                s[1][1].values[self.array_index(s[1])] = v
             elif k == "expr":
                 self.eval(s[1])
             elif k == "if":
@@ -2247,6 +2454,10 @@ class Deriver:
 
     def derive(self, steps, homomorphism=True):
         rt = self.rt
+        # InitialiseForStart: the last define: block (ProcessArrayDef), then
+        # Start:, then the axiom
+        for cell in self.ls.define:
+            rt.initialize_array(cell, at_start=True)
         rt.run(self.ls.start)
         S = [(sym, tuple(f32(rt.eval(e)) for e in params)) for sym, params in self.ls.axiom]
         for k in range(1, steps + 1):
@@ -2279,9 +2490,13 @@ def load(path, functions=()):
     lines = pp.run(path)
     rt = Runtime()
     rt.functions = fs.functions
+    # ran() & co. may run while the file is read (array initializers,
+    # settings): main_xsubi is not reset after that; drand48 is seeded
+    # after reading (control.c)
+    rt.rng = Randomness(0)
     toks = Lexer(lines).tokens()
     ls = Parser(toks, rt).parse()
-    rt.rng = Randomness(ls.seed)
+    rt.rng.main = Randomness(ls.seed).main
     return ls, rt
 
 
@@ -2343,6 +2558,7 @@ def self_test():
         p.pos = 4
         check(text, rt.eval(p.expression()), want)
     ok = self_test_functions() and ok
+    ok = self_test_arrays() and ok
     print("self-test %s" % ("passed" if ok else "FAILED"))
     return 0 if ok else 1
 
@@ -2503,6 +2719,107 @@ def self_test_functions():
             check("func id out of range", False, "not refused")
         except CpfgError as e:
             check("func id located", e.where is not None)
+    return ok
+
+
+def self_test_arrays():
+    """define: and arrays: values derived by hand."""
+    import tempfile
+
+    ok = True
+
+    def check(what, got, want):
+        nonlocal ok
+        if got != want:
+            ok = False
+            print("FAIL arrays %s: got %r, want %r" % (what, got, want))
+
+    with tempfile.TemporaryDirectory() as tmp:
+        def run(text, n=None):
+            path = os.path.join(tmp, "a.l")
+            with open(path, "w") as f:
+                f.write(text)
+            del WARNINGS[:]
+            return run_file(path, n)
+
+        # A = 1..6 (7 is one too many), B = 10 20 0 0 (too few), C = 0 0.
+        # Start: C[0] = A[1][2] = 6 (row-major: 1*3+2), then C[-4] (clamped
+        # to C[0]) = 6 + 100. Each step: B[3] + 1 (StartEach:), X's
+        # pre-condition block B[2] + n, its post-condition block C[1] + 1,
+        # EndEach: C[1] * 2. A[5][-1] is A[1][0] = 4; A[0.5][1] is element
+        # (int)(0.5*3 + 1) = 2, 3.
+        model = ("Lsystem: 1\nderivation length: 3\ndefine: {\n"
+                 "\tarray A[2][3] = {1, 2, 3,\n\t\t4, 5, 6, 7}, B[4] = {10, 20};\n"
+                 "\tarray C[2];\n}\n"
+                 "Start: {C[0] = A[1][2]; C[-4] = C[0] + 100;}\n"
+                 "StartEach: {B[3] = B[3] + 1;}\nEndEach: {C[1] = C[1] * 2;}\n"
+                 "Axiom: X(0)\n"
+                 "X(n) : {B[2] = B[2] + n;} * {C[1] = C[1] + 1;} --> "
+                 "X(n+1) Y(A[5][-1], A[1][2], A[0.5][1], B[2], B[3], C[0], C[1])\n"
+                 "endlsystem\n")
+        check("step 1", run(model, 1), "X(1)Y(4,6,3,0,1,106,1)")
+        check("warnings", sorted(w.split(": ", 1)[1] for w in WARNINGS
+                                 if "initialisers" in w or "Subscript" in w),
+              sorted(["Too many initialisers (array A)", "Too few initialisers (array B)"] * 2
+                     + ["Subscript # 1 = -4 out of range for C; using 0",
+                        "Subscript # 1 = 5 out of range for A; using 1",
+                        "Subscript # 2 = -1 out of range for A; using 0"]))
+        check("step 2", run(model, 2), "X(2)Y(4,6,3,1,2,106,3)Y(4,6,3,0,1,106,1)")
+        check("step 3", run(model, 3),
+              "X(3)Y(4,6,3,3,3,106,7)Y(4,6,3,1,2,106,3)Y(4,6,3,0,1,106,1)")
+        # Doubles, not 32-bit floats: 16777217 survives in the array.
+        check("doubles", run("Lsystem: 1\nderivation length: 1\n"
+                             "define: {array D[1] = {16777216};}\n"
+                             "Start: {D[0] = D[0] + 1;}\nAxiom: X\n"
+                             "X --> Y(D[0] - 16777216)\nendlsystem\n"), "Y(1)")
+        # The initializers run when the file is read (ran: 171, 750 of
+        # erand48 from {0x330E, 0, 0}, as trunc(ran(1)*1000)), and the last
+        # define: block's again before Start: (96); the axiom draws 870.
+        check("read and start", run("Lsystem: 1\nderivation length: 1\n"
+                                    "define: { array R[2] = {trunc(ran(1)*1000), 5}; }\n"
+                                    "define: { array S[1] = {trunc(ran(1)*1000)}, T[1][2]; }\n"
+                                    "Axiom: X(R[0], R[1], S[0], trunc(ran(1)*1000), T[0][1])\n"
+                                    "endlsystem\n", 0), "X(171,5,96,870,0)")
+        # an element of an earlier array in a dimension: M is [(int)2.9][2]
+        # = 1 2 3 4; M[9][9] is M[1][1], M[0.99][0.5] element
+        # (int)(0.99*2 + 0.5) = 2
+        check("dimension", run("Lsystem: 1\nderivation length: 1\n"
+                               "define: { array N[1] = {2.9}, M[N[0]][2] = {1,2,3,4,5}; }\n"
+                               "Axiom: X(M[9][9], M[0.99][0.5])\nendlsystem\n", 0), "X(4,3)")
+        for what, body in [
+                ("no subscripts", "X(n) --> Y(A)"),
+                ("not an array", "X(n) --> Y(n[0])"),
+                ("too few subscripts", "X(n) --> Y(A[1])"),
+                ("too many subscripts", "X(n) --> Y(A[1][1][1])"),
+                ("assignment of the name", "X(n) : {A = 1;} * --> Y"),
+                ("assignment, wrong count", "X(n) : {A[0] = 1;} * --> Y"),
+                ("past the storage", "X(n) --> Y(A[1.9][2])"),
+                ("NaN subscript", "X(n) --> Y(A[0][(0-1)^0.5])"),
+                ("undefined array", "X(n) --> Y(Bx[0])")]:
+            try:
+                run("Lsystem: 1\nderivation length: 1\n"
+                    "define: { array A[2][3]; }\nAxiom: X(1)\n%s\nendlsystem\n" % body)
+                check(what, "accepted", "refused")
+            except CpfgError as e:
+                check(what + " located", e.where is not None, True)
+        for what, define in [
+                ("twice", "array A[2], A[3];"), ("dimension 0", "array A[0];"),
+                ("dimension -1", "array A[2][-1];"), ("too large", "array A[1025][1025];"),
+                ("statement", "x = 1;"), ("empty", ""), ("no dimension", "array A;"),
+                ("Q", "array Q[2];"), ("empty initializer", "array A[2] = {};"),
+                ("self reference", "array A[2] = {1, A[0]};")]:
+            try:
+                run("Lsystem: 1\nderivation length: 1\n"
+                    "define: { %s }\nAxiom: X(1)\nendlsystem\n" % define)
+                check(what, "accepted", "refused")
+            except CpfgError as e:
+                check(what + " located", e.where is not None, True)
+        try:
+            run("Lsystem: 1\nStart: {g = 1;}\n"
+                "define: { array g[2]; }\nAxiom: X(1)\nendlsystem\n")
+            check("a variable before", "accepted", "refused")
+        except CpfgError:
+            pass
     return ok
 
 
