@@ -1,4 +1,4 @@
-//! The differential test of the cpfg dialect: 720 random `.l` systems
+//! The differential test of the cpfg dialect: 780 random `.l` systems
 //! (every feature of the dialect mixed, see tests/tools/gen_cpfg_cases.py;
 //! cases 301-400 also assign `Q` and `Z` in blocks and try productions at
 //! the decomposition's and the homomorphism's depth limit, and 401-500
@@ -9,7 +9,9 @@
 //! 601-640 call `func(id, x)` with function files of their own, given by a
 //! view file `case.v` or directly with `--functions`, and 641-720 assign
 //! to formal parameters in pre-condition blocks, which the next production
-//! tried does not see),
+//! tried does not see, and 721-780 define arrays in a `define:` block and
+//! read and assign their elements, with subscripts out of range (clamped)
+//! and fractional ones),
 //! derived by the independent reference tests/tools/cpfg_ref.py; lsgen must
 //! print the same string for each. Every other case runs with
 //! `LSGEN_TEST_SPLIT=1`: splits in tasks of one module or byte where a
@@ -96,7 +98,7 @@ fn random_cases_match_cpfg_ref() {
         }
         cases += 1;
     }
-    assert_eq!(cases, 720);
+    assert_eq!(cases, 780);
     assert!(
         failures.is_empty(),
         "{} of {cases} cases differ from cpfg_ref.py:\n{}",

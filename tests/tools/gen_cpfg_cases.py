@@ -33,7 +33,14 @@ file or passed directly, sometimes in a function set whose names are
 macros for their numbers. A seventh is the second with few keys (A, B),
 mostly with a parameter, many productions each, and pre-condition blocks
 that assign to the formal parameter: cpfg binds the formals again for
-every production it tries, so the next one sees the string's value.
+every production it tries, so the next one sees the string's value. An
+eighth (`generate_arrays`) has a `define:` block of 1-3 arrays (1 or 2
+dimensions, sizes 1-5, initializer lists of the right length, short,
+long or absent) and reads their elements in successors, conditions,
+blocks, the axiom and the homomorphism, with integer subscripts that are
+sometimes out of range (clamped) and occasionally fractional ones that
+stay inside the storage, and assigns elements in `Start:`, `StartEach:`,
+`EndEach:` and pre-/post-condition blocks; its cases print parameters.
 
 Usage (from anywhere):
     python3 tests/tools/gen_cpfg_cases.py          # write the file
@@ -80,6 +87,9 @@ ALTERNATIVES = 40
 FUNC = 40
 # The seventh (`extended` and `formals`), after the sixth.
 FORMALS = 80
+# The eighth (`generate_arrays`: define: blocks and array elements), after
+# the seventh.
+ARRAYS = 60
 MAX_OUTPUT = 2000
 
 SYMS = "ABCD"
@@ -435,6 +445,189 @@ def generate_func(r):
     return "\n".join(lines) + "\n", r.randint(1, 4), files, args
 
 
+# Array names (none is a module, a variable of these systems or a word of
+# cpfg).
+ARRAY_NAMES = ["a", "b", "len", "w", "tab", "m2"]
+
+
+def generate_arrays(r):
+    """The eighth batch: a `define:` (or `Define:`) block of 1-3 arrays (1
+    or 2 dimensions, sizes 1-5, a dimension sometimes an expression C's
+    (int) truncates; initializer lists of the right length, short (0 past
+    them), long (the rest ignored) or absent; one or several `array`
+    statements, on one line or several) and elements read in successors'
+    parameters, conditions, blocks, the axiom and the homomorphism, with
+    integer subscripts, sometimes out of range (clamped), sometimes the
+    formal parameter, `Q` or a global, and occasionally fractional ones
+    that stay inside the array's storage (the index is (int) of the
+    row-major offset); elements assigned in `Start:`, `StartEach:`,
+    `EndEach:` and pre-/post-condition blocks. Returns (text, steps)."""
+    arrays = []  # (name, sizes)
+    defs = []
+    for name in r.sample(ARRAY_NAMES, r.randint(1, 3)):
+        sizes = [r.randint(1, 5) for _ in range(r.choice([1, 1, 2]))]
+        dims = []
+        for n in sizes:
+            k = r.random()
+            if k < 0.1:
+                dims.append("%d.%d" % (n, r.randint(1, 9)))  # (int) toward zero
+            elif k < 0.2:
+                dims.append(r.choice(["%d+0", "2*%d/2", "Z-Z+%d"]) % n)
+            else:
+                dims.append(str(n))
+        total = 1
+        for n in sizes:
+            total *= n
+        k = r.random()
+        if k < 0.25:
+            count = None
+        elif k < 0.55:
+            count = total
+        elif k < 0.8:
+            count = r.randint(1, total) if total > 1 else 1
+        else:
+            count = total + r.randint(1, 3)
+        text = name + "".join("[%s]" % d for d in dims)
+        if count is not None:
+            pool = ["0", "1", "2", "3", "5", "-1", "-2", "0.5", "1.25", "-0.75", "7", "9",
+                    "2*3", "1/3", "Z", "Q+1", "10"]
+            # an element of an array defined before
+            earlier = [a for a in arrays]
+            vals = []
+            for _ in range(count):
+                if earlier and r.random() < 0.1:
+                    an, asz = r.choice(earlier)
+                    vals.append(an + "".join("[%d]" % r.randint(0, n - 1) for n in asz) + "+1")
+                else:
+                    vals.append(r.choice(pool))
+            if len(vals) > 6 and r.random() < 0.5:
+                cut = r.randint(2, len(vals) - 2)
+                text += " = {%s,\n\t\t%s}" % (", ".join(vals[:cut]), ", ".join(vals[cut:]))
+            else:
+                text += " = {%s}" % ", ".join(vals)
+        defs.append(text)
+        arrays.append((name, sizes))
+
+    def sub(n, var):
+        k = r.random()
+        if k < 0.5:
+            return str(r.randint(0, n - 1))
+        if k < 0.65:
+            return str(r.choice([n, n + 1, n + 3, -1, -2]))
+        cands = ["Q", "Q-1", "g"]
+        if var:
+            cands += [var, var, "%s-1" % var, "%s+1" % var, "%s%%3" % var]
+        return r.choice(cands)
+
+    def ref(var, arr=None):
+        name, sizes = arr or r.choice(arrays)
+        if r.random() < 0.1:
+            # fractional, inside the storage
+            if len(sizes) == 1:
+                return "%s[%d.%s]" % (name, r.randint(0, sizes[0] - 1), r.choice(["25", "5", "9"]))
+            n1, n2 = sizes
+            if n1 >= 2 and r.random() < 0.5:
+                return "%s[%d.5][%d]" % (name, r.randint(0, n1 - 2), r.randint(0, n2 - 1))
+            return "%s[%d][%d.%s]" % (name, r.randint(0, n1 - 1), r.randint(0, n2 - 1),
+                                      r.choice(["25", "5", "9"]))
+        return name + "".join("[%s]" % sub(n, var) for n in sizes)
+
+    def value(var):
+        pool = ["%s+1" % ref(var), "%s*2" % ref(var), "Q", "0.5", "g", "%s-%s" % (ref(var), ref(var)),
+                "3", "-1"]
+        if var:
+            pool += [var, "%s*2" % var, "%s+%s" % (var, ref(var))]
+        return r.choice(pool)
+
+    def assign(var):
+        return "%s = %s;" % (ref(var), value(var))
+
+    def stmts(var, k):
+        return " ".join(assign(var) for _ in range(k))
+
+    def pexpr(var):
+        pool = [ref(var), "%s+1" % ref(var), "Q", "%s*%s" % (ref(var), ref(var)), "g"]
+        if var:
+            pool += [var, "%s+1" % var, "%s+%s" % (var, ref(var)), "%s-1" % var]
+        return r.choice(pool)
+
+    def succ(var):
+        out = []
+        for _ in range(r.randint(1, 3)):
+            c = r.choice("ABCF[")
+            if c in "ABC":
+                out.append("%s(%s)" % (c, pexpr(var)) if r.random() < 0.9 else c)
+            elif c == "[":
+                out.append("[B(%s)]" % pexpr(var))
+            else:
+                out.append(c)
+        return "".join(out)
+
+    n = r.randint(1, 4)
+    lines = ["Lsystem: 1", "derivation length: %d" % n]
+    settings = []
+    word = "Define:" if r.random() < 0.2 else "define:"
+    if r.random() < 0.5:
+        define = "%s { array %s; }" % (word, ", ".join(defs))
+    else:
+        body = []
+        i = 0
+        while i < len(defs):
+            k = r.randint(1, len(defs) - i)
+            body.append("\tarray %s;" % ", ".join(defs[i:i + k]))
+            i += k
+        define = "%s {\n%s\n}" % (word, "\n".join(body))
+    settings.append("Start: {g = %s; %s}" % (r.choice(["0", "1", "2"]), stmts(None, r.randint(0, 2))))
+    if r.random() < 0.5:
+        settings.append("StartEach: {%s}" % stmts(None, r.randint(1, 2)))
+    if r.random() < 0.5:
+        settings.append("EndEach: {%s}" % r.choice([stmts(None, 1), "g = g + 1; " + stmts(None, 1),
+                                                   "g = %s;" % ref(None)]))
+    if r.random() < 0.2:
+        settings.append("ignore: F")
+    r.shuffle(settings)
+    # (an array is defined by the time a block that uses it is read)
+    if r.random() < 0.2:
+        lines.append(r.choice(["ignore: F", "Start: {g = 1;}"]))
+    lines.append(define)
+    lines += settings
+    axiom = []
+    for _ in range(r.randint(2, 4)):
+        s = r.choice("ABC")
+        if r.random() < 0.9:
+            arg = str(r.randint(-1, 4)) if r.random() < 0.7 else ref(None)
+            axiom.append("%s(%s)" % (s, arg))
+        else:
+            axiom.append(s)
+    lines.append("Axiom: " + "".join(axiom))
+    keys = list("ABC") + [r.choice("ABC") for _ in range(r.randint(0, 2))]
+    r.shuffle(keys)
+    for key in keys:
+        var = "x" if r.random() < 0.9 else None
+        pred = key + ("(x)" if var else "")
+        if r.random() < 0.15:
+            pred = r.choice("ABC") + " < " + pred
+        k = r.random()
+        cond = ""
+        if k < 0.3:
+            cond = " : " + r.choice(["%s > %s" % (var or "Q", ref(var)),
+                                     "%s <> 0" % ref(var), "%s < %s" % (ref(var), ref(var)),
+                                     "Q <= %s" % ref(var)])
+        elif k < 0.6:
+            c = r.choice(["*", "*", "%s > 0" % ref(var), "%s < 3" % (var or "Q")])
+            pre = "{%s} " % stmts(var, r.randint(1, 2))
+            post = " {%s}" % stmts(var, 1) if r.random() < 0.5 else ""
+            if r.random() < 0.3:
+                pre, post = "", " {%s}" % stmts(var, r.randint(1, 2))
+            cond = " : " + pre + c + post
+        lines.append("%s%s --> %s" % (pred, cond, succ(var)))
+    if r.random() < 0.25:
+        lines.append("homomorphism")
+        lines.append("B(x) --> B(%s)" % pexpr("x"))
+    lines.append("endlsystem")
+    return "\n".join(lines) + "\n", r.randint(0 if r.random() < 0.1 else 1, 4)
+
+
 def derive(text, steps, files=(), args=None):
     """The reference's string, or None if it refuses the system. `files`:
     (name, text) written beside case.l; `args`: the --functions files (by
@@ -465,12 +658,14 @@ def main(argv):
     made = 0
     tried = 0
     func_started = False
+    arrays_started = False
     r = random.Random(12)
     third = CASES + EXTENDED + DECOMP_CONTEXTS
     fourth = third + LATE_AXIOM
     fifth = fourth + ALTERNATIVES
     sixth = fifth + FUNC
-    while made < sixth + FORMALS:
+    seventh = sixth + FORMALS
+    while made < seventh + ARRAYS:
         if made == CASES:
             r = random.Random(13)
         if made == CASES + EXTENDED:
@@ -485,11 +680,16 @@ def main(argv):
         if made == sixth and func_started:
             r = random.Random(18)
             func_started = False
+        if made == seventh and not arrays_started:
+            r = random.Random(19)
+            arrays_started = True
         tried += 1
         late = third <= made < fourth
         alt = fourth <= made < fifth
         files, args = [], None
-        if made >= sixth:
+        if made >= seventh:
+            text, steps = generate_arrays(r)
+        elif made >= sixth:
             text, steps = generate(r, True, False, False, False, formals=True)
         elif made >= fifth:
             text, steps, files, args = generate_func(r)
@@ -501,6 +701,9 @@ def main(argv):
         # lsgen refuses a parameter a 32-bit float cannot hold (README), where
         # cpfg stores inf.
         if out is None or len(out) > MAX_OUTPUT or "inf" in out or "nan" in out:
+            continue
+        if made >= seventh and "(" not in out:
+            # (arrays: a string without parameters shows too little)
             continue
         sections = "".join("--- file %s\n%s" % (name, body) for name, body in files)
         if args is not None:
