@@ -64,6 +64,7 @@ MANIFEST = {
     "decomposition": [0, 1, 2, 3],
     "homomorphism": [1, 2],
     "backslash_define": [1, 3],
+    "arrays": [0, 1, 2, 3],
 }
 
 # Strings derived by hand (the derivations are in the models' comments);
@@ -106,6 +107,10 @@ HAND = {
     ("decomposition", 2): "FFFK(0)EFFFFFFB",
     ("homomorphism", 1): "pqS(3)R(0.52484)",
     ("vlab_typical", 1): "G(1)G(1)[+(30)A(0.5,1)]/(137.5)A(1,1)",
+    ("arrays", 0): "A(0)B(1.5)",
+    ("arrays", 1): "A(1)R(1,-5,-5,4,10,1,0)B(2.5)W(1,1.67772e+07,0)",
+    ("arrays", 2): "A(2)R(4,-4,-5,4,10,2,1)R(1,-5,-5,4,10,1,0)B(2.5)W(1,1.67772e+07,1)",
+    ("arrays", 3): "A(2)S(3,-40)S(3,-40)B(2.5)W(1,1.67772e+07,3)",
 }
 
 # ABOP twins: every example except those that cannot be twins (README.md)
