@@ -583,12 +583,14 @@ def generate_arrays(r):
     if r.random() < 0.5:
         settings.append("EndEach: {%s}" % r.choice([stmts(None, 1), "g = g + 1; " + stmts(None, 1),
                                                    "g = %s;" % ref(None)]))
-    if r.random() < 0.2:
+    ignore = r.random() < 0.2
+    if ignore and r.random() < 0.5:
         settings.append("ignore: F")
+        ignore = False
     r.shuffle(settings)
     # (an array is defined by the time a block that uses it is read)
-    if r.random() < 0.2:
-        lines.append(r.choice(["ignore: F", "Start: {g = 1;}"]))
+    if ignore:
+        lines.append("ignore: F")
     lines.append(define)
     lines += settings
     axiom = []
