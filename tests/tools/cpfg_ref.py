@@ -63,8 +63,8 @@ replaced by 0 or size - 1, the index is (int)((s1 * size2 + s2) ...)
 row-major; an index past the storage (fractional subscripts) or a NaN
 subscript is an error (cpfg reads outside the array).  Errors: an array
 name without subscripts, subscripts on a non-array, the wrong number of
-subscripts, a name defined twice (or used before its definition), an
-array named Q or Z.
+subscripts, a name defined twice (or used before its definition).  An
+array named Q or Z hides the global (cpfg's tables).
 
 Refused with an error (a string rewriter cannot do them, or the reference
 does not model them): ?P ?H ?L ?U ?E and any ? module, sub-L-systems
@@ -1314,11 +1314,8 @@ class Parser:
         # CurrentSymbolTableFind: the L-system's own table
         if name in self.lsys_table:
             raise self.err("Identifier %s previously defined" % name, nt)
-        if name in ("Q", "Z"):
-            # cpfg would add a second Q or Z to the L-system's table,
-            # hiding the global one
-            raise self.err("%s is cpfg's global (the step, the derivation length): "
-                           "not an array name" % name, nt)
+        # (an array named Q or Z hides cpfg's global: the L-system's table
+        # is searched first, and Derive sets the global table's Q)
         sizes = []
         total = 1
         for d in dims:
@@ -2806,7 +2803,7 @@ def self_test_arrays():
                 ("twice", "array A[2], A[3];"), ("dimension 0", "array A[0];"),
                 ("dimension -1", "array A[2][-1];"), ("too large", "array A[1025][1025];"),
                 ("statement", "x = 1;"), ("empty", ""), ("no dimension", "array A;"),
-                ("Q", "array Q[2];"), ("empty initializer", "array A[2] = {};"),
+                ("empty initializer", "array A[2] = {};"),
                 ("self reference", "array A[2] = {1, A[0]};")]:
             try:
                 run("Lsystem: 1\nderivation length: 1\n"
@@ -2814,6 +2811,10 @@ def self_test_arrays():
                 check(what, "accepted", "refused")
             except CpfgError as e:
                 check(what + " located", e.where is not None, True)
+        # an array Q hides the step number (set in cpfg's global table)
+        check("array Q", run("Lsystem: 1\nderivation length: 2\ndefine: { array Q[2]; }\n"
+                             "StartEach: {Q[1] = Q[1] + 1;}\nAxiom: X\nX --> X(Q[1])\n"
+                             "endlsystem\n"), "X(1)")
         try:
             run("Lsystem: 1\nStart: {g = 1;}\n"
                 "define: { array g[2]; }\nAxiom: X(1)\nendlsystem\n")
