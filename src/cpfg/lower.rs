@@ -915,10 +915,12 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
     // elements in row-major order (cpfg's AllocateArray).
     let mut inits = Vec::new();
     let mut elements = 0u64;
+    let mut blocks_seen = 0;
     for s in &lsys.settings {
         let Setting::Arrays(defs, _) = s else {
             continue;
         };
+        blocks_seen += 1;
         for d in defs {
             if lw.arrays.contains_key(&d.name) || lw.globals.contains_key(&d.name) {
                 return err(d.span, Invalid::ArrayTwice(d.name.clone()));
@@ -943,7 +945,7 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
             let base = lw.variables;
             lw.variables += size as u32;
             lw.arrays.insert(d.name.clone(), (base, dims));
-            inits.push((d, base, size));
+            inits.push((d, base, size, blocks_seen));
         }
     }
     let mut header = ls::Header::default();
@@ -1095,10 +1097,15 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
             *slot = lw.block(b, &HashMap::new(), &none)?;
         }
     }
-    // The arrays' initial values, evaluated at the start of the run before
-    // `Start:` (cpfg's ProcessArrayDef), as many as the array has elements.
+    // The arrays' initial values, as many as an array has elements, at the
+    // start of the run before `Start:`, twice as in cpfg: for every array
+    // as the file is read (lsys_input.y calls InitializeArray), then for
+    // those of the last `define:` (control.c's InitialiseForStart runs the
+    // L-system's `defineBlock`, ProcessArrayDef). Only the draws (`ran`)
+    // and the values an initial value reads can tell.
     let mut define = Vec::new();
-    for (d, base, size) in inits {
+    let mut again = Vec::new();
+    for (d, base, size, block) in inits {
         let given = d.init.as_ref().map_or(0, Vec::len);
         if d.init.is_some() && given as u64 != size {
             let name = d.name.clone();
@@ -1111,8 +1118,13 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
             .take(size as usize)
             .map(|e| lw.code(e, &HashMap::new(), &none))
             .collect::<R<Vec<_>>>()?;
-        define.push(blocks::Stmt::InitArray(base, size as u32, codes.into()));
+        let init = blocks::Stmt::InitArray(base, size as u32, codes.into());
+        if block == blocks_seen {
+            again.push(init.clone());
+        }
+        define.push(init);
     }
+    define.extend(again);
     run.define = blocks::Block(define.into());
     if let (Some(g), Some(z)) = (lw.z_global, lw.z) {
         // `Z` holds the length from the `derivation length:` line on
