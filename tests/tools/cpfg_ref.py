@@ -857,7 +857,11 @@ class Lexer:
                     # lsys_input.l ProcessString: \n \t \r, \x is x
                     body = re.sub(r"\\(.)", lambda e: {"n": "\n", "t": "\t", "r": "\r"}.get(
                         e.group(1), e.group(1)), m.group()[1:-1], flags=re.S)
-                    out.append(("STRING", body, w))
+                    # Its number in cpfg's global string table (control.c's
+                    # GlobalStringIndex: every string the parser meets, in
+                    # order; 255 places, the last one's number past them).
+                    self.strings = getattr(self, "strings", 0) + 1
+                    out.append(("STRING", (body, min(self.strings - 1, 254)), w))
                     i = m.end()
                     continue
                 m = REAL_RE.match(s, i)
@@ -1433,7 +1437,7 @@ class Parser:
         if t[0] == "VALUE":
             return ("num", t[1])
         if t[0] == "STRING":
-            return ("str", t[1])
+            return ("str", t[1][0], t[1][1])
         if t[0] == "LPAREN":
             e = self.expression()
             self.expect("RPAREN", ")")
@@ -1936,7 +1940,8 @@ class Runtime:
             b = self.eval(e[3])
             return a if c != 0 else b
         if k == "str":
-            raise CpfgError("a string used as a number")
+            # A string's value is its number in the global string table.
+            return float(e[2])
         if k == "call":
             return self.call(e)
         if k == "aref":

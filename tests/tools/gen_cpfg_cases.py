@@ -40,7 +40,10 @@ long or absent) and reads their elements in successors, conditions,
 blocks, the axiom and the homomorphism, with integer subscripts that are
 sometimes out of range (clamped) and occasionally fractional ones that
 stay inside the storage, and assigns elements in `Start:`, `StartEach:`,
-`EndEach:` and pre-/post-condition blocks; its cases print parameters.
+`EndEach:` and pre-/post-condition blocks; its cases print parameters. A
+ninth is the second with string literals among the parameters (alone and
+in arithmetic) and a `printf` in `Start:`: a string's value is its number
+among the file's strings, the `printf` format counted.
 
 Usage (from anywhere):
     python3 tests/tools/gen_cpfg_cases.py          # write the file
@@ -90,13 +93,15 @@ FORMALS = 80
 # The eighth (`generate_arrays`: define: blocks and array elements), after
 # the seventh.
 ARRAYS = 60
+# The ninth (`extended` and `strings`), after the eighth.
+STRINGS = 30
 MAX_OUTPUT = 2000
 
 SYMS = "ABCD"
 
 
 def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alternatives=False,
-             formals=False):
+             formals=False, strings=False):
     """A random system and a number of steps. `extended`: a second batch
     (its own generator, so the first batch stays as it was) whose blocks
     also assign `Q` and `Z`, with more decomposition and homomorphism at
@@ -108,7 +113,9 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
     their own, mostly without weights (each weighs 1 when the system is
     seeded). `formals`: pre-condition blocks also assign to the
     production's formal parameter, and keys have several productions
-    (cpfg binds the formals again for each production it tries)."""
+    (cpfg binds the formals again for each production it tries).
+    `strings`: some parameters are string literals and some blocks print
+    (a string's value is its number among the file's strings)."""
     globals_ = extended or r.random() < 0.3
     stochastic = r.random() < 0.3 or alternatives
 
@@ -126,6 +133,9 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
             ops.append("floor(ran(3))+%s")
         if axiom and late_axiom and r.random() < 0.6:
             ops = ["g+%s", "floor(ran(3))+%s", "Q+%s", "Z-%s", "g*Q+%s", "%s/(g-g)"]
+        if strings and r.random() < 0.35:
+            # (A string's number, in arithmetic too.)
+            return r.choice(['"s"', '" %.f"', '"a b"', '"x"+%s', '%s*"y"']).replace("%s", a)
         e = r.choice(ops)
         return e.replace("%s", a).replace("%%", "%")
 
@@ -214,7 +224,8 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
     if r.random() < 0.3:
         lines.append(r.choice(["ignore: F +", "ignore: C", "consider: A B [ ]", "consider: A B"]))
     if globals_:
-        lines.append("Start: {g = 0;}" if not late_axiom else
+        lines.append(("Start: {g = 0; printf(\"go %d\\n\", g);}" if strings else "Start: {g = 0;}")
+                     if not late_axiom else
                      r.choice(["Start: {g = 2;}", "Start: {g = 1; Q = 3;}",
                                "Start: {g = Z + 1; Z = 7;}", "Start: {srand(7); g = ran(4);}",
                                "Start: {g = 1; srand(3);}"]))
@@ -667,7 +678,8 @@ def main(argv):
     fifth = fourth + ALTERNATIVES
     sixth = fifth + FUNC
     seventh = sixth + FORMALS
-    while made < seventh + ARRAYS:
+    eighth = seventh + ARRAYS
+    while made < eighth + STRINGS:
         if made == CASES:
             r = random.Random(13)
         if made == CASES + EXTENDED:
@@ -685,11 +697,16 @@ def main(argv):
         if made == seventh and not arrays_started:
             r = random.Random(19)
             arrays_started = True
+        if made == eighth and arrays_started:
+            r = random.Random(20)
+            arrays_started = False
         tried += 1
         late = third <= made < fourth
         alt = fourth <= made < fifth
         files, args = [], None
-        if made >= seventh:
+        if made >= eighth:
+            text, steps = generate(r, True, False, False, False, strings=True)
+        elif made >= seventh:
             text, steps = generate_arrays(r)
         elif made >= sixth:
             text, steps = generate(r, True, False, False, False, formals=True)
@@ -705,6 +722,7 @@ def main(argv):
         if out is None or len(out) > MAX_OUTPUT or "inf" in out or "nan" in out:
             continue
         if made >= seventh and "(" not in out:
+            # (arrays, strings: a string without parameters shows too little)
             # (arrays: a string without parameters shows too little)
             continue
         sections = "".join("--- file %s\n%s" % (name, body) for name, body in files)
