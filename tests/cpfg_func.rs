@@ -258,15 +258,23 @@ fn bad_functions_are_located_errors() {
         "{e}"
     );
 
-    // A file that holds no functions at all is refused, not read as an
-    // empty view file (that would renumber the files after it).
+    // A `.func` or `.fset` file whose first line is wrong is refused, not
+    // read as a view file without functions (that would renumber the
+    // files after it); a view file without functions gives none.
     let e = err(with(&write(d, "blank.func", format!("\n{LINE_OLD}"))));
     assert!(
-        e.contains("blank.func:1:1: error: no functions here"),
+        e.contains("blank.func:1:1: error: not a cpfg function file"),
         "{e}"
     );
-    let e = err(with(&write(d, "empty.v", "/* nothing */\n")));
-    assert!(e.contains("empty.v:1:1: error: no functions here"), "{e}");
+    let e = err(with(&write(d, "blank.fset", "\nfuncgalleryver 1 1\n")));
+    assert!(
+        e.contains("blank.fset:1:1: error: not a cpfg function file"),
+        "{e}"
+    );
+    let quiet = write(d, "quiet.l", system("A(0.5)", "A(x) --> B(x)"));
+    let empty = write(d, "empty.v", "/* nothing */\nangle factor: 12\n");
+    let r = run(lsgen().arg(&quiet).arg("--functions").arg(&empty));
+    assert_eq!(ok(r), "B(0.5)\n");
     // A byte-order mark is skipped; a byte that is no UTF-8 in a view
     // file's comment is read as cpfg reads it.
     let bom = write(d, "bom.func", format!("\u{feff}{LINE_OLD}"));

@@ -254,13 +254,16 @@ impl Functions {
             let mut r = Reader::new(&name, &text);
             let f = r.function(name.clone(), -1)?;
             self.push(f).map_err(|e| start.error(e))
-        } else if self.read_view(path, &text)? == 0 {
-            // (Not a file of functions at all: a typo, an empty first
-            // line, a file of another kind. cpfg would count it as one
-            // flat function; lsgen says so rather than renumber the rest.)
-            Err(start.error(E::NoFunctions))
+        } else if name.ends_with(".func") || name.ends_with(".fset") {
+            // (A function file whose first line is wrong: a typo, an empty
+            // line. cpfg would count it as one flat function; read as a
+            // view file it would give none and renumber the files after
+            // it.)
+            Err(start.error(E::UnknownFormat))
         } else {
-            Ok(())
+            // (A view file without functions is a model's view file, as
+            // cpfg gets it: nothing to read there.)
+            self.read_view(path, &text).map(|_| ())
         }
     }
 

@@ -460,9 +460,6 @@ pub enum FunctionFileError {
     NeverReaches(f64),
     /// A view file's `function:` / `function set:` line without a file.
     MissingFile(&'static str),
-    /// A file that is neither a function, a function set nor a view file
-    /// with `function:` lines.
-    NoFunctions,
 }
 
 impl FunctionFileError {
@@ -511,9 +508,6 @@ impl fmt::Display for FunctionFileError {
                 "the curve never comes within 0.001 of x = {x}: cpfg would search for its value forever (its control points must cover x from 0 to 1)"
             ),
             MissingFile(what) => write!(f, "`{what}` needs a file name"),
-            NoFunctions => f.write_str(
-                "no functions here: a function file starts with `fver 1 1` or `range:`, a function set with `funcgalleryver 1 1`, and a view file has `function:` or `function set:` lines",
-            ),
         }
     }
 }
