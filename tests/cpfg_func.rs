@@ -16,21 +16,14 @@ use std::path::Path;
 const LINE_OLD: &str = "range: 0.0 1.0\npoints: 4\n0 0\n0.333333333 0.333333333\n\
                         0.666666667 0.666666667\n1 1\n";
 
+/// Success with nothing on standard error: the output.
 fn ok(r: common::Run) -> String {
-    assert!(
-        r.status.success(),
-        "{}: {} ({})",
-        r.what,
-        r.stderr,
-        r.status
-    );
-    String::from_utf8(r.stdout).unwrap()
+    r.ok()
 }
 
+/// Exit 1 and nothing on standard output: the message.
 fn err(r: common::Run) -> String {
-    assert_eq!(r.status.code(), Some(1), "{}: {}", r.what, r.stderr);
-    assert!(r.stdout.is_empty(), "{}", r.what);
-    r.stderr
+    r.fails(1).to_string()
 }
 
 fn system(axiom: &str, production: &str) -> String {
@@ -164,7 +157,8 @@ fn a_view_files_set_replaces_what_came_before() {
     let v = write(d, "b.v", "function set: s.fset\nfunction: line.func\n");
     let r = run(lsgen().arg(&l).arg("--functions").arg(&v));
     assert!(r.stderr.contains("warning"), "{}", r.stderr);
-    assert_eq!(ok(r), "B(3,0)\n");
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert_eq!(r.out(), "B(3,0)\n");
 }
 
 #[test]
