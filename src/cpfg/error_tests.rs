@@ -244,6 +244,7 @@ fn typed_messages_are_the_former_strings() {
         (Refused::SubLsystemEnd.to_string(), "`$` (the end of a sub-L-system) is not supported: lsgen has no sub-L-systems"),
         (Refused::Surface.to_string(), "`@S` (a surface from cpfg's surface files) is not supported: lsgen has no surfaces"),
         (Refused::Atan2.to_string(), "`atan2` is reserved in cpfg but a syntax error there: use `atan(y / x)`"),
+        (Refused::External.to_string(), "`external` (arrays shared with cpfg's sub-L-systems) is not supported: declare the array with `array`"),
         (Refused::Function("curveX".into()).to_string(), "`curveX` is not supported: it needs cpfg's function files, curves, view or animation"),
         (Refused::Address.to_string(), "`&` (an address) is not supported: write `&&`"),
         (Refused::FprintfNotStderr.to_string(), "lsgen supports `fprintf` only on `stderr`"),

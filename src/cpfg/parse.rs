@@ -37,7 +37,6 @@ const UNSUPPORTED_FUNCTIONS: &[&str] = &[
     "fflush",
     "fscanf",
     "inblob",
-    "external",
 ];
 
 /// Parse the preprocessed text of a `.l` file, whose run has no function
@@ -183,6 +182,7 @@ fn refusal(
         Tok::Name(n) if *n == "atan2" && next == Some(&Tok::LParen) => {
             return at(span, Refused::Atan2)
         }
+        Tok::Name("external") => return at(span, Refused::External),
         Tok::Name(n) if UNSUPPORTED_FUNCTIONS.contains(n) => {
             return at(span, Refused::Function(n.to_string()))
         }

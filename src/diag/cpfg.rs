@@ -42,6 +42,8 @@ pub enum Refused {
     Address,
     /// `fprintf` on something else than `stderr`.
     FprintfNotStderr,
+    /// `external` (the external arrays of cpfg's sub-L-system build).
+    External,
     /// `func` in a run without function files (`--functions`); the hint
     /// names a view file beside the `.l` file, if there is one.
     FuncWithoutFunctions(Option<String>),
@@ -92,6 +94,9 @@ impl fmt::Display for Refused {
             ),
             Address => f.write_str("`&` (an address) is not supported: write `&&`"),
             FprintfNotStderr => f.write_str("lsgen supports `fprintf` only on `stderr`"),
+            External => f.write_str(
+                "`external` (arrays shared with cpfg's sub-L-systems) is not supported: declare the array with `array`",
+            ),
             FuncWithoutFunctions(hint) => {
                 f.write_str("`func` needs the model's function files: ")?;
                 match hint {
