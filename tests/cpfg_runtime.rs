@@ -1254,3 +1254,28 @@ fn strings_are_their_numbers() {
     assert_eq!(out, "@L(1,3)B(2)C(3,4)\n");
     assert_eq!(err, "start\n");
 }
+
+/// The blocks of a predecessor of several modules may assign the
+/// parameters of its later modules: the successor sees what they left, as
+/// cpfg's does (its formals are one table). Strings from
+/// tests/tools/cpfg_ref.py; by hand: v = 0 * 2 = 0, u = 0 + 7, C(7, 7);
+/// the seeded choice keeps the chosen production's values, C(5, 0).
+#[test]
+fn blocks_assign_the_later_modules_of_a_predecessor() {
+    let dir = tempdir();
+    let file = write(
+        dir.path(),
+        "run.l",
+        "Lsystem: 1\nderivation length: 1\nAxiom: A(2) A(0) C(1)\n\
+         A(u) < A(z) : {u = 2;} 0 --> D\n\
+         A(u) C(v) : {v = u * 2;} 1 {u = v + 7;} --> C(v + 7, u)\nendlsystem\n",
+    );
+    assert_eq!(derive(&[], &file).0, "A(2)C(7,7)\n");
+    let seeded = write(
+        dir.path(),
+        "seeded.l",
+        "Lsystem: 1\nderivation length: 1\nseed: 3\nAxiom: A(0) C(1)\n\
+         A(u) C(v) : {v = 5;} 1 --> C(v, u)\nendlsystem\n",
+    );
+    assert_eq!(derive(&[], &seeded).0, "C(5,0)\n");
+}

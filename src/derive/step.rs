@@ -410,6 +410,33 @@ impl StepState<'_> {
         Ok(Some(pos))
     }
 
+    /// Where the run `rest` that [`StepState::match_run`] matched after the
+    /// module ending at `end_off` ends, its parameters not read.
+    fn run_end_of(
+        &mut self,
+        end_off: u64,
+        rest: &[Pat],
+        al: &Alphabet,
+    ) -> Result<Option<u64>, Error> {
+        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
+        let peek = self
+            .peek
+            .as_mut()
+            .expect("a look-ahead reader for predecessors of several modules");
+        let mut pos = end_off;
+        for pat in rest {
+            peek.seek(pos);
+            let Some((k, _, _)) = peek.next_module(al).map_err(read_err)? else {
+                return Ok(None);
+            };
+            if k != pat.key {
+                return Ok(None);
+            }
+            pos = peek.offset();
+        }
+        Ok(Some(pos))
+    }
+
     /// Where the right context of the module ending at `end_off` starts:
     /// past the ignored modules that follow it. Each ignored run is read
     /// once per pass, however many of its modules ask.
@@ -1132,9 +1159,11 @@ impl<'a> Deriver<'a> {
         };
         let p = &table.prods[pi as usize];
         if !p.rest().is_empty() {
-            // The run the chosen production matched (parameters bound again,
-            // to the same values): skipped by the caller.
-            st.run_end = st.match_run(end_off, p.rest(), al, slots)?;
+            // The run the chosen production matched: skipped by the caller.
+            // Its parameters are not bound again: the production's blocks
+            // may have assigned them (cpfg's successor sees the values the
+            // pre- and post-condition blocks left).
+            st.run_end = st.run_end_of(end_off, p.rest(), al)?;
         }
         if table.check_balance {
             if st.depth + i64::from(p.depth_min) < 0 {
