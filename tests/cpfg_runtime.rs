@@ -1200,6 +1200,35 @@ fn arrays_are_cpfgs() {
         derive(&["--frames", "1..2"], &counting).0,
         "AB(5)\nAB(10)B(5)\n"
     );
+    // cpfg evaluates the initial values twice: as the file is read (every
+    // array) and before `Start:` (the last `define:`'s arrays): `ran`
+    // draws each time. Expected strings from tests/tools/cpfg_ref.py.
+    for (src, want) in [
+        (
+            "define: { array R[2] = {trunc(ran(1)*1000), 5}; }\n\
+             derivation length: 0\nAxiom: X(R[0], trunc(ran(1)*1000))",
+            "X(750,96)\n",
+        ),
+        (
+            "define: { array A[1] = {trunc(ran(1)*1000)}; }\n\
+             define: { array B[2] = {trunc(ran(1)*1000)}; }\n\
+             derivation length: 0\nAxiom: X(A[0], B[0], B[1], trunc(ran(1)*1000))",
+            "X(171,96,0,870)\n",
+        ),
+        // A dimension may read `Z` once `derivation length:` has set it.
+        (
+            "derivation length: 3\ndefine: { array a[Z]; }\nAxiom: A(Z)\n\
+             A(x) --> A(x+1) B(a[2])",
+            "A(6)B(0)B(0)B(0)\n",
+        ),
+    ] {
+        let f = write(
+            dir.path(),
+            "r.l",
+            format!("Lsystem: 1\n{src}\nendlsystem\n"),
+        );
+        assert_eq!(derive(&[], &f).0, want, "{src}");
+    }
 }
 
 /// An array used wrongly is a located error: at load (a name that is no

@@ -912,42 +912,11 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
     }
     lw.variables = lw.globals.len() as u32 + u32::from(z_assigned);
     // `define:`'s arrays: run variables after the globals, each its
-    // elements in row-major order (cpfg's AllocateArray).
+    // elements in row-major order (cpfg's AllocateArray), allocated in
+    // file order with the settings (a dimension may read `Z`).
     let mut inits = Vec::new();
     let mut elements = 0u64;
     let mut blocks_seen = 0;
-    for s in &lsys.settings {
-        let Setting::Arrays(defs, _) = s else {
-            continue;
-        };
-        blocks_seen += 1;
-        for d in defs {
-            if lw.arrays.contains_key(&d.name) || lw.globals.contains_key(&d.name) {
-                return err(d.span, Invalid::ArrayTwice(d.name.clone()));
-            }
-            let mut dims = Vec::new();
-            let mut size = 1u64;
-            for e in &d.dims {
-                let n = lw.c_int(e, "an array dimension")?;
-                if n < 1 {
-                    return err(e.span(), Invalid::ArrayDimension(n as f64));
-                }
-                size = size.saturating_mul(n as u64);
-                if size > MAX_ARRAY_ELEMENTS {
-                    return err(e.span(), Invalid::ArraysTooLarge(MAX_ARRAY_ELEMENTS));
-                }
-                dims.push(n as u32);
-            }
-            elements += size;
-            if elements > MAX_ARRAY_ELEMENTS {
-                return err(d.span, Invalid::ArraysTooLarge(MAX_ARRAY_ELEMENTS));
-            }
-            let base = lw.variables;
-            lw.variables += size as u32;
-            lw.arrays.insert(d.name.clone(), (base, dims));
-            inits.push((d, base, size, blocks_seen));
-        }
-    }
     let mut header = ls::Header::default();
     // (ignore, symbols, span) of the last `ignore:`/`consider:`.
     let mut filter = None;
@@ -956,7 +925,35 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
             Setting::Unsupported(what, span) => {
                 return err(*span, crate::diag::ParseError::Refused(what.clone()))
             }
-            Setting::Arrays(..) => {}
+            Setting::Arrays(defs, _) => {
+                blocks_seen += 1;
+                for d in defs {
+                    if lw.arrays.contains_key(&d.name) || lw.globals.contains_key(&d.name) {
+                        return err(d.span, Invalid::ArrayTwice(d.name.clone()));
+                    }
+                    let mut dims = Vec::new();
+                    let mut size = 1u64;
+                    for e in &d.dims {
+                        let n = lw.c_int(e, "an array dimension")?;
+                        if n < 1 {
+                            return err(e.span(), Invalid::ArrayDimension(n as f64));
+                        }
+                        size = size.saturating_mul(n as u64);
+                        if size > MAX_ARRAY_ELEMENTS {
+                            return err(e.span(), Invalid::ArraysTooLarge(MAX_ARRAY_ELEMENTS));
+                        }
+                        dims.push(n as u32);
+                    }
+                    elements += size;
+                    if elements > MAX_ARRAY_ELEMENTS {
+                        return err(d.span, Invalid::ArraysTooLarge(MAX_ARRAY_ELEMENTS));
+                    }
+                    let base = lw.variables;
+                    lw.variables += size as u32;
+                    lw.arrays.insert(d.name.clone(), (base, dims));
+                    inits.push((d, base, size, blocks_seen));
+                }
+            }
             Setting::Seed(e, span) => {
                 // `(int) Eval(...)` (lsys_input.y); control.c seeds with
                 // `seed48({seed, 0, 155})` when it is not 0, the `int`
