@@ -1247,6 +1247,7 @@ fn arrays_used_wrongly_are_located_errors() {
         ("define: { array a[0]; }", "A --> B", "2:19: error: an array dimension must be at least 1, not 0"),
         ("define: { array a[1024][1025]; }", "A --> B", "2:25: error: the arrays of `define:` hold more than 1048576 elements"),
         ("define: { array a[2], a[3]; }", "A --> B", "2:23: error: the array `a` is defined twice"),
+        ("define: { array g[2]; }\nStart: {g = 1;}", "A --> B", "2:17: error: `g` is a variable of the blocks"),
         ("define: { array a[2]; }", "A --> B(a[sqrt(0-1)])", "5:9: error: an array subscript is not a number (in step 1)"),
         ("define: { array a[2][3]; }", "A --> B(a[1.9][2])", "5:9: error: the subscripts make element 7 of an array of 6 (cpfg goes past its end) (in step 1)"),
     ];

@@ -928,8 +928,11 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
             Setting::Arrays(defs, _) => {
                 blocks_seen += 1;
                 for d in defs {
-                    if lw.arrays.contains_key(&d.name) || lw.globals.contains_key(&d.name) {
+                    if lw.arrays.contains_key(&d.name) {
                         return err(d.span, Invalid::ArrayTwice(d.name.clone()));
+                    }
+                    if lw.globals.contains_key(&d.name) {
+                        return err(d.span, Invalid::ArrayIsVariable(d.name.clone()));
                     }
                     let mut dims = Vec::new();
                     let mut size = 1u64;

@@ -693,6 +693,8 @@ pub enum CompileError {
     },
     /// cpfg: an array defined twice.
     ArrayTwice(String),
+    /// cpfg: an array with the name of a variable of the blocks.
+    ArrayIsVariable(String),
     /// cpfg: an array dimension below 1 (its value).
     ArrayDimension(f64),
     /// cpfg: the arrays of `define:` hold more than this many elements.
@@ -814,6 +816,10 @@ impl fmt::Display for CompileError {
                 if *dims == 1 { "" } else { "s" }
             ),
             ArrayTwice(n) => write!(f, "the array `{n}` is defined twice"),
+            ArrayIsVariable(n) => write!(
+                f,
+                "`{n}` is a variable of the blocks: an array needs a name of its own"
+            ),
             ArrayDimension(v) => write!(
                 f,
                 "an array dimension must be at least 1, not {}",
