@@ -379,14 +379,16 @@ struct StepState<'f> {
 impl StepState<'_> {
     /// Do the modules right after the one ending at `end_off` match `rest`,
     /// one after the other (the rest of a predecessor of several modules,
-    /// cpfg's rule: no module passed over)? Binds their parameters; returns
-    /// where the run ends.
+    /// cpfg's rule: no module passed over)? Returns where the run ends, and
+    /// binds their parameters into `slots` if given (not when a chosen
+    /// production's run is only skipped: its blocks may have assigned them,
+    /// and cpfg's successor sees what they left).
     fn match_run(
         &mut self,
         end_off: u64,
         rest: &[Pat],
         al: &Alphabet,
-        slots: &mut [f64],
+        mut slots: Option<&mut [f64]>,
     ) -> Result<Option<u64>, Error> {
         let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         let peek = self
@@ -402,35 +404,10 @@ impl StepState<'_> {
             if k != pat.key {
                 return Ok(None);
             }
-            let n = al.arity(k);
-            let at = pat.slot as usize;
-            codec::read_params(peek.bytes(s, e), &mut slots[at..at + n]);
-            pos = peek.offset();
-        }
-        Ok(Some(pos))
-    }
-
-    /// Where the run `rest` that [`StepState::match_run`] matched after the
-    /// module ending at `end_off` ends, its parameters not read.
-    fn run_end_of(
-        &mut self,
-        end_off: u64,
-        rest: &[Pat],
-        al: &Alphabet,
-    ) -> Result<Option<u64>, Error> {
-        let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
-        let peek = self
-            .peek
-            .as_mut()
-            .expect("a look-ahead reader for predecessors of several modules");
-        let mut pos = end_off;
-        for pat in rest {
-            peek.seek(pos);
-            let Some((k, _, _)) = peek.next_module(al).map_err(read_err)? else {
-                return Ok(None);
-            };
-            if k != pat.key {
-                return Ok(None);
+            if let Some(slots) = slots.as_deref_mut() {
+                let n = al.arity(k);
+                let at = pat.slot as usize;
+                codec::read_params(peek.bytes(s, e), &mut slots[at..at + n]);
             }
             pos = peek.offset();
         }
@@ -1163,7 +1140,7 @@ impl<'a> Deriver<'a> {
             // Its parameters are not bound again: the production's blocks
             // may have assigned them (cpfg's successor sees the values the
             // pre- and post-condition blocks left).
-            st.run_end = st.run_end_of(end_off, p.rest(), al)?;
+            st.run_end = st.match_run(end_off, p.rest(), al, None)?;
         }
         if table.check_balance {
             if st.depth + i64::from(p.depth_min) < 0 {
@@ -1292,7 +1269,7 @@ fn run_contexts(
     let end = if p.rest().is_empty() {
         end_off
     } else {
-        match st.match_run(end_off, p.rest(), al, slots)? {
+        match st.match_run(end_off, p.rest(), al, Some(slots))? {
             Some(e) => e,
             None => return Ok(false),
         }
