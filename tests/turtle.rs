@@ -73,14 +73,18 @@ fn segments_match_the_reference_turtle() {
             continue;
         };
         let steps = rest.trim_end_matches(".txt");
-        let ls = format!("examples/{model}.ls");
+        // An example, else a test model of tests/turtle/.
+        let mut ls = format!("examples/{model}.ls");
+        if !Path::new(ROOT).join(&ls).exists() {
+            ls = format!("tests/turtle/{model}.ls");
+        }
         let string = derive(&["-n", steps, &ls]);
         let got = text(ok(&turtle(&["--ls", &ls, "-f", "segments"], &string)));
         let want = std::fs::read_to_string(&path).unwrap();
         same_segments(&got, &want, &name);
         n += 1;
     }
-    assert!(n >= 7, "only {n} expected files");
+    assert!(n >= 8, "only {n} expected files");
 }
 
 #[test]
@@ -1347,4 +1351,176 @@ fn numbers_past_the_largest_are_out_of_range() {
         r.stderr,
         "lsgen-turtle: error: --angle: `inf` is not a number\n"
     );
+}
+
+/// cpfg's own files (`--cpfg-view`, `--colormap`, `--materials`).
+mod cpfg_files {
+    use super::*;
+
+    fn write(dir: &Path, name: &str, data: &[u8]) -> String {
+        let p = dir.join(name);
+        std::fs::write(&p, data).unwrap();
+        p.to_str().unwrap().to_string()
+    }
+
+    #[test]
+    fn a_view_file_draws_as_its_ls_twin() {
+        // tests/turtle/cpfg_bend.v says in cpfg's syntax (preprocessor,
+        // comments, labels lsgen-turtle passes over) what cpfg_bend.ls
+        // says in `view:` lines: the reference turtle's segments.
+        let string = derive(&["-n", "4", "tests/turtle/cpfg_bend.ls"]);
+        let got = text(ok(&turtle(
+            &["--cpfg-view", "tests/turtle/cpfg_bend.v", "-f", "segments"],
+            &string,
+        )));
+        let want =
+            std::fs::read_to_string(Path::new(ROOT).join("tests/expected/turtle/cpfg_bend.n4.txt"))
+                .unwrap();
+        same_segments(&got, &want, "cpfg_bend.v");
+        // Options still override the file.
+        let got = text(ok(&turtle(
+            &[
+                "--cpfg-view",
+                "tests/turtle/cpfg_bend.v",
+                "--elasticity",
+                "0",
+                "-f",
+                "segments",
+            ],
+            &string,
+        )));
+        assert_ne!(got.lines().nth(1), want.lines().nth(1));
+    }
+
+    #[test]
+    fn cpfg_defaults_and_its_bend_by_hand() {
+        let dir = tempfile::tempdir().unwrap();
+        // An empty view file: cpfg's defaults, colour 128 (lsgen's palette
+        // has 8: its last), 45 degrees, width 1.
+        let v = write(dir.path(), "e.v", b"");
+        let got = text(ok(&turtle(&["--cpfg-view", &v, "-f", "segments"], b"+F")));
+        let s = 0.5f64.sqrt();
+        same_segments(&got, &format!("0 0 0 {} {s} 0 1 128\n", -s), "defaults");
+        // cpfg's bend after f too: tropism -X (towards L at the start),
+        // elasticity 0.5: H turns towards L by asin(0.5) = 30 degrees.
+        let v = write(
+            dir.path(),
+            "t.v",
+            b"tropism direction: -2,0,0\ninitial elasticity: 0.5\n",
+        );
+        let got = text(ok(&turtle(&["--cpfg-view", &v, "-f", "segments"], b"fF")));
+        same_segments(
+            &got,
+            "0 1 0 -0.5 1.8660254037844386 0 1 128\n",
+            "bend after f",
+        );
+        // `_(e)` sets the elasticity; `[` keeps it.
+        let got = text(ok(&turtle(
+            &["--cpfg-view", &v, "-f", "segments"],
+            b"[_(0)fF]fF",
+        )));
+        same_segments(
+            &got,
+            "0 1 0 0 2 0 1 128\n0 1 0 -0.5 1.8660254037844386 0 1 128\n",
+            "_ in branches",
+        );
+    }
+
+    #[test]
+    fn pixel_widths_twist_and_colour_maps() {
+        let dir = tempfile::tempdir().unwrap();
+        let v = write(
+            dir.path(),
+            "m.v",
+            b"initial line width: 3 pixels\ninitial color: 5\ntwist: 900\n",
+        );
+        let mut map: Vec<u8> = vec![0; 768];
+        map[0..3].copy_from_slice(&[0x10, 0x20, 0x30]);
+        map[15..18].copy_from_slice(&[0xaa, 0xbb, 0xcc]);
+        let m = write(dir.path(), "m.map", &map);
+        for size in ["100", "800"] {
+            let svg = text(ok(&turtle(
+                &["--cpfg-view", &v, "--colormap", &m, "--size", size],
+                b"F(10)",
+            )));
+            // Pixels at any size, colour 5 of the map, its entry 0 behind.
+            assert!(
+                svg.contains(
+                    "<polyline stroke=\"#aabbcc\" stroke-width=\"3\" vector-effect=\"non-scaling-stroke\""
+                ),
+                "{svg}"
+            );
+            assert!(svg.contains("fill=\"#102030\""), "{svg}");
+            // twist 900 (90 degrees): the picture turns clockwise, the
+            // heading (up) points right.
+            let p = svg_numbers(&svg, "points");
+            assert!(p[2] > p[0] && (p[3] - p[1]).abs() < 1e-9, "{p:?}");
+        }
+        // A polygon line scales with the picture.
+        let v2 = write(dir.path(), "p.v", b"initial line width: 0.5\n");
+        let svg = text(ok(&turtle(
+            &["--cpfg-view", &v2, "--size", "200"],
+            b"F(10)",
+        )));
+        assert!(!svg.contains("non-scaling"), "{svg}");
+        // Materials: the diffuse colour; the background material 0's
+        // emissive one; an index without a record is white.
+        let mut mat = vec![5u8, 0, 1, 1, 1, 0x12, 0x34, 0x56, 0, 0, 0, 0, 0, 0, 0];
+        mat.extend([0u8, 0, 0, 0, 0, 9, 9, 9, 0x0a, 0x0b, 0x0c, 0, 0, 0, 0]);
+        let mt = write(dir.path(), "m.mat", &mat);
+        let svg = text(ok(&turtle(
+            &["--cpfg-view", &v, "--materials", &mt],
+            b"F;F",
+        )));
+        assert!(svg.contains("stroke=\"#123456\""), "{svg}");
+        assert!(svg.contains("stroke=\"#ffffff\""), "{svg}");
+        assert!(svg.contains("fill=\"#0a0b0c\""), "{svg}");
+    }
+
+    #[test]
+    fn bad_files_are_errors_and_unknown_labels_warnings() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out.svg");
+        std::fs::write(&out, "old").unwrap();
+        let o = out.to_str().unwrap();
+        let v = write(dir.path(), "bad.v", b"angle factor: 8\nviewpoint: 1 2 3\n");
+        let r = turtle(&["--cpfg-view", &v, "-o", o], b"F");
+        assert_eq!(r.status.code(), Some(1));
+        assert_eq!(
+            r.stderr,
+            format!(
+                "lsgen-turtle: {v}:2:13: error: `viewpoint:` takes three numbers `x,y,z`\nviewpoint: 1 2 3\n            ^\n"
+            )
+        );
+        assert_eq!(std::fs::read(&out).unwrap(), b"old");
+        // A label cpfg does not know: a warning, as cpfg warns; the
+        // drawing is made.
+        let v = write(dir.path(), "w.v", b"angel factor: 8\n");
+        let r = turtle(&["--cpfg-view", &v, "-f", "segments"], b"F");
+        assert!(r.status.success(), "{}", r.stderr);
+        assert_eq!(
+            r.stderr,
+            format!(
+                "lsgen-turtle: {v}:1:1: warning: `angel factor:` is no label of cpfg's view files (as cpfg, lsgen-turtle skips the line)\nangel factor: 8\n^\n"
+            )
+        );
+        // A colour map of the wrong size; a missing file; with --ls.
+        let m = write(dir.path(), "m.map", &[0; 700]);
+        let r = turtle(&["--colormap", &m], b"F");
+        assert_eq!(r.status.code(), Some(1));
+        assert!(
+            r.stderr.contains("768 bytes") && r.stderr.contains("700"),
+            "{}",
+            r.stderr
+        );
+        let r = turtle(&["--cpfg-view", "/no/such.v"], b"F");
+        assert_eq!(r.status.code(), Some(1));
+        assert!(
+            r.stderr.starts_with("lsgen-turtle: /no/such.v: error"),
+            "{}",
+            r.stderr
+        );
+        let r = turtle(&["--cpfg-view", &v, "--ls", "examples/plant_a.ls"], b"F");
+        assert_eq!(r.status.code(), Some(2));
+    }
 }

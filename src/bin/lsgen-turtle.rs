@@ -3,6 +3,7 @@
 
 use clap::Parser;
 use lsgen::diag::{Error, IoAction, UsageError};
+use lsgen::turtle::cpfg_view;
 use lsgen::turtle::view::{self, View};
 use lsgen::turtle::{run, Format, Options};
 use std::io::Write;
@@ -17,7 +18,7 @@ static ALLOC: lsgen::cli::ExitOnOom = lsgen::cli::ExitOnOom("lsgen-turtle");
     name = "lsgen-turtle",
     version,
     about = "Draw a module string (lsgen's output) with the 3D turtle of ABOP / cpfg: SVG, PNG, OBJ",
-    after_help = "Example: lsgen examples/plant_a.ls | lsgen-turtle --ls examples/plant_a.ls -o plant_a.png"
+    after_help = "Examples:\n  lsgen examples/plant_a.ls | lsgen-turtle --ls examples/plant_a.ls -o plant_a.png\n  lsgen --functions plant.v plant.l | lsgen-turtle --cpfg-view plant.v --colormap plant.map -o plant.png"
 )]
 struct Args {
     /// The module string; standard input when absent or `-`
@@ -25,6 +26,15 @@ struct Args {
     /// Read the view settings (`view: NAME = VALUE` lines) of this .ls file
     #[arg(long, value_name = "FILE")]
     ls: Option<PathBuf>,
+    /// Read the view settings of this cpfg view file (.v): angle, widths, colours, tropism, view
+    #[arg(long, value_name = "FILE", conflicts_with = "ls")]
+    cpfg_view: Option<PathBuf>,
+    /// Colours from this cpfg colour map (.map, cpfg's -m): 256 colours, index 0 the background
+    #[arg(long, value_name = "FILE")]
+    colormap: Option<PathBuf>,
+    /// Colours from this cpfg material file (.mat, cpfg's -M): each index's diffuse colour
+    #[arg(long, value_name = "FILE", conflicts_with = "colormap")]
+    materials: Option<PathBuf>,
     /// Write to FILE (atomically); the format follows its extension unless -f is given
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
@@ -46,6 +56,9 @@ struct Args {
     /// Factor applied to every width when drawn
     #[arg(long, value_parser = number)]
     width_scale: Option<f64>,
+    /// What widths are in: model (units of the drawing) or pixels (SVG, PNG)
+    #[arg(long, value_name = "UNIT")]
+    width_unit: Option<String>,
     /// Colour index change of ' ; , without a parameter
     #[arg(long, allow_negative_numbers = true, value_parser = number)]
     colour_increment: Option<f64>,
@@ -55,6 +68,12 @@ struct Args {
     /// Elasticity (bending by tropism after each F and G)
     #[arg(long, allow_negative_numbers = true, value_parser = number)]
     elasticity: Option<f64>,
+    /// Elasticity change of _ without a parameter
+    #[arg(long, allow_negative_numbers = true, value_parser = number)]
+    elasticity_increment: Option<f64>,
+    /// How tropism bends: abop (about H × T, after F G) or cpfg (cpfg's bend, after F G f g)
+    #[arg(long, value_name = "MODEL")]
+    tropism_model: Option<String>,
     /// Colours of indices 0, 1, ...: "#rrggbb #rrggbb ..."
     #[arg(long)]
     palette: Option<String>,
@@ -98,6 +117,19 @@ fn options(a: Args) -> Result<Options, Error> {
         // lsgen's header reader and lexer: bounded, and the same view lines.
         view::read_ls(&name, Box::new(f), &mut v)?;
     }
+    if let Some(p) = &a.cpfg_view {
+        let name = p.display().to_string();
+        lsgen::output::check_input_open(p, &name)?;
+        for w in cpfg_view::read_view(p, &mut v)? {
+            lsgen::diag::eprint(&format!("lsgen-turtle: {w}"));
+        }
+    }
+    if let Some(p) = &a.colormap {
+        cpfg_view::read_colormap(p, &mut v)?;
+    }
+    if let Some(p) = &a.materials {
+        cpfg_view::read_materials(p, &mut v)?;
+    }
     let set = |v: &mut View, name: &str, value: &str| -> Result<(), Error> {
         let text = format!(" {name} = {value}");
         let s = view::parse_setting(&text).map_err(|e| {
@@ -121,9 +153,12 @@ fn options(a: Args) -> Result<Options, Error> {
         ("width", num(a.width)),
         ("width increment", num(a.width_increment)),
         ("width scale", num(a.width_scale)),
+        ("width unit", a.width_unit.clone()),
         ("colour increment", num(a.colour_increment)),
         ("tropism", a.tropism.clone()),
         ("elasticity", num(a.elasticity)),
+        ("elasticity increment", num(a.elasticity_increment)),
+        ("tropism model", a.tropism_model.clone()),
         ("palette", a.palette.clone()),
         ("direction", a.view.as_ref().map(|s| s.replace(',', " "))),
         ("twist", num(a.twist)),

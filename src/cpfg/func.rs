@@ -371,7 +371,7 @@ impl Functions {
 /// A file's text as cpfg reads it (bytes: a byte that is no UTF-8, in a
 /// comment say, is read as U+FFFD), without a UTF-8 byte-order mark; at
 /// most the preprocessor's file size.
-fn read_text(path: &Path) -> std::io::Result<String> {
+pub(crate) fn read_text(path: &Path) -> std::io::Result<String> {
     use std::io::Read;
     if crate::io::output::leads_to_closed_fd(path) {
         return Err(std::io::Error::other(

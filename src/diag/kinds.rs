@@ -1283,6 +1283,8 @@ pub enum TurtleError {
     Overflow,
     /// The tropism bend overflowed.
     TropismOverflow,
+    /// cpfg's tropism bend: a sine past ±1.
+    BendPastRightAngle,
     /// The width drawn (width × width scale) overflowed.
     WidthOverflow,
     /// Open polygons with more than this many vertices in all.
@@ -1303,6 +1305,7 @@ impl TurtleError {
                 | UnmatchedClose(_)
                 | Overflow
                 | TropismOverflow
+                | BendPastRightAngle
                 | WidthOverflow
                 | PolygonTooLarge(_)
                 | TooDeep
@@ -1330,6 +1333,9 @@ impl fmt::Display for TurtleError {
             TropismOverflow => {
                 f.write_str("the tropism bend overflows (elasticity × |tropism| is too large)")
             }
+            BendPastRightAngle => f.write_str(
+                "cpfg's tropism bend is no angle here: elasticity × (tropism · U) or × (tropism · L) is past ±1 (cpfg's turtle becomes NaN)",
+            ),
             WidthOverflow => f.write_str(
                 "the line width overflows (width × --width-scale is past the largest number)",
             ),
@@ -1372,6 +1378,15 @@ pub enum ViewError {
     Palette,
     /// A background that is neither a colour nor `none`.
     Background,
+    /// A word that is none of these.
+    OneOf(&'static [&'static str]),
+    /// cpfg's view file: a label's arguments are not what it takes.
+    CpfgArguments {
+        label: &'static str,
+        expected: &'static str,
+    },
+    /// cpfg's view file: a value cpfg would turn into NaN or infinity.
+    CpfgNoValue(&'static str, &'static str),
 }
 
 impl fmt::Display for ViewError {
@@ -1399,6 +1414,17 @@ impl fmt::Display for ViewError {
             Tropism => f.write_str("a tropism is three numbers `X Y Z`"),
             Palette => f.write_str("a palette is one or more colours `#rrggbb`"),
             Background => f.write_str("a background is `#rrggbb` or `none`"),
+            CpfgArguments { label, expected } => write!(f, "`{label}` takes {expected}"),
+            CpfgNoValue(label, why) => write!(f, "this `{label}`: {why}"),
+            OneOf(words) => write!(
+                f,
+                "expected one of: {}",
+                words
+                    .iter()
+                    .map(|w| format!("`{w}`"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
         }
     }
 }

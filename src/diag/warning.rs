@@ -58,6 +58,12 @@ pub enum WarningKind {
         symbol: char,
         pass: Pass,
     },
+    /// lsgen-turtle: a label in a cpfg view file that cpfg does not know
+    /// either (as written, colon included).
+    CpfgViewLabel(String),
+    /// lsgen-turtle: a cpfg view-file label that changes cpfg's picture
+    /// but not lsgen-turtle's, and why.
+    CpfgViewNotDrawn { label: String, why: &'static str },
     /// A library derivation: cpfg `printf` text held in a temporary file
     /// could not be read back (why).
     PrintfLost(String),
@@ -121,6 +127,11 @@ impl fmt::Display for WarningKind {
                     "homomorphism stopped at maximum depth {max}, but this production still applies (to module {symbol})"
                 ),
             },
+            CpfgViewLabel(label) => write!(
+                f,
+                "`{label}` is no label of cpfg's view files (as cpfg, lsgen-turtle skips the line)"
+            ),
+            CpfgViewNotDrawn { label, why } => write!(f, "`{label}` ignored: {why}"),
             PrintfHeld(why) => write!(
                 f,
                 "text that cpfg's `printf` prints past 1 MiB in a step is held in memory: no temporary file could take it ({why})"

@@ -9,6 +9,7 @@
 //! from its start again, through the descriptor already open; any other
 //! input is spooled to an unnamed temp file).
 
+pub mod cpfg_view;
 pub mod reader;
 pub mod render;
 pub mod state;
@@ -70,6 +71,9 @@ pub fn interpret<R: Read>(
             }
             Err(ModErr::Fault(Fault::TropismOverflow)) => {
                 return Err(r.error_at(r.last_at, TurtleError::TropismOverflow))
+            }
+            Err(ModErr::Fault(Fault::BendPastRightAngle)) => {
+                return Err(r.error_at(r.last_at, TurtleError::BendPastRightAngle))
             }
             Err(ModErr::Fault(Fault::WidthOverflow)) => {
                 return Err(r.error_at(r.last_at, TurtleError::WidthOverflow))
@@ -249,6 +253,7 @@ pub fn run(o: &Options) -> Result<(), Error> {
         Format::Svg | Format::Png => {
             let proj = render::Projection::new(o.view.direction, o.view.twist);
             let mut bbox = render::BBox::new(proj);
+            bbox.pixel_widths = o.view.width_unit == view::WidthUnit::Pixels;
             // Pass 1: the bounding box (a stream is spooled meanwhile).
             let second: Box<dyn Read> = match src {
                 Source::File(mut f) => {
@@ -278,7 +283,7 @@ pub fn run(o: &Options) -> Result<(), Error> {
                     Box::new(std::io::BufReader::with_capacity(1 << 16, spool))
                 }
             };
-            let layout = render::Layout::new(&bbox, o.size);
+            let layout = render::Layout::new(&bbox, o.size, o.view.width_unit);
             {
                 let w = out.writer();
                 if o.format == Format::Svg {

@@ -2,7 +2,7 @@
 //! plain segment list.
 
 use super::state::{cross, dot, norm, Sink, V3};
-use super::view::{Direction, Rgb, View};
+use super::view::{Direction, Rgb, View, WidthUnit};
 use crate::codec::NumFmt;
 use std::io::{self, Write};
 
@@ -15,7 +15,6 @@ pub struct Projection {
 
 impl Projection {
     /// Seen from azimuth `az` about Y (0: from +Z, 90: from +X) and
-    /// elevation `el` (90: from above).
     /// elevation `el` (90: from above), the picture then turned by `twist`
     /// degrees counter-clockwise.
     pub fn new(d: Direction, twist: f64) -> Projection {
@@ -52,6 +51,8 @@ pub struct BBox {
     /// Largest coordinate magnitude seen: projected extents within a few
     /// hundred ulps of it are rounding noise (a line seen end-on).
     pub reach: f64,
+    /// Widths are pixels ([`WidthUnit::Pixels`]): no part of the extent.
+    pub pixel_widths: bool,
 }
 
 impl BBox {
@@ -62,6 +63,7 @@ impl BBox {
             max: (f64::NEG_INFINITY, f64::NEG_INFINITY),
             any: false,
             reach: 0.0,
+            pixel_widths: false,
         }
     }
     /// Add point `p` with a stroke or dot radius `r`. An extent that is
@@ -99,8 +101,9 @@ impl std::error::Error for ExtentOverflow {}
 
 impl Sink for BBox {
     fn segment(&mut self, a: V3, b: V3, width: f64, _: i64) -> io::Result<()> {
-        self.add(a, width / 2.0)?;
-        self.add(b, width / 2.0)
+        let r = if self.pixel_widths { 0.0 } else { width / 2.0 };
+        self.add(a, r)?;
+        self.add(b, r)
     }
     fn polygon(&mut self, points: &[V3], _: i64) -> io::Result<()> {
         for &p in points {
@@ -121,6 +124,8 @@ pub struct Layout {
     pub width: u32,
     pub height: u32,
     pub scale: f64,
+    /// What a line's width is measured in.
+    pub unit: WidthUnit,
     min_u: f64,
     max_v: f64,
     margin: f64,
@@ -130,7 +135,7 @@ pub struct Layout {
 pub const MAX_SIZE: u32 = 8192;
 
 impl Layout {
-    pub fn new(b: &BBox, size: u32) -> Layout {
+    pub fn new(b: &BBox, size: u32, unit: WidthUnit) -> Layout {
         let size = size.clamp(1, MAX_SIZE);
         let margin = (size as f64 * 0.03).round().max(1.0);
         let (min, max) = if b.any {
@@ -165,9 +170,18 @@ impl Layout {
             width: dim(bw),
             height: dim(bh),
             scale,
+            unit,
             min_u: min.0,
             max_v: max.1,
             margin,
+        }
+    }
+    /// A line's width in pixels.
+    #[inline]
+    pub fn stroke(&self, width: f64) -> f64 {
+        match self.unit {
+            WidthUnit::Model => width * self.scale,
+            WidthUnit::Pixels => width,
         }
     }
     #[inline]
@@ -336,10 +350,15 @@ impl Sink for Svg<'_> {
             let _ = write!(self.buf, "<polyline stroke=\"");
             self.buf
                 .extend_from_slice(pick(&self.hex, colour).as_bytes());
-            let w = width * self.layout.scale;
+            let w = self.layout.stroke(width);
             if w > 0.0 {
                 self.buf.extend_from_slice(b"\" stroke-width=\"");
                 num_width(&mut self.buf, w);
+                if self.layout.unit == WidthUnit::Pixels {
+                    // The same pixels at any zoom, as cpfg's pixel lines.
+                    self.buf
+                        .extend_from_slice(b"\" vector-effect=\"non-scaling-stroke");
+                }
             } else {
                 // Width 0 is a hairline, as in PNG: one pixel at any zoom.
                 self.buf
@@ -448,7 +467,7 @@ impl Png {
         if let Some(path) = pb.finish() {
             let paint = self.paint(self.run.colour);
             let stroke = tiny_skia::Stroke {
-                width: (self.run.width * self.layout.scale).max(0.0) as f32,
+                width: self.layout.stroke(self.run.width).max(0.0) as f32,
                 line_cap: tiny_skia::LineCap::Round,
                 line_join: tiny_skia::LineJoin::Round,
                 ..Default::default()

@@ -3,7 +3,7 @@
 //! U = (0,0,-1), at the origin. Rotations follow cpfg's `interpret.c`:
 //! `+` turns H towards L, `&` pitches H towards U, `/` rolls L towards U.
 
-use super::view::View;
+use super::view::{TropismModel, View};
 use std::io;
 
 pub type V3 = [f64; 3];
@@ -29,6 +29,17 @@ fn scale(a: V3, k: f64) -> V3 {
     [a[0] * k, a[1] * k, a[2] * k]
 }
 #[inline]
+/// `a` scaled to length 1 (by its largest component first, so that 1e200
+/// and 1e-200 have a direction); the zero vector stays as it is (no bend).
+fn unit_or_zero(a: V3) -> V3 {
+    let big = a[0].abs().max(a[1].abs()).max(a[2].abs());
+    if big == 0.0 || !big.is_finite() {
+        return a;
+    }
+    let b = scale(a, 1.0 / big);
+    scale(b, 1.0 / norm(b))
+}
+
 pub fn norm(a: V3) -> f64 {
     dot(a, a).sqrt()
 }
@@ -51,6 +62,8 @@ struct State {
     u: V3,
     width: f64,
     colour: f64,
+    /// Set and changed by `_` (cpfg's), kept by `[` as cpfg keeps it.
+    elasticity: f64,
 }
 
 /// Deepest branch nesting accepted (each level is one saved state).
@@ -76,7 +89,10 @@ pub struct Turtle {
     width_scale: f64,
     colour_inc: f64,
     tropism: V3,
-    elasticity: f64,
+    elasticity_inc: f64,
+    /// cpfg's bend ([`TropismModel::Cpfg`]): after `f` and `g` too, with
+    /// `tropism` scaled to length 1.
+    cpfg_bend: bool,
     /// The previous module was `@` (without parameters): a letter now
     /// makes a two-character module with it.
     at: bool,
@@ -91,6 +107,8 @@ pub enum Fault {
     Overflow,
     /// elasticity × |tropism| is past the largest number.
     TropismOverflow,
+    /// cpfg's bend: the sine of an angle past ±1.
+    BendPastRightAngle,
     /// The width drawn (width × width scale) is past the largest number.
     WidthOverflow,
     /// Open polygons with more than [`MAX_VERTICES`] vertices in all.
@@ -108,6 +126,7 @@ impl Turtle {
                 u: [0.0, 0.0, -1.0],
                 width: v.width,
                 colour: v.colour,
+                elasticity: v.elasticity,
             },
             stack: Vec::new(),
             vertices: Vec::new(),
@@ -118,8 +137,12 @@ impl Turtle {
             width_inc: v.width_increment,
             width_scale: v.width_scale,
             colour_inc: v.colour_increment,
-            tropism: v.tropism,
-            elasticity: v.elasticity,
+            tropism: match v.tropism_model {
+                TropismModel::Abop => v.tropism,
+                TropismModel::Cpfg => unit_or_zero(v.tropism),
+            },
+            elasticity_inc: v.elasticity_increment,
+            cpfg_bend: v.tropism_model == TropismModel::Cpfg,
             at: false,
         }
     }
@@ -158,10 +181,14 @@ impl Turtle {
         }
     }
 
-    /// ABOP fig. 2.8: rotate the frame by e|H x T| about H x T.
+    /// ABOP fig. 2.8: rotate the frame by e|H x T| about H x T; or cpfg's
+    /// bend ([`Turtle::bend_cpfg`]).
     fn bend(&mut self) -> Result<(), ModErr> {
-        if self.elasticity == 0.0 {
+        if self.s.elasticity == 0.0 {
             return Ok(());
+        }
+        if self.cpfg_bend {
+            return self.bend_cpfg();
         }
         // The angle is elasticity × |H × T|, about the axis H × T. T is
         // scaled to its largest component first: |H × T| of a tropism of
@@ -174,7 +201,7 @@ impl Turtle {
         }
         let axis = cross(self.s.h, scale(t, 1.0 / big));
         let n = norm(axis);
-        let angle = self.elasticity * (n * big);
+        let angle = self.s.elasticity * (n * big);
         if !angle.is_finite() {
             return Err(ModErr::Fault(Fault::TropismOverflow));
         }
@@ -196,6 +223,26 @@ impl Turtle {
         self.s.h = r(self.s.h);
         self.s.l = r(self.s.l);
         self.s.u = r(self.s.u);
+        Ok(())
+    }
+
+    /// cpfg's `bend` (`interpret.c`): pitch H towards U by the angle whose
+    /// sine is e·(T·U), then turn it towards L by the angle whose sine is
+    /// e·(T·L) (T of length 1). A sine past ±1 is no angle (cpfg's turtle
+    /// becomes NaN there): an error.
+    fn bend_cpfg(&mut self) -> Result<(), ModErr> {
+        let t = self.tropism;
+        let e = self.s.elasticity;
+        let s = e * dot(t, self.s.u);
+        if !(-1.0..=1.0).contains(&s) {
+            return Err(ModErr::Fault(Fault::BendPastRightAngle));
+        }
+        Self::rot(&mut self.s.h, &mut self.s.u, s, (1.0 - s * s).sqrt());
+        let s = e * dot(t, self.s.l);
+        if !(-1.0..=1.0).contains(&s) {
+            return Err(ModErr::Fault(Fault::BendPastRightAngle));
+        }
+        Self::rot(&mut self.s.h, &mut self.s.l, s, (1.0 - s * s).sqrt());
         Ok(())
     }
 
@@ -256,6 +303,9 @@ impl Turtle {
                 self.forward(p)?;
                 if sym == 'f' {
                     self.vertex(self.s.pos)?;
+                }
+                if self.cpfg_bend {
+                    self.bend()?;
                 }
             }
             '+' | '-' => {
@@ -320,6 +370,10 @@ impl Turtle {
             ',' => match p.first() {
                 Some(&c) => self.s.colour = c,
                 None => self.s.colour -= self.colour_inc,
+            },
+            '_' => match p.first() {
+                Some(&e) => self.s.elasticity = e,
+                None => self.s.elasticity += self.elasticity_inc,
             },
             '@' => self.at = p.is_empty(),
             _ => {}

@@ -17,6 +17,29 @@ pub struct Direction {
     pub elevation: f64,
 }
 
+/// What a width is measured in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WidthUnit {
+    /// The model's units: widths scale with the drawing (cpfg's polygon
+    /// and cylinder lines).
+    Model,
+    /// Pixels of SVG and PNG at any zoom (cpfg's pixel lines, its
+    /// default); OBJ cylinders still take the width in model units.
+    Pixels,
+}
+
+/// How tropism bends the turtle after a move.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TropismModel {
+    /// ABOP fig. 2.8: after `F` and `G`, turn by e·|H × T| about H × T.
+    Abop,
+    /// cpfg's `tropism direction:`/`initial elasticity:` (`interpret.c`'s
+    /// `bend`): after `F`, `G`, `f` and `g`, with T of length 1, pitch H
+    /// towards U by the angle whose sine is e·(T·U), then turn it towards
+    /// L by the angle whose sine is e·(T·L).
+    Cpfg,
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct View {
     pub angle: f64,
@@ -26,10 +49,14 @@ pub struct View {
     /// Every width is multiplied by this when drawn (cpfg models often
     /// give widths in pixels: this brings them to the model's units).
     pub width_scale: f64,
+    pub width_unit: WidthUnit,
     pub colour: f64,
     pub colour_increment: f64,
     pub tropism: [f64; 3],
     pub elasticity: f64,
+    /// Elasticity change of `_` without a parameter (cpfg's).
+    pub elasticity_increment: f64,
+    pub tropism_model: TropismModel,
     pub palette: Vec<Rgb>,
     pub direction: Direction,
     /// Degrees the picture is turned (counter-clockwise) on the screen,
@@ -46,10 +73,13 @@ impl Default for View {
             width: 1.0,
             width_increment: 0.0,
             width_scale: 1.0,
+            width_unit: WidthUnit::Model,
             colour: 0.0,
             colour_increment: 1.0,
             tropism: [0.0, 1.0, 0.0],
             elasticity: 0.0,
+            elasticity_increment: 0.0,
+            tropism_model: TropismModel::Abop,
             palette: DEFAULT_PALETTE.to_vec(),
             direction: Direction {
                 azimuth: 0.0,
@@ -81,10 +111,13 @@ pub enum Setting {
     Width(f64),
     WidthIncrement(f64),
     WidthScale(f64),
+    WidthUnit(WidthUnit),
     Colour(f64),
     ColourIncrement(f64),
     Tropism([f64; 3]),
     Elasticity(f64),
+    ElasticityIncrement(f64),
+    TropismModel(TropismModel),
     Palette(Vec<Rgb>),
     Direction(Direction),
     Twist(f64),
@@ -98,10 +131,13 @@ pub const NAMES: &[&str] = &[
     "width",
     "width increment",
     "width scale",
+    "width unit",
     "colour",
     "colour increment",
     "tropism",
     "elasticity",
+    "elasticity increment",
+    "tropism model",
     "palette",
     "direction",
     "twist",
@@ -237,6 +273,27 @@ pub fn parse_setting(text: &str) -> Result<Setting, SettingError> {
         "colour" => Setting::Colour(one(&w)?),
         "colour increment" => Setting::ColourIncrement(one(&w)?),
         "elasticity" => Setting::Elasticity(one(&w)?),
+        "elasticity increment" => Setting::ElasticityIncrement(one(&w)?),
+        "width unit" => match w.as_slice() {
+            [(_, n)] if n.eq_ignore_ascii_case("model") => Setting::WidthUnit(WidthUnit::Model),
+            [(_, n)] if n.eq_ignore_ascii_case("pixels") => Setting::WidthUnit(WidthUnit::Pixels),
+            _ => {
+                return Err(err(
+                    (vstart, text.len()),
+                    ViewError::OneOf(&["model", "pixels"]),
+                ))
+            }
+        },
+        "tropism model" => match w.as_slice() {
+            [(_, n)] if n.eq_ignore_ascii_case("abop") => Setting::TropismModel(TropismModel::Abop),
+            [(_, n)] if n.eq_ignore_ascii_case("cpfg") => Setting::TropismModel(TropismModel::Cpfg),
+            _ => {
+                return Err(err(
+                    (vstart, text.len()),
+                    ViewError::OneOf(&["abop", "cpfg"]),
+                ))
+            }
+        },
         "tropism" => match w.as_slice() {
             [(a, x), (b, y), (c, z)] => {
                 Setting::Tropism([number(*a, x)?, number(*b, y)?, number(*c, z)?])
@@ -276,10 +333,13 @@ impl View {
             Setting::Width(v) => self.width = v,
             Setting::WidthIncrement(v) => self.width_increment = v,
             Setting::WidthScale(v) => self.width_scale = v,
+            Setting::WidthUnit(v) => self.width_unit = v,
             Setting::Colour(v) => self.colour = v,
             Setting::ColourIncrement(v) => self.colour_increment = v,
             Setting::Tropism(v) => self.tropism = v,
             Setting::Elasticity(v) => self.elasticity = v,
+            Setting::ElasticityIncrement(v) => self.elasticity_increment = v,
+            Setting::TropismModel(v) => self.tropism_model = v,
             Setting::Palette(v) => self.palette = v,
             Setting::Direction(v) => self.direction = v,
             Setting::Twist(v) => self.twist = v,

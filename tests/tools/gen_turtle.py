@@ -31,6 +31,8 @@ CASES = [
     ("bush", "bush", 3),
     ("monopodial_tree", "monopodial_tree", 5),
     ("row_of_trees", "row_of_trees", 6),
+    # cpfg's tropism (`view: tropism model = cpfg`) and `_`.
+    ("cpfg_bend", "cpfg_bend", 4),
 ]
 
 
@@ -41,7 +43,10 @@ def main():
     out_dir = os.path.join(ROOT, "tests", "expected", "turtle")
     os.makedirs(out_dir, exist_ok=True)
     for name, example, n in CASES:
+        # An example, else a test model of tests/turtle/.
         model = os.path.join(ROOT, "examples", example + ".ls")
+        if not os.path.exists(model):
+            model = os.path.join(ROOT, "tests", "turtle", example + ".ls")
         text = subprocess.run([lsgen, "-n", str(n), model], check=True,
                               capture_output=True, text=True).stdout
         lines = turtle.interpret(text, turtle.view_settings(model), [])

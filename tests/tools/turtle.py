@@ -51,6 +51,7 @@ def view_settings(path):
         "angle": 45.0, "step": 1.0, "width": 1.0, "width increment": 0.0,
         "width scale": 1.0, "colour": 0.0, "colour increment": 1.0,
         "tropism": (0.0, 1.0, 0.0), "elasticity": 0.0,
+        "elasticity increment": 0.0, "tropism model": "abop",
     }
     text = open(path, encoding="utf-8").read()
     text = re.sub(r"/\*.*?\*/", lambda m: "\n" * m.group(0).count("\n"), text, flags=re.S)
@@ -66,6 +67,8 @@ def view_settings(path):
         val = m.group(2).split()
         if name == "tropism":
             v[name] = tuple(float(x) for x in val)
+        elif name == "tropism model":
+            v[name] = val[0].lower()
         elif name in v:
             v[name] = float(val[0])
     return v
@@ -98,6 +101,9 @@ def interpret(text, v, out):
     width, colour = v["width"], v["colour"]
     stack, polys = [], []
     T, e = v["tropism"], v["elasticity"]
+    cpfg = v["tropism model"] == "cpfg"
+    if cpfg:
+        T = unit(T)
     pending_at = False
 
     def colour_index():
@@ -124,7 +130,21 @@ def interpret(text, v, out):
             if sym in "Ff" and polys:
                 polys[-1].append(new)
             pos = new
-            if sym in "FG" and e != 0:
+            if cpfg and e != 0:
+                # cpfg's bend (interpret.c), after F G f g: H turns towards
+                # U by the angle whose sine is e (T . U), then towards L by
+                # the angle whose sine is e (T . L), both in the plane of
+                # the two vectors.
+                for toward in ("U", "L"):
+                    W = U if toward == "U" else L
+                    t = math.asin(e * dotp(T, W))
+                    k = unit(cross(H, W))
+                    H, W = rodrigues(H, k, t), rodrigues(W, k, t)
+                    if toward == "U":
+                        U = W
+                    else:
+                        L = W
+            elif sym in "FG" and e != 0:
                 a = cross(H, T)
                 na = math.sqrt(dotp(a, a))
                 if na >= 1e-12:
@@ -149,9 +169,11 @@ def interpret(text, v, out):
         elif sym == "$":
             H, L, U = level(H, L, U)
         elif sym == "[":
-            stack.append((pos, H, L, U, width, colour))
+            stack.append((pos, H, L, U, width, colour, e))
         elif sym == "]":
-            pos, H, L, U, width, colour = stack.pop()
+            pos, H, L, U, width, colour, e = stack.pop()
+        elif sym == "_":
+            e = p[0] if p else e + v["elasticity increment"]
         elif sym == "{":
             polys.append([])
         elif sym == "}":

@@ -1,0 +1,748 @@
+//! cpfg's own files for lsgen-turtle: the view file (`.v`), the colour map
+//! (`.map`) and the material file (`.mat`), read as cpfg reads them
+//! (`interpret.c`'s `ReadViewData`, `irisGL.c`'s colour map and material
+//! loaders), so that a vlab model is drawn with its own angle, widths,
+//! colours, tropism and view.
+//!
+//! A view file goes through cpfg's preprocessor first (lsgen's, as for
+//! `--functions`). A line is a label, cpfg's exact spelling with its colon
+//! (case and inner blanks count; only spaces before it are skipped), and
+//! its arguments. lsgen-turtle takes the labels that decide what is drawn
+//! ([`TAKEN`]); the other labels of cpfg (lighting, clipping, surfaces,
+//! functions, ...) are passed over, and a label cpfg does not know is a
+//! warning, as cpfg warns. A bad argument of a label lsgen-turtle takes is
+//! an error at it (cpfg warns and keeps what it scanned).
+
+use super::view::{Direction, Rgb, TropismModel, View, WidthUnit};
+use crate::diag::{Error, IoAction, LexicalError, Location, ViewError, Warning, WarningKind};
+use std::path::Path;
+
+/// The labels lsgen-turtle takes from a view file.
+pub const TAKEN: &[&str] = &[
+    "angle factor:",
+    "angle increment:",
+    "initial color:",
+    "color increment:",
+    "initial line width:",
+    "line width increment:",
+    "line style:",
+    "tropism direction:",
+    "initial elasticity:",
+    "elasticity increment:",
+    "viewpoint:",
+    "view reference point:",
+    "twist:",
+];
+
+/// cpfg's other view-file labels: what they set is not drawn by
+/// lsgen-turtle, or needs files it does not read. Those that change the
+/// turtle's geometry get a warning ([`GEOMETRY`]).
+const PASSED: &[&str] = &[
+    "projection:",
+    "front distance:",
+    "back distance:",
+    "scale factor:",
+    "z buffer:",
+    "cue range:",
+    "shade mode:",
+    "light direction:",
+    "diffuse reflection:",
+    "surface ambient:",
+    "surface diffuse:",
+    "line:",
+    "surface:",
+    "box:",
+    "background color:",
+    "ambient light:",
+    "font:",
+    "polygonization level:",
+    "blob:",
+    "tropism:",
+    "torque:",
+    "light:",
+    "texture:",
+    "render mode:",
+    "tapered lines:",
+    "contour sides:",
+    "contour:",
+    "viewing angle:",
+    "background scene:",
+    "twist of cylinders:",
+    "interpretation step:",
+    "interpretation past %:",
+    "tsurface:",
+    "rayshade objects:",
+    "rayshade scale:",
+    "initial scale:",
+    "scale multiplier:",
+    "environment display:",
+    "function:",
+    "curve:",
+    "antialiasing:",
+    "function set:",
+    "min zoom:",
+    "max zoom:",
+    "generate on view change:",
+    "winfont:",
+    "concave polygons:",
+    "shadow map:",
+    "PS linecap:",
+];
+
+/// Passed-over labels that change where cpfg's turtle goes, and why
+/// lsgen-turtle's picture differs.
+const GEOMETRY: &[(&str, &str)] = &[
+    (
+        "tropism:",
+        "cpfg's tropisms of several vectors are not drawn (only `tropism direction:` with `initial elasticity:`)",
+    ),
+    (
+        "torque:",
+        "cpfg's torque is not drawn",
+    ),
+    (
+        "initial scale:",
+        "cpfg's turtle scale is not drawn (lengths and the widths of `!` and `#` are not multiplied by it)",
+    ),
+    (
+        "projection:",
+        "lsgen-turtle draws a parallel projection only",
+    ),
+];
+
+/// Read cpfg's view file `path` into `view`: first cpfg's defaults for
+/// everything the file may set (colour index 128, pixel lines of width 1,
+/// cpfg's tropism, viewpoint 0,0,1), then the file. Gives the warnings.
+pub fn read_view(path: &Path, view: &mut View) -> Result<Vec<Warning>, Error> {
+    let name = path.display().to_string();
+    let text =
+        crate::cpfg::func::read_text(path).map_err(|e| Error::io(name, IoAction::Read, e))?;
+    let out =
+        crate::cpfg::preprocess::preprocess(path, &text, &crate::cpfg::preprocess::read_file)?;
+    let mut r = ViewFile {
+        view,
+        warnings: Vec::new(),
+        viewpoint: [0.0, 0.0, 1.0],
+        vrp: [0.0; 3],
+        map: &out.map,
+    };
+    r.defaults();
+    let mut offset = 0;
+    for line in out.text.split_inclusive('\n') {
+        let start = offset;
+        offset += line.len();
+        r.line(start, line.trim_end_matches(['\n', '\r']))?;
+    }
+    r.camera();
+    Ok(r.warnings)
+}
+
+struct ViewFile<'a> {
+    view: &'a mut View,
+    warnings: Vec<Warning>,
+    viewpoint: [f64; 3],
+    vrp: [f64; 3],
+    map: &'a crate::cpfg::preprocess::SourceMap,
+}
+
+/// A label's arguments, scanned as cpfg's `fscanf` does on one line.
+struct Args<'l> {
+    line: &'l str,
+    at: usize,
+    /// Where the line starts in the preprocessed text.
+    base: usize,
+    label: &'static str,
+}
+
+impl ViewFile<'_> {
+    fn defaults(&mut self) {
+        let v = &mut *self.view;
+        v.angle = 45.0;
+        v.colour = 128.0;
+        v.colour_increment = 1.0;
+        v.width = 1.0;
+        v.width_unit = WidthUnit::Pixels;
+        v.width_increment = 0.0;
+        v.tropism = [0.0, 1.0, 0.0];
+        v.elasticity = 0.0;
+        v.elasticity_increment = 0.0;
+        v.tropism_model = TropismModel::Cpfg;
+        v.twist = 0.0;
+    }
+
+    fn location(&self, offset: usize) -> Location {
+        self.map.location(offset)
+    }
+
+    fn warn(&mut self, offset: usize, kind: WarningKind) {
+        let w = Warning::new(kind, Some(self.location(offset)));
+        self.warnings.push(w);
+    }
+
+    /// One line: labels and their arguments, as long as the arguments
+    /// of a label lsgen-turtle takes leave more on the line.
+    fn line(&mut self, base: usize, line: &str) -> Result<(), Error> {
+        let mut i = 0;
+        loop {
+            // cpfg skips spaces only before a label.
+            i += line[i..].len() - line[i..].trim_start_matches(' ').len();
+            if line[i..].trim().is_empty() {
+                return Ok(());
+            }
+            let Some(colon) = line[i..].find(':') else {
+                let label = line[i..].trim_end().to_string();
+                self.warn(base + i, WarningKind::CpfgViewLabel(label));
+                return Ok(());
+            };
+            let text = &line[i..=i + colon];
+            let Some(&label) = TAKEN.iter().find(|&&l| l == text) else {
+                if let Some(&(_, why)) = GEOMETRY.iter().find(|(l, _)| *l == text) {
+                    let perspective = text == "projection:"
+                        && line[i + colon + 1..]
+                            .trim_start()
+                            .starts_with("perspective");
+                    if text != "projection:" || perspective {
+                        self.warn(
+                            base + i,
+                            WarningKind::CpfgViewNotDrawn {
+                                label: text.to_string(),
+                                why,
+                            },
+                        );
+                    }
+                } else if !PASSED.contains(&text) {
+                    self.warn(base + i, WarningKind::CpfgViewLabel(text.to_string()));
+                }
+                return Ok(());
+            };
+            let mut a = Args {
+                line,
+                at: i + colon + 1,
+                base,
+                label,
+            };
+            self.take(&mut a)?;
+            i = a.at;
+        }
+    }
+
+    fn take(&mut self, a: &mut Args) -> Result<(), Error> {
+        let map = self.map;
+        let err = |a: &Args, at: usize, kind: ViewError| {
+            Error::at(map.location(a.base + at), LexicalError::ViewSetting(kind))
+        };
+        match a.label {
+            "angle factor:" => {
+                let (at, n) = a.float().map_err(|at| err(a, at, a.expected("a number")))?;
+                let angle = 360.0 / n;
+                if !angle.is_finite() {
+                    return Err(err(
+                        a,
+                        at,
+                        ViewError::CpfgNoValue(a.label, "360 divided by it is no angle"),
+                    ));
+                }
+                self.view.angle = angle;
+            }
+            "angle increment:" => {
+                self.view.angle = a
+                    .float()
+                    .map_err(|at| err(a, at, a.expected("a number")))?
+                    .1;
+            }
+            "initial color:" | "color increment:" => {
+                let n = a
+                    .int()
+                    .map_err(|at| err(a, at, a.expected("a whole number")))?
+                    .1;
+                // (A second number is the back faces', not drawn.)
+                let _ = a.int();
+                if a.label == "initial color:" {
+                    self.view.colour = n as f64;
+                } else {
+                    self.view.colour_increment = n as f64;
+                }
+            }
+            "initial line width:" => {
+                let (at, w) = a.float().map_err(|at| err(a, at, a.expected("a number")))?;
+                if w < 0.0 {
+                    return Err(err(a, at, ViewError::Negative));
+                }
+                self.view.width = w;
+                // cpfg: no word after the number is a polygon line; a
+                // word starting with `p` pixels (`polygons` too), with `s`
+                // a cylinder, any other a polygon.
+                self.view.width_unit = match a.word() {
+                    Some((_, w)) if w.starts_with('p') => WidthUnit::Pixels,
+                    _ => WidthUnit::Model,
+                };
+            }
+            "line width increment:" => {
+                self.view.width_increment = a
+                    .float()
+                    .map_err(|at| err(a, at, a.expected("a number")))?
+                    .1;
+            }
+            "line style:" => {
+                let Some((at, w)) = a.word() else {
+                    return Err(err(a, a.at, a.expected("`pixel`, `polygon` or `cylinder`")));
+                };
+                self.view.width_unit = match w {
+                    "pixel" => WidthUnit::Pixels,
+                    "polygon" | "cylinder" => WidthUnit::Model,
+                    _ if w.starts_with('1') => WidthUnit::Pixels,
+                    _ if w.starts_with(['2', '3']) => WidthUnit::Model,
+                    // cpfg keeps the style it had, without a word.
+                    _ => {
+                        let kind = WarningKind::CpfgViewNotDrawn {
+                            label: format!("line style: {w}"),
+                            why: "no style of cpfg's (`pixel`, `polygon`, `cylinder`, 1 to 3): the style stays, as in cpfg",
+                        };
+                        self.warn(a.base + at, kind);
+                        self.view.width_unit
+                    }
+                };
+            }
+            "tropism direction:" => {
+                let (at, t) = a
+                    .triple()
+                    .map_err(|at| err(a, at, a.expected("three numbers `x,y,z`")))?;
+                let n = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+                if n == 0.0 || !n.is_finite() {
+                    return Err(err(
+                        a,
+                        at,
+                        ViewError::CpfgNoValue(
+                            a.label,
+                            "it has no direction (cpfg divides by its length)",
+                        ),
+                    ));
+                }
+                self.view.tropism = [t[0] / n, t[1] / n, t[2] / n];
+            }
+            "initial elasticity:" | "elasticity increment:" => {
+                let e = a
+                    .float()
+                    .map_err(|at| err(a, at, a.expected("a number")))?
+                    .1;
+                if a.label == "initial elasticity:" {
+                    self.view.elasticity = e;
+                } else {
+                    self.view.elasticity_increment = e;
+                }
+            }
+            "viewpoint:" | "view reference point:" => {
+                let t = a
+                    .triple()
+                    .map_err(|at| err(a, at, a.expected("three numbers `x,y,z`")))?
+                    .1;
+                if a.label == "viewpoint:" {
+                    self.viewpoint = t;
+                } else {
+                    self.vrp = t;
+                }
+            }
+            "twist:" => {
+                // Tenths of a degree; cpfg turns the camera's up vector
+                // counter-clockwise (as seen by the viewer), the picture
+                // clockwise: lsgen's twist turns the picture
+                // counter-clockwise.
+                let t = a
+                    .int()
+                    .map_err(|at| err(a, at, a.expected("a whole number (tenths of a degree)")))?
+                    .1;
+                self.view.twist = -(t as f64) / 10.0;
+            }
+            _ => unreachable!("a label of TAKEN"),
+        }
+        Ok(())
+    }
+
+    /// The direction from the view reference point to the viewpoint, as
+    /// lsgen's azimuth and elevation (cpfg's default when they are the
+    /// same point: looking from -Z).
+    fn camera(&mut self) {
+        let n = [
+            self.viewpoint[0] - self.vrp[0],
+            self.viewpoint[1] - self.vrp[1],
+            self.viewpoint[2] - self.vrp[2],
+        ];
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        let n = if len == 0.0 || !len.is_finite() {
+            [0.0, 0.0, -1.0]
+        } else {
+            [n[0] / len, n[1] / len, n[2] / len]
+        };
+        let horizontal = (n[0] * n[0] + n[2] * n[2]).sqrt();
+        self.view.direction = Direction {
+            azimuth: if horizontal == 0.0 {
+                0.0
+            } else {
+                n[0].atan2(n[2]).to_degrees()
+            },
+            elevation: n[1].clamp(-1.0, 1.0).asin().to_degrees(),
+        };
+    }
+}
+
+impl<'l> Args<'l> {
+    fn expected(&self, what: &'static str) -> ViewError {
+        ViewError::CpfgArguments {
+            label: self.label,
+            expected: what,
+        }
+    }
+
+    fn skip_blanks(&mut self) {
+        let rest = &self.line[self.at..];
+        self.at += rest.len() - rest.trim_start().len();
+    }
+
+    /// `%f`: a number after blanks (the longest prefix C's `strtod` takes,
+    /// finite). Err: where one was expected.
+    fn float(&mut self) -> Result<(usize, f64), usize> {
+        self.skip_blanks();
+        let at = self.at;
+        let b = self.line.as_bytes();
+        let mut j = at;
+        if j < b.len() && (b[j] == b'+' || b[j] == b'-') {
+            j += 1;
+        }
+        let digits = |j: &mut usize| {
+            let s = *j;
+            while *j < b.len() && b[*j].is_ascii_digit() {
+                *j += 1;
+            }
+            *j - s
+        };
+        let mut n = digits(&mut j);
+        if j < b.len() && b[j] == b'.' {
+            j += 1;
+            n += digits(&mut j);
+        }
+        if n == 0 {
+            return Err(at);
+        }
+        if j < b.len() && (b[j] == b'e' || b[j] == b'E') {
+            let mut k = j + 1;
+            if k < b.len() && (b[k] == b'+' || b[k] == b'-') {
+                k += 1;
+            }
+            if digits(&mut k) > 0 {
+                j = k;
+            }
+        }
+        let v: f64 = self.line[at..j].parse().map_err(|_| at)?;
+        if !v.is_finite() {
+            return Err(at);
+        }
+        self.at = j;
+        Ok((at, v))
+    }
+
+    /// `%d`: a whole number after blanks.
+    fn int(&mut self) -> Result<(usize, i64), usize> {
+        self.skip_blanks();
+        let at = self.at;
+        let b = self.line.as_bytes();
+        let mut j = at;
+        if j < b.len() && (b[j] == b'+' || b[j] == b'-') {
+            j += 1;
+        }
+        let s = j;
+        while j < b.len() && b[j].is_ascii_digit() {
+            j += 1;
+        }
+        if j == s {
+            return Err(at);
+        }
+        let v: i64 = self.line[at..j].parse().map_err(|_| at)?;
+        self.at = j;
+        Ok((at, v))
+    }
+
+    /// `%f,%f,%f`: the commas right after the numbers.
+    fn triple(&mut self) -> Result<(usize, [f64; 3]), usize> {
+        self.skip_blanks();
+        let at = self.at;
+        let mut t = [0.0; 3];
+        for (k, x) in t.iter_mut().enumerate() {
+            *x = self.float()?.1;
+            if k < 2 {
+                if !self.line[self.at..].starts_with(',') {
+                    return Err(self.at);
+                }
+                self.at += 1;
+            }
+        }
+        Ok((at, t))
+    }
+
+    /// `%s`: a word after blanks.
+    fn word(&mut self) -> Option<(usize, &'l str)> {
+        self.skip_blanks();
+        let line = self.line;
+        let rest = &line[self.at..];
+        let n = rest.find(char::is_whitespace).unwrap_or(rest.len());
+        if n == 0 {
+            return None;
+        }
+        let at = self.at;
+        self.at += n;
+        Some((at, &line[at..at + n]))
+    }
+}
+
+/// cpfg's colour map (`-m FILE`): 256 colours of 3 bytes (red, green,
+/// blue), nothing else. Index 0 is also the background, as in cpfg.
+pub fn read_colormap(path: &Path, view: &mut View) -> Result<(), Error> {
+    let data = read_binary(path, 768)?;
+    if data.len() != 768 {
+        return Err(bad_size(
+            path,
+            data.len(),
+            "a colour map is 768 bytes: 256 colours of red, green and blue",
+        ));
+    }
+    view.palette = data.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    view.background = Some(view.palette[0]);
+    Ok(())
+}
+
+/// cpfg's material file (`-M FILE`): records of 15 bytes (index,
+/// transparency, then ambient, diffuse, emissive and specular red, green
+/// and blue, shininess), any number of them. A colour is its material's
+/// diffuse colour, as cpfg draws without lighting; an index without a
+/// record is cpfg's default material (white). The background is the
+/// emissive colour of material 0, as in cpfg.
+pub fn read_materials(path: &Path, view: &mut View) -> Result<(), Error> {
+    let data = read_binary(path, 15 * 256 * 16)?;
+    if data.len() % 15 != 0 {
+        return Err(bad_size(
+            path,
+            data.len(),
+            "a material file is records of 15 bytes",
+        ));
+    }
+    let mut palette: Vec<Rgb> = vec![[255, 255, 255]; 256];
+    let mut background: Rgb = [0, 0, 0];
+    for r in data.chunks_exact(15) {
+        let i = usize::from(r[0]);
+        palette[i] = [r[5], r[6], r[7]];
+        if i == 0 {
+            background = [r[8], r[9], r[10]];
+        }
+    }
+    view.palette = palette;
+    view.background = Some(background);
+    Ok(())
+}
+
+fn read_binary(path: &Path, limit: u64) -> Result<Vec<u8>, Error> {
+    use std::io::Read;
+    let name = path.display().to_string();
+    crate::output::check_input_open(path, &name)?;
+    let mut data = Vec::new();
+    std::fs::File::open(path)
+        .map_err(|e| Error::io(name.clone(), IoAction::Open, e))?
+        .take(limit + 1)
+        .read_to_end(&mut data)
+        .map_err(|e| Error::io(name, IoAction::Read, e))?;
+    Ok(data)
+}
+
+fn bad_size(path: &Path, len: usize, what: &str) -> Error {
+    let e = std::io::Error::new(
+        std::io::ErrorKind::InvalidData,
+        format!("{what} (this one has {len} bytes)"),
+    );
+    Error::io(path.display().to_string(), IoAction::Read, e)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn read(text: &str) -> Result<(View, Vec<Warning>), Error> {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("m.v");
+        std::fs::write(&p, text).unwrap();
+        let mut v = View::default();
+        let w = read_view(&p, &mut v)?;
+        Ok((v, w))
+    }
+
+    #[test]
+    fn cpfg_defaults_then_the_file() {
+        let (v, w) = read("").unwrap();
+        assert!(w.is_empty());
+        assert_eq!((v.angle, v.colour, v.width), (45.0, 128.0, 1.0));
+        assert_eq!(v.width_unit, WidthUnit::Pixels);
+        assert_eq!(v.tropism_model, TropismModel::Cpfg);
+        assert_eq!(
+            v.direction,
+            Direction {
+                azimuth: 0.0,
+                elevation: 0.0
+            }
+        );
+        let (v, w) = read(
+            "angle factor: 16\ninitial color: 3 7\ncolor increment: 2\n\
+             initial line width: 2.5\nline width increment: 0.5\n\
+             tropism direction: 0,-2,0\ninitial elasticity: 0.25\n\
+             elasticity increment: -0.5\n\
+             viewpoint: 1,0,0\nview reference point: 0,0,0\ntwist: 450\n\
+             z buffer: on\nlight: O: 1 1 1\n",
+        )
+        .unwrap();
+        assert!(w.is_empty(), "{w:?}");
+        assert_eq!(v.angle, 22.5);
+        assert_eq!((v.colour, v.colour_increment), (3.0, 2.0));
+        // No word after the width: a polygon line, in model units.
+        assert_eq!((v.width, v.width_unit), (2.5, WidthUnit::Model));
+        assert_eq!(v.width_increment, 0.5);
+        assert_eq!(v.tropism, [0.0, -1.0, 0.0]);
+        assert_eq!((v.elasticity, v.elasticity_increment), (0.25, -0.5));
+        assert_eq!(
+            v.direction,
+            Direction {
+                azimuth: 90.0,
+                elevation: 0.0
+            }
+        );
+        assert_eq!(v.twist, -45.0);
+    }
+
+    #[test]
+    fn line_width_words_as_cpfg() {
+        for (text, unit) in [
+            ("initial line width: 2 pixels", WidthUnit::Pixels),
+            ("initial line width: 2 polygons", WidthUnit::Pixels),
+            ("initial line width: 2 solid", WidthUnit::Model),
+            ("initial line width: 2 x", WidthUnit::Model),
+            ("initial line width: 2   ", WidthUnit::Model),
+            (
+                "initial line width: 2 p\nline style: polygon",
+                WidthUnit::Model,
+            ),
+            ("line style: pixel", WidthUnit::Pixels),
+            ("line style: 3", WidthUnit::Model),
+            // Not a style: it stays (a warning).
+            (
+                "initial line width: 2 p\nline style: wireframe",
+                WidthUnit::Pixels,
+            ),
+        ] {
+            assert_eq!(read(text).unwrap().0.width_unit, unit, "{text}");
+        }
+    }
+
+    #[test]
+    fn camera_from_viewpoint_and_reference_point() {
+        let dir = |t: &str| read(t).unwrap().0.direction;
+        assert_eq!(
+            dir("viewpoint: 0,5,0"),
+            Direction {
+                azimuth: 0.0,
+                elevation: 90.0
+            }
+        );
+        assert_eq!(
+            dir("viewpoint: 1,0,0\nview reference point: 1,0,-3"),
+            Direction {
+                azimuth: 0.0,
+                elevation: 0.0
+            }
+        );
+        // The same point: cpfg looks from -Z.
+        assert_eq!(
+            dir("viewpoint: 2,2,2\nview reference point: 2,2,2"),
+            Direction {
+                azimuth: 180.0,
+                elevation: 0.0
+            }
+        );
+        let d = dir("viewpoint: 1,1,1");
+        assert!((d.azimuth - 45.0).abs() < 1e-12);
+        assert!((d.elevation - (1.0f64 / 3f64.sqrt()).asin().to_degrees()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn labels_as_cpfg_spells_them() {
+        let (v, w) = read("Angle factor: 8\nangle  factor: 8\n  angle factor: 8\n").unwrap();
+        // Case and inner blanks count; leading spaces do not.
+        assert_eq!(v.angle, 45.0);
+        assert_eq!(w.len(), 2);
+        assert!(
+            w[0].message().contains("`Angle factor:`"),
+            "{}",
+            w[0].message()
+        );
+        // Several labels on one line, as cpfg's scanner allows.
+        let (v, _) = read("viewpoint: 0,0,1 twist: 900\n").unwrap();
+        assert_eq!(v.twist, -90.0);
+        // The preprocessor runs first.
+        let (v, _) = read("#define A 10\nangle factor: A /* c */\n").unwrap();
+        assert_eq!(v.angle, 36.0);
+        let (_, w) =
+            read("tropism: T: 0,1,0\nprojection: perspective\nprojection: parallel\n").unwrap();
+        assert_eq!(w.len(), 2, "{w:?}");
+    }
+
+    #[test]
+    fn bad_arguments_are_located() {
+        for (text, col, what) in [
+            ("angle factor: x", 15, "a number"),
+            ("angle factor: 0", 15, "no angle"),
+            ("viewpoint: 1 2 3", 13, "x,y,z"),
+            ("tropism direction: 0,0,0", 20, "no direction"),
+            ("twist: .5", 8, "whole number"),
+            ("initial line width: -1", 21, "negative"),
+            ("angle increment: 1e999", 18, "a number"),
+        ] {
+            let e = read(text).unwrap_err();
+            let l = e.location().unwrap();
+            assert_eq!((l.line, l.col), (1, col), "{text}: {e}");
+            assert!(e.to_string().contains(what), "{text}: {e}");
+        }
+    }
+
+    #[test]
+    fn colour_maps_and_materials() {
+        let dir = tempfile::tempdir().unwrap();
+        let map = dir.path().join("c.map");
+        let mut data: Vec<u8> = (0..768u32).map(|i| (i % 251) as u8).collect();
+        data[0..3].copy_from_slice(&[1, 2, 3]);
+        std::fs::write(&map, &data).unwrap();
+        let mut v = View::default();
+        read_colormap(&map, &mut v).unwrap();
+        assert_eq!(v.palette.len(), 256);
+        assert_eq!(v.palette[0], [1, 2, 3]);
+        assert_eq!(
+            v.palette[200],
+            [(600 % 251) as u8, (601 % 251) as u8, (602 % 251) as u8]
+        );
+        assert_eq!(v.background, Some([1, 2, 3]));
+        std::fs::write(&map, &data[..767]).unwrap();
+        assert!(read_colormap(&map, &mut v)
+            .unwrap_err()
+            .to_string()
+            .contains("768 bytes"));
+
+        let mat = dir.path().join("m.mat");
+        let rec = |i: u8, d: [u8; 3], e: [u8; 3]| {
+            vec![
+                i, 0, 9, 9, 9, d[0], d[1], d[2], e[0], e[1], e[2], 7, 7, 7, 30,
+            ]
+        };
+        let mut data = rec(5, [10, 20, 30], [0, 0, 0]);
+        data.extend(rec(0, [1, 1, 1], [40, 50, 60]));
+        std::fs::write(&mat, &data).unwrap();
+        read_materials(&mat, &mut v).unwrap();
+        assert_eq!(v.palette[5], [10, 20, 30]);
+        assert_eq!(v.palette[6], [255, 255, 255]);
+        assert_eq!(v.background, Some([40, 50, 60]));
+        std::fs::write(&mat, &data[..16]).unwrap();
+        assert!(read_materials(&mat, &mut v).is_err());
+    }
+}
