@@ -28,7 +28,6 @@ pub fn dot(a: V3, b: V3) -> f64 {
 fn scale(a: V3, k: f64) -> V3 {
     [a[0] * k, a[1] * k, a[2] * k]
 }
-#[inline]
 /// `a` scaled to length 1 (by its largest component first, so that 1e200
 /// and 1e-200 have a direction); the zero vector stays as it is (no bend).
 fn unit_or_zero(a: V3) -> V3 {
@@ -40,6 +39,7 @@ fn unit_or_zero(a: V3) -> V3 {
     scale(b, 1.0 / norm(b))
 }
 
+#[inline]
 pub fn norm(a: V3) -> f64 {
     dot(a, a).sqrt()
 }
