@@ -14,3 +14,7 @@ for name in plant_a plant_b plant_c plant_d plant_e plant_f bush \
     "$bin/lsgen" "examples/$name.ls" |
         "$bin/lsgen-turtle" --ls "examples/$name.ls" --size 400 -o "$out/$name.png"
 done
+# cpfg's language, with cpfg's view file and colour map.
+"$bin/lsgen" examples/cpfg/weeping.l |
+    "$bin/lsgen-turtle" --cpfg-view examples/cpfg/weeping.v \
+        --colormap examples/cpfg/weeping.map --size 400 -o "$out/weeping.png"

@@ -1478,6 +1478,37 @@ mod cpfg_files {
     }
 
     #[test]
+    fn the_cpfg_example_weeps() {
+        // README's pipe: examples/cpfg/weeping.l with its view file and
+        // colour map, quietly.
+        let string = derive(&["examples/cpfg/weeping.l"]);
+        let (v, m) = ("examples/cpfg/weeping.v", "examples/cpfg/weeping.map");
+        let svg = text(ok(&turtle(&["--cpfg-view", v, "--colormap", m], &string)));
+        assert!(svg.contains("fill=\"#faf8f0\""), "the map's index 0 behind");
+        assert!(
+            svg.contains("vector-effect=\"non-scaling-stroke\""),
+            "pixel lines"
+        );
+        // `_` raises the elasticity branch by branch, and cpfg's tropism
+        // (down) bends the deep branches over: most segments head down.
+        // Without the increment, few do.
+        let down = |extra: &[&str]| {
+            let mut args = vec!["--cpfg-view", v, "-f", "segments"];
+            args.extend_from_slice(extra);
+            let segs = text(ok(&turtle(&args, &string)));
+            let (mut n, mut d) = (0, 0);
+            for l in segs.lines().filter(|l| !l.starts_with("polygon")) {
+                let w: Vec<f64> = l.split(' ').map(|x| x.parse().unwrap()).collect();
+                n += 1;
+                d += usize::from(w[4] < w[1]);
+            }
+            d as f64 / n as f64
+        };
+        assert!(down(&[]) > 0.8, "{}", down(&[]));
+        assert!(down(&["--elasticity-increment", "0"]) < 0.2);
+    }
+
+    #[test]
     fn bad_files_are_errors_and_unknown_labels_warnings() {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("out.svg");
