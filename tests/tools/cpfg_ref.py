@@ -1174,8 +1174,6 @@ class Parser:
             p.rc = self.formal_or_null()
             if p.rc and p.rc[-1][0] == "=":
                 raise self.err("= cannot end a right context (cpfg crashes)")
-        if self.section == "H" and len(p.pred) > 1:
-            raise self.err("multi-module predecessors in the homomorphism are not supported by the reference")
         for sym, _ in p.pred:
             self.check_symbol(sym, p.where)
         if self.peek()[0] == "COLON":
