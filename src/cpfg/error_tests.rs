@@ -266,7 +266,6 @@ fn typed_messages_are_the_former_strings() {
         (CompileError::PrintfUnfinished.to_string(), "printf: the format ends inside a `%` conversion"),
         (CompileError::PrintfArity { takes: 1, given: 2 }.to_string(), "printf: the format takes 1 value, 2 given"),
         (CompileError::PrintfArity { takes: 2, given: 0 }.to_string(), "printf: the format takes 2 values, 0 given"),
-        (CompileError::SeveralModules("homomorphism ").to_string(), "a predecessor of several modules (`AB --> C`) is supported among the L-system's productions, not in the homomorphism"),
         (CompileError::OutOfF32.to_string(), "this value does not fit cpfg's 32-bit float"),
         (CompileError::EmptyAxiom.to_string(), "the axiom is empty"),
         (RuntimeError::WorkerStopped.to_string(), "internal error: a worker thread stopped"),

@@ -596,13 +596,6 @@ impl Lowerer<'_> {
     }
 
     fn production(&mut self, p: &Production, section: &'static str) -> R<ls::Production> {
-        if p.pred.len() > 1 && !section.is_empty() {
-            let s = (
-                p.pred[0].span.0,
-                p.pred.last().map_or(p.span.1, |m| m.span.1),
-            );
-            return err(s, Invalid::SeveralModules(section));
-        }
         let mut formals = HashMap::new();
         let left = match &p.left {
             Some(l) => self.formals(l, &mut formals)?,
@@ -1272,8 +1265,18 @@ mod tests {
     fn refusals_not_yet() {
         let (r, _) = lowered("Lsystem: 1\nAxiom: AB\nAB --> C\nendlsystem\n");
         assert_eq!(r.unwrap().header.productions[0].pred_rest.len(), 1);
-        let (r, _) = lowered("Lsystem: 1\nAxiom: AB\nhomomorphism\nAB --> C\nendlsystem\n");
-        assert!(r.err().unwrap().message().contains("several modules"));
+        // cpfg matches one in the decomposition and the homomorphism too.
+        for section in ["decomposition", "homomorphism"] {
+            let (r, _) = lowered(&format!(
+                "Lsystem: 1\nAxiom: AB\n{section}\nAB --> C\nendlsystem\n"
+            ));
+            let h = r.unwrap().header;
+            let prods = match &h.decomposition {
+                Some(d) => &d.productions,
+                None => &h.homomorphism,
+            };
+            assert_eq!(prods[0].pred_rest.len(), 1, "{section}");
+        }
         // Weights: kept with `seed:`; without it kept too (ignored at run
         // time unless `--seed` stands for `seed:`), with a warning.
         let (r, w) = lowered("Lsystem: 1\nseed: 2\nAxiom: A\nA --> B : 0.5\nendlsystem\n");

@@ -100,8 +100,44 @@ fn push_const(m: &mut Modules, c: &crate::rules::ConstRun, al: &Alphabet) {
     }
 }
 
-/// Do a production's contexts match (binding their parameters)?
-type ContextFn<'c> = dyn FnMut(&Production, &mut [f64]) -> Result<bool, Error> + 'c;
+/// Does a production match the module being rewritten recursively: the
+/// rest of its predecessor (several modules, cpfg dialect) where
+/// [`After`] says the later modules are, then its contexts (binding their
+/// parameters)?
+type ContextFn<'c> = dyn FnMut(&Production, &mut [f64], After) -> Result<bool, Error> + 'c;
+
+/// Where the modules after the one being rewritten recursively are, for
+/// the rest of a predecessor of several modules (cpfg dialect). cpfg's
+/// `ApplyRecursiveProductions` (generate.c) and `InterpretHomomorphism`
+/// (interpret.c) match it with `PredDiff` in the string they are going
+/// through: a successor being expanded, or, for the decomposition of a
+/// module that no production rewrote, the old string itself.
+#[derive(Clone, Copy)]
+enum After<'b> {
+    /// The modules of a level buffer from this index on (the end of the
+    /// buffer ends the run: cpfg's successor buffer ends there).
+    Level(&'b Modules, usize),
+    /// The old string after the copied module, which ends at this offset.
+    Input(u64),
+}
+
+/// Do the modules of `buf` from `from` on match `rest`, one after the
+/// other? Binds their parameters into `slots`.
+fn level_run(buf: &Modules, from: usize, rest: &[Pat], al: &Alphabet, slots: &mut [f64]) -> bool {
+    if buf.len() < from + rest.len() {
+        return false;
+    }
+    for (j, pat) in rest.iter().enumerate() {
+        let k = buf.keys[from + j];
+        if k != pat.key {
+            return false;
+        }
+        let (_, v) = buf.get(from + j, al.arity(k));
+        let at = pat.slot as usize;
+        slots[at..at + v.len()].copy_from_slice(v);
+    }
+    true
+}
 
 /// Everything the recursion reads.
 struct RecCtx<'r, 'o> {
@@ -126,8 +162,7 @@ struct RecCtx<'r, 'o> {
 fn depth_warning(
     rc: &mut Recur,
     cx: &RecCtx,
-    key: u32,
-    params: &[f64],
+    (key, params, after): (u32, &[f64], After),
     rng: &mut Random,
     ctx: &mut ContextFn,
 ) {
@@ -144,7 +179,7 @@ fn depth_warning(
         }
         let p = &cx.table.prods[pi as usize];
         rc.slots[..params.len()].copy_from_slice(params);
-        if !ctx(p, &mut rc.slots).unwrap_or(true) {
+        if !ctx(p, &mut rc.slots, after).unwrap_or(true) {
             continue;
         }
         let applies = match &p.cond {
@@ -189,8 +224,7 @@ fn say_depth_limit(cx: &RecCtx, key: u32, pi: u32, done: &Cell<bool>) {
 fn depth_limit_cpfg(
     rc: &mut Recur,
     cx: &RecCtx,
-    key: u32,
-    params: &[f64],
+    (key, params, after): (u32, &[f64], After),
     rng: &mut Random,
     ctx: &mut ContextFn,
 ) -> Result<(), Error> {
@@ -210,7 +244,7 @@ fn depth_limit_cpfg(
         rng,
         cx.origin,
         cx.pass,
-        |p, s| ctx(p, s),
+        |p, s| ctx(p, s, after),
     )?;
     let Some(pi) = found else {
         return Ok(());
@@ -233,13 +267,20 @@ fn expand_level(
 ) -> Result<(), Error> {
     let buf = std::mem::take(&mut rc.levels[depth]);
     let mut r = Ok(());
-    for i in 0..buf.len() {
+    let mut i = 0;
+    while i < buf.len() {
         let key = buf.keys[i];
         let (_, params) = buf.get(i, cx.al.arity(key));
-        r = match try_rewrite(rc, cx, depth, key, params, rng, ctx, out) {
-            Ok(true) => Ok(()),
+        let after = After::Level(&buf, i + 1);
+        i += 1;
+        r = match try_rewrite(rc, cx, depth, (key, params, after), rng, ctx, out) {
+            // A predecessor of several modules took the next ones too.
+            Ok(Some(pi)) => {
+                i += cx.table.prods[pi as usize].rest().len();
+                Ok(())
+            }
             // (A flush per module: one module's recursion may write a lot.)
-            Ok(false) => out
+            Ok(None) => out
                 .module(key, params, cx.al)
                 .and_then(|()| out.maybe_flush()),
             Err(e) => Err(e),
@@ -252,30 +293,32 @@ fn expand_level(
     r
 }
 
-/// Rewrite the module (key, params) of depth `depth` if it is below the
-/// maximum depth and a production applies: its successor (depth + 1) is
-/// rewritten in turn, depth first. False if nothing applied.
-#[allow(clippy::too_many_arguments)]
+/// Rewrite the module (key, params) of depth `depth`, the later modules
+/// where `after` says, if it is below the maximum depth and a production
+/// applies: its successor (depth + 1) is rewritten in turn, depth first.
+/// The production applied (a predecessor of several modules took its
+/// rest's modules too: the caller passes over them), None if none did (at
+/// the depth limit the module stays alone, whatever its productions
+/// match: cpfg copies one module there).
 fn try_rewrite(
     rc: &mut Recur,
     cx: &RecCtx,
     depth: usize,
-    key: u32,
-    params: &[f64],
+    (key, params, after): (u32, &[f64], After),
     rng: &mut Random,
     ctx: &mut ContextFn,
     out: &mut Out,
-) -> Result<bool, Error> {
+) -> Result<Option<u32>, Error> {
     if depth >= cx.max {
         if rng.cpfg_mut().is_some() {
-            depth_limit_cpfg(rc, cx, key, params, rng, ctx)?;
+            depth_limit_cpfg(rc, cx, (key, params, after), rng, ctx)?;
         } else {
-            depth_warning(rc, cx, key, params, rng, ctx);
+            depth_warning(rc, cx, (key, params, after), rng, ctx);
         }
-        return Ok(false);
+        return Ok(None);
     }
     let Some(kr) = cx.table.get(key) else {
-        return Ok(false);
+        return Ok(None);
     };
     rc.slots[..params.len()].copy_from_slice(params);
     let Some(pi) = rc.chooser.choose(
@@ -285,15 +328,15 @@ fn try_rewrite(
         rng,
         cx.origin,
         cx.pass,
-        |p, s| ctx(p, s),
+        |p, s| ctx(p, s, after),
     )?
     else {
-        return Ok(false);
+        return Ok(None);
     };
     let p = &cx.table.prods[pi as usize];
     fill_level(rc, cx.al, depth + 1, p, rng, cx.origin, cx.pass)?;
     expand_level(rc, cx, depth + 1, rng, ctx, out)?;
-    Ok(true)
+    Ok(Some(pi))
 }
 
 /// Evaluate `p`'s successor (parameters bound in `rc.chooser`) into
@@ -618,14 +661,15 @@ impl<'a> Deriver<'a> {
         // around the predecessor.
         let d = decomp.map(|(d, _)| d);
         let mut st = StepState {
-            peek: (table.has_right || table.has_multi || d.is_some_and(|d| d.has_right)).then(
-                || {
-                    let buf = std::mem::take(&mut self.peek_buf);
-                    PosReader::reusing(input, 1 << 16, indexed, buf)
-                        .with_counts(self.counts)
-                        .giving_back(reclaim, false)
-                },
-            ),
+            peek: (table.has_right
+                || table.has_multi
+                || d.is_some_and(|d| d.has_right || d.has_multi))
+            .then(|| {
+                let buf = std::mem::take(&mut self.peek_buf);
+                PosReader::reusing(input, 1 << 16, indexed, buf)
+                    .with_counts(self.counts)
+                    .giving_back(reclaim, false)
+            }),
             cpfg: self.cpfg_contexts.then(|| CpfgBrackets::of(&self.alphabet)),
             right: RightCache::new(),
             max_right_simple: table
@@ -793,6 +837,9 @@ impl<'a> Deriver<'a> {
                             left.push(key, bytes, n);
                         }
                     }
+                    if let Some(run_end) = st.run_end.take() {
+                        index = self.skip_run(&mut rd, run_end, index, &mut st, pass)?;
+                    }
                     out.maybe_flush()?;
                     continue;
                 }
@@ -882,7 +929,7 @@ impl<'a> Deriver<'a> {
                 left.follow(key, bytes, &self.alphabet);
             }
             if let Some(run_end) = st.run_end.take() {
-                index = self.skip_run(&mut rd, run_end, index, &mut st)?;
+                index = self.skip_run(&mut rd, run_end, index, &mut st, pass)?;
             }
             out.maybe_flush()?;
         }
@@ -996,27 +1043,37 @@ impl<'a> Deriver<'a> {
         let lv = std::mem::take(&mut self.rc.levels[0]);
         let (_, params) = lv.get(0, n);
         let al = &self.alphabet;
+        // cpfg's `ApplyProd` decomposes a module that no production
+        // rewrote with its contexts around that one module (the right one
+        // right after it), and a predecessor of several modules takes the
+        // old string's next modules, which no production rewrites then.
         let r = try_rewrite(
             &mut self.rc,
             &cx,
             0,
-            key,
-            params,
+            (key, params, After::Input(end_off)),
             &mut self.rng,
-            &mut |p, slots| {
-                let last = st.left.as_ref().map(|l| l.last_key());
-                Ok(!surely_not(p, last, end_off, st, al)?
-                    && contexts_match(p, end_off, st, al, slots)?)
-            },
+            &mut |p, slots, after| recursion_contexts(p, slots, after, st, al, end_off),
             out,
         );
         self.rc.levels[0] = lv;
-        r
+        let Some(pi) = r? else {
+            return Ok(false);
+        };
+        let rest = d.prods[pi as usize].rest();
+        if !rest.is_empty() {
+            // Skipped by the caller, as a production's run. Not bound
+            // again (see `apply`).
+            st.run_end = st.match_run(end_off, rest, al, None)?;
+        }
+        Ok(true)
     }
 
-    /// The rest of a predecessor of several modules (cpfg dialect), up to
-    /// `run_end`: replaced with the first module; still the old string for
-    /// left contexts and draw positions. Returns the module index after it.
+    /// The rest of a predecessor of several modules (cpfg dialect; a
+    /// production's, or a decomposition's that took the old string's
+    /// modules, or the homomorphism's), up to `run_end`: replaced with the
+    /// first module; still the old string for left contexts and draw
+    /// positions. Returns the module index after it.
     #[cold]
     #[inline(never)]
     fn skip_run(
@@ -1025,6 +1082,7 @@ impl<'a> Deriver<'a> {
         run_end: u64,
         mut index: u64,
         st: &mut StepState,
+        pass: Pass,
     ) -> Result<u64, Error> {
         let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         while rd.offset() < run_end {
@@ -1032,8 +1090,9 @@ impl<'a> Deriver<'a> {
                 break;
             };
             index += 1;
-            // cpfg draws once for the whole predecessor.
-            if let Some(c) = self.rng.cpfg_mut() {
+            // cpfg draws once for the whole predecessor (a step's draws:
+            // the homomorphism makes none).
+            if let (Some(c), Pass::Step(_)) = (self.rng.cpfg_mut(), pass) {
                 c.skip_modules(1);
             }
             if let Some(left) = &mut st.left {
@@ -1085,7 +1144,7 @@ impl<'a> Deriver<'a> {
             // depth 0 >= the maximum: the module stays, with the depth
             // warning if one applied.
             let found = chooser.first_cpfg(slots, table, kr, rng, origin, pass, |p, slots| {
-                run_contexts(p, slots, st, al, last, end_off)
+                run_contexts(p, slots, st, al, (last, pass), end_off)
             })?;
             if let Some(pi) = found {
                 if warnings[1] && !warned[1].get() {
@@ -1182,10 +1241,8 @@ impl<'a> Deriver<'a> {
             // after the whole predecessor (generate.c's `ApplyProd` moves
             // the string pointer past `predLen` before it decomposes).
             let end_off = st.run_end.unwrap_or(end_off);
-            let mut ctx = |p: &Production, slots: &mut [f64]| {
-                let last = st.left.as_ref().map(|l| l.last_key());
-                Ok(!surely_not(p, last, end_off, st, al)?
-                    && contexts_match(p, end_off, st, al, slots)?)
+            let mut ctx = |p: &Production, slots: &mut [f64], after: After<'_>| {
+                recursion_contexts(p, slots, after, st, al, end_off)
             };
             return expand_level(rc, &cx, 0, rng, &mut ctx, out).map(|()| true);
         }
@@ -1203,9 +1260,11 @@ impl<'a> Deriver<'a> {
                 warn: warnings[1].then_some(&warned[1]),
                 tries: *hom_tries,
             };
-            let mut ctx = |p: &Production, slots: &mut [f64]| {
-                Ok(!surely_not(p, last, end_off, st, al)?
-                    && contexts_match(p, end_off, st, al, slots)?)
+            // (cpfg's `InterpretHomomorphism` passes the contexts of the
+            // module at depth 0 down: the right one right after that
+            // module, also when its predecessor took several.)
+            let mut ctx = |p: &Production, slots: &mut [f64], after: After<'_>| {
+                recursion_contexts(p, slots, after, st, al, end_off)
             };
             return expand_level(rc, &cx, 1, rng, &mut ctx, out).map(|()| true);
         }
@@ -1238,7 +1297,7 @@ fn choose_cpfg(
         // (Predecessors of several modules without cpfg's generator: not
         // made by the front ends; the general choice.)
         return chooser.choose(slots, table, kr, rng, origin, pass, |p, slots| {
-            run_contexts(p, slots, st, al, last, end_off)
+            run_contexts(p, slots, st, al, (last, pass), end_off)
         });
     }
     chooser.choose_cpfg_here(
@@ -1249,32 +1308,61 @@ fn choose_cpfg(
         origin,
         pass,
         #[inline(always)]
-        |p, slots| run_contexts(p, slots, st, al, last, end_off),
+        |p, slots| run_contexts(p, slots, st, al, (last, pass), end_off),
     )
 }
 
 /// Does `p`, a predecessor of one module or of several (cpfg dialect),
 /// match at the module ending at `end_off`, with its contexts? Binds the
-/// run's and the contexts' parameters.
+/// run's and the contexts' parameters. The right context of a run starts
+/// after it among the L-system's productions (generate.c's `FindProd`
+/// reads it at `curPtr + preflength`), right after its first module in
+/// the homomorphism (interpret.c's `TurtleDrawNsteps` passes the string
+/// pointer past that one module as `InterpretHomomorphism`'s right
+/// context).
 #[inline(always)]
 fn run_contexts(
     p: &Production,
     slots: &mut [f64],
     st: &mut StepState,
     al: &Alphabet,
-    last: Option<Option<u32>>,
+    (last, pass): (Option<Option<u32>>, Pass),
     end_off: u64,
 ) -> Result<bool, Error> {
-    // The right context of a run starts after it.
     let end = if p.rest().is_empty() {
         end_off
     } else {
         match st.match_run(end_off, p.rest(), al, Some(slots))? {
+            Some(_) if pass == Pass::Homomorphism => end_off,
             Some(e) => e,
             None => return Ok(false),
         }
     };
     Ok(!surely_not(p, last, end, st, al)? && contexts_match(p, end, st, al, slots)?)
+}
+
+/// Does `p` match in the recursion (decomposition, a deep homomorphism):
+/// the rest of its predecessor where `after` says (cpfg's `PredDiff`
+/// first), then its contexts, read in the old string around the module
+/// the recursion started from, whose right context starts at `end_off`
+/// (cpfg passes the same context pointers down to every depth)? Binds
+/// their parameters.
+#[inline]
+fn recursion_contexts(
+    p: &Production,
+    slots: &mut [f64],
+    after: After,
+    st: &mut StepState,
+    al: &Alphabet,
+    end_off: u64,
+) -> Result<bool, Error> {
+    let run = match after {
+        _ if p.rest().is_empty() => true,
+        After::Level(buf, from) => level_run(buf, from, p.rest(), al, slots),
+        After::Input(end) => st.match_run(end, p.rest(), al, Some(slots))?.is_some(),
+    };
+    let last = st.left.as_ref().map(|l| l.last_key());
+    Ok(run && !surely_not(p, last, end_off, st, al)? && contexts_match(p, end_off, st, al, slots)?)
 }
 
 /// The choice `of` gives each ASCII key without parameters that has one

@@ -669,9 +669,6 @@ pub enum CompileError {
     /// cpfg: a `printf` with another number of values than its format
     /// takes.
     PrintfArity { takes: usize, given: usize },
-    /// cpfg: a predecessor of several modules in a section (its name and
-    /// a blank: `decomposition `, `homomorphism `).
-    SeveralModules(&'static str),
     /// cpfg: an axiom parameter past a 32-bit float.
     OutOfF32,
     /// cpfg: `Axiom:` without modules.
@@ -795,11 +792,6 @@ impl fmt::Display for CompileError {
                 f,
                 "printf: the format takes {takes} value{}, {given} given",
                 if *takes == 1 { "" } else { "s" }
-            ),
-            SeveralModules(section) => write!(
-                f,
-                "a predecessor of several modules (`AB --> C`) is supported among the L-system's productions, not in the {}",
-                section.trim_end()
             ),
             OutOfF32 => f.write_str("this value does not fit cpfg's 32-bit float"),
             EmptyAxiom => f.write_str("the axiom is empty"),
