@@ -491,6 +491,96 @@ fn multi_module_predecessor_details() {
     assert_eq!(r.ok(), "XA\n");
 }
 
+/// Predecessors of several modules in the decomposition and the
+/// homomorphism, as cpfg matches them (generate.c's
+/// `ApplyRecursiveProductions`, interpret.c's `InterpretHomomorphism`),
+/// derived by hand (and the same from tests/tools/cpfg_ref.py);
+/// tests/cpfg/multi_sections.l has more.
+#[test]
+fn multi_module_predecessor_in_sections() {
+    let case = |src: &str, n: &str, args: &[&str]| {
+        let mut cmd = lsgen();
+        cmd.args(["-", "--dialect", "cpfg", "-n", n]).args(args);
+        run_with_stdin(&mut cmd, src.to_string())
+    };
+    let ok = |src: &str, n: &str, want: &str| {
+        for args in [&["-j", "1"][..], &["-j", "2", "--strategy", "step"][..]] {
+            let r = case(src, n, args);
+            assert_eq!(r.ok(), format!("{want}\n"), "{src} {args:?}");
+        }
+    };
+    // The homomorphism takes the run, parameters from each module; the
+    // derived string keeps it.
+    let hom = "Lsystem: 1\nAxiom: A(1)B(2)A(3)\nhomomorphism\nA(a)B(b) --> C(a+b)\nendlsystem\n";
+    ok(hom, "0", "C(3)A(3)");
+    let r = case(hom, "0", &["--no-homomorphism"]);
+    assert_eq!(r.ok(), "A(1)B(2)A(3)\n");
+    // Its right context starts right after the first module, not after
+    // the run: AB > C fails on ABC, AB > B matches.
+    ok(
+        "Lsystem: 1\nAxiom: ABC\nhomomorphism\nAB > C --> X\nAB > B --> Y\nendlsystem\n",
+        "0",
+        "YC",
+    );
+    // In a successor below the maximum depth the run applies; at the
+    // maximum its modules stay, one by one, with the depth warning.
+    let deep = |depth: u32, warnings: &str| {
+        format!("Lsystem: 1\nAxiom: H\nhomomorphism{warnings}\nmaximum depth: {depth}\nH --> AB\nAB --> X\nendlsystem\n")
+    };
+    ok(&deep(2, ""), "0", "X");
+    ok(&deep(1, ": no warnings"), "0", "AB");
+    let r = case(&deep(1, ""), "0", &[]);
+    assert_eq!(r.out(), "AB\n");
+    assert!(
+        r.stderr.contains(":6:1: warning:") && r.stderr.contains("maximum depth 1"),
+        "{}",
+        r.stderr
+    );
+    // `maximum depth: 0`: tried, nothing applied.
+    ok(
+        "Lsystem: 1\nAxiom: AB\nhomomorphism: no warnings\nmaximum depth: 0\nAB --> X\nendlsystem\n",
+        "0",
+        "AB",
+    );
+    // A module no production rewrites is decomposed with the old string's
+    // next modules: Q is taken (Q --> Z does not apply to it), and stays
+    // the left context of R.
+    ok(
+        "Lsystem: 1\nAxiom: PQR\nQ --> Z\nQ < R --> Y\ndecomposition\nPQ --> W\nendlsystem\n",
+        "1",
+        "WY",
+    );
+    // A run in a successor ends with it: C (A's successor) and the old B
+    // are not one run.
+    ok(
+        "Lsystem: 1\nAxiom: AB\nA --> C\ndecomposition\nCB --> X\nendlsystem\n",
+        "1",
+        "CB",
+    );
+    // `maximum depth: 0`: no decomposition.
+    ok(
+        "Lsystem: 1\nAxiom: PQ\ndecomposition\nmaximum depth: 0\nPQ --> W\nendlsystem\n",
+        "1",
+        "PQ",
+    );
+    // The modules a decomposition takes from the old string draw nothing
+    // (cpfg's step loop draws once per predecessor): the Xs after PQ
+    // choose as those after P alone, not as those after P and Q.
+    let seeded = |axiom: &str, pred: &str| {
+        format!(
+            "Lsystem: 1\nseed: 3\nAxiom: {axiom}XXXXXXXXXXXX\nX --> a : 1\nX --> b : 1\n\
+             decomposition\n{pred} --> k\nendlsystem\n"
+        )
+    };
+    let tail = |src: String| {
+        let out = case(&src, "1", &[]).ok();
+        out[out.find(['a', 'b']).unwrap()..].to_string()
+    };
+    let taken = tail(seeded("PQ", "PQ"));
+    assert_eq!(taken, tail(seeded("P", "P")));
+    assert_ne!(taken, tail(seeded("PQ", "P")), "the check tells them apart");
+}
+
 /// An expression past the token limit is a located error, not a stack
 /// overflow (4,000,000 nested unary minuses crashed the parser's tree walk).
 #[test]

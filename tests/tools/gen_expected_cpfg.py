@@ -46,6 +46,7 @@ MANIFEST = {
     "layout": [0, 1, 2, 3],
     "null_star": [1, 2],
     "multi_pred": [1, 2, 3],
+    "multi_sections": [0, 1, 2],
     "first_applicable": [1, 2],
     "expressions": [1],
     "float32": [1, 5, 30],
@@ -79,6 +80,8 @@ HAND = {
     ("backslash_define", 3): "C(7)B(8)B(5)",
     ("multi_pred", 1): "XD(2)D(12)A(5)A(6)",
     ("multi_pred", 2): "XD(2)B(7)A(6)",
+    ("multi_sections", 0): "A(1)P(2)Q(3)RSTUh(3)H(5)H(3)pqr",
+    ("multi_sections", 1): "G(6)eDk(5)YmYh(3)H(5)H(3)pqr",
     ("first_applicable", 1): "YZ(0)C(5)Y",
     ("expressions", 1): "a(4)b(64)c(19)d(0,-1,1)e(5,0.25)f(3,-2,2)g(0.5,0.5,1)h(90,90,45)"
     "i(0,45)j(1)k(1,3)l(1,0,0,1,1,0,1)m(0,1,1,0)n(10,3)o(-2,-1,3,-1,0)p(1,0,4,1.41421)"
