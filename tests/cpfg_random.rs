@@ -1,4 +1,4 @@
-//! The differential test of the cpfg dialect: 810 random `.l` systems
+//! The differential test of the cpfg dialect: 870 random `.l` systems
 //! (every feature of the dialect mixed, see tests/tools/gen_cpfg_cases.py;
 //! cases 301-400 also assign `Q` and `Z` in blocks and try productions at
 //! the decomposition's and the homomorphism's depth limit, and 401-500
@@ -12,7 +12,9 @@
 //! tried does not see, and 721-780 define arrays in a `define:` block and
 //! read and assign their elements, with subscripts out of range (clamped)
 //! and fractional ones, and 781-810 have string literals among their
-//! parameters, which are their numbers among the file's strings),
+//! parameters, which are their numbers among the file's strings, and
+//! 811-870 have predecessors of several modules in the decomposition and
+//! the homomorphism, with contexts, conditions and blocks, seeded or not),
 //! derived by the independent reference tests/tools/cpfg_ref.py; lsgen must
 //! print the same string for each. Every other case runs with
 //! `LSGEN_TEST_SPLIT=1`: splits in tasks of one module or byte where a
@@ -99,7 +101,7 @@ fn random_cases_match_cpfg_ref() {
         }
         cases += 1;
     }
-    assert_eq!(cases, 810);
+    assert_eq!(cases, 870);
     assert!(
         failures.is_empty(),
         "{} of {cases} cases differ from cpfg_ref.py:\n{}",

@@ -43,7 +43,13 @@ stay inside the storage, and assigns elements in `Start:`, `StartEach:`,
 `EndEach:` and pre-/post-condition blocks; its cases print parameters. A
 ninth is the second with string literals among the parameters (alone and
 in arithmetic) and a `printf` in `Start:`: a string's value is its number
-among the file's strings, the `printf` format counted.
+among the file's strings, the `printf` format counted. A tenth is the
+second with predecessors of several modules (two or three, parameters on
+the later ones, conditions on them, contexts) in the decomposition and the
+homomorphism, which cpfg matches there too (`PredDiff`), at maximum depths
+from 0 to 3, seeded or not (a section's weights are ignored: cpfg chooses
+the first applicable production there); only cases where such a
+predecessor applied at least once are kept.
 
 Usage (from anywhere):
     python3 tests/tools/gen_cpfg_cases.py          # write the file
@@ -95,13 +101,15 @@ FORMALS = 80
 ARRAYS = 60
 # The ninth (`extended` and `strings`), after the eighth.
 STRINGS = 30
+# The tenth (`extended` and `multi_sections`), after the ninth.
+MULTI_SECTIONS = 60
 MAX_OUTPUT = 2000
 
 SYMS = "ABCD"
 
 
 def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alternatives=False,
-             formals=False, strings=False):
+             formals=False, strings=False, multi_sections=False):
     """A random system and a number of steps. `extended`: a second batch
     (its own generator, so the first batch stays as it was) whose blocks
     also assign `Q` and `Z`, with more decomposition and homomorphism at
@@ -115,9 +123,11 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
     production's formal parameter, and keys have several productions
     (cpfg binds the formals again for each production it tries).
     `strings`: some parameters are string literals and some blocks print
-    (a string's value is its number among the file's strings)."""
+    (a string's value is its number among the file's strings).
+    `multi_sections`: predecessors of several modules in the decomposition
+    and the homomorphism, seeded more often, with depths from 0."""
     globals_ = extended or r.random() < 0.3
-    stochastic = r.random() < 0.3 or alternatives
+    stochastic = r.random() < (0.5 if multi_sections else 0.3) or alternatives
 
     def expr(var, axiom=False):
         a = var if var and r.random() < 0.7 else str(r.randint(0, 3))
@@ -170,12 +180,23 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
             return s + "(x)", "x"
         return s, None
 
-    def production(contexts=True, multi=True, weights=False):
+    def production(contexts=True, multi=True, weights=False, runs=0.0):
         lhs, var = pred_module()
         contexts = contexts and not (formals and r.random() < 0.7)
+        # `runs`: how often the predecessor has one or two modules more,
+        # the later ones sometimes with a parameter `y` (the tenth batch's
+        # sections).
+        later = None
+        if runs and r.random() < runs:
+            for _ in range(1 if r.random() < 0.75 else 2):
+                if later is None and r.random() < 0.4:
+                    later = "y"
+                    lhs += r.choice(SYMS) + "(y)"
+                else:
+                    lhs += r.choice(SYMS)
         # The third batch: more multi-module predecessors, whose
         # successors' decomposition reads contexts around all of them.
-        if multi and r.random() < (0.5 if decomp_contexts else 0.1):
+        elif multi and r.random() < (0.5 if decomp_contexts else 0.1):
             lhs += r.choice(SYMS)
         ctx = 0.5 if decomp_contexts and not multi else 0.3
         if contexts and r.random() < ctx:
@@ -195,6 +216,9 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
                 "%s > 1" % v, "%s <> 2" % v, "%s %% 2 == 0" % v, "Q < 3 && %s >= 1" % v,
                 "!(%s == 1) || Q == 2" % v, "Q > 1",
             ])
+        if later and r.random() < 0.5:
+            cond = " : " + r.choice(["y > 1", "y <> 2", "%s < y" % (var or "Q"), "y %% 2 == 0",
+                                     "y + %s >= 2" % (var or "Q")])
         if globals_ and not extended and r.random() < 0.3:
             cond = " : {g = g + 1; t = %s;}%s" % (var or "Q", cond[2:] if cond else " *")
             if r.random() < 0.5:
@@ -215,7 +239,12 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
         weight = ""
         if weights and r.random() < 0.6:
             weight = " : " + r.choice(["1", "2", "0.5", "Q", "%s+1" % (var or "1")])
-        return lhs + cond + " --> " + succ(var) + weight
+        rhs = succ(var)
+        if later and r.random() < 0.6:
+            # the later module's parameter in the successor
+            rhs = ("" if rhs == "*" else rhs) + r.choice(
+                ["A(y)", "B(y+1)", "C(%s*y)" % (var or "2"), "D(y-Q)"])
+        return lhs + cond + " --> " + rhs + weight
 
     lines = ["Lsystem: 1"]
     if stochastic:
@@ -258,17 +287,22 @@ def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alterna
                 lines.append("%s%s --> %s%s" % (s, cond, plain or "*", weight))
     lines += [production(weights=stochastic)
               for _ in range(r.randint(4, 8) if formals else r.randint(1, 5))]
-    if not alternatives and r.random() < (0.7 if extended else 0.35):
+    # (The tenth batch's sections: runs, contexts, ignored weights.)
+    runs = 0.6 if multi_sections else 0.0
+    section_weights = stochastic and multi_sections
+    if not alternatives and r.random() < (0.85 if multi_sections else 0.7 if extended else 0.35):
         lines.append("decomposition")
         if r.random() < 0.5:
             lines.append("maximum depth: %d" % r.randint(0 if extended else 1, 3))
-        lines += [production(contexts=decomp_contexts, multi=False)
-                  for _ in range(r.randint(1, 3))]
-    if r.random() < (0.7 if extended else 0.35):
+        lines += [production(contexts=decomp_contexts or multi_sections, multi=False,
+                             weights=section_weights, runs=runs)
+                  for _ in range(r.randint(2, 4) if multi_sections else r.randint(1, 3))]
+    if r.random() < (0.85 if multi_sections else 0.7 if extended else 0.35):
         lines.append("homomorphism" + r.choice(["", ": no warnings"]))
         if r.random() < 0.5:
-            lines.append("maximum depth: %d" % r.randint(1, 3))
-        lines += [production(multi=False) for _ in range(r.randint(1, 3))]
+            lines.append("maximum depth: %d" % r.randint(0 if multi_sections else 1, 3))
+        lines += [production(multi=False, weights=section_weights, runs=runs)
+                  for _ in range(r.randint(2, 4) if multi_sections else r.randint(1, 3))]
     lines.append("endlsystem")
     return "\n".join(lines) + "\n", r.randint(1 if formals else 0, 4)
 
@@ -641,6 +675,25 @@ def generate_arrays(r):
     return "\n".join(lines) + "\n", r.randint(0 if r.random() < 0.1 else 1, 4)
 
 
+# Productions of several modules in a section that the reference applied
+# (the tenth batch keeps only cases with one).
+SECTION_RUNS = []
+
+
+def spy_successor(successor):
+    """cpfg_ref's Deriver.successor (called for each production applied),
+    noting in SECTION_RUNS each predecessor of several modules of the
+    decomposition or the homomorphism."""
+    def spied(self, p):
+        if len(p.pred) > 1 and any(p is q for q in (self.ls.decomp or []) + (self.ls.homo or [])):
+            SECTION_RUNS.append(p)
+        return successor(self, p)
+    return spied
+
+
+cpfg_ref.Deriver.successor = spy_successor(cpfg_ref.Deriver.successor)
+
+
 def derive(text, steps, files=(), args=None):
     """The reference's string, or None if it refuses the system. `files`:
     (name, text) written beside case.l; `args`: the --functions files (by
@@ -677,21 +730,24 @@ def main(argv):
     sixth = fifth + FUNC
     seventh = sixth + FORMALS
     eighth = seventh + ARRAYS
+    ninth = eighth + STRINGS
     # Each batch has a generator of its own, seeded where the batch starts
     # (once: a case the reference refuses is tried again from where the
     # generator stands). The first four batches were made when the seed was
     # set again at each try; their first tries are all kept, so that is the
     # same.
     seeds = {CASES: 13, CASES + EXTENDED: 14, third: 15, fourth: 16, fifth: 17, sixth: 18,
-             seventh: 19, eighth: 20}
-    while made < eighth + STRINGS:
+             seventh: 19, eighth: 20, ninth: 21}
+    while made < ninth + MULTI_SECTIONS:
         if made in seeds:
             r = random.Random(seeds.pop(made))
         tried += 1
         late = third <= made < fourth
         alt = fourth <= made < fifth
         files, args = [], None
-        if made >= eighth:
+        if made >= ninth:
+            text, steps = generate(r, True, False, False, False, multi_sections=True)
+        elif made >= eighth:
             text, steps = generate(r, True, False, False, False, strings=True)
         elif made >= seventh:
             text, steps = generate_arrays(r)
@@ -703,10 +759,14 @@ def main(argv):
             text, steps = generate(
                 r, CASES <= made < fourth, CASES + EXTENDED <= made < third, late, alt
             )
+        del SECTION_RUNS[:]
         out = derive(text, steps, files, args)
         # lsgen refuses a parameter a 32-bit float cannot hold (README), where
         # cpfg stores inf.
         if out is None or len(out) > MAX_OUTPUT or "inf" in out or "nan" in out:
+            continue
+        if made >= ninth and not SECTION_RUNS:
+            # (no predecessor of several modules of a section applied)
             continue
         if made >= seventh and "(" not in out:
             # (arrays, strings: a string without parameters shows too little)
