@@ -579,6 +579,17 @@ fn multi_module_predecessor_in_sections() {
     let taken = tail(seeded("PQ", "PQ"));
     assert_eq!(taken, tail(seeded("P", "P")));
     assert_ne!(taken, tail(seeded("PQ", "P")), "the check tells them apart");
+    // The homomorphism's runs between frames leave the steps' draws
+    // alone: each frame is what `-n` prints.
+    let src = "Lsystem: 1\nseed: 5\nAxiom: XXXXABXXXX\nX --> a : 1\nX --> b : 1\nX --> X : 1\n\
+               a --> X\nb --> X\nhomomorphism\nAB --> K\nXX --> Y\nendlsystem\n";
+    let mut cmd = lsgen();
+    cmd.args(["-", "--dialect", "cpfg", "--frames", "0..3"]);
+    let frames = run_with_stdin(&mut cmd, src.to_string()).ok();
+    let each: String = (0..4)
+        .map(|n| case(src, &n.to_string(), &[]).ok())
+        .collect();
+    assert_eq!(frames, each);
 }
 
 /// An expression past the token limit is a located error, not a stack
