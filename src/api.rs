@@ -292,10 +292,12 @@ impl LSystem {
     }
 
     /// [`from_reader`](LSystem::from_reader) with cpfg's functions for
-    /// `func(id, x)` in a `.l` text, read from `files` as lsgen's
-    /// `--functions` reads them: each a cpfg view file (its `function:`
-    /// and `function set:` lines), a function set or a `.func` file,
-    /// numbered in order (README, "Coming from cpfg: functions").
+    /// `func(id, x)` and curves for `curveX(id, t)` (`curveY`, `curveZ`,
+    /// `curveGAL`) in a `.l` text, read from `files` as lsgen's
+    /// `--functions` reads them: each a cpfg view file (its `function:`,
+    /// `function set:` and `curve:` lines), a function set, a `.func` or a
+    /// `.con` file; functions and curves each numbered in order (README,
+    /// "Coming from cpfg: functions", "... curves").
     pub fn from_reader_with_functions(
         reader: impl Read + 'static,
         name: &str,

@@ -143,11 +143,13 @@ pub struct Args {
     #[arg(long, value_name = "cpfg|ls", value_parser = parse_dialect)]
     pub dialect: Option<crate::cpfg::Dialect>,
 
-    /// cpfg's functions for `func(id, x)` in `.l` files: the model's view
-    /// file (its `function:` and `function set:` lines), a function set
-    /// (`.fset`) or a function file (`.func`); repeatable, the functions
-    /// numbered 1, 2, ... in order.
-    #[arg(long, value_name = "FILE")]
+    /// cpfg's functions and curves for `func(id, x)` and `curveX(id, t)`
+    /// (and `curveY`, `curveZ`, `curveGAL`) in `.l` files: the model's
+    /// view file (its `function:`, `function set:` and `curve:` lines), a
+    /// function set (`.fset`), a function file (`.func`) or a contour file
+    /// (`.con`); repeatable, the functions numbered 1, 2, ... in order, the
+    /// curves apart. `--curves` is the same option.
+    #[arg(long, visible_alias = "curves", value_name = "FILE")]
     pub functions: Vec<PathBuf>,
 
     /// For tests (hidden): force the derivation strategy. `auto` (default)

@@ -785,7 +785,7 @@ cases! {
     cpfg_refused_atan2 =>
         err(include_str!("cpfg/refused/atan2.l"), 5, 12, "`atan2` is reserved in cpfg");
     cpfg_refused_curve =>
-        err(include_str!("cpfg/refused/curve.l"), 5, 12, "`curveX` is not supported");
+        err(include_str!("cpfg/refused/curve.l"), 5, 12, "`curveX` needs the model's curves");
     cpfg_refused_duplicate_formal =>
         err(include_str!("cpfg/refused/duplicate_formal.l"), 5, 10, "formal parameter `x` is named twice");
     cpfg_refused_environment =>

@@ -16,6 +16,7 @@
 //! are object-like macros of the `.l` file's preprocessor, each its
 //! number, as cpfg defines them.
 
+use super::curve::{Coordinate, Curve, DEFAULT_SAMPLES};
 use crate::diag::{CodeMap, Error, FuncFault, FunctionFileError as E, IoAction, Location};
 use std::path::{Path, PathBuf};
 
@@ -43,10 +44,13 @@ pub struct Function {
     table: Vec<f64>,
 }
 
-/// The functions of a run, and the macros a function set defines.
+/// The functions of a run, and the macros a function set defines; and
+/// its curves (`curveX` and the like, `src/cpfg/curve.rs`), numbered apart
+/// as in cpfg.
 #[derive(Clone, Debug, Default)]
 pub struct Functions {
     items: Vec<Function>,
+    curves: Vec<Curve>,
     /// A set's function names (C identifiers) and their numbers.
     macros: Vec<(String, usize)>,
     /// Samples computed so far, also for functions a later `function
@@ -75,58 +79,10 @@ impl Function {
         Ok(f)
     }
 
-    /// cpfg's `Uk`: the knots, clamped at both ends.
-    #[inline]
-    fn knot(&self, j: i64) -> i64 {
-        let n = self.points.len() as i64 - 1;
-        if j < 4 {
-            0
-        } else if j > n {
-            n - 2
-        } else {
-            j - 3
-        }
-    }
-
-    /// cpfg's `N(k, t, u)`: the Cox–de Boor recursion, with its
-    /// half-open first-order test and its skipped zero divisions.
-    fn basis(&self, k: i64, t: i64, u: f64) -> f64 {
-        if t == 1 {
-            return if self.knot(k) as f64 <= u && u < self.knot(k + 1) as f64 {
-                1.0
-            } else {
-                0.0
-            };
-        }
-        let mut sum = 0.0;
-        let div = self.knot(k + t - 1) - self.knot(k);
-        if div != 0 {
-            sum = (u - self.knot(k) as f64) / div as f64 * self.basis(k, t - 1, u);
-        }
-        let div = self.knot(k + t) - self.knot(k + 1);
-        if div != 0 {
-            sum += (self.knot(k + t) as f64 - u) / div as f64 * self.basis(k + 1, t - 1, u);
-        }
-        sum
-    }
-
-    /// cpfg's `P(d)`: the curve point at parameter d in [0, 1]. cpfg sums
-    /// every control point times its basis function in order; only the
-    /// four around u are not 0, and adding the others' zeros to a sum
-    /// that starts at +0 changes nothing, so they are skipped.
+    /// cpfg's `P(d)`: the curve point at parameter d in [0, 1].
     fn point(&self, d: f64) -> [f64; 2] {
         let n = self.points.len() as i64 - 1;
-        let u = d * (n - 2) as f64;
-        let c = u.floor() as i64;
-        let (from, to) = ((c - 1).max(0), (c + 4).min(n));
-        let mut sum = [0.0, 0.0];
-        for k in from..=to {
-            let b = self.basis(k, 4, u);
-            let p = self.points[k as usize];
-            sum[0] += p[0] * b;
-            sum[1] += p[1] * b;
-        }
-        sum
+        clamped_sum(&self.points, d * (n - 2) as f64)
     }
 
     /// cpfg's search: bisect the parameter until the curve's x is within
@@ -174,6 +130,64 @@ impl Function {
     }
 }
 
+/// cpfg's `Uk` (`splinefun.cpp`; `Uk` of `curveXYZ.cpp` too): the knots of
+/// a cubic B-spline of `size` control points, clamped at both ends.
+#[inline]
+fn knot(size: i64, j: i64) -> i64 {
+    let n = size - 1;
+    if j < 4 {
+        0
+    } else if j > n {
+        n - 2
+    } else {
+        j - 3
+    }
+}
+
+/// cpfg's `N(k, t, u)` (`Nk1` to `Nk4` in `curveXYZ.cpp`): the Cox–de Boor
+/// recursion on [`knot`], with its half-open first-order test and its
+/// skipped zero divisions.
+pub(super) fn clamped_basis(size: i64, k: i64, t: i64, u: f64) -> f64 {
+    if t == 1 {
+        return if knot(size, k) as f64 <= u && u < knot(size, k + 1) as f64 {
+            1.0
+        } else {
+            0.0
+        };
+    }
+    let mut sum = 0.0;
+    let div = knot(size, k + t - 1) - knot(size, k);
+    if div != 0 {
+        sum = (u - knot(size, k) as f64) / div as f64 * clamped_basis(size, k, t - 1, u);
+    }
+    let div = knot(size, k + t) - knot(size, k + 1);
+    if div != 0 {
+        sum += (knot(size, k + t) as f64 - u) / div as f64 * clamped_basis(size, k + 1, t - 1, u);
+    }
+    sum
+}
+
+/// The point at knot parameter u of the clamped cubic B-spline of
+/// `points`, as cpfg sums it: every control point times its basis
+/// function, in order, from +0. Only the four around u are not 0, and
+/// adding the others' zeros to a sum that starts at +0 changes nothing, so
+/// they are skipped.
+pub(super) fn clamped_sum<const D: usize>(points: &[[f64; D]], u: f64) -> [f64; D] {
+    let size = points.len() as i64;
+    let n = size - 1;
+    let mut sum = [0.0; D];
+    let c = u.floor() as i64;
+    let (from, to) = ((c - 1).max(0), (c + 4).min(n));
+    for k in from..=to {
+        let b = clamped_basis(size, k, 4, u);
+        let p = points[k as usize];
+        for (s, v) in sum.iter_mut().zip(p) {
+            *s += v * b;
+        }
+    }
+    sum
+}
+
 impl Functions {
     /// No functions.
     pub fn none() -> Functions {
@@ -190,8 +204,40 @@ impl Functions {
         Ok(all)
     }
 
+    /// No function (`func` has none to read; curves aside).
     pub fn is_empty(&self) -> bool {
         self.items.is_empty()
+    }
+
+    /// No curve (`curveX` and the like have none to read).
+    pub fn no_curves(&self) -> bool {
+        self.curves.is_empty()
+    }
+
+    /// How many curves.
+    pub fn curves(&self) -> usize {
+        self.curves.len()
+    }
+
+    /// The curve `id` (as C's `(int)` makes it), or why there is none.
+    fn curve(&self, name: &'static str, id: f64) -> Result<(usize, &Curve), FuncFault> {
+        let count = self.curves.len();
+        let n = id.trunc();
+        if !(n >= 1.0 && n <= count as f64) {
+            return Err(FuncFault::NoSuchCurve { name, id: n, count });
+        }
+        Ok((n as usize, &self.curves[n as usize - 1]))
+    }
+
+    /// `curveX(id, t)`, `curveY(id, t)`, `curveZ(id, t)`.
+    pub fn curve_value(&self, which: Coordinate, id: f64, t: f64) -> Result<f64, FuncFault> {
+        let (i, c) = self.curve(which.name(), id)?;
+        c.at(t, which, i)
+    }
+
+    /// `curveGAL(id)`: the curve's length.
+    pub fn curve_length(&self, id: f64) -> Result<f64, FuncFault> {
+        Ok(self.curve("curveGAL", id)?.1.length())
     }
 
     pub fn len(&self) -> usize {
@@ -239,6 +285,48 @@ impl Functions {
         Ok(())
     }
 
+    /// Add `c`, within the limits (points and samples counted with the
+    /// functions').
+    fn push_curve(&mut self, c: Curve) -> Result<(), E> {
+        if self.curves.len() as u64 >= MAX_FUNCTIONS {
+            return Err(E::TooMany {
+                what: "curves",
+                limit: MAX_FUNCTIONS,
+            });
+        }
+        let (points, samples) = c.cost();
+        self.computed += samples;
+        let held: u64 = self
+            .items
+            .iter()
+            .map(|g| g.points.len() as u64)
+            .sum::<u64>()
+            + self.curves.iter().map(|c| c.cost().0).sum::<u64>();
+        if held + points > MAX_TOTAL || self.computed > MAX_TOTAL {
+            return Err(E::TooMany {
+                what: "control points or samples in all the functions and curves",
+                limit: MAX_TOTAL,
+            });
+        }
+        self.curves.push(c);
+        Ok(())
+    }
+
+    /// A contour file with `samples` samples (a view line's, checked here).
+    fn read_curve(&mut self, name: &str, text: &str, samples: i64) -> Result<(), Placed> {
+        if samples < 2 {
+            return Err(Placed::Here(E::CurveSamples));
+        }
+        if samples as u64 > MAX_SAMPLES {
+            return Err(Placed::Here(E::TooMany {
+                what: "samples",
+                limit: MAX_SAMPLES,
+            }));
+        }
+        let c = Curve::read(name, text, samples as usize).map_err(Placed::There)?;
+        self.push_curve(c).map_err(Placed::Here)
+    }
+
     fn read_any(&mut self, path: &Path) -> Result<(), Error> {
         let name = path.display().to_string();
         let text = read_text(path).map_err(|e| Error::io(name.clone(), IoAction::Read, e))?;
@@ -254,6 +342,10 @@ impl Functions {
             let mut r = Reader::new(&name, &text);
             let f = r.function(name.clone(), -1)?;
             self.push(f).map_err(|e| start.error(e))
+        } else if first.starts_with("version:") || name.ends_with(".con") {
+            // A contour file (cpfg reads it with `curve:` only).
+            self.read_curve(&name, &text, DEFAULT_SAMPLES)
+                .map_err(|e| e.at(|e| start.error(e)))
         } else if name.ends_with(".func") || name.ends_with(".fset") {
             // (A function file whose first line is wrong: a typo, an empty
             // line. cpfg would count it as one flat function; read as a
@@ -321,13 +413,18 @@ impl Functions {
                 continue;
             };
             let label: Vec<&str> = label.split_whitespace().collect();
-            let set = match label.as_slice() {
-                ["function"] => false,
-                ["function", "set"] => true,
+            let (set, curve) = match label.as_slice() {
+                ["function"] => (false, false),
+                ["function", "set"] => (true, false),
+                ["curve"] => (false, true),
                 _ => continue,
             };
             lines += 1;
-            let what = if set { "function set:" } else { "function:" };
+            let what = match (set, curve) {
+                (true, _) => "function set:",
+                (_, true) => "curve:",
+                _ => "function:",
+            };
             let mut words = rest.split_whitespace();
             let Some(file) = words.next() else {
                 // (At the colon: the rest of the line is empty.)
@@ -344,6 +441,16 @@ impl Functions {
                     source,
                 })
             })?;
+            if curve {
+                // `curve: FILE SAMPLES` (cpfg's fscanf; none: 100).
+                let samples = words
+                    .next()
+                    .and_then(leading_int)
+                    .unwrap_or(DEFAULT_SAMPLES);
+                self.read_curve(&fname, &body, samples)
+                    .map_err(|e| e.at(locate))?;
+                continue;
+            }
             if set {
                 self.items.truncate(first);
                 self.macros.truncate(first_macro);
@@ -365,6 +472,22 @@ impl Functions {
             self.push(f).map_err(locate)?;
         }
         Ok(lines)
+    }
+}
+
+/// An error of reading a curve: at the place that names the file (its
+/// view line, or the file's start), or already at its place in the file.
+enum Placed {
+    Here(E),
+    There(Error),
+}
+
+impl Placed {
+    fn at(self, locate: impl FnOnce(E) -> Error) -> Error {
+        match self {
+            Placed::Here(e) => locate(e),
+            Placed::There(e) => e,
+        }
     }
 }
 
@@ -421,14 +544,14 @@ fn coordinate(w: &str) -> Option<f64> {
 }
 
 /// A place in a function file, for its errors.
-struct Spot {
-    name: String,
-    text: String,
-    offset: usize,
+pub(super) struct Spot {
+    pub name: String,
+    pub text: String,
+    pub offset: usize,
 }
 
 impl Spot {
-    fn error(&self, e: E) -> Error {
+    pub(super) fn error(&self, e: E) -> Error {
         let map = CodeMap::new(&self.text);
         Error::at(Location::from_map(&self.name, &map, self.offset), e)
     }
@@ -765,6 +888,7 @@ mod tests {
         let all = Functions {
             items: vec![f(&[[0.0, 1.0], [0.3, 1.0], [0.6, 1.0], [1.0, 1.0]], 0)],
             macros: vec![],
+            curves: vec![],
             computed: 0,
         };
         assert!((all.value(1.9, 0.5).unwrap() - 1.0).abs() < 1e-12);

@@ -30,6 +30,7 @@
 
 pub mod ast;
 pub mod blocks;
+pub mod curve;
 pub mod func;
 pub mod lexer;
 pub mod lower;
@@ -156,7 +157,8 @@ pub fn load(
     let map = out.map;
     let text = out.text;
     let no_functions = functions.is_empty().then(|| view_beside(name));
-    let tree = parse::parse_with(&text, no_functions).map_err(|e| locate(&map, e))?;
+    let no_curves = functions.no_curves().then(|| view_beside(name));
+    let tree = parse::parse_with(&text, no_functions, no_curves).map_err(|e| locate(&map, e))?;
     axiom_brackets(&tree.axiom_brackets, &map)?;
     let lowered = lower::lower(&tree, &mut |span, warning| {
         if seed_option
@@ -171,7 +173,7 @@ pub fn load(
     })
     .map_err(|e| locate(&map, e))?;
     let mut run = lowered.run;
-    if !functions.is_empty() {
+    if !functions.is_empty() || !functions.no_curves() {
         run.functions = Some(functions.clone());
     }
     Ok(Loaded {

@@ -14,13 +14,12 @@ lalrpop_mod!(
     "/cpfg.rs"
 );
 
-/// cpfg functions that need cpfg's files, curves, view or animation.
+/// cpfg's curve functions (`src/cpfg/curve.rs`), which need curves.
+const CURVE_FUNCTIONS: &[&str] = &["curveX", "curveY", "curveZ", "curveGAL"];
+
+/// cpfg functions that need cpfg's files, view or animation.
 const UNSUPPORTED_FUNCTIONS: &[&str] = &[
     "play",
-    "curveX",
-    "curveY",
-    "curveZ",
-    "curveGAL",
     "vvXmin",
     "vvXmax",
     "vvYmin",
@@ -42,14 +41,16 @@ const UNSUPPORTED_FUNCTIONS: &[&str] = &[
 /// Parse the preprocessed text of a `.l` file, whose run has no function
 /// files: `func` is refused.
 pub fn parse(text: &str) -> Result<ast::Lsystem, UserError> {
-    parse_with(text, Some(None))
+    parse_with(text, Some(None), Some(None))
 }
 
 /// [`parse`]; `no_functions`: the run has no function files, and `func`
-/// is refused with this hint (a view file to give), else None.
+/// is refused with this hint (a view file to give), else None;
+/// `no_curves` likewise for the curve functions.
 pub fn parse_with(
     text: &str,
     no_functions: Option<Option<String>>,
+    no_curves: Option<Option<String>>,
 ) -> Result<ast::Lsystem, UserError> {
     // Tokens are checked for refused constructs as they stream into the
     // parser (one token of look-ahead; no token list is kept: memory is
@@ -60,6 +61,7 @@ pub fn parse_with(
         lsystems: 0,
         failed: false,
         no_functions,
+        no_curves,
         strings: Vec::new(),
     };
     let mut tree = grammar::FileParser::new()
@@ -98,6 +100,8 @@ struct Checked<'a> {
     failed: bool,
     /// `func` is refused with this hint (no function files).
     no_functions: Option<Option<String>>,
+    /// The curve functions are refused with this hint (no curves).
+    no_curves: Option<Option<String>>,
     /// Where each string literal starts, in order ([`ast::Lsystem::strings`]).
     strings: Vec<usize>,
 }
@@ -132,6 +136,15 @@ impl<'a> Iterator for Checked<'a> {
                 (l, r),
                 Syntax::Refused(Refused::FuncWithoutFunctions(hint.clone())),
             )));
+        }
+        if let (Tok::Name(n), Some(hint)) = (&t, &self.no_curves) {
+            if CURVE_FUNCTIONS.contains(n) {
+                self.failed = true;
+                return Some(Err(UserError::new(
+                    (l, r),
+                    Syntax::Refused(Refused::CurveWithoutCurves(n.to_string(), hint.clone())),
+                )));
+            }
         }
         if let Tok::Str(_) = t {
             self.strings.push(l);

@@ -28,6 +28,7 @@
 use crate::cpfg::func::Functions;
 use crate::cpfg::random::CpfgRandom;
 use crate::diag::FuncFault;
+use crate::rules::expr::CurveFn;
 use rand_chacha::rand_core::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::sync::Arc;
@@ -104,6 +105,11 @@ pub trait Draw {
     /// cpfg's `func(id, x)`: only a cpfg run with function files has it.
     fn func(&self, _id: f64, _x: f64) -> Result<f64, FuncFault> {
         Err(FuncFault::NoFunctions)
+    }
+    /// cpfg's `curveX(id, t)` and the like (`t`: 0 for `curveGAL(id)`):
+    /// only a cpfg run with curves has them.
+    fn curve(&self, f: CurveFn, _id: f64, _t: f64) -> Result<f64, FuncFault> {
+        Err(FuncFault::NoCurves(f.name()))
     }
 }
 
@@ -394,6 +400,14 @@ impl Draw for Random {
         match &self.functions {
             Some(f) => f.value(id, x),
             None => Err(FuncFault::NoFunctions),
+        }
+    }
+
+    fn curve(&self, f: CurveFn, id: f64, t: f64) -> Result<f64, FuncFault> {
+        match (&self.functions, f) {
+            (Some(c), CurveFn::Point(which)) => c.curve_value(which, id, t),
+            (Some(c), CurveFn::Length) => c.curve_length(id),
+            (None, _) => Err(FuncFault::NoCurves(f.name())),
         }
     }
 

@@ -47,6 +47,9 @@ pub enum Refused {
     /// `func` in a run without function files (`--functions`); the hint
     /// names a view file beside the `.l` file, if there is one.
     FuncWithoutFunctions(Option<String>),
+    /// `curveX` and the like (the name) in a run without curves (a view
+    /// file's `curve:` lines); the hint as for `func`.
+    CurveWithoutCurves(String, Option<String>),
 }
 
 impl fmt::Display for Refused {
@@ -103,6 +106,15 @@ impl fmt::Display for Refused {
                     Some(v) => write!(f, "give its view file with `--functions {v}`"),
                     None => f.write_str(
                         "give its view file (`function:` lines) or its `.func` files with `--functions FILE`",
+                    ),
+                }
+            }
+            CurveWithoutCurves(name, hint) => {
+                write!(f, "`{name}` needs the model's curves: ")?;
+                match hint {
+                    Some(v) => write!(f, "give its view file with `--functions {v}`"),
+                    None => f.write_str(
+                        "give its view file (`curve:` lines) or its `.con` files with `--functions FILE`",
                     ),
                 }
             }
@@ -463,8 +475,16 @@ pub enum FunctionFileError {
     /// The curve never comes within 0.001 of this x: cpfg's search for
     /// it never ends.
     NeverReaches(f64),
-    /// A view file's `function:` / `function set:` line without a file.
+    /// A view file's `function:` / `function set:` / `curve:` line without
+    /// a file.
     MissingFile(&'static str),
+    /// A curve needs 4 control points (cpfg's cubic splines), counting
+    /// multiplicities and a closed or phantom curve's extra points.
+    TooFewCurvePoints(u64),
+    /// What lsgen does not read in a contour file.
+    CurveUnsupported(&'static str),
+    /// A `curve:` line's SAMPLES below 2 (cpfg divides by SAMPLES - 1).
+    CurveSamples,
 }
 
 impl FunctionFileError {
@@ -513,6 +533,14 @@ impl fmt::Display for FunctionFileError {
                 "the curve never comes within 0.001 of x = {x}: cpfg would search for its value forever (its control points must cover x from 0 to 1)"
             ),
             MissingFile(what) => write!(f, "`{what}` needs a file name"),
+            TooFewCurvePoints(n) => write!(
+                f,
+                "a curve needs at least 4 control points (a cubic spline), not {n}"
+            ),
+            CurveUnsupported(what) => write!(f, "lsgen does not read {what} in a contour file"),
+            CurveSamples => f.write_str(
+                "a curve needs at least 2 samples (cpfg divides by SAMPLES - 1)",
+            ),
         }
     }
 }

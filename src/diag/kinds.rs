@@ -526,6 +526,24 @@ pub enum FuncFault {
     NotANumber,
     /// The curve of function `id` never comes within 0.001 of `x`.
     NeverReaches { id: usize, x: f64 },
+    /// `curveX` and the like (the name) without curves.
+    NoCurves(&'static str),
+    /// `id` (as C's `(int)` makes it) is not one of the curves 1 to
+    /// `count`.
+    NoSuchCurve {
+        name: &'static str,
+        id: f64,
+        count: usize,
+    },
+    /// `t` is NaN (cpfg's search gives a NaN parameter).
+    CurveNotANumber { name: &'static str },
+    /// Curve `id` has no arc-length parameter at `t`: its length is 0 (or
+    /// its last chord is, at t = 1), and cpfg divides 0 by 0.
+    CurveUndefined {
+        name: &'static str,
+        id: usize,
+        t: f64,
+    },
 }
 
 impl fmt::Display for FuncFault {
@@ -552,6 +570,27 @@ impl fmt::Display for FuncFault {
             FuncFault::NeverReaches { id, x } => write!(
                 f,
                 "func({id}, {x}): the curve never comes within 0.001 of x = {x}: cpfg would search for its value forever"
+            ),
+            FuncFault::NoCurves(name) => {
+                write!(f, "{name}() needs cpfg's curves (`--functions` with a view file's `curve:` lines)")
+            }
+            FuncFault::NoSuchCurve { name, id, count: 0 } => {
+                write!(f, "{name}({}, ...): no curve is defined", number_string(id + 0.0))
+            }
+            FuncFault::NoSuchCurve { name, id, count } => {
+                let id = number_string(id + 0.0);
+                write!(
+                    f,
+                    "{name}({id}, ...): there is no curve {id}; the view files define 1 to {count}"
+                )
+            }
+            FuncFault::CurveNotANumber { name } => write!(
+                f,
+                "{name}(id, t) with t not a number (cpfg's arc-length search is undefined)"
+            ),
+            FuncFault::CurveUndefined { name, id, t } => write!(
+                f,
+                "{name}({id}, {t}): curve {id} has no arc-length parameter there (its length, or its last chord's, is 0: cpfg divides 0 by 0)"
             ),
         }
     }

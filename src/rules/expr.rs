@@ -11,6 +11,7 @@
 //! cannot store (a module parameter past a 32-bit float) is an error.
 
 use super::Thin;
+use crate::cpfg::curve::Coordinate;
 use crate::derive::random::{Draw, Random};
 use crate::diag::ExprError;
 use crate::lang::ast::{BinOp, Expr, UnOp};
@@ -187,6 +188,11 @@ fn lookup_cpfg_function(name: &str, args: usize) -> Option<(Fun, usize)> {
         "srand" => (Fun::Cpfg(CpfgFun::Srand), 1),
         // cpfg's functions drawn in vlab (src/cpfg/func.rs).
         "func" => (Fun::Func, 2),
+        // cpfg's curves (src/cpfg/curve.rs).
+        "curveX" => (Fun::Curve(CurveFn::Point(Coordinate::X)), 2),
+        "curveY" => (Fun::Curve(CurveFn::Point(Coordinate::Y)), 2),
+        "curveZ" => (Fun::Curve(CurveFn::Point(Coordinate::Z)), 2),
+        "curveGAL" => (Fun::Curve(CurveFn::Length), 1),
         CPFG_F32 => (Fun::F1(Float32), 1),
         _ => return None,
     })
@@ -199,6 +205,25 @@ enum Fun {
     Nran,
     Cpfg(CpfgFun),
     Func,
+    Curve(CurveFn),
+}
+
+/// cpfg's curve functions, on the run's curves ([`Draw::curve`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CurveFn {
+    /// `curveX(id, t)` and the like (two operands).
+    Point(Coordinate),
+    /// `curveGAL(id)` (one).
+    Length,
+}
+
+impl CurveFn {
+    pub fn name(self) -> &'static str {
+        match self {
+            CurveFn::Point(c) => c.name(),
+            CurveFn::Length => "curveGAL",
+        }
+    }
 }
 
 /// cpfg's random functions (issue 12), on its function generator.
@@ -242,6 +267,9 @@ pub enum Op {
     /// cpfg's `func(id, x)` (two operands): the run's functions, read
     /// through the generator ([`Draw::func`]).
     Func(u32),
+    /// cpfg's curve functions: the run's curves, read through the
+    /// generator ([`Draw::curve`]).
+    Curve(CurveFn, u32),
     /// A cpfg array subscript for a dimension of this size: one past the
     /// last or below 0 becomes the nearest in range (with a warning, as
     /// in cpfg); NaN fails.
@@ -430,6 +458,7 @@ impl Code {
                 Op::DivOr1(si) => Op::DivOr1(at(si)),
                 Op::CpfgRan(f, si) => Op::CpfgRan(f, at(si)),
                 Op::Func(si) => Op::Func(at(si)),
+                Op::Curve(f, si) => Op::Curve(f, at(si)),
                 Op::Subscript(n, si) => Op::Subscript(n, at(si)),
                 Op::Element {
                     base,
@@ -715,6 +744,7 @@ impl Draft {
                     Fun::Nran => Op::Nran(si),
                     Fun::Cpfg(f) => Op::CpfgRan(f, si),
                     Fun::Func => Op::Func(si),
+                    Fun::Curve(f) => Op::Curve(f, si),
                 });
             }
             Expr::Unary(op, a, _) => {
@@ -944,6 +974,16 @@ impl Code {
                         .func(*id, x)
                         .map_err(|m| self.fail(si, ExprError::Func(m)))?;
                 }
+                Op::Curve(f, si) => {
+                    let t = match f {
+                        CurveFn::Point(_) => stack.pop().unwrap(),
+                        CurveFn::Length => 0.0,
+                    };
+                    let id = stack.last_mut().unwrap();
+                    *id = rng
+                        .curve(f, *id, t)
+                        .map_err(|m| self.fail(si, ExprError::Func(m)))?;
+                }
                 Op::Nran(si) => {
                     let sd = stack.pop().unwrap();
                     let mean = stack.last_mut().unwrap();
@@ -1074,6 +1114,7 @@ fn needs_input(o: &Op) -> bool {
             | Op::Nran(_)
             | Op::CpfgRan(..)
             | Op::Func(_)
+            | Op::Curve(..)
             | Op::Subscript(..)
             | Op::Element { .. }
             | Op::Step
