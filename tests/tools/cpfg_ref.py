@@ -29,7 +29,7 @@ statements, deterministic and stochastic choice, cpfg context matching,
 the cut symbol %, drand48 seeded as interactive cpfg seeds it, the
 ran/nran/bran/biran/srand generator, and func(id, x) (splinefun.cpp,
 splinearr.cpp, interpret.c's `function:` and `function set:`, generate.c's
-PreprocessLsystem).
+PreprocessLsystem), and curveX/curveY/curveZ/curveGAL.
 
 func: each --functions FILE (repeatable, in order) is, by its first line, a
 function set (`funcgalleryver 1 1`), one function (`fver 1 1` or
@@ -46,6 +46,29 @@ linear interpolation.  Samples: the file's `samples:`, the view line's
 SAMPLES for the old format (-1 without, or given directly; 100 in a
 function set).  Refused: fewer than 4 points, a bisection that never ends
 (cpfg hangs), func of NaN, an id out of range (cpfg warns and gives 0).
+
+Curves (curveXYZ.cpp, curveXYZc.cpp; interpret.c's `curve: FILE
+[SAMPLES]`, 100 samples without a number; a contour file given directly
+with --functions, by its `version:` first line or `.con` name, has 100):
+a table apart from the functions, numbered from 1 in the order met.  The
+contour file is read line by line as openCurve/readCurve do: labels
+(`version:`, `contact:`, `end:`, `heading:`, `up:`, `size:`, `points:`,
+`range:`, `dim:`/`dimension:`, `type:`, `//`) by prefix, their numbers
+checked with sscanf's rules; other lines longer than 2 characters and
+without `:` are points of `dimension` words (2: x y, 3: x y z, 4: x y z
+multiplicity; atof), points that `points: N` promises but the file lacks
+are the origin.  The kinds (calcPValue): `bspline` (any unknown word too:
+uniform knots 0, 1, 2, ...), `bspline-closed` (three more points),
+`bspline-phantom` (mirrored end points), `bspline-endpoint` (clamped
+knots), `bezier`.  createAPoints samples the curve at i/(SAMPLES-1), sums
+the chords (curveGAL) and divides the partial sums by the total;
+curveX/Y/Z(id, t) clamp t to [0, 1], find the chord by bisection on the
+index and interpolate the parameter (calcAValue).  Refused: a line
+without its newline or past cpfg's 255 bytes, a point before `points:`
+or past N, a nested `points:`, `dimension:`/`type:` before `points:`, a
+dimension other than 2-4, a negative multiplicity, `bezier-surface`,
+fewer than 4 points, SAMPLES below 2, an id out of range, a NaN t, and
+0 / 0 in the interpolation (a curve of length 0).
 
 Arrays (lsys_input.y's Defines, ArrayDef, LHS and Name with ArrayRefs;
 generate.c's AllocateArray, InitializeArray, ProcessArrayDef, the
@@ -69,7 +92,7 @@ array named Q or Z hides the global (cpfg's tables).
 Refused with an error (a string rewriter cannot do them, or the reference
 does not model them): ?P ?H ?L ?U ?E and any ? module, sub-L-systems
 (?(id,s), $, several Lsystem: blocks), `external` in define:, @S,
-curve*/vv*/play/stop/fopen/fscanf/..., ring L-systems, -o> object
+vv*/play/stop/fopen/fscanf/..., ring L-systems, -o> object
 productions, % with parameters, & addresses.
 """
 
@@ -727,9 +750,10 @@ FUNCTIONS = {
     "atan2": None, "ran": 1, "nran": 2, "bran": 2, "biran": 2, "srand": 1,
     "exp": 1, "log": 1, "floor": 1, "ceil": 1, "trunc": 1, "fabs": 1,
     "sign": 1, "sqrt": 1, "printf": None, "fprintf": None, "func": 2,
+    "curveX": 2, "curveY": 2, "curveZ": 2, "curveGAL": 1,
 }
 UNSUPPORTED_FUNCTIONS = {
-    "play", "curveX", "curveY", "curveZ", "curveGAL", "vvXmin",
+    "play", "vvXmin",
     "vvXmax", "vvYmin", "vvYmax", "vvZmin", "vvZmax", "vvScale", "Display",
     "SetDerivationLength", "GetDerivationLength", "stop", "fopen", "fclose",
     "fflush", "fscanf", "inblob", "external", "array",
@@ -1808,6 +1832,7 @@ class FunctionSet:
     def __init__(self):
         self.functions = []
         self.macros = {}
+        self.curves = []
 
     def add_file(self, path, samples=-1):
         try:
@@ -1820,6 +1845,9 @@ class FunctionSet:
         first = text.split("\n", 1)[0]
         if re.match(r"funcgalleryver\b", first):
             self.add_gallery(src)
+        elif first.startswith("version:") or path.endswith(".con"):
+            # a contour file given directly: 100 samples, as `curve: FILE`
+            self.curves.append(read_contour(text, path, 100))
         elif re.match(r"fver\b", first) or re.match(r"range:", first):
             self.functions.append(read_function(src, samples))
         else:
@@ -1869,13 +1897,24 @@ class FunctionSet:
                 continue
             label, rest = line.split(":", 1)
             label = " ".join(label.split())
-            if label not in ("function", "function set"):
+            if label not in ("function", "function set", "curve"):
                 continue
             where = (path, i + 1)
             args = rest.split()
             if not args:
                 raise CpfgError("`%s:` needs a file" % label, where)
             target = os.path.join(base, args[0])
+            if label == "curve":
+                # fscanf " %s %d": without a number, 100 samples; a table
+                # apart from the functions (CurveXYZArray)
+                v = scan_int(args[1]) if len(args) > 1 else None
+                try:
+                    with open(target, encoding="utf-8") as f:
+                        body = f.read()
+                except OSError as e:
+                    raise CpfgError("cannot read %s: %s" % (target, e.strerror), where)
+                self.curves.append(read_contour(body, target, 100 if v is None else v))
+                continue
             if label == "function set":
                 del self.functions[first:]
                 self.macros = dict(before)
@@ -1903,6 +1942,262 @@ class FunctionSet:
 
 
 # ---------------------------------------------------------------------------
+# cpfg's curves: curveX/Y/Z(id, t) and curveGAL(id) (curveXYZ.cpp's
+# CCurveXYZ, curveXYZc.cpp's CurveCXS/CurveCYS/CurveCZS/CurveGAL, the view
+# file's `curve: FILE [SAMPLES]` in interpret.c, a table of their own)
+# ---------------------------------------------------------------------------
+
+C_SPACE = " \t\n\v\f\r"
+STRTOD_RE = re.compile(r"[+-]?(?:infinity|inf|nan|(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)",
+                       re.IGNORECASE)
+SCANF_INT_RE = re.compile(r"[ \t\n\v\f\r]*([+-]?)(0[xX][0-9a-fA-F]+|0[0-7]*|[1-9][0-9]*)")
+CONTOUR_LABELS = ["//", "version:", "contact:", "end:", "heading:", "up:", "size:",
+                  "points:", "range:", "dim:", "dimension:", "type:"]
+
+
+def c_atof(word, where):
+    """atof: the number at the start of the word, 0 without one; the
+    reference refuses hexadecimal (strtod reads it, lsgen does not) and a
+    value that is not finite."""
+    if re.match(r"[+-]?0[xX]", word):
+        raise CpfgError("a hexadecimal number in a contour file", where)
+    m = STRTOD_RE.match(word)
+    v = float(m.group(0)) if m else 0.0
+    if math.isinf(v) or math.isnan(v):
+        raise CpfgError("%s is not a finite number" % word, where)
+    return v
+
+
+def scanf_floats(s, n):
+    """Does sscanf(" %f" * n) match n numbers at the start of s?"""
+    pos = 0
+    for _ in range(n):
+        while pos < len(s) and s[pos] in C_SPACE:
+            pos += 1
+        m = STRTOD_RE.match(s, pos)
+        if not m:
+            return False
+        pos = m.end()
+    return True
+
+
+def scanf_int(s):
+    """sscanf's %i: decimal, 0x hexadecimal, 0 octal; None if no match."""
+    m = SCANF_INT_RE.match(s)
+    if not m:
+        return None
+    digits = m.group(2)
+    if digits[:2] in ("0x", "0X"):
+        v = int(digits[2:], 16)
+    elif digits.startswith("0"):
+        v = int(digits, 8)
+    else:
+        v = int(digits)
+    return -v if m.group(1) == "-" else v
+
+
+class Curve:
+    """One curve as CCurveXYZ holds it after its constructor: `_ppoint`
+    (createPPoints) and the arc-length table `_apoint` (createAPoints)."""
+
+    def __init__(self, kind, control, samples, where):
+        # createPPoints: each point its multiplicity times; bspline-closed
+        # adds the first three again, bspline-phantom a point at each end.
+        count = sum(m for _, m in control)
+        extra, offset = {"closed": (3, 0), "phantom": (2, 1)}.get(kind, (0, 0))
+        size = count + extra
+        if size < 4:
+            # (cpfg's calcPValue gives (0, 0, 0) for fewer than 4)
+            raise CpfgError("a curve needs at least 4 points (it has %d)" % size, where)
+        pp = [(0.0, 0.0, 0.0)] * size
+        p = 0
+        for point, mult in control:
+            for _ in range(mult):
+                pp[p + offset] = point
+                p += 1
+        if kind == "closed":
+            for i in range(3):
+                pp[size - 3 + i - offset] = pp[i]
+        if kind == "phantom":
+            pp[0] = tuple(2 * pp[1][c] - pp[2][c] for c in range(3))
+            pp[size - 1] = tuple(2 * pp[size - 2][c] - pp[size - 3][c] for c in range(3))
+        self.kind = kind
+        self.pp = pp
+        self.where = where
+        # createAPoints
+        self.asize = samples
+        self.apoint = []
+        self.alength = 0.0
+        prev = None
+        for i in range(samples):
+            t = i / float(samples - 1)
+            pt = self.p_value(t)
+            if i > 0:
+                dx = pt[0] - prev[0]
+                dy = pt[1] - prev[1]
+                dz = pt[2] - prev[2]
+                self.alength += math.sqrt(dx * dx + dy * dy + dz * dz)
+            self.apoint.append(self.alength)
+            prev = pt
+        self.apoint = [l / self.alength if self.alength != 0 else float("nan")
+                       for l in self.apoint]
+
+    @staticmethod
+    def b_uniform(order, i, t):
+        """Bi1 .. Bi4: knots ti(i) = i."""
+        if order == 1:
+            return 1.0 if float(i) <= t < float(i + 1) else 0.0
+        return ((t - float(i)) / (float(i + order - 1) - float(i)) * Curve.b_uniform(order - 1, i, t)
+                + (float(i + order) - t) / (float(i + order) - float(i + 1))
+                * Curve.b_uniform(order - 1, i + 1, t))
+
+    @staticmethod
+    def n_clamped(order, k, u, psize):
+        """Nk1 .. Nk4 on uk(k): 0 below 4, psize - 3 past psize - 1."""
+        def uk(j):
+            if j < 4:
+                return 0.0
+            if j > psize - 1:
+                return float(psize) - 3.0
+            return float(j) - 3.0
+        if order == 1:
+            return 1.0 if uk(k) <= u < uk(k + 1) else 0.0
+        result = 0.0
+        if uk(k + order - 1) - uk(k) != 0.0:
+            result += (u - uk(k)) / (uk(k + order - 1) - uk(k)) * Curve.n_clamped(order - 1, k, u, psize)
+        if uk(k + order) - uk(k + 1) != 0.0:
+            result += ((uk(k + order) - u) / (uk(k + order) - uk(k + 1))
+                       * Curve.n_clamped(order - 1, k + 1, u, psize))
+        return result
+
+    def p_value(self, t):
+        """calcPValue(0, t, 0, 0)."""
+        pp = self.pp
+        n = len(pp)
+        if self.kind == "bezier":
+            segs = 1 + (n - 4) // 3
+            c = int(t / (1.000001 / float(segs)))
+            i = c * 3
+            t = (t - float(c) * (1.0 / float(segs))) * float(segs) / 1.000001
+            b = [Curve.n_clamped(4, k, t, 4) for k in range(4)]
+            return tuple(pp[i][d] * b[0] + pp[i + 1][d] * b[1] + pp[i + 2][d] * b[2]
+                         + pp[i + 3][d] * b[3] for d in range(3))
+        if self.kind == "endpoint":
+            u = t * (float(n) - 3.000001)
+            h = [0.0, 0.0, 0.0]
+            for i in range(n):
+                b = Curve.n_clamped(4, i, u, n)
+                for d in range(3):
+                    h[d] += pp[i][d] * b
+            return tuple(h)
+        i = 3 + int(t * (n - 3.000001))
+        u = 3.0 + t * (float(n) - 3.000001)
+        b = [Curve.b_uniform(4, i - 3 + j, u) for j in range(4)]
+        return tuple(pp[i - 3][d] * b[0] + pp[i - 2][d] * b[1] + pp[i - 1][d] * b[2]
+                     + pp[i][d] * b[3] for d in range(3))
+
+    def value(self, cid, t, coord, where):
+        """CurveCXS and the like: t clamped, then calcAValue."""
+        if t < 0:
+            t = 0.0
+        if t > 1:
+            t = 1.0
+        if math.isnan(t):
+            raise CpfgError("curve%s(%d, NaN) (cpfg's search is undefined)" % ("XYZ"[coord], cid),
+                            where)
+        lo, hi = 0, self.asize - 1
+        while hi - lo > 1:
+            med = (lo + hi) // 2
+            if self.apoint[med] > t:
+                hi = med
+            else:
+                lo = med
+        num = t - self.apoint[lo]
+        den = self.apoint[hi] - self.apoint[lo]
+        if den == 0 or math.isnan(den) or math.isnan(num):
+            raise CpfgError("curve %d has no arc-length parameter at %r (0 / 0 in cpfg)"
+                            % (cid, t), where)
+        u = (lo + num / den) / float(self.asize - 1)
+        return self.p_value(u)[coord]
+
+
+def read_contour(text, fname, samples):
+    """CCurveXYZ's openCurve and readCurve: lines (each must end with a
+    newline: cpfg reads on to one), labels by prefix in cpfg's order, point
+    lines of `dimension` words (atof), all after one `points: N`."""
+    if not 2 <= samples <= 65536:
+        raise CpfgError("a curve's samples must be 2 to 65536 (%d)" % samples, (fname, 1))
+    if text and not text.endswith("\n"):
+        raise CpfgError("the last line has no newline (cpfg reads past its buffer)",
+                        (fname, text.count("\n") + 1))
+    kind = "bspline"
+    declared = None
+    dim = 2
+    control = []
+    for no, line in enumerate(text.split("\n")[:-1], 1):
+        where = (fname, no)
+        if len(line.encode("utf-8")) > 255:
+            raise CpfgError("a line longer than cpfg's buffer", where)
+        label = next((l for l in CONTOUR_LABELS if line.startswith(l)), None)
+        rest = line[len(label):] if label else ""
+        nums = {"contact:": 3, "end:": 3, "heading:": 3, "up:": 3, "size:": 1, "range:": 2}
+        if label == "//":
+            continue
+        if label == "version:":
+            if not rest.strip(C_SPACE):
+                raise CpfgError("expected `version: V`", where)
+        elif label in nums:
+            if not scanf_floats(rest, nums[label]):
+                raise CpfgError("expected %d numbers after %s" % (nums[label], label), where)
+        elif label == "points:":
+            v = scanf_int(rest)
+            if v is None:
+                raise CpfgError("expected `points: N`", where)
+            if declared is not None:
+                raise CpfgError("a nested curve (a second points:) is not read", where)
+            if v < 0 or v > 65536:
+                raise CpfgError("points: %d" % v, where)
+            declared = v
+            dim = 2
+        elif label in ("dim:", "dimension:"):
+            v = scanf_int(rest)
+            if v is None or declared is None or v not in (2, 3, 4):
+                raise CpfgError("bad or early dimension", where)
+            dim = v
+        elif label == "type:":
+            words = rest.split()
+            if not words or declared is None:
+                raise CpfgError("bad or early type", where)
+            if words[0] == "bezier-surface":
+                raise CpfgError("bezier-surface curves are not read", where)
+            kind = {"bezier": "bezier", "bspline-phantom": "phantom",
+                    "bspline-endpoint": "endpoint", "bspline-closed": "closed"}.get(words[0], "bspline")
+        elif len(line.encode("utf-8")) > 2 and ":" not in line:
+            # sscanf("%s %s %s %s") must match `dim` words
+            words = [w for w in re.split("[" + C_SPACE + "]", line) if w]
+            if declared is None:
+                raise CpfgError("a point before points:", where)
+            if min(len(words), 4) != dim:
+                raise CpfgError("a point of %d words, dimension %d" % (len(words), dim), where)
+            if len(control) >= declared:
+                raise CpfgError("more points than points: says", where)
+            v = [c_atof(w, where) for w in words[:dim]]
+            mult = 1
+            if dim == 4:
+                m = math.trunc(v[3])
+                if m < 0:
+                    raise CpfgError("a negative multiplicity", where)
+                mult = m
+            if sum(m for _, m in control) + mult > 65536:
+                raise CpfgError("too many points", where)
+            control.append(((v[0], v[1], v[2] if dim > 2 else 0.0), mult))
+    # CCPoint's defaults for points promised but missing: the origin, once
+    while declared is not None and len(control) < declared:
+        control.append(((0.0, 0.0, 0.0), 1))
+    return Curve(kind, control, samples, (fname, 1))
+
+
+# ---------------------------------------------------------------------------
 # Runtime: expressions, statements, derivation
 # ---------------------------------------------------------------------------
 
@@ -1921,6 +2216,7 @@ class Runtime:
         self.z_cell = Cell("Z")
         self.rng = None
         self.functions = []  # SplineFunction, func's id 1 first
+        self.curves = []  # Curve, curveX's id 1 first
 
     def eval(self, e):
         k = e[0]
@@ -2072,6 +2368,17 @@ class Runtime:
                 if err.where is None:
                     err.where = e[3]
                 raise
+        if name in ("curveX", "curveY", "curveZ", "curveGAL"):
+            # generate.c: id = (int) of the first value; curveXYZc.cpp warns
+            # and gives 0 for an id out of range (an error here, as in lsgen)
+            cid = c_int(v[0])
+            if not 1 <= cid <= len(self.curves):
+                raise CpfgError("%s(%d, ...): there are %d curves" % (name, cid, len(self.curves)),
+                                e[3])
+            c = self.curves[cid - 1]
+            if name == "curveGAL":
+                return c.alength
+            return c.value(cid, v[1], "XYZ".index(name[-1]), e[3])
         if name == "srand":
             # (long int) in generate.c's Eval
             if math.isnan(v[0]) or math.isinf(v[0]):
@@ -2490,6 +2797,7 @@ def load(path, functions=()):
     lines = pp.run(path)
     rt = Runtime()
     rt.functions = fs.functions
+    rt.curves = fs.curves
     # ran() & co. may run while the file is read (array initializers,
     # settings): main_xsubi is not reset after that; drand48 is seeded
     # after reading (control.c)
@@ -2559,6 +2867,7 @@ def self_test():
         check(text, rt.eval(p.expression()), want)
     ok = self_test_functions() and ok
     ok = self_test_arrays() and ok
+    ok = self_test_curves() and ok
     print("self-test %s" % ("passed" if ok else "FAILED"))
     return 0 if ok else 1
 
@@ -2719,6 +3028,93 @@ def self_test_functions():
             check("func id out of range", False, "not refused")
         except CpfgError as e:
             check("func id located", e.where is not None)
+    return ok
+
+
+def self_test_curves():
+    """curves: lengths and points known by hand, and the clamped kind
+    against func's spline (de Boor's algorithm on the same knots)."""
+    import random
+    import tempfile
+
+    ok = True
+
+    def check(what, good, detail=""):
+        nonlocal ok
+        if not good:
+            ok = False
+            print("FAIL curves: %s %s" % (what, detail))
+
+    # 1. Control points k (3, 4), k = 0..3, uniform B-spline: the curve is
+    #    (u - 2)(3, 4) for u from 3 to 4 - 1e-6: a segment of length
+    #    5 (1 - 1e-6), at constant speed, so curveX(t) = 3 (1 + t (1 - 1e-6)).
+    c = read_contour("points: 4\n0 0\n3 4\n6 8\n9 12\n", "line.con", 100)
+    check("line length", abs(c.alength - 4.999995) < 1e-12, c.alength)
+    for t in (0.0, 0.25, 0.5, 0.9, 1.0, -1.0, 3.0):
+        tc = min(max(t, 0.0), 1.0)
+        s = 1 + tc * (1 - 1e-6)
+        x = c.value(1, t, 0, None)
+        y = c.value(1, t, 1, None)
+        check("line at %r" % t, abs(x - 3 * s) < 1e-12 and abs(y - 4 * s) < 1e-12, (x, y))
+    # 2. the same with end points 3 times (as vlab's editor writes them,
+    #    dimension 4): from (0, 0) to (3, 4); 100 chords of a straight
+    #    line are its length, 5.
+    c = read_contour("points: 2\ndimension: 4\n0 0 0 3\n3 4 0 3\n", "end.con", 100)
+    check("ends length", abs(c.alength - 5.0) < 1e-5, c.alength)
+    check("ends start", max(abs(v) for v in c.p_value(0.0)) < 1e-12, c.p_value(0.0))
+    # 3. the closed uniform B-spline of the square (1,1) (-1,1) (-1,-1)
+    #    (1,-1): it starts at (P0 + 4 P1 + P2) / 6 = (-2/3, 2/3), and half
+    #    its length on it is the opposite point (to the chords' accuracy)
+    c = read_contour("points: 4\ntype: bspline-closed\n1 1\n-1 1\n-1 -1\n1 -1\n", "sq.con", 101)
+    p0 = c.p_value(0.0)
+    check("closed start", abs(p0[0] + 2 / 3) < 1e-12 and abs(p0[1] - 2 / 3) < 1e-12, p0)
+    check("closed half", abs(c.value(1, 0.5, 0, None) + c.value(1, 0.0, 0, None)) < 1e-3)
+    # 4. bspline-endpoint is func's clamped spline: the same point at
+    #    u = t (n - 3.000001), by de Boor's algorithm there
+    r = random.Random(3)
+    for n in (4, 5, 7, 9):
+        pts = [(r.uniform(-1, 1), r.uniform(-1, 1)) for _ in range(n)]
+        text = "points: %d\ntype: bspline-endpoint\n%s\n" % (
+            n, "\n".join("%r %r" % p for p in pts))
+        c = read_contour(text, "e.con", 10)
+        f = SplineFunction(pts, 0)
+        for t in (0.0, 0.1, 0.37, 0.5, 0.99, 1.0):
+            d = t * (n - 3.000001) / (n - 3)
+            a = c.p_value(t)
+            b = f.point_de_boor(d)
+            check("endpoint n=%d t=%r" % (n, t),
+                  abs(a[0] - b[0]) < 1e-12 and abs(a[1] - b[1]) < 1e-12, (a, b))
+    # 5. one Bezier segment: Bernstein polynomials at t / 1.000001
+    pts = [(0, 0), (1, 2), (3, 3), (4, 0)]
+    c = read_contour("points: 4\ntype: bezier\n%s\n" % "\n".join("%d %d" % p for p in pts),
+                     "b.con", 10)
+    for t in (0.0, 0.3, 0.5, 1.0):
+        s = t / 1.000001
+        w = [(1 - s) ** 3, 3 * s * (1 - s) ** 2, 3 * s * s * (1 - s), s ** 3]
+        want = [sum(w[k] * pts[k][d] for k in range(4)) for d in range(2)]
+        got = c.p_value(t)
+        check("bezier %r" % t, abs(got[0] - want[0]) < 1e-12 and abs(got[1] - want[1]) < 1e-12,
+              (got, want))
+    # 6. a view file: functions and curves numbered apart; errors located
+    with tempfile.TemporaryDirectory() as d:
+        with open(os.path.join(d, "a.con"), "w") as f:
+            f.write("points: 4\n0 0\n3 4\n6 8\n9 12\n")
+        with open(os.path.join(d, "f.func"), "w") as f:
+            f.write("range: 0 1\npoints: 4\n0 0\n0.3 0.3\n0.6 0.6\n1 1\n")
+        with open(os.path.join(d, "m.v"), "w") as f:
+            f.write("function: f.func\ncurve: a.con 11\ncurve: a.con\n")
+        fs = FunctionSet()
+        fs.add_file(os.path.join(d, "m.v"))
+        check("numbering", (len(fs.functions), len(fs.curves)) == (1, 2))
+        check("samples", (fs.curves[0].asize, fs.curves[1].asize) == (11, 100))
+        for text, line in [("points: 4\n0 0\n1 1", 3), ("0 0\npoints: 4\n", 1),
+                           ("points: 4\ndimension: 4\n0 0 0 -2\n", 3),
+                           ("points: 1\n0 0\n1 1\n", 3), ("points: 3\n0 0\n1 1\n2 2\n", 1)]:
+            try:
+                read_contour(text, "bad.con", 100)
+                check("refused %r" % text, False)
+            except CpfgError as e:
+                check("located %r" % text, e.where == ("bad.con", line), e.where)
     return ok
 
 
