@@ -1,4 +1,4 @@
-//! The differential test of the cpfg dialect: 870 random `.l` systems
+//! The differential test of the cpfg dialect: 930 random `.l` systems
 //! (every feature of the dialect mixed, see tests/tools/gen_cpfg_cases.py;
 //! cases 301-400 also assign `Q` and `Z` in blocks and try productions at
 //! the decomposition's and the homomorphism's depth limit, and 401-500
@@ -14,7 +14,10 @@
 //! and fractional ones, and 781-810 have string literals among their
 //! parameters, which are their numbers among the file's strings, and
 //! 811-870 have predecessors of several modules in the decomposition and
-//! the homomorphism, with contexts, conditions and blocks, seeded or not),
+//! the homomorphism, with contexts, conditions and blocks, seeded or not, and
+//! 871-930 call `curveX`, `curveY`, `curveZ` and `curveGAL` with contour
+//! files of their own (and often functions), given by a view file's
+//! `curve:` lines or directly with `--functions` or `--curves`),
 //! derived by the independent reference tests/tools/cpfg_ref.py; lsgen must
 //! print the same string for each. Every other case runs with
 //! `LSGEN_TEST_SPLIT=1`: splits in tasks of one module or byte where a
@@ -85,9 +88,13 @@ fn random_cases_match_cpfg_ref() {
         cmd.args(["-n", n.trim()]);
         let mut words = args.iter();
         while let Some(w) = words.next() {
-            assert_eq!(w, "--functions", "case {cases}: bad `--- args` line");
+            // (`--curves` is another name of `--functions`)
+            assert!(
+                w == "--functions" || w == "--curves",
+                "case {cases}: bad `--- args` line"
+            );
             let f = words.next().expect("--functions needs a file");
-            cmd.arg("--functions").arg(case_dir.join(f));
+            cmd.arg(w).arg(case_dir.join(f));
         }
         let r = run(cmd.arg(&file));
         let got = String::from_utf8_lossy(&r.stdout);
@@ -101,7 +108,7 @@ fn random_cases_match_cpfg_ref() {
         }
         cases += 1;
     }
-    assert_eq!(cases, 870);
+    assert_eq!(cases, 930);
     assert!(
         failures.is_empty(),
         "{} of {cases} cases differ from cpfg_ref.py:\n{}",

@@ -49,7 +49,13 @@ the later ones, conditions on them, contexts) in the decomposition and the
 homomorphism, which cpfg matches there too (`PredDiff`), at maximum depths
 from 0 to 3, seeded or not (a section's weights are ignored: cpfg chooses
 the first applicable production there); only cases where such a
-predecessor applied at least once are kept.
+predecessor applied at least once are kept. An eleventh
+(`generate_curves`) calls `curveX`, `curveY`, `curveZ` and `curveGAL`
+with 1-3 contour files of its own (every kind cpfg evaluates, dimensions
+2-4, multiplicities, optional header lines, missing points) and often
+functions too, in a view file (`curve:` lines with or without samples,
+mixed with `function:` lines) or passed directly (`--functions` or
+`--curves`), with t inside and outside [0, 1] and calls nested in `func`.
 
 Usage (from anywhere):
     python3 tests/tools/gen_cpfg_cases.py          # write the file
@@ -58,7 +64,7 @@ Usage (from anywhere):
 File format: for each case, a line `=== STEPS`, the `.l` text, then (sixth
 batch) zero or more file sections, a line `--- file NAME` and the file's
 text (each ends with a newline), then optionally a line `--- args
---functions A --functions B ...`, then a line `--- expected` and the output
+--functions A --functions B ...` (`--curves A` too: the same option), then a line `--- expected` and the output
 line. The files go beside case.l (in the case's own directory). The
 `--functions` arguments to pass, in order and relative to that directory:
 those of the `--- args` line if there is one, else `case.v` if the case
@@ -103,6 +109,9 @@ ARRAYS = 60
 STRINGS = 30
 # The tenth (`extended` and `multi_sections`), after the ninth.
 MULTI_SECTIONS = 60
+# The eleventh (`generate_curves`: curveX/Y/Z and curveGAL with contour
+# files of their own), after the tenth.
+CURVES = 60
 MAX_OUTPUT = 2000
 
 SYMS = "ABCD"
@@ -694,6 +703,178 @@ def spy_successor(successor):
 cpfg_ref.Deriver.successor = spy_successor(cpfg_ref.Deriver.successor)
 
 
+CURVE_KINDS = ["bspline", "bspline", "bspline-closed", "bspline-phantom", "bspline-endpoint",
+               "bezier", "spline"]
+
+
+def contour_file(r):
+    """A contour file's text (vlab's `version: 1.4` format): header lines
+    in any number, `points: N`, then `range:`, `dimension:` and `type:` in
+    some order, N points (x y [z [multiplicity]]), sometimes fewer (cpfg
+    fills in the origin)."""
+    head = []
+    if r.random() < 0.8:
+        head.append("version: 1.4")
+    for label, n in [("contact:", 3), ("end:", 3), ("heading:", 3), ("up:", 3), ("size:", 1)]:
+        if r.random() < 0.6:
+            head.append(label + "".join(" %s" % r.choice(["0", "1", "-1", "0.5"]) for _ in range(n)))
+    if r.random() < 0.15:
+        head.append("// a comment: ignored")
+    kind = r.choice(CURVE_KINDS)
+    dim = r.choice([2, 3, 4, 4, None])
+    npts = r.randint(4, 8) if dim != 4 else r.randint(2, 7)
+    after = []
+    if r.random() < 0.7:
+        after.append("range: 0.0 1.0")
+    if dim is not None:
+        after.append("dimension: %d" % dim)
+    if kind != "bspline" or r.random() < 0.7:
+        after.append("type: %s" % kind)
+    r.shuffle(after)
+    pts = []
+    total = 0
+    for i in range(npts):
+        x = round(r.uniform(-1, 1), 6)
+        y = round(r.uniform(-1, 1), 6)
+        words = ["%.6f" % x, "%.6f" % y if r.random() < 0.8 else repr(y)]
+        if (dim or 2) >= 3:
+            words.append(r.choice(["0", "0.000000", "%.6f" % r.uniform(-1, 1)]))
+        if dim == 4:
+            m = r.choice([1, 1, 1, 2, 3]) if 0 < i < npts - 1 else r.choice([1, 3, 3])
+            if r.random() < 0.05:
+                m = 0
+            words.append(str(m))
+            total += m
+        else:
+            total += 1
+        pts.append(r.choice([" ", " ", "\t"]).join(words))
+    declared = npts
+    if r.random() < 0.08 and total >= 5:
+        pts = pts[:-1]  # the last one promised but missing: the origin
+    return "\n".join(head + ["points: %d" % declared] + after + pts) + "\n"
+
+
+def generate_curves(r):
+    """The eleventh batch: curveX, curveY, curveZ (t in and out of [0, 1])
+    and curveGAL in successors' parameters, conditions, blocks, `Start:`
+    and `EndEach:`, with 1-3 contour files of their own and 0-2 functions,
+    in a view file (`curve:` lines with or without samples, among
+    `function:` lines and other settings) or passed directly. Returns
+    (text, steps, files, args)."""
+    ncurves = r.randint(1, 3)
+    nfuncs = r.choice([0, 0, 1, 1, 2])
+    direct = r.random() < 0.3
+    files = []
+    view = ["/* view file of a curve case */", "angle factor: 8"]
+    entries = [("c", i) for i in range(ncurves)] + [("f", i) for i in range(nfuncs)]
+    r.shuffle(entries)
+    args = []
+    for what, i in entries:
+        if what == "c":
+            name = "c%d.con" % (i + 1)
+            files.append((name, contour_file(r)))
+            line = "curve: %s" % name
+            if r.random() < 0.4:
+                line += " %d" % r.choice([2, 3, 10, 50, 100, 200])
+            view.append(line)
+            args.append(name)
+        else:
+            name = "f%d.func" % (i + 1)
+            files.append((name, func_file(r, "fn%d" % (i + 1), False, r.choice([0, 10, 100]))))
+            view.append("function: %s" % name)
+            args.append(name)
+        if r.random() < 0.3:
+            view.append(r.choice(["initial line width: 2", "/* a comment */",
+                                  "contour sides: 7", "z buffer: on"]))
+    # curves and functions each numbered in order of appearance
+    if direct:
+        # (a contour file given directly has 100 samples)
+        opt = r.choice(["--functions", "--curves"])
+        args = [(opt, a) for a in args]
+    else:
+        files.insert(0, ("case.v", "\n".join(view) + "\n"))
+        args = None
+
+    def cid():
+        x = r.random()
+        i = str(r.randint(1, ncurves))
+        if x < 0.1:
+            return i + "." + str(r.randint(1, 9))  # (int) toward zero
+        return i
+
+    in_production = ["x", "x", "x/4", "x*0.3", "1-x", "x-1", "0.5", "0", "1", "x+0.2",
+                     "-x", "g/3", "t", "x*x", "2"]
+    in_start = ["0.5", "0.2", "1", "0", "-3", "0.999", "2"]
+
+    def curve(pool=in_production, depth=0):
+        k = r.random()
+        if k < 0.15:
+            return "curveGAL(%s)" % cid()
+        a = r.choice(pool)
+        if depth == 0 and r.random() < 0.1:
+            a = curve(pool, 1)
+        c = "curve%s(%s, %s)" % (r.choice("XXYYZ"), cid(), a)
+        if nfuncs and depth == 0 and r.random() < 0.15:
+            return "func(%d, %s)" % (r.randint(1, nfuncs), c)
+        return c
+
+    def call(pool=in_production):
+        if nfuncs and r.random() < 0.2:
+            return "func(%d, %s)" % (r.randint(1, nfuncs), r.choice(pool))
+        return curve(pool)
+
+    def pexpr():
+        return r.choice(["%s" % call(), "x+%s" % call(), "%s*10" % call(), "x+0.25",
+                         "x*2+0.1", "t", "g+%s" % call(), "(%s)^2" % call(),
+                         "trunc(%s*100)" % call(), "%s" % call(), "x/2+%s" % call(),
+                         "%s/curveGAL(%s)" % (call(), cid())])
+
+    def succ():
+        out = []
+        for _ in range(r.randint(1, 3)):
+            c = r.choice("ABCF+[")
+            if c in "ABC":
+                out.append("%s(%s)" % (c, pexpr()))
+            elif c == "[":
+                out.append("[B(%s)]" % pexpr())
+            else:
+                out.append(c)
+        return "".join(out)
+
+    lines = ["Lsystem: 1", "derivation length: %d" % r.randint(1, 4)]
+    lines.append(r.choice(["Start: {g = %s; t = 0;}" % call(in_start),
+                           "Start: {L = curveGAL(1); g = L; t = 0.1;}",
+                           "Start: {g = 1; t = 0;}"]))
+    if r.random() < 0.4:
+        lines.append("EndEach: {g = g + %s;}" % call(["g/4", "g", "t", "1-g"]))
+    axiom = "".join("%s(%s)" % (r.choice("ABC"), r.choice(["0", "0.1", "0.5", "1", "2", "-1", "0.75"]))
+                    for _ in range(r.randint(1, 3)))
+    lines.append("Axiom: " + axiom)
+    keys = list("ABC") + [r.choice("ABC") for _ in range(r.randint(0, 1))]
+    r.shuffle(keys)
+    for key in keys:
+        pred = key + "(x)"
+        if r.random() < 0.2:
+            pred = r.choice("ABC") + " < " + pred
+        k = r.random()
+        if k < 0.3:
+            cond = " : %s > %s" % (call(), r.choice(["0", "0.2", "-0.2", "0.5"]))
+        elif k < 0.45:
+            cond = " : %s < %s" % (call(), call())
+        elif k < 0.75:
+            cond = " : {t = %s;} %s" % (call(), r.choice(["t > 0", "*", "t <> 1", "x < 3"]))
+            if r.random() < 0.3:
+                cond += " {g = g + t;}"
+        else:
+            cond = ""
+        lines.append("%s%s --> %s" % (pred, cond, succ()))
+    if r.random() < 0.3:
+        lines.append("homomorphism")
+        lines.append("B(x) --> B(%s)" % call())
+    lines.append("endlsystem")
+    return "\n".join(lines) + "\n", r.randint(1, 4), files, args
+
+
 def derive(text, steps, files=(), args=None):
     """The reference's string, or None if it refuses the system. `files`:
     (name, text) written beside case.l; `args`: the --functions files (by
@@ -707,7 +888,8 @@ def derive(text, steps, files=(), args=None):
                 f.write(body)
         if args is None:
             args = ["case.v"] if any(n == "case.v" for n, _ in files) else []
-        functions = [os.path.join(d, a) for a in args]
+        # (an `--functions` or `--curves` file: the same option)
+        functions = [os.path.join(d, a if isinstance(a, str) else a[1]) for a in args]
         try:
             # Warnings (undefined names, division by zero) are printed by
             # the reference; they are not part of the expected output.
@@ -736,16 +918,19 @@ def main(argv):
     # generator stands). The first four batches were made when the seed was
     # set again at each try; their first tries are all kept, so that is the
     # same.
+    eleventh = ninth + MULTI_SECTIONS
     seeds = {CASES: 13, CASES + EXTENDED: 14, third: 15, fourth: 16, fifth: 17, sixth: 18,
-             seventh: 19, eighth: 20, ninth: 21}
-    while made < ninth + MULTI_SECTIONS:
+             seventh: 19, eighth: 20, ninth: 21, eleventh: 22}
+    while made < eleventh + CURVES:
         if made in seeds:
             r = random.Random(seeds.pop(made))
         tried += 1
         late = third <= made < fourth
         alt = fourth <= made < fifth
         files, args = [], None
-        if made >= ninth:
+        if made >= eleventh:
+            text, steps, files, args = generate_curves(r)
+        elif made >= ninth:
             text, steps = generate(r, True, False, False, False, multi_sections=True)
         elif made >= eighth:
             text, steps = generate(r, True, False, False, False, strings=True)
@@ -765,16 +950,16 @@ def main(argv):
         # cpfg stores inf.
         if out is None or len(out) > MAX_OUTPUT or "inf" in out or "nan" in out:
             continue
-        if made >= ninth and not SECTION_RUNS:
+        if ninth <= made < eleventh and not SECTION_RUNS:
             # (no predecessor of several modules of a section applied)
             continue
         if made >= seventh and "(" not in out:
-            # (arrays, strings: a string without parameters shows too little)
-            # (arrays: a string without parameters shows too little)
+            # (a string without parameters shows too little)
             continue
         sections = "".join("--- file %s\n%s" % (name, body) for name, body in files)
         if args is not None:
-            sections += "--- args %s\n" % " ".join("--functions " + a for a in args)
+            sections += "--- args %s\n" % " ".join(
+                ("--functions %s" % a) if isinstance(a, str) else "%s %s" % a for a in args)
         parts.append("=== %d\n%s%s--- expected\n%s\n" % (steps, text, sections, out))
         made += 1
     content = "".join(parts)
