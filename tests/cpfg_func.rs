@@ -343,3 +343,217 @@ fn func_models_match_the_reference() {
     }
     assert_eq!(n, 6);
 }
+
+/// cpfg's curves (README, "Coming from cpfg: curves"): contour files whose
+/// values are worked out by hand.
+///
+/// - `line.con`: control points k (3, 4), k = 0..3, a uniform B-spline
+///   (no `type:`): at knot parameter u the curve is (u - 2)(3, 4), and u
+///   runs from 3 to 3 + (4 - 3.000001) (cpfg's 3.000001 keeps u inside the
+///   last span). So the curve is a segment from (3, 4) to
+///   (1 + 0.999999)(3, 4), at constant speed: the chords' length is
+///   5 * 0.999999 = 4.999995 whatever the samples, and
+///   curveX(t) = 3 + 2.999997 t, curveY(t) = 4 + 3.999996 t.
+///   (curveX(1, 1) - 5.99999) 1e6 = 7 and (curveGAL(1) - 4.99999) 1e6 = 5
+///   show the 1e-6.
+/// - `line3.con`: the same in 3D, points k (1, 2, 2): curveZ(t) =
+///   2 + 1.999998 t.
+/// - `square.con`: the closed B-spline of the square's corners (1, 1),
+///   (-1, 1), (-1, -1), (1, -1) starts at (P0 + 4 P1 + P2) / 6 =
+///   (-2/3, 2/3).
+/// - `end.con`: `bspline-endpoint` (clamped knots) runs from the first
+///   control point (0, 0) to the last (4, 0.5), up to 1e-6 of the last
+///   chord (3, 0.5) to (4, 0.5): x 3.999997.
+/// - functions and curves are numbered apart: `func(1, 0.5)` is the line
+///   y = x's (0.5) though `curve:` lines come first; an id 1.9 is 1.
+const CURVE_LINE: &str = "version: 1.4\ncontact: 0 0 0\nend: 0 0 0\nheading: 0 1 0\nup: 0 0 -1\n\
+                          size: 1\npoints: 4\nrange: 0.0 1.0\n0 0\n3 4\n6 8\n9 12\n";
+
+fn curve_files(d: &Path) {
+    write(d, "line.con", CURVE_LINE);
+    write(
+        d,
+        "line3.con",
+        "points: 4\ndimension: 3\n0 0 0\n1 2 2\n2 4 4\n3 6 6\n",
+    );
+    write(
+        d,
+        "square.con",
+        "points: 4\ntype: bspline-closed\ndimension: 4\n1 1 0 1\n-1 1 0 1\n-1 -1 0 1\n1 -1 0 1\n",
+    );
+    write(
+        d,
+        "end.con",
+        "points: 5\ntype: bspline-endpoint\n0 0\n1 2\n2 -1\n3 0.5\n4 0.5\n",
+    );
+    write(d, "line.func", LINE_OLD);
+}
+
+#[test]
+fn a_view_file_gives_curves_apart_from_functions() {
+    let dir = tempdir();
+    let d = dir.path();
+    curve_files(d);
+    let view = write(
+        d,
+        "m.v",
+        "angle factor: 8\ncurve: line.con 10\nfunction: line.func\ncontour sides: 7\n\
+         curve: line3.con\ncurve: square.con 11\ncurve: end.con\n",
+    );
+    let l = write(
+        d,
+        "m.l",
+        system(
+            "A(0) A(1) A(-3) A(7)",
+            "A(x) --> B(curveX(1, x), curveY(1, x), (curveX(1, 1) - 5.99999) * 1000000, \
+             (curveGAL(1) - 4.99999) * 1000000, curveZ(2, x), curveX(3, 0), curveY(3, 0), \
+             curveX(4, x), curveY(4, x), func(1, 0.5), curveX(1.9, 0))",
+        ),
+    );
+    let out = ok(run(lsgen().arg(&l).arg("--functions").arg(&view)));
+    let at0 = "B(3,4,7,5,2,-0.666667,0.666667,0,0,0.5,3)";
+    let at1 = "B(6,8,7,5,4,-0.666667,0.666667,4,0.5,0.5,3)";
+    // (t below 0 is 0, above 1 is 1)
+    assert_eq!(out, format!("{at0}{at1}{at0}{at1}\n"));
+    // Halfway, and the contour files given directly (`--curves`, the same
+    // option; 100 samples each), the function file too.
+    let l = write(
+        d,
+        "half.l",
+        system(
+            "A(0.5)",
+            "A(x) --> B(curveX(1, x), curveY(1, x), curveZ(2, 0.25), curveZ(1, x), (curveGAL(2) - 2.99999) * 1000000)",
+        ),
+    );
+    let mut cmd = lsgen();
+    cmd.arg(&l);
+    for f in ["line.con", "line3.con", "line.func"] {
+        cmd.arg("--curves").arg(d.join(f));
+    }
+    // 3 + 1.4999985, 4 + 1.999998, 2 + 0.4999995; a 2D curve's z is 0;
+    // curveGAL(2) = 3 * 0.999999 = 2.999997.
+    assert_eq!(ok(run(&mut cmd)), "B(4.5,6,2.5,0,7)\n");
+}
+
+#[test]
+fn bad_curves_are_located_errors() {
+    let dir = tempdir();
+    let d = dir.path();
+    curve_files(d);
+    let l = write(d, "m.l", system("A(0.5)", "A(x) --> B(curveX(1, x))"));
+    let with = |f: &Path| run(lsgen().arg(&l).arg("--functions").arg(f));
+
+    // The file a view line names, and its SAMPLES, at that line.
+    let v = write(d, "missing.v", "scale: 1\ncurve:  nope.con 10\n");
+    let e = err(with(&v));
+    assert!(
+        e.starts_with(&format!(
+            "lsgen: {}:2:9: error: cannot read `{}`: No such file or directory",
+            v.display(),
+            d.join("nope.con").display()
+        )),
+        "{e}"
+    );
+    let e = err(with(&write(d, "one.v", "curve: line.con 1\n")));
+    assert!(
+        e.contains("one.v:1:8: error: a curve needs at least 2 samples"),
+        "{e}"
+    );
+    let e = err(with(&write(d, "nofile.v", "curve:\n")));
+    assert!(
+        e.contains("nofile.v:1:6: error: `curve:` needs a file name"),
+        "{e}"
+    );
+    // A contour file's faults at their lines (cpfg reads out of bounds or
+    // past its buffer there).
+    for (text, place, msg) in [
+        (
+            "points: 4\n0 0\n1 x y\n",
+            "3:1",
+            "expected a point `X Y` (dimension 2)",
+        ),
+        (
+            "0 0\npoints: 4\n",
+            "1:1",
+            "expected `points: N` before the points",
+        ),
+        (
+            "points: 4\n0 0\n1 1\n2 2\n3 3",
+            "5:1",
+            "expected a newline at the end of the last line",
+        ),
+        (
+            "points: 2\ndimension: 4\n0 0 0 -1\n",
+            "3:1",
+            "expected a multiplicity of 0 or more",
+        ),
+        (
+            "points: 1\n0 0\n1 1\n",
+            "3:1",
+            "expected no more points than `points:` gives",
+        ),
+        (
+            "points: 4\ntype: bezier-surface\n",
+            "2:1",
+            "lsgen does not read `type: bezier-surface`",
+        ),
+        (
+            "points: 3\n0 0\n1 1\n2 2\n",
+            "1:1",
+            "a curve needs at least 4 control points",
+        ),
+    ] {
+        let f = write(d, "bad.con", text);
+        let e = err(with(&f));
+        assert!(
+            e.contains(&format!("bad.con:{place}: error: {msg}")),
+            "{text:?}: {e}"
+        );
+    }
+
+    // At the call: an id that is no curve, a t that is no number, a curve
+    // of length 0 (cpfg divides 0 by 0); its curveGAL is 0.
+    let line = d.join("line.con");
+    let calls = |call: &str| {
+        let m = write(d, "c.l", system("A(0.5)", &format!("A(x) --> B({call})")));
+        run(lsgen().arg(&m).arg("--curves").arg(&line))
+    };
+    let e = err(calls("curveX(2, x)"));
+    assert!(
+        e.contains("c.l:4:12: error: curveX(2, ...): there is no curve 2; the view files define 1 to 1 (in step 1)"),
+        "{e}"
+    );
+    let e = err(calls("curveGAL(0.5)"));
+    assert!(e.contains("curveGAL(0, ...): there is no curve 0"), "{e}");
+    let e = err(calls("curveY(1, (0 - 1) ^ 0.5)"));
+    assert!(
+        e.contains("c.l:4:12: error: curveY(id, t) with t not a number"),
+        "{e}"
+    );
+    let zero = write(d, "zero.con", "points: 4\n0 0\n0 0\n0 0\n0 0\n");
+    let m = write(
+        d,
+        "z.l",
+        system("A(0.5)", "A(x) --> B(curveGAL(1)) C(curveZ(1, x))"),
+    );
+    let e = err(run(lsgen().arg(&m).arg("--curves").arg(&zero)));
+    assert!(
+        e.contains("z.l:4:27: error: curveZ(1, 0.5): curve 1 has no arc-length parameter there"),
+        "{e}"
+    );
+    let m = write(d, "g.l", system("A(0.5)", "A(x) --> B(curveGAL(1))"));
+    assert_eq!(
+        ok(run(lsgen().arg(&m).arg("--curves").arg(&zero))),
+        "B(0)\n"
+    );
+
+    // Functions without curves: curveX is refused where it is written.
+    let e = err(run(lsgen()
+        .arg(&l)
+        .arg("--functions")
+        .arg(d.join("line.func"))));
+    assert!(
+        e.contains("m.l:4:12: error: `curveX` needs the model's curves: give its view file (`curve:` lines) or its `.con` files with `--functions FILE`"),
+        "{e}"
+    );
+}
