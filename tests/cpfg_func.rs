@@ -433,6 +433,30 @@ fn a_view_file_gives_curves_apart_from_functions() {
     // 3 + 1.4999985, 4 + 1.999998, 2 + 0.4999995; a 2D curve's z is 0;
     // curveGAL(2) = 3 * 0.999999 = 2.999997.
     assert_eq!(ok(run(&mut cmd)), "B(4.5,6,2.5,0,7)\n");
+    // Samples: with 2, curveGAL is the one chord from the start (0, 0) to
+    // the end (4 - 3e-6, 0.5): sqrt(16.25) = 4.03113 (to 6 digits); a
+    // `curve:` line without SAMPLES has 100, as a file given directly.
+    let v = write(
+        d,
+        "s.v",
+        "curve: end.con 2\ncurve: end.con\ncurve: end.con 100\n",
+    );
+    let l = write(
+        d,
+        "s.l",
+        system(
+            "A(0.3)",
+            "A(x) --> B(curveGAL(1), curveGAL(2) == curveGAL(3), curveX(2, x) == curveX(3, x), \
+             curveGAL(2) == curveGAL(4), curveGAL(3) > curveGAL(1))",
+        ),
+    );
+    let out = ok(run(lsgen()
+        .arg(&l)
+        .arg("--functions")
+        .arg(&v)
+        .arg("--curves")
+        .arg(d.join("end.con"))));
+    assert_eq!(out, "B(4.03113,1,1,1,1)\n");
 }
 
 #[test]

@@ -528,15 +528,15 @@ impl<'a> ContourReader<'a> {
         // Points `points:` promises but the file lacks are cpfg's default
         // ones: the origin, once.
         let n = declared.unwrap_or(0);
-        control.resize(n.max(control.len()), ([0.0; 3], 1));
-        if control.len() as u64 > MAX_POINTS {
-            self.line_at = 0;
+        let missing = n.saturating_sub(control.len());
+        self.line_at = 0;
+        if total + missing as u64 > MAX_POINTS {
             return self.fail(E::TooMany {
                 what: "control points",
                 limit: MAX_POINTS,
             });
         }
-        self.line_at = 0;
+        control.resize(control.len() + missing, ([0.0; 3], 1));
         Curve::new(self.name.to_string(), kind, &control, samples).or_else(|e| self.fail(e))
     }
 }
@@ -616,9 +616,29 @@ mod tests {
         assert_eq!(c.points[5], [4.0, -2.0, 1.0]);
         // An unknown word is a uniform B-spline.
         assert_eq!(of("spline").kind, Kind::BSpline);
-        // Bézier near its end: the last point, up to cpfg's 1.000001.
-        let p = of("bezier").point(1.0);
-        assert!((p[0] - 3.0).abs() < 1e-5 && p[1].abs() < 1e-5, "{p:?}");
+        // One Bézier segment: the Bernstein polynomials at t / 1.000001
+        // (cpfg's divisor keeps t inside the segment).
+        let c = of("bezier");
+        let pts = [
+            [0.0, 0.0, 0.0],
+            [1.0, 2.0, 0.0],
+            [2.0, 2.0, 1.0],
+            [3.0, 0.0, 1.0],
+        ];
+        for t in [0.0, 0.3, 0.5, 1.0] {
+            let s = t / 1.000001;
+            let w = [
+                (1.0 - s) * (1.0 - s) * (1.0 - s),
+                3.0 * s * (1.0 - s) * (1.0 - s),
+                3.0 * s * s * (1.0 - s),
+                s * s * s,
+            ];
+            let p = c.point(t);
+            for d in 0..3 {
+                let want: f64 = (0..4).map(|k| w[k] * pts[k][d]).sum();
+                assert!((p[d] - want).abs() < 1e-12, "{t}: {p:?}");
+            }
+        }
     }
 
     #[test]
@@ -681,6 +701,12 @@ mod tests {
             ("contact: 0 0\n", 1, "`contact: X Y Z`"),
             ("points: 3\n0 0\n1 1\n2 2\n", 1, "at least 4"),
             ("points: 4\n0x1 0\n", 2, "finite decimal"),
+            // Multiplicities, then points promised but missing.
+            (
+                "points: 9\ndimension: 4\n0 0 0 65530\n",
+                1,
+                "more than 65536 control points",
+            ),
         ];
         for (text, line, msg) in cases {
             let e = Curve::read("x.con", text, 100).unwrap_err().to_string();

@@ -272,12 +272,13 @@ impl Functions {
             self.items.iter().map(g).sum::<usize>() as u64 + g(&f) as u64
         };
         self.computed += f.table.len() as u64;
-        if total(&|g| g.points.len()) > MAX_TOTAL
+        let curve_points: u64 = self.curves.iter().map(|c| c.cost().0).sum();
+        if total(&|g| g.points.len()) + curve_points > MAX_TOTAL
             || total(&|g| g.table.len()) > MAX_TOTAL
             || self.computed > MAX_TOTAL
         {
             return Err(E::TooMany {
-                what: "control points or samples in all the functions",
+                what: "control points or samples in all the functions and curves",
                 limit: MAX_TOTAL,
             });
         }
