@@ -315,7 +315,7 @@ fn bad_functions_are_located_errors() {
     );
 }
 
-/// The func models of tests/cpfg/func (their own view, function and set
+/// The func and curve models of tests/cpfg/func (their own view, function, set and contour
 /// files): lsgen with `--functions NAME.v` prints what the independent
 /// reference tests/tools/cpfg_ref.py derived (tests/expected/cpfg/func/,
 /// kept current by `gen_expected_cpfg.py --check`).
@@ -341,7 +341,7 @@ fn func_models_match_the_reference() {
         assert_eq!(out, std::fs::read_to_string(&path).unwrap(), "{file}");
         n += 1;
     }
-    assert_eq!(n, 6);
+    assert_eq!(n, 8);
 }
 
 /// cpfg's curves (README, "Coming from cpfg: curves"): contour files whose

@@ -154,10 +154,12 @@ def quiet(fn, *args):
         return fn(*args)
 
 
-# tests/cpfg/func/NAME.l with --functions tests/cpfg/func/NAME.v: steps.
+# tests/cpfg/func/NAME.l with --functions tests/cpfg/func/NAME.v: steps
+# (func, and the curves of phyllotaxis_like).
 FUNC = {
     "fset_macros": [1, 2, 3],
     "lilac_like": [1, 3, 5],
+    "phyllotaxis_like": [1, 2],
 }
 
 
