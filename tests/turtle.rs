@@ -1427,6 +1427,80 @@ mod cpfg_files {
     }
 
     #[test]
+    fn cpfg_bend_at_a_right_angle_and_tiny_tropisms() {
+        let dir = tempfile::tempdir().unwrap();
+        // e (T . L) = -1 exactly: a sine of -1 is an angle (-90 degrees),
+        // H turns onto -L = +X; then + turns it 45 degrees.
+        let v = write(dir.path(), "r.v", b"tropism direction: 1,0,0\n");
+        let got = text(ok(&turtle(
+            &["--cpfg-view", &v, "-f", "segments"],
+            b"_(1)F+F",
+        )));
+        let s = 0.5f64.sqrt();
+        same_segments(
+            &got,
+            &format!("0 0 0 0 1 0 1 128\n0 1 0 {s} {} 0 1 128\n", 1.0 + s),
+            "sine -1",
+        );
+        // A subnormal tropism has a direction (cpfg's model: length 1) and
+        // bends by a vanishing angle (ABOP's): no NaN, no overflow.
+        let got = text(ok(&turtle(
+            &[
+                "--tropism",
+                "1e-320 0 0",
+                "--tropism-model",
+                "cpfg",
+                "--elasticity",
+                "0.5",
+                "-f",
+                "segments",
+            ],
+            b"fF",
+        )));
+        same_segments(
+            &got,
+            "0 1 0 0.5 1.8660254037844386 0 1 0\n",
+            "subnormal, cpfg",
+        );
+        let got = text(ok(&turtle(
+            &[
+                "--tropism",
+                "1e-320 0 0",
+                "--elasticity",
+                "0.5",
+                "-f",
+                "segments",
+            ],
+            b"FF",
+        )));
+        same_segments(
+            &got,
+            "0 0 0 0 1 0 1 0\n0 1 0 0 2 0 1 0\n",
+            "subnormal, abop",
+        );
+    }
+
+    #[test]
+    fn pixel_widths_leave_the_picture_as_it_is() {
+        // Widths in pixels are no part of the model's extent: a line of 40
+        // pixels lies where one of 1 pixel does.
+        let dir = tempfile::tempdir().unwrap();
+        let points = |w: &str| {
+            let v = write(
+                dir.path(),
+                "w.v",
+                format!("initial line width: {w} pixels\n").as_bytes(),
+            );
+            let svg = text(ok(&turtle(
+                &["--cpfg-view", &v, "--size", "100"],
+                b"F(10)+F(10)",
+            )));
+            svg_numbers(&svg, "points")
+        };
+        assert_eq!(points("1"), points("40"));
+    }
+
+    #[test]
     fn pixel_widths_twist_and_colour_maps() {
         let dir = tempfile::tempdir().unwrap();
         let v = write(

@@ -28,15 +28,21 @@ pub fn dot(a: V3, b: V3) -> f64 {
 fn scale(a: V3, k: f64) -> V3 {
     [a[0] * k, a[1] * k, a[2] * k]
 }
+#[inline]
+fn div(a: V3, k: f64) -> V3 {
+    [a[0] / k, a[1] / k, a[2] / k]
+}
 /// `a` scaled to length 1 (by its largest component first, so that 1e200
 /// and 1e-200 have a direction); the zero vector stays as it is (no bend).
-fn unit_or_zero(a: V3) -> V3 {
+pub(crate) fn unit_or_zero(a: V3) -> V3 {
     let big = a[0].abs().max(a[1].abs()).max(a[2].abs());
     if big == 0.0 || !big.is_finite() {
         return a;
     }
-    let b = scale(a, 1.0 / big);
-    scale(b, 1.0 / norm(b))
+    // Divided, not multiplied by 1/big: 1/big of a subnormal (1e-320) is
+    // past the largest number, and the direction became NaN.
+    let b = div(a, big);
+    div(b, norm(b))
 }
 
 #[inline]
@@ -199,7 +205,7 @@ impl Turtle {
         if big == 0.0 {
             return Ok(());
         }
-        let axis = cross(self.s.h, scale(t, 1.0 / big));
+        let axis = cross(self.s.h, div(t, big));
         let n = norm(axis);
         let angle = self.s.elasticity * (n * big);
         if !angle.is_finite() {
