@@ -307,8 +307,10 @@ impl ViewFile<'_> {
                 let (at, t) = a
                     .triple()
                     .map_err(|at| err(a, at, a.expected("three numbers `x,y,z`")))?;
-                let n = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
-                if n == 0.0 || !n.is_finite() {
+                // Scaled first: 1e300,1e300,0 and 1e-320,0,0 have a
+                // direction (their squares overflow or vanish).
+                let u = super::state::unit_or_zero(t);
+                if u == [0.0; 3] {
                     return Err(err(
                         a,
                         at,
@@ -318,7 +320,7 @@ impl ViewFile<'_> {
                         ),
                     ));
                 }
-                self.view.tropism = [t[0] / n, t[1] / n, t[2] / n];
+                self.view.tropism = u;
             }
             "initial elasticity:" | "elasticity increment:" => {
                 let e = a
@@ -367,11 +369,16 @@ impl ViewFile<'_> {
             self.viewpoint[1] - self.vrp[1],
             self.viewpoint[2] - self.vrp[2],
         ];
-        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        let n = if len == 0.0 || !len.is_finite() {
+        // Scaled first: a viewpoint at 1e300,1e300,0 looks from (1,1,0),
+        // not from cpfg's default (its squares overflowed), nor does one
+        // at 1e-320,0,0 (they vanished). The difference of two points
+        // past the largest number (1e308 and -1e308) has no direction:
+        // cpfg's default, as for the same point.
+        let u = super::state::unit_or_zero(n);
+        let n = if u == [0.0; 3] || !u.iter().all(|x| x.is_finite()) {
             [0.0, 0.0, -1.0]
         } else {
-            [n[0] / len, n[1] / len, n[2] / len]
+            u
         };
         let horizontal = (n[0] * n[0] + n[2] * n[2]).sqrt();
         self.view.direction = Direction {
@@ -501,6 +508,7 @@ pub fn read_colormap(path: &Path, view: &mut View) -> Result<(), Error> {
         return Err(bad_size(
             path,
             data.len(),
+            768,
             "a colour map is 768 bytes: 256 colours of red, green and blue",
         ));
     }
@@ -516,11 +524,21 @@ pub fn read_colormap(path: &Path, view: &mut View) -> Result<(), Error> {
 /// record is cpfg's default material (white). The background is the
 /// emissive colour of material 0, as in cpfg.
 pub fn read_materials(path: &Path, view: &mut View) -> Result<(), Error> {
-    let data = read_binary(path, 15 * 256 * 16)?;
+    const LIMIT: usize = 15 * 256 * 16;
+    let data = read_binary(path, LIMIT as u64)?;
+    if data.len() > LIMIT {
+        return Err(bad_size(
+            path,
+            data.len(),
+            LIMIT,
+            "lsgen-turtle reads material files of at most 4096 records of 15 bytes (16 for each of the 256 indices)",
+        ));
+    }
     if data.len() % 15 != 0 {
         return Err(bad_size(
             path,
             data.len(),
+            LIMIT,
             "a material file is records of 15 bytes",
         ));
     }
@@ -538,6 +556,8 @@ pub fn read_materials(path: &Path, view: &mut View) -> Result<(), Error> {
     Ok(())
 }
 
+/// The file's first `limit + 1` bytes: more than `limit` is a file too
+/// large (its size unknown: [`bad_size`] says "more than").
 fn read_binary(path: &Path, limit: u64) -> Result<Vec<u8>, Error> {
     use std::io::Read;
     let name = path.display().to_string();
@@ -551,10 +571,16 @@ fn read_binary(path: &Path, limit: u64) -> Result<Vec<u8>, Error> {
     Ok(data)
 }
 
-fn bad_size(path: &Path, len: usize, what: &str) -> Error {
+fn bad_size(path: &Path, len: usize, limit: usize, what: &str) -> Error {
+    // read_binary stops after limit + 1 bytes: the size is not known then.
+    let has = if len > limit {
+        format!("more than {limit}")
+    } else {
+        len.to_string()
+    };
     let e = std::io::Error::new(
         std::io::ErrorKind::InvalidData,
-        format!("{what} (this one has {len} bytes)"),
+        format!("{what} (this one has {has} bytes)"),
     );
     Error::io(path.display().to_string(), IoAction::Read, e)
 }
@@ -614,6 +640,30 @@ mod tests {
     }
 
     #[test]
+    fn empty_file_is_cpfgs_initialize_parameters() {
+        let (v, _) = read("").unwrap();
+        assert_eq!((v.colour_increment, v.width_increment), (1.0, 0.0));
+        assert_eq!((v.elasticity, v.elasticity_increment), (0.0, 0.0));
+        assert_eq!((v.tropism, v.twist), ([0.0, 1.0, 0.0], 0.0));
+    }
+
+    #[test]
+    fn huge_and_tiny_vectors_keep_their_direction() {
+        // Their squares overflow or vanish: scaled first, not cpfg's
+        // default view nor "no direction".
+        let dir = |t: &str| read(t).unwrap().0.direction;
+        let want = dir("viewpoint: 1,1,0");
+        assert_eq!(dir("viewpoint: 1e300,1e300,0"), want);
+        assert_eq!(dir("viewpoint: 1e-320,1e-320,0"), want);
+        let t = |t: &str| read(t).unwrap().0.tropism;
+        assert_eq!(
+            t("tropism direction: 1e300,-1e300,0"),
+            t("tropism direction: 1,-1,0")
+        );
+        assert_eq!(t("tropism direction: 0,0,-1e-320"), [0.0, 0.0, -1.0]);
+    }
+
+    #[test]
     fn line_width_words_as_cpfg() {
         for (text, unit) in [
             ("initial line width: 2 pixels", WidthUnit::Pixels),
@@ -627,6 +677,9 @@ mod tests {
             ),
             ("line style: pixel", WidthUnit::Pixels),
             ("line style: 3", WidthUnit::Model),
+            // cpfg's digits: '1' pixel, '2' polygon, '3' cylinder.
+            ("initial line width: 2\nline style: 1", WidthUnit::Pixels),
+            ("initial line width: 2 p\nline style: 2", WidthUnit::Model),
             // Not a style: it stays (a warning).
             (
                 "initial line width: 2 p\nline style: wireframe",
@@ -687,6 +740,9 @@ mod tests {
         let (_, w) =
             read("tropism: T: 0,1,0\nprojection: perspective\nprojection: parallel\n").unwrap();
         assert_eq!(w.len(), 2, "{w:?}");
+        let (_, w) = read("initial scale: 2\ntorque: T: 0,1,0\n").unwrap();
+        assert_eq!(w.len(), 2, "{w:?}");
+        assert!(w[0].message().contains("`initial scale:`"), "{w:?}");
     }
 
     #[test]
@@ -744,5 +800,23 @@ mod tests {
         assert_eq!(v.background, Some([40, 50, 60]));
         std::fs::write(&mat, &data[..16]).unwrap();
         assert!(read_materials(&mat, &mut v).is_err());
+        // A repeated index: its last record, as cpfg (material 0's
+        // background too).
+        data.extend(rec(5, [11, 21, 31], [0, 0, 0]));
+        data.extend(rec(0, [1, 1, 1], [41, 51, 61]));
+        std::fs::write(&mat, &data).unwrap();
+        read_materials(&mat, &mut v).unwrap();
+        assert_eq!(v.palette[5], [11, 21, 31]);
+        assert_eq!(v.background, Some([41, 51, 61]));
+        // Too large: its size is not known (it was read up to the limit).
+        std::fs::write(&mat, vec![0u8; 15 * 4097]).unwrap();
+        let e = read_materials(&mat, &mut v).unwrap_err().to_string();
+        assert!(
+            e.contains("4096 records") && e.contains("more than 61440"),
+            "{e}"
+        );
+        std::fs::write(&map, vec![0u8; 1000]).unwrap();
+        let e = read_colormap(&map, &mut v).unwrap_err().to_string();
+        assert!(e.contains("more than 768 bytes"), "{e}");
     }
 }
