@@ -1442,6 +1442,17 @@ mod cpfg_files {
             &format!("0 0 0 0 1 0 1 128\n0 1 0 {s} {} 0 1 128\n", 1.0 + s),
             "sine -1",
         );
+        // And +1: T = -X, H turns onto L = -X, then + turns it 45 degrees.
+        let v = write(dir.path(), "r.v", b"tropism direction: -1,0,0\n");
+        let got = text(ok(&turtle(
+            &["--cpfg-view", &v, "-f", "segments"],
+            b"_(1)F+F",
+        )));
+        same_segments(
+            &got,
+            &format!("0 0 0 0 1 0 1 128\n0 1 0 {} {} 0 1 128\n", -s, 1.0 - s),
+            "sine +1",
+        );
         // A subnormal tropism has a direction (cpfg's model: length 1) and
         // bends by a vanishing angle (ABOP's): no NaN, no overflow.
         let got = text(ok(&turtle(

@@ -108,6 +108,10 @@ const GEOMETRY: &[(&str, &str)] = &[
         "projection:",
         "lsgen-turtle draws a parallel projection only",
     ),
+    (
+        "interpretation past %:",
+        "lsgen-turtle draws past `%` (cpfg's `on`); cpfg's `off` leaves the rest of a branch after `%` undrawn",
+    ),
 ];
 
 /// Read cpfg's view file `path` into `view`: first cpfg's defaults for
@@ -197,11 +201,15 @@ impl ViewFile<'_> {
             let text = &line[i..=i + colon];
             let Some(&label) = TAKEN.iter().find(|&&l| l == text) else {
                 if let Some(&(_, why)) = GEOMETRY.iter().find(|(l, _)| *l == text) {
-                    let perspective = text == "projection:"
-                        && line[i + colon + 1..]
-                            .trim_start()
-                            .starts_with("perspective");
-                    if text != "projection:" || perspective {
+                    // Two of them change the picture with one value only
+                    // (cpfg compares the word's first letters).
+                    let value = line[i + colon + 1..].trim_start();
+                    let differs = match text {
+                        "projection:" => value.starts_with("perspective"),
+                        "interpretation past %:" => value.starts_with("off"),
+                        _ => true,
+                    };
+                    if differs {
                         self.warn(
                             base + i,
                             WarningKind::CpfgViewNotDrawn {
@@ -740,8 +748,13 @@ mod tests {
         let (_, w) =
             read("tropism: T: 0,1,0\nprojection: perspective\nprojection: parallel\n").unwrap();
         assert_eq!(w.len(), 2, "{w:?}");
-        let (_, w) = read("initial scale: 2\ntorque: T: 0,1,0\n").unwrap();
-        assert_eq!(w.len(), 2, "{w:?}");
+        let (_, w) = read(
+            "initial scale: 2\ntorque: T: 0,1,0\n\
+             interpretation past %: on\ninterpretation past %: off\n",
+        )
+        .unwrap();
+        assert_eq!(w.len(), 3, "{w:?}");
+        assert!(w[2].message().contains("`interpretation past %:`"), "{w:?}");
         assert!(w[0].message().contains("`initial scale:`"), "{w:?}");
     }
 
