@@ -156,6 +156,9 @@ struct Args<'l> {
     /// Where the line starts in the preprocessed text.
     base: usize,
     label: &'static str,
+    /// The last number scanned was past the largest one (its text): the
+    /// error says so rather than "takes a number".
+    past: Option<String>,
 }
 
 impl ViewFile<'_> {
@@ -228,6 +231,7 @@ impl ViewFile<'_> {
                 at: i + colon + 1,
                 base,
                 label,
+                past: None,
             };
             self.take(&mut a)?;
             i = a.at;
@@ -237,6 +241,10 @@ impl ViewFile<'_> {
     fn take(&mut self, a: &mut Args) -> Result<(), Error> {
         let map = self.map;
         let err = |a: &Args, at: usize, kind: ViewError| {
+            let kind = match &a.past {
+                Some(text) => ViewError::OutOfRange(text.clone()),
+                None => kind,
+            };
             Error::at(map.location(a.base + at), LexicalError::ViewSetting(kind))
         };
         match a.label {
@@ -449,6 +457,12 @@ impl<'l> Args<'l> {
         }
         let v: f64 = self.line[at..j].parse().map_err(|_| at)?;
         if !v.is_finite() {
+            let text = &self.line[at..j];
+            self.past = Some(if text.len() > 32 {
+                format!("{}...", &text[..32])
+            } else {
+                text.to_string()
+            });
             return Err(at);
         }
         self.at = j;
@@ -767,7 +781,8 @@ mod tests {
             ("tropism direction: 0,0,0", 20, "no direction"),
             ("twist: .5", 8, "whole number"),
             ("initial line width: -1", 21, "negative"),
-            ("angle increment: 1e999", 18, "a number"),
+            ("angle increment: 1e999", 18, "`1e999` is out of range"),
+            ("viewpoint: 0,-1e999,0", 14, "`-1e999` is out of range"),
         ] {
             let e = read(text).unwrap_err();
             let l = e.location().unwrap();
