@@ -197,7 +197,7 @@ impl ViewFile<'_> {
                 return Ok(());
             }
             let Some(colon) = line[i..].find(':') else {
-                let label = line[i..].trim_end().to_string();
+                let label = shown(line[i..].trim_end());
                 self.warn(base + i, WarningKind::CpfgViewLabel(label));
                 return Ok(());
             };
@@ -222,7 +222,7 @@ impl ViewFile<'_> {
                         );
                     }
                 } else if !PASSED.contains(&text) {
-                    self.warn(base + i, WarningKind::CpfgViewLabel(text.to_string()));
+                    self.warn(base + i, WarningKind::CpfgViewLabel(shown(text)));
                 }
                 return Ok(());
             };
@@ -311,7 +311,7 @@ impl ViewFile<'_> {
                     // cpfg keeps the style it had, without a word.
                     _ => {
                         let kind = WarningKind::CpfgViewNotDrawn {
-                            label: format!("line style: {w}"),
+                            label: format!("line style: {}", shown(w)),
                             why: "no style of cpfg's (`pixel`, `polygon`, `cylinder`, 1 to 3): the style stays, as in cpfg",
                         };
                         self.warn(a.base + at, kind);
@@ -520,6 +520,21 @@ impl<'l> Args<'l> {
         self.at += n;
         Some((at, &line[at..at + n]))
     }
+}
+
+/// A label as a warning shows it: control characters escaped (`\t`, a
+/// NUL as `\u{0}`), not written raw to the terminal.
+fn shown(label: &str) -> String {
+    label
+        .chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 /// cpfg's colour map (`-m FILE`): 256 colours of 3 bytes (red, green,
@@ -753,6 +768,10 @@ mod tests {
             "{}",
             w[0].message()
         );
+        // Control characters are shown escaped, not written raw.
+        let (_, w) = read("\tangle factor: 8\nx\0y\n").unwrap();
+        assert!(w[0].message().contains("`\\tangle factor:`"), "{w:?}");
+        assert!(w[1].message().contains("`x\\u{0}y`"), "{w:?}");
         // Several labels on one line, as cpfg's scanner allows.
         let (v, _) = read("viewpoint: 0,0,1 twist: 900\n").unwrap();
         assert_eq!(v.twist, -90.0);
