@@ -380,16 +380,20 @@ impl ViewFile<'_> {
     /// lsgen's azimuth and elevation (cpfg's default when they are the
     /// same point: looking from -Z).
     fn camera(&mut self) {
-        let n = [
-            self.viewpoint[0] - self.vrp[0],
-            self.viewpoint[1] - self.vrp[1],
-            self.viewpoint[2] - self.vrp[2],
-        ];
+        let (p, r) = (self.viewpoint, self.vrp);
+        let mut n = [p[0] - r[0], p[1] - r[1], p[2] - r[2]];
+        if !n.iter().all(|x| x.is_finite()) {
+            // 1e308 and -1e308: their difference is past the largest
+            // number, half of it is not (and has the same direction).
+            n = [
+                p[0] * 0.5 - r[0] * 0.5,
+                p[1] * 0.5 - r[1] * 0.5,
+                p[2] * 0.5 - r[2] * 0.5,
+            ];
+        }
         // Scaled first: a viewpoint at 1e300,1e300,0 looks from (1,1,0),
         // not from cpfg's default (its squares overflowed), nor does one
-        // at 1e-320,0,0 (they vanished). The difference of two points
-        // past the largest number (1e308 and -1e308) has no direction:
-        // cpfg's default, as for the same point.
+        // at 1e-320,0,0 (they vanished).
         let u = super::state::unit_or_zero(n);
         let n = if u == [0.0; 3] || !u.iter().all(|x| x.is_finite()) {
             [0.0, 0.0, -1.0]
@@ -692,6 +696,10 @@ mod tests {
         let want = dir("viewpoint: 1,1,0");
         assert_eq!(dir("viewpoint: 1e300,1e300,0"), want);
         assert_eq!(dir("viewpoint: 1e-320,1e-320,0"), want);
+        assert_eq!(
+            dir("viewpoint: 1e308,1e308,0\nview reference point: -1e308,-1e308,0"),
+            want
+        );
         let t = |t: &str| read(t).unwrap().0.tropism;
         assert_eq!(
             t("tropism direction: 1e300,-1e300,0"),
