@@ -380,26 +380,10 @@ impl ViewFile<'_> {
     /// lsgen's azimuth and elevation (cpfg's default when they are the
     /// same point: looking from -Z).
     fn camera(&mut self) {
-        let (p, r) = (self.viewpoint, self.vrp);
-        let mut n = [p[0] - r[0], p[1] - r[1], p[2] - r[2]];
-        if !n.iter().all(|x| x.is_finite()) {
-            // 1e308 and -1e308: their difference is past the largest
-            // number, half of it is not (and has the same direction).
-            n = [
-                p[0] * 0.5 - r[0] * 0.5,
-                p[1] * 0.5 - r[1] * 0.5,
-                p[2] * 0.5 - r[2] * 0.5,
-            ];
-        }
-        // Scaled first: a viewpoint at 1e300,1e300,0 looks from (1,1,0),
-        // not from cpfg's default (its squares overflowed), nor does one
-        // at 1e-320,0,0 (they vanished).
-        let u = super::state::unit_or_zero(n);
-        let n = if u == [0.0; 3] || !u.iter().all(|x| x.is_finite()) {
-            [0.0, 0.0, -1.0]
-        } else {
-            u
-        };
+        // (Scaled: a viewpoint at 1e300,1e300,0 looks from (1,1,0), one at
+        // 1e-320,0,0 from +X, one at 1e308 from a reference point at
+        // -1e308 along that line.)
+        let n = super::state::direction(self.vrp, self.viewpoint).unwrap_or([0.0, 0.0, -1.0]);
         let horizontal = (n[0] * n[0] + n[2] * n[2]).sqrt();
         self.view.direction = Direction {
             azimuth: if horizontal == 0.0 {

@@ -1,7 +1,7 @@
 //! Output formats: the bounding-box pass, SVG, PNG (tiny-skia), OBJ and the
 //! plain segment list.
 
-use super::state::{cross, dot, norm, Sink, V3};
+use super::state::{cross, direction, dot, norm, Sink, V3};
 use super::view::{Direction, Rgb, View, WidthUnit};
 use crate::codec::NumFmt;
 use std::io::{self, Write};
@@ -567,29 +567,6 @@ fn png_err(e: png::EncodingError) -> io::Error {
         png::EncodingError::IoError(e) => e,
         e => io::Error::other(e),
     }
-}
-
-/// The unit vector from `a` to `b` (finite points), without overflow or
-/// underflow: the difference is scaled by its largest component before
-/// its length is taken, so any two distinct points have a direction
-/// (`F(1e200)`, `F(1e-320)`); `None` when they are equal.
-fn direction(a: V3, b: V3) -> Option<V3> {
-    let mut d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    if !d.iter().all(|x| x.is_finite()) {
-        // The difference itself overflows: halve first.
-        d = [
-            b[0] * 0.5 - a[0] * 0.5,
-            b[1] * 0.5 - a[1] * 0.5,
-            b[2] * 0.5 - a[2] * 0.5,
-        ];
-    }
-    let m = d[0].abs().max(d[1].abs()).max(d[2].abs());
-    if m == 0.0 || !m.is_finite() {
-        return None;
-    }
-    let d = [d[0] / m, d[1] / m, d[2] / m];
-    let n = norm(d);
-    Some([d[0] / n, d[1] / n, d[2] / n])
 }
 
 /// Sides of a `--cylinders` tube.

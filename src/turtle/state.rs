@@ -45,6 +45,24 @@ pub(crate) fn unit_or_zero(a: V3) -> V3 {
     div(b, norm(b))
 }
 
+/// The unit vector from `a` to `b` (finite points), without overflow or
+/// underflow: a difference past the largest number is halved first, and
+/// [`unit_or_zero`] scales by the largest component before the length is
+/// taken, so any two distinct points have a direction (`F(1e200)`,
+/// `F(1e-320)`); `None` when they are equal.
+pub(crate) fn direction(a: V3, b: V3) -> Option<V3> {
+    let mut d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    if !d.iter().all(|x| x.is_finite()) {
+        d = [
+            b[0] * 0.5 - a[0] * 0.5,
+            b[1] * 0.5 - a[1] * 0.5,
+            b[2] * 0.5 - a[2] * 0.5,
+        ];
+    }
+    let u = unit_or_zero(d);
+    (u != [0.0; 3] && u.iter().all(|x| x.is_finite())).then_some(u)
+}
+
 #[inline]
 pub fn norm(a: V3) -> f64 {
     dot(a, a).sqrt()
