@@ -470,33 +470,8 @@ def generate_func(r):
                            "Start: {g = 0.5; t = 0.1;}", "Start: {g = 1; t = 0;}"]))
     if r.random() < 0.4:
         lines.append("EndEach: {g = g + %s;}" % call(in_end_each))
-    axiom = "".join("%s(%s)" % (r.choice("ABC"), r.choice(["0", "0.1", "0.5", "1", "2", "-1", "0.75"]))
-                    for _ in range(r.randint(1, 3)))
-    lines.append("Axiom: " + axiom)
-    # every module has a production (one of them is often false)
-    keys = list("ABC") + [r.choice("ABC") for _ in range(r.randint(0, 1))]
-    r.shuffle(keys)
-    for key in keys:
-        pred = key + "(x)"
-        if r.random() < 0.2:
-            pred = r.choice("ABC") + " < " + pred
-        k = r.random()
-        if k < 0.3:
-            cond = " : %s > %s" % (call(), r.choice(["0", "0.5", "1", "-0.2"]))
-        elif k < 0.45:
-            cond = " : %s < %s" % (call(), call())
-        elif k < 0.75:
-            cond = " : {t = %s;} %s" % (call(), r.choice(["t > 0.3", "*", "t <> 1", "x < 3"]))
-            if r.random() < 0.3:
-                cond += " {g = g + t;}"
-        else:
-            cond = ""
-        lines.append("%s%s --> %s" % (pred, cond, succ()))
-    if r.random() < 0.3:
-        lines.append("homomorphism")
-        lines.append("B(x) --> B(%s)" % call())
-    lines.append("endlsystem")
-    return "\n".join(lines) + "\n", r.randint(1, 4), files, args
+    return axiom_and_productions(r, lines, call, succ, files, args,
+                                 ["0", "0.5", "1", "-0.2"], "t > 0.3")
 
 
 # Array names (none is a module, a variable of these systems or a word of
@@ -847,6 +822,16 @@ def generate_curves(r):
                            "Start: {g = 1; t = 0;}"]))
     if r.random() < 0.4:
         lines.append("EndEach: {g = g + %s;}" % call(["g/4", "g", "t", "1-g"]))
+    return axiom_and_productions(r, lines, call, succ, files, args,
+                                 ["0", "0.2", "-0.2", "0.5"], "t > 0")
+
+
+def axiom_and_productions(r, lines, call, succ, files, args, bounds, t_test):
+    """The end of a `func` or curves case (sixth and eleventh batches): the
+    axiom, a production for every module (one of them often false; `call`
+    makes a function or curve call, `succ` a successor; `bounds` and
+    `t_test` vary the conditions), perhaps a homomorphism. Gives the case
+    as its generator does."""
     axiom = "".join("%s(%s)" % (r.choice("ABC"), r.choice(["0", "0.1", "0.5", "1", "2", "-1", "0.75"]))
                     for _ in range(r.randint(1, 3)))
     lines.append("Axiom: " + axiom)
@@ -858,11 +843,11 @@ def generate_curves(r):
             pred = r.choice("ABC") + " < " + pred
         k = r.random()
         if k < 0.3:
-            cond = " : %s > %s" % (call(), r.choice(["0", "0.2", "-0.2", "0.5"]))
+            cond = " : %s > %s" % (call(), r.choice(bounds))
         elif k < 0.45:
             cond = " : %s < %s" % (call(), call())
         elif k < 0.75:
-            cond = " : {t = %s;} %s" % (call(), r.choice(["t > 0", "*", "t <> 1", "x < 3"]))
+            cond = " : {t = %s;} %s" % (call(), r.choice([t_test, "*", "t <> 1", "x < 3"]))
             if r.random() < 0.3:
                 cond += " {g = g + t;}"
         else:
