@@ -252,8 +252,7 @@ pub fn run(o: &Options) -> Result<(), Error> {
         }
         Format::Svg | Format::Png => {
             let proj = render::Projection::new(o.view.direction, o.view.twist);
-            let mut bbox = render::BBox::new(proj);
-            bbox.pixel_widths = o.view.width_unit == view::WidthUnit::Pixels;
+            let mut bbox = render::BBox::new(proj, o.view.width_unit);
             // Pass 1: the bounding box (a stream is spooled meanwhile).
             let second: Box<dyn Read> = match src {
                 Source::File(mut f) => {

@@ -52,18 +52,18 @@ pub struct BBox {
     /// hundred ulps of it are rounding noise (a line seen end-on).
     pub reach: f64,
     /// Widths are pixels ([`WidthUnit::Pixels`]): no part of the extent.
-    pub pixel_widths: bool,
+    pixel_widths: bool,
 }
 
 impl BBox {
-    pub fn new(proj: Projection) -> BBox {
+    pub fn new(proj: Projection, unit: WidthUnit) -> BBox {
         BBox {
             proj,
             min: (f64::INFINITY, f64::INFINITY),
             max: (f64::NEG_INFINITY, f64::NEG_INFINITY),
             any: false,
             reach: 0.0,
-            pixel_widths: false,
+            pixel_widths: unit == WidthUnit::Pixels,
         }
     }
     /// Add point `p` with a stroke or dot radius `r`. An extent that is

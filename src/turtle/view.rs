@@ -264,6 +264,14 @@ pub fn parse_setting(text: &str) -> Result<Setting, SettingError> {
             Ok(v)
         }
     };
+    // One of `names`, by its place.
+    let pick = |names: &'static [&'static str]| -> Result<usize, SettingError> {
+        match w.as_slice() {
+            [(_, n)] => names.iter().position(|x| n.eq_ignore_ascii_case(x)),
+            _ => None,
+        }
+        .ok_or_else(|| err((vstart, text.len()), ViewError::OneOf(names)))
+    };
     Ok(match name.as_str() {
         "angle" => Setting::Angle(one(&w)?),
         "step" => Setting::Step(one(&w)?),
@@ -274,26 +282,12 @@ pub fn parse_setting(text: &str) -> Result<Setting, SettingError> {
         "colour increment" => Setting::ColourIncrement(one(&w)?),
         "elasticity" => Setting::Elasticity(one(&w)?),
         "elasticity increment" => Setting::ElasticityIncrement(one(&w)?),
-        "width unit" => match w.as_slice() {
-            [(_, n)] if n.eq_ignore_ascii_case("model") => Setting::WidthUnit(WidthUnit::Model),
-            [(_, n)] if n.eq_ignore_ascii_case("pixels") => Setting::WidthUnit(WidthUnit::Pixels),
-            _ => {
-                return Err(err(
-                    (vstart, text.len()),
-                    ViewError::OneOf(&["model", "pixels"]),
-                ))
-            }
-        },
-        "tropism model" => match w.as_slice() {
-            [(_, n)] if n.eq_ignore_ascii_case("abop") => Setting::TropismModel(TropismModel::Abop),
-            [(_, n)] if n.eq_ignore_ascii_case("cpfg") => Setting::TropismModel(TropismModel::Cpfg),
-            _ => {
-                return Err(err(
-                    (vstart, text.len()),
-                    ViewError::OneOf(&["abop", "cpfg"]),
-                ))
-            }
-        },
+        "width unit" => {
+            Setting::WidthUnit([WidthUnit::Model, WidthUnit::Pixels][pick(&["model", "pixels"])?])
+        }
+        "tropism model" => Setting::TropismModel(
+            [TropismModel::Abop, TropismModel::Cpfg][pick(&["abop", "cpfg"])?],
+        ),
         "tropism" => match w.as_slice() {
             [(a, x), (b, y), (c, z)] => {
                 Setting::Tropism([number(*a, x)?, number(*b, y)?, number(*c, z)?])

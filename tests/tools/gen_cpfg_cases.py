@@ -454,16 +454,7 @@ def generate_func(r):
                          "trunc(%s*100)" % call(), "%s" % call(), "x/2+%s" % call()])
 
     def succ():
-        out = []
-        for _ in range(r.randint(1, 3)):
-            c = r.choice("ABCF+[")
-            if c in "ABC":
-                out.append("%s(%s)" % (c, pexpr()))
-            elif c == "[":
-                out.append("[B(%s)]" % pexpr())
-            else:
-                out.append(c)
-        return "".join(out)
+        return successor(r, pexpr)
 
     lines = ["Lsystem: 1", "derivation length: %d" % r.randint(1, 4)]
     lines.append(r.choice(["Start: {g = %s; t = 0;}" % call(in_start),
@@ -805,16 +796,7 @@ def generate_curves(r):
                          "%s/curveGAL(%s)" % (call(), cid())])
 
     def succ():
-        out = []
-        for _ in range(r.randint(1, 3)):
-            c = r.choice("ABCF+[")
-            if c in "ABC":
-                out.append("%s(%s)" % (c, pexpr()))
-            elif c == "[":
-                out.append("[B(%s)]" % pexpr())
-            else:
-                out.append(c)
-        return "".join(out)
+        return successor(r, pexpr)
 
     lines = ["Lsystem: 1", "derivation length: %d" % r.randint(1, 4)]
     lines.append(r.choice(["Start: {g = %s; t = 0;}" % call(in_start),
@@ -824,6 +806,21 @@ def generate_curves(r):
         lines.append("EndEach: {g = g + %s;}" % call(["g/4", "g", "t", "1-g"]))
     return axiom_and_productions(r, lines, call, succ, files, args,
                                  ["0", "0.2", "-0.2", "0.5"], "t > 0")
+
+
+def successor(r, pexpr):
+    """A successor of 1-3 modules (A B C with `pexpr()` parameters, a
+    branch, F, +) for the func and curves batches."""
+    out = []
+    for _ in range(r.randint(1, 3)):
+        c = r.choice("ABCF+[")
+        if c in "ABC":
+            out.append("%s(%s)" % (c, pexpr()))
+        elif c == "[":
+            out.append("[B(%s)]" % pexpr())
+        else:
+            out.append(c)
+    return "".join(out)
 
 
 def axiom_and_productions(r, lines, call, succ, files, args, bounds, t_test):
