@@ -242,7 +242,7 @@ fn c_space(c: char) -> bool {
 /// The longest prefix of `s` that C's `strtod` reads as a decimal number
 /// (`[+-] digits [. digits] [e [+-] digits]`, or `inf`, `infinity`,
 /// `nan`): its length, 0 if none.
-fn number_prefix(s: &str) -> usize {
+pub(crate) fn number_prefix(s: &str) -> usize {
     let b = s.as_bytes();
     let mut i = 0;
     if i < b.len() && (b[i] == b'+' || b[i] == b'-') {

@@ -414,34 +414,13 @@ impl<'l> Args<'l> {
     fn float(&mut self) -> Result<(usize, f64), usize> {
         self.skip_blanks();
         let at = self.at;
-        let b = self.line.as_bytes();
-        let mut j = at;
-        if j < b.len() && (b[j] == b'+' || b[j] == b'-') {
-            j += 1;
-        }
-        let digits = |j: &mut usize| {
-            let s = *j;
-            while *j < b.len() && b[*j].is_ascii_digit() {
-                *j += 1;
-            }
-            *j - s
-        };
-        let mut n = digits(&mut j);
-        if j < b.len() && b[j] == b'.' {
-            j += 1;
-            n += digits(&mut j);
-        }
-        if n == 0 {
+        // The prefix C's `strtod` reads (the curves' scanner); its `inf`
+        // and `nan` are no numbers here.
+        let n = crate::cpfg::curve::number_prefix(&self.line[at..]);
+        let j = at + n;
+        let sign_less = self.line[at..j].trim_start_matches(['+', '-']);
+        if n == 0 || sign_less.starts_with(|c: char| c.is_ascii_alphabetic()) {
             return Err(at);
-        }
-        if j < b.len() && (b[j] == b'e' || b[j] == b'E') {
-            let mut k = j + 1;
-            if k < b.len() && (b[k] == b'+' || b[k] == b'-') {
-                k += 1;
-            }
-            if digits(&mut k) > 0 {
-                j = k;
-            }
         }
         let v: f64 = self.line[at..j].parse().map_err(|_| at)?;
         if !v.is_finite() {
