@@ -59,9 +59,14 @@ mod spawn;
 #[doc(hidden)]
 #[allow(missing_docs)] // internal (tests and fuzzing reach it hidden)
 pub mod turtle;
-/// Without the renderer, only the `view:` settings, which lsgen checks.
+/// Without the renderer: the `view:` settings, which lsgen checks, and
+/// cpfg's view file for the turtle of the cpfg dialect's queries.
 #[cfg(not(feature = "turtle"))]
 pub(crate) mod turtle {
+    #[allow(dead_code)]
+    pub mod cpfg_view;
+    #[allow(dead_code)]
+    pub mod state;
     #[allow(dead_code)]
     pub mod view;
 }

@@ -114,10 +114,68 @@ const GEOMETRY: &[(&str, &str)] = &[
     ),
 ];
 
+/// What cpfg's own turtle takes from a view file, in cpfg's arithmetic
+/// (its `DRAWPARAM` holds floats): the turtle of the cpfg dialect's
+/// queries `?P`, `?H`, `?L`, `?U` (`src/cpfg/query.rs`), which must
+/// reach the same positions as cpfg to the last bit a float keeps.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CpfgTurtle {
+    /// `angle factor:` (360 / it, divided in double) or `angle
+    /// increment:`, degrees (default 45).
+    pub angle: f32,
+    /// `tropism direction:` as read (default 0,1,0); cpfg scales it to
+    /// length 1 in floats.
+    pub tropism: [f32; 3],
+    pub elasticity: f32,
+    pub elasticity_increment: f32,
+    /// `initial scale:` (default 1; cpfg takes 0 as 1): multiplies the
+    /// lengths of `F`, `f`, `G`, `g`.
+    pub scale: f32,
+    /// `interpretation past %:` (cpfg's default `on`); `off`: the turtle
+    /// skips the rest of a branch after a `%`.
+    pub past_cut: bool,
+    /// The first `tropism:` or `torque:` label (cpfg's movements, which
+    /// turn the turtle after each move) and where it is.
+    pub movements: Option<(String, crate::diag::Location)>,
+    /// cpfg fills the queries of the string it saves: it interprets that
+    /// string to fit the view around it (no `box:`), or after each step
+    /// (`environment display: before`). Else the last string keeps the
+    /// values its productions gave (each string before a step is filled
+    /// all the same).
+    pub fills_last: bool,
+}
+
+impl Default for CpfgTurtle {
+    fn default() -> Self {
+        CpfgTurtle {
+            angle: 45.0,
+            tropism: [0.0, 1.0, 0.0],
+            elasticity: 0.0,
+            elasticity_increment: 0.0,
+            scale: 1.0,
+            past_cut: true,
+            movements: None,
+            fills_last: true,
+        }
+    }
+}
+
+/// Read cpfg's view file `path` for cpfg's turtle ([`CpfgTurtle`]); the
+/// same reading as [`read_view`] (its errors too), the warnings about
+/// drawing left out.
+pub fn read_cpfg_turtle(path: &Path) -> Result<CpfgTurtle, Error> {
+    let mut view = View::default();
+    read_file(path, &mut view).map(|(_, t)| t)
+}
+
 /// Read cpfg's view file `path` into `view`: first cpfg's defaults for
 /// everything the file may set (colour index 128, pixel lines of width 1,
 /// cpfg's tropism, viewpoint 0,0,1), then the file. Gives the warnings.
 pub fn read_view(path: &Path, view: &mut View) -> Result<Vec<Warning>, Error> {
+    read_file(path, view).map(|(w, _)| w)
+}
+
+fn read_file(path: &Path, view: &mut View) -> Result<(Vec<Warning>, CpfgTurtle), Error> {
     let name = path.display().to_string();
     let text =
         crate::cpfg::func::read_text(path).map_err(|e| Error::io(name, IoAction::Read, e))?;
@@ -125,6 +183,9 @@ pub fn read_view(path: &Path, view: &mut View) -> Result<Vec<Warning>, Error> {
         crate::cpfg::preprocess::preprocess(path, &text, &crate::cpfg::preprocess::read_file)?;
     let mut r = ViewFile {
         view,
+        turtle: CpfgTurtle::default(),
+        box_given: false,
+        display_before: false,
         warnings: Vec::new(),
         viewpoint: [0.0, 0.0, 1.0],
         vrp: [0.0; 3],
@@ -138,11 +199,15 @@ pub fn read_view(path: &Path, view: &mut View) -> Result<Vec<Warning>, Error> {
         r.line(start, line.trim_end_matches(['\n', '\r']))?;
     }
     r.camera();
-    Ok(r.warnings)
+    r.turtle.fills_last = !r.box_given || r.display_before;
+    Ok((r.warnings, r.turtle))
 }
 
 struct ViewFile<'a> {
     view: &'a mut View,
+    turtle: CpfgTurtle,
+    box_given: bool,
+    display_before: bool,
     warnings: Vec<Warning>,
     viewpoint: [f64; 3],
     vrp: [f64; 3],
@@ -203,6 +268,7 @@ impl ViewFile<'_> {
             };
             let text = &line[i..=i + colon];
             let Some(&label) = TAKEN.iter().find(|&&l| l == text) else {
+                self.cpfg_only(base + i, text, line, i + colon + 1);
                 if let Some(&(_, why)) = GEOMETRY.iter().find(|(l, _)| *l == text) {
                     // Two of them change the picture with one value only
                     // (cpfg compares the word's first letters).
@@ -238,6 +304,33 @@ impl ViewFile<'_> {
         }
     }
 
+    /// A label lsgen-turtle passes over that cpfg's turtle takes
+    /// ([`CpfgTurtle`]), its arguments at `line[at..]`. As cpfg reads
+    /// them: a bad number leaves the value as it was (cpfg warns).
+    fn cpfg_only(&mut self, offset: usize, label: &str, line: &str, at: usize) {
+        let value = line[at..].trim_start();
+        match label {
+            "initial scale:" => {
+                let n = crate::cpfg::curve::number_prefix(value);
+                if let Ok(v) = value[..n].parse::<f64>() {
+                    if v.is_finite() {
+                        let v = v as f32;
+                        self.turtle.scale = if v == 0.0 { 1.0 } else { v };
+                    }
+                }
+            }
+            "interpretation past %:" => self.turtle.past_cut = !value.starts_with("off"),
+            // (cpfg: `box:` turns its automatic view volume off; `before`
+            // is compared by its first 6 letters.)
+            "box:" => self.box_given = true,
+            "environment display:" => self.display_before = value.starts_with("before"),
+            "tropism:" | "torque:" if self.turtle.movements.is_none() => {
+                self.turtle.movements = Some((label.to_string(), self.location(offset)));
+            }
+            _ => {}
+        }
+    }
+
     fn take(&mut self, a: &mut Args) -> Result<(), Error> {
         let map = self.map;
         let err = |a: &Args, at: usize, kind: ViewError| {
@@ -251,6 +344,8 @@ impl ViewFile<'_> {
             "angle factor:" => {
                 let (at, n) = a.float().map_err(|at| err(a, at, a.expected("a number")))?;
                 let angle = 360.0 / n;
+                // (cpfg: a float, divided in double, kept as a float.)
+                self.turtle.angle = (360.0 / f64::from(n as f32)) as f32;
                 if !angle.is_finite() {
                     return Err(err(
                         a,
@@ -265,6 +360,7 @@ impl ViewFile<'_> {
                     .float()
                     .map_err(|at| err(a, at, a.expected("a number")))?
                     .1;
+                self.turtle.angle = self.view.angle as f32;
             }
             "initial color:" | "color increment:" => {
                 let n = a
@@ -337,6 +433,7 @@ impl ViewFile<'_> {
                     ));
                 }
                 self.view.tropism = u;
+                self.turtle.tropism = t.map(|x| x as f32);
             }
             "initial elasticity:" | "elasticity increment:" => {
                 let e = a
@@ -345,8 +442,10 @@ impl ViewFile<'_> {
                     .1;
                 if a.label == "initial elasticity:" {
                     self.view.elasticity = e;
+                    self.turtle.elasticity = e as f32;
                 } else {
                     self.view.elasticity_increment = e;
+                    self.turtle.elasticity_increment = e as f32;
                 }
             }
             "viewpoint:" | "view reference point:" => {
