@@ -152,6 +152,13 @@ pub struct Args {
     #[arg(long, visible_alias = "curves", value_name = "FILE")]
     pub functions: Vec<PathBuf>,
 
+    /// cpfg's view file (`.v`) of a `.l` model: its turtle's angle,
+    /// tropism and scale for the queries `?P`, `?H`, `?L`, `?U` (filled in
+    /// each generation as cpfg's turtle interprets it), and its functions
+    /// and curves, numbered before those of `--functions`.
+    #[arg(long, value_name = "FILE.v")]
+    pub cpfg_view: Option<PathBuf>,
+
     /// For tests (hidden): force the derivation strategy. `auto` (default)
     /// picks depth first when the system allows it, `step` always derives
     /// step by step through temporary files, `dfs` insists on depth first
@@ -622,7 +629,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
             n: args.frames.map(|f| f.from),
         })?;
     }
-    let functions = Arc::new(crate::cpfg::func::Functions::load(&args.functions)?);
+    let functions = Arc::new(crate::cpfg::func::Functions::load_with_view(
+        args.cpfg_view.as_deref(),
+        &args.functions,
+    )?);
     if total == 1 {
         let job = Job {
             file: files[0],

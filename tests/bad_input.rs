@@ -799,7 +799,7 @@ cases! {
     cpfg_refused_object_production =>
         err(include_str!("cpfg/refused/object_production.l"), 5, 3, "`-o>` (an object production");
     cpfg_refused_query_p =>
-        err(include_str!("cpfg/refused/query_p.l"), 5, 8, "`?P` (a query of the turtle's state)");
+        err(include_str!("cpfg/refused/query_p.l"), 5, 8, "needs cpfg's view file: give it with --cpfg-view FILE.v");
     cpfg_refused_remainder_zero =>
         err(include_str!("cpfg/refused/remainder_zero.l"), 5, 16, "remainder by zero");
     cpfg_refused_ring =>

@@ -93,17 +93,18 @@ fn a_refused_construct_is_a_parse_error() {
         e.message(),
         "`-o>` (an object production, for cpfg's surfaces and objects) is not supported: lsgen rewrites strings only"
     );
+    // A query of the turtle without the view file its turtle reads.
     let e = load_error("Lsystem: 1\nAxiom: A\nA --> B ?P(1,2)\nendlsystem\n");
     assert!(
         matches!(
             e.kind(),
-            ErrorKind::Parse(ParseError::Refused(Refused::TurtleQuery('P')))
+            ErrorKind::Parse(ParseError::Refused(Refused::QueryWithoutView))
         ),
         "{e:?}"
     );
     assert_eq!(
         e.message(),
-        "`?P` (a query of the turtle's state) needs cpfg's turtle interpretation between steps: not supported by lsgen, which only rewrites strings"
+        "a query of the turtle (`?P`, `?H`, `?L`, `?U`) needs cpfg's view file: give it with --cpfg-view FILE.v (the turtle's angle, tropism and scale are there)"
     );
 }
 

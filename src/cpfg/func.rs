@@ -56,6 +56,8 @@ pub struct Functions {
     /// Samples computed so far, also for functions a later `function
     /// set:` replaced: the work of loading is bounded too.
     computed: u64,
+    /// The view file's turtle (`--cpfg-view`), for the queries.
+    turtle: Option<crate::turtle::cpfg_view::CpfgTurtle>,
 }
 
 impl Function {
@@ -197,11 +199,27 @@ impl Functions {
     /// Read `files` in order: each a cpfg view file, a function set or a
     /// function file, told apart by its first line.
     pub fn load(files: &[PathBuf]) -> Result<Functions, Error> {
+        Self::load_with_view(None, files)
+    }
+
+    /// [`Functions::load`] after cpfg's view file `view` (`--cpfg-view`):
+    /// its functions and curves first, as `--functions` reads them, and
+    /// its turtle's settings for the queries.
+    pub fn load_with_view(view: Option<&Path>, files: &[PathBuf]) -> Result<Functions, Error> {
         let mut all = Functions::default();
+        if let Some(v) = view {
+            all.read_any(v)?;
+            all.turtle = Some(crate::turtle::cpfg_view::read_cpfg_turtle(v)?);
+        }
         for f in files {
             all.read_any(f)?;
         }
         Ok(all)
+    }
+
+    /// The view file's turtle (`--cpfg-view`), if one was given.
+    pub fn turtle(&self) -> Option<&crate::turtle::cpfg_view::CpfgTurtle> {
+        self.turtle.as_ref()
     }
 
     /// No function (`func` has none to read; curves aside).
@@ -891,6 +909,7 @@ mod tests {
             macros: vec![],
             curves: vec![],
             computed: 0,
+            turtle: None,
         };
         assert!((all.value(1.9, 0.5).unwrap() - 1.0).abs() < 1e-12);
         assert_eq!(

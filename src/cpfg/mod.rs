@@ -36,6 +36,7 @@ pub mod lexer;
 pub mod lower;
 pub mod parse;
 pub mod preprocess;
+pub mod query;
 pub mod random;
 pub mod run;
 
@@ -160,6 +161,18 @@ pub fn load(
     let no_curves = functions.no_curves().then(|| view_beside(name));
     let tree = parse::parse_with(&text, no_functions, no_curves).map_err(|e| locate(&map, e))?;
     axiom_brackets(&tree.axiom_brackets, &map)?;
+    // (Before the lowering's warnings: a file refused here is one error.)
+    let queries = match query::check(&tree, &text, functions.turtle()) {
+        Ok(q) => q,
+        Err(query::CheckError::At(span, r)) => {
+            let e = UserError::new(span, ParseError::Refused(r));
+            return Err(locate(&map, e));
+        }
+        Err(query::CheckError::View(at, label)) => {
+            let r = crate::diag::Refused::QueryMovements(label);
+            return Err(Error::at(at, ParseError::Refused(r)));
+        }
+    };
     let lowered = lower::lower(&tree, &mut |span, warning| {
         if seed_option
             && matches!(
@@ -173,6 +186,7 @@ pub fn load(
     })
     .map_err(|e| locate(&map, e))?;
     let mut run = lowered.run;
+    run.queries = queries.map(Arc::new);
     if !functions.is_empty() || !functions.no_curves() {
         run.functions = Some(functions.clone());
     }

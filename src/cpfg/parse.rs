@@ -179,9 +179,10 @@ fn refusal(
         }
         Tok::KwRing => return at(span, Refused::Ring),
         Tok::ObjArrow => return at(span, Refused::ObjectProduction),
+        // A query of the turtle: `?` and the module it fills (`src/cpfg/query.rs`).
+        Tok::Sym('?') if matches!(next, Some(Tok::Sym('P' | 'H' | 'L' | 'U'))) => {}
         Tok::Sym('?') => {
             let what = match next {
-                Some(Tok::Sym(c @ ('P' | 'H' | 'L' | 'U'))) => Refused::TurtleQuery(*c),
                 Some(Tok::Sym('E')) => Refused::Environment,
                 Some(Tok::LParen) => Refused::SubLsystemCall,
                 _ => Refused::Query,
@@ -349,8 +350,8 @@ mod tests {
             "{}",
             e.message()
         );
-        let e = parse("Lsystem: 1\nAxiom: A\nA --> F?H\nendlsystem\n").unwrap_err();
-        assert!(e.message().contains("`?H`"), "{}", e.message());
+        let e = parse("Lsystem: 1\nAxiom: A\nA --> F?E\nendlsystem\n").unwrap_err();
+        assert!(e.message().contains("`?E`"), "{}", e.message());
         assert_eq!(e.span.0, 27);
         let e = parse("Lsystem: 1\nAxiom: A(1e6)\nendlsystem\n").unwrap_err();
         assert!(e.message().contains("dot"), "{}", e.message());

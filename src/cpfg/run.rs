@@ -44,6 +44,9 @@ pub struct CpfgRun {
     pub axiom: Option<(String, Vec<(usize, crate::rules::expr::Code)>)>,
     /// What `func(id, x)` reads (`--functions`).
     pub functions: Option<std::sync::Arc<super::func::Functions>>,
+    /// The turtle that fills the queries `?P`, `?H`, `?L`, `?U` of each
+    /// generation ([`super::query`]), if the file has queries.
+    pub queries: Option<std::sync::Arc<super::query::QueryTurtle>>,
 }
 
 impl CpfgRun {

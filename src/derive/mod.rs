@@ -383,7 +383,11 @@ pub(crate) fn derive(
         || decomposition.as_ref().is_some_and(|(d, _)| d.has_right)
         || groups.iter().any(|(_, g)| g.own().has_right)
         || (hom && homomorphism.has_right);
-    let passes = steps + u64::from(hom);
+    // cpfg's turtle queries: each generation's filled as it is written,
+    // the last step's too, then copied to the output as text (one pass
+    // more).
+    let queries = cpfg.as_ref().and_then(|c| c.queries.clone());
+    let passes = steps + u64::from(hom || queries.is_some());
     let strategy = settings.strategy;
     let not_depth_first = || Error::new(crate::diag::UsageError::NotDepthFirst);
     if strategy == Strategy::DepthFirst && (passes == 0 || frames.is_some()) {
@@ -544,6 +548,12 @@ pub(crate) fn derive(
         };
         if let Some(f) = cur.as_mut() {
             cut_to_written(f, &tmp_name)?;
+            // (Frames fill their generations themselves.)
+            if let (Some(q), None) = (&queries, &frames) {
+                if steps > 0 || q.fills_last {
+                    crate::cpfg::query::fill(q, f, &d.alphabet, (indexed, d.counts), 0)?;
+                }
+            }
         }
         let len = generation(Pass::Axiom, len);
         if passes == 0 && frames.is_none() {
@@ -579,7 +589,7 @@ pub(crate) fn derive(
         schedule: &schedule,
         group_expr: group_expr.as_ref(),
         hom_seed,
-        fixed_points: !varies_by_step && !blocks,
+        fixed_points: !varies_by_step && !blocks && queries.is_none(),
         plain: !step_only,
     };
     if let Some((frames, frame_sink)) = frames {
@@ -739,7 +749,11 @@ fn step_passes(
         first_step,
         ..
     } = *settings;
-    let passes = steps + u64::from(hom);
+    let queries = d.cpfg.as_ref().and_then(|c| c.queries.clone());
+    // With queries, the last pass copies the last step's generation, its
+    // queries filled, to the output (there is no homomorphism then).
+    let copy = crate::rules::Table::default();
+    let passes = steps + u64::from(hom || queries.is_some());
     let (hom_seed, plain, fixed_points) = (tables.hom_seed, tables.plain, tables.fixed_points);
     // The last generation's (modules, bytes): `cur`'s, until the last pass.
     let mut last_len = len;
@@ -758,6 +772,8 @@ fn step_passes(
             d.rng.set_step(k);
             laid = tables.table_for(k, d)?;
             (&*laid, Pass::Step(k))
+        } else if queries.is_some() {
+            (&copy, Pass::Step(first_step + steps.max(1) - 1))
         } else {
             let k = first_step + steps - 1;
             if let Some(s) = hom_seed {
@@ -780,7 +796,11 @@ fn step_passes(
         };
         let draws = d.rng.draws();
         let mut drew = 0;
-        let step = matches!(pass, Pass::Step(_));
+        let step = i <= steps;
+        // The copy of the last generation: no decomposition, no cut (it
+        // had them), as a frame's plain copy.
+        let copying = !step && queries.is_some();
+        let kept = copying.then(|| (d.decomp.take(), std::mem::replace(&mut d.cut, false)));
         // A step that drew nothing and left the string as it was is a fixed
         // point: every later step does the same. Then the run goes on with
         // the last pass (the homomorphism, or the last step, which writes
@@ -837,13 +857,27 @@ fn step_passes(
             let (modules, bytes) = out.finish()?;
             if let Some(f) = &mut dst {
                 cut_to_written(f, tmp_name)?;
+                if let Some(q) = queries
+                    .as_ref()
+                    .filter(|q| step && (i < steps || q.fills_last))
+                {
+                    let generation = first_step + i - 1;
+                    crate::cpfg::query::fill(q, f, &d.alphabet, (indexed, d.counts), generation)?;
+                }
             }
-            events(&Event::Generation {
-                pass,
-                modules,
-                bytes,
-            });
+            // (The last step's generation is told as its copy.)
+            if !(queries.is_some() && step && i == steps) {
+                events(&Event::Generation {
+                    pass,
+                    modules,
+                    bytes,
+                });
+            }
             last_len = (modules, bytes);
+        }
+        if let Some((decomp, cut)) = kept {
+            d.decomp = decomp;
+            d.cut = cut;
         }
         if step {
             d.cpfg_block(When::EndEach, pass)?;
@@ -949,8 +983,23 @@ fn frame_passes(
         })?;
         Ok(())
     };
+    // Each generation's queries filled before the next step reads it; a
+    // frame is printed with them filled if cpfg fills its last string
+    // (`fills_last`), else as the step left it.
+    let queries = d.cpfg.as_ref().and_then(|c| c.queries.clone());
+    let fill = |d: &Deriver, gen: &File, k: u64| match &queries {
+        Some(q) => crate::cpfg::query::fill(q, gen, &d.alphabet, (indexed, d.counts), k),
+        None => Ok(()),
+    };
+    let fills_last = queries.as_ref().is_some_and(|q| q.fills_last);
+    if fills_last {
+        fill(d, &cur, 0)?;
+    }
     if frames.contains(0) {
         emit(d, &cur, 0)?;
+    }
+    if !fills_last {
+        fill(d, &cur, 0)?;
     }
     let mut other: Option<Generation> = None;
     for i in 1..=frames.last() {
@@ -977,6 +1026,9 @@ fn frame_passes(
             let (modules, bytes) = out.finish()?;
             if let Some(f) = &mut dst {
                 cut_to_written(f, tmp_name)?;
+                if fills_last {
+                    fill(d, f, k)?;
+                }
             }
             events(&Event::Generation {
                 pass,
@@ -999,6 +1051,9 @@ fn frame_passes(
         other = Some(std::mem::replace(&mut cur, dst));
         if frames.contains(i) {
             emit(d, &cur, i)?;
+        }
+        if !fills_last && i < frames.last() {
+            fill(d, &cur, k)?;
         }
         if fixed {
             events(&Event::FixedPoint {

@@ -22,14 +22,22 @@ pub enum Refused {
     RingSetting,
     /// `-o>`, an object production.
     ObjectProduction,
-    /// `?P`, `?H`, `?L` or `?U` (the letter): a query of the turtle.
-    TurtleQuery(char),
     /// `?E`: communication with an environment program.
     Environment,
     /// `?(id,s)`: a sub-L-system call.
     SubLsystemCall,
     /// Another `?` query module.
     Query,
+    /// A query (`?P`, ...) without a view file (`--cpfg-view`).
+    QueryWithoutView,
+    /// A query in a system with a homomorphism.
+    QueryWithHomomorphism,
+    /// What a system with queries has that lsgen's query turtle does not
+    /// follow (as the message names it).
+    QueryNotFollowed(String),
+    /// The view file's `tropism:` or `torque:` (the label) in a system
+    /// with queries.
+    QueryMovements(String),
     /// `$`, the end of a sub-L-system.
     SubLsystemEnd,
     /// `@S`, a surface.
@@ -67,10 +75,6 @@ impl fmt::Display for Refused {
             ObjectProduction => f.write_str(
                 "`-o>` (an object production, for cpfg's surfaces and objects) is not supported: lsgen rewrites strings only",
             ),
-            TurtleQuery(c) => write!(
-                f,
-                "`?{c}` (a query of the turtle's state) needs cpfg's turtle interpretation between steps{QUERY}"
-            ),
             Environment => write!(
                 f,
                 "`?E` (communication with an environment program) needs cpfg's environment process{QUERY}"
@@ -81,6 +85,20 @@ impl fmt::Display for Refused {
             Query => write!(
                 f,
                 "a `?` query module needs cpfg's interpretation or environment{QUERY}"
+            ),
+            QueryWithoutView => f.write_str(
+                "a query of the turtle (`?P`, `?H`, `?L`, `?U`) needs cpfg's view file: give it with --cpfg-view FILE.v (the turtle's angle, tropism and scale are there)",
+            ),
+            QueryWithHomomorphism => f.write_str(
+                "a query of the turtle (`?P`, `?H`, `?L`, `?U`) in a system with a homomorphism is not supported yet: cpfg's turtle interprets the string through it",
+            ),
+            QueryNotFollowed(what) => write!(
+                f,
+                "{what} in a system with turtle queries (`?P`, `?H`, `?L`, `?U`) is not supported: it moves cpfg's turtle, and lsgen's query turtle does not follow it"
+            ),
+            QueryMovements(label) => write!(
+                f,
+                "`{label}` (cpfg's movements, which turn its turtle after each move) is not supported with turtle queries (`?P`, `?H`, `?L`, `?U`): lsgen's query turtle does not follow them"
             ),
             SubLsystemEnd => f.write_str(
                 "`$` (the end of a sub-L-system) is not supported: lsgen has no sub-L-systems",

@@ -919,6 +919,12 @@ pub enum RuntimeError {
     WorkerStopped,
     /// cpfg: an expression of a header block failed.
     Block { error: ExprError, block: Block },
+    /// cpfg: the turtle that fills the queries (`?P`, ...) of generation
+    /// `generation` (0: the axiom) could not go on.
+    Query {
+        fault: crate::cpfg::query::QueryFault,
+        generation: u64,
+    },
 }
 
 impl fmt::Display for RuntimeError {
@@ -996,6 +1002,23 @@ impl fmt::Display for RuntimeError {
             Internal => f.write_str("internal error (please report this)"),
             WorkerStopped => f.write_str("internal error: a worker thread stopped"),
             Block { error, block } => write!(f, "{error} (in {block})"),
+            Query { fault, generation } => {
+                use crate::cpfg::query::QueryFault::*;
+                let what: String = match fault {
+                    BendPastRightAngle => {
+                        "cpfg's tropism bends the turtle by a sine past 1 (elasticity times the tropism's component), which is no angle".into()
+                    }
+                    NotFinite => "a query's vector is past the largest number".into(),
+                    TooDeep => "branches nested deeper than 1048576 (the turtle keeps each open one)".into(),
+                    NotAQuery(Some(c)) => format!("`?` followed by `{c}`, not by the `P`, `H`, `L` or `U` it fills (a production rewrote it; cpfg skips the `{c}` with a warning)"),
+                    NotAQuery(None) => "`?` at the end of the string, without the `P`, `H`, `L` or `U` it fills".into(),
+                };
+                let string = match generation {
+                    0 => "the axiom".to_string(),
+                    n => format!("the string of step {n}"),
+                };
+                write!(f, "{what}, as the turtle interprets {string} to fill its queries")
+            }
         }
     }
 }

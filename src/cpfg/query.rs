@@ -1,0 +1,492 @@
+//! cpfg's turtle queries `?P`, `?H`, `?L` and `?U` (cpfg's
+//! `InterpretSymbol`, `interpret.c`; `ProcessEnvironment`, `control.c`).
+//!
+//! A query is two modules, as in cpfg: `?` and the module after it,
+//! `P(x,y,z)` (position), `H` (heading), `L` (left) or `U` (up). Before
+//! a step rewrites a string, cpfg interprets the whole string with its
+//! turtle and writes, at each `?`, the turtle's vector into the first
+//! (at most three) parameters of the next module, as floats; the final
+//! string is interpreted once more before it is saved (its view volume).
+//! lsgen does the same on each generation as soon as it is written
+//! ([`fill`]): the generation's temporary file is read once, from its
+//! start, and the parameters of its query modules are written over in
+//! place. Memory is the turtle's branch stack.
+//!
+//! The turtle is cpfg's, operation for operation, in cpfg's arithmetic
+//! (doubles for the vectors, floats where cpfg keeps floats: the angle,
+//! lengths, elasticity, the tropism's direction), so that the values are
+//! those cpfg writes to the last bit a float keeps. What it follows:
+//! `F` `G` `f` `g` (moves, then cpfg's tropism bend), `+` `-` `&` `^` `/`
+//! `\` `|` (turns), `[` `]`, `_` (elasticity), `%` (with `interpretation
+//! past %: off`, the rest of the branch is skipped), `@v` and `@M`. Every
+//! other module leaves the turtle as it is; what would move it in cpfg
+//! and is not followed here (`~`, other `@` modules, a homomorphism, the
+//! view file's `tropism:` and `torque:`) is refused when the file is
+//! loaded (`check`).
+
+use super::ast::{AxiomPiece, Lsystem, Module};
+use crate::diag::{Error, Refused, RuntimeError};
+use crate::lang::lexer::Span;
+use crate::rules::{codec, Alphabet};
+use crate::turtle::cpfg_view::CpfgTurtle;
+use std::fs::File;
+use std::os::unix::fs::FileExt;
+
+type V3 = [f64; 3];
+
+/// The view file's settings as cpfg's turtle computes with them.
+#[derive(Clone, Debug)]
+pub struct QueryTurtle {
+    sin_a: f64,
+    cos_a: f64,
+    /// The tropism's direction, of length 1 as cpfg makes it (in floats).
+    tropism: V3,
+    elasticity: f32,
+    elasticity_increment: f32,
+    scale: f32,
+    past_cut: bool,
+    /// The last generation's queries are filled too
+    /// ([`CpfgTurtle::fills_last`]).
+    pub fills_last: bool,
+}
+
+/// Degrees to radians as cpfg's `D_TO_R` computes it (times pi, then
+/// divided: not times pi/180, which rounds differently).
+#[inline]
+fn radians(deg: f64) -> f64 {
+    deg * std::f64::consts::PI / 180.0
+}
+
+impl QueryTurtle {
+    pub fn new(v: &CpfgTurtle) -> QueryTurtle {
+        let a = radians(f64::from(v.angle));
+        // cpfg: `temp_length = sqrt(x*x + y*y + z*z)` with float x, y, z
+        // (float sums), kept as a float; each component divided by it in
+        // floats.
+        let [x, y, z] = v.tropism;
+        let len = f64::from(x * x + y * y + z * z).sqrt() as f32;
+        QueryTurtle {
+            sin_a: a.sin(),
+            cos_a: a.cos(),
+            tropism: [f64::from(x / len), f64::from(y / len), f64::from(z / len)],
+            elasticity: v.elasticity,
+            elasticity_increment: v.elasticity_increment,
+            scale: v.scale,
+            past_cut: v.past_cut,
+            fills_last: v.fills_last,
+        }
+    }
+}
+
+#[derive(Clone, Copy)]
+struct State {
+    pos: V3,
+    h: V3,
+    l: V3,
+    u: V3,
+    e: f32,
+}
+
+/// cpfg's `change_dir`: a' = c a + s b, b' = c b - s a.
+#[inline]
+fn rot(a: &mut V3, b: &mut V3, s: f64, c: f64) {
+    let na = [
+        c * a[0] + s * b[0],
+        c * a[1] + s * b[1],
+        c * a[2] + s * b[2],
+    ];
+    let nb = [
+        c * b[0] + -s * a[0],
+        c * b[1] + -s * a[1],
+        c * b[2] + -s * a[2],
+    ];
+    *a = na;
+    *b = nb;
+}
+
+#[inline]
+fn dot(a: V3, b: V3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[inline]
+fn cross(a: V3, b: V3) -> V3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Why the turtle stopped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum QueryFault {
+    /// cpfg's bend: elasticity × (T·U) or (T·L) past ±1, no angle (cpfg's
+    /// turtle becomes NaN).
+    BendPastRightAngle,
+    /// A vector a query would give is past the largest number.
+    NotFinite,
+    /// Branches nested deeper than [`MAX_DEPTH`]: the turtle keeps a
+    /// state for each open one.
+    TooDeep,
+    /// A `?` followed by another module (a production rewrote its query
+    /// module), or at the end of the string (None): cpfg warns and skips
+    /// the module after it.
+    NotAQuery(Option<char>),
+}
+
+/// The deepest nesting of branches the turtle follows (as lsgen-turtle's):
+/// a state of 104 bytes for each open branch, 104 MiB at most.
+pub const MAX_DEPTH: usize = crate::turtle::state::MAX_DEPTH;
+
+struct Walker<'q> {
+    q: &'q QueryTurtle,
+    s: State,
+    stack: Vec<State>,
+}
+
+impl Walker<'_> {
+    fn new(q: &QueryTurtle) -> Walker<'_> {
+        Walker {
+            q,
+            s: State {
+                pos: [0.0; 3],
+                h: [0.0, 1.0, 0.0],
+                l: [-1.0, 0.0, 0.0],
+                u: [0.0, 0.0, -1.0],
+                e: q.elasticity,
+            },
+            stack: Vec::new(),
+        }
+    }
+
+    fn sin_cos(&self, p: &[f64]) -> (f64, f64) {
+        match p.first() {
+            Some(&d) => radians(d).sin_cos(),
+            None => (self.q.sin_a, self.q.cos_a),
+        }
+    }
+
+    /// cpfg's `bend`, after each move.
+    fn bend(&mut self) -> Result<(), QueryFault> {
+        if self.s.e == 0.0 {
+            return Ok(());
+        }
+        let e = f64::from(self.s.e);
+        let t = self.q.tropism;
+        let s = e * dot(t, self.s.u);
+        if !(-1.0..=1.0).contains(&s) {
+            return Err(QueryFault::BendPastRightAngle);
+        }
+        rot(&mut self.s.h, &mut self.s.u, s, (1.0 - s * s).sqrt());
+        let s = e * dot(t, self.s.l);
+        if !(-1.0..=1.0).contains(&s) {
+            return Err(QueryFault::BendPastRightAngle);
+        }
+        rot(&mut self.s.h, &mut self.s.l, s, (1.0 - s * s).sqrt());
+        Ok(())
+    }
+
+    /// One module `sym(p)` (not `?`, `@` or what follows them).
+    fn module(&mut self, sym: char, p: &[f64]) -> Result<(), QueryFault> {
+        let st = &mut self.s;
+        match sym {
+            'F' | 'G' | 'f' | 'g' => {
+                // cpfg: `internodeLength` is a float, the parameter (or
+                // the step size, 1) times the turtle's scale.
+                let d = p.first().map_or(1.0, |&x| x as f32) * self.q.scale;
+                let d = f64::from(d);
+                st.pos[0] += d * st.h[0];
+                st.pos[1] += d * st.h[1];
+                st.pos[2] += d * st.h[2];
+                self.bend()?;
+            }
+            '+' | '-' => {
+                let (s, c) = self.sin_cos(p);
+                let s = if sym == '+' { s } else { -s };
+                rot(&mut self.s.h, &mut self.s.l, s, c);
+            }
+            '&' | '^' => {
+                let (s, c) = self.sin_cos(p);
+                let s = if sym == '&' { s } else { -s };
+                rot(&mut self.s.h, &mut self.s.u, s, c);
+            }
+            '/' | '\\' => {
+                let (s, c) = self.sin_cos(p);
+                let s = if sym == '/' { s } else { -s };
+                rot(&mut self.s.l, &mut self.s.u, s, c);
+            }
+            '|' => rot(&mut st.h, &mut st.l, 0.0, -1.0),
+            '[' => {
+                if self.stack.len() >= MAX_DEPTH {
+                    return Err(QueryFault::TooDeep);
+                }
+                self.stack.push(self.s);
+            }
+            // (An unmatched `]`: the engine reports the string's balance.)
+            ']' => {
+                if let Some(s) = self.stack.pop() {
+                    self.s = s;
+                }
+            }
+            '_' => {
+                st.e = match p.first() {
+                    Some(&e) => e as f32,
+                    None => st.e + self.q.elasticity_increment,
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// `@` followed by `sym(p)`.
+    fn at_module(&mut self, sym: char, p: &[f64]) {
+        let st = &mut self.s;
+        match sym {
+            'v' if st.h[1] < 1.0 && st.h[1] > -1.0 => {
+                let mut l = cross([0.0, 1.0, 0.0], st.h);
+                let n = dot(l, l).sqrt();
+                if n != 0.0 {
+                    let r = 1.0 / n;
+                    l = [l[0] * r, l[1] * r, l[2] * r];
+                }
+                st.l = l;
+                st.u = cross(l, st.h);
+            }
+            'M' if p.len() >= 2 => {
+                st.pos = [p[0], p[1], p.get(2).copied().unwrap_or(0.0)];
+            }
+            _ => {}
+        }
+    }
+
+    /// The vector a query module `sym` reads, if it is one.
+    fn query(&self, sym: char) -> Option<V3> {
+        match sym {
+            'P' => Some(self.s.pos),
+            'H' => Some(self.s.h),
+            'L' => Some(self.s.l),
+            'U' => Some(self.s.u),
+            _ => None,
+        }
+    }
+}
+
+/// Interpret the generation in `file` (binary, indexed as `indexed` and
+/// `counts` say) from its start with cpfg's turtle and write each query's
+/// values over its module's parameters. `generation`: its number, for
+/// errors.
+pub fn fill(
+    q: &QueryTurtle,
+    file: &File,
+    al: &Alphabet,
+    (indexed, counts): (bool, bool),
+    generation: u64,
+) -> Result<(), Error> {
+    let fault = |fault| Error::new(RuntimeError::Query { fault, generation });
+    let io = |e| Error::io("temporary generation", crate::diag::IoAction::Read, e);
+    let mut r = crate::derive::reader::PosReader::new(file, 1 << 16, indexed).with_counts(counts);
+    let mut w = Walker::new(q);
+    let mut params = [0.0f64; 255];
+    // The module before was `@`, or `?`.
+    let (mut at, mut ask) = (false, false);
+    // Inside a branch's rest skipped after `%` (its depth).
+    let mut skipping: Option<usize> = None;
+    let mut patch = Vec::with_capacity(24);
+    loop {
+        let off = r.offset();
+        let Some((key, s, e)) = r.next_module(al).map_err(io)? else {
+            break;
+        };
+        let sym = al.symbol(key);
+        if let Some(depth) = &mut skipping {
+            match sym {
+                '[' => {
+                    *depth += 1;
+                    continue;
+                }
+                ']' if *depth == 0 => skipping = None,
+                ']' => {
+                    *depth -= 1;
+                    continue;
+                }
+                _ => continue,
+            }
+        }
+        let n = al.arity(key);
+        let bytes = r.bytes(s, e);
+        let body = codec::body(bytes);
+        for (i, p) in params[..n].iter_mut().enumerate() {
+            *p = codec::get_param(body, i);
+        }
+        let p = &params[..n];
+        if ask {
+            ask = false;
+            let Some(v) = w.query(sym) else {
+                return Err(fault(QueryFault::NotAQuery(Some(sym))));
+            };
+            {
+                let k = n.min(3);
+                patch.clear();
+                for &x in &v[..k] {
+                    let x = x as f32;
+                    if !x.is_finite() {
+                        return Err(fault(QueryFault::NotFinite));
+                    }
+                    patch.extend_from_slice(&f64::from(x).to_le_bytes());
+                }
+                let key_len = bytes.len() - body.len();
+                file.write_all_at(&patch, off + key_len as u64)
+                    .map_err(|e| {
+                        Error::io("temporary generation", crate::diag::IoAction::Write, e)
+                    })?;
+            }
+            continue;
+        }
+        if at {
+            at = false;
+            w.at_module(sym, p);
+            continue;
+        }
+        match sym {
+            '?' if n == 0 => ask = true,
+            '@' if n == 0 => at = true,
+            '%' if n == 0 && !q.past_cut => skipping = Some(0),
+            _ => w.module(sym, p).map_err(fault)?,
+        }
+    }
+    if ask {
+        return Err(fault(QueryFault::NotAQuery(None)));
+    }
+    Ok(())
+}
+
+/// Where a file with queries has something lsgen's query turtle does not
+/// follow, or nothing to read its settings from. `view`: the view file's
+/// turtle settings (`--cpfg-view`). Ok(None): no query.
+pub(crate) fn check(
+    tree: &Lsystem,
+    text: &str,
+    view: Option<&CpfgTurtle>,
+) -> Result<Option<QueryTurtle>, CheckError> {
+    // The axiom's modules without parameters keep no span: the first
+    // such symbol in the axiom's text.
+    let in_axiom = |c: char| {
+        let (s, e) = tree.axiom_span;
+        let at = text.get(s..e).and_then(|t| t.find(c)).map_or(s, |i| s + i);
+        (at, at + c.len_utf8())
+    };
+    let Some(first) = first_query(tree, in_axiom('?')) else {
+        return Ok(None);
+    };
+    let Some(view) = view else {
+        return Err(CheckError::At(first, Refused::QueryWithoutView));
+    };
+    if let Some(h) = &tree.homomorphism {
+        if !h.productions.is_empty() {
+            return Err(CheckError::At(first, Refused::QueryWithHomomorphism));
+        }
+    }
+    // Each list of modules (the axiom, each successor) in turn, without a
+    // copy: (symbol, parameters, span; None for the axiom's modules
+    // without parameters, found in its text only for a message).
+    let axiom = tree
+        .axiom
+        .iter()
+        .flat_map(|piece| -> Box<dyn Iterator<Item = _>> {
+            match piece {
+                AxiomPiece::Symbols(s) => Box::new(s.chars().map(|c| (c, 0, None))),
+                AxiomPiece::Module(m) => {
+                    Box::new(std::iter::once((m.sym, m.params.len(), Some(m.span))))
+                }
+            }
+        });
+    let at = |(c, _, span): (char, usize, Option<Span>)| span.unwrap_or_else(|| in_axiom(c));
+    check_list(axiom).map_err(|(m, r)| CheckError::At(at(m), r))?;
+    let sections =
+        std::iter::once(&tree.productions).chain(tree.decomposition.iter().map(|s| &s.productions));
+    for p in sections.flatten() {
+        let succ = p.succ.iter().map(|m| (m.sym, m.params.len(), Some(m.span)));
+        check_list(succ).map_err(|(m, r)| CheckError::At(at(m), r))?;
+    }
+    if let Some((label, at)) = &view.movements {
+        return Err(CheckError::View(at.clone(), label.clone()));
+    }
+    Ok(Some(QueryTurtle::new(view)))
+}
+
+/// What [`check`] refuses: at a span of the `.l` file, or a label of the
+/// view file.
+#[derive(Debug)]
+pub(crate) enum CheckError {
+    At(Span, Refused),
+    View(crate::diag::Location, String),
+}
+
+/// A module of a list: symbol, number of parameters, span if known.
+type Item = (char, usize, Option<Span>);
+
+/// The first module of a list (axiom or successor) that lsgen's query
+/// turtle does not follow, and why.
+fn check_list(list: impl Iterator<Item = Item>) -> Result<(), (Item, Refused)> {
+    let not = |what: &str| Refused::QueryNotFollowed(what.to_string());
+    let mut list = list.peekable();
+    while let Some(m) = list.next() {
+        let (sym, n, _) = m;
+        match sym {
+            '~' => return Err((m, not("`~` (a surface)"))),
+            // cpfg's older position query, filled before each step only
+            // (`interpret.c`, `case 's'`).
+            's' if n == 2 || n == 3 => {
+                return Err((
+                    m,
+                    not("`s` with 2 or 3 parameters (cpfg's older position query)"),
+                ))
+            }
+            '%' if n > 0 => return Err((m, not("`%` with parameters"))),
+            '@' => match list.peek() {
+                Some(&('o' | 'O' | 'c' | 'v' | 'M', _, _)) => {}
+                Some(&(next, _, _)) => return Err((m, not(&format!("`@{next}`")))),
+                None => return Err((m, not("`@` at the end of a successor"))),
+            },
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// The first `?` of the file (axiom, predecessors, contexts, successors).
+fn first_query(tree: &Lsystem, in_axiom: Span) -> Option<Span> {
+    let mut found: Option<Span> = None;
+    let mut see = |m: &Module| {
+        if m.sym == '?' && found.is_none_or(|f| m.span.0 < f.0) {
+            found = Some(m.span);
+        }
+    };
+    for piece in &tree.axiom {
+        match piece {
+            AxiomPiece::Symbols(s) if s.contains('?') => see(&Module {
+                sym: '?',
+                params: Vec::new(),
+                span: in_axiom,
+            }),
+            AxiomPiece::Module(m) => see(m),
+            _ => {}
+        }
+    }
+    let sections = std::iter::once(&tree.productions)
+        .chain(tree.decomposition.iter().map(|s| &s.productions))
+        .chain(tree.homomorphism.iter().map(|s| &s.productions));
+    for p in sections.flatten() {
+        let all = p
+            .left
+            .iter()
+            .flatten()
+            .chain(&p.pred)
+            .chain(p.right.iter().flatten())
+            .chain(&p.succ);
+        all.for_each(&mut see);
+    }
+    found
+}

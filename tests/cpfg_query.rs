@@ -1,0 +1,276 @@
+//! cpfg's turtle queries `?P`, `?H`, `?L`, `?U` through the real binary
+//! (`--cpfg-view`; README, "Coming from cpfg: turtle queries"). The
+//! expected values are worked out by hand below, with cpfg's turtle
+//! (`interpret.c`): position 0, heading H = (0,1,0), left L = (-1,0,0),
+//! up U = (0,0,-1); `+` turns H towards L (H' = cH + sL, L' = cL - sH).
+//! tests/cpfg_random.rs checks random systems against the independent
+//! reference tests/tools/cpfg_ref.py.
+
+mod common;
+
+use common::{lsgen, run, tempdir, write};
+use std::path::Path;
+
+/// A `.l` file and its view file in a fresh directory; lsgen's output for
+/// `args` (then `--cpfg-view plant.v plant.l`).
+fn derive(l: &str, v: &str, args: &[&str]) -> common::Run {
+    let dir = tempdir();
+    let view = write(dir.path(), "plant.v", v);
+    let file = write(dir.path(), "plant.l", l);
+    run(lsgen().args(args).arg("--cpfg-view").arg(&view).arg(&file))
+}
+
+fn ok(l: &str, v: &str, args: &[&str]) -> String {
+    derive(l, v, args).ok()
+}
+
+fn system(n: u32, axiom: &str, productions: &str) -> String {
+    format!("Lsystem: 1\nderivation length: {n}\nAxiom: {axiom}\n{productions}\nendlsystem\n")
+}
+
+/// F(2) goes to (0,2,0); +(90) turns H to (-1, cos 90°, 0), cos 90° being
+/// 6.12323e-17 in doubles (as cpfg prints it, a float of it); F(1) goes to
+/// (-1,2,0). The axiom's queries are filled before step 1 and the final
+/// string's before it is printed, also with `-n 0`; a query's values
+/// replace what the module held, past the third parameter nothing.
+#[test]
+fn position_and_heading_after_moves_and_turns() {
+    let l = system(
+        2,
+        "F(2)+(90)F(1)?P(7,7,7,7)A",
+        "A --> F(1)?H(0,0,0)?L(0)?U(5,5)A",
+    );
+    let v = "angle increment: 90\n";
+    assert_eq!(ok(&l, v, &["-n", "0"]), "F(2)+(90)F(1)?P(-1,2,0,7)A\n");
+    // Step 1's F(1) goes on along H: to (-2,2,0). L' = cL - sH = (-c,-1,0);
+    // U is not turned.
+    assert_eq!(
+        ok(&l, v, &["-n", "1"]),
+        "F(2)+(90)F(1)?P(-1,2,0,7)F(1)?H(-1,6.12323e-17,0)?L(-6.12323e-17)?U(0,0)A\n"
+    );
+}
+
+/// A production reads a query through its right context: the apex grows
+/// while it is below y = 3. Before step 1 the apex is at y = 0 (A ?P), so
+/// it grows: F(1) A ?P; before step 2 at y = 1, step 3 at y = 2: grows;
+/// before step 4 at y = 3: stops (B). Steps 5 and 6 change nothing.
+#[test]
+fn a_condition_reads_the_turtle_through_a_right_context() {
+    let l = system(
+        6,
+        "A?P(0,0)",
+        "A > ?P(x,y) : y < 3 --> F(1)A\nA > ?P(x,y) : y >= 3 --> B",
+    );
+    assert_eq!(ok(&l, "angle factor: 8\n", &[]), "F(1)F(1)F(1)B?P(0,3)\n");
+}
+
+/// A predecessor of two modules, `?` and the query: the query rewritten
+/// where the turtle is left of the axis (x < 0). `-(90)` turns H towards
+/// -L, that is to +x; `+(90)` to -x.
+#[test]
+fn a_query_as_a_predecessor() {
+    let l = system(
+        1,
+        "[+(90)F(1)?P(0,0)][-(90)F(1)?P(0,0)]",
+        "?P(x,y) : x < 0 --> L?P(x,y)",
+    );
+    assert_eq!(
+        ok(&l, "angle increment: 45\n", &[]),
+        "[+(90)F(1)L?P(-1,6.12323e-17)][-(90)F(1)?P(1,6.12323e-17)]\n"
+    );
+}
+
+/// cpfg's tropism: after each move, H turns towards U by the angle whose
+/// sine is e (T·U), then towards L by the angle whose sine is e (T·L).
+/// T = (1,0,0), e = 0.5: after the first F, T·U = 0 and T·L = -1, so
+/// H' = cos(30°) H - 0.5 L = (0.5, 0.866025, 0); the second F goes to
+/// (0.5, 1 + 0.866025, 0). `_(0)` then stops the bending: the third F
+/// goes straight on.
+#[test]
+fn the_tropism_bends_after_moves() {
+    let l = system(1, "F?H(0,0,0)F?P(0,0,0)_(0)F?H(0,0,0)", "");
+    let v = "tropism direction: 1,0,0\ninitial elasticity: 0.5\n";
+    let out = ok(&l, v, &["-n", "0"]);
+    // The second F bends again: H after it is rotated once more.
+    let want_start = "F?H(0.5,0.866025,0)F?P(0.5,1.86603,0)_(0)F?H(";
+    assert!(out.starts_with(want_start), "{out}");
+    // Without elasticity: no bend.
+    let out = ok(&l, "tropism direction: 1,0,0\n", &["-n", "0"]);
+    assert_eq!(out, "F?H(0,1,0)F?P(0,2,0)_(0)F?H(0,1,0)\n");
+}
+
+/// `initial scale:` multiplies the lengths; `@M` puts the turtle at a
+/// point (z = 0 with two parameters); `|` turns it around.
+#[test]
+fn scale_move_to_and_turn_around() {
+    let l = system(1, "F(2)?P(0,0,0)@M(5,6)F?P(0,0,0)|F?P(0,0,0)?H(0,0,0)", "");
+    assert_eq!(
+        ok(&l, "initial scale: 3\n", &["-n", "0"]),
+        "F(2)?P(0,6,0)@M(5,6)F?P(5,9,0)|F?P(5,6,0)?H(-0,-1,0)\n"
+    );
+}
+
+/// `interpretation past %: off`: the turtle skips the rest of a branch
+/// after `%`, so a query there keeps its values (`on`, cpfg's default: it
+/// is filled). The `]` ends the skip: the query after it is filled.
+#[test]
+fn interpretation_past_a_cut() {
+    let l = system(1, "[F%F?P(9,9)]F(4)?P(9,9)", "");
+    assert_eq!(
+        ok(&l, "interpretation past %: off\n", &["-n", "0"]),
+        "[F%F?P(9,9)]F(4)?P(0,4)\n"
+    );
+    assert_eq!(
+        ok(&l, "interpretation past %: on\n", &["-n", "0"]),
+        "[F%F?P(0,2)]F(4)?P(0,4)\n"
+    );
+}
+
+/// cpfg fills the saved string's queries when it works out the view
+/// volume around it, which a view file's `box:` turns off; then only
+/// `environment display: before` (a fill after each step) does. The
+/// string a step rewrites is filled either way.
+#[test]
+fn the_last_string_with_a_box() {
+    let l = system(2, "A", "A --> F(1)?P(9,9)A");
+    let boxed = "box: x: -1,1 y: -1,1 z: -1,1\n";
+    // Step 2 rewrote a filled string (the first ?P is at y = 1); the last
+    // ?P is the successor's.
+    assert_eq!(ok(&l, boxed, &[]), "F(1)?P(0,1)F(1)?P(9,9)A\n");
+    assert_eq!(ok(&l, boxed, &["-n", "1"]), "F(1)?P(9,9)A\n");
+    let before = format!("{boxed}environment display: before\n");
+    assert_eq!(ok(&l, &before, &[]), "F(1)?P(0,1)F(1)?P(0,2)A\n");
+    assert_eq!(ok(&l, "", &[]), "F(1)?P(0,1)F(1)?P(0,2)A\n");
+    // Frames: each as `-n k` prints it.
+    for v in [boxed, ""] {
+        let dir = tempdir();
+        let view = write(dir.path(), "plant.v", v);
+        let file = write(dir.path(), "plant.l", &l);
+        let r = run(lsgen()
+            .args(["--frames", "0..2", "--cpfg-view"])
+            .arg(&view)
+            .arg(&file));
+        let want: String = (0..=2)
+            .map(|k| ok(&l, v, &["-n", &k.to_string()]))
+            .collect();
+        assert_eq!(r.ok(), want, "{v}");
+    }
+}
+
+/// The same string at any thread count and with `--frames`.
+#[test]
+fn threads_and_frames_agree() {
+    let l = system(
+        5,
+        "A?P(0,0)",
+        "A > ?P(x,y) : y < 3 --> F(1)[+A?P(0,0)]A\nA > ?P(x,y) : y >= 3 --> B",
+    );
+    let v = "angle factor: 8\n";
+    let one = ok(&l, v, &["-j", "1"]);
+    assert_eq!(ok(&l, v, &["-j", "2"]), one);
+    assert_eq!(ok(&l, v, &["-j", "8"]), one);
+    let dir = tempdir();
+    let view = write(dir.path(), "plant.v", v);
+    let file = write(dir.path(), "plant.l", &l);
+    let r = run(lsgen()
+        .args(["--frames", "0..5", "-o"])
+        .arg(dir.path().join("frame{n}.txt"))
+        .arg("--cpfg-view")
+        .arg(&view)
+        .arg(&file));
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    for k in 0..=5 {
+        let frame = std::fs::read_to_string(dir.path().join(format!("frame{k}.txt"))).unwrap();
+        assert_eq!(frame, ok(&l, v, &["-n", &k.to_string()]), "frame {k}");
+    }
+    assert!(one.contains("?P(0,3)"), "{one}");
+}
+
+/// Errors: a query without the view file, with a homomorphism, with what
+/// lsgen's query turtle does not follow, with cpfg's movements in the
+/// view file.
+#[test]
+fn refused() {
+    let dir = tempdir();
+    let v = write(dir.path(), "plant.v", "angle factor: 8\n");
+    let check = |l: &str, view: Option<&Path>, want: &str| {
+        let file = write(dir.path(), "plant.l", l);
+        let mut cmd = lsgen();
+        if let Some(view) = view {
+            cmd.arg("--cpfg-view").arg(view);
+        }
+        let r = run(cmd.arg(&file));
+        let e = r.fails(1).to_string();
+        assert!(e.contains(want), "{e}");
+    };
+    let l = system(1, "A", "A --> F?P(0,0)");
+    check(
+        &l,
+        None,
+        "plant.l:4:8: error: a query of the turtle (`?P`, `?H`, `?L`, `?U`) needs cpfg's view file",
+    );
+    let hom = "Lsystem: 1\nAxiom: A?P(0,0)\nA --> FA\nhomomorphism\nA --> F\nendlsystem\n";
+    check(hom, Some(&v), "plant.l:2:9: error: a query of the turtle (`?P`, `?H`, `?L`, `?U`) in a system with a homomorphism is not supported yet");
+    let l = system(1, "A?P(0,0)", "A --> ~lA");
+    check(
+        &l,
+        Some(&v),
+        "error: `~` (a surface) in a system with turtle queries",
+    );
+    let l = system(1, "A?P(0,0)", "A --> @R(1,0,0)A");
+    check(
+        &l,
+        Some(&v),
+        "plant.l:4:7: error: `@R` in a system with turtle queries",
+    );
+    let l = system(1, "A?P(0,0)", "A --> A@");
+    check(&l, Some(&v), "`@` at the end of a successor");
+    let moving = write(
+        dir.path(),
+        "moving.v",
+        "angle factor: 8\ntropism: T: 1,0,0\n",
+    );
+    let l = system(1, "A?P(0,0)", "A --> FA");
+    check(
+        &l,
+        Some(&moving),
+        "moving.v:2:1: error: `tropism:` (cpfg's movements",
+    );
+    // The bend's sine past 1: an error at run time, not NaN.
+    let bent = write(
+        dir.path(),
+        "bent.v",
+        "tropism direction: 1,0,0\ninitial elasticity: 2\n",
+    );
+    let l = system(1, "F?P(0,0)", "");
+    check(
+        &l,
+        Some(&bent),
+        "cpfg's tropism bends the turtle by a sine past 1",
+    );
+    // Branches nested deeper than the turtle keeps (2^20): an error, not
+    // memory without bound.
+    let deep = 1 << 20;
+    let axiom = format!("{}F?P(0,0){}", "[".repeat(deep + 1), "]".repeat(deep + 1));
+    let l = system(0, &axiom, "");
+    check(&l, Some(&v), "branches nested deeper than 1048576");
+    let axiom = format!("{}F?P(0,0){}", "[".repeat(deep), "]".repeat(deep));
+    let file = write(dir.path(), "plant.l", system(0, &axiom, ""));
+    let r = run(lsgen().arg("--cpfg-view").arg(&v).arg(&file));
+    assert!(r.ok().contains("F?P(0,1)]"));
+    // cpfg's older position query `s(x,y)`.
+    let l = system(1, "A?P(0,0)", "A --> s(1,2)A");
+    check(&l, Some(&v), "`s` with 2 or 3 parameters");
+    // A production that rewrites a query module away from its `?`.
+    let l = system(2, "A?P(0,0)", "P(x,y) --> B");
+    check(
+        &l,
+        Some(&v),
+        "`?` followed by `B`, not by the `P`, `H`, `L` or `U` it fills",
+    );
+    let l = system(2, "A?P(0,0)", "P(x,y) -->");
+    check(&l, Some(&v), "`?` at the end of the string");
+    // Other `?` are still refused, with or without the view.
+    let l = system(1, "A", "A --> F?E(1)");
+    check(&l, Some(&v), "`?E`");
+}
