@@ -10,7 +10,7 @@ expected strings in tests/expected/cpfg/ come from here.
 
 Usage:
     python3 tests/tools/cpfg_ref.py FILE.l [-n STEPS] [--no-homomorphism]
-                                    [--functions FILE ...]
+                                    [--functions FILE ...] [--cpfg-view FILE.v]
     python3 tests/tools/cpfg_ref.py --self-test
 
 Prints the final string on one line (cpfg's own `-str` file wraps lines at 70
@@ -89,9 +89,30 @@ name without subscripts, subscripts on a non-array, the wrong number of
 subscripts, a name defined twice (or used before its definition).  An
 array named Q or Z hides the global (cpfg's tables).
 
+Queries (interpret.c's InterpretSymbol and bend, blackbox.c's @v and @M,
+generate.c's SkipCutPart and Derive): `?P(x,y,z)` is two modules, `?` and
+`P`, and likewise `?H`, `?L`, `?U`, in any module list (axiom,
+successors, predecessors, contexts). A file with queries needs its view
+file (--cpfg-view, whose `function:` / `curve:` lines also count, before
+those of --functions). Its string is interpreted from the start by a
+turtle (position 0, H = (0,1,0), L = (-1,0,0), U = (0,0,-1)) before each
+step, on the string the step rewrites (before StartEach:), and at the
+end: each `?` writes the position (P) or the vector (H, L, U) into the
+first min(3, n) parameters of the module after it, as floats. The turtle:
+`+ - & ^ / \ |` (the view's `angle increment:` or `angle factor:`, or
+the parameter in degrees), `F G f g` (the parameter or 1, times `initial
+scale:`, then the tropism's bend with `tropism direction:` and the
+elasticity: `initial elasticity:`, `_(e)`, `_` adds `elasticity
+increment:`), `[ ]`, `%` (with `interpretation past %: off`: the rest of
+the branch is not interpreted), `@v`, `@M(x,y[,z])`; all else does not
+move it. Refused in a file with queries: homomorphism productions, `~`,
+`@` other than `@o @O @c @v @M`, a view with `tropism:` or `torque:`; in
+its strings an unmatched `]`, a `?` not followed by P, H, L or U, a bend
+with a sine outside [-1, 1].
+
 Refused with an error (a string rewriter cannot do them, or the reference
-does not model them): ?P ?H ?L ?U ?E and any ? module, sub-L-systems
-(?(id,s), $, several Lsystem: blocks), `external` in define:, @S,
+does not model them): ?E, ?Q, a ? not followed by P, H, L or U,
+sub-L-systems (?(id,s), $, several Lsystem: blocks), `external` in define:, @S,
 vv*/play/stop/fopen/fscanf/..., ring L-systems, -o> object
 productions, % with parameters, & addresses.
 """
@@ -1007,6 +1028,7 @@ class LSystem:
         self.homo_depth = 1
         self.homo_seed = -1
         self.homo_warning = True
+        self.queries = False  # ?P ?H ?L ?U somewhere: the turtle fills them
 
 
 # precedence (lsys_input.y): ?: < || < && < == != < relational < + - < * / %
@@ -1025,6 +1047,8 @@ class Parser:
         self.tables = [self.lsys_table, self.globals]
         self.ls = LSystem()
         self.section = "L"
+        self.all_lists = []  # every module list of the file, with where
+        self.has_query = False  # a ?P ?H ?L ?U somewhere
 
     def peek(self, k=0):
         return self.toks[min(self.pos + k, len(self.toks) - 1)]
@@ -1123,7 +1147,9 @@ class Parser:
                 setattr(ls, attr, block)
             elif k == "AXIOM":
                 self.take()
+                where = self.peek()[2]
                 ls.axiom = self.modules()
+                self.check_queries(ls.axiom, where)
                 if not ls.axiom:
                     raise self.err("the axiom is empty")
                 self.expect("EOL", "end of line")
@@ -1169,7 +1195,49 @@ class Parser:
             raise self.err("several L-systems in one file (sub-L-systems) are not supported")
         if t[0] != "EOF":
             raise self.err("unexpected text after endlsystem")
+        if self.has_query:
+            self.check_query_file()
         return ls
+
+    # -- turtle queries ?P ?H ?L ?U ---------------------------------------
+    def check_queries(self, mods, where):
+        """A `?` must be the query `?P`, `?H`, `?L` or `?U`: no parameters
+        on the `?` (sub-L-systems), one of those modules right after it in
+        the same list (`?E`, `?Q` and others are refused). Every list is
+        kept for check_query_file."""
+        self.all_lists.append((mods, where))
+        for i, (sym, params) in enumerate(mods):
+            if sym != "?":
+                continue
+            if params:
+                raise CpfgError("?(id, s) (sub-L-systems) is not supported", where)
+            if i + 1 == len(mods):
+                raise CpfgError("? at the end of a module list: a query is ?P, ?H, ?L or ?U",
+                                where)
+            q = mods[i + 1][0]
+            if q in "EQ":
+                raise CpfgError("?%s is not supported (queries: ?P ?H ?L ?U)" % q, where)
+            if q not in QUERY_MODULES:
+                raise CpfgError("?%s: a query is ?P, ?H, ?L or ?U" % q, where)
+            self.has_query = True
+
+    def check_query_file(self):
+        """What a file with queries may not have (the turtle of the queries
+        does not model it): homomorphism productions, `~` (surfaces), `@`
+        other than `@o @O @c @v @M`."""
+        if self.ls.homo:
+            raise CpfgError("queries with a homomorphism are not supported",
+                            self.ls.homo[0].where)
+        for mods, where in self.all_lists:
+            for i, (sym, _) in enumerate(mods):
+                if sym == "~":
+                    raise CpfgError("~ (surfaces) in a file with queries is not supported", where)
+                if sym == "@":
+                    nxt = mods[i + 1][0] if i + 1 < len(mods) else ""
+                    if nxt not in BLACKBOX_KNOWN:
+                        raise CpfgError("@%s in a file with queries is not supported "
+                                        "(the turtle knows @o @O @c @v @M)" % nxt, where)
+        self.ls.queries = True
 
     def productions(self):
         prods = []
@@ -1200,6 +1268,9 @@ class Parser:
                 raise self.err("= cannot end a right context (cpfg crashes)")
         for sym, _ in p.pred:
             self.check_symbol(sym, p.where)
+        for mods in (p.lc, p.pred, p.rc):
+            if mods:
+                self.check_queries(mods, p.where)
         if self.peek()[0] == "COLON":
             self.take()
             if self.peek()[0] == "LBRACE":
@@ -1220,6 +1291,7 @@ class Parser:
             p.succ = []
         else:
             p.succ = self.modules()
+            self.check_queries(p.succ, p.where)
         if self.peek()[0] == "COLON":
             self.take()
             p.prob = self.expression()
@@ -1230,9 +1302,7 @@ class Parser:
         return p
 
     def check_symbol(self, sym, where):
-        if sym == "?":
-            raise CpfgError("? modules (queries ?P ?H ?L ?U, ?E environment, ?(id,s) "
-                            "sub-L-systems) need a turtle or a simulation: not supported", where)
+        # (`?` is checked with the modules after it: check_queries)
         if sym == "$":
             raise CpfgError("$ (end of a sub-L-system) is not supported", where)
 
@@ -2767,12 +2837,250 @@ class Deriver:
             rt.initialize_array(cell, at_start=True)
         rt.run(self.ls.start)
         S = [(sym, tuple(f32(rt.eval(e)) for e in params)) for sym, params in self.ls.axiom]
+        # The queries: filled on the string each step rewrites, before its
+        # StartEach: (Derive's ProcessEnvironment), and on the final string
+        turtle = QueryTurtle(rt.turtle_view) if self.ls.queries else None
         for k in range(1, steps + 1):
             last = k == steps and k >= self.ls.n
+            if turtle:
+                S = turtle.fill(S)
             S = self.step(S, last, k)
+        if turtle:
+            S = turtle.fill(S)
         if homomorphism and self.ls.homo:
             S = self.homomorphism(S)
         return S
+
+
+# ---------------------------------------------------------------------------
+# Turtle queries ?P ?H ?L ?U (interpret.c's InterpretSymbol, change_dir,
+# TurtleRotate, bend, InitializeTurtle, ReadViewData; blackbox.c's @v and
+# @M; generate.c's SkipCutPart and the ProcessEnvironment call in Derive;
+# utility.c's DCrossProduct, DNormalize, DDotProduct; learnt, not copied).
+# The vectors are doubles, the values cpfg keeps in floats (angle,
+# elasticity, scale, a segment's length, the parameters) are rounded with
+# f32, and every operation is written in cpfg's order, so that the values
+# are cpfg's to the bit.
+# ---------------------------------------------------------------------------
+
+QUERY_MODULES = "PHLU"
+# the @ functions a file with queries may use: o O c draw (nothing for the
+# queries), v rolls the turtle to the vertical, M moves it
+BLACKBOX_KNOWN = ("o", "O", "c", "v", "M")
+
+
+class TurtleView:
+    """The settings of a view file the query turtle reads (ReadViewData):
+    `angle factor:` / `angle increment:` (the later wins), `tropism
+    direction:`, `initial elasticity:`, `elasticity increment:`, `initial
+    scale:` (0 is 1), `interpretation past %:`. `other_tropisms`: a
+    `tropism:` or `torque:` label (movements, which the reference does not
+    model)."""
+
+    def __init__(self):
+        self.angle = f32(45.0)
+        self.tropism = (0.0, 1.0, 0.0)
+        self.elasticity = 0.0
+        self.elasticity_increment = 0.0
+        self.scale = 1.0
+        self.past_cut = True
+        self.other_tropisms = None
+
+    def sin_cos(self):
+        r = self.angle * math.pi / 180.0  # D_TO_R: times pi, then / 180
+        return math.sin(r), math.cos(r)
+
+
+def view_float(rest, where, what):
+    """fscanf(" %f"): the number at the start of `rest` (blanks skipped)
+    as a float, and what follows it."""
+    pos = 0
+    while pos < len(rest) and rest[pos] in C_SPACE:
+        pos += 1
+    m = STRTOD_RE.match(rest, pos)
+    if not m:
+        raise CpfgError("`%s:` needs a number" % what, where)
+    v = float(m.group())
+    if math.isnan(v) or math.isinf(v):
+        raise CpfgError("`%s:` needs a finite number" % what, where)
+    return f32(v), rest[m.end():]
+
+
+def read_turtle_view(path):
+    try:
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+    except OSError as e:
+        raise CpfgError("cannot read %s: %s" % (path, e.strerror))
+    tv = TurtleView()
+    for i, line in enumerate(splice_and_strip(text, path).split("\n")):
+        if ":" not in line:
+            continue
+        label, rest = line.split(":", 1)
+        label = " ".join(label.split())
+        where = (path, i + 1)
+        if label == "angle factor":
+            n, _ = view_float(rest, where, label)
+            # 360.0 / angle_increment in double, stored in the float
+            tv.angle = f32(360.0 / n) if n != 0 else None
+        elif label == "angle increment":
+            tv.angle, _ = view_float(rest, where, label)
+        elif label == "tropism direction":
+            # fscanf(" %f,%f,%f") into floats; the length and the
+            # quotients are float arithmetic too (temp_x, temp_length
+            # are floats: interpret.c, ReadViewData, case 28)
+            xs = []
+            for k in range(3):
+                v, rest = view_float(rest, where, label)
+                xs.append(v)
+                if k < 2:
+                    if not rest.startswith(","):
+                        raise CpfgError("`tropism direction:` needs x,y,z", where)
+                    rest = rest[1:]
+            x, y, z = xs
+            sq = f32(f32(f32(x * x) + f32(y * y)) + f32(z * z))
+            length = f32(math.sqrt(sq))
+            if length == 0:
+                raise CpfgError("`tropism direction:` of length 0", where)
+            tv.tropism = (f32(x / length), f32(y / length), f32(z / length))
+        elif label == "initial elasticity":
+            tv.elasticity, _ = view_float(rest, where, label)
+        elif label == "elasticity increment":
+            tv.elasticity_increment, _ = view_float(rest, where, label)
+        elif label == "initial scale":
+            tv.scale, _ = view_float(rest, where, label)
+            if tv.scale == 0:
+                tv.scale = 1.0
+        elif label == "interpretation past %":
+            words = rest.split()
+            tv.past_cut = not (words and words[0].startswith("off"))
+        elif label in ("tropism", "torque"):
+            tv.other_tropisms = (label, where)
+    if tv.angle is None or math.isinf(tv.angle):
+        raise CpfgError("`angle factor: 0` (an infinite angle)", (path, 1))
+    return tv
+
+
+def rotate(a, b, s, c):
+    """change_dir(temp, a, b, s, c): a' = c a + s b, b' = c b + (-s) a."""
+    na = [c * a[0] + s * b[0], c * a[1] + s * b[1], c * a[2] + s * b[2]]
+    ms = -s
+    nb = [c * b[0] + ms * a[0], c * b[1] + ms * a[1], c * b[2] + ms * a[2]]
+    return na, nb
+
+
+def dot(u, v):
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
+def cross(u, v):
+    return [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+
+
+class QueryTurtle:
+    """One interpretation of a string from its start, for its queries."""
+
+    def __init__(self, tv):
+        self.tv = tv
+        self.sin, self.cos = tv.sin_cos()
+
+    def bend(self, st):
+        e = st["e"]
+        if e == 0.0:
+            return
+        T = self.tv.tropism
+        for other in ("U", "L"):
+            s = e * dot(T, st[other])
+            if not -1.0 <= s <= 1.0:
+                raise CpfgError("the tropism's bend has a sine of %r (elasticity %g): "
+                                "outside [-1, 1]" % (s, e))
+            st["H"], st[other] = rotate(st["H"], st[other], s, math.sqrt(1 - s * s))
+
+    def fill(self, S):
+        """A copy of S with each query module's first (up to 3) parameters
+        set to the turtle's position or vector where its `?` is met."""
+        tv = self.tv
+        out = list(S)
+        st = {"P": [0.0, 0.0, 0.0], "H": [0.0, 1.0, 0.0], "L": [-1.0, 0.0, 0.0],
+              "U": [0.0, 0.0, -1.0], "e": tv.elasticity}
+        stack = []
+        n = len(S)
+        i = 0
+        while i < n:
+            sym, vals = S[i]
+            i += 1
+            if sym in "+-&^/\\":
+                if vals:
+                    r = vals[0] * math.pi / 180.0
+                    s, c = math.sin(r), math.cos(r)
+                else:
+                    s, c = self.sin, self.cos
+                if sym in "-^\\":
+                    s = -s
+                a, b = {"+": "HL", "-": "HL", "&": "HU", "^": "HU", "/": "LU", "\\": "LU"}[sym]
+                st[a], st[b] = rotate(st[a], st[b], s, c)
+            elif sym == "|":
+                st["H"], st["L"] = rotate(st["H"], st["L"], 0.0, -1.0)
+            elif sym in ("F", "G", "f", "g"):
+                d = f32((vals[0] if vals else 1.0) * tv.scale)
+                P, H = st["P"], st["H"]
+                P[0] += d * H[0]
+                P[1] += d * H[1]
+                P[2] += d * H[2]
+                self.bend(st)
+            elif sym == "_":
+                st["e"] = f32(vals[0]) if vals else f32(st["e"] + tv.elasticity_increment)
+            elif sym == "[":
+                stack.append({k: (list(v) if k != "e" else v) for k, v in st.items()})
+            elif sym == "]":
+                if not stack:
+                    raise CpfgError("an unmatched ] in a string with queries")
+                st = stack.pop()
+            elif sym == "%" and not vals and not tv.past_cut:
+                # SkipCutPart: to the ] closing the branch (interpreted
+                # next), a $, or the end
+                level = 1
+                while i < n:
+                    s2 = S[i][0]
+                    if s2 == "[":
+                        level += 1
+                    elif s2 == "]":
+                        level -= 1
+                        if level == 0:
+                            break
+                    elif s2 == "$":
+                        break
+                    i += 1
+            elif sym == "@":
+                if i == n or S[i][0] not in BLACKBOX_KNOWN:
+                    raise CpfgError("@%s in a string with queries (the turtle knows @o @O "
+                                    "@c @v @M)" % (S[i][0] if i < n else ""))
+                f, fv = S[i]
+                i += 1
+                if f == "v":
+                    H = st["H"]
+                    if H[1] < 1.0 and H[1] > -1.0:
+                        L = cross([0.0, 1.0, 0.0], H)
+                        norm = math.sqrt(dot(L, L))
+                        if norm != 0:
+                            inv = 1.0 / norm  # DNormalize multiplies by 1/n
+                            L = [L[0] * inv, L[1] * inv, L[2] * inv]
+                        st["L"] = L
+                        st["U"] = cross(L, H)
+                elif f == "M" and len(fv) >= 2:
+                    st["P"] = [fv[0], fv[1], fv[2] if len(fv) >= 3 else 0.0]
+            elif sym == "?":
+                if vals or i == n or S[i][0] not in QUERY_MODULES:
+                    raise CpfgError("?%s in a string with queries (?P ?H ?L ?U)"
+                                    % (S[i][0] if i < n else ""))
+                q, qv = S[i]
+                vec = st[q]
+                k = min(3, len(qv))
+                out[i] = (q, tuple(f32(vec[j]) for j in range(k)) + tuple(qv[k:]))
+                i += 1
+            elif sym == "~":
+                raise CpfgError("~ in a string with queries")
+        return out
 
 
 def format_string(S):
@@ -2785,9 +3093,17 @@ def format_string(S):
     return "".join(parts)
 
 
-def load(path, functions=()):
-    """`functions`: the --functions files, in order."""
+def load(path, functions=(), view=None):
+    """`functions`: the --functions files, in order; `view`: the
+    --cpfg-view file (its settings for the queries' turtle, and its
+    functions and curves, numbered before those of `functions`)."""
     fs = FunctionSet()
+    if view is not None:
+        try:
+            with open(view, encoding="utf-8") as f:
+                fs.add_view(view, f.read())
+        except OSError as e:
+            raise CpfgError("cannot read %s: %s" % (view, e.strerror))
     for f in functions:
         fs.add_file(f)
     pp = Preprocessor()
@@ -2805,11 +3121,20 @@ def load(path, functions=()):
     toks = Lexer(lines).tokens()
     ls = Parser(toks, rt).parse()
     rt.rng.main = Randomness(ls.seed).main
+    rt.turtle_view = None
+    if ls.queries:
+        if view is None:
+            raise CpfgError("queries (?P ?H ?L ?U) need the view file (--cpfg-view)", (path, 1))
+        rt.turtle_view = read_turtle_view(view)
+        if rt.turtle_view.other_tropisms:
+            label, where = rt.turtle_view.other_tropisms
+            raise CpfgError("`%s:` in the view of a file with queries is not supported" % label,
+                            where)
     return ls, rt
 
 
-def run_file(path, n=None, homomorphism=True, functions=()):
-    ls, rt = load(path, functions)
+def run_file(path, n=None, homomorphism=True, functions=(), view=None):
+    ls, rt = load(path, functions, view)
     steps = ls.n if n is None else n
     return format_string(Deriver(ls, rt).derive(steps, homomorphism))
 
@@ -2868,6 +3193,7 @@ def self_test():
     ok = self_test_functions() and ok
     ok = self_test_arrays() and ok
     ok = self_test_curves() and ok
+    ok = self_test_turtle() and ok
     print("self-test %s" % ("passed" if ok else "FAILED"))
     return 0 if ok else 1
 
@@ -3118,6 +3444,118 @@ def self_test_curves():
     return ok
 
 
+def self_test_turtle():
+    """The queries' turtle: positions and vectors computed by hand (start:
+    H = (0,1,0), L = (-1,0,0), U = (0,0,-1); a turn by a: H' = cos a H +
+    sin a L, L' = cos a L - sin a H, and likewise for the other pairs),
+    when the queries are filled, and what a file with queries may not
+    have."""
+    import tempfile
+
+    ok = True
+
+    def check(what, got, want):
+        nonlocal ok
+        if got != want:
+            ok = False
+            print("FAIL turtle %s: got %r, want %r" % (what, got, want))
+
+    with tempfile.TemporaryDirectory() as tmp:
+        def run(axiom, view="", n=0, prods="", view_file=True):
+            path = os.path.join(tmp, "a.l")
+            with open(path, "w") as f:
+                f.write("Lsystem: 1\nderivation length: 1\nAxiom: %s\n%sendlsystem\n"
+                        % (axiom, prods))
+            vpath = os.path.join(tmp, "a.v")
+            with open(vpath, "w") as f:
+                f.write(view)
+            return run_file(path, n, view=vpath if view_file else None)
+
+        # F(2): P = (0,2,0). +(90): sin 1, cos 6.12323e-17 (cos of the
+        # double nearest pi/2): H = (-1, cos, 0), L = (-cos, -1, 0). F(1):
+        # P = (-1, 2 + cos, 0), 2 as a float. The 4th parameter of ?L stays.
+        check("F(2)+(90)F(1)", run("F(2)+(90)F(1)?P(7,7,7)?H(0,0,0)?L(0,0,0,4)?U(0,0)"),
+              "F(2)+(90)F(1)?P(-1,2,0)?H(-1,6.12323e-17,0)?L(-6.12323e-17,-1,0,4)?U(0,0)")
+        # the default angle, 45: +F is (-sin 45, cos 45, 0); a query with
+        # fewer parameters gets fewer values, with none it is left alone
+        check("+F", run("+F?P(0)?P?P(0,0)"), "+F?P(-0.707107)?P?P(-0.707107,0.707107)")
+        # angle factor: 12 is 30 degrees, turned by -: H = (sin 30, cos 30)
+        check("angle factor", run("-F?P(0,0,0)", "angle factor: 12\n"), "-F?P(0.5,0.866025,0)")
+        # |: H' = -1 H + 0 L, L' = -1 L + (-0) H: L = (1, -0, -0) in IEEE
+        # (-1 * 0 = -0, -0 * 1 = -0, -0 + -0 = -0)
+        check("|", run("|F?P(9,9,9)?L(9,9,9)"), "|F?P(0,-1,0)?L(1,-0,-0)")
+        # &(90): H = (0, cos, -1), U = (0, -1, -cos); /(90) rolls: L =
+        # (-cos, -1, -cos); @v: L = Y x H = (-1, 0, 0), U = L x H = (-0,
+        # -1, -cos): the roll undone
+        check("@v", run("&(90)/(90)?L(9,9,9)@v?L(9,9,9)?U(9,9,9)"),
+              "&(90)/(90)?L(-6.12323e-17,-1,-6.12323e-17)@v?L(-1,0,0)?U(-0,-1,-6.12323e-17)")
+        # @v with a vertical heading does nothing
+        check("@v vertical", run("/(90)@v?L(9,9,9)"), "/(90)@v?L(-6.12323e-17,0,-1)")
+        # @M: to (x, y, 0) or (x, y, z); one parameter: nothing
+        check("@M", run("@M(3,4)?P(9,9,9)F@M(1,2,3)?P(9,9,9)@M(5)?P(9,9,9)"),
+              "@M(3,4)?P(3,4,0)F@M(1,2,3)?P(1,2,3)@M(5)?P(1,2,3)")
+        # [ ] restore; @o @O @c and other modules do nothing
+        check("branches", run("F[+(90)F?P(9,9)]@o(2)A!(3);F?P(9,9)"),
+              "F[+(90)F?P(-1,1)]@o(2)A!(3);F?P(0,2)")
+        # tropism (1,0,0), elasticity 0.25: after F, the first bend (T.U = 0)
+        # changes nothing, the second has sine 0.25 * (T.L) = -0.25 and
+        # cosine sqrt(0.9375) = 0.968246: H = (0.25, 0.968246, 0); the next
+        # F reaches (0.25, 1 + 0.968246, 0)
+        check("bend", run("F?H(9,9,9)F?P(9,9,9)",
+                          "tropism direction: 1,0,0\ninitial elasticity: 0.25\n"),
+              "F?H(0.25,0.968246,0)F?P(0.25,1.96825,0)")
+        # _(0) stops the bending, _ adds the increment (0 + 0.25)
+        check("_", run("_(0)F?H(9,9,9)_F?H(9,9,9)",
+                       "tropism direction: 1,0,0\nelasticity increment: 0.25\n"),
+              "_(0)F?H(0,1,0)_F?H(0.25,0.968246,0)")
+        # initial scale: F and f move p * scale
+        check("scale", run("F(3)f?P(9,9,9)", "initial scale: 0.5\n"), "F(3)f?P(0,2,0)")
+        # the tropism direction is normalized in float arithmetic: 1/3
+        # rounded to a float, not the double 1/3
+        tv = TurtleView()
+        path = os.path.join(tmp, "t.v")
+        with open(path, "w") as f:
+            f.write("tropism direction: 1,2,2\n")
+        tv = read_turtle_view(path)
+        check("tropism in floats", tv.tropism, (f32(1 / 3), f32(2 / 3), f32(2 / 3)))
+        # % with `interpretation past %: off`: the rest of the branch is
+        # skipped (its query keeps its values), the ] still pops; with the
+        # default (on) % does nothing to the turtle
+        check("% off", run("F[%F?P(9,9)]F?P(9,9)", "interpretation past %: off\n"),
+              "F[%F?P(9,9)]F?P(0,2)")
+        check("% on", run("F[%F?P(9,9)]F?P(9,9)"), "F[%F?P(0,2)]F?P(0,2)")
+        # when: the string a step rewrites is filled before the step (the
+        # context sees y = 2, not the axiom's 0), and the final string too
+        check("before the step",
+              run("F(2)A?P(0,0)", n=1, prods="A > ?P(x,y) : y > 1.5 --> B(y)F\n"),
+              "F(2)B(2)F?P(0,3)")
+        check("a query predecessor",
+              run("+(90)F?P(0,0,0)", n=1, prods="?P(x,y,z) : x < 0 --> ?P(x,y,z)F(1)\n"),
+              "+(90)F?P(-1,6.12323e-17,0)F(1)")
+        # refused
+        for what, axiom, view, prods in [
+                ("?(1)", "?(1)F", "", ""), ("?E", "?E(1)", "", ""), ("?Q", "?Q(1,2,3,4)", "", ""),
+                ("?X", "?A(1)", "", ""), ("? at the end", "F?", "", ""),
+                ("?P in a successor at its end", "A", "", "A --> F?\n"),
+                ("homomorphism", "?P(1)", "", "homomorphism\nA --> B\n"),
+                ("~", "?P(1)~A", "", ""), ("@G", "?P(1)@Gs", "", ""), ("@ at the end", "?P(1)@", "", ""),
+                ("tropism:", "?P(1)", "tropism: T1\n", ""), ("torque:", "?P(1)", "torque: 1\n", ""),
+                ("unmatched ]", "F]?P(1)", "", ""),
+                ("a bend past 1", "_(2)F?P(1)", "tropism direction: 1,0,0\n", ""),
+                ("?X made by a step", "?P(1)", "", "P(x) --> X\n")]:
+            try:
+                run(axiom, view, 1, prods)
+            except CpfgError:
+                continue
+            check("refused " + what, "accepted", "refused")
+        try:
+            run("?P(1)", view_file=False)
+            check("without a view", "accepted", "refused")
+        except CpfgError:
+            pass
+    return ok
+
+
 def self_test_arrays():
     """define: and arrays: values derived by hand."""
     import tempfile
@@ -3231,6 +3669,9 @@ def main(argv=None):
     ap.add_argument("--functions", action="append", default=[], metavar="FILE",
                     help="a view file (its function: and function set: lines), "
                     "a function set (.fset) or a function (.func); repeatable")
+    ap.add_argument("--cpfg-view", metavar="FILE.v", default=None,
+                    help="the view file: the settings of the turtle that fills the queries "
+                    "?P ?H ?L ?U, and its function: and curve: lines")
     ap.add_argument("--self-test", action="store_true")
     args = ap.parse_args(argv)
     if args.self_test:
@@ -3238,7 +3679,8 @@ def main(argv=None):
     if not args.file:
         ap.error("a file is needed")
     try:
-        out = run_file(args.file, args.n, not args.no_homomorphism, args.functions)
+        out = run_file(args.file, args.n, not args.no_homomorphism, args.functions,
+                       args.cpfg_view)
     except CpfgError as e:
         print("cpfg_ref.py: %s" % e, file=sys.stderr)
         return 1
