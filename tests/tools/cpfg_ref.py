@@ -106,7 +106,8 @@ elasticity: `initial elasticity:`, `_(e)`, `_` adds `elasticity
 increment:`), `[ ]`, `%` (with `interpretation past %: off`: the rest of
 the branch is not interpreted), `@v`, `@M(x,y[,z])`; all else does not
 move it. Refused in a file with queries: homomorphism productions, `~`,
-`@` other than `@o @O @c @v @M`, a view with `tropism:` or `torque:`; in
+`@` other than `@o @O @c @v @M`, `s` with 2 or 3 parameters (cpfg's old
+position query), a view with `tropism:` or `torque:`; in
 its strings an unmatched `]`, a `?` not followed by P, H, L or U, a bend
 with a sine outside [-1, 1].
 
@@ -1224,12 +1225,18 @@ class Parser:
     def check_query_file(self):
         """What a file with queries may not have (the turtle of the queries
         does not model it): homomorphism productions, `~` (surfaces), `@`
-        other than `@o @O @c @v @M`."""
+        other than `@o @O @c @v @M`, `s` with 2 or 3 parameters."""
         if self.ls.homo:
             raise CpfgError("queries with a homomorphism are not supported",
                             self.ls.homo[0].where)
         for mods, where in self.all_lists:
-            for i, (sym, _) in enumerate(mods):
+            for i, (sym, params) in enumerate(mods):
+                if sym == "s" and len(params) in (2, 3):
+                    # interpret.c's `case 's'` (backward compatibility): in
+                    # the environment pass before each step, s(x,y[,z])
+                    # gets the position, as ?P does; not modelled
+                    raise CpfgError("s with 2 or 3 parameters in a file with queries is not "
+                                    "supported (cpfg's old position query)", where)
                 if sym == "~":
                     raise CpfgError("~ (surfaces) in a file with queries is not supported", where)
                 if sym == "@":
@@ -3538,7 +3545,7 @@ def self_test_turtle():
                 ("?X", "?A(1)", "", ""), ("? at the end", "F?", "", ""),
                 ("?P in a successor at its end", "A", "", "A --> F?\n"),
                 ("homomorphism", "?P(1)", "", "homomorphism\nA --> B\n"),
-                ("~", "?P(1)~A", "", ""), ("@G", "?P(1)@Gs", "", ""), ("@ at the end", "?P(1)@", "", ""),
+                ("~", "?P(1)~A", "", ""), ("s(x,y)", "?P(1)s(1,2)", "", ""), ("@G", "?P(1)@Gs", "", ""), ("@ at the end", "?P(1)@", "", ""),
                 ("tropism:", "?P(1)", "tropism: T1\n", ""), ("torque:", "?P(1)", "torque: 1\n", ""),
                 ("unmatched ]", "F]?P(1)", "", ""),
                 ("a bend past 1", "_(2)F?P(1)", "tropism direction: 1,0,0\n", ""),
