@@ -56,22 +56,39 @@ with 1-3 contour files of its own (every kind cpfg evaluates, dimensions
 functions too, in a view file (`curve:` lines with or without samples,
 mixed with `function:` lines) or passed directly (`--functions` or
 `--curves`), with t inside and outside [0, 1] and calls nested in `func`.
+A twelfth (`generate_queries`) has turtle queries `?P`, `?H`, `?L`, `?U`
+(0-4 parameters, mostly 2-3) among the turtle's modules (F f G g with and
+without a length, the turns with and without an angle, `|`, branches, `_`
+and `_(e)`, `%` in branches, `@v`, `@M(x,y[,z])`, `@o`), with a view file
+`case.v` given with `--cpfg-view` (`angle factor:` or `angle increment:`,
+`tropism direction:`, `initial elasticity:` up to 0.3, `elasticity
+increment:`, `initial scale:`, `interpretation past %: off`): a key A
+grows in branches, each copy followed by a query of the case's watched
+kind, which conditions read through right and left contexts, a
+predecessor may start with a query (`?P(x,y,z) : x < 0 --> ...`), the
+decomposition sometimes emits queries; its strings may be longer
+(MAX_OUTPUT_QUERIES), and a case where no condition on a query was both
+true and false is kept only half of the times (the run prints how many
+kept cases have one).
 
 Usage (from anywhere):
     python3 tests/tools/gen_cpfg_cases.py          # write the file
     python3 tests/tools/gen_cpfg_cases.py --check  # compare, exit 1 if stale
 
 File format: for each case, a line `=== STEPS`, the `.l` text, then (sixth
-batch) zero or more file sections, a line `--- file NAME` and the file's
-text (each ends with a newline), then optionally a line `--- args
---functions A --functions B ...` (`--curves A` too: the same option), then a line `--- expected` and the output
-line. The files go beside case.l (in the case's own directory). The
-`--functions` arguments to pass, in order and relative to that directory:
-those of the `--- args` line if there is one, else `case.v` if the case
-has that file (a view file: its `function:` / `function set:` lines name
-the other files), else none. Cases the reference refuses, that print
-more than MAX_OUTPUT characters, or whose string holds `inf` / `nan` (an
-error in lsgen, README) are not kept.
+batch on) zero or more file sections, a line `--- file NAME` and the
+file's text (each ends with a newline), then optionally a line `--- args`
+with options and their files (`--functions A --functions B ...`,
+`--curves A` too: the same option; `--cpfg-view case.v` in the twelfth
+batch: the view file of the queries' turtle, whose functions count too),
+then a line `--- expected` and the output line. The files go beside
+case.l (in the case's own directory). The options to pass, in order and
+files relative to that directory: those of the `--- args` line if there
+is one, else `--functions case.v` if the case has that file (a view
+file: its `function:` / `function set:` lines name the other files), else
+none. Cases the reference refuses, that print more than MAX_OUTPUT
+characters (MAX_OUTPUT_QUERIES in the twelfth batch), or whose string
+holds `inf` / `nan` (an error in lsgen, README) are not kept.
 """
 
 import io
@@ -112,7 +129,11 @@ MULTI_SECTIONS = 60
 # The eleventh (`generate_curves`: curveX/Y/Z and curveGAL with contour
 # files of their own), after the tenth.
 CURVES = 60
+# The twelfth (`generate_queries`: ?P ?H ?L ?U with a view file given with
+# --cpfg-view), after the eleventh; its strings may be longer.
+QUERIES = 60
 MAX_OUTPUT = 2000
+MAX_OUTPUT_QUERIES = 6000
 
 SYMS = "ABCD"
 
@@ -857,6 +878,241 @@ def axiom_and_productions(r, lines, call, succ, files, args, bounds, t_test):
     return "\n".join(lines) + "\n", r.randint(1, 4), files, args
 
 
+# Outcomes of the conditions of productions that read a query's parameters
+# (a `?` in the predecessor or a context), per production, for the twelfth
+# batch's statistic: {production: set of outcomes}.
+QUERY_CONDITIONS = {}
+
+
+def spy_try_prod(try_prod):
+    """cpfg_ref's Deriver._try_prod, noting in QUERY_CONDITIONS the outcome
+    of the condition of a production with a `?` in its predecessor or
+    contexts (when the predecessor and the contexts matched)."""
+    def spied(self, p, seq, k, S, left, right):
+        if p.cond is None or not any(sym == "?" for mods in (p.lc, p.pred, p.rc)
+                                     for sym, _ in (mods or [])):
+            return try_prod(self, p, seq, k, S, left, right)
+        seen = []
+        rt = self.rt
+        evaluate = rt.eval
+
+        def spied_eval(e):
+            v = evaluate(e)
+            if e is p.cond:
+                seen.append(v != 0)
+            return v
+        rt.eval = spied_eval
+        try:
+            return try_prod(self, p, seq, k, S, left, right)
+        finally:
+            del rt.eval
+            if seen:
+                QUERY_CONDITIONS.setdefault(p, set()).add(seen[-1])
+    return spied
+
+
+cpfg_ref.Deriver._try_prod = spy_try_prod(cpfg_ref.Deriver._try_prod)
+
+
+def generate_queries(r):
+    """The twelfth batch: turtle queries `?P`, `?H`, `?L`, `?U` (0-4
+    parameters, mostly 2-3) among turtle modules (F, f, G, g with and
+    without a length, the turns with and without an angle, `|`, branches,
+    `_` and `_(e)`, `%` in branches, `@v`, `@M`, `@o`), with a view file
+    `case.v` (`angle factor:` or `angle increment:`, `tropism direction:`,
+    small elasticities, `elasticity increment:`, `initial scale:`,
+    `interpretation past %:`) given with `--cpfg-view`. A key (A) grows in
+    branches, each copy followed by a query of the case's watched kind,
+    which conditions read through right and left contexts; a predecessor
+    may start with the query (`?P(x,y,z) : x < 0 --> ...`), and the
+    decomposition sometimes emits queries. Returns (text, steps, files,
+    args)."""
+    view = []
+    if r.random() < 0.5:
+        view.append("angle factor: %d" % r.choice([4, 5, 6, 7, 8, 8, 9, 12, 16]))
+    else:
+        view.append("angle increment: %s" % r.choice(["30", "45", "22.5", "60", "17.3", "90",
+                                                       "36", "12.5"]))
+    if r.random() < 0.7:
+        view.append("tropism direction: %s" % r.choice([
+            "0,-1,0", "1,0,0", "0,1,0", "0,0,1", "1,-1,0", "0.3,-1,0.2", "1,2,2", "-2,1,0.5",
+            "0.5,0,-1", "0, -1, 0.25"]))
+    if r.random() < 0.65:
+        view.append("initial elasticity: %s" % r.choice(["0", "0.05", "0.1", "0.15", "0.2",
+                                                         "0.3", "0.25", "0.12"]))
+    if r.random() < 0.4:
+        view.append("elasticity increment: %s" % r.choice(["0.01", "0.02", "0.05", "0.1",
+                                                           "-0.05"]))
+    if r.random() < 0.25:
+        view.append("initial scale: %s" % r.choice(["0.5", "2", "1.5", "0.75"]))
+    if r.random() < 0.35:
+        view.append("interpretation past %: off")
+    elif r.random() < 0.15:
+        view.append("interpretation past %: on")
+    if r.random() < 0.3:
+        view.append(r.choice(["initial color: 1", "line width: 2", "z buffer: on",
+                              "/* a comment */"]))
+    r.shuffle(view)
+    view.insert(0, "/* view file of a query case */")
+    files = [("case.v", "\n".join(view) + "\n")]
+    args = [("--cpfg-view", "case.v")]
+
+    # each query kind's usual number of parameters in this case, and the
+    # kind the conditions watch (with 1-4 parameters)
+    nparams = {"P": r.choice([2, 3, 3, 3, 1, 4]), "H": r.choice([2, 3, 3, 0, 1]),
+               "L": r.choice([3, 2, 4, 0]), "U": r.choice([3, 2, 1, 0])}
+    watched = r.choice("PPPHHLU")
+    if not nparams[watched]:
+        nparams[watched] = r.choice([2, 3])
+    names = ["x", "y", "z", "w"]
+    decomposition = r.random() < 0.3
+
+    def query(q=None):
+        q = q or r.choice("PPPHHLU")
+        k = nparams[q] if r.random() < 0.9 else r.randint(0, 4)
+        if k == 0:
+            return "?" + q
+        return "?%s(%s)" % (q, ",".join(r.choice(["0", "0", "1", "-1", "9"]) for _ in range(k)))
+
+    def turtle(var=None):
+        k = r.random()
+        ln = r.choice(["1", "0.5", "2", "1.5", "0.75"])
+        if var and r.random() < 0.2:
+            ln = r.choice(["%s*0.5", "%s+1", "1-%s"]).replace("%s", var)
+        ang = r.choice(["30", "45", "90", "20", "75", "120", "15"])
+        if var and r.random() < 0.1:
+            ang = "%s*60" % var
+        if k < 0.3:
+            return r.choice(["F", "F(%s)" % ln, "F(%s)" % ln, "f(%s)" % ln, "G", "g",
+                             "G(%s)" % ln, "f", "g(%s)" % ln])
+        if k < 0.65:
+            c = r.choice("+-&^/\\")
+            return c + ("(%s)" % ang if r.random() < 0.5 else "")
+        if k < 0.72:
+            return "|"
+        if k < 0.82:
+            return r.choice(["_", "_(%s)" % r.choice(["0", "0.1", "0.2", "0.3", "0.05"])])
+        if k < 0.9:
+            return "@v"
+        if k < 0.96:
+            xy = [r.choice(["0", "1", "-1", "2", "0.5", "-1.5"]) for _ in range(3)]
+            if var and r.random() < 0.3:
+                xy[0] = var
+            return "@M(%s)" % ",".join(xy[:r.choice([2, 3])])
+        return r.choice(["@o", "@O(1)", "@c(2)", "!", ";", "#(2)", ".", "B", "C"])
+
+    def turtles(lo, hi, var=None):
+        return [turtle(var) for _ in range(r.randint(lo, hi))]
+
+    def join(mods):
+        text = ""
+        for m in mods:
+            # `//` and `/*` start comments in the preprocessor
+            if text.endswith("/") and m[:1] in "/*":
+                text += " "
+            text += m
+        if text.endswith("\\"):
+            text += "(45)"  # (a \ before the newline splices the lines)
+        return text
+
+    def branch(inner):
+        if r.random() < 0.15:
+            # a cut: the rest of the branch goes at the next step, and the
+            # turtle skips it when `interpretation past %:` is off
+            inner.insert(r.randint(0, len(inner)), "%")
+        return "[" + join(inner) + "]"
+
+    def grow(var=None):
+        """A's successor: turtle moves, one or two copies of A, each with
+        the watched query after it, other queries."""
+        out = turtles(1, 3, var)
+        for _ in range(r.choice([1, 2, 2])):
+            a = turtles(0, 2, var) + ["A", query(watched)]
+            if r.random() < 0.2:
+                a.insert(-2, query(watched))  # (a left context for A)
+            if r.random() < 0.3:
+                a.append(query())
+            out.append(branch(a) if r.random() < 0.6 else join(a))
+        if r.random() < 0.4:
+            out.insert(r.randint(0, len(out)), branch(turtles(1, 2, var) + [query()]))
+        return out
+
+    def cond_on(q, k):
+        """A condition on a query q of k parameters named x y z w."""
+        v = names[r.randrange(min(k, 3))]
+        if q == "P":
+            tests = {"x": ["x < 0", "x > 0", "x < -0.5", "x > 0.3"],
+                     "y": ["y > %s" % r.choice(["0.5", "1", "1.5", "2", "3"]), "y < 2",
+                           "y - x > 1" if k >= 2 else "y < 1"],
+                     "z": ["z < 0", "z > 0.1", "z >= 0", "x*x + z*z > 0.5"]}[v]
+        else:
+            tests = {"x": ["x < 0", "x > 0.3", "x < -0.2", "x >= 0"],
+                     "y": ["y > 0.5", "y < 0.9", "y < 0", "y > 0.95"],
+                     "z": ["z <= 0", "z > 0.2", "z < -0.3", "z == 0"]}[v]
+        t = r.choice(tests)
+        if r.random() < 0.15:
+            t = "Q > 1 && " + t
+        return t
+
+    def formal(q):
+        return "?%s(%s)" % (q, ",".join(names[:nparams[q]]))
+
+    def shows(q):
+        """Modules that show a query's values (its first three named)."""
+        v = names[r.randrange(min(nparams[q], 3))]
+        return v, r.choice(["C(%s)" % v, "F(%s+1)" % v, "C(trunc(%s*100))" % v,
+                            "[+(%s*90)F]" % v, "C(%s,Q)" % v])
+
+    k = nparams[watched]
+    fw = formal(watched)
+    prods = []
+    # conditions on the query after A (or before it)
+    for _ in range(r.randint(1, 2)):
+        lhs = "A > %s" % fw if r.random() < 0.75 else "%s < A" % fw
+        v, show = shows(watched)
+        succ = [show] + turtles(0, 2, v)
+        if r.random() < 0.5:
+            succ += grow(v)
+        r.shuffle(succ)
+        prods.append("%s : %s --> %s" % (lhs, cond_on(watched, k), join(succ)))
+    # a predecessor that starts with the query
+    if r.random() < 0.6:
+        q = watched if r.random() < 0.7 else r.choice([c for c in "PHLU" if nparams[c]])
+        v, show = shows(q)
+        succ = [show] + turtles(0, 1, v)
+        r.shuffle(succ)
+        if r.random() < 0.75:
+            succ.insert(0, formal(q))  # the query stays
+        prods.append("%s : %s --> %s" % (formal(q), cond_on(q, nparams[q]), join(succ)))
+    # the growth, last: the productions with conditions are tried first
+    prods.append("A --> %s" % join(grow() + (["D"] if decomposition and r.random() < 0.6 else [])))
+    if r.random() < 0.5:
+        prods.append("B --> %s" % join(turtles(1, 2) + [query()]))
+    lines = ["Lsystem: 1"]
+    steps = r.randint(1, 5)
+    lines.append("derivation length: %d" % steps)
+    if r.random() < 0.15:
+        lines.append(r.choice(["ignore: F f +", "ignore: + - & ^", "ignore: F"]))
+    axiom = turtles(0, 2) + ["A", query(watched)] + turtles(0, 2)
+    if r.random() < 0.5:
+        axiom.append(branch(turtles(1, 2) + ["A", query(watched)]))
+    if r.random() < 0.4:
+        axiom.append(query())
+    lines.append("Axiom: " + join(axiom))
+    lines += prods
+    if decomposition:
+        lines.append("decomposition")
+        if r.random() < 0.3:
+            lines.append("maximum depth: 2")
+        lines.append("D --> %s" % join(turtles(1, 2) + [query()] + turtles(0, 1)))
+        if r.random() < 0.4:
+            q = r.choice([c for c in "PHLU" if nparams[c]])
+            v, show = shows(q)
+            lines.append("%s : %s --> %s%s" % (formal(q), cond_on(q, nparams[q]), formal(q), show))
+    lines.append("endlsystem")
+    return "\n".join(lines) + "\n", steps, files, args
+
+
 def derive(text, steps, files=(), args=None):
     """The reference's string, or None if it refuses the system. `files`:
     (name, text) written beside case.l; `args`: the --functions files (by
@@ -871,12 +1127,16 @@ def derive(text, steps, files=(), args=None):
         if args is None:
             args = ["case.v"] if any(n == "case.v" for n, _ in files) else []
         # (an `--functions` or `--curves` file: the same option)
-        functions = [os.path.join(d, a if isinstance(a, str) else a[1]) for a in args]
+        functions = [os.path.join(d, a if isinstance(a, str) else a[1]) for a in args
+                     if isinstance(a, str) or a[0] != "--cpfg-view"]
+        view = [os.path.join(d, a[1]) for a in args
+                if not isinstance(a, str) and a[0] == "--cpfg-view"]
         try:
             # Warnings (undefined names, division by zero) are printed by
             # the reference; they are not part of the expected output.
             with contextlib.redirect_stderr(io.StringIO()):
-                return cpfg_ref.run_file(path, steps, functions=functions)
+                return cpfg_ref.run_file(path, steps, functions=functions,
+                                         view=view[0] if view else None)
         except cpfg_ref.CpfgError:
             return None
         except (OverflowError, ZeroDivisionError, ValueError, RecursionError):
@@ -901,16 +1161,22 @@ def main(argv):
     # set again at each try; their first tries are all kept, so that is the
     # same.
     eleventh = ninth + MULTI_SECTIONS
+    twelfth = eleventh + CURVES
     seeds = {CASES: 13, CASES + EXTENDED: 14, third: 15, fourth: 16, fifth: 17, sixth: 18,
-             seventh: 19, eighth: 20, ninth: 21, eleventh: 22}
-    while made < eleventh + CURVES:
+             seventh: 19, eighth: 20, ninth: 21, eleventh: 22, twelfth: 23}
+    # the twelfth batch: cases with a condition on a query's values that was
+    # both true and false
+    both_ways = 0
+    while made < twelfth + QUERIES:
         if made in seeds:
             r = random.Random(seeds.pop(made))
         tried += 1
         late = third <= made < fourth
         alt = fourth <= made < fifth
         files, args = [], None
-        if made >= eleventh:
+        if made >= twelfth:
+            text, steps, files, args = generate_queries(r)
+        elif made >= eleventh:
             text, steps, files, args = generate_curves(r)
         elif made >= ninth:
             text, steps = generate(r, True, False, False, False, multi_sections=True)
@@ -927,10 +1193,12 @@ def main(argv):
                 r, CASES <= made < fourth, CASES + EXTENDED <= made < third, late, alt
             )
         del SECTION_RUNS[:]
+        QUERY_CONDITIONS.clear()
         out = derive(text, steps, files, args)
         # lsgen refuses a parameter a 32-bit float cannot hold (README), where
         # cpfg stores inf.
-        if out is None or len(out) > MAX_OUTPUT or "inf" in out or "nan" in out:
+        limit = MAX_OUTPUT_QUERIES if made >= twelfth else MAX_OUTPUT
+        if out is None or len(out) > limit or "inf" in out or "nan" in out:
             continue
         if ninth <= made < eleventh and not SECTION_RUNS:
             # (no predecessor of several modules of a section applied)
@@ -938,11 +1206,17 @@ def main(argv):
         if made >= seventh and "(" not in out:
             # (a string without parameters shows too little)
             continue
+        both = any(len(v) == 2 for v in QUERY_CONDITIONS.values())
+        if made >= twelfth and not both and r.random() < 0.5:
+            # (most cases have a condition on a query both true and false)
+            continue
         sections = "".join("--- file %s\n%s" % (name, body) for name, body in files)
         if args is not None:
             sections += "--- args %s\n" % " ".join(
                 ("--functions %s" % a) if isinstance(a, str) else "%s %s" % a for a in args)
         parts.append("=== %d\n%s%s--- expected\n%s\n" % (steps, text, sections, out))
+        if made >= twelfth and both:
+            both_ways += 1
         made += 1
     content = "".join(parts)
     if "--check" in argv:
@@ -953,6 +1227,8 @@ def main(argv):
     with open(OUT, "w", encoding="utf-8", newline="\n") as f:
         f.write(content)
     print("wrote %d cases (%d generated) to %s" % (made, tried, os.path.relpath(OUT, ROOT)))
+    print("queries batch: %d of %d cases have a condition on a query that was both true "
+          "and false" % (both_ways, QUERIES))
     return 0
 
 
