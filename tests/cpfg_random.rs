@@ -1,4 +1,4 @@
-//! The differential test of the cpfg dialect: 930 random `.l` systems
+//! The differential test of the cpfg dialect: 990 random `.l` systems
 //! (every feature of the dialect mixed, see tests/tools/gen_cpfg_cases.py;
 //! cases 301-400 also assign `Q` and `Z` in blocks and try productions at
 //! the decomposition's and the homomorphism's depth limit, and 401-500
@@ -17,7 +17,10 @@
 //! the homomorphism, with contexts, conditions and blocks, seeded or not, and
 //! 871-930 call `curveX`, `curveY`, `curveZ` and `curveGAL` with contour
 //! files of their own (and often functions), given by a view file's
-//! `curve:` lines or directly with `--functions` or `--curves`),
+//! `curve:` lines or directly with `--functions` or `--curves`, and 931-990
+//! have turtle queries `?P`, `?H`, `?L`, `?U` that conditions read through
+//! contexts and predecessors, filled by the turtle with the settings of the
+//! view file `case.v`, given with `--cpfg-view`),
 //! derived by the independent reference tests/tools/cpfg_ref.py; lsgen must
 //! print the same string for each. Every other case runs with
 //! `LSGEN_TEST_SPLIT=1`: splits in tasks of one module or byte where a
@@ -26,9 +29,10 @@
 //!
 //! A case: `=== STEPS`, the `.l` text, then zero or more `--- file NAME`
 //! sections (the file's text, written beside case.l), an optional
-//! `--- args --functions A ...` line (the `--functions` arguments, relative
-//! to the case's directory; without it `--functions case.v` if the case
-//! has that file), then `--- expected` and the output line.
+//! `--- args --functions A ...` line (options and their files, relative to
+//! the case's directory: `--functions`, `--curves` or `--cpfg-view`;
+//! without it `--functions case.v` if the case has that file), then
+//! `--- expected` and the output line.
 
 mod common;
 
@@ -88,12 +92,13 @@ fn random_cases_match_cpfg_ref() {
         cmd.args(["-n", n.trim()]);
         let mut words = args.iter();
         while let Some(w) = words.next() {
-            // (`--curves` is another name of `--functions`)
+            // (`--curves` is another name of `--functions`; `--cpfg-view`
+            // gives the view file of the queries' turtle)
             assert!(
-                w == "--functions" || w == "--curves",
+                w == "--functions" || w == "--curves" || w == "--cpfg-view",
                 "case {cases}: bad `--- args` line"
             );
-            let f = words.next().expect("--functions needs a file");
+            let f = words.next().expect("an option of `--- args` needs a file");
             cmd.arg(w).arg(case_dir.join(f));
         }
         let r = run(cmd.arg(&file));
@@ -108,7 +113,7 @@ fn random_cases_match_cpfg_ref() {
         }
         cases += 1;
     }
-    assert_eq!(cases, 930);
+    assert_eq!(cases, 990);
     assert!(
         failures.is_empty(),
         "{} of {cases} cases differ from cpfg_ref.py:\n{}",
