@@ -107,7 +107,8 @@ increment:`), `[ ]`, `%` (with `interpretation past %: off`: the rest of
 the branch is not interpreted), `@v`, `@M(x,y[,z])`; all else does not
 move it. Refused in a file with queries: homomorphism productions, `~`,
 `@` other than `@o @O @c @v @M`, `s` with 2 or 3 parameters (cpfg's old
-position query), a view with `tropism:` or `torque:`; in
+position query), a view with `tropism:`, `torque:` or `environment
+display: before`; in
 its strings an unmatched `]`, a `?` not followed by P, H, L or U, a bend
 with a sine outside [-1, 1].
 
@@ -2880,9 +2881,10 @@ class TurtleView:
     """The settings of a view file the query turtle reads (ReadViewData):
     `angle factor:` / `angle increment:` (the later wins), `tropism
     direction:`, `initial elasticity:`, `elasticity increment:`, `initial
-    scale:` (0 is 1), `interpretation past %:`. `other_tropisms`: a
-    `tropism:` or `torque:` label (movements, which the reference does not
-    model)."""
+    scale:` (0 is 1), `interpretation past %:`. `unmodelled`: a
+    `tropism:` or `torque:` label (movements) or `environment display:
+    before` (another timing of the queries), which the reference does not
+    model."""
 
     def __init__(self):
         self.angle = f32(45.0)
@@ -2891,7 +2893,7 @@ class TurtleView:
         self.elasticity_increment = 0.0
         self.scale = 1.0
         self.past_cut = True
-        self.other_tropisms = None
+        self.unmodelled = None
 
     def sin_cos(self):
         r = self.angle * math.pi / 180.0  # D_TO_R: times pi, then / 180
@@ -2962,7 +2964,13 @@ def read_turtle_view(path):
             words = rest.split()
             tv.past_cut = not (words and words[0].startswith("off"))
         elif label in ("tropism", "torque"):
-            tv.other_tropisms = (label, where)
+            tv.unmodelled = (label + ":", where)
+        elif label == "environment display":
+            # `before`: the queries filled after each step and on the
+            # axiom (generate.c's Derive, control.c), not modelled
+            words = rest.split()
+            if words and words[0].startswith("before"):
+                tv.unmodelled = ("environment display: before", where)
     if tv.angle is None or math.isinf(tv.angle):
         raise CpfgError("`angle factor: 0` (an infinite angle)", (path, 1))
     return tv
@@ -3133,9 +3141,9 @@ def load(path, functions=(), view=None):
         if view is None:
             raise CpfgError("queries (?P ?H ?L ?U) need the view file (--cpfg-view)", (path, 1))
         rt.turtle_view = read_turtle_view(view)
-        if rt.turtle_view.other_tropisms:
-            label, where = rt.turtle_view.other_tropisms
-            raise CpfgError("`%s:` in the view of a file with queries is not supported" % label,
+        if rt.turtle_view.unmodelled:
+            label, where = rt.turtle_view.unmodelled
+            raise CpfgError("`%s` in the view of a file with queries is not supported" % label,
                             where)
     return ls, rt
 
@@ -3546,7 +3554,8 @@ def self_test_turtle():
                 ("?P in a successor at its end", "A", "", "A --> F?\n"),
                 ("homomorphism", "?P(1)", "", "homomorphism\nA --> B\n"),
                 ("~", "?P(1)~A", "", ""), ("s(x,y)", "?P(1)s(1,2)", "", ""), ("@G", "?P(1)@Gs", "", ""), ("@ at the end", "?P(1)@", "", ""),
-                ("tropism:", "?P(1)", "tropism: T1\n", ""), ("torque:", "?P(1)", "torque: 1\n", ""),
+                ("tropism:", "?P(1)", "tropism: T1\n", ""),
+                ("environment display", "?P(1)", "environment display: before\n", ""), ("torque:", "?P(1)", "torque: 1\n", ""),
                 ("unmatched ]", "F]?P(1)", "", ""),
                 ("a bend past 1", "_(2)F?P(1)", "tropism direction: 1,0,0\n", ""),
                 ("?X made by a step", "?P(1)", "", "P(x) --> X\n")]:
