@@ -2853,7 +2853,12 @@ class Deriver:
             if turtle:
                 S = turtle.fill(S)
             S = self.step(S, last, k)
-        if turtle:
+        # The saved string: cpfg interprets it to fit its view volume
+        # (control.c, CalculateViewVolume: only without `box:`, which turns
+        # auto_window off), or after the last step with `environment
+        # display: before` (generate.c, the end of Derive); else it is
+        # left as the last step made it.
+        if turtle and (not rt.turtle_view.box or rt.turtle_view.display_before):
             S = turtle.fill(S)
         if homomorphism and self.ls.homo:
             S = self.homomorphism(S)
@@ -2881,10 +2886,10 @@ class TurtleView:
     """The settings of a view file the query turtle reads (ReadViewData):
     `angle factor:` / `angle increment:` (the later wins), `tropism
     direction:`, `initial elasticity:`, `elasticity increment:`, `initial
-    scale:` (0 is 1), `interpretation past %:`. `unmodelled`: a
-    `tropism:` or `torque:` label (movements) or `environment display:
-    before` (another timing of the queries), which the reference does not
-    model."""
+    scale:` (0 is 1), `interpretation past %:`, `box:` and `environment
+    display:` (whether the saved string's queries are filled). `unmodelled`:
+    a `tropism:` or `torque:` label (movements), which the reference does
+    not model."""
 
     def __init__(self):
         self.angle = f32(45.0)
@@ -2894,6 +2899,8 @@ class TurtleView:
         self.scale = 1.0
         self.past_cut = True
         self.unmodelled = None
+        self.box = False
+        self.display_before = False
 
     def sin_cos(self):
         r = self.angle * math.pi / 180.0  # D_TO_R: times pi, then / 180
@@ -2966,11 +2973,13 @@ def read_turtle_view(path):
         elif label in ("tropism", "torque"):
             tv.unmodelled = (label + ":", where)
         elif label == "environment display":
-            # `before`: the queries filled after each step and on the
-            # axiom (generate.c's Derive, control.c), not modelled
+            # `before`: the queries filled after each step (the end of
+            # generate.c's Derive) and on the axiom (control.c) instead of
+            # before each step: the same strings, but for the last one
             words = rest.split()
-            if words and words[0].startswith("before"):
-                tv.unmodelled = ("environment display: before", where)
+            tv.display_before = bool(words and words[0][:6] == "before")
+        elif label == "box":
+            tv.box = True
     if tv.angle is None or math.isinf(tv.angle):
         raise CpfgError("`angle factor: 0` (an infinite angle)", (path, 1))
     return tv
@@ -3547,6 +3556,13 @@ def self_test_turtle():
         check("a query predecessor",
               run("+(90)F?P(0,0,0)", n=1, prods="?P(x,y,z) : x < 0 --> ?P(x,y,z)F(1)\n"),
               "+(90)F?P(-1,6.12323e-17,0)F(1)")
+        # the saved string: filled, but not with `box:` (no view volume
+        # to work out) unless `environment display: before`
+        box = "box: x: -1,1 y: -1,1 z: -1,1\n"
+        check("box:", run("A", box, 2, "A --> F(1)?P(9,9)A\n"), "F(1)?P(0,1)F(1)?P(9,9)A")
+        check("box: and before",
+              run("A", box + "environment display: before\n", 2, "A --> F(1)?P(9,9)A\n"),
+              "F(1)?P(0,1)F(1)?P(0,2)A")
         # refused
         for what, axiom, view, prods in [
                 ("?(1)", "?(1)F", "", ""), ("?E", "?E(1)", "", ""), ("?Q", "?Q(1,2,3,4)", "", ""),
@@ -3555,7 +3571,7 @@ def self_test_turtle():
                 ("homomorphism", "?P(1)", "", "homomorphism\nA --> B\n"),
                 ("~", "?P(1)~A", "", ""), ("s(x,y)", "?P(1)s(1,2)", "", ""), ("@G", "?P(1)@Gs", "", ""), ("@ at the end", "?P(1)@", "", ""),
                 ("tropism:", "?P(1)", "tropism: T1\n", ""),
-                ("environment display", "?P(1)", "environment display: before\n", ""), ("torque:", "?P(1)", "torque: 1\n", ""),
+                ("torque:", "?P(1)", "torque: 1\n", ""),
                 ("unmatched ]", "F]?P(1)", "", ""),
                 ("a bend past 1", "_(2)F?P(1)", "tropism direction: 1,0,0\n", ""),
                 ("?X made by a step", "?P(1)", "", "P(x) --> X\n")]:

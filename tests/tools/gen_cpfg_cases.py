@@ -921,7 +921,8 @@ def generate_queries(r):
     `_` and `_(e)`, `%` in branches, `@v`, `@M`, `@o`), with a view file
     `case.v` (`angle factor:` or `angle increment:`, `tropism direction:`,
     small elasticities, `elasticity increment:`, `initial scale:`,
-    `interpretation past %:`) given with `--cpfg-view`. A key (A) grows in
+    `interpretation past %:`, `box:`, `environment display:`) given with
+    `--cpfg-view`. A key (A) grows in
     branches, each copy followed by a query of the case's watched kind,
     which conditions read through right and left contexts; a predecessor
     may start with the query (`?P(x,y,z) : x < 0 --> ...`), and the
@@ -952,6 +953,12 @@ def generate_queries(r):
     if r.random() < 0.3:
         view.append(r.choice(["initial color: 1", "line width: 2", "z buffer: on",
                               "/* a comment */"]))
+    # whether cpfg fills the saved string's queries: not with `box:`
+    # (no view volume worked out) unless `environment display: before`
+    if r.random() < 0.3:
+        view.append("box: x: -10,10 y: -10,10 z: -10,10")
+    if r.random() < 0.25:
+        view.append("environment display: before")
     r.shuffle(view)
     view.insert(0, "/* view file of a query case */")
     files = [("case.v", "\n".join(view) + "\n")]
