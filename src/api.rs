@@ -11,7 +11,7 @@ use crate::io::precision::Significant;
 use crate::lang::parse::{locate, UserError};
 use crate::rules::{compile_text, LoadError, Seeds, System};
 use std::io::{self, Read, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// Derivation length when neither the file nor [`Options::steps`] gives one.
@@ -304,6 +304,24 @@ impl LSystem {
         files: &[PathBuf],
     ) -> Result<LSystem, Error> {
         let functions = Arc::new(crate::cpfg::func::Functions::load(files)?);
+        Self::load_collecting(Input::new(Box::new(reader), name), &functions)
+    }
+
+    /// [`from_reader_with_functions`](LSystem::from_reader_with_functions)
+    /// after cpfg's view file `view`, as lsgen's `--cpfg-view` reads it:
+    /// its turtle's settings for the queries `?P`, `?H`, `?L`, `?U` (README,
+    /// "Coming from cpfg: turtle queries"), and its functions and curves,
+    /// numbered before those of `files`.
+    pub fn from_reader_with_view(
+        reader: impl Read + 'static,
+        name: &str,
+        view: &Path,
+        files: &[PathBuf],
+    ) -> Result<LSystem, Error> {
+        let functions = Arc::new(crate::cpfg::func::Functions::load_with_view(
+            Some(view),
+            files,
+        )?);
         Self::load_collecting(Input::new(Box::new(reader), name), &functions)
     }
 

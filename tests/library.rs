@@ -840,3 +840,24 @@ fn the_hidden_helpers_write_nothing_on_standard_error() -> Result<(), Box<dyn Er
     }
     Ok(())
 }
+
+/// cpfg's turtle queries from a library: the view file as `--cpfg-view`
+/// reads it. F(2) then a right turn of 90 degrees and F(1): the turtle is
+/// at (-1, 2) (README, "Coming from cpfg: turtle queries").
+#[test]
+fn cpfg_queries_with_a_view_file() -> Result<(), Box<dyn Error>> {
+    let dir = tempfile::tempdir()?;
+    let view = dir.path().join("plant.v");
+    std::fs::write(&view, "angle increment: 90\n")?;
+    let src = "Lsystem: 1\nderivation length: 0\nAxiom: F(2)+F(1)?P(0,0)\nendlsystem\n";
+    let mut ls = lsgen::LSystem::from_reader_with_view(src.as_bytes(), "plant.l", &view, &[])?;
+    let mut out = Vec::new();
+    ls.derive(&lsgen::Options::new(), &mut out)?;
+    assert_eq!(out, b"F(2)+F(1)?P(-1,2)\n");
+    // Without the view file: refused, located.
+    let e = lsgen::LSystem::from_reader_with_functions(src.as_bytes(), "plant.l", &[])
+        .err()
+        .expect("refused");
+    assert!(e.to_string().contains("needs cpfg's view file"), "{e}");
+    Ok(())
+}
