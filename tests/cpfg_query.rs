@@ -110,6 +110,15 @@ fn scale_move_to_and_turn_around() {
     );
 }
 
+/// cpfg's generalized cylinders (`@Gs`, `@Gc(n)`, `@Ge(n)`, `@Gt`,
+/// `@Gr`) set the spline's state, never the turtle's place: the `G` after
+/// `@` is no move.
+#[test]
+fn generalized_cylinders_do_not_move_the_turtle() {
+    let l = system(0, "@GsF(2)@Gc(3)@Gt(1,2)F?P(0,0)@Ge(3)", "");
+    assert_eq!(ok(&l, "", &[]), "@GsF(2)@Gc(3)@Gt(1,2)F?P(0,3)@Ge(3)\n");
+}
+
 /// `interpretation past %: off`: the turtle skips the rest of a branch
 /// after `%`, so a query there keeps its values (`on`, cpfg's default: it
 /// is filled). The `]` ends the skip: the query after it is filled.
@@ -123,6 +132,22 @@ fn interpretation_past_a_cut() {
     assert_eq!(
         ok(&l, "interpretation past %: on\n", &["-n", "0"]),
         "[F%F?P(0,2)]F(4)?P(0,4)\n"
+    );
+}
+
+/// A homomorphism that cannot move the turtle (its moves inside its own
+/// branches, a predecessor that does not move it): cpfg's turtle goes
+/// through it as if it were not there, and the printed string has it
+/// applied. Each A adds F(1) before the apex: the query after the apex
+/// is at y = steps + 1 (the axiom's F(1)), whatever A draws.
+#[test]
+fn a_homomorphism_that_cannot_move_the_turtle() {
+    let l = "Lsystem: 1\nderivation length: 2\nAxiom: F(1)A?P(0,0)\n\
+             A > ?P(x,y) : y < 10 --> F(1)A\nhomomorphism\nmaximum depth: 2\n\
+             A --> [F(5)+F(3)B];(2)\nB --> [&&F]\nendlsystem\n";
+    assert_eq!(
+        ok(l, "angle factor: 4\n", &[]),
+        "F(1)F(1)F(1)[F(5)+F(3)[&&F]];(2)?P(0,3)\n"
     );
 }
 
@@ -209,8 +234,35 @@ fn refused() {
         None,
         "plant.l:4:8: error: a query of the turtle (`?P`, `?H`, `?L`, `?U`) needs cpfg's view file",
     );
-    let hom = "Lsystem: 1\nAxiom: A?P(0,0)\nA --> FA\nhomomorphism\nA --> F\nendlsystem\n";
-    check(hom, Some(&v), "plant.l:2:9: error: a query of the turtle (`?P`, `?H`, `?L`, `?U`) in a system with a homomorphism is not supported yet");
+    // A homomorphism that can move the turtle (cpfg interprets through
+    // it): each way, located at what moves.
+    for (production, at, what) in [
+        (
+            "A --> F",
+            "5:7",
+            "with `F` outside a branch of its successor",
+        ),
+        (
+            "A --> [F]+",
+            "5:10",
+            "with `+` outside a branch of its successor",
+        ),
+        ("F --> [G]", "5:1", "with a predecessor with `F`"),
+        ("A --> [F", "5:1", "with a `[` without its `]`"),
+        ("A --> ]", "5:7", "with a `]` without its `[`"),
+        ("A --> B?P(1)", "5:8", "with a `?` in its successor"),
+        ("A --> B(ran(1))", "5:9", "with a random draw"),
+        ("A : {x = 1;} 1 --> B", "5:1", "with a block"),
+    ] {
+        let hom = format!(
+            "Lsystem: 1\nAxiom: A?P(0,0)\nA --> FA\nhomomorphism\n{production}\nendlsystem\n"
+        );
+        check(
+            &hom,
+            Some(&v),
+            &format!("plant.l:{at}: error: a homomorphism production {what}"),
+        );
+    }
     let l = system(1, "A?P(0,0)", "A --> ~lA");
     check(
         &l,
@@ -222,6 +274,12 @@ fn refused() {
         &l,
         Some(&v),
         "plant.l:4:7: error: `@R` in a system with turtle queries",
+    );
+    let l = system(1, "A?P(0,0)", "A --> @GxA");
+    check(
+        &l,
+        Some(&v),
+        "plant.l:4:7: error: `@Gx` in a system with turtle queries",
     );
     let l = system(1, "A?P(0,0)", "A --> A@");
     check(&l, Some(&v), "`@` at the end of a successor");

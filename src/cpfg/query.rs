@@ -24,7 +24,7 @@
 //! view file's `tropism:` and `torque:`) is refused when the file is
 //! loaded (`check`).
 
-use super::ast::{AxiomPiece, Lsystem, Module};
+use super::ast::{AxiomPiece, Expr, Lsystem, Module, Production};
 use crate::diag::{Error, Refused, RuntimeError};
 use crate::lang::lexer::Span;
 use crate::rules::{codec, Alphabet};
@@ -383,10 +383,11 @@ pub(crate) fn check(
     let Some(view) = view else {
         return Err(CheckError::At(first, Refused::QueryWithoutView));
     };
-    if let Some(h) = &tree.homomorphism {
-        if !h.productions.is_empty() {
-            return Err(CheckError::At(first, Refused::QueryWithHomomorphism));
-        }
+    // A homomorphism that cannot move the turtle: the query turtle
+    // interprets the string without it (as cpfg through it).
+    let hom = tree.homomorphism.iter().flat_map(|h| &h.productions);
+    if let Some((at, why)) = hom.filter_map(homomorphism_moves).next() {
+        return Err(CheckError::At(at, Refused::QueryWithHomomorphism(why)));
     }
     // Each list of modules (the axiom, each successor) in turn, without a
     // copy: (symbol, parameters, span; None for the axiom's modules
@@ -431,9 +432,27 @@ type Item = (char, usize, Option<Span>);
 /// turtle does not follow, and why.
 fn check_list(list: impl Iterator<Item = Item>) -> Result<(), (Item, Refused)> {
     let not = |what: &str| Refused::QueryNotFollowed(what.to_string());
-    let mut list = list.peekable();
-    while let Some(m) = list.next() {
+    // After `@`, and after `@G` (cpfg's generalized cylinders, whose
+    // subfunctions `s c e t r` set the spline's state, never the turtle's
+    // place: `blackbox.c`, `general.c`).
+    let (mut at, mut at_g) = (None, None);
+    for m in list {
         let (sym, n, _) = m;
+        if let Some(a) = at.take() {
+            match sym {
+                'o' | 'O' | 'c' | 'v' | 'M' => {}
+                'G' => at_g = Some(a),
+                _ => return Err((a, not(&format!("`@{sym}`")))),
+            }
+            continue;
+        }
+        if let Some(a) = at_g.take() {
+            match sym {
+                's' | 'c' | 'e' | 't' | 'r' => {}
+                _ => return Err((a, not(&format!("`@G{sym}`")))),
+            }
+            continue;
+        }
         match sym {
             '~' => return Err((m, not("`~` (a surface)"))),
             // cpfg's older position query, filled before each step only
@@ -445,15 +464,101 @@ fn check_list(list: impl Iterator<Item = Item>) -> Result<(), (Item, Refused)> {
                 ))
             }
             '%' if n > 0 => return Err((m, not("`%` with parameters"))),
-            '@' => match list.peek() {
-                Some(&('o' | 'O' | 'c' | 'v' | 'M', _, _)) => {}
-                Some(&(next, _, _)) => return Err((m, not(&format!("`@{next}`")))),
-                None => return Err((m, not("`@` at the end of a successor"))),
-            },
+            '@' => at = Some(m),
             _ => {}
         }
     }
+    if let Some(a) = at.or(at_g) {
+        return Err((a, not("`@` at the end of a successor")));
+    }
     Ok(())
+}
+
+/// Does cpfg's turtle stay as it is on the module `sym` (whatever its
+/// parameters)?
+fn still(sym: char) -> bool {
+    !matches!(
+        sym,
+        'F' | 'f'
+            | 'G'
+            | 'g'
+            | '+'
+            | '-'
+            | '&'
+            | '^'
+            | '/'
+            | '\\'
+            | '|'
+            | '_'
+            | '['
+            | ']'
+            | '@'
+            | '~'
+            | '?'
+            | '%'
+            | '$'
+    )
+}
+
+/// Calls that change cpfg's globals or random streams when evaluated.
+const DRAWS: &[&str] = &["ran", "nran", "bran", "biran", "srand"];
+
+/// The first call of [`DRAWS`] in `e`.
+fn draws(e: &Expr) -> Option<Span> {
+    match e {
+        Expr::Call(name, args, span) => {
+            if DRAWS.contains(&name.as_str()) {
+                Some(*span)
+            } else {
+                args.iter().find_map(draws)
+            }
+        }
+        Expr::Unary(_, a, _) => draws(a),
+        Expr::Binary(_, a, b, _) => draws(a).or_else(|| draws(b)),
+        Expr::Cond(c, a, b, _) => draws(c).or_else(|| draws(a)).or_else(|| draws(b)),
+        Expr::Index(_, subs, _) => subs.iter().find_map(draws),
+        Expr::Num(..) | Expr::Var(..) | Expr::Str(..) => None,
+    }
+}
+
+/// Why the homomorphism production `p` could change cpfg's turtle as it
+/// interprets a string through it (None: it cannot, so the query turtle
+/// may interpret the string without it). cpfg evaluates a production's
+/// condition, blocks and parameters at each interpretation: they must
+/// not draw nor assign; its predecessor must not move the turtle (it is
+/// replaced), nor its successor outside its own branches (a `]` gives the
+/// whole turtle back).
+fn homomorphism_moves(p: &Production) -> Option<(Span, String)> {
+    if !p.pre.is_empty() || !p.post.is_empty() {
+        return Some((p.span, "a block".into()));
+    }
+    if let Some(e) = &p.prob {
+        return Some((e.span(), "a probability".into()));
+    }
+    let params = p.succ.iter().flat_map(|m| &m.params);
+    if let Some(at) = p.cond.iter().chain(params).find_map(draws) {
+        return Some((at, "a random draw".into()));
+    }
+    if let Some(m) = p.pred.iter().find(|m| !still(m.sym)) {
+        return Some((m.span, format!("a predecessor with `{}`", m.sym)));
+    }
+    let mut depth = 0usize;
+    for m in &p.succ {
+        match m.sym {
+            '?' => return Some((m.span, "a `?` in its successor".into())),
+            '[' => depth += 1,
+            ']' if depth == 0 => return Some((m.span, "a `]` without its `[`".into())),
+            ']' => depth -= 1,
+            c if depth == 0 && !still(c) => {
+                return Some((m.span, format!("`{c}` outside a branch of its successor")))
+            }
+            _ => {}
+        }
+    }
+    if depth > 0 {
+        return Some((p.span, "a `[` without its `]`".into()));
+    }
+    None
 }
 
 /// The first `?` of the file (axiom, predecessors, contexts, successors).

@@ -750,9 +750,10 @@ fn step_passes(
         ..
     } = *settings;
     let queries = d.cpfg.as_ref().and_then(|c| c.queries.clone());
-    // With queries, the last pass copies the last step's generation, its
-    // queries filled, to the output (there is no homomorphism then).
+    // With queries, the last step writes a generation too, filled, which
+    // the homomorphism or else a plain copy (`copies`) writes out.
     let copy = crate::rules::Table::default();
+    let copies = queries.is_some() && !hom;
     let passes = steps + u64::from(hom || queries.is_some());
     let (hom_seed, plain, fixed_points) = (tables.hom_seed, tables.plain, tables.fixed_points);
     // The last generation's (modules, bytes): `cur`'s, until the last pass.
@@ -772,7 +773,7 @@ fn step_passes(
             d.rng.set_step(k);
             laid = tables.table_for(k, d)?;
             (&*laid, Pass::Step(k))
-        } else if queries.is_some() {
+        } else if copies {
             (&copy, Pass::Step(first_step + steps.max(1) - 1))
         } else {
             let k = first_step + steps - 1;
@@ -799,7 +800,7 @@ fn step_passes(
         let step = i <= steps;
         // The copy of the last generation: no decomposition, no cut (it
         // had them), as a frame's plain copy.
-        let copying = !step && queries.is_some();
+        let copying = !step && copies;
         let kept = copying.then(|| (d.decomp.take(), std::mem::replace(&mut d.cut, false)));
         // A step that drew nothing and left the string as it was is a fixed
         // point: every later step does the same. Then the run goes on with
@@ -866,7 +867,7 @@ fn step_passes(
                 }
             }
             // (The last step's generation is told as its copy.)
-            if !(queries.is_some() && step && i == steps) {
+            if !(copies && step && i == steps) {
                 events(&Event::Generation {
                     pass,
                     modules,

@@ -30,8 +30,9 @@ pub enum Refused {
     Query,
     /// A query (`?P`, ...) without a view file (`--cpfg-view`).
     QueryWithoutView,
-    /// A query in a system with a homomorphism.
-    QueryWithHomomorphism,
+    /// A query in a system with a homomorphism production that can move
+    /// the turtle (what it has).
+    QueryWithHomomorphism(String),
     /// What a system with queries has that lsgen's query turtle does not
     /// follow (as the message names it).
     QueryNotFollowed(String),
@@ -89,8 +90,9 @@ impl fmt::Display for Refused {
             QueryWithoutView => f.write_str(
                 "a query of the turtle (`?P`, `?H`, `?L`, `?U`) needs cpfg's view file: give it with --cpfg-view FILE.v (the turtle's angle, tropism and scale are there)",
             ),
-            QueryWithHomomorphism => f.write_str(
-                "a query of the turtle (`?P`, `?H`, `?L`, `?U`) in a system with a homomorphism is not supported yet: cpfg's turtle interprets the string through it",
+            QueryWithHomomorphism(why) => write!(
+                f,
+                "a homomorphism production with {why} in a system with turtle queries (`?P`, `?H`, `?L`, `?U`) is not supported: cpfg's turtle interprets the string through the homomorphism, and lsgen's query turtle only where the homomorphism cannot move it (no move outside the successor's branches, a still predecessor, no block or draw)"
             ),
             QueryNotFollowed(what) => write!(
                 f,
