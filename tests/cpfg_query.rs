@@ -328,6 +328,26 @@ fn refused() {
     );
     let l = system(2, "A?P(0,0)", "P(x,y) -->");
     check(&l, Some(&v), "`?` at the end of the string");
+    // An axiom given apart (`--axiom`) is not checked when the file is
+    // loaded: what the turtle does not follow stops it there.
+    let l = system(0, "A?P(0,0)", "");
+    let file = write(dir.path(), "plant.l", &l);
+    for (axiom, want) in [
+        ("F~lF?P(0,0)", "`~` (a surface) moves cpfg's turtle"),
+        ("F@R(1,0,0)?P(0,0)", "an `@` module moves cpfg's turtle"),
+        ("F?P(0,0)@", "an `@` at the end of the string"),
+    ] {
+        let axiom = write(dir.path(), "axiom.txt", axiom);
+        let r = run(lsgen()
+            .arg("--axiom")
+            .arg(&axiom)
+            .arg("--cpfg-view")
+            .arg(&v)
+            .arg(&file));
+        let e = r.fails(1).to_string();
+        assert!(e.contains(want), "{e}");
+        assert!(e.contains("as the turtle interprets the axiom"), "{e}");
+    }
     // Other `?` are still refused, with or without the view.
     let l = system(1, "A", "A --> F?E(1)");
     check(&l, Some(&v), "`?E`");

@@ -133,6 +133,9 @@ pub enum QueryFault {
     /// module), or at the end of the string (None): cpfg warns and skips
     /// the module after it.
     NotAQuery(Option<char>),
+    /// A module that moves cpfg's turtle and that this turtle does not
+    /// follow (what it is).
+    NotFollowed(&'static str),
 }
 
 /// The deepest nesting of branches the turtle follows (as lsgen-turtle's):
@@ -290,7 +293,7 @@ pub fn fill(
     let mut w = Walker::new(q);
     let mut params = [0.0f64; 255];
     // The module before was `@`, or `?`.
-    let (mut at, mut ask) = (false, false);
+    let (mut at, mut at_g, mut ask) = (false, false, false);
     // Inside a branch's rest skipped after `%` (its depth).
     let mut skipping: Option<usize> = None;
     let mut patch = Vec::with_capacity(24);
@@ -344,20 +347,43 @@ pub fn fill(
             }
             continue;
         }
+        // (What the file's own strings cannot hold, checked when it was
+        // loaded, may still come from an axiom given apart, `--axiom`.)
         if at {
             at = false;
-            w.at_module(sym, p);
+            match sym {
+                'o' | 'O' | 'c' | 'v' | 'M' => w.at_module(sym, p),
+                'G' => at_g = true,
+                _ => return Err(fault(QueryFault::NotFollowed("an `@` module"))),
+            }
+            continue;
+        }
+        if at_g {
+            at_g = false;
+            if !matches!(sym, 's' | 'c' | 'e' | 't' | 'r') {
+                return Err(fault(QueryFault::NotFollowed("an `@G` module")));
+            }
             continue;
         }
         match sym {
             '?' if n == 0 => ask = true,
             '@' if n == 0 => at = true,
             '%' if n == 0 && !q.past_cut => skipping = Some(0),
+            '~' => return Err(fault(QueryFault::NotFollowed("`~` (a surface)"))),
+            '%' if n > 0 => return Err(fault(QueryFault::NotFollowed("`%` with parameters"))),
+            's' if n == 2 || n == 3 => {
+                return Err(fault(QueryFault::NotFollowed("`s` with 2 or 3 parameters")))
+            }
             _ => w.module(sym, p).map_err(fault)?,
         }
     }
     if ask {
         return Err(fault(QueryFault::NotAQuery(None)));
+    }
+    if at || at_g {
+        return Err(fault(QueryFault::NotFollowed(
+            "an `@` at the end of the string",
+        )));
     }
     Ok(())
 }

@@ -1012,6 +1012,7 @@ impl fmt::Display for RuntimeError {
                     TooDeep => "branches nested deeper than 1048576 (the turtle keeps each open one)".into(),
                     NotAQuery(Some(c)) => format!("`?` followed by `{c}`, not by the `P`, `H`, `L` or `U` it fills (a production rewrote it; cpfg skips the `{c}` with a warning)"),
                     NotAQuery(None) => "`?` at the end of the string, without the `P`, `H`, `L` or `U` it fills".into(),
+                    NotFollowed(what) => format!("{what} moves cpfg's turtle, and lsgen's query turtle does not follow it"),
                 };
                 let string = match generation {
                     0 => "the axiom".to_string(),
