@@ -29,10 +29,11 @@ use crate::diag::{Error, Refused, RuntimeError};
 use crate::lang::lexer::Span;
 use crate::rules::{codec, Alphabet};
 use crate::turtle::cpfg_view::CpfgTurtle;
+use crate::turtle::state::{bend_cpfg, cross, dot, rot};
 use std::fs::File;
 use std::os::unix::fs::FileExt;
 
-type V3 = [f64; 3];
+use crate::turtle::state::V3;
 
 /// The view file's settings as cpfg's turtle computes with them.
 #[derive(Clone, Debug)]
@@ -85,37 +86,6 @@ struct State {
     l: V3,
     u: V3,
     e: f32,
-}
-
-/// cpfg's `change_dir`: a' = c a + s b, b' = c b - s a.
-#[inline]
-fn rot(a: &mut V3, b: &mut V3, s: f64, c: f64) {
-    let na = [
-        c * a[0] + s * b[0],
-        c * a[1] + s * b[1],
-        c * a[2] + s * b[2],
-    ];
-    let nb = [
-        c * b[0] + -s * a[0],
-        c * b[1] + -s * a[1],
-        c * b[2] + -s * a[2],
-    ];
-    *a = na;
-    *b = nb;
-}
-
-#[inline]
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-#[inline]
-fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 /// Why the turtle stopped.
@@ -175,19 +145,13 @@ impl Walker<'_> {
         if self.s.e == 0.0 {
             return Ok(());
         }
-        let e = f64::from(self.s.e);
-        let t = self.q.tropism;
-        let s = e * dot(t, self.s.u);
-        if !(-1.0..=1.0).contains(&s) {
-            return Err(QueryFault::BendPastRightAngle);
-        }
-        rot(&mut self.s.h, &mut self.s.u, s, (1.0 - s * s).sqrt());
-        let s = e * dot(t, self.s.l);
-        if !(-1.0..=1.0).contains(&s) {
-            return Err(QueryFault::BendPastRightAngle);
-        }
-        rot(&mut self.s.h, &mut self.s.l, s, (1.0 - s * s).sqrt());
-        Ok(())
+        let st = &mut self.s;
+        bend_cpfg(
+            (&mut st.h, &mut st.l, &mut st.u),
+            f64::from(st.e),
+            self.q.tropism,
+        )
+        .map_err(|()| QueryFault::BendPastRightAngle)
     }
 
     /// One module `sym(p)` (not `?`, `@` or what follows them).

@@ -20,6 +20,43 @@ pub fn cross(a: V3, b: V3) -> V3 {
         a[0] * b[1] - a[1] * b[0],
     ]
 }
+/// a' = c a + s b; b' = c b - s a: cpfg's `change_dir`, in its order of
+/// operations (`c b - s a` is `c b + (-s) a` to the bit), shared by
+/// lsgen-turtle and the cpfg dialect's query turtle.
+#[inline]
+pub(crate) fn rot(a: &mut V3, b: &mut V3, s: f64, c: f64) {
+    let na = [
+        c * a[0] + s * b[0],
+        c * a[1] + s * b[1],
+        c * a[2] + s * b[2],
+    ];
+    let nb = [
+        c * b[0] - s * a[0],
+        c * b[1] - s * a[1],
+        c * b[2] - s * a[2],
+    ];
+    *a = na;
+    *b = nb;
+}
+
+/// cpfg's `bend` (`interpret.c`) of the frame `(h, l, u)` with elasticity
+/// `e` and the tropism `t` (of length 1): pitch H towards U by the angle
+/// whose sine is e·(T·U), then turn it towards L by the angle whose sine
+/// is e·(T·L). Err: a sine past ±1, no angle (cpfg's turtle becomes NaN).
+pub(crate) fn bend_cpfg((h, l, u): (&mut V3, &mut V3, &mut V3), e: f64, t: V3) -> Result<(), ()> {
+    let s = e * dot(t, *u);
+    if !(-1.0..=1.0).contains(&s) {
+        return Err(());
+    }
+    rot(h, u, s, (1.0 - s * s).sqrt());
+    let s = e * dot(t, *l);
+    if !(-1.0..=1.0).contains(&s) {
+        return Err(());
+    }
+    rot(h, l, s, (1.0 - s * s).sqrt());
+    Ok(())
+}
+
 #[inline]
 pub fn dot(a: V3, b: V3) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
@@ -171,23 +208,6 @@ impl Turtle {
         }
     }
 
-    /// a' = c a + s b; b' = c b - s a (cpfg's change_dir).
-    #[inline]
-    fn rot(a: &mut V3, b: &mut V3, s: f64, c: f64) {
-        let na = [
-            c * a[0] + s * b[0],
-            c * a[1] + s * b[1],
-            c * a[2] + s * b[2],
-        ];
-        let nb = [
-            c * b[0] - s * a[0],
-            c * b[1] - s * a[1],
-            c * b[2] - s * a[2],
-        ];
-        *a = na;
-        *b = nb;
-    }
-
     #[inline]
     fn sincos(&self, p: &[f64]) -> (f64, f64) {
         match p.first() {
@@ -255,19 +275,13 @@ impl Turtle {
     /// e·(T·L) (T of length 1). A sine past ±1 is no angle (cpfg's turtle
     /// becomes NaN there): an error.
     fn bend_cpfg(&mut self) -> Result<(), ModErr> {
-        let t = self.tropism;
-        let e = self.s.elasticity;
-        let s = e * dot(t, self.s.u);
-        if !(-1.0..=1.0).contains(&s) {
-            return Err(ModErr::Fault(Fault::BendPastRightAngle));
-        }
-        Self::rot(&mut self.s.h, &mut self.s.u, s, (1.0 - s * s).sqrt());
-        let s = e * dot(t, self.s.l);
-        if !(-1.0..=1.0).contains(&s) {
-            return Err(ModErr::Fault(Fault::BendPastRightAngle));
-        }
-        Self::rot(&mut self.s.h, &mut self.s.l, s, (1.0 - s * s).sqrt());
-        Ok(())
+        let st = &mut self.s;
+        bend_cpfg(
+            (&mut st.h, &mut st.l, &mut st.u),
+            st.elasticity,
+            self.tropism,
+        )
+        .map_err(|()| ModErr::Fault(Fault::BendPastRightAngle))
     }
 
     /// Roll about H so that L is horizontal (`$` of ABOP, `@v` of cpfg):
@@ -335,19 +349,19 @@ impl Turtle {
             '+' | '-' => {
                 let (s, c) = self.sincos(p);
                 let s = if sym == '+' { s } else { -s };
-                Self::rot(&mut self.s.h, &mut self.s.l, s, c);
+                rot(&mut self.s.h, &mut self.s.l, s, c);
             }
             '&' | '^' => {
                 let (s, c) = self.sincos(p);
                 let s = if sym == '&' { s } else { -s };
-                Self::rot(&mut self.s.h, &mut self.s.u, s, c);
+                rot(&mut self.s.h, &mut self.s.u, s, c);
             }
             '/' | '\\' => {
                 let (s, c) = self.sincos(p);
                 let s = if sym == '/' { s } else { -s };
-                Self::rot(&mut self.s.l, &mut self.s.u, s, c);
+                rot(&mut self.s.l, &mut self.s.u, s, c);
             }
-            '|' => Self::rot(&mut self.s.h, &mut self.s.l, 0.0, -1.0),
+            '|' => rot(&mut self.s.h, &mut self.s.l, 0.0, -1.0),
             '$' => self.level(),
             '[' => {
                 if self.stack.len() >= MAX_DEPTH {
