@@ -105,8 +105,17 @@ scale:`, then the tropism's bend with `tropism direction:` and the
 elasticity: `initial elasticity:`, `_(e)`, `_` adds `elasticity
 increment:`), `[ ]`, `%` (with `interpretation past %: off`: the rest of
 the branch is not interpreted), `@v`, `@M(x,y[,z])`; all else does not
-move it. Refused in a file with queries: homomorphism productions, `~`,
-`@` other than `@o @O @c @v @M`, `s` with 2 or 3 parameters (cpfg's old
+move it (`@o @O @c`, `@Gs @Gc @Ge @Gt @Gr` too). With a homomorphism the
+turtle reads the string through it, as cpfg's does (InterpretHomomorphism:
+each module's production, contexts read in the string being filled, its
+successor interpreted in turn to `maximum depth:`, `%` ignored there; the
+module after a `?` or an `@` is read directly). Refused in a file with
+queries: a homomorphism production with a pre- or post-condition block, a
+probability, a call to ran/nran/bran/biran/srand, a predecessor module
+among `F f G g + - & ^ / \ | _ [ ] @ ~ ? % $` (which the turtle changes
+on), or a successor with such a module outside its own brackets, a `]`
+closing nothing or a `[` not closed in it, or a `?`; `~`,
+`@` other than `@o @O @c @v @M` and `@G` + `s c e t r`, `s` with 2 or 3 parameters (cpfg's old
 position query), a view with `tropism:`, `torque:` or `environment
 display: before`; in
 its strings an unmatched `]`, a `?` not followed by P, H, L or U, a bend
@@ -1007,6 +1016,8 @@ class Production:
         self.post = []
         self.succ = []  # list of (sym, [expr])
         self.prob = None
+        self.has_pre = False  # a pre-condition block (even an empty one)
+        self.has_post = False
 
 
 class LSystem:
@@ -1225,11 +1236,12 @@ class Parser:
 
     def check_query_file(self):
         """What a file with queries may not have (the turtle of the queries
-        does not model it): homomorphism productions, `~` (surfaces), `@`
-        other than `@o @O @c @v @M`, `s` with 2 or 3 parameters."""
-        if self.ls.homo:
-            raise CpfgError("queries with a homomorphism are not supported",
-                            self.ls.homo[0].where)
+        does not model it): a homomorphism production that could change
+        the turtle (check_still_homomorphism), `~` (surfaces), `@` other
+        than `@o @O @c @v @M` and `@G` + `s c e t r`, `s` with 2 or 3
+        parameters."""
+        for p in self.ls.homo or []:
+            check_still_homomorphism(p)
         for mods, where in self.all_lists:
             for i, (sym, params) in enumerate(mods):
                 if sym == "s" and len(params) in (2, 3):
@@ -1242,9 +1254,15 @@ class Parser:
                     raise CpfgError("~ (surfaces) in a file with queries is not supported", where)
                 if sym == "@":
                     nxt = mods[i + 1][0] if i + 1 < len(mods) else ""
-                    if nxt not in BLACKBOX_KNOWN:
+                    if nxt == "G":
+                        sub = mods[i + 2][0] if i + 2 < len(mods) else ""
+                        if sub not in GC_SUBFUNCTIONS:
+                            raise CpfgError("@G%s in a file with queries is not supported "
+                                            "(the turtle knows @Gs @Gc @Ge @Gt @Gr)" % sub,
+                                            where)
+                    elif nxt not in BLACKBOX_KNOWN:
                         raise CpfgError("@%s in a file with queries is not supported "
-                                        "(the turtle knows @o @O @c @v @M)" % nxt, where)
+                                        "(the turtle knows @o @O @c @v @M @G)" % nxt, where)
         self.ls.queries = True
 
     def productions(self):
@@ -1283,12 +1301,14 @@ class Parser:
             self.take()
             if self.peek()[0] == "LBRACE":
                 p.pre = self.block()
+                p.has_pre = True
             if self.peek() == ("OP", "*", self.peek()[2]) and self.peek(1)[0] in ("YIELDS", "OYIELDS", "LBRACE"):
                 self.take()
             else:
                 p.cond = self.expression()
             if self.peek()[0] == "LBRACE":
                 p.post = self.block()
+                p.has_post = True
         t = self.take()
         if t[0] == "OYIELDS":
             raise self.err("-o> (object productions) are not supported", t)
@@ -2851,7 +2871,7 @@ class Deriver:
         for k in range(1, steps + 1):
             last = k == steps and k >= self.ls.n
             if turtle:
-                S = turtle.fill(S)
+                S = turtle.fill(S, self)
             S = self.step(S, last, k)
         # The saved string: cpfg interprets it to fit its view volume
         # (control.c, CalculateViewVolume: only without `box:`, which turns
@@ -2859,7 +2879,7 @@ class Deriver:
         # display: before` (generate.c, the end of Derive); else it is
         # left as the last step made it.
         if turtle and (not rt.turtle_view.box or rt.turtle_view.display_before):
-            S = turtle.fill(S)
+            S = turtle.fill(S, self)
         if homomorphism and self.ls.homo:
             S = self.homomorphism(S)
         return S
@@ -2880,6 +2900,71 @@ QUERY_MODULES = "PHLU"
 # the @ functions a file with queries may use: o O c draw (nothing for the
 # queries), v rolls the turtle to the vertical, M moves it
 BLACKBOX_KNOWN = ("o", "O", "c", "v", "M")
+# @G's subfunctions (generalized cylinders, blackbox.c's case 'G'): spline
+# state only, the turtle does not move; cpfg reads the subfunction module
+# when G has no parameter
+GC_SUBFUNCTIONS = ("s", "c", "e", "t", "r")
+# the modules cpfg's turtle changes on; every other module is "still"
+MOVING = set("FfGg+-&^/\\|_[]@~?%$")
+# calls cpfg evaluates at each interpretation with an effect on the
+# random streams
+RANDOM_CALLS = ("ran", "nran", "bran", "biran", "srand")
+
+
+def expr_calls(e):
+    """The names of the functions an expression tree calls."""
+    if isinstance(e, tuple):
+        if e and e[0] == "call":
+            yield e[1]
+        for x in e[1:]:
+            yield from expr_calls(x)
+    elif isinstance(e, list):
+        for x in e:
+            yield from expr_calls(x)
+
+
+def check_still_homomorphism(p):
+    """A homomorphism production in a file with queries: cpfg's turtle
+    interprets the string through the homomorphism (interpret.c's
+    TurtleDrawNsteps, InterpretHomomorphism), which the query turtle does
+    too (QueryTurtle.fill); accepted only when it cannot change the
+    turtle nor anything else: no blocks, no probability, no ran & co.,
+    a predecessor of still modules, a successor whose modules outside
+    its own brackets are still, whose brackets balance, without `?`."""
+    if p.has_pre or p.has_post:
+        raise CpfgError("a homomorphism production with a pre- or post-condition block in a "
+                        "file with queries is not supported", p.where)
+    if p.prob is not None:
+        raise CpfgError("a homomorphism production with a probability in a file with "
+                        "queries is not supported", p.where)
+    exprs = [p.cond] + [params for _, params in p.succ]
+    for name in expr_calls(exprs):
+        if name in RANDOM_CALLS:
+            raise CpfgError("%s in a homomorphism production in a file with queries is not "
+                            "supported (cpfg calls it at each interpretation)" % name, p.where)
+    for sym, _ in p.pred:
+        if sym in MOVING:
+            raise CpfgError("a homomorphism predecessor with %s in a file with queries is not "
+                            "supported (the turtle changes on it)" % sym, p.where)
+    level = 0
+    for sym, _ in p.succ:
+        if sym == "?":
+            raise CpfgError("? in a homomorphism successor in a file with queries is not "
+                            "supported", p.where)
+        if sym == "[":
+            level += 1
+        elif sym == "]":
+            level -= 1
+            if level < 0:
+                raise CpfgError("an unmatched ] in a homomorphism successor in a file with "
+                                "queries is not supported", p.where)
+        elif level == 0 and sym in MOVING:
+            raise CpfgError("%s outside brackets in a homomorphism successor in a file with "
+                            "queries is not supported (the turtle changes on it)" % sym,
+                            p.where)
+    if level != 0:
+        raise CpfgError("an unclosed [ in a homomorphism successor in a file with queries is "
+                        "not supported", p.where)
 
 
 class TurtleView:
@@ -3020,91 +3105,146 @@ class QueryTurtle:
                                 "outside [-1, 1]" % (s, e))
             st["H"], st[other] = rotate(st["H"], st[other], s, math.sqrt(1 - s * s))
 
-    def fill(self, S):
+    def fill(self, S, deriver=None):
         """A copy of S with each query module's first (up to 3) parameters
-        set to the turtle's position or vector where its `?` is met."""
-        tv = self.tv
+        set to the turtle's position or vector where its `?` is met. With
+        a homomorphism (deriver.ls.homo), the string is interpreted
+        through it as cpfg's TurtleDrawNsteps does: each module of the
+        string goes to InterpretHomomorphism (here `through`), whose
+        productions' successors are interpreted in turn (to `maximum
+        depth:`), their contexts read in the string being filled."""
+        self.st = {"P": [0.0, 0.0, 0.0], "H": [0.0, 1.0, 0.0], "L": [-1.0, 0.0, 0.0],
+                   "U": [0.0, 0.0, -1.0], "e": self.tv.elasticity}
+        self.stack = []
         out = list(S)
-        st = {"P": [0.0, 0.0, 0.0], "H": [0.0, 1.0, 0.0], "L": [-1.0, 0.0, 0.0],
-              "U": [0.0, 0.0, -1.0], "e": tv.elasticity}
-        stack = []
-        n = len(S)
+        homo = deriver is not None and bool(deriver.ls.homo)
+        if homo:
+            rng = deriver.rt.rng
+            before = (rng.main.x, rng.xsubi.x, rng.iset, rng.gset)
         i = 0
-        while i < n:
-            sym, vals = S[i]
-            i += 1
-            if sym in "+-&^/\\":
-                if vals:
-                    r = vals[0] * math.pi / 180.0
-                    s, c = math.sin(r), math.cos(r)
-                else:
-                    s, c = self.sin, self.cos
-                if sym in "-^\\":
-                    s = -s
-                a, b = {"+": "HL", "-": "HL", "&": "HU", "^": "HU", "/": "LU", "\\": "LU"}[sym]
-                st[a], st[b] = rotate(st[a], st[b], s, c)
-            elif sym == "|":
-                st["H"], st["L"] = rotate(st["H"], st["L"], 0.0, -1.0)
-            elif sym in ("F", "G", "f", "g"):
-                d = f32((vals[0] if vals else 1.0) * tv.scale)
-                P, H = st["P"], st["H"]
-                P[0] += d * H[0]
-                P[1] += d * H[1]
-                P[2] += d * H[2]
-                self.bend(st)
-            elif sym == "_":
-                st["e"] = f32(vals[0]) if vals else f32(st["e"] + tv.elasticity_increment)
-            elif sym == "[":
-                stack.append({k: (list(v) if k != "e" else v) for k, v in st.items()})
-            elif sym == "]":
-                if not stack:
-                    raise CpfgError("an unmatched ] in a string with queries")
-                st = stack.pop()
-            elif sym == "%" and not vals and not tv.past_cut:
-                # SkipCutPart: to the ] closing the branch (interpreted
-                # next), a $, or the end
-                level = 1
-                while i < n:
-                    s2 = S[i][0]
-                    if s2 == "[":
-                        level += 1
-                    elif s2 == "]":
-                        level -= 1
-                        if level == 0:
-                            break
-                    elif s2 == "$":
-                        break
-                    i += 1
-            elif sym == "@":
-                if i == n or S[i][0] not in BLACKBOX_KNOWN:
-                    raise CpfgError("@%s in a string with queries (the turtle knows @o @O "
-                                    "@c @v @M)" % (S[i][0] if i < n else ""))
-                f, fv = S[i]
-                i += 1
-                if f == "v":
-                    H = st["H"]
-                    if H[1] < 1.0 and H[1] > -1.0:
-                        L = cross([0.0, 1.0, 0.0], H)
-                        norm = math.sqrt(dot(L, L))
-                        if norm != 0:
-                            inv = 1.0 / norm  # DNormalize multiplies by 1/n
-                            L = [L[0] * inv, L[1] * inv, L[2] * inv]
-                        st["L"] = L
-                        st["U"] = cross(L, H)
-                elif f == "M" and len(fv) >= 2:
-                    st["P"] = [fv[0], fv[1], fv[2] if len(fv) >= 3 else 0.0]
-            elif sym == "?":
-                if vals or i == n or S[i][0] not in QUERY_MODULES:
-                    raise CpfgError("?%s in a string with queries (?P ?H ?L ?U)"
-                                    % (S[i][0] if i < n else ""))
-                q, qv = S[i]
-                vec = st[q]
-                k = min(3, len(qv))
-                out[i] = (q, tuple(f32(vec[j]) for j in range(k)) + tuple(qv[k:]))
-                i += 1
-            elif sym == "~":
-                raise CpfgError("~ in a string with queries")
+        while i < len(out):
+            if homo:
+                # contexts: the module before and after the one read
+                i = self.through(out, i, out, i - 1, i + 1, 0, deriver)
+            else:
+                i = self.interpret(out, i, True)
+        if homo and (rng.main.x, rng.xsubi.x, rng.iset, rng.gset) != before:
+            raise CpfgError("internal: the homomorphism of the query turtle drew random numbers")
         return out
+
+    def through(self, seq, k, S, left, right, depth, d):
+        """InterpretHomomorphism: the first applicable homomorphism
+        production for seq[k] (contexts read in S around left/right), its
+        successor interpreted module by module one level deeper, or
+        seq[k] interpreted (InterpretSymbol, in_homo when depth > 0).
+        Returns the index after what was read from seq."""
+        found = None
+        for p in d.homo_first.get(seq[k][0], []):
+            if d.try_prod(p, seq, k, S, left, right):
+                found = p
+                break
+        if depth >= d.ls.homo_depth or found is None:
+            return self.interpret(seq, k, depth == 0)
+        res = d.successor(found)
+        j = 0
+        while j < len(res):
+            j = self.through(res, j, S, left, right, depth + 1, d)
+        return k + len(found.pred)
+
+    def interpret(self, seq, i, top):
+        """InterpretSymbol for seq[i]; `?`, `@` and `%` read further
+        modules of seq (the queried module, the @ function, the cut part),
+        which do not go through the homomorphism. `top`: seq is the string
+        being filled (not a homomorphism successor: in_homo is 0).
+        Returns the index after what was read."""
+        tv = self.tv
+        st = self.st
+        n = len(seq)
+        sym, vals = seq[i]
+        i += 1
+        if sym in "+-&^/\\":
+            if vals:
+                r = vals[0] * math.pi / 180.0
+                s, c = math.sin(r), math.cos(r)
+            else:
+                s, c = self.sin, self.cos
+            if sym in "-^\\":
+                s = -s
+            a, b = {"+": "HL", "-": "HL", "&": "HU", "^": "HU", "/": "LU", "\\": "LU"}[sym]
+            st[a], st[b] = rotate(st[a], st[b], s, c)
+        elif sym == "|":
+            st["H"], st["L"] = rotate(st["H"], st["L"], 0.0, -1.0)
+        elif sym in ("F", "G", "f", "g"):
+            d = f32((vals[0] if vals else 1.0) * tv.scale)
+            P, H = st["P"], st["H"]
+            P[0] += d * H[0]
+            P[1] += d * H[1]
+            P[2] += d * H[2]
+            self.bend(st)
+        elif sym == "_":
+            st["e"] = f32(vals[0]) if vals else f32(st["e"] + tv.elasticity_increment)
+        elif sym == "[":
+            self.stack.append({k: (list(v) if k != "e" else v) for k, v in st.items()})
+        elif sym == "]":
+            if not self.stack:
+                raise CpfgError("an unmatched ] in a string with queries")
+            self.st = self.stack.pop()
+        elif sym == "%" and not vals and not tv.past_cut and top:
+            # SkipCutPart: to the ] closing the branch (interpreted
+            # next), a $, or the end; ignored in a homomorphism's
+            # successor (in_homo)
+            level = 1
+            while i < n:
+                s2 = seq[i][0]
+                if s2 == "[":
+                    level += 1
+                elif s2 == "]":
+                    level -= 1
+                    if level == 0:
+                        break
+                elif s2 == "$":
+                    break
+                i += 1
+        elif sym == "@":
+            f = seq[i][0] if i < n else ""
+            if f == "G":
+                # the subfunction is read when G has no parameter
+                sub = seq[i + 1][0] if i + 1 < n else ""
+                if sub not in GC_SUBFUNCTIONS:
+                    raise CpfgError("@G%s in a string with queries (the turtle knows @Gs @Gc "
+                                    "@Ge @Gt @Gr)" % sub)
+                return i + 1 if seq[i][1] else i + 2
+            if f not in BLACKBOX_KNOWN:
+                raise CpfgError("@%s in a string with queries (the turtle knows @o @O "
+                                "@c @v @M @G)" % f)
+            f, fv = seq[i]
+            i += 1
+            if f == "v":
+                H = st["H"]
+                if H[1] < 1.0 and H[1] > -1.0:
+                    L = cross([0.0, 1.0, 0.0], H)
+                    norm = math.sqrt(dot(L, L))
+                    if norm != 0:
+                        inv = 1.0 / norm  # DNormalize multiplies by 1/n
+                        L = [L[0] * inv, L[1] * inv, L[2] * inv]
+                    st["L"] = L
+                    st["U"] = cross(L, H)
+            elif f == "M" and len(fv) >= 2:
+                st["P"] = [fv[0], fv[1], fv[2] if len(fv) >= 3 else 0.0]
+        elif sym == "?":
+            if vals or i == n or seq[i][0] not in QUERY_MODULES:
+                raise CpfgError("?%s in a string with queries (?P ?H ?L ?U)"
+                                % (seq[i][0] if i < n else ""))
+            if not top:
+                raise CpfgError("? in a homomorphism successor in a string with queries")
+            q, qv = seq[i]
+            vec = st[q]
+            k = min(3, len(qv))
+            seq[i] = (q, tuple(f32(vec[j]) for j in range(k)) + tuple(qv[k:]))
+            i += 1
+        elif sym == "~":
+            raise CpfgError("~ in a string with queries")
+        return i
 
 
 def format_string(S):
@@ -3485,7 +3625,7 @@ def self_test_turtle():
             print("FAIL turtle %s: got %r, want %r" % (what, got, want))
 
     with tempfile.TemporaryDirectory() as tmp:
-        def run(axiom, view="", n=0, prods="", view_file=True):
+        def run(axiom, view="", n=0, prods="", view_file=True, homomorphism=True):
             path = os.path.join(tmp, "a.l")
             with open(path, "w") as f:
                 f.write("Lsystem: 1\nderivation length: 1\nAxiom: %s\n%sendlsystem\n"
@@ -3493,7 +3633,7 @@ def self_test_turtle():
             vpath = os.path.join(tmp, "a.v")
             with open(vpath, "w") as f:
                 f.write(view)
-            return run_file(path, n, view=vpath if view_file else None)
+            return run_file(path, n, homomorphism, view=vpath if view_file else None)
 
         # F(2): P = (0,2,0). +(90): sin 1, cos 6.12323e-17 (cos of the
         # double nearest pi/2): H = (-1, cos, 0), L = (-cos, -1, 0). F(1):
@@ -3563,13 +3703,80 @@ def self_test_turtle():
         check("box: and before",
               run("A", box + "environment display: before\n", 2, "A --> F(1)?P(9,9)A\n"),
               "F(1)?P(0,1)F(1)?P(0,2)A")
+        # a homomorphism that cannot change the turtle: the string is
+        # interpreted through it (its successors' branches, `%` ignored in
+        # them, @O, @G), with the same values as without it; the saved
+        # string gets the homomorphism as usual
+        for view in ("", "interpretation past %: off\n"):
+            bare = run("F(2)A?P(9,9)+(90)B?P(9,9)C(1)?H(9,9,9)", view, 1,
+                       "A --> F(1)A\n")
+            check("a still homomorphism " + view,
+                  run("F(2)A?P(9,9)+(90)B?P(9,9)C(1)?H(9,9,9)", view, 1,
+                      "A --> F(1)A\nhomomorphism\nA --> [F(5)+F(3)@O]\n"
+                      "B --> X[&%F(2)]Y;(2)[F@Gs[G]]\nY --> [g(4)]\n"
+                      "C(x) : x > 0 --> [|F(x)]C\nP(x,y) --> [F]\n", homomorphism=False),
+                  bare)
+            check("a still homomorphism, the saved string " + view,
+                  run("F(2)A?P(9,9)+(90)B?P(9,9)C(1)?H(9,9,9)", view, 1,
+                      "A --> F(1)A\nhomomorphism\nA --> [F(5)+F(3)@O]\n"
+                      "B --> X[&%F(2)]Y;(2)[F@Gs[G]]\nY --> [g(4)]\n"
+                      "C(x) : x > 0 --> [|F(x)]C\n"),
+                  bare.replace("A?", "[F(5)+F(3)@O]?").replace(
+                      "B?", "X[&%F(2)]Y;(2)[F@Gs[G]]?").replace("C(1)?", "[|F(1)]C?"))
+        # ... with maximum depth: 2, a production rewriting a module of
+        # another's successor, contexts and conditions reading the queries
+        check("a still homomorphism, depth 2",
+              run("F(1)A?P(9,9)B?P(9,9)", "", 1,
+                  "homomorphism\nmaximum depth: 2\nA --> [F]D(1)\n"
+                  "?P(x,y) < B : y > 0.5 --> E[+F]D(2)\nD(x) > ?P(u,v) : v > 0.5 --> [G(x)]\n"),
+              "F(1)[F][G(1)]?P(0,1)E[+F][G(2)]?P(0,1)")
+        # the homomorphism's successors are really interpreted: a moving
+        # module inside them (were the rule wrong) would show
+        path = os.path.join(tmp, "a.l")
+        with open(path, "w") as f:
+            f.write("Lsystem: 1\nderivation length: 1\nAxiom: A?P(9,9)\n"
+                    "homomorphism\nA --> [F]\nendlsystem\n")
+        vpath = os.path.join(tmp, "a.v")
+        with open(vpath, "w") as f:
+            f.write("")
+        ls, rt = load(path, view=vpath)
+        ls.homo[0].succ = ls.homo[0].succ[1:2]  # A --> F, past the check
+        check("interpreted through the homomorphism",
+              format_string(QueryTurtle(rt.turtle_view).fill(
+                  [("A", ()), ("?", ()), ("P", (9.0, 9.0))], Deriver(ls, rt))),
+              "A?P(0,1)")
+        # @G + s c e t r does not move the turtle
+        check("@G", run("F@Gs@Gc(2)F@Ge(2)@Gt(1,2)@Gr(1)?P(9,9)"),
+              "F@Gs@Gc(2)F@Ge(2)@Gt(1,2)@Gr(1)?P(0,2)")
         # refused
         for what, axiom, view, prods in [
                 ("?(1)", "?(1)F", "", ""), ("?E", "?E(1)", "", ""), ("?Q", "?Q(1,2,3,4)", "", ""),
                 ("?X", "?A(1)", "", ""), ("? at the end", "F?", "", ""),
                 ("?P in a successor at its end", "A", "", "A --> F?\n"),
-                ("homomorphism", "?P(1)", "", "homomorphism\nA --> B\n"),
-                ("~", "?P(1)~A", "", ""), ("s(x,y)", "?P(1)s(1,2)", "", ""), ("@G", "?P(1)@Gs", "", ""), ("@ at the end", "?P(1)@", "", ""),
+                ("homomorphism: F at depth 0", "?P(1)", "", "homomorphism\nA --> F\n"),
+                ("homomorphism: + after a branch", "?P(1)", "", "homomorphism\nA --> [F]+\n"),
+                ("homomorphism: @O at depth 0", "?P(1)", "", "homomorphism\nA --> @O\n"),
+                ("homomorphism: a moving predecessor", "?P(1)", "",
+                 "homomorphism\nF --> [G]\n"),
+                ("homomorphism: a moving module in a multi-module predecessor", "?P(1)", "",
+                 "homomorphism\nA + --> B\n"),
+                ("homomorphism: a pre-condition block", "?P(1)", "",
+                 "homomorphism\nA : {t = 1;} 1 --> B\n"),
+                ("homomorphism: an empty post-condition block", "?P(1)", "",
+                 "homomorphism\nA : 1 {} --> B\n"),
+                ("homomorphism: a probability", "?P(1)", "", "homomorphism\nA --> B : 0.5\n"),
+                ("homomorphism: ran", "?P(1)", "", "homomorphism\nA --> B(ran(1))\n"),
+                ("homomorphism: nran in a condition", "?P(1)", "",
+                 "homomorphism\nA : nran(0,1) > 0 --> B\n"),
+                ("homomorphism: srand", "?P(1)", "", "homomorphism\nA --> [B(srand(2))]\n"),
+                ("homomorphism: ? in a successor", "?P(1)", "",
+                 "homomorphism\nA --> [?P(1)]\n"),
+                ("homomorphism: an unmatched ]", "?P(1)", "", "homomorphism\nA --> B]\n"),
+                ("homomorphism: ] then [", "?P(1)", "", "homomorphism\nA --> ][\n"),
+                ("homomorphism: an unclosed [", "?P(1)", "", "homomorphism\nA --> [B\n"),
+                ("~", "?P(1)~A", "", ""), ("s(x,y)", "?P(1)s(1,2)", "", ""),
+                ("@Gx", "?P(1)@Gx", "", ""), ("@G at the end", "?P(1)@G", "", ""),
+                ("@ at the end", "?P(1)@", "", ""),
                 ("tropism:", "?P(1)", "tropism: T1\n", ""),
                 ("torque:", "?P(1)", "torque: 1\n", ""),
                 ("unmatched ]", "F]?P(1)", "", ""),
