@@ -9,7 +9,12 @@ left out), and every value a query holds must agree with it to 1e-4
 (relative above 1). It checks the reference's turtle against the same
 reading of cpfg (which vector a module turns, which way, the bends, `@v`,
 `@M`, `[ ]`, `%` with `interpretation past %: off`, the view's settings),
-not cpfg's bits.
+not cpfg's bits. Only the cases whose saved string cpfg fills (no `box:`,
+or `environment display: before`) are checked. The saved string is the
+one after the homomorphism: in the thirteenth batch, whose homomorphisms
+cannot change the turtle, interpreting it directly must give the values
+the reference's turtle got by reading the string through the
+homomorphism.
 
 Usage: python3 tests/tools/check_queries.py   (exit 1 on a difference)
 """
@@ -27,7 +32,7 @@ TURNS = {"+": (0, 1, 1), "-": (0, 1, -1), "&": (0, 2, 1), "^": (0, 2, -1),
 
 def view_settings(text):
     v = {"angle": 45.0, "T": (0.0, 1.0, 0.0), "e": 0.0, "inc": 0.0, "scale": 1.0,
-         "past": True}
+         "past": True, "box": False, "before": False}
     for line in text.split("\n"):
         if ":" not in line or line.lstrip().startswith("/*"):
             continue
@@ -49,6 +54,10 @@ def view_settings(text):
             v["scale"] = float(rest) or 1.0
         elif label == "interpretation past %":
             v["past"] = not rest.startswith("off")
+        elif label == "box":
+            v["box"] = True
+        elif label == "environment display":
+            v["before"] = rest.startswith("before")
     return v
 
 
@@ -155,14 +164,20 @@ def main():
         if "--cpfg-view case.v" not in body:
             continue
         cases += 1
-        view = body.split("--- file case.v\n")[1].split("--- ")[0]
-        bad, seen = compare(modules(out.strip()), view_settings(view))
+        view = view_settings(body.split("--- file case.v\n")[1].split("--- ")[0])
+        if view["box"] and not view["before"]:
+            # (cpfg does not fill the saved string's queries then: they
+            # hold the values of the fill before the last step)
+            continue
+        bad, seen = compare(modules(out.strip()), view)
         checked += 1
         values += seen
         if bad:
             failed += 1
             print("case %d: %d of %d query values differ" % (n + 1, bad, seen))
-    print("%d cases with queries, %d values compared, %d cases differ" % (cases, values, failed))
+    print("%d cases with queries, %d with their saved string filled (no `box:`, or "
+          "`environment display: before`), %d values compared, %d cases differ"
+          % (cases, checked, values, failed))
     return 1 if failed or not cases else 0
 
 
