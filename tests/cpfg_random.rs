@@ -1,4 +1,4 @@
-//! The differential test of the cpfg dialect: 990 random `.l` systems
+//! The differential test of the cpfg dialect: 1020 random `.l` systems
 //! (every feature of the dialect mixed, see tests/tools/gen_cpfg_cases.py;
 //! cases 301-400 also assign `Q` and `Z` in blocks and try productions at
 //! the decomposition's and the homomorphism's depth limit, and 401-500
@@ -20,7 +20,12 @@
 //! `curve:` lines or directly with `--functions` or `--curves`, and 931-990
 //! have turtle queries `?P`, `?H`, `?L`, `?U` that conditions read through
 //! contexts and predecessors, filled by the turtle with the settings of the
-//! view file `case.v`, given with `--cpfg-view`),
+//! view file `case.v`, given with `--cpfg-view`, and 991-1020 are those
+//! with a homomorphism that cannot change the turtle (still modules outside
+//! its successors' brackets, no blocks, probabilities or `ran`; cpfg's
+//! turtle, and the reference's, read the string through it, sometimes at
+//! `maximum depth: 2`, with contexts and conditions) and `@Gs`, `@Gc(2)`,
+//! `@Ge(2)`, `@Gt`, `@Gr` in successors),
 //! derived by the independent reference tests/tools/cpfg_ref.py; lsgen must
 //! print the same string for each. Every other case runs with
 //! `LSGEN_TEST_SPLIT=1`: splits in tasks of one module or byte where a
@@ -113,7 +118,7 @@ fn random_cases_match_cpfg_ref() {
         }
         cases += 1;
     }
-    assert_eq!(cases, 990);
+    assert_eq!(cases, 1020);
     assert!(
         failures.is_empty(),
         "{} of {cases} cases differ from cpfg_ref.py:\n{}",

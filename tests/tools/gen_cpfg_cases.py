@@ -69,7 +69,19 @@ predecessor may start with a query (`?P(x,y,z) : x < 0 --> ...`), the
 decomposition sometimes emits queries; its strings may be longer
 (MAX_OUTPUT_QUERIES), and a case where no condition on a query was both
 true and false is kept only half of the times (the run prints how many
-kept cases have one).
+kept cases have one). A thirteenth is the twelfth with a homomorphism
+that cannot change the turtle, which cpfg's turtle (and the reference's)
+reads the string through: productions for A, C (the modules showing the
+queries) and B whose successors have still modules outside their own
+brackets (`K(x)`, `X`, `;(2)`, `!`, ...) and turtle moves inside them
+(with `@O`, `%`, `@v`, `@G`, nested branches), e.g. `[F(x)+F(1)@O]K(x)`,
+sometimes a context and a condition on a query, sometimes `maximum depth:
+2` with a production for a module that another successor makes (K or X);
+successors also have `@Gs`, `@Gc(2)`, `@Ge(2)`, `@Gt(1,2)`, `@Gr(1)`
+(generalized cylinders: the turtle does not move); only cases where a
+homomorphism production applied while the turtle read the string are
+kept. The printed string is the last one after the homomorphism, as in
+the other batches.
 
 Usage (from anywhere):
     python3 tests/tools/gen_cpfg_cases.py          # write the file
@@ -79,15 +91,15 @@ File format: for each case, a line `=== STEPS`, the `.l` text, then (sixth
 batch on) zero or more file sections, a line `--- file NAME` and the
 file's text (each ends with a newline), then optionally a line `--- args`
 with options and their files (`--functions A --functions B ...`,
-`--curves A` too: the same option; `--cpfg-view case.v` in the twelfth
-batch: the view file of the queries' turtle, whose functions count too),
+`--curves A` too: the same option; `--cpfg-view case.v` in the twelfth and thirteenth
+batches: the view file of the queries' turtle, whose functions count too),
 then a line `--- expected` and the output line. The files go beside
 case.l (in the case's own directory). The options to pass, in order and
 files relative to that directory: those of the `--- args` line if there
 is one, else `--functions case.v` if the case has that file (a view
 file: its `function:` / `function set:` lines name the other files), else
 none. Cases the reference refuses, that print more than MAX_OUTPUT
-characters (MAX_OUTPUT_QUERIES in the twelfth batch), or whose string
+characters (MAX_OUTPUT_QUERIES in the twelfth and thirteenth batches), or whose string
 holds `inf` / `nan` (an error in lsgen, README) are not kept.
 """
 
@@ -132,10 +144,15 @@ CURVES = 60
 # The twelfth (`generate_queries`: ?P ?H ?L ?U with a view file given with
 # --cpfg-view), after the eleventh; its strings may be longer.
 QUERIES = 60
+# The thirteenth (`generate_queries` with a homomorphism that cannot
+# change the turtle, and @G), after the twelfth.
+HOMO_QUERIES = 30
 MAX_OUTPUT = 2000
 MAX_OUTPUT_QUERIES = 6000
 
 SYMS = "ABCD"
+# generalized cylinders (the thirteenth batch): the turtle does not move
+GC_MODULES = ["@Gs", "@Gc(2)", "@Ge(2)", "@Gs", "@Gc(2)", "@Ge(2)", "@Gt(1,2)", "@Gr(1)"]
 
 
 def generate(r, extended=False, decomp_contexts=False, late_axiom=False, alternatives=False,
@@ -913,8 +930,36 @@ def spy_try_prod(try_prod):
 
 cpfg_ref.Deriver._try_prod = spy_try_prod(cpfg_ref.Deriver._try_prod)
 
+# The homomorphism productions applied while the queries' turtle read the
+# string (the thirteenth batch keeps only cases with one), and whether the
+# turtle is reading.
+HOMO_IN_FILL = []
+FILLING = [False]
 
-def generate_queries(r):
+
+def spy_fill(fill):
+    def spied(self, S, deriver=None):
+        FILLING[0] = True
+        try:
+            return fill(self, S, deriver)
+        finally:
+            FILLING[0] = False
+    return spied
+
+
+def spy_homo_successor(successor):
+    def spied(self, p):
+        if FILLING[0] and p in (self.ls.homo or ()):
+            HOMO_IN_FILL.append(p)
+        return successor(self, p)
+    return spied
+
+
+cpfg_ref.QueryTurtle.fill = spy_fill(cpfg_ref.QueryTurtle.fill)
+cpfg_ref.Deriver.successor = spy_homo_successor(cpfg_ref.Deriver.successor)
+
+
+def generate_queries(r, homomorphism=False):
     """The twelfth batch: turtle queries `?P`, `?H`, `?L`, `?U` (0-4
     parameters, mostly 2-3) among turtle modules (F, f, G, g with and
     without a length, the turns with and without an angle, `|`, branches,
@@ -926,8 +971,11 @@ def generate_queries(r):
     branches, each copy followed by a query of the case's watched kind,
     which conditions read through right and left contexts; a predecessor
     may start with the query (`?P(x,y,z) : x < 0 --> ...`), and the
-    decomposition sometimes emits queries. Returns (text, steps, files,
-    args)."""
+    decomposition sometimes emits queries. `homomorphism`: the thirteenth
+    batch (homo_section), the twelfth's cases with a homomorphism that
+    cannot change the turtle (cpfg's turtle reads the string through it)
+    and `@Gs @Gc(2) @Ge(2) @Gt(1,2) @Gr(1)` (generalized cylinders) in
+    successors. Returns (text, steps, files, args)."""
     view = []
     if r.random() < 0.5:
         view.append("angle factor: %d" % r.choice([4, 5, 6, 7, 8, 8, 9, 12, 16]))
@@ -1042,7 +1090,72 @@ def generate_queries(r):
             out.append(branch(a) if r.random() < 0.6 else join(a))
         if r.random() < 0.4:
             out.insert(r.randint(0, len(out)), branch(turtles(1, 2, var) + [query()]))
+        if homomorphism and r.random() < 0.35:
+            out.insert(r.randint(0, len(out)), r.choice(GC_MODULES))
         return out
+
+    def homo_section():
+        """The thirteenth batch's homomorphism: productions for A, often C
+        (the modules showing the queries) and B, whose successors have
+        still modules (K, X, Y, ;(2), !, ...) outside their brackets and
+        turtle moves inside them (with @O, @o, %, @G, @v, nested
+        branches), sometimes contexts and conditions on queries, and with
+        `maximum depth: 2` a production for K or X, which other
+        successors make."""
+        lines = ["homomorphism"]
+        depth2 = r.random() < 0.4
+        if depth2:
+            lines.append("maximum depth: 2")
+        elif r.random() < 0.1:
+            lines.append("maximum depth: 1")
+
+        def bracket(var=None):
+            inner = turtles(1, 3, var)
+            if r.random() < 0.5:
+                inner.insert(r.randint(0, len(inner)),
+                             r.choice(["@O", "@o", "@O(2)", "%", "[F]", "@v", "[+F(2)]"]
+                                      + GC_MODULES))
+            return "[" + join(inner) + "]"
+
+        made = []
+
+        def succ(var=None):
+            v = var or r.choice(["1", "2", "0.5"])
+            parts = []
+            for _ in range(r.randint(1, 3)):
+                if r.random() < 0.55:
+                    parts.append(bracket(var))
+                else:
+                    m = r.choice(["X", "Y", "K(%s)" % v, "K(%s)" % v, ";(2)", ";", "!", "#(2)",
+                                  ".", "E"])
+                    made.append(m[0])
+                    parts.append(m)
+            if not any(p.startswith("[") for p in parts):
+                parts.insert(r.randint(0, len(parts)), bracket(var))
+            return join(parts)
+
+        fw = formal(watched)
+        if r.random() < 0.35:
+            # a context (a query) and a condition on it
+            v, _ = shows(watched)
+            lhs = "A > %s" % fw if r.random() < 0.7 else "%s < A" % fw
+            lines.append("%s : %s --> %s" % (lhs, cond_on(watched, nparams[watched]),
+                                             succ(v)))
+        lines.append("A --> %s" % succ())
+        if r.random() < 0.6:
+            if r.random() < 0.5:
+                lines.append("C(x) : x %s --> %s" % (r.choice(["> 0", "< 0.5", ">= 0"]),
+                                                     succ("x")))
+            lines.append("C(x) --> %s" % succ("x"))
+        if r.random() < 0.4:
+            lines.append("B --> %s" % succ())
+        if depth2:
+            # a production for a module another successor makes
+            if "K" in made or r.random() < 0.5:
+                lines.append("K(u) --> %s" % succ("u"))
+            else:
+                lines.append("X --> %s" % succ())
+        return lines
 
     def cond_on(q, k):
         """A condition on a query q of k parameters named x y z w."""
@@ -1116,6 +1229,8 @@ def generate_queries(r):
             q = r.choice([c for c in "PHLU" if nparams[c]])
             v, show = shows(q)
             lines.append("%s : %s --> %s%s" % (formal(q), cond_on(q, nparams[q]), formal(q), show))
+    if homomorphism:
+        lines += homo_section()
     lines.append("endlsystem")
     return "\n".join(lines) + "\n", steps, files, args
 
@@ -1169,19 +1284,22 @@ def main(argv):
     # same.
     eleventh = ninth + MULTI_SECTIONS
     twelfth = eleventh + CURVES
+    thirteenth = twelfth + QUERIES
     seeds = {CASES: 13, CASES + EXTENDED: 14, third: 15, fourth: 16, fifth: 17, sixth: 18,
-             seventh: 19, eighth: 20, ninth: 21, eleventh: 22, twelfth: 23}
-    # the twelfth batch: cases with a condition on a query's values that was
-    # both true and false
-    both_ways = 0
-    while made < twelfth + QUERIES:
+             seventh: 19, eighth: 20, ninth: 21, eleventh: 22, twelfth: 23, thirteenth: 24}
+    # the twelfth and thirteenth batches: cases with a condition on a
+    # query's values that was both true and false
+    both_ways = [0, 0]
+    while made < thirteenth + HOMO_QUERIES:
         if made in seeds:
             r = random.Random(seeds.pop(made))
         tried += 1
         late = third <= made < fourth
         alt = fourth <= made < fifth
         files, args = [], None
-        if made >= twelfth:
+        if made >= thirteenth:
+            text, steps, files, args = generate_queries(r, homomorphism=True)
+        elif made >= twelfth:
             text, steps, files, args = generate_queries(r)
         elif made >= eleventh:
             text, steps, files, args = generate_curves(r)
@@ -1201,6 +1319,7 @@ def main(argv):
             )
         del SECTION_RUNS[:]
         QUERY_CONDITIONS.clear()
+        del HOMO_IN_FILL[:]
         out = derive(text, steps, files, args)
         # lsgen refuses a parameter a 32-bit float cannot hold (README), where
         # cpfg stores inf.
@@ -1209,6 +1328,9 @@ def main(argv):
             continue
         if ninth <= made < eleventh and not SECTION_RUNS:
             # (no predecessor of several modules of a section applied)
+            continue
+        if made >= thirteenth and not HOMO_IN_FILL:
+            # (no homomorphism production applied while the turtle read)
             continue
         if made >= seventh and "(" not in out:
             # (a string without parameters shows too little)
@@ -1223,7 +1345,7 @@ def main(argv):
                 ("--functions %s" % a) if isinstance(a, str) else "%s %s" % a for a in args)
         parts.append("=== %d\n%s%s--- expected\n%s\n" % (steps, text, sections, out))
         if made >= twelfth and both:
-            both_ways += 1
+            both_ways[made >= thirteenth] += 1
         made += 1
     content = "".join(parts)
     if "--check" in argv:
@@ -1235,7 +1357,9 @@ def main(argv):
         f.write(content)
     print("wrote %d cases (%d generated) to %s" % (made, tried, os.path.relpath(OUT, ROOT)))
     print("queries batch: %d of %d cases have a condition on a query that was both true "
-          "and false" % (both_ways, QUERIES))
+          "and false" % (both_ways[0], QUERIES))
+    print("queries with a homomorphism batch: %d of %d cases have a condition on a query "
+          "that was both true and false" % (both_ways[1], HOMO_QUERIES))
     return 0
 
 
