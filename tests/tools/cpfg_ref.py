@@ -3093,17 +3093,25 @@ class QueryTurtle:
         self.tv = tv
         self.sin, self.cos = tv.sin_cos()
 
-    def bend(self, st):
+    def bend(self, st, top=True):
+        """`top`: not in a homomorphism's successor. There (always in one
+        of its branches: a file with queries has no other moving module
+        in a homomorphism successor) a sine outside [-1, 1] gives cpfg's
+        NaN (sqrt of a negative number), which the branch's ] discards."""
         e = st["e"]
         if e == 0.0:
             return
         T = self.tv.tropism
         for other in ("U", "L"):
             s = e * dot(T, st[other])
-            if not -1.0 <= s <= 1.0:
+            if -1.0 <= s <= 1.0:
+                c = math.sqrt(1 - s * s)
+            elif top:
                 raise CpfgError("the tropism's bend has a sine of %r (elasticity %g): "
                                 "outside [-1, 1]" % (s, e))
-            st["H"], st[other] = rotate(st["H"], st[other], s, math.sqrt(1 - s * s))
+            else:
+                c = math.nan
+            st["H"], st[other] = rotate(st["H"], st[other], s, c)
 
     def fill(self, S, deriver=None):
         """A copy of S with each query module's first (up to 3) parameters
@@ -3180,7 +3188,7 @@ class QueryTurtle:
             P[0] += d * H[0]
             P[1] += d * H[1]
             P[2] += d * H[2]
-            self.bend(st)
+            self.bend(st, top)
         elif sym == "_":
             st["e"] = f32(vals[0]) if vals else f32(st["e"] + tv.elasticity_increment)
         elif sym == "[":
@@ -3745,6 +3753,13 @@ def self_test_turtle():
               format_string(QueryTurtle(rt.turtle_view).fill(
                   [("A", ()), ("?", ()), ("P", (9.0, 9.0))], Deriver(ls, rt))),
               "A?P(0,1)")
+        # a bend past 1 in a homomorphism's branch: NaN there (cpfg's sqrt
+        # of a negative number), discarded by its ]
+        trop = "tropism direction: 1,0,0\n"
+        check("a bend past 1 in a homomorphism branch",
+              run("F(1)A?P(9,9)F?H(9,9)", trop, 1,
+                  "homomorphism\nA --> [_(2)F(1)F(1)]\n", homomorphism=False),
+              run("F(1)A?P(9,9)F?H(9,9)", trop, 1))
         # @G + s c e t r does not move the turtle
         check("@G", run("F@Gs@Gc(2)F@Ge(2)@Gt(1,2)@Gr(1)?P(9,9)"),
               "F@Gs@Gc(2)F@Ge(2)@Gt(1,2)@Gr(1)?P(0,2)")
