@@ -114,12 +114,12 @@ queries: a homomorphism production with a pre- or post-condition block, a
 probability, a call to ran/nran/bran/biran/srand, a predecessor module
 among `F f G g + - & ^ / \ | _ [ ] @ ~ ? % $` (which the turtle changes
 on), or a successor with such a module outside its own brackets, a `]`
-closing nothing or a `[` not closed in it, or a `?`; `~`,
-`@` other than `@o @O @c @v @M` and `@G` + `s c e t r`, `s` with 2 or 3 parameters (cpfg's old
-position query), a view with `tropism:`, `torque:` or `environment
-display: before`; in
-its strings an unmatched `]`, a `?` not followed by P, H, L or U, a bend
-with a sine outside [-1, 1].
+closing nothing or a `[` not closed in it, or a `?`; `~`, `@` other
+than `@o @O @c @v @M` and `@G` + `s c e t r`, `s` with 2 or 3 parameters
+(cpfg's old position query), a view with `tropism:`, `torque:` or
+`environment display: before`; in its strings an unmatched `]`, a `?` not
+followed by P, H, L or U, a bend with a sine outside [-1, 1] (but in a
+homomorphism successor's branch: cpfg's NaN, which its `]` discards).
 
 Refused with an error (a string rewriter cannot do them, or the reference
 does not model them): ?E, ?Q, a ? not followed by P, H, L or U,
