@@ -97,7 +97,8 @@ file (--cpfg-view, whose `function:` / `curve:` lines also count, before
 those of --functions). Its string is interpreted from the start by a
 turtle (position 0, H = (0,1,0), L = (-1,0,0), U = (0,0,-1)) before each
 step, on the string the step rewrites (before StartEach:), and at the
-end: each `?` writes the position (P) or the vector (H, L, U) into the
+end (not with `box:`, unless `environment display: before`): each `?`
+writes the position (P) or the vector (H, L, U) into the
 first min(3, n) parameters of the module after it, as floats. The turtle:
 `+ - & ^ / \ |` (the view's `angle increment:` or `angle factor:`, or
 the parameter in degrees), `F G f g` (the parameter or 1, times `initial
@@ -116,8 +117,8 @@ among `F f G g + - & ^ / \ | _ [ ] @ ~ ? % $` (which the turtle changes
 on), or a successor with such a module outside its own brackets, a `]`
 closing nothing or a `[` not closed in it, or a `?`; `~`, `@` other
 than `@o @O @c @v @M` and `@G` + `s c e t r`, `s` with 2 or 3 parameters
-(cpfg's old position query), a view with `tropism:`, `torque:` or
-`environment display: before`; in its strings an unmatched `]`, a `?` not
+(cpfg's old position query), a view with `tropism:` or `torque:`; in
+its strings an unmatched `]`, a `?` not
 followed by P, H, L or U, a bend with a sine outside [-1, 1] (but in a
 homomorphism successor's branch: cpfg's NaN, which its `]` discards).
 
