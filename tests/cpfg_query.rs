@@ -281,6 +281,14 @@ fn refused() {
         Some(&v),
         "plant.l:4:7: error: `@Gx` in a system with turtle queries",
     );
+    // (In every list: a homomorphism's branch too.)
+    let hom =
+        "Lsystem: 1\nAxiom: A?P(0,0)\nA --> FA\nhomomorphism\nA --> [@R(1,0,0)]\nendlsystem\n";
+    check(
+        hom,
+        Some(&v),
+        "plant.l:5:8: error: `@R` in a system with turtle queries",
+    );
     let l = system(1, "A?P(0,0)", "A --> A@");
     check(&l, Some(&v), "`@` at the end of a successor");
     let moving = write(

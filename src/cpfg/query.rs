@@ -395,11 +395,22 @@ pub(crate) fn check(
         });
     let at = |(c, _, span): (char, usize, Option<Span>)| span.unwrap_or_else(|| in_axiom(c));
     check_list(axiom).map_err(|(m, r)| CheckError::At(at(m), r))?;
-    let sections =
-        std::iter::once(&tree.productions).chain(tree.decomposition.iter().map(|s| &s.productions));
+    // Every list of every section, contexts and predecessors too (as the
+    // reference checks them).
+    let sections = std::iter::once(&tree.productions)
+        .chain(tree.decomposition.iter().map(|s| &s.productions))
+        .chain(tree.homomorphism.iter().map(|s| &s.productions));
     for p in sections.flatten() {
-        let succ = p.succ.iter().map(|m| (m.sym, m.params.len(), Some(m.span)));
-        check_list(succ).map_err(|(m, r)| CheckError::At(at(m), r))?;
+        let lists = [
+            p.left.as_deref(),
+            Some(&p.pred[..]),
+            p.right.as_deref(),
+            Some(&p.succ[..]),
+        ];
+        for list in lists.into_iter().flatten() {
+            let list = list.iter().map(|m| (m.sym, m.params.len(), Some(m.span)));
+            check_list(list).map_err(|(m, r)| CheckError::At(at(m), r))?;
+        }
     }
     if let Some((label, at)) = &view.movements {
         return Err(CheckError::View(at.clone(), label.clone()));
