@@ -18,3 +18,7 @@ done
 "$bin/lsgen" examples/cpfg/weeping.l |
     "$bin/lsgen-turtle" --cpfg-view examples/cpfg/weeping.v \
         --colormap examples/cpfg/weeping.map --size 400 -o "$out/weeping.png"
+# cpfg's turtle queries: lsgen needs the view file too.
+"$bin/lsgen" examples/cpfg/clipped.l --cpfg-view examples/cpfg/clipped.v |
+    "$bin/lsgen-turtle" --cpfg-view examples/cpfg/clipped.v \
+        --colormap examples/cpfg/clipped.map --size 400 -o "$out/clipped.png"

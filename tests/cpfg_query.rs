@@ -8,7 +8,7 @@
 
 mod common;
 
-use common::{lsgen, run, tempdir, write};
+use common::{lsgen, run, tempdir, write, ROOT};
 use std::path::Path;
 
 /// A `.l` file and its view file in a fresh directory; lsgen's output for
@@ -359,4 +359,28 @@ fn refused() {
     // Other `?` are still refused, with or without the view.
     let l = system(1, "A", "A --> F?E(1)");
     check(&l, Some(&v), "`?E`");
+}
+
+/// The example examples/cpfg/clipped.l (a shrub clipped to a ball by its
+/// queries), as README's pipe derives it, is the reference's string
+/// (tests/expected/cpfg/examples/, from tests/tools/cpfg_ref.py), on one
+/// thread and on several.
+#[test]
+fn the_clipped_example_is_the_references() {
+    let want = std::fs::read_to_string(
+        Path::new(ROOT).join("tests/expected/cpfg/examples/clipped.n22.txt"),
+    )
+    .unwrap();
+    for j in ["1", "2", "8"] {
+        let r = run(lsgen().current_dir(ROOT).args([
+            "examples/cpfg/clipped.l",
+            "--cpfg-view",
+            "examples/cpfg/clipped.v",
+            "-j",
+            j,
+        ]));
+        assert_eq!(r.ok(), want, "-j {j}");
+    }
+    // The flowers are where the ball clips the shoots: dozens of them.
+    assert!(want.matches("@O(0.4)").count() > 50);
 }

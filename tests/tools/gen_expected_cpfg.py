@@ -162,6 +162,12 @@ FUNC = {
     "phyllotaxis_like": [1, 2],
 }
 
+# examples/cpfg/NAME.l with --cpfg-view examples/cpfg/NAME.v (turtle
+# queries): steps.
+EXAMPLES = {
+    "clipped": [22],
+}
+
 
 def main(argv):
     check = "--check" in argv
@@ -183,6 +189,12 @@ def main(argv):
         for n in ns:
             jobs.append(("tests/cpfg/func/%s.l" % name, n, True, "func/%s.n%d.txt" % (name, n),
                          "tests/cpfg/func/%s.v" % name))
+    # The cpfg examples with queries, each with its view file (--cpfg-view).
+    os.makedirs(os.path.join(outdir, "examples"), exist_ok=True)
+    for name, ns in sorted(EXAMPLES.items()):
+        for n in ns:
+            jobs.append(("examples/cpfg/%s.l" % name, n, True, "examples/%s.n%d.txt" % (name, n),
+                         None, "examples/cpfg/%s.v" % name))
     twins = sorted(f[:-2] for f in os.listdir(os.path.join(ROOT, "tests", "cpfg", "abop")) if f.endswith(".l"))
     for name in twins:
         for n in gen_expected.MANIFEST[name]:
@@ -215,12 +227,16 @@ def main(argv):
     for job in jobs:
         src, n, homo, fname = job[:4]
         view = job[4] if len(job) > 4 else None
+        cpfg_view = job[5] if len(job) > 5 else None
         functions = [os.path.join(ROOT, view)] if view else []
-        text = quiet(cpfg_ref.run_file, os.path.join(ROOT, src), n, homo, functions) + "\n"
+        turtle = os.path.join(ROOT, cpfg_view) if cpfg_view else None
+        text = quiet(lambda: cpfg_ref.run_file(os.path.join(ROOT, src), n, homo, functions,
+                                               view=turtle)) + "\n"
         path = os.path.join(outdir, fname)
-        cmd = "python3 tests/tools/cpfg_ref.py %s -n %d%s%s > tests/expected/cpfg/%s" % (
+        cmd = "python3 tests/tools/cpfg_ref.py %s -n %d%s%s%s > tests/expected/cpfg/%s" % (
             src, n, "" if homo else " --no-homomorphism",
-            " --functions %s" % view if view else "", fname)
+            " --functions %s" % view if view else "",
+            " --cpfg-view %s" % cpfg_view if cpfg_view else "", fname)
         rows.append("| `%s` | %d | `%s` |\n" % (fname, len(text), cmd))
         if check:
             try:
