@@ -144,10 +144,10 @@ fn interpretation_past_a_cut() {
 fn a_homomorphism_that_cannot_move_the_turtle() {
     let l = "Lsystem: 1\nderivation length: 2\nAxiom: F(1)A?P(0,0)\n\
              A > ?P(x,y) : y < 10 --> F(1)A\nhomomorphism\nmaximum depth: 2\n\
-             A --> [F(5)+F(3)B];(2)\nB --> [&&F]\nendlsystem\n";
+             A --> [F(5)+F(3)B];(2)\nB --> [&&F@R(1,0,0)~l]\nendlsystem\n";
     assert_eq!(
         ok(l, "angle factor: 4\n", &[]),
-        "F(1)F(1)F(1)[F(5)+F(3)[&&F]];(2)?P(0,3)\n"
+        "F(1)F(1)F(1)[F(5)+F(3)[&&F@R(1,0,0)~l]];(2)?P(0,3)\n"
     );
 }
 
@@ -281,13 +281,20 @@ fn refused() {
         Some(&v),
         "plant.l:4:7: error: `@Gx` in a system with turtle queries",
     );
-    // (In every list: a homomorphism's branch too.)
-    let hom =
-        "Lsystem: 1\nAxiom: A?P(0,0)\nA --> FA\nhomomorphism\nA --> [@R(1,0,0)]\nendlsystem\n";
+    // (In every list but a homomorphism's successor, whose branches give
+    // the turtle back: there `[@R(1,0,0)F]` is accepted, and `@R` outside
+    // a branch refused.)
+    let hom = "Lsystem: 1\nAxiom: A?P(0,0)\nA --> FA\nhomomorphism\nA --> @R(1,0,0)\nendlsystem\n";
     check(
         hom,
         Some(&v),
-        "plant.l:5:8: error: `@R` in a system with turtle queries",
+        "plant.l:5:7: error: a homomorphism production with `@` outside a branch",
+    );
+    let l = system(1, "A?P(0,0)", "A > ?P(x,y) --> [@R(1,0,0)F]A");
+    check(
+        &l,
+        Some(&v),
+        "plant.l:4:18: error: `@R` in a system with turtle queries",
     );
     let l = system(1, "A?P(0,0)", "A --> A@");
     check(&l, Some(&v), "`@` at the end of a successor");

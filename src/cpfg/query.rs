@@ -396,16 +396,19 @@ pub(crate) fn check(
     let at = |(c, _, span): (char, usize, Option<Span>)| span.unwrap_or_else(|| in_axiom(c));
     check_list(axiom).map_err(|(m, r)| CheckError::At(at(m), r))?;
     // Every list of every section, contexts and predecessors too (as the
-    // reference checks them).
-    let sections = std::iter::once(&tree.productions)
-        .chain(tree.decomposition.iter().map(|s| &s.productions))
-        .chain(tree.homomorphism.iter().map(|s| &s.productions));
-    for p in sections.flatten() {
+    // reference checks them), but a homomorphism's successors: only still
+    // modules outside their branches (`homomorphism_moves`), and whatever
+    // a branch holds, its `]` gives the whole turtle back.
+    let sections = std::iter::once((&tree.productions, true))
+        .chain(tree.decomposition.iter().map(|s| (&s.productions, true)))
+        .chain(tree.homomorphism.iter().map(|s| (&s.productions, false)));
+    for (p, successor) in sections.flat_map(|(ps, succ)| ps.iter().map(move |p| (p, succ))) {
+        let succ = successor.then_some(&p.succ[..]);
         let lists = [
             p.left.as_deref(),
             Some(&p.pred[..]),
             p.right.as_deref(),
-            Some(&p.succ[..]),
+            succ,
         ];
         for list in lists.into_iter().flatten() {
             let list = list.iter().map(|m| (m.sym, m.params.len(), Some(m.span)));

@@ -1214,12 +1214,16 @@ class Parser:
         return ls
 
     # -- turtle queries ?P ?H ?L ?U ---------------------------------------
-    def check_queries(self, mods, where):
+    def check_queries(self, mods, where, branches_restore=False):
         """A `?` must be the query `?P`, `?H`, `?L` or `?U`: no parameters
         on the `?` (sub-L-systems), one of those modules right after it in
         the same list (`?E`, `?Q` and others are refused). Every list is
-        kept for check_query_file."""
-        self.all_lists.append((mods, where))
+        kept for check_query_file, but a homomorphism's successor
+        (`branches_restore`): check_still_homomorphism allows only still
+        modules outside its branches, and whatever a branch holds, its `]`
+        gives the whole turtle back."""
+        if not branches_restore:
+            self.all_lists.append((mods, where))
         for i, (sym, params) in enumerate(mods):
             if sym != "?":
                 continue
@@ -1320,7 +1324,7 @@ class Parser:
             p.succ = []
         else:
             p.succ = self.modules()
-            self.check_queries(p.succ, p.where)
+            self.check_queries(p.succ, p.where, branches_restore=self.section == "H")
         if self.peek()[0] == "COLON":
             self.take()
             p.prob = self.expression()
@@ -3216,6 +3220,15 @@ class QueryTurtle:
                 i += 1
         elif sym == "@":
             f = seq[i][0] if i < n else ""
+            if not top and f not in BLACKBOX_KNOWN:
+                # In a homomorphism's successor only inside a branch
+                # (check_still_homomorphism): whatever the function does
+                # to the turtle (@R sets the heading, @D the scale, ...),
+                # the branch's ] gives the turtle back. Its module (and
+                # @G's subfunction) is read, not interpreted.
+                if f == "G" and not seq[i][1]:
+                    return i + 2
+                return i + 1
             if f == "G":
                 # the subfunction is read when G has no parameter
                 sub = seq[i + 1][0] if i + 1 < n else ""
@@ -3252,7 +3265,11 @@ class QueryTurtle:
             seq[i] = (q, tuple(f32(vec[j]) for j in range(k)) + tuple(qv[k:]))
             i += 1
         elif sym == "~":
-            raise CpfgError("~ in a string with queries")
+            if top:
+                raise CpfgError("~ in a string with queries")
+            # (In a homomorphism's branch: the surface's module is read;
+            # the turtle it moves is given back by the branch's ].)
+            return i + 1 if i < n else i
         return i
 
 
