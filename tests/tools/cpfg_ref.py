@@ -2803,18 +2803,7 @@ class Deriver:
                     continue
             if S[i][0] == "%" and not S[i][1]:
                 # cut: drop % and the rest of its branch (the ] stays)
-                j = i + 1
-                level = 1
-                while j < n:
-                    s = S[j][0]
-                    if s == "[":
-                        level += 1
-                    elif s == "]":
-                        level -= 1
-                        if level == 0:
-                            break
-                    j += 1
-                i = j
+                i = branch_rest_end(S, i + 1)
                 continue
             out.append(S[i])
             i += 1
@@ -3075,6 +3064,26 @@ def read_turtle_view(path):
     return tv
 
 
+def branch_rest_end(S, i, stop_at_dollar=False):
+    """From S[i], the index of the `]` that closes the current branch (or
+    len(S)): where a cut's rest ends (generate.c's cut), and where the
+    turtle's skip after `%` ends (SkipCutPart, which also stops at a
+    `$`)."""
+    level = 1
+    while i < len(S):
+        s = S[i][0]
+        if s == "[":
+            level += 1
+        elif s == "]":
+            level -= 1
+            if level == 0:
+                break
+        elif s == "$" and stop_at_dollar:
+            break
+        i += 1
+    return i
+
+
 def rotate(a, b, s, c):
     """change_dir(temp, a, b, s, c): a' = c a + s b, b' = c b + (-s) a."""
     na = [c * a[0] + s * b[0], c * a[1] + s * b[1], c * a[2] + s * b[2]]
@@ -3206,18 +3215,7 @@ class QueryTurtle:
             # SkipCutPart: to the ] closing the branch (interpreted
             # next), a $, or the end; ignored in a homomorphism's
             # successor (in_homo)
-            level = 1
-            while i < n:
-                s2 = seq[i][0]
-                if s2 == "[":
-                    level += 1
-                elif s2 == "]":
-                    level -= 1
-                    if level == 0:
-                        break
-                elif s2 == "$":
-                    break
-                i += 1
+            i = branch_rest_end(seq, i, stop_at_dollar=True)
         elif sym == "@":
             f = seq[i][0] if i < n else ""
             if not top and f not in BLACKBOX_KNOWN:
