@@ -20,20 +20,20 @@
 //! `\` `|` (turns), `[` `]`, `_` (elasticity), `%` (with `interpretation
 //! past %: off`, the rest of the branch is skipped), `@v` and `@M`. Every
 //! other module leaves the turtle as it is; what would move it in cpfg
-//! and is not followed here (`~`, other `@` modules, a homomorphism, the
-//! view file's `tropism:` and `torque:`) is refused when the file is
-//! loaded (`check`).
+//! and is not followed here (`~`, other `@` modules, a homomorphism that
+//! can move the turtle, the view file's `tropism:` and `torque:`) is
+//! refused when the file is loaded (`check`), or where the turtle meets
+//! it in an axiom given apart. A homomorphism that cannot move it is not
+//! followed: cpfg's turtle, going through it, ends where this one does.
 
 use super::ast::{AxiomPiece, Expr, Lsystem, Module, Production};
 use crate::diag::{Error, Refused, RuntimeError};
 use crate::lang::lexer::Span;
 use crate::rules::{codec, Alphabet};
 use crate::turtle::cpfg_view::CpfgTurtle;
-use crate::turtle::state::{bend_cpfg, cross, dot, rot};
+use crate::turtle::state::{bend_cpfg, cross, dot, rot, V3};
 use std::fs::File;
 use std::os::unix::fs::FileExt;
-
-use crate::turtle::state::V3;
 
 /// The view file's settings as cpfg's turtle computes with them.
 #[derive(Clone, Debug)]
@@ -284,8 +284,10 @@ pub fn fill(
         let n = al.arity(key);
         let bytes = r.bytes(s, e);
         let body = codec::body(bytes);
+        // (cpfg's turtle reads floats: the cpfg dialect keeps its
+        // parameters as floats already.)
         for (i, p) in params[..n].iter_mut().enumerate() {
-            *p = codec::get_param(body, i);
+            *p = f64::from(codec::get_param(body, i) as f32);
         }
         let p = &params[..n];
         if ask {
