@@ -363,6 +363,19 @@ fn refused() {
         assert!(e.contains(want), "{e}");
         assert!(e.contains("as the turtle interprets the axiom"), "{e}");
     }
+    // A view file with an argument cpfg cannot read (vlab has `angle
+    // increment: ?` in an exercise): cpfg warns; lsgen refuses it where
+    // the query turtle needs it, and derives a file without queries.
+    let odd = write(dir.path(), "odd.v", "angle increment: ?\n");
+    let l = system(1, "A?P(0,0)", "A --> FA");
+    check(
+        &l,
+        Some(&odd),
+        "odd.v:1:18: error: `angle increment:` takes a number",
+    );
+    let file = write(dir.path(), "plant.l", system(1, "A", "A --> FA"));
+    let r = run(lsgen().arg("--cpfg-view").arg(&odd).arg(&file));
+    assert_eq!(r.ok(), "FA\n");
     // Other `?` are still refused, with or without the view.
     let l = system(1, "A", "A --> F?E(1)");
     check(&l, Some(&v), "`?E`");

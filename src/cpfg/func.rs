@@ -56,8 +56,10 @@ pub struct Functions {
     /// Samples computed so far, also for functions a later `function
     /// set:` replaced: the work of loading is bounded too.
     computed: u64,
-    /// The view file's turtle (`--cpfg-view`), for the queries.
-    turtle: Option<crate::turtle::cpfg_view::CpfgTurtle>,
+    /// The view file (`--cpfg-view`): its turtle's settings are read
+    /// where a file has queries (a label they need that cpfg cannot read
+    /// is an error there only, as cpfg only warns).
+    view: Option<PathBuf>,
 }
 
 impl Function {
@@ -209,7 +211,7 @@ impl Functions {
         let mut all = Functions::default();
         if let Some(v) = view {
             all.read_any(v)?;
-            all.turtle = Some(crate::turtle::cpfg_view::read_cpfg_turtle(v)?);
+            all.view = Some(v.to_path_buf());
         }
         for f in files {
             all.read_any(f)?;
@@ -217,9 +219,9 @@ impl Functions {
         Ok(all)
     }
 
-    /// The view file's turtle (`--cpfg-view`), if one was given.
-    pub fn turtle(&self) -> Option<&crate::turtle::cpfg_view::CpfgTurtle> {
-        self.turtle.as_ref()
+    /// The view file (`--cpfg-view`), if one was given.
+    pub fn view(&self) -> Option<&Path> {
+        self.view.as_deref()
     }
 
     /// No function (`func` has none to read; curves aside).
@@ -909,7 +911,7 @@ mod tests {
             macros: vec![],
             curves: vec![],
             computed: 0,
-            turtle: None,
+            view: None,
         };
         assert!((all.value(1.9, 0.5).unwrap() - 1.0).abs() < 1e-12);
         assert_eq!(

@@ -162,7 +162,7 @@ pub fn load(
     let tree = parse::parse_with(&text, no_functions, no_curves).map_err(|e| locate(&map, e))?;
     axiom_brackets(&tree.axiom_brackets, &map)?;
     // (Before the lowering's warnings: a file refused here is one error.)
-    let queries = match query::check(&tree, &text, functions.turtle()) {
+    let queries = match query::check(&tree, &text, functions.view()) {
         Ok(q) => q,
         Err(query::CheckError::At(span, r)) => {
             let e = UserError::new(span, ParseError::Refused(r));
@@ -172,6 +172,7 @@ pub fn load(
             let r = crate::diag::Refused::QueryMovements(label);
             return Err(Error::at(at, ParseError::Refused(r)));
         }
+        Err(query::CheckError::ViewFile(e)) => return Err(e),
     };
     let lowered = lower::lower(&tree, &mut |span, warning| {
         if seed_option

@@ -360,7 +360,7 @@ pub fn fill(
 pub(crate) fn check(
     tree: &Lsystem,
     text: &str,
-    view: Option<&CpfgTurtle>,
+    view: Option<&std::path::Path>,
 ) -> Result<Option<QueryTurtle>, CheckError> {
     // The axiom's modules without parameters keep no span: the first
     // such symbol in the axiom's text.
@@ -375,6 +375,7 @@ pub(crate) fn check(
     let Some(view) = view else {
         return Err(CheckError::At(first, Refused::QueryWithoutView));
     };
+    let view = crate::turtle::cpfg_view::read_cpfg_turtle(view).map_err(CheckError::ViewFile)?;
     // A homomorphism that cannot move the turtle: the query turtle
     // interprets the string without it (as cpfg through it).
     let hom = tree.homomorphism.iter().flat_map(|h| &h.productions);
@@ -420,7 +421,7 @@ pub(crate) fn check(
     if let Some((label, at)) = &view.movements {
         return Err(CheckError::View(at.clone(), label.clone()));
     }
-    Ok(Some(QueryTurtle::new(view)))
+    Ok(Some(QueryTurtle::new(&view)))
 }
 
 /// What [`check`] refuses: at a span of the `.l` file, or a label of the
@@ -429,6 +430,9 @@ pub(crate) fn check(
 pub(crate) enum CheckError {
     At(Span, Refused),
     View(crate::diag::Location, String),
+    /// The view file could not be read, or has a bad argument where the
+    /// turtle needs it.
+    ViewFile(Error),
 }
 
 /// A module of a list: symbol, number of parameters, span if known.
