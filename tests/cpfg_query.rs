@@ -404,3 +404,28 @@ fn the_clipped_example_is_the_references() {
     // The flowers are where the ball clips the shoots: dozens of them.
     assert!(want.matches("@O(0.4)").count() > 50);
 }
+
+/// An axiom given apart (`--axiom`) is checked as the turtle meets it:
+/// `?` with parameters is cpfg's sub-L-system call (`?(id,scale)`, which
+/// scales the turtle), refused as in the file's own strings, not passed
+/// over as a module that leaves the turtle still.
+#[test]
+fn a_sub_lsystem_call_in_an_axiom_given_apart() {
+    let dir = tempdir();
+    let v = write(dir.path(), "plant.v", "angle factor: 8\n");
+    let l = write(dir.path(), "plant.l", &system(1, "?P(0,0)", "A --> B"));
+    for axiom in ["F?(1)P(0,0)\n", "F?(1,2)F?P(0,0)\n"] {
+        let ax = write(dir.path(), "axiom.txt", axiom);
+        let r = run(lsgen()
+            .args(["-n", "0", "--axiom"])
+            .arg(&ax)
+            .arg("--cpfg-view")
+            .arg(&v)
+            .arg(&l));
+        let e = r.fails(1).to_string();
+        assert!(
+            e.contains("lsgen: error: `?` with parameters (a sub-L-system call)"),
+            "{axiom}: {e}"
+        );
+    }
+}

@@ -333,6 +333,13 @@ pub fn fill(
         }
         match sym {
             '?' if n == 0 => ask = true,
+            // cpfg's sub-L-system call `?(id,scale)` (`UpdateCurrentLsystem`),
+            // which scales the turtle (refused in the file's own strings).
+            '?' => {
+                return Err(fault(QueryFault::NotFollowed(
+                    "`?` with parameters (a sub-L-system call)",
+                )))
+            }
             '@' if n == 0 => at = true,
             '%' if n == 0 && !q.past_cut => skipping = Some(0),
             '~' => return Err(fault(QueryFault::NotFollowed("`~` (a surface)"))),
