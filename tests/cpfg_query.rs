@@ -429,3 +429,20 @@ fn a_sub_lsystem_call_in_an_axiom_given_apart() {
         );
     }
 }
+
+/// A query module rewritten into `Q` or `E`: cpfg does not skip them
+/// with a warning (as any other module after `?`) but fills a quaternion
+/// (`?Q`) or talks to its environment (`?E`); the message says so.
+#[test]
+fn a_query_rewritten_into_a_quaternion_query() {
+    for (to, want) in [
+        ("Q", "error: `?Q` (cpfg's quaternion query) is not filled by lsgen's query turtle, as the turtle interprets the string of step 1"),
+        ("E", "error: `?E` (cpfg's communication with an environment program) is not filled by lsgen's query turtle, as the turtle interprets the string of step 1"),
+        ("X", "error: `?` followed by `X`, not by the `P`, `H`, `L` or `U` it fills (a production rewrote it; cpfg skips the `X` with a warning)"),
+    ] {
+        let l = system(1, "F?P(0,0)", &format!("P(x,y) --> {to}(x,y)"));
+        let r = derive(&l, "angle factor: 8\n", &[]);
+        let e = r.fails(1).to_string();
+        assert!(e.contains(want), "{to}: {e}");
+    }
+}

@@ -1010,6 +1010,8 @@ impl fmt::Display for RuntimeError {
                     }
                     NotFinite => "a query's vector is past the largest number".into(),
                     TooDeep => "branches nested deeper than 1048576 (the turtle keeps each open one)".into(),
+                    NotAQuery(Some('Q')) => "`?Q` (cpfg's quaternion query) is not filled by lsgen's query turtle".into(),
+                    NotAQuery(Some('E')) => "`?E` (cpfg's communication with an environment program) is not filled by lsgen's query turtle".into(),
                     NotAQuery(Some(c)) => format!("`?` followed by `{c}`, not by the `P`, `H`, `L` or `U` it fills (a production rewrote it; cpfg skips the `{c}` with a warning)"),
                     NotAQuery(None) => "`?` at the end of the string, without the `P`, `H`, `L` or `U` it fills".into(),
                     NotFollowed(what) => format!("{what} moves cpfg's turtle, and lsgen's query turtle does not follow it"),
