@@ -413,7 +413,7 @@ fn the_clipped_example_is_the_references() {
 fn a_sub_lsystem_call_in_an_axiom_given_apart() {
     let dir = tempdir();
     let v = write(dir.path(), "plant.v", "angle factor: 8\n");
-    let l = write(dir.path(), "plant.l", &system(1, "?P(0,0)", "A --> B"));
+    let l = write(dir.path(), "plant.l", system(1, "?P(0,0)", "A --> B"));
     for axiom in ["F?(1)P(0,0)\n", "F?(1,2)F?P(0,0)\n"] {
         let ax = write(dir.path(), "axiom.txt", axiom);
         let r = run(lsgen()
