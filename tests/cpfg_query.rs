@@ -446,3 +446,42 @@ fn a_query_rewritten_into_a_quaternion_query() {
         assert!(e.contains(want), "{to}: {e}");
     }
 }
+
+/// With `interpretation past %: off`, cpfg's turtle skips the rest of a
+/// branch after `%` but stops at a `$` or at a `%` with parameters
+/// (`SkipCutPart`, generate.c), and goes on from there: in an axiom given
+/// apart (the file's own strings cannot hold them) they are refused, not
+/// skipped with the rest.
+#[test]
+fn what_stops_the_skip_after_a_cut() {
+    let dir = tempdir();
+    let v = write(
+        dir.path(),
+        "plant.v",
+        "angle factor: 8\ninterpretation past %: off\n",
+    );
+    let l = write(dir.path(), "plant.l", system(1, "?P(0,0)", "A --> B"));
+    for (axiom, want) in [
+        ("F[%F$F?P(0,0)]?P(0,0)\n", "`$` (the end of a sub-L-system)"),
+        ("F[%F%(1)F?P(0,0)]?P(0,0)\n", "`%` with parameters"),
+    ] {
+        let ax = write(dir.path(), "axiom.txt", axiom);
+        let r = run(lsgen()
+            .args(["-n", "0", "--axiom"])
+            .arg(&ax)
+            .arg("--cpfg-view")
+            .arg(&v)
+            .arg(&l));
+        let e = r.fails(1).to_string();
+        assert!(e.contains(&format!("lsgen: error: {want}")), "{axiom}: {e}");
+    }
+    // (What else the skipped part holds is skipped.)
+    let ax = write(dir.path(), "axiom.txt", "F[%F~l@RF?P(0,0)]?P(0,0)\n");
+    let r = run(lsgen()
+        .args(["-n", "0", "--axiom"])
+        .arg(&ax)
+        .arg("--cpfg-view")
+        .arg(&v)
+        .arg(&l));
+    assert_eq!(r.ok(), "F[%F~l@RF?P(0,0)]?P(0,1)\n");
+}

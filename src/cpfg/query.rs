@@ -278,6 +278,16 @@ pub fn fill(
                     *depth -= 1;
                     continue;
                 }
+                // cpfg's skip stops at these (`SkipCutPart`, generate.c)
+                // and its turtle goes on from there.
+                '$' => {
+                    return Err(fault(QueryFault::NotFollowed(
+                        "`$` (the end of a sub-L-system) after a `%`",
+                    )))
+                }
+                '%' if al.arity(key) > 0 => {
+                    return Err(fault(QueryFault::NotFollowed("`%` with parameters")))
+                }
                 _ => continue,
             }
         }
