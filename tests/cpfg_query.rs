@@ -263,41 +263,56 @@ fn refused() {
             &format!("plant.l:{at}: error: a homomorphism production {what}"),
         );
     }
-    let l = system(1, "A?P(0,0)", "A --> ~lA");
-    check(
-        &l,
-        Some(&v),
-        "error: `~` (a surface) in a system with turtle queries",
-    );
-    let l = system(1, "A?P(0,0)", "A --> @R(1,0,0)A");
-    check(
-        &l,
-        Some(&v),
-        "plant.l:4:7: error: `@R` in a system with turtle queries",
-    );
-    let l = system(1, "A?P(0,0)", "A --> @GxA");
-    check(
-        &l,
-        Some(&v),
-        "plant.l:4:7: error: `@Gx` in a system with turtle queries",
-    );
-    // (In every list but a homomorphism's successor, whose branches give
-    // the turtle back: there `[@R(1,0,0)F]` is accepted, and `@R` outside
-    // a branch refused.)
+    // What the query turtle does not follow, in the file's own lists
+    // (`n`, axiom, productions; with the view `v`).
+    for (n, axiom, productions, want) in [
+        (
+            1,
+            "A?P(0,0)",
+            "A --> ~lA",
+            "error: `~` (a surface) in a system with turtle queries",
+        ),
+        (
+            1,
+            "A?P(0,0)",
+            "A --> @R(1,0,0)A",
+            "plant.l:4:7: error: `@R` in a system with turtle queries",
+        ),
+        (
+            1,
+            "A?P(0,0)",
+            "A --> @GxA",
+            "plant.l:4:7: error: `@Gx` in a system with turtle queries",
+        ),
+        // (In every list but a homomorphism's successor, whose branches
+        // give the turtle back: there `[@R(1,0,0)F]` is accepted.)
+        (
+            1,
+            "A?P(0,0)",
+            "A > ?P(x,y) --> [@R(1,0,0)F]A",
+            "plant.l:4:18: error: `@R` in a system with turtle queries",
+        ),
+        (1, "A?P(0,0)", "A --> A@", "`@` at the end of a successor"),
+        // cpfg's older position query `s(x,y)`.
+        (1, "A?P(0,0)", "A --> s(1,2)A", "`s` with 2 or 3 parameters"),
+        // A production that rewrites a query module away from its `?`.
+        (
+            2,
+            "A?P(0,0)",
+            "P(x,y) --> B",
+            "`?` followed by `B`, not by the `P`, `H`, `L` or `U` it fills",
+        ),
+        (2, "A?P(0,0)", "P(x,y) -->", "`?` at the end of the string"),
+    ] {
+        check(&system(n, axiom, productions), Some(&v), want);
+    }
+    // ... and `@R` outside a homomorphism's branch.
     let hom = "Lsystem: 1\nAxiom: A?P(0,0)\nA --> FA\nhomomorphism\nA --> @R(1,0,0)\nendlsystem\n";
     check(
         hom,
         Some(&v),
         "plant.l:5:7: error: a homomorphism production with `@` outside a branch",
     );
-    let l = system(1, "A?P(0,0)", "A > ?P(x,y) --> [@R(1,0,0)F]A");
-    check(
-        &l,
-        Some(&v),
-        "plant.l:4:18: error: `@R` in a system with turtle queries",
-    );
-    let l = system(1, "A?P(0,0)", "A --> A@");
-    check(&l, Some(&v), "`@` at the end of a successor");
     let moving = write(
         dir.path(),
         "moving.v",
@@ -331,18 +346,6 @@ fn refused() {
     let file = write(dir.path(), "plant.l", system(0, &axiom, ""));
     let r = run(lsgen().arg("--cpfg-view").arg(&v).arg(&file));
     assert!(r.ok().contains("F?P(0,1)]"));
-    // cpfg's older position query `s(x,y)`.
-    let l = system(1, "A?P(0,0)", "A --> s(1,2)A");
-    check(&l, Some(&v), "`s` with 2 or 3 parameters");
-    // A production that rewrites a query module away from its `?`.
-    let l = system(2, "A?P(0,0)", "P(x,y) --> B");
-    check(
-        &l,
-        Some(&v),
-        "`?` followed by `B`, not by the `P`, `H`, `L` or `U` it fills",
-    );
-    let l = system(2, "A?P(0,0)", "P(x,y) -->");
-    check(&l, Some(&v), "`?` at the end of the string");
     // An axiom given apart (`--axiom`) is not checked when the file is
     // loaded: what the turtle does not follow stops it there.
     let l = system(0, "A?P(0,0)", "");
