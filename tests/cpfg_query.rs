@@ -313,29 +313,38 @@ fn refused() {
         Some(&v),
         "plant.l:5:7: error: a homomorphism production with `@` outside a branch",
     );
-    let moving = write(
-        dir.path(),
-        "moving.v",
-        "angle factor: 8\ntropism: T: 1,0,0\n",
-    );
-    let l = system(1, "A?P(0,0)", "A --> FA");
-    check(
-        &l,
-        Some(&moving),
-        "moving.v:2:1: error: `tropism:` (cpfg's movements",
-    );
-    // The bend's sine past 1: an error at run time, not NaN.
-    let bent = write(
-        dir.path(),
-        "bent.v",
-        "tropism direction: 1,0,0\ninitial elasticity: 2\n",
-    );
-    let l = system(1, "F?P(0,0)", "");
-    check(
-        &l,
-        Some(&bent),
-        "cpfg's tropism bends the turtle by a sine past 1",
-    );
+    // View files the query turtle refuses (name, text, axiom, message):
+    // cpfg's movements; a bend by a sine past 1 (at run time, not NaN); an
+    // argument cpfg cannot read (vlab has `angle increment: ?` in an
+    // exercise: cpfg warns), where the turtle needs it.
+    for (name, text, axiom, want) in [
+        (
+            "moving.v",
+            "angle factor: 8\ntropism: T: 1,0,0\n",
+            "A?P(0,0)",
+            "moving.v:2:1: error: `tropism:` (cpfg's movements",
+        ),
+        (
+            "bent.v",
+            "tropism direction: 1,0,0\ninitial elasticity: 2\n",
+            "F?P(0,0)",
+            "cpfg's tropism bends the turtle by a sine past 1",
+        ),
+        (
+            "odd.v",
+            "angle increment: ?\n",
+            "A?P(0,0)",
+            "odd.v:1:18: error: `angle increment:` takes a number",
+        ),
+    ] {
+        let view = write(dir.path(), name, text);
+        check(&system(1, axiom, "A --> FA"), Some(&view), want);
+    }
+    // The odd view derives a file without queries.
+    let odd = dir.path().join("odd.v");
+    let file = write(dir.path(), "plant.l", system(1, "A", "A --> FA"));
+    let r = run(lsgen().arg("--cpfg-view").arg(&odd).arg(&file));
+    assert_eq!(r.ok(), "FA\n");
     // Branches nested deeper than the turtle keeps (2^20): an error, not
     // memory without bound.
     let deep = 1 << 20;
@@ -355,30 +364,11 @@ fn refused() {
         ("F@R(1,0,0)?P(0,0)", "an `@` module moves cpfg's turtle"),
         ("F?P(0,0)@", "an `@` at the end of the string"),
     ] {
-        let axiom = write(dir.path(), "axiom.txt", axiom);
-        let r = run(lsgen()
-            .arg("--axiom")
-            .arg(&axiom)
-            .arg("--cpfg-view")
-            .arg(&v)
-            .arg(&file));
+        let r = axiom_apart(dir.path(), &v, &file, axiom);
         let e = r.fails(1).to_string();
         assert!(e.contains(want), "{e}");
         assert!(e.contains("as the turtle interprets the axiom"), "{e}");
     }
-    // A view file with an argument cpfg cannot read (vlab has `angle
-    // increment: ?` in an exercise): cpfg warns; lsgen refuses it where
-    // the query turtle needs it, and derives a file without queries.
-    let odd = write(dir.path(), "odd.v", "angle increment: ?\n");
-    let l = system(1, "A?P(0,0)", "A --> FA");
-    check(
-        &l,
-        Some(&odd),
-        "odd.v:1:18: error: `angle increment:` takes a number",
-    );
-    let file = write(dir.path(), "plant.l", system(1, "A", "A --> FA"));
-    let r = run(lsgen().arg("--cpfg-view").arg(&odd).arg(&file));
-    assert_eq!(r.ok(), "FA\n");
     // Other `?` are still refused, with or without the view.
     let l = system(1, "A", "A --> F?E(1)");
     check(&l, Some(&v), "`?E`");
@@ -418,13 +408,7 @@ fn a_sub_lsystem_call_in_an_axiom_given_apart() {
     let v = write(dir.path(), "plant.v", "angle factor: 8\n");
     let l = write(dir.path(), "plant.l", system(1, "?P(0,0)", "A --> B"));
     for axiom in ["F?(1)P(0,0)\n", "F?(1,2)F?P(0,0)\n"] {
-        let ax = write(dir.path(), "axiom.txt", axiom);
-        let r = run(lsgen()
-            .args(["-n", "0", "--axiom"])
-            .arg(&ax)
-            .arg("--cpfg-view")
-            .arg(&v)
-            .arg(&l));
+        let r = axiom_apart(dir.path(), &v, &l, axiom);
         let e = r.fails(1).to_string();
         assert!(
             e.contains("lsgen: error: `?` with parameters (a sub-L-system call)"),
@@ -468,23 +452,23 @@ fn what_stops_the_skip_after_a_cut() {
         ("F[%F$F?P(0,0)]?P(0,0)\n", "`$` (the end of a sub-L-system)"),
         ("F[%F%(1)F?P(0,0)]?P(0,0)\n", "`%` with parameters"),
     ] {
-        let ax = write(dir.path(), "axiom.txt", axiom);
-        let r = run(lsgen()
-            .args(["-n", "0", "--axiom"])
-            .arg(&ax)
-            .arg("--cpfg-view")
-            .arg(&v)
-            .arg(&l));
+        let r = axiom_apart(dir.path(), &v, &l, axiom);
         let e = r.fails(1).to_string();
         assert!(e.contains(&format!("lsgen: error: {want}")), "{axiom}: {e}");
     }
     // (What else the skipped part holds is skipped.)
-    let ax = write(dir.path(), "axiom.txt", "F[%F~l@RF?P(0,0)]?P(0,0)\n");
-    let r = run(lsgen()
+    let r = axiom_apart(dir.path(), &v, &l, "F[%F~l@RF?P(0,0)]?P(0,0)\n");
+    assert_eq!(r.ok(), "F[%F~l@RF?P(0,0)]?P(0,1)\n");
+}
+
+/// lsgen `-n 0` on the `.l` file `l` with the view `v` and the axiom
+/// `axiom` given apart (`--axiom`), which the file's checks do not see.
+fn axiom_apart(dir: &Path, v: &Path, l: &Path, axiom: &str) -> common::Run {
+    let ax = write(dir, "axiom.txt", axiom);
+    run(lsgen()
         .args(["-n", "0", "--axiom"])
         .arg(&ax)
         .arg("--cpfg-view")
-        .arg(&v)
-        .arg(&l));
-    assert_eq!(r.ok(), "F[%F~l@RF?P(0,0)]?P(0,1)\n");
+        .arg(v)
+        .arg(l))
 }
