@@ -31,7 +31,7 @@ use crate::diag::{Error, Refused, RuntimeError};
 use crate::lang::lexer::Span;
 use crate::rules::{codec, Alphabet};
 use crate::turtle::cpfg_view::CpfgTurtle;
-use crate::turtle::state::{bend_cpfg, cross, dot, rot, V3};
+use crate::turtle::state::{bend_cpfg, cross, dot, turn, V3};
 use std::fs::File;
 use std::os::unix::fs::FileExt;
 
@@ -168,22 +168,11 @@ impl Walker<'_> {
                 st.pos[2] += d * st.h[2];
                 self.bend()?;
             }
-            '+' | '-' => {
+            '+' | '-' | '&' | '^' | '/' | '\\' | '|' => {
                 let (s, c) = self.sin_cos(p);
-                let s = if sym == '+' { s } else { -s };
-                rot(&mut self.s.h, &mut self.s.l, s, c);
+                let st = &mut self.s;
+                turn(sym, (&mut st.h, &mut st.l, &mut st.u), s, c);
             }
-            '&' | '^' => {
-                let (s, c) = self.sin_cos(p);
-                let s = if sym == '&' { s } else { -s };
-                rot(&mut self.s.h, &mut self.s.u, s, c);
-            }
-            '/' | '\\' => {
-                let (s, c) = self.sin_cos(p);
-                let s = if sym == '/' { s } else { -s };
-                rot(&mut self.s.l, &mut self.s.u, s, c);
-            }
-            '|' => rot(&mut st.h, &mut st.l, 0.0, -1.0),
             '[' => {
                 if self.stack.len() >= MAX_DEPTH {
                     return Err(QueryFault::TooDeep);
@@ -256,8 +245,9 @@ pub fn fill(
     let mut r = crate::derive::reader::PosReader::new(file, 1 << 16, indexed).with_counts(counts);
     let mut w = Walker::new(q);
     let mut params = [0.0f64; 255];
-    // The module before was `@`, or `?`.
-    let (mut at, mut at_g, mut ask) = (false, false, false);
+    // The module before was `?`; where an `@` command is.
+    let mut ask = false;
+    let mut follow = Follow::default();
     // Inside a branch's rest skipped after `%` (its depth).
     let mut skipping: Option<usize> = None;
     let mut patch = Vec::with_capacity(24);
@@ -325,45 +315,21 @@ pub fn fill(
         }
         // (What the file's own strings cannot hold, checked when it was
         // loaded, may still come from an axiom given apart, `--axiom`.)
-        if at {
-            at = false;
-            match sym {
-                'o' | 'O' | 'c' | 'v' | 'M' => w.at_module(sym, p),
-                'G' => at_g = true,
-                _ => return Err(fault(QueryFault::NotFollowed("an `@` module"))),
-            }
-            continue;
-        }
-        if at_g {
-            at_g = false;
-            if !matches!(sym, 's' | 'c' | 'e' | 't' | 'r') {
-                return Err(fault(QueryFault::NotFollowed("an `@G` module")));
-            }
-            continue;
-        }
-        match sym {
-            '?' if n == 0 => ask = true,
-            // cpfg's sub-L-system call `?(id,scale)` (`UpdateCurrentLsystem`),
-            // which scales the turtle (refused in the file's own strings).
-            '?' => {
-                return Err(fault(QueryFault::NotFollowed(
-                    "`?` with parameters (a sub-L-system call)",
-                )))
-            }
-            '@' if n == 0 => at = true,
-            '%' if n == 0 && !q.past_cut => skipping = Some(0),
-            '~' => return Err(fault(QueryFault::NotFollowed("`~` (a surface)"))),
-            '%' if n > 0 => return Err(fault(QueryFault::NotFollowed("`%` with parameters"))),
-            's' if n == 2 || n == 3 => {
-                return Err(fault(QueryFault::NotFollowed("`s` with 2 or 3 parameters")))
-            }
-            _ => w.module(sym, p).map_err(fault)?,
+        match follow.next(sym, n) {
+            Err(u) => return Err(fault(QueryFault::NotFollowed(u.at_run()))),
+            Ok(Role::At(f)) => w.at_module(f, p),
+            Ok(Role::Part) => {}
+            Ok(Role::Turtle) => match sym {
+                '?' => ask = true,
+                '%' if !q.past_cut => skipping = Some(0),
+                _ => w.module(sym, p).map_err(fault)?,
+            },
         }
     }
     if ask {
         return Err(fault(QueryFault::NotAQuery(None)));
     }
-    if at || at_g {
+    if follow.pending() {
         return Err(fault(QueryFault::NotFollowed(
             "an `@` at the end of the string",
         )));
@@ -452,53 +418,136 @@ pub(crate) enum CheckError {
     ViewFile(Error),
 }
 
+/// What the query turtle makes of a module of a list, given the modules
+/// before it: cpfg's `@` reads the module after it as its function, and
+/// `@G` one more (generalized cylinders, whose subfunctions `s c e t r`
+/// set the spline's state, never the turtle's place: `blackbox.c`,
+/// `general.c`). One rule for the file's lists when it is loaded
+/// ([`check_list`]) and for the strings the turtle reads ([`fill`]).
+#[derive(Default)]
+struct Follow {
+    /// After `@` (1) or `@G` (2).
+    after: u8,
+}
+
+/// A module's part in the turtle's reading ([`Follow::next`]).
+enum Role {
+    /// Interpreted as a module of its own.
+    Turtle,
+    /// The function of an `@` command (`o O c v M`).
+    At(char),
+    /// Read as part of an `@` command, not interpreted.
+    Part,
+}
+
+/// A module the query turtle does not follow (it moves cpfg's turtle).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Unfollowed {
+    /// An `@` function but `o O c v M G`.
+    At(char),
+    /// An `@G` subfunction but `s c e t r`.
+    AtG(char),
+    /// `~`, a surface.
+    Surface,
+    /// `s(x,y[,z])`, cpfg's older position query.
+    OldQuery,
+    /// `%` with parameters.
+    CutWithParams,
+    /// `?` with parameters, a sub-L-system call.
+    SubLsystem,
+}
+
+impl Unfollowed {
+    /// As a message about the file names it.
+    fn in_file(self) -> String {
+        match self {
+            Unfollowed::At(c) => format!("`@{c}`"),
+            Unfollowed::AtG(c) => format!("`@G{c}`"),
+            Unfollowed::Surface => "`~` (a surface)".into(),
+            Unfollowed::OldQuery => {
+                "`s` with 2 or 3 parameters (cpfg's older position query)".into()
+            }
+            Unfollowed::CutWithParams => "`%` with parameters".into(),
+            Unfollowed::SubLsystem => "`?` with parameters (a sub-L-system call)".into(),
+        }
+    }
+
+    /// As a message about a string the turtle reads names it.
+    fn at_run(self) -> &'static str {
+        match self {
+            Unfollowed::At(_) => "an `@` module",
+            Unfollowed::AtG(_) => "an `@G` module",
+            Unfollowed::Surface => "`~` (a surface)",
+            Unfollowed::OldQuery => "`s` with 2 or 3 parameters",
+            Unfollowed::CutWithParams => "`%` with parameters",
+            Unfollowed::SubLsystem => "`?` with parameters (a sub-L-system call)",
+        }
+    }
+}
+
+impl Follow {
+    /// The part of the module `sym` with `n` parameters, read next.
+    fn next(&mut self, sym: char, n: usize) -> Result<Role, Unfollowed> {
+        match std::mem::take(&mut self.after) {
+            1 => match sym {
+                'o' | 'O' | 'c' | 'v' | 'M' => Ok(Role::At(sym)),
+                'G' => {
+                    self.after = 2;
+                    Ok(Role::Part)
+                }
+                _ => Err(Unfollowed::At(sym)),
+            },
+            2 if matches!(sym, 's' | 'c' | 'e' | 't' | 'r') => Ok(Role::Part),
+            2 => Err(Unfollowed::AtG(sym)),
+            _ => match sym {
+                '~' => Err(Unfollowed::Surface),
+                's' if n == 2 || n == 3 => Err(Unfollowed::OldQuery),
+                '%' if n > 0 => Err(Unfollowed::CutWithParams),
+                '?' if n > 0 => Err(Unfollowed::SubLsystem),
+                '@' if n == 0 => {
+                    self.after = 1;
+                    Ok(Role::Part)
+                }
+                _ => Ok(Role::Turtle),
+            },
+        }
+    }
+
+    /// The list ended within an `@` command.
+    fn pending(&self) -> bool {
+        self.after != 0
+    }
+}
+
 /// A module of a list: symbol, number of parameters, span if known.
 type Item = (char, usize, Option<Span>);
 
 /// The first module of a list (axiom or successor) that lsgen's query
 /// turtle does not follow, and why.
 fn check_list(list: impl Iterator<Item = Item>) -> Result<(), (Item, Refused)> {
-    let not = |what: &str| Refused::QueryNotFollowed(what.to_string());
-    // After `@`, and after `@G` (cpfg's generalized cylinders, whose
-    // subfunctions `s c e t r` set the spline's state, never the turtle's
-    // place: `blackbox.c`, `general.c`).
-    let (mut at, mut at_g) = (None, None);
+    let not = |what: String| Refused::QueryNotFollowed(what);
+    let mut follow = Follow::default();
+    // The `@` of the command being read: errors in it are located there.
+    let mut command = None;
     for m in list {
         let (sym, n, _) = m;
-        if let Some(a) = at.take() {
-            match sym {
-                'o' | 'O' | 'c' | 'v' | 'M' => {}
-                'G' => at_g = Some(a),
-                _ => return Err((a, not(&format!("`@{sym}`")))),
-            }
-            continue;
-        }
-        if let Some(a) = at_g.take() {
-            match sym {
-                's' | 'c' | 'e' | 't' | 'r' => {}
-                _ => return Err((a, not(&format!("`@G{sym}`")))),
-            }
-            continue;
-        }
-        match sym {
-            '~' => return Err((m, not("`~` (a surface)"))),
-            // cpfg's older position query, filled before each step only
-            // (`interpret.c`, `case 's'`).
-            's' if n == 2 || n == 3 => {
+        match follow.next(sym, n) {
+            Ok(Role::Part) if sym == '@' => command = Some(m),
+            Ok(_) => {}
+            Err(u) => {
                 return Err((
-                    m,
-                    not("`s` with 2 or 3 parameters (cpfg's older position query)"),
+                    command
+                        .filter(|_| matches!(u, Unfollowed::At(_) | Unfollowed::AtG(_)))
+                        .unwrap_or(m),
+                    not(u.in_file()),
                 ))
             }
-            '%' if n > 0 => return Err((m, not("`%` with parameters"))),
-            '@' => at = Some(m),
-            _ => {}
         }
     }
-    if let Some(a) = at.or(at_g) {
-        return Err((a, not("`@` at the end of a successor")));
+    match command {
+        Some(a) if follow.pending() => Err((a, not("`@` at the end of a successor".into()))),
+        _ => Ok(()),
     }
-    Ok(())
 }
 
 /// Does cpfg's turtle stay as it is on the module `sym` (whatever its

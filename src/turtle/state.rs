@@ -39,6 +39,24 @@ pub(crate) fn rot(a: &mut V3, b: &mut V3, s: f64, c: f64) {
     *b = nb;
 }
 
+/// The turns of the frame `(h, l, u)` by the angle of sine `s` and cosine
+/// `c` (`|`: half a turn, whatever they are), as cpfg's `InterpretSymbol`
+/// makes them: `+`/`-` turn H towards L or away, `&`/`^` H towards U,
+/// `/`/`\` L towards U. Shared by lsgen-turtle and the cpfg dialect's
+/// query turtle (each works out the angle its own way).
+pub(crate) fn turn(sym: char, (h, l, u): (&mut V3, &mut V3, &mut V3), s: f64, c: f64) {
+    match sym {
+        '+' => rot(h, l, s, c),
+        '-' => rot(h, l, -s, c),
+        '&' => rot(h, u, s, c),
+        '^' => rot(h, u, -s, c),
+        '/' => rot(l, u, s, c),
+        '\\' => rot(l, u, -s, c),
+        '|' => rot(h, l, 0.0, -1.0),
+        _ => {}
+    }
+}
+
 /// cpfg's `bend` (`interpret.c`) of the frame `(h, l, u)` with elasticity
 /// `e` and the tropism `t` (of length 1): pitch H towards U by the angle
 /// whose sine is e·(T·U), then turn it towards L by the angle whose sine
@@ -346,22 +364,11 @@ impl Turtle {
                     self.bend()?;
                 }
             }
-            '+' | '-' => {
+            '+' | '-' | '&' | '^' | '/' | '\\' | '|' => {
                 let (s, c) = self.sincos(p);
-                let s = if sym == '+' { s } else { -s };
-                rot(&mut self.s.h, &mut self.s.l, s, c);
+                let st = &mut self.s;
+                turn(sym, (&mut st.h, &mut st.l, &mut st.u), s, c);
             }
-            '&' | '^' => {
-                let (s, c) = self.sincos(p);
-                let s = if sym == '&' { s } else { -s };
-                rot(&mut self.s.h, &mut self.s.u, s, c);
-            }
-            '/' | '\\' => {
-                let (s, c) = self.sincos(p);
-                let s = if sym == '/' { s } else { -s };
-                rot(&mut self.s.l, &mut self.s.u, s, c);
-            }
-            '|' => rot(&mut self.s.h, &mut self.s.l, 0.0, -1.0),
             '$' => self.level(),
             '[' => {
                 if self.stack.len() >= MAX_DEPTH {
