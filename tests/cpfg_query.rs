@@ -151,6 +151,64 @@ fn a_homomorphism_that_cannot_move_the_turtle() {
     );
 }
 
+/// A homomorphism that moves the turtle: cpfg's turtle reads the string
+/// through it, and so does lsgen's. `I(l)` is drawn as `F(l)`, `A` as
+/// `-(90)`. The axiom: I(1) moves to y = 1; A turns H towards -L, to
+/// (1, cos 90°, 0); so ?P = (0,1) and ?H = (1, 6.12323e-17, 0). A grows
+/// (adds I(2)) while the query after it is below y = 4: before step 1 at
+/// y = 1, before step 2 at 3, before step 3 at 5, where it stops (B, which
+/// the homomorphism leaves). The string is printed through the
+/// homomorphism, and without it with `--no-homomorphism`: its queries are
+/// filled through it all the same.
+#[test]
+fn a_homomorphism_that_moves_the_turtle() {
+    let l = "Lsystem: 1\nderivation length: 4\nAxiom: I(1)A?P(0,0)?H(0,0,0)\n\
+             A > ?P(x,y) : y < 4 --> I(2)A\nA > ?P(x,y) : y >= 4 --> B\n\
+             homomorphism\nI(l) --> F(l)\nA --> -(90)\nendlsystem\n";
+    let v = "angle factor: 8\n";
+    assert_eq!(
+        ok(l, v, &["-n", "0"]),
+        "F(1)-(90)?P(0,1)?H(1,6.12323e-17,0)\n"
+    );
+    assert_eq!(ok(l, v, &[]), "F(1)F(2)F(2)B?P(0,5)?H(0,1,0)\n");
+    assert_eq!(
+        ok(l, v, &["--no-homomorphism"]),
+        "I(1)I(2)I(2)B?P(0,5)?H(0,1,0)\n"
+    );
+    // Step by step: each string's queries read the moves its
+    // homomorphism makes (y = 3 after step 1, 5 after step 2).
+    assert_eq!(
+        ok(l, v, &["-n", "1", "--no-homomorphism"]),
+        "I(1)I(2)A?P(0,3)?H(1,6.12323e-17,0)\n"
+    );
+    // `maximum depth: 2`: I's successor is rewritten once more (J(l) to
+    // two moves of l), as cpfg's turtle reads it; frames and threads
+    // agree.
+    let deep = "Lsystem: 1\nderivation length: 2\nAxiom: I(1)A?P(0,0)\nA --> I(1)A\n\
+                homomorphism\nmaximum depth: 2\nI(l) --> J(l)+(0)\nJ(l) --> F(l)F(l)\nendlsystem\n";
+    let want = "F(1)F(1)+(0)F(1)F(1)+(0)F(1)F(1)+(0)A?P(0,6)\n";
+    for j in ["1", "2", "8"] {
+        assert_eq!(ok(deep, v, &["-j", j]), want, "-j {j}");
+    }
+    let dir = tempdir();
+    let view = write(dir.path(), "plant.v", v);
+    let file = write(dir.path(), "plant.l", deep);
+    let r = run(lsgen()
+        .args(["--frames", "0..2", "-o"])
+        .arg(dir.path().join("frame{n}.txt"))
+        .arg("--cpfg-view")
+        .arg(&view)
+        .arg(&file));
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    for (k, y) in [(0, 2), (1, 4), (2, 6)] {
+        let frame = std::fs::read_to_string(dir.path().join(format!("frame{k}.txt"))).unwrap();
+        assert!(
+            frame.ends_with(&format!("A?P(0,{y})\n")),
+            "frame {k}: {frame}"
+        );
+    }
+}
+
 /// cpfg fills the saved string's queries when it works out the view
 /// volume around it, which a view file's `box:` turns off; then only
 /// `environment display: before` (a fill after each step) does. The
@@ -234,20 +292,27 @@ fn refused() {
         None,
         "plant.l:4:8: error: a query of the turtle (`?P`, `?H`, `?L`, `?U`) needs cpfg's view file",
     );
-    // A homomorphism that can move the turtle (cpfg interprets through
-    // it): each way, located at what moves.
+    // A homomorphism production the query turtle cannot follow as cpfg's
+    // does: each way, located at what it cannot follow.
     for (production, at, what) in [
         (
-            "A --> F",
-            "5:7",
-            "with `F` outside a branch of its successor",
+            "A --> F%",
+            "5:8",
+            "with `%` outside a branch of its successor",
         ),
+        // (cpfg reads a query's module past the homomorphism.)
         (
-            "A --> [F]+",
-            "5:10",
-            "with `+` outside a branch of its successor",
+            "P(x,y) --> F",
+            "5:1",
+            "with a predecessor `P`, which a `?` or an `@` reads",
         ),
-        ("F --> [G]", "5:1", "with a predecessor with `F`"),
+        // (cpfg reads it in the string as it fills it; lsgen's turtle an
+        // image made before the fill.)
+        (
+            "P(x,y) < A --> F",
+            "5:1",
+            "with a left context `P`, which a query fills",
+        ),
         ("A --> [F", "5:1", "with a `[` without its `]`"),
         ("A --> ]", "5:7", "with a `]` without its `[`"),
         ("A --> B?P(1)", "5:8", "with a `?` in its successor"),
@@ -306,13 +371,24 @@ fn refused() {
     ] {
         check(&system(n, axiom, productions), Some(&v), want);
     }
-    // ... and `@R` outside a homomorphism's branch.
-    let hom = "Lsystem: 1\nAxiom: A?P(0,0)\nA --> FA\nhomomorphism\nA --> @R(1,0,0)\nendlsystem\n";
-    check(
-        hom,
-        Some(&v),
-        "plant.l:5:7: error: a homomorphism production with `@` outside a branch",
-    );
+    // ... and in a homomorphism's successors where it moves the turtle,
+    // branches too (the turtle reads them): `@R` outside a branch, `~`
+    // in one beside a move.
+    for (production, want) in [
+        (
+            "A --> @R(1,0,0)",
+            "plant.l:5:7: error: `@R` in a system with turtle queries",
+        ),
+        (
+            "A --> F[~l]",
+            "plant.l:5:9: error: `~` (a surface) in a system with turtle queries",
+        ),
+    ] {
+        let hom = format!(
+            "Lsystem: 1\nAxiom: A?P(0,0)\nA --> FA\nhomomorphism\n{production}\nendlsystem\n"
+        );
+        check(&hom, Some(&v), want);
+    }
     // View files the query turtle refuses (name, text, axiom, message):
     // cpfg's movements; a bend by a sine past 1 (at run time, not NaN); an
     // argument cpfg cannot read (vlab has `angle increment: ?` in an
@@ -335,6 +411,20 @@ fn refused() {
             "angle increment: ?\n",
             "A?P(0,0)",
             "odd.v:1:18: error: `angle increment:` takes a number",
+        ),
+        // An angle past the largest float (cpfg keeps it as one): refused
+        // when the file is loaded, not when a turn first reads it.
+        (
+            "huge.v",
+            "angle increment: 1e40\n",
+            "A?P(0,0)",
+            "huge.v:1:18: error: `angle increment:` gives an angle past the largest float",
+        ),
+        (
+            "tiny.v",
+            "angle increment: 1e40\nangle factor: 1e-40\n",
+            "A?P(0,0)",
+            "tiny.v:2:15: error: `angle factor:` gives an angle past the largest float",
         ),
     ] {
         let view = write(dir.path(), name, text);
@@ -368,6 +458,16 @@ fn refused() {
         let e = r.fails(1).to_string();
         assert!(e.contains(want), "{e}");
         assert!(e.contains("as the turtle interprets the axiom"), "{e}");
+    }
+    // A module read past the homomorphism (after `?` or `@`) that it
+    // rewrites, in an axiom given apart: refused where the turtle reads it.
+    let l = "Lsystem: 1\nAxiom: A?H(0,0)\nhomomorphism\nA --> F\nP(x,y) --> F\nv --> M(1,2)\nendlsystem\n";
+    let file = write(dir.path(), "plant.l", l);
+    for (axiom, sym) in [("AF?P(0,0)", 'P'), ("A@vF?H(0,0)", 'v')] {
+        let r = axiom_apart(dir.path(), &v, &file, axiom);
+        let e = r.fails(1).to_string();
+        let want = format!("`{sym}`, read by a `?` or an `@`, has a homomorphism production");
+        assert!(e.contains(&want), "{axiom}: {e}");
     }
     // Other `?` are still refused, with or without the view.
     let l = system(1, "A", "A --> F?E(1)");

@@ -1,4 +1,4 @@
-//! The differential test of the cpfg dialect: 1020 random `.l` systems
+//! The differential test of the cpfg dialect: 1050 random `.l` systems
 //! (every feature of the dialect mixed, see tests/tools/gen_cpfg_cases.py;
 //! cases 301-400 also assign `Q` and `Z` in blocks and try productions at
 //! the decomposition's and the homomorphism's depth limit, and 401-500
@@ -25,7 +25,10 @@
 //! its successors' brackets, no blocks, probabilities or `ran`; cpfg's
 //! turtle, and the reference's, read the string through it, sometimes at
 //! `maximum depth: 2`, with contexts and conditions) and `@Gs`, `@Gc(2)`,
-//! `@Ge(2)`, `@Gt`, `@Gr` in successors),
+//! `@Ge(2)`, `@Gt`, `@Gr` in successors), and 1021-1050 with a
+//! homomorphism that moves the turtle (moves outside its successors'
+//! brackets, sometimes a production for a move of the string), which the
+//! turtle follows,
 //! derived by the independent reference tests/tools/cpfg_ref.py; lsgen must
 //! print the same string for each. Every other case runs with
 //! `LSGEN_TEST_SPLIT=1`: splits in tasks of one module or byte where a
@@ -118,7 +121,7 @@ fn random_cases_match_cpfg_ref() {
         }
         cases += 1;
     }
-    assert_eq!(cases, 1020);
+    assert_eq!(cases, 1050);
     assert!(
         failures.is_empty(),
         "{} of {cases} cases differ from cpfg_ref.py:\n{}",

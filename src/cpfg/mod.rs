@@ -168,8 +168,7 @@ pub fn load(
             let e = UserError::new(span, ParseError::Refused(r));
             return Err(locate(&map, e));
         }
-        Err(query::CheckError::View(at, label)) => {
-            let r = crate::diag::Refused::QueryMovements(label);
+        Err(query::CheckError::View(at, r)) => {
             return Err(Error::at(at, ParseError::Refused(r)));
         }
         Err(query::CheckError::ViewFile(e)) => return Err(e),

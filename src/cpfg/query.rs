@@ -20,11 +20,26 @@
 //! `\` `|` (turns), `[` `]`, `_` (elasticity), `%` (with `interpretation
 //! past %: off`, the rest of the branch is skipped), `@v` and `@M`. Every
 //! other module leaves the turtle as it is; what would move it in cpfg
-//! and is not followed here (`~`, other `@` modules, a homomorphism that
-//! can move the turtle, the view file's `tropism:` and `torque:`) is
-//! refused when the file is loaded (`check`), or where the turtle meets
-//! it in an axiom given apart. A homomorphism that cannot move it is not
-//! followed: cpfg's turtle, going through it, ends where this one does.
+//! and is not followed here (`~`, other `@` modules, the view file's
+//! `tropism:` and `torque:`) is refused when the file is loaded
+//! (`check`), or where the turtle meets it in an axiom given apart.
+//!
+//! cpfg's turtle reads the string through the homomorphism: each module
+//! is replaced by its homomorphism successor, whose modules go through
+//! it in turn (to `maximum depth:`). A homomorphism that cannot move the
+//! turtle (nothing moving in a predecessor, nor outside a successor's
+//! branches) is not followed: the turtle ends where cpfg's does. One
+//! that can is followed by reading its image ([`fill_through`]): the
+//! engine's homomorphism pass writes the generation's image to a
+//! temporary file, the turtle walks the image, and the values of its
+//! k-th query go to the k-th query of the generation (the homomorphism
+//! keeps each `?`, and adds none). What that reading cannot follow is
+//! refused (`homomorphism_refused`): blocks, probabilities and draws
+//! (cpfg evaluates them at each interpretation), a predecessor with
+//! `[ ] ? @ % $ ~`, a `?` in a successor, `%` or `$` outside a
+//! successor's branches, unbalanced brackets, and a production for a
+//! module that a `?` or an `@` reads (cpfg reads it from the string, past
+//! the homomorphism).
 
 use super::ast::{AxiomPiece, Expr, Lsystem, Module, Production};
 use crate::diag::{Error, Refused, RuntimeError};
@@ -49,6 +64,9 @@ pub struct QueryTurtle {
     /// The last generation's queries are filled too
     /// ([`CpfgTurtle::fills_last`]).
     pub fills_last: bool,
+    /// The homomorphism can move the turtle: each generation is filled
+    /// through its image ([`fill_through`]).
+    pub through: bool,
 }
 
 /// Degrees to radians as cpfg's `D_TO_R` computes it (times pi, then
@@ -75,6 +93,7 @@ impl QueryTurtle {
             scale: v.scale,
             past_cut: v.past_cut,
             fills_last: v.fills_last,
+            through: false,
         }
     }
 }
@@ -106,6 +125,9 @@ pub enum QueryFault {
     /// A module that moves cpfg's turtle and that this turtle does not
     /// follow (what it is).
     NotFollowed(&'static str),
+    /// The module a `?` or `@` reads has a homomorphism production, with
+    /// a homomorphism the turtle follows ([`fill_through`]).
+    ReadPastHomomorphism(char),
 }
 
 /// The deepest nesting of branches the turtle follows (as lsgen-turtle's):
@@ -229,6 +251,27 @@ impl Walker<'_> {
     }
 }
 
+/// A query the turtle met: a `?` and the module after it.
+struct Met {
+    /// The module after the `?`, its number of parameters, and where its
+    /// parameters are in the file.
+    sym: char,
+    n: usize,
+    params: u64,
+    what: Reading,
+}
+
+/// What the turtle read at a query ([`Met`]).
+enum Reading {
+    /// The vector the query module asks for.
+    Vector(V3),
+    /// In the rest of a branch skipped after `%`: cpfg does not interpret
+    /// it, and the module keeps its values.
+    Skipped,
+    /// The module after `?` is not `P`, `H`, `L` or `U`.
+    NotAQuery,
+}
+
 /// Interpret the generation in `file` (binary, indexed as `indexed` and
 /// `counts` say) from its start with cpfg's turtle and write each query's
 /// values over its module's parameters. `generation`: its number, for
@@ -237,28 +280,133 @@ pub fn fill(
     q: &QueryTurtle,
     file: &File,
     al: &Alphabet,
-    (indexed, counts): (bool, bool),
+    flags: (bool, bool),
     generation: u64,
 ) -> Result<(), Error> {
     let fault = |fault| Error::new(RuntimeError::Query { fault, generation });
-    let io = |e| Error::io("temporary generation", crate::diag::IoAction::Read, e);
+    let mut patch = Vec::with_capacity(24);
+    walk(q, file, al, flags, generation, &mut |m| match m.what {
+        Reading::Vector(v) => write_vector(file, &mut patch, (m.params, m.n), v, &fault),
+        Reading::Skipped => Ok(()),
+        Reading::NotAQuery => Err(fault(QueryFault::NotAQuery(Some(m.sym)))),
+    })
+}
+
+/// [`fill`] where the homomorphism can move the turtle (`through`): cpfg's
+/// turtle interprets each module of the string through it. `image`: the
+/// homomorphism's image of the generation in `file`, which the turtle
+/// reads; each of its queries is the image of the one at the same place
+/// in `file` (the homomorphism copies each `?` as it is, none of its
+/// successors holds one: `check`), whose module gets the values.
+/// `rewritten`: does the homomorphism have a production for this key?
+/// cpfg reads the module after a `?` or an `@` from the string itself,
+/// not through the homomorphism: a string that has one of those there
+/// (an axiom given apart) is refused.
+pub fn fill_through(
+    q: &QueryTurtle,
+    (file, image): (&File, &File),
+    al: &Alphabet,
+    flags: (bool, bool),
+    rewritten: &dyn Fn(u32) -> bool,
+    generation: u64,
+) -> Result<(), Error> {
+    let fault = |fault| Error::new(RuntimeError::Query { fault, generation });
+    let mut queries = Queries {
+        r: crate::derive::reader::PosReader::new(file, 1 << 16, flags.0).with_counts(flags.1),
+        al,
+        rewritten,
+    };
+    let mut patch = Vec::with_capacity(24);
+    walk(q, image, al, flags, generation, &mut |m| {
+        let Some(g) = queries.next().map_err(|e| match e {
+            Next::Io(e) => read_error(e),
+            Next::Rewritten(sym) => fault(QueryFault::ReadPastHomomorphism(sym)),
+        })?
+        else {
+            // (The image has a query the generation has not.)
+            return Err(fault(QueryFault::NotAQuery(Some(m.sym))));
+        };
+        match m.what {
+            Reading::Skipped => Ok(()),
+            _ if rewritten(g.key) => Err(fault(QueryFault::ReadPastHomomorphism(g.sym))),
+            Reading::NotAQuery => Err(fault(QueryFault::NotAQuery(Some(g.sym)))),
+            Reading::Vector(v) => write_vector(file, &mut patch, (g.params, g.n), v, &fault),
+        }
+    })
+}
+
+fn read_error(e: std::io::Error) -> Error {
+    Error::io("temporary generation", crate::diag::IoAction::Read, e)
+}
+
+/// Write the first (at most 3) components of `v` as floats over the `n`
+/// parameters at `at` in `file`.
+fn write_vector(
+    file: &File,
+    patch: &mut Vec<u8>,
+    (at, n): (u64, usize),
+    v: V3,
+    fault: &dyn Fn(QueryFault) -> Error,
+) -> Result<(), Error> {
+    patch.clear();
+    for &x in &v[..n.min(3)] {
+        let x = x as f32;
+        if !x.is_finite() {
+            return Err(fault(QueryFault::NotFinite));
+        }
+        patch.extend_from_slice(&f64::from(x).to_le_bytes());
+    }
+    file.write_all_at(patch, at)
+        .map_err(|e| Error::io("temporary generation", crate::diag::IoAction::Write, e))
+}
+
+/// Interpret the generation in `file` from its start with cpfg's turtle,
+/// telling `on` each query it meets, in string order, skipped ones too.
+fn walk(
+    q: &QueryTurtle,
+    file: &File,
+    al: &Alphabet,
+    (indexed, counts): (bool, bool),
+    generation: u64,
+    on: &mut dyn FnMut(Met) -> Result<(), Error>,
+) -> Result<(), Error> {
+    let fault = |fault| Error::new(RuntimeError::Query { fault, generation });
     let mut r = crate::derive::reader::PosReader::new(file, 1 << 16, indexed).with_counts(counts);
     let mut w = Walker::new(q);
     let mut params = [0.0f64; 255];
-    // The module before was `?`; where an `@` command is.
-    let mut ask = false;
+    // The module before was `?` (and it was skipped); where an `@`
+    // command is.
+    let mut ask: Option<bool> = None;
     let mut follow = Follow::default();
     // Inside a branch's rest skipped after `%` (its depth).
     let mut skipping: Option<usize> = None;
-    let mut patch = Vec::with_capacity(24);
     loop {
-        let off = r.offset();
-        let Some((key, s, e)) = r.next_module(al).map_err(io)? else {
+        let at = r.offset();
+        let Some((key, s, e)) = r.next_module(al).map_err(read_error)? else {
             break;
         };
         let sym = al.symbol(key);
+        let n = al.arity(key);
+        let bytes = r.bytes(s, e);
+        let key_len = bytes.len() - codec::body(bytes).len();
+        let met = |what| Met {
+            sym,
+            n,
+            params: at + key_len as u64,
+            what,
+        };
         if let Some(depth) = &mut skipping {
+            // (The module after a skipped `?` is its query module, read
+            // as one, not a `?` of its own.)
+            let read = ask.take().is_some();
+            if read {
+                on(met(Reading::Skipped))?;
+            }
             match sym {
+                '?' if n == 0 && !read => {
+                    ask = Some(true);
+                    continue;
+                }
                 '[' => {
                     *depth += 1;
                     continue;
@@ -275,42 +423,22 @@ pub fn fill(
                         "`$` (the end of a sub-L-system) after a `%`",
                     )))
                 }
-                '%' if al.arity(key) > 0 => {
-                    return Err(fault(QueryFault::NotFollowed("`%` with parameters")))
-                }
+                '%' if n > 0 => return Err(fault(QueryFault::NotFollowed("`%` with parameters"))),
                 _ => continue,
             }
         }
-        let n = al.arity(key);
-        let bytes = r.bytes(s, e);
-        let body = codec::body(bytes);
+        let body = codec::body(r.bytes(s, e));
         // (cpfg's turtle reads floats: the cpfg dialect keeps its
         // parameters as floats already.)
         for (i, p) in params[..n].iter_mut().enumerate() {
             *p = f64::from(codec::get_param(body, i) as f32);
         }
         let p = &params[..n];
-        if ask {
-            ask = false;
-            let Some(v) = w.query(sym) else {
-                return Err(fault(QueryFault::NotAQuery(Some(sym))));
-            };
-            {
-                let k = n.min(3);
-                patch.clear();
-                for &x in &v[..k] {
-                    let x = x as f32;
-                    if !x.is_finite() {
-                        return Err(fault(QueryFault::NotFinite));
-                    }
-                    patch.extend_from_slice(&f64::from(x).to_le_bytes());
-                }
-                let key_len = bytes.len() - body.len();
-                file.write_all_at(&patch, off + key_len as u64)
-                    .map_err(|e| {
-                        Error::io("temporary generation", crate::diag::IoAction::Write, e)
-                    })?;
-            }
+        if ask.take().is_some() {
+            on(met(match w.query(sym) {
+                Some(v) => Reading::Vector(v),
+                None => Reading::NotAQuery,
+            }))?;
             continue;
         }
         // (What the file's own strings cannot hold, checked when it was
@@ -320,13 +448,13 @@ pub fn fill(
             Ok(Role::At(f)) => w.at_module(f, p),
             Ok(Role::Part) => {}
             Ok(Role::Turtle) => match sym {
-                '?' => ask = true,
+                '?' => ask = Some(false),
                 '%' if !q.past_cut => skipping = Some(0),
                 _ => w.module(sym, p).map_err(fault)?,
             },
         }
     }
-    if ask {
+    if ask == Some(false) {
         return Err(fault(QueryFault::NotAQuery(None)));
     }
     if follow.pending() {
@@ -335,6 +463,74 @@ pub fn fill(
         )));
     }
     Ok(())
+}
+
+/// The queries of a generation in string order ([`fill_through`]).
+struct Queries<'a> {
+    r: crate::derive::reader::PosReader<'a>,
+    al: &'a Alphabet,
+    rewritten: &'a dyn Fn(u32) -> bool,
+}
+
+/// A query module of a generation ([`Queries`]).
+struct Found {
+    sym: char,
+    key: u32,
+    n: usize,
+    /// Where its parameters are.
+    params: u64,
+}
+
+/// Why [`Queries`] stopped.
+enum Next {
+    Io(std::io::Error),
+    /// The module an `@` reads (its function, `@G`'s subfunction) has a
+    /// homomorphism production.
+    Rewritten(char),
+}
+
+impl Queries<'_> {
+    /// The module after the next `?` (None: no `?` left, or one at the
+    /// end).
+    fn next(&mut self) -> Result<Option<Found>, Next> {
+        // After `@` (1) or `@G` (2).
+        let mut after = 0;
+        let mut ask = false;
+        loop {
+            let at = self.r.offset();
+            let Some((key, s, e)) = self.r.next_module(self.al).map_err(Next::Io)? else {
+                return Ok(None);
+            };
+            let sym = self.al.symbol(key);
+            let n = self.al.arity(key);
+            if ask {
+                let bytes = self.r.bytes(s, e);
+                let key_len = bytes.len() - codec::body(bytes).len();
+                return Ok(Some(Found {
+                    sym,
+                    key,
+                    n,
+                    params: at + key_len as u64,
+                }));
+            }
+            if after > 0 {
+                if (self.rewritten)(key) {
+                    return Err(Next::Rewritten(sym));
+                }
+                after = if after == 1 && sym == 'G' && n == 0 {
+                    2
+                } else {
+                    0
+                };
+                continue;
+            }
+            match sym {
+                '@' if n == 0 => after = 1,
+                '?' if n == 0 => ask = true,
+                _ => {}
+            }
+        }
+    }
 }
 
 /// Where a file with queries has something lsgen's query turtle does not
@@ -359,11 +555,37 @@ pub(crate) fn check(
         return Err(CheckError::At(first, Refused::QueryWithoutView));
     };
     let view = crate::turtle::cpfg_view::read_cpfg_turtle(view).map_err(CheckError::ViewFile)?;
-    // A homomorphism that cannot move the turtle: the query turtle
-    // interprets the string without it (as cpfg through it).
-    let hom = tree.homomorphism.iter().flat_map(|h| &h.productions);
-    if let Some((at, why)) = hom.filter_map(homomorphism_moves).next() {
+    // cpfg's turtle interprets the string through the homomorphism. One
+    // that cannot move it is not followed (the turtle ends where cpfg's
+    // does); one that can is, through its image of each generation
+    // (`fill_through`).
+    let hom: Vec<&Production> = tree
+        .homomorphism
+        .iter()
+        .flat_map(|h| &h.productions)
+        .collect();
+    if let Some((at, why)) = hom.iter().find_map(|p| homomorphism_refused(p)) {
         return Err(CheckError::At(at, Refused::QueryWithHomomorphism(why)));
+    }
+    let through = hom.iter().any(|p| homomorphism_moves(p));
+    if through {
+        // cpfg reads the module after a `?` or an `@` from the string,
+        // past the homomorphism; the image has it rewritten. And cpfg's
+        // homomorphism reads its contexts in the string as it is being
+        // filled: a query module in a left context is filled already,
+        // where the image was made from the string before the fill.
+        let (queried, read) = read_past(tree);
+        for p in &hom {
+            if let Some(m) = p.pred.iter().find(|m| read.contains(&m.sym)) {
+                let why = format!("a predecessor `{}`, which a `?` or an `@` reads", m.sym);
+                return Err(CheckError::At(m.span, Refused::QueryWithHomomorphism(why)));
+            }
+            let mut left = p.left.iter().flatten();
+            if let Some(m) = left.find(|m| queried.contains(&m.sym)) {
+                let why = format!("a left context `{}`, which a query fills", m.sym);
+                return Err(CheckError::At(m.span, Refused::QueryWithHomomorphism(why)));
+            }
+        }
     }
     // Each list of modules (the axiom, each successor) in turn, without a
     // copy: (symbol, parameters, span; None for the axiom's modules
@@ -382,12 +604,13 @@ pub(crate) fn check(
     let at = |(c, _, span): (char, usize, Option<Span>)| span.unwrap_or_else(|| in_axiom(c));
     check_list(axiom).map_err(|(m, r)| CheckError::At(at(m), r))?;
     // Every list of every section, contexts and predecessors too (as the
-    // reference checks them), but a homomorphism's successors: only still
-    // modules outside their branches (`homomorphism_moves`), and whatever
-    // a branch holds, its `]` gives the whole turtle back.
+    // reference checks them). A homomorphism's successors too where the
+    // turtle follows it; else only still modules outside their branches
+    // (`homomorphism_moves`), and whatever a branch holds, its `]` gives
+    // the whole turtle back.
     let sections = std::iter::once((&tree.productions, true))
         .chain(tree.decomposition.iter().map(|s| (&s.productions, true)))
-        .chain(tree.homomorphism.iter().map(|s| (&s.productions, false)));
+        .chain(tree.homomorphism.iter().map(|s| (&s.productions, through)));
     for (p, successor) in sections.flat_map(|(ps, succ)| ps.iter().map(move |p| (p, succ))) {
         let succ = successor.then_some(&p.succ[..]);
         let lists = [
@@ -402,9 +625,16 @@ pub(crate) fn check(
         }
     }
     if let Some((label, at)) = &view.movements {
-        return Err(CheckError::View(at.clone(), label.clone()));
+        let r = Refused::QueryMovements(label.clone());
+        return Err(CheckError::View(at.clone(), r));
     }
-    Ok(Some(QueryTurtle::new(&view)))
+    if let Some((label, at)) = &view.angle_past {
+        let r = Refused::QueryAngle(label.clone());
+        return Err(CheckError::View(at.clone(), r));
+    }
+    let mut q = QueryTurtle::new(&view);
+    q.through = through;
+    Ok(Some(q))
 }
 
 /// What [`check`] refuses: at a span of the `.l` file, or a label of the
@@ -412,7 +642,7 @@ pub(crate) fn check(
 #[derive(Debug)]
 pub(crate) enum CheckError {
     At(Span, Refused),
-    View(crate::diag::Location, String),
+    View(crate::diag::Location, Refused),
     /// The view file could not be read, or has a bad argument where the
     /// turtle needs it.
     ViewFile(Error),
@@ -597,14 +827,15 @@ fn draws(e: &Expr) -> Option<Span> {
     }
 }
 
-/// Why the homomorphism production `p` could change cpfg's turtle as it
-/// interprets a string through it (None: it cannot, so the query turtle
-/// may interpret the string without it). cpfg evaluates a production's
-/// condition, blocks and parameters at each interpretation: they must
-/// not draw nor assign; its predecessor must not move the turtle (it is
-/// replaced), nor its successor outside its own branches (a `]` gives the
-/// whole turtle back).
-fn homomorphism_moves(p: &Production) -> Option<(Span, String)> {
+/// Why the query turtle cannot follow cpfg's through the homomorphism
+/// production `p` (None: it can). cpfg evaluates a production's
+/// condition, blocks and parameters at each interpretation: they must not
+/// draw nor assign. Its predecessor must not be a module the turtle reads
+/// with the module after it, or changes on without moving (`[ ] ? @ % $
+/// ~`); its successor must not hold a `?` (each query of the image is
+/// then its string's) nor a `%` or `$` outside its own branches, and its
+/// brackets must balance.
+fn homomorphism_refused(p: &Production) -> Option<(Span, String)> {
     if !p.pre.is_empty() || !p.post.is_empty() {
         return Some((p.span, "a block".into()));
     }
@@ -615,7 +846,8 @@ fn homomorphism_moves(p: &Production) -> Option<(Span, String)> {
     if let Some(at) = p.cond.iter().chain(params).find_map(draws) {
         return Some((at, "a random draw".into()));
     }
-    if let Some(m) = p.pred.iter().find(|m| !still(m.sym)) {
+    let read = |c| matches!(c, '[' | ']' | '?' | '@' | '%' | '$' | '~');
+    if let Some(m) = p.pred.iter().find(|m| read(m.sym)) {
         return Some((m.span, format!("a predecessor with `{}`", m.sym)));
     }
     let mut depth = 0usize;
@@ -625,7 +857,7 @@ fn homomorphism_moves(p: &Production) -> Option<(Span, String)> {
             '[' => depth += 1,
             ']' if depth == 0 => return Some((m.span, "a `]` without its `[`".into())),
             ']' => depth -= 1,
-            c if depth == 0 && !still(c) => {
+            c @ ('%' | '$') if depth == 0 => {
                 return Some((m.span, format!("`{c}` outside a branch of its successor")))
             }
             _ => {}
@@ -635,6 +867,75 @@ fn homomorphism_moves(p: &Production) -> Option<(Span, String)> {
         return Some((p.span, "a `[` without its `]`".into()));
     }
     None
+}
+
+/// Can the homomorphism production `p` (not refused,
+/// [`homomorphism_refused`]) move cpfg's turtle? Its predecessor, which it
+/// replaces, or its successor outside its own branches (a `]` gives the
+/// whole turtle back) has a module that does.
+fn homomorphism_moves(p: &Production) -> bool {
+    let mut depth = 0usize;
+    let succ = p.succ.iter().any(|m| {
+        match m.sym {
+            '[' => depth += 1,
+            ']' => depth = depth.saturating_sub(1),
+            c => return depth == 0 && !still(c),
+        }
+        false
+    });
+    succ || p.pred.iter().any(|m| !still(m.sym))
+}
+
+/// The symbols the file's strings have after a `?` (the query modules),
+/// and those after a `?`, an `@` or an `@G`: cpfg's turtle reads them
+/// from the string itself.
+fn read_past(tree: &Lsystem) -> (Vec<char>, Vec<char>) {
+    let (mut queried, mut read) = (Vec::new(), Vec::new());
+    let mut list = |l: &mut dyn Iterator<Item = (char, usize)>| {
+        // After `?`, `@` or `@G`.
+        let mut after = None;
+        for (sym, n) in l {
+            if let Some(a) = after.take() {
+                if !read.contains(&sym) {
+                    read.push(sym);
+                }
+                if a == '?' && !queried.contains(&sym) {
+                    queried.push(sym);
+                }
+                if a == '@' && sym == 'G' && n == 0 {
+                    after = Some('G');
+                }
+            } else if n == 0 && matches!(sym, '?' | '@') {
+                after = Some(sym);
+            }
+        }
+    };
+    list(
+        &mut tree
+            .axiom
+            .iter()
+            .flat_map(|piece| -> Box<dyn Iterator<Item = _>> {
+                match piece {
+                    AxiomPiece::Symbols(s) => Box::new(s.chars().map(|c| (c, 0))),
+                    AxiomPiece::Module(m) => Box::new(std::iter::once((m.sym, m.params.len()))),
+                }
+            }),
+    );
+    let sections = std::iter::once(&tree.productions)
+        .chain(tree.decomposition.iter().map(|s| &s.productions))
+        .chain(tree.homomorphism.iter().map(|s| &s.productions));
+    for p in sections.flatten() {
+        let lists = [
+            p.left.as_deref(),
+            Some(&p.pred[..]),
+            p.right.as_deref(),
+            Some(&p.succ[..]),
+        ];
+        for l in lists.into_iter().flatten() {
+            list(&mut l.iter().map(|m| (m.sym, m.params.len())));
+        }
+    }
+    (queried, read)
 }
 
 /// The first `?` of the file (axiom, predecessors, contexts, successors).

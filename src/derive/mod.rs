@@ -245,6 +245,54 @@ fn generation_file(dir: &Option<PathBuf>) -> Result<Generation, Error> {
     tempfile(dir).map(Generation)
 }
 
+/// Fill the queries of the generation in `gen` (`generation`: its
+/// number) with cpfg's turtle ([`crate::cpfg::query`]): where the
+/// homomorphism can move the turtle, the turtle reads the homomorphism's
+/// image of the generation, written to a temporary file in `tmpdir` (its
+/// name `tmp_name` in errors) and gone when the filling is done.
+fn fill_queries(
+    d: &mut Deriver,
+    (q, homomorphism): (&crate::cpfg::query::QueryTurtle, &crate::rules::Table),
+    gen: &File,
+    (indexed, (tmpdir, tmp_name, limits)): (bool, (&Option<PathBuf>, &str, Limits)),
+    generation: u64,
+) -> Result<(), Error> {
+    let flags = (indexed, d.counts);
+    if !q.through {
+        return crate::cpfg::query::fill(q, gen, &d.alphabet, flags, generation);
+    }
+    let mut image = Some(generation_file(tmpdir)?);
+    {
+        let mut none = io::sink();
+        let out = sink(&mut image, tmp_name, &mut none, tmp_name, limits, flags)?;
+        let mut out = out.for_pass(Pass::Homomorphism);
+        // (No draw: `check` refuses a homomorphism that draws, or runs a
+        // block, with queries it follows.)
+        let draws = d.rng.draws();
+        d.pass(
+            homomorphism,
+            (gen, None),
+            indexed,
+            &mut out,
+            Pass::Homomorphism,
+        )?;
+        out.finish()?;
+        debug_assert_eq!(draws, d.rng.draws());
+    }
+    let image = image.expect("made above");
+    // The keys the homomorphism rewrites.
+    let mut rewritten = vec![false; d.alphabet.len()];
+    for p in &homomorphism.prods {
+        for k in std::iter::once(p.key).chain(p.rest().iter().map(|r| r.key)) {
+            if let Some(r) = rewritten.get_mut(k as usize) {
+                *r = true;
+            }
+        }
+    }
+    let rewritten = |k: u32| rewritten.get(k as usize).copied().unwrap_or(false);
+    crate::cpfg::query::fill_through(q, (gen, &image), &d.alphabet, flags, &rewritten, generation)
+}
+
 /// The sink for a generation: the temp file `dst` (binary, with a bracket
 /// index if asked) or, without one, the output (text).
 fn sink<'a>(
@@ -378,15 +426,19 @@ pub(crate) fn derive(
         ..
     } = system;
     let hom = settings.homomorphism && !homomorphism.is_empty();
-    // Right contexts skip branches in O(1) through a bracket index.
-    let indexed = productions.has_right
-        || decomposition.as_ref().is_some_and(|(d, _)| d.has_right)
-        || groups.iter().any(|(_, g)| g.own().has_right)
-        || (hom && homomorphism.has_right);
     // cpfg's turtle queries: each generation's filled as it is written,
     // the last step's too, then copied to the output as text (one pass
     // more).
     let queries = cpfg.as_ref().and_then(|c| c.queries.clone());
+    // (Filled through the homomorphism's image where it can move the
+    // turtle, with or without `--no-homomorphism`: cpfg's turtle reads
+    // the string through it.)
+    let through = queries.as_ref().is_some_and(|q| q.through);
+    // Right contexts skip branches in O(1) through a bracket index.
+    let indexed = productions.has_right
+        || decomposition.as_ref().is_some_and(|(d, _)| d.has_right)
+        || groups.iter().any(|(_, g)| g.own().has_right)
+        || ((hom || through) && homomorphism.has_right);
     let passes = steps + u64::from(hom || queries.is_some());
     let strategy = settings.strategy;
     let not_depth_first = || Error::new(crate::diag::UsageError::NotDepthFirst);
@@ -551,7 +603,8 @@ pub(crate) fn derive(
             // (Frames fill their generations themselves.)
             if let (Some(q), None) = (&queries, &frames) {
                 if steps > 0 || q.fills_last {
-                    crate::cpfg::query::fill(q, f, &d.alphabet, (indexed, d.counts), 0)?;
+                    let at = (&settings.tmpdir, tmp_name.as_str(), limits);
+                    fill_queries(&mut d, (q, &homomorphism), f, (indexed, at), 0)?;
                 }
             }
         }
@@ -863,7 +916,8 @@ fn step_passes(
                     .filter(|q| step && (i < steps || q.fills_last))
                 {
                     let generation = first_step + i - 1;
-                    crate::cpfg::query::fill(q, f, &d.alphabet, (indexed, d.counts), generation)?;
+                    let at = (tmpdir, tmp_name, limits);
+                    fill_queries(d, (q, homomorphism), f, (indexed, at), generation)?;
                 }
             }
             // (The last step's generation is told as its copy.)
@@ -988,8 +1042,11 @@ fn frame_passes(
     // frame is printed with them filled if cpfg fills its last string
     // (`fills_last`), else as the step left it.
     let queries = d.cpfg.as_ref().and_then(|c| c.queries.clone());
-    let fill = |d: &Deriver, gen: &File, k: u64| match &queries {
-        Some(q) => crate::cpfg::query::fill(q, gen, &d.alphabet, (indexed, d.counts), k),
+    let fill = |d: &mut Deriver, gen: &File, k: u64| match &queries {
+        Some(q) => {
+            let at = (tmpdir, tmp_name, limits);
+            fill_queries(d, (q, homomorphism), gen, (indexed, at), k)
+        }
         None => Ok(()),
     };
     let fills_last = queries.as_ref().is_some_and(|q| q.fills_last);

@@ -39,6 +39,9 @@ pub enum Refused {
     /// The view file's `tropism:` or `torque:` (the label) in a system
     /// with queries.
     QueryMovements(String),
+    /// The view file's angle (the label) is past the largest float, in a
+    /// system with queries.
+    QueryAngle(String),
     /// `$`, the end of a sub-L-system.
     SubLsystemEnd,
     /// `@S`, a surface.
@@ -92,7 +95,7 @@ impl fmt::Display for Refused {
             ),
             QueryWithHomomorphism(why) => write!(
                 f,
-                "a homomorphism production with {why} in a system with turtle queries (`?P`, `?H`, `?L`, `?U`) is not supported: cpfg's turtle interprets the string through the homomorphism, and lsgen's query turtle only where the homomorphism cannot move it (no move outside the successor's branches, a still predecessor, no block or draw)"
+                "a homomorphism production with {why} in a system with turtle queries (`?P`, `?H`, `?L`, `?U`) is not supported: cpfg's turtle interprets the string through the homomorphism, and lsgen's query turtle follows it where its productions have no block, probability or random draw, no `[ ] ? @ % $ ~` in a predecessor, no `?` in a successor, no `%` or `$` outside a successor's branches, balanced brackets, and no predecessor that a `?` or an `@` reads"
             ),
             QueryNotFollowed(what) => write!(
                 f,
@@ -101,6 +104,10 @@ impl fmt::Display for Refused {
             QueryMovements(label) => write!(
                 f,
                 "`{label}` (cpfg's movements, which turn its turtle after each move) is not supported with turtle queries (`?P`, `?H`, `?L`, `?U`): lsgen's query turtle does not follow them"
+            ),
+            QueryAngle(label) => write!(
+                f,
+                "`{label}` gives an angle past the largest float, which cpfg's turtle keeps its angle in: the turtle queries (`?P`, `?H`, `?L`, `?U`) would read no number after a turn"
             ),
             SubLsystemEnd => f.write_str(
                 "`$` (the end of a sub-L-system) is not supported: lsgen has no sub-L-systems",

@@ -1015,6 +1015,7 @@ impl fmt::Display for RuntimeError {
                     NotAQuery(Some(c)) => format!("`?` followed by `{c}`, not by the `P`, `H`, `L` or `U` it fills (a production rewrote it; cpfg skips the `{c}` with a warning)"),
                     NotAQuery(None) => "`?` at the end of the string, without the `P`, `H`, `L` or `U` it fills".into(),
                     NotFollowed(what) => format!("{what} moves cpfg's turtle, and lsgen's query turtle does not follow it"),
+                    ReadPastHomomorphism(c) => format!("`{c}`, read by a `?` or an `@`, has a homomorphism production: cpfg's turtle reads it from the string, past the homomorphism, and lsgen's query turtle reads the homomorphism's image"),
                 };
                 let string = match generation {
                     0 => "the axiom".to_string(),

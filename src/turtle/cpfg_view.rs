@@ -137,6 +137,9 @@ pub struct CpfgTurtle {
     /// The first `tropism:` or `torque:` label (cpfg's movements, which
     /// turn the turtle after each move) and where it is.
     pub movements: Option<(String, crate::diag::Location)>,
+    /// The angle's label and where it is, if the angle is past the
+    /// largest float (cpfg keeps it as one: every turn gives NaN).
+    pub angle_past: Option<(String, crate::diag::Location)>,
     /// cpfg fills the queries of the string it saves: it interprets that
     /// string to fit the view around it (no `box:`), or after each step
     /// (`environment display: before`). Else the last string keeps the
@@ -155,6 +158,7 @@ impl Default for CpfgTurtle {
             scale: 1.0,
             past_cut: true,
             movements: None,
+            angle_past: None,
             fills_last: true,
         }
     }
@@ -240,6 +244,13 @@ impl ViewFile<'_> {
         v.elasticity_increment = 0.0;
         v.tropism_model = TropismModel::Cpfg;
         v.twist = 0.0;
+    }
+
+    /// Note where the turtle's angle, just read at `offset`, is past the
+    /// largest float (a later angle label takes its place).
+    fn angle_past(&mut self, offset: usize, label: &str) {
+        self.turtle.angle_past =
+            (!self.turtle.angle.is_finite()).then(|| (label.to_string(), self.location(offset)));
     }
 
     fn location(&self, offset: usize) -> Location {
@@ -354,13 +365,13 @@ impl ViewFile<'_> {
                     ));
                 }
                 self.view.angle = angle;
+                self.angle_past(a.base + at, a.label);
             }
             "angle increment:" => {
-                self.view.angle = a
-                    .float()
-                    .map_err(|at| err(a, at, a.expected("a number")))?
-                    .1;
-                self.turtle.angle = self.view.angle as f32;
+                let (at, angle) = a.float().map_err(|at| err(a, at, a.expected("a number")))?;
+                self.view.angle = angle;
+                self.turtle.angle = angle as f32;
+                self.angle_past(a.base + at, a.label);
             }
             "initial color:" | "color increment:" => {
                 let n = a

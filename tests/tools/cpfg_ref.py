@@ -113,11 +113,18 @@ successor interpreted in turn to `maximum depth:`, `%` ignored there; the
 module after a `?` or an `@` is read directly). Refused in a file with
 queries: a homomorphism production with a pre- or post-condition block, a
 probability, a call to ran/nran/bran/biran/srand, a predecessor module
-among `F f G g + - & ^ / \ | _ [ ] @ ~ ? % $` (which the turtle changes
-on), or a successor with such a module outside its own brackets, a `]`
-closing nothing or a `[` not closed in it, or a `?`; `~`, `@` other
-than `@o @O @c @v @M` and `@G` + `s c e t r`, `s` with 2 or 3 parameters
-(cpfg's old position query), a view with `tropism:` or `torque:`; in
+among `[ ] ? @ % $ ~`, a successor with `%` or `$` outside its own
+brackets, a `]` closing nothing or a `[` not closed in it, or a `?`; and
+where the homomorphism can move the turtle (a predecessor module among
+`F f G g + - & ^ / \ | _`, or a successor with a module of `F f G g + -
+& ^ / \ | _ [ ] @ ~ ? % $` outside its own brackets): a predecessor
+module that a `?` or an `@` reads (read past the homomorphism), a
+query module in a left context (cpfg reads it filled already), and in
+its successors, branches too, what is refused in the strings (below; a
+bend past 1 there too, where cpfg's NaN would be discarded by the `]`);
+`~`, `@` other than `@o @O @c @v @M` and `@G` + `s c e t r`, `s` with 2
+or 3 parameters (cpfg's old position query), a view with `tropism:` or
+`torque:`; in
 its strings an unmatched `]`, a `?` not
 followed by P, H, L or U, a bend with a sine outside [-1, 1] (but in a
 homomorphism successor's branch: cpfg's NaN, which its `]` discards).
@@ -1023,6 +1030,7 @@ class Production:
 
 class LSystem:
     def __init__(self):
+        self.homo_moves = False  # the homomorphism can move the query turtle
         self.n = 0
         self.seed = 0
         self.stochastic = False
@@ -1062,6 +1070,7 @@ class Parser:
         self.ls = LSystem()
         self.section = "L"
         self.all_lists = []  # every module list of the file, with where
+        self.hom_lists = []  # the homomorphism's successors, with where
         self.has_query = False  # a ?P ?H ?L ?U somewhere
 
     def peek(self, k=0):
@@ -1218,12 +1227,15 @@ class Parser:
         """A `?` must be the query `?P`, `?H`, `?L` or `?U`: no parameters
         on the `?` (sub-L-systems), one of those modules right after it in
         the same list (`?E`, `?Q` and others are refused). Every list is
-        kept for check_query_file, but a homomorphism's successor
-        (`branches_restore`): check_still_homomorphism allows only still
+        kept for check_query_file; a homomorphism's successor
+        (`branches_restore`) apart: check_query_file checks it only where
+        the homomorphism can move the turtle; else it has only still
         modules outside its branches, and whatever a branch holds, its `]`
         gives the whole turtle back."""
         if not branches_restore:
             self.all_lists.append((mods, where))
+        else:
+            self.hom_lists.append((mods, where))
         for i, (sym, params) in enumerate(mods):
             if sym != "?":
                 continue
@@ -1242,12 +1254,35 @@ class Parser:
     def check_query_file(self):
         """What a file with queries may not have (the turtle of the queries
         does not model it): a homomorphism production that could change
-        the turtle (check_still_homomorphism), `~` (surfaces), `@` other
+        the turtle (check_followed_homomorphism), `~` (surfaces), `@` other
         than `@o @O @c @v @M` and `@G` + `s c e t r`, `s` with 2 or 3
         parameters."""
-        for p in self.ls.homo or []:
-            check_still_homomorphism(p)
-        for mods, where in self.all_lists:
+        homo = self.ls.homo or []
+        for p in homo:
+            check_followed_homomorphism(p)
+        # A homomorphism that can move the turtle: the turtle reads its
+        # successors' modules too (branches included), and cpfg reads the
+        # module after a `?` or an `@` from the string, past the
+        # homomorphism (not modelled: refused where it has a production).
+        self.ls.homo_moves = any(homomorphism_moves(p) for p in homo)
+        lists = self.all_lists
+        if self.ls.homo_moves:
+            lists = self.all_lists + self.hom_lists
+            queried, read = read_past(lists)
+            for p in homo:
+                for sym, _ in p.pred:
+                    if sym in read:
+                        raise CpfgError("a homomorphism predecessor %s, which a ? or an @ reads, "
+                                        "in a file with queries is not supported" % sym, p.where)
+                # cpfg reads a homomorphism's contexts in the string as it
+                # fills it: a query module on the left is filled already,
+                # which lsgen (reading an image of the string made before
+                # the fill) does not model
+                for sym, _ in p.lc or []:
+                    if sym in queried:
+                        raise CpfgError("a homomorphism left context %s, which a query fills, "
+                                        "in a file with queries is not supported" % sym, p.where)
+        for mods, where in lists:
             for i, (sym, params) in enumerate(mods):
                 if sym == "s" and len(params) in (2, 3):
                     # interpret.c's `case 's'` (backward compatibility): in
@@ -2917,14 +2952,15 @@ def expr_calls(e):
             yield from expr_calls(x)
 
 
-def check_still_homomorphism(p):
+def check_followed_homomorphism(p):
     """A homomorphism production in a file with queries: cpfg's turtle
     interprets the string through the homomorphism (interpret.c's
     TurtleDrawNsteps, InterpretHomomorphism), which the query turtle does
-    too (QueryTurtle.fill); accepted only when it cannot change the
-    turtle nor anything else: no blocks, no probability, no ran & co.,
-    a predecessor of still modules, a successor whose modules outside
-    its own brackets are still, whose brackets balance, without `?`."""
+    too (QueryTurtle.fill); accepted only when it changes nothing but the
+    turtle: no blocks, no probability, no ran & co.; a predecessor
+    without a module the turtle reads with the next one or changes on
+    without moving (`[ ] ? @ % $ ~`); a successor without `?`, without `%`
+    or `$` outside its own brackets, whose brackets balance."""
     if p.has_pre or p.has_post:
         raise CpfgError("a homomorphism production with a pre- or post-condition block in a "
                         "file with queries is not supported", p.where)
@@ -2937,9 +2973,9 @@ def check_still_homomorphism(p):
             raise CpfgError("%s in a homomorphism production in a file with queries is not "
                             "supported (cpfg calls it at each interpretation)" % name, p.where)
     for sym, _ in p.pred:
-        if sym in MOVING:
+        if sym in "[]?@%$~":
             raise CpfgError("a homomorphism predecessor with %s in a file with queries is not "
-                            "supported (the turtle changes on it)" % sym, p.where)
+                            "supported" % sym, p.where)
     level = 0
     for sym, _ in p.succ:
         if sym == "?":
@@ -2952,13 +2988,46 @@ def check_still_homomorphism(p):
             if level < 0:
                 raise CpfgError("an unmatched ] in a homomorphism successor in a file with "
                                 "queries is not supported", p.where)
-        elif level == 0 and sym in MOVING:
+        elif level == 0 and sym in "%$":
             raise CpfgError("%s outside brackets in a homomorphism successor in a file with "
-                            "queries is not supported (the turtle changes on it)" % sym,
-                            p.where)
+                            "queries is not supported" % sym, p.where)
     if level != 0:
         raise CpfgError("an unclosed [ in a homomorphism successor in a file with queries is "
                         "not supported", p.where)
+
+
+def homomorphism_moves(p):
+    """Can the homomorphism production p move the turtle: a moving module
+    in its predecessor (which it replaces) or outside its successor's
+    brackets (whose ] gives the whole turtle back)?"""
+    if any(sym in MOVING for sym, _ in p.pred):
+        return True
+    level = 0
+    for sym, _ in p.succ:
+        if sym == "[":
+            level += 1
+        elif sym == "]":
+            level -= 1
+        elif level == 0 and sym in MOVING:
+            return True
+    return False
+
+
+def read_past(lists):
+    """The symbols right after a `?` in the lists (the query modules), and
+    those right after a `?`, an `@` or an `@G`."""
+    queried, read = set(), set()
+    for mods, _ in lists:
+        after = None
+        for sym, params in mods:
+            if after:
+                read.add(sym)
+                if after == "?":
+                    queried.add(sym)
+                after = "G" if after == "@" and sym == "G" and not params else None
+            elif sym in "?@" and not params:
+                after = sym
+    return queried, read
 
 
 class TurtleView:
@@ -3106,6 +3175,7 @@ class QueryTurtle:
     def __init__(self, tv):
         self.tv = tv
         self.sin, self.cos = tv.sin_cos()
+        self.strict = False
 
     def bend(self, st, top=True):
         """`top`: not in a homomorphism's successor. There (always in one
@@ -3140,6 +3210,7 @@ class QueryTurtle:
         self.stack = []
         out = list(S)
         homo = deriver is not None and bool(deriver.ls.homo)
+        self.strict = homo and deriver.ls.homo_moves
         if homo:
             rng = deriver.rt.rng
             before = (rng.main.x, rng.xsubi.x, rng.iset, rng.gset)
@@ -3202,7 +3273,10 @@ class QueryTurtle:
             P[0] += d * H[0]
             P[1] += d * H[1]
             P[2] += d * H[2]
-            self.bend(st, top)
+            # (With a homomorphism that moves the turtle, lsgen refuses a
+            # bend past 1 in its successors' branches too, where cpfg's
+            # NaN is discarded by the ]: the reference does the same.)
+            self.bend(st, top or self.strict)
         elif sym == "_":
             st["e"] = f32(vals[0]) if vals else f32(st["e"] + tv.elasticity_increment)
         elif sym == "[":
@@ -3220,7 +3294,7 @@ class QueryTurtle:
             f = seq[i][0] if i < n else ""
             if not top and f not in BLACKBOX_KNOWN:
                 # In a homomorphism's successor only inside a branch
-                # (check_still_homomorphism): whatever the function does
+                # (with a homomorphism that cannot move the turtle): whatever the function does
                 # to the turtle (@R sets the heading, @D the scale, ...),
                 # the branch's ] gives the turtle back. Its module (and
                 # @G's subfunction) is read, not interpreted.
@@ -3776,6 +3850,25 @@ def self_test_turtle():
               run("F(1)A?P(9,9)F?H(9,9)", trop, 1,
                   "homomorphism\nA --> [_(2)F(1)F(1)]\n", homomorphism=False),
               run("F(1)A?P(9,9)F?H(9,9)", trop, 1))
+        # a homomorphism that moves the turtle: followed (I(2) as F(2), A
+        # as -(90): H = (1, cos 90, 0)), to maximum depth (I(1) as two
+        # J(1), each F(1)), through a moving predecessor (F as F+(90)),
+        # and with a multi-module predecessor (A B as F(3))
+        check("a moving homomorphism",
+              run("I(2)A?P(9,9)?H(9,9,9)", "", 1,
+                  "homomorphism\nI(l) --> F(l)\nA --> -(90)\n", homomorphism=False),
+              "I(2)A?P(0,2)?H(1,6.12323e-17,0)")
+        check("a moving homomorphism, depth 2",
+              run("I(1)?P(9,9)", "", 1,
+                  "homomorphism\nmaximum depth: 2\nI(l) --> J(l)J(l)\nJ(l) --> F(l)\n",
+                  homomorphism=False),
+              "I(1)?P(0,2)")
+        check("a moving predecessor",
+              run("F?H(9,9)", "", 1, "homomorphism\nF --> F+(90)\n", homomorphism=False),
+              "F?H(-1,6.12323e-17)")
+        check("a multi-module predecessor",
+              run("AB?P(9,9)", "", 1, "homomorphism\nA B --> F(3)\n", homomorphism=False),
+              "AB?P(0,3)")
         # @G + s c e t r does not move the turtle
         check("@G", run("F@Gs@Gc(2)F@Ge(2)@Gt(1,2)@Gr(1)?P(9,9)"),
               "F@Gs@Gc(2)F@Ge(2)@Gt(1,2)@Gr(1)?P(0,2)")
@@ -3784,13 +3877,19 @@ def self_test_turtle():
                 ("?(1)", "?(1)F", "", ""), ("?E", "?E(1)", "", ""), ("?Q", "?Q(1,2,3,4)", "", ""),
                 ("?X", "?A(1)", "", ""), ("? at the end", "F?", "", ""),
                 ("?P in a successor at its end", "A", "", "A --> F?\n"),
-                ("homomorphism: F at depth 0", "?P(1)", "", "homomorphism\nA --> F\n"),
-                ("homomorphism: + after a branch", "?P(1)", "", "homomorphism\nA --> [F]+\n"),
-                ("homomorphism: @O at depth 0", "?P(1)", "", "homomorphism\nA --> @O\n"),
-                ("homomorphism: a moving predecessor", "?P(1)", "",
-                 "homomorphism\nF --> [G]\n"),
-                ("homomorphism: a moving module in a multi-module predecessor", "?P(1)", "",
-                 "homomorphism\nA + --> B\n"),
+                ("homomorphism: % at depth 0", "?P(1)", "", "homomorphism\nA --> F%\n"),
+                ("homomorphism: a predecessor a ? reads", "A?P(1)", "",
+                 "homomorphism\nP(x) --> F\n"),
+                ("homomorphism: a predecessor an @ reads", "A@v?P(1)", "",
+                 "homomorphism\nA --> F\nv --> M(1,2)\n"),
+                ("homomorphism: @G's subfunction", "A@Gs?P(1)", "",
+                 "homomorphism\nA --> F\ns --> B\n"),
+                ("homomorphism: ~ in a branch of one that moves", "A?P(1)", "",
+                 "homomorphism\nA --> F[~l]\n"),
+                ("homomorphism: @R in a branch of one that moves", "A?P(1)", "",
+                 "homomorphism\nA --> F[@R(1,0,0)]\n"),
+                ("homomorphism: a query module as a left context of one that moves",
+                 "?P(1)A", "", "homomorphism\nP(x) < A --> F\n"),
                 ("homomorphism: a pre-condition block", "?P(1)", "",
                  "homomorphism\nA : {t = 1;} 1 --> B\n"),
                 ("homomorphism: an empty post-condition block", "?P(1)", "",

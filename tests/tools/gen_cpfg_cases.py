@@ -80,8 +80,12 @@ sometimes a context and a condition on a query, sometimes `maximum depth:
 successors also have `@Gs`, `@Gc(2)`, `@Ge(2)`, `@Gt(1,2)`, `@Gr(1)`
 (generalized cylinders: the turtle does not move); only cases where a
 homomorphism production applied while the turtle read the string are
-kept. The printed string is the last one after the homomorphism, as in
-the other batches.
+kept. A fourteenth is the thirteenth with a homomorphism that moves the
+turtle: its successors have moves outside their brackets too, and
+sometimes a production rewrites a move of the string (`F(l) -->
+F(l)-(10)`, `+ --> -`, ...); only cases where a production that moves
+applied while the turtle read the string are kept. The printed string is
+the last one after the homomorphism, as in the other batches.
 
 Usage (from anywhere):
     python3 tests/tools/gen_cpfg_cases.py          # write the file
@@ -91,15 +95,15 @@ File format: for each case, a line `=== STEPS`, the `.l` text, then (sixth
 batch on) zero or more file sections, a line `--- file NAME` and the
 file's text (each ends with a newline), then optionally a line `--- args`
 with options and their files (`--functions A --functions B ...`,
-`--curves A` too: the same option; `--cpfg-view case.v` in the twelfth and thirteenth
-batches: the view file of the queries' turtle, whose functions count too),
+`--curves A` too: the same option; `--cpfg-view case.v` in the twelfth to
+fourteenth batches: the view file of the queries' turtle, whose functions count too),
 then a line `--- expected` and the output line. The files go beside
 case.l (in the case's own directory). The options to pass, in order and
 files relative to that directory: those of the `--- args` line if there
 is one, else `--functions case.v` if the case has that file (a view
 file: its `function:` / `function set:` lines name the other files), else
 none. Cases the reference refuses, that print more than MAX_OUTPUT
-characters (MAX_OUTPUT_QUERIES in the twelfth and thirteenth batches), or whose string
+characters (MAX_OUTPUT_QUERIES in the twelfth to fourteenth batches), or whose string
 holds `inf` / `nan` (an error in lsgen, README) are not kept.
 """
 
@@ -147,6 +151,8 @@ QUERIES = 60
 # The thirteenth (`generate_queries` with a homomorphism that cannot
 # change the turtle, and @G), after the twelfth.
 HOMO_QUERIES = 30
+# The fourteenth batch: a homomorphism that moves the turtle.
+MOVING_QUERIES = 30
 MAX_OUTPUT = 2000
 MAX_OUTPUT_QUERIES = 6000
 
@@ -959,7 +965,7 @@ cpfg_ref.QueryTurtle.fill = spy_fill(cpfg_ref.QueryTurtle.fill)
 cpfg_ref.Deriver.successor = spy_homo_successor(cpfg_ref.Deriver.successor)
 
 
-def generate_queries(r, homomorphism=False):
+def generate_queries(r, homomorphism=False, moving=False):
     """The twelfth batch: turtle queries `?P`, `?H`, `?L`, `?U` (0-4
     parameters, mostly 2-3) among turtle modules (F, f, G, g with and
     without a length, the turns with and without an angle, `|`, branches,
@@ -975,7 +981,10 @@ def generate_queries(r, homomorphism=False):
     batch (homo_section), the twelfth's cases with a homomorphism that
     cannot change the turtle (cpfg's turtle reads the string through it)
     and `@Gs @Gc(2) @Ge(2) @Gt(1,2) @Gr(1)` (generalized cylinders) in
-    successors. Returns (text, steps, files, args)."""
+    successors. `moving`: the fourteenth batch, the thirteenth's with a
+    homomorphism that moves the turtle (moves outside its successors'
+    brackets, sometimes a production for a move), which cpfg's turtle
+    follows. Returns (text, steps, files, args)."""
     view = []
     if r.random() < 0.5:
         view.append("angle factor: %d" % r.choice([4, 5, 6, 7, 8, 8, 9, 12, 16]))
@@ -1123,7 +1132,10 @@ def generate_queries(r, homomorphism=False):
             v = var or r.choice(["1", "2", "0.5"])
             parts = []
             for _ in range(r.randint(1, 3)):
-                if r.random() < 0.55:
+                if moving and r.random() < 0.5:
+                    # (the fourteenth batch: moves outside the brackets)
+                    parts += turtles(1, 2, var)
+                elif r.random() < 0.55:
                     parts.append(bracket(var))
                 else:
                     m = r.choice(["X", "Y", "K(%s)" % v, "K(%s)" % v, ";(2)", ";", "!", "#(2)",
@@ -1149,6 +1161,11 @@ def generate_queries(r, homomorphism=False):
             lines.append("C(x) --> %s" % succ("x"))
         if r.random() < 0.4:
             lines.append("B --> %s" % succ())
+        if moving and r.random() < 0.3:
+            # a production for a move of the string
+            lines.append(r.choice(["F(l) --> F(l)-(10)", "F(l) --> F(l*0.5)[+F]F(l*0.5)",
+                                   "f(l) --> f(l)+(20)", "F --> f(2)", "+(a) --> +(a*0.5)",
+                                   "+ --> -", "_(e) --> _(e*0.5)"]))
         if depth2:
             # a production for a module another successor makes
             if "K" in made or r.random() < 0.5:
@@ -1285,19 +1302,23 @@ def main(argv):
     eleventh = ninth + MULTI_SECTIONS
     twelfth = eleventh + CURVES
     thirteenth = twelfth + QUERIES
+    fourteenth = thirteenth + HOMO_QUERIES
     seeds = {CASES: 13, CASES + EXTENDED: 14, third: 15, fourth: 16, fifth: 17, sixth: 18,
-             seventh: 19, eighth: 20, ninth: 21, eleventh: 22, twelfth: 23, thirteenth: 24}
+             seventh: 19, eighth: 20, ninth: 21, eleventh: 22, twelfth: 23, thirteenth: 24,
+             fourteenth: 25}
     # the twelfth and thirteenth batches: cases with a condition on a
     # query's values that was both true and false
-    both_ways = [0, 0]
-    while made < thirteenth + HOMO_QUERIES:
+    both_ways = [0, 0, 0]
+    while made < fourteenth + MOVING_QUERIES:
         if made in seeds:
             r = random.Random(seeds.pop(made))
         tried += 1
         late = third <= made < fourth
         alt = fourth <= made < fifth
         files, args = [], None
-        if made >= thirteenth:
+        if made >= fourteenth:
+            text, steps, files, args = generate_queries(r, homomorphism=True, moving=True)
+        elif made >= thirteenth:
             text, steps, files, args = generate_queries(r, homomorphism=True)
         elif made >= twelfth:
             text, steps, files, args = generate_queries(r)
@@ -1332,6 +1353,10 @@ def main(argv):
         if made >= thirteenth and not HOMO_IN_FILL:
             # (no homomorphism production applied while the turtle read)
             continue
+        if made >= fourteenth and not any(cpfg_ref.homomorphism_moves(p)
+                                          for p in HOMO_IN_FILL):
+            # (none that moves the turtle)
+            continue
         if made >= seventh and "(" not in out:
             # (a string without parameters shows too little)
             continue
@@ -1345,7 +1370,7 @@ def main(argv):
                 ("--functions %s" % a) if isinstance(a, str) else "%s %s" % a for a in args)
         parts.append("=== %d\n%s%s--- expected\n%s\n" % (steps, text, sections, out))
         if made >= twelfth and both:
-            both_ways[made >= thirteenth] += 1
+            both_ways[(made >= thirteenth) + (made >= fourteenth)] += 1
         made += 1
     content = "".join(parts)
     if "--check" in argv:
@@ -1360,6 +1385,8 @@ def main(argv):
           "and false" % (both_ways[0], QUERIES))
     print("queries with a homomorphism batch: %d of %d cases have a condition on a query "
           "that was both true and false" % (both_ways[1], HOMO_QUERIES))
+    print("queries with a moving homomorphism batch: %d of %d cases have a condition on a "
+          "query that was both true and false" % (both_ways[2], MOVING_QUERIES))
     return 0
 
 
