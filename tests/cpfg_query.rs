@@ -209,6 +209,52 @@ fn a_homomorphism_that_moves_the_turtle() {
     }
 }
 
+/// cpfg fills the string a step rewrites before that step (its
+/// `StartEach:`), after the step before ended (its `EndEach:`, and
+/// `End:` for the saved string): a moving homomorphism's condition reads
+/// the globals those blocks left. Here `t` is the number of `EndEach:`
+/// run so far (5 after `End:`), and `I` moves the turtle only when `t`
+/// is 1 (or 5 with `End:`): with `box:`, the string of `-n 2` shows the
+/// fill before step 2, `t` = 1; of `-n 3`, before step 3, `t` = 2. Hand
+/// computed (as cpfg_ref.py gives them); frames agree.
+#[test]
+fn a_moving_homomorphism_reads_the_globals_after_end_each() {
+    let l = "Lsystem: 1\nderivation length: 9\nStart: {t = 0;}\nEndEach: {t = t + 1;}\n\
+             Axiom: I(1)?P(0,0,0)\nhomomorphism\nI(l) : t == 1 --> F(l)\nendlsystem\n";
+    let boxed = "angle increment: 90\nbox: x: -1,1 y: -1,1 z: -1,1\n";
+    let args = ["--no-homomorphism", "-n"];
+    for (n, y) in [("1", 0), ("2", 1), ("3", 0)] {
+        let want = format!("I(1)?P(0,{y},0)\n");
+        assert_eq!(ok(l, boxed, &[&args[..], &[n]].concat()), want, "-n {n}");
+    }
+    // Without `box:` the saved string is filled after the last step's
+    // `EndEach:` and `End:`.
+    let v = "angle increment: 90\n";
+    let end = l
+        .replace(
+            "derivation length: 9",
+            "derivation length: 1\nEnd: {t = 5;}",
+        )
+        .replace("t == 1", "t == 5");
+    assert_eq!(ok(&end, v, &["--no-homomorphism"]), "I(1)?P(0,1,0)\n");
+    assert_eq!(ok(&end, v, &[]), "F(1)?P(0,1,0)\n");
+    // (`End:` runs after the last frame only: README, `--frames`.)
+    for (l, v, last) in [(l, boxed, 3), (&end[..], v, 1)] {
+        let dir = tempdir();
+        let view = write(dir.path(), "plant.v", v);
+        let file = write(dir.path(), "plant.l", l);
+        let r = run(lsgen()
+            .args(["--frames", &format!("0..{last}"), "--no-homomorphism"])
+            .arg("--cpfg-view")
+            .arg(&view)
+            .arg(&file));
+        let want: String = (0..=last)
+            .map(|k| ok(l, v, &["--no-homomorphism", "-n", &k.to_string()]))
+            .collect();
+        assert_eq!(r.ok(), want, "{v}");
+    }
+}
+
 /// cpfg fills the saved string's queries when it works out the view
 /// volume around it, which a view file's `box:` turns off; then only
 /// `environment display: before` (a fill after each step) does. The

@@ -911,14 +911,6 @@ fn step_passes(
             let (modules, bytes) = out.finish()?;
             if let Some(f) = &mut dst {
                 cut_to_written(f, tmp_name)?;
-                if let Some(q) = queries
-                    .as_ref()
-                    .filter(|q| step && (i < steps || q.fills_last))
-                {
-                    let generation = first_step + i - 1;
-                    let at = (tmpdir, tmp_name, limits);
-                    fill_queries(d, (q, homomorphism), f, (indexed, at), generation)?;
-                }
             }
             // (The last step's generation is told as its copy.)
             if !(copies && step && i == steps) {
@@ -940,6 +932,17 @@ fn step_passes(
             // derivation length (cpfg's end of derivation).
             if i == steps && d.cpfg.as_ref().is_some_and(|c| i >= c.derivation_length) {
                 d.cpfg_block(When::End, pass)?;
+            }
+        }
+        // The queries: filled after the step's `EndEach:` (and `End:`), as
+        // cpfg fills the string before the next step's `StartEach:`, or
+        // the saved string at the end: a homomorphism that moves the
+        // turtle reads the globals those blocks left.
+        if let (Some(q), Some(f)) = (&queries, &dst) {
+            if step && (i < steps || q.fills_last) {
+                let generation = first_step + i - 1;
+                let at = (tmpdir, tmp_name, limits);
+                fill_queries(d, (q, homomorphism), f, (indexed, at), generation)?;
             }
         }
         if compares {
@@ -1084,9 +1087,6 @@ fn frame_passes(
             let (modules, bytes) = out.finish()?;
             if let Some(f) = &mut dst {
                 cut_to_written(f, tmp_name)?;
-                if fills_last {
-                    fill(d, f, k)?;
-                }
             }
             events(&Event::Generation {
                 pass,
@@ -1099,6 +1099,10 @@ fn frame_passes(
             d.cpfg_block(When::End, pass)?;
         }
         let dst = dst.expect("a generation");
+        // (After `EndEach:` and `End:`, as `step_passes` fills.)
+        if fills_last {
+            fill(d, &dst, k)?;
+        }
         // A step that drew nothing and left the string as it was is a
         // fixed point (as in `step_passes`): the later frames are this
         // generation, and are written without deriving the steps between
