@@ -3077,6 +3077,8 @@ def read_turtle_view(path):
     except OSError as e:
         raise CpfgError("cannot read %s: %s" % (path, e.strerror))
     tv = TurtleView()
+    # the label and line of the angle read last
+    angle_at = ("angle increment", (path, 1))
     for i, line in enumerate(splice_and_strip(text, path).split("\n")):
         if ":" not in line:
             continue
@@ -3087,8 +3089,10 @@ def read_turtle_view(path):
             n, _ = view_float(rest, where, label)
             # 360.0 / angle_increment in double, stored in the float
             tv.angle = f32(360.0 / n) if n != 0 else None
+            angle_at = (label, where)
         elif label == "angle increment":
             tv.angle, _ = view_float(rest, where, label)
+            angle_at = (label, where)
         elif label == "tropism direction":
             # fscanf(" %f,%f,%f") into floats; the length and the
             # quotients are float arithmetic too (temp_x, temp_length
@@ -3129,7 +3133,9 @@ def read_turtle_view(path):
         elif label == "box":
             tv.box = True
     if tv.angle is None or math.isinf(tv.angle):
-        raise CpfgError("`angle factor: 0` (an infinite angle)", (path, 1))
+        label, where = angle_at
+        raise CpfgError("`%s:` gives no finite angle (360 / 0, or past the largest float)" % label,
+                        where)
     return tv
 
 
