@@ -241,7 +241,7 @@ fn typed_messages_are_the_former_strings() {
         (Refused::RingSetting.to_string(), "ring L-systems (`ring lsystem`) are not supported"),
         (Refused::Environment.to_string(), "`?E` (communication with an environment program) needs cpfg's environment process: not supported by lsgen, which only rewrites strings"),
         (Refused::SubLsystemCall.to_string(), "`?(id,s)` (a sub-L-system call) needs cpfg's sub-L-systems: not supported by lsgen, which only rewrites strings"),
-        (Refused::Query.to_string(), "a `?` query module needs cpfg's interpretation or environment: not supported by lsgen, which only rewrites strings"),
+        (Refused::Query.to_string(), "a `?` not followed by `P`, `H`, `L` or `U` (the turtle queries lsgen fills, with `--cpfg-view`): its other query modules need cpfg's interpretation or environment: not supported by lsgen, which only rewrites strings"),
         (Refused::SubLsystemEnd.to_string(), "`$` (the end of a sub-L-system) is not supported: lsgen has no sub-L-systems"),
         (Refused::Surface.to_string(), "`@S` (a surface from cpfg's surface files) is not supported: lsgen has no surfaces"),
         (Refused::Atan2.to_string(), "`atan2` is reserved in cpfg but a syntax error there: use `atan(y / x)`"),

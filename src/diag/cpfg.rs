@@ -88,7 +88,7 @@ impl fmt::Display for Refused {
             }
             Query => write!(
                 f,
-                "a `?` query module needs cpfg's interpretation or environment{QUERY}"
+                "a `?` not followed by `P`, `H`, `L` or `U` (the turtle queries lsgen fills, with `--cpfg-view`): its other query modules need cpfg's interpretation or environment{QUERY}"
             ),
             QueryWithoutView => f.write_str(
                 "a query of the turtle (`?P`, `?H`, `?L`, `?U`) needs cpfg's view file: give it with --cpfg-view FILE.v (the turtle's angle, tropism and scale are there)",
