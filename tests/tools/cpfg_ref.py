@@ -122,12 +122,68 @@ module that a `?` or an `@` reads (read past the homomorphism), a
 query module in a left context (cpfg reads it filled already), and in
 its successors, branches too, what is refused in the strings (below; a
 bend past 1 there too, where cpfg's NaN would be discarded by the `]`);
-`~`, `@` other than `@o @O @c @v @M` and `@G` + `s c e t r`, `s` with 2
-or 3 parameters (cpfg's old position query), a view with `tropism:` or
-`torque:`; in
-its strings an unmatched `]`, a `?` not
+`~`, `@` other than `@o @O @c @v @M`, `@G` + `s c e t r` and `@T` +
+`i d s p f x` (below), `s` with 2 or 3 parameters (cpfg's old position
+query; not `@Ts(i,e)`); in its strings an unmatched `]`, a `?` not
 followed by P, H, L or U, a bend with a sine outside [-1, 1] (but in a
 homomorphism successor's branch: cpfg's NaN, which its `]` discards).
+
+Movements (movements.c, turtle.c's adjust_up_and_left, quaternions.c,
+blackbox.c's case 'T'; all in doubles, in cpfg's operation order; class
+Movements). The view's `tropism:` (label 32) and `torque:` (33) lines:
+fgets gives the rest of the line after the label's `:` (newline
+included), read_movement tokenizes it: the first word by strtok(" \t:"),
+the next ones by strtok(" \t:\n"), each command by its first letter; a
+number by strtok(" ,\t:") and atof (so `T: 1,0,0`, `T 1 0 0`, `Tropism:
+1 0 0` are one). `T x,y,z`: the direction, len = 1/|T| (a 0 vector:
+ignored); `I i`: len *= i (0: ignored), clamped to [-1, 1] (the clamp is
+on len = i/|T|, not on i); `A a`: gamma in degrees (default 0); `E e`:
+the initial elasticity (0); `S s`: @T's increment (0). The direction is T
+* len (without `T`: the slot's old direction, times 0). Ignored (cpfg
+says so, the reference warns): an unknown command, a 0 vector or
+intensity, an 11th movement; an ignored line leaves its fields in the
+slot for the next one. The global sums: for a tropism gea,geb,gec += cos
+gamma * e * T, esin = e sin gamma; for a torque twist += e T, length
+|twist|; updated incrementally (update_movement(i, delta): the global
+elasticity += delta, the sums by cos gamma * delta * T, esin += delta *
+sin gamma when cos/sin gamma != 0, twist by delta T). They persist for the
+whole run: each interpretation (fill) starts (InitializeTurtle) by giving
+each turtle elasticity its initial value and calling update_movement(i,
+initial - current global elasticity), so rounding residues carry from
+one fill to the next (one state per derivation run, on the QueryTurtle).
+Before each F G f g (before the move; the old `tropism direction:` bend
+after it): movement_adjust: des = the sums, plus for each tropism with
+sin gamma != 0 esin/|H x T| * T x (H x T) (H parallel to T: the left
+vector instead of H x T, length 1) -- cpfg's loop runs to i <=
+number_of_movements, one entry past the last, whose sin gamma is 0 (it
+adds nothing; 10 movements, where that entry is outside cpfg's arrays,
+are refused); rot = H x des; if |rot| >= 1e-6, H turns by min(|rot|, 1)
+rad towards des (the quaternion q^-1 v q) and adjust_up_and_left; then a
+nonzero twist: with d = twist/|twist|, v = H x d, if v.v > 1e-8, des =
+(v x H) * length and U turns by min(|U x des|, 1) rad about U x des in
+q^-1 v q's sense (away from des), if |U x des| >= 1e-7 (then L = H x U),
+and prev H/U are set. adjust_up_and_left: when |H x prevH| > 1e-6, U is
+prevU turned by the rotation taking prevH to H (asin, or pi/2 minus it
+when H.prevH < 0): a roll since the last F G is undone; L = H x U always.
+prevH/prevU: set at the turtle's start, after F and G (not f g), by @Tf,
+in the twist part; saved by `[` with the turtle. Each turtle (saved with
+`[`) has its own elasticities; at `]` each movement whose saved value
+differs from the current one gets update_movement(i, saved - current).
+@T (call_blackbox): T without parameter, then the subfunction module;
+index = (short)(its first parameter - 1) (truncated; out of [0, n):
+ignored, @Tp/@Tf too), 0 without one; the amount: its second parameter,
+else the movement's S. `i` +amount, `d` -amount, `s` sets (second
+parameter - turtle elasticity, or to 0): applied to the turtle's and the
+global elasticity only when the subfunction has a parameter; `p`
+adjust_up_and_left, `f` prevH/prevU = H/U; `x(n)` a texture (nothing).
+In a homomorphism successor @T changes the global sums (a branch's `]`
+gives them back by a difference): a successor with `@T` counts as one
+that moves the turtle. Refused: a movement line cpfg crashes on (a
+number missing: atof of NULL), a non-finite or hexadecimal number, a line
+past fgets' 254 bytes, 10 movements, @T with parameters on the T (cpfg
+reads T again as a module), @T at the end of a string or module list,
+@Tx without a parameter (likewise), other subfunctions, an index outside
+a C short.
 
 Refused with an error (a string rewriter cannot do them, or the reference
 does not model them): ?E, ?Q, a ? not followed by P, H, L or U,
@@ -1255,7 +1311,8 @@ class Parser:
         """What a file with queries may not have (the turtle of the queries
         does not model it): a homomorphism production that could change
         the turtle (check_followed_homomorphism), `~` (surfaces), `@` other
-        than `@o @O @c @v @M` and `@G` + `s c e t r`, `s` with 2 or 3
+        than `@o @O @c @v @M`, `@G` + `s c e t r` and `@T` (without
+        parameters) + `i d s p f x` (`x` with a parameter), `s` with 2 or 3
         parameters."""
         homo = self.ls.homo or []
         for p in homo:
@@ -1284,7 +1341,9 @@ class Parser:
                                         "in a file with queries is not supported" % sym, p.where)
         for mods, where in lists:
             for i, (sym, params) in enumerate(mods):
-                if sym == "s" and len(params) in (2, 3):
+                # (@Ts(i,e) is @T's subfunction: call_blackbox reads it)
+                if sym == "s" and len(params) in (2, 3) and not (
+                        i >= 2 and mods[i - 1][0] == "T" and not mods[i - 1][1] and mods[i - 2][0] == "@"):
                     # interpret.c's `case 's'` (backward compatibility): in
                     # the environment pass before each step, s(x,y[,z])
                     # gets the position, as ?P does; not modelled
@@ -1294,7 +1353,22 @@ class Parser:
                     raise CpfgError("~ (surfaces) in a file with queries is not supported", where)
                 if sym == "@":
                     nxt = mods[i + 1][0] if i + 1 < len(mods) else ""
-                    if nxt == "G":
+                    if nxt == "T":
+                        # movements (blackbox.c's case 'T'): cpfg reads the
+                        # subfunction when T has no parameter
+                        if mods[i + 1][1]:
+                            raise CpfgError("@T with parameters in a file with queries is not "
+                                            "supported (cpfg reads T again as a module)", where)
+                        sub, sv = mods[i + 2] if i + 2 < len(mods) else ("", ())
+                        if sub not in T_SUBFUNCTIONS:
+                            raise CpfgError("@T%s in a file with queries is not supported "
+                                            "(the turtle knows @Ti @Td @Ts @Tp @Tf @Tx)" % sub,
+                                            where)
+                        if sub == "x" and not sv:
+                            raise CpfgError("@Tx without a parameter in a file with queries is "
+                                            "not supported (cpfg reads T and x again as "
+                                            "modules)", where)
+                    elif nxt == "G":
                         sub = mods[i + 2][0] if i + 2 < len(mods) else ""
                         if sub not in GC_SUBFUNCTIONS:
                             raise CpfgError("@G%s in a file with queries is not supported "
@@ -1302,7 +1376,7 @@ class Parser:
                                             where)
                     elif nxt not in BLACKBOX_KNOWN:
                         raise CpfgError("@%s in a file with queries is not supported "
-                                        "(the turtle knows @o @O @c @v @M @G)" % nxt, where)
+                                        "(the turtle knows @o @O @c @v @M @G @T)" % nxt, where)
         self.ls.queries = True
 
     def productions(self):
@@ -2999,9 +3073,14 @@ def check_followed_homomorphism(p):
 def homomorphism_moves(p):
     """Can the homomorphism production p move the turtle: a moving module
     in its predecessor (which it replaces) or outside its successor's
-    brackets (whose ] gives the whole turtle back)?"""
+    brackets (whose ] gives the whole turtle back), or an `@T` anywhere in
+    its successor (movements: their global sums are not on the turtle's
+    stack, the `]` gives them back by a difference, rounding included)?"""
     if any(sym in MOVING for sym, _ in p.pred):
         return True
+    for k in range(len(p.succ) - 1):
+        if p.succ[k][0] == "@" and not p.succ[k][1] and p.succ[k + 1][0] == "T":
+            return True
     level = 0
     for sym, _ in p.succ:
         if sym == "[":
@@ -3015,7 +3094,7 @@ def homomorphism_moves(p):
 
 def read_past(lists):
     """The symbols right after a `?` in the lists (the query modules), and
-    those right after a `?`, an `@` or an `@G`."""
+    those right after a `?`, an `@`, an `@G` or an `@T`."""
     queried, read = set(), set()
     for mods, _ in lists:
         after = None
@@ -3024,10 +3103,353 @@ def read_past(lists):
                 read.add(sym)
                 if after == "?":
                     queried.add(sym)
-                after = "G" if after == "@" and sym == "G" and not params else None
+                after = "G" if after == "@" and sym in "GT" and not params else None
             elif sym in "?@" and not params:
                 after = sym
     return queried, read
+
+
+# ---------------------------------------------------------------------------
+# cpfg's movements (movements.c, turtle.c's adjust_up_and_left,
+# quaternions.c): the view's `tropism:` and `torque:` lines, moved by @T.
+# All doubles (struct MOVEMENTPARAM, TROPISMPARAM, TWISTPARAM, the turtle's
+# vectors and MOVEMENTPARAM2), in cpfg's operation order.
+# ---------------------------------------------------------------------------
+
+MAXMOVEMENTS = 10
+MT_TROPISM, MT_TWIST = 0, 1
+# @T's subfunctions the query turtle follows (blackbox.c's case 'T')
+T_SUBFUNCTIONS = ("i", "d", "s", "p", "f", "x")
+VIEW_LINE_MAX = 254  # fgets(input_line, 255, fp): 254 bytes and the NUL
+
+
+def c_strtok(state, delims):
+    """strtok(NULL, delims) on state = [text, pos]: skip delimiters, the
+    token up to the next delimiter (which is consumed), None at the end."""
+    s, p = state
+    while p < len(s) and s[p] in delims:
+        p += 1
+    if p >= len(s):
+        state[1] = p
+        return None
+    q = p
+    while q < len(s) and s[q] not in delims:
+        q += 1
+    state[1] = q + 1 if q < len(s) else q
+    return s[p:q]
+
+
+def dcross(v1, v2):
+    """utility.c's DCrossProduct."""
+    return [v1[1] * v2[2] - v1[2] * v2[1],
+            v1[2] * v2[0] - v1[0] * v2[2],
+            v1[0] * v2[1] - v1[1] * v2[0]]
+
+
+def mult_quats(q1, q2):
+    return [q1[0] * q2[0] - (q1[1] * q2[1] + q1[2] * q2[2] + q1[3] * q2[3]),
+            q1[0] * q2[1] + q2[0] * q1[1] + q1[2] * q2[3] - q1[3] * q2[2],
+            q1[0] * q2[2] + q2[0] * q1[2] + q1[3] * q2[1] - q1[1] * q2[3],
+            q1[0] * q2[3] + q2[0] * q1[3] + q1[1] * q2[2] - q1[2] * q2[1]]
+
+
+def rot_by_quat(v, q):
+    """quaternions.c's rot_by_quat: v' = q^-1 (0, v) q, in place."""
+    size = 1.0 / (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    msize = -size
+    qi = [size * q[0], msize * q[1], msize * q[2], msize * q[3]]
+    qr = mult_quats(qi, [0.0, v[0], v[1], v[2]])
+    qv = mult_quats(qr, q)
+    v[0], v[1], v[2] = qv[1], qv[2], qv[3]
+
+
+def axis_quat(angle, axis):
+    """q[0] = cos(angle), q[1..3] = (bendsin = sin(angle)) * axis."""
+    s = math.sin(angle)
+    return [math.cos(angle), s * axis[0], s * axis[1], s * axis[2]]
+
+
+def adjust_up_and_left(st):
+    """turtle.c's adjust_up_and_left: U = prev_up turned by the rotation
+    taking prev_heading to H (when |H x prev_H| > 1e-6), then L = H x U."""
+    H, pH = st["H"], st["pH"]
+    rot = dcross(H, pH)
+    ln = math.sqrt(rot[0] * rot[0] + rot[1] * rot[1] + rot[2] * rot[2])
+    if ln > 0.000001:
+        st["U"] = list(st["pU"])
+        if ln > 1:
+            ln = 1.0
+        angle = math.asin(ln) * 0.5
+        if dot(H, pH) < 0:
+            angle = math.pi * 0.5 - angle
+        rot = [rot[0] / ln, rot[1] / ln, rot[2] / ln]
+        rot_by_quat(st["U"], axis_quat(angle, rot))
+    st["L"] = dcross(H, st["U"])
+
+
+class MovementSlot:
+    """One EPr.movements[] entry (a line cpfg ignores leaves its fields
+    there for the next line: its dir)."""
+
+    def __init__(self):
+        self.type = MT_TROPISM
+        self.dir = [0.0, 0.0, 0.0]
+        self.gamma = 0.0
+        self.elasticity = 0.0
+        self.initial = 0.0
+        self.incr = 0.0
+
+    def copy(self):
+        m = MovementSlot()
+        m.__dict__.update(self.__dict__)
+        m.dir = list(self.dir)
+        return m
+
+
+class Movements:
+    """The global movement state: EPr.movements, number_of_movements,
+    tropism_param (gea, geb, gec, cos/sin/esin gamma) and twist_param."""
+
+    def __init__(self):
+        self.slots = [MovementSlot() for _ in range(MAXMOVEMENTS)]
+        self.n = 0
+        self.ge = [0.0, 0.0, 0.0]
+        self.cosg = [0.0] * MAXMOVEMENTS
+        self.sing = [0.0] * MAXMOVEMENTS
+        self.esing = [0.0] * MAXMOVEMENTS
+        self.twist = [0.0, 0.0, 0.0]
+        self.twist_len = 0.0
+
+    def copy(self):
+        m = Movements()
+        m.slots = [s.copy() for s in self.slots]
+        m.n = self.n
+        m.ge = list(self.ge)
+        m.cosg, m.sing, m.esing = list(self.cosg), list(self.sing), list(self.esing)
+        m.twist = list(self.twist)
+        m.twist_len = self.twist_len
+        return m
+
+    def read(self, line, mtype, where):
+        """read_movement(input_line, type): `line` is what fgets left after
+        the label's `:` (its newline included). Returns whether cpfg keeps
+        the movement; raises CpfgError where cpfg would crash (atof of a
+        missing number) or the reference does not follow it."""
+        index = self.n
+        if index == MAXMOVEMENTS:
+            warn("no room for a new movement: ignored (cpfg's MAXMOVEMENTS)", where)
+            return False
+        m = self.slots[index]
+        m.type = mtype
+        m.gamma = m.elasticity = m.incr = 0.0
+        state = [line, 0]
+
+        def get_double():
+            tok = c_strtok(state, " ,\t:")
+            if tok is None:
+                raise CpfgError("a movement line that ends before its number (cpfg's atof "
+                                "of NULL)", where)
+            word = tok.lstrip(C_SPACE)
+            if re.match(r"[+-]?0[xX]", word):
+                raise CpfgError("a hexadecimal number in a movement line", where)
+            m_ = STRTOD_RE.match(word)
+            v = float(m_.group(0)) if m_ else 0.0
+            if math.isinf(v) or math.isnan(v):
+                raise CpfgError("%s in a movement line is not a finite number" % tok, where)
+            return v
+
+        ln = 0.0
+        tok = c_strtok(state, " \t:")
+        while tok is not None:
+            c = tok[0]
+            if c == "T":
+                m.dir[0] = get_double()
+                m.dir[1] = get_double()
+                m.dir[2] = get_double()
+                ln = dot(m.dir, m.dir)
+                if ln == 0.0:
+                    warn("a movement with a 0 vector: ignored", where)
+                    return False
+                ln = 1.0 / math.sqrt(ln)
+            elif c == "I":
+                ln *= get_double()
+                if ln == 0.0:
+                    warn("a movement with 0 intensity: ignored", where)
+                    return False
+                if ln > 1.0:
+                    ln = 1.0
+                if ln < -1.0:
+                    ln = -1.0
+            elif c == "A":
+                m.gamma = get_double()
+            elif c == "E":
+                m.elasticity = get_double()
+            elif c == "S":
+                m.incr = get_double()
+            else:
+                warn("a movement with an unknown command %r: ignored" % c, where)
+                return False
+            tok = c_strtok(state, " \t:\n")
+        self.n += 1
+        if self.n == MAXMOVEMENTS:
+            # movement_adjust's loop runs to i <= number_of_movements: the
+            # 11th entry is outside cpfg's arrays
+            raise CpfgError("%d movements: cpfg's movement_adjust reads past its arrays"
+                            % MAXMOVEMENTS, where)
+        m.dir = [m.dir[0] * ln, m.dir[1] * ln, m.dir[2] * ln]
+        m.initial = m.elasticity
+        a, b, c = m.dir
+        elast = m.elasticity
+        if index == 0:
+            self.twist = [0.0, 0.0, 0.0]
+            self.ge = [0.0, 0.0, 0.0]
+        if mtype == MT_TROPISM:
+            g = m.gamma * math.pi / 180.0  # D_TO_R
+            self.cosg[index] = math.cos(g)
+            self.sing[index] = math.sin(g)
+            self.esing[index] = elast * self.sing[index]
+            self.ge[0] += self.cosg[index] * elast * a
+            self.ge[1] += self.cosg[index] * elast * b
+            self.ge[2] += self.cosg[index] * elast * c
+        else:
+            self.twist[0] += elast * a
+            self.twist[1] += elast * b
+            self.twist[2] += elast * c
+            self.twist_len = math.sqrt(dot(self.twist, self.twist))
+        return True
+
+    def update(self, index, delta):
+        """update_movement(index, delta_elast)."""
+        m = self.slots[index]
+        a, b, c = m.dir
+        m.elasticity += delta
+        if m.type == MT_TROPISM:
+            if self.cosg[index] != 0.0:
+                self.ge[0] += self.cosg[index] * delta * a
+                self.ge[1] += self.cosg[index] * delta * b
+                self.ge[2] += self.cosg[index] * delta * c
+            if self.sing[index] != 0.0:
+                self.esing[index] += delta * self.sing[index]
+        else:
+            self.twist[0] += delta * a
+            self.twist[1] += delta * b
+            self.twist[2] += delta * c
+            self.twist_len = math.sqrt(dot(self.twist, self.twist))
+
+    def start(self, st):
+        """InitializeTurtle: each movement's turtle elasticity is its
+        initial one, and the global one follows by the difference."""
+        st["me"] = [self.slots[i].initial for i in range(self.n)]
+        for i in range(self.n):
+            self.update(i, self.slots[i].initial - self.slots[i].elasticity)
+
+    def adjust(self, st):
+        """movement_adjust(tu), before F G f g."""
+        if self.n == 0:
+            return
+        H = st["H"]
+        des = list(self.ge)
+        # cpfg's loop runs to i <= number_of_movements; the extra entry
+        # has sin gamma 0 (set only for a movement kept), so it adds nothing
+        for i in range(self.n + 1):
+            m = self.slots[i]
+            if m.type == MT_TROPISM and self.sing[i] != 0.0:
+                vec = dcross(H, m.dir)
+                ln = math.sqrt(vec[0] * vec[0] + vec[1] * vec[1] + vec[2] * vec[2])
+                if ln < 0.0000001:
+                    vec = list(st["L"])
+                    ln = 1.0
+                vec2 = dcross(m.dir, vec)
+                ln = self.esing[i] / ln
+                des[0] += ln * vec2[0]
+                des[1] += ln * vec2[1]
+                des[2] += ln * vec2[2]
+        rot = dcross(H, des)
+        # adjust_by_orthotropism
+        ln = math.sqrt(rot[0] * rot[0] + rot[1] * rot[1] + rot[2] * rot[2])
+        if not ln < 0.000001:
+            if ln > 1.0:
+                ln = 1.0
+            angle = -ln * 0.5
+            ln = 1.0 / ln
+            rot = [rot[0] * ln, rot[1] * ln, rot[2] * ln]
+            rot_by_quat(H, axis_quat(angle, rot))
+            adjust_up_and_left(st)
+        # twist (torque) movements
+        t = self.twist
+        if t[0] != 0.0 or t[1] != 0.0 or t[2] != 0.0:
+            vec2 = list(t)
+            nrm = math.sqrt(dot(vec2, vec2))
+            if nrm != 0:
+                inv = 1.0 / nrm
+                vec2 = [vec2[0] * inv, vec2[1] * inv, vec2[2] * inv]
+            vec = dcross(H, vec2)
+            if dot(vec, vec) > 0.00000001:
+                des = dcross(vec, H)
+                des = [des[0] * self.twist_len, des[1] * self.twist_len,
+                       des[2] * self.twist_len]
+                # rotate_to_vector(tu->up, des_dir)
+                U = st["U"]
+                v = dcross(U, des)
+                ln = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+                if not ln < 0.0000001:
+                    if ln > 1.0:
+                        ln = 1.0
+                    angle = ln * 0.5
+                    v = [v[0] / ln, v[1] / ln, v[2] / ln]
+                    rot_by_quat(U, axis_quat(angle, v))
+                    st["L"] = dcross(H, U)
+                st["pH"] = list(H)
+                st["pU"] = list(st["U"])
+
+    def pop(self, st, saved):
+        """`]`: each movement whose turtle elasticity differs from the
+        saved one is updated by the difference (saved - current)."""
+        for i in range(self.n):
+            aux = saved["me"][i] - st["me"][i]
+            if aux != 0:
+                self.update(i, aux)
+
+    def blackbox(self, st, sub, sv):
+        """call_blackbox's case 'T' for @T + sub(sv): sv are the
+        subfunction's parameters (T has none: refused before)."""
+        parm2 = len(sv) > 0
+        if sub == "x":
+            if parm2:
+                return  # the texture only
+            raise CpfgError("@Tx without a parameter in a string with queries (cpfg reads T "
+                            "and x again as modules)")
+        if not parm2:
+            index = 0
+        else:
+            t = float(sv[0]) - 1.0
+            if math.isnan(t) or not -32768.0 < t < 32768.0:
+                raise CpfgError("@T%s(%s): an index outside a C short" % (sub, fmt_g(sv[0])))
+            index = int(t)  # (short), toward 0
+            if index < 0 or index >= self.n:
+                warn("@T%s: movement index out of range, ignored" % sub)
+                return
+        if len(sv) >= 2:
+            aux = float(sv[1])
+        else:
+            aux = self.slots[index].incr
+        if sub == "d":
+            aux = -aux
+        elif sub == "s":
+            if len(sv) >= 2:
+                aux = float(sv[1]) - st["me"][index]
+            else:
+                aux = -st["me"][index] if index < len(st["me"]) else 0.0
+        elif sub == "p":
+            adjust_up_and_left(st)
+            return
+        elif sub == "f":
+            st["pH"] = list(st["H"])
+            st["pU"] = list(st["U"])
+            return
+        if parm2:
+            st["me"][index] += aux
+            self.update(index, aux)
 
 
 class TurtleView:
@@ -3035,9 +3457,9 @@ class TurtleView:
     `angle factor:` / `angle increment:` (the later wins), `tropism
     direction:`, `initial elasticity:`, `elasticity increment:`, `initial
     scale:` (0 is 1), `interpretation past %:`, `box:` and `environment
-    display:` (whether the saved string's queries are filled). `unmodelled`:
-    a `tropism:` or `torque:` label (movements), which the reference does
-    not model."""
+    display:` (whether the saved string's queries are filled), and the
+    `tropism:` and `torque:` lines (`movements`, as read_movement leaves
+    them; each derivation run works on its own copy)."""
 
     def __init__(self):
         self.angle = f32(45.0)
@@ -3046,7 +3468,7 @@ class TurtleView:
         self.elasticity_increment = 0.0
         self.scale = 1.0
         self.past_cut = True
-        self.unmodelled = None
+        self.movements = Movements()
         self.box = False
         self.display_before = False
 
@@ -3079,7 +3501,8 @@ def read_turtle_view(path):
     tv = TurtleView()
     # the label and line of the angle read last
     angle_at = ("angle increment", (path, 1))
-    for i, line in enumerate(splice_and_strip(text, path).split("\n")):
+    lines = splice_and_strip(text, path).split("\n")
+    for i, line in enumerate(lines):
         if ":" not in line:
             continue
         label, rest = line.split(":", 1)
@@ -3123,7 +3546,12 @@ def read_turtle_view(path):
             words = rest.split()
             tv.past_cut = not (words and words[0].startswith("off"))
         elif label in ("tropism", "torque"):
-            tv.unmodelled = (label + ":", where)
+            # fgets: the rest of the line, its newline included (a file's
+            # last line may lack it)
+            line = rest + ("\n" if i + 1 < len(lines) else "")
+            if len(line.encode("utf-8")) > VIEW_LINE_MAX:
+                raise CpfgError("a `%s:` line longer than cpfg's fgets reads" % label, where)
+            tv.movements.read(line, MT_TROPISM if label == "tropism" else MT_TWIST, where)
         elif label == "environment display":
             # `before`: the queries filled after each step (the end of
             # generate.c's Derive) and on the axiom (control.c) instead of
@@ -3182,6 +3610,9 @@ class QueryTurtle:
         self.tv = tv
         self.sin, self.cos = tv.sin_cos()
         self.strict = False
+        # the global movement state: one per derivation run (this turtle
+        # fills every string of the run), kept from one fill to the next
+        self.mv = tv.movements.copy()
 
     def bend(self, st, top=True):
         """`top`: not in a homomorphism's successor. There (always in one
@@ -3213,6 +3644,11 @@ class QueryTurtle:
         depth:`), their contexts read in the string being filled."""
         self.st = {"P": [0.0, 0.0, 0.0], "H": [0.0, 1.0, 0.0], "L": [-1.0, 0.0, 0.0],
                    "U": [0.0, 0.0, -1.0], "e": self.tv.elasticity}
+        # InitializeTurtle: the movements' elasticities, then the previous
+        # heading and up
+        self.mv.start(self.st)
+        self.st["pH"] = list(self.st["H"])
+        self.st["pU"] = list(self.st["U"])
         self.stack = []
         out = list(S)
         homo = deriver is not None and bool(deriver.ls.homo)
@@ -3274,6 +3710,8 @@ class QueryTurtle:
         elif sym == "|":
             st["H"], st["L"] = rotate(st["H"], st["L"], 0.0, -1.0)
         elif sym in ("F", "G", "f", "g"):
+            # movement_adjust before the move
+            self.mv.adjust(st)
             d = f32((vals[0] if vals else 1.0) * tv.scale)
             P, H = st["P"], st["H"]
             P[0] += d * H[0]
@@ -3283,6 +3721,9 @@ class QueryTurtle:
             # bend past 1 in its successors' branches too, where cpfg's
             # NaN is discarded by the ]: the reference does the same.)
             self.bend(st, top or self.strict)
+            if sym in "FG":
+                st["pH"] = list(st["H"])
+                st["pU"] = list(st["U"])
         elif sym == "_":
             st["e"] = f32(vals[0]) if vals else f32(st["e"] + tv.elasticity_increment)
         elif sym == "[":
@@ -3290,7 +3731,9 @@ class QueryTurtle:
         elif sym == "]":
             if not self.stack:
                 raise CpfgError("an unmatched ] in a string with queries")
-            self.st = self.stack.pop()
+            saved = self.stack.pop()
+            self.mv.pop(st, saved)
+            self.st = saved
         elif sym == "%" and not vals and not tv.past_cut and top:
             # SkipCutPart: to the ] closing the branch (interpreted
             # next), a $, or the end; ignored in a homomorphism's
@@ -3298,6 +3741,20 @@ class QueryTurtle:
             i = branch_rest_end(seq, i, stop_at_dollar=True)
         elif sym == "@":
             f = seq[i][0] if i < n else ""
+            if f == "T":
+                # movements (call_blackbox's case 'T'), in a homomorphism's
+                # successor too: it changes the global sums
+                if seq[i][1]:
+                    raise CpfgError("@T with parameters in a string with queries (cpfg reads "
+                                    "T again as a module)")
+                if i + 1 >= n:
+                    raise CpfgError("@T at the end of a string with queries")
+                sub, sv = seq[i + 1]
+                if sub not in T_SUBFUNCTIONS:
+                    raise CpfgError("@T%s in a string with queries (the turtle knows @Ti @Td "
+                                    "@Ts @Tp @Tf @Tx)" % sub)
+                self.mv.blackbox(st, sub, sv)
+                return i + 2
             if not top and f not in BLACKBOX_KNOWN:
                 # In a homomorphism's successor only inside a branch
                 # (with a homomorphism that cannot move the turtle): whatever the function does
@@ -3316,7 +3773,7 @@ class QueryTurtle:
                 return i + 1 if seq[i][1] else i + 2
             if f not in BLACKBOX_KNOWN:
                 raise CpfgError("@%s in a string with queries (the turtle knows @o @O "
-                                "@c @v @M @G)" % f)
+                                "@c @v @M @G @T)" % f)
             f, fv = seq[i]
             i += 1
             if f == "v":
@@ -3394,10 +3851,6 @@ def load(path, functions=(), view=None):
         if view is None:
             raise CpfgError("queries (?P ?H ?L ?U) need the view file (--cpfg-view)", (path, 1))
         rt.turtle_view = read_turtle_view(view)
-        if rt.turtle_view.unmodelled:
-            label, where = rt.turtle_view.unmodelled
-            raise CpfgError("`%s` in the view of a file with queries is not supported" % label,
-                            where)
     return ls, rt
 
 
@@ -3878,6 +4331,126 @@ def self_test_turtle():
         # @G + s c e t r does not move the turtle
         check("@G", run("F@Gs@Gc(2)F@Ge(2)@Gt(1,2)@Gr(1)?P(9,9)"),
               "F@Gs@Gc(2)F@Ge(2)@Gt(1,2)@Gr(1)?P(0,2)")
+        # -- movements (view `tropism:` / `torque:`, @T); movements.c --
+        # T: 1,0,0 E: 0.5 (gamma 0: cos 1, sin 0): the global sum (gea,
+        # geb, gec) = 1 * 0.5 * T = (0.5, 0, 0). Before the F's move
+        # (movement_adjust): rot = H x (0.5,0,0) = (0,0,-0.5), |rot| = 0.5
+        # < 1, the quaternion q = (cos -0.25, sin -0.25 * (0,0,-1)) turns
+        # H (q^-1 v q) by 0.5 rad about +z... towards T: H = (sin 0.5, cos
+        # 0.5, 0) = (0.479426, 0.877583, 0), and the F moves along it. The
+        # second F: rot = H x (0.5,0,0) has length 0.5 cos 0.5, so H turns
+        # to the angle a = 0.5 + 0.5 cos 0.5 = 0.938791 from y: (0.806845,
+        # 0.590764, 0); P = (sin 0.5 + sin a, cos 0.5 + cos a) = (1.28627,
+        # 1.46835). adjust_up_and_left: U = prev U (0,0,-1) turned about z
+        # stays; L = H x U = (-cos 0.5, sin 0.5, 0).
+        mv1 = "tropism: T: 1,0,0 E: 0.5\n"
+        check("tropism", run("F?H(9,9,9)?P(9,9,9)?L(9,9,9)?U(9,9,9)F?H(9,9,9)?P(9,9,9)", mv1),
+              "F?H(0.479426,0.877583,0)?P(0.479426,0.877583,0)?L(-0.877583,0.479426,0)"
+              "?U(0,0,-1)F?H(0.806845,0.590764,0)?P(1.28627,1.46835,0)")
+        # the label's words: `tropism: Tropism 1 0 0 Elasticity: 0.5` (each
+        # command by its first letter, numbers split by blanks, commas or
+        # colons) is the same line
+        check("tropism, other words",
+              run("F?H(9,9,9)", "tropism: Tropism 1 0 0 Elasticity: 0.5\n"),
+              "F?H(0.479426,0.877583,0)")
+        # T: 0,-1,0 A: 90 E: 1 (plagiotropism): cos 90 = 6.12323e-17, so
+        # gea.. = (0, -6.12323e-17, 0); sin 90 = 1, esin = 1. H = (0,1,0)
+        # is parallel to T (|H x T| = 0 < 1e-7): the left vector (-1,0,0)
+        # is the axis, T x L = (0,-0,-1), times esin / 1: des = (0,
+        # -6.12323e-17, -1); rot = H x des = (-1, 0, ~0), length 1 (the
+        # clamp): H turns 1 rad towards -z: H = (0, cos 1, -sin 1) =
+        # (0, 0.540302, -0.841471). adjust_up_and_left turns the previous
+        # U (0,0,-1) by the rotation from (0,1,0) to H (1 rad about -x):
+        # U = (0, -sin 1, -cos 1).
+        check("tropism, A: 90",
+              run("F?H(9,9,9)?U(9,9,9)", "tropism: T: 0,-1,0 A: 90 E: 1\n"),
+              "F?H(0,0.540302,-0.841471)?U(0,-0.841471,-0.540302)")
+        # torque T: 1,0,0 E: 0.5: twist dir (0.5,0,0), length 0.5; the
+        # tropism sum is 0 (no rotation of H). Twist: vec = H x (1,0,0) =
+        # (0,0,-1), des = vec x H = (1,0,0) * 0.5; rotate_to_vector(U,
+        # des): v = U x des = (0,-0.5,0), angle 0.25, q = (cos 0.25, sin
+        # 0.25 * (0,-1,0)): q^-1 U q turns U by 0.5 rad about +y: U =
+        # (-sin 0.5, 0, -cos 0.5) (away from des: cpfg's sign), L = H x U =
+        # (-cos 0.5, 0, sin 0.5); H and P as without it.
+        check("torque",
+              run("F?U(9,9,9)?L(9,9,9)?H(9,9,9)?P(9,9,9)", "torque: T: 1,0,0 E: 0.5\n"),
+              "F?U(-0.479426,0,-0.877583)?L(-0.877583,0,0.479426)?H(0,1,0)?P(0,1,0)")
+        # @Ts(1,0.3) in a branch: aux = 0.3f - 0 (the turtle's elasticity),
+        # gea = 0 + 1 * 0.3f * 1 = 0.3f: H turns by 0.3f rad: (sin 0.3f,
+        # cos 0.3f) = (0.29552, 0.9553364856), which the query stores as
+        # the float 0.9553365111 (%g 0.955337). At ]: 0 - 0.3f != 0, update by
+        # -0.3f: gea = 0 exactly, so after the branch F does not bend.
+        check("@Ts in a branch",
+              run("[@Ts(1,0.3)F?H(9,9,9)]F?H(9,9,9)", "tropism: T: 1,0,0\n"),
+              "[@Ts(1,0.3)F?H(0.29552,0.955337,0)]F?H(0,1,0)")
+        # @Ti(1): + S (0.25), H turns by 0.25: (sin 0.25, cos 0.25) =
+        # (0.247404, 0.968912); @Td(1): - 0.25, gea = 0, the next F keeps H.
+        # Without a parameter @Ti does nothing; index 2 is out of range
+        # (ignored); @Ti(1.9): (short)(1.9 - 1) = 0, movement 1.
+        mvs = "tropism: T: 1,0,0 S: 0.25\n"
+        check("@Ti @Td", run("@Ti(1)F?H(9,9)@Td(1)F?H(9,9)", mvs),
+              "@Ti(1)F?H(0.247404,0.968912)@Td(1)F?H(0.247404,0.968912)")
+        check("@Ti without a parameter, out of range",
+              run("@TiF?H(9,9)@Ti(2)F?H(9,9)", mvs), "@TiF?H(0,1)@Ti(2)F?H(0,1)")
+        check("@Ti(1.9)", run("@Ti(1.9)F?H(9,9)", mvs), "@Ti(1.9)F?H(0.247404,0.968912)")
+        # @Ti(1,0.5): the second parameter instead of S: H = (sin 0.5, ...)
+        check("@Ti(1,0.5)", run("@Ti(1,0.5)F?H(9,9)", mvs), "@Ti(1,0.5)F?H(0.479426,0.877583)")
+        # @Tp: adjust_up_and_left. &(90): H = (0, cos 90, -1), U = (0, -1,
+        # -cos 90); /(90) rolls U to (1, -cos, -cos^2). @Tp: the rotation
+        # from the previous heading (0,1,0) to H is -90 degrees about x;
+        # the previous U (0,0,-1) turned by it is (0,-1,~0): the roll is
+        # undone, L = H x U = (-1, ~0, ~0)
+        check("@Tp", run("&(90)/(90)?U(9,9)@Tp?U(9,9)?L(9)"),
+              "&(90)/(90)?U(1,-6.12323e-17)@Tp?U(0,-1)?L(-1)")
+        # @Tf sets the previous heading and up: @Tp after it changes nothing
+        check("@Tf", run("&(90)/(90)@Tf@Tp?U(9,9)"), "&(90)/(90)@Tf@Tp?U(1,-6.12323e-17)")
+        # @Tx(n): the texture only
+        check("@Tx(1)", run("@Tx(1)F?P(9,9)", mv1), run("F?P(9,9)", mv1).replace("F", "@Tx(1)F"))
+        # a line cpfg ignores (its first word `1` is no command): no movement
+        check("an ignored torque: line", run("F?H(9,9)", "torque: 1\n"), "F?H(0,1)")
+        # T: 0,10,0 I: 5: the clamp is on (1/|T|) * I = 0.5, not on I: dir
+        # = (0, 5, 0)... * 0.1 * 5 = (0,5*0.5,0)? no: dir * 0.5 = (0,5,0);
+        # with E: 0.1 gea.. = (0, 0.5, 0): parallel to H, no rotation; the
+        # vector is kept as cpfg reads it
+        tv = TurtleView()
+        vpath2 = os.path.join(tmp, "m.v")
+        with open(vpath2, "w") as f:
+            f.write("tropism: T: 0,10,0 I: 5 E: 0.1\ntropism: T: 0,1,0 I: 3\n"
+                    "tropism: E: 1 X\ntorque: E: 1\n")
+        tv = read_turtle_view(vpath2)
+        check("I: the clamp on 1/|T| times I",
+              [m.dir for m in tv.movements.slots[:3]] + [tv.movements.n],
+              # (0,10,0)/10*5; (0,1,0) * min(3, 1); the third line is
+              # ignored (X), the torque line in its slot keeps the dir the
+              # ignored line left there, times 0 (no T): (0, 1*0, 0)
+              [[0.0, 5.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0], 3])
+        # the global sums persist from one fill to the next: E: 0.1 and a
+        # top-level @Ti(1,0.7): gea = 0.1 + 0.7f = 0.799999988079071 after
+        # the first fill; the second fill's init updates by 0.1 - gea:
+        # gea = 0.799999988079071 + (0.1 - 0.799999988079071) =
+        # 0.09999999999999998, not 0.1
+        path = os.path.join(tmp, "a.l")
+        with open(path, "w") as f:
+            f.write("Lsystem: 1\nderivation length: 1\nAxiom: @Ti(1,0.7)?P(9)\nendlsystem\n")
+        with open(vpath2, "w") as f:
+            f.write("tropism: T: 1,0,0 E: 0.1\n")
+        ls, rt = load(path, view=vpath2)
+        qt = QueryTurtle(rt.turtle_view)
+        d = Deriver(ls, rt)
+        S = [("@", ()), ("T", ()), ("i", (1.0, f32(0.7))), ("?", ()), ("P", (9.0,))]
+        qt.fill(S, d)
+        check("the sums after a fill", qt.mv.ge[0], 0.1 + f32(0.7))
+        qt.fill([("?", ()), ("P", (9.0,))], d)
+        check("the sums persist", qt.mv.ge[0], 0.09999999999999998)
+        check("a new run starts afresh", QueryTurtle(rt.turtle_view).mv.ge[0], 0.1)
+        # a homomorphism with @T: followed (A as @Ti(1): H turns by 0.25)
+        check("@T in a homomorphism",
+              run("AF?H(9,9)", mvs, 1, "homomorphism\nA --> @Ti(1)\n", homomorphism=False),
+              "AF?H(0.247404,0.968912)")
+        # ... in its branch: the ] gives the elasticity back (gea 0)
+        check("@T in a homomorphism's branch",
+              run("AF?H(9,9)", mvs, 1, "homomorphism\nA --> [@Ti(1)F]\n", homomorphism=False),
+              "AF?H(0,1)")
         # refused
         for what, axiom, view, prods in [
                 ("?(1)", "?(1)F", "", ""), ("?E", "?E(1)", "", ""), ("?Q", "?Q(1,2,3,4)", "", ""),
@@ -3914,7 +4487,15 @@ def self_test_turtle():
                 ("@Gx", "?P(1)@Gx", "", ""), ("@G at the end", "?P(1)@G", "", ""),
                 ("@ at the end", "?P(1)@", "", ""),
                 ("tropism:", "?P(1)", "tropism: T1\n", ""),
-                ("torque:", "?P(1)", "torque: 1\n", ""),
+                ("tropism: a number missing (atof of NULL)", "?P(1)", "tropism: T: 1,0\n", ""),
+                # (with the newline, `E:\n` is E 0: atof("\n"))
+                ("torque: E at the file's end", "?P(1)", "torque: T: 1,0,0 E:", ""),
+                ("10 movements", "?P(1)", "tropism: T: 1,0,0\n" * 10, ""),
+                ("@T with parameters", "?P(1)@T(1)i", "", ""),
+                ("@T at the end", "?P(1)@T", "", ""), ("@Tq", "?P(1)@Tq", "", ""),
+                ("@Tx without a parameter", "?P(1)@Tx", "", ""),
+                ("homomorphism: @T's subfunction", "A@Ti(1)?P(1)", "",
+                 "homomorphism\nA --> [@Ti(1)]\ni(x) --> B\n"),
                 ("unmatched ]", "F]?P(1)", "", ""),
                 ("a bend past 1", "_(2)F?P(1)", "tropism direction: 1,0,0\n", ""),
                 ("?X made by a step", "?P(1)", "", "P(x) --> X\n")]:
