@@ -4347,6 +4347,14 @@ def self_test_turtle():
         check("tropism", run("F?H(9,9,9)?P(9,9,9)?L(9,9,9)?U(9,9,9)F?H(9,9,9)?P(9,9,9)", mv1),
               "F?H(0.479426,0.877583,0)?P(0.479426,0.877583,0)?L(-0.877583,0.479426,0)"
               "?U(0,0,-1)F?H(0.806845,0.590764,0)?P(1.28627,1.46835,0)")
+        # a roll is undone by the next F's adjust_up_and_left: after F, H =
+        # (sin 0.5, cos 0.5, 0), U = (0,0,-1) = prev U; /(90): U' = cos 90 U
+        # - L = (cos 0.5, -sin 0.5, -6.12323e-17). The second F turns H
+        # about z (rot = H x (0.5,0,0) is along -z): U = the previous U
+        # (0,0,-1) turned about z, (0,0,-1), the roll lost
+        check("a roll undone by the tropism",
+              run("F/(90)?U(9,9,9)F?U(9,9,9)", mv1),
+              "F/(90)?U(0.877583,-0.479426,-6.12323e-17)F?U(0,0,-1)")
         # the label's words: `tropism: Tropism 1 0 0 Elasticity: 0.5` (each
         # command by its first letter, numbers split by blanks, commas or
         # colons) is the same line
@@ -4402,6 +4410,13 @@ def self_test_turtle():
         # undone, L = H x U = (-1, ~0, ~0)
         check("@Tp", run("&(90)/(90)?U(9,9)@Tp?U(9,9)?L(9)"),
               "&(90)/(90)?U(1,-6.12323e-17)@Tp?U(0,-1)?L(-1)")
+        # F sets the previous heading and up (here H = (0, cos 90, -1), U =
+        # (0, -1, -cos 90) after &(90)), f does not: after F, @Tp finds H
+        # = prev H (|H x prev H| = 0) and keeps the rolled U; after f the
+        # previous ones are still the start's, and the roll is undone as above
+        check("F sets prev, f does not",
+              run("&(90)F/(90)@Tp?U(9,9)"), "&(90)F/(90)@Tp?U(1,-6.12323e-17)")
+        check("f does not set prev", run("&(90)f/(90)@Tp?U(9,9)"), "&(90)f/(90)@Tp?U(0,-1)")
         # @Tf sets the previous heading and up: @Tp after it changes nothing
         check("@Tf", run("&(90)/(90)@Tf@Tp?U(9,9)"), "&(90)/(90)@Tf@Tp?U(1,-6.12323e-17)")
         # @Tx(n): the texture only
