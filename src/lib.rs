@@ -66,6 +66,8 @@ pub(crate) mod turtle {
     #[allow(dead_code)]
     pub mod cpfg_view;
     #[allow(dead_code)]
+    pub mod movements;
+    #[allow(dead_code)]
     pub mod state;
     #[allow(dead_code)]
     pub mod view;

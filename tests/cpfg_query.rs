@@ -255,6 +255,62 @@ fn a_moving_homomorphism_reads_the_globals_after_end_each() {
     }
 }
 
+/// cpfg's movements (the view's `tropism:` and `torque:` lines,
+/// `movements.c`): before each move, all tropisms together turn H about
+/// H × V by half |H × V| (V the elasticity times T), then U follows H's
+/// turn since the last move (`adjust_up_and_left`), L = H × U; a torque
+/// turns U about U × D by half |U × D| (D: the twist's direction,
+/// projected across H, times its elasticity). cpfg turns a vector v by a
+/// quaternion q as q⁻¹ v q, the opposite way of q v q⁻¹: the tropism's
+/// half angle is negative, so H turns towards T; the torque's is not, so
+/// U turns away from D. s = sin 0.5 = 0.479426, c = cos 0.5 = 0.877583.
+#[test]
+fn cpfg_movements_turn_the_turtle_before_each_move() {
+    let check = |axiom: &str, v: &str, want: &str| {
+        let l = system(0, axiom, "");
+        assert_eq!(ok(&l, v, &["-n", "0"]), format!("{want}\n"), "{v}");
+    };
+    // T = (1,0,0), E = 0.5: H × V = (0,0,-0.5), H turns by 0.5 towards
+    // +x: (s, c, 0); U, turned about H × H_prev = (0,0,s), stays; L =
+    // (-c, s, 0). Then F moves along the new H.
+    check(
+        "F?H(0,0,0)?L(0,0,0)?U(0,0,0)?P(0,0,0)",
+        "tropism: T: 1,0,0 E: 0.5\n",
+        "F?H(0.479426,0.877583,0)?L(-0.877583,0.479426,0)?U(0,0,-1)?P(0.479426,0.877583,0)",
+    );
+    // `@Ts(1,0.5)` sets the first movement's elasticity in the branch;
+    // its `]` gives the view's (0) back: the F after it goes straight.
+    check(
+        "[@Ts(1,0.5)F?H(0,0,0)]F?H(0,0,0)",
+        "tropism: T: 1,0,0\n",
+        "[@Ts(1,0.5)F?H(0.479426,0.877583,0)]F?H(0,1,0)",
+    );
+    // `A:90` (plagiotropism) along H: H × T = 0, so cpfg turns about L:
+    // V = 0.5 · T × L = (0,0,0.5) (plus cos 90° · 0.5 · T, about 3e-17 in
+    // y), H × V = (0.5,0,0): H turns to (0, c, s), U about (-s,0,0) to
+    // (0, s, -c), L = (-1, 0, 0).
+    check(
+        "F?H(0,0,0)?L(0,0,0)?U(0,0,0)",
+        "tropism: T: 0,1,0 A:90 E: 0.5\n",
+        "F?H(0,0.877583,0.479426)?L(-1,0,0)?U(0,0.479426,-0.877583)",
+    );
+    // A torque of T = (1,0,0), E = 0.2: D = (H × T) × H · 0.2 =
+    // (0.2,0,0), U × D = (0,-0.2,0): U turns by 0.2 about +y (away from
+    // D), to (-sin 0.2, 0, -cos 0.2); H stays.
+    check(
+        "F?H(0,0,0)?L(0,0,0)?U(0,0,0)",
+        "torque: T: 1,0,0 E: 0.2\n",
+        "F?H(0,1,0)?L(-0.980067,0,0.198669)?U(-0.198669,0,-0.980067)",
+    );
+    // `@Ti(1)` adds the increment (`S:`), `@Td(1)` takes it away again;
+    // `@Ti` without a parameter does nothing (cpfg); `f` turns as `F`.
+    check(
+        "@Ti(1)@Ti@Td(1)@Ti(1)f?H(0,0,0)",
+        "tropism: T: 1,0,0 S: 0.5\n",
+        "@Ti(1)@Ti@Td(1)@Ti(1)f?H(0.479426,0.877583,0)",
+    );
+}
+
 /// cpfg fills the saved string's queries when it works out the view
 /// volume around it, which a view file's `box:` turns off; then only
 /// `environment display: before` (a fill after each step) does. The
@@ -436,15 +492,20 @@ fn refused() {
         check(&hom, Some(&v), want);
     }
     // View files the query turtle refuses (name, text, axiom, message):
-    // cpfg's movements; a bend by a sine past 1 (at run time, not NaN); an
+    // ten of cpfg's movements; a bend by a sine past 1 (at run time, not NaN); an
     // argument cpfg cannot read (vlab has `angle increment: ?` in an
     // exercise: cpfg warns), where the turtle needs it.
     for (name, text, axiom, want) in [
         (
             "moving.v",
-            "angle factor: 8\ntropism: T: 1,0,0\n",
+            "angle factor: 8\ntropism: T: 1,0,0\ntropism: T: 0 0 0\n\
+             torque: T: 1,0,0\ntropism: T: 1,0,0\ntorque: T: 1,0,0\n\
+             tropism: T: 1,0,0\ntorque: T: 1,0,0\ntropism: T: 1,0,0\n\
+             torque: T: 1,0,0\ntropism: T: 1,0,0\ntorque: T: 1,0,0\n",
             "A?P(0,0)",
-            "moving.v:2:1: error: `tropism:` (cpfg's movements",
+            // (Ten movements, the line cpfg ignores not counted: the
+            // tenth is on line 12.)
+            "moving.v:12:1: error: a `torque:` line that is a tenth movement",
         ),
         (
             "bent.v",

@@ -1,4 +1,4 @@
-//! The differential test of the cpfg dialect: 1050 random `.l` systems
+//! The differential test of the cpfg dialect: 1080 random `.l` systems
 //! (every feature of the dialect mixed, see tests/tools/gen_cpfg_cases.py;
 //! cases 301-400 also assign `Q` and `Z` in blocks and try productions at
 //! the decomposition's and the homomorphism's depth limit, and 401-500
@@ -28,7 +28,8 @@
 //! `@Ge(2)`, `@Gt`, `@Gr` in successors), and 1021-1050 with a
 //! homomorphism that moves the turtle (moves outside its successors'
 //! brackets, sometimes a production for a move of the string), which the
-//! turtle follows,
+//! turtle follows, and 1051-1080 with cpfg's movements (`tropism:` and
+//! `torque:` lines in the view, `@Ts`, `@Ti`, `@Td`, `@Tp`, `@Tf`),
 //! derived by the independent reference tests/tools/cpfg_ref.py; lsgen must
 //! print the same string for each. Every other case runs with
 //! `LSGEN_TEST_SPLIT=1`: splits in tasks of one module or byte where a
@@ -121,7 +122,7 @@ fn random_cases_match_cpfg_ref() {
         }
         cases += 1;
     }
-    assert_eq!(cases, 1050);
+    assert_eq!(cases, 1080);
     assert!(
         failures.is_empty(),
         "{} of {cases} cases differ from cpfg_ref.py:\n{}",

@@ -1426,6 +1426,43 @@ mod cpfg_files {
         );
     }
 
+    /// cpfg's movements (`tropism:`, `torque:`, `@T`), worked out by hand
+    /// in tests/cpfg_query.rs (`cpfg_movements_turn_the_turtle_before_each_move`):
+    /// a tropism of T = (1,0,0), E = 0.5 turns H by 0.5 rad towards +x
+    /// before the move, s = sin 0.5, c = cos 0.5.
+    #[test]
+    fn cpfg_movements_turn_before_each_move() {
+        let dir = tempfile::tempdir().unwrap();
+        let (s, c) = 0.5f64.sin_cos();
+        let v = write(dir.path(), "m.v", b"tropism: T: 1,0,0 E: 0.5\n");
+        let got = text(ok(&turtle(&["--cpfg-view", &v, "-f", "segments"], b"F")));
+        same_segments(&got, &format!("0 0 0 {s} {c} 0 1 128\n"), "tropism");
+        // `@Ts(1,0.5)` in a branch; its `]` gives the elasticity back (0).
+        let v = write(dir.path(), "m.v", b"tropism: T: 1,0,0\n");
+        let got = text(ok(&turtle(
+            &["--cpfg-view", &v, "-f", "segments"],
+            b"[@Ts(1,0.5)F]F",
+        )));
+        same_segments(
+            &got,
+            &format!("0 0 0 {s} {c} 0 1 128\n0 0 0 0 1 0 1 128\n"),
+            "@Ts in a branch",
+        );
+        // A line cpfg ignores (a zero direction) is a warning, and draws
+        // nothing.
+        let v = write(dir.path(), "m.v", b"tropism: T: 0,0,0 E: 1\n");
+        let r = turtle(&["--cpfg-view", &v, "-f", "segments"], b"F");
+        assert!(r.status.success(), "{}", r.stderr);
+        same_segments(&text(r.stdout.clone()), "0 0 0 0 1 0 1 128\n", "ignored");
+        let e = &r.stderr;
+        assert!(
+            e.contains(
+                "warning: `tropism:` ignored: cpfg ignores a movement with a direction of length 0"
+            ),
+            "{e}"
+        );
+    }
+
     #[test]
     fn cpfg_bend_at_a_right_angle_and_tiny_tropisms() {
         let dir = tempfile::tempdir().unwrap();

@@ -18,11 +18,14 @@
 //! those cpfg writes to the last bit a float keeps. What it follows:
 //! `F` `G` `f` `g` (moves, then cpfg's tropism bend), `+` `-` `&` `^` `/`
 //! `\` `|` (turns), `[` `]`, `_` (elasticity), `%` (with `interpretation
-//! past %: off`, the rest of the branch is skipped), `@v` and `@M`. Every
+//! past %: off`, the rest of the branch is skipped), `@v` and `@M`, and
+//! cpfg's movements (the view's `tropism:` and `torque:`, `@T`:
+//! `crate::turtle::movements`, whose sums go on from one fill to the
+//! next, as cpfg's from one interpretation to the next). Every
 //! other module leaves the turtle as it is; what would move it in cpfg
-//! and is not followed here (`~`, other `@` modules, the view file's
-//! `tropism:` and `torque:`) is refused when the file is loaded
-//! (`check`), or where the turtle meets it in an axiom given apart.
+//! and is not followed here (`~`, other `@` modules, ten movements) is
+//! refused when the file is loaded (`check`), or where the turtle meets
+//! it in an axiom given apart.
 //!
 //! cpfg's turtle reads the string through the homomorphism: each module
 //! is replaced by its homomorphism successor, whose modules go through
@@ -46,6 +49,7 @@ use crate::diag::{Error, Refused, RuntimeError};
 use crate::lang::lexer::Span;
 use crate::rules::{codec, Alphabet};
 use crate::turtle::cpfg_view::CpfgTurtle;
+use crate::turtle::movements::{Frame, Movements};
 use crate::turtle::state::{bend_cpfg, cross, dot, turn, V3};
 use std::fs::File;
 use std::os::unix::fs::FileExt;
@@ -67,6 +71,9 @@ pub struct QueryTurtle {
     /// The homomorphism can move the turtle: each generation is filled
     /// through its image ([`fill_through`]).
     pub through: bool,
+    /// cpfg's movements of the view file, as it reads them: each run
+    /// takes a copy of its own ([`QueryTurtle::movements`]).
+    movements: Option<Movements>,
 }
 
 /// Degrees to radians as cpfg's `D_TO_R` computes it (times pi, then
@@ -77,6 +84,12 @@ fn radians(deg: f64) -> f64 {
 }
 
 impl QueryTurtle {
+    /// A run's movements (the view's, their sums as cpfg makes them when
+    /// it reads the view), to go from fill to fill: None without any.
+    pub fn movements(&self) -> Option<Movements> {
+        self.movements.clone()
+    }
+
     pub fn new(v: &CpfgTurtle) -> QueryTurtle {
         let a = radians(f64::from(v.angle));
         // cpfg: `temp_length = sqrt(x*x + y*y + z*z)` with float x, y, z
@@ -94,6 +107,10 @@ impl QueryTurtle {
             past_cut: v.past_cut,
             fills_last: v.fills_last,
             through: false,
+            // (Ten are refused by `check` first.)
+            movements: (!v.movements.is_empty())
+                .then(|| Movements::new(v.movements.clone()).ok())
+                .flatten(),
         }
     }
 }
@@ -104,6 +121,10 @@ struct State {
     h: V3,
     l: V3,
     u: V3,
+    /// cpfg's `prev_heading` and `prev_up`: the frame at the last `F` or
+    /// `G` (for its movements, `crate::turtle::movements`).
+    prev_h: V3,
+    prev_u: V3,
     e: f32,
 }
 
@@ -131,17 +152,31 @@ pub enum QueryFault {
 }
 
 /// The deepest nesting of branches the turtle follows (as lsgen-turtle's):
-/// a state of 104 bytes for each open branch, 104 MiB at most.
+/// a state of 152 bytes for each open branch, and 8 more for each of cpfg's
+/// movements: 224 MiB at most.
 pub const MAX_DEPTH: usize = crate::turtle::state::MAX_DEPTH;
 
 struct Walker<'q> {
     q: &'q QueryTurtle,
     s: State,
     stack: Vec<State>,
+    /// cpfg's movements, if the view has any, and the turtle's own
+    /// elasticity of each; `saved`: those of the open branches.
+    mv: Option<&'q mut Movements>,
+    own: Vec<f64>,
+    saved: Vec<f64>,
 }
 
-impl Walker<'_> {
-    fn new(q: &QueryTurtle) -> Walker<'_> {
+impl<'q> Walker<'q> {
+    /// The turtle at the start of an interpretation; cpfg's movements
+    /// (`mv`, the run's: their sums go on from one interpretation to the
+    /// next) start again from the view's elasticities.
+    fn new(q: &'q QueryTurtle, mut mv: Option<&'q mut Movements>) -> Walker<'q> {
+        let mut own = Vec::new();
+        if let Some(m) = mv.as_deref_mut() {
+            own.resize(m.len(), 0.0);
+            m.start(&mut own);
+        }
         Walker {
             q,
             s: State {
@@ -149,10 +184,32 @@ impl Walker<'_> {
                 h: [0.0, 1.0, 0.0],
                 l: [-1.0, 0.0, 0.0],
                 u: [0.0, 0.0, -1.0],
+                prev_h: [0.0, 1.0, 0.0],
+                prev_u: [0.0, 0.0, -1.0],
                 e: q.elasticity,
             },
             stack: Vec::new(),
+            mv,
+            own,
+            saved: Vec::new(),
         }
+    }
+
+    /// The frame the movements turn, and back.
+    fn frame(&self) -> Frame {
+        let s = &self.s;
+        Frame {
+            h: s.h,
+            l: s.l,
+            u: s.u,
+            prev_h: s.prev_h,
+            prev_u: s.prev_u,
+        }
+    }
+
+    fn set_frame(&mut self, f: Frame) {
+        let s = &mut self.s;
+        (s.h, s.l, s.u, s.prev_h, s.prev_u) = (f.h, f.l, f.u, f.prev_h, f.prev_u);
     }
 
     fn sin_cos(&self, p: &[f64]) -> (f64, f64) {
@@ -181,6 +238,13 @@ impl Walker<'_> {
         let st = &mut self.s;
         match sym {
             'F' | 'G' | 'f' | 'g' => {
+                // cpfg's movements turn the turtle before the move.
+                if let Some(m) = &self.mv {
+                    let mut f = self.frame();
+                    m.adjust(&mut f);
+                    self.set_frame(f);
+                }
+                let st = &mut self.s;
                 // cpfg: `internodeLength` is a float, the parameter (or
                 // the step size, 1) times the turtle's scale.
                 let d = p.first().map_or(1.0, |&x| x as f32) * self.q.scale;
@@ -189,6 +253,10 @@ impl Walker<'_> {
                 st.pos[1] += d * st.h[1];
                 st.pos[2] += d * st.h[2];
                 self.bend()?;
+                if matches!(sym, 'F' | 'G') {
+                    let st = &mut self.s;
+                    (st.prev_h, st.prev_u) = (st.h, st.u);
+                }
             }
             '+' | '-' | '&' | '^' | '/' | '\\' | '|' => {
                 let (s, c) = self.sin_cos(p);
@@ -200,11 +268,20 @@ impl Walker<'_> {
                     return Err(QueryFault::TooDeep);
                 }
                 self.stack.push(self.s);
+                self.saved.extend_from_slice(&self.own);
             }
             // (An unmatched `]`: the engine reports the string's balance.)
             ']' => {
                 if let Some(s) = self.stack.pop() {
                     self.s = s;
+                    // cpfg: the sums change by what the elasticities
+                    // were at the `[`.
+                    let at = self.saved.len() - self.own.len();
+                    if let Some(m) = self.mv.as_deref_mut() {
+                        m.restore(&self.own, &self.saved[at..]);
+                    }
+                    self.own.copy_from_slice(&self.saved[at..]);
+                    self.saved.truncate(at);
                 }
             }
             '_' => {
@@ -214,6 +291,24 @@ impl Walker<'_> {
                 }
             }
             _ => {}
+        }
+        Ok(())
+    }
+
+    /// `@T` followed by the subfunction `sub(p)`: cpfg's movements.
+    fn at_t(&mut self, sub: char, p: &[f64]) -> Result<(), QueryFault> {
+        if let Some(m) = self.mv.as_deref_mut() {
+            let mut f = Frame {
+                h: self.s.h,
+                l: self.s.l,
+                u: self.s.u,
+                prev_h: self.s.prev_h,
+                prev_u: self.s.prev_u,
+            };
+            m.at_t(sub, p, &mut self.own, &mut f).map_err(|()| {
+                QueryFault::NotFollowed("`@T` with a movement number past a C `short`")
+            })?;
+            self.set_frame(f);
         }
         Ok(())
     }
@@ -277,7 +372,7 @@ enum Reading {
 /// values over its module's parameters. `generation`: its number, for
 /// errors.
 pub fn fill(
-    q: &QueryTurtle,
+    (q, mv): (&QueryTurtle, Option<&mut Movements>),
     file: &File,
     al: &Alphabet,
     flags: (bool, bool),
@@ -285,11 +380,18 @@ pub fn fill(
 ) -> Result<(), Error> {
     let fault = |fault| Error::new(RuntimeError::Query { fault, generation });
     let mut patch = Vec::with_capacity(24);
-    walk(q, file, al, flags, generation, &mut |m| match m.what {
-        Reading::Vector(v) => write_vector(file, &mut patch, (m.params, m.n), v, &fault),
-        Reading::Skipped => Ok(()),
-        Reading::NotAQuery => Err(fault(QueryFault::NotAQuery(Some(m.sym)))),
-    })
+    walk(
+        (q, mv),
+        file,
+        al,
+        flags,
+        generation,
+        &mut |m| match m.what {
+            Reading::Vector(v) => write_vector(file, &mut patch, (m.params, m.n), v, &fault),
+            Reading::Skipped => Ok(()),
+            Reading::NotAQuery => Err(fault(QueryFault::NotAQuery(Some(m.sym)))),
+        },
+    )
 }
 
 /// [`fill`] where the homomorphism can move the turtle (`through`): cpfg's
@@ -303,7 +405,7 @@ pub fn fill(
 /// not through the homomorphism: a string that has one of those there
 /// (an axiom given apart) is refused.
 pub fn fill_through(
-    q: &QueryTurtle,
+    (q, mv): (&QueryTurtle, Option<&mut Movements>),
     (file, image): (&File, &File),
     al: &Alphabet,
     flags: (bool, bool),
@@ -317,7 +419,7 @@ pub fn fill_through(
         rewritten,
     };
     let mut patch = Vec::with_capacity(24);
-    walk(q, image, al, flags, generation, &mut |m| {
+    walk((q, mv), image, al, flags, generation, &mut |m| {
         let Some(g) = queries.next().map_err(|e| match e {
             Next::Io(e) => read_error(e),
             Next::Rewritten(sym) => fault(QueryFault::ReadPastHomomorphism(sym)),
@@ -363,7 +465,7 @@ fn write_vector(
 /// Interpret the generation in `file` from its start with cpfg's turtle,
 /// telling `on` each query it meets, in string order, skipped ones too.
 fn walk(
-    q: &QueryTurtle,
+    (q, mv): (&QueryTurtle, Option<&mut Movements>),
     file: &File,
     al: &Alphabet,
     (indexed, counts): (bool, bool),
@@ -372,7 +474,7 @@ fn walk(
 ) -> Result<(), Error> {
     let fault = |fault| Error::new(RuntimeError::Query { fault, generation });
     let mut r = crate::derive::reader::PosReader::new(file, 1 << 16, indexed).with_counts(counts);
-    let mut w = Walker::new(q);
+    let mut w = Walker::new(q, mv);
     let mut params = [0.0f64; 255];
     // The module before was `?` (and it was skipped); where an `@`
     // command is.
@@ -446,6 +548,7 @@ fn walk(
         match follow.next(sym, n) {
             Err(u) => return Err(fault(QueryFault::NotFollowed(u.at_run()))),
             Ok(Role::At(f)) => w.at_module(f, p),
+            Ok(Role::AtT(f)) => w.at_t(f, p).map_err(fault)?,
             Ok(Role::Part) => {}
             Ok(Role::Turtle) => match sym {
                 '?' => ask = Some(false),
@@ -517,7 +620,7 @@ impl Queries<'_> {
                 if (self.rewritten)(key) {
                     return Err(Next::Rewritten(sym));
                 }
-                after = if after == 1 && sym == 'G' && n == 0 {
+                after = if after == 1 && matches!(sym, 'G' | 'T') && n == 0 {
                     2
                 } else {
                     0
@@ -624,8 +727,8 @@ pub(crate) fn check(
             check_list(list).map_err(|(m, r)| CheckError::At(at(m), r))?;
         }
     }
-    if let Some((label, at)) = &view.movements {
-        let r = Refused::QueryMovements(label.clone());
+    if let Some((label, at, why)) = &view.movements_refused {
+        let r = Refused::QueryMovements(label.clone(), why);
         return Err(CheckError::View(at.clone(), r));
     }
     if let Some((label, at)) = &view.angle_past {
@@ -650,13 +753,15 @@ pub(crate) enum CheckError {
 
 /// What the query turtle makes of a module of a list, given the modules
 /// before it: cpfg's `@` reads the module after it as its function, and
-/// `@G` one more (generalized cylinders, whose subfunctions `s c e t r`
-/// set the spline's state, never the turtle's place: `blackbox.c`,
-/// `general.c`). One rule for the file's lists when it is loaded
-/// ([`check_list`]) and for the strings the turtle reads ([`fill`]).
+/// `@G` and `@T` one more (`blackbox.c`): `@G`'s subfunctions `s c e t r`
+/// (generalized cylinders, `general.c`) set the spline's state, never the
+/// turtle's place; `@T`'s `i d s p f` change cpfg's movements
+/// (`crate::turtle::movements`), `x` a texture. One rule for the file's
+/// lists when it is loaded ([`check_list`]) and for the strings the turtle
+/// reads ([`fill`]).
 #[derive(Default)]
 struct Follow {
-    /// After `@` (1) or `@G` (2).
+    /// After `@` (1), `@G` (2) or `@T` (3).
     after: u8,
 }
 
@@ -666,6 +771,9 @@ enum Role {
     Turtle,
     /// The function of an `@` command (`o O c v M`).
     At(char),
+    /// The subfunction of an `@T` command (`i d s p f x`: cpfg's
+    /// movements).
+    AtT(char),
     /// Read as part of an `@` command, not interpreted.
     Part,
 }
@@ -677,6 +785,10 @@ enum Unfollowed {
     At(char),
     /// An `@G` subfunction but `s c e t r`.
     AtG(char),
+    /// An `@T` subfunction but `i d s p f x`, or `x` without a parameter.
+    AtT(char),
+    /// `@T` with parameters.
+    AtTParams,
     /// `~`, a surface.
     Surface,
     /// `s(x,y[,z])`, cpfg's older position query.
@@ -693,6 +805,8 @@ impl Unfollowed {
         match self {
             Unfollowed::At(c) => format!("`@{c}`"),
             Unfollowed::AtG(c) => format!("`@G{c}`"),
+            Unfollowed::AtT(c) => format!("`@T{c}`"),
+            Unfollowed::AtTParams => "`@T` with parameters".into(),
             Unfollowed::Surface => "`~` (a surface)".into(),
             Unfollowed::OldQuery => {
                 "`s` with 2 or 3 parameters (cpfg's older position query)".into()
@@ -707,6 +821,8 @@ impl Unfollowed {
         match self {
             Unfollowed::At(_) => "an `@` module",
             Unfollowed::AtG(_) => "an `@G` module",
+            Unfollowed::AtT(_) => "an `@T` module",
+            Unfollowed::AtTParams => "`@T` with parameters",
             Unfollowed::Surface => "`~` (a surface)",
             Unfollowed::OldQuery => "`s` with 2 or 3 parameters",
             Unfollowed::CutWithParams => "`%` with parameters",
@@ -725,10 +841,22 @@ impl Follow {
                     self.after = 2;
                     Ok(Role::Part)
                 }
+                'T' if n == 0 => {
+                    self.after = 3;
+                    Ok(Role::Part)
+                }
+                // (cpfg: `@T` with a parameter reads no subfunction and
+                // goes on from the `T` as a module of its own.)
+                'T' => Err(Unfollowed::AtTParams),
                 _ => Err(Unfollowed::At(sym)),
             },
             2 if matches!(sym, 's' | 'c' | 'e' | 't' | 'r') => Ok(Role::Part),
             2 => Err(Unfollowed::AtG(sym)),
+            // (`@Tx` without a parameter: cpfg goes on from the `T`.)
+            3 if matches!(sym, 'i' | 'd' | 's' | 'p' | 'f') || (sym == 'x' && n > 0) => {
+                Ok(Role::AtT(sym))
+            }
+            3 => Err(Unfollowed::AtT(sym)),
             _ => match sym {
                 '~' => Err(Unfollowed::Surface),
                 's' if n == 2 || n == 3 => Err(Unfollowed::OldQuery),
@@ -767,7 +895,15 @@ fn check_list(list: impl Iterator<Item = Item>) -> Result<(), (Item, Refused)> {
             Err(u) => {
                 return Err((
                     command
-                        .filter(|_| matches!(u, Unfollowed::At(_) | Unfollowed::AtG(_)))
+                        .filter(|_| {
+                            matches!(
+                                u,
+                                Unfollowed::At(_)
+                                    | Unfollowed::AtG(_)
+                                    | Unfollowed::AtT(_)
+                                    | Unfollowed::AtTParams
+                            )
+                        })
                         .unwrap_or(m),
                     not(u.in_file()),
                 ))
@@ -874,6 +1010,15 @@ fn homomorphism_refused(p: &Production) -> Option<(Span, String)> {
 /// replaces, or its successor outside its own branches (a `]` gives the
 /// whole turtle back) has a module that does.
 fn homomorphism_moves(p: &Production) -> bool {
+    // (`@T` changes cpfg's movements, whose sums a `]` gives back by a
+    // difference, not exactly: in a branch too.)
+    let at_t = p
+        .succ
+        .windows(2)
+        .any(|w| w[0].sym == '@' && w[1].sym == 'T');
+    if at_t {
+        return true;
+    }
     let mut depth = 0usize;
     let succ = p.succ.iter().any(|m| {
         match m.sym {
@@ -902,8 +1047,8 @@ fn read_past(tree: &Lsystem) -> (Vec<char>, Vec<char>) {
                 if a == '?' && !queried.contains(&sym) {
                     queried.push(sym);
                 }
-                if a == '@' && sym == 'G' && n == 0 {
-                    after = Some('G');
+                if a == '@' && matches!(sym, 'G' | 'T') && n == 0 {
+                    after = Some(sym);
                 }
             } else if n == 0 && matches!(sym, '?' | '@') {
                 after = Some(sym);

@@ -259,7 +259,10 @@ fn fill_queries(
 ) -> Result<(), Error> {
     let flags = (indexed, d.counts);
     if !q.through {
-        return crate::cpfg::query::fill(q, gen, &d.alphabet, flags, generation);
+        let mut mv = d.query_movements.take();
+        let r = crate::cpfg::query::fill((q, mv.as_mut()), gen, &d.alphabet, flags, generation);
+        d.query_movements = mv;
+        return r;
     }
     let mut image = Some(generation_file(tmpdir)?);
     {
@@ -290,7 +293,17 @@ fn fill_queries(
         }
     }
     let rewritten = |k: u32| rewritten.get(k as usize).copied().unwrap_or(false);
-    crate::cpfg::query::fill_through(q, (gen, &image), &d.alphabet, flags, &rewritten, generation)
+    let mut mv = d.query_movements.take();
+    let r = crate::cpfg::query::fill_through(
+        (q, mv.as_mut()),
+        (gen, &image),
+        &d.alphabet,
+        flags,
+        &rewritten,
+        generation,
+    );
+    d.query_movements = mv;
+    r
 }
 
 /// The sink for a generation: the temp file `dst` (binary, with a bracket
@@ -473,6 +486,7 @@ pub(crate) fn derive(
         },
     );
     d.cpfg_contexts = cpfg.is_some();
+    d.query_movements = queries.as_ref().and_then(|q| q.movements());
     let is_cpfg = cpfg.is_some();
     // Blocks run every step (header blocks) or where a production is
     // tried (a production's): no fixed point.

@@ -43,6 +43,9 @@ pub struct Deriver<'a> {
     /// depth 1 also where nothing rewrites them there, so that the
     /// productions are tried as cpfg tries them.
     pub hom_tries: bool,
+    /// cpfg's movements of the query turtle over this run: their sums go
+    /// on from one fill to the next (`crate::turtle::movements`).
+    pub query_movements: Option<crate::turtle::movements::Movements>,
     /// A `.l` file's decomposition whose tries have effects: its
     /// productions are tried at the depth limit also when no warning is
     /// due.
@@ -547,6 +550,7 @@ impl<'a> Deriver<'a> {
             decomp: None,
             hom_depth: 1,
             hom_tries: false,
+            query_movements: None,
             decomp_tries: false,
             cut: false,
             counts: false,

@@ -36,9 +36,10 @@ pub enum Refused {
     /// What a system with queries has that lsgen's query turtle does not
     /// follow (as the message names it).
     QueryNotFollowed(String),
-    /// The view file's `tropism:` or `torque:` (the label) in a system
-    /// with queries.
-    QueryMovements(String),
+    /// A `tropism:` or `torque:` line of the view file (the label) that
+    /// cpfg cannot take (why), in a system with queries: a tenth (cpfg
+    /// reads past its table), or one it crashes on.
+    QueryMovements(String, &'static str),
     /// The view file's angle (the label) is past the largest float, in a
     /// system with queries.
     QueryAngle(String),
@@ -101,9 +102,9 @@ impl fmt::Display for Refused {
                 f,
                 "{what} in a system with turtle queries (`?P`, `?H`, `?L`, `?U`) is not supported: it moves cpfg's turtle, and lsgen's query turtle does not follow it"
             ),
-            QueryMovements(label) => write!(
+            QueryMovements(label, why) => write!(
                 f,
-                "`{label}` (cpfg's movements, which turn its turtle after each move) is not supported with turtle queries (`?P`, `?H`, `?L`, `?U`): lsgen's query turtle does not follow them"
+                "a `{label}` line that {why} is not supported with turtle queries (`?P`, `?H`, `?L`, `?U`)"
             ),
             QueryAngle(label) => write!(
                 f,

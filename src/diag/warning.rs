@@ -64,6 +64,14 @@ pub enum WarningKind {
     /// lsgen-turtle: a cpfg view-file label that changes cpfg's picture
     /// but not lsgen-turtle's, and why.
     CpfgViewNotDrawn { label: String, why: &'static str },
+    /// A cpfg view file's `tropism:` or `torque:` line that cpfg ignores
+    /// (the label, and what the line has), or crashes on (`crash`: what
+    /// the line does).
+    CpfgMovementIgnored {
+        label: String,
+        why: &'static str,
+        crash: bool,
+    },
     /// A library derivation: cpfg `printf` text held in a temporary file
     /// could not be read back (why).
     PrintfLost(String),
@@ -132,6 +140,13 @@ impl fmt::Display for WarningKind {
                 "`{label}` is no label of cpfg's view files (as cpfg, lsgen-turtle skips the line)"
             ),
             CpfgViewNotDrawn { label, why } => write!(f, "`{label}` ignored: {why}"),
+            CpfgMovementIgnored { label, why, crash } => {
+                if *crash {
+                    write!(f, "`{label}` ignored: cpfg crashes on a movement line that {why}")
+                } else {
+                    write!(f, "`{label}` ignored: cpfg ignores a movement with {why}")
+                }
+            }
             PrintfHeld(why) => write!(
                 f,
                 "text that cpfg's `printf` prints past 1 MiB in a step is held in memory: no temporary file could take it ({why})"

@@ -93,14 +93,6 @@ const PASSED: &[&str] = &[
 /// lsgen-turtle's picture differs.
 const GEOMETRY: &[(&str, &str)] = &[
     (
-        "tropism:",
-        "cpfg's tropisms of several vectors are not drawn (only `tropism direction:` with `initial elasticity:`)",
-    ),
-    (
-        "torque:",
-        "cpfg's torque is not drawn",
-    ),
-    (
         "initial scale:",
         "cpfg's turtle scale is not drawn (lengths and the widths of `!` and `#` are not multiplied by it)",
     ),
@@ -134,9 +126,14 @@ pub struct CpfgTurtle {
     /// `interpretation past %:` (cpfg's default `on`); `off`: the turtle
     /// skips the rest of a branch after a `%`.
     pub past_cut: bool,
-    /// The first `tropism:` or `torque:` label (cpfg's movements, which
-    /// turn the turtle after each move) and where it is.
-    pub movements: Option<(String, crate::diag::Location)>,
+    /// cpfg's movements: the `tropism:` and `torque:` lines cpfg keeps
+    /// (`crate::turtle::movements`), which turn its turtle before each
+    /// move.
+    pub movements: Vec<super::movements::Movement>,
+    /// The label and place of a movement line cpfg cannot take, and why:
+    /// a tenth (with ten, cpfg reads past its table), or one cpfg crashes
+    /// on (refused with queries).
+    pub movements_refused: Option<(String, crate::diag::Location, &'static str)>,
     /// The angle's label and where it is, if the angle is past the
     /// largest float (cpfg keeps it as one: every turn gives NaN).
     pub angle_past: Option<(String, crate::diag::Location)>,
@@ -157,7 +154,8 @@ impl Default for CpfgTurtle {
             elasticity_increment: 0.0,
             scale: 1.0,
             past_cut: true,
-            movements: None,
+            movements: Vec::new(),
+            movements_refused: None,
             angle_past: None,
             fills_last: true,
         }
@@ -253,6 +251,15 @@ impl ViewFile<'_> {
             (!self.turtle.angle.is_finite()).then(|| (label.to_string(), self.location(offset)));
     }
 
+    /// Note the first movement line cpfg cannot take (refused with
+    /// queries).
+    fn refuse_movement(&mut self, offset: usize, label: &str, why: &'static str) {
+        if self.turtle.movements_refused.is_none() {
+            let at = self.location(offset);
+            self.turtle.movements_refused = Some((label.to_string(), at, why));
+        }
+    }
+
     fn location(&self, offset: usize) -> Location {
         self.map.location(offset)
     }
@@ -335,8 +342,41 @@ impl ViewFile<'_> {
             // is compared by its first 6 letters.)
             "box:" => self.box_given = true,
             "environment display:" => self.display_before = value.starts_with("before"),
-            "tropism:" | "torque:" if self.turtle.movements.is_none() => {
-                self.turtle.movements = Some((label.to_string(), self.location(offset)));
+            "tropism:" | "torque:" => {
+                use super::movements::{parse, Kind, MAX_MOVEMENTS};
+                let kind = if label == "tropism:" {
+                    Kind::Tropism
+                } else {
+                    Kind::Twist
+                };
+                // (cpfg ignores a line it cannot read, and one past its
+                // table, with a message; with ten, its turtle reads past
+                // the table: lsgen-turtle draws nine.)
+                let ignored = |why: &'static str, crash| WarningKind::CpfgMovementIgnored {
+                    label: label.to_string(),
+                    why,
+                    crash,
+                };
+                let why = match parse(kind, &line[at..]) {
+                    Ok(Ok(m)) if self.turtle.movements.len() < MAX_MOVEMENTS => {
+                        self.turtle.movements.push(m.clone());
+                        if self.turtle.movements.len() < MAX_MOVEMENTS {
+                            self.view.movements.push(m);
+                            return;
+                        }
+                        let refused = "is a tenth movement (cpfg keeps ten, and with ten its turtle reads past its table of them)";
+                        self.refuse_movement(offset, label, refused);
+                        "nine before it (cpfg reads past its table with ten)"
+                    }
+                    Ok(Ok(_)) => "ten before it",
+                    Ok(Err(why)) => why,
+                    Err(why) => {
+                        self.refuse_movement(offset, label, why);
+                        self.warn(offset, ignored(why, true));
+                        return;
+                    }
+                };
+                self.warn(offset, ignored(why, false));
             }
             _ => {}
         }
@@ -859,16 +899,18 @@ mod tests {
         // The preprocessor runs first.
         let (v, _) = read("#define A 10\nangle factor: A /* c */\n").unwrap();
         assert_eq!(v.angle, 36.0);
-        let (_, w) =
+        // (cpfg's movements are drawn: no warning.)
+        let (v, w) =
             read("tropism: T: 0,1,0\nprojection: perspective\nprojection: parallel\n").unwrap();
-        assert_eq!(w.len(), 2, "{w:?}");
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert_eq!(v.movements.len(), 1);
         let (_, w) = read(
             "initial scale: 2\ntorque: T: 0,1,0\n\
              interpretation past %: on\ninterpretation past %: off\n",
         )
         .unwrap();
-        assert_eq!(w.len(), 3, "{w:?}");
-        assert!(w[2].message().contains("`interpretation past %:`"), "{w:?}");
+        assert_eq!(w.len(), 2, "{w:?}");
+        assert!(w[1].message().contains("`interpretation past %:`"), "{w:?}");
         assert!(w[0].message().contains("`initial scale:`"), "{w:?}");
     }
 

@@ -10,6 +10,7 @@
 //! input is spooled to an unnamed temp file).
 
 pub mod cpfg_view;
+pub mod movements;
 pub mod reader;
 pub mod render;
 pub mod state;

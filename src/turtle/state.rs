@@ -3,6 +3,7 @@
 //! U = (0,0,-1), at the origin. Rotations follow cpfg's `interpret.c`:
 //! `+` turns H towards L, `&` pitches H towards U, `/` rolls L towards U.
 
+use super::movements::{Frame, Movements};
 use super::view::{TropismModel, View};
 use std::io;
 
@@ -143,6 +144,10 @@ struct State {
     colour: f64,
     /// Set and changed by `_` (cpfg's), kept by `[` as cpfg keeps it.
     elasticity: f64,
+    /// The heading and up vector at the last `F` or `G` (cpfg's
+    /// `prev_heading`, `prev_up`), for cpfg's movements.
+    prev_h: V3,
+    prev_u: V3,
 }
 
 /// Deepest branch nesting accepted (each level is one saved state).
@@ -175,6 +180,13 @@ pub struct Turtle {
     /// The previous module was `@` (without parameters): a letter now
     /// makes a two-character module with it.
     at: bool,
+    /// The previous modules were `@T`: this one is its subfunction.
+    at_t: bool,
+    /// cpfg's movements of a cpfg view ([`super::movements`]), the
+    /// turtle's own elasticity of each, and those of the open branches.
+    movements: Option<Movements>,
+    own: Vec<f64>,
+    saved: Vec<f64>,
 }
 
 /// A misuse of the string that the turtle cannot follow.
@@ -206,6 +218,8 @@ impl Turtle {
                 width: v.width,
                 colour: v.colour,
                 elasticity: v.elasticity,
+                prev_h: [0.0, 1.0, 0.0],
+                prev_u: [0.0, 0.0, -1.0],
             },
             stack: Vec::new(),
             vertices: Vec::new(),
@@ -223,6 +237,29 @@ impl Turtle {
             elasticity_inc: v.elasticity_increment,
             cpfg_bend: v.tropism_model == TropismModel::Cpfg,
             at: false,
+            at_t: false,
+            // (The view keeps nine at most: `Movements::new` takes them.)
+            movements: (!v.movements.is_empty())
+                .then(|| Movements::new(v.movements.clone()).ok())
+                .flatten(),
+            own: v.movements.iter().map(|m| m.elasticity).collect(),
+            saved: Vec::new(),
+        }
+    }
+
+    /// cpfg's movements turn the turtle before a move.
+    fn movements_adjust(&mut self) {
+        if let Some(m) = &self.movements {
+            let s = &mut self.s;
+            let mut f = Frame {
+                h: s.h,
+                l: s.l,
+                u: s.u,
+                prev_h: s.prev_h,
+                prev_u: s.prev_u,
+            };
+            m.adjust(&mut f);
+            (s.h, s.l, s.u, s.prev_h, s.prev_u) = (f.h, f.l, f.u, f.prev_h, f.prev_u);
         }
     }
 
@@ -337,6 +374,24 @@ impl Turtle {
 
     /// Interpret one module.
     pub fn module(&mut self, sym: char, p: &[f64], sink: &mut dyn Sink) -> Result<(), ModErr> {
+        if self.at_t {
+            // `@T`'s subfunction.
+            self.at_t = false;
+            if let Some(m) = &mut self.movements {
+                let s = &mut self.s;
+                let mut f = Frame {
+                    h: s.h,
+                    l: s.l,
+                    u: s.u,
+                    prev_h: s.prev_h,
+                    prev_u: s.prev_u,
+                };
+                // (A movement number past a C `short`: nothing drawn for it.)
+                let _ = m.at_t(sym, p, &mut self.own, &mut f);
+                (s.h, s.l, s.u, s.prev_h, s.prev_u) = (f.h, f.l, f.u, f.prev_h, f.prev_u);
+            }
+            return Ok(());
+        }
         if self.at {
             let joins = self.joins_at(sym);
             self.at = false;
@@ -346,6 +401,7 @@ impl Turtle {
         }
         match sym {
             'F' | 'G' => {
+                self.movements_adjust();
                 let from = self.forward(p)?;
                 let to = self.s.pos;
                 let width = self.drawn_width()?;
@@ -354,8 +410,10 @@ impl Turtle {
                     self.vertex(to)?;
                 }
                 self.bend()?;
+                (self.s.prev_h, self.s.prev_u) = (self.s.h, self.s.u);
             }
             'f' | 'g' => {
+                self.movements_adjust();
                 self.forward(p)?;
                 if sym == 'f' {
                     self.vertex(self.s.pos)?;
@@ -375,9 +433,18 @@ impl Turtle {
                     return Err(ModErr::Fault(Fault::TooDeep));
                 }
                 self.stack.push(self.s);
+                self.saved.extend_from_slice(&self.own);
             }
             ']' => match self.stack.pop() {
-                Some(s) => self.s = s,
+                Some(s) => {
+                    self.s = s;
+                    let at = self.saved.len() - self.own.len();
+                    if let Some(m) = &mut self.movements {
+                        m.restore(&self.own, &self.saved[at..]);
+                    }
+                    self.own.copy_from_slice(&self.saved[at..]);
+                    self.saved.truncate(at);
+                }
                 None => return Err(ModErr::Fault(Fault::UnmatchedClose(']'))),
             },
             '{' => {
@@ -437,6 +504,8 @@ impl Turtle {
             }
             'v' => self.level(),
             'M' if p.len() >= 3 => self.s.pos = [p[0], p[1], p[2]],
+            // cpfg's movements: the subfunction is the next module.
+            'T' if p.is_empty() => self.at_t = true,
             _ => {}
         }
         Ok(())

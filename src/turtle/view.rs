@@ -63,6 +63,9 @@ pub struct View {
     /// after the projection (cpfg's `twist:`, there in tenths of a degree).
     pub twist: f64,
     pub background: Option<Rgb>,
+    /// cpfg's movements (a cpfg view's `tropism:` and `torque:` lines,
+    /// [`super::movements`]): they turn the turtle before each move.
+    pub movements: Vec<super::movements::Movement>,
 }
 
 impl Default for View {
@@ -87,6 +90,7 @@ impl Default for View {
             },
             twist: 0.0,
             background: Some([255, 255, 255]),
+            movements: Vec::new(),
         }
     }
 }

@@ -84,8 +84,12 @@ kept. A fourteenth is the thirteenth with a homomorphism that moves the
 turtle: its successors have moves outside their brackets too, and
 sometimes a production rewrites a move of the string (`F(l) -->
 F(l)-(10)`, `+ --> -`, ...); only cases where a production that moves
-applied while the turtle read the string are kept. The printed string is
-the last one after the homomorphism, as in the other batches.
+applied while the turtle read the string are kept. A fifteenth is the
+twelfth with cpfg's movements: 1-3 `tropism:` and `torque:` lines in the
+view file (`T`, often `A`, `E`, `S`, sometimes `I`) and `@Ts`, `@Ti`,
+`@Td`, `@Tp`, `@Tf` (with and without parameters) among the turtle's
+modules. The printed string is the last one after the homomorphism, as in
+the other batches.
 
 Usage (from anywhere):
     python3 tests/tools/gen_cpfg_cases.py          # write the file
@@ -96,14 +100,14 @@ batch on) zero or more file sections, a line `--- file NAME` and the
 file's text (each ends with a newline), then optionally a line `--- args`
 with options and their files (`--functions A --functions B ...`,
 `--curves A` too: the same option; `--cpfg-view case.v` in the twelfth to
-fourteenth batches: the view file of the queries' turtle, whose functions count too),
+fifteenth batches: the view file of the queries' turtle, whose functions count too),
 then a line `--- expected` and the output line. The files go beside
 case.l (in the case's own directory). The options to pass, in order and
 files relative to that directory: those of the `--- args` line if there
 is one, else `--functions case.v` if the case has that file (a view
 file: its `function:` / `function set:` lines name the other files), else
 none. Cases the reference refuses, that print more than MAX_OUTPUT
-characters (MAX_OUTPUT_QUERIES in the twelfth to fourteenth batches), or whose string
+characters (MAX_OUTPUT_QUERIES in the twelfth to fifteenth batches), or whose string
 holds `inf` / `nan` (an error in lsgen, README) are not kept.
 """
 
@@ -153,6 +157,8 @@ QUERIES = 60
 HOMO_QUERIES = 30
 # The fourteenth batch: a homomorphism that moves the turtle.
 MOVING_QUERIES = 30
+# The fifteenth batch: cpfg's movements.
+MOVEMENT_QUERIES = 30
 MAX_OUTPUT = 2000
 MAX_OUTPUT_QUERIES = 6000
 
@@ -965,7 +971,7 @@ cpfg_ref.QueryTurtle.fill = spy_fill(cpfg_ref.QueryTurtle.fill)
 cpfg_ref.Deriver.successor = spy_homo_successor(cpfg_ref.Deriver.successor)
 
 
-def generate_queries(r, homomorphism=False, moving=False):
+def generate_queries(r, homomorphism=False, moving=False, movements=False):
     """The twelfth batch: turtle queries `?P`, `?H`, `?L`, `?U` (0-4
     parameters, mostly 2-3) among turtle modules (F, f, G, g with and
     without a length, the turns with and without an angle, `|`, branches,
@@ -984,7 +990,10 @@ def generate_queries(r, homomorphism=False, moving=False):
     successors. `moving`: the fourteenth batch, the thirteenth's with a
     homomorphism that moves the turtle (moves outside its successors'
     brackets, sometimes a production for a move), which cpfg's turtle
-    follows. Returns (text, steps, files, args)."""
+    follows. `movements`: the fifteenth batch, the twelfth's with cpfg's
+    movements: 1-3 `tropism:` and `torque:` lines in the view (T, and
+    often A, E, S, I) and `@Ts`, `@Ti`, `@Td`, `@Tp`, `@Tf` among the
+    turtle's modules. Returns (text, steps, files, args)."""
     view = []
     if r.random() < 0.5:
         view.append("angle factor: %d" % r.choice([4, 5, 6, 7, 8, 8, 9, 12, 16]))
@@ -1016,6 +1025,19 @@ def generate_queries(r, homomorphism=False, moving=False):
         view.append("box: x: -10,10 y: -10,10 z: -10,10")
     if r.random() < 0.25:
         view.append("environment display: before")
+    if movements:
+        for _ in range(r.randint(1, 3)):
+            line = "%s T: %s" % (r.choice(["tropism:", "tropism:", "torque:"]), r.choice([
+                "0,-1,0", "1,0,0", "0, 1, 0", "0 0 1", "1,-1,0", "0.3,-1,0.2", "-2 1 0.5"]))
+            if r.random() < 0.4:
+                line += " A: %s" % r.choice(["90", "45", "30", "0", "120"])
+            if r.random() < 0.7:
+                line += " E: %s" % r.choice(["0.1", "0.2", "0.3", "0.05", "0", "0.5"])
+            if r.random() < 0.4:
+                line += " S: %s" % r.choice(["0.1", "0.05", "-0.1"])
+            if r.random() < 0.15:
+                line += " I: %s" % r.choice(["0.5", "2", "0.8"])
+            view.append(line)
     r.shuffle(view)
     view.insert(0, "/* view file of a query case */")
     files = [("case.v", "\n".join(view) + "\n")]
@@ -1058,6 +1080,10 @@ def generate_queries(r, homomorphism=False, moving=False):
             return r.choice(["_", "_(%s)" % r.choice(["0", "0.1", "0.2", "0.3", "0.05"])])
         if k < 0.9:
             return "@v"
+        if movements and k < 0.93:
+            return r.choice(["@Ts(1,%s)" % r.choice(["0.2", "0", "0.4", "0.1"]),
+                             "@Ts(2,0.3)", "@Ti(1)", "@Td(1)", "@Ti(1,0.1)", "@Td(2,0.05)",
+                             "@Tp", "@Tf", "@Ts(1)", "@Ts", "@Ti"])
         if k < 0.96:
             xy = [r.choice(["0", "1", "-1", "2", "0.5", "-1.5"]) for _ in range(3)]
             if var and r.random() < 0.3:
@@ -1303,20 +1329,23 @@ def main(argv):
     twelfth = eleventh + CURVES
     thirteenth = twelfth + QUERIES
     fourteenth = thirteenth + HOMO_QUERIES
+    fifteenth = fourteenth + MOVING_QUERIES
     seeds = {CASES: 13, CASES + EXTENDED: 14, third: 15, fourth: 16, fifth: 17, sixth: 18,
              seventh: 19, eighth: 20, ninth: 21, eleventh: 22, twelfth: 23, thirteenth: 24,
-             fourteenth: 25}
+             fourteenth: 25, fifteenth: 26}
     # the twelfth and thirteenth batches: cases with a condition on a
     # query's values that was both true and false
-    both_ways = [0, 0, 0]
-    while made < fourteenth + MOVING_QUERIES:
+    both_ways = [0, 0, 0, 0]
+    while made < fifteenth + MOVEMENT_QUERIES:
         if made in seeds:
             r = random.Random(seeds.pop(made))
         tried += 1
         late = third <= made < fourth
         alt = fourth <= made < fifth
         files, args = [], None
-        if made >= fourteenth:
+        if made >= fifteenth:
+            text, steps, files, args = generate_queries(r, movements=True)
+        elif made >= fourteenth:
             text, steps, files, args = generate_queries(r, homomorphism=True, moving=True)
         elif made >= thirteenth:
             text, steps, files, args = generate_queries(r, homomorphism=True)
@@ -1350,10 +1379,10 @@ def main(argv):
         if ninth <= made < eleventh and not SECTION_RUNS:
             # (no predecessor of several modules of a section applied)
             continue
-        if made >= thirteenth and not HOMO_IN_FILL:
+        if thirteenth <= made < fifteenth and not HOMO_IN_FILL:
             # (no homomorphism production applied while the turtle read)
             continue
-        if made >= fourteenth and not any(cpfg_ref.homomorphism_moves(p)
+        if fourteenth <= made < fifteenth and not any(cpfg_ref.homomorphism_moves(p)
                                           for p in HOMO_IN_FILL):
             # (none that moves the turtle)
             continue
@@ -1370,7 +1399,7 @@ def main(argv):
                 ("--functions %s" % a) if isinstance(a, str) else "%s %s" % a for a in args)
         parts.append("=== %d\n%s%s--- expected\n%s\n" % (steps, text, sections, out))
         if made >= twelfth and both:
-            both_ways[(made >= thirteenth) + (made >= fourteenth)] += 1
+            both_ways[(made >= thirteenth) + (made >= fourteenth) + (made >= fifteenth)] += 1
         made += 1
     content = "".join(parts)
     if "--check" in argv:
@@ -1387,6 +1416,8 @@ def main(argv):
           "that was both true and false" % (both_ways[1], HOMO_QUERIES))
     print("queries with a moving homomorphism batch: %d of %d cases have a condition on a "
           "query that was both true and false" % (both_ways[2], MOVING_QUERIES))
+    print("queries with movements batch: %d of %d cases have a condition on a query that "
+          "was both true and false" % (both_ways[3], MOVEMENT_QUERIES))
     return 0
 
 
