@@ -49,7 +49,7 @@ use crate::diag::{Error, Refused, RuntimeError};
 use crate::lang::lexer::Span;
 use crate::rules::{codec, Alphabet};
 use crate::turtle::cpfg_view::CpfgTurtle;
-use crate::turtle::movements::{Frame, Movements};
+use crate::turtle::movements::{with_frame, Frame, Movements, Moving};
 use crate::turtle::state::{bend_cpfg, cross, dot, turn, V3};
 use std::fs::File;
 use std::os::unix::fs::FileExt;
@@ -160,23 +160,15 @@ struct Walker<'q> {
     q: &'q QueryTurtle,
     s: State,
     stack: Vec<State>,
-    /// cpfg's movements, if the view has any, and the turtle's own
-    /// elasticity of each; `saved`: those of the open branches.
-    mv: Option<&'q mut Movements>,
-    own: Vec<f64>,
-    saved: Vec<f64>,
+    /// cpfg's movements, if the view has any.
+    mv: Option<Moving<&'q mut Movements>>,
 }
 
 impl<'q> Walker<'q> {
     /// The turtle at the start of an interpretation; cpfg's movements
     /// (`mv`, the run's: their sums go on from one interpretation to the
     /// next) start again from the view's elasticities.
-    fn new(q: &'q QueryTurtle, mut mv: Option<&'q mut Movements>) -> Walker<'q> {
-        let mut own = Vec::new();
-        if let Some(m) = mv.as_deref_mut() {
-            own.resize(m.len(), 0.0);
-            m.start(&mut own);
-        }
+    fn new(q: &'q QueryTurtle, mv: Option<&'q mut Movements>) -> Walker<'q> {
         Walker {
             q,
             s: State {
@@ -189,27 +181,19 @@ impl<'q> Walker<'q> {
                 e: q.elasticity,
             },
             stack: Vec::new(),
-            mv,
-            own,
-            saved: Vec::new(),
+            mv: mv.map(Moving::start),
         }
     }
 
-    /// The frame the movements turn, and back.
-    fn frame(&self) -> Frame {
-        let s = &self.s;
-        Frame {
-            h: s.h,
-            l: s.l,
-            u: s.u,
-            prev_h: s.prev_h,
-            prev_u: s.prev_u,
-        }
-    }
-
-    fn set_frame(&mut self, f: Frame) {
+    /// Run `g` on the turtle's frame with its movements, if any.
+    fn moving<R>(
+        &mut self,
+        g: impl FnOnce(&mut Moving<&'q mut Movements>, &mut Frame) -> R,
+    ) -> Option<R> {
         let s = &mut self.s;
-        (s.h, s.l, s.u, s.prev_h, s.prev_u) = (f.h, f.l, f.u, f.prev_h, f.prev_u);
+        let m = self.mv.as_mut()?;
+        let v = [&mut s.h, &mut s.l, &mut s.u, &mut s.prev_h, &mut s.prev_u];
+        Some(with_frame(v, |f| g(m, f)))
     }
 
     fn sin_cos(&self, p: &[f64]) -> (f64, f64) {
@@ -239,11 +223,7 @@ impl<'q> Walker<'q> {
         match sym {
             'F' | 'G' | 'f' | 'g' => {
                 // cpfg's movements turn the turtle before the move.
-                if let Some(m) = &self.mv {
-                    let mut f = self.frame();
-                    m.adjust(&mut f);
-                    self.set_frame(f);
-                }
+                self.moving(|m, f| m.adjust(f));
                 let st = &mut self.s;
                 // cpfg: `internodeLength` is a float, the parameter (or
                 // the step size, 1) times the turtle's scale.
@@ -268,20 +248,17 @@ impl<'q> Walker<'q> {
                     return Err(QueryFault::TooDeep);
                 }
                 self.stack.push(self.s);
-                self.saved.extend_from_slice(&self.own);
+                if let Some(m) = &mut self.mv {
+                    m.open();
+                }
             }
             // (An unmatched `]`: the engine reports the string's balance.)
             ']' => {
                 if let Some(s) = self.stack.pop() {
                     self.s = s;
-                    // cpfg: the sums change by what the elasticities
-                    // were at the `[`.
-                    let at = self.saved.len() - self.own.len();
-                    if let Some(m) = self.mv.as_deref_mut() {
-                        m.restore(&self.own, &self.saved[at..]);
+                    if let Some(m) = &mut self.mv {
+                        m.close();
                     }
-                    self.own.copy_from_slice(&self.saved[at..]);
-                    self.saved.truncate(at);
                 }
             }
             '_' => {
@@ -297,20 +274,12 @@ impl<'q> Walker<'q> {
 
     /// `@T` followed by the subfunction `sub(p)`: cpfg's movements.
     fn at_t(&mut self, sub: char, p: &[f64]) -> Result<(), QueryFault> {
-        if let Some(m) = self.mv.as_deref_mut() {
-            let mut f = Frame {
-                h: self.s.h,
-                l: self.s.l,
-                u: self.s.u,
-                prev_h: self.s.prev_h,
-                prev_u: self.s.prev_u,
-            };
-            m.at_t(sub, p, &mut self.own, &mut f).map_err(|()| {
-                QueryFault::NotFollowed("`@T` with a movement number past a C `short`")
-            })?;
-            self.set_frame(f);
+        match self.moving(|m, f| m.at_t(sub, p, f)) {
+            Some(Err(())) => Err(QueryFault::NotFollowed(
+                "`@T` with a movement number past a C `short`",
+            )),
+            _ => Ok(()),
         }
-        Ok(())
     }
 
     /// `@` followed by `sym(p)`.

@@ -393,6 +393,77 @@ impl Movements {
     }
 }
 
+/// A turtle's side of cpfg's movements in one interpretation: the run's
+/// [`Movements`] (owned, or borrowed from where they go on from one
+/// interpretation to the next), the turtle's own elasticity of each, and
+/// those the open branches saved. One for both turtles: the queries' and
+/// lsgen-turtle's.
+pub struct Moving<M> {
+    pub movements: M,
+    own: Vec<f64>,
+    saved: Vec<f64>,
+}
+
+impl<M: std::borrow::BorrowMut<Movements>> Moving<M> {
+    /// The start of an interpretation ([`Movements::start`]).
+    pub fn start(mut movements: M) -> Moving<M> {
+        let m = movements.borrow_mut();
+        let mut own = vec![0.0; m.len()];
+        m.start(&mut own);
+        Moving {
+            movements,
+            own,
+            saved: Vec::new(),
+        }
+    }
+
+    /// A `[`: the elasticities are saved with the turtle.
+    pub fn open(&mut self) {
+        self.saved.extend_from_slice(&self.own);
+    }
+
+    /// A `]` that closes a branch: its elasticities back, the sums
+    /// changed by the differences ([`Movements::restore`]).
+    pub fn close(&mut self) {
+        let n = self.own.len();
+        let Some(at) = self.saved.len().checked_sub(n) else {
+            return;
+        };
+        self.movements
+            .borrow_mut()
+            .restore(&self.own, &self.saved[at..]);
+        self.own.copy_from_slice(&self.saved[at..]);
+        self.saved.truncate(at);
+    }
+
+    /// Before a move ([`Movements::adjust`]).
+    pub fn adjust(&self, f: &mut Frame) {
+        self.movements.borrow().adjust(f);
+    }
+
+    /// `@T` and its subfunction ([`Movements::at_t`]).
+    #[allow(clippy::result_unit_err)]
+    pub fn at_t(&mut self, sub: char, p: &[f64], f: &mut Frame) -> Result<(), ()> {
+        self.movements.borrow_mut().at_t(sub, p, &mut self.own, f)
+    }
+}
+
+/// Run `g` on a turtle's frame given as its vectors (H, L, U, and the
+/// previous H and U), which take what `g` leaves.
+pub fn with_frame<R>(v: [&mut V3; 5], g: impl FnOnce(&mut Frame) -> R) -> R {
+    let [h, l, u, prev_h, prev_u] = v;
+    let mut f = Frame {
+        h: *h,
+        l: *l,
+        u: *u,
+        prev_h: *prev_h,
+        prev_u: *prev_u,
+    };
+    let r = g(&mut f);
+    (*h, *l, *u, *prev_h, *prev_u) = (f.h, f.l, f.u, f.prev_h, f.prev_u);
+    r
+}
+
 /// `sqrt(x*x + y*y + z*z)`, as cpfg writes it out.
 #[inline]
 fn norm(v: V3) -> f64 {

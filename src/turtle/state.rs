@@ -3,7 +3,7 @@
 //! U = (0,0,-1), at the origin. Rotations follow cpfg's `interpret.c`:
 //! `+` turns H towards L, `&` pitches H towards U, `/` rolls L towards U.
 
-use super::movements::{Frame, Movements};
+use super::movements::{with_frame, Frame, Movements, Moving};
 use super::view::{TropismModel, View};
 use std::io;
 
@@ -182,11 +182,8 @@ pub struct Turtle {
     at: bool,
     /// The previous modules were `@T`: this one is its subfunction.
     at_t: bool,
-    /// cpfg's movements of a cpfg view ([`super::movements`]), the
-    /// turtle's own elasticity of each, and those of the open branches.
-    movements: Option<Movements>,
-    own: Vec<f64>,
-    saved: Vec<f64>,
+    /// cpfg's movements of a cpfg view ([`super::movements`]).
+    movements: Option<Moving<Movements>>,
 }
 
 /// A misuse of the string that the turtle cannot follow.
@@ -241,26 +238,22 @@ impl Turtle {
             // (The view keeps nine at most: `Movements::new` takes them.)
             movements: (!v.movements.is_empty())
                 .then(|| Movements::new(v.movements.clone()).ok())
-                .flatten(),
-            own: v.movements.iter().map(|m| m.elasticity).collect(),
-            saved: Vec::new(),
+                .flatten()
+                .map(Moving::start),
         }
+    }
+
+    /// Run `g` on the turtle's frame with its movements, if any.
+    fn moving<R>(&mut self, g: impl FnOnce(&mut Moving<Movements>, &mut Frame) -> R) -> Option<R> {
+        let s = &mut self.s;
+        let m = self.movements.as_mut()?;
+        let v = [&mut s.h, &mut s.l, &mut s.u, &mut s.prev_h, &mut s.prev_u];
+        Some(with_frame(v, |f| g(m, f)))
     }
 
     /// cpfg's movements turn the turtle before a move.
     fn movements_adjust(&mut self) {
-        if let Some(m) = &self.movements {
-            let s = &mut self.s;
-            let mut f = Frame {
-                h: s.h,
-                l: s.l,
-                u: s.u,
-                prev_h: s.prev_h,
-                prev_u: s.prev_u,
-            };
-            m.adjust(&mut f);
-            (s.h, s.l, s.u, s.prev_h, s.prev_u) = (f.h, f.l, f.u, f.prev_h, f.prev_u);
-        }
+        self.moving(|m, f| m.adjust(f));
     }
 
     #[inline]
@@ -377,19 +370,8 @@ impl Turtle {
         if self.at_t {
             // `@T`'s subfunction.
             self.at_t = false;
-            if let Some(m) = &mut self.movements {
-                let s = &mut self.s;
-                let mut f = Frame {
-                    h: s.h,
-                    l: s.l,
-                    u: s.u,
-                    prev_h: s.prev_h,
-                    prev_u: s.prev_u,
-                };
-                // (A movement number past a C `short`: nothing drawn for it.)
-                let _ = m.at_t(sym, p, &mut self.own, &mut f);
-                (s.h, s.l, s.u, s.prev_h, s.prev_u) = (f.h, f.l, f.u, f.prev_h, f.prev_u);
-            }
+            // (A movement number past a C `short`: nothing drawn for it.)
+            let _ = self.moving(|m, f| m.at_t(sym, p, f));
             return Ok(());
         }
         if self.at {
@@ -433,17 +415,16 @@ impl Turtle {
                     return Err(ModErr::Fault(Fault::TooDeep));
                 }
                 self.stack.push(self.s);
-                self.saved.extend_from_slice(&self.own);
+                if let Some(m) = &mut self.movements {
+                    m.open();
+                }
             }
             ']' => match self.stack.pop() {
                 Some(s) => {
                     self.s = s;
-                    let at = self.saved.len() - self.own.len();
                     if let Some(m) = &mut self.movements {
-                        m.restore(&self.own, &self.saved[at..]);
+                        m.close();
                     }
-                    self.own.copy_from_slice(&self.saved[at..]);
-                    self.saved.truncate(at);
                 }
                 None => return Err(ModErr::Fault(Fault::UnmatchedClose(']'))),
             },
