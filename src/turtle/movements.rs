@@ -94,6 +94,11 @@ pub fn parse(kind: Kind, text: &str) -> Result<Result<Movement, Ignored>, Crash>
         let number = |rest: &mut &str| -> Result<f64, Crash> {
             let t = strtok(rest, &[' ', ',', '\t', ':'])
                 .ok_or("lacks a number at its end (cpfg reads past the line)")?;
+            let w = t.trim_start();
+            let w = w.strip_prefix(['+', '-']).unwrap_or(w);
+            if w.starts_with("0x") || w.starts_with("0X") {
+                return Err("has a hexadecimal number (cpfg's atof reads it, lsgen does not)");
+            }
             let v = atof(t);
             if v.is_finite() {
                 Ok(v)
@@ -603,6 +608,7 @@ mod tests {
         for (text, why) in [
             ("T: 1 0", "lacks a number"),
             ("E: 1e999", "past the largest"),
+            ("E: -0x1", "hexadecimal"),
         ] {
             assert!(
                 parse(Kind::Tropism, text).unwrap_err().contains(why),

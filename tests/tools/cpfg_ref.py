@@ -2167,16 +2167,16 @@ CONTOUR_LABELS = ["//", "version:", "contact:", "end:", "heading:", "up:", "size
                   "points:", "range:", "dim:", "dimension:", "type:"]
 
 
-def c_atof(word, where):
+def c_atof(word, where, what="a contour file"):
     """atof: the number at the start of the word, 0 without one; the
     reference refuses hexadecimal (strtod reads it, lsgen does not) and a
-    value that is not finite."""
+    value that is not finite (in `what`)."""
     if re.match(r"[+-]?0[xX]", word):
-        raise CpfgError("a hexadecimal number in a contour file", where)
+        raise CpfgError("a hexadecimal number in %s" % what, where)
     m = STRTOD_RE.match(word)
     v = float(m.group(0)) if m else 0.0
     if math.isinf(v) or math.isnan(v):
-        raise CpfgError("%s is not a finite number" % word, where)
+        raise CpfgError("%s in %s is not a finite number" % (word, what), where)
     return v
 
 
@@ -3249,14 +3249,7 @@ class Movements:
             if tok is None:
                 raise CpfgError("a movement line that ends before its number (cpfg's atof "
                                 "of NULL)", where)
-            word = tok.lstrip(C_SPACE)
-            if re.match(r"[+-]?0[xX]", word):
-                raise CpfgError("a hexadecimal number in a movement line", where)
-            m_ = STRTOD_RE.match(word)
-            v = float(m_.group(0)) if m_ else 0.0
-            if math.isinf(v) or math.isnan(v):
-                raise CpfgError("%s in a movement line is not a finite number" % tok, where)
-            return v
+            return c_atof(tok.lstrip(C_SPACE), where, "a movement line")
 
         ln = 0.0
         tok = c_strtok(state, " \t:")
