@@ -311,6 +311,35 @@ fn cpfg_movements_turn_the_turtle_before_each_move() {
     );
 }
 
+/// cpfg's `@Tp` and `@Tf` (blackbox.c) need no movement line: without a
+/// parameter the index is 0 and unchecked, and `@Tp` turns U from the last
+/// `F`'s as H turned since (`adjust_up_and_left`). By hand: after `F`,
+/// `/(90)` rolls U into the x axis and `+(30)` turns H to (0, c30, -s30)
+/// about it; `@Tp` turns the `F`'s U = (0,0,-1) as H turned, about x by
+/// 30 degrees: (0, -0.5, -0.866025), L = H × U = (-1, 0, 0) (the values
+/// as the reference, tests/tools/cpfg_ref.py, prints them). With a number
+/// past the movements (none here) cpfg does nothing.
+#[test]
+fn at_tp_and_at_tf_without_movement_lines() {
+    let l = system(0, "F/(90)+(30)@Tp?U(0,0,0)?L(0,0,0)", "");
+    assert_eq!(
+        ok(&l, "angle increment: 90\n", &["-n", "0"]),
+        "F/(90)+(30)@Tp?U(8.20358e-18,-0.5,-0.866025)?L(-1,-3.06162e-17,8.20358e-18)\n"
+    );
+    // `@Tf` makes the frame after the turns the last move's: `@Tp` then
+    // changes nothing.
+    let l = system(0, "F/(90)+(30)@Tf@Tp?U(0,0,0)", "");
+    assert_eq!(
+        ok(&l, "angle increment: 90\n", &["-n", "0"]),
+        "F/(90)+(30)@Tf@Tp?U(1,0,-6.12323e-17)\n"
+    );
+    let l = system(0, "F/(90)+(30)@Tp(1)?U(0,0,0)", "");
+    assert_eq!(
+        ok(&l, "angle increment: 90\n", &["-n", "0"]),
+        "F/(90)+(30)@Tp(1)?U(1,0,-6.12323e-17)\n"
+    );
+}
+
 /// cpfg fills the saved string's queries when it works out the view
 /// volume around it, which a view file's `box:` turns off; then only
 /// `environment display: before` (a fill after each step) does. The

@@ -1463,6 +1463,28 @@ mod cpfg_files {
         );
     }
 
+    /// cpfg's `@Tp` needs no movement line (tests/cpfg_query.rs,
+    /// `at_tp_and_at_tf_without_movement_lines`): after `F/(90)+(30)` it
+    /// turns U back to (0, -0.5, -0.866025) (about x by 30 degrees from
+    /// the `F`'s), and `&(90)` then turns H onto U: the next segment goes
+    /// from (0,1,0) along (0, -0.5, -0.866025) (the reference's `?P` after
+    /// it: (8.20358e-18, 0.5, -0.866025)). Without `@Tp`, U is +x.
+    #[test]
+    fn cpfg_at_tp_without_movement_lines() {
+        let dir = tempfile::tempdir().unwrap();
+        let v = write(dir.path(), "a.v", b"angle increment: 90\n");
+        let got = text(ok(&turtle(
+            &["--cpfg-view", &v, "-f", "segments"],
+            b"F/(90)+(30)@Tp&(90)F",
+        )));
+        let h = 0.75f64.sqrt();
+        same_segments(
+            &got,
+            &format!("0 0 0 0 1 0 1 128\n0 1 0 0 0.5 {} 1 128\n", -h),
+            "@Tp",
+        );
+    }
+
     #[test]
     fn cpfg_bend_at_a_right_angle_and_tiny_tropisms() {
         let dir = tempfile::tempdir().unwrap();

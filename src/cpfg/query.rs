@@ -107,10 +107,9 @@ impl QueryTurtle {
             past_cut: v.past_cut,
             fills_last: v.fills_last,
             through: false,
-            // (Ten are refused by `check` first.)
-            movements: (!v.movements.is_empty())
-                .then(|| Movements::new(v.movements.clone()).ok())
-                .flatten(),
+            // (Ten are refused by `check` first. None: still a run's, as
+            // cpfg's `@Tp` and `@Tf` turn the turtle without movements.)
+            movements: Movements::new(v.movements.clone()).ok(),
         }
     }
 }

@@ -66,7 +66,8 @@ pub struct Movement {
 /// Why cpfg ignores a movement line (its message).
 pub type Ignored = &'static str;
 
-/// A movement line cpfg crashes on: why, to follow "a line that".
+/// A movement line lsgen does not follow cpfg on (cpfg crashes on it, or
+/// reads it as lsgen does not): why, to follow "a line that".
 pub type Crash = &'static str;
 
 /// Read the text after a `tropism:` or `torque:` label as cpfg's
@@ -321,6 +322,20 @@ impl Movements {
                 i as usize
             }
         };
+        match sub {
+            // (cpfg: without a parameter the index is 0, unchecked, and
+            // `p` and `f` turn the frame with no movements at all.)
+            'p' => {
+                adjust_up_and_left(f);
+                return Ok(());
+            }
+            'f' => {
+                f.prev_h = f.h;
+                f.prev_u = f.u;
+                return Ok(());
+            }
+            _ => {}
+        }
         if sub == 'x' || index >= self.len() {
             return Ok(());
         }
@@ -335,15 +350,6 @@ impl Movements {
                     Some(&e) => e - own[index],
                     None => -own[index],
                 }
-            }
-            'p' => {
-                adjust_up_and_left(f);
-                return Ok(());
-            }
-            'f' => {
-                f.prev_h = f.h;
-                f.prev_u = f.u;
-                return Ok(());
             }
             _ => return Ok(()),
         }

@@ -236,10 +236,9 @@ impl Turtle {
             at: false,
             at_t: false,
             // (The view keeps nine at most: `Movements::new` takes them.)
-            movements: (!v.movements.is_empty())
-                .then(|| Movements::new(v.movements.clone()).ok())
-                .flatten()
-                .map(Moving::start),
+            // None: still movements, as cpfg's `@Tp` and `@Tf` turn the
+            // turtle without any.
+            movements: Movements::new(v.movements.clone()).ok().map(Moving::start),
         }
     }
 
