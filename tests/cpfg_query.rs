@@ -340,6 +340,28 @@ fn at_tp_and_at_tf_without_movement_lines() {
     );
 }
 
+/// cpfg reads a movement line's rest with `fgets(input_line, 255, fp)`:
+/// 254 bytes, its newline counted; past them it cuts the line (here the
+/// `E: 0.5` after 260 blanks would not be read: the tropism would not
+/// turn the turtle) and reads the rest as a label. Refused, as the
+/// reference refuses it; 253 bytes and the newline are read.
+#[test]
+fn a_movement_line_longer_than_cpfg_reads_is_refused() {
+    let l = system(0, "F?H(0,0,0)", "");
+    let long = format!("tropism: T: 1,0,0{}E: 0.5\n", " ".repeat(260));
+    let r = derive(&l, &long, &["-n", "0"]);
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr
+            .contains("a `tropism:` line that is longer than the 254 bytes cpfg reads"),
+        "{}",
+        r.stderr
+    );
+    // " T: 1,0,0" (9 bytes), blanks, "E: 0.5" (6), the newline: 254.
+    let fits = format!("tropism: T: 1,0,0{}E: 0.5\n", " ".repeat(238));
+    assert_eq!(ok(&l, &fits, &["-n", "0"]), "F?H(0.479426,0.877583,0)\n");
+}
+
 /// cpfg fills the saved string's queries when it works out the view
 /// volume around it, which a view file's `box:` turns off; then only
 /// `environment display: before` (a fill after each step) does. The

@@ -1485,6 +1485,33 @@ mod cpfg_files {
         );
     }
 
+    /// A movement line lsgen does not follow cpfg on is ignored with a
+    /// warning that says so (cpfg does not crash on a hexadecimal number,
+    /// nor on a line past the 254 bytes its `fgets` reads: it reads them
+    /// otherwise).
+    #[test]
+    fn cpfg_movement_lines_not_followed() {
+        let dir = tempfile::tempdir().unwrap();
+        let long = format!("tropism: T: 1,0,0{}E: 0.5\n", " ".repeat(260));
+        for (view, why) in [
+            (
+                "tropism: T: 0x1,0,0 E: 0.5\n".to_string(),
+                "has a hexadecimal number",
+            ),
+            (long, "is longer than the 254 bytes cpfg reads of it"),
+        ] {
+            let v = write(dir.path(), "m.v", view.as_bytes());
+            let r = turtle(&["--cpfg-view", &v, "-f", "segments"], b"F");
+            assert!(r.status.success(), "{}", r.stderr);
+            same_segments(&text(r.stdout.clone()), "0 0 0 0 1 0 1 128\n", why);
+            let want = format!(
+                "warning: `tropism:` ignored: lsgen does not follow cpfg on a movement line that {why}"
+            );
+            assert!(r.stderr.contains(&want), "{}", r.stderr);
+            assert!(!r.stderr.contains("crashes"), "{}", r.stderr);
+        }
+    }
+
     #[test]
     fn cpfg_bend_at_a_right_angle_and_tiny_tropisms() {
         let dir = tempfile::tempdir().unwrap();

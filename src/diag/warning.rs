@@ -65,7 +65,8 @@ pub enum WarningKind {
     /// but not lsgen-turtle's, and why.
     CpfgViewNotDrawn { label: String, why: &'static str },
     /// A cpfg view file's `tropism:` or `torque:` line that cpfg ignores
-    /// (the label, and what the line has), or crashes on (`crash`: what
+    /// (the label, and what the line has), or that lsgen does not follow
+    /// cpfg on (`crash`: cpfg crashes on it or reads it otherwise; what
     /// the line does).
     CpfgMovementIgnored {
         label: String,
@@ -142,7 +143,10 @@ impl fmt::Display for WarningKind {
             CpfgViewNotDrawn { label, why } => write!(f, "`{label}` ignored: {why}"),
             CpfgMovementIgnored { label, why, crash } => {
                 if *crash {
-                    write!(f, "`{label}` ignored: cpfg crashes on a movement line that {why}")
+                    write!(
+                        f,
+                        "`{label}` ignored: lsgen does not follow cpfg on a movement line that {why}"
+                    )
                 } else {
                     write!(f, "`{label}` ignored: cpfg ignores a movement with {why}")
                 }

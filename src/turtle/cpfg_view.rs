@@ -344,6 +344,8 @@ impl ViewFile<'_> {
             "environment display:" => self.display_before = value.starts_with("before"),
             "tropism:" | "torque:" => {
                 use super::movements::{parse, Kind, MAX_MOVEMENTS};
+                // (cpfg's `MaxLineLength`, less the NUL.)
+                const VIEW_LINE_MAX: usize = 254;
                 let kind = if label == "tropism:" {
                     Kind::Tropism
                 } else {
@@ -357,7 +359,15 @@ impl ViewFile<'_> {
                     why,
                     crash,
                 };
-                let why = match parse(kind, &line[at..]) {
+                // cpfg reads the rest of the line with `fgets(input_line,
+                // 255, fp)`: 254 bytes, the newline counted; a longer one
+                // is cut there and its rest read as the next label.
+                let parsed = if line[at..].len() + 1 > VIEW_LINE_MAX {
+                    Err("is longer than the 254 bytes cpfg reads of it (its rest would be read as a label)")
+                } else {
+                    parse(kind, &line[at..])
+                };
+                let why = match parsed {
                     Ok(Ok(m)) if self.turtle.movements.len() < MAX_MOVEMENTS => {
                         self.turtle.movements.push(m.clone());
                         if self.turtle.movements.len() < MAX_MOVEMENTS {
