@@ -71,8 +71,8 @@ pub struct QueryTurtle {
     /// The homomorphism can move the turtle: each generation is filled
     /// through its image ([`fill_through`]).
     pub through: bool,
-    /// cpfg's movements of the view file, as it reads them: each run
-    /// takes a copy of its own ([`QueryTurtle::movements`]).
+    /// cpfg's movements of the view file, as it reads them (none: empty):
+    /// each run takes a copy of its own ([`QueryTurtle::movements`]).
     movements: Option<Movements>,
 }
 
@@ -85,7 +85,9 @@ fn radians(deg: f64) -> f64 {
 
 impl QueryTurtle {
     /// A run's movements (the view's, their sums as cpfg makes them when
-    /// it reads the view), to go from fill to fill: None without any.
+    /// it reads the view), to go from fill to fill; empty without
+    /// movement lines (cpfg's `@Tp` and `@Tf` still turn the turtle).
+    /// None only with ten, which `check` refuses.
     pub fn movements(&self) -> Option<Movements> {
         self.movements.clone()
     }
@@ -107,8 +109,7 @@ impl QueryTurtle {
             past_cut: v.past_cut,
             fills_last: v.fills_last,
             through: false,
-            // (Ten are refused by `check` first. None: still a run's, as
-            // cpfg's `@Tp` and `@Tf` turn the turtle without movements.)
+            // (None only with ten, which `check` refuses first.)
             movements: Movements::new(v.movements.clone()).ok(),
         }
     }
@@ -159,7 +160,7 @@ struct Walker<'q> {
     q: &'q QueryTurtle,
     s: State,
     stack: Vec<State>,
-    /// cpfg's movements, if the view has any.
+    /// cpfg's movements (the run's; empty without movement lines).
     mv: Option<Moving<&'q mut Movements>>,
 }
 

@@ -258,12 +258,37 @@ fn fill_queries(
     generation: u64,
 ) -> Result<(), Error> {
     let flags = (indexed, d.counts);
-    if !q.through {
-        let mut mv = d.query_movements.take();
-        let r = crate::cpfg::query::fill((q, mv.as_mut()), gen, &d.alphabet, flags, generation);
-        d.query_movements = mv;
-        return r;
-    }
+    // (The run's movements, out of `d` while the turtle has them.)
+    let mut mv = d.query_movements.take();
+    let r = if q.through {
+        fill_through_image(
+            d,
+            (q, mv.as_mut()),
+            homomorphism,
+            gen,
+            (indexed, (tmpdir, tmp_name, limits)),
+            generation,
+        )
+    } else {
+        crate::cpfg::query::fill((q, mv.as_mut()), gen, &d.alphabet, flags, generation)
+    };
+    d.query_movements = mv;
+    r
+}
+
+/// [`fill_queries`] through the homomorphism's image of `gen`.
+fn fill_through_image(
+    d: &mut Deriver,
+    q: (
+        &crate::cpfg::query::QueryTurtle,
+        Option<&mut crate::turtle::movements::Movements>,
+    ),
+    homomorphism: &crate::rules::Table,
+    gen: &File,
+    (indexed, (tmpdir, tmp_name, limits)): (bool, (&Option<PathBuf>, &str, Limits)),
+    generation: u64,
+) -> Result<(), Error> {
+    let flags = (indexed, d.counts);
     let mut image = Some(generation_file(tmpdir)?);
     {
         let mut none = io::sink();
@@ -293,17 +318,7 @@ fn fill_queries(
         }
     }
     let rewritten = |k: u32| rewritten.get(k as usize).copied().unwrap_or(false);
-    let mut mv = d.query_movements.take();
-    let r = crate::cpfg::query::fill_through(
-        (q, mv.as_mut()),
-        (gen, &image),
-        &d.alphabet,
-        flags,
-        &rewritten,
-        generation,
-    );
-    d.query_movements = mv;
-    r
+    crate::cpfg::query::fill_through(q, (gen, &image), &d.alphabet, flags, &rewritten, generation)
 }
 
 /// The sink for a generation: the temp file `dst` (binary, with a bracket

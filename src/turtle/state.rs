@@ -235,9 +235,9 @@ impl Turtle {
             cpfg_bend: v.tropism_model == TropismModel::Cpfg,
             at: false,
             at_t: false,
-            // (The view keeps nine at most: `Movements::new` takes them.)
-            // None: still movements, as cpfg's `@Tp` and `@Tf` turn the
-            // turtle without any.
+            // (Empty without movement lines: cpfg's `@Tp` and `@Tf` turn
+            // the turtle all the same. The view keeps nine at most, which
+            // `Movements::new` takes.)
             movements: Movements::new(v.movements.clone()).ok().map(Moving::start),
         }
     }
