@@ -79,6 +79,103 @@ fn depth_first_is_refused_for_cpfg_files() {
     assert!(r.stderr.contains("cpfg"), "{}", r.stderr);
 }
 
+/// What keeps a `.l` file step by step, one thing each (README, "Coming
+/// from cpfg"); the same file without it derives depth first.
+#[test]
+fn depth_first_only_without_what_runs_in_string_order() {
+    let dir = tempdir();
+    let plain = "A(x) : x > 1 --> B(x/2)[+(30)A(x-1)]A(x*0.5)\nB(x) --> B(x+func(1,0.5))\n";
+    let view = write(dir.path(), "case.v", "function: f.func\n");
+    write(
+        dir.path(),
+        "f.func",
+        "range: 0.0 1.0\npoints: 4\n0 0.25\n0.3 0.5\n0.6 0.6\n1 0.75\n",
+    );
+    let derive = |body: &str, head: &str, strategy: &str, threads: &str| {
+        let src = format!("Lsystem: 1\n{head}Axiom: A(3)B(1)\n{body}endlsystem\n");
+        let file = write(dir.path(), "case.l", src);
+        run(lsgen()
+            .args([
+                "-n",
+                "3",
+                "--strategy",
+                strategy,
+                "-j",
+                threads,
+                "--functions",
+            ])
+            .arg(&view)
+            .arg(&file))
+    };
+    let want = derive(plain, "", "step", "1");
+    assert_eq!(want.code(), Some(0), "{}", want.stderr);
+    for threads in ["1", "3"] {
+        let r = derive(plain, "", "dfs", threads);
+        assert_eq!(
+            (r.code(), &r.stdout),
+            (Some(0), &want.stdout),
+            "{}",
+            r.stderr
+        );
+    }
+    let refused = [
+        ("seed: 3\n", ""),
+        ("Start: {g = 1;}\n", ""),
+        ("StartEach: {g = 1;}\n", ""),
+        ("", "A(x) : {t = x;} x > 5 --> A(t)\n"),
+        ("", "A(x) : x > 5 --> A(ran(1))\n"),
+        ("", "A(x) < B(y) --> A(y)\n"),
+        ("", "A(x)B(y) : x > 5 --> A(y)\n"),
+        ("", "B(x) : x > 5 --> B(1/x)\n"),
+        ("", "B(x) : x > 5 --> B(1/0)\n"),
+        ("", "B(x) : x > 5 --> B(x/(x-1))\n"),
+        ("derivation length: 2\n", "B(x) : x > Q --> B(1)\n"),
+        (
+            "define: { array a[2] = {1, 2}; }\n",
+            "B(x) : x > 5 --> B(a[x])\n",
+        ),
+        ("", "B(x) : x > 5 --> %B(1)\n"),
+        ("", "decomposition\nC --> D\n"),
+        ("", "homomorphism\nC --> D\n"),
+    ];
+    for (head, extra) in refused {
+        // (The extra productions come first: they are tried first.)
+        let r = derive(&format!("{extra}{plain}"), head, "dfs", "1");
+        assert_eq!(r.code(), Some(2), "{head}{extra}: {}", r.stderr);
+        assert!(r.stderr.contains("cpfg"), "{head}{extra}: {}", r.stderr);
+    }
+    // A homomorphism without warnings (depth 1) does not.
+    let body = format!("{plain}homomorphism: no warnings\nB(x) --> F(x)\n");
+    let want = derive(&body, "", "step", "1");
+    assert_eq!(want.code(), Some(0), "{}", want.stderr);
+    let r = derive(&body, "", "dfs", "3");
+    assert_eq!(
+        (r.code(), &r.stdout),
+        (Some(0), &want.stdout),
+        "{}",
+        r.stderr
+    );
+}
+
+/// A runtime error found depth first in a `.l` file is the one the step
+/// strategy reports (the earliest step's first in string order).
+#[test]
+fn a_depth_first_error_is_the_step_strategys() {
+    let dir = tempdir();
+    // Step 2's first module overflows a 32-bit float; depth first meets
+    // step 3's overflow of the first module's expansion before it.
+    let src = "Lsystem: 1\nAxiom: A(1)B(1)\nA(x) --> A(x*1e15)\nB(x) --> B(x*1e25)\nendlsystem\n";
+    let file = write(dir.path(), "over.l", src);
+    let step = run(lsgen().args(["-n", "3", "--strategy", "step"]).arg(&file));
+    assert_eq!(step.code(), Some(1), "{}", step.stderr);
+    for threads in ["1", "2"] {
+        let r = run(lsgen()
+            .args(["-n", "3", "--strategy", "dfs", "-j", threads])
+            .arg(&file));
+        assert_eq!((r.code(), &r.stderr), (Some(1), &step.stderr));
+    }
+}
+
 /// A multi-module predecessor draws once for the whole run, in cpfg's
 /// string order (strings from tests/tools/cpfg_ref.py on this model; one
 /// draw per module of the run gives others from step 2 on).

@@ -8,8 +8,9 @@ use crate::rules::expr::EvalError;
 
 /// The cpfg dialect's run-time settings. A system from a `.l` file carries
 /// one ([`crate::rules::System::cpfg`]); its presence selects cpfg's
-/// generators (`src/cpfg/random.rs`), forces the step strategy (cpfg's
-/// draws are sequential, in string order) and cpfg's context rules.
+/// generators (`src/cpfg/random.rs`) and cpfg's context rules, and keeps
+/// the step strategy where cpfg's draws, blocks and queries run in string
+/// order (`crate::rules::Table::cpfg_any_order`).
 #[derive(Clone, Debug, Default)]
 pub struct CpfgRun {
     /// The file's `seed:` (None: no `seed:`, so the productions' weights

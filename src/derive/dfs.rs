@@ -322,6 +322,10 @@ pub struct ParamPlan<'t> {
     /// Which successor items are inert constant runs, made on first use
     /// and shared by every thread.
     inert: std::sync::OnceLock<Inert>,
+    /// The generator each walker evaluates with, never drawn from: the
+    /// cpfg dialect's carries its globals and functions, and makes the
+    /// choice cpfg's.
+    rng: Random,
 }
 
 /// One byte per successor item of every production, items of a production
@@ -426,14 +430,18 @@ fn deterministic_free(t: &Table) -> bool {
 }
 
 impl<'t> ParamPlan<'t> {
-    pub fn new(prods: &'t Table, hom: Option<&'t Table>, steps: u64) -> Option<Self> {
+    /// A plan for `steps` steps of `prods` then `hom` (if given),
+    /// evaluated with a copy of `rng` (see [`ParamPlan::rng`]), or None
+    /// when the system needs the step-by-step engine.
+    pub fn new(prods: &'t Table, hom: Option<&'t Table>, steps: u64, rng: &Random) -> Option<Self> {
         let ok = (1..=MAX_DEPTH).contains(&steps)
             && deterministic_free(prods)
             && hom.is_none_or(deterministic_free);
-        ok.then_some(ParamPlan {
+        ok.then(|| ParamPlan {
             prods,
             hom,
             inert: std::sync::OnceLock::new(),
+            rng: rng.clone(),
         })
     }
 
@@ -529,7 +537,7 @@ impl<'t> ParamPlan<'t> {
         let mut levels: Vec<Level> = (0..=depth).map(|_| Level::default()).collect();
         let inert = self.inert_runs(al);
         let mut ch = Chooser::default();
-        let mut rng = Random::new(0); // never drawn from
+        let mut rng = self.rng.clone(); // never drawn from
         let mut rd = PosReader::new(input, 1 << 16, false);
         let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         while let Some((_, s, e)) = rd.next_module(al).map_err(read_err)? {
@@ -648,10 +656,10 @@ impl<'p, 't> Walker<'p, 't> {
             n,
             levels: (0..=n.min(64)).map(|_| Level::default()).collect(),
             hch: Chooser::default(),
-            hrng: Random::new(0),
+            hrng: plan.rng.clone(),
             scratch: Vec::new(),
             ch: Chooser::default(),
-            rng: Random::new(0), // never drawn from
+            rng: plan.rng.clone(), // never drawn from
         }
     }
 

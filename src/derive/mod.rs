@@ -651,8 +651,18 @@ pub(crate) fn derive(
     // section 5); the step engine looks for cuts only if a `%` can occur.
     d.cut = axiom_cuts || percent;
     // The cpfg dialect draws in string order from one sequential
-    // generator (`ran`, the stochastic choice): only step by step.
-    let step_only = structural || is_cpfg || d.cut;
+    // generator (`ran`, the stochastic choice), runs its blocks and fills
+    // its queries there, and warns on the thread that derives: such a
+    // file only step by step. One with none of them gives the same string
+    // in any order (README, "Coming from cpfg").
+    let cpfg_ordered = d.cpfg.as_ref().is_some_and(|c| {
+        c.seed.is_some()
+            || c.has_blocks()
+            || c.queries.is_some()
+            || !productions.cpfg_any_order()
+            || (hom && !homomorphism.cpfg_any_order())
+    });
+    let step_only = structural || cpfg_ordered || d.cut;
     let strategy = if step_only {
         if strategy == Strategy::DepthFirst && is_cpfg {
             return Err(Error::new(crate::diag::UsageError::CpfgNotDepthFirst));
@@ -747,9 +757,13 @@ pub(crate) fn derive(
     // Deterministic context-free systems with parameters: depth first too,
     // unless generation lengths are asked for (-v, --max-length).
     let quiet = !settings.lengths && limits.modules == u64::MAX && limits.bytes == u64::MAX;
-    let plan =
-        crate::derive::dfs::ParamPlan::new(tables.productions, hom.then_some(&homomorphism), steps)
-            .filter(|_| strategy != Strategy::Step);
+    let plan = crate::derive::dfs::ParamPlan::new(
+        tables.productions,
+        hom.then_some(&homomorphism),
+        steps,
+        &d.rng,
+    )
+    .filter(|_| strategy != Strategy::Step);
     if strategy == Strategy::DepthFirst && !(plan.is_some() && quiet) {
         return Err(not_depth_first());
     }

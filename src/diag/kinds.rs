@@ -1291,7 +1291,7 @@ impl fmt::Display for UsageError {
                 f.write_str("the L-system and `--axiom -` cannot both come from standard input")
             }
             CpfgNotDepthFirst => f.write_str(
-                "`--strategy dfs`: a cpfg (`.l`) file is derived step by step (cpfg's random draws and blocks run in string order)",
+                "`--strategy dfs`: this cpfg (`.l`) file is derived step by step: it has what cpfg runs in string order (draws, blocks, queries, warnings) or what only that strategy derives (README, \"Coming from cpfg\")",
             ),
             UnknownFormat(name) => {
                 write!(f, "unknown format `{name}` (svg, png, obj, segments)")

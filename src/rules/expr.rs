@@ -644,6 +644,28 @@ impl Code {
         }
     }
 
+    /// Can evaluating it warn (cpfg's `/` by a divisor that is not a
+    /// constant other than 0, a clamped array subscript)? Those warnings
+    /// are said on the thread that evaluates.
+    pub fn may_warn(&self) -> bool {
+        match &self.0 {
+            Repr::Const { .. } | Repr::Load { .. } => false,
+            Repr::LoadConst { op, c, .. } => *op == Bin2::DivOr1 && *c == 0.0,
+            Repr::ConstLoad { op, .. } | Repr::LoadLoad { op, .. } => *op == Bin2::DivOr1,
+            Repr::Packed { .. } => {
+                let ops = self.ops();
+                ops.iter().enumerate().any(|(i, o)| match o {
+                    Op::Subscript(..) => true,
+                    // (The divisor is the operation before it if that is
+                    // a constant.)
+                    Op::DivOr1(_) => !matches!(i.checked_sub(1).map(|j| ops[j]),
+                        Some(Op::Const(c)) if c != 0.0),
+                    _ => false,
+                })
+            }
+        }
+    }
+
     /// Does this expression read the built-in `step`?
     pub fn uses_step(&self) -> bool {
         self.ops().iter().any(|o| matches!(o, Op::Step))

@@ -1054,6 +1054,33 @@ impl Table {
         })
     }
 
+    /// Can the cpfg dialect apply these productions to a string's modules
+    /// in any order (depth first, on several threads) and get what cpfg
+    /// gets in string order? Not if trying or applying one can draw, warn
+    /// or run a block, or if one has a context or a predecessor of several
+    /// modules. (The file's own blocks, `seed:` and queries are the
+    /// caller's to check.)
+    pub fn cpfg_any_order(&self) -> bool {
+        !self.has_context()
+            && !self.check_balance
+            && !self.may_draw()
+            && self.prods.iter().all(|p| {
+                p.rest().is_empty()
+                    && p.pre().is_none()
+                    && p.post().is_none()
+                    && !p
+                        .cond
+                        .iter()
+                        .map(|c| &**c)
+                        .chain(p.prob())
+                        .any(Code::may_warn)
+                    && p.succ.iter().all(|i| match i {
+                        Item::Const(_) => true,
+                        Item::Module { params, .. } => !params.iter().any(Code::may_warn),
+                    })
+            })
+    }
+
     /// cpfg's right contexts (issue 12): every one goes through cpfg's
     /// matcher (no cached bracket-free shortcut), and a `=` module in a
     /// right context is cpfg's "skip the rest of the branch".

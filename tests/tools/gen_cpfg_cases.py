@@ -159,6 +159,9 @@ HOMO_QUERIES = 30
 MOVING_QUERIES = 30
 # The fifteenth batch: cpfg's movements.
 MOVEMENT_QUERIES = 30
+# The sixteenth (`generate_order_free`: nothing that runs in string order),
+# after the fifteenth.
+ORDER_FREE = 40
 MAX_OUTPUT = 2000
 MAX_OUTPUT_QUERIES = 6000
 
@@ -1278,6 +1281,80 @@ def generate_queries(r, homomorphism=False, moving=False, movements=False):
     return "\n".join(lines) + "\n", steps, files, args
 
 
+def generate_order_free(r):
+    """The sixteenth batch: systems without what cpfg runs in string
+    order (no `seed:`, `ran`, blocks, contexts, predecessors of several
+    modules, queries, `/` by anything but a constant other than 0, `Q`, a
+    decomposition, a homomorphism's depth or warnings, a cut), which lsgen
+    may derive depth first and on several threads: parametric keys with
+    several productions under conditions (the first that applies), cpfg's
+    operators and functions, parameters rounded to 32-bit floats, branches,
+    sometimes `ignore:`, a homomorphism without warnings and a function
+    of its own (`func(1, x)`, the view file case.v naming its file).
+    Returns (text, steps, files)."""
+    files = []
+    funcs = r.random() < 0.4
+    if funcs:
+        files = [("case.v", "/* view file */\nfunction: len.func\n"),
+                 ("len.func", func_file(r, "len", False, r.choice([0, 10, 100])))]
+
+    def expr(var):
+        a = var if var and r.random() < 0.8 else str(r.choice([0, 1, 2, 3, 0.5, 1.25]))
+        if funcs and r.random() < 0.3:
+            return r.choice(["func(1,%s)", "%s+func(1,%s*0.3)", "func(1.5,0.5)*%s"]).replace("%s", a)
+        e = r.choice([
+            "%s+1", "%s*2", "%s-1", "%s/2", "%s/3", "%s^2", "-%s", "%s%%3", "trunc(%s/3)",
+            "(%s>1?%s:1)", "!%s", "Z-%s", "%s*0.1+0.05", "sin(%s)", "sqrt(%s*%s)",
+            "%s*1.456", "%s/1.456+0.3", "floor(%s*2.5)", "%s&&1", "%s||0", "exp(%s/10)",
+            "atan(%s)", "%s", "%s",
+        ])
+        return e.replace("%s", a).replace("%%", "%")
+
+    def module(var):
+        s = r.choice(SYMS)
+        if s in "AB" or r.random() < 0.4:
+            n = 2 if s == "B" else 1
+            return "%s(%s)" % (s, ",".join(expr(var) for _ in range(n)))
+        return s
+
+    def succ(var, depth=0):
+        out = []
+        for _ in range(r.randint(1, 4)):
+            x = r.random()
+            if x < 0.55:
+                out.append(module(var))
+            elif x < 0.7:
+                out.append("F(%s)" % expr(var) if var else "F")
+            elif x < 0.85:
+                out.append(r.choice(["+", "-", "+(22.5)", "-(%s)" % expr(var)]))
+            elif depth < 2:
+                out.append("[" + succ(var, depth + 1) + "]")
+        return "".join(out) or "*"
+
+    lines = ["Lsystem: 1", "derivation length: %d" % r.randint(2, 6)]
+    if r.random() < 0.2:
+        lines.append(r.choice(["ignore: F +", "ignore: C", "consider: A B"]))
+    lines.append("Axiom: " + "".join(
+        r.choice(["A(%d)" % r.randint(-1, 4), "B(%d,%s)" % (r.randint(0, 3), r.choice(["1", "0.5"])),
+                  "C", "D(1)", "[A(2)]", "F"]) for _ in range(r.randint(1, 4))))
+    for s, formal in [("A", "A(x)"), ("B", "B(x,y)"), ("C", "C"), ("D", "D(x)")]:
+        var = "x" if "(" in formal else None
+        for k in range(r.randint(0, 3)):
+            cond = ""
+            if var and r.random() < 0.7:
+                cond = " : " + r.choice([
+                    "x > 1", "x <> 2", "x %% 2 == 0", "x >= 1 && x < 3", "!(x == 1) || x > 3",
+                    "x < Z", "y > x" if s == "B" else "x > 0.5", "*"]).replace("%%", "%")
+            lines.append("%s%s --> %s" % (formal, cond, succ(var)))
+    if r.random() < 0.4:
+        lines.append("homomorphism: no warnings")
+        for formal in r.sample(["A(x)", "C", "D(x)"], r.randint(1, 2)):
+            var = "x" if "(" in formal else None
+            lines.append("%s --> %s" % (formal, succ(var)))
+    lines.append("endlsystem")
+    return "\n".join(lines) + "\n", r.randint(1, 6), files
+
+
 def derive(text, steps, files=(), args=None):
     """The reference's string, or None if it refuses the system. `files`:
     (name, text) written beside case.l; `args`: the --functions files (by
@@ -1330,20 +1407,23 @@ def main(argv):
     thirteenth = twelfth + QUERIES
     fourteenth = thirteenth + HOMO_QUERIES
     fifteenth = fourteenth + MOVING_QUERIES
+    sixteenth = fifteenth + MOVEMENT_QUERIES
     seeds = {CASES: 13, CASES + EXTENDED: 14, third: 15, fourth: 16, fifth: 17, sixth: 18,
              seventh: 19, eighth: 20, ninth: 21, eleventh: 22, twelfth: 23, thirteenth: 24,
-             fourteenth: 25, fifteenth: 26}
+             fourteenth: 25, fifteenth: 26, sixteenth: 27}
     # the twelfth and thirteenth batches: cases with a condition on a
     # query's values that was both true and false
     both_ways = [0, 0, 0, 0]
-    while made < fifteenth + MOVEMENT_QUERIES:
+    while made < sixteenth + ORDER_FREE:
         if made in seeds:
             r = random.Random(seeds.pop(made))
         tried += 1
         late = third <= made < fourth
         alt = fourth <= made < fifth
         files, args = [], None
-        if made >= fifteenth:
+        if made >= sixteenth:
+            text, steps, files = generate_order_free(r)
+        elif made >= fifteenth:
             text, steps, files, args = generate_queries(r, movements=True)
         elif made >= fourteenth:
             text, steps, files, args = generate_queries(r, homomorphism=True, moving=True)
@@ -1373,7 +1453,7 @@ def main(argv):
         out = derive(text, steps, files, args)
         # lsgen refuses a parameter a 32-bit float cannot hold (README), where
         # cpfg stores inf.
-        limit = MAX_OUTPUT_QUERIES if made >= twelfth else MAX_OUTPUT
+        limit = MAX_OUTPUT_QUERIES if twelfth <= made < sixteenth else MAX_OUTPUT
         if out is None or len(out) > limit or "inf" in out or "nan" in out:
             continue
         if ninth <= made < eleventh and not SECTION_RUNS:
@@ -1390,7 +1470,7 @@ def main(argv):
             # (a string without parameters shows too little)
             continue
         both = any(len(v) == 2 for v in QUERY_CONDITIONS.values())
-        if made >= twelfth and not both and r.random() < 0.5:
+        if twelfth <= made < sixteenth and not both and r.random() < 0.5:
             # (most cases have a condition on a query both true and false)
             continue
         sections = "".join("--- file %s\n%s" % (name, body) for name, body in files)
@@ -1398,7 +1478,7 @@ def main(argv):
             sections += "--- args %s\n" % " ".join(
                 ("--functions %s" % a) if isinstance(a, str) else "%s %s" % a for a in args)
         parts.append("=== %d\n%s%s--- expected\n%s\n" % (steps, text, sections, out))
-        if made >= twelfth and both:
+        if twelfth <= made < sixteenth and both:
             both_ways[(made >= thirteenth) + (made >= fourteenth) + (made >= fifteenth)] += 1
         made += 1
     content = "".join(parts)
