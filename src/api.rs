@@ -7,8 +7,8 @@ use crate::derive::{derive, Event, FrameSink, Frames, Limits, Settings, Strategy
 use crate::diag::{Error, OptionNames, ParseError, RuntimeError, UsageError, Warning, WarningKind};
 use crate::io::axiom::AxiomReader;
 use crate::io::input::{split_header, Input, Split};
-use crate::io::precision::Significant;
 use crate::lang::parse::{locate, UserError};
+use crate::rules::codec::Numbers;
 use crate::rules::{compile_text, LoadError, Seeds, System};
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
@@ -735,8 +735,16 @@ impl LSystem {
             "LSystem::seed"
         );
         // cpfg prints parameters with C's `%g`: 6 significant digits.
+        // (`--precision` and the cpfg dialect's form are the alphabet's:
+        // every strategy and frame writes its numbers in it.)
         let precision = options.precision.or(system.cpfg.is_some().then_some(6));
-        let cpfg = system.cpfg.is_some();
+        let numbers = match precision {
+            Some(digits) => Numbers::Significant {
+                digits,
+                c_exponent: system.cpfg.is_some(),
+            },
+            None => Numbers::Shortest,
+        };
         let settings = Settings {
             steps,
             seed,
@@ -750,36 +758,17 @@ impl LSystem {
             threads: options.threads,
             split: options.split,
             direct: options.direct.clone(),
+            numbers,
         };
         let consts = std::mem::take(&mut system.consts);
         let reader = AxiomReader::new(input, comments, line, col, &consts);
-        // --precision: the one place numbers are rewritten, for every
-        // strategy, on the text's way out.
-        let mut significant;
-        let out: &mut dyn Write = match precision {
-            Some(p) => {
-                significant = Significant::new(&mut out, p).c_exponent(cpfg);
-                &mut significant
-            }
-            None => &mut out,
-        };
-        // Frames go out through their own sink: the same rewriting there.
-        let mut precise;
-        let frames: Option<(Frames, &mut dyn FrameSink)> = match (frames, precision) {
-            (Some((f, sink)), Some(digits)) => {
-                precise = PreciseFrames { sink, digits, cpfg };
-                Some((f, &mut precise))
-            }
-            (Some((f, sink)), None) => Some((f, sink)),
-            (None, _) => None,
-        };
         let (modules, bytes) = derive(
             &settings,
             reader,
             &self.split.header,
             &self.path,
             system,
-            (out, out_name),
+            (&mut out, out_name),
             events,
             frames,
         )
@@ -910,30 +899,4 @@ pub fn derive_bytes_on(
     let mut out = Vec::new();
     ls.derive(&options, &mut out)?;
     Ok(out)
-}
-
-/// `--precision` for frames: each frame's text goes through [`Significant`]
-/// on its way into the caller's sink.
-struct PreciseFrames<'s> {
-    sink: &'s mut dyn FrameSink,
-    digits: u32,
-    /// C's exponent form (the cpfg dialect).
-    cpfg: bool,
-}
-
-impl FrameSink for PreciseFrames<'_> {
-    fn frame(
-        &mut self,
-        n: u64,
-        write: &mut dyn FnMut(&mut dyn Write, &str) -> Result<(u64, u64), Error>,
-    ) -> Result<(u64, u64), Error> {
-        let (digits, cpfg) = (self.digits, self.cpfg);
-        self.sink.frame(n, &mut |out, name| {
-            let mut sig = Significant::new(out, digits).c_exponent(cpfg);
-            let len = write(&mut sig, name)?;
-            sig.flush()
-                .map_err(|e| Error::io(name, crate::diag::IoAction::Write, e))?;
-            Ok(len)
-        })
-    }
 }

@@ -94,7 +94,7 @@ pub struct Args {
     /// Print parameters with N significant digits, as C's %g (cpfg prints
     /// %g, 6 digits); default: the shortest form that reads back exactly.
     #[arg(long, value_name = "N",
-          value_parser = clap::value_parser!(u32).range(1..=crate::io::precision::MAX_PRECISION as i64))]
+          value_parser = clap::value_parser!(u32).range(1..=crate::rules::codec::MAX_PRECISION as i64))]
     pub precision: Option<u32>,
 
     /// Directory for the temporary generation files (default: $TMPDIR).

@@ -114,24 +114,50 @@ fn precision_prints_significant_digits_and_reads_back() {
     let p = common::write(
         dir.path(),
         "p.ls",
-        "productions:\nA(x) -> A(x/3)B(x*1234567)\n\
-         axiom: A(3.14159265)C(0.000012345,100,-2.5,999.9)\n",
+        "productions:\nA(x) -> A(x/3)B(x*1234567)D(0.123456789,2)\n\
+         homomorphism:\nG -> E(3.14159265)\n\
+         axiom: A(3.14159265)C(0.000012345,100,-2.5,999.9)G\n",
     );
     let p = p.to_str().unwrap();
-    let want = "A(1.05)B(3.88e6)C(1.23e-5,100,-2.5,1e3)\n";
+    // (Constants of successors too, in the productions and the
+    // homomorphism.)
+    let want = "A(1.05)B(3.88e6)D(0.123,2)C(1.23e-5,100,-2.5,1e3)E(3.14)\n";
     for strategy in ["auto", "step", "dfs"] {
-        let r = lsgen_run(&["-n", "1", "--precision", "3", "--strategy", strategy, p]);
-        assert_eq!(r.ok(), want, "--strategy {strategy}");
+        for threads in ["1", "2"] {
+            let r = lsgen_run(&[
+                "-n",
+                "1",
+                "--precision",
+                "3",
+                "--strategy",
+                strategy,
+                "-j",
+                threads,
+                p,
+            ]);
+            assert_eq!(r.ok(), want, "--strategy {strategy} -j {threads}");
+        }
     }
+    // `-v` counts the bytes printed (the newline aside).
+    let r = lsgen_run(&["-n", "1", "--precision", "3", "-v", p]);
+    assert!(
+        r.stderr.contains(&format!(", {} bytes\n", want.len() - 1)),
+        "{}",
+        r.stderr
+    );
     // The default stays the shortest round-trip form.
     let r = lsgen_run(&["-n", "1", p]);
     assert_eq!(
         r.ok(),
-        "A(1.0471975500000001)B(3878506.6131325504)C(0.000012345,100,-2.5,999.9)\n"
+        "A(1.0471975500000001)B(3878506.6131325504)D(0.123456789,2)\
+         C(0.000012345,100,-2.5,999.9)E(3.14159265)\n"
     );
     // The output reads back as an axiom: the same numbers.
     let r = common::run_with_stdin(lsgen().args(["-n", "0", "--axiom", "-", p]), want);
-    assert_eq!(r.ok(), "A(1.05)B(3880000)C(0.0000123,100,-2.5,1000)\n");
+    assert_eq!(
+        r.ok(),
+        "A(1.05)B(3880000)D(0.123,2)C(0.0000123,100,-2.5,1000)E(3.14)\n"
+    );
     // Out of range is a usage error.
     for bad in ["0", "18", "x"] {
         lsgen_run(&["--precision", bad, p]).fails(2);

@@ -122,6 +122,9 @@ pub(crate) struct Settings {
     /// The output's switch for text made on several threads
     /// ([`crate::Options::direct_output`]).
     pub direct: Option<std::sync::Arc<std::sync::atomic::AtomicU8>>,
+    /// How parameters are written (`--precision`, the cpfg dialect's
+    /// `%g`): the alphabet's, for every pass and strategy.
+    pub numbers: crate::rules::codec::Numbers,
 }
 
 /// Which generations `--frames A..B:K` writes: `from..=to`, every
@@ -489,6 +492,20 @@ pub(crate) fn derive(
         homomorphism.for_cpfg(&alphabet);
         if let Some((t, _)) = &mut decomposition {
             t.for_cpfg(&alphabet);
+        }
+    }
+    // Numbers become text in one form, the alphabet's: modules as they are
+    // written, the constant runs of successors now.
+    let mut alphabet = alphabet;
+    if settings.numbers != alphabet.numbers() {
+        alphabet.set_numbers(settings.numbers);
+        productions.retext(&alphabet);
+        homomorphism.retext(&alphabet);
+        if let Some((t, _)) = &mut decomposition {
+            t.retext(&alphabet);
+        }
+        for (_, g) in &mut groups {
+            g.retext(&alphabet);
         }
     }
     let mut d = Deriver::new(

@@ -490,7 +490,8 @@ impl<'w> Out<'w> {
                     if i > 0 {
                         self.buf.push(b',');
                     }
-                    self.num.put(&mut self.buf, codec::get_param(body, i));
+                    self.num
+                        .put_in(&mut self.buf, codec::get_param(body, i), al.numbers());
                 }
                 self.buf.push(b')');
             }
@@ -617,7 +618,8 @@ impl<'w> Out<'w> {
         }
         self.modules += 1;
         if self.text {
-            self.num.module(&mut self.buf, al.text(key), params);
+            self.num
+                .module(&mut self.buf, al.text(key), params, al.numbers());
         } else {
             codec::put_key(&mut self.buf, key);
             codec::put_params(&mut self.buf, params);

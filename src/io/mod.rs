@@ -5,6 +5,5 @@
 pub mod axiom;
 pub mod input;
 pub mod output;
-pub mod precision;
 #[cfg(feature = "cli")]
 pub mod template;

@@ -182,11 +182,32 @@ impl Modules {
     }
 }
 
+/// How parameters are written as text: the one setting of [`NumFmt`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Numbers {
+    /// The shortest form that reads back to the same f64 (lsgen's).
+    #[default]
+    Shortest,
+    /// `--precision N` and the cpfg dialect: `digits` significant digits,
+    /// as C's `%.Ng` ([`put_g`]); `c_exponent`: the exponent as C writes
+    /// it (`e+07`, cpfg's), else as lsgen does (`e7`).
+    Significant { digits: u32, c_exponent: bool },
+}
+
+/// Most significant digits `--precision` accepts (an f64 holds 17).
+pub const MAX_PRECISION: u32 = 17;
+
 /// Number printer: ryu's shortest round-trip digits without a trailing
-/// `.0`, with a small direct-mapped cache, since the parameters of an
-/// L-system string repeat a lot (the same lengths and angles everywhere).
+/// `.0`, or [`Numbers::Significant`]'s, with a small direct-mapped cache,
+/// since the parameters of an L-system string repeat a lot (the same
+/// lengths and angles everywhere). Every number of a derivation's text is
+/// written here (modules through [`NumFmt::module`], constant runs by
+/// `Table::retext`), in the form its alphabet says.
 pub struct NumFmt {
     ryu: ryu::Buffer,
+    /// The form the cache holds.
+    form: Numbers,
+    scratch: String,
     cache: Box<[CacheEntry]>,
 }
 
@@ -199,6 +220,13 @@ struct CacheEntry {
 
 const CACHE_BITS: u32 = 12;
 
+/// An empty slot: len 0 (no number prints as nothing).
+const EMPTY_ENTRY: CacheEntry = CacheEntry {
+    bits: 0,
+    len: 0,
+    text: [0; 24],
+};
+
 impl Default for NumFmt {
     fn default() -> Self {
         NumFmt::new()
@@ -209,16 +237,9 @@ impl NumFmt {
     pub fn new() -> NumFmt {
         NumFmt {
             ryu: ryu::Buffer::new(),
-            // len 0 marks an empty slot (no number prints as nothing).
-            cache: vec![
-                CacheEntry {
-                    bits: 0,
-                    len: 0,
-                    text: [0; 24]
-                };
-                1 << CACHE_BITS
-            ]
-            .into_boxed_slice(),
+            form: Numbers::Shortest,
+            scratch: String::new(),
+            cache: vec![EMPTY_ENTRY; 1 << CACHE_BITS].into_boxed_slice(),
         }
     }
 
@@ -226,7 +247,28 @@ impl NumFmt {
     /// `2`, `0.5`, `1.4142135623730951`, `1e-7`, `-0`.
     #[inline]
     pub fn put(&mut self, out: &mut Vec<u8>, v: f64) {
+        self.put_in(out, v, Numbers::Shortest)
+    }
+
+    /// Append `v` in `form`.
+    #[inline]
+    pub fn put_in(&mut self, out: &mut Vec<u8>, v: f64, form: Numbers) {
+        self.set_form(form);
         self.put_cached(out, v)
+    }
+
+    /// Hold numbers in `form` from now on (the cache is for one form).
+    #[inline(always)]
+    fn set_form(&mut self, form: Numbers) {
+        if form != self.form {
+            self.new_form(form);
+        }
+    }
+
+    #[cold]
+    fn new_form(&mut self, form: Numbers) {
+        self.form = form;
+        self.cache.fill(EMPTY_ENTRY);
     }
 
     /// The cache's look-up, inlined into [`NumFmt::module`]'s loop; the
@@ -250,13 +292,23 @@ impl NumFmt {
     #[cold]
     #[inline(never)]
     fn put_miss(&mut self, out: &mut Vec<u8>, v: f64, slot: usize) {
-        let s = self.ryu.format_finite(v).as_bytes();
-        // ryu writes `2.0`, `1e-7`, `1.5e16`: only a trailing `.0` goes.
-        let s = match s {
-            [head @ .., b'.', b'0'] => head,
-            _ => s,
-        };
-        out.extend_from_slice(s);
+        let start = out.len();
+        match self.form {
+            Numbers::Shortest => {
+                let s = self.ryu.format_finite(v).as_bytes();
+                // ryu writes `2.0`, `1e-7`, `1.5e16`: only a trailing `.0`
+                // goes.
+                let s = match s {
+                    [head @ .., b'.', b'0'] => head,
+                    _ => s,
+                };
+                out.extend_from_slice(s);
+            }
+            Numbers::Significant { digits, c_exponent } => {
+                put_g(out, &mut self.scratch, v, digits, c_exponent)
+            }
+        }
+        let s = &out[start..];
         if s.len() <= 24 {
             let e = &mut self.cache[slot];
             e.bits = v.to_bits();
@@ -265,14 +317,15 @@ impl NumFmt {
         }
     }
 
-    /// Append a module as text.
+    /// Append a module as text, its parameters in `form`.
     #[inline]
-    pub fn module(&mut self, out: &mut Vec<u8>, sym_text: &[u8], params: &[f64]) {
+    pub fn module(&mut self, out: &mut Vec<u8>, sym_text: &[u8], params: &[f64], form: Numbers) {
         match *sym_text {
             [b] => out.push(b),
             _ => out.extend_from_slice(sym_text),
         }
         if let Some((first, rest)) = params.split_first() {
+            self.set_form(form);
             out.push(b'(');
             self.put_cached(out, *first);
             for p in rest {
@@ -282,6 +335,64 @@ impl NumFmt {
             out.push(b')');
         }
     }
+}
+
+/// Append `v` with `digits` significant digits, `%g` style: scientific when
+/// the exponent is below -4 or at least `digits`, trailing zeros dropped.
+/// `scratch` is reused, so nothing is allocated once it has grown. With
+/// `c_exponent` the exponent is exactly as C's `%g` writes it: a sign and
+/// at least two digits (`1.67772e+07`, `1e-05`), as cpfg prints (the cpfg
+/// dialect's output); else as lsgen writes numbers (`1.67772e7`), so the
+/// output still reads back as an axiom.
+pub fn put_g(out: &mut Vec<u8>, scratch: &mut String, v: f64, digits: u32, c_exponent: bool) {
+    use std::fmt::Write as _;
+    use std::io::Write as _;
+    let p = digits.clamp(1, MAX_PRECISION) as usize;
+    if !v.is_finite() || v == 0.0 {
+        if v == 0.0 && v.is_sign_negative() {
+            out.extend_from_slice(b"-0");
+        } else if v == 0.0 {
+            out.push(b'0');
+        } else {
+            let _ = write!(out, "{v}");
+        }
+        return;
+    }
+    scratch.clear();
+    let _ = write!(scratch, "{:.*e}", p - 1, v);
+    let Some(at) = scratch.find('e') else {
+        out.extend_from_slice(scratch.as_bytes());
+        return;
+    };
+    let exp: i32 = scratch[at + 1..].parse().unwrap_or(0);
+    if exp < -4 || exp >= p as i32 {
+        out.extend_from_slice(trim_zeros(&scratch.as_bytes()[..at]));
+        if c_exponent {
+            let sign = if exp < 0 { '-' } else { '+' };
+            let _ = write!(out, "e{sign}{:02}", exp.unsigned_abs());
+        } else {
+            let _ = write!(out, "e{exp}");
+        }
+    } else {
+        scratch.clear();
+        let _ = write!(scratch, "{:.*}", (p as i32 - 1 - exp) as usize, v);
+        out.extend_from_slice(trim_zeros(scratch.as_bytes()));
+    }
+}
+
+/// `1.500` -> `1.5`, `2.000` -> `2`; a number without `.` is left alone.
+fn trim_zeros(s: &[u8]) -> &[u8] {
+    if !s.contains(&b'.') {
+        return s;
+    }
+    let mut end = s.len();
+    while end > 0 && s[end - 1] == b'0' {
+        end -= 1;
+    }
+    if end > 0 && s[end - 1] == b'.' {
+        end -= 1;
+    }
+    &s[..end]
 }
 
 /// A number as lsgen prints it, for messages.
@@ -300,6 +411,85 @@ mod tests {
 
     fn num(v: f64) -> String {
         number_string(v)
+    }
+
+    fn g(v: f64, p: u32) -> String {
+        let mut o = Vec::new();
+        put_g(&mut o, &mut String::new(), v, p, false);
+        String::from_utf8(o).unwrap()
+    }
+
+    #[test]
+    fn significant_cache_gives_what_formatting_gives() {
+        // Many numbers, repeated, colliding in the cache, the form changed
+        // on the way: the text equals formatting each number afresh.
+        let mut x: u64 = 12345;
+        let mut f = NumFmt::new();
+        for round in 0..6 {
+            let form = match round % 3 {
+                0 => Numbers::Significant {
+                    digits: 6,
+                    c_exponent: true,
+                },
+                1 => Numbers::Shortest,
+                _ => Numbers::Significant {
+                    digits: 3,
+                    c_exponent: false,
+                },
+            };
+            for _ in 0..9000 {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                let v =
+                    ((x % 100_000) as f64 - 50_000.0) / 7.0 * [1.0, 1e9, 1e-9][(x % 3) as usize];
+                let mut got = Vec::new();
+                f.module(&mut got, b"F", &[v, 1.0], form);
+                let mut want = b"F(".to_vec();
+                match form {
+                    Numbers::Shortest => want.extend_from_slice(number_string(v).as_bytes()),
+                    Numbers::Significant { digits, c_exponent } => {
+                        put_g(&mut want, &mut String::new(), v, digits, c_exponent)
+                    }
+                }
+                want.extend_from_slice(b",1)");
+                assert!(got == want, "{v}: {got:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn c_exponent_like_printf_g() {
+        // Expected: C's printf("%g") (checked by hand against glibc's).
+        let c = |v: f64| {
+            let mut o = Vec::new();
+            put_g(&mut o, &mut String::new(), v, 6, true);
+            String::from_utf8(o).unwrap()
+        };
+        assert_eq!(c(16777216.0), "1.67772e+07");
+        assert_eq!(c(1e-30), "1e-30");
+        assert_eq!(c(0.00001), "1e-05");
+        assert_eq!(c(1.5e100), "1.5e+100");
+        assert_eq!(c(123456.0), "123456");
+        assert_eq!(c(-0.0), "-0");
+    }
+
+    #[test]
+    fn like_printf_g() {
+        // Expected: C's printf("%.Ng"), exponent in lsgen's form.
+        assert_eq!(g(5.55555, 3), "5.56");
+        assert_eq!(g(1234567.0, 3), "1.23e6");
+        assert_eq!(g(0.000012345, 3), "1.23e-5");
+        assert_eq!(g(100.0, 3), "100");
+        assert_eq!(g(999.9, 3), "1e3");
+        assert_eq!(g(0.0001, 3), "0.0001");
+        assert_eq!(g(-2.5, 6), "-2.5");
+        assert_eq!(g(9.9996, 4), "10");
+        assert_eq!(g(1.0 / 3.0, 6), "0.333333");
+        assert_eq!(g(-0.0, 6), "-0");
+        assert_eq!(g(0.0, 6), "0");
+        assert_eq!(g(123456.0, 6), "123456");
+        assert_eq!(g(1234567.0, 6), "1.23457e6");
     }
 
     #[test]

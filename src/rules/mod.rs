@@ -62,6 +62,8 @@ pub struct Alphabet {
     /// (symbol, arity) to key, beyond the ASCII ones.
     map: KeyMap,
     filter: Filter,
+    /// How a derivation writes parameters as text ([`Alphabet::numbers`]).
+    numbers: codec::Numbers,
 }
 
 impl Alphabet {
@@ -73,6 +75,7 @@ impl Alphabet {
             ignored: Vec::new(),
             map: KeyMap::default(),
             filter,
+            numbers: codec::Numbers::Shortest,
         };
         for b in 0u8..128 {
             let c = b as char;
@@ -116,6 +119,17 @@ impl Alphabet {
     pub fn text(&self, key: u32) -> &[u8] {
         let t = &self.text[key as usize];
         &t.bytes[..t.len as usize]
+    }
+    /// How parameters are written as text: lsgen's shortest form, or
+    /// `--precision`'s and the cpfg dialect's significant digits. Set once
+    /// before a derivation, with its tables' constant runs written again
+    /// in it ([`Table::retext`]).
+    #[inline]
+    pub fn numbers(&self) -> codec::Numbers {
+        self.numbers
+    }
+    pub fn set_numbers(&mut self, numbers: codec::Numbers) {
+        self.numbers = numbers;
     }
     #[inline]
     pub fn symbol(&self, key: u32) -> char {
@@ -538,7 +552,7 @@ impl ConstBuilder {
             self.ibin.extend_from_slice(&[0; codec::INDEX_BYTES]);
         }
         codec::put_params(&mut self.ibin, vals);
-        num.module(&mut self.text, al.text(key), vals);
+        num.module(&mut self.text, al.text(key), vals, al.numbers());
         self.modules += 1;
     }
 
@@ -1054,6 +1068,43 @@ impl Table {
         })
     }
 
+    /// Write the text of every constant run with parameters again, in
+    /// `al`'s number form ([`Alphabet::numbers`]): before a derivation
+    /// whose form is not the one they were compiled in. Once per run; the
+    /// runs without parameters stay as they are.
+    pub fn retext(&mut self, al: &Alphabet) {
+        let mut num = codec::NumFmt::new();
+        let mut vals = Vec::new();
+        for p in &mut self.prods {
+            let items: &mut [Item] = match &mut p.succ {
+                Succ::One(i) => std::slice::from_mut(i),
+                Succ::Many(m) => m,
+            };
+            for item in items {
+                let Item::Const(c) = item else {
+                    continue;
+                };
+                let mut b = ConstBuilder::default();
+                let mut bin = c.bin();
+                let mut params = false;
+                while !bin.is_empty() {
+                    let (key, kl) = codec::get_key(bin);
+                    let n = al.arity(key);
+                    vals.clear();
+                    vals.extend((0..n).map(|i| codec::get_param(&bin[kl..], i)));
+                    params |= n > 0;
+                    b.push(key, &vals, al, &mut num);
+                    bin = &bin[kl + 8 * n..];
+                }
+                if params {
+                    if let Some(run) = b.take() {
+                        *c = run;
+                    }
+                }
+            }
+        }
+    }
+
     /// Can the cpfg dialect apply these productions to a string's modules
     /// in any order (depth first, on several threads) and get what cpfg
     /// gets in string order? Not if trying or applying one can draw, warn
@@ -1231,6 +1282,11 @@ impl Group {
     /// with: see [`Table::lay`]).
     pub fn own(&self) -> &Table {
         &self.own
+    }
+
+    /// [`Table::retext`] for its own productions (what it lays).
+    pub fn retext(&mut self, al: &Alphabet) {
+        self.own.retext(al)
     }
 }
 
