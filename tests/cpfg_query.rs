@@ -362,6 +362,28 @@ fn a_movement_line_longer_than_cpfg_reads_is_refused() {
     assert_eq!(ok(&l, &fits, &["-n", "0"]), "F?H(0.479426,0.877583,0)\n");
 }
 
+/// A movement line cpfg ignores (a zero direction) is a warning here too,
+/// as in lsgen-turtle, and moves nothing: the heading stays (0,1,0). A
+/// file refused for another reason says only its error.
+#[test]
+fn an_ignored_movement_line_is_a_warning() {
+    let l = system(0, "F?H(0,0,0)", "");
+    let v = "tropism: T: 0,0,0 E: 1\n";
+    let r = derive(&l, v, &["-n", "0"]);
+    assert_eq!((r.code(), &r.stdout[..]), (Some(0), &b"F?H(0,1,0)\n"[..]));
+    assert!(
+        r.stderr.contains(
+            "plant.v:1:1: warning: `tropism:` ignored: cpfg ignores a movement with a direction of length 0"
+        ),
+        "{}",
+        r.stderr
+    );
+    let refused = system(0, "F?H(0,0,0)?E(1)", "");
+    let r = derive(&refused, v, &["-n", "0"]);
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(!r.stderr.contains("warning"), "{}", r.stderr);
+}
+
 /// cpfg fills the saved string's queries when it works out the view
 /// volume around it, which a view file's `box:` turns off; then only
 /// `environment display: before` (a fill after each step) does. The

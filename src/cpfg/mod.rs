@@ -163,7 +163,15 @@ pub fn load(
     axiom_brackets(&tree.axiom_brackets, &map)?;
     // (Before the lowering's warnings: a file refused here is one error.)
     let queries = match query::check(&tree, &text, functions.view()) {
-        Ok(q) => q,
+        Ok(Some((q, warnings))) => {
+            for w in warnings {
+                if let (Some(at), kind) = (w.location(), w.kind()) {
+                    crate::diag::warn(at.clone(), kind);
+                }
+            }
+            Some(q)
+        }
+        Ok(None) => None,
         Err(query::CheckError::At(span, r)) => {
             let e = UserError::new(span, ParseError::Refused(r));
             return Err(locate(&map, e));

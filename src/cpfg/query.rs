@@ -607,12 +607,13 @@ impl Queries<'_> {
 
 /// Where a file with queries has something lsgen's query turtle does not
 /// follow, or nothing to read its settings from. `view`: the view file's
-/// turtle settings (`--cpfg-view`). Ok(None): no query.
+/// turtle settings (`--cpfg-view`). Ok(None): no query; else the turtle,
+/// and the view file's warnings about it (said if the file is taken).
 pub(crate) fn check(
     tree: &Lsystem,
     text: &str,
     view: Option<&std::path::Path>,
-) -> Result<Option<QueryTurtle>, CheckError> {
+) -> Result<Option<(QueryTurtle, Vec<crate::diag::Warning>)>, CheckError> {
     // The axiom's modules without parameters keep no span: the first
     // such symbol in the axiom's text.
     let in_axiom = |c: char| {
@@ -626,7 +627,8 @@ pub(crate) fn check(
     let Some(view) = view else {
         return Err(CheckError::At(first, Refused::QueryWithoutView));
     };
-    let view = crate::turtle::cpfg_view::read_cpfg_turtle(view).map_err(CheckError::ViewFile)?;
+    let (view, warnings) =
+        crate::turtle::cpfg_view::read_cpfg_turtle(view).map_err(CheckError::ViewFile)?;
     // cpfg's turtle interprets the string through the homomorphism. One
     // that cannot move it is not followed (the turtle ends where cpfg's
     // does); one that can is, through its image of each generation
@@ -706,7 +708,7 @@ pub(crate) fn check(
     }
     let mut q = QueryTurtle::new(&view);
     q.through = through;
-    Ok(Some(q))
+    Ok(Some((q, warnings)))
 }
 
 /// What [`check`] refuses: at a span of the `.l` file, or a label of the

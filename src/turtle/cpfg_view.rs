@@ -163,11 +163,14 @@ impl Default for CpfgTurtle {
 }
 
 /// Read cpfg's view file `path` for cpfg's turtle ([`CpfgTurtle`]); the
-/// same reading as [`read_view`] (its errors too), the warnings about
-/// drawing left out.
-pub fn read_cpfg_turtle(path: &Path) -> Result<CpfgTurtle, Error> {
+/// same reading as [`read_view`] (its errors too). Gives the warnings
+/// about cpfg's turtle itself (a movement line cpfg ignores), for the
+/// caller to say; those about drawing are left out.
+pub fn read_cpfg_turtle(path: &Path) -> Result<(CpfgTurtle, Vec<Warning>), Error> {
     let mut view = View::default();
-    read_file(path, &mut view).map(|(_, t)| t)
+    let (mut warnings, turtle) = read_file(path, &mut view)?;
+    warnings.retain(|w| matches!(w.kind(), WarningKind::CpfgMovementIgnored { .. }));
+    Ok((turtle, warnings))
 }
 
 /// Read cpfg's view file `path` into `view`: first cpfg's defaults for
