@@ -135,26 +135,40 @@ fn depth_first_only_without_what_runs_in_string_order() {
             "B(x) : x > 5 --> B(a[x])\n",
         ),
         ("", "B(x) : x > 5 --> %B(1)\n"),
+        // (Sections: after the productions.)
         ("", "decomposition\nC --> D\n"),
-        ("", "homomorphism\nC --> D\n"),
+        // A homomorphism with warnings whose successors hold a module it
+        // rewrites (its depth limit).
+        ("", "homomorphism\nC --> DC\n"),
+        ("", "homomorphism: no warnings\nmaximum depth: 2\nC --> D\n"),
     ];
     for (head, extra) in refused {
-        // (The extra productions come first: they are tried first.)
-        let r = derive(&format!("{extra}{plain}"), head, "dfs", "1");
+        // (Extra productions come first: they are tried first.)
+        let body = match extra.contains("\nC --> ") {
+            true => format!("{plain}{extra}"),
+            false => format!("{extra}{plain}"),
+        };
+        let r = derive(&body, head, "dfs", "1");
         assert_eq!(r.code(), Some(2), "{head}{extra}: {}", r.stderr);
         assert!(r.stderr.contains("cpfg"), "{head}{extra}: {}", r.stderr);
     }
-    // A homomorphism without warnings (depth 1) does not.
-    let body = format!("{plain}homomorphism: no warnings\nB(x) --> F(x)\n");
-    let want = derive(&body, "", "step", "1");
-    assert_eq!(want.code(), Some(0), "{}", want.stderr);
-    let r = derive(&body, "", "dfs", "3");
-    assert_eq!(
-        (r.code(), &r.stdout),
-        (Some(0), &want.stdout),
-        "{}",
-        r.stderr
-    );
+    // A homomorphism without warnings (depth 1) does not, nor one with
+    // warnings that cannot reach its depth limit.
+    for hom in [
+        "homomorphism: no warnings\nB(x) --> F(x)B(x)\n",
+        "homomorphism\nB(x) --> F(x)A(x)\n",
+    ] {
+        let body = format!("{plain}{hom}");
+        let want = derive(&body, "", "step", "1");
+        assert_eq!(want.code(), Some(0), "{}", want.stderr);
+        let r = derive(&body, "", "dfs", "3");
+        assert_eq!(
+            (r.code(), &r.stdout),
+            (Some(0), &want.stdout),
+            "{}",
+            r.stderr
+        );
+    }
 }
 
 /// A runtime error found depth first in a `.l` file is the one the step

@@ -545,12 +545,14 @@ pub(crate) fn derive(
     let hom_uses_step = uses_step(&homomorphism);
     // Passes only the step engine makes. A decomposition and a homomorphism
     // with depth (or its depth warning) are functions of the string alone,
-    // and the warnings are said once: they do not stop a fixed point.
+    // and the warnings are said once: they do not stop a fixed point. (The
+    // depth warning of a homomorphism none of whose successors holds a
+    // module it rewrites is never said: at depth 1, one application.)
     let structural = varies_by_step
         || hom_uses_step
         || decomposition.is_some()
         || hom_depth != 1
-        || (hom && warnings[1]);
+        || (hom && warnings[1] && homomorphism.rewrites_own_successors(&d.alphabet));
     d.decomp_tries = is_cpfg
         && decomposition
             .as_ref()

@@ -1105,6 +1105,36 @@ impl Table {
         }
     }
 
+    /// Does a successor of these productions hold a module that one of
+    /// them rewrites (the first module of its predecessor, or a later
+    /// one of cpfg's predecessors of several modules)? Only then can a
+    /// homomorphism of depth 1 reach its depth limit.
+    pub fn rewrites_own_successors(&self, al: &Alphabet) -> bool {
+        let rewritten = |key: u32| {
+            self.get(key).is_some()
+                || self
+                    .prods
+                    .iter()
+                    .any(|p| p.rest().iter().any(|r| r.key == key))
+        };
+        self.prods.iter().any(|p| {
+            p.succ.iter().any(|i| match i {
+                Item::Module { key, .. } => rewritten(*key),
+                Item::Const(c) => {
+                    let mut bin = c.bin();
+                    while !bin.is_empty() {
+                        let (key, kl) = codec::get_key(bin);
+                        if rewritten(key) {
+                            return true;
+                        }
+                        bin = &bin[kl + 8 * al.arity(key)..];
+                    }
+                    false
+                }
+            })
+        })
+    }
+
     /// Can the cpfg dialect apply these productions to a string's modules
     /// in any order (depth first, on several threads) and get what cpfg
     /// gets in string order? Not if trying or applying one can draw, warn

@@ -1285,11 +1285,13 @@ def generate_order_free(r):
     """The sixteenth batch: systems without what cpfg runs in string
     order (no `seed:`, `ran`, blocks, contexts, predecessors of several
     modules, queries, `/` by anything but a constant other than 0, `Q`, a
-    decomposition, a homomorphism's depth or warnings, a cut), which lsgen
+    decomposition, a homomorphism's depth or warnings it could say, a
+    cut), which lsgen
     may derive depth first and on several threads: parametric keys with
     several productions under conditions (the first that applies), cpfg's
     operators and functions, parameters rounded to 32-bit floats, branches,
-    sometimes `ignore:`, a homomorphism without warnings and a function
+    sometimes `ignore:`, a homomorphism (with warnings only where its
+    successors hold no module it rewrites) and a function
     of its own (`func(1, x)`, the view file case.v naming its file).
     Returns (text, steps, files)."""
     files = []
@@ -1310,25 +1312,25 @@ def generate_order_free(r):
         ])
         return e.replace("%s", a).replace("%%", "%")
 
-    def module(var):
-        s = r.choice(SYMS)
+    def module(var, syms=SYMS):
+        s = r.choice(syms)
         if s in "AB" or r.random() < 0.4:
             n = 2 if s == "B" else 1
             return "%s(%s)" % (s, ",".join(expr(var) for _ in range(n)))
         return s
 
-    def succ(var, depth=0):
+    def succ(var, depth=0, syms=SYMS):
         out = []
         for _ in range(r.randint(1, 4)):
             x = r.random()
             if x < 0.55:
-                out.append(module(var))
+                out.append(module(var, syms))
             elif x < 0.7:
                 out.append("F(%s)" % expr(var) if var else "F")
             elif x < 0.85:
                 out.append(r.choice(["+", "-", "+(22.5)", "-(%s)" % expr(var)]))
             elif depth < 2:
-                out.append("[" + succ(var, depth + 1) + "]")
+                out.append("[" + succ(var, depth + 1, syms) + "]")
         return "".join(out) or "*"
 
     lines = ["Lsystem: 1", "derivation length: %d" % r.randint(2, 6)]
@@ -1347,10 +1349,14 @@ def generate_order_free(r):
                     "x < Z", "y > x" if s == "B" else "x > 0.5", "*"]).replace("%%", "%")
             lines.append("%s%s --> %s" % (formal, cond, succ(var)))
     if r.random() < 0.4:
-        lines.append("homomorphism: no warnings")
+        # With warnings (depth 1), its successors hold no module it
+        # rewrites: the warning could not be said, and one application is
+        # all there is.
+        warn = r.random() < 0.5
+        lines.append("homomorphism" if warn else "homomorphism: no warnings")
         for formal in r.sample(["A(x)", "C", "D(x)"], r.randint(1, 2)):
             var = "x" if "(" in formal else None
-            lines.append("%s --> %s" % (formal, succ(var)))
+            lines.append("%s --> %s" % (formal, succ(var, syms="BEG" if warn else SYMS)))
     lines.append("endlsystem")
     return "\n".join(lines) + "\n", r.randint(1, 6), files
 
