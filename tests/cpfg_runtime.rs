@@ -152,6 +152,15 @@ fn depth_first_only_without_what_runs_in_string_order() {
         assert_eq!(r.code(), Some(2), "{head}{extra}: {}", r.stderr);
         assert!(r.stderr.contains("cpfg"), "{head}{extra}: {}", r.stderr);
     }
+    // Nor one whose condition can fail where cpfg tries it at its depth
+    // limit (`1 % 0` for the successor's `A(5)`): the step strategy's
+    // error.
+    let body = "A(x) --> A(x)\nhomomorphism: no warnings\nA(x) : 1 % (x - 5) > -100 --> B(x)A(5)\n";
+    let r = derive(body, "", "dfs", "1");
+    assert_eq!(r.code(), Some(2), "{}", r.stderr);
+    let r = derive(body, "", "auto", "1");
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(r.stderr.contains("remainder by zero"), "{}", r.stderr);
     // A homomorphism without warnings (depth 1) does not, nor one with
     // warnings that cannot reach its depth limit.
     for hom in [
@@ -178,10 +187,17 @@ fn a_depth_first_error_is_the_step_strategys() {
     let dir = tempdir();
     // Step 2's first module overflows a 32-bit float; depth first meets
     // step 3's overflow of the first module's expansion before it.
-    let src = "Lsystem: 1\nAxiom: A(1)B(1)\nA(x) --> A(x*1e15)\nB(x) --> B(x*1e25)\nendlsystem\n";
+    let src =
+        "Lsystem: 1\nAxiom: A(1)B(1)\nA(x) --> A(x*1.0e15)\nB(x) --> B(x*1.0e25)\nendlsystem\n";
     let file = write(dir.path(), "over.l", src);
     let step = run(lsgen().args(["-n", "3", "--strategy", "step"]).arg(&file));
     assert_eq!(step.code(), Some(1), "{}", step.stderr);
+    assert!(
+        step.stderr.contains("out of the range of a 32-bit float")
+            && step.stderr.contains("(in step 2)"),
+        "{}",
+        step.stderr
+    );
     for threads in ["1", "2"] {
         let r = run(lsgen()
             .args(["-n", "3", "--strategy", "dfs", "-j", threads])

@@ -680,6 +680,9 @@ pub(crate) fn derive(
             || c.queries.is_some()
             || !productions.cpfg_any_order()
             || (hom && !homomorphism.cpfg_any_order())
+            // (cpfg tries the productions of its homomorphism's successors'
+            // modules at its depth limit, and a try can fail.)
+            || (hom && d.hom_tries && homomorphism.rewrites_own_successors(&d.alphabet))
     });
     let step_only = structural || cpfg_ordered || d.cut;
     let strategy = if step_only {
