@@ -140,7 +140,11 @@ fn depth_first_only_without_what_runs_in_string_order() {
         // A homomorphism with warnings whose successors hold a module it
         // rewrites (its depth limit).
         ("", "homomorphism\nC --> DC\n"),
-        ("", "homomorphism: no warnings\nmaximum depth: 2\nC --> D\n"),
+        (
+            "",
+            "homomorphism: no warnings\nmaximum depth: 2\nC --> DC\n",
+        ),
+        ("", "homomorphism: no warnings\nmaximum depth: 0\nC --> D\n"),
     ];
     for (head, extra) in refused {
         // (Extra productions come first: they are tried first.)
@@ -162,10 +166,12 @@ fn depth_first_only_without_what_runs_in_string_order() {
     assert_eq!(r.code(), Some(1), "{}", r.stderr);
     assert!(r.stderr.contains("remainder by zero"), "{}", r.stderr);
     // A homomorphism without warnings (depth 1) does not, nor one with
-    // warnings that cannot reach its depth limit.
+    // warnings or a depth above 1 whose successors hold no module it
+    // rewrites (it applies once).
     for hom in [
         "homomorphism: no warnings\nB(x) --> F(x)B(x)\n",
         "homomorphism\nB(x) --> F(x)A(x)\n",
+        "homomorphism\nmaximum depth: 3\nB(x) --> F(x)A(x)\n",
     ] {
         let body = format!("{plain}{hom}");
         let want = derive(&body, "", "step", "1");

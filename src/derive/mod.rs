@@ -545,14 +545,15 @@ pub(crate) fn derive(
     let hom_uses_step = uses_step(&homomorphism);
     // Passes only the step engine makes. A decomposition and a homomorphism
     // with depth (or its depth warning) are functions of the string alone,
-    // and the warnings are said once: they do not stop a fixed point. (The
-    // depth warning of a homomorphism none of whose successors holds a
-    // module it rewrites is never said: at depth 1, one application.)
+    // and the warnings are said once: they do not stop a fixed point. A
+    // homomorphism none of whose successors holds a module it rewrites
+    // applies once at any depth from 1, and never says its depth warning.
+    let hom_recurses = hom && homomorphism.rewrites_own_successors(&d.alphabet);
     let structural = varies_by_step
         || hom_uses_step
         || decomposition.is_some()
-        || hom_depth != 1
-        || (hom && warnings[1] && homomorphism.rewrites_own_successors(&d.alphabet));
+        || (hom && hom_depth == 0)
+        || (hom_recurses && (hom_depth != 1 || warnings[1]));
     d.decomp_tries = is_cpfg
         && decomposition
             .as_ref()
@@ -682,7 +683,7 @@ pub(crate) fn derive(
             || (hom && !homomorphism.cpfg_any_order())
             // (cpfg tries the productions of its homomorphism's successors'
             // modules at its depth limit, and a try can fail.)
-            || (hom && d.hom_tries && homomorphism.rewrites_own_successors(&d.alphabet))
+            || (hom_recurses && d.hom_tries)
     });
     let step_only = structural || cpfg_ordered || d.cut;
     let strategy = if step_only {

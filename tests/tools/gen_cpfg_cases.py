@@ -1290,8 +1290,9 @@ def generate_order_free(r):
     may derive depth first and on several threads: parametric keys with
     several productions under conditions (the first that applies), cpfg's
     operators and functions, parameters rounded to 32-bit floats, branches,
-    sometimes `ignore:`, a homomorphism (with warnings only where its
-    successors hold no module it rewrites) and a function
+    sometimes `ignore:`, a homomorphism (with warnings and a depth from 1
+    to 3 only where its successors hold no module it rewrites) and a
+    function
     of its own (`func(1, x)`, the view file case.v naming its file).
     Returns (text, steps, files)."""
     files = []
@@ -1354,6 +1355,9 @@ def generate_order_free(r):
         # all there is.
         warn = r.random() < 0.5
         lines.append("homomorphism" if warn else "homomorphism: no warnings")
+        if warn and r.random() < 0.5:
+            # (Any depth from 1: it applies once.)
+            lines.append("maximum depth: %d" % r.randint(1, 3))
         for formal in r.sample(["A(x)", "C", "D(x)"], r.randint(1, 2)):
             var = "x" if "(" in formal else None
             lines.append("%s --> %s" % (formal, succ(var, syms="BEG" if warn else SYMS)))
