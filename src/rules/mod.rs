@@ -1096,7 +1096,8 @@ impl Table {
                     b.push(key, &vals, al, &mut num);
                     bin = &bin[kl + 8 * n..];
                 }
-                if params {
+                // (A text that reads the same keeps its run.)
+                if params && b.text != c.text() {
                     if let Some(run) = b.take() {
                         *c = run;
                     }
