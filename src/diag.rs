@@ -134,7 +134,12 @@ pub fn group_digits(n: u64) -> String {
 /// as [`crate::Event::Warning`]), else on standard error
 /// ([`print_warning`]).
 pub(crate) fn warn(location: Location, kind: &WarningKind) {
-    let w = Warning::new(kind.clone(), Some(location));
+    say(Warning::new(kind.clone(), Some(location)));
+}
+
+/// Report a warning made elsewhere (one a reader gathered), as [`warn`]
+/// does.
+pub(crate) fn say(w: Warning) {
     if let Some(crate::Event::Warning(w)) = collect(crate::Event::Warning(w)) {
         print_warning(&w);
     }

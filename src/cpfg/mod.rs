@@ -164,11 +164,7 @@ pub fn load(
     // (Before the lowering's warnings: a file refused here is one error.)
     let queries = match query::check(&tree, &text, functions.view()) {
         Ok(Some((q, warnings))) => {
-            for w in warnings {
-                if let (Some(at), kind) = (w.location(), w.kind()) {
-                    crate::diag::warn(at.clone(), kind);
-                }
-            }
+            warnings.into_iter().for_each(crate::diag::say);
             Some(q)
         }
         Ok(None) => None,

@@ -425,18 +425,14 @@ impl<'t> Level<'t> {
     }
 }
 
-fn deterministic_free(t: &Table) -> bool {
-    !t.has_context() && !t.check_balance && !t.may_draw()
-}
-
 impl<'t> ParamPlan<'t> {
     /// A plan for `steps` steps of `prods` then `hom` (if given),
     /// evaluated with a copy of `rng` (see [`ParamPlan::rng`]), or None
     /// when the system needs the step-by-step engine.
     pub fn new(prods: &'t Table, hom: Option<&'t Table>, steps: u64, rng: &Random) -> Option<Self> {
         let ok = (1..=MAX_DEPTH).contains(&steps)
-            && deterministic_free(prods)
-            && hom.is_none_or(deterministic_free);
+            && prods.deterministic_free()
+            && hom.is_none_or(Table::deterministic_free);
         ok.then(|| ParamPlan {
             prods,
             hom,
@@ -455,15 +451,8 @@ impl<'t> ParamPlan<'t> {
                     || self.hom.is_some_and(|h| h.get(key).is_some())
             };
             let inert = |c: &ConstRun, last: bool| {
-                let mut bin = c.bin();
-                while !bin.is_empty() {
-                    let (key, kl) = crate::rules::codec::get_key(bin);
-                    if ruled(key, last) {
-                        return false;
-                    }
-                    bin = &bin[kl + 8 * al.arity(key)..];
-                }
-                true
+                !crate::rules::codec::modules_of(c.bin(), |k| al.arity(k))
+                    .any(|(k, _)| ruled(k, last))
             };
             let mut r = Inert {
                 start: Vec::with_capacity(self.prods.prods.len()),

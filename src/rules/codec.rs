@@ -182,6 +182,24 @@ impl Modules {
     }
 }
 
+/// The modules of `bin` (modules in binary form, no bracket index) in
+/// order: each key and its parameters' bytes (`arity` gives their number).
+pub fn modules_of(
+    mut bin: &[u8],
+    arity: impl Fn(u32) -> usize,
+) -> impl Iterator<Item = (u32, &[u8])> {
+    std::iter::from_fn(move || {
+        if bin.is_empty() {
+            return None;
+        }
+        let (key, kl) = get_key(bin);
+        let end = kl + 8 * arity(key);
+        let body = &bin[kl..end];
+        bin = &bin[end..];
+        Some((key, body))
+    })
+}
+
 /// How parameters are written as text: the one setting of [`NumFmt`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Numbers {

@@ -1085,16 +1085,13 @@ impl Table {
                     continue;
                 };
                 let mut b = ConstBuilder::default();
-                let mut bin = c.bin();
                 let mut params = false;
-                while !bin.is_empty() {
-                    let (key, kl) = codec::get_key(bin);
-                    let n = al.arity(key);
+                for (key, body) in codec::modules_of(c.bin(), |k| al.arity(k)) {
+                    let n = body.len() / 8;
                     vals.clear();
-                    vals.extend((0..n).map(|i| codec::get_param(&bin[kl..], i)));
+                    vals.extend((0..n).map(|i| codec::get_param(body, i)));
                     params |= n > 0;
                     b.push(key, &vals, al, &mut num);
-                    bin = &bin[kl + 8 * n..];
                 }
                 // (A text that reads the same keeps its run.)
                 if params && b.text != c.text() {
@@ -1111,29 +1108,33 @@ impl Table {
     /// one of cpfg's predecessors of several modules)? Only then can a
     /// homomorphism of depth 1 reach its depth limit.
     pub fn rewrites_own_successors(&self, al: &Alphabet) -> bool {
-        let rewritten = |key: u32| {
-            self.get(key).is_some()
-                || self
-                    .prods
-                    .iter()
-                    .any(|p| p.rest().iter().any(|r| r.key == key))
+        // (The later modules of predecessors, once: a table may be large.)
+        let later: HashSet<u32> = match self.has_multi {
+            true => self
+                .prods
+                .iter()
+                .flat_map(|p| p.rest())
+                .map(|r| r.key)
+                .collect(),
+            false => HashSet::new(),
         };
+        let rewritten = |key: u32| self.get(key).is_some() || later.contains(&key);
         self.prods.iter().any(|p| {
             p.succ.iter().any(|i| match i {
                 Item::Module { key, .. } => rewritten(*key),
                 Item::Const(c) => {
-                    let mut bin = c.bin();
-                    while !bin.is_empty() {
-                        let (key, kl) = codec::get_key(bin);
-                        if rewritten(key) {
-                            return true;
-                        }
-                        bin = &bin[kl + 8 * al.arity(key)..];
-                    }
-                    false
+                    codec::modules_of(c.bin(), |k| al.arity(k)).any(|(k, _)| rewritten(k))
                 }
             })
         })
+    }
+
+    /// Does every production that can apply depend on its module alone and
+    /// nothing else: no context (nor predecessor of several modules), no
+    /// bracket balance check, no draw? Then a string's modules can be
+    /// rewritten in any order (`derive::dfs`).
+    pub fn deterministic_free(&self) -> bool {
+        !self.has_context() && !self.check_balance && !self.may_draw()
     }
 
     /// Can the cpfg dialect apply these productions to a string's modules
@@ -1143,12 +1144,9 @@ impl Table {
     /// modules. (The file's own blocks, `seed:` and queries are the
     /// caller's to check.)
     pub fn cpfg_any_order(&self) -> bool {
-        !self.has_context()
-            && !self.check_balance
-            && !self.may_draw()
+        self.deterministic_free()
             && self.prods.iter().all(|p| {
-                p.rest().is_empty()
-                    && p.pre().is_none()
+                p.pre().is_none()
                     && p.post().is_none()
                     && !p
                         .cond
