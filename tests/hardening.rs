@@ -312,6 +312,49 @@ fn fixed_points_in_the_depth_first_strategies() {
     );
 }
 
+#[test]
+fn a_wide_successor_at_every_depth_runs_in_bounded_memory() {
+    // A(x) -> 3000 B then A(x+1); B -> C. After n steps: the B of the
+    // first n - 1 steps are C, the last step's are B, then A(n). Depth
+    // first, lsgen 2de0a6a held each step's whole successor on the path:
+    // 3000 x 3000 modules, over 130 MB more than now (out of memory under
+    // this cap, which the 256 MiB worker stack takes most of). Now the
+    // path holds one module a step.
+    let (w, n) = (3000, 3000);
+    let src = format!(
+        "productions:\nA(x) -> {}A(x+1)\nB -> C\naxiom: A(0)\n",
+        "B".repeat(w)
+    );
+    let want = format!("{}{}A({n})", "C".repeat(w * (n - 1)), "B".repeat(w));
+    let steps = n.to_string();
+    for threads in ["1", "2"] {
+        let args = ["--strategy", "dfs", "-n", &steps, "-j", threads];
+        let r = run_with(&src, &args, Some(320 * MIB), Duration::from_secs(120));
+        assert!(r.ok() == want, "-j {threads}: wrong output");
+    }
+    // The same with parameters computed in the successor: A(x) -> B(x) x 300
+    // A(x+1), B(x) -> C(x + 1).
+    let (w, n) = (300, 2000);
+    let src = format!(
+        "productions:\nA(x) -> {}A(x+1)\nB(x) -> C(x+1)\naxiom: A(0)\n",
+        "B(x)".repeat(w)
+    );
+    let mut want = String::new();
+    for k in 0..n - 1 {
+        want.push_str(&format!("C({})", k + 1).repeat(w));
+    }
+    want.push_str(&format!("B({})", n - 1).repeat(w));
+    want.push_str(&format!("A({n})"));
+    let steps = n.to_string();
+    let r = run_with(
+        &src,
+        &["--strategy", "dfs", "-n", &steps],
+        None,
+        Duration::from_secs(120),
+    );
+    assert!(r.ok() == want, "wrong output");
+}
+
 // ------------------------- 19, 21: --max-length names the step, counts bytes
 
 /// Each strategy: the default (depth first for these systems) and the step

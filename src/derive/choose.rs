@@ -7,6 +7,7 @@ use super::random::{Draw, Random};
 use super::{Origin, Pass};
 use crate::cpfg::random::select;
 use crate::diag::{Error, RandomError};
+use crate::rules::expr::Code;
 use crate::rules::{ConstRun, Item, KeyRules, Production, Table};
 
 /// A `.l` file's productions of a key: one list (the front end merges
@@ -761,17 +762,56 @@ impl Chooser {
             match item {
                 Item::Const(c) => emit(Piece::Const(c))?,
                 Item::Module { key, params } => {
-                    self.vals.clear();
-                    for c in params.iter() {
-                        match c.eval(slots, &mut self.stack, rng) {
-                            Ok(v) => self.vals.push(v),
-                            Err(e) => return Err(origin.eval_error(e, pass)),
-                        }
-                    }
+                    eval_into(
+                        params,
+                        slots,
+                        (&mut self.stack, rng),
+                        origin,
+                        pass,
+                        &mut self.vals,
+                    )?;
                     emit(Piece::Module(*key, &self.vals))?;
                 }
             }
         }
         Ok(())
     }
+
+    /// Evaluate one successor module's parameter expressions `codes` with
+    /// the bound parameters into `into` (depth first, a successor is
+    /// evaluated a module at a time as the walk reaches it).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn eval_params(
+        &mut self,
+        codes: &[Code],
+        slots: &[f64],
+        rng: &mut Random,
+        origin: &Origin,
+        pass: Pass,
+        into: &mut Vec<f64>,
+    ) -> Result<(), Error> {
+        eval_into(codes, slots, (&mut self.stack, rng), origin, pass, into)
+    }
+}
+
+/// The one loop that evaluates a successor module's parameters, left to
+/// right, into `into` (cleared first).
+#[inline(always)]
+fn eval_into(
+    codes: &[Code],
+    slots: &[f64],
+    (stack, rng): (&mut Vec<f64>, &mut Random),
+    origin: &Origin,
+    pass: Pass,
+    into: &mut Vec<f64>,
+) -> Result<(), Error> {
+    into.clear();
+    for c in codes {
+        match c.eval(slots, stack, rng) {
+            Ok(v) => into.push(v),
+            Err(e) => return Err(origin.eval_error(e, pass)),
+        }
+    }
+    Ok(())
 }

@@ -18,7 +18,6 @@ use super::choose::{Chooser, Piece};
 use super::random::Random;
 use crate::derive::{Origin, Out, Pass, PosReader, ASCII};
 use crate::diag::Error;
-use crate::rules::codec::Modules;
 use crate::rules::{Alphabet, ConstRun, Item, Production, Table};
 use std::fs::File;
 
@@ -308,14 +307,15 @@ pub fn census(input: &File, al: &Alphabet) -> Result<Census, Error> {
 /// Depth-first expansion of deterministic context-free systems with
 /// parameters and conditions (no context, no probability, no `ran`/`nran`):
 /// a module's future depends only on itself, so the final string is each
-/// axiom module's expansion in turn. One level of modules is kept per step
-/// on the current path; nothing goes through temporary files.
+/// axiom module's expansion in turn. One module is kept per step on the
+/// current path, with where its successor's walk is ([`Level`]); nothing
+/// goes through temporary files.
 ///
 /// A module that no production matches stays the same for the remaining
 /// steps (same symbol, same parameters, same conditions), so it is written
 /// at once. A constant run of a successor whose modules nothing rewrites is
-/// one level entry, written as its text; the last step's successor is
-/// written as it is evaluated, without a level.
+/// written as its text; the last step's successor is written as it is
+/// evaluated, without a level.
 pub struct ParamPlan<'t> {
     prods: &'t Table,
     hom: Option<&'t Table>,
@@ -354,74 +354,120 @@ impl Inert {
     }
 }
 
-/// The constant run at `prod`'s successor item `i`.
-#[inline]
-fn run_at(prod: &Production, i: usize) -> Option<&ConstRun> {
-    match prod.succ.get(i) {
-        Some(Item::Const(c)) => Some(c),
-        _ => None,
-    }
-}
-
-/// Modules of one generation along the current path, and the next one to
-/// expand. A constant run of the successor that no production (nor the
-/// homomorphism) rewrites is kept whole, as key [`INERT`] whose start is
-/// its index in `inert`, and written as its precompiled text: it is not
-/// decoded, chosen for, nor formatted again.
+/// One generation on the current path: the successor being walked (its
+/// production, the next item, the next module's offset in a constant run)
+/// and the module of it expanded now. A successor is evaluated a module
+/// at a time as the walk reaches it (nothing here draws or warns, so the
+/// order of evaluation cannot show), so a level holds one module however
+/// long the successor is: the path holds at most steps × the largest
+/// arity numbers, not steps × the widest successor.
 #[derive(Default)]
 struct Level<'t> {
-    modules: Modules,
-    inert: Vec<&'t ConstRun>,
-    pos: usize,
+    /// The successor walked; None for a module of the input, alone.
+    prod: Option<&'t Production>,
+    /// Where its items' flags start in the plan's [`Inert`].
+    first: usize,
+    /// Its next item.
+    item: usize,
+    /// The next module's offset in the constant run at `item`.
+    byte: usize,
+    /// The module expanded now.
+    key: u32,
+    params: Vec<f64>,
 }
 
-/// Key of a [`Level`] entry that is an inert constant run.
-const INERT: u32 = u32::MAX;
+/// What [`Level::advance`] found next.
+enum Next<'t> {
+    /// A module, now the level's `key` and `params`.
+    Module,
+    /// A constant run that stays as it is until the end: written as its
+    /// precompiled text, not decoded, chosen for nor formatted again.
+    Inert(&'t ConstRun),
+    /// The end of the successor.
+    End,
+}
 
 impl<'t> Level<'t> {
-    fn clear(&mut self) {
-        self.modules.clear();
-        self.inert.clear();
-        self.pos = 0;
-    }
-
-    /// Append a run of modules given in binary form.
+    /// Walk `prod`'s successor, whose items' flags start at `first`.
     #[inline]
-    fn push_bin(&mut self, mut bin: &[u8], al: &Alphabet) {
-        while !bin.is_empty() {
-            let (key, kl) = crate::rules::codec::get_key(bin);
-            let n = al.arity(key);
-            self.modules.push_body(key, &bin[kl..], n);
-            bin = &bin[kl + 8 * n..];
-        }
+    fn start(&mut self, prod: &'t Production, first: usize) {
+        self.prod = Some(prod);
+        self.first = first;
+        self.item = 0;
+        self.byte = 0;
     }
 
-    /// Append successor piece `item` of `prod`: a constant run the plan
-    /// marks inert `now` as one inert item, anything else as its modules.
+    /// Make the first module of `bin` (binary form) the level's module:
+    /// its length in bytes.
     #[inline(always)]
-    fn push_piece(
+    fn decode(&mut self, bin: &[u8], al: &Alphabet) -> usize {
+        let (key, kl) = crate::rules::codec::get_key(bin);
+        let n = al.arity(key);
+        self.key = key;
+        self.params.clear();
+        self.params
+            .extend((0..n).map(|i| crate::rules::codec::get_param(&bin[kl..], i)));
+        kl + 8 * n
+    }
+
+    /// Make the first module of `bin` a module of the input, alone on its
+    /// level: its length in bytes.
+    fn set_input(&mut self, bin: &[u8], al: &Alphabet) -> usize {
+        self.prod = None;
+        self.decode(bin, al)
+    }
+
+    /// The successor's next module, its parameters evaluated with `slots`
+    /// (those of the module it replaces), or an inert run, or the end.
+    #[inline(always)]
+    fn advance(
         &mut self,
-        piece: Piece,
-        (prod, item, now): (&'t Production, usize, bool),
+        slots: &[f64],
+        (ch, rng): (&mut Chooser, &mut Random),
+        (inert, origin, pass): (&Inert, &Origin, Pass),
         al: &Alphabet,
-    ) {
-        match piece {
-            Piece::Const(c) => match now {
-                true => match run_at(prod, item) {
-                    Some(r) => self.push_inert(r),
-                    None => self.push_bin(c.bin(), al),
-                },
-                false => self.push_bin(c.bin(), al),
-            },
-            Piece::Module(key, vals) => self.modules.push(key, vals),
+    ) -> Result<Next<'t>, Error> {
+        let Some(prod) = self.prod else {
+            return Ok(Next::End);
+        };
+        loop {
+            match prod.succ.get(self.item) {
+                None => return Ok(Next::End),
+                Some(Item::Module { key, params }) => {
+                    self.item += 1;
+                    self.key = *key;
+                    ch.eval_params(params, slots, rng, origin, pass, &mut self.params)?;
+                    return Ok(Next::Module);
+                }
+                Some(Item::Const(c)) => {
+                    if self.byte == 0 && inert.is(self.first + self.item, NOW) {
+                        self.item += 1;
+                        return Ok(Next::Inert(c));
+                    }
+                    let bin = c.bin();
+                    if self.byte == bin.len() {
+                        self.item += 1;
+                        self.byte = 0;
+                        continue;
+                    }
+                    self.byte += self.decode(&bin[self.byte..], al);
+                    return Ok(Next::Module);
+                }
+            }
         }
     }
 
-    /// Append a constant run that stays as it is until the end.
-    fn push_inert(&mut self, c: &'t ConstRun) {
-        self.modules.keys.push(INERT);
-        self.modules.starts.push(self.inert.len());
-        self.inert.push(c);
+    /// Is the successor done (nothing after the module last found)?
+    #[inline(always)]
+    fn exhausted(&self) -> bool {
+        let Some(prod) = self.prod else {
+            return true;
+        };
+        match prod.succ.get(self.item) {
+            None => true,
+            Some(Item::Const(c)) => self.item + 1 == prod.succ.len() && self.byte == c.bin().len(),
+            Some(Item::Module { .. }) => false,
+        }
     }
 }
 
@@ -530,50 +576,46 @@ impl<'t> ParamPlan<'t> {
         let mut rd = PosReader::new(input, 1 << 16, false);
         let read_err = |e| Error::io("temporary file", crate::diag::IoAction::Read, e);
         while let Some((_, s, e)) = rd.next_module(al).map_err(read_err)? {
-            levels[0].clear();
-            levels[0].push_bin(rd.bytes(s, e), al);
-            let mut j = 0;
+            levels[0].set_input(rd.bytes(s, e), al);
+            // Level j holds a module not yet looked at.
+            let (mut j, mut fresh) = (0, true);
             loop {
-                if levels[j].pos == levels[j].modules.len() {
+                if !fresh {
                     if j == 0 {
                         break;
                     }
-                    j -= 1;
-                    continue;
-                }
-                let i = levels[j].pos;
-                levels[j].pos += 1;
-                let (cur, next) = levels.split_at_mut(j + 1);
-                let key = cur[j].modules.keys[i];
-                if key == INERT {
-                    if !visit(Split::Inert(cur[j].inert[cur[j].modules.starts[i]]))? {
-                        return Ok(());
+                    let (cur, next) = levels.split_at_mut(j);
+                    let how = (inert, origin, Pass::Step(j as u64));
+                    match next[0].advance(&cur[j - 1].params, (&mut ch, &mut rng), how, al)? {
+                        Next::Module => {}
+                        Next::Inert(c) => {
+                            if !visit(Split::Inert(c))? {
+                                return Ok(());
+                            }
+                            continue;
+                        }
+                        Next::End => {
+                            j -= 1;
+                            continue;
+                        }
                     }
-                    continue;
                 }
-                let (k, p) = cur[j].modules.get_mut(i, al.arity(key));
+                fresh = false;
+                let c = &mut levels[j];
                 let pass = Pass::Step(j as u64 + 1);
                 let chosen = if j == depth {
                     None
                 } else {
-                    Self::choose(self.prods, (k, &mut *p), &mut ch, &mut rng, origin, pass)?
+                    let m = (c.key, &mut c.params[..]);
+                    Self::choose(self.prods, m, &mut ch, &mut rng, origin, pass)?
                 };
                 let Some(pi) = chosen else {
-                    if !visit(Split::Module(j, k, p))? {
+                    if !visit(Split::Module(j, c.key, &c.params))? {
                         return Ok(());
                     }
                     continue;
                 };
-                let prod = &self.prods.prods[pi as usize];
-                let next = &mut next[0];
-                next.clear();
-                let first = inert.first(pi);
-                let mut item = 0;
-                ch.successor(p, prod, &mut rng, origin, pass, |piece| {
-                    next.push_piece(piece, (prod, item, inert.is(first + item, NOW)), al);
-                    item += 1;
-                    Ok(())
-                })?;
+                levels[j + 1].start(&self.prods.prods[pi as usize], inert.first(pi));
                 j += 1;
             }
         }
@@ -677,38 +719,70 @@ impl<'p, 't> Walker<'p, 't> {
         while levels.len() <= depth {
             levels.push(Level::default());
         }
-        levels[depth].clear();
-        levels[depth].push_bin(bin, al);
-        let mut j = depth;
+        let mut at = 0;
+        while at < bin.len() {
+            at += levels[depth].set_input(&bin[at..], al);
+            Self::walk(
+                (plan, n, inert),
+                (levels, depth),
+                (hch, hrng, scratch),
+                (ch, rng),
+                al,
+                origin,
+                out,
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Expand the module of `levels[depth]` by the remaining steps.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    fn walk(
+        (plan, n, inert): (&ParamPlan<'t>, usize, &Inert),
+        (levels, depth): (&mut Vec<Level<'t>>, usize),
+        (hch, hrng, scratch): (&mut Chooser, &mut Random, &mut Vec<f64>),
+        (ch, rng): (&mut Chooser, &mut Random),
+        al: &Alphabet,
+        origin: &Origin,
+        out: &mut Out,
+    ) -> Result<(), Error> {
+        // Level j holds a module not yet looked at.
+        let (mut j, mut fresh) = (depth, true);
         loop {
-            if levels[j].pos == levels[j].modules.len() {
+            if !fresh {
                 if j == depth {
-                    break;
+                    return Ok(());
                 }
-                j -= 1;
-                continue;
+                let (cur, next) = levels.split_at_mut(j);
+                let how = (inert, origin, Pass::Step(j as u64));
+                match next[0].advance(&cur[j - 1].params, (&mut *ch, &mut *rng), how, al)? {
+                    Next::Module => {}
+                    Next::Inert(c) => {
+                        out.constant(c)?;
+                        out.maybe_flush()?;
+                        continue;
+                    }
+                    Next::End => {
+                        j -= 1;
+                        continue;
+                    }
+                }
             }
-            let i = levels[j].pos;
-            levels[j].pos += 1;
+            fresh = false;
             if levels.len() <= j + 1 {
                 levels.push(Level::default());
             }
             let (cur, next) = levels.split_at_mut(j + 1);
-            let key = cur[j].modules.keys[i];
-            if key == INERT {
-                out.constant(cur[j].inert[cur[j].modules.starts[i]])?;
-                out.maybe_flush()?;
-                continue;
-            }
-            let (k, p) = cur[j].modules.get_mut(i, al.arity(key));
+            let c = &mut cur[j];
             let pass = Pass::Step(j as u64 + 1);
             let chosen = if j == n {
                 None
             } else {
-                ParamPlan::choose(plan.prods, (k, &mut *p), ch, rng, origin, pass)?
+                ParamPlan::choose(plan.prods, (c.key, &mut c.params), ch, rng, origin, pass)?
             };
             let Some(pi) = chosen else {
-                plan.leaf((k, p), al, origin, out, ch, rng)?;
+                plan.leaf((c.key, &mut c.params), al, origin, out, ch, rng)?;
                 out.maybe_flush()?;
                 continue;
             };
@@ -718,7 +792,7 @@ impl<'p, 't> Walker<'p, 't> {
                 // module rewritten to itself too: it would be a leaf).
                 let first = inert.first(pi);
                 let mut item = 0;
-                ch.successor(p, prod, rng, origin, pass, |piece| {
+                ch.successor(&c.params, prod, rng, origin, pass, |piece| {
                     item += 1;
                     match piece {
                         Piece::Const(c) if inert.is(first + item - 1, LAST) => out.constant(c)?,
@@ -752,31 +826,32 @@ impl<'p, 't> Walker<'p, 't> {
                 })?;
                 continue;
             }
-            // Evaluate the successor into the next level.
+            // The successor becomes the next level, walked as it is reached.
             let next = &mut next[0];
-            next.clear();
-            let first = inert.first(pi);
-            let mut item = 0;
-            ch.successor(p, prod, rng, origin, pass, |piece| {
-                next.push_piece(piece, (prod, item, inert.is(first + item, NOW)), al);
-                item += 1;
-                Ok(())
-            })?;
-            // A module rewritten to itself is a fixed point: the same
-            // production applies at every later step (the system draws
-            // no randomness), so it goes out as it is.
-            let same = next.modules.len() == 1
-                && k == next.modules.keys[0]
-                && p.iter()
-                    .zip(&next.modules.params)
-                    .all(|(a, b)| a.to_bits() == b.to_bits());
-            if same {
-                plan.leaf((k, p), al, origin, out, ch, rng)?;
-                out.maybe_flush()?;
-                continue;
+            next.start(prod, inert.first(pi));
+            match next.advance(&c.params, (&mut *ch, &mut *rng), (inert, origin, pass), al)? {
+                // A module rewritten to itself is a fixed point: the same
+                // production applies at every later step (the system draws
+                // no randomness), so it goes out as it is.
+                Next::Module
+                    if next.key == c.key
+                        && next.exhausted()
+                        && c.params
+                            .iter()
+                            .zip(&next.params)
+                            .all(|(a, b)| a.to_bits() == b.to_bits()) =>
+                {
+                    plan.leaf((c.key, &mut c.params), al, origin, out, ch, rng)?;
+                    out.maybe_flush()?;
+                }
+                Next::Module => (j, fresh) = (j + 1, true),
+                Next::Inert(r) => {
+                    out.constant(r)?;
+                    out.maybe_flush()?;
+                    j += 1;
+                }
+                Next::End => {}
             }
-            j += 1;
         }
-        Ok(())
     }
 }
