@@ -384,6 +384,33 @@ fn an_ignored_movement_line_is_a_warning() {
     assert!(!r.stderr.contains("warning"), "{}", r.stderr);
 }
 
+/// `--max-length` also bounds the homomorphism's image the queries read
+/// (a temporary file), and its error names that image, not the
+/// homomorphism pass, which `--no-homomorphism` does not run. After step
+/// 1 the string is I(1)I(1)A?P(0,0), 5 modules (`?P` counts as two, as
+/// `-v` says), and its image 6 + 6 + 3 = 15 modules.
+#[test]
+fn max_length_names_the_image_the_queries_read() {
+    let l = "Lsystem: 1\nderivation length: 2\nAxiom: I(1)A?P(0,0)\nA --> I(1)A\n\
+             homomorphism\nI(l) --> F(l)F(l)F(l)F(l)F(l)F(l)\nendlsystem\n";
+    let v = "angle factor: 8\n";
+    for args in [&[][..], &["--no-homomorphism"]] {
+        let r = derive(l, v, &[args, &["--max-length", "12"]].concat());
+        let e = r.fails(1);
+        assert!(
+            e.contains(
+                "lsgen: error: the string grew past --max-length (12 modules) in the \
+                 homomorphism's image of the string after step 1 (read by the turtle queries)"
+            ),
+            "{e}"
+        );
+    }
+    // After step 2 the image is 18 + 3 = 21 modules: 21 fits. I(1)'s
+    // image moves 6 times, three times: the query is at y = 18.
+    let r = derive(l, v, &["--no-homomorphism", "--max-length", "21"]);
+    assert_eq!(r.ok(), "I(1)I(1)I(1)A?P(0,18)\n");
+}
+
 /// cpfg fills the saved string's queries when it works out the view
 /// volume around it, which a view file's `box:` turns off; then only
 /// `environment display: before` (a fill after each step) does. The

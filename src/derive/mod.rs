@@ -74,6 +74,12 @@ pub enum Pass {
     Homomorphism,
     /// Reading the axiom (generation 0).
     Axiom,
+    /// The homomorphism's image of generation n (0: the axiom) that cpfg's
+    /// turtle queries read where the homomorphism can move the turtle
+    /// (README, "Coming from cpfg: turtle queries"), also with
+    /// `--no-homomorphism`: named by `--max-length`'s error when the image
+    /// outgrows it.
+    QueryImage(u64),
 }
 
 impl std::fmt::Display for Pass {
@@ -82,6 +88,13 @@ impl std::fmt::Display for Pass {
             Pass::Step(n) => write!(f, "step {n}"),
             Pass::Homomorphism => f.write_str("the homomorphism"),
             Pass::Axiom => f.write_str("the axiom"),
+            Pass::QueryImage(0) => {
+                f.write_str("the homomorphism's image of the axiom (read by the turtle queries)")
+            }
+            Pass::QueryImage(n) => write!(
+                f,
+                "the homomorphism's image of the string after step {n} (read by the turtle queries)"
+            ),
         }
     }
 }
@@ -296,7 +309,7 @@ fn fill_through_image(
     {
         let mut none = io::sink();
         let out = sink(&mut image, tmp_name, &mut none, tmp_name, limits, flags)?;
-        let mut out = out.for_pass(Pass::Homomorphism);
+        let mut out = out.for_pass(Pass::QueryImage(generation));
         // (No draw: `check` refuses a homomorphism that draws, or runs a
         // block, with queries it follows.)
         let draws = d.rng.draws();
