@@ -355,6 +355,60 @@ fn a_wide_successor_at_every_depth_runs_in_bounded_memory() {
     assert!(r.ok() == want, "wrong output");
 }
 
+#[test]
+fn a_wide_successor_in_a_deep_recursion_runs_in_bounded_memory() {
+    // Decomposition to depth 2000 of A -> A then 3000 B: A, then 2000 x
+    // 3000 B. lsgen 57072cb evaluated each depth's successor whole before
+    // rewriting its first module: 2000 x 3000 modules held, about 90 MB
+    // more than now (out of memory under this cap); now the recursion
+    // holds one module a depth. The same through a homomorphism's depth,
+    // with parameters (B(x) -> C(x), so each B of the image is a C).
+    let (w, d) = (3000, 2000);
+    let b = "B".repeat(w);
+    let src =
+        format!("productions:\nS -> A\ndecomposition:\nmaximum depth: {d}\nA -> A{b}\naxiom: S\n");
+    let want = format!("A{}", "B".repeat(w * d));
+    let r = run_with(
+        &src,
+        &["-n", "1"],
+        Some(320 * MIB),
+        Duration::from_secs(120),
+    );
+    assert!(r.ok() == want, "decomposition: wrong output");
+    let b = "B(x)".repeat(w);
+    let src =
+        format!("homomorphism:\nmaximum depth: {d}\nA(x) -> A(x){b}\nB(x) -> C(x)\naxiom: A(7)\n");
+    // Depth 1 is A's image, A(7) then w B(7); the A of the deepest
+    // level stays, its B(7) too; each shallower level's B(7) is a C(7).
+    let want = format!("A(7){}{}", "B(7)".repeat(w), "C(7)".repeat(w * (d - 1)));
+    let r = run_with(
+        &src,
+        &["-n", "0"],
+        Some(320 * MIB),
+        Duration::from_secs(120),
+    );
+    assert!(r.ok() == want, "homomorphism: wrong output");
+}
+
+/// A successor walked as the recursion reaches it still fails where cpfg's
+/// evaluation of the whole successor does, before its first module is
+/// rewritten: A(1e200)'s decomposition is B(1e200) C(1e400), whose C
+/// overflows (line 5) before B's own decomposition, D(1e400), would
+/// (line 6). 70 E make the successor wide enough to be walked.
+#[test]
+fn a_walked_successor_fails_where_the_whole_successor_does() {
+    let src = format!(
+        "productions:\nS -> A(1e200)\ndecomposition:\nmaximum depth: 5\n\
+         A(x) -> B(x)C(x*1e200){}\nB(x) -> D(x*1e200)\naxiom: S\n",
+        "E".repeat(70)
+    );
+    let e = run(&src, &["-n", "1"]).error().to_string();
+    assert!(
+        e.contains(":5:15: error: result overflows a 64-bit float (in step 1)"),
+        "{e}"
+    );
+}
+
 // ------------------------- 19, 21: --max-length names the step, counts bytes
 
 /// Each strategy: the default (depth first for these systems) and the step

@@ -80,15 +80,42 @@ pub struct Deriver<'a> {
 
 /// Recursive rewriting (decomposition, homomorphism depth): one chooser,
 /// and one buffer of modules per depth level, reused.
-#[derive(Default)]
 struct Recur {
     chooser: Chooser,
     /// The formal parameters of the production being tried (see
     /// [`Chooser`]).
     slots: Vec<f64>,
     levels: Vec<Modules>,
+    /// Per depth level, for a successor walked as it is reached
+    /// ([`descend`]): the bound parameters it is evaluated with, and the
+    /// module being rewritten.
+    walks: Vec<(Vec<f64>, Vec<f64>)>,
     /// Scratch stack of the depth-warning check.
     stack: Vec<f64>,
+    /// Successors of more modules than this are walked as they are
+    /// reached ([`descend`]); `LSGEN_TEST_WALK` sets it for tests.
+    walk_above: u64,
+}
+
+/// Successors of more modules than this are walked as they are reached
+/// in the recursion ([`descend`]): below it, evaluating a successor at
+/// once costs the least and holds little.
+const WALK_ABOVE: u64 = 64;
+
+impl Default for Recur {
+    fn default() -> Recur {
+        Recur {
+            chooser: Chooser::nested(),
+            slots: Vec::new(),
+            levels: Vec::new(),
+            walks: Vec::new(),
+            stack: Vec::new(),
+            walk_above: std::env::var("LSGEN_TEST_WALK")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(WALK_ABOVE),
+        }
+    }
 }
 
 /// Append the modules of a precompiled run to `m`.
@@ -337,9 +364,183 @@ fn try_rewrite(
         return Ok(None);
     };
     let p = &cx.table.prods[pi as usize];
-    fill_level(rc, cx.al, depth + 1, p, rng, cx.origin, cx.pass)?;
-    expand_level(rc, cx, depth + 1, rng, ctx, out)?;
+    descend(rc, cx, depth + 1, p, rng, ctx, out)?;
     Ok(Some(pi))
+}
+
+/// Rewrite `p`'s successor (its parameters bound in `rc.slots`), whose
+/// modules have depth `depth`, recursively, writing what is left to `out`.
+///
+/// A successor of more than [`WALK_ABOVE`] modules is walked as it is
+/// reached, so that a level holds one module, not the whole successor
+/// (depth × the widest successor could be gigabytes from a small file).
+/// cpfg evaluates a successor before it rewrites its first module, and
+/// the order shows only where an evaluation draws, warns, reads a
+/// variable that blocks assign, or fails: those modules are evaluated
+/// first, in string order, as cpfg does, and the first three kept
+/// ([`walk_effect`]); the others again when the walk reaches them, with
+/// the same bound parameters (their value cannot differ). A table with
+/// predecessors of several modules matches them against the evaluated
+/// successor ([`After::Level`]): it always evaluates at once.
+#[inline]
+fn descend(
+    rc: &mut Recur,
+    cx: &RecCtx,
+    depth: usize,
+    p: &Production,
+    rng: &mut Random,
+    ctx: &mut ContextFn,
+    out: &mut Out,
+) -> Result<(), Error> {
+    if cx.table.has_multi || !wider_than(p, rc.walk_above) {
+        fill_level(rc, cx.al, depth, p, rng, cx.origin, cx.pass)?;
+        return expand_level(rc, cx, depth, rng, ctx, out);
+    }
+    if rc.levels.len() <= depth {
+        rc.levels.resize_with(depth + 1, Modules::default);
+    }
+    if rc.walks.len() <= depth {
+        rc.walks.resize_with(depth + 1, Default::default);
+    }
+    let (mut bound, mut one) = std::mem::take(&mut rc.walks[depth]);
+    let mut kept = std::mem::take(&mut rc.levels[depth]);
+    bound.clear();
+    bound.extend_from_slice(&rc.slots[..p.nslots()]);
+    kept.clear();
+    let r = walk_level(
+        rc,
+        cx,
+        depth,
+        p,
+        (&bound, &mut one, &mut kept),
+        rng,
+        ctx,
+        out,
+    );
+    rc.walks[depth] = (bound, one);
+    rc.levels[depth] = kept;
+    r
+}
+
+/// Has `p`'s successor more than `n` modules?
+fn wider_than(p: &Production, n: u64) -> bool {
+    let mut m = 0u64;
+    for item in p.succ.iter() {
+        m += match item {
+            Item::Const(c) => c.modules(),
+            Item::Module { .. } => 1,
+        };
+        if m > n {
+            return true;
+        }
+    }
+    false
+}
+
+/// What evaluating a successor module's parameters `codes` does besides
+/// giving values, for [`descend`].
+#[derive(PartialEq)]
+enum WalkEffect {
+    /// Nothing: evaluated when the walk reaches it.
+    None,
+    /// It can fail: evaluated first for the error, then again.
+    Fails,
+    /// It draws, warns or reads a variable that blocks assign: evaluated
+    /// first and kept.
+    Kept,
+}
+
+fn walk_effect(codes: &[crate::rules::expr::Code]) -> WalkEffect {
+    if codes
+        .iter()
+        .any(|c| c.uses_random() || c.may_warn() || c.reads_state())
+    {
+        WalkEffect::Kept
+    } else if codes.iter().any(|c| c.may_warn_or_fail()) {
+        WalkEffect::Fails
+    } else {
+        WalkEffect::None
+    }
+}
+
+/// [`descend`]'s walk of `p`'s successor, evaluated with `bound`: first
+/// the modules with effects (those kept into `kept`), then each module in
+/// string order, rewritten recursively (`one` holds it).
+#[allow(clippy::too_many_arguments)]
+fn walk_level(
+    rc: &mut Recur,
+    cx: &RecCtx,
+    depth: usize,
+    p: &Production,
+    (bound, one, kept): (&[f64], &mut Vec<f64>, &mut Modules),
+    rng: &mut Random,
+    ctx: &mut ContextFn,
+    out: &mut Out,
+) -> Result<(), Error> {
+    let (origin, pass) = (cx.origin, cx.pass);
+    for item in p.succ.iter() {
+        if let Item::Module { key, params } = item {
+            match walk_effect(params) {
+                WalkEffect::None => {}
+                WalkEffect::Fails => rc
+                    .chooser
+                    .eval_params(params, bound, rng, origin, pass, one)?,
+                WalkEffect::Kept => {
+                    rc.chooser
+                        .eval_params(params, bound, rng, origin, pass, one)?;
+                    kept.push(*key, one);
+                }
+            }
+        }
+    }
+    // (No predecessor of several modules here: nothing to look ahead at.)
+    let none = Modules::default();
+    let mut next_kept = 0;
+    for item in p.succ.iter() {
+        match item {
+            Item::Const(c) => {
+                for (key, body) in codec::modules_of(c.bin(), |k| cx.al.arity(k)) {
+                    one.clear();
+                    one.extend((0..cx.al.arity(key)).map(|i| codec::get_param(body, i)));
+                    walk_one(rc, cx, depth, (key, one, &none), rng, ctx, out)?;
+                }
+            }
+            Item::Module { key, params } => {
+                if walk_effect(params) == WalkEffect::Kept {
+                    let (_, v) = kept.get(next_kept, cx.al.arity(*key));
+                    next_kept += 1;
+                    one.clear();
+                    one.extend_from_slice(v);
+                } else {
+                    rc.chooser
+                        .eval_params(params, bound, rng, origin, pass, one)?;
+                }
+                walk_one(rc, cx, depth, (*key, one, &none), rng, ctx, out)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Rewrite one module of a walked level recursively, or write it.
+#[inline]
+fn walk_one(
+    rc: &mut Recur,
+    cx: &RecCtx,
+    depth: usize,
+    (key, params, none): (u32, &[f64], &Modules),
+    rng: &mut Random,
+    ctx: &mut ContextFn,
+    out: &mut Out,
+) -> Result<(), Error> {
+    let after = After::Level(none, 0);
+    match try_rewrite(rc, cx, depth, (key, params, after), rng, ctx, out)? {
+        Some(_) => Ok(()),
+        // (A flush per module: one module's recursion may write a lot.)
+        None => out
+            .module(key, params, cx.al)
+            .and_then(|()| out.maybe_flush()),
+    }
 }
 
 /// Evaluate `p`'s successor (parameters bound in `rc.chooser`) into
@@ -558,10 +759,7 @@ impl<'a> Deriver<'a> {
             cpfg: None,
             warnings: [false; 2],
             warned: [Cell::new(false), Cell::new(false)],
-            rc: Recur {
-                chooser: Chooser::nested(),
-                ..Recur::default()
-            },
+            rc: Recur::default(),
             range: None,
             chunk_start: None,
             balance: None,
@@ -1230,7 +1428,6 @@ impl<'a> Deriver<'a> {
         if let Some((d, max)) = decomp {
             // The successor has depth 0: decompose it.
             rc.slots[..p.nslots()].copy_from_slice(&slots[..p.nslots()]);
-            fill_level(rc, al, 0, p, rng, origin, pass)?;
             let cx = RecCtx {
                 table: d,
                 max: *max,
@@ -1248,13 +1445,12 @@ impl<'a> Deriver<'a> {
             let mut ctx = |p: &Production, slots: &mut [f64], after: After<'_>| {
                 recursion_contexts(p, slots, after, st, al, end_off)
             };
-            return expand_level(rc, &cx, 0, rng, &mut ctx, out).map(|()| true);
+            return descend(rc, &cx, 0, p, rng, &mut ctx, out).map(|()| true);
         }
         if pass == Pass::Homomorphism && (hom_depth > 1 || warnings[1] || *hom_tries) {
             // The successor has depth 1; contexts are those of the
             // original module, at every depth.
             rc.slots[..p.nslots()].copy_from_slice(&slots[..p.nslots()]);
-            fill_level(rc, al, 1, p, rng, origin, pass)?;
             let cx = RecCtx {
                 table,
                 max: hom_depth,
@@ -1270,7 +1466,7 @@ impl<'a> Deriver<'a> {
             let mut ctx = |p: &Production, slots: &mut [f64], after: After<'_>| {
                 recursion_contexts(p, slots, after, st, al, end_off)
             };
-            return expand_level(rc, &cx, 1, rng, &mut ctx, out).map(|()| true);
+            return descend(rc, &cx, 1, p, rng, &mut ctx, out).map(|()| true);
         }
         chooser.successor(slots, p, rng, origin, pass, |piece| match piece {
             Piece::Const(c) => out.constant(c),

@@ -666,6 +666,15 @@ impl Code {
         }
     }
 
+    /// Does evaluating it read what a cpfg block can assign while a step
+    /// runs (a global variable, an array element, `Q`: the built-in step,
+    /// which blocks of a `.l` file assign)?
+    pub fn reads_state(&self) -> bool {
+        self.ops()
+            .iter()
+            .any(|o| matches!(o, Op::Global(_) | Op::Element { .. } | Op::Step))
+    }
+
     /// Does this expression read the built-in `step`?
     pub fn uses_step(&self) -> bool {
         self.ops().iter().any(|o| matches!(o, Op::Step))
