@@ -318,8 +318,8 @@ fn a_wide_successor_at_every_depth_runs_in_bounded_memory() {
     // first n - 1 steps are C, the last step's are B, then A(n). Depth
     // first, lsgen 2de0a6a held each step's whole successor on the path:
     // 3000 x 3000 modules, over 130 MB more than now (out of memory under
-    // this cap, which the 256 MiB worker stack takes most of). Now the
-    // path holds one module a step.
+    // this cap, of which the 256 MiB worker stack and the debug binary
+    // take most). Now the path holds one module a step.
     let (w, n) = (3000, 3000);
     let src = format!(
         "productions:\nA(x) -> {}A(x+1)\nB -> C\naxiom: A(0)\n",
@@ -329,7 +329,7 @@ fn a_wide_successor_at_every_depth_runs_in_bounded_memory() {
     let steps = n.to_string();
     for threads in ["1", "2"] {
         let args = ["--strategy", "dfs", "-n", &steps, "-j", threads];
-        let r = run_with(&src, &args, Some(320 * MIB), Duration::from_secs(120));
+        let r = run_with(&src, &args, Some(384 * MIB), Duration::from_secs(120));
         assert!(r.ok() == want, "-j {threads}: wrong output");
     }
     // The same with parameters computed in the successor: A(x) -> B(x) x 300
@@ -357,13 +357,14 @@ fn a_wide_successor_at_every_depth_runs_in_bounded_memory() {
 
 #[test]
 fn a_wide_successor_in_a_deep_recursion_runs_in_bounded_memory() {
-    // Decomposition to depth 2000 of A -> A then 3000 B: A, then 2000 x
-    // 3000 B. lsgen 57072cb evaluated each depth's successor whole before
-    // rewriting its first module: 2000 x 3000 modules held, about 90 MB
-    // more than now (out of memory under this cap); now the recursion
+    // Decomposition to depth 2000 of A -> A then 4000 B: A, then 2000 x
+    // 4000 B. lsgen 57072cb evaluated each depth's successor whole before
+    // rewriting its first module: 2000 x 4000 modules held, over 100 MB
+    // more than now (out of memory under this cap, of which the 256 MiB
+    // worker stack and the debug binary take most); now the recursion
     // holds one module a depth. The same through a homomorphism's depth,
     // with parameters (B(x) -> C(x), so each B of the image is a C).
-    let (w, d) = (3000, 2000);
+    let (w, d) = (4000, 2000);
     let b = "B".repeat(w);
     let src =
         format!("productions:\nS -> A\ndecomposition:\nmaximum depth: {d}\nA -> A{b}\naxiom: S\n");
@@ -371,10 +372,11 @@ fn a_wide_successor_in_a_deep_recursion_runs_in_bounded_memory() {
     let r = run_with(
         &src,
         &["-n", "1"],
-        Some(320 * MIB),
+        Some(384 * MIB),
         Duration::from_secs(120),
     );
     assert!(r.ok() == want, "decomposition: wrong output");
+    let w = 3000;
     let b = "B(x)".repeat(w);
     let src =
         format!("homomorphism:\nmaximum depth: {d}\nA(x) -> A(x){b}\nB(x) -> C(x)\naxiom: A(7)\n");
@@ -384,7 +386,7 @@ fn a_wide_successor_in_a_deep_recursion_runs_in_bounded_memory() {
     let r = run_with(
         &src,
         &["-n", "0"],
-        Some(320 * MIB),
+        Some(384 * MIB),
         Duration::from_secs(120),
     );
     assert!(r.ok() == want, "homomorphism: wrong output");
