@@ -482,19 +482,9 @@ impl<'w> Out<'w> {
         } else {
             let (_, kl) = codec::get_key(bytes);
             let body = &bytes[kl..];
-            self.buf.extend_from_slice(al.text(key));
-            let n = al.arity(key);
-            if n > 0 {
-                self.buf.push(b'(');
-                for i in 0..n {
-                    if i > 0 {
-                        self.buf.push(b',');
-                    }
-                    self.num
-                        .put_in(&mut self.buf, codec::get_param(body, i), al.numbers());
-                }
-                self.buf.push(b')');
-            }
+            let params = (0..al.arity(key)).map(|i| codec::get_param(body, i));
+            self.num
+                .module_of(&mut self.buf, al.text(key), params, al.numbers());
         }
         Ok(())
     }

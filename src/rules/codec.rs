@@ -338,17 +338,31 @@ impl NumFmt {
     /// Append a module as text, its parameters in `form`.
     #[inline]
     pub fn module(&mut self, out: &mut Vec<u8>, sym_text: &[u8], params: &[f64], form: Numbers) {
+        self.module_of(out, sym_text, params.iter().copied(), form)
+    }
+
+    /// [`NumFmt::module`] with the parameters from an iterator (a module
+    /// in binary form, decoded as it is written): the one place a module
+    /// becomes text.
+    #[inline(always)]
+    pub fn module_of(
+        &mut self,
+        out: &mut Vec<u8>,
+        sym_text: &[u8],
+        mut params: impl Iterator<Item = f64>,
+        form: Numbers,
+    ) {
         match *sym_text {
             [b] => out.push(b),
             _ => out.extend_from_slice(sym_text),
         }
-        if let Some((first, rest)) = params.split_first() {
+        if let Some(first) = params.next() {
             self.set_form(form);
             out.push(b'(');
-            self.put_cached(out, *first);
-            for p in rest {
+            self.put_cached(out, first);
+            for p in params {
                 out.push(b',');
-                self.put_cached(out, *p);
+                self.put_cached(out, p);
             }
             out.push(b')');
         }
