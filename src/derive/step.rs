@@ -377,11 +377,12 @@ fn try_rewrite(
 /// cpfg evaluates a successor before it rewrites its first module, and
 /// the order shows only where an evaluation draws, warns, reads a
 /// variable that blocks assign, or fails: those modules are evaluated
-/// first, in string order, as cpfg does, and the first three kept
-/// ([`walk_effect`]); the others again when the walk reaches them, with
-/// the same bound parameters (their value cannot differ). A table with
-/// predecessors of several modules matches them against the evaluated
-/// successor ([`After::Level`]): it always evaluates at once.
+/// first, in string order, as cpfg does ([`walk_effect`]). The values of
+/// those that draw, warn or read such a variable are kept; those that
+/// can only fail, and the rest, are evaluated when the walk reaches them,
+/// with the same bound parameters (their value cannot differ). A table
+/// with predecessors of several modules matches them against the
+/// evaluated successor ([`After::Level`]): it always evaluates at once.
 #[inline]
 fn descend(
     rc: &mut Recur,
