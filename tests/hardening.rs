@@ -355,6 +355,25 @@ fn a_wide_successor_at_every_depth_runs_in_bounded_memory() {
     assert!(r.ok() == want, "wrong output");
 }
 
+/// Depth first, a successor's computed modules are evaluated before the
+/// modules before them are expanded: A(1)'s successor D A(2) C(1/0) fails
+/// in step 1 at once. Evaluated as the walk reached C, it came after D's
+/// expansion, 2^59 modules (found by a review of 57072cb: endless, or a
+/// megabyte of output before the error).
+#[test]
+fn depth_first_finds_a_successors_error_before_expanding_its_modules() {
+    let src = "productions:\nA(x) -> D A(x+1) C(1/(x-1))\nD -> DD\naxiom: A(1)\n";
+    for threads in ["1", "3"] {
+        let args = ["--strategy", "dfs", "-n", "60", "-j", threads];
+        let r = run_with(src, &args, None, Duration::from_secs(60));
+        let e = r.error();
+        assert!(
+            e.contains(":2:20: error: division by zero (in step 1)"),
+            "-j {threads}: {e}"
+        );
+    }
+}
+
 #[test]
 fn a_wide_successor_in_a_deep_recursion_runs_in_bounded_memory() {
     // Decomposition to depth 2000 of A -> A then 4000 B: A, then 2000 x

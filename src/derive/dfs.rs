@@ -356,11 +356,15 @@ impl Inert {
 
 /// One generation on the current path: the successor being walked (its
 /// production, the next item, the next module's offset in a constant run)
-/// and the module of it expanded now. A successor is evaluated a module
-/// at a time as the walk reaches it (nothing here draws or warns, so the
-/// order of evaluation cannot show), so a level holds one module however
-/// long the successor is: the path holds at most steps × the largest
-/// arity numbers, not steps × the widest successor.
+/// and the module of it expanded now. Its computed modules are evaluated
+/// when the walk starts, before anything below them, so that a failing
+/// one stops the run where evaluating the whole successor would (not
+/// after expanding the modules before it, which may be endless): up to
+/// [`EVAL_AT_START`] of them are kept, those of a wider successor are
+/// evaluated again as the walk reaches them (nothing here draws or warns,
+/// so they give the same values); constant runs are decoded as they are
+/// reached. So the path holds at most steps × that many modules'
+/// parameters, however wide a successor is.
 #[derive(Default)]
 struct Level<'t> {
     /// The successor walked; None for a module of the input, alone.
@@ -374,7 +378,16 @@ struct Level<'t> {
     /// The module expanded now.
     key: u32,
     params: Vec<f64>,
+    /// The parameters of the successor's computed modules, evaluated at
+    /// the start (if `kept`), and where the next module's start.
+    evals: Vec<f64>,
+    evals_at: usize,
+    kept: bool,
 }
+
+/// A successor with at most this many computed modules keeps their values
+/// from the start of its walk ([`Level`]).
+const EVAL_AT_START: usize = 64;
 
 /// What [`Level::advance`] found next.
 enum Next<'t> {
@@ -388,13 +401,43 @@ enum Next<'t> {
 }
 
 impl<'t> Level<'t> {
-    /// Walk `prod`'s successor, whose items' flags start at `first`.
-    #[inline]
-    fn start(&mut self, prod: &'t Production, first: usize) {
+    /// Walk `prod`'s successor, whose items' flags start at `first`,
+    /// evaluated with `slots` (the parameters of the module it replaces):
+    /// its computed modules are evaluated now, in string order, for their
+    /// errors, and kept if there are few.
+    #[inline(always)]
+    fn start(
+        &mut self,
+        (prod, first): (&'t Production, usize),
+        slots: &[f64],
+        (ch, rng): (&mut Chooser, &mut Random),
+        (origin, pass): (&Origin, Pass),
+    ) -> Result<(), Error> {
         self.prod = Some(prod);
         self.first = first;
         self.item = 0;
         self.byte = 0;
+        self.evals.clear();
+        self.evals_at = 0;
+        let computed = prod
+            .succ
+            .iter()
+            .filter(|i| matches!(i, Item::Module { .. }))
+            .take(EVAL_AT_START + 1)
+            .count();
+        self.kept = computed <= EVAL_AT_START;
+        for item in prod.succ.iter() {
+            let Item::Module { params, .. } = item else {
+                continue;
+            };
+            if self.kept {
+                ch.eval_params(params, slots, rng, origin, pass, &mut self.params)?;
+                self.evals.extend_from_slice(&self.params);
+            } else if params.iter().any(|c| c.may_warn_or_fail()) {
+                ch.eval_params(params, slots, rng, origin, pass, &mut self.params)?;
+            }
+        }
+        Ok(())
     }
 
     /// Make the first module of `bin` (binary form) the level's module:
@@ -436,7 +479,15 @@ impl<'t> Level<'t> {
                 Some(Item::Module { key, params }) => {
                     self.item += 1;
                     self.key = *key;
-                    ch.eval_params(params, slots, rng, origin, pass, &mut self.params)?;
+                    if self.kept {
+                        let at = self.evals_at;
+                        self.evals_at += params.len();
+                        self.params.clear();
+                        self.params
+                            .extend_from_slice(&self.evals[at..self.evals_at]);
+                    } else {
+                        ch.eval_params(params, slots, rng, origin, pass, &mut self.params)?;
+                    }
                     return Ok(Next::Module);
                 }
                 Some(Item::Const(c)) => {
@@ -615,7 +666,10 @@ impl<'t> ParamPlan<'t> {
                     }
                     continue;
                 };
-                levels[j + 1].start(&self.prods.prods[pi as usize], inert.first(pi));
+                let (cur, next) = levels.split_at_mut(j + 1);
+                let prod = (&self.prods.prods[pi as usize], inert.first(pi));
+                let how = (origin, pass);
+                next[0].start(prod, &cur[j].params, (&mut ch, &mut rng), how)?;
                 j += 1;
             }
         }
@@ -828,7 +882,13 @@ impl<'p, 't> Walker<'p, 't> {
             }
             // The successor becomes the next level, walked as it is reached.
             let next = &mut next[0];
-            next.start(prod, inert.first(pi));
+            let how = (origin, pass);
+            next.start(
+                (prod, inert.first(pi)),
+                &c.params,
+                (&mut *ch, &mut *rng),
+                how,
+            )?;
             match next.advance(&c.params, (&mut *ch, &mut *rng), (inert, origin, pass), al)? {
                 // A module rewritten to itself is a fixed point: the same
                 // production applies at every later step (the system draws
