@@ -355,6 +355,22 @@ fn a_wide_successor_at_every_depth_runs_in_bounded_memory() {
     assert!(r.ok() == want, "wrong output");
 }
 
+/// The split between threads looks for the first generation with enough
+/// modules by walking down to each in turn: in a chain that never has
+/// them, 65,536 walks of up to 65,536 levels (over a minute at -j 2 in a
+/// release build, found by the review of 57072cb). Past a budget it
+/// splits where it got to.
+#[test]
+fn the_split_of_a_long_chain_is_found_at_once() {
+    let src = "productions:\nA(x) -> FA(x+1)\naxiom: A(0)\n";
+    let want = format!("{}A(65536)", "F".repeat(65536));
+    for threads in ["2", "3"] {
+        let args = ["--strategy", "dfs", "-n", "65536", "-j", threads];
+        let r = run_with(src, &args, None, Duration::from_secs(30));
+        assert!(r.ok() == want, "-j {threads}: wrong output");
+    }
+}
+
 /// Depth first, a successor's computed modules are evaluated before the
 /// modules before them are expanded: A(1)'s successor D A(2) C(1/0) fails
 /// in step 1 at once. Evaluated as the walk reached C, it came after D's

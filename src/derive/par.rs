@@ -636,6 +636,13 @@ fn split_depth(
     // (Counting stops at `want`: past it the count only sizes `most`, and
     // a deep split generation costs a walk of all of it.)
     let cap = want;
+    // Each try walks the path down to its generation again: in a string
+    // that grows slowly (a chain, `A(x) -> F A(x+1)`) that is quadratic
+    // in the steps (65,536 steps took over a minute at -j 2). Past this
+    // much work the generation reached is taken, however few its modules
+    // (a few large tasks: the same string, as at any depth).
+    let budget = 8 * want;
+    let mut spent = 0u64;
     let mut depth = 0;
     loop {
         let mut n = 0u64;
@@ -643,7 +650,8 @@ fn split_depth(
             n += 1;
             Ok(n < cap)
         })?;
-        if n >= want || depth == last {
+        spent += n + depth as u64;
+        if n >= want || depth == last || spent > budget {
             return Ok((depth, (n / (TASKS * threads as u64)).max(1)));
         }
         depth += 1;
