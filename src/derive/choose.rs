@@ -778,8 +778,8 @@ impl Chooser {
     }
 
     /// Evaluate one successor module's parameter expressions `codes` with
-    /// the bound parameters into `into` (depth first, a successor is
-    /// evaluated a module at a time as the walk reaches it).
+    /// the bound parameters into `into` (where a successor is walked a
+    /// module at a time: depth first, and the recursion's wide ones).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn eval_params(

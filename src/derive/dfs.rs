@@ -449,7 +449,7 @@ impl<'t> Level<'t> {
         self.key = key;
         self.params.clear();
         self.params
-            .extend((0..n).map(|i| crate::rules::codec::get_param(&bin[kl..], i)));
+            .extend(crate::rules::codec::params_of(&bin[kl..], n));
         kl + 8 * n
     }
 
@@ -851,17 +851,12 @@ impl<'p, 't> Walker<'p, 't> {
                     match piece {
                         Piece::Const(c) if inert.is(first + item - 1, LAST) => out.constant(c)?,
                         Piece::Const(c) => {
-                            let mut bin = c.bin();
-                            while !bin.is_empty() {
-                                let (key, kl) = crate::rules::codec::get_key(bin);
-                                let a = al.arity(key);
+                            use crate::rules::codec::{modules_of, params_of};
+                            for (key, body) in modules_of(c.bin(), |k| al.arity(k)) {
                                 scratch.clear();
-                                scratch.extend(
-                                    (0..a).map(|i| crate::rules::codec::get_param(&bin[kl..], i)),
-                                );
+                                scratch.extend(params_of(body, al.arity(key)));
                                 let m = (key, &mut scratch[..]);
                                 plan.leaf(m, al, origin, out, hch, hrng)?;
-                                bin = &bin[kl + 8 * a..];
                             }
                         }
                         // Without a homomorphism a leaf is written as it is:

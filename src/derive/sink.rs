@@ -482,7 +482,7 @@ impl<'w> Out<'w> {
         } else {
             let (_, kl) = codec::get_key(bytes);
             let body = &bytes[kl..];
-            let params = (0..al.arity(key)).map(|i| codec::get_param(body, i));
+            let params = codec::params_of(body, al.arity(key));
             self.num
                 .module_of(&mut self.buf, al.text(key), params, al.numbers());
         }

@@ -502,7 +502,7 @@ fn walk_level(
             Item::Const(c) => {
                 for (key, body) in codec::modules_of(c.bin(), |k| cx.al.arity(k)) {
                     one.clear();
-                    one.extend((0..cx.al.arity(key)).map(|i| codec::get_param(body, i)));
+                    one.extend(codec::params_of(body, cx.al.arity(key)));
                     walk_one(rc, cx, depth, (key, one, &none), rng, ctx, out)?;
                 }
             }

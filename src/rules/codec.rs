@@ -154,9 +154,7 @@ impl Modules {
     pub fn push_body(&mut self, key: u32, body: &[u8], arity: usize) {
         self.keys.push(key);
         self.starts.push(self.params.len());
-        for i in 0..arity {
-            self.params.push(get_param(body, i));
-        }
+        self.params.extend(params_of(body, arity));
     }
 
     /// Module `i`: its key and its `arity` parameters.
@@ -180,6 +178,12 @@ impl Modules {
     pub fn is_empty(&self) -> bool {
         self.keys.is_empty()
     }
+}
+
+/// The `arity` parameters of a module whose encoded parameters are `body`.
+#[inline(always)]
+pub fn params_of(body: &[u8], arity: usize) -> impl Iterator<Item = f64> + '_ {
+    (0..arity).map(move |i| get_param(body, i))
 }
 
 /// The modules of `bin` (modules in binary form, no bracket index) in

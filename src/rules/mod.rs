@@ -1089,7 +1089,7 @@ impl Table {
                 for (key, body) in codec::modules_of(c.bin(), |k| al.arity(k)) {
                     let n = body.len() / 8;
                     vals.clear();
-                    vals.extend((0..n).map(|i| codec::get_param(body, i)));
+                    vals.extend(codec::params_of(body, n));
                     params |= n > 0;
                     b.push(key, &vals, al, &mut num);
                 }
