@@ -378,15 +378,23 @@ fn the_split_of_a_long_chain_is_found_at_once() {
 /// megabyte of output before the error).
 #[test]
 fn depth_first_finds_a_successors_error_before_expanding_its_modules() {
-    let src = "productions:\nA(x) -> D A(x+1) C(1/(x-1))\nD -> DD\naxiom: A(1)\n";
-    for threads in ["1", "3"] {
-        let args = ["--strategy", "dfs", "-n", "60", "-j", threads];
-        let r = run_with(src, &args, None, Duration::from_secs(60));
-        let e = r.error();
-        assert!(
-            e.contains(":2:20: error: division by zero (in step 1)"),
-            "-j {threads}: {e}"
-        );
+    // A successor whose computed modules' values are kept from the start
+    // of its walk, and one with more computed modules than are kept (70
+    // E(x) after it), where the failing one is evaluated first for its
+    // error alone.
+    for wide in ["", &"E(x)".repeat(70)] {
+        let src =
+            format!("productions:\nA(x) -> D A(x+1) C(1/(x-1)){wide}\nD -> DD\naxiom: A(1)\n");
+        for threads in ["1", "3"] {
+            let args = ["--strategy", "dfs", "-n", "60", "-j", threads];
+            let r = run_with(&src, &args, None, Duration::from_secs(60));
+            let e = r.error();
+            assert!(
+                e.contains(":2:20: error: division by zero (in step 1)"),
+                "-j {threads}, {} E: {e}",
+                wide.len() / 4
+            );
+        }
     }
 }
 
@@ -431,13 +439,15 @@ fn a_wide_successor_in_a_deep_recursion_runs_in_bounded_memory() {
 /// evaluation of the whole successor does, before its first module is
 /// rewritten: A(1e200)'s decomposition is B(1e200) C(1e400), whose C
 /// overflows (line 5) before B's own decomposition, D(1e400), would
-/// (line 6). 70 E make the successor wide enough to be walked.
+/// (line 6). 70 E(x) make the successor wide enough to be walked, with
+/// more computed modules than a walk keeps the values of: C is evaluated
+/// first for its error alone.
 #[test]
 fn a_walked_successor_fails_where_the_whole_successor_does() {
     let src = format!(
         "productions:\nS -> A(1e200)\ndecomposition:\nmaximum depth: 5\n\
          A(x) -> B(x)C(x*1e200){}\nB(x) -> D(x*1e200)\naxiom: S\n",
-        "E".repeat(70)
+        "E(x)".repeat(70)
     );
     let e = run(&src, &["-n", "1"]).error().to_string();
     assert!(

@@ -762,6 +762,7 @@ impl Chooser {
             match item {
                 Item::Const(c) => emit(Piece::Const(c))?,
                 Item::Module { key, params } => {
+                    self.vals.clear();
                     eval_into(
                         params,
                         slots,
@@ -776,27 +777,113 @@ impl Chooser {
         }
         Ok(())
     }
+}
 
-    /// Evaluate one successor module's parameter expressions `codes` with
-    /// the bound parameters into `into` (where a successor is walked a
-    /// module at a time: depth first, and the recursion's wide ones).
+/// A successor module's parameters evaluated while its successor is walked
+/// a module at a time (depth first, and the recursion's wide successors:
+/// neither holds a whole evaluated successor per level).
+///
+/// [`Evals::start`] evaluates the successor's computed modules in string
+/// order before anything of it is rewritten, as evaluating the whole
+/// successor would: a failing module stops the run there (not after
+/// expanding the modules before it, which may be endless), and draws,
+/// warnings and reads of a variable that blocks assign come in cpfg's
+/// order. It keeps the values of every computed module of a successor of
+/// at most `keep_all` of them ([`KEEP_ALL`] but in tests); in a wider one,
+/// those of the modules whose evaluation draws, warns or reads such a
+/// variable ([`Evals::keeps`], asked again as the walk reaches each module
+/// when some are kept), and [`Evals::next`] evaluates the others again as
+/// the walk reaches them, with the same bound parameters (so the same
+/// values). A walk so holds at most `keep_all` modules' values plus those
+/// with effects, and nothing per module of the successor.
+#[derive(Default)]
+pub(crate) struct Evals {
+    /// The kept values, in string order, and where the next one starts.
+    vals: Vec<f64>,
+    at: usize,
+    /// Every computed module is kept.
+    all: bool,
+    /// Else: some module is ([`Evals::keeps`] says which).
+    some: bool,
+}
+
+/// A walked successor with at most this many computed modules keeps all
+/// their values ([`Evals`]).
+pub(crate) const KEEP_ALL: usize = 64;
+
+impl Evals {
+    /// Start a walk of the successor `succ`, whose parameters are bound to
+    /// `slots`: evaluate its computed modules, keeping all of them if at
+    /// most `keep_all` (see [`Evals`]).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn eval_params(
+    pub(crate) fn start(
         &mut self,
+        ch: &mut Chooser,
+        (succ, keep_all): (&[Item], usize),
+        (slots, rng): (&[f64], &mut Random),
+        (origin, pass): (&Origin, Pass),
+    ) -> Result<(), Error> {
+        self.vals.clear();
+        self.at = 0;
+        self.some = false;
+        let computed = succ
+            .iter()
+            .filter(|i| matches!(i, Item::Module { .. }))
+            .take(keep_all + 1)
+            .count();
+        self.all = computed <= keep_all;
+        let stack = &mut ch.stack;
+        for item in succ {
+            let Item::Module { params, .. } = item else {
+                continue;
+            };
+            let keep = self.all || Evals::keeps(params);
+            self.some |= keep;
+            if keep || params.iter().any(Code::may_warn_or_fail) {
+                let len = self.vals.len();
+                eval_into(params, slots, (stack, rng), origin, pass, &mut self.vals)?;
+                if !keep {
+                    self.vals.truncate(len);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Does a wider successor keep the values of a module whose parameters
+    /// are `codes`? Where evaluating it again would draw, warn or read a
+    /// variable again (that a block below may have assigned since).
+    fn keeps(codes: &[Code]) -> bool {
+        codes
+            .iter()
+            .any(|c| c.uses_random() || c.may_warn() || c.reads_state())
+    }
+
+    /// The parameters of the successor's next computed module (`codes`,
+    /// bound to `slots`), in `into`.
+    #[inline(always)]
+    pub(crate) fn next(
+        &mut self,
+        ch: &mut Chooser,
         codes: &[Code],
-        slots: &[f64],
-        rng: &mut Random,
-        origin: &Origin,
-        pass: Pass,
+        (slots, rng): (&[f64], &mut Random),
+        (origin, pass): (&Origin, Pass),
         into: &mut Vec<f64>,
     ) -> Result<(), Error> {
-        eval_into(codes, slots, (&mut self.stack, rng), origin, pass, into)
+        into.clear();
+        if self.all || (self.some && Evals::keeps(codes)) {
+            let at = self.at;
+            self.at += codes.len();
+            into.extend_from_slice(&self.vals[at..self.at]);
+            Ok(())
+        } else {
+            eval_into(codes, slots, (&mut ch.stack, rng), origin, pass, into)
+        }
     }
 }
 
 /// The one loop that evaluates a successor module's parameters, left to
-/// right, into `into` (cleared first).
+/// right, appending them to `into`.
 #[inline(always)]
 fn eval_into(
     codes: &[Code],
@@ -806,7 +893,6 @@ fn eval_into(
     pass: Pass,
     into: &mut Vec<f64>,
 ) -> Result<(), Error> {
-    into.clear();
     for c in codes {
         match c.eval(slots, stack, rng) {
             Ok(v) => into.push(v),

@@ -14,7 +14,7 @@
 //! compare both), and generation lengths are computed exactly by dynamic
 //! programming, for `--verbose` and `--max-length`.
 
-use super::choose::{Chooser, Piece};
+use super::choose::{Chooser, Evals, Piece, KEEP_ALL};
 use super::random::Random;
 use crate::derive::{Origin, Out, Pass, PosReader, ASCII};
 use crate::diag::Error;
@@ -357,14 +357,10 @@ impl Inert {
 /// One generation on the current path: the successor being walked (its
 /// production, the next item, the next module's offset in a constant run)
 /// and the module of it expanded now. Its computed modules are evaluated
-/// when the walk starts, before anything below them, so that a failing
-/// one stops the run where evaluating the whole successor would (not
-/// after expanding the modules before it, which may be endless): up to
-/// [`EVAL_AT_START`] of them are kept, those of a wider successor are
-/// evaluated again as the walk reaches them (nothing here draws or warns,
-/// so they give the same values); constant runs are decoded as they are
-/// reached. So the path holds at most steps × that many modules'
-/// parameters, however wide a successor is.
+/// when the walk starts and kept or evaluated again as reached
+/// ([`Evals`]); constant runs are decoded as they are reached. So the path
+/// holds at most steps × [`KEEP_ALL`] modules' parameters,
+/// however wide a successor is.
 #[derive(Default)]
 struct Level<'t> {
     /// The successor walked; None for a module of the input, alone.
@@ -378,16 +374,9 @@ struct Level<'t> {
     /// The module expanded now.
     key: u32,
     params: Vec<f64>,
-    /// The parameters of the successor's computed modules, evaluated at
-    /// the start (if `kept`), and where the next module's start.
-    evals: Vec<f64>,
-    evals_at: usize,
-    kept: bool,
+    /// The values of the successor's computed modules.
+    evals: Evals,
 }
-
-/// A successor with at most this many computed modules keeps their values
-/// from the start of its walk ([`Level`]).
-const EVAL_AT_START: usize = 64;
 
 /// What [`Level::advance`] found next.
 enum Next<'t> {
@@ -403,8 +392,7 @@ enum Next<'t> {
 impl<'t> Level<'t> {
     /// Walk `prod`'s successor, whose items' flags start at `first`,
     /// evaluated with `slots` (the parameters of the module it replaces):
-    /// its computed modules are evaluated now, in string order, for their
-    /// errors, and kept if there are few.
+    /// its computed modules are evaluated now ([`Evals::start`]).
     #[inline(always)]
     fn start(
         &mut self,
@@ -417,27 +405,8 @@ impl<'t> Level<'t> {
         self.first = first;
         self.item = 0;
         self.byte = 0;
-        self.evals.clear();
-        self.evals_at = 0;
-        let computed = prod
-            .succ
-            .iter()
-            .filter(|i| matches!(i, Item::Module { .. }))
-            .take(EVAL_AT_START + 1)
-            .count();
-        self.kept = computed <= EVAL_AT_START;
-        for item in prod.succ.iter() {
-            let Item::Module { params, .. } = item else {
-                continue;
-            };
-            if self.kept {
-                ch.eval_params(params, slots, rng, origin, pass, &mut self.params)?;
-                self.evals.extend_from_slice(&self.params);
-            } else if params.iter().any(|c| c.may_warn_or_fail()) {
-                ch.eval_params(params, slots, rng, origin, pass, &mut self.params)?;
-            }
-        }
-        Ok(())
+        let succ = (&prod.succ[..], KEEP_ALL);
+        self.evals.start(ch, succ, (slots, rng), (origin, pass))
     }
 
     /// Make the first module of `bin` (binary form) the level's module:
@@ -479,15 +448,8 @@ impl<'t> Level<'t> {
                 Some(Item::Module { key, params }) => {
                     self.item += 1;
                     self.key = *key;
-                    if self.kept {
-                        let at = self.evals_at;
-                        self.evals_at += params.len();
-                        self.params.clear();
-                        self.params
-                            .extend_from_slice(&self.evals[at..self.evals_at]);
-                    } else {
-                        ch.eval_params(params, slots, rng, origin, pass, &mut self.params)?;
-                    }
+                    self.evals
+                        .next(ch, params, (slots, rng), (origin, pass), &mut self.params)?;
                     return Ok(Next::Module);
                 }
                 Some(Item::Const(c)) => {

@@ -10,7 +10,7 @@
 
 use super::bytetable::ASCII;
 use super::bytetable::{ByteTable, Choices};
-use super::choose::{pick, Chooser, Folded, Neighbours, Piece};
+use super::choose::{pick, Chooser, Evals, Folded, Neighbours, Piece};
 use super::context::{
     match_right, match_right_cpfg, walk_right, Chains, CpfgBrackets, LeftContext, RightCache, Walk,
 };
@@ -87,14 +87,26 @@ struct Recur {
     slots: Vec<f64>,
     levels: Vec<Modules>,
     /// Per depth level, for a successor walked as it is reached
-    /// ([`descend`]): the bound parameters it is evaluated with, and the
-    /// module being rewritten.
-    walks: Vec<(Vec<f64>, Vec<f64>)>,
+    /// ([`descend`]).
+    walks: Vec<WalkLevel>,
     /// Scratch stack of the depth-warning check.
     stack: Vec<f64>,
     /// Successors of more modules than this are walked as they are
-    /// reached ([`descend`]); `LSGEN_TEST_WALK` sets it for tests.
+    /// reached ([`descend`]), keeping the values of all their computed
+    /// modules if there are at most this many ([`Evals`]);
+    /// `LSGEN_TEST_WALK` sets it for tests (0: every successor walked,
+    /// only values with effects kept).
     walk_above: u64,
+}
+
+/// A level of the recursion whose successor is walked ([`descend`]): the
+/// bound parameters it is evaluated with, the module being rewritten, and
+/// the successor's evaluated modules.
+#[derive(Default)]
+struct WalkLevel {
+    bound: Vec<f64>,
+    one: Vec<f64>,
+    evals: Evals,
 }
 
 /// Successors of more modules than this are walked as they are reached
@@ -376,13 +388,10 @@ fn try_rewrite(
 /// (depth × the widest successor could be gigabytes from a small file).
 /// cpfg evaluates a successor before it rewrites its first module, and
 /// the order shows only where an evaluation draws, warns, reads a
-/// variable that blocks assign, or fails: those modules are evaluated
-/// first, in string order, as cpfg does ([`walk_effect`]). The values of
-/// those that draw, warn or read such a variable are kept; those that
-/// can only fail, and the rest, are evaluated when the walk reaches them,
-/// with the same bound parameters (their value cannot differ). A table
-/// with predecessors of several modules matches them against the
-/// evaluated successor ([`After::Level`]): it always evaluates at once.
+/// variable that blocks assign, or fails: [`Evals`] evaluates them first,
+/// as depth first does. A table with predecessors of several modules
+/// matches them against the evaluated successor ([`After::Level`]): it
+/// always evaluates at once.
 #[inline]
 fn descend(
     rc: &mut Recur,
@@ -397,29 +406,14 @@ fn descend(
         fill_level(rc, cx.al, depth, p, rng, cx.origin, cx.pass)?;
         return expand_level(rc, cx, depth, rng, ctx, out);
     }
-    if rc.levels.len() <= depth {
-        rc.levels.resize_with(depth + 1, Modules::default);
-    }
     if rc.walks.len() <= depth {
         rc.walks.resize_with(depth + 1, Default::default);
     }
-    let (mut bound, mut one) = std::mem::take(&mut rc.walks[depth]);
-    let mut kept = std::mem::take(&mut rc.levels[depth]);
-    bound.clear();
-    bound.extend_from_slice(&rc.slots[..p.nslots()]);
-    kept.clear();
-    let r = walk_level(
-        rc,
-        cx,
-        depth,
-        p,
-        (&bound, &mut one, &mut kept),
-        rng,
-        ctx,
-        out,
-    );
-    rc.walks[depth] = (bound, one);
-    rc.levels[depth] = kept;
+    let mut w = std::mem::take(&mut rc.walks[depth]);
+    w.bound.clear();
+    w.bound.extend_from_slice(&rc.slots[..p.nslots()]);
+    let r = walk_level(rc, cx, depth, p, &mut w, rng, ctx, out);
+    rc.walks[depth] = w;
     r
 }
 
@@ -438,85 +432,40 @@ fn wider_than(p: &Production, n: u64) -> bool {
     false
 }
 
-/// What evaluating a successor module's parameters `codes` does besides
-/// giving values, for [`descend`].
-#[derive(PartialEq)]
-enum WalkEffect {
-    /// Nothing: evaluated when the walk reaches it.
-    None,
-    /// It can fail: evaluated first for the error, then again.
-    Fails,
-    /// It draws, warns or reads a variable that blocks assign: evaluated
-    /// first and kept.
-    Kept,
-}
-
-fn walk_effect(codes: &[crate::rules::expr::Code]) -> WalkEffect {
-    if codes
-        .iter()
-        .any(|c| c.uses_random() || c.may_warn() || c.reads_state())
-    {
-        WalkEffect::Kept
-    } else if codes.iter().any(|c| c.may_warn_or_fail()) {
-        WalkEffect::Fails
-    } else {
-        WalkEffect::None
-    }
-}
-
-/// [`descend`]'s walk of `p`'s successor, evaluated with `bound`: first
-/// the modules with effects (those kept into `kept`), then each module in
-/// string order, rewritten recursively (`one` holds it).
+/// [`descend`]'s walk of `p`'s successor, evaluated with `w.bound`: each
+/// module in string order, rewritten recursively (`w.one` holds it).
 #[allow(clippy::too_many_arguments)]
 fn walk_level(
     rc: &mut Recur,
     cx: &RecCtx,
     depth: usize,
     p: &Production,
-    (bound, one, kept): (&[f64], &mut Vec<f64>, &mut Modules),
+    w: &mut WalkLevel,
     rng: &mut Random,
     ctx: &mut ContextFn,
     out: &mut Out,
 ) -> Result<(), Error> {
-    let (origin, pass) = (cx.origin, cx.pass);
-    for item in p.succ.iter() {
-        if let Item::Module { key, params } = item {
-            match walk_effect(params) {
-                WalkEffect::None => {}
-                WalkEffect::Fails => rc
-                    .chooser
-                    .eval_params(params, bound, rng, origin, pass, one)?,
-                WalkEffect::Kept => {
-                    rc.chooser
-                        .eval_params(params, bound, rng, origin, pass, one)?;
-                    kept.push(*key, one);
-                }
-            }
-        }
-    }
+    let at = (cx.origin, cx.pass);
+    // (Keeping all the values of a successor with at most as many computed
+    // modules as a successor has modules before it is walked: one bound,
+    // and one test hook for both.)
+    let succ = (&p.succ[..], rc.walk_above as usize);
+    w.evals.start(&mut rc.chooser, succ, (&w.bound, rng), at)?;
     // (No predecessor of several modules here: nothing to look ahead at.)
     let none = Modules::default();
-    let mut next_kept = 0;
     for item in p.succ.iter() {
         match item {
             Item::Const(c) => {
                 for (key, body) in codec::modules_of(c.bin(), |k| cx.al.arity(k)) {
-                    one.clear();
-                    one.extend(codec::params_of(body, cx.al.arity(key)));
-                    walk_one(rc, cx, depth, (key, one, &none), rng, ctx, out)?;
+                    w.one.clear();
+                    w.one.extend(codec::params_of(body, cx.al.arity(key)));
+                    walk_one(rc, cx, depth, (key, &w.one, &none), rng, ctx, out)?;
                 }
             }
             Item::Module { key, params } => {
-                if walk_effect(params) == WalkEffect::Kept {
-                    let (_, v) = kept.get(next_kept, cx.al.arity(*key));
-                    next_kept += 1;
-                    one.clear();
-                    one.extend_from_slice(v);
-                } else {
-                    rc.chooser
-                        .eval_params(params, bound, rng, origin, pass, one)?;
-                }
-                walk_one(rc, cx, depth, (*key, one, &none), rng, ctx, out)?;
+                w.evals
+                    .next(&mut rc.chooser, params, (&w.bound, rng), at, &mut w.one)?;
+                walk_one(rc, cx, depth, (*key, &w.one, &none), rng, ctx, out)?;
             }
         }
     }
