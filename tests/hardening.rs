@@ -433,6 +433,24 @@ fn a_wide_successor_in_a_deep_recursion_runs_in_bounded_memory() {
         Duration::from_secs(120),
     );
     assert!(r.ok() == want, "homomorphism: wrong output");
+    // A cpfg table with a predecessor of several modules (CD, which never
+    // matches): the walk keeps the module after the one rewritten, for
+    // the rest of such a predecessor. lsgen fbee070 evaluated each depth's
+    // successor whole for such a table (18 M modules: out of memory here).
+    let (w, d) = (6000, 3000);
+    let b = "B".repeat(w);
+    let src = format!(
+        "Lsystem: 1\nderivation length: 1\nAxiom: S\nS --> A\ndecomposition\n\
+         maximum depth: {d}\nA --> A{b}\nCD --> E\nendlsystem\n"
+    );
+    let want = format!("A{}", "B".repeat(w * d));
+    let r = run_with(
+        &src,
+        &["--dialect", "cpfg"],
+        Some(384 * MIB),
+        Duration::from_secs(120),
+    );
+    assert!(r.ok() == want, "cpfg decomposition: wrong output");
 }
 
 /// A successor walked as the recursion reaches it still fails where cpfg's

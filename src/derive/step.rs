@@ -100,13 +100,15 @@ struct Recur {
 }
 
 /// A level of the recursion whose successor is walked ([`descend`]): the
-/// bound parameters it is evaluated with, the module being rewritten, and
-/// the successor's evaluated modules.
+/// bound parameters it is evaluated with, the values of the successor's
+/// computed modules, and the window of its modules being rewritten.
 #[derive(Default)]
 struct WalkLevel {
     bound: Vec<f64>,
     one: Vec<f64>,
     evals: Evals,
+    /// The modules from the one being rewritten on ([`walk_level`]).
+    ahead: Modules,
 }
 
 /// Successors of more modules than this are walked as they are reached
@@ -195,6 +197,17 @@ struct RecCtx<'r, 'o> {
     /// ([`Table::tries_have_effects`]): try its productions at the limit
     /// even when no warning is due.
     tries: bool,
+    /// The most modules a predecessor takes after its first ([`ahead`]).
+    ahead: usize,
+}
+
+/// The most modules a predecessor of `t` takes after its first (cpfg's
+/// predecessors of several modules; 0 for others).
+fn ahead(t: &Table) -> usize {
+    if !t.has_multi {
+        return 0;
+    }
+    t.prods.iter().map(|p| p.rest().len()).max().unwrap_or(0)
 }
 
 /// The depth limit keeps (key, params): with `warnings`, say once if a
@@ -311,28 +324,43 @@ fn expand_level(
     let mut r = Ok(());
     let mut i = 0;
     while i < buf.len() {
-        let key = buf.keys[i];
-        let (_, params) = buf.get(i, cx.al.arity(key));
-        let after = After::Level(&buf, i + 1);
-        i += 1;
-        r = match try_rewrite(rc, cx, depth, (key, params, after), rng, ctx, out) {
-            // A predecessor of several modules took the next ones too.
-            Ok(Some(pi)) => {
-                i += cx.table.prods[pi as usize].rest().len();
-                Ok(())
+        match rewrite_at(rc, cx, depth, (&buf, i), rng, ctx, out) {
+            Ok(n) => i += n,
+            Err(e) => {
+                r = Err(e);
+                break;
             }
-            // (A flush per module: one module's recursion may write a lot.)
-            Ok(None) => out
-                .module(key, params, cx.al)
-                .and_then(|()| out.maybe_flush()),
-            Err(e) => Err(e),
-        };
-        if r.is_err() {
-            break;
         }
     }
     rc.levels[depth] = buf;
     r
+}
+
+/// Rewrite module `i` of `buf` (a level's modules, of depth `depth`)
+/// recursively, or write it: how many modules of `buf` that took (a
+/// predecessor of several modules takes the next ones too).
+#[inline]
+fn rewrite_at(
+    rc: &mut Recur,
+    cx: &RecCtx,
+    depth: usize,
+    (buf, i): (&Modules, usize),
+    rng: &mut Random,
+    ctx: &mut ContextFn,
+    out: &mut Out,
+) -> Result<usize, Error> {
+    let key = buf.keys[i];
+    let (_, params) = buf.get(i, cx.al.arity(key));
+    let after = After::Level(buf, i + 1);
+    match try_rewrite(rc, cx, depth, (key, params, after), rng, ctx, out)? {
+        Some(pi) => Ok(1 + cx.table.prods[pi as usize].rest().len()),
+        // (A flush per module: one module's recursion may write a lot.)
+        None => {
+            out.module(key, params, cx.al)?;
+            out.maybe_flush()?;
+            Ok(1)
+        }
+    }
 }
 
 /// Rewrite the module (key, params) of depth `depth`, the later modules
@@ -390,8 +418,8 @@ fn try_rewrite(
 /// the order shows only where an evaluation draws, warns, reads a
 /// variable that blocks assign, or fails: [`Evals`] evaluates them first,
 /// as depth first does. A table with predecessors of several modules
-/// matches them against the evaluated successor ([`After::Level`]): it
-/// always evaluates at once.
+/// matches their rest against the modules after the one rewritten: the
+/// walk keeps as many evaluated ahead ([`RecCtx::ahead`]).
 #[inline]
 fn descend(
     rc: &mut Recur,
@@ -402,7 +430,7 @@ fn descend(
     ctx: &mut ContextFn,
     out: &mut Out,
 ) -> Result<(), Error> {
-    if cx.table.has_multi || !wider_than(p, rc.walk_above) {
+    if !wider_than(p, rc.walk_above) {
         fill_level(rc, cx.al, depth, p, rng, cx.origin, cx.pass)?;
         return expand_level(rc, cx, depth, rng, ctx, out);
     }
@@ -433,7 +461,10 @@ fn wider_than(p: &Production, n: u64) -> bool {
 }
 
 /// [`descend`]'s walk of `p`'s successor, evaluated with `w.bound`: each
-/// module in string order, rewritten recursively (`w.one` holds it).
+/// module in string order, rewritten recursively. `w.ahead` holds the
+/// module rewritten now and the [`RecCtx::ahead`] after it (fewer at the
+/// successor's end, which ends a predecessor's run as the whole
+/// successor's end does), so a level holds a bounded window of it.
 #[allow(clippy::too_many_arguments)]
 fn walk_level(
     rc: &mut Recur,
@@ -451,47 +482,42 @@ fn walk_level(
     // and one test hook for both.)
     let succ = (&p.succ[..], rc.walk_above as usize);
     w.evals.start(&mut rc.chooser, succ, (&w.bound, rng), at)?;
-    // (No predecessor of several modules here: nothing to look ahead at.)
-    let none = Modules::default();
-    for item in p.succ.iter() {
-        match item {
-            Item::Const(c) => {
-                for (key, body) in codec::modules_of(c.bin(), |k| cx.al.arity(k)) {
-                    w.one.clear();
-                    w.one.extend(codec::params_of(body, cx.al.arity(key)));
-                    walk_one(rc, cx, depth, (key, &w.one, &none), rng, ctx, out)?;
+    let arity = |k| cx.al.arity(k);
+    let mut items = p.succ.iter();
+    let mut run = codec::modules_of(&[], arity);
+    w.ahead.clear();
+    // The module rewritten next, in `w.ahead`.
+    let mut cur = 0;
+    loop {
+        while w.ahead.len() <= cur + cx.ahead {
+            if let Some((key, body)) = run.next() {
+                w.ahead.push_body(key, body, arity(key));
+                continue;
+            }
+            match items.next() {
+                None => break,
+                Some(Item::Const(c)) => run = codec::modules_of(c.bin(), arity),
+                Some(Item::Module { key, params }) => {
+                    w.evals
+                        .next(&mut rc.chooser, params, (&w.bound, rng), at, &mut w.one)?;
+                    w.ahead.push(*key, &w.one);
                 }
             }
-            Item::Module { key, params } => {
-                w.evals
-                    .next(&mut rc.chooser, params, (&w.bound, rng), at, &mut w.one)?;
-                walk_one(rc, cx, depth, (*key, &w.one, &none), rng, ctx, out)?;
-            }
+        }
+        if cur == w.ahead.len() {
+            return Ok(());
+        }
+        cur += rewrite_at(rc, cx, depth, (&w.ahead, cur), rng, ctx, out)?;
+        if cur >= WINDOW {
+            w.ahead.drop_front(cur);
+            cur = 0;
         }
     }
-    Ok(())
 }
 
-/// Rewrite one module of a walked level recursively, or write it.
-#[inline]
-fn walk_one(
-    rc: &mut Recur,
-    cx: &RecCtx,
-    depth: usize,
-    (key, params, none): (u32, &[f64], &Modules),
-    rng: &mut Random,
-    ctx: &mut ContextFn,
-    out: &mut Out,
-) -> Result<(), Error> {
-    let after = After::Level(none, 0);
-    match try_rewrite(rc, cx, depth, (key, params, after), rng, ctx, out)? {
-        Some(_) => Ok(()),
-        // (A flush per module: one module's recursion may write a lot.)
-        None => out
-            .module(key, params, cx.al)
-            .and_then(|()| out.maybe_flush()),
-    }
-}
+/// A walked level drops the modules it is done with once there are this
+/// many ([`walk_level`]).
+const WINDOW: usize = 64;
 
 /// Evaluate `p`'s successor (parameters bound in `rc.chooser`) into
 /// `rc.levels[level]`.
@@ -1191,6 +1217,7 @@ impl<'a> Deriver<'a> {
             pass,
             warn: self.warnings[0].then_some(&self.warned[0]),
             tries: self.decomp_tries,
+            ahead: ahead(d),
         };
         let lv = std::mem::take(&mut self.rc.levels[0]);
         let (_, params) = lv.get(0, n);
@@ -1386,6 +1413,7 @@ impl<'a> Deriver<'a> {
                 pass,
                 warn: warnings[0].then_some(&warned[0]),
                 tries: *decomp_tries,
+                ahead: ahead(d),
             };
             // Contexts (cpfg dialect) are read around the predecessor in
             // the string before the step, at every depth: the right one
@@ -1409,6 +1437,7 @@ impl<'a> Deriver<'a> {
                 pass,
                 warn: warnings[1].then_some(&warned[1]),
                 tries: *hom_tries,
+                ahead: ahead(table),
             };
             // (cpfg's `InterpretHomomorphism` passes the contexts of the
             // module at depth 0 down: the right one right after that

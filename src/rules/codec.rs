@@ -171,6 +171,17 @@ impl Modules {
         (self.keys[i], &mut self.params[s..s + arity])
     }
 
+    /// Drop the first `n` modules.
+    pub fn drop_front(&mut self, n: usize) {
+        let s = self.starts.get(n).copied().unwrap_or(self.params.len());
+        self.keys.drain(..n);
+        self.starts.drain(..n);
+        self.params.drain(..s);
+        for at in &mut self.starts {
+            *at -= s;
+        }
+    }
+
     pub fn len(&self) -> usize {
         self.keys.len()
     }

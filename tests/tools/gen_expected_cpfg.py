@@ -47,6 +47,7 @@ MANIFEST = {
     "null_star": [1, 2],
     "multi_pred": [1, 2, 3],
     "multi_sections": [0, 1, 2],
+    "walked_multi_pred": [1, 2],
     "first_applicable": [1, 2],
     "expressions": [1],
     "float32": [1, 5, 30],
