@@ -5,6 +5,7 @@
 use super::reader::PosReader;
 use crate::rules::codec::{self, Modules};
 use crate::rules::{Alphabet, Pat, RPat, Table, CLOSE, OPEN};
+use std::collections::HashSet;
 use std::io;
 
 /// Left context: the considered modules on the path from the start of the
@@ -431,12 +432,29 @@ const WAYS: usize = 4;
 /// `lo..after` at that level, the branch ends just before `after`, so the
 /// modules of one long branch that each ask for a `]` in their right
 /// context (`A > ]B` on `[AA...A]B`) scan it once, not once each.
+///
+/// And, for one match of a right context with several `[` ([`match_right`]):
+/// where a `[` of the pattern was found to match none of the consecutive
+/// branches from a given one on, so that the branches are tried once per
+/// `[` of the pattern, not once per combination.
 #[derive(Default)]
 pub(crate) struct Chains {
     ways: Vec<[(u64, u64); WAYS]>,
     turn: Vec<usize>,
     closes: Vec<(u64, u64)>,
+    /// (the pattern left from that `[`, by its length; the branch's `[`):
+    /// no branch from there on matches it. For the current match only.
+    failed: HashSet<(usize, u64)>,
+    /// The branches tried by the `[`s of the pattern that are being
+    /// tried, failed if their `[` fails.
+    trying: Vec<u64>,
+    /// The pattern has several `[`: `failed` is used.
+    several: bool,
 }
+
+/// The most failures [`Chains`] remembers for one match (past that, the
+/// branches are tried again, which is slower, not wrong).
+const MAX_FAILED: usize = 1 << 18;
 
 impl Chains {
     /// Where [`walk_right`] with `skip_branches` from `pos`, at nesting
@@ -507,6 +525,25 @@ pub(crate) fn match_right(
     chains: &mut Chains,
     level: usize,
 ) -> io::Result<bool> {
+    if !chains.failed.is_empty() {
+        chains.failed.clear();
+    }
+    chains.trying.clear();
+    chains.several = pat.iter().filter(|&&p| p == RPat::Open).nth(1).is_some();
+    match_right_from(peek, al, pos, pat, slots, chains, level)
+}
+
+/// [`match_right`] of the pattern's rest `pat`, from `pos` (at nesting
+/// `level`).
+fn match_right_from(
+    peek: &mut PosReader,
+    al: &Alphabet,
+    pos: u64,
+    pat: &[RPat],
+    slots: &mut [f64],
+    chains: &mut Chains,
+    level: usize,
+) -> io::Result<bool> {
     let Some((&first, rest)) = pat.split_first() else {
         return Ok(true);
     };
@@ -527,7 +564,7 @@ pub(crate) fn match_right(
                 peek.bytes(s, e),
                 &mut slots[p.slot as usize..p.slot as usize + n],
             );
-            match_right(peek, al, next, rest, slots, chains, level)
+            match_right_from(peek, al, next, rest, slots, chains, level)
         }
         RPat::Open => {
             // Step over ignored modules to the first `[`, then try each of
@@ -535,33 +572,27 @@ pub(crate) fn match_right(
             let Walk::Stop { at, open: true } = walk_right(peek, al, pos, false)? else {
                 return Ok(false);
             };
-            let mut pos = at;
-            loop {
-                peek.seek(pos);
-                if peek.next_module(al)?.is_none() {
-                    return Ok(false);
+            // With several `[` in the pattern, trying each branch here for
+            // each branch taken by an earlier `[` would cost the number of
+            // branches to the power of the `[`s (`[A][A]...B` on a string
+            // of `[A]`s): a branch from which this `[` matched nothing is
+            // remembered, and so is every branch after it tried. (Whether
+            // the rest matches from a branch depends only on the branch
+            // and the rest: the `[`s before it set the nesting, and
+            // parameters are only bound.)
+            let memo = chains.several;
+            let mark = chains.trying.len();
+            let r = open_branches(peek, al, at, rest, slots, chains, level, memo);
+            if memo {
+                if matches!(r, Ok(false)) && chains.failed.len() < MAX_FAILED {
+                    let key = rest.len();
+                    for &b in &chains.trying[mark..] {
+                        chains.failed.insert((key, b));
+                    }
                 }
-                let next = peek.offset();
-                if match_right(peek, al, next, rest, slots, chains, level + 1)? {
-                    return Ok(true);
-                }
-                // The recursion moved the buffer: read the `[` again.
-                peek.seek(pos);
-                let Some((_, s, _)) = peek.next_module(al)? else {
-                    return Ok(false);
-                };
-                match peek.branch_end(al, s, next)? {
-                    Some(after) => pos = after,
-                    None => return Ok(false),
-                }
-                // The next branch is another candidate, also after
-                // passed-over modules (`[A]X[B]` with `X` ignored is
-                // `[A][B]` to a context).
-                match walk_right(peek, al, pos, false)? {
-                    Walk::Stop { at, open: true } => pos = at,
-                    _ => return Ok(false),
-                }
+                chains.trying.truncate(mark);
             }
+            r
         }
         // cpfg's `=` comes only with cpfg's rules (`match_right_cpfg`).
         RPat::SkipRest => Ok(false),
@@ -570,7 +601,7 @@ pub(crate) fn match_right(
             // the walk stops is the same.
             let pos = chains.walk(peek, al, pos, level)?;
             match chains.skip(peek, al, pos, level)? {
-                Some(after) => match_right(
+                Some(after) => match_right_from(
                     peek,
                     al,
                     after,
@@ -581,6 +612,53 @@ pub(crate) fn match_right(
                 ),
                 None => Ok(false),
             }
+        }
+    }
+}
+
+/// [`match_right_from`]'s `[`: try each of the consecutive branches from
+/// the one at `pos` on (`memo`: stop at one from which this `[` is known
+/// to match nothing, and note each one tried in `chains.trying`).
+#[allow(clippy::too_many_arguments)]
+fn open_branches(
+    peek: &mut PosReader,
+    al: &Alphabet,
+    mut pos: u64,
+    rest: &[RPat],
+    slots: &mut [f64],
+    chains: &mut Chains,
+    level: usize,
+    memo: bool,
+) -> io::Result<bool> {
+    loop {
+        if memo {
+            if chains.failed.contains(&(rest.len(), pos)) {
+                return Ok(false);
+            }
+            chains.trying.push(pos);
+        }
+        peek.seek(pos);
+        if peek.next_module(al)?.is_none() {
+            return Ok(false);
+        }
+        let next = peek.offset();
+        if match_right_from(peek, al, next, rest, slots, chains, level + 1)? {
+            return Ok(true);
+        }
+        // The recursion moved the buffer: read the `[` again.
+        peek.seek(pos);
+        let Some((_, s, _)) = peek.next_module(al)? else {
+            return Ok(false);
+        };
+        match peek.branch_end(al, s, next)? {
+            Some(after) => pos = after,
+            None => return Ok(false),
+        }
+        // The next branch is another candidate, also after passed-over
+        // modules (`[A]X[B]` with `X` ignored is `[A][B]` to a context).
+        match walk_right(peek, al, pos, false)? {
+            Walk::Stop { at, open: true } => pos = at,
+            _ => return Ok(false),
         }
     }
 }
