@@ -125,6 +125,27 @@ fn right_context_over_a_long_ignored_run_is_linear() {
 }
 
 #[test]
+fn the_modules_of_an_ignored_run_try_the_branches_after_it_once() {
+    // `ignore: F`, `F > [A]`: each of n F reaches the same n branches
+    // [C]; lsgen 87afd76 tried them all for each F (n^2: 9 s in a release
+    // build at n = 20,000). With [A] last, every F matches it (the
+    // branches before it known from the first F); without, none does.
+    let n = 20_000;
+    let f = "F".repeat(n);
+    let g = "G".repeat(n);
+    let c = "[C]".repeat(n);
+    for (end, want) in [("", &f), ("[A]", &g)] {
+        let r = run_with(
+            &format!("ignore: F\nproductions:\nF > [A] -> G\naxiom: {f}{c}{end}\n"),
+            &["-n", "1"],
+            None,
+            Duration::from_secs(60),
+        );
+        assert!(r.ok() == format!("{want}{c}{end}"), "wrong output");
+    }
+}
+
+#[test]
 fn a_right_context_of_several_branches_tries_each_branch_once_per_bracket() {
     // `X > [A]` 10 times then B, on X then [A] n times: each `[` of the
     // pattern tried each later branch for each choice of the branches

@@ -5,7 +5,7 @@
 use super::reader::PosReader;
 use crate::rules::codec::{self, Modules};
 use crate::rules::{Alphabet, Pat, RPat, Table, CLOSE, OPEN};
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::io;
 
 /// Left context: the considered modules on the path from the start of the
@@ -450,7 +450,25 @@ pub(crate) struct Chains {
     trying: Vec<u64>,
     /// The pattern has several `[`: `failed` is used.
     several: bool,
+    /// Some ignored module asks for a right context (the pass's
+    /// `StepState::memo`): then the modules of one ignored run all reach
+    /// the same branches, and `runs` is used.
+    pub(crate) across: bool,
+    /// Per `[` of a pattern (its rest's address and length) and nesting
+    /// level: the first and last of consecutive branches in each of which
+    /// the rest of the pattern does not match, and the branch after them
+    /// where it does (None: none does), for the modules of the pass after.
+    runs: HashMap<(usize, usize, usize), Tried>,
 }
+
+/// Consecutive branches tried by a `[` of a pattern ([`Chains`]`::runs`):
+/// the first and the last in which the rest did not match, and the one
+/// after them in which it did (None: none).
+type Tried = (u64, u64, Option<u64>);
+
+/// The most `(pattern, level)` entries [`Chains::runs`] holds (past that
+/// it starts again).
+const MAX_RUNS: usize = 1 << 12;
 
 /// The most failures [`Chains`] remembers for one match (past that, the
 /// branches are tried again, which is slower, not wrong).
@@ -617,50 +635,83 @@ fn match_right_from(
 }
 
 /// [`match_right_from`]'s `[`: try each of the consecutive branches from
-/// the one at `pos` on (`memo`: stop at one from which this `[` is known
+/// the one at `start` on (`memo`: stop at one from which this `[` is known
 /// to match nothing, and note each one tried in `chains.trying`).
+///
+/// With `chains.across`, the branches in which the rest was found not to
+/// match by an earlier module of the pass (`chains.runs`) are not tried
+/// again: the modules of an ignored run each reach the same branches
+/// (`ignore: F`, `F > [A]` on `F...F[C][C]...[C][A]`), which are so tried
+/// once, not once per module. A `[` at that nesting level between the
+/// first and the last branch noted is one of those branches (only
+/// ignored modules lie between them).
 #[allow(clippy::too_many_arguments)]
 fn open_branches(
     peek: &mut PosReader,
     al: &Alphabet,
-    mut pos: u64,
+    start: u64,
     rest: &[RPat],
     slots: &mut [f64],
     chains: &mut Chains,
     level: usize,
     memo: bool,
 ) -> io::Result<bool> {
-    loop {
+    let key = (rest.as_ptr() as usize, rest.len(), level);
+    let mut pos = start;
+    // The last branch from `start` on in which the rest did not match
+    // (every one before it did not either).
+    let mut failed: Option<u64> = None;
+    let matched = loop {
+        if chains.across {
+            if let Some(&(lo, hi, next)) = chains.runs.get(&key) {
+                if lo <= pos && pos <= hi {
+                    failed = Some(hi);
+                    match next {
+                        Some(n) => pos = n,
+                        None => break false,
+                    }
+                }
+            }
+        }
         if memo {
             if chains.failed.contains(&(rest.len(), pos)) {
-                return Ok(false);
+                break false;
             }
             chains.trying.push(pos);
         }
         peek.seek(pos);
         if peek.next_module(al)?.is_none() {
-            return Ok(false);
+            break false;
         }
         let next = peek.offset();
         if match_right_from(peek, al, next, rest, slots, chains, level + 1)? {
-            return Ok(true);
+            break true;
         }
+        failed = Some(pos);
         // The recursion moved the buffer: read the `[` again.
         peek.seek(pos);
         let Some((_, s, _)) = peek.next_module(al)? else {
-            return Ok(false);
+            break false;
         };
-        match peek.branch_end(al, s, next)? {
-            Some(after) => pos = after,
-            None => return Ok(false),
-        }
+        let Some(after) = peek.branch_end(al, s, next)? else {
+            break false;
+        };
         // The next branch is another candidate, also after passed-over
         // modules (`[A]X[B]` with `X` ignored is `[A][B]` to a context).
-        match walk_right(peek, al, pos, false)? {
+        match walk_right(peek, al, after, false)? {
             Walk::Stop { at, open: true } => pos = at,
-            _ => return Ok(false),
+            _ => break false,
         }
+    };
+    if let Some(hi) = failed.filter(|_| chains.across) {
+        if chains.runs.len() >= MAX_RUNS {
+            chains.runs.clear();
+        }
+        // (The branch that matched, to go to at once; none: no branch
+        // after `hi` matches either.)
+        chains.runs.insert(key, (start, hi, matched.then_some(pos)));
     }
+    Ok(matched)
 }
 
 /// cpfg's right-context rules (issue 12), chosen once per pass for a `.l`

@@ -871,6 +871,7 @@ impl<'a> Deriver<'a> {
             run_end: None,
             cpfg_choice: self.cpfg_contexts || table.has_multi || self.rng.cpfg_mut().is_some(),
         };
+        st.chains.across = st.memo;
         // (A chunk's reader needs no more than the chunk; the buffer is
         // the last pass's or chunk's, `read_buf`, grown where it is short.)
         let capacity = self.range.map_or(1 << 20, |(start, end, _)| {
