@@ -359,6 +359,10 @@ cases! {
         err("derivation length: 2.5\naxiom: F\n", 1, 20, "whole number");
     derivation_length_negative =>
         err("derivation length: -1\naxiom: F\n", 1, 20, "whole number");
+    // 2^53 + 1 as digits: read exactly, not rounded to 2^53 (lsgen
+    // 9d04726 derived 2^53 steps); the message quotes it as written.
+    derivation_length_past_2_53 =>
+        err("derivation length: 9007199254740993\naxiom: F\n", 1, 20, "to 2^53, not 9007199254740993");
     derivation_length_unknown_name =>
         err("derivation length: n\naxiom: F\n", 1, 20, "unknown identifier `n`");
     seed_fraction => err("seed: 3.5\naxiom: F\n", 1, 7, "whole number");

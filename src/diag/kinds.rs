@@ -641,6 +641,8 @@ pub enum CompileError {
     TooManyParams(usize),
     /// A setting that must be a whole number (which, and its value).
     NotWholeNumber { what: &'static str, value: f64 },
+    /// The same, written as digits past 2^53 (which, and as written).
+    WholeNumberLiteralRange { what: &'static str, text: String },
     /// `ignore:` / `consider:` with a parameter.
     SymbolsOnly,
     /// A `seed:` literal past 2^64 - 1 (as written).
@@ -758,6 +760,9 @@ impl fmt::Display for CompileError {
                 "{what} must be a whole number from 0 to 2^53, not {}",
                 number_string(*value)
             ),
+            WholeNumberLiteralRange { what, text } => {
+                write!(f, "{what} must be a whole number from 0 to 2^53, not {text}")
+            }
             SymbolsOnly => f.write_str("list symbols here, without parameters"),
             SeedLiteralRange(text) => write!(f, "{SEED}, not {text}"),
             SeedComputedRange(v) => write!(

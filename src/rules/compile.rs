@@ -51,7 +51,26 @@ fn constant(e: &Expr, consts: &HashMap<String, f64>, rng: &mut Random) -> R<f64>
         .map_err(|e| UserError::new(e.span, e.kind))
 }
 
-fn whole_number(e: &Expr, consts: &HashMap<String, f64>, what: &'static str) -> R<u64> {
+/// A setting that must be a whole number from 0 to 2^53: as written, when
+/// it is digits in `src` (2^53 + 1 would read as 2^53).
+fn whole_number(
+    e: &Expr,
+    consts: &HashMap<String, f64>,
+    what: &'static str,
+    src: Option<&str>,
+) -> R<u64> {
+    if let Some(text) = digits(e, src) {
+        return match text.parse::<u64>() {
+            Ok(n) if n <= 1 << 53 => Ok(n),
+            _ => err(
+                e.span(),
+                CompileError::WholeNumberLiteralRange {
+                    what,
+                    text: text.to_string(),
+                },
+            ),
+        };
+    }
     let v = constant(e, consts, &mut Random::new(0))?;
     if v < 0.0 || v.fract() != 0.0 || v > 9.007_199_254_740_992e15 {
         return err(e.span(), CompileError::NotWholeNumber { what, value: v });
@@ -78,20 +97,25 @@ const EXACT_LIMIT: f64 = 9_007_199_254_740_992.0;
 /// source `src` when given); any other expression must give a whole number
 /// below 2^53, where floating point is exact.
 fn seed_value(e: &Expr, consts: &HashMap<String, f64>, src: Option<&str>) -> R<u64> {
-    if let (Expr::Num(_, (a, b)), Some(src)) = (e, src) {
-        if let Some(text) = src.get(*a..*b) {
-            if !text.is_empty() && text.bytes().all(|c| c.is_ascii_digit()) {
-                return text
-                    .parse::<u64>()
-                    .or_else(|_| err(e.span(), CompileError::SeedLiteralRange(text.to_string())));
-            }
-        }
+    if let Some(text) = digits(e, src) {
+        return text
+            .parse::<u64>()
+            .or_else(|_| err(e.span(), CompileError::SeedLiteralRange(text.to_string())));
     }
     let v = constant(e, consts, &mut Random::new(0))?;
     if v < 0.0 || v.fract() != 0.0 || v >= EXACT_LIMIT {
         return err(e.span(), CompileError::SeedComputedRange(v));
     }
     Ok(v as u64)
+}
+
+/// The text of `e` in `src` if it is a number written as digits alone.
+fn digits<'s>(e: &Expr, src: Option<&'s str>) -> Option<&'s str> {
+    let (Expr::Num(_, (a, b)), Some(src)) = (e, src) else {
+        return None;
+    };
+    src.get(*a..*b)
+        .filter(|t| !t.is_empty() && t.bytes().all(|c| c.is_ascii_digit()))
 }
 
 /// Does `e` draw random numbers, itself or through a random constant?
@@ -388,7 +412,8 @@ impl<'a> Compiler<'a> {
                     if derivation_length.is_some() {
                         return err(*span, CompileError::SetTwice("derivation length"));
                     }
-                    derivation_length = Some(whole_number(e, &consts, "the derivation length")?);
+                    derivation_length =
+                        Some(whole_number(e, &consts, "the derivation length", src)?);
                 }
                 Setting::Seed(e, span) => {
                     if seed.is_some() {
