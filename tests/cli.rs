@@ -1636,6 +1636,57 @@ fn output_refuses_a_file_its_user_cannot_write() {
     }
 }
 
+/// In a sticky directory, another user's file that `>` could write is
+/// refused before the derivation, saying why (the rename that replaces it
+/// is not permitted there: lsgen 5cc20ce derived, then failed with
+/// "Operation not permitted"). Needs two users: as root, the file is
+/// root's and lsgen runs as user 65534; otherwise skipped.
+#[test]
+fn output_refuses_another_users_file_in_a_sticky_directory() {
+    use std::os::unix::fs::PermissionsExt;
+    // SAFETY: geteuid has no preconditions.
+    if unsafe { libc::geteuid() } != 0 {
+        return;
+    }
+    let d = common::tempdir();
+    let dir = d.path();
+    std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o1777)).unwrap();
+    let src = common::write(dir, "a.ls", "axiom:\nF\n");
+    std::fs::set_permissions(&src, std::fs::Permissions::from_mode(0o644)).unwrap();
+    let theirs = common::write(dir, "theirs.txt", "old\n");
+    std::fs::set_permissions(&theirs, std::fs::Permissions::from_mode(0o666)).unwrap();
+    let as_nobody = |out: &std::path::Path| {
+        let mut c = std::process::Command::new("setpriv");
+        c.args([
+            "--reuid=65534",
+            "--regid=65534",
+            "--clear-groups",
+            common::LSGEN,
+        ]);
+        c.arg(&src).arg("-o").arg(out);
+        common::run(&mut c)
+    };
+    let r = as_nobody(&theirs);
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert_eq!(
+        r.stderr,
+        format!(
+            "lsgen: {}: error: cannot write: another user's file in a sticky directory, \
+             which lsgen cannot replace (it writes a new file and renames it over the old \
+             one); write to standard output and redirect it with `>`\n",
+            theirs.display()
+        )
+    );
+    assert_eq!(std::fs::read_to_string(&theirs).unwrap(), "old\n");
+    let left: Vec<_> = std::fs::read_dir(dir).unwrap().collect();
+    assert_eq!(left.len(), 2, "a temporary file was left");
+    // A new file there is the user's own.
+    let mine = dir.join("mine.txt");
+    let r = as_nobody(&mine);
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert_eq!(std::fs::read_to_string(&mine).unwrap(), "F\n");
+}
+
 /// Blanks and comments may stand before a keyword's `:` as between its
 /// words (README, "Keywords"); a line break may not. Algae from A, three
 /// steps: AB, ABA, ABAAB; the comment `/* : */` holds a colon itself.

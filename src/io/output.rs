@@ -315,11 +315,29 @@ impl Output {
             let e = std::io::Error::from_raw_os_error(rustix::io::Errno::ACCESS.raw_os_error());
             return Err(Error::io(&name, crate::diag::IoAction::Write, e));
         }
-        let mode = match fs::metadata(&p) {
-            Ok(m) => m.mode() & 0o7777,
-            Err(_) => 0o666 & !umask(),
+        let old = fs::metadata(&p).ok();
+        let mode = match &old {
+            Some(m) => m.mode() & 0o7777,
+            None => 0o666 & !umask(),
         };
         let dir = parent_dir(&p).to_path_buf();
+        // In a sticky directory (`/tmp`) only the file's owner, the
+        // directory's or root may replace it (rename(2): EPERM), though
+        // `>` could write it: refused now, before the derivation, saying
+        // why (the rename at the end would say "Operation not permitted").
+        if let (Some(f), Ok(d)) = (&old, fs::metadata(&dir)) {
+            // SAFETY: geteuid cannot fail.
+            let uid = unsafe { libc::geteuid() };
+            if d.mode() & 0o1000 != 0 && uid != 0 && f.uid() != uid && d.uid() != uid {
+                let e = std::io::Error::new(
+                    std::io::ErrorKind::PermissionDenied,
+                    "another user's file in a sticky directory, which lsgen cannot \
+                     replace (it writes a new file and renames it over the old one); \
+                     write to standard output and redirect it with `>`",
+                );
+                return Err(Error::io(&name, crate::diag::IoAction::Write, e));
+            }
+        }
         remove_leftovers(&dir);
         // O_TMPFILE on Linux: the file has no name until it is complete.
         let file = tempfile::tempfile_in(&dir)
