@@ -5,7 +5,7 @@
 use super::reader::PosReader;
 use crate::rules::codec::{self, Modules};
 use crate::rules::{Alphabet, Pat, RPat, Table, CLOSE, OPEN};
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 use std::io;
 
 /// Left context: the considered modules on the path from the start of the
@@ -433,31 +433,26 @@ const WAYS: usize = 4;
 /// modules of one long branch that each ask for a `]` in their right
 /// context (`A > ]B` on `[AA...A]B`) scan it once, not once each.
 ///
-/// And, for one match of a right context with several `[` ([`match_right`]):
-/// where a `[` of the pattern was found to match none of the consecutive
-/// branches from a given one on, so that the branches are tried once per
-/// `[` of the pattern, not once per combination.
+/// And, per `[` of a right-context pattern and nesting level, the
+/// consecutive branches in which the rest of the pattern was found not to
+/// match, and the one after them where it did ([`open_branches`]), so that
+/// no branch is tried twice for one `[` in a pass: not for each choice of
+/// branches by the `[`s before it (`[A][A]...B` on a string of `[A]`s,
+/// which would cost the branches to the power of the `[`s), nor for each
+/// module of an ignored run that reaches the same branches.
 #[derive(Default)]
 pub(crate) struct Chains {
     ways: Vec<[(u64, u64); WAYS]>,
     turn: Vec<usize>,
     closes: Vec<(u64, u64)>,
-    /// (the pattern left from that `[`, by its length; the branch's `[`):
-    /// no branch from there on matches it. For the current match only.
-    failed: HashSet<(usize, u64)>,
-    /// The branches tried by the `[`s of the pattern that are being
-    /// tried, failed if their `[` fails.
-    trying: Vec<u64>,
-    /// The pattern has several `[`: `failed` is used.
-    several: bool,
     /// Some ignored module asks for a right context (the pass's
     /// `StepState::memo`): then the modules of one ignored run all reach
-    /// the same branches, and `runs` is used.
+    /// the same branches, and `runs` is used for every pattern.
     pub(crate) across: bool,
+    /// The pattern being matched has several `[`: `runs` is used for it.
+    several: bool,
     /// Per `[` of a pattern (its rest's address and length) and nesting
-    /// level: the first and last of consecutive branches in each of which
-    /// the rest of the pattern does not match, and the branch after them
-    /// where it does (None: none does), for the modules of the pass after.
+    /// level: what its search of consecutive branches found.
     runs: HashMap<(usize, usize, usize), Tried>,
 }
 
@@ -469,10 +464,6 @@ type Tried = (u64, u64, Option<u64>);
 /// The most `(pattern, level)` entries [`Chains::runs`] holds (past that
 /// it starts again).
 const MAX_RUNS: usize = 1 << 12;
-
-/// The most failures [`Chains`] remembers for one match (past that, the
-/// branches are tried again, which is slower, not wrong).
-const MAX_FAILED: usize = 1 << 18;
 
 impl Chains {
     /// Where [`walk_right`] with `skip_branches` from `pos`, at nesting
@@ -543,10 +534,6 @@ pub(crate) fn match_right(
     chains: &mut Chains,
     level: usize,
 ) -> io::Result<bool> {
-    if !chains.failed.is_empty() {
-        chains.failed.clear();
-    }
-    chains.trying.clear();
     chains.several = pat.iter().filter(|&&p| p == RPat::Open).nth(1).is_some();
     match_right_from(peek, al, pos, pat, slots, chains, level)
 }
@@ -590,27 +577,7 @@ fn match_right_from(
             let Walk::Stop { at, open: true } = walk_right(peek, al, pos, false)? else {
                 return Ok(false);
             };
-            // With several `[` in the pattern, trying each branch here for
-            // each branch taken by an earlier `[` would cost the number of
-            // branches to the power of the `[`s (`[A][A]...B` on a string
-            // of `[A]`s): a branch from which this `[` matched nothing is
-            // remembered, and so is every branch after it tried. (Whether
-            // the rest matches from a branch depends only on the branch
-            // and the rest: the `[`s before it set the nesting, and
-            // parameters are only bound.)
-            let memo = chains.several;
-            let mark = chains.trying.len();
-            let r = open_branches(peek, al, at, rest, slots, chains, level, memo);
-            if memo {
-                if matches!(r, Ok(false)) && chains.failed.len() < MAX_FAILED {
-                    let key = rest.len();
-                    for &b in &chains.trying[mark..] {
-                        chains.failed.insert((key, b));
-                    }
-                }
-                chains.trying.truncate(mark);
-            }
-            r
+            open_branches(peek, al, at, rest, slots, chains, level)
         }
         // cpfg's `=` comes only with cpfg's rules (`match_right_cpfg`).
         RPat::SkipRest => Ok(false),
@@ -635,16 +602,19 @@ fn match_right_from(
 }
 
 /// [`match_right_from`]'s `[`: try each of the consecutive branches from
-/// the one at `start` on (`memo`: stop at one from which this `[` is known
-/// to match nothing, and note each one tried in `chains.trying`).
+/// the one at `start` on.
 ///
-/// With `chains.across`, the branches in which the rest was found not to
-/// match by an earlier module of the pass (`chains.runs`) are not tried
-/// again: the modules of an ignored run each reach the same branches
-/// (`ignore: F`, `F > [A]` on `F...F[C][C]...[C][A]`), which are so tried
-/// once, not once per module. A `[` at that nesting level between the
-/// first and the last branch noted is one of those branches (only
-/// ignored modules lie between them).
+/// Where the pattern has several `[`, or an ignored module has a
+/// right-context production (`chains.across`), the branches in which the
+/// rest was found not to match (`chains.runs`, noted at the end of each
+/// search) are not tried again, in this match or a later module's of the
+/// pass: a search landing among them goes on at the branch after them
+/// where the rest matched (matched again there, so its parameters bind)
+/// or fails. Whether the rest matches in a branch depends only on the
+/// branch (the pattern's elements before it fix the nesting; parameters
+/// are only bound), and only ignored modules lie between consecutive
+/// branches of one level, so a `[` of that level between the first and
+/// the last branch noted is one of them.
 #[allow(clippy::too_many_arguments)]
 fn open_branches(
     peek: &mut PosReader,
@@ -654,17 +624,19 @@ fn open_branches(
     slots: &mut [f64],
     chains: &mut Chains,
     level: usize,
-    memo: bool,
 ) -> io::Result<bool> {
+    let memo = chains.across || chains.several;
     let key = (rest.as_ptr() as usize, rest.len(), level);
     let mut pos = start;
-    // The last branch from `start` on in which the rest did not match
-    // (every one before it did not either).
+    // The first and the last branch from which on, and up to which, the
+    // rest did not match in any (a noted stretch met joins them).
+    let mut from = start;
     let mut failed: Option<u64> = None;
     let matched = loop {
-        if chains.across {
+        if memo {
             if let Some(&(lo, hi, next)) = chains.runs.get(&key) {
                 if lo <= pos && pos <= hi {
+                    from = from.min(lo);
                     failed = Some(hi);
                     match next {
                         Some(n) => pos = n,
@@ -672,12 +644,6 @@ fn open_branches(
                     }
                 }
             }
-        }
-        if memo {
-            if chains.failed.contains(&(rest.len(), pos)) {
-                break false;
-            }
-            chains.trying.push(pos);
         }
         peek.seek(pos);
         if peek.next_module(al)?.is_none() {
@@ -703,13 +669,13 @@ fn open_branches(
             _ => break false,
         }
     };
-    if let Some(hi) = failed.filter(|_| chains.across) {
+    if let Some(hi) = failed.filter(|_| memo) {
         if chains.runs.len() >= MAX_RUNS {
             chains.runs.clear();
         }
         // (The branch that matched, to go to at once; none: no branch
         // after `hi` matches either.)
-        chains.runs.insert(key, (start, hi, matched.then_some(pos)));
+        chains.runs.insert(key, (from, hi, matched.then_some(pos)));
     }
     Ok(matched)
 }
