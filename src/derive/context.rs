@@ -669,7 +669,9 @@ fn open_branches(
             _ => break false,
         }
     };
-    if let Some(hi) = failed.filter(|_| memo) {
+    // (A search that tried one branch alone notes nothing: trying it
+    // again costs no more than looking it up.)
+    if let Some(hi) = failed.filter(|&hi| memo && (from != start || hi != start)) {
         if chains.runs.len() >= MAX_RUNS {
             chains.runs.clear();
         }
