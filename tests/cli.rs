@@ -1588,6 +1588,18 @@ fn byte_order_mark_in_an_axiom_file_is_skipped() {
     assert_eq!(r.ok(), "F(1)G\n");
 }
 
+/// lsgen run as user 65534 (by root, through `setpriv`).
+fn as_user_65534() -> std::process::Command {
+    let mut c = std::process::Command::new("setpriv");
+    c.args([
+        "--reuid=65534",
+        "--regid=65534",
+        "--clear-groups",
+        common::LSGEN,
+    ]);
+    c
+}
+
 /// `-o` does not replace a file its user could not write with `>` (the
 /// rename would, as the directory allows it): a read-only file stays, the
 /// run fails with the system's message. As root, through `setpriv` to
@@ -1605,14 +1617,7 @@ fn output_refuses_a_file_its_user_cannot_write() {
     // SAFETY: geteuid has no preconditions.
     let root = unsafe { libc::geteuid() } == 0;
     let mut cmd = if root {
-        let mut c = std::process::Command::new("setpriv");
-        c.args([
-            "--reuid=65534",
-            "--regid=65534",
-            "--clear-groups",
-            common::LSGEN,
-        ]);
-        c
+        as_user_65534()
     } else {
         std::process::Command::new(common::LSGEN)
     };
@@ -1656,13 +1661,7 @@ fn output_refuses_another_users_file_in_a_sticky_directory() {
     let theirs = common::write(dir, "theirs.txt", "old\n");
     std::fs::set_permissions(&theirs, std::fs::Permissions::from_mode(0o666)).unwrap();
     let as_nobody = |out: &std::path::Path| {
-        let mut c = std::process::Command::new("setpriv");
-        c.args([
-            "--reuid=65534",
-            "--regid=65534",
-            "--clear-groups",
-            common::LSGEN,
-        ]);
+        let mut c = as_user_65534();
         c.arg(&src).arg("-o").arg(out);
         common::run(&mut c)
     };

@@ -61,6 +61,7 @@ fn whole_number(
 ) -> R<u64> {
     if let Some(text) = digits(e, src) {
         return match text.parse::<u64>() {
+            // (In integers: as a float, 2^53 + 1 would be 2^53.)
             Ok(n) if n <= 1 << 53 => Ok(n),
             _ => err(
                 e.span(),
@@ -72,7 +73,7 @@ fn whole_number(
         };
     }
     let v = constant(e, consts, &mut Random::new(0))?;
-    if v < 0.0 || v.fract() != 0.0 || v > 9.007_199_254_740_992e15 {
+    if v < 0.0 || v.fract() != 0.0 || v > EXACT_LIMIT {
         return err(e.span(), CompileError::NotWholeNumber { what, value: v });
     }
     Ok(v as u64)
