@@ -441,6 +441,14 @@ cases! {
         err("productions:\nA(x) -> B(y)\naxiom: A(1)\n", 2, 11, "unknown identifier `y`");
     undefined_identifier_in_probability =>
         err("productions:\nA(x) -> B : q\naxiom: A(1)\n", 2, 13, "unknown identifier `q`");
+    // The successor comes before the probability on the line, so its
+    // error is the one reported (the probability's came first while a
+    // production was compiled only once read whole).
+    undefined_identifiers_in_successor_and_probability =>
+        err("productions:\nA(x) -> B(y) : q\naxiom: A(1)\n", 2, 11, "unknown identifier `y`");
+    // Past the parser's first batches of successor modules (1024 each).
+    undefined_identifier_deep_in_a_long_successor =>
+        err(format!("productions:\nA(x) -> {}C(y)\naxiom: A(1)\n", "B".repeat(3000)), 2, 3011, "unknown identifier `y`");
     undefined_identifier_in_define =>
         err("define: a = b\ndefine: b = 1\naxiom: F\n", 1, 13, "unknown identifier `b`");
     undefined_identifier_in_axiom =>

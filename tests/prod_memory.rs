@@ -196,3 +196,41 @@ fn deriving_adds_little_per_production() {
         "deriving one step holds {per:.1} bytes per production more"
     );
 }
+
+/// One production with a long successor is compiled as it is read: the
+/// parser hands its modules over in batches, so the syntax tree of a whole
+/// line (about 50 bytes a module) never exists, and the peak is what the
+/// compiled successor holds while it is built (its text, binary forms and
+/// bracket list, and their copy into one block at the end). Measured at
+/// 11.7x, 50.7x and 17.3x the line (the header text included); 59.6x,
+/// 98.6x and 74.6x before, where these bounds fail (every module of the
+/// line held as a tree node until its end: `A -> ` and 20 million `B`
+/// took 1.1 GB of peak RSS, 199 MB now).
+#[test]
+fn one_long_successor_costs_its_compiled_form() {
+    let _one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let mut failed = Vec::new();
+    for (name, module, axiom, factor) in [
+        ("A -> B...", "B", "A", 13.0),
+        ("A -> [B]...", "[B]", "A", 56.0),
+        ("A(x) -> B(x+1)...", "B(x+1)", "A(1)", 20.0),
+    ] {
+        let pred = axiom.replace('1', "x");
+        let line = format!("{pred} -> {}", module.repeat(N * 4 / module.len()));
+        let src = format!("productions:\n{line}\naxiom: {axiom}\n");
+        let source = line.len() as f64;
+        let reader = Cursor::new(src.into_bytes());
+        let base = LIVE.load(Ordering::Relaxed);
+        PEAK.store(base, Ordering::Relaxed);
+        let ls = lsgen::LSystem::from_reader(reader, "long.ls").expect("the header loads");
+        let peak = (PEAK.load(Ordering::Relaxed) - base) as f64;
+        drop(ls);
+        eprintln!("{name:<32} {:.1}x the line", peak / source);
+        if peak > factor * source {
+            failed.push(format!(
+                "`{name}`: {peak} bytes, more than {factor} x {source} (the line)"
+            ));
+        }
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+}

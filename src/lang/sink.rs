@@ -1,10 +1,13 @@
 //! The parser hands a header over piece by piece, in file order, as it
 //! reduces it: the settings, then each section's start and its productions
-//! one at a time. A file of millions of productions is compiled as it is
-//! read (rules::Compiler) and never exists as a whole syntax tree; tests and
-//! tools that want the tree collect it ([`Collect`]).
+//! one at a time, each in three parts: its head (what comes before `->`),
+//! its successor in batches of at most [`BATCH`] modules, its end. A file
+//! of millions of productions, or one successor of millions of modules, is
+//! compiled as it is read (rules::Compiler) and never exists as a whole
+//! syntax tree; tests and tools that want the tree collect it
+//! ([`Collect`]).
 
-use crate::lang::ast::{Header, Production, Section, SectionSetting, Setting};
+use crate::lang::ast::{Expr, Header, Module, Production, Section, SectionSetting, Setting};
 use crate::lang::lexer::Span;
 use crate::lang::parse::UserError;
 
@@ -27,12 +30,36 @@ pub struct SectionStart {
     pub settings: Vec<SectionSetting>,
 }
 
+/// Successor modules handed over at once: a successor's modules cost
+/// their syntax tree (about 50 bytes and more each) only this many at a
+/// time, not for a whole line (a 64 MiB line of one-letter modules would
+/// take gigabytes).
+pub const BATCH: usize = 1024;
+
 /// Receives a header in file order. `settings` comes exactly once, first;
-/// then each section's `section`, followed by its productions.
+/// then each section's `section`, followed by its productions, each as a
+/// `head`, any number of `successor` batches and an `end`.
 pub trait HeaderSink {
     fn settings(&mut self, settings: Vec<Setting>);
     fn section(&mut self, start: SectionStart);
-    fn production(&mut self, p: Production);
+    /// A production's head: `p` without its successor and probability
+    /// (`succ` empty, `prob` none), `span` from its start to the `->`.
+    fn head(&mut self, p: Production);
+    /// The next modules of the successor of the production whose head came
+    /// last, in order; the sink takes them (`modules` is left empty).
+    fn successor(&mut self, modules: &mut Vec<Module>);
+    /// The production's probability, and the span of its whole line.
+    fn end(&mut self, prob: Option<Box<Expr>>, span: Span);
+
+    /// A whole production, as the three parts above.
+    fn production(&mut self, mut p: Production) {
+        let mut succ = std::mem::take(&mut p.succ);
+        let prob = p.prob.take();
+        let span = p.span;
+        self.head(p);
+        self.successor(&mut succ);
+        self.end(prob, span);
+    }
 }
 
 /// What the grammar's actions call: passes the header on to a sink and
@@ -48,6 +75,14 @@ pub struct Reader<'s> {
     /// The first decomposition production with a context: where to look
     /// for its `<` (or `>`), and where to point if it is not found.
     context: Option<Context>,
+    /// The current production's start and its successor modules not yet
+    /// handed over (at most [`BATCH`]).
+    start: usize,
+    succ: Vec<Module>,
+    /// The current production's head is wrong (a grammar error, reported
+    /// at its end, so that a syntax error later on its line comes first):
+    /// nothing of it goes to the sink.
+    bad_head: Option<UserError>,
 }
 
 /// Where a decomposition production's context delimiter is.
@@ -75,6 +110,9 @@ impl<'s> Reader<'s> {
             seen: std::collections::HashSet::new(),
             twice: None,
             context: None,
+            start: 0,
+            succ: Vec::new(),
+            bad_head: None,
         }
     }
 
@@ -95,7 +133,8 @@ impl<'s> Reader<'s> {
         self.sink.section(start);
     }
 
-    pub fn production(&mut self, p: Production) {
+    /// A production's head (see [`HeaderSink::head`]).
+    pub fn head(&mut self, p: Production) {
         if self.section == SectionKind::Decomposition && self.context.is_none() {
             self.context = if let Some(l) = p.left.last() {
                 Some(Context {
@@ -113,7 +152,38 @@ impl<'s> Reader<'s> {
                 })
             };
         }
-        self.sink.production(p);
+        self.start = p.span.0;
+        self.sink.head(p);
+    }
+
+    /// A production's head that the grammar rejects: `error` is returned
+    /// at the production's end.
+    pub fn bad_head(&mut self, error: UserError) {
+        self.bad_head = Some(error);
+    }
+
+    /// The next module of the current production's successor.
+    pub fn successor(&mut self, m: Module) {
+        if self.bad_head.is_some() {
+            return;
+        }
+        self.succ.push(m);
+        if self.succ.len() == BATCH {
+            self.sink.successor(&mut self.succ);
+        }
+    }
+
+    /// The current production's end: its probability, and where its line
+    /// ends (before the newline).
+    pub fn end(&mut self, prob: Option<Box<Expr>>, end: usize) -> Result<(), UserError> {
+        if let Some(e) = self.bad_head.take() {
+            return Err(e);
+        }
+        if !self.succ.is_empty() {
+            self.sink.successor(&mut self.succ);
+        }
+        self.sink.end(prob, (self.start, end));
+        Ok(())
     }
 
     /// At the end of the header: a group declared twice is an error of the
@@ -144,6 +214,8 @@ impl Context {
 pub struct Collect {
     pub header: Header,
     section: Option<SectionKind>,
+    /// The production being read.
+    pending: Option<Production>,
 }
 
 impl HeaderSink for Collect {
@@ -175,7 +247,19 @@ impl HeaderSink for Collect {
         self.section = Some(start.kind);
     }
 
-    fn production(&mut self, p: Production) {
+    fn head(&mut self, p: Production) {
+        self.pending = Some(p);
+    }
+
+    fn successor(&mut self, modules: &mut Vec<Module>) {
+        let p = self.pending.as_mut().expect("a successor after its head");
+        p.succ.append(modules);
+    }
+
+    fn end(&mut self, prob: Option<Box<Expr>>, span: Span) {
+        let mut p = self.pending.take().expect("an end after its head");
+        p.prob = prob;
+        p.span = span;
         let p = p.compact();
         let h = &mut self.header;
         match self.section {

@@ -312,6 +312,9 @@ pub struct Compiler<'a> {
     hom: Option<(usize, Option<u64>)>,
     homomorphism: Table,
     warnings: [bool; 2],
+    /// The production whose successor is being read (none after an
+    /// error in it, or where no error of its stage could be reported).
+    pending: Option<Pending>,
 }
 
 impl<'a> Compiler<'a> {
@@ -334,6 +337,7 @@ impl<'a> Compiler<'a> {
             hom: None,
             homomorphism: Table::default(),
             warnings: [false; 2],
+            pending: None,
         }
     }
 
@@ -607,20 +611,61 @@ impl HeaderSink for Compiler<'_> {
         }
     }
 
-    fn production(&mut self, p: ast::Production) {
+    fn head(&mut self, p: ast::Production) {
+        self.pending = None;
         let stage = self.stage();
         if !self.open(stage) {
             return;
         }
         hidden_step_at(&p, stage, &mut self.step_hidden);
         let st = self.settled.as_mut().unwrap();
+        match compile_head(&p, &mut st.alphabet, &st.consts, self.cpfg) {
+            Ok(pending) => self.pending = Some(pending),
+            Err(e) => self.fail(stage, e),
+        }
+    }
+
+    fn successor(&mut self, modules: &mut Vec<ast::Module>) {
+        let Some(p) = &mut self.pending else {
+            modules.clear();
+            return;
+        };
+        let st = self.settled.as_mut().unwrap();
+        let mut failed = None;
+        for m in modules.drain(..) {
+            let r = p.succ.push(
+                &m,
+                &mut st.alphabet,
+                &p.names,
+                &st.consts,
+                &mut self.num,
+                self.cpfg,
+            );
+            if let Err(e) = r {
+                failed = Some(e);
+                break;
+            }
+        }
+        modules.clear();
+        if let Some(e) = failed {
+            self.pending = None;
+            self.fail(self.stage(), e);
+        }
+    }
+
+    fn end(&mut self, prob: Option<Box<Expr>>, span: Span) {
+        let Some(p) = self.pending.take() else {
+            return;
+        };
+        let stage = self.stage();
+        let consts = &self.settled.as_ref().unwrap().consts;
         let table = match self.section {
             SectionKind::Group(0) => &mut self.productions,
             SectionKind::Group(_) => &mut self.groups.last_mut().unwrap().2,
             SectionKind::Decomposition => &mut self.decomposition.as_mut().unwrap().0,
             SectionKind::Homomorphism => &mut self.homomorphism,
         };
-        match compile_production(&p, &mut st.alphabet, &st.consts, &mut self.num, self.cpfg) {
+        match p.finish(prob.as_deref(), span, consts, self.cpfg) {
             Ok(cp) => table.push(cp),
             Err(e) => self.fail(stage, e),
         }
@@ -708,13 +753,27 @@ fn bind_formals(m: &ast::Module, names: &mut HashMap<String, u32>, nslots: &mut 
     Ok(first)
 }
 
-fn compile_production(
+/// A production whose head is compiled and whose successor is arriving
+/// ([`HeaderSink::successor`]): what the successor and the probability
+/// need of the head.
+struct Pending {
+    key: u32,
+    nslots: usize,
+    names: HashMap<String, u32>,
+    left: Vec<Pat>,
+    right: Vec<RPat>,
+    rest: Vec<Pat>,
+    cond: Option<Box<Code>>,
+    succ: SuccessorBuilder,
+}
+
+/// Compile a production's head: predecessor, contexts, condition.
+fn compile_head(
     p: &ast::Production,
     alphabet: &mut Alphabet,
     consts: &HashMap<String, f64>,
-    num: &mut codec::NumFmt,
     cpfg: bool,
-) -> R<Production> {
+) -> R<Pending> {
     let intern = |a: &mut Alphabet, m: &ast::Module| {
         a.intern(m.sym, m.params.len())
             .map_err(|e| UserError::new(m.span, e))
@@ -781,66 +840,99 @@ fn compile_production(
         // A condition folded to a non-zero constant always holds.
         .filter(|c| c.constant().is_none_or(|v| v == 0.0))
         .map(Box::new);
-    let prob = p
-        .prob
-        .as_ref()
-        .map(|e| compile_code_in(e, &names, consts, cpfg))
-        .transpose()?;
-    // (cpfg takes a negative weight as it is: `SelectProd`.)
-    if let Some(w) = prob.as_ref().and_then(|c| c.constant()).filter(|_| !cpfg) {
-        if w < 0.0 {
-            return err(
-                p.prob.as_ref().unwrap().span(),
-                CompileError::NegativeProbability(w),
-            );
-        }
-    }
-    let (succ, depth_delta, depth_min) =
-        compile_successor(&p.succ, alphabet, &names, consts, num, cpfg)?;
-    // (Depths and offsets fit: a header is at most 64 MiB.)
-    let narrow = |x: i64| i32::try_from(x).expect("a header under 2 GiB");
-    let offset = |x: usize| u32::try_from(x).expect("a header under 4 GiB");
-    let mut prod = Production::new(
+    Ok(Pending {
         key,
         nslots,
-        &left,
-        &right,
+        names,
+        left,
+        right,
+        rest,
         cond,
-        prob,
-        Succ::from(succ),
-        offset(p.span.0),
-        (narrow(depth_delta), narrow(depth_min)),
-    );
-    if !rest.is_empty() {
-        prod.cpfg_mut().rest = exact(rest);
-    }
-    Ok(prod)
+        succ: SuccessorBuilder::default(),
+    })
 }
 
-/// Successor to items: runs of modules whose parameters are all constant
-/// become precomputed bytes.
-fn compile_successor(
-    succ: &[ast::Module],
-    alphabet: &mut Alphabet,
-    names: &HashMap<String, u32>,
-    consts: &HashMap<String, f64>,
-    num: &mut codec::NumFmt,
-    cpfg: bool,
-) -> R<(Vec<Item>, i64, i64)> {
-    let mut items = Vec::new();
-    let mut run = ConstBuilder::default();
-    let mut depth = 0i64;
-    let mut min = 0i64;
-    for m in succ {
+impl Pending {
+    /// The production, given its probability and its line's span.
+    fn finish(
+        self,
+        prob: Option<&Expr>,
+        span: Span,
+        consts: &HashMap<String, f64>,
+        cpfg: bool,
+    ) -> R<Production> {
+        let Pending {
+            key,
+            nslots,
+            names,
+            left,
+            right,
+            rest,
+            cond,
+            succ,
+        } = self;
+        let weight = prob
+            .map(|e| compile_code_in(e, &names, consts, cpfg))
+            .transpose()?;
+        // (cpfg takes a negative weight as it is: `SelectProd`.)
+        if let Some(w) = weight.as_ref().and_then(|c| c.constant()).filter(|_| !cpfg) {
+            if w < 0.0 {
+                return err(prob.unwrap().span(), CompileError::NegativeProbability(w));
+            }
+        }
+        let (succ, depth_delta, depth_min) = succ.finish();
+        // (Depths and offsets fit: a header is at most 64 MiB.)
+        let narrow = |x: i64| i32::try_from(x).expect("a header under 2 GiB");
+        let offset = |x: usize| u32::try_from(x).expect("a header under 4 GiB");
+        let mut prod = Production::new(
+            key,
+            nslots,
+            &left,
+            &right,
+            cond,
+            weight,
+            Succ::from(succ),
+            offset(span.0),
+            (narrow(depth_delta), narrow(depth_min)),
+        );
+        if !rest.is_empty() {
+            prod.cpfg_mut().rest = exact(rest);
+        }
+        Ok(prod)
+    }
+}
+
+/// A successor compiled module by module: runs of modules whose parameters
+/// are all constant become precomputed bytes.
+#[derive(Default)]
+struct SuccessorBuilder {
+    items: Vec<Item>,
+    run: ConstBuilder,
+    /// Bracket depth at the end, and its lowest point.
+    depth: i64,
+    min: i64,
+}
+
+impl SuccessorBuilder {
+    /// Compile the next module; `names` are the head's formal parameters.
+    fn push(
+        &mut self,
+        m: &ast::Module,
+        alphabet: &mut Alphabet,
+        names: &HashMap<String, u32>,
+        consts: &HashMap<String, f64>,
+        num: &mut codec::NumFmt,
+        cpfg: bool,
+    ) -> R<()> {
         let key = alphabet
             .intern(m.sym, m.params.len())
             .map_err(|e| UserError::new(m.span, e))?;
         if m.params.is_empty() {
             match m.sym {
-                '[' => depth += 1,
+                '[' => self.depth += 1,
                 ']' => {
-                    depth -= 1;
-                    min = min.min(depth);
+                    self.depth -= 1;
+                    self.min = self.min.min(self.depth);
                 }
                 _ => {}
             }
@@ -860,20 +952,25 @@ fn compile_successor(
             .collect::<R<Vec<Code>>>()?;
         let values: Option<Vec<f64>> = codes.iter().map(Code::constant).collect();
         match values {
-            Some(vals) => run.push(key, &vals, alphabet, num),
+            Some(vals) => self.run.push(key, &vals, alphabet, num),
             None => {
-                if let Some(c) = run.take() {
-                    items.push(Item::Const(c));
+                if let Some(c) = self.run.take() {
+                    self.items.push(Item::Const(c));
                 }
-                items.push(Item::Module {
+                self.items.push(Item::Module {
                     key,
                     params: Thin::from(codes),
                 });
             }
         }
+        Ok(())
     }
-    if let Some(c) = run.take() {
-        items.push(Item::Const(c));
+
+    /// The items, the bracket depth at the end and its lowest point.
+    fn finish(mut self) -> (Vec<Item>, i64, i64) {
+        if let Some(c) = self.run.take() {
+            self.items.push(Item::Const(c));
+        }
+        (self.items, self.depth, self.min)
     }
-    Ok((items, depth, min))
 }
