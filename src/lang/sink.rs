@@ -43,7 +43,7 @@ pub trait HeaderSink {
     fn settings(&mut self, settings: Vec<Setting>);
     fn section(&mut self, start: SectionStart);
     /// A production's head: `p` without its successor and probability
-    /// (`succ` empty, `prob` none), `span` from its start to the `->`.
+    /// (`succ` empty, `prob` none), `span` the head's (up to the `->`).
     fn head(&mut self, p: Production);
     /// The next modules of the successor of the production whose head came
     /// last, in order; the sink takes them (`modules` is left empty).

@@ -642,11 +642,11 @@ impl HeaderSink for Compiler<'_> {
                 self.cpfg,
             );
             if let Err(e) = r {
+                // (The rest of the batch is dropped with the drain.)
                 failed = Some(e);
                 break;
             }
         }
-        modules.clear();
         if let Some(e) = failed {
             self.pending = None;
             self.fail(self.stage(), e);
@@ -861,18 +861,8 @@ impl Pending {
         consts: &HashMap<String, f64>,
         cpfg: bool,
     ) -> R<Production> {
-        let Pending {
-            key,
-            nslots,
-            names,
-            left,
-            right,
-            rest,
-            cond,
-            succ,
-        } = self;
         let weight = prob
-            .map(|e| compile_code_in(e, &names, consts, cpfg))
+            .map(|e| compile_code_in(e, &self.names, consts, cpfg))
             .transpose()?;
         // (cpfg takes a negative weight as it is: `SelectProd`.)
         if let Some(w) = weight.as_ref().and_then(|c| c.constant()).filter(|_| !cpfg) {
@@ -880,23 +870,23 @@ impl Pending {
                 return err(prob.unwrap().span(), CompileError::NegativeProbability(w));
             }
         }
-        let (succ, depth_delta, depth_min) = succ.finish();
+        let (succ, depth_delta, depth_min) = self.succ.finish();
         // (Depths and offsets fit: a header is at most 64 MiB.)
         let narrow = |x: i64| i32::try_from(x).expect("a header under 2 GiB");
         let offset = |x: usize| u32::try_from(x).expect("a header under 4 GiB");
         let mut prod = Production::new(
-            key,
-            nslots,
-            &left,
-            &right,
-            cond,
+            self.key,
+            self.nslots,
+            &self.left,
+            &self.right,
+            self.cond,
             weight,
             Succ::from(succ),
             offset(span.0),
             (narrow(depth_delta), narrow(depth_min)),
         );
-        if !rest.is_empty() {
-            prod.cpfg_mut().rest = exact(rest);
+        if !self.rest.is_empty() {
+            prod.cpfg_mut().rest = exact(self.rest);
         }
         Ok(prod)
     }
