@@ -64,10 +64,17 @@ const PER_THREAD: u64 = 16384;
 /// Aim for tasks of about this much text (the producer batches modules
 /// by the text each module gave so far).
 const TASK_BYTES: u64 = 1 << 20;
-/// Most modules of the split generation in one task (the text per module
-/// so far is a poor guide: a module gives from one module to a large
-/// subtree, and a batch of 65536 once gave a 43 MB task).
+/// Most modules of the split generation in one task, at first and again
+/// once a task has passed `TASK_BYTES / 2`: the text per module so far is
+/// a poor guide (a module gives from one module to a large subtree; a
+/// batch of 65536 once gave a 43 MB task, and of 1024 a 20.9 MB one, in
+/// parametric_tree -n 16).
 const MAX_BATCH: u64 = 64;
+/// Most modules in one task while every task done has stayed under
+/// `TASK_BYTES / 8` (the cap doubles from [`MAX_BATCH`] each time a task
+/// of the cap's size is done): 64-module tasks of 23 KB made `-j 2`
+/// slower than `-j 1` on a 25 MB string (benches/RESULTS.md).
+const WIDE_BATCH: u64 = 1024;
 /// Tasks per thread, at least (see [`split_depth`]).
 const TASKS: u64 = 16;
 
@@ -575,11 +582,7 @@ pub(crate) fn expand<'t>(
 ) -> Result<(), Error> {
     let per_thread = split.unwrap_or(PER_THREAD);
     let (depth, most) = split_depth(plan, input, al, origin, steps, (threads, per_thread))?;
-    // Modules of the split generation expanded so far and their text, for
-    // sizing the next tasks.
-    let done_modules = AtomicU64::new(0);
-    let done_bytes = AtomicU64::new(0);
-    let (done_modules, done_bytes) = (&done_modules, &done_bytes);
+    let sizes = &Sizes::default();
     let shared = &Shared::new(
         reuse,
         (super::handoff::BUDGET, std::time::Duration::ZERO),
@@ -587,16 +590,7 @@ pub(crate) fn expand<'t>(
     );
     std::thread::scope(|s| -> Result<(), Error> {
         let workers = |w, task_rx: Arc<Queue<Task<'t>>>| {
-            move || {
-                work(
-                    (plan, w),
-                    al,
-                    origin,
-                    steps,
-                    (&task_rx, shared),
-                    (done_modules, done_bytes),
-                )
-            }
+            move || work((plan, w), al, origin, steps, (&task_rx, shared), sizes)
         };
         let producer = move |order: &Order, task_tx: Tasks<'t>| {
             produce(
@@ -606,7 +600,7 @@ pub(crate) fn expand<'t>(
                 origin,
                 (depth, most),
                 (task_tx, order),
-                (done_modules, done_bytes),
+                sizes,
             );
         };
         let names = ("lsgen-par", "lsgen-split");
@@ -658,6 +652,17 @@ fn split_depth(
     }
 }
 
+/// The tasks done so far, for sizing the next ones: modules of the split
+/// generation and their text in all, the most text of one task, the most
+/// modules of one task.
+#[derive(Default)]
+struct Sizes {
+    modules: AtomicU64,
+    bytes: AtomicU64,
+    largest: AtomicU64,
+    widest: AtomicU64,
+}
+
 /// The producer: walk to generation `depth`, batch its modules into tasks
 /// in string order, hand each to the workers and its result channel to
 /// the writer. An error goes to the writer in its place.
@@ -668,8 +673,9 @@ fn produce<'t>(
     origin: &Origin,
     (depth, most): (usize, u64),
     (task_tx, order): (Tasks<'t>, &Order),
-    (done_modules, done_bytes): (&AtomicU64, &AtomicU64),
+    sizes: &Sizes,
 ) {
+    let mut cap = MAX_BATCH;
     let mut task = Task {
         items: Vec::new(),
         bin: Vec::new(),
@@ -698,22 +704,29 @@ fn produce<'t>(
             }
             Split::Inert(c) => task.items.push(Item::Inert(c)),
         }
-        // Batch as many modules as gave about TASK_BYTES of text so far.
+        // Batch as many modules as gave about TASK_BYTES of text so far,
+        // at most `cap`.
         let (m, b) = (
-            done_modules.load(Ordering::Relaxed),
-            done_bytes.load(Ordering::Relaxed),
+            sizes.modules.load(Ordering::Relaxed),
+            sizes.bytes.load(Ordering::Relaxed),
         );
         // Growing at most twofold from task to task, and at most `most`.
         let batch = TASK_BYTES
             .saturating_mul(m)
             .checked_div(b)
-            .map_or(1, |n| n.clamp(1, MAX_BATCH));
+            .map_or(1, |n| n.clamp(1, cap));
         let batch = batch.min(last_batch * 2).min(most);
         if task.items.len() as u64 >= batch {
             last_batch = batch;
             if !send(&mut task) {
                 stopped = true;
                 return Ok(false);
+            }
+            let largest = sizes.largest.load(Ordering::Relaxed);
+            if largest > TASK_BYTES / 2 {
+                cap = MAX_BATCH;
+            } else if largest < TASK_BYTES / 8 && sizes.widest.load(Ordering::Relaxed) >= cap {
+                cap = (cap * 2).min(WIDE_BATCH);
             }
         }
         Ok(true)
@@ -744,7 +757,7 @@ fn work(
     origin: &Origin,
     steps: u64,
     (tasks, shared): (&Queue<Task>, &Shared),
-    (done_modules, done_bytes): (&AtomicU64, &AtomicU64),
+    sizes: &Sizes,
 ) {
     let mut walker = Walker::new(plan, al, steps);
     let current = Current::new(shared, id);
@@ -767,8 +780,11 @@ fn work(
         // After an error the buffer holds text of this task only.
         out.buf.clear();
         if r.is_ok() {
-            done_modules.fetch_add(task.items.len() as u64, Ordering::Relaxed);
-            done_bytes.fetch_add(current.bytes.get(), Ordering::Relaxed);
+            let (n, b) = (task.items.len() as u64, current.bytes.get());
+            sizes.modules.fetch_add(n, Ordering::Relaxed);
+            sizes.bytes.fetch_add(b, Ordering::Relaxed);
+            sizes.largest.fetch_max(b, Ordering::Relaxed);
+            sizes.widest.fetch_max(n, Ordering::Relaxed);
         }
         current.end(r.map(|()| out.modules - before), None, None);
     }
