@@ -285,4 +285,31 @@ fn frames_after_a_fixed_point_are_not_derived() {
         .arg(&fixed));
     assert_eq!(far.code(), Some(0), "{}", far.stderr);
     assert_eq!(far.out(), "X\nX\nX\n");
+    // A step K that takes the next frame past 2^64 - 1: no frame after
+    // the last (the sum wrapped: frames 0 and 1, or files without end).
+    let huge = |range: &str| {
+        let r = common::run_within(
+            lsgen().args(["--frames", range]).arg(&fixed),
+            std::time::Duration::from_secs(10),
+        );
+        assert_eq!(r.code(), Some(0), "--frames {range}: {}", r.stderr);
+        r.out()
+    };
+    assert_eq!(huge("2..2:18446744073709551615"), "X\n");
+    assert_eq!(
+        huge("9007199254740990..9007199254740992:18446744073709551615"),
+        "X\n"
+    );
+    let dir = d.join("wrap");
+    std::fs::create_dir(&dir).unwrap();
+    let r = run(lsgen()
+        .args(["--frames", "2..2:18446744073709551615", "-o"])
+        .arg(dir.join("f{n}"))
+        .arg(&fixed));
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    let names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, ["f2"]);
 }

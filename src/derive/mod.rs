@@ -1201,14 +1201,17 @@ fn frame_passes(
                 from: first_step + i,
                 to: first_step + (frames.last() - 1),
             });
+            // The frames after `i`, checked: `from + K` may pass 2^64 - 1.
             let mut k = if i < frames.from {
-                frames.from
+                Some(frames.from)
             } else {
-                frames.from + ((i - frames.from) / frames.every + 1) * frames.every
+                ((i - frames.from) / frames.every + 1)
+                    .checked_mul(frames.every)
+                    .and_then(|x| x.checked_add(frames.from))
             };
-            while k <= frames.last() {
-                emit(d, &cur, k)?;
-                k += frames.every;
+            while let Some(n) = k.filter(|&n| n <= frames.last()) {
+                emit(d, &cur, n)?;
+                k = n.checked_add(frames.every);
             }
             break;
         }
