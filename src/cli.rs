@@ -699,6 +699,22 @@ fn check_batch(
     if args.axiom.as_ref().is_some_and(|p| p.as_os_str() == "-") {
         return Err(Error::new(crate::diag::UsageError::StdinAxiomInBatch));
     }
+    // Every job reads the axiom file, and each seed its L-system file,
+    // again: a pipe or a device would give the first job all of it and
+    // the others nothing. (A name that cannot be read fails in its jobs.)
+    let stream = |p: &Path| std::fs::metadata(p).is_ok_and(|m| !m.is_file());
+    if let Some(p) = args.axiom.as_deref().filter(|p| stream(p)) {
+        let name = p.to_path_buf();
+        return Err(Error::new(crate::diag::UsageError::StreamAxiomInBatch(
+            name,
+        )));
+    }
+    if seeds > 1 {
+        if let Some(p) = files.iter().flatten().find(|p| stream(p)) {
+            let name = p.to_path_buf();
+            return Err(Error::new(crate::diag::UsageError::StreamFileInBatch(name)));
+        }
+    }
     if args.check {
         // Nothing is written: no names to tell apart.
         return Ok(());

@@ -160,6 +160,51 @@ fn batch_usage_errors() {
     common::assert_listing(d.path(), &["a.ls", "b.ls", "sub"]);
 }
 
+/// Every job reads the `--axiom` file, and each seed the L-system file,
+/// again: a FIFO (a pipe, `<(...)`, `/dev/stdin`) would give the first job
+/// all of it and the others an empty axiom, silently (exit 0; found by the
+/// review helper). A usage error before any job, as `--axiom -` is; one
+/// file from a FIFO per job is fine.
+#[test]
+fn a_pipe_read_by_several_jobs_is_refused_before_any_job() {
+    let d = dir_with(&[
+        ("a.ls", "productions:\nA -> AB\naxiom: A\n"),
+        ("b.ls", "productions:\nA -> AB\naxiom: A\n"),
+    ]);
+    let made = std::process::Command::new("mkfifo")
+        .arg(d.path().join("fifo"))
+        .status()
+        .is_ok_and(|s| s.success());
+    if !made {
+        eprintln!("skipped: no mkfifo");
+        return;
+    }
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["--axiom", "fifo", "-o", "{stem}", "a.ls", "b.ls"],
+            "`--axiom fifo` is not a regular file",
+        ),
+        (
+            &["--axiom", "fifo", "--seed", "1..2", "-o", "{seed}", "a.ls"],
+            "`--axiom fifo` is not a regular file",
+        ),
+        (
+            &["--seed", "1..2", "-o", "{seed}", "fifo"],
+            "fifo is not a regular file",
+        ),
+        (
+            &["--axiom", "-", "-o", "{stem}", "a.ls", "b.ls"],
+            "`--axiom -` can feed one job only",
+        ),
+    ];
+    for (args, needle) in cases {
+        let r = lsgen_in(d.path(), args);
+        let err = r.fails(2);
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+    common::assert_listing(d.path(), &["a.ls", "b.ls", "fifo"]);
+}
+
 /// Two outputs the template names alike are a usage error before any job
 /// runs (they used to replace each other, the last thread's winning, so
 /// the files depended on -j): `{stem}{seed}` makes `a11` of a.ls seed 11

@@ -310,6 +310,8 @@ fn typed_messages_are_the_former_strings() {
         (UsageError::FramesNeedN.to_string(), "`--frames` with `-o` needs `{n}` (the generation number) in the file name"),
         (UsageError::StdinInBatch.to_string(), "standard input can feed one job only: a batch (several files or seeds) needs file names"),
         (UsageError::StdinAxiomInBatch.to_string(), "`--axiom -` can feed one job only: a batch needs an axiom file"),
+        (UsageError::StreamAxiomInBatch("/dev/stdin".into()).to_string(), "`--axiom /dev/stdin` is not a regular file (a pipe or a device is read once) and can feed one job only: a batch needs an axiom file"),
+        (UsageError::StreamFileInBatch("/dev/fd/63".into()).to_string(), "/dev/fd/63 is not a regular file (a pipe or a device is read once) and can feed one job only: a seed range needs a file"),
         (UsageError::BatchNeedsTemplate.to_string(), "several jobs (files or seeds) need -o with a template, e.g. -o 'out/{stem}-{seed}.txt', so that each has its own file"),
         (UsageError::SeedRangeNeedsSeed.to_string(), "a seed range needs `{seed}` in the -o template, so that each seed has its own file"),
         (UsageError::FilesNeedStem.to_string(), "several files need `{stem}` in the -o template, so that each has its own file"),

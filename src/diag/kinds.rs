@@ -1172,6 +1172,12 @@ pub enum UsageError {
     StdinInBatch,
     /// `--axiom -` in a batch.
     StdinAxiomInBatch,
+    /// An `--axiom` file that can be read once only (a pipe, a device) in a
+    /// batch: its name.
+    StreamAxiomInBatch(PathBuf),
+    /// An L-system file that can be read once only, with several seeds:
+    /// its name.
+    StreamFileInBatch(PathBuf),
     /// A batch without an `-o` template.
     BatchNeedsTemplate,
     /// A seed range with an `-o` template without `{seed}`.
@@ -1255,6 +1261,16 @@ impl fmt::Display for UsageError {
             StdinAxiomInBatch => {
                 f.write_str("`--axiom -` can feed one job only: a batch needs an axiom file")
             }
+            StreamAxiomInBatch(name) => write!(
+                f,
+                "`--axiom {}` is not a regular file (a pipe or a device is read once) and can feed one job only: a batch needs an axiom file",
+                name.display()
+            ),
+            StreamFileInBatch(name) => write!(
+                f,
+                "{} is not a regular file (a pipe or a device is read once) and can feed one job only: a seed range needs a file",
+                name.display()
+            ),
             BatchNeedsTemplate => f.write_str(
                 "several jobs (files or seeds) need -o with a template, e.g. -o 'out/{stem}-{seed}.txt', so that each has its own file",
             ),
