@@ -838,9 +838,16 @@ fn run_batch(
                 Err(_) => work(),
             }
         }
-        for h in handles {
-            let _ = h.join();
-        }
+        // While it waits, this thread leaves termination signals to the
+        // jobs' threads, which hold them while a job puts its file in
+        // place: taken here, one would end the run with a job's temporary
+        // name left beside its output. (Threads inherit the mask: held
+        // only once they are started.)
+        crate::io::output::with_signals_held(|| {
+            for h in handles {
+                let _ = h.join();
+            }
+        });
     });
     let mut f = failed.into_inner().unwrap_or_default();
     f.sort_by_key(|(i, _)| *i);

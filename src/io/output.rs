@@ -649,8 +649,9 @@ fn termination_signals() -> libc::sigset_t {
 }
 
 /// Run `f` with termination signals held for this thread; one that arrives
-/// meanwhile takes effect when `f` is done.
-fn with_signals_held<T>(f: impl FnOnce() -> T) -> T {
+/// meanwhile takes effect when `f` is done (or reaches another thread that
+/// does not hold it).
+pub(crate) fn with_signals_held<T>(f: impl FnOnce() -> T) -> T {
     let set = termination_signals();
     // SAFETY: pthread_sigmask changes this thread's mask only; the old mask
     // is restored below.
