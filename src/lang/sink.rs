@@ -168,7 +168,7 @@ impl<'s> Reader<'s> {
             return;
         }
         self.succ.push(m);
-        if self.succ.len() == BATCH {
+        if self.succ.len() >= BATCH {
             self.sink.successor(&mut self.succ);
         }
     }
