@@ -539,7 +539,10 @@ fn remove_leftovers(dir: &Path) {
     static SWEPT: std::sync::Mutex<Option<std::collections::HashSet<PathBuf>>> =
         std::sync::Mutex::new(None);
     if let Ok(mut swept) = SWEPT.lock() {
-        if !swept.get_or_insert_with(Default::default).insert(dir.to_path_buf()) {
+        if !swept
+            .get_or_insert_with(Default::default)
+            .insert(dir.to_path_buf())
+        {
             return;
         }
     }
