@@ -285,6 +285,8 @@ struct FileFrames<'a> {
     template: &'a Template,
     stem: &'a str,
     seed: u64,
+    /// See [`Job::inputs`].
+    inputs: &'a [(u64, u64)],
 }
 
 impl FrameSink for FileFrames<'_> {
@@ -298,7 +300,7 @@ impl FrameSink for FileFrames<'_> {
             seed: Some(self.seed),
             n: Some(n),
         })?;
-        let mut output = Output::file(&path)?;
+        let mut output = output_file(&path, self.inputs)?;
         let name = output.name();
         let len = write(output.writer(), &name)?;
         output.commit()?;
@@ -589,6 +591,40 @@ fn open_input(path: Option<&Path>) -> Result<Input, Error> {
 struct Job<'a> {
     file: Option<&'a Path>,
     seed: Option<u64>,
+    /// A batch's input files (its L-system files and `--axiom`), which no
+    /// job may write over: later jobs read them again.
+    inputs: &'a [(u64, u64)],
+}
+
+/// `(device, inode)` of the regular files among `paths`.
+fn file_ids<'p>(paths: impl Iterator<Item = &'p Path>) -> Vec<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    paths
+        .filter_map(|p| std::fs::metadata(p).ok().filter(|m| m.is_file()))
+        .map(|m| (m.dev(), m.ino()))
+        .collect()
+}
+
+/// `Output::file(path)`, unless `path` is one of a batch's `inputs` (a
+/// job's output would change what the later jobs read, and the result
+/// would depend on `-j`).
+fn output_file(path: &Path, inputs: &[(u64, u64)]) -> Result<Output, Error> {
+    if !inputs.is_empty()
+        && file_ids(std::iter::once(path))
+            .iter()
+            .any(|id| inputs.contains(id))
+    {
+        let e = io::Error::new(
+            io::ErrorKind::AlreadyExists,
+            "it is an input of this batch, which later jobs read again: not replaced",
+        );
+        return Err(Error::io(
+            path.display().to_string(),
+            crate::diag::IoAction::Write,
+            e,
+        ));
+    }
+    Output::file(path)
 }
 
 impl Job<'_> {
@@ -637,13 +673,16 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let job = Job {
             file: files[0],
             seed: args.seed.map(|s| s.first),
+            inputs: &[],
         };
         return run_one(args, job, template.as_ref(), &functions, None);
     }
     check_batch(args, &files, seeds, template.as_ref())?;
+    let inputs = file_ids(files.iter().flatten().copied().chain(args.axiom.as_deref()));
     let jobs = |i: u64| Job {
         file: files[(i / seeds) as usize],
         seed: args.seed.map(|s| s.first + i % seeds),
+        inputs: &inputs,
     };
     let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
     let workers = args
@@ -959,7 +998,7 @@ fn run_one(
                 seed: Some(seed),
                 n: None,
             })?;
-            Some(Output::file(&path)?)
+            Some(output_file(&path, job.inputs)?)
         }
         None => Some(Output::stdout()?),
     };
@@ -1027,6 +1066,7 @@ fn run_one(
                 template,
                 stem: &stem,
                 seed,
+                inputs: job.inputs,
             };
             return derive_frames(
                 &mut ls,

@@ -205,6 +205,60 @@ fn a_pipe_read_by_several_jobs_is_refused_before_any_job() {
     common::assert_listing(d.path(), &["a.ls", "b.ls", "fifo"]);
 }
 
+/// A job's output that is one of the batch's inputs (another job's file,
+/// the file of a seed range, the `--axiom` file) is not written: the later
+/// jobs read it again, and what they read depended on `-j` (found by the
+/// review helper). That job fails; the input and the other outputs stay.
+#[test]
+fn a_jobs_output_never_replaces_an_input_of_the_batch() {
+    let sys = "productions:\nA -> AB\naxiom: A\n";
+    for j in ["1", "2"] {
+        let d = dir_with(&[
+            ("2.ls", sys),
+            ("b.ls", sys),
+            ("b.txt.ls", sys),
+            ("x.ls", sys),
+            ("ax", "AA"),
+        ]);
+        let r = lsgen_in(
+            d.path(),
+            &["-j", j, "--seed", "1..3", "-o", "{seed}.ls", "2.ls"],
+        );
+        let err = r.fails(1);
+        assert!(
+            err.contains("2.ls: error: cannot write: it is an input of this batch"),
+            "{err}"
+        );
+        assert!(err.contains("1 of 3 jobs failed"), "{err}");
+        assert_eq!(read(d.path().join("2.ls")), sys);
+        assert_eq!(read(d.path().join("1.ls")), "AB\n");
+        assert_eq!(read(d.path().join("3.ls")), "AB\n");
+        let r = lsgen_in(
+            d.path(),
+            &["-j", j, "-o", "{stem}.txt.ls", "b.ls", "b.txt.ls"],
+        );
+        assert!(r.fails(1).contains("1 of 2 jobs failed"));
+        assert_eq!(read(d.path().join("b.txt.ls")), sys);
+        assert_eq!(read(d.path().join("b.txt.txt.ls")), "AB\n");
+        let r = lsgen_in(
+            d.path(),
+            &["-j", j, "--axiom", "ax", "-o", "{stem}", "b.ls", "2.ls"],
+        );
+        assert_eq!(r.ok(), "");
+        assert_eq!(read(d.path().join("ax")), "AA");
+        let r = lsgen_in(
+            d.path(),
+            &["-j", j, "--axiom", "ax", "-o", "a{stem}", "x.ls", "2.ls"],
+        );
+        let err = r.fails(1);
+        assert!(
+            err.contains("ax: error: cannot write: it is an input"),
+            "{err}"
+        );
+        assert_eq!(read(d.path().join("ax")), "AA");
+    }
+}
+
 /// Two outputs the template names alike are a usage error before any job
 /// runs (they used to replace each other, the last thread's winning, so
 /// the files depended on -j): `{stem}{seed}` makes `a11` of a.ls seed 11
