@@ -246,10 +246,15 @@ pub fn run(o: &Options) -> Result<(), Error> {
                     }
                 }
             }
-            if let Some(m) = mtl_out {
-                m.commit()?;
-            }
-            out.commit()
+            // The pair is put in place under one hold of termination
+            // signals: between the two renames a Ctrl-C would leave a new
+            // MTL beside the old OBJ.
+            crate::io::output::with_signals_held(|| {
+                if let Some(m) = mtl_out {
+                    m.commit()?;
+                }
+                out.commit()
+            })
         }
         Format::Svg | Format::Png => {
             let proj = render::Projection::new(o.view.direction, o.view.twist);
