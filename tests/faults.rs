@@ -1197,10 +1197,7 @@ fn sigkill_during_the_final_copy_leaves_a_temp_file_the_next_run_removes() {
         thread::sleep(Duration::from_millis(1));
     }
     let r = finish(child, Duration::from_secs(60));
-    let left: Vec<String> = listing(d)
-        .into_iter()
-        .filter(|n| n.starts_with(".lsgen-"))
-        .collect();
+    let left = temp_names(d);
     if !caught || left.is_empty() {
         eprintln!("skipped: the final copy was not caught ({:?})", r.status);
         return;
@@ -1212,6 +1209,47 @@ fn sigkill_during_the_final_copy_leaves_a_temp_file_the_next_run_removes() {
     assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
     assert_eq!(fs::read(&out).unwrap(), doubled(3));
     assert_listing(d, &["in.ls", "out.txt"]);
+}
+
+/// strace running lsgen with every rename(2) delayed by `delay_us`, to
+/// hit the window between naming a finished file and renaming it.
+fn lsgen_with_slow_rename(delay_us: u32) -> Command {
+    let mut c = common::command("strace");
+    c.args([
+        "-f",
+        "-o",
+        "/dev/null",
+        "-e",
+        &format!("inject=/^rename:delay_enter={delay_us}"),
+    ])
+    .arg(common::LSGEN);
+    c
+}
+
+/// The `.lsgen-...` temp names in `d`.
+fn temp_names(d: &Path) -> Vec<String> {
+    listing(d)
+        .into_iter()
+        .filter(|n| n.starts_with(".lsgen-"))
+        .collect()
+}
+
+/// The PID in the first `.lsgen-PID-...` temp name to appear in `d`
+/// (within 30 s).
+fn temp_name_pid(d: &Path) -> String {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while Instant::now() < deadline {
+        let pid = listing(d).iter().find_map(|n| {
+            n.strip_prefix(".lsgen-")
+                .and_then(|rest| rest.split('-').next())
+                .map(str::to_string)
+        });
+        if let Some(pid) = pid {
+            return pid;
+        }
+        thread::sleep(Duration::from_millis(5));
+    }
+    panic!("no temp name seen: is strace working?");
 }
 
 /// kill -9 between naming the finished file and renaming it over an
@@ -1227,15 +1265,7 @@ fn sigkill_between_link_and_rename_leaves_a_name_the_next_run_removes() {
     let input = write(d, "in.ls", DOUBLING);
     let out = write(d, "out.txt", OLD);
     let child = spawn_with(
-        common::command("strace")
-            .args([
-                "-f",
-                "-o",
-                "/dev/null",
-                "-e",
-                "inject=/^rename:delay_enter=5000000",
-            ])
-            .arg(common::LSGEN)
+        lsgen_with_slow_rename(5_000_000)
             .args(["--strategy", "step"])
             .arg(&input)
             .args(["-n", "12", "-o"])
@@ -1244,24 +1274,11 @@ fn sigkill_between_link_and_rename_leaves_a_name_the_next_run_removes() {
         Stdio::null(),
         Stdio::piped(),
     );
-    let deadline = Instant::now() + Duration::from_secs(30);
-    let mut pid = None;
-    while Instant::now() < deadline && pid.is_none() {
-        pid = listing(d).iter().find_map(|n| {
-            n.strip_prefix(".lsgen-")
-                .and_then(|rest| rest.split('-').next())
-                .map(str::to_string)
-        });
-        thread::sleep(Duration::from_millis(5));
-    }
-    let pid = pid.expect("no temp name seen: is strace working?");
+    let pid = temp_name_pid(d);
     let st = Command::new("kill").args(["-9", &pid]).status().unwrap();
     assert!(st.success());
     let _ = finish(child, Duration::from_secs(30));
-    let left: Vec<String> = listing(d)
-        .into_iter()
-        .filter(|n| n.starts_with(".lsgen-"))
-        .collect();
+    let left = temp_names(d);
     assert_eq!(left.len(), 1, "the window was not hit: {left:?}");
     assert_eq!(fs::read_to_string(&out).unwrap(), OLD);
     let r = run(stepwise().arg(&input).args(["-n", "3", "-o"]).arg(&out));
@@ -1272,15 +1289,7 @@ fn sigkill_between_link_and_rename_leaves_a_name_the_next_run_removes() {
     // delayed rename would take 5 s).
     let fresh = d.join("fresh.txt");
     let start = Instant::now();
-    let r = run(common::command("strace")
-        .args([
-            "-f",
-            "-o",
-            "/dev/null",
-            "-e",
-            "inject=/^rename:delay_enter=5000000",
-        ])
-        .arg(common::LSGEN)
+    let r = run(lsgen_with_slow_rename(5_000_000)
         .args(["--strategy", "step"])
         .arg(&input)
         .args(["-n", "3", "-o"])
@@ -1311,15 +1320,7 @@ fn sigterm_in_a_batch_between_link_and_rename_leaves_no_name() {
         fs::write(out(s), OLD).unwrap();
     }
     let child = spawn_with(
-        common::command("strace")
-            .args([
-                "-f",
-                "-o",
-                "/dev/null",
-                "-e",
-                "inject=/^rename:delay_enter=3000000",
-            ])
-            .arg(common::LSGEN)
+        lsgen_with_slow_rename(3_000_000)
             .args(["-j", "1", "--seed", "1..2", "--strategy", "step"])
             .arg(&input)
             .args(["-n", "12", "-o"])
@@ -1328,24 +1329,11 @@ fn sigterm_in_a_batch_between_link_and_rename_leaves_no_name() {
         Stdio::null(),
         Stdio::piped(),
     );
-    let deadline = Instant::now() + Duration::from_secs(30);
-    let mut pid = None;
-    while Instant::now() < deadline && pid.is_none() {
-        pid = listing(d).iter().find_map(|n| {
-            n.strip_prefix(".lsgen-")
-                .and_then(|rest| rest.split('-').next())
-                .map(str::to_string)
-        });
-        thread::sleep(Duration::from_millis(5));
-    }
-    let pid = pid.expect("no temp name seen: is strace working?");
+    let pid = temp_name_pid(d);
     let st = Command::new("kill").args(["-TERM", &pid]).status().unwrap();
     assert!(st.success());
     let _ = finish(child, Duration::from_secs(30));
-    let left: Vec<String> = listing(d)
-        .into_iter()
-        .filter(|n| n.starts_with(".lsgen-"))
-        .collect();
+    let left = temp_names(d);
     assert!(left.is_empty(), "left behind: {left:?}");
     // The first job's output is in place, whole; the second never started.
     assert_eq!(fs::read(out(1)).unwrap(), doubled(12));
