@@ -634,11 +634,30 @@ impl fmt::Display for Error {
 }
 
 fn render(f: &mut fmt::Formatter<'_>, e: &Error, severity: &str) -> fmt::Result {
+    let message = e.message();
     match (&e.0.location, &e.0.subject) {
-        (Some(l), _) => render_at(f, l, severity, &e.message()),
-        (None, Some(s)) => writeln!(f, "{s}: {severity}: {}", e.message()),
-        (None, None) => writeln!(f, "{severity}: {}", e.message()),
+        (Some(l), _) => render_at(f, l, severity, &message),
+        (None, Some(s)) => writeln!(f, "{}", visible(&format!("{s}: {severity}: {message}"))),
+        (None, None) => writeln!(f, "{severity}: {}", visible(&message)),
     }
+}
+
+/// A message line with its control characters escaped (`\n`, `\u{1b}`):
+/// a file name holding a line break or a terminal escape (`$'b\e[31m.ls'`)
+/// must not split the one line an error is, or reach the terminal raw.
+fn visible(line: &str) -> std::borrow::Cow<'_, str> {
+    if !line.chars().any(|c| c.is_control() && c != '\t') {
+        return line.into();
+    }
+    let mut out = String::with_capacity(line.len() + 8);
+    for c in line.chars() {
+        if c.is_control() && c != '\t' {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out.into()
 }
 
 pub(crate) fn render_at(
@@ -647,7 +666,8 @@ pub(crate) fn render_at(
     severity: &str,
     message: &str,
 ) -> fmt::Result {
-    writeln!(f, "{}:{}:{}: {severity}: {message}", l.path, l.line, l.col)?;
+    let head = format!("{}:{}:{}: {severity}: {message}", l.path, l.line, l.col);
+    writeln!(f, "{}", visible(&head))?;
     // Control characters (a NUL, a stray `\r`) are shown as
     // U+FFFD, as undecodable bytes are: never sent raw.
     let shown: String = l

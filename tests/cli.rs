@@ -1697,3 +1697,28 @@ fn keywords_take_blanks_and_comments_before_their_colon() {
     let r = run_stdin(&["-"], b"productions:\nA -> AB\naxiom\n: A\n");
     assert_eq!(r.code(), Some(1));
 }
+
+/// A file name with a line break or a terminal escape is shown escaped
+/// (`\n`, `\u{1b}`) in the one error line, never raw (found by the review
+/// helper: `$'no\ndir/x'` split the line, `$'b\e[31mad.ls'` coloured the
+/// terminal), in located errors too.
+#[test]
+fn control_characters_of_file_names_are_escaped_in_errors() {
+    let d = dir_with(&[("e\u{1b}[1mrr.ls", "productions:\nF -> (\naxiom: F\n")]);
+    for (name, shown) in [
+        ("no\ndir/x.ls", "lsgen: no\\ndir/x.ls: error: cannot open"),
+        (
+            "b\u{1b}[31mad.ls",
+            "lsgen: b\\u{1b}[31mad.ls: error: cannot open",
+        ),
+        (
+            "e\u{1b}[1mrr.ls",
+            "lsgen: e\\u{1b}[1mrr.ls:2:6: error: unexpected `(`",
+        ),
+    ] {
+        let r = run_in(d.path(), &[name], None);
+        let line = r.assert_one_error();
+        assert!(line.starts_with(shown), "{name:?}: {line}");
+        assert!(!r.stderr.contains('\u{1b}'), "{name:?}: {:?}", r.stderr);
+    }
+}
