@@ -646,18 +646,24 @@ fn render(f: &mut fmt::Formatter<'_>, e: &Error, severity: &str) -> fmt::Result 
 /// a file name holding a line break or a terminal escape (`$'b\e[31m.ls'`)
 /// must not split the one line an error is, or reach the terminal raw.
 fn visible(line: &str) -> std::borrow::Cow<'_, str> {
-    if !line.chars().any(|c| c.is_control() && c != '\t') {
+    if !line.chars().any(not_shown_raw) {
         return line.into();
     }
     let mut out = String::with_capacity(line.len() + 8);
     for c in line.chars() {
-        if c.is_control() && c != '\t' {
+        if not_shown_raw(c) {
             out.extend(c.escape_default());
         } else {
             out.push(c);
         }
     }
     out.into()
+}
+
+/// A character never written to the terminal as it is: a control
+/// character other than a tab.
+fn not_shown_raw(c: char) -> bool {
+    c.is_control() && c != '\t'
 }
 
 pub(crate) fn render_at(
@@ -673,13 +679,7 @@ pub(crate) fn render_at(
     let shown: String = l
         .snippet
         .chars()
-        .map(|c| {
-            if c.is_control() && c != '\t' {
-                '\u{FFFD}'
-            } else {
-                c
-            }
-        })
+        .map(|c| if not_shown_raw(c) { '\u{FFFD}' } else { c })
         .collect();
     writeln!(f, "{shown}")?;
     writeln!(f, "{}^", caret_pad(&l.snippet, l.caret_col))

@@ -532,17 +532,22 @@ fn parse_temp_name(name: &[u8]) -> Option<(u32, u64)> {
 /// Remove the temp files of killed lsgen runs from `dir`: regular files of
 /// ours named by `temp_name` whose process is gone (no such PID, or a PID
 /// now used by a process started at another time). Nothing when /proc
-/// cannot tell; errors are ignored. Once per directory and run: a batch
-/// writing N files into one directory read it N times (8,000 outputs
-/// beside 30,000 files took 44 s).
+/// cannot tell; errors are ignored. Once per directory and process (a
+/// batch writing N files into one directory read it N times: 8,000
+/// outputs beside 30,000 files took 44 s); the set of directories swept is
+/// forgotten past [`SWEPT_MAX`] of them, so that it stays small.
+/// Directories [`remove_leftovers`] remembers having swept, at most.
+const SWEPT_MAX: usize = 4096;
+
 fn remove_leftovers(dir: &Path) {
     static SWEPT: std::sync::Mutex<Option<std::collections::HashSet<PathBuf>>> =
         std::sync::Mutex::new(None);
     if let Ok(mut swept) = SWEPT.lock() {
-        if !swept
-            .get_or_insert_with(Default::default)
-            .insert(dir.to_path_buf())
-        {
+        let swept = swept.get_or_insert_with(Default::default);
+        if swept.len() >= SWEPT_MAX {
+            swept.clear();
+        }
+        if !swept.insert(dir.to_path_buf()) {
             return;
         }
     }
