@@ -794,32 +794,69 @@ fn check_batch(
             .filter(|_| t.uses(Field::N))
             .map(|f| (f.from, (f.to - f.from) / f.every + 1, f.every)),
     };
+    let label = |v: &template::Vars| {
+        let at = stems.iter().position(|s| Some(s.as_str()) == v.stem);
+        let file = at
+            .and_then(|i| files[i])
+            .map_or(String::new(), |p| p.display().to_string());
+        let mut what = Vec::new();
+        if let Some(s) = v.seed {
+            what.push(format!("seed {s}"));
+        }
+        if let Some(n) = v.n {
+            what.push(format!("generation {n}"));
+        }
+        match (file.is_empty(), what.is_empty()) {
+            (_, true) => file,
+            (true, false) => what.join(", "),
+            (false, false) => format!("{file} ({})", what.join(", ")),
+        }
+    };
     if let Some((a, b, name)) = t.collision(&ranges)? {
-        let label = |v: &template::Vars| {
-            let at = stems.iter().position(|s| Some(s.as_str()) == v.stem);
-            let file = at
-                .and_then(|i| files[i])
-                .map_or(String::new(), |p| p.display().to_string());
-            let mut what = Vec::new();
-            if let Some(s) = v.seed {
-                what.push(format!("seed {s}"));
-            }
-            if let Some(n) = v.n {
-                what.push(format!("generation {n}"));
-            }
-            match (file.is_empty(), what.is_empty()) {
-                (_, true) => file,
-                (true, false) => what.join(", "),
-                (false, false) => format!("{file} ({})", what.join(", ")),
-            }
-        };
         return Err(Error::new(crate::diag::UsageError::SameOutput {
             first: label(&a),
             second: label(&b),
             name,
         }));
     }
+    // Names apart can still be one file (a job's own seed, without
+    // --seed, is not known yet; each job checks its frames then).
+    if args.seed.is_some() || !t.uses(Field::Seed) {
+        files_apart(t, &ranges, label)?;
+    }
     Ok(())
+}
+
+/// Outputs whose names differ but lead to one file are a usage error:
+/// `{stem}/../x-{seed}`, a linked directory, a name that is a link to
+/// another output. Each name is looked up as its job will write it; past
+/// [`template::MAX_CHECKED_OUTPUTS`] outputs, none is.
+fn files_apart(
+    t: &Template,
+    ranges: &template::Ranges,
+    label: impl Fn(&Vars) -> String,
+) -> Result<(), Error> {
+    let total = ranges.count();
+    if total > template::MAX_CHECKED_OUTPUTS {
+        return Ok(());
+    }
+    let dirs = std::cell::RefCell::new(None);
+    let name = |i: u64| t.expand(&ranges.vars(i));
+    let one = template::first_alike(total, |i| {
+        Ok(crate::io::output::replaced_file(
+            &name(i)?,
+            &mut dirs.borrow_mut(),
+        ))
+    })?;
+    match one {
+        None => Ok(()),
+        Some((a, b, _)) => Err(Error::new(crate::diag::UsageError::SameFile {
+            first: label(&ranges.vars(a)),
+            second: label(&ranges.vars(b)),
+            first_name: name(a)?,
+            second_name: name(b)?,
+        })),
+    }
 }
 
 /// Failed jobs whose errors a batch keeps to print (the first in job
@@ -1062,6 +1099,19 @@ fn run_one(
         Some(o) => o,
         None => {
             let (frames, template) = args.frames.zip(frame_files).expect("frames to files");
+            let stems = [stem.clone()];
+            let ranges = template::Ranges {
+                stems: &stems,
+                seeds: Some((seed, 1)),
+                frames: Some((
+                    frames.from,
+                    (frames.to - frames.from) / frames.every + 1,
+                    frames.every,
+                )),
+            };
+            files_apart(template, &ranges, |v| {
+                format!("generation {}", v.n.unwrap_or_default())
+            })?;
             let mut files = FileFrames {
                 template,
                 stem: &stem,

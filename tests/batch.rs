@@ -323,6 +323,81 @@ fn outputs_named_alike_are_refused_before_any_job() {
     assert_eq!(read(d.path().join("a1-1")), "ABB\n");
 }
 
+/// Names apart that lead to one file are refused before any job too: a
+/// `..` after a varying directory, a linked directory, an output name
+/// that is a link to another (`-o` follows it). They used to be written
+/// one over the other, the last thread's winning. Outputs in directories
+/// of their own are all written.
+#[test]
+fn outputs_that_are_one_file_are_refused_before_any_job() {
+    use std::os::unix::fs::symlink;
+    let sys = "productions:\nA -> AB\naxiom: A\n";
+    let d = dir_with(&[("a.ls", sys), ("b.ls", sys)]);
+    for sub in ["a", "b", "d1"] {
+        std::fs::create_dir(d.path().join(sub)).unwrap();
+    }
+    symlink("d1", d.path().join("d2")).unwrap();
+    symlink("o-1", d.path().join("o-2")).unwrap();
+    symlink("o7-1", d.path().join("o7-2")).unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &[
+                "-o",
+                "{stem}/../out-{seed}",
+                "--seed",
+                "1..2",
+                "a.ls",
+                "b.ls",
+            ],
+            "a.ls (seed 1) would write `a/../out-1` and b.ls (seed 1) `b/../out-1`, \
+             which are one file",
+        ),
+        (
+            &["-o", "d{seed}/x", "--seed", "1..3", "a.ls"],
+            "a.ls (seed 1) would write `d1/x` and a.ls (seed 2) `d2/x`, which are one file",
+        ),
+        (
+            &["-o", "o-{seed}", "--seed", "1..2", "a.ls"],
+            "a.ls (seed 1) would write `o-1` and a.ls (seed 2) `o-2`, which are one file",
+        ),
+        (
+            &[
+                "-o",
+                "o{seed}-{n}",
+                "--frames",
+                "1..2",
+                "--seed",
+                "7..8",
+                "a.ls",
+            ],
+            "a.ls (seed 7, generation 1) would write `o7-1` and a.ls (seed 7, generation 2) \
+             `o7-2`, which are one file",
+        ),
+    ];
+    let before = common::listing(d.path());
+    for (args, needle) in cases {
+        for j in ["1", "2"] {
+            let mut a = args.to_vec();
+            a.extend(["-j", j]);
+            let r = lsgen_in(d.path(), &a);
+            let err = r.fails(2);
+            assert!(err.contains(needle), "{args:?}: {err}");
+            assert_eq!(common::listing(d.path()), before, "{args:?}");
+        }
+    }
+    for sub in ["a", "b", "d1"] {
+        assert_eq!(std::fs::read_dir(d.path().join(sub)).unwrap().count(), 0);
+    }
+    lsgen_in(
+        d.path(),
+        &["-o", "{stem}/out-{seed}", "--seed", "1..2", "a.ls", "b.ls"],
+    )
+    .ok();
+    for f in ["a/out-1", "a/out-2", "b/out-1", "b/out-2"] {
+        assert_eq!(read(d.path().join(f)), "AB\n", "{f}");
+    }
+}
+
 /// A template that makes a job's name `-` (`{stem}` of `-.ls`) names a
 /// file: only `-o -` is standard output (the job's string used to go
 /// there, in a batch, which refuses standard input).

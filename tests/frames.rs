@@ -140,6 +140,30 @@ fn frames_go_to_files_named_by_the_template() {
     assert_eq!(out, "a\nab\n");
 }
 
+/// Two frame names that lead to one file (a name linked to another, as
+/// `-o` follows links) are a usage error before any frame: the later frame
+/// used to replace the earlier one's file.
+#[test]
+fn frames_that_are_one_file_are_refused() {
+    let dir = common::tempdir();
+    std::os::unix::fs::symlink("f1.txt", dir.path().join("f3.txt")).unwrap();
+    let r = run(lsgen()
+        .args(["--frames", "1..4", "-o"])
+        .arg(dir.path().join("f{n}.txt"))
+        .arg(example("algae")));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(2), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("generation 1 would write `")
+            && r.stderr.contains("f1.txt` and generation 3 `")
+            && r.stderr.contains("f3.txt`, which are one file"),
+        "{}",
+        r.stderr
+    );
+    assert!(!dir.path().join("f1.txt").exists());
+    assert!(!dir.path().join("f2.txt").exists());
+}
+
 #[test]
 fn a_failing_frame_leaves_no_partial_file() {
     // Step 3 fails (division by zero): frames 1 and 2 are complete, no

@@ -1190,6 +1190,13 @@ pub enum UsageError {
         second: String,
         name: PathBuf,
     },
+    /// Two outputs of a batch whose names differ but lead to one file.
+    SameFile {
+        first: String,
+        second: String,
+        first_name: PathBuf,
+        second_name: PathBuf,
+    },
     /// A batch too large to check its output names one by one, whose
     /// template does not show them distinct.
     OutputNamesUnchecked(u64),
@@ -1290,6 +1297,19 @@ impl fmt::Display for UsageError {
                  must name each output apart (put a separator such as `-` between \
                  its placeholders)",
                 name.display()
+            ),
+            SameFile {
+                first,
+                second,
+                first_name,
+                second_name,
+            } => write!(
+                f,
+                "{first} would write `{}` and {second} `{}`, which are one file \
+                 (through `..` or a symbolic link): the -o template must lead \
+                 each output to a file of its own",
+                first_name.display(),
+                second_name.display()
             ),
             OutputNamesUnchecked(n) => write!(
                 f,

@@ -193,6 +193,38 @@ fn resolve(path: &Path, name: &str) -> Result<Target, Error> {
     ))
 }
 
+/// The file `-o path` replaces, as batches tell their outputs apart: the
+/// (device, inode) of its directory and its name there, symbolic links
+/// followed as [`Output::file`] follows them (`a/../x` and `b/../x`, a
+/// linked directory, a name linked to another are one file). `None` for
+/// standard output, a stream, or a name that cannot be written (its job
+/// fails on its own). `dirs` remembers the last directory looked up.
+pub fn replaced_file(
+    path: &Path,
+    dirs: &mut Option<(PathBuf, Option<(u64, u64)>)>,
+) -> Option<(u64, u64, std::ffi::OsString)> {
+    if path.as_os_str() == "-" {
+        return None;
+    }
+    let Ok(Target::File(p)) = resolve(path, "") else {
+        return None;
+    };
+    let name = p.file_name()?.to_os_string();
+    let dir = parent_dir(&p);
+    let id = match dirs {
+        Some((d, id)) if d.as_path() == dir => *id,
+        _ => {
+            let id = fs::metadata(dir)
+                .ok()
+                .filter(|m| m.is_dir())
+                .map(|m| (m.dev(), m.ino()));
+            *dirs = Some((dir.to_path_buf(), id));
+            id
+        }
+    };
+    id.map(|(dev, ino)| (dev, ino, name))
+}
+
 /// Where the symbolic link `link`, which holds `to`, leads: a relative
 /// target is relative to the link's directory.
 fn link_target(link: &Path, to: PathBuf) -> PathBuf {

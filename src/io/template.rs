@@ -8,6 +8,7 @@
 //! file name.
 
 use crate::diag::{Error, UsageError};
+use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
 
 /// A placeholder of a template.
@@ -156,12 +157,14 @@ pub struct Ranges<'a> {
     pub frames: Option<(u64, u64, u64)>,
 }
 
-/// Outputs a batch checks one by one for two of the same name, at most
-/// (16 bytes each), when the template alone does not show them distinct.
+/// Outputs a batch checks one by one (16 bytes each), at most: for two of
+/// the same name when the template alone does not show them distinct, and
+/// for two names that are one file (looked up).
 pub const MAX_CHECKED_OUTPUTS: u64 = 1 << 21;
 
 impl Ranges<'_> {
-    fn count(&self) -> u64 {
+    /// How many outputs: files × seeds × frames.
+    pub fn count(&self) -> u64 {
         let s = self.seeds.map_or(1, |r| r.1);
         let f = self.frames.map_or(1, |r| r.1);
         (self.stems.len().max(1) as u64)
@@ -170,7 +173,7 @@ impl Ranges<'_> {
     }
 
     /// The values of output `i` (file-major, then seed, then frame).
-    fn vars(&self, i: u64) -> Vars<'_> {
+    pub fn vars(&self, i: u64) -> Vars<'_> {
         let f = self.frames.map_or(1, |r| r.1);
         let s = self.seeds.map_or(1, |r| r.1);
         Vars {
@@ -201,29 +204,7 @@ impl Template {
         if total > MAX_CHECKED_OUTPUTS {
             return Err(Error::new(UsageError::OutputNamesUnchecked(total)));
         }
-        let name = |i: u64| self.expand(&r.vars(i));
-        let mut hashes = Vec::with_capacity(total as usize);
-        for i in 0..total {
-            use std::hash::{Hash, Hasher};
-            let mut h = std::hash::DefaultHasher::new();
-            name(i)?.hash(&mut h);
-            hashes.push((h.finish(), i));
-        }
-        hashes.sort_unstable();
-        let mut first: Option<(u64, u64, PathBuf)> = None;
-        for w in hashes.windows(2) {
-            let ((ha, a), (hb, b)) = (w[0], w[1]);
-            if ha == hb
-                && first
-                    .as_ref()
-                    .is_none_or(|f| (a.min(b), a.max(b)) < (f.0, f.1))
-            {
-                let na = name(a)?;
-                if na == name(b)? {
-                    first = Some((a.min(b), a.max(b), na));
-                }
-            }
-        }
+        let first = first_alike(total, |i| self.expand(&r.vars(i)).map(Some))?;
         Ok(first.map(|(a, b, n)| (r.vars(a), r.vars(b), n)))
     }
 
@@ -270,6 +251,37 @@ impl Template {
                 c.is_ascii_digit() || stems_vary && r.stems.iter().any(|s| s.contains(c));
             !in_a_value && between.iter().all(|t| t.contains(c))
         })
+    }
+}
+
+/// The first two of `0..total` (in that order: the pair with the smallest
+/// first, then second, index) whose keys are equal, and that key; `None`
+/// keys are never alike. 16 bytes per index are held (a hash of each key),
+/// keys are compared exactly where hashes agree.
+pub fn first_alike<K: Hash + Eq>(
+    total: u64,
+    key: impl Fn(u64) -> Result<Option<K>, Error>,
+) -> Result<Option<(u64, u64, K)>, Error> {
+    let mut hashes = Vec::with_capacity(usize::try_from(total).unwrap_or(0));
+    for i in 0..total {
+        if let Some(k) = key(i)? {
+            let mut h = std::hash::DefaultHasher::new();
+            k.hash(&mut h);
+            hashes.push((h.finish(), i));
+        }
+    }
+    hashes.sort_unstable();
+    let mut first: Option<(u64, u64)> = None;
+    for w in hashes.windows(2) {
+        let ((ha, a), (hb, b)) = (w[0], w[1]);
+        // Sorted by hash then index: `a < b`.
+        if ha == hb && first.is_none_or(|f| (a, b) < f) && key(a)? == key(b)? {
+            first = Some((a, b));
+        }
+    }
+    match first {
+        Some((a, b)) => Ok(key(a)?.map(|k| (a, b, k))),
+        None => Ok(None),
     }
 }
 
