@@ -283,7 +283,7 @@ impl FrameSink for StreamFrames<'_> {
 /// written as `-o` writes.
 struct FileFrames<'a> {
     template: &'a Template,
-    stem: &'a str,
+    stem: &'a std::ffi::OsStr,
     seed: u64,
     /// See [`Job::inputs`].
     inputs: &'a [(u64, u64)],
@@ -660,7 +660,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             return Err(Error::new(crate::diag::UsageError::FramesNeedN));
         }
         t.expand(&Vars {
-            stem: Some("x"),
+            stem: Some(std::ffi::OsStr::new("x")),
             seed: Some(0),
             n: args.frames.map(|f| f.from),
         })?;
@@ -768,9 +768,9 @@ fn check_batch(
         return Err(Error::new(crate::diag::UsageError::FilesNeedStem));
     }
     // (No standard input here: every file has a path.)
-    let stems: Vec<String> = files.iter().map(|p| template::stem(*p)).collect();
+    let stems: Vec<std::ffi::OsString> = files.iter().map(|p| template::stem(*p)).collect();
     if files.len() > 1 {
-        let mut stems: Vec<(&String, &Path)> =
+        let mut stems: Vec<(&std::ffi::OsString, &Path)> =
             stems.iter().zip(files.iter().flatten().copied()).collect();
         stems.sort();
         for w in stems.windows(2) {
@@ -778,7 +778,7 @@ fn check_batch(
                 return Err(Error::new(crate::diag::UsageError::SameStem {
                     first: w[0].1.to_path_buf(),
                     second: w[1].1.to_path_buf(),
-                    stem: w[0].0.clone(),
+                    stem: w[0].0.to_string_lossy().into_owned(),
                 }));
             }
         }
@@ -795,7 +795,7 @@ fn check_batch(
             .map(|f| (f.from, (f.to - f.from) / f.every + 1, f.every)),
     };
     let label = |v: &template::Vars| {
-        let at = stems.iter().position(|s| Some(s.as_str()) == v.stem);
+        let at = stems.iter().position(|s| Some(s.as_os_str()) == v.stem);
         let file = at
             .and_then(|i| files[i])
             .map_or(String::new(), |p| p.display().to_string());

@@ -398,6 +398,51 @@ fn outputs_that_are_one_file_are_refused_before_any_job() {
     }
 }
 
+/// Names that are not UTF-8 are names like any other: an `-o` template
+/// with such bytes expands its placeholders (it used to be taken as a plain
+/// name, and the batch refused), and stems keep their bytes (two stems
+/// that differ only there used to be refused as one, and `{stem}` wrote
+/// U+FFFD).
+#[test]
+fn names_that_are_not_utf8_are_templates_and_stems() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let d = common::tempdir();
+    let sys = "productions:\nA -> AB\naxiom: A\n";
+    let name = |b: &[u8]| d.path().join(OsStr::from_bytes(b));
+    std::fs::write(name(b"a\xff.ls"), sys).unwrap();
+    std::fs::write(name(b"a\xfe.ls"), sys).unwrap();
+    std::fs::create_dir(name(b"o\xe9")).unwrap();
+    let r = run(lsgen()
+        .current_dir(d.path())
+        .env_remove("LSGEN_JOBS")
+        .arg("-o")
+        .arg(OsStr::from_bytes(b"o\xe9/{stem}-{seed}"))
+        .args(["--seed", "1..2"])
+        .arg(OsStr::from_bytes(b"a\xff.ls"))
+        .arg(OsStr::from_bytes(b"a\xfe.ls")));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    for out in [
+        &b"o\xe9/a\xff-1"[..],
+        b"o\xe9/a\xff-2",
+        b"o\xe9/a\xfe-1",
+        b"o\xe9/a\xfe-2",
+    ] {
+        assert_eq!(read(name(out)), "AB\n", "{}", String::from_utf8_lossy(out));
+    }
+    assert_eq!(std::fs::read_dir(name(b"o\xe9")).unwrap().count(), 4);
+    // A typo is refused there too.
+    let r = run(lsgen()
+        .current_dir(d.path())
+        .arg("-o")
+        .arg(OsStr::from_bytes(b"o\xe9/{sed}"))
+        .args(["--seed", "1..2"])
+        .arg(OsStr::from_bytes(b"a\xff.ls")));
+    r.assert_no_crash();
+    assert!(r.fails(2).contains("{sed}"), "{}", r.stderr);
+}
+
 /// A template that makes a job's name `-` (`{stem}` of `-.ls`) names a
 /// file: only `-o -` is standard output (the job's string used to go
 /// there, in a batch, which refuses standard input).
@@ -627,14 +672,16 @@ fn check_takes_several_files_without_a_template() {
 fn an_output_name_that_is_not_utf8_still_works() {
     use std::os::unix::ffi::OsStrExt;
     let d = dir_with(&[("a.ls", "productions:\nA -> AB\naxiom: A\n")]);
-    let name = std::ffi::OsStr::from_bytes(b"out\xff{x}");
+    // A template like any other: `{{x}}` is `{x}`.
+    let name = std::ffi::OsStr::from_bytes(b"out\xff{{x}}");
     let r = run(lsgen()
         .current_dir(d.path())
         .args(["-n", "2", "-o"])
         .arg(name)
         .arg("a.ls"));
     assert_eq!(r.ok(), "");
-    assert_eq!(read(d.path().join(name)), "ABB\n");
+    let file = std::ffi::OsStr::from_bytes(b"out\xff{x}");
+    assert_eq!(read(d.path().join(file)), "ABB\n");
 }
 
 #[test]

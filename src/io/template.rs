@@ -5,10 +5,13 @@
 //! (`stdin` for standard input), `{seed}` the job's seed, `{n}` the
 //! generation number. `{{` and `}}` stand for literal braces. Any other
 //! `{...}` is a usage error, so a typo never silently becomes part of a
-//! file name.
+//! file name. Names are bytes, as Unix has them: a template or a stem that
+//! is not UTF-8 works as any other.
 
 use crate::diag::{Error, UsageError};
+use std::ffi::{OsStr, OsString};
 use std::hash::{Hash, Hasher};
+use std::os::unix::ffi::{OsStrExt, OsStringExt};
 use std::path::{Path, PathBuf};
 
 /// A placeholder of a template.
@@ -31,7 +34,7 @@ impl Field {
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 enum Part {
-    Text(String),
+    Text(Vec<u8>),
     Field(Field),
 }
 
@@ -39,59 +42,59 @@ enum Part {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Template {
     parts: Vec<Part>,
-    /// A name that is not UTF-8: used as it is, no placeholders.
-    raw: Option<PathBuf>,
 }
 
 /// The values a template is expanded with; a `None` field that the template
 /// uses is an error (e.g. `{n}` without frames).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Vars<'a> {
-    pub stem: Option<&'a str>,
+    pub stem: Option<&'a OsStr>,
     pub seed: Option<u64>,
     pub n: Option<u64>,
 }
 
 impl Template {
-    /// Parse `-o`'s name; one that is not UTF-8 is a plain name.
+    /// Parse `-o`'s name.
     pub fn parse_path(p: &Path) -> Result<Template, Error> {
-        match p.to_str() {
-            Some(s) => Template::parse(s),
-            None => Ok(Template {
-                parts: Vec::new(),
-                raw: Some(p.to_path_buf()),
-            }),
-        }
+        Template::parse_bytes(p.as_os_str().as_bytes())
+    }
+
+    /// Parse `s` (tests).
+    #[cfg(test)]
+    fn parse(s: &str) -> Result<Template, Error> {
+        Template::parse_bytes(s.as_bytes())
     }
 
     /// Parse `s`; an unknown or unclosed placeholder is a usage error.
-    pub fn parse(s: &str) -> Result<Template, Error> {
+    fn parse_bytes(s: &[u8]) -> Result<Template, Error> {
+        let shown = || String::from_utf8_lossy(s).into_owned();
         let mut parts = Vec::new();
-        let mut text = String::new();
+        let mut text = Vec::new();
         let mut rest = s;
-        while let Some(i) = rest.find(['{', '}']) {
-            text.push_str(&rest[..i]);
+        while let Some(i) = rest.iter().position(|&b| b == b'{' || b == b'}') {
+            text.extend_from_slice(&rest[..i]);
             let tail = &rest[i..];
-            if let Some(r) = tail.strip_prefix("{{") {
-                text.push('{');
+            if let Some(r) = tail.strip_prefix(b"{{") {
+                text.push(b'{');
                 rest = r;
-            } else if let Some(r) = tail.strip_prefix("}}") {
-                text.push('}');
+            } else if let Some(r) = tail.strip_prefix(b"}}") {
+                text.push(b'}');
                 rest = r;
-            } else if tail.starts_with('}') {
-                return Err(Error::new(UsageError::LoneCloseBrace(s.to_string())));
+            } else if tail.starts_with(b"}") {
+                return Err(Error::new(UsageError::LoneCloseBrace(shown())));
             } else {
                 let end = tail
-                    .find('}')
-                    .ok_or_else(|| Error::new(UsageError::UnclosedBrace(s.to_string())))?;
+                    .iter()
+                    .position(|&b| b == b'}')
+                    .ok_or_else(|| Error::new(UsageError::UnclosedBrace(shown())))?;
                 let field = match &tail[1..end] {
-                    "stem" => Field::Stem,
-                    "seed" => Field::Seed,
-                    "n" => Field::N,
+                    b"stem" => Field::Stem,
+                    b"seed" => Field::Seed,
+                    b"n" => Field::N,
                     other => {
                         return Err(Error::new(UsageError::UnknownPlaceholder {
-                            template: s.to_string(),
-                            name: other.to_string(),
+                            template: shown(),
+                            name: String::from_utf8_lossy(other).into_owned(),
                         }))
                     }
                 };
@@ -102,11 +105,11 @@ impl Template {
                 rest = &tail[end + 1..];
             }
         }
-        text.push_str(rest);
+        text.extend_from_slice(rest);
         if !text.is_empty() {
             parts.push(Part::Text(text));
         }
-        Ok(Template { parts, raw: None })
+        Ok(Template { parts })
     }
 
     /// The template has no placeholder: a plain file name.
@@ -121,30 +124,32 @@ impl Template {
 
     /// The file name for `vars`.
     pub fn expand(&self, vars: &Vars) -> Result<PathBuf, Error> {
-        if let Some(raw) = &self.raw {
-            return Ok(raw.clone());
-        }
-        let mut s = String::new();
+        let mut s = Vec::new();
         for p in &self.parts {
             match p {
-                Part::Text(t) => s.push_str(t),
+                Part::Text(t) => s.extend_from_slice(t),
                 Part::Field(f) => {
-                    let v = match f {
-                        Field::Stem => vars.stem.map(str::to_string),
-                        Field::Seed => vars.seed.map(|v| v.to_string()),
-                        Field::N => vars.n.map(|v| v.to_string()),
-                    };
-                    let v = v.ok_or_else(|| Error::new(UsageError::NoValue(f.name())))?;
-                    s.push_str(&v);
+                    let missing = || Error::new(UsageError::NoValue(f.name()));
+                    match f {
+                        Field::Stem => {
+                            s.extend_from_slice(vars.stem.ok_or_else(missing)?.as_bytes())
+                        }
+                        Field::Seed => s.extend_from_slice(
+                            vars.seed.ok_or_else(missing)?.to_string().as_bytes(),
+                        ),
+                        Field::N => {
+                            s.extend_from_slice(vars.n.ok_or_else(missing)?.to_string().as_bytes())
+                        }
+                    }
                 }
             }
         }
-        if s == "-" && !self.is_plain() {
+        if s == b"-" && !self.is_plain() {
             // A name made `-` (`{stem}` of `-.ls`) is a file: only `-o -`
             // itself is standard output.
-            s.insert_str(0, "./");
+            s.splice(0..0, *b"./");
         }
-        Ok(PathBuf::from(s))
+        Ok(PathBuf::from(OsString::from_vec(s)))
     }
 }
 
@@ -152,7 +157,7 @@ impl Template {
 /// a seed range, the frames (`first`, `count`, step).
 #[derive(Clone, Copy, Debug)]
 pub struct Ranges<'a> {
-    pub stems: &'a [String],
+    pub stems: &'a [OsString],
     pub seeds: Option<(u64, u64)>,
     pub frames: Option<(u64, u64, u64)>,
 }
@@ -177,7 +182,10 @@ impl Ranges<'_> {
         let f = self.frames.map_or(1, |r| r.1);
         let s = self.seeds.map_or(1, |r| r.1);
         Vars {
-            stem: self.stems.get((i / f / s) as usize).map(String::as_str),
+            stem: self
+                .stems
+                .get((i / f / s) as usize)
+                .map(OsString::as_os_str),
             seed: self.seeds.map(|(first, _)| first + (i / f) % s),
             n: self.frames.map(|(first, _, every)| first + (i % f) * every),
         }
@@ -197,7 +205,7 @@ impl Template {
         &self,
         r: &'r Ranges<'r>,
     ) -> Result<Option<(Vars<'r>, Vars<'r>, PathBuf)>, Error> {
-        if self.raw.is_some() || self.distinct(r) {
+        if self.distinct(r) {
             return Ok(None);
         }
         let total = r.count();
@@ -226,12 +234,12 @@ impl Template {
         }
         // The text between consecutive varying placeholders (a fixed one
         // is text too: the same in every name, ignored here).
-        let mut between: Vec<String> = Vec::new();
-        let mut text = String::new();
+        let mut between: Vec<Vec<u8>> = Vec::new();
+        let mut text = Vec::new();
         let mut seen = false;
         for p in &self.parts {
             match p {
-                Part::Text(t) => text.push_str(t),
+                Part::Text(t) => text.extend_from_slice(t),
                 Part::Field(f) if varies(*f) => {
                     if seen {
                         between.push(std::mem::take(&mut text));
@@ -246,9 +254,10 @@ impl Template {
         let Some(first) = between.first() else {
             return true;
         };
-        first.chars().any(|c| {
-            let in_a_value =
-                c.is_ascii_digit() || stems_vary && r.stems.iter().any(|s| s.contains(c));
+        // (Bytes, not characters: the proof holds for any alphabet.)
+        first.iter().any(|c| {
+            let in_a_value = c.is_ascii_digit()
+                || stems_vary && r.stems.iter().any(|s| s.as_bytes().contains(c));
             !in_a_value && between.iter().all(|t| t.contains(c))
         })
     }
@@ -287,13 +296,13 @@ pub fn first_alike<K: Hash + Eq>(
 
 /// `{stem}` of an input: its file name without directory and extension;
 /// `stdin` for standard input (None or `-`).
-pub fn stem(file: Option<&Path>) -> String {
+pub fn stem(file: Option<&Path>) -> OsString {
     match file {
         None => "stdin".into(),
         Some(p) if p.as_os_str() == "-" => "stdin".into(),
         Some(p) => p
             .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
+            .map(OsStr::to_os_string)
             .unwrap_or_else(|| "stdin".into()),
     }
 }
@@ -308,7 +317,7 @@ mod tests {
     #[test]
     fn a_name_made_a_dash_is_a_file() {
         let v = Vars {
-            stem: Some("-"),
+            stem: Some(OsStr::new("-")),
             ..Vars::default()
         };
         let t = Template::parse("{stem}").unwrap();
@@ -340,10 +349,10 @@ mod tests {
             let t = Template::parse(&t).unwrap();
             // As a batch must (the usage checks before this one): each
             // placeholder that varies is in the template.
-            let mut stems: Vec<String> = Vec::new();
+            let mut stems: Vec<OsString> = Vec::new();
             let files = if t.uses(Field::Stem) { 1 + next(3) } else { 1 };
             for _ in 0..files {
-                let s = stem_pool[next(stem_pool.len() as u64) as usize].to_string();
+                let s = OsString::from(stem_pool[next(stem_pool.len() as u64) as usize]);
                 if !stems.contains(&s) {
                     stems.push(s);
                 }
@@ -386,7 +395,7 @@ mod tests {
         assert!(proofs > 2_000 && found > 100, "{proofs} {found}");
         // The two of the review: stems `a` and `a1` with seeds 1..11, and
         // frames 1..11 with seeds 1..11; with a `-` between, none.
-        let stems = ["a".to_string(), "a1".to_string()];
+        let stems = [OsString::from("a"), OsString::from("a1")];
         let r = Ranges {
             stems: &stems,
             seeds: Some((1, 11)),
@@ -397,10 +406,15 @@ mod tests {
         assert_eq!(name, PathBuf::from("out/a11"));
         assert_eq!(
             (a.stem, a.seed, b.stem, b.seed),
-            (Some("a"), Some(11), Some("a1"), Some(1))
+            (
+                Some(OsStr::new("a")),
+                Some(11),
+                Some(OsStr::new("a1")),
+                Some(1)
+            )
         );
         assert!(Template::parse("out/{stem}-{seed}").unwrap().distinct(&r));
-        let one = ["a".to_string()];
+        let one = [OsString::from("a")];
         let r = Ranges {
             stems: &one,
             seeds: Some((1, 11)),
@@ -432,7 +446,7 @@ mod tests {
 
     fn vars() -> Vars<'static> {
         Vars {
-            stem: Some("plant"),
+            stem: Some(OsStr::new("plant")),
             seed: Some(7),
             n: Some(3),
         }
@@ -466,12 +480,32 @@ mod tests {
     }
 
     #[test]
-    fn a_name_that_is_not_utf8_is_plain() {
-        use std::os::unix::ffi::OsStrExt;
-        let p = Path::new(std::ffi::OsStr::from_bytes(b"out\xff{stem}"));
+    fn names_that_are_not_utf8_are_templates_too() {
+        let p = Path::new(OsStr::from_bytes(b"out\xff/{stem}-{seed}\xfe"));
         let t = Template::parse_path(p).unwrap();
-        assert!(t.is_plain());
-        assert_eq!(t.expand(&Vars::default()).unwrap(), p);
+        assert!(t.uses(Field::Stem) && t.uses(Field::Seed));
+        let v = Vars {
+            stem: Some(OsStr::from_bytes(b"pl\xe9")),
+            seed: Some(7),
+            n: None,
+        };
+        assert_eq!(
+            t.expand(&v).unwrap(),
+            Path::new(OsStr::from_bytes(b"out\xff/pl\xe9-7\xfe"))
+        );
+        let bad = Path::new(OsStr::from_bytes(b"o\xff{bogus}"));
+        assert!(Template::parse_path(bad).is_err());
+        // A separator byte that is in no stem shows them apart.
+        let stems = [OsString::from_vec(b"a\xff".to_vec()), OsString::from("a")];
+        let r = Ranges {
+            stems: &stems,
+            seeds: Some((1, 20)),
+            frames: None,
+        };
+        let apart = Path::new(OsStr::from_bytes(b"{stem}\xfe{seed}"));
+        assert!(Template::parse_path(apart).unwrap().distinct(&r));
+        let not = Path::new(OsStr::from_bytes(b"{stem}\xff{seed}"));
+        assert!(!Template::parse_path(not).unwrap().distinct(&r));
     }
 
     #[test]
@@ -480,5 +514,7 @@ mod tests {
         assert_eq!(stem(Some(Path::new("x.tar.ls"))), "x.tar");
         assert_eq!(stem(Some(Path::new("-"))), "stdin");
         assert_eq!(stem(None), "stdin");
+        let odd = Path::new(OsStr::from_bytes(b"d/pl\xe9.ls"));
+        assert_eq!(stem(Some(odd)).as_bytes(), b"pl\xe9");
     }
 }
