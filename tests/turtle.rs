@@ -411,6 +411,16 @@ fn obj_lines_faces_and_materials() {
     assert!(o.contains("mtllib x.mtl\n"));
     let m = std::fs::read_to_string(dir.path().join("x.mtl")).unwrap();
     assert!(m.contains("newmtl c0\nKd "));
+    // A name that is not UTF-8: `mtllib` names the MTL by its bytes (it
+    // used to write U+FFFD, a file that is not there).
+    use std::os::unix::ffi::OsStrExt;
+    let out = dir.path().join(std::ffi::OsStr::from_bytes(b"y\xff.obj"));
+    let r = run_with_stdin(common::turtle().arg("-o").arg(&out), b"F".to_vec());
+    ok(&r);
+    let o = std::fs::read(&out).unwrap();
+    assert!(o.windows(13).any(|w| w == b"mtllib y\xff.mtl"), "{o:?}");
+    let mtl = dir.path().join(std::ffi::OsStr::from_bytes(b"y\xff.mtl"));
+    assert!(std::fs::read_to_string(mtl).unwrap().contains("newmtl c0"));
 }
 
 #[test]

@@ -221,19 +221,23 @@ pub fn run(o: &Options) -> Result<(), Error> {
                         .as_ref()
                         .map(|p| p.with_extension("mtl"))
                         .filter(|m| Some(m) != file_path.as_ref());
+                    // The name's bytes as they are (an OBJ reader opens
+                    // that file).
                     let lib = mtl_path
                         .as_ref()
                         .and_then(|p| p.file_name())
-                        .map(|n| n.to_string_lossy().into_owned());
+                        .map(std::os::unix::ffi::OsStrExt::as_bytes);
                     // `mtllib` takes names separated by blanks: one with
                     // blanks (or a line break) would not be found.
-                    if let Some(n) = lib.as_ref().filter(|n| n.contains(char::is_whitespace)) {
+                    if let Some(n) = lib
+                        .map(String::from_utf8_lossy)
+                        .filter(|n| n.contains(char::is_whitespace))
+                    {
                         return Err(Error::new(crate::diag::UsageError::MtlNameWithBlanks(
-                            n.clone(),
+                            n.into_owned(),
                         )));
                     }
-                    let mut s = render::Obj::begin(w, &o.view, lib.as_deref(), o.cylinders)
-                        .map_err(werr)?;
+                    let mut s = render::Obj::begin(w, &o.view, lib, o.cylinders).map_err(werr)?;
                     interpret(first, &in_name, &out_name, &o.view, &mut s)?;
                     s.finish().map_err(werr)?;
                     if let Some(mp) = mtl_path {

@@ -597,13 +597,15 @@ impl<'w> Obj<'w> {
     pub fn begin(
         out: &'w mut dyn Write,
         view: &View,
-        mtllib: Option<&str>,
+        mtllib: Option<&[u8]>,
         cylinders: bool,
     ) -> io::Result<Obj<'w>> {
         let mut out = io::BufWriter::with_capacity(1 << 16, out);
         writeln!(out, "# lsgen-turtle")?;
         if let Some(m) = mtllib {
-            writeln!(out, "mtllib {m}")?;
+            out.write_all(b"mtllib ")?;
+            out.write_all(m)?;
+            out.write_all(b"\n")?;
         }
         Ok(Obj {
             out,
