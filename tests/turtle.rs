@@ -515,6 +515,13 @@ fn bad_view_settings() {
             "--view: the elevation is between -90 and 90",
         ),
         (&["--width=-1"], "--width: must not be negative"),
+        // Written apart, a negative number is the option's value too (it
+        // was clap's "unexpected argument '-1'", as for no other number).
+        (&["--width", "-1"], "--width: must not be negative"),
+        (
+            &["--width-scale", "-2"],
+            "--width-scale: must not be negative",
+        ),
         (
             &["--palette", "red"],
             "--palette: `red` is not a colour `#rrggbb`",

@@ -48,13 +48,13 @@ struct Args {
     #[arg(long, allow_negative_numbers = true, value_parser = number)]
     step: Option<f64>,
     /// Initial line width
-    #[arg(long, value_parser = number)]
+    #[arg(long, allow_negative_numbers = true, value_parser = number)]
     width: Option<f64>,
     /// Width change of ! and # without a parameter
     #[arg(long, allow_negative_numbers = true, value_parser = number)]
     width_increment: Option<f64>,
     /// Factor applied to every width when drawn
-    #[arg(long, value_parser = number)]
+    #[arg(long, allow_negative_numbers = true, value_parser = number)]
     width_scale: Option<f64>,
     /// What widths are in: model (units of the drawing) or pixels (SVG, PNG)
     #[arg(long, value_name = "UNIT")]
