@@ -259,6 +259,22 @@ fn a_jobs_output_never_replaces_an_input_of_the_batch() {
     }
 }
 
+/// Each of `cases` (arguments, part of the message), run in `dir` at
+/// `-j 1` and `-j 2`, is a usage error that writes nothing there.
+fn refused_at_j_1_and_2(dir: &Path, cases: &[(&[&str], &str)]) {
+    let before = common::listing(dir);
+    for (args, needle) in cases {
+        for j in ["1", "2"] {
+            let mut a = args.to_vec();
+            a.extend(["-j", j]);
+            let r = lsgen_in(dir, &a);
+            let err = r.fails(2);
+            assert!(err.contains(needle), "{args:?}: {err}");
+            assert_eq!(common::listing(dir), before, "{args:?}");
+        }
+    }
+}
+
 /// Two outputs the template names alike are a usage error before any job
 /// runs (they used to replace each other, the last thread's winning, so
 /// the files depended on -j): `{stem}{seed}` makes `a11` of a.ls seed 11
@@ -295,15 +311,7 @@ fn outputs_named_alike_are_refused_before_any_job() {
             "a.ls (seed 1, generation 11) and a.ls (seed 11, generation 1) would both write `111`",
         ),
     ];
-    for (args, needle) in cases {
-        for j in ["1", "2"] {
-            let mut a = args.to_vec();
-            a.extend(["-j", j]);
-            let r = lsgen_in(d.path(), &a);
-            let err = r.fails(2);
-            assert!(err.contains(needle), "{args:?}: {err}");
-        }
-    }
+    refused_at_j_1_and_2(d.path(), cases);
     common::assert_listing(d.path(), &["a.ls", "a1.ls"]);
     let r = lsgen_in(
         d.path(),
@@ -374,17 +382,7 @@ fn outputs_that_are_one_file_are_refused_before_any_job() {
              `o7-2`, which are one file",
         ),
     ];
-    let before = common::listing(d.path());
-    for (args, needle) in cases {
-        for j in ["1", "2"] {
-            let mut a = args.to_vec();
-            a.extend(["-j", j]);
-            let r = lsgen_in(d.path(), &a);
-            let err = r.fails(2);
-            assert!(err.contains(needle), "{args:?}: {err}");
-            assert_eq!(common::listing(d.path()), before, "{args:?}");
-        }
-    }
+    refused_at_j_1_and_2(d.path(), cases);
     for sub in ["a", "b", "d1"] {
         assert_eq!(std::fs::read_dir(d.path().join(sub)).unwrap().count(), 0);
     }
