@@ -682,7 +682,16 @@ pub(crate) fn render_at(
         .map(|c| if not_shown_raw(c) { '\u{FFFD}' } else { c })
         .collect();
     writeln!(f, "{shown}")?;
-    writeln!(f, "{}^", caret_pad(&l.snippet, l.caret_col))
+    writeln!(f, "{}^", caret_pad(&l.snippet, l.caret_col))?;
+    // (A `\r\n` pair ends a line; a `\r` left in one ended none.)
+    if l.snippet.contains('\r') {
+        writeln!(
+            f,
+            "note: a `\\r` (shown as \u{FFFD}) without a `\\n` after it ends no line: lines \
+             end with `\\n` or `\\r\\n`, so a file whose lines end with `\\r` alone is one line"
+        )?;
+    }
+    Ok(())
 }
 
 /// A located warning message, rendered as an error is.

@@ -1722,3 +1722,32 @@ fn control_characters_of_file_names_are_escaped_in_errors() {
         assert!(!r.stderr.contains('\u{1b}'), "{name:?}: {:?}", r.stderr);
     }
 }
+
+/// A file whose lines end with `\r` alone (classic Mac OS) is one line to
+/// lsgen, as `\r` is a blank: its error says why the line is so long. A
+/// `\r\n` file gets no such note, and no `\r` reaches the terminal.
+#[test]
+fn lines_ending_with_a_lone_carriage_return_get_a_note() {
+    let d = dir_with(&[
+        ("mac.ls", "productions:\rA -> AB\raxiom: A\r"),
+        ("dos.ls", "productions:\r\nA -> A(\r\naxiom: A\r\n"),
+    ]);
+    let r = common::run(lsgen().current_dir(d.path()).arg("mac.ls"));
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(1));
+    assert_eq!(
+        r.stderr,
+        "lsgen: mac.ls:1:14: error: unexpected symbol `A`, expected end of line\n\
+         productions:\u{FFFD}A -> AB\u{FFFD}axiom: A\n             ^\n\
+         note: a `\\r` (shown as \u{FFFD}) without a `\\n` after it ends no line: lines end \
+         with `\\n` or `\\r\\n`, so a file whose lines end with `\\r` alone is one line\n"
+    );
+    let r = common::run(lsgen().current_dir(d.path()).arg("dos.ls"));
+    assert_eq!(r.code(), Some(1));
+    assert!(
+        !r.stderr.contains("note:") && !r.stderr.contains('\r'),
+        "{}",
+        r.stderr
+    );
+    assert_eq!(r.stderr.lines().count(), 3, "{}", r.stderr);
+}
