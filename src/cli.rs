@@ -97,7 +97,8 @@ pub struct Args {
           value_parser = clap::value_parser!(u32).range(1..=crate::rules::codec::MAX_PRECISION as i64))]
     pub precision: Option<u32>,
 
-    /// Directory for the temporary generation files (default: $TMPDIR).
+    /// Directory for the temporary generation files (default: $TMPDIR, or /tmp
+    /// when it is unset or empty).
     #[arg(long, value_name = "DIR")]
     pub tmpdir: Option<PathBuf>,
 

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{lsgen, run, Run};
+use common::{lsgen, run, run_with_stdin, Run};
 
 fn lsgen_run(args: &[&str]) -> Run {
     let r = run(lsgen().args(args));
@@ -93,6 +93,25 @@ fn help_has_examples_exit_codes_and_readme() {
         assert!(out.contains("2 a usage error"), "{out}");
         assert!(out.contains("README.md"), "{out}");
     }
+}
+
+/// `--tmpdir`'s help names the whole default, as README does: `$TMPDIR`,
+/// and `/tmp` when it is unset or empty (std's temp_dir; lsgen runs with
+/// an empty TMPDIR).
+#[test]
+fn help_names_the_tmpdir_default_as_readme_does() {
+    let out = lsgen_run(&["--help"]).ok();
+    let at = out.find("--tmpdir <DIR>").expect("--tmpdir in --help");
+    let entry = &out[at..out[at..].find("\n\n").map_or(out.len(), |e| at + e)];
+    assert!(
+        entry.contains("$TMPDIR") && entry.contains("/tmp"),
+        "{entry}"
+    );
+    let empty = run_with_stdin(
+        lsgen().args(["-n", "1", "-"]).env("TMPDIR", ""),
+        "axiom:\nA\n",
+    );
+    assert_eq!(empty.ok(), "A\n");
 }
 
 #[test]
