@@ -549,6 +549,12 @@ cases! {
         err("productions:\nF -> FF\naxiom: A\u{1}\n", 3, 9, "control character");
     nul_in_axiom => err("productions:\nF -> FF\naxiom: A\0\n", 3, 9, "control character");
     delete_in_axiom => err("productions:\nF -> FF\naxiom: A\u{7f}\n", 3, 9, "control character");
+    // U+FEFF is skipped at the start of a file and of `--axiom` text: as
+    // a module it would not read back, so it is none.
+    byte_order_mark_in_successor =>
+        err("productions:\nA -> \u{FEFF}B\naxiom: A\n", 2, 6, "U+FEFF (a byte-order mark");
+    byte_order_mark_in_axiom =>
+        err("productions:\nA -> B\naxiom: A\u{FEFF}\n", 3, 9, "cannot be a symbol");
 
     // --- columns and lines: tabs, CRLF, wide characters, comments ----------
     crlf_line_endings =>

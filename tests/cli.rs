@@ -1751,3 +1751,41 @@ fn lines_ending_with_a_lone_carriage_return_get_a_note() {
     );
     assert_eq!(r.stderr.lines().count(), 3, "{}", r.stderr);
 }
+
+/// U+FEFF is no module anywhere: `--axiom` text and a `.l` file refuse it
+/// past their first character (where it is a byte-order mark, skipped).
+/// It used to be a module, which `--axiom` then dropped at the start of a
+/// string, so a chained `--first-step` run differed from one run.
+#[test]
+fn a_byte_order_mark_is_no_symbol() {
+    let d = dir_with(&[
+        ("p.ls", "productions:\nA -> AB\naxiom: A\n"),
+        (
+            "p.l",
+            "Lsystem: 1\nderivation length: 1\nAxiom: A\nA --> \u{FEFF}B\nendlsystem\n",
+        ),
+    ]);
+    let axiom = |text: &str| {
+        common::run_with_stdin(
+            lsgen().current_dir(d.path()).args(["--axiom", "-", "p.ls"]),
+            text,
+        )
+    };
+    assert_eq!(axiom("\u{FEFF}A").ok(), "AB\n");
+    let r = axiom("A\u{FEFF}");
+    assert_eq!(r.code(), Some(1));
+    assert!(
+        r.stderr.starts_with(
+            "lsgen: <stdin>:1:2: error: U+FEFF (a byte-order mark, invisible) cannot be a symbol"
+        ),
+        "{}",
+        r.stderr
+    );
+    let r = common::run(lsgen().current_dir(d.path()).arg("p.l"));
+    assert_eq!(r.code(), Some(1));
+    assert!(
+        r.stderr.starts_with("lsgen: p.l:4:7: error: U+FEFF"),
+        "{}",
+        r.stderr
+    );
+}

@@ -594,6 +594,7 @@ impl<'a> Lexer<'a> {
                 c if c.is_control() => {
                     return Err(self.err(i, c.len_utf8(), LexicalError::ControlChar(c)))
                 }
+                '\u{FEFF}' => return Err(self.err(i, 3, LexicalError::ByteOrderMark)),
                 c => Tok::Sym(c),
             };
             (tok, c.len_utf8())

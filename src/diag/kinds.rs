@@ -118,6 +118,9 @@ pub enum LexicalError {
     UnexpectedChar(char),
     /// A control character where a symbol would be.
     ControlChar(char),
+    /// U+FEFF where a symbol would be: invisible, and skipped where it
+    /// starts a file or an `--axiom` text, so it cannot be a module.
+    ByteOrderMark,
     /// `/*` without `*/`.
     UnterminatedComment,
     /// A NUL byte.
@@ -176,6 +179,10 @@ impl fmt::Display for LexicalError {
                 f,
                 "control character `{}` cannot be a symbol",
                 c.escape_default()
+            ),
+            ByteOrderMark => f.write_str(
+                "U+FEFF (a byte-order mark, invisible) cannot be a symbol: only a file's \
+                 first character may be one, and it is skipped",
             ),
             UnterminatedComment => f.write_str("unterminated comment: `/*` without `*/`"),
             Nul => f.write_str("NUL byte: the input is not text"),

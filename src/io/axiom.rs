@@ -395,6 +395,7 @@ impl<'a> AxiomReader<'a> {
         match sym {
             '(' | ')' | ':' | '<' | '>' => return Err(self.error_here(ParseError::Reserved(sym))),
             c if c.is_control() => return Err(self.error_here(LexicalError::ControlChar(c))),
+            '\u{FEFF}' => return Err(self.error_here(LexicalError::ByteOrderMark)),
             _ => {}
         }
         self.advance(n);

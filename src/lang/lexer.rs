@@ -406,6 +406,7 @@ impl<'a> Lexer<'a> {
             '-' if t.starts_with("-->") => (Ok(Tok::Arrow), 3),
             '-' if t.starts_with("->") => (Ok(Tok::Arrow), 2),
             c if is_control(c) => (Err(LexicalError::ControlChar(c)), c.len_utf8()),
+            '\u{FEFF}' => (Err(LexicalError::ByteOrderMark), 3),
             c => (Ok(Tok::Sym(c)), c.len_utf8()),
         };
         Some((tok, s, s + len))
