@@ -932,6 +932,12 @@ fn run_batch(
     (f, count.into_inner())
 }
 
+/// `n` things for `-v`: `1 module`, `2 modules`, `1,024 modules`.
+fn counted(n: u64, thing: &str) -> String {
+    let s = if n == 1 { "" } else { "s" };
+    format!("{} {thing}{s}", count_string(n))
+}
+
 /// A count for `-v`: grouped digits; `u64::MAX` stands for a count that
 /// does not fit (the depth-first plan saturates), printed as a lower bound.
 pub fn count_string(n: u64) -> String {
@@ -978,8 +984,10 @@ fn run_one(
         if args.verbose {
             let (prods, hom) = ls.counts();
             crate::diag::eprint(&format!(
-                "lsgen: {}: ok: {prods} productions, {hom} homomorphism productions\n",
-                ls.path()
+                "lsgen: {}: ok: {}, {}\n",
+                ls.path(),
+                counted(prods as u64, "production"),
+                counted(hom as u64, "homomorphism production")
             ));
         }
         return Ok(());
@@ -1083,9 +1091,9 @@ fn run_one(
                     p => p.to_string(),
                 };
                 format!(
-                    "lsgen: {who}{what}: {} modules, {} bytes\n",
-                    count_string(modules),
-                    count_string(bytes)
+                    "lsgen: {who}{what}: {}, {}\n",
+                    counted(modules, "module"),
+                    counted(bytes, "byte")
                 )
             }
             Event::FixedPoint { from, to } => {

@@ -742,9 +742,9 @@ cases! {
     maximum_depth_too_large =>
         err("decomposition:\nmaximum depth: 10001\nL -> F\naxiom: L\n", 2, 16, "whole number from 1 to 10000");
     maximum_depth_twice =>
-        err("decomposition:\nmaximum depth: 2\nmaximum depth: 3\nL -> F\naxiom: L\n", 3, 1, "comes once, right after the section keyword");
+        err("decomposition:\nmaximum depth: 2\nmaximum depth: 3\nL -> F\naxiom: L\n", 3, 1, "comes once, among the settings right after the section keyword");
     maximum_depth_after_production =>
-        err("homomorphism:\nL -> F\nmaximum depth: 3\naxiom: L\n", 3, 1, "comes once, right after the section keyword");
+        err("homomorphism:\nL -> F\nmaximum depth: 3\naxiom: L\n", 3, 1, "comes once, among the settings right after the section keyword");
     maximum_depth_among_settings =>
         err("maximum depth: 3\nproductions:\nL -> F\naxiom: L\n", 1, 1, "belongs to `decomposition:` or `homomorphism:`");
     maximum_depth_in_productions =>

@@ -1789,3 +1789,32 @@ fn a_byte_order_mark_is_no_symbol() {
         r.stderr
     );
 }
+
+/// `-v` counts in words that agree with their numbers: `1 production`,
+/// `1 module, 1 byte` (it said `1 productions`, `1 modules, 1 bytes`).
+#[test]
+fn verbose_counts_agree_in_number() {
+    let d = dir_with(&[(
+        "p.ls",
+        "productions:\nA -> A\nhomomorphism:\nA -> B\naxiom: A\n",
+    )]);
+    let r = common::run(
+        lsgen()
+            .current_dir(d.path())
+            .args(["--check", "-v", "p.ls"]),
+    );
+    assert_eq!(
+        r.stderr,
+        "lsgen: p.ls: ok: 1 production, 1 homomorphism production\n"
+    );
+    let r = common::run(
+        lsgen()
+            .current_dir(d.path())
+            .args(["-n", "1", "-v", "p.ls"]),
+    );
+    assert!(
+        r.stderr.contains("lsgen: step 1: 1 module, 1 byte\n"),
+        "{}",
+        r.stderr
+    );
+}

@@ -1470,7 +1470,7 @@ fn closed_stdin_named_by_a_path_is_a_read_error() {
         assert_eq!(r.code(), Some(1), "{path}: {}", r.stderr);
         let line = plain_error(&r, path);
         assert!(
-            line.ends_with("cannot read: Bad file descriptor (closed when lsgen started)"),
+            line.ends_with("cannot read: Bad file descriptor (closed at startup)"),
             "{path}: {line}"
         );
         assert!(!out.exists());
@@ -1501,7 +1501,7 @@ fn closed_stdin_named_by_a_path_is_a_read_error() {
     assert_eq!(r.code(), Some(1), "{}", r.stderr);
     assert!(
         r.assert_one_error().ends_with(
-            "error: cannot include `/dev/stdin`: Bad file descriptor (closed when lsgen started)"
+            "error: cannot include `/dev/stdin`: Bad file descriptor (closed at startup)"
         ),
         "{}",
         r.stderr

@@ -249,10 +249,10 @@ fn a_system_that_stops_changing_stops_stepping() {
     assert_eq!(
         verbose_lines(&r),
         [
-            "lsgen: axiom: 1 modules, 1 bytes",
-            "lsgen: step 1: 1 modules, 1 bytes",
+            "lsgen: axiom: 1 module, 1 byte",
+            "lsgen: step 1: 1 module, 1 byte",
             "lsgen: steps 2..9007199254740992: unchanged (fixed point)",
-            "lsgen: step 9007199254740992: 1 modules, 1 bytes",
+            "lsgen: step 9007199254740992: 1 module, 1 byte",
         ]
     );
     // Changes for three steps, then stays; the homomorphism is applied once.

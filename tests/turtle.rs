@@ -1183,7 +1183,7 @@ fn closed_standard_input_is_an_error() {
         assert_eq!(
             r.stderr,
             "lsgen-turtle: standard input: error: cannot read: Bad file descriptor \
-             (closed when lsgen started)\n"
+             (closed at startup)\n"
         );
         common::assert_listing(d, &[]);
     }
@@ -1208,7 +1208,7 @@ fn closed_standard_input_named_by_a_path_is_an_error() {
                 r.stderr,
                 format!(
                     "lsgen-turtle: {path}: error: cannot read: Bad file descriptor \
-                     (closed when lsgen started)\n"
+                     (closed at startup)\n"
                 ),
                 "{args:?}"
             );

@@ -519,7 +519,7 @@ pub(crate) fn read_text(path: &Path) -> std::io::Result<String> {
     use std::io::Read;
     if crate::io::output::leads_to_closed_fd(path) {
         return Err(std::io::Error::other(
-            "Bad file descriptor (closed when lsgen started)",
+            "Bad file descriptor (closed at startup)",
         ));
     }
     let limit = super::preprocess::MAX_FILE_SIZE;

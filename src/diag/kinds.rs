@@ -367,7 +367,7 @@ impl fmt::Display for ParseError {
             ),
             ContextRightOfArrow(c) => write!(f, "unexpected `{c}`: {CONTEXTS}"),
             MaximumDepthTwice => {
-                f.write_str("`maximum depth:` comes once, right after the section keyword")
+                f.write_str("`maximum depth:` comes once, among the settings right after the section keyword")
             }
             MaximumDepthOutside => {
                 f.write_str("`maximum depth:` belongs to `decomposition:` or `homomorphism:`")
@@ -378,7 +378,8 @@ impl fmt::Display for ParseError {
             ),
             OutOfPlace(tok) => write!(
                 f,
-                "{tok} is out of place: the order is settings, `productions:`, `homomorphism:`, `axiom:`"
+                "{tok} is out of place: the order is settings, `productions:`, `decomposition:`, \
+                 `homomorphism:`, `axiom:`"
             ),
             GroupDeclaredTwice(n) => write!(f, "group {n} is declared twice"),
             PredecessorIsOneModule => {
@@ -803,7 +804,7 @@ impl fmt::Display for CompileError {
                 "with `maximum depth:` above 1, a homomorphism successor must balance its brackets",
             ),
             MaximumDepthTwice => {
-                f.write_str("`maximum depth:` comes once, right after the section keyword")
+                f.write_str("`maximum depth:` comes once, among the settings right after the section keyword")
             }
             MaximumDepthRange => {
                 f.write_str("maximum depth must be a whole number from 1 to 10000")
@@ -1082,10 +1083,10 @@ impl fmt::Display for IoAction {
 pub enum IoReason {
     /// The operating system said so.
     Os(std::io::Error),
-    /// Standard output was closed when lsgen started.
+    /// Standard output was closed when the program started.
     ClosedAtStartup,
     /// Standard input (or a standard descriptor read through a path, as
-    /// `/dev/stdin`) was closed when lsgen started.
+    /// `/dev/stdin`) was closed when the program started.
     ClosedWhenStarted,
     /// `-o` names a directory.
     IsADirectory,
@@ -1120,9 +1121,7 @@ impl fmt::Display for IoError {
         match &self.reason {
             IoReason::Os(e) => f.write_str(&super::io_message(e)),
             IoReason::ClosedAtStartup => f.write_str("Bad file descriptor (closed at startup)"),
-            IoReason::ClosedWhenStarted => {
-                f.write_str("Bad file descriptor (closed when lsgen started)")
-            }
+            IoReason::ClosedWhenStarted => f.write_str("Bad file descriptor (closed at startup)"),
             IoReason::IsADirectory => f.write_str("is a directory; -o takes a file name"),
             IoReason::NotADirectory => f.write_str("not a directory, but the name ends with `/`"),
             IoReason::NoSuchDirectory => {

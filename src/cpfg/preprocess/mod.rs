@@ -133,9 +133,7 @@ pub fn read_file(path: &Path) -> io::Result<String> {
     // `#include "/dev/stdin"` with standard input closed (`<&-`) would
     // read the /dev/null the binary put there.
     if crate::io::output::leads_to_closed_fd(path) {
-        return Err(io::Error::other(
-            "Bad file descriptor (closed when lsgen started)",
-        ));
+        return Err(io::Error::other("Bad file descriptor (closed at startup)"));
     }
     let f = std::fs::File::open(path)?;
     let mut buf = Vec::new();
