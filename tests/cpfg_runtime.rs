@@ -1262,6 +1262,13 @@ fn the_axiom_reads_what_start_assigned() {
             10,
             "32-bit float",
         ),
+        // A NaN is said to be one (it was "out of the range of a 32-bit
+        // float").
+        (
+            "Start: {b = -1;}\nAxiom: A(sqrt(b))",
+            10,
+            "value is NaN (not a number)",
+        ),
     ] {
         let file = write(
             dir.path(),
@@ -1441,4 +1448,23 @@ fn blocks_assign_the_later_modules_of_a_predecessor() {
          A(u) C(v) : {v = 5;} 1 --> C(v, u)\nendlsystem\n",
     );
     assert_eq!(derive(&[], &seeded).0, "C(5,0)\n");
+}
+
+/// A NaN stored into a parameter while deriving is said to be one, at the
+/// production's place and step (it was "out of the range of a 32-bit
+/// float", which NaN is not).
+#[test]
+fn a_nan_parameter_is_named_nan() {
+    let dir = tempdir();
+    let src = "Lsystem: 1\nAxiom: A(1)\nA(x) --> B(sqrt(-x))\nendlsystem\n";
+    let file = write(dir.path(), "nan.l", src);
+    for strategy in ["step", "auto"] {
+        let r = run(lsgen().args(["-n", "1", "--strategy", strategy]).arg(&file));
+        let e = r.fails(1);
+        assert!(
+            e.contains(":3:12: error: the value is NaN (not a number)")
+                && e.contains("(in step 1)"),
+            "{e}"
+        );
+    }
 }

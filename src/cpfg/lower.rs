@@ -1063,6 +1063,9 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
                 }
             };
             let v = f64::from(v as f32);
+            if v.is_nan() {
+                return err(e.span(), Invalid::NanF32);
+            }
             if !v.is_finite() {
                 return err(e.span(), Invalid::OutOfF32);
             }

@@ -500,6 +500,8 @@ pub enum ExprError {
     /// A value stored into a cpfg module parameter that a 32-bit float
     /// cannot hold.
     OutOfF32,
+    /// A NaN stored into a cpfg module parameter.
+    NanF32,
     /// cpfg's `x % 0` (which crashes cpfg).
     RemainderByZero,
     /// cpfg's `%` on an operand that does not fit a C int.
@@ -624,6 +626,10 @@ impl fmt::Display for ExprError {
             OutOfF32 => {
                 f.write_str("the value is out of the range of a 32-bit float (cpfg's parameters)")
             }
+            NanF32 => f.write_str(
+                "the value is NaN (not a number), which lsgen does not store in a \
+                 parameter (cpfg would store `nan`)",
+            ),
             RemainderByZero => f.write_str("remainder by zero (`x % 0` crashes cpfg)"),
             RemainderOutOfRange => f.write_str("`%` needs operands that fit a C int"),
             NotANumber => f.write_str("result is not a number"),
@@ -720,6 +726,8 @@ pub enum CompileError {
     PrintfArity { takes: usize, given: usize },
     /// cpfg: an axiom parameter past a 32-bit float.
     OutOfF32,
+    /// cpfg: an axiom parameter that is NaN.
+    NanF32,
     /// cpfg: `Axiom:` without modules.
     EmptyAxiom,
     /// cpfg: a right context whose last module is `=` (cpfg's `RconDiff`
@@ -846,6 +854,10 @@ impl fmt::Display for CompileError {
                 if *takes == 1 { "" } else { "s" }
             ),
             OutOfF32 => f.write_str("this value does not fit cpfg's 32-bit float"),
+            NanF32 => f.write_str(
+                "this value is NaN (not a number), which lsgen does not store in a \
+                 parameter (cpfg would store `nan`)",
+            ),
             EmptyAxiom => f.write_str("the axiom is empty"),
             RightContextEndsInSkip => f.write_str(
                 "a right context cannot end with `=`: `=` skips to the end of the branch and needs a module after it (cpfg crashes here)",

@@ -1038,6 +1038,8 @@ impl Code {
         let r = f64::from(v as f32);
         if r.is_finite() {
             Ok(r)
+        } else if r.is_nan() {
+            Err(self.fail(si, ExprError::NanF32))
         } else {
             Err(self.fail(si, ExprError::OutOfF32))
         }
@@ -1343,7 +1345,7 @@ mod tests {
         let e = cp("x * 1e308", 10.0, true).unwrap_err();
         assert_eq!(e.kind, ExprError::OutOfF32);
         let e = cp("sqrt(x) + 1", -1.0, true).unwrap_err();
-        assert_eq!(e.kind, ExprError::OutOfF32);
+        assert_eq!(e.kind, ExprError::NanF32);
         // A NaN operand of `%` (converted to an int) is undefined in C:
         // an error.
         let Expr::Binary(_, a, b, span) = parse_expr("sqrt(x) * 2").unwrap() else {
