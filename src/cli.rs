@@ -86,8 +86,8 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub axiom: Option<PathBuf>,
 
-    /// Stop with an error when a generation exceeds N modules, or N bytes
-    /// with a suffix: 500M (modules), 2GB, 512MiB, 10kB.
+    /// Stop with an error when a generation exceeds N modules (5000000, 5M,
+    /// 2G) or N bytes (10kB, 512MiB, 2GB).
     #[arg(long, value_name = "N", value_parser = parse_limit)]
     pub max_length: Option<Limits>,
 
