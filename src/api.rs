@@ -521,7 +521,15 @@ impl LSystem {
 
     /// The compiled rules for `seed`, and the axiom reader's input.
     fn take(&mut self, seed: Option<u64>) -> Result<(System, Input, bool, usize, usize), Error> {
-        let system = match self.system.take() {
+        let system = self.take_system(seed)?;
+        let (input, comments, line, col) = self.take_input()?;
+        Ok((system, input, comments, line, col))
+    }
+
+    /// The compiled rules for `seed` (those compiled for it, else compiled
+    /// now).
+    fn take_system(&mut self, seed: Option<u64>) -> Result<System, Error> {
+        Ok(match self.system.take() {
             // A cpfg system draws no random constants: any seed will do
             // that agrees on whether the weights count.
             Some((s, with))
@@ -534,14 +542,19 @@ impl LSystem {
                 s
             }
             _ => self.compile_system(seed)?,
-        };
+        })
+    }
+
+    /// The axiom reader's input: a stream from
+    /// [`from_reader`](LSystem::from_reader) can be taken once.
+    fn take_input(&mut self) -> Result<(Input, bool, usize, usize), Error> {
         if let Some(a) = self.axiom.take() {
-            return Ok((system, a, false, 1, 1));
+            return Ok((a, false, 1, 1));
         }
         if let Some(c) = &self.cpfg {
             let text = c.axiom.clone();
             let input = Input::new(Box::new(io::Cursor::new(text)), self.path.clone());
-            return Ok((system, input, false, 1, 1));
+            return Ok((input, false, 1, 1));
         }
         let input = match (self.input.take(), &self.text) {
             (Some(i), _) => i,
@@ -553,7 +566,7 @@ impl LSystem {
             (None, None) => return Err(Error::new(RuntimeError::AlreadyDerived)),
         };
         let (line, col) = (self.split.axiom_line, self.split.axiom_col);
-        Ok((system, input, true, line, col))
+        Ok((input, true, line, col))
     }
 
     /// Read the axiom, reporting its errors, and derive nothing (its
@@ -703,7 +716,7 @@ impl LSystem {
         if options.first_step == 0 {
             return Err(Error::new(UsageError::FirstStepZero));
         }
-        let (mut system, input, comments, line, col) = self.take(options.seed)?;
+        let mut system = self.take_system(options.seed)?;
         let steps = match &frames {
             Some((f, _)) => f.last(),
             None => options
@@ -712,12 +725,16 @@ impl LSystem {
                 .unwrap_or(DEFAULT_DERIVATION_LENGTH),
         };
         if options.first_step.checked_add(steps).is_none() {
+            // A usage error: the axiom stream is still unread, and the
+            // rules are kept for the next derivation.
+            self.system = Some((system, options.seed));
             return Err(Error::new(UsageError::StepsOverflow {
                 first: options.first_step,
                 steps,
                 names: options.names,
             }));
         }
+        let (input, comments, line, col) = self.take_input()?;
         let seed = options.seed.or(system.seed).unwrap_or(self.fresh);
         if let (Some(c), Some(s)) = (system.cpfg.as_mut(), options.seed) {
             // `--seed N` on a `.l` file: as if it said `seed: N`.

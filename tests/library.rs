@@ -254,6 +254,29 @@ fn usage_errors_name_the_options_methods() {
     assert!(!e.to_string().contains("--"), "{e}");
 }
 
+/// A usage error in the options is found before the axiom is read: a
+/// system from a reader (whose axiom stream derives once) derives after
+/// it with corrected options, as after `first_step(0)` (lsgen 2769e8d read
+/// the stream first: `steps(u64::MAX)` left it `AlreadyDerived`).
+#[test]
+fn a_usage_error_leaves_the_stream_unread() -> Result<(), Box<dyn Error>> {
+    use lsgen::{LSystem, Options};
+    let src = "derivation length: 3\nproductions:\nA -> AB\nB -> A\naxiom: A\n";
+    for bad in [
+        Options::new().steps(u64::MAX),
+        Options::new().first_step(u64::MAX),
+        Options::new().first_step(0),
+    ] {
+        let mut ls = LSystem::from_reader(std::io::Cursor::new(src.to_string()), "r.ls")?;
+        let e = ls.derive(&bad, Vec::new()).expect_err("a usage error");
+        assert_eq!(e.stage(), lsgen::Stage::Usage, "{e}");
+        let mut out = Vec::new();
+        ls.derive(&Options::new(), &mut out)?;
+        assert_eq!(out, b"ABAAB\n");
+    }
+    Ok(())
+}
+
 /// `Stats::seed` is the seed the derivation used, as documented: an `.ls`
 /// system without one reports the fresh seed it drew (which derives the
 /// same string again); a cpfg `.l` system without `seed:` uses none, and
