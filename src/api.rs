@@ -648,6 +648,9 @@ impl LSystem {
         out: impl Write,
         mut on_event: impl FnMut(&Event),
     ) -> Result<Stats, Error> {
+        // Its events report `printf` text, also inside a `derive` (from
+        // that one's writer), whose collection drops it.
+        let _reported = (!options.print_warnings).then(crate::diag::keep_printf);
         self.run(options, out, "output", true, &mut on_event, None)
     }
 

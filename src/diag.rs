@@ -370,6 +370,21 @@ pub(crate) fn drop_printf() -> Collecting {
     c
 }
 
+/// A collection ([`collect_warnings`]) that keeps cpfg's `printf` text, as
+/// do the collections opened while it lives, even inside one that drops
+/// it: for `LSystem::derive_with`, whose events report the text also when
+/// it runs inside an `LSystem::derive` on the same thread (from that
+/// derivation's writer).
+pub(crate) fn keep_printf() -> Collecting {
+    let c = collect_warnings();
+    COLLECTED.with(|c| {
+        if let Some(c) = c.borrow_mut().as_mut() {
+            c.keep_printf = true;
+        }
+    });
+    c
+}
+
 /// A collection of this thread's warnings; the one before it (if any)
 /// comes back when it is dropped.
 pub(crate) struct Collecting {

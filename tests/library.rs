@@ -254,6 +254,48 @@ fn usage_errors_name_the_options_methods() {
     assert!(!e.to_string().contains("--"), "{e}");
 }
 
+/// `derive_with` reports a cpfg block's `printf` text also when it runs
+/// inside a `derive` on the same thread (here from that one's writer):
+/// lsgen 2769e8d's `derive` dropped the text of every derivation nested in
+/// it, and the inner events lacked it.
+#[test]
+fn derive_with_inside_derive_reports_printf() -> Result<(), Box<dyn Error>> {
+    use lsgen::{LSystem, Options};
+    let src = "Lsystem: 1\nderivation length: 1\nStart: {printf(\"start\\n\");}\n\
+               Axiom: A(1)\nA(x) : {printf(\"A(%g)\\n\", x);} * --> A(x+1)\nendlsystem\n";
+    let inner = || -> Vec<String> {
+        let mut printed = Vec::new();
+        LSystem::parse(src)
+            .unwrap()
+            .derive_with(&Options::new(), Vec::new(), |e| {
+                if let lsgen::Event::Printf(t) = e {
+                    printed.push(t.clone());
+                }
+            })
+            .unwrap();
+        printed
+    };
+    assert_eq!(inner(), ["start\n", "A(1)\n"]);
+    struct Nesting<F: FnMut() -> Vec<String>>(F, Vec<Vec<String>>);
+    impl<F: FnMut() -> Vec<String>> std::io::Write for Nesting<F> {
+        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+            let got = (self.0)();
+            self.1.push(got);
+            Ok(b.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+    let mut w = Nesting(inner, Vec::new());
+    LSystem::parse(src)?.derive(&Options::new(), &mut w)?;
+    assert!(!w.1.is_empty());
+    for got in &w.1 {
+        assert_eq!(got, &["start\n", "A(1)\n"]);
+    }
+    Ok(())
+}
+
 /// A usage error in the options is found before the axiom is read: a
 /// system from a reader (whose axiom stream derives once) derives after
 /// it with corrected options, as after `first_step(0)` (lsgen 2769e8d read
