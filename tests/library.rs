@@ -296,6 +296,44 @@ fn derive_with_inside_derive_reports_printf() -> Result<(), Box<dyn Error>> {
     Ok(())
 }
 
+/// A reader that says it read more bytes than it was given room for (it
+/// breaks `Read`'s contract) is an I/O error of the input, with an
+/// `io::Error` source, where the claim is past the room given: lsgen
+/// 2769e8d panicked on a slice past its buffer. (A smaller overstatement
+/// cannot be told from a true count.)
+#[test]
+fn a_reader_that_overstates_is_an_error() {
+    struct Overstating(std::io::Cursor<&'static [u8]>, usize);
+    impl std::io::Read for Overstating {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let k = buf.len().min(3);
+            let n = self.0.read(&mut buf[..k])?;
+            Ok(if n == 0 { 0 } else { n + self.1 })
+        }
+    }
+    for extra in [1 << 30, usize::MAX / 2] {
+        let r = Overstating(
+            std::io::Cursor::new(b"productions:\nA -> AB\naxiom: A\n"),
+            extra,
+        );
+        let e = lsgen::LSystem::from_reader(r, "r.ls")
+            .err()
+            .expect("an error");
+        assert_eq!(e.stage(), lsgen::Stage::Io, "{e}");
+        let source = std::error::Error::source(&e).and_then(|s| s.downcast_ref::<std::io::Error>());
+        assert_eq!(
+            source.map(|s| s.kind()),
+            Some(std::io::ErrorKind::InvalidData),
+            "{e}"
+        );
+        assert!(
+            e.to_string()
+                .starts_with("r.ls: error: cannot read: the reader returned"),
+            "{e}"
+        );
+    }
+}
+
 /// A usage error in the options is found before the axiom is read: a
 /// system from a reader (whose axiom stream derives once) derives after
 /// it with corrected options, as after `first_step(0)` (lsgen 2769e8d read

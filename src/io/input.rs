@@ -163,8 +163,23 @@ impl Input {
                     self.buf.resize(n * 2, 0);
                 }
             }
+            let room = self.buf.len() - self.end;
             match self.inner.read(&mut self.buf[self.end..]) {
                 Ok(0) => self.eof = true,
+                // A reader (the library's `from_reader` takes any) that
+                // says it read more than it was given room for: an error,
+                // not a panic or bytes it never wrote.
+                Ok(n) if n > room => {
+                    let lie = io::Error::new(
+                        io::ErrorKind::InvalidData,
+                        format!("the reader returned {n} bytes for a buffer of {room}"),
+                    );
+                    return Err(Error::io(
+                        self.name.clone(),
+                        crate::diag::IoAction::Read,
+                        lie,
+                    ));
+                }
                 Ok(n) => self.end += n,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
                 Err(e) => return Err(Error::io(self.name.clone(), crate::diag::IoAction::Read, e)),
