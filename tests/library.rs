@@ -334,6 +334,31 @@ fn a_reader_that_overstates_is_an_error() {
     }
 }
 
+/// A fixed point skips to the last steps however many are asked for:
+/// `steps(u64::MAX - 1)`, the most `first_step(1)` allows, derives (lsgen
+/// 2769e8d overflowed `i + 2` on the pass after the skip: a panic in a
+/// debug build).
+#[test]
+fn a_fixed_point_skips_to_the_largest_step() -> Result<(), Box<dyn Error>> {
+    use lsgen::{LSystem, Options};
+    for (src, want) in [
+        ("productions:\nA -> A\naxiom: A B\n", &b"AB\n"[..]),
+        (
+            "productions:\nA(x) : x < 3 -> A(x+1)\naxiom: A(1) B\n",
+            b"A(3)B\n",
+        ),
+    ] {
+        for threads in [1, 3] {
+            let mut out = Vec::new();
+            let o = Options::new().steps(u64::MAX - 1).threads(threads);
+            let stats = LSystem::parse(src)?.derive(&o, &mut out)?;
+            assert_eq!(stats.steps, u64::MAX - 1);
+            assert_eq!(out, want);
+        }
+    }
+    Ok(())
+}
+
 /// A usage error in the options is found before the axiom is read: a
 /// system from a reader (whose axiom stream derives once) derives after
 /// it with corrected options, as after `first_step(0)` (lsgen 2769e8d read

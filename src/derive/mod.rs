@@ -945,8 +945,10 @@ fn step_passes(
         // give back what each has read ([`reclaim`]). (No fixed-point test,
         // which reads a pass's input again, follows them: `compares` is
         // false there.)
-        debug_assert!(i + 2 <= passes || !compares);
-        let reclaim = (i + 2 > passes).then(|| {
+        // (`passes - i`, not `i + 2`: after a fixed point `i` may be
+        // 2^64 - 2, with `steps(u64::MAX - 1)`.)
+        debug_assert!(passes - i >= 2 || !compares);
+        let reclaim = (passes - i < 2).then(|| {
             let small = settings.split.or_else(par::test_split).is_some();
             reclaim::Reclaim::new(&src, small)
         });
