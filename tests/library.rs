@@ -337,7 +337,8 @@ fn a_reader_that_overstates_is_an_error() {
 /// A fixed point skips to the last steps however many are asked for:
 /// `steps(u64::MAX - 1)`, the most `first_step(1)` allows, derives (lsgen
 /// 2769e8d overflowed `i + 2` on the pass after the skip: a panic in a
-/// debug build).
+/// debug build; and counted past the homomorphism's pass 2^64 - 1: a
+/// panic in any build).
 #[test]
 fn a_fixed_point_skips_to_the_largest_step() -> Result<(), Box<dyn Error>> {
     use lsgen::{LSystem, Options};
@@ -346,6 +347,11 @@ fn a_fixed_point_skips_to_the_largest_step() -> Result<(), Box<dyn Error>> {
         (
             "productions:\nA(x) : x < 3 -> A(x+1)\naxiom: A(1) B\n",
             b"A(3)B\n",
+        ),
+        // The homomorphism is then pass 2^64 - 1, the last.
+        (
+            "productions:\nA -> A\nhomomorphism:\nA -> FF\naxiom: A B\n",
+            b"FFB\n",
         ),
     ] {
         for threads in [1, 3] {

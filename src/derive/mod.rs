@@ -1047,6 +1047,11 @@ fn step_passes(
         }
         other = Some(src);
         cur = dst;
+        if i == passes {
+            // (The last pass may be number 2^64 - 1: the homomorphism
+            // after `steps(u64::MAX - 1)`.)
+            break;
+        }
         i += 1;
     }
     Ok(last_len)
