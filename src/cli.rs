@@ -793,7 +793,7 @@ fn check_batch(
         frames: args
             .frames
             .filter(|_| t.uses(Field::N))
-            .map(|f| (f.from, (f.to - f.from) / f.every + 1, f.every)),
+            .map(|f| (f.from, f.count(), f.every)),
     };
     let label = |v: &template::Vars| {
         let at = stems.iter().position(|s| Some(s.as_os_str()) == v.stem);
@@ -1108,19 +1108,18 @@ fn run_one(
         Some(o) => o,
         None => {
             let (frames, template) = args.frames.zip(frame_files).expect("frames to files");
-            let stems = [stem.clone()];
-            let ranges = template::Ranges {
-                stems: &stems,
-                seeds: Some((seed, 1)),
-                frames: Some((
-                    frames.from,
-                    (frames.to - frames.from) / frames.every + 1,
-                    frames.every,
-                )),
-            };
-            files_apart(template, &ranges, |v| {
-                format!("generation {}", v.n.unwrap_or_default())
-            })?;
+            // A batch that knew every seed has looked its frames up already.
+            if !batch || args.seed.is_none() && template.uses(Field::Seed) {
+                let stems = [stem.clone()];
+                let ranges = template::Ranges {
+                    stems: &stems,
+                    seeds: Some((seed, 1)),
+                    frames: Some((frames.from, frames.count(), frames.every)),
+                };
+                files_apart(template, &ranges, |v| {
+                    format!("generation {}", v.n.unwrap_or_default())
+                })?;
+            }
             let mut files = FileFrames {
                 template,
                 stem: &stem,

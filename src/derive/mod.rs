@@ -155,6 +155,11 @@ impl Frames {
         k >= self.from && k <= self.to && (k - self.from) % self.every == 0
     }
 
+    /// How many frames (generations are at most 2^53: no overflow).
+    pub fn count(&self) -> u64 {
+        (self.to - self.from) / self.every + 1
+    }
+
     /// The last frame (the derivation goes no further).
     pub fn last(&self) -> u64 {
         self.from + (self.to - self.from) / self.every * self.every
