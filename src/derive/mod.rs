@@ -162,7 +162,7 @@ impl Frames {
 
     /// The last frame (the derivation goes no further).
     pub fn last(&self) -> u64 {
-        self.from + (self.to - self.from) / self.every * self.every
+        self.from + (self.count() - 1) * self.every
     }
 }
 
