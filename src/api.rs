@@ -1,4 +1,4 @@
-//! The library facade: [`LSystem`], [`Options`], [`Stats`].
+//! The library facade: [`LSystem`], [`Load`], [`Options`], [`Stats`].
 
 use crate::cpfg::func::Functions;
 use crate::cpfg::Dialect;
@@ -53,6 +53,147 @@ pub struct LSystem {
     /// A cpfg `.l` file, lowered: the rules are compiled from it, the
     /// axiom is read from its text.
     cpfg: Option<crate::cpfg::Loaded>,
+}
+
+/// How to read an L-system: its language, whether a cpfg `.l` text may
+/// `#include` files, and the functions, curves and view its `func`,
+/// `curveX` and turtle queries read. `Load::new()` (or `default()`) is
+/// how [`LSystem::parse`] and [`LSystem::from_reader`] read: the
+/// language told from the text, includes read.
+///
+/// A text from someone else: a `.l` text's `#include "PATH"` reads any
+/// file the process may read, and an error there quotes a line of it.
+/// `includes(false)` makes every `#include` carried out an error at its
+/// line ([`crate::diag::PreprocessError::IncludesOff`]), and
+/// `dialect(Dialect::Ls)` reads `.ls` text only, which names no file.
+///
+/// ```
+/// use lsgen::{Dialect, Load};
+/// let text = "#include \"/etc/passwd\"\nLsystem: 1\nAxiom: A\nA --> AB\nendlsystem\n";
+/// let e = Load::new().includes(false).parse(text).err().unwrap();
+/// assert_eq!(
+///     e.to_string(),
+///     "<input>:1:1: error: `#include` is turned off for this text \
+///      (`Load::includes(false)`): no file is read\n#include \"/etc/passwd\"\n^\n"
+/// );
+/// // Read as `.ls`, the same text is a syntax error.
+/// assert!(Load::new().dialect(Dialect::Ls).parse(text).is_err());
+/// let mut ls = Load::new()
+///     .includes(false)
+///     .parse("Lsystem: 1\nderivation length: 2\nAxiom: A\nA --> AB\nendlsystem\n")?;
+/// let mut out = Vec::new();
+/// ls.derive(&lsgen::Options::new(), &mut out)?;
+/// assert_eq!(out, b"ABB\n");
+/// # Ok::<(), lsgen::Error>(())
+/// ```
+#[derive(Clone, Debug)]
+pub struct Load {
+    dialect: Dialect,
+    includes: bool,
+    view: Option<PathBuf>,
+    functions: Vec<PathBuf>,
+}
+
+impl Default for Load {
+    fn default() -> Self {
+        Load {
+            dialect: Dialect::Auto,
+            includes: true,
+            view: None,
+            functions: Vec::new(),
+        }
+    }
+}
+
+impl Load {
+    /// The language told from the text ([`crate::cpfg::sniff`]: a name
+    /// ending in `.l`, or a first statement `Lsystem:` or `#` directive,
+    /// is cpfg's), includes read, no functions.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Read the text as this language ([`Dialect::Auto`]: told from the
+    /// text). lsgen's `--dialect`.
+    pub fn dialect(mut self, dialect: Dialect) -> Self {
+        self.dialect = dialect;
+        self
+    }
+
+    /// Whether a `.l` text's `#include` reads files (default true). Off,
+    /// an `#include` carried out (not one in a skipped `#if` branch) is
+    /// an error at its line, and no file is read or looked at (not even
+    /// the `.v` file beside the text's name that a `func` error would
+    /// point to).
+    pub fn includes(mut self, on: bool) -> Self {
+        self.includes = on;
+        self
+    }
+
+    /// cpfg's functions for `func(id, x)` and curves for `curveX(id, t)`
+    /// (`curveY`, `curveZ`, `curveGAL`) in a `.l` text, read from `files`
+    /// as lsgen's `--functions` reads them: each a cpfg view file (its
+    /// `function:`, `function set:` and `curve:` lines), a function set,
+    /// a `.func` or a `.con` file; functions and curves each numbered in
+    /// order (README, "Coming from cpfg: functions", "... curves"). Added
+    /// to those given before; read by each `parse` or `from_reader`.
+    pub fn functions<P: AsRef<Path>>(mut self, files: impl IntoIterator<Item = P>) -> Self {
+        self.functions
+            .extend(files.into_iter().map(|f| f.as_ref().to_path_buf()));
+        self
+    }
+
+    /// cpfg's view file, as lsgen's `--cpfg-view` reads it: its turtle's
+    /// settings for a `.l` text's queries `?P`, `?H`, `?L`, `?U` (README,
+    /// "Coming from cpfg: turtle queries"), and its functions and curves,
+    /// numbered before those of [`functions`](Load::functions).
+    pub fn view(mut self, view: impl AsRef<Path>) -> Self {
+        self.view = Some(view.as_ref().to_path_buf());
+        self
+    }
+
+    /// [`LSystem::parse`] read this way.
+    pub fn parse(&self, text: &str) -> Result<LSystem, Error> {
+        let input = Input::new(Box::new(io::Cursor::new(text.to_string())), "<input>");
+        let mut ls = self.load(input)?;
+        ls.text = Some(text.to_string());
+        Ok(ls)
+    }
+
+    /// [`LSystem::from_reader`] read this way.
+    pub fn from_reader(&self, reader: impl Read + 'static, name: &str) -> Result<LSystem, Error> {
+        self.load(Input::new(Box::new(reader), name))
+    }
+
+    /// Load `input`: its warnings kept for each derivation, or, if it
+    /// fails, in the error ([`Error::warnings`]).
+    fn load(&self, input: Input) -> Result<LSystem, Error> {
+        let functions = if self.view.is_none() && self.functions.is_empty() {
+            Arc::default()
+        } else {
+            Arc::new(Functions::load_with_view(
+                self.view.as_deref(),
+                &self.functions,
+            )?)
+        };
+        let collecting = crate::diag::collect_warnings();
+        let loaded = LSystem::load_dialect(
+            input,
+            None,
+            self.dialect,
+            OptionNames::Library,
+            (&functions, self.includes),
+        )
+        .and_then(|ls| ls.require_axiom().map(|()| ls));
+        let warnings = collecting.take_warnings();
+        match loaded {
+            Ok(mut ls) => {
+                ls.warnings = warnings;
+                Ok(ls)
+            }
+            Err(e) => Err(e.with_warnings(warnings)),
+        }
+    }
 }
 
 /// How to derive. `Options::new()` (or `default()`) takes the file's
@@ -269,10 +410,7 @@ impl LSystem {
     /// );
     /// ```
     pub fn parse(text: &str) -> Result<LSystem, Error> {
-        let input = Input::new(Box::new(io::Cursor::new(text.to_string())), "<input>");
-        let mut ls = Self::load_collecting(input, &Arc::default())?;
-        ls.text = Some(text.to_string());
-        Ok(ls)
+        Load::new().parse(text)
     }
 
     /// Parse an L-system from a reader, named `name` in error messages.
@@ -284,11 +422,11 @@ impl LSystem {
     /// its axiom as text: it derives as often as one from
     /// [`parse`](LSystem::parse), each derivation a whole run that gives
     /// the same string and events (its `Start:` block runs in each, the
-    /// draws start again from the seed).
+    /// draws start again from the seed). [`Load`] sets how it is read.
     ///
     /// [`derive`]: LSystem::derive
     pub fn from_reader(reader: impl Read + 'static, name: &str) -> Result<LSystem, Error> {
-        Self::load_collecting(Input::new(Box::new(reader), name), &Arc::default())
+        Load::new().from_reader(reader, name)
     }
 
     /// [`from_reader`](LSystem::from_reader) with cpfg's functions for
@@ -297,50 +435,31 @@ impl LSystem {
     /// `--functions` reads them: each a cpfg view file (its `function:`,
     /// `function set:` and `curve:` lines), a function set, a `.func` or a
     /// `.con` file; functions and curves each numbered in order (README,
-    /// "Coming from cpfg: functions", "... curves").
+    /// "Coming from cpfg: functions", "... curves"). The same as
+    /// [`Load::functions`].
     pub fn from_reader_with_functions(
         reader: impl Read + 'static,
         name: &str,
         files: &[PathBuf],
     ) -> Result<LSystem, Error> {
-        let functions = Arc::new(crate::cpfg::func::Functions::load(files)?);
-        Self::load_collecting(Input::new(Box::new(reader), name), &functions)
+        Load::new().functions(files).from_reader(reader, name)
     }
 
     /// [`from_reader_with_functions`](LSystem::from_reader_with_functions)
     /// after cpfg's view file `view`, as lsgen's `--cpfg-view` reads it:
     /// its turtle's settings for the queries `?P`, `?H`, `?L`, `?U` (README,
     /// "Coming from cpfg: turtle queries"), and its functions and curves,
-    /// numbered before those of `files`.
+    /// numbered before those of `files`. The same as [`Load::view`].
     pub fn from_reader_with_view(
         reader: impl Read + 'static,
         name: &str,
         view: &Path,
         files: &[PathBuf],
     ) -> Result<LSystem, Error> {
-        let functions = Arc::new(crate::cpfg::func::Functions::load_with_view(
-            Some(view),
-            files,
-        )?);
-        Self::load_collecting(Input::new(Box::new(reader), name), &functions)
-    }
-
-    /// Load `input` for [`parse`](Self::parse) and
-    /// [`from_reader`](Self::from_reader): its warnings kept for each
-    /// derivation, or, if it fails, in the error ([`Error::warnings`]).
-    fn load_collecting(input: Input, functions: &Arc<Functions>) -> Result<LSystem, Error> {
-        let collecting = crate::diag::collect_warnings();
-        let loaded =
-            Self::load_dialect(input, None, Dialect::Auto, OptionNames::Library, functions)
-                .and_then(|ls| ls.require_axiom().map(|()| ls));
-        let warnings = collecting.take_warnings();
-        match loaded {
-            Ok(mut ls) => {
-                ls.warnings = warnings;
-                Ok(ls)
-            }
-            Err(e) => Err(e.with_warnings(warnings)),
-        }
+        Load::new()
+            .view(view)
+            .functions(files)
+            .from_reader(reader, name)
     }
 
     /// Read and compile the header from `input` (leaving it at the axiom);
@@ -351,19 +470,20 @@ impl LSystem {
             seed,
             Dialect::Auto,
             OptionNames::Library,
-            &Arc::default(),
+            (&Arc::default(), true),
         )
     }
 
     /// [`load_named`](Self::load_named) in `dialect` (`Auto`: the file's,
     /// see [`crate::cpfg::sniff`]), its warnings naming the options by
-    /// `names`; a `.l` file's `func` reads `functions`.
+    /// `names`; a `.l` file's `func` reads `functions`, and its `#include`
+    /// reads files if `includes`.
     pub(crate) fn load_dialect(
         mut input: Input,
         seed: Option<u64>,
         dialect: Dialect,
         names: OptionNames,
-        functions: &Arc<Functions>,
+        functions: (&Arc<Functions>, bool),
     ) -> Result<LSystem, Error> {
         let cpfg = match dialect {
             Dialect::Cpfg => true,
@@ -409,7 +529,7 @@ impl LSystem {
         mut input: Input,
         seed: Option<u64>,
         names: OptionNames,
-        functions: &Arc<Functions>,
+        functions: (&Arc<Functions>, bool),
     ) -> Result<LSystem, Error> {
         let path = input.name.clone();
         let mut bytes = Vec::new();

@@ -970,7 +970,7 @@ fn run_one(
         job.seed,
         dialect,
         OptionNames::CommandLine,
-        functions,
+        (functions, true),
     )?;
     if args.axiom.is_none() {
         ls.require_axiom()?;

@@ -73,7 +73,10 @@ pub(crate) mod turtle {
     pub mod view;
 }
 
-pub use api::{derive_bytes, derive_bytes_on, LSystem, Options, Stats, DEFAULT_DERIVATION_LENGTH};
+pub use api::{
+    derive_bytes, derive_bytes_on, LSystem, Load, Options, Stats, DEFAULT_DERIVATION_LENGTH,
+};
+pub use cpfg::Dialect;
 pub use derive::{Event, Limits, Pass};
 pub use diag::{Error, ErrorKind, Stage};
 

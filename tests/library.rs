@@ -995,3 +995,154 @@ fn cpfg_queries_with_a_view_file() -> Result<(), Box<dyn Error>> {
     assert!(e.to_string().contains("needs cpfg's view file"), "{e}");
     Ok(())
 }
+
+/// `Load::includes(false)`: a `.l` text from someone else reads no file.
+/// Its `#include` carried out is an error at its line, whatever file it
+/// names (one that exists here), and no line of that file is quoted; one
+/// in a skipped `#if` branch is not carried out; includes on (the default
+/// and `from_reader`) read the file.
+#[test]
+fn includes_can_be_turned_off() -> Result<(), Box<dyn Error>> {
+    let dir = tempfile::tempdir()?;
+    let secret = dir.path().join("secret.h");
+    std::fs::write(&secret, "#define N 2\n/* secret line */\n")?;
+    let text = format!(
+        "/* a model */\n#include \"{}\"\nLsystem: 1\nderivation length: N\nAxiom: A\nA --> AB\nendlsystem\n",
+        secret.display()
+    );
+    let off = lsgen::Load::new().includes(false);
+    let e = off.parse(&text).err().expect("refused");
+    assert!(
+        matches!(
+            e.kind(),
+            lsgen::ErrorKind::Preprocess(lsgen::diag::PreprocessError::IncludesOff)
+        ),
+        "{e}"
+    );
+    assert_eq!(e.stage(), lsgen::Stage::Parse);
+    let shown = e.to_string();
+    assert!(
+        shown.starts_with("<input>:2:1: error: `#include` is turned off"),
+        "{shown}"
+    );
+    assert!(!shown.contains("secret line"), "{shown}");
+    let e = off
+        .from_reader(std::io::Cursor::new(text.clone()), "model.l")
+        .err()
+        .expect("refused");
+    assert!(
+        e.to_string()
+            .starts_with("model.l:2:1: error: `#include` is turned off"),
+        "{e}"
+    );
+    // On: the file is read (N is 2).
+    for mut ls in [
+        lsgen::Load::new().parse(&text)?,
+        lsgen::LSystem::parse(&text)?,
+        lsgen::LSystem::from_reader(std::io::Cursor::new(text.clone()), "model.l")?,
+    ] {
+        let mut out = Vec::new();
+        ls.derive(&lsgen::Options::new(), &mut out)?;
+        assert_eq!(out, b"ABB\n");
+    }
+    // Off, an `#include` in a skipped branch is fine.
+    let skipped = text
+        .replace("#include", "#define N 3\n#if 0\n#include")
+        .replace("\nLsystem", "\n#endif\nLsystem");
+    let mut ls = off.parse(&skipped)?;
+    let mut out = Vec::new();
+    ls.derive(&lsgen::Options::new(), &mut out)?;
+    assert_eq!(out, b"ABBB\n");
+    Ok(())
+}
+
+/// With includes off, no file beside the text's name is looked at: the
+/// hint of a `func` without functions names the `.v` file beside only
+/// with includes on.
+#[test]
+fn includes_off_looks_at_no_view_file_beside() -> Result<(), Box<dyn Error>> {
+    let dir = tempfile::tempdir()?;
+    std::fs::write(dir.path().join("plant.v"), "angle increment: 90\n")?;
+    let name = dir.path().join("plant.l");
+    let name = name.to_str().expect("a UTF-8 temporary directory");
+    let src = "Lsystem: 1\nderivation length: 1\nAxiom: A(0)\nA(x) --> A(func(1, x))\nendlsystem\n";
+    let read = |load: lsgen::Load| {
+        load.from_reader(src.as_bytes(), name)
+            .err()
+            .expect("refused")
+            .to_string()
+    };
+    let on = read(lsgen::Load::new());
+    assert!(on.contains("plant.v"), "{on}");
+    let off = read(lsgen::Load::new().includes(false));
+    assert!(off.contains("func"), "{off}");
+    assert!(!off.contains("plant.v"), "{off}");
+    Ok(())
+}
+
+/// `Load::dialect`: the language given, not told from the text; and
+/// `Load::functions` and `view` read as the `from_reader_with_*`
+/// constructors do.
+#[test]
+fn load_sets_the_dialect_and_the_functions() -> Result<(), Box<dyn Error>> {
+    use lsgen::{Dialect, Load};
+    let cpfg = "Lsystem: 1\nderivation length: 2\nAxiom: A\nA --> AB\nendlsystem\n";
+    let ls = "derivation length: 2\nproductions:\nA -> AB\naxiom: A\n";
+    let derive = |mut l: lsgen::LSystem| -> Result<Vec<u8>, lsgen::Error> {
+        let mut out = Vec::new();
+        l.derive(&lsgen::Options::new(), &mut out)?;
+        Ok(out)
+    };
+    assert_eq!(derive(Load::new().parse(cpfg)?)?, b"ABB\n");
+    assert_eq!(
+        derive(Load::new().dialect(Dialect::Cpfg).parse(cpfg)?)?,
+        b"ABB\n"
+    );
+    assert_eq!(
+        derive(Load::new().dialect(Dialect::Ls).parse(ls)?)?,
+        b"ABB\n"
+    );
+    let e = Load::new()
+        .dialect(Dialect::Ls)
+        .parse(cpfg)
+        .err()
+        .expect("not .ls");
+    assert_eq!(e.stage(), lsgen::Stage::Parse, "{e}");
+    let e = Load::new()
+        .dialect(Dialect::Cpfg)
+        .parse(ls)
+        .err()
+        .expect("not .l");
+    assert_eq!(e.stage(), lsgen::Stage::Parse, "{e}");
+    // A name ending in `.l` is cpfg's, unless the dialect says otherwise.
+    assert!(Load::new().from_reader(ls.as_bytes(), "x.l").is_err());
+    let l = Load::new()
+        .dialect(Dialect::Ls)
+        .from_reader(ls.as_bytes(), "x.l")?;
+    assert_eq!(derive(l)?, b"ABB\n");
+
+    let dir = tempfile::tempdir()?;
+    let view = dir.path().join("plant.v");
+    std::fs::write(&view, "angle increment: 90\n")?;
+    let func = dir.path().join("f.func");
+    // The line y = x.
+    let line = "range: 0.0 1.0\npoints: 4\n0 0\n0.333333333 0.333333333\n\
+                0.666666667 0.666666667\n1 1\n";
+    std::fs::write(&func, line)?;
+    let src = "Lsystem: 1\nderivation length: 1\nAxiom: F(2)+F(1)?P(0,0)A(0.5)\n\
+               A(x) --> A(func(1,x))\nendlsystem\n";
+    let by_load = Load::new()
+        .view(&view)
+        .functions([&func])
+        .from_reader(src.as_bytes(), "plant.l")?;
+    let by_ctor = lsgen::LSystem::from_reader_with_view(
+        src.as_bytes(),
+        "plant.l",
+        &view,
+        std::slice::from_ref(&func),
+    )?;
+    let (a, b) = (derive(by_load)?, derive(by_ctor)?);
+    assert_eq!(a, b);
+    assert_eq!(a, b"F(2)+F(1)?P(-1,2)A(0.5)\n");
+    Ok(())
+}

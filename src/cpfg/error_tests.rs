@@ -19,7 +19,7 @@ fn load_error(src: &str) -> Error {
         src,
         false,
         OptionNames::Library,
-        &Default::default(),
+        (&Default::default(), true),
     ) {
         Ok(_) => panic!("expected an error for {src:?}"),
         Err(e) => e,
@@ -137,7 +137,7 @@ fn a_lowering_error_is_a_compile_error() {
             &src,
             false,
             OptionNames::Library,
-            &Default::default(),
+            (&Default::default(), true),
         );
         assert!(r.is_ok(), "{src}: {:?}", r.err());
     }
@@ -146,7 +146,7 @@ fn a_lowering_error_is_a_compile_error() {
         "Lsystem: 1\nAxiom: A(1)\nA(Q) : {Q = 7;} * --> B(Q)\nendlsystem\n",
         false,
         OptionNames::Library,
-        &Default::default(),
+        (&Default::default(), true),
     )
     .is_ok());
     // cpfg's `(int)` of a value no `int` holds is undefined behaviour.

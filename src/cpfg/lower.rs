@@ -1252,7 +1252,7 @@ mod tests {
                 &src,
                 false,
                 crate::diag::OptionNames::Library,
-                &Default::default(),
+                (&Default::default(), true),
             )
             .unwrap();
             let seeds = crate::rules::Seeds::default();

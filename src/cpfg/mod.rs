@@ -138,18 +138,20 @@ pub fn locate(map: &SourceMap, e: UserError) -> Error {
 /// `seed_option`: it is derived with `--seed`, which makes its weights
 /// count (no warning that they are ignored); `names`: how the warnings
 /// name the options; `functions`: what `func` reads (a function set's
-/// names are macros).
+/// names are macros); `includes`: `#include` reads files (else it is an
+/// error, and no file beside `name` is looked at for a hint).
 pub fn load(
     name: &str,
     source: &str,
     seed_option: bool,
     names: crate::diag::OptionNames,
-    functions: &Arc<func::Functions>,
+    (functions, includes): (&Arc<func::Functions>, bool),
 ) -> Result<Loaded, Error> {
+    let read: preprocess::Loader = &preprocess::read_file;
     let out = preprocess::preprocess_defined(
         Path::new(name),
         source,
-        &preprocess::read_file,
+        includes.then_some(read),
         functions.macros(),
     )?;
     for w in &out.warnings {
@@ -157,8 +159,9 @@ pub fn load(
     }
     let map = out.map;
     let text = out.text;
-    let no_functions = functions.is_empty().then(|| view_beside(name));
-    let no_curves = functions.no_curves().then(|| view_beside(name));
+    let beside = || includes.then(|| view_beside(name)).flatten();
+    let no_functions = functions.is_empty().then(beside);
+    let no_curves = functions.no_curves().then(beside);
     let tree = parse::parse_with(&text, no_functions, no_curves).map_err(|e| locate(&map, e))?;
     axiom_brackets(&tree.axiom_brackets, &map)?;
     // (Before the lowering's warnings: a file refused here is one error.)

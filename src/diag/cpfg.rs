@@ -185,6 +185,9 @@ pub enum PreprocessError {
         /// Why.
         source: std::io::Error,
     },
+    /// An `#include` in a text read with includes turned off
+    /// ([`crate::Load::includes`]): no file was read.
+    IncludesOff,
     /// An `#include` that re-enters a file being included, past the
     /// include depth limit: a recursion without end; the chain from the
     /// file's last entry, and the limit.
@@ -247,6 +250,9 @@ impl fmt::Display for PreprocessError {
                 "cannot include `{}`: {}",
                 path.display(),
                 super::io_message(source)
+            ),
+            IncludesOff => f.write_str(
+                "`#include` is turned off for this text (`Load::includes(false)`): no file is read",
             ),
             IncludeCycle { chain, limit } => write!(
                 f,

@@ -127,6 +127,9 @@ impl Default for Limits {
 /// Largest file [`read_file`] accepts.
 pub const MAX_FILE_SIZE: u64 = 64 << 20;
 
+/// What reads an included file: its text, or why not.
+pub type Loader<'l> = &'l dyn Fn(&Path) -> io::Result<String>;
+
 /// A loader for [`preprocess`] that reads from the file system (at most
 /// [`MAX_FILE_SIZE`] bytes, UTF-8).
 pub fn read_file(path: &Path) -> io::Result<String> {
@@ -256,7 +259,8 @@ struct Pp<'l> {
     hide_index: HashMap<Vec<u32>, u32>,
     frames: Vec<Frame>,
     conds: Vec<Cond>,
-    loader: &'l dyn Fn(&Path) -> io::Result<String>,
+    /// None: `#include` is refused ([`PpErrorKind::IncludesOff`]).
+    loader: Option<Loader<'l>>,
     limits: Limits,
     work: usize,
     /// `#include`s carried out, and the bytes of the files they brought.
@@ -288,11 +292,13 @@ pub fn preprocess(
 }
 
 /// [`preprocess`] with object-like macros defined first, each `NAME`
-/// as `VALUE` (cpfg's `-DNAME=VALUE` for a function set's names).
+/// as `VALUE` (cpfg's `-DNAME=VALUE` for a function set's names); without
+/// a `loader`, an `#include` carried out is an error
+/// ([`PpErrorKind::IncludesOff`]) and no file is read.
 pub fn preprocess_defined(
     path: &Path,
     source: &str,
-    loader: &dyn Fn(&Path) -> io::Result<String>,
+    loader: Option<Loader>,
     defines: &[(String, usize)],
 ) -> Result<Output, PpError> {
     preprocess_full(path, source, loader, &Limits::default(), defines)
@@ -305,13 +311,13 @@ pub fn preprocess_with(
     loader: &dyn Fn(&Path) -> io::Result<String>,
     limits: &Limits,
 ) -> Result<Output, PpError> {
-    preprocess_full(path, source, loader, limits, &[])
+    preprocess_full(path, source, Some(loader), limits, &[])
 }
 
 fn preprocess_full(
     path: &Path,
     source: &str,
-    loader: &dyn Fn(&Path) -> io::Result<String>,
+    loader: Option<Loader>,
     limits: &Limits,
     defines: &[(String, usize)],
 ) -> Result<Output, PpError> {
@@ -875,6 +881,9 @@ impl Pp<'_> {
     }
 
     fn include(&mut self, file: u32, toks: Vec<Tok>, at: Pos) -> Res<()> {
+        let Some(loader) = self.loader else {
+            return Err(self.err(at, PpErrorKind::IncludesOff));
+        };
         let first = |v: &[Tok]| v.iter().position(|t| !t.is_space());
         let mut toks = toks;
         let Some(k) = first(&toks) else {
@@ -964,7 +973,7 @@ impl Pp<'_> {
             });
             return Ok(());
         }
-        let text = (self.loader)(&path).map_err(|source| {
+        let text = loader(&path).map_err(|source| {
             self.err(
                 name_at,
                 PpErrorKind::IncludeFailed {
