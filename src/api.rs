@@ -55,6 +55,25 @@ pub struct LSystem {
     cpfg: Option<crate::cpfg::Loaded>,
 }
 
+/// The input's name, its dialect, and whether it can still be derived
+/// (a streamed `.ls` axiom is read once); the rules are compiled code.
+impl std::fmt::Debug for LSystem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (dialect, derivable) = match &self.cpfg {
+            Some(_) => (Dialect::Cpfg, true),
+            None => (
+                Dialect::Ls,
+                self.axiom.is_some() || self.input.is_some() || self.text.is_some(),
+            ),
+        };
+        f.debug_struct("LSystem")
+            .field("name", &self.path)
+            .field("dialect", &dialect)
+            .field("derivable", &derivable)
+            .finish_non_exhaustive()
+    }
+}
+
 /// How to read an L-system: its language, whether a cpfg `.l` text may
 /// `#include` files, and the functions, curves and view its `func`,
 /// `curveX` and turtle queries read. `Load::new()` (or `default()`) is
@@ -161,7 +180,11 @@ impl Load {
     }
 
     /// [`LSystem::from_reader`] read this way.
-    pub fn from_reader(&self, reader: impl Read + 'static, name: &str) -> Result<LSystem, Error> {
+    pub fn from_reader(
+        &self,
+        reader: impl Read + Send + 'static,
+        name: &str,
+    ) -> Result<LSystem, Error> {
         self.load(Input::new(Box::new(reader), name))
     }
 
@@ -425,7 +448,7 @@ impl LSystem {
     /// draws start again from the seed). [`Load`] sets how it is read.
     ///
     /// [`derive`]: LSystem::derive
-    pub fn from_reader(reader: impl Read + 'static, name: &str) -> Result<LSystem, Error> {
+    pub fn from_reader(reader: impl Read + Send + 'static, name: &str) -> Result<LSystem, Error> {
         Load::new().from_reader(reader, name)
     }
 
@@ -438,7 +461,7 @@ impl LSystem {
     /// "Coming from cpfg: functions", "... curves"). The same as
     /// [`Load::functions`].
     pub fn from_reader_with_functions(
-        reader: impl Read + 'static,
+        reader: impl Read + Send + 'static,
         name: &str,
         files: &[PathBuf],
     ) -> Result<LSystem, Error> {
@@ -451,7 +474,7 @@ impl LSystem {
     /// "Coming from cpfg: turtle queries"), and its functions and curves,
     /// numbered before those of `files`. The same as [`Load::view`].
     pub fn from_reader_with_view(
-        reader: impl Read + 'static,
+        reader: impl Read + Send + 'static,
         name: &str,
         view: &Path,
         files: &[PathBuf],

@@ -73,9 +73,7 @@ fn a_string_derives_again_with_other_options() -> Result<(), Box<dyn Error>> {
 
 #[test]
 fn errors_are_located_and_limits_apply() {
-    let e = lsgen::LSystem::parse("productions:\nA -> B(\naxiom: A\n")
-        .err()
-        .expect("a syntax error");
+    let e = lsgen::LSystem::parse("productions:\nA -> B(\naxiom: A\n").expect_err("a syntax error");
     assert_eq!(
         e.location().map(|l| (l.line, l.path.as_str())),
         Some((2, "<input>"))
@@ -132,7 +130,7 @@ fn errors_carry_typed_payloads() {
         CompileError, ExprError, IoAction, LengthUnit, LexicalError, ParseError, RuntimeError,
     };
     use lsgen::ErrorKind;
-    let parse = |src: &str| lsgen::LSystem::parse(src).err().expect("an error");
+    let parse = |src: &str| lsgen::LSystem::parse(src).expect_err("an error");
     // The unknown name comes with the error, not inside a message.
     match parse("productions:\nA(x) -> B(y)\naxiom: A(1)\n").kind() {
         ErrorKind::Compile(CompileError::Expr(ExprError::UnknownIdentifier(name))) => {
@@ -316,9 +314,7 @@ fn a_reader_that_overstates_is_an_error() {
             std::io::Cursor::new(b"productions:\nA -> AB\naxiom: A\n"),
             extra,
         );
-        let e = lsgen::LSystem::from_reader(r, "r.ls")
-            .err()
-            .expect("an error");
+        let e = lsgen::LSystem::from_reader(r, "r.ls").expect_err("an error");
         assert_eq!(e.stage(), lsgen::Stage::Io, "{e}");
         let source = std::error::Error::source(&e).and_then(|s| s.downcast_ref::<std::io::Error>());
         assert_eq!(
@@ -726,10 +722,9 @@ fn a_failed_load_keeps_its_warnings() {
     use lsgen::LSystem;
     let src = "#warning careful\nLsystem: 1\nderivation length: 1\nAxiom: A(y)\n\
                A(x) --> B(x) : 1\nB : {z = foo(1);} * --> C\nendlsystem\n";
-    let from_text = LSystem::parse(src).err().expect("no function foo");
+    let from_text = LSystem::parse(src).expect_err("no function foo");
     let from_stream = LSystem::from_reader(std::io::Cursor::new(src.to_string()), "m.l")
-        .err()
-        .expect("no function foo");
+        .expect_err("no function foo");
     for (e, name) in [(&from_text, "<input>"), (&from_stream, "m.l")] {
         assert_eq!(e.location().map(|l| (l.line, l.col)), Some((6, 10)), "{e}");
         let kinds: Vec<_> = e.warnings().iter().map(|w| w.kind().clone()).collect();
@@ -990,8 +985,7 @@ fn cpfg_queries_with_a_view_file() -> Result<(), Box<dyn Error>> {
     assert_eq!(out, b"F(2)+F(1)?P(-1,2)\n");
     // Without the view file: refused, located.
     let e = lsgen::LSystem::from_reader_with_functions(src.as_bytes(), "plant.l", &[])
-        .err()
-        .expect("refused");
+        .expect_err("refused");
     assert!(e.to_string().contains("needs cpfg's view file"), "{e}");
     Ok(())
 }
@@ -1011,7 +1005,7 @@ fn includes_can_be_turned_off() -> Result<(), Box<dyn Error>> {
         secret.display()
     );
     let off = lsgen::Load::new().includes(false);
-    let e = off.parse(&text).err().expect("refused");
+    let e = off.parse(&text).expect_err("refused");
     assert!(
         matches!(
             e.kind(),
@@ -1028,8 +1022,7 @@ fn includes_can_be_turned_off() -> Result<(), Box<dyn Error>> {
     assert!(!shown.contains("secret line"), "{shown}");
     let e = off
         .from_reader(std::io::Cursor::new(text.clone()), "model.l")
-        .err()
-        .expect("refused");
+        .expect_err("refused");
     assert!(
         e.to_string()
             .starts_with("model.l:2:1: error: `#include` is turned off"),
@@ -1068,8 +1061,7 @@ fn includes_off_looks_at_no_view_file_beside() -> Result<(), Box<dyn Error>> {
     let src = "Lsystem: 1\nderivation length: 1\nAxiom: A(0)\nA(x) --> A(func(1, x))\nendlsystem\n";
     let read = |load: lsgen::Load| {
         load.from_reader(src.as_bytes(), name)
-            .err()
-            .expect("refused")
+            .expect_err("refused")
             .to_string()
     };
     let on = read(lsgen::Load::new());
@@ -1105,14 +1097,12 @@ fn load_sets_the_dialect_and_the_functions() -> Result<(), Box<dyn Error>> {
     let e = Load::new()
         .dialect(Dialect::Ls)
         .parse(cpfg)
-        .err()
-        .expect("not .ls");
+        .expect_err("not .ls");
     assert_eq!(e.stage(), lsgen::Stage::Parse, "{e}");
     let e = Load::new()
         .dialect(Dialect::Cpfg)
         .parse(ls)
-        .err()
-        .expect("not .l");
+        .expect_err("not .l");
     assert_eq!(e.stage(), lsgen::Stage::Parse, "{e}");
     // A name ending in `.l` is cpfg's, unless the dialect says otherwise.
     assert!(Load::new().from_reader(ls.as_bytes(), "x.l").is_err());
@@ -1144,5 +1134,39 @@ fn load_sets_the_dialect_and_the_functions() -> Result<(), Box<dyn Error>> {
     let (a, b) = (derive(by_load)?, derive(by_ctor)?);
     assert_eq!(a, b);
     assert_eq!(a, b"F(2)+F(1)?P(-1,2)A(0.5)\n");
+    Ok(())
+}
+
+/// An `LSystem` can be read on one thread and derived on another (its
+/// reader is `Send`), and shows what it is in `{:?}`.
+#[test]
+fn a_system_moves_between_threads_and_shows_itself() -> Result<(), Box<dyn Error>> {
+    let ls = lsgen::LSystem::from_reader(
+        std::io::Cursor::new(b"productions:\nA -> AB\nB -> A\naxiom: A\n".to_vec()),
+        "algae.ls",
+    )?;
+    assert_eq!(
+        format!("{ls:?}"),
+        r#"LSystem { name: "algae.ls", dialect: Ls, derivable: true, .. }"#
+    );
+    let (ls, out) = std::thread::spawn(move || {
+        let mut ls = ls;
+        let mut out = Vec::new();
+        ls.derive(&lsgen::Options::new().steps(4), &mut out)
+            .map(|_| (ls, out))
+    })
+    .join()
+    .expect("no panic")?;
+    assert_eq!(out, b"ABAABABA\n");
+    // Its stream read, it cannot be derived again.
+    assert_eq!(
+        format!("{ls:?}"),
+        r#"LSystem { name: "algae.ls", dialect: Ls, derivable: false, .. }"#
+    );
+    let cpfg = lsgen::LSystem::parse("Lsystem: 1\nAxiom: A\nendlsystem\n")?;
+    assert_eq!(
+        format!("{cpfg:?}"),
+        r#"LSystem { name: "<input>", dialect: Cpfg, derivable: true, .. }"#
+    );
     Ok(())
 }

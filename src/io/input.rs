@@ -9,7 +9,7 @@ use std::io::{self, Read};
 /// A byte stream with look-ahead and enough history to quote the current
 /// line in an error.
 pub struct Input {
-    inner: Box<dyn Read>,
+    inner: Box<dyn Read + Send>,
     buf: Vec<u8>,
     pos: usize,
     end: usize,
@@ -49,7 +49,7 @@ const HISTORY: usize = 512;
 const MARK_WINDOW: u64 = 256;
 
 impl Input {
-    pub fn new(inner: Box<dyn Read>, name: impl Into<String>) -> Input {
+    pub fn new(inner: Box<dyn Read + Send>, name: impl Into<String>) -> Input {
         Input {
             inner,
             buf: vec![0; CHUNK * 2],

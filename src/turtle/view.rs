@@ -361,7 +361,11 @@ impl View {
 /// [`crate::input::MAX_HEADER`] bytes, UTF-8 without NUL, a byte-order
 /// mark and a `#!` line skipped) up to `axiom:`, then lsgen's lexer, so
 /// a line is a view line for lsgen-turtle exactly when it is one for lsgen.
-pub fn read_ls(name: &str, input: Box<dyn std::io::Read>, view: &mut View) -> Result<(), Error> {
+pub fn read_ls(
+    name: &str,
+    input: Box<dyn std::io::Read + Send>,
+    view: &mut View,
+) -> Result<(), Error> {
     let mut input = crate::input::Input::new(input, name);
     let split = crate::input::split_header(&mut input)?;
     let text = &split.header;
