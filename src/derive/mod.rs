@@ -67,6 +67,7 @@ impl Origin<'_> {
 
 /// What one pass is: a numbered step or the homomorphism.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum Pass {
     /// Derivation step n (from 1).
     Step(u64),
