@@ -298,7 +298,10 @@ impl Options {
     }
 
     /// Directory for the temporary files: generations, and cpfg `printf`
-    /// text that [`LSystem::derive_with`] holds (default: `$TMPDIR`).
+    /// text that [`LSystem::derive_with`] holds (default: `$TMPDIR`). A
+    /// derivation of one step or more first looks it up: one that is not
+    /// there or is no directory is an I/O error before the axiom is read,
+    /// so a streamed axiom can still be derived with another.
     pub fn tmpdir(mut self, dir: impl Into<PathBuf>) -> Self {
         self.tmpdir = Some(dir.into());
         self
@@ -879,6 +882,21 @@ impl LSystem {
                 steps,
                 names: options.names,
             }));
+        }
+        if let Some(dir) = options.tmpdir.as_ref().filter(|_| steps > 0) {
+            // A directory that is not there (or not a directory) is found
+            // before the axiom stream is taken, so that the next
+            // derivation can read it: the error a temporary file made
+            // there would give (`dir/.`: ENOENT or ENOTDIR), for one stat
+            // instead of a file made and dropped.
+            if let Err(e) = std::fs::metadata(dir.join(".")) {
+                self.system = Some((system, options.seed));
+                return Err(Error::io(
+                    dir.display().to_string(),
+                    crate::diag::IoAction::CreateTemp,
+                    e,
+                ));
+            }
         }
         let (input, comments, line, col) = self.take_input()?;
         let seed = options.seed.or(system.seed).unwrap_or(self.fresh);

@@ -381,6 +381,31 @@ fn a_usage_error_leaves_the_stream_unread() -> Result<(), Box<dyn Error>> {
         ls.derive(&Options::new(), &mut out)?;
         assert_eq!(out, b"ABAAB\n");
     }
+    // A temporary directory that is not there, or is a file: an I/O
+    // error naming it, the stream still unread.
+    let dir = tempfile::tempdir()?;
+    let file = dir.path().join("file");
+    std::fs::write(&file, "")?;
+    for (bad, why) in [
+        (dir.path().join("absent"), "No such file or directory"),
+        (file, "Not a directory"),
+    ] {
+        let mut ls = LSystem::from_reader(std::io::Cursor::new(src.to_string()), "r.ls")?;
+        let e = ls
+            .derive(&Options::new().tmpdir(&bad), Vec::new())
+            .expect_err("no such directory");
+        assert_eq!(e.stage(), lsgen::Stage::Io, "{e}");
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{}: error: cannot create a temporary file: {why}\n",
+                bad.display()
+            )
+        );
+        let mut out = Vec::new();
+        ls.derive(&Options::new(), &mut out)?;
+        assert_eq!(out, b"ABAAB\n");
+    }
     Ok(())
 }
 
