@@ -325,8 +325,9 @@ impl Options {
     }
 
     /// Refuse, before writing anything, a final string known in advance
-    /// (depth-first D0L plans) to be larger than `bytes`: the free space
-    /// where it goes.
+    /// (depth-first D0L plans, so up to 65,536 steps) to be larger than
+    /// `bytes`: the free space where it goes. Any other derivation is not
+    /// checked (`Limits` stops one as it goes).
     pub fn free_space(mut self, bytes: u64) -> Self {
         self.space = Some(bytes);
         self
