@@ -191,14 +191,10 @@ impl Load {
     /// Load `input`: its warnings kept for each derivation, or, if it
     /// fails, in the error ([`Error::warnings`]).
     fn load(&self, input: Input) -> Result<LSystem, Error> {
-        let functions = if self.view.is_none() && self.functions.is_empty() {
-            Arc::default()
-        } else {
-            Arc::new(Functions::load_with_view(
-                self.view.as_deref(),
-                &self.functions,
-            )?)
-        };
+        let functions = Arc::new(Functions::load_with_view(
+            self.view.as_deref(),
+            &self.functions,
+        )?);
         let collecting = crate::diag::collect_warnings();
         let loaded = LSystem::load_dialect(
             input,
@@ -892,11 +888,7 @@ impl LSystem {
             // instead of a file made and dropped.
             if let Err(e) = std::fs::metadata(dir.join(".")) {
                 self.system = Some((system, options.seed));
-                return Err(Error::io(
-                    dir.display().to_string(),
-                    crate::diag::IoAction::CreateTemp,
-                    e,
-                ));
+                return Err(crate::derive::tempfile_error(&options.tmpdir, e));
             }
         }
         let (input, comments, line, col) = self.take_input()?;

@@ -220,16 +220,20 @@ fn tempfile(dir: &Option<PathBuf>) -> Result<File, Error> {
         Some(d) => tempfile::tempfile_in(d),
         None => tempfile::tempfile(),
     };
-    r.map_err(|e| {
-        Error::io(
-            dir.as_ref().map_or_else(
-                || std::env::temp_dir().display().to_string(),
-                |d| d.display().to_string(),
-            ),
-            crate::diag::IoAction::CreateTemp,
-            e,
-        )
-    })
+    r.map_err(|e| tempfile_error(dir, e))
+}
+
+/// The error of a temporary file that could not be made in `dir` (None:
+/// the system's temporary directory).
+pub(crate) fn tempfile_error(dir: &Option<PathBuf>, e: std::io::Error) -> Error {
+    Error::io(
+        dir.as_ref().map_or_else(
+            || std::env::temp_dir().display().to_string(),
+            |d| d.display().to_string(),
+        ),
+        crate::diag::IoAction::CreateTemp,
+        e,
+    )
 }
 
 /// A temporary file holding a generation, emptied when it is dropped,
