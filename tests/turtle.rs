@@ -40,6 +40,22 @@ fn text(b: Vec<u8>) -> String {
     String::from_utf8(b).unwrap()
 }
 
+/// What lsgen-turtle says of a one-line ASCII input on standard input at
+/// its byte `at` (0-based): `<stdin>:1:COL`, and for a short line (an
+/// excerpt is cut from a longer one) the line and a caret under it.
+fn assert_located(stderr: &str, input: &[u8], at: usize, message: &str) {
+    let head = format!("lsgen-turtle: <stdin>:1:{}: {message}\n", at + 1);
+    if input.len() <= 140 {
+        let line = String::from_utf8_lossy(input);
+        let want = format!("{head}{line}\n{}^\n", " ".repeat(at));
+        assert_eq!(stderr, want);
+    } else {
+        assert!(stderr.starts_with(&head), "{stderr}");
+        assert_eq!(stderr.lines().count(), 3, "{stderr}");
+        assert!(stderr.ends_with("^\n"), "{stderr}");
+    }
+}
+
 /// Compare two segment lists: same lines, same words, numbers within 1e-6.
 fn same_segments(got: &str, want: &str, what: &str) {
     let g: Vec<&str> = got.lines().collect();
@@ -429,28 +445,43 @@ fn malformed_input_is_located_and_leaves_no_output() {
     let out = dir.path().join("o.png");
     std::fs::write(&out, b"old").unwrap();
     let o = out.to_str().unwrap();
-    for (input, msg) in [
-        (
-            &b"FF(1,x)"[..],
-            "lsgen-turtle: <stdin>:5: error: expected a number, found `x`\n",
-        ),
+    // (Byte offsets counted by hand.)
+    for (input, at, msg) in [
+        (&b"FF(1,x)"[..], 5, "error: expected a number, found `x`"),
         (
             b"F(1",
-            "lsgen-turtle: <stdin>:0: error: parameter list not closed: `(` without `)`\n",
+            0,
+            "error: parameter list not closed: `(` without `)`",
         ),
-        (b"F[F]]F", "lsgen-turtle: <stdin>:4: error: unmatched `]`\n"),
-        (b"{F}}", "lsgen-turtle: <stdin>:3: error: unmatched `}`\n"),
-        (b"F\xffF", "lsgen-turtle: <stdin>:1: error: invalid UTF-8\n"),
+        (b"F[F]]F", 4, "error: unmatched `]`"),
+        (b"{F}}", 3, "error: unmatched `}`"),
         (
             b"F(1e308)F(1e308)",
-            "lsgen-turtle: <stdin>:8: error: the turtle moved out of range (overflow)\n",
+            8,
+            "error: the turtle moved out of range (overflow)",
         ),
     ] {
         let r = turtle(&["-o", o], input);
         assert_eq!(r.status.code(), Some(1));
-        assert_eq!(r.stderr, msg);
+        assert_located(&r.stderr, input, at, msg);
         assert_eq!(std::fs::read(&out).unwrap(), b"old", "output clobbered");
     }
+    // Lines and columns: lsgen's own, in characters (`é` is two bytes).
+    let r = turtle(&["-o", o], "F(1)\n é F]".as_bytes());
+    assert_eq!(r.status.code(), Some(1));
+    assert_eq!(
+        r.stderr,
+        "lsgen-turtle: <stdin>:2:5: error: unmatched `]`\n é F]\n    ^\n"
+    );
+    assert_eq!(std::fs::read(&out).unwrap(), b"old", "output clobbered");
+    // Bytes that are not UTF-8 are shown as U+FFFD.
+    let r = turtle(&["-o", o], b"F\xffF");
+    assert_eq!(r.status.code(), Some(1));
+    assert_eq!(
+        r.stderr,
+        "lsgen-turtle: <stdin>:1:2: error: invalid UTF-8\nF\u{fffd}F\n ^\n"
+    );
+    assert_eq!(std::fs::read(&out).unwrap(), b"old", "output clobbered");
     let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
     assert_eq!(names.len(), 1, "temp files left: {names:?}");
     // A file input names itself.
@@ -462,7 +493,7 @@ fn malformed_input_is_located_and_leaves_no_output() {
     assert_eq!(
         r.stderr,
         format!(
-            "lsgen-turtle: {}:4: error: parameter list not closed: `(` without `)`\n",
+            "lsgen-turtle: {}:1:5: error: parameter list not closed: `(` without `)`\nF(2)F(\n    ^\n",
             f.display()
         )
     );
@@ -809,13 +840,11 @@ fn extreme_extents_are_errors_or_laid_out_within_size() {
             let r = turtle(&["-f", f], input.as_bytes());
             assert_eq!(r.code(), Some(1), "{input}: {}", r.stderr);
             assert!(r.stdout.is_empty(), "{input}");
-            assert_eq!(
-                r.stderr,
-                format!(
-                    "lsgen-turtle: <stdin>:{at}: error: the drawing is too large to lay out \
-                     (its extent overflows)\n"
-                ),
-                "{input}"
+            assert_located(
+                &r.stderr,
+                input.as_bytes(),
+                at,
+                "error: the drawing is too large to lay out (its extent overflows)",
             );
         }
     }
@@ -844,7 +873,8 @@ fn unclosed_polygons_long_numbers_and_tropism_overflow_are_named() {
     let fails = |args: &[&str], input: &[u8], want: &str| {
         let r = turtle(args, input);
         assert_eq!(r.code(), Some(1), "{want}: {}", r.stderr);
-        assert_eq!(r.stderr, format!("lsgen-turtle: <stdin>:{want}\n"));
+        let (at, message) = want.split_once(": ").unwrap();
+        assert_located(&r.stderr, input, at.parse().unwrap(), message);
     };
     // Offsets counted by hand: the outermost unclosed `{`.
     fails(
@@ -939,7 +969,10 @@ fn comma_is_the_colour_decrement_module() {
     // Still an error inside a parameter list's place: `(` and `)` alone.
     let r = turtle(&["-f", "segments"], b"F)");
     assert_eq!(r.code(), Some(1));
-    assert_eq!(r.stderr, "lsgen-turtle: <stdin>:1: error: unexpected `)`\n");
+    assert_eq!(
+        r.stderr,
+        "lsgen-turtle: <stdin>:1:2: error: unexpected `)`\nF)\n ^\n"
+    );
 }
 
 #[test]
@@ -1016,11 +1049,7 @@ fn a_width_past_the_largest_number_is_an_error_where_it_is_drawn() {
             a.extend_from_slice(args);
             let r = turtle(&a, input);
             assert_eq!(r.code(), Some(1), "{format} {args:?}: {}", r.stderr);
-            assert_eq!(
-                r.stderr,
-                format!("lsgen-turtle: <stdin>:{at}: {want}\n"),
-                "{format} {args:?}"
-            );
+            assert_located(&r.stderr, input, at, want);
             assert!(
                 !String::from_utf8_lossy(&r.stdout).contains("inf"),
                 "{format}"
@@ -1161,10 +1190,7 @@ fn obj_cylinders_never_write_non_finite_numbers() {
         a.extend_from_slice(args);
         let r = turtle(&a, input);
         assert_eq!(r.code(), Some(1), "{}", r.stderr);
-        assert_eq!(
-            r.stderr,
-            format!("lsgen-turtle: <stdin>:{at}: error: {error}\n")
-        );
+        assert_located(&r.stderr, input, at, &format!("error: {error}"));
         common::assert_listing(dir.path(), &[]);
     }
 }
@@ -1287,13 +1313,11 @@ fn open_polygons_hold_at_most_2_20_vertices_in_all() {
     s.extend(b"}}");
     let r = turtle(&["-f", "segments"], &s);
     assert_eq!(r.code(), Some(1), "{}", r.stderr);
-    assert_eq!(
-        r.stderr,
-        format!(
-            "lsgen-turtle: <stdin>:{}: error: open polygons too large \
-             (over 1048576 vertices in all)\n",
-            2 * a + 2
-        )
+    assert_located(
+        &r.stderr,
+        &s,
+        2 * a + 2,
+        "error: open polygons too large (over 1048576 vertices in all)",
     );
     // 2^20 in all are kept: the outer polygon holds 2^20 - 3 when the
     // last inner one opens; a closed polygon gives its vertices back.

@@ -7,9 +7,10 @@ use crate::lang::comment;
 use std::io::{self, Read};
 
 /// A byte stream with look-ahead and enough history to quote the current
-/// line in an error.
-pub struct Input {
-    inner: Box<dyn Read + Send>,
+/// line in an error. lsgen reads its input through the boxed reader;
+/// lsgen-turtle's module reader borrows its stream (`R`).
+pub struct Input<R: Read = Box<dyn Read + Send>> {
+    inner: R,
     buf: Vec<u8>,
     pos: usize,
     end: usize,
@@ -50,6 +51,13 @@ const MARK_WINDOW: u64 = 256;
 
 impl Input {
     pub fn new(inner: Box<dyn Read + Send>, name: impl Into<String>) -> Input {
+        Input::over(inner, name)
+    }
+}
+
+impl<R: Read> Input<R> {
+    /// An input over any reader.
+    pub fn over(inner: R, name: impl Into<String>) -> Input<R> {
         Input {
             inner,
             buf: vec![0; CHUNK * 2],
@@ -67,7 +75,7 @@ impl Input {
 
     /// `inner` reads the regular file `file` from its start (`file` shares
     /// its offset: a `try_clone`).
-    pub fn with_file(mut self, file: std::fs::File) -> Input {
+    pub fn with_file(mut self, file: std::fs::File) -> Input<R> {
         self.file = Some(file);
         self
     }
@@ -192,6 +200,16 @@ impl Input {
     #[inline]
     pub fn available(&self) -> &[u8] {
         &self.buf[self.pos..self.end]
+    }
+
+    /// The byte at the read position, if one is available now.
+    #[inline]
+    pub fn peek(&self) -> Option<u8> {
+        if self.pos < self.end {
+            Some(self.buf[self.pos])
+        } else {
+            None
+        }
     }
 
     #[inline]

@@ -33,11 +33,11 @@ pub fn interpret<R: Read>(
     let mut r = Reader::new(input, name);
     let mut t = Turtle::new(view);
     // Where the outermost open polygon began.
-    let mut polygon_at = 0;
+    let mut polygon_at = reader::Spot::default();
     // Where the last module began: a letter that joins the bare `@`
     // before it (`@o`) is one module with it, whose errors point at the
     // `@`.
-    let mut last_start = 0;
+    let mut last_start = reader::Spot::default();
     loop {
         let Some(sym) = r.next_module()? else {
             if t.open_polygons() > 0 {
@@ -46,44 +46,46 @@ pub fn interpret<R: Read>(
             return Ok(());
         };
         if sym == '{' && t.open_polygons() == 0 {
-            polygon_at = r.last_at;
+            polygon_at = r.last;
+            // Reported at the end of the input if it stays open.
+            r.keep(polygon_at);
         }
         let n = r.nparams;
         let params = r.params;
         if t.joins_at(sym) {
-            r.last_at = last_start;
+            r.last = last_start;
         }
-        last_start = r.last_at;
+        last_start = r.last;
         match t.module(sym, &params[..n], sink) {
             Ok(()) => {}
             Err(ModErr::Io(e)) => {
                 if e.get_ref()
                     .is_some_and(|x| x.is::<render::ExtentOverflow>())
                 {
-                    return Err(r.error_at(r.last_at, TurtleError::ExtentOverflow));
+                    return Err(r.error_at(r.last, TurtleError::ExtentOverflow));
                 }
                 return Err(Error::io(out_name, crate::diag::IoAction::Write, e));
             }
             Err(ModErr::Fault(Fault::UnmatchedClose(c))) => {
-                return Err(r.error_at(r.last_at, TurtleError::UnmatchedClose(c)));
+                return Err(r.error_at(r.last, TurtleError::UnmatchedClose(c)));
             }
             Err(ModErr::Fault(Fault::Overflow)) => {
-                return Err(r.error_at(r.last_at, TurtleError::Overflow))
+                return Err(r.error_at(r.last, TurtleError::Overflow))
             }
             Err(ModErr::Fault(Fault::TropismOverflow)) => {
-                return Err(r.error_at(r.last_at, TurtleError::TropismOverflow))
+                return Err(r.error_at(r.last, TurtleError::TropismOverflow))
             }
             Err(ModErr::Fault(Fault::BendPastRightAngle)) => {
-                return Err(r.error_at(r.last_at, TurtleError::BendPastRightAngle))
+                return Err(r.error_at(r.last, TurtleError::BendPastRightAngle))
             }
             Err(ModErr::Fault(Fault::WidthOverflow)) => {
-                return Err(r.error_at(r.last_at, TurtleError::WidthOverflow))
+                return Err(r.error_at(r.last, TurtleError::WidthOverflow))
             }
             Err(ModErr::Fault(Fault::PolygonTooLarge)) => {
-                return Err(r.error_at(r.last_at, TurtleError::PolygonTooLarge(state::MAX_VERTICES)))
+                return Err(r.error_at(r.last, TurtleError::PolygonTooLarge(state::MAX_VERTICES)))
             }
             Err(ModErr::Fault(Fault::TooDeep)) => {
-                return Err(r.error_at(r.last_at, TurtleError::TooDeep))
+                return Err(r.error_at(r.last, TurtleError::TooDeep))
             }
         }
     }

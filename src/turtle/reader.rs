@@ -1,99 +1,148 @@
 //! Reading a module string as lsgen writes it (`F(1.5)[+F]...`), module by
-//! module, from any byte stream: one 64 KiB buffer, whatever the length.
+//! module, from any byte stream, through lsgen's own [`Input`]: one buffer
+//! whatever the length, with the history an error needs to quote its line.
+//! Errors are located as lsgen's are, `FILE:LINE:COL`, the line (an
+//! excerpt of a long one) and a caret.
 
-use crate::diag::{Error, TurtleError};
-use std::io::{self, Read};
+use crate::diag::{Error, Location, TurtleError};
+use crate::io::input::Input;
+use std::io::Read;
 
 /// Parameters kept per module; further ones are read and ignored.
 pub const MAX_PARAMS: usize = 8;
 
-const BUF: usize = 1 << 16;
-
 /// Longest parameter accepted, in characters.
 pub const MAX_NUMBER: usize = 64;
 
+/// Where something starts in the stream: its offset and line (1-based),
+/// and what its column is counted from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Spot {
+    pub at: u64,
+    pub line: usize,
+    /// The line's start plus the UTF-8 continuation bytes before `at` on
+    /// it: `at` less this is the column less one.
+    col_base: u64,
+}
+
+impl Spot {
+    /// The column (1-based, in characters).
+    pub fn col(&self) -> u64 {
+        self.at - self.col_base + 1
+    }
+}
+
 pub struct Reader<R: Read> {
-    inner: R,
-    buf: Vec<u8>,
-    pos: usize,
-    end: usize,
-    eof: bool,
-    /// Stream offset of `buf[0]`.
-    base: u64,
-    name: String,
+    input: Input<R>,
+    /// The read position's line (1-based), and the offset that line
+    /// starts at plus the UTF-8 continuation bytes read on it: a column is
+    /// the bytes from the line's start less those, so nothing is counted
+    /// per byte (a parameter list is ASCII; only a module's symbol may not
+    /// be).
+    line: usize,
+    col_base: u64,
     /// Parameters of the module just read.
     pub params: [f64; MAX_PARAMS],
     pub nparams: usize,
-    /// Stream offset of the module just read.
-    pub last_at: u64,
+    /// Where the module just read starts, and its symbol.
+    pub last: Spot,
+    last_sym: char,
 }
 
 impl<R: Read> Reader<R> {
     pub fn new(inner: R, name: impl Into<String>) -> Self {
         Reader {
-            inner,
-            buf: vec![0; BUF],
-            pos: 0,
-            end: 0,
-            eof: false,
-            base: 0,
-            name: name.into(),
+            input: Input::over(inner, name),
+            line: 1,
+            col_base: 0,
             params: [0.0; MAX_PARAMS],
             nparams: 0,
-            last_at: 0,
+            last: Spot {
+                at: 0,
+                line: 1,
+                col_base: 0,
+            },
+            last_sym: ' ',
         }
     }
 
     pub fn name(&self) -> &str {
-        &self.name
+        &self.input.name
     }
 
-    /// Stream offset of the next byte.
-    pub fn offset(&self) -> u64 {
-        self.base + self.pos as u64
-    }
-
-    /// An error at stream offset `at`: `FILE:OFFSET: error: ...`.
-    pub fn error_at(&self, at: u64, kind: TurtleError) -> Error {
-        Error::about(format!("{}:{}", self.name, at), kind)
-    }
-
-    /// Refill so that at least `want` bytes (at most the buffer size) are
-    /// available, unless the stream ends.
-    fn fill(&mut self, want: usize) -> Result<(), Error> {
-        if self.end - self.pos >= want || self.eof {
-            return Ok(());
+    /// Where the read position is.
+    #[inline]
+    fn here(&self) -> Spot {
+        Spot {
+            at: self.input.offset(),
+            line: self.line,
+            col_base: self.col_base,
         }
-        self.buf.copy_within(self.pos..self.end, 0);
-        self.base += self.pos as u64;
-        self.end -= self.pos;
-        self.pos = 0;
-        while self.end < want && !self.eof {
-            match self.inner.read(&mut self.buf[self.end..]) {
-                Ok(0) => self.eof = true,
-                Ok(n) => self.end += n,
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(Error::io(self.name.clone(), crate::diag::IoAction::Read, e)),
-            }
-        }
-        Ok(())
+    }
+
+    /// Keep the text at `spot` quotable until the next call, however far
+    /// the reader goes on (the start of an open polygon, reported at the
+    /// end of the input).
+    pub fn keep(&mut self, spot: Spot) {
+        self.input.mark(spot.at);
+    }
+
+    /// An error at `spot`: `FILE:LINE:COL: error: ...`, the line and a
+    /// caret. `spot` is the read position, the module just read, or the
+    /// one [`Reader::keep`] holds.
+    pub fn error_at(&mut self, spot: Spot, kind: TurtleError) -> Error {
+        let (snippet, caret_col) = if self.input.holds(spot.at) {
+            self.input.excerpt_at(spot.at)
+        } else {
+            // Past the buffer's history only a parameter list reaches
+            // (one longer than the buffer, not closed): its module is
+            // quoted by its symbol and `(`.
+            let shown = if spot.at == self.last.at {
+                format!("{}(...", self.last_sym)
+            } else {
+                "...".to_string()
+            };
+            (shown, 1)
+        };
+        Error::at(
+            Location {
+                path: self.input.name.clone(),
+                line: spot.line,
+                col: usize::try_from(spot.col()).unwrap_or(usize::MAX),
+                snippet,
+                caret_col,
+            },
+            kind,
+        )
     }
 
     #[inline]
     fn peek(&mut self) -> Result<Option<u8>, Error> {
-        if self.pos == self.end {
-            self.fill(1)?;
-            if self.pos == self.end {
-                return Ok(None);
-            }
+        if let Some(b) = self.input.peek() {
+            return Ok(Some(b));
         }
-        Ok(Some(self.buf[self.pos]))
+        Ok(self.input.fill(1)?.first().copied())
     }
 
+    /// The next byte that is no blank (not consumed), or `None` at the end.
+    #[inline]
     fn skip_blanks(&mut self) -> Result<Option<u8>, Error> {
+        match self.input.peek() {
+            Some(b) if !matches!(b, b' ' | b'\t' | b'\r' | b'\n') => Ok(Some(b)),
+            _ => self.skip_blanks_slow(),
+        }
+    }
+
+    #[cold]
+    fn skip_blanks_slow(&mut self) -> Result<Option<u8>, Error> {
         loop {
             match self.peek()? {
-                Some(b' ' | b'\t' | b'\r' | b'\n') => self.pos += 1,
+                Some(b'\n') => {
+                    self.input.consume(1);
+                    self.line += 1;
+                    self.col_base = self.input.offset();
+                }
+                Some(b' ' | b'\t' | b'\r') => self.input.consume(1),
                 other => return Ok(other),
             }
         }
@@ -105,60 +154,67 @@ impl<R: Read> Reader<R> {
         let Some(b) = self.skip_blanks()? else {
             return Ok(None);
         };
-        let at = self.offset();
-        self.last_at = at;
+        let here = self.here();
+        self.last = here;
         let sym = if b < 0x80 {
-            self.pos += 1;
             if b < 0x20 || b == 0x7f {
-                return Err(self.error_at(at, TurtleError::ControlByte(b)));
+                return Err(self.error_at(here, TurtleError::ControlByte(b)));
             }
             // `,` outside a parameter list is a module (cpfg's colour
             // decrement), as in lsgen's language: `F,G` is three modules.
             if matches!(b, b'(' | b')') {
-                return Err(self.error_at(at, TurtleError::Unexpected(b as char)));
+                return Err(self.error_at(here, TurtleError::Unexpected(b as char)));
             }
+            self.input.consume(1);
             b as char
         } else {
-            let len = match b {
-                0xc2..=0xdf => 2,
-                0xe0..=0xef => 3,
-                0xf0..=0xf4 => 4,
-                _ => return Err(self.error_at(at, TurtleError::InvalidUtf8)),
+            let c = self.char_here()?;
+            let Some(c) = c else {
+                return Err(self.error_at(here, TurtleError::InvalidUtf8));
             };
-            self.fill(len)?;
-            let bytes = &self.buf[self.pos..self.end.min(self.pos + len)];
-            match std::str::from_utf8(bytes)
-                .ok()
-                .and_then(|s| s.chars().next())
-            {
-                Some(c) if bytes.len() == len => {
-                    self.pos += len;
-                    c
-                }
-                _ => return Err(self.error_at(at, TurtleError::InvalidUtf8)),
-            }
+            let len = c.len_utf8();
+            self.input.consume(len);
+            self.col_base += len as u64 - 1;
+            c
         };
         self.nparams = 0;
+        self.last_sym = sym;
         if self.peek()? == Some(b'(') {
-            self.pos += 1;
-            self.read_params(at)?;
+            self.input.consume(1);
+            self.read_params(here)?;
         }
         Ok(Some(sym))
     }
 
-    fn read_params(&mut self, module_at: u64) -> Result<(), Error> {
+    /// The character at the read position (not consumed), or `None` for
+    /// bytes that are not UTF-8.
+    fn char_here(&mut self) -> Result<Option<char>, Error> {
+        let avail = self.input.fill(4)?;
+        let len = match avail.first() {
+            Some(0xc2..=0xdf) => 2,
+            Some(0xe0..=0xef) => 3,
+            Some(0xf0..=0xf4) => 4,
+            Some(&b) if b < 0x80 => 1,
+            _ => return Ok(None),
+        };
+        Ok(avail
+            .get(..len)
+            .and_then(|b| std::str::from_utf8(b).ok())
+            .and_then(|s| s.chars().next()))
+    }
+
+    fn read_params(&mut self, module: Spot) -> Result<(), Error> {
         let mut n = 0;
         loop {
             self.skip_blanks()?;
-            let at = self.offset();
+            let here = self.here();
             // A number: up to 64 bytes of [0-9+-.eE].
-            self.fill(MAX_NUMBER + 1)?;
-            let avail = &self.buf[self.pos..self.end];
+            let avail = self.input.fill(MAX_NUMBER + 1)?;
             let is_num =
                 |c: &&u8| c.is_ascii_digit() || matches!(c, b'+' | b'-' | b'.' | b'e' | b'E');
             let len = avail.iter().take(MAX_NUMBER + 1).take_while(is_num).count();
             if len > MAX_NUMBER {
-                return Err(self.error_at(at, TurtleError::NumberTooLong(MAX_NUMBER)));
+                return Err(self.error_at(here, TurtleError::NumberTooLong(MAX_NUMBER)));
             }
             let text = std::str::from_utf8(&avail[..len]).unwrap_or("");
             let v = match text.parse::<f64>() {
@@ -169,28 +225,32 @@ impl<R: Read> Reader<R> {
                         .take_while(|c| !matches!(c, ',' | ')' | '\n'))
                         .collect();
                     return Err(if avail.is_empty() {
-                        self.error_at(module_at, TurtleError::ParamsNotClosed)
+                        self.error_at(module, TurtleError::ParamsNotClosed)
                     } else {
-                        self.error_at(at, TurtleError::ExpectedNumber(shown))
+                        self.error_at(here, TurtleError::ExpectedNumber(shown))
                     });
                 }
             };
-            self.pos += len;
+            self.input.consume(len);
             if n < MAX_PARAMS {
                 self.params[n] = v;
             }
             n += 1;
             match self.skip_blanks()? {
-                Some(b',') => self.pos += 1,
+                Some(b',') => self.input.consume(1),
                 Some(b')') => {
-                    self.pos += 1;
+                    self.input.consume(1);
                     self.nparams = n.min(MAX_PARAMS);
                     return Ok(());
                 }
-                None => return Err(self.error_at(module_at, TurtleError::ParamsNotClosed)),
-                Some(c) => {
-                    let at = self.offset();
-                    return Err(self.error_at(at, TurtleError::ExpectedCommaOrParen(c as char)));
+                None => return Err(self.error_at(module, TurtleError::ParamsNotClosed)),
+                Some(_) => {
+                    let here = self.here();
+                    let kind = match self.char_here()? {
+                        Some(c) => TurtleError::ExpectedCommaOrParen(c),
+                        None => TurtleError::InvalidUtf8,
+                    };
+                    return Err(self.error_at(here, kind));
                 }
             }
         }
@@ -246,24 +306,87 @@ mod tests {
     fn errors() {
         assert_eq!(
             all("FF(1").unwrap_err(),
-            "in:1: error: parameter list not closed: `(` without `)`\n"
+            "in:1:2: error: parameter list not closed: `(` without `)`\nFF(1\n ^\n"
         );
         assert_eq!(
             all("F(x)").unwrap_err(),
-            "in:2: error: expected a number, found `x`\n"
+            "in:1:3: error: expected a number, found `x`\nF(x)\n  ^\n"
         );
         assert_eq!(
             all("F(1;2)").unwrap_err(),
-            "in:3: error: expected `,` or `)`, found `;`\n"
+            "in:1:4: error: expected `,` or `)`, found `;`\nF(1;2)\n   ^\n"
         );
         assert_eq!(
             all("F\u{1}").unwrap_err(),
-            "in:1: error: unexpected control character 0x01\n"
+            "in:1:2: error: unexpected control character 0x01\nF\u{fffd}\n ^\n"
         );
         assert!(all("F\u{ff}").is_ok());
         assert_eq!(
             all_bytes(b"F\xff").unwrap_err(),
-            "in:1: error: invalid UTF-8\n"
+            "in:1:2: error: invalid UTF-8\nF\u{fffd}\n ^\n"
+        );
+        // Not a `,` or `)`: the character (escaped as lsgen's lexer
+        // escapes one), not its first byte.
+        assert_eq!(
+            all("F(1é)").unwrap_err(),
+            "in:1:4: error: expected `,` or `)`, found `\\u{e9}`\nF(1é)\n   ^\n"
+        );
+        assert_eq!(
+            all_bytes(b"F(1\xff)").unwrap_err(),
+            "in:1:4: error: invalid UTF-8\nF(1\u{fffd})\n   ^\n"
+        );
+    }
+
+    #[test]
+    fn errors_are_located_by_line_and_character() {
+        // Lines counted at `\n`, columns in characters (`é` is two bytes,
+        // `漢` three), the caret under the module by display width.
+        assert_eq!(
+            all("F\n é漢F(1,\n x)").unwrap_err(),
+            "in:3:2: error: expected a number, found `x`\n x)\n ^\n"
+        );
+        assert_eq!(
+            all("F\né漢 (").unwrap_err(),
+            "in:2:4: error: unexpected `(`\né漢 (\n    ^\n"
+        );
+        // A line of a million modules is quoted around the spot.
+        let mut long = "F".repeat(1_000_000);
+        long.push_str("F(1;2)");
+        let e = all(&long).unwrap_err();
+        // 60 characters before the spot, after `...`.
+        assert_eq!(
+            e,
+            format!(
+                "in:1:1000004: error: expected `,` or `)`, found `;`\n...{}(1;2)\n{}^\n",
+                "F".repeat(58),
+                " ".repeat(63)
+            )
+        );
+    }
+
+    #[test]
+    fn kept_spots_and_long_parameter_lists_are_quoted() {
+        // The kept spot stays quotable however far the reader goes.
+        let text = format!("F{{F{}", "+F".repeat(500_000));
+        let mut r = Reader::new(text.as_bytes(), "in");
+        r.next_module().unwrap();
+        r.next_module().unwrap();
+        let open = r.last;
+        r.keep(open);
+        while r.next_module().unwrap().is_some() {}
+        assert_eq!(
+            r.error_at(open, TurtleError::PolygonNotClosed).to_string(),
+            format!(
+                "in:1:2: error: polygon not closed: `{{` without `}}`\nF{{F{}+...\n ^\n",
+                "+F".repeat(29)
+            )
+        );
+        // A parameter list not closed after more than the buffer holds:
+        // its module by symbol and `(`, at its line and column.
+        let text = format!("F\n G(1{}", ",1".repeat(1_000_000));
+        assert_eq!(
+            all(&text).unwrap_err(),
+            "in:2:2: error: parameter list not closed: `(` without `)`\nG(...\n^\n"
         );
     }
 
@@ -277,7 +400,8 @@ mod tests {
             ErrorKind::Turtle(TurtleError::ParamsNotClosed)
         ));
         assert_eq!(e.stage(), Stage::Parse);
-        assert_eq!(e.subject(), Some("in:0"));
+        let l = e.location().unwrap();
+        assert_eq!((l.path.as_str(), l.line, l.col), ("in", 1, 1));
         assert_eq!(
             Error::new(TurtleError::UnmatchedClose(']')).stage(),
             Stage::Runtime
