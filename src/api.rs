@@ -881,12 +881,14 @@ impl LSystem {
             }));
         }
         if let Some(dir) = options.tmpdir.as_ref().filter(|_| steps > 0) {
-            // A directory that is not there (or not a directory) is found
-            // before the axiom stream is taken, so that the next
-            // derivation can read it: the error a temporary file made
-            // there would give (`dir/.`: ENOENT or ENOTDIR), for one stat
-            // instead of a file made and dropped.
-            if let Err(e) = std::fs::metadata(dir.join(".")) {
+            // A directory where no temporary file can be made (not there,
+            // not a directory, not writable, or one like /proc that takes
+            // no files whatever its mode says) is found before the axiom
+            // stream is taken, so that the next derivation can read it:
+            // one file made there and dropped (an unnamed one where the
+            // file system has them), about 6 µs. A stat, or `access`,
+            // would miss the last two cases for root.
+            if let Err(e) = tempfile::tempfile_in(dir) {
                 self.system = Some((system, options.seed));
                 return Err(crate::derive::tempfile_error(&options.tmpdir, e));
             }

@@ -381,14 +381,19 @@ fn a_usage_error_leaves_the_stream_unread() -> Result<(), Box<dyn Error>> {
         ls.derive(&Options::new(), &mut out)?;
         assert_eq!(out, b"ABAAB\n");
     }
-    // A temporary directory that is not there, or is a file: an I/O
-    // error naming it, the stream still unread.
+    // A temporary directory that is not there, is a file, or takes no
+    // files (/proc, whose mode lets root write, but where nothing can be
+    // made): an I/O error naming it, the stream still unread.
     let dir = tempfile::tempdir()?;
     let file = dir.path().join("file");
     std::fs::write(&file, "")?;
     for (bad, why) in [
         (dir.path().join("absent"), "No such file or directory"),
         (file, "Not a directory"),
+        (
+            std::path::PathBuf::from("/proc"),
+            "No such file or directory",
+        ),
     ] {
         let mut ls = LSystem::from_reader(std::io::Cursor::new(src.to_string()), "r.ls")?;
         let e = ls
