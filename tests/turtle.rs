@@ -1767,3 +1767,33 @@ mod cpfg_files {
         assert_eq!(r.status.code(), Some(2));
     }
 }
+
+/// Negative numbers in every spelling the parser takes: clap's own test
+/// for a negative number refused `-1e-5` and `-.5` as unknown flags.
+#[test]
+fn number_options_take_every_negative_spelling() {
+    for (opt, v) in [
+        ("--angle", "-1e-5"),
+        ("--angle", "-.5"),
+        ("--step", "-.5"),
+        ("--elasticity", "-1e-3"),
+        ("--elasticity-increment", "-.01"),
+        ("--width-increment", "-2.5e-1"),
+        ("--colour-increment", "-1e0"),
+        ("--twist", "-.25"),
+    ] {
+        let r = turtle(&[opt, v, "-f", "segments"], b"F");
+        ok(&r);
+    }
+    // `--step -.5`: the step is taken.
+    let r = turtle(&["--step", "-.5", "-f", "segments"], b"F");
+    assert_eq!(text(ok(&r)), "0 0 0 0 -0.5 0 1 0\n");
+    // Still refused: a negative width, with the option's own message.
+    let r = turtle(&["--width", "-1e-3"], b"F");
+    assert_eq!(r.code(), Some(2), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("--width: must not be negative"),
+        "{}",
+        r.stderr
+    );
+}

@@ -42,34 +42,34 @@ struct Args {
     #[arg(short, long, value_name = "FORMAT")]
     format: Option<String>,
     /// Default turning angle in degrees
-    #[arg(long, allow_negative_numbers = true, value_parser = number)]
+    #[arg(long, allow_hyphen_values = true, value_parser = number)]
     angle: Option<f64>,
     /// Default step length of F f G g
-    #[arg(long, allow_negative_numbers = true, value_parser = number)]
+    #[arg(long, allow_hyphen_values = true, value_parser = number)]
     step: Option<f64>,
     /// Initial line width
-    #[arg(long, allow_negative_numbers = true, value_parser = number)]
+    #[arg(long, allow_hyphen_values = true, value_parser = number)]
     width: Option<f64>,
     /// Width change of ! and # without a parameter
-    #[arg(long, allow_negative_numbers = true, value_parser = number)]
+    #[arg(long, allow_hyphen_values = true, value_parser = number)]
     width_increment: Option<f64>,
     /// Factor applied to every width when drawn
-    #[arg(long, allow_negative_numbers = true, value_parser = number)]
+    #[arg(long, allow_hyphen_values = true, value_parser = number)]
     width_scale: Option<f64>,
     /// What widths are in: model (units of the drawing) or pixels (SVG, PNG)
     #[arg(long, value_name = "UNIT")]
     width_unit: Option<String>,
     /// Colour index change of ' ; , without a parameter
-    #[arg(long, allow_negative_numbers = true, value_parser = number)]
+    #[arg(long, allow_hyphen_values = true, value_parser = number)]
     colour_increment: Option<f64>,
     /// Tropism vector "X Y Z"
     #[arg(long, value_name = "X Y Z", allow_hyphen_values = true)]
     tropism: Option<String>,
     /// Elasticity (bending by tropism after each F and G)
-    #[arg(long, allow_negative_numbers = true, value_parser = number)]
+    #[arg(long, allow_hyphen_values = true, value_parser = number)]
     elasticity: Option<f64>,
     /// Elasticity change of _ without a parameter
-    #[arg(long, allow_negative_numbers = true, value_parser = number)]
+    #[arg(long, allow_hyphen_values = true, value_parser = number)]
     elasticity_increment: Option<f64>,
     /// How tropism bends: abop (about H × T, after F G) or cpfg (cpfg's bend, after F G f g)
     #[arg(long, value_name = "MODEL")]
@@ -81,7 +81,7 @@ struct Args {
     #[arg(long, value_name = "DIRECTION", allow_hyphen_values = true)]
     view: Option<String>,
     /// Turn the picture on the screen, degrees counter-clockwise
-    #[arg(long, allow_negative_numbers = true, value_parser = number)]
+    #[arg(long, allow_hyphen_values = true, value_parser = number)]
     twist: Option<f64>,
     /// Longer side of the picture in pixels (SVG and PNG)
     #[arg(long, default_value_t = 800, value_parser = clap::value_parser!(u32).range(16..=8192))]
@@ -96,6 +96,8 @@ struct Args {
 
 /// A number option: as f64, but digits past the largest number
 /// (`--angle 1e400`) are out of range, not the `inf` they would become.
+/// The options take hyphen values: clap's own test for a negative number
+/// refuses `-1e-5` and `-.5` ("unexpected argument '-1' found").
 fn number(s: &str) -> Result<f64, String> {
     match view::number_word(s) {
         Err(e @ lsgen::diag::ViewError::OutOfRange(_)) => Err(e.to_string()),
