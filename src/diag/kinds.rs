@@ -1388,6 +1388,8 @@ pub enum TurtleError {
     NumberTooLong(usize),
     /// Something else than a number in a parameter list (its start).
     ExpectedNumber(String),
+    /// A parameter past the largest number (`F(1e400)`), as written.
+    NumberOutOfRange(String),
     /// A parameter list without its `)`.
     ParamsNotClosed,
     /// Neither `,` nor `)` after a parameter.
@@ -1440,6 +1442,10 @@ impl fmt::Display for TurtleError {
             InvalidUtf8 => f.write_str("invalid UTF-8"),
             NumberTooLong(n) => write!(f, "number too long (over {n} characters)"),
             ExpectedNumber(shown) => write!(f, "expected a number, found `{shown}`"),
+            NumberOutOfRange(text) => write!(
+                f,
+                "number `{text}` is out of range (past the largest number, about 1.8e308)"
+            ),
             ParamsNotClosed => f.write_str("parameter list not closed: `(` without `)`"),
             ExpectedCommaOrParen(c) => {
                 write!(f, "expected `,` or `)`, found `{}`", c.escape_default())

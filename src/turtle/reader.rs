@@ -219,6 +219,12 @@ impl<R: Read> Reader<R> {
             let text = std::str::from_utf8(&avail[..len]).unwrap_or("");
             let v = match text.parse::<f64>() {
                 Ok(v) if v.is_finite() => v,
+                // Digits past the largest number (`1e400`): a number all
+                // the same, out of range, as lsgen says of it.
+                Ok(_) => {
+                    let kind = TurtleError::NumberOutOfRange(text.to_string());
+                    return Err(self.error_at(here, kind));
+                }
                 _ => {
                     let shown: String = String::from_utf8_lossy(&avail[..avail.len().min(20)])
                         .chars()
@@ -321,6 +327,10 @@ mod tests {
             "in:1:2: error: unexpected control character 0x01\nF\u{fffd}\n ^\n"
         );
         assert!(all("F\u{ff}").is_ok());
+        assert_eq!(
+            all("F(2,-1e400)").unwrap_err(),
+            "in:1:5: error: number `-1e400` is out of range (past the largest number, about 1.8e308)\nF(2,-1e400)\n    ^\n"
+        );
         assert_eq!(
             all_bytes(b"F\xff").unwrap_err(),
             "in:1:2: error: invalid UTF-8\nF\u{fffd}\n ^\n"
