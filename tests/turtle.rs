@@ -1797,3 +1797,24 @@ fn number_options_take_every_negative_spelling() {
         r.stderr
     );
 }
+
+/// `-o` with an extension that is not UTF-8 is no format's: a usage
+/// error, nothing written (it was drawn as SVG).
+#[test]
+fn output_extension_not_utf8_is_a_usage_error() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = common::tempdir();
+    let out = dir.path().join(std::ffi::OsStr::from_bytes(b"x.\xff"));
+    let r = run_with_stdin(common::turtle().arg("-o").arg(&out), &b"F"[..]);
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(2), "{}", r.stderr);
+    assert!(r.stderr.contains("cannot tell the format"), "{}", r.stderr);
+    assert!(!out.exists());
+    // With -f the name is taken as it is.
+    let r = run_with_stdin(
+        common::turtle().args(["-f", "segments", "-o"]).arg(&out),
+        &b"F"[..],
+    );
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert_eq!(std::fs::read(&out).unwrap(), b"0 0 0 0 1 0 1 0\n");
+}

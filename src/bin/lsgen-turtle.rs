@@ -174,10 +174,13 @@ fn options(a: Args) -> Result<Options, Error> {
         (Some(f), _) => {
             Format::parse(f).ok_or_else(|| Error::new(UsageError::UnknownFormat(f.clone())))?
         }
-        (None, Some(p)) => match p.extension().and_then(|e| e.to_str()) {
-            Some(e) => {
-                Format::parse(e).ok_or_else(|| Error::new(UsageError::FormatFromName(p.clone())))?
-            }
+        // (An extension that is not UTF-8 is no format's either: a usage
+        // error, not SVG.)
+        (None, Some(p)) => match p.extension() {
+            Some(e) => e
+                .to_str()
+                .and_then(Format::parse)
+                .ok_or_else(|| Error::new(UsageError::FormatFromName(p.clone())))?,
             None => Format::Svg,
         },
         (None, None) => Format::Svg,
