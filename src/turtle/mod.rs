@@ -170,6 +170,36 @@ impl<R: Read> Read for Tee<R> {
     }
 }
 
+/// The second pass over a regular file: exactly the bytes the first pass
+/// read. A file grown meanwhile (appended to in place) is drawn as the
+/// first pass saw it, so an error in what was added cannot reach the
+/// second pass, after SVG has begun on standard output; a file cut
+/// shorter is an error, not a picture with part of the string missing.
+struct Again<R: Read> {
+    inner: std::io::Take<R>,
+}
+
+impl<R: Read> Again<R> {
+    fn new(inner: R, len: u64) -> Self {
+        Again {
+            inner: inner.take(len),
+        }
+    }
+}
+
+impl<R: Read> Read for Again<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        if n == 0 && !buf.is_empty() && self.inner.limit() > 0 {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::UnexpectedEof,
+                "the file became shorter while it was drawn (read twice: bounding box, then drawing)",
+            ));
+        }
+        Ok(n)
+    }
+}
+
 /// Run `lsgen-turtle`.
 pub fn run(o: &Options) -> Result<(), Error> {
     use crate::output::Output;
@@ -269,9 +299,13 @@ pub fn run(o: &Options) -> Result<(), Error> {
             let second: Box<dyn Read> = match src {
                 Source::File(mut f) => {
                     interpret(first, &in_name, &out_name, &o.view, &mut bbox)?;
-                    f.rewind()
+                    // (`f` shares the offset pass 1 read up to: its end
+                    // of file then.)
+                    let seen = f
+                        .stream_position()
+                        .and_then(|n| f.rewind().map(|()| n))
                         .map_err(|e| Error::io(in_name.clone(), crate::diag::IoAction::Read, e))?;
-                    Box::new(f)
+                    Box::new(Again::new(f, seen))
                 }
                 Source::Stream => {
                     let spool = tempfile::tempfile().map_err(|e| {
@@ -309,5 +343,29 @@ pub fn run(o: &Options) -> Result<(), Error> {
             }
             out.commit()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Again;
+    use std::io::Read;
+
+    #[test]
+    fn the_second_pass_reads_what_the_first_read() {
+        // Grown since: the bytes added are not read.
+        let mut s = String::new();
+        Again::new(&b"F+F]"[..], 3).read_to_string(&mut s).unwrap();
+        assert_eq!(s, "F+F");
+        // Cut shorter: an error, not a shorter string.
+        let e = Again::new(&b"F+"[..], 3)
+            .read_to_string(&mut s)
+            .unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::UnexpectedEof);
+        assert!(e.to_string().contains("became shorter"), "{e}");
+        // The same length: as it is.
+        let mut v = Vec::new();
+        Again::new(&b"F+F"[..], 3).read_to_end(&mut v).unwrap();
+        assert_eq!(v, b"F+F");
     }
 }
