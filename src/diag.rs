@@ -475,7 +475,8 @@ mod kinds;
 mod spill;
 mod warning;
 pub use kinds::*;
-pub use warning::{Warning, WarningKind};
+pub(crate) use warning::FileWarnings;
+pub use warning::{Warning, WarningKind, MAX_FILE_WARNINGS};
 
 /// An error: what went wrong ([`ErrorKind`], typed by stage), where (a
 /// [`Location`] in the source, or a subject such as a file name), boxed so

@@ -1468,3 +1468,27 @@ fn a_nan_parameter_is_named_nan() {
         );
     }
 }
+
+/// A `.l` file whose every line warns (150 `#pragma`s): the first 100
+/// warnings are shown, then one at line 101 counting the other 50; a file
+/// of a million such lines held a million located warnings (378 MiB for
+/// 1.5 million) and printed them all.
+#[test]
+fn a_file_shows_its_first_100_warnings_and_counts_the_rest() {
+    let dir = tempdir();
+    let src = format!(
+        "{}Lsystem: 1\nAxiom: A\nA --> B\nendlsystem\n",
+        "#pragma x\n".repeat(150)
+    );
+    let file = write(dir.path(), "w.l", src);
+    let (out, err) = derive(&["-n", "1"], &file);
+    assert_eq!(out, "B\n");
+    let name = file.display();
+    let pragma =
+        |line: usize| format!("lsgen: {name}:{line}:1: warning: #pragma ignored\n#pragma x\n^\n");
+    let mut want: String = (1..=100).map(pragma).collect();
+    want.push_str(&format!(
+        "lsgen: {name}:101:1: warning: 50 more warnings from here on not shown (a file's first 100 are)\n#pragma x\n^\n"
+    ));
+    assert_eq!(err, want);
+}

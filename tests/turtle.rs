@@ -1747,6 +1747,27 @@ mod cpfg_files {
                 "lsgen-turtle: {v}:1:1: warning: `angel factor:` is no label of cpfg's view files (as cpfg, lsgen-turtle skips the line)\nangel factor: 8\n^\n"
             )
         );
+        // A file whose every line warns: its first 100 warnings, then one
+        // counting the rest, at the first of them (a file of 8 million
+        // such lines held 1.9 GB of warnings).
+        let v = write(
+            dir.path(),
+            "many.v",
+            "angel factor: 8\n".repeat(102).as_bytes(),
+        );
+        let r = turtle(&["--cpfg-view", &v, "-f", "segments"], b"F");
+        assert!(r.status.success(), "{}", r.stderr);
+        let lines: Vec<&str> = r.stderr.lines().collect();
+        assert_eq!(lines.len(), 3 * 101, "{}", r.stderr);
+        assert_eq!(
+            lines[3 * 100..].join("\n"),
+            format!(
+                "lsgen-turtle: {v}:101:1: warning: 2 more warnings from here on not shown (a file's first 100 are)\nangel factor: 8\n^"
+            )
+        );
+        assert!(lines[3 * 99].starts_with(&format!(
+            "lsgen-turtle: {v}:100:1: warning: `angel factor:`"
+        )));
         // A colour map of the wrong size; a missing file; with --ls.
         let m = write(dir.path(), "m.map", &[0; 700]);
         let r = turtle(&["--colormap", &m], b"F");

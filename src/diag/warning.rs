@@ -79,6 +79,57 @@ pub enum WarningKind {
     /// A library derivation: cpfg `printf` text past 1 MiB in one step
     /// could not go to a temporary file (why), and is held in memory.
     PrintfHeld(String),
+    /// Reading one file (the cpfg preprocessor's, a cpfg view file's)
+    /// found this many more warnings after its first
+    /// [`MAX_FILE_WARNINGS`], from here on: not kept, not shown.
+    MoreWarnings(u64),
+}
+
+/// Most warnings one file's reading keeps ([`FileWarnings`]): a file of a
+/// million lines that each warn would otherwise hold (and print) a million
+/// located warnings, each with its line.
+pub const MAX_FILE_WARNINGS: usize = 100;
+
+/// The warnings of one file's reading: the first [`MAX_FILE_WARNINGS`],
+/// then, at the first one past them, one [`WarningKind::MoreWarnings`]
+/// counting the rest (whose places are never worked out).
+pub(crate) struct FileWarnings<W> {
+    kept: Vec<W>,
+    more: u64,
+    more_at: Option<Location>,
+}
+
+impl<W> FileWarnings<W> {
+    pub(crate) fn new() -> Self {
+        FileWarnings {
+            kept: Vec::new(),
+            more: 0,
+            more_at: None,
+        }
+    }
+
+    /// A warning at `at` (asked for only if it is kept or the first past
+    /// the limit), made by `make`.
+    pub(crate) fn push(&mut self, at: impl FnOnce() -> Location, make: impl FnOnce(Location) -> W) {
+        if self.kept.len() < MAX_FILE_WARNINGS {
+            self.kept.push(make(at()));
+        } else {
+            if self.more == 0 {
+                self.more_at = Some(at());
+            }
+            self.more += 1;
+        }
+    }
+
+    /// The warnings kept, and the count of the others at the end (`make`
+    /// makes it a `W`).
+    pub(crate) fn finish(mut self, make: impl FnOnce(Location, WarningKind) -> W) -> Vec<W> {
+        if let Some(at) = self.more_at.take() {
+            self.kept
+                .push(make(at, WarningKind::MoreWarnings(self.more)));
+        }
+        self.kept
+    }
 }
 
 impl fmt::Display for WarningKind {
@@ -158,6 +209,12 @@ impl fmt::Display for WarningKind {
             PrintfLost(why) => write!(
                 f,
                 "text that cpfg's `printf` printed is lost: it was held in a temporary file that could not be read back ({why})"
+            ),
+            MoreWarnings(n) => write!(
+                f,
+                "{} more {} from here on not shown (a file's first {MAX_FILE_WARNINGS} are)",
+                super::group_digits(*n),
+                if *n == 1 { "warning" } else { "warnings" }
             ),
         }
     }

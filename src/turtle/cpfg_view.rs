@@ -191,7 +191,7 @@ fn read_file(path: &Path, view: &mut View) -> Result<(Vec<Warning>, CpfgTurtle),
         turtle: CpfgTurtle::default(),
         box_given: false,
         display_before: false,
-        warnings: Vec::new(),
+        warnings: crate::diag::FileWarnings::new(),
         viewpoint: [0.0, 0.0, 1.0],
         vrp: [0.0; 3],
         map: &out.map,
@@ -205,7 +205,8 @@ fn read_file(path: &Path, view: &mut View) -> Result<(Vec<Warning>, CpfgTurtle),
     }
     r.camera();
     r.turtle.fills_last = !r.box_given || r.display_before;
-    Ok((r.warnings, r.turtle))
+    let warnings = r.warnings.finish(|at, kind| Warning::new(kind, Some(at)));
+    Ok((warnings, r.turtle))
 }
 
 struct ViewFile<'a> {
@@ -213,7 +214,7 @@ struct ViewFile<'a> {
     turtle: CpfgTurtle,
     box_given: bool,
     display_before: bool,
-    warnings: Vec<Warning>,
+    warnings: crate::diag::FileWarnings<Warning>,
     viewpoint: [f64; 3],
     vrp: [f64; 3],
     map: &'a crate::cpfg::preprocess::SourceMap,
@@ -268,8 +269,9 @@ impl ViewFile<'_> {
     }
 
     fn warn(&mut self, offset: usize, kind: WarningKind) {
-        let w = Warning::new(kind, Some(self.location(offset)));
-        self.warnings.push(w);
+        let map = self.map;
+        self.warnings
+            .push(|| map.location(offset), |at| Warning::new(kind, Some(at)));
     }
 
     /// One line: labels and their arguments, as long as the arguments

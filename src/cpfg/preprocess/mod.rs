@@ -252,7 +252,7 @@ struct Pp<'l> {
     files: Vec<SourceFile>,
     text: String,
     segs: Vec<Seg>,
-    warnings: Vec<Warning>,
+    warnings: crate::diag::FileWarnings<Warning>,
     macros: HashMap<String, usize>,
     defs: Vec<Macro>,
     hidesets: Vec<Vec<u32>>,
@@ -325,7 +325,7 @@ fn preprocess_full(
         files: Vec::new(),
         text: String::new(),
         segs: Vec::new(),
-        warnings: Vec::new(),
+        warnings: crate::diag::FileWarnings::new(),
         macros: HashMap::new(),
         defs: Vec::new(),
         hidesets: vec![Vec::new()],
@@ -359,16 +359,21 @@ fn preprocess_full(
             files: pp.files,
             segs: pp.segs,
         },
-        warnings: pp.warnings,
+        warnings: pp.warnings.finish(|at, message| Warning { at, message }),
     })
+}
+
+/// Where `p` is in the sources.
+fn location_in(files: &[SourceFile], p: Pos) -> Location {
+    let f = &files[p.file as usize];
+    f.location_src(f.src_offset(p.off as usize))
 }
 
 impl Pp<'_> {
     // ------------------------------------------------------------ places
 
     fn location(&self, p: Pos) -> Location {
-        let f = &self.files[p.file as usize];
-        f.location_src(f.src_offset(p.off as usize))
+        location_in(&self.files, p)
     }
 
     fn err(&self, p: Pos, kind: PpErrorKind) -> PpError {
@@ -379,8 +384,9 @@ impl Pp<'_> {
     }
 
     fn warn(&mut self, p: Pos, message: crate::diag::WarningKind) {
-        let at = self.location(p);
-        self.warnings.push(Warning { at, message });
+        let files = &self.files;
+        self.warnings
+            .push(|| location_in(files, p), |at| Warning { at, message });
     }
 
     fn text<'a>(&'a self, t: &'a Tok) -> &'a str {
