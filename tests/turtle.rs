@@ -1359,6 +1359,38 @@ fn an_obj_name_with_blanks_is_refused() {
     assert!(text(ok(&r)).starts_with("# lsgen-turtle\n"));
 }
 
+/// The MTL beside an OBJ is no name the user gave: one there that is not
+/// a regular file is refused before anything is drawn (a FIFO blocked the
+/// run forever at its end; a directory was named as if `-o` had said it).
+#[test]
+fn an_mtl_that_is_not_a_file_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("z.mtl")).unwrap();
+    let fifo = std::ffi::CString::new(d.join("f.mtl").to_str().unwrap()).unwrap();
+    assert_eq!(unsafe { libc::mkfifo(fifo.as_ptr(), 0o600) }, 0);
+    for stem in ["z", "f"] {
+        let r = common::run_within(
+            common::turtle()
+                .args(["-o", &format!("{stem}.obj")])
+                .current_dir(d)
+                .stdin(std::process::Stdio::null()),
+            std::time::Duration::from_secs(60),
+        );
+        r.assert_no_crash();
+        assert_eq!(r.code(), Some(2), "{}", r.stderr);
+        assert_eq!(
+            r.stderr,
+            format!(
+                "lsgen-turtle: error: the OBJ's materials go to `{stem}.mtl` beside it, which is \
+                 there and is not a regular file (a directory, a FIFO, a device): give -o another \
+                 name\n"
+            )
+        );
+        common::assert_listing(d, &["f.mtl", "z.mtl"]);
+    }
+}
+
 #[test]
 fn numbers_past_the_largest_are_out_of_range() {
     // Not "`inf` is not a number": a usage error naming the number.

@@ -1235,6 +1235,9 @@ pub enum UsageError {
     /// lsgen-turtle: an OBJ's MTL file name (as it would be written in
     /// `mtllib`) with blanks, which OBJ readers take as separators.
     MtlNameWithBlanks(String),
+    /// lsgen-turtle: an OBJ's MTL file (beside it) that exists and is not
+    /// a regular file: a directory, a FIFO (which would block), a device.
+    MtlNotAFile(PathBuf),
     /// `LSGEN_JOBS` that is not a number of threads (its value, lossy).
     JobsVariable(String),
 }
@@ -1364,6 +1367,12 @@ impl fmt::Display for UsageError {
                 f,
                 "the OBJ would name its materials `mtllib {name}`, but OBJ readers split that \
                  line at blanks: give -o a name without blanks"
+            ),
+            MtlNotAFile(path) => write!(
+                f,
+                "the OBJ's materials go to `{}` beside it, which is there and is not a regular \
+                 file (a directory, a FIFO, a device): give -o another name",
+                path.display()
             ),
             JobsVariable(value) => write!(
                 f,

@@ -269,6 +269,14 @@ pub fn run(o: &Options) -> Result<(), Error> {
                             n.into_owned(),
                         )));
                     }
+                    // Not a name the user gave: a FIFO there would block the
+                    // run at its end, and a directory be named as `-o`'s.
+                    if let Some(m) = mtl_path
+                        .as_ref()
+                        .filter(|m| std::fs::metadata(m).is_ok_and(|md| !md.is_file()))
+                    {
+                        return Err(Error::new(crate::diag::UsageError::MtlNotAFile(m.clone())));
+                    }
                     let mut s = render::Obj::begin(w, &o.view, lib, o.cylinders).map_err(werr)?;
                     interpret(first, &in_name, &out_name, &o.view, &mut s)?;
                     s.finish().map_err(werr)?;
