@@ -1521,6 +1521,29 @@ mod cpfg_files {
             &format!("0 0 0 {s} {c} 0 1 128\n0 0 0 0 1 0 1 128\n"),
             "@Ts in a branch",
         );
+        // An elasticity near the largest number overflows cpfg's sums (the
+        // quaternion's length is infinite, its inverse 0): an error at the
+        // move, not segments of length 0 (what it drew before), nor "moved
+        // out of range" for a NaN frame.
+        for (view, input, at) in [
+            (&b"tropism: T: 1,0,0 A: 30 E: 1e308\n"[..], &b"FF"[..], 0),
+            (
+                b"tropism: T: 1,0,0 A: 90 E: 0.1\ntorque: T: 0,0,1 E: 1e308\n",
+                b"F@Ti(1,1e308)F",
+                13,
+            ),
+        ] {
+            let v = write(dir.path(), "big.v", view);
+            let r = turtle(&["--cpfg-view", &v, "-f", "segments"], input);
+            assert_eq!(r.code(), Some(1), "{}", r.stderr);
+            assert_located(
+                &r.stderr,
+                input,
+                at,
+                "error: cpfg's tropism or torque (the view file's movements) overflows: an \
+                 elasticity this large leaves the turtle no heading (cpfg's turtle becomes NaN)",
+            );
+        }
         // A line cpfg ignores (a zero direction) is a warning, and draws
         // nothing.
         let v = write(dir.path(), "m.v", b"tropism: T: 0,0,0 E: 1\n");

@@ -1421,6 +1421,8 @@ pub enum TurtleError {
     TooDeep,
     /// The drawing's extent overflowed.
     ExtentOverflow,
+    /// cpfg's movements (a view file's tropisms, torque) overflowed.
+    MovementOverflow,
 }
 
 impl TurtleError {
@@ -1438,6 +1440,7 @@ impl TurtleError {
                 | PolygonTooLarge(_)
                 | TooDeep
                 | ExtentOverflow
+                | MovementOverflow
         )
     }
 }
@@ -1478,6 +1481,10 @@ impl fmt::Display for TurtleError {
             ExtentOverflow => {
                 f.write_str("the drawing is too large to lay out (its extent overflows)")
             }
+            MovementOverflow => f.write_str(
+                "cpfg's tropism or torque (the view file's movements) overflows: an elasticity \
+                 this large leaves the turtle no heading (cpfg's turtle becomes NaN)",
+            ),
         }
     }
 }

@@ -84,6 +84,9 @@ pub fn interpret<R: Read>(
             Err(ModErr::Fault(Fault::PolygonTooLarge)) => {
                 return Err(r.error_at(r.last, TurtleError::PolygonTooLarge(state::MAX_VERTICES)))
             }
+            Err(ModErr::Fault(Fault::MovementOverflow)) => {
+                return Err(r.error_at(r.last, TurtleError::MovementOverflow))
+            }
             Err(ModErr::Fault(Fault::TooDeep)) => {
                 return Err(r.error_at(r.last, TurtleError::TooDeep))
             }

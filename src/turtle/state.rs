@@ -201,6 +201,9 @@ pub enum Fault {
     WidthOverflow,
     /// Open polygons with more than [`MAX_VERTICES`] vertices in all.
     PolygonTooLarge,
+    /// cpfg's movements (tropisms, torque) left no heading: numbers past
+    /// the largest (an elasticity of 1e308) made the frame NaN or zero.
+    MovementOverflow,
 }
 
 impl Turtle {
@@ -250,9 +253,23 @@ impl Turtle {
         Some(with_frame(v, |f| g(m, f)))
     }
 
-    /// cpfg's movements turn the turtle before a move.
-    fn movements_adjust(&mut self) {
-        self.moving(|m, f| m.adjust(f));
+    /// cpfg's movements turn the turtle before a move. Elasticities near
+    /// the largest number overflow cpfg's sums (its quaternion's length
+    /// becomes infinite, its inverse 0): a heading that is no unit vector
+    /// after them is an error, not segments of length 0 or NaN drawn on.
+    fn movements_adjust(&mut self) -> Result<(), ModErr> {
+        if self.moving(|m, f| m.adjust(f)).is_none() {
+            return Ok(());
+        }
+        // (A collapse gives 0, an overflow infinity or NaN: far from 1,
+        // whatever rounding a long run of turns has gathered.)
+        let unit = (norm(self.s.h) - 1.0).abs() < 0.5;
+        let frame = [self.s.h, self.s.l, self.s.u];
+        if unit && frame.iter().flatten().all(|x| x.is_finite()) {
+            Ok(())
+        } else {
+            Err(ModErr::Fault(Fault::MovementOverflow))
+        }
     }
 
     #[inline]
@@ -382,7 +399,7 @@ impl Turtle {
         }
         match sym {
             'F' | 'G' => {
-                self.movements_adjust();
+                self.movements_adjust()?;
                 let from = self.forward(p)?;
                 let to = self.s.pos;
                 let width = self.drawn_width()?;
@@ -394,7 +411,7 @@ impl Turtle {
                 (self.s.prev_h, self.s.prev_u) = (self.s.h, self.s.u);
             }
             'f' | 'g' => {
-                self.movements_adjust();
+                self.movements_adjust()?;
                 self.forward(p)?;
                 if sym == 'f' {
                     self.vertex(self.s.pos)?;
