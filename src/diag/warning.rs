@@ -85,9 +85,10 @@ pub enum WarningKind {
     MoreWarnings(u64),
 }
 
-/// Most warnings one file's reading keeps ([`FileWarnings`]): a file of a
-/// million lines that each warn would otherwise hold (and print) a million
-/// located warnings, each with its line.
+/// Most warnings one file's reading keeps (the cpfg preprocessor's, a
+/// cpfg view file's), then one [`WarningKind::MoreWarnings`] counts the
+/// rest: a file of a million lines that each warn would otherwise hold
+/// (and print) a million located warnings, each with its line.
 pub const MAX_FILE_WARNINGS: usize = 100;
 
 /// The warnings of one file's reading: the first [`MAX_FILE_WARNINGS`],
