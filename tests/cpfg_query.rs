@@ -613,6 +613,15 @@ fn refused() {
             "F?P(0,0)",
             "cpfg's tropism bends the turtle by a sine past 1",
         ),
+        // An elasticity near the largest number: cpfg's movement sums
+        // overflow and the heading collapses (`?H(0,0,0)` was filled with
+        // 0,0,0).
+        (
+            "big.v",
+            "tropism: T: 1,0,0 A: 30 E: 1e308\n",
+            "F?H(0,0,0)",
+            "cpfg's tropism or torque (the view file's movements) overflows",
+        ),
         (
             "odd.v",
             "angle increment: ?\n",

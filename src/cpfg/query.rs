@@ -134,6 +134,8 @@ pub enum QueryFault {
     /// cpfg's bend: elasticity × (T·U) or (T·L) past ±1, no angle (cpfg's
     /// turtle becomes NaN).
     BendPastRightAngle,
+    /// cpfg's movements overflowed ([`crate::turtle::movements::Moving::adjust`]).
+    MovementOverflow,
     /// A vector a query would give is past the largest number.
     NotFinite,
     /// Branches nested deeper than [`MAX_DEPTH`]: the turtle keeps a
@@ -223,7 +225,9 @@ impl<'q> Walker<'q> {
         match sym {
             'F' | 'G' | 'f' | 'g' => {
                 // cpfg's movements turn the turtle before the move.
-                self.moving(|m, f| m.adjust(f));
+                if let Some(Err(())) = self.moving(|m, f| m.adjust(f)) {
+                    return Err(QueryFault::MovementOverflow);
+                }
                 let st = &mut self.s;
                 // cpfg: `internodeLength` is a float, the parameter (or
                 // the step size, 1) times the turtle's scale.

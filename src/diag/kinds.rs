@@ -1033,6 +1033,7 @@ impl fmt::Display for RuntimeError {
                     BendPastRightAngle => {
                         "cpfg's tropism bends the turtle by a sine past 1 (elasticity times the tropism's component), which is no angle".into()
                     }
+                    MovementOverflow => "cpfg's tropism or torque (the view file's movements) overflows: an elasticity this large leaves the turtle no heading (cpfg's turtle becomes NaN)".into(),
                     NotFinite => "a query's vector is past the largest number".into(),
                     TooDeep => "branches nested deeper than 1048576 (the turtle keeps each open one)".into(),
                     NotAQuery(Some('Q')) => "`?Q` (cpfg's quaternion query) is not filled by lsgen's query turtle".into(),

@@ -447,9 +447,21 @@ impl<M: std::borrow::BorrowMut<Movements>> Moving<M> {
         self.saved.truncate(at);
     }
 
-    /// Before a move ([`Movements::adjust`]).
-    pub fn adjust(&self, f: &mut Frame) {
+    /// Before a move ([`Movements::adjust`]). An error where the frame
+    /// is left no frame: elasticities near the largest number overflow
+    /// cpfg's sums (its quaternion's length becomes infinite, its inverse
+    /// 0), and the heading collapses to 0 or becomes NaN, where cpfg's
+    /// turtle draws on with NaN.
+    #[allow(clippy::result_unit_err)]
+    pub fn adjust(&self, f: &mut Frame) -> Result<(), ()> {
         self.movements.borrow().adjust(f);
+        // (Far from 1 however much rounding a long run has gathered.)
+        let unit = (norm(f.h) - 1.0).abs() < 0.5;
+        if unit && [f.h, f.l, f.u].iter().flatten().all(|x| x.is_finite()) {
+            Ok(())
+        } else {
+            Err(())
+        }
     }
 
     /// `@T` and its subfunction ([`Movements::at_t`]).

@@ -253,22 +253,12 @@ impl Turtle {
         Some(with_frame(v, |f| g(m, f)))
     }
 
-    /// cpfg's movements turn the turtle before a move. Elasticities near
-    /// the largest number overflow cpfg's sums (its quaternion's length
-    /// becomes infinite, its inverse 0): a heading that is no unit vector
-    /// after them is an error, not segments of length 0 or NaN drawn on.
+    /// cpfg's movements turn the turtle before a move (an error where
+    /// they overflow, [`Moving::adjust`]).
     fn movements_adjust(&mut self) -> Result<(), ModErr> {
-        if self.moving(|m, f| m.adjust(f)).is_none() {
-            return Ok(());
-        }
-        // (A collapse gives 0, an overflow infinity or NaN: far from 1,
-        // whatever rounding a long run of turns has gathered.)
-        let unit = (norm(self.s.h) - 1.0).abs() < 0.5;
-        let frame = [self.s.h, self.s.l, self.s.u];
-        if unit && frame.iter().flatten().all(|x| x.is_finite()) {
-            Ok(())
-        } else {
-            Err(ModErr::Fault(Fault::MovementOverflow))
+        match self.moving(|m, f| m.adjust(f)) {
+            Some(Err(())) => Err(ModErr::Fault(Fault::MovementOverflow)),
+            _ => Ok(()),
         }
     }
 
