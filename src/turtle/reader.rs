@@ -66,10 +66,6 @@ impl<R: Read> Reader<R> {
         }
     }
 
-    pub fn name(&self) -> &str {
-        &self.input.name
-    }
-
     /// Where the read position is.
     #[inline]
     fn here(&self) -> Spot {
