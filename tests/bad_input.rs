@@ -370,6 +370,10 @@ cases! {
     ignore_and_consider =>
         err("ignore: +\nconsider: F\naxiom: F\n", 2, 1, "cannot both be used");
     ignore_with_parameters => err("ignore: F(1)\naxiom: F\n", 1, 9, "without parameters");
+    // A symbol's later module with parameters is still found where it is
+    // (the line keeps each symbol once as it is read).
+    ignore_with_parameters_later =>
+        err("consider: F G F(1) G(2)\naxiom: F\n", 1, 15, "without parameters");
 
     // --- numbers -----------------------------------------------------------
     bad_number_trailing_e =>

@@ -81,12 +81,39 @@ pub enum Setting {
     DerivationLength(Expr, Span),
     Define(String, Expr, Span),
     Seed(Expr, Span),
+    /// `ignore:`: each symbol of the line once, at its first place (and
+    /// the first module with parameters, which is an error), not the
+    /// line's every module ([`Symbols`]).
     Ignore(Vec<Module>, Span),
+    /// `consider:`, as `Ignore`.
     Consider(Vec<Module>, Span),
     /// `groups: G1 G2 ...`: the cycling group schedule (issue 11).
     Groups(Vec<(u32, Span)>, Span),
     /// `group: EXPR`: the group of step `step`.
     Group(Expr, Span),
+}
+
+/// An `ignore:` or `consider:` line's modules as the parser reads them:
+/// what they mean is a set of symbols, so only each symbol's first module
+/// is kept (and the first module with parameters, an error the compiler
+/// reports where it is). A line of millions of modules costs the symbols
+/// it names, not a syntax tree node per module (about 50 bytes each).
+#[derive(Clone, Debug, Default)]
+pub struct Symbols {
+    pub modules: Vec<Module>,
+    seen: std::collections::HashSet<char>,
+    params: bool,
+}
+
+impl Symbols {
+    /// The line's next module.
+    pub fn push(&mut self, m: Module) {
+        let first_params = !m.params.is_empty() && !self.params;
+        if self.seen.insert(m.sym) || first_params {
+            self.params |= !m.params.is_empty();
+            self.modules.push(m);
+        }
+    }
 }
 
 /// A `maximum depth:` or `seed:` line of a decomposition or homomorphism
