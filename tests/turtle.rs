@@ -1418,12 +1418,21 @@ fn numbers_past_the_largest_are_out_of_range() {
             out_of_range("1e400")
         )
     );
-    // `inf` itself is still no number.
-    let r = turtle(&["--angle", "inf"], b"F");
-    assert_eq!(
-        r.stderr,
-        "lsgen-turtle: error: --angle: `inf` is not a number\n"
-    );
+    // `inf` and `nan` are no numbers, quoted as given (`nan` was quoted
+    // as `NaN`); a leading `+` is taken.
+    for w in ["inf", "-inf", "nan", "NaN", "x", "1,5"] {
+        let r = turtle(&["--angle", w], b"F");
+        assert_eq!(r.code(), Some(2), "{w}: {}", r.stderr);
+        assert!(
+            r.stderr.starts_with(&format!(
+                "lsgen-turtle: error: invalid value '{w}' for '--angle <ANGLE>': `{w}` is not a number\n"
+            )),
+            "{w}: {}",
+            r.stderr
+        );
+    }
+    let r = turtle(&["--angle", "+90", "-f", "segments"], b"F+F");
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
 }
 
 /// cpfg's own files (`--cpfg-view`, `--colormap`, `--materials`).

@@ -99,10 +99,14 @@ struct Args {
 /// The options take hyphen values: clap's own test for a negative number
 /// refuses `-1e-5` and `-.5` ("unexpected argument '-1' found").
 fn number(s: &str) -> Result<f64, String> {
-    match view::number_word(s) {
-        Err(e @ lsgen::diag::ViewError::OutOfRange(_)) => Err(e.to_string()),
-        _ => s.parse::<f64>().map_err(|e| e.to_string()),
-    }
+    // As a `view:` number (`inf` and `nan` are none), a leading `+` aside;
+    // refused here, so the error quotes the word as given (a NaN passed
+    // on would be quoted as `NaN`).
+    let plain = s
+        .strip_prefix('+')
+        .filter(|r| r.starts_with(|c: char| c.is_ascii_digit() || c == '.'))
+        .unwrap_or(s);
+    view::number_word(plain).map_err(|e| e.to_string())
 }
 
 fn options(a: Args) -> Result<Options, Error> {
