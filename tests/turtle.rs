@@ -1903,3 +1903,33 @@ fn output_extension_not_utf8_is_a_usage_error() {
     assert_eq!(r.code(), Some(0), "{}", r.stderr);
     assert_eq!(std::fs::read(&out).unwrap(), b"0 0 0 0 1 0 1 0\n");
 }
+
+/// A dotfile's name is its extension: `-o .txt` is segments, `.obj` OBJ
+/// (both were written as SVG, as Rust's rule gives such a name no
+/// extension), `.drawing` no format's; `-o .` aside.
+#[test]
+fn a_dotfile_name_is_its_extension() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    let run = |name: &str| {
+        run_with_stdin(
+            common::turtle().args(["-o", name]).current_dir(d),
+            &b"F"[..],
+        )
+    };
+    let r = run(".txt");
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert_eq!(std::fs::read(d.join(".txt")).unwrap(), b"0 0 0 0 1 0 1 0\n");
+    let r = run(".obj");
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    let obj = std::fs::read_to_string(d.join(".obj")).unwrap();
+    assert!(obj.contains("\nv ") && obj.contains("mtllib"), "{obj}");
+    let r = run(".drawing");
+    assert_eq!(r.code(), Some(2), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("cannot tell the format from `.drawing`"),
+        "{}",
+        r.stderr
+    );
+    assert!(!d.join(".drawing").exists());
+}

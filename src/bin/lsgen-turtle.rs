@@ -180,7 +180,12 @@ fn options(a: Args) -> Result<Options, Error> {
         }
         // (An extension that is not UTF-8 is no format's either: a usage
         // error, not SVG.)
-        (None, Some(p)) => match p.extension() {
+        // A dotfile's name is its extension: `-o .obj` is OBJ (Rust's rule
+        // gives `.obj` none, which made it an SVG).
+        (None, Some(p)) => match p.extension().or_else(|| {
+            let name = p.file_name()?.to_str()?;
+            Some(std::ffi::OsStr::new(name.strip_prefix('.')?)).filter(|e| !e.is_empty())
+        }) {
             Some(e) => e
                 .to_str()
                 .and_then(Format::parse)
