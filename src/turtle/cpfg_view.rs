@@ -589,16 +589,22 @@ impl<'l> Args<'l> {
         }
         let v: f64 = self.line[at..j].parse().map_err(|_| at)?;
         if !v.is_finite() {
-            let text = &self.line[at..j];
-            self.past = Some(if text.len() > 32 {
-                format!("{}...", &text[..32])
-            } else {
-                text.to_string()
-            });
-            return Err(at);
+            return Err(self.too_large(at, j));
         }
         self.at = j;
         Ok((at, v))
+    }
+
+    /// The number at `at..j` is past the largest one: note its text (cut
+    /// at 32 bytes) for the error; Err(at) for the caller.
+    fn too_large(&mut self, at: usize, j: usize) -> usize {
+        let text = &self.line[at..j];
+        self.past = Some(if text.len() > 32 {
+            format!("{}...", &text[..32])
+        } else {
+            text.to_string()
+        });
+        at
     }
 
     /// `%d`: a whole number after blanks.
@@ -617,7 +623,11 @@ impl<'l> Args<'l> {
         if j == s {
             return Err(at);
         }
-        let v: i64 = self.line[at..j].parse().map_err(|_| at)?;
+        // (Digits only, so the one way to fail is a number too large.)
+        let v: i64 = match self.line[at..j].parse() {
+            Ok(v) => v,
+            Err(_) => return Err(self.too_large(at, j)),
+        };
         self.at = j;
         Ok((at, v))
     }
@@ -940,6 +950,12 @@ mod tests {
             ("initial line width: -1", 21, "negative"),
             ("angle increment: 1e999", 18, "`1e999` is out of range"),
             ("viewpoint: 0,-1e999,0", 14, "`-1e999` is out of range"),
+            (
+                "initial color: 99999999999999999999",
+                16,
+                "`99999999999999999999` is out of range",
+            ),
+            ("twist: -9223372036854775809", 8, "out of range"),
         ] {
             let e = read(text).unwrap_err();
             let l = e.location().unwrap();
