@@ -65,20 +65,22 @@ impl<'f> PosReader<'f> {
         let least = 2 * MAX_MODULE_BYTES;
         // Where the file ends, if asked: else found by the first short read.
         let mut eof = u64::MAX;
-        if buf.is_empty() {
-            // A new buffer: no bigger than the file, so a short string does
-            // not pay for a large buffer.
+        let mut want = capacity.max(least);
+        if want > buf.capacity() {
+            // New memory (a new buffer, or a reused one too small): no
+            // bigger than the file, so a short string does not pay for a
+            // large buffer. (A batch's tiny job paid for 1 MiB, zeroed, in
+            // its second pass: 256 page faults.)
             let len = file.metadata().map_or(u64::MAX, |m| m.len());
             eof = len;
-            let capacity = capacity.min(usize::try_from(len).unwrap_or(usize::MAX));
-            buf.resize(capacity.max(least), 0);
-        } else {
-            // A reused one, cut or grown to `capacity` (no read larger than
-            // asked), without asking the file its length: a split pass
-            // makes two readers per chunk, thousands per step. (It grows
-            // at most once to the largest capacity asked.)
-            buf.resize(capacity.max(least), 0);
+            want = capacity
+                .min(usize::try_from(len).unwrap_or(usize::MAX))
+                .max(least);
         }
+        // Cut or grown to `want` (no read larger than asked); within the
+        // buffer's memory without asking the file its length: a split pass
+        // makes two readers per chunk, thousands per step.
+        buf.resize(want, 0);
         PosReader {
             file,
             indexed,
@@ -393,8 +395,23 @@ mod tests {
         let al = Alphabet::new(Filter::All);
         let mut f = tempfile::tempfile().unwrap();
         f.write_all(b"F1[F]1").unwrap();
-        let mut rd = PosReader::reusing(&f, 1 << 16, false, vec![7; 100]);
+        let mut buf = Vec::with_capacity(1 << 16);
+        buf.resize(100, 7);
+        let mut rd = PosReader::reusing(&f, 1 << 16, false, buf);
         assert_eq!(rd.eof, u64::MAX);
+        read_to_the_end_and_no_further(&mut rd, &f, &al);
+    }
+
+    /// A reused buffer that must grow (new memory) grows no bigger than
+    /// the file: a batch's tiny job got 1 MiB, zeroed, in its second pass.
+    #[test]
+    fn a_reused_buffer_grows_no_bigger_than_the_file() {
+        let al = Alphabet::new(Filter::All);
+        let mut f = tempfile::tempfile().unwrap();
+        f.write_all(b"F1[F]1").unwrap();
+        let mut rd = PosReader::reusing(&f, 1 << 20, false, vec![7; 100]);
+        assert_eq!(rd.buf.len(), 2 * MAX_MODULE_BYTES);
+        assert_eq!(rd.eof, 6);
         read_to_the_end_and_no_further(&mut rd, &f, &al);
     }
 
