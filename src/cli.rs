@@ -878,20 +878,25 @@ fn run_batch(
     let next = AtomicU64::new(0);
     let count = AtomicU64::new(0);
     let failed: Mutex<Vec<(u64, Error)>> = Mutex::new(Vec::new());
-    let work = || loop {
-        let i = next.fetch_add(1, Ordering::Relaxed);
-        if i >= total {
-            break;
-        }
-        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(i)))
-            .unwrap_or_else(|_| Err(Error::new(RuntimeError::Internal)));
-        if let Err(e) = r {
-            count.fetch_add(1, Ordering::Relaxed);
-            if let Ok(mut f) = failed.lock() {
-                f.push((i, e));
-                if f.len() >= 2 * SHOWN_FAILURES {
-                    f.sort_by_key(|(i, _)| *i);
-                    f.truncate(SHOWN_FAILURES);
+    let work = || {
+        // Job after job on this thread: each job's passes reuse one
+        // output buffer (sink::KeepSpares).
+        let _spares = crate::derive::KeepSpares::new();
+        loop {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            if i >= total {
+                break;
+            }
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(i)))
+                .unwrap_or_else(|_| Err(Error::new(RuntimeError::Internal)));
+            if let Err(e) = r {
+                count.fetch_add(1, Ordering::Relaxed);
+                if let Ok(mut f) = failed.lock() {
+                    f.push((i, e));
+                    if f.len() >= 2 * SHOWN_FAILURES {
+                        f.sort_by_key(|(i, _)| *i);
+                        f.truncate(SHOWN_FAILURES);
+                    }
                 }
             }
         }

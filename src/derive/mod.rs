@@ -24,6 +24,8 @@ pub(crate) mod step;
 
 pub(crate) use bytetable::ASCII;
 pub use reader::PosReader;
+#[cfg(feature = "cli")]
+pub(crate) use sink::KeepSpares;
 pub use sink::{Limits, Out};
 pub use step::Deriver;
 

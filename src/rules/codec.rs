@@ -244,6 +244,10 @@ pub struct NumFmt {
     cache: Box<[CacheEntry]>,
 }
 
+/// A [`NumFmt`]'s cache and the form its entries are in
+/// ([`NumFmt::take_cache`]).
+pub(crate) struct NumCache(Box<[CacheEntry]>, Numbers);
+
 #[derive(Clone, Copy)]
 struct CacheEntry {
     bits: u64,
@@ -273,6 +277,25 @@ impl NumFmt {
             form: Numbers::Shortest,
             scratch: String::new(),
             cache: vec![EMPTY_ENTRY; 1 << CACHE_BITS].into_boxed_slice(),
+        }
+    }
+
+    /// Its cache, for another `NumFmt` ([`NumFmt::with_cache`]): filling a
+    /// new one writes 160 KiB, which a batch's tiny jobs paid for in each
+    /// pass (`derive::sink`'s spares). This one is left without a cache,
+    /// unusable: for a printer being dropped. None if it has none.
+    pub(crate) fn take_cache(&mut self) -> Option<NumCache> {
+        (self.cache.len() == 1 << CACHE_BITS)
+            .then(|| NumCache(std::mem::take(&mut self.cache), self.form))
+    }
+
+    /// A printer with `cache` (and the form it holds).
+    pub(crate) fn with_cache(cache: NumCache) -> NumFmt {
+        NumFmt {
+            ryu: ryu::Buffer::new(),
+            form: cache.1,
+            scratch: String::new(),
+            cache: cache.0,
         }
     }
 
