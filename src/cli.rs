@@ -397,12 +397,22 @@ pub fn ignore_sigxfsz() {
 /// (16.8 MB in one run with the split's other memory fixes), 11.8-12.0 MB
 /// with this. Blocks are reused, so few are mapped. (Other C libraries:
 /// nothing to do.)
+///
+/// Setting that threshold also fixes glibc's trim threshold at its default,
+/// 128 KiB: a heap whose free top is larger gives it back
+/// (`madvise(MADV_DONTNEED)`, which on a process of several threads
+/// flushes every CPU's TLB) and takes the pages again, zeroed, as it
+/// grows. A batch's tiny jobs each did that once: 10,000 three-step jobs
+/// of a small stochastic plant made 80,000 page faults and 10,000 such
+/// flushes. With 1 MiB they make a few hundred in all, and peak RSS of the
+/// threads rows is as before (benches/RESULTS.md).
 pub fn map_large_blocks() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: mallopt only sets a parameter of glibc's allocator; called
+    // SAFETY: mallopt only sets parameters of glibc's allocator; called
     // before this process starts any thread.
     unsafe {
         libc::mallopt(libc::M_MMAP_THRESHOLD, 256 << 10);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, 1 << 20);
     }
 }
 
