@@ -753,6 +753,26 @@ fn bind_formals(m: &ast::Module, names: &mut HashMap<String, u32>, nslots: &mut 
     Ok(first)
 }
 
+/// Where to report `name` bound twice in `p`: its second place in the text
+/// (the formals are bound predecessor first, so `A(x) < B(x)` found it at
+/// the first `x`, and `A(x, x)` at the second).
+fn second_binding(p: &ast::Production, name: &str) -> Option<Span> {
+    let mut at: Vec<Span> = p
+        .left
+        .iter()
+        .chain([&p.pred])
+        .chain(&p.pred_rest)
+        .chain(&p.right)
+        .flat_map(|m| &m.params)
+        .filter_map(|e| match e {
+            Expr::Var(n, s) if n == name => Some(*s),
+            _ => None,
+        })
+        .collect();
+    at.sort_unstable();
+    at.get(1).copied()
+}
+
 /// A production whose head is compiled and whose successor is arriving
 /// ([`HeaderSink::successor`]): what the successor and the probability
 /// need of the head.
@@ -769,6 +789,20 @@ struct Pending {
 
 /// Compile a production's head: predecessor, contexts, condition.
 fn compile_head(
+    p: &ast::Production,
+    alphabet: &mut Alphabet,
+    consts: &HashMap<String, f64>,
+    cpfg: bool,
+) -> R<Pending> {
+    compile_head_in(p, alphabet, consts, cpfg).map_err(|mut e| {
+        if let crate::lang::parse::HeaderError::Compile(CompileError::BoundTwice(name)) = &e.kind {
+            e.span = second_binding(p, name).unwrap_or(e.span);
+        }
+        e
+    })
+}
+
+fn compile_head_in(
     p: &ast::Production,
     alphabet: &mut Alphabet,
     consts: &HashMap<String, f64>,
