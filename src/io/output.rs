@@ -248,6 +248,8 @@ fn check_not_a_directory_name(p: &Path, name: &str) -> Result<(), Error> {
         match fs::metadata(p) {
             Ok(m) if m.is_dir() => IoReason::IsADirectory,
             Ok(_) => IoReason::NotADirectory,
+            // `file/`: the kernel says so rather than "no such file".
+            Err(e) if e.raw_os_error() == Some(libc::ENOTDIR) => IoReason::NotADirectory,
             Err(_) => IoReason::NoSuchDirectory,
         },
     ))
