@@ -888,6 +888,8 @@ fn run_batch(
     let next = AtomicU64::new(0);
     let count = AtomicU64::new(0);
     let failed: Mutex<Vec<(u64, Error)>> = Mutex::new(Vec::new());
+    // One sync per output directory, at the end (dropped last).
+    let _dirs = crate::io::output::DeferDirSync::new();
     let work = || {
         // Job after job on this thread: each job's passes reuse one
         // output buffer (sink::KeepSpares).

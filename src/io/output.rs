@@ -39,6 +39,61 @@ pub enum Output {
 /// Bit n set: standard file descriptor n was closed when lsgen started.
 static CLOSED_AT_START: AtomicU8 = AtomicU8::new(0);
 
+/// The directories of the files a batch has put in place, while a
+/// [`DeferDirSync`] lives (else None): their syncs wait for its end.
+static DEFERRED_DIRS: std::sync::Mutex<Option<std::collections::HashSet<PathBuf>>> =
+    std::sync::Mutex::new(None);
+
+/// While this lives, [`Output::commit`] leaves the sync of the directory
+/// (what makes the new name durable) to this guard's drop, once per
+/// directory. A batch of tiny jobs into one directory synced it after
+/// every job: one of a job's two `fsync`s, which were most of its time on
+/// a disk. The files themselves are still synced before they get their
+/// names, so a crash never leaves a partial file; it may lose names given
+/// since the batch began, as a crash before the end loses the later jobs.
+#[cfg_attr(not(feature = "cli"), allow(dead_code))]
+pub(crate) struct DeferDirSync(());
+
+#[cfg_attr(not(feature = "cli"), allow(dead_code))]
+impl DeferDirSync {
+    pub(crate) fn new() -> DeferDirSync {
+        if let Ok(mut d) = DEFERRED_DIRS.lock() {
+            *d = Some(Default::default());
+        }
+        DeferDirSync(())
+    }
+}
+
+impl Drop for DeferDirSync {
+    fn drop(&mut self) {
+        let dirs = DEFERRED_DIRS.lock().ok().and_then(|mut d| d.take());
+        for dir in dirs.into_iter().flatten() {
+            sync_dir(&dir);
+        }
+    }
+}
+
+/// Make the names given in `dir` durable (best effort: a directory that
+/// cannot be opened or synced is left as it is).
+fn sync_dir(dir: &Path) {
+    if let Ok(d) = File::open(dir) {
+        let _ = d.sync_all();
+    }
+}
+
+/// Sync `dir` now, or note it for the batch's end ([`DeferDirSync`]).
+fn sync_dir_now_or_later(dir: &Path) {
+    if let Ok(mut d) = DEFERRED_DIRS.lock() {
+        if let Some(set) = d.as_mut() {
+            if !set.contains(dir) {
+                set.insert(dir.to_path_buf());
+            }
+            return;
+        }
+    }
+    sync_dir(dir);
+}
+
 /// Note which standard descriptors are closed (`>&-`, `2>&-`) and give
 /// them /dev/null, so that no file lsgen opens takes their number (a
 /// diagnostic would land in it); output for a closed standard output is
@@ -458,9 +513,9 @@ impl Output {
         // Ctrl-C (or SIGTERM) while the file gets its name would leave a
         // named temp file behind: hold such signals until it is in place.
         let result = with_signals_held(|| Self::put_in_place(file, &dir, &path, &name));
-        // Make the rename durable.
-        if let Ok(d) = File::open(&dir) {
-            let _ = d.sync_all();
+        // Make the rename durable (at a batch's end: DeferDirSync).
+        if result.is_ok() {
+            sync_dir_now_or_later(&dir);
         }
         result
     }
@@ -1133,6 +1188,39 @@ mod tests {
     use super::{Stage, WriteBehind};
     use std::io::{Read, Seek, SeekFrom, Write};
     use std::sync::atomic::Ordering;
+
+    /// Under a `DeferDirSync`, files get their names and their directory
+    /// waits in the set, once; its drop empties it, and then each commit
+    /// syncs its own directory again (nothing waits).
+    #[test]
+    fn a_batch_syncs_each_directory_once_at_its_end() {
+        use super::{DeferDirSync, Output, DEFERRED_DIRS};
+        let dir = tempfile::tempdir().unwrap();
+        let held = || {
+            let d = DEFERRED_DIRS.lock().unwrap();
+            d.as_ref().map(|s| {
+                s.iter()
+                    .filter(|p| p.ends_with(dir.path().file_name().unwrap()))
+                    .count()
+            })
+        };
+        let put = |name: &str| {
+            let mut o = Output::file(&dir.path().join(name)).unwrap();
+            o.writer().write_all(b"F\n").unwrap();
+            o.commit().unwrap();
+        };
+        let guard = DeferDirSync::new();
+        put("a.txt");
+        put("b.txt");
+        assert_eq!(held(), Some(1));
+        drop(guard);
+        assert_eq!(held(), None);
+        put("c.txt");
+        assert_eq!(held(), None);
+        for n in ["a.txt", "b.txt", "c.txt"] {
+            assert_eq!(std::fs::read(dir.path().join(n)).unwrap(), b"F\n");
+        }
+    }
 
     /// The file holds exactly what was written, in order, whatever the
     /// pieces and wherever the switch to writing around the page cache
