@@ -2,7 +2,7 @@
 //! bracket index) or text (the output), buffered, counting modules and
 //! bytes against `--max-length`.
 
-use super::Pass;
+use super::{spares, Pass};
 use crate::diag::{Error, LengthUnit, OptionNames, RuntimeError};
 use crate::rules::codec::{self, ENDS_BYTES, INDEX_BYTES, MAX_MODULE_BYTES};
 use crate::rules::{Alphabet, ConstRun, CLOSE, OPEN};
@@ -15,47 +15,12 @@ pub(crate) const OUT_CHUNK: usize = 1 << 20;
 /// past it.
 const OUT_BUF: usize = OUT_CHUNK + MAX_MODULE_BYTES * 4;
 
-thread_local! {
-    /// Is this thread running job after job ([`KeepSpares`])?
-    static KEEP: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
-    /// The buffer and number cache of the last [`Out::new`]'s `Out` this
-    /// thread dropped, while [`KEEP`], for its next one.
-    static SPARE: std::cell::RefCell<Option<(Vec<u8>, codec::NumCache)>> =
-        const { std::cell::RefCell::new(None) };
-}
-
-/// While this lives, each `Out` made by [`Out::new`] on this thread leaves
-/// its buffer and number cache to the next: a batch's worker runs job
-/// after job, and every pass of every job made a new `OUT_BUF` buffer (its
-/// own pages, as large blocks are: mapped and unmapped, and an unmapping
-/// on a process of several threads flushes every CPU's TLB) and filled a
-/// new cache (160 KiB). Dropping it frees what is kept. Not for the
-/// library's callers' threads, which would keep 1.2 MiB each for good.
-/// (The command line's batches use it.)
-#[cfg_attr(not(feature = "cli"), allow(dead_code))]
-pub(crate) struct KeepSpares(());
-
-#[cfg_attr(not(feature = "cli"), allow(dead_code))]
-impl KeepSpares {
-    pub(crate) fn new() -> KeepSpares {
-        KEEP.set(true);
-        KeepSpares(())
-    }
-}
-
-impl Drop for KeepSpares {
-    fn drop(&mut self) {
-        KEEP.set(false);
-        drop(SPARE.take());
-    }
-}
-
 impl Drop for Out<'_> {
     fn drop(&mut self) {
         // (A buffer taken over by `taker`, or grown far, is not kept.)
-        if KEEP.get() && (OUT_BUF..=2 * OUT_BUF).contains(&self.buf.capacity()) {
+        if spares::keeping() && (OUT_BUF..=2 * OUT_BUF).contains(&self.buf.capacity()) {
             if let Some(cache) = self.num.take_cache() {
-                SPARE.set(Some((std::mem::take(&mut self.buf), cache)));
+                spares::leave_out((std::mem::take(&mut self.buf), cache));
             }
         }
     }
@@ -245,7 +210,7 @@ pub(crate) trait Take {
 
 impl<'w> Out<'w> {
     pub fn new(w: &'w mut dyn Write, name: &'w str, text: bool, limits: Limits) -> Out<'w> {
-        match KEEP.get().then(|| SPARE.take()).flatten() {
+        match spares::take_out() {
             Some((buf, cache)) => {
                 let num = codec::NumFmt::with_cache(cache);
                 Self::with_parts(w, name, text, limits, buf, num)
@@ -809,12 +774,9 @@ mod tests {
         };
         let (v, _) = write(&al);
         assert_eq!(v, b"F(0.1)F(0.6666666666666666)\n");
-        assert!(
-            SPARE.with_borrow(|s| s.is_none()),
-            "not kept without KeepSpares"
-        );
+        assert!(!spares::holds_out(), "not kept without KeepSpares");
 
-        let keep = KeepSpares::new();
+        let keep = spares::KeepSpares::new();
         let (v, at) = write(&al);
         assert_eq!(v, b"F(0.1)F(0.6666666666666666)\n");
         al.set_numbers(codec::Numbers::Significant {
@@ -828,8 +790,8 @@ mod tests {
         let (v, _) = write(&al);
         assert_eq!(v, b"F(0.1)F(0.6666666666666666)\n");
         drop(keep);
-        assert!(SPARE.with_borrow(|s| s.is_none()));
-        assert!(!KEEP.get());
+        assert!(!spares::holds_out());
+        assert!(!spares::keeping());
     }
 
     #[test]
