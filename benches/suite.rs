@@ -960,7 +960,7 @@ fn run_frames(
 fn run_forest(lsgen: &Path, o: &Options, scratch: &Path) -> Result<String, String> {
     let mut md = String::new();
     // (The tiny jobs have no target: their time is mostly the file
-    // system's, two fsyncs each.)
+    // system's.)
     for (name, n, seeds, target) in [
         ("forest_100_seeds", "10", 100u32, true),
         ("forest_10000_tiny", "3", 10_000, false),
