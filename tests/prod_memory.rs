@@ -197,6 +197,25 @@ fn deriving_adds_little_per_production() {
     );
 }
 
+/// Load `src`, a header with one long line of `line` bytes: at most
+/// `factor` times the line at peak (the header's text counted), else a
+/// failure added to `failed`.
+fn check_line(name: &str, src: String, line: usize, factor: f64, failed: &mut Vec<String>) {
+    let source = line as f64;
+    let reader = Cursor::new(src.into_bytes());
+    let base = LIVE.load(Ordering::Relaxed);
+    PEAK.store(base, Ordering::Relaxed);
+    let ls = lsgen::LSystem::from_reader(reader, "long.ls").expect("the header loads");
+    let peak = (PEAK.load(Ordering::Relaxed) - base) as f64;
+    drop(ls);
+    eprintln!("{name:<32} {:.1}x the line", peak / source);
+    if peak > factor * source {
+        failed.push(format!(
+            "`{name}`: {peak} bytes, more than {factor} x {source} (the line)"
+        ));
+    }
+}
+
 /// One production with a long successor is compiled as it is read: the
 /// parser hands its modules over in batches, so the syntax tree of a whole
 /// line (about 50 bytes a module) never exists, and the peak is what the
@@ -218,19 +237,7 @@ fn one_long_successor_costs_its_compiled_form() {
         let pred = axiom.replace('1', "x");
         let line = format!("{pred} -> {}", module.repeat(N * 4 / module.len()));
         let src = format!("productions:\n{line}\naxiom: {axiom}\n");
-        let source = line.len() as f64;
-        let reader = Cursor::new(src.into_bytes());
-        let base = LIVE.load(Ordering::Relaxed);
-        PEAK.store(base, Ordering::Relaxed);
-        let ls = lsgen::LSystem::from_reader(reader, "long.ls").expect("the header loads");
-        let peak = (PEAK.load(Ordering::Relaxed) - base) as f64;
-        drop(ls);
-        eprintln!("{name:<32} {:.1}x the line", peak / source);
-        if peak > factor * source {
-            failed.push(format!(
-                "`{name}`: {peak} bytes, more than {factor} x {source} (the line)"
-            ));
-        }
+        check_line(name, src, line.len(), factor, &mut failed);
     }
     assert!(failed.is_empty(), "{}", failed.join("\n"));
 }
@@ -248,19 +255,7 @@ fn a_long_ignore_line_costs_its_symbols() {
     for (keyword, symbols) in [("ignore:", "+-&^"), ("consider:", "ABCD")] {
         let line = format!("{keyword} {}", symbols.repeat(N));
         let src = format!("{line}\nproductions:\nA < B -> C\naxiom: AB\n");
-        let source = line.len() as f64;
-        let reader = Cursor::new(src.into_bytes());
-        let base = LIVE.load(Ordering::Relaxed);
-        PEAK.store(base, Ordering::Relaxed);
-        let ls = lsgen::LSystem::from_reader(reader, "long.ls").expect("the header loads");
-        let peak = (PEAK.load(Ordering::Relaxed) - base) as f64;
-        drop(ls);
-        eprintln!("{keyword:<32} {:.1}x the line", peak / source);
-        if peak > 4.0 * source {
-            failed.push(format!(
-                "`{keyword}`: {peak} bytes, more than 4 x {source} (the line)"
-            ));
-        }
+        check_line(keyword, src, line.len(), 4.0, &mut failed);
     }
     assert!(failed.is_empty(), "{}", failed.join("\n"));
 }
