@@ -888,11 +888,12 @@ fn run_batch(
     let next = AtomicU64::new(0);
     let count = AtomicU64::new(0);
     let failed: Mutex<Vec<(u64, Error)>> = Mutex::new(Vec::new());
-    // One sync per output directory, at the end (dropped last).
+    // One sync per output directory, when this function returns.
     let _dirs = crate::io::output::DeferDirSync::new();
     let work = || {
-        // Job after job on this thread: each job's passes reuse one
-        // output buffer (sink::KeepSpares).
+        // Job after job on this thread: each job takes the output buffer,
+        // number cache and emptied generation files the last one left
+        // (derive/spares.rs).
         let _spares = crate::derive::KeepSpares::new();
         loop {
             let i = next.fetch_add(1, Ordering::Relaxed);

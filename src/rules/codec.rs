@@ -282,7 +282,7 @@ impl NumFmt {
 
     /// Its cache, for another `NumFmt` ([`NumFmt::with_cache`]): filling a
     /// new one writes 160 KiB, which a batch's tiny jobs paid for in each
-    /// pass (`derive::sink`'s spares). This one is left without a cache,
+    /// pass (`derive::spares`). This one is left without a cache,
     /// unusable: for a printer being dropped. None if it has none.
     pub(crate) fn take_cache(&mut self) -> Option<NumCache> {
         (self.cache.len() == 1 << CACHE_BITS)
