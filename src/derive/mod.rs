@@ -1426,6 +1426,8 @@ mod tests {
         let _keep = spares::KeepSpares::new();
         for _ in 0..3 {
             assert_eq!(run(src, &options).unwrap().0, alone);
+            // (The jobs went through kept files: they left some.)
+            assert!(spares::holds_generations(), "a job left no generation file");
         }
     }
 

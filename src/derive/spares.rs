@@ -75,6 +75,11 @@ pub(crate) fn holds_out() -> bool {
     OUT.with_borrow(|s| s.is_some())
 }
 
+#[cfg(test)]
+pub(crate) fn holds_generations() -> bool {
+    GENERATIONS.with_borrow(|g| !g.is_empty())
+}
+
 /// A kept generation file in `dir`, empty, if any.
 pub(crate) fn take_generation(dir: &Option<PathBuf>) -> Option<File> {
     if !keeping() {
