@@ -259,3 +259,45 @@ fn a_long_ignore_line_costs_its_symbols() {
     }
     assert!(failed.is_empty(), "{}", failed.join("\n"));
 }
+
+/// A context is compiled as it is read: the parser hands the head over
+/// module by module, so a context of 4 * 2^17 modules costs its compiled
+/// patterns (8 bytes a module, 12 in a right context, and their copy into
+/// the production), not a syntax tree node per module (about 50 bytes).
+/// Measured 18.6x, 26.6x and 22.3x the line; 58.6x, 62.6x and 60.3x
+/// before, where these bounds fail (a 10 MB left context peaked at 560 MB
+/// of RSS, 170 MB now).
+#[test]
+fn a_long_context_costs_its_compiled_form() {
+    let _one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let mut failed = Vec::new();
+    let many = |m: &str| m.repeat(N * 4 / m.len());
+    for (name, line, factor) in [
+        ("B... < A -> C", format!("{} < A -> C", many("B")), 20.0),
+        ("A > B... -> C", format!("A > {} -> C", many("B")), 28.0),
+        (
+            "B... < A > [B]... -> C",
+            format!("{} < A > {} -> C", many("B"), many("[B]")),
+            24.0,
+        ),
+    ] {
+        let src = format!("productions:\n{line}\naxiom: A\n");
+        check_line(name, src, line.len(), factor, &mut failed);
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+}
+
+/// A `groups:` line keeps two bytes an entry while it is read (and where
+/// each group is named first), then the schedule four: a line of 4 * 2^17
+/// entries peaks at a few times the line. Measured 5.3x; 16.3x before
+/// (24 bytes an entry), where this bound fails (a 64 MiB line peaked at
+/// about 1 GB of RSS, 270 MB now).
+#[test]
+fn a_long_groups_line_costs_its_schedule() {
+    let _one = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let mut failed = Vec::new();
+    let line = format!("groups: {}", "1 2 ".repeat(N * 2));
+    let src = format!("{line}\nproductions 1:\nA -> B\nproductions 2:\nB -> A\naxiom: A\n");
+    check_line("groups:", src, line.len(), 6.0, &mut failed);
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+}

@@ -1,7 +1,7 @@
 //! Syntax tree of an `.ls` header, as the grammar builds it. Spans are byte
 //! offsets into the header text.
 
-use crate::lang::lexer::Span;
+use crate::lang::lexer::{GroupList, Span};
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Expr {
@@ -88,7 +88,7 @@ pub enum Setting {
     /// `consider:`, as `Ignore`.
     Consider(Vec<Module>, Span),
     /// `groups: G1 G2 ...`: the cycling group schedule (issue 11).
-    Groups(Vec<(u32, Span)>, Span),
+    Groups(GroupList, Span),
     /// `group: EXPR`: the group of step `step`.
     Group(Expr, Span),
 }

@@ -19,6 +19,15 @@ use logos::Logos;
 /// Byte span in the header text.
 pub type Span = (usize, usize);
 
+/// A `groups:` line (issue 11): its entries in order, two bytes each (a
+/// line may hold 33 million), and where each group is named first.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GroupList {
+    pub entries: Vec<u16>,
+    /// Each group's first entry and its span, in the line's order.
+    pub first: Vec<(u16, Span)>,
+}
+
 /// A token handed to the LALRPOP grammar: the one token list of the header.
 #[derive(Logos, Clone, Debug, PartialEq)]
 #[logos(error(LexicalError, unexpected))]
@@ -37,8 +46,8 @@ pub enum Tok<'a> {
     KwMaximumDepth,
     /// `productions N:` (issue 11), N a group number.
     KwProductionsN(u32),
-    /// `groups: G1 G2 ...`, each group with its span.
-    KwGroups(Vec<(u32, Span)>),
+    /// `groups: G1 G2 ...`.
+    KwGroups(GroupList),
     KwGroup,
     /// `warnings` (true) or `no warnings` after a section keyword.
     Warnings(bool),
@@ -580,7 +589,8 @@ impl<'a> Lexer<'a> {
         let err =
             |s: usize, e: usize, kind: LexicalError| Some(Err(LexError { span: (s, e), kind }));
         if let Some(len) = match_keyword(rest, "groups:") {
-            let mut groups = Vec::new();
+            let mut groups = GroupList::default();
+            let mut seen = vec![0u64; 1 << 10];
             let mut end = at + len;
             for (ws, we) in line_words(&rest[len..]) {
                 let word = &rest[len + ws..len + we];
@@ -589,14 +599,22 @@ impl<'a> Lexer<'a> {
                     return err(s, e, LexicalError::GroupsNotNumbers);
                 }
                 match word.parse::<u32>() {
-                    Ok(n) if n <= 65535 => groups.push((n, (s, e))),
+                    Ok(n) if n <= 65535 => {
+                        let (word, bit) = (n as usize / 64, 1u64 << (n % 64));
+                        if seen[word] & bit == 0 {
+                            seen[word] |= bit;
+                            groups.first.push((n as u16, (s, e)));
+                        }
+                        groups.entries.push(n as u16);
+                    }
                     _ => return err(s, e, LexicalError::GroupOutOfRange),
                 }
                 end = e;
             }
-            if groups.is_empty() {
+            if groups.entries.is_empty() {
                 return err(at, at + len, LexicalError::GroupsNotNumbers);
             }
+            groups.entries.shrink_to_fit();
             // What follows the last group (blanks, comments, the line's
             // end) is the token lexer's.
             self.pos = end;
@@ -801,7 +819,10 @@ mod tests {
                 Tok::Nl,
                 Tok::KwProductions,
                 Tok::Nl,
-                Tok::KwGroups(vec![(1, (59, 60)), (2, (61, 62))]),
+                Tok::KwGroups(GroupList {
+                    entries: vec![1, 2],
+                    first: vec![(1, (59, 60)), (2, (61, 62))]
+                }),
                 Tok::Nl
             ]
         );
@@ -952,8 +973,9 @@ mod tests {
                 "{sep:?}"
             );
             let groups = t[3].clone().groups();
-            let spans: Vec<&str> = groups.iter().map(|&(_, (s, e))| &src[s..e]).collect();
-            assert_eq!(groups.iter().map(|g| g.0).collect::<Vec<_>>(), [1, 2]);
+            let spans: Vec<&str> = groups.first.iter().map(|&(_, (s, e))| &src[s..e]).collect();
+            assert_eq!(groups.entries, [1, 2]);
+            assert_eq!(groups.first.iter().map(|g| g.0).collect::<Vec<_>>(), [1, 2]);
             assert_eq!(spans, ["1", "2"], "{sep:?}");
             let view = format!("view:{sep}width{sep}increment{sep}={sep}2{sep}\n");
             assert_eq!(
@@ -967,7 +989,7 @@ mod tests {
     }
 
     impl Tok<'_> {
-        fn groups(self) -> Vec<(u32, Span)> {
+        fn groups(self) -> GroupList {
             match self {
                 Tok::KwGroups(g) => g,
                 other => panic!("not `groups:`: {other:?}"),

@@ -1,11 +1,11 @@
 //! The parser hands a header over piece by piece, in file order, as it
 //! reduces it: the settings, then each section's start and its productions
-//! one at a time, each in three parts: its head (what comes before `->`),
-//! its successor in batches of at most [`BATCH`] modules, its end. A file
-//! of millions of productions, or one successor of millions of modules, is
-//! compiled as it is read (rules::Compiler) and never exists as a whole
-//! syntax tree; tests and tools that want the tree collect it
-//! ([`Collect`]).
+//! one at a time, each in three parts: its head (what comes before `->`)
+//! module by module, its successor in batches of at most [`BATCH`]
+//! modules, its end. A file of millions of productions, or one context or
+//! successor of millions of modules, is compiled as it is read
+//! (rules::Compiler) and never exists as a whole syntax tree; tests and
+//! tools that want the tree collect it ([`Collect`]).
 
 use crate::lang::ast::{Expr, Header, Module, Production, Section, SectionSetting, Setting};
 use crate::lang::lexer::Span;
@@ -36,27 +36,63 @@ pub struct SectionStart {
 /// take gigabytes).
 pub const BATCH: usize = 1024;
 
+/// Which part of a production's head a module belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HeadPart {
+    Left,
+    /// The (strict) predecessor: exactly one per head.
+    Pred,
+    /// The rest of a predecessor of several modules (cpfg dialect).
+    Rest,
+    Right,
+}
+
 /// Receives a header in file order. `settings` comes exactly once, first;
-/// then each section's `section`, followed by its productions, each as a
-/// `head`, any number of `successor` batches and an `end`.
+/// then each section's `section`, followed by its productions, each as
+/// its head's modules (`head_module`, in text order: left context,
+/// predecessor, its rest, right context) and `head_end`, any number of
+/// `successor` batches and an `end`. A head that turns out wrong (two
+/// modules where the predecessor goes) gets no `head_end`: the parse stops
+/// with that error at the production's end.
 pub trait HeaderSink {
     fn settings(&mut self, settings: Vec<Setting>);
     fn section(&mut self, start: SectionStart);
-    /// A production's head: `p` without its successor and probability
-    /// (`succ` empty, `prob` none), `span` the head's (up to the `->`).
-    fn head(&mut self, p: Production);
+    /// The next module of a production's head; a long context is handed
+    /// over as it is read, never held whole.
+    fn head_module(&mut self, part: HeadPart, m: Module);
+    /// The head is complete: its condition, and `span` the head's (up to
+    /// the `->`).
+    fn head_end(&mut self, cond: Option<Box<Expr>>, span: Span);
     /// The next modules of the successor of the production whose head came
     /// last, in order; the sink takes them (`modules` is left empty).
     fn successor(&mut self, modules: &mut Vec<Module>);
     /// The production's probability, and the span of its whole line.
     fn end(&mut self, prob: Option<Box<Expr>>, span: Span);
 
-    /// A whole production, as the three parts above.
-    fn production(&mut self, mut p: Production) {
-        let mut succ = std::mem::take(&mut p.succ);
-        let prob = p.prob.take();
-        let span = p.span;
-        self.head(p);
+    /// A whole production, as the parts above.
+    fn production(&mut self, p: Production) {
+        let Production {
+            left,
+            pred,
+            pred_rest,
+            right,
+            cond,
+            mut succ,
+            prob,
+            span,
+        } = p;
+        let parts = [
+            (HeadPart::Left, left),
+            (HeadPart::Pred, vec![pred]),
+            (HeadPart::Rest, pred_rest),
+            (HeadPart::Right, right),
+        ];
+        for (part, modules) in parts {
+            for m in modules {
+                self.head_module(part, m);
+            }
+        }
+        self.head_end(cond, span);
         self.successor(&mut succ);
         self.end(prob, span);
     }
@@ -81,8 +117,33 @@ pub struct Reader<'s> {
     succ: Vec<Module>,
     /// The current production's head is wrong (a grammar error, reported
     /// at its end, so that a syntax error later on its line comes first):
-    /// nothing of it goes to the sink.
+    /// nothing more of it goes to the sink.
     bad_head: Option<UserError>,
+    head: HeadState,
+}
+
+/// Where the parser is in a production's head, and what the checks need of
+/// it: its modules go on to the sink as they come, so that a context of
+/// millions of modules is never held whole.
+#[derive(Default)]
+struct HeadState {
+    /// The list the next module belongs to: `None` for the one the head
+    /// starts with (the left context if a `<` follows, else the
+    /// predecessor), `Pred` after a `<`, `Right` after a `>`.
+    part: Option<HeadPart>,
+    /// The first list's first module, until it is known to be the left
+    /// context (a `<` or a second module follows) or the predecessor.
+    held: Option<Module>,
+    /// Modules so far in the current list.
+    count: usize,
+    /// From the current list's second module to its last: where a
+    /// predecessor of several modules is reported.
+    extra: Option<Span>,
+    /// Such a predecessor, found.
+    several: Option<Span>,
+    left_end: Option<usize>,
+    pred: Option<Span>,
+    right_start: Option<usize>,
 }
 
 /// Where a decomposition production's context delimiter is.
@@ -113,6 +174,7 @@ impl<'s> Reader<'s> {
             start: 0,
             succ: Vec::new(),
             bad_head: None,
+            head: HeadState::default(),
         }
     }
 
@@ -133,33 +195,101 @@ impl<'s> Reader<'s> {
         self.sink.section(start);
     }
 
-    /// A production's head (see [`HeaderSink::head`]).
-    pub fn head(&mut self, p: Production) {
+    /// The next module of a production's head.
+    pub fn head_module(&mut self, m: Module) {
+        let h = &mut self.head;
+        h.count += 1;
+        if h.count >= 2 {
+            h.extra = Some((h.extra.map_or(m.span.0, |e| e.0), m.span.1));
+        }
+        match h.part {
+            None if h.count == 1 => h.held = Some(m),
+            None => {
+                if let Some(first) = h.held.take() {
+                    self.left(first);
+                }
+                self.left(m);
+            }
+            Some(HeadPart::Pred) => {
+                // A second module is reported at the head's end.
+                if h.count == 1 {
+                    h.pred = Some(m.span);
+                    self.sink.head_module(HeadPart::Pred, m);
+                }
+            }
+            Some(_) => {
+                h.right_start.get_or_insert(m.span.0);
+                self.sink.head_module(HeadPart::Right, m);
+            }
+        }
+    }
+
+    fn left(&mut self, m: Module) {
+        self.head.left_end = Some(m.span.1);
+        self.sink.head_module(HeadPart::Left, m);
+    }
+
+    /// A `<`: the modules before it are the left context.
+    pub fn head_lt(&mut self) {
+        if let Some(first) = self.head.held.take() {
+            self.left(first);
+        }
+        let h = &mut self.head;
+        (h.part, h.count, h.extra) = (Some(HeadPart::Pred), 0, None);
+    }
+
+    /// A `>`: the predecessor is complete.
+    pub fn head_gt(&mut self) {
+        self.pred_done();
+        let h = &mut self.head;
+        (h.part, h.count, h.extra) = (Some(HeadPart::Right), 0, None);
+    }
+
+    /// The list that holds the predecessor is over: it must be one module.
+    fn pred_done(&mut self) {
+        let h = &mut self.head;
+        if let Some(m) = h.held.take() {
+            h.pred = Some(m.span);
+            self.sink.head_module(HeadPart::Pred, m);
+        }
+        let h = &mut self.head;
+        h.several = h.several.or(h.extra.take());
+    }
+
+    /// The head is complete (`span` up to the `->`).
+    pub fn head_end(&mut self, cond: Option<Box<Expr>>, span: Span) {
+        if self.head.part != Some(HeadPart::Right) {
+            self.pred_done();
+        }
+        let h = std::mem::take(&mut self.head);
+        if let Some(at) = h.several {
+            // Reported at the line's end, after any syntax error in it.
+            self.bad_head = Some(UserError::new(
+                at,
+                crate::diag::ParseError::PredecessorIsOneModule,
+            ));
+            return;
+        }
+        let pred = h.pred.expect("a head has a predecessor");
         if self.section == SectionKind::Decomposition && self.context.is_none() {
-            self.context = if let Some(l) = p.left.last() {
+            self.context = if let Some(end) = h.left_end {
                 Some(Context {
-                    from: l.span.1,
-                    to: p.pred.span.0,
+                    from: end,
+                    to: pred.0,
                     delim: '<',
-                    fallback: p.pred.span.0,
+                    fallback: pred.0,
                 })
             } else {
-                p.right.first().map(|r| Context {
-                    from: p.pred.span.1,
-                    to: r.span.0,
+                h.right_start.map(|start| Context {
+                    from: pred.1,
+                    to: start,
                     delim: '>',
-                    fallback: p.pred.span.0,
+                    fallback: pred.0,
                 })
             };
         }
-        self.start = p.span.0;
-        self.sink.head(p);
-    }
-
-    /// A production's head that the grammar rejects: `error` is returned
-    /// at the production's end.
-    pub fn bad_head(&mut self, error: UserError) {
-        self.bad_head = Some(error);
+        self.start = span.0;
+        self.sink.head_end(cond, span);
     }
 
     /// The next module of the current production's successor.
@@ -214,6 +344,9 @@ impl Context {
 pub struct Collect {
     pub header: Header,
     section: Option<SectionKind>,
+    /// The head being read: its left context, predecessor, rest and right
+    /// context.
+    head: (Vec<Module>, Option<Module>, Vec<Module>, Vec<Module>),
     /// The production being read.
     pending: Option<Production>,
 }
@@ -247,8 +380,28 @@ impl HeaderSink for Collect {
         self.section = Some(start.kind);
     }
 
-    fn head(&mut self, p: Production) {
-        self.pending = Some(p);
+    fn head_module(&mut self, part: HeadPart, m: Module) {
+        let h = &mut self.head;
+        match part {
+            HeadPart::Left => h.0.push(m),
+            HeadPart::Pred => h.1 = Some(m),
+            HeadPart::Rest => h.2.push(m),
+            HeadPart::Right => h.3.push(m),
+        }
+    }
+
+    fn head_end(&mut self, cond: Option<Box<Expr>>, span: Span) {
+        let (left, pred, pred_rest, right) = std::mem::take(&mut self.head);
+        self.pending = Some(Production {
+            left,
+            pred: pred.expect("a head has a predecessor"),
+            pred_rest,
+            right,
+            cond,
+            succ: Vec::new(),
+            prob: None,
+            span,
+        });
     }
 
     fn successor(&mut self, modules: &mut Vec<Module>) {

@@ -4,14 +4,13 @@
 
 use super::*;
 
-/// Formal parameters named `step` (issue 11) in a production.
-fn hidden_step(p: &ast::Production, out: &mut Vec<Span>) {
-    for m in p.left.iter().chain([&p.pred]).chain(p.right.iter()) {
-        for e in &m.params {
-            if let Expr::Var(name, span) = e {
-                if name == "step" {
-                    out.push(*span);
-                }
+/// Formal parameters named `step` (issue 11) in a head's module, with the
+/// stage they are in.
+fn hidden_step(m: &ast::Module, stage: u8, out: &mut Vec<(u8, Span)>) {
+    for e in &m.params {
+        if let Expr::Var(name, span) = e {
+            if name == "step" {
+                out.push((stage, *span));
             }
         }
     }
@@ -312,9 +311,21 @@ pub struct Compiler<'a> {
     hom: Option<(usize, Option<u64>)>,
     homomorphism: Table,
     warnings: [bool; 2],
+    /// The head being read.
+    head: Head,
     /// The production whose successor is being read (none after an
     /// error in it, or where no error of its stage could be reported).
     pending: Option<Pending>,
+}
+
+/// Where the compiler is in a production's head.
+enum Head {
+    /// Between heads.
+    Idle,
+    Building(HeadBuilder),
+    /// An error in it is recorded, or none of its stage could be reported:
+    /// the rest of the production is skipped.
+    Skipped,
 }
 
 impl<'a> Compiler<'a> {
@@ -337,6 +348,7 @@ impl<'a> Compiler<'a> {
             hom: None,
             homomorphism: Table::default(),
             warnings: [false; 2],
+            head: Head::Idle,
             pending: None,
         }
     }
@@ -390,14 +402,10 @@ impl<'a> Compiler<'a> {
                     // Each group's first entry, checked when every section
                     // is known (a list of 33 million entries names at most
                     // 65,536 groups).
-                    let mut named = HashSet::new();
-                    for &(n, at) in list {
-                        if n != 0 && named.insert(n) {
-                            self.scheduled_groups.push((n, at));
-                        }
-                        schedule.push(n);
+                    for &(n, at) in list.first.iter().filter(|g| g.0 != 0) {
+                        self.scheduled_groups.push((u32::from(n), at));
                     }
-                    schedule.shrink_to_fit();
+                    schedule = list.entries.iter().map(|&n| u32::from(n)).collect();
                 }
                 Setting::Group(e, span) => {
                     if schedule_span.is_some() {
@@ -611,17 +619,37 @@ impl HeaderSink for Compiler<'_> {
         }
     }
 
-    fn head(&mut self, p: ast::Production) {
-        self.pending = None;
+    fn head_module(&mut self, part: HeadPart, m: ast::Module) {
         let stage = self.stage();
-        if !self.open(stage) {
-            return;
+        if matches!(self.head, Head::Idle) {
+            self.pending = None;
+            self.head = if self.open(stage) {
+                Head::Building(HeadBuilder::default())
+            } else {
+                Head::Skipped
+            };
         }
-        hidden_step_at(&p, stage, &mut self.step_hidden);
-        let st = self.settled.as_mut().unwrap();
-        match compile_head(&p, &mut st.alphabet, &st.consts, self.cpfg) {
+        let Head::Building(b) = &mut self.head else {
+            return;
+        };
+        if part != HeadPart::Rest {
+            hidden_step(&m, stage, &mut self.step_hidden);
+        }
+        let st = self.settled.as_mut().expect("open: settled");
+        if let Err(e) = b.push(part, &m, &mut st.alphabet, self.cpfg) {
+            self.head = Head::Skipped;
+            self.fail(stage, e);
+        }
+    }
+
+    fn head_end(&mut self, cond: Option<Box<Expr>>, _span: Span) {
+        let Head::Building(b) = std::mem::replace(&mut self.head, Head::Idle) else {
+            return;
+        };
+        let consts = &self.settled.as_ref().expect("open: settled").consts;
+        match b.finish(cond.as_deref(), consts, self.cpfg) {
             Ok(pending) => self.pending = Some(pending),
-            Err(e) => self.fail(stage, e),
+            Err(e) => self.fail(self.stage(), e),
         }
     }
 
@@ -670,12 +698,6 @@ impl HeaderSink for Compiler<'_> {
             Err(e) => self.fail(stage, e),
         }
     }
-}
-
-fn hidden_step_at(p: &ast::Production, stage: u8, out: &mut Vec<(u8, Span)>) {
-    let mut spans = Vec::new();
-    hidden_step(p, &mut spans);
-    out.extend(spans.into_iter().map(|s| (stage, s)));
 }
 
 /// Recursive rewriting does not track brackets: every successor of `t`
@@ -737,15 +759,24 @@ fn section_settings(
     Ok((depth.unwrap_or(1), seed))
 }
 
-fn bind_formals(m: &ast::Module, names: &mut HashMap<String, u32>, nslots: &mut usize) -> R<u32> {
-    let first = *nslots as u32;
+/// Bind `m`'s formal parameters to the slots from `*next` on, in `names`
+/// with `tag` added; returns the first slot.
+fn bind_formals(
+    m: &ast::Module,
+    names: &mut HashMap<String, u32>,
+    next: &mut usize,
+    tag: u32,
+) -> R<u32> {
+    let first = *next as u32;
     for e in &m.params {
         match e {
             Expr::Var(name, span) => {
-                if names.insert(name.clone(), *nslots as u32).is_some() {
+                // The modules come in text order, so a name bound twice is
+                // reported at its second place in the text.
+                if names.insert(name.clone(), *next as u32 | tag).is_some() {
                     return err(*span, CompileError::BoundTwice(name.clone()));
                 }
-                *nslots += 1;
+                *next += 1;
             }
             other => return err(other.span(), CompileError::FormalNotName),
         }
@@ -753,24 +784,150 @@ fn bind_formals(m: &ast::Module, names: &mut HashMap<String, u32>, nslots: &mut 
     Ok(first)
 }
 
-/// Where to report `name` bound twice in `p`: its second place in the text
-/// (the formals are bound predecessor first, so `A(x) < B(x)` found it at
-/// the first `x`, and `A(x, x)` at the second).
-fn second_binding(p: &ast::Production, name: &str) -> Option<Span> {
-    let mut at: Vec<Span> = p
-        .left
-        .iter()
-        .chain([&p.pred])
-        .chain(&p.pred_rest)
-        .chain(&p.right)
-        .flat_map(|m| &m.params)
-        .filter_map(|e| match e {
-            Expr::Var(n, s) if n == name => Some(*s),
-            _ => None,
+/// Marks the slot of a left context's parameter in [`HeadBuilder::names`]
+/// while it is numbered from 0 (a header of at most 64 MiB has fewer
+/// slots).
+const LEFT: u32 = 1 << 31;
+
+/// A production's head, compiled as its modules arrive in text order
+/// ([`HeaderSink::head_module`]): a context of millions of modules costs
+/// its compiled patterns, never its syntax tree. The slots are the
+/// predecessor's parameters, then its rest's (cpfg), then the left
+/// context's, then the right context's; the left context comes first in
+/// the text, so its slots are numbered from 0 and moved behind the
+/// predecessor's once those are all known ([`HeadBuilder::seal`]).
+#[derive(Default)]
+struct HeadBuilder {
+    key: Option<u32>,
+    names: HashMap<String, u32>,
+    /// Slots of the predecessor and its rest.
+    front: usize,
+    /// Slots of the left context.
+    nleft: usize,
+    /// All the slots so far, once sealed.
+    sealed: Option<usize>,
+    left: Vec<Pat>,
+    rest: Vec<Pat>,
+    right: Vec<RPat>,
+}
+
+impl HeadBuilder {
+    /// The head's next module.
+    fn push(
+        &mut self,
+        part: HeadPart,
+        m: &ast::Module,
+        alphabet: &mut Alphabet,
+        cpfg: bool,
+    ) -> R<()> {
+        let intern = |a: &mut Alphabet| {
+            a.intern(m.sym, m.params.len())
+                .map_err(|e| UserError::new(m.span, e))
+        };
+        let bracket = matches!(m.sym, '[' | ']');
+        match part {
+            HeadPart::Left => {
+                if bracket {
+                    return err(m.span, CompileError::LeftContextBracket);
+                }
+                let key = intern(alphabet)?;
+                let slot = bind_formals(m, &mut self.names, &mut self.nleft, LEFT)?;
+                self.left.push(Pat { key, slot });
+            }
+            HeadPart::Pred => {
+                // cpfg rewrites a bracket like any module (generate.c's
+                // Derive tries the productions of every module of the
+                // string, `[` and `]` too).
+                if bracket && !cpfg {
+                    return err(m.span, CompileError::BracketRewritten);
+                }
+                if bracket && !m.params.is_empty() {
+                    return err(m.span, CompileError::BracketParams);
+                }
+                self.key = Some(intern(alphabet)?);
+                bind_formals(m, &mut self.names, &mut self.front, 0)?;
+            }
+            HeadPart::Rest => {
+                if bracket {
+                    let kind = if cpfg {
+                        CompileError::BracketInRun
+                    } else {
+                        CompileError::BracketRewritten
+                    };
+                    return err(m.span, kind);
+                }
+                let key = intern(alphabet)?;
+                let slot = bind_formals(m, &mut self.names, &mut self.front, 0)?;
+                self.rest.push(Pat { key, slot });
+            }
+            HeadPart::Right => {
+                self.seal();
+                match m.sym {
+                    '[' | ']' if !m.params.is_empty() => {
+                        return err(m.span, CompileError::BracketParams)
+                    }
+                    '[' => self.right.push(RPat::Open),
+                    ']' => self.right.push(RPat::Close),
+                    _ => {
+                        let key = intern(alphabet)?;
+                        let next = self.sealed.as_mut().expect("sealed");
+                        let slot = bind_formals(m, &mut self.names, next, 0)?;
+                        self.right.push(RPat::Module(Pat { key, slot }));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The predecessor and its rest are complete: move the left context's
+    /// slots behind theirs.
+    fn seal(&mut self) {
+        if self.sealed.is_some() {
+            return;
+        }
+        let shift = self.front as u32;
+        for p in &mut self.left {
+            p.slot += shift;
+        }
+        if self.nleft > 0 {
+            for v in self.names.values_mut().filter(|v| **v & LEFT != 0) {
+                *v = (*v & !LEFT) + shift;
+            }
+        }
+        self.sealed = Some(self.front + self.nleft);
+    }
+
+    /// The head is complete: compile its condition.
+    fn finish(
+        mut self,
+        cond: Option<&Expr>,
+        consts: &HashMap<String, f64>,
+        cpfg: bool,
+    ) -> R<Pending> {
+        self.seal();
+        let mut names = self.names;
+        // The built-in step number, unless a parameter or constant hides it.
+        if !consts.contains_key("step") {
+            names.entry("step".to_string()).or_insert(expr::STEP_SLOT);
+        }
+        let cond = cond
+            .map(|e| compile_code_in(e, &names, consts, cpfg))
+            .transpose()?
+            // A condition folded to a non-zero constant always holds.
+            .filter(|c| c.constant().is_none_or(|v| v == 0.0))
+            .map(Box::new);
+        Ok(Pending {
+            key: self.key.expect("a head has a predecessor"),
+            nslots: self.sealed.expect("sealed"),
+            names,
+            left: self.left,
+            right: self.right,
+            rest: self.rest,
+            cond,
+            succ: SuccessorBuilder::default(),
         })
-        .collect();
-    at.sort_unstable();
-    at.get(1).copied()
+    }
 }
 
 /// A production whose head is compiled and whose successor is arriving
@@ -785,105 +942,6 @@ struct Pending {
     rest: Vec<Pat>,
     cond: Option<Box<Code>>,
     succ: SuccessorBuilder,
-}
-
-/// Compile a production's head: predecessor, contexts, condition.
-fn compile_head(
-    p: &ast::Production,
-    alphabet: &mut Alphabet,
-    consts: &HashMap<String, f64>,
-    cpfg: bool,
-) -> R<Pending> {
-    compile_head_in(p, alphabet, consts, cpfg).map_err(|mut e| {
-        if let crate::lang::parse::HeaderError::Compile(CompileError::BoundTwice(name)) = &e.kind {
-            e.span = second_binding(p, name).unwrap_or(e.span);
-        }
-        e
-    })
-}
-
-fn compile_head_in(
-    p: &ast::Production,
-    alphabet: &mut Alphabet,
-    consts: &HashMap<String, f64>,
-    cpfg: bool,
-) -> R<Pending> {
-    let intern = |a: &mut Alphabet, m: &ast::Module| {
-        a.intern(m.sym, m.params.len())
-            .map_err(|e| UserError::new(m.span, e))
-    };
-    // cpfg rewrites a bracket like any module (generate.c's Derive tries
-    // the productions of every module of the string, `[` and `]` too).
-    if matches!(p.pred.sym, '[' | ']') {
-        if !cpfg {
-            return err(p.pred.span, CompileError::BracketRewritten);
-        }
-        if !p.pred.params.is_empty() {
-            return err(p.pred.span, CompileError::BracketParams);
-        }
-    }
-    let mut names = HashMap::new();
-    let mut nslots = 0;
-    let key = intern(alphabet, &p.pred)?;
-    bind_formals(&p.pred, &mut names, &mut nslots)?;
-    let mut rest = Vec::new();
-    for m in &p.pred_rest {
-        if matches!(m.sym, '[' | ']') {
-            let kind = if cpfg {
-                CompileError::BracketInRun
-            } else {
-                CompileError::BracketRewritten
-            };
-            return err(m.span, kind);
-        }
-        let k = intern(alphabet, m)?;
-        let slot = bind_formals(m, &mut names, &mut nslots)?;
-        rest.push(Pat { key: k, slot });
-    }
-    let mut left = Vec::new();
-    for m in &p.left {
-        if matches!(m.sym, '[' | ']') {
-            return err(m.span, CompileError::LeftContextBracket);
-        }
-        let k = intern(alphabet, m)?;
-        let slot = bind_formals(m, &mut names, &mut nslots)?;
-        left.push(Pat { key: k, slot });
-    }
-    let mut right = Vec::new();
-    for m in &p.right {
-        match m.sym {
-            '[' | ']' if !m.params.is_empty() => return err(m.span, CompileError::BracketParams),
-            '[' => right.push(RPat::Open),
-            ']' => right.push(RPat::Close),
-            _ => {
-                let k = intern(alphabet, m)?;
-                let slot = bind_formals(m, &mut names, &mut nslots)?;
-                right.push(RPat::Module(Pat { key: k, slot }));
-            }
-        }
-    }
-    // The built-in step number, unless a parameter or constant hides it.
-    if !consts.contains_key("step") {
-        names.entry("step".to_string()).or_insert(expr::STEP_SLOT);
-    }
-    let cond = p
-        .cond
-        .as_ref()
-        .map(|e| compile_code_in(e, &names, consts, cpfg))
-        .transpose()?
-        // A condition folded to a non-zero constant always holds.
-        .filter(|c| c.constant().is_none_or(|v| v == 0.0))
-        .map(Box::new);
-    Ok(Pending {
-        key,
-        nslots,
-        names,
-        left,
-        right,
-        rest,
-        cond,
-        succ: SuccessorBuilder::default(),
-    })
 }
 
 impl Pending {

@@ -8,7 +8,7 @@ use crate::diag::CompileError;
 use crate::lang::ast::{self, Expr, Setting};
 use crate::lang::lexer::Span;
 use crate::lang::parse::UserError;
-use crate::lang::sink::{HeaderSink, SectionKind, SectionStart};
+use crate::lang::sink::{HeadPart, HeaderSink, SectionKind, SectionStart};
 use codec::MAX_ARITY;
 use expr::{Code, Scope, CPFG_F32};
 use std::collections::{HashMap, HashSet};
@@ -1426,6 +1426,45 @@ mod tests {
 
     fn sys(src: &str) -> Result<System, UserError> {
         compile(&parse_header(src).unwrap())
+    }
+
+    /// A production's slots are its predecessor's parameters, then its
+    /// rest's (cpfg), then its left context's, then its right context's,
+    /// though the left context comes first in the text and is compiled as
+    /// it is read: the same from the text and from a tree, in both
+    /// dialects.
+    #[test]
+    fn slots_put_the_predecessor_first() {
+        let src = "productions:\nA(a) B(b, c) < P(p) > [C(d)] E(e) -> X(a+b+c+d+e+p)\n";
+        let streamed = compile_text(src, Seeds::default()).unwrap();
+        let tree = sys(src).unwrap();
+        for s in [&streamed, &tree] {
+            let p = &s.productions.prods[0];
+            assert_eq!(p.nslots(), 6);
+            let left: Vec<u32> = p.left().iter().map(|x| x.slot).collect();
+            assert_eq!(left, [1, 2]);
+            let right: Vec<Option<u32>> = p
+                .right()
+                .iter()
+                .map(|r| match r {
+                    RPat::Module(m) => Some(m.slot),
+                    _ => None,
+                })
+                .collect();
+            assert_eq!(right, [None, Some(4), None, Some(5)]);
+        }
+        // cpfg: `P(p) Q(q)` is a predecessor of two modules.
+        let mut h = parse_header("productions:\nA(a) < P(p) > E(e) -> X\n").unwrap();
+        let q = ast::Module {
+            sym: 'Q',
+            params: vec![ast::Expr::Var("q".into(), (0, 0))],
+            span: (0, 0),
+        };
+        h.productions[0].pred_rest.push(q);
+        let s = compile_dialect(h, None, Seeds::default(), true).unwrap();
+        let p = &s.productions.prods[0];
+        assert_eq!((p.nslots(), p.rest()[0].slot, p.left()[0].slot), (4, 1, 2));
+        assert!(matches!(p.right()[0], RPat::Module(m) if m.slot == 3));
     }
 
     #[test]
