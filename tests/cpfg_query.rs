@@ -560,6 +560,14 @@ fn refused() {
             "plant.l:4:18: error: `@R` in a system with turtle queries",
         ),
         (1, "A?P(0,0)", "A --> A@", "`@` at the end of a successor"),
+        // (cpfg's `@G(x)` reads no subfunction: its turtle goes back to
+        // read `G(x)` as a move of its own, `blackbox.c`.)
+        (
+            1,
+            "A?P(0,0)",
+            "A --> @G(1)sA",
+            "plant.l:4:7: error: `@G` with parameters in a system with turtle queries",
+        ),
         // cpfg's older position query `s(x,y)`.
         (1, "A?P(0,0)", "A --> s(1,2)A", "`s` with 2 or 3 parameters"),
         // A production that rewrites a query module away from its `?`.
@@ -775,6 +783,26 @@ fn what_stops_the_skip_after_a_cut() {
     // (What else the skipped part holds is skipped.)
     let r = axiom_apart(dir.path(), &v, &l, "F[%F~l@RF?P(0,0)]?P(0,0)\n");
     assert_eq!(r.ok(), "F[%F~l@RF?P(0,0)]?P(0,1)\n");
+}
+
+/// The turtle reads a string through a moving homomorphism and takes each
+/// query module from the string itself: both find the queries by one rule,
+/// also in a branch skipped after `%`, where `@?P` is an `@` command whose
+/// function is `?`, not a query (the turtle took it for one there, and the
+/// query after the branch found none left in the string).
+#[test]
+fn a_skipped_at_command_keeps_the_queries_in_step() {
+    let dir = tempdir();
+    let v = write(
+        dir.path(),
+        "plant.v",
+        "angle factor: 8\ninterpretation past %: off\n",
+    );
+    let l = "Lsystem: 1\nderivation length: 1\nAxiom: ?P(0,0)\nA --> B\n\
+             homomorphism\nI --> F\nendlsystem\n";
+    let l = write(dir.path(), "plant.l", l);
+    let r = axiom_apart(dir.path(), &v, &l, "F[%@?P(0,0)]I?P(0,0)\n");
+    assert_eq!(r.ok(), "F[%@?P(0,0)]F?P(0,2)\n");
 }
 
 /// lsgen `-n 0` on the `.l` file `l` with the view `v` and the axiom

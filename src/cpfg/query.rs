@@ -449,10 +449,8 @@ fn walk(
     let mut r = crate::derive::reader::PosReader::new(file, 1 << 16, indexed).with_counts(counts);
     let mut w = Walker::new(q, mv);
     let mut params = [0.0f64; 255];
-    // The module before was `?` (and it was skipped); where an `@`
-    // command is.
-    let mut ask: Option<bool> = None;
-    let mut follow = Follow::default();
+    // Where an `@` command or a `?` is, also in a skipped branch.
+    let mut cursor = Cursor::default();
     // Inside a branch's rest skipped after `%` (its depth).
     let mut skipping: Option<usize> = None;
     loop {
@@ -470,23 +468,23 @@ fn walk(
             params: at + key_len as u64,
             what,
         };
+        let mut place = cursor.next(sym, n);
         if let Some(depth) = &mut skipping {
-            // (The module after a skipped `?` is its query module, read
-            // as one, not a `?` of its own.)
-            let read = ask.take().is_some();
-            if read {
+            // (A skipped `?`'s query module keeps its values; it is
+            // reported, to keep [`fill_through`]'s queries in step.)
+            if place == Place::Queried {
                 on(met(Reading::Skipped))?;
             }
             match sym {
-                '?' if n == 0 && !read => {
-                    ask = Some(true);
-                    continue;
-                }
                 '[' => {
                     *depth += 1;
                     continue;
                 }
-                ']' if *depth == 0 => skipping = None,
+                // (The turtle goes on from this `]`, read as one.)
+                ']' if *depth == 0 => {
+                    skipping = None;
+                    place = Place::Own;
+                }
                 ']' => {
                     *depth -= 1;
                     continue;
@@ -509,31 +507,28 @@ fn walk(
             *p = f64::from(codec::get_param(body, i) as f32);
         }
         let p = &params[..n];
-        if ask.take().is_some() {
-            on(met(match w.query(sym) {
-                Some(v) => Reading::Vector(v),
-                None => Reading::NotAQuery,
-            }))?;
-            continue;
-        }
         // (What the file's own strings cannot hold, checked when it was
         // loaded, may still come from an axiom given apart, `--axiom`.)
-        match follow.next(sym, n) {
+        match Follow::role(place, sym, n) {
             Err(u) => return Err(fault(QueryFault::NotFollowed(u.at_run()))),
             Ok(Role::At(f)) => w.at_module(f, p),
             Ok(Role::AtT(f)) => w.at_t(f, p).map_err(fault)?,
             Ok(Role::Part) => {}
+            Ok(Role::Queried) => on(met(match w.query(sym) {
+                Some(v) => Reading::Vector(v),
+                None => Reading::NotAQuery,
+            }))?,
             Ok(Role::Turtle) => match sym {
-                '?' => ask = Some(false),
+                '?' => {}
                 '%' if !q.past_cut => skipping = Some(0),
                 _ => w.module(sym, p).map_err(fault)?,
             },
         }
     }
-    if ask == Some(false) {
+    if cursor.asking() {
         return Err(fault(QueryFault::NotAQuery(None)));
     }
-    if follow.pending() {
+    if cursor.in_command() {
         return Err(fault(QueryFault::NotFollowed(
             "an `@` at the end of the string",
         )));
@@ -569,9 +564,8 @@ impl Queries<'_> {
     /// The module after the next `?` (None: no `?` left, or one at the
     /// end).
     fn next(&mut self) -> Result<Option<Found>, Next> {
-        // After `@` (1) or `@G` (2).
-        let mut after = 0;
-        let mut ask = false;
+        // (Each call ends after a query module, where a cursor starts.)
+        let mut cursor = Cursor::default();
         loop {
             let at = self.r.offset();
             let Some((key, s, e)) = self.r.next_module(self.al).map_err(Next::Io)? else {
@@ -579,30 +573,20 @@ impl Queries<'_> {
             };
             let sym = self.al.symbol(key);
             let n = self.al.arity(key);
-            if ask {
-                let bytes = self.r.bytes(s, e);
-                let key_len = bytes.len() - codec::body(bytes).len();
-                return Ok(Some(Found {
-                    sym,
-                    key,
-                    n,
-                    params: at + key_len as u64,
-                }));
-            }
-            if after > 0 {
-                if (self.rewritten)(key) {
-                    return Err(Next::Rewritten(sym));
+            match cursor.next(sym, n) {
+                Place::Queried => {
+                    let bytes = self.r.bytes(s, e);
+                    let key_len = bytes.len() - codec::body(bytes).len();
+                    return Ok(Some(Found {
+                        sym,
+                        key,
+                        n,
+                        params: at + key_len as u64,
+                    }));
                 }
-                after = if after == 1 && matches!(sym, 'G' | 'T') && n == 0 {
-                    2
-                } else {
-                    0
-                };
-                continue;
-            }
-            match sym {
-                '@' if n == 0 => after = 1,
-                '?' if n == 0 => ask = true,
+                Place::Function | Place::Sub(_) if (self.rewritten)(key) => {
+                    return Err(Next::Rewritten(sym))
+                }
                 _ => {}
             }
         }
@@ -726,18 +710,73 @@ pub(crate) enum CheckError {
     ViewFile(Error),
 }
 
-/// What the query turtle makes of a module of a list, given the modules
-/// before it: cpfg's `@` reads the module after it as its function, and
-/// `@G` and `@T` one more (`blackbox.c`): `@G`'s subfunctions `s c e t r`
-/// (generalized cylinders, `general.c`) set the spline's state, never the
-/// turtle's place; `@T`'s `i d s p f` change cpfg's movements
-/// (`crate::turtle::movements`), `x` a texture. One rule for the file's
-/// lists when it is loaded ([`check_list`]) and for the strings the turtle
-/// reads ([`fill`]).
+/// Where a module stands for cpfg's turtle, given the modules before it
+/// (`interpret.c`, `blackbox.c`): an `@` reads the module after it as its
+/// function, and a function `P T G m D b` without parameters one more, its
+/// subfunction; a `?` without parameters reads the module after it, its
+/// query module, which is then not interpreted. One rule for the file's
+/// lists ([`check_list`], [`read_past`]) and for the strings the turtle
+/// reads ([`walk`]) and takes its queries from ([`Queries`]).
+#[derive(Default)]
+struct Cursor {
+    /// The `@`, `?` or function whose module comes next.
+    after: Option<char>,
+}
+
+/// A module's place ([`Cursor::next`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Place {
+    /// Read as a module of its own.
+    Own,
+    /// The function of an `@`.
+    Function,
+    /// The subfunction of `@` and this function.
+    Sub(char),
+    /// The query module of a `?`.
+    Queried,
+}
+
+impl Cursor {
+    /// The place of the module `sym` with `n` parameters, read next.
+    fn next(&mut self, sym: char, n: usize) -> Place {
+        match self.after.take() {
+            None => {
+                if n == 0 && matches!(sym, '@' | '?') {
+                    self.after = Some(sym);
+                }
+                Place::Own
+            }
+            Some('@') => {
+                if n == 0 && "PTGmDb".contains(sym) {
+                    self.after = Some(sym);
+                }
+                Place::Function
+            }
+            Some('?') => Place::Queried,
+            Some(f) => Place::Sub(f),
+        }
+    }
+
+    /// The list or string ended within an `@` command.
+    fn in_command(&self) -> bool {
+        self.after.is_some_and(|c| c != '?')
+    }
+
+    /// It ended right after a `?`.
+    fn asking(&self) -> bool {
+        self.after == Some('?')
+    }
+}
+
+/// What the query turtle makes of a module of a list, given its place:
+/// `@G`'s subfunctions `s c e t r` (generalized cylinders, `general.c`)
+/// set the spline's state, never the turtle's place; `@T`'s `i d s p f`
+/// change cpfg's movements (`crate::turtle::movements`), `x` a texture.
+/// One rule for the file's lists when it is loaded ([`check_list`]) and for
+/// the strings the turtle reads ([`fill`]).
 #[derive(Default)]
 struct Follow {
-    /// After `@` (1), `@G` (2) or `@T` (3).
-    after: u8,
+    cursor: Cursor,
 }
 
 /// A module's part in the turtle's reading ([`Follow::next`]).
@@ -751,6 +790,8 @@ enum Role {
     AtT(char),
     /// Read as part of an `@` command, not interpreted.
     Part,
+    /// The module after a `?`, which it fills.
+    Queried,
 }
 
 /// A module the query turtle does not follow (it moves cpfg's turtle).
@@ -764,6 +805,8 @@ enum Unfollowed {
     AtT(char),
     /// `@T` with parameters.
     AtTParams,
+    /// `@G` with parameters.
+    AtGParams,
     /// `~`, a surface.
     Surface,
     /// `s(x,y[,z])`, cpfg's older position query.
@@ -782,6 +825,7 @@ impl Unfollowed {
             Unfollowed::AtG(c) => format!("`@G{c}`"),
             Unfollowed::AtT(c) => format!("`@T{c}`"),
             Unfollowed::AtTParams => "`@T` with parameters".into(),
+            Unfollowed::AtGParams => "`@G` with parameters".into(),
             Unfollowed::Surface => "`~` (a surface)".into(),
             Unfollowed::OldQuery => {
                 "`s` with 2 or 3 parameters (cpfg's older position query)".into()
@@ -798,6 +842,7 @@ impl Unfollowed {
             Unfollowed::AtG(_) => "an `@G` module",
             Unfollowed::AtT(_) => "an `@T` module",
             Unfollowed::AtTParams => "`@T` with parameters",
+            Unfollowed::AtGParams => "`@G` with parameters",
             Unfollowed::Surface => "`~` (a surface)",
             Unfollowed::OldQuery => "`s` with 2 or 3 parameters",
             Unfollowed::CutWithParams => "`%` with parameters",
@@ -809,46 +854,44 @@ impl Unfollowed {
 impl Follow {
     /// The part of the module `sym` with `n` parameters, read next.
     fn next(&mut self, sym: char, n: usize) -> Result<Role, Unfollowed> {
-        match std::mem::take(&mut self.after) {
-            1 => match sym {
+        let place = self.cursor.next(sym, n);
+        Follow::role(place, sym, n)
+    }
+
+    /// The part of the module `sym` with `n` parameters at `place`.
+    fn role(place: Place, sym: char, n: usize) -> Result<Role, Unfollowed> {
+        match place {
+            Place::Function => match sym {
                 'o' | 'O' | 'c' | 'v' | 'M' => Ok(Role::At(sym)),
-                'G' => {
-                    self.after = 2;
-                    Ok(Role::Part)
-                }
-                'T' if n == 0 => {
-                    self.after = 3;
-                    Ok(Role::Part)
-                }
-                // (cpfg: `@T` with a parameter reads no subfunction and
-                // goes on from the `T` as a module of its own.)
+                'G' | 'T' if n == 0 => Ok(Role::Part),
+                // (cpfg: `@G` or `@T` with a parameter reads no
+                // subfunction, and its turtle goes on from the `G` or `T`
+                // as a module of its own: `@G(x)` moves it.)
+                'G' => Err(Unfollowed::AtGParams),
                 'T' => Err(Unfollowed::AtTParams),
                 _ => Err(Unfollowed::At(sym)),
             },
-            2 if matches!(sym, 's' | 'c' | 'e' | 't' | 'r') => Ok(Role::Part),
-            2 => Err(Unfollowed::AtG(sym)),
+            Place::Sub('G') if matches!(sym, 's' | 'c' | 'e' | 't' | 'r') => Ok(Role::Part),
+            Place::Sub('G') => Err(Unfollowed::AtG(sym)),
             // (`@Tx` without a parameter: cpfg goes on from the `T`.)
-            3 if matches!(sym, 'i' | 'd' | 's' | 'p' | 'f') || (sym == 'x' && n > 0) => {
+            Place::Sub('T')
+                if matches!(sym, 'i' | 'd' | 's' | 'p' | 'f') || (sym == 'x' && n > 0) =>
+            {
                 Ok(Role::AtT(sym))
             }
-            3 => Err(Unfollowed::AtT(sym)),
-            _ => match sym {
+            Place::Sub('T') => Err(Unfollowed::AtT(sym)),
+            // (The function of the others is refused first.)
+            Place::Sub(f) => Err(Unfollowed::At(f)),
+            Place::Queried => Ok(Role::Queried),
+            Place::Own => match sym {
                 '~' => Err(Unfollowed::Surface),
                 's' if n == 2 || n == 3 => Err(Unfollowed::OldQuery),
                 '%' if n > 0 => Err(Unfollowed::CutWithParams),
                 '?' if n > 0 => Err(Unfollowed::SubLsystem),
-                '@' if n == 0 => {
-                    self.after = 1;
-                    Ok(Role::Part)
-                }
+                '@' if n == 0 => Ok(Role::Part),
                 _ => Ok(Role::Turtle),
             },
         }
-    }
-
-    /// The list ended within an `@` command.
-    fn pending(&self) -> bool {
-        self.after != 0
     }
 }
 
@@ -877,6 +920,7 @@ fn check_list(list: impl Iterator<Item = Item>) -> Result<(), (Item, Refused)> {
                                     | Unfollowed::AtG(_)
                                     | Unfollowed::AtT(_)
                                     | Unfollowed::AtTParams
+                                    | Unfollowed::AtGParams
                             )
                         })
                         .unwrap_or(m),
@@ -886,7 +930,9 @@ fn check_list(list: impl Iterator<Item = Item>) -> Result<(), (Item, Refused)> {
         }
     }
     match command {
-        Some(a) if follow.pending() => Err((a, not("`@` at the end of a successor".into()))),
+        Some(a) if follow.cursor.in_command() => {
+            Err((a, not("`@` at the end of a successor".into())))
+        }
         _ => Ok(()),
     }
 }
@@ -1012,21 +1058,14 @@ fn homomorphism_moves(p: &Production) -> bool {
 fn read_past(tree: &Lsystem) -> (Vec<char>, Vec<char>) {
     let (mut queried, mut read) = (Vec::new(), Vec::new());
     let mut list = |l: &mut dyn Iterator<Item = (char, usize)>| {
-        // After `?`, `@` or `@G`.
-        let mut after = None;
+        let mut cursor = Cursor::default();
         for (sym, n) in l {
-            if let Some(a) = after.take() {
-                if !read.contains(&sym) {
-                    read.push(sym);
-                }
-                if a == '?' && !queried.contains(&sym) {
-                    queried.push(sym);
-                }
-                if a == '@' && matches!(sym, 'G' | 'T') && n == 0 {
-                    after = Some(sym);
-                }
-            } else if n == 0 && matches!(sym, '?' | '@') {
-                after = Some(sym);
+            let place = cursor.next(sym, n);
+            if place != Place::Own && !read.contains(&sym) {
+                read.push(sym);
+            }
+            if place == Place::Queried && !queried.contains(&sym) {
+                queried.push(sym);
             }
         }
     };
