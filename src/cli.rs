@@ -888,8 +888,10 @@ fn run_batch(
     let next = AtomicU64::new(0);
     let count = AtomicU64::new(0);
     let failed: Mutex<Vec<(u64, Error)>> = Mutex::new(Vec::new());
-    // One sync per output directory, when this function returns.
+    // One sync per output directory, when this function returns (or when
+    // a signal ends the run: the signal thread syncs them first).
     let _dirs = crate::io::output::DeferDirSync::new();
+    crate::io::output::signals_to_a_thread_of_their_own();
     let work = || {
         // Job after job on this thread: each job takes the output buffer,
         // number cache and emptied generation files the last one left
@@ -933,11 +935,11 @@ fn run_batch(
                 Err(_) => work(),
             }
         }
-        // While it waits, this thread leaves termination signals to the
-        // jobs' threads, which hold them while a job puts its file in
-        // place: taken here, one would end the run with a job's temporary
-        // name left beside its output. (Threads inherit the mask: held
-        // only once they are started.)
+        // (Where no signal thread could start, the jobs' threads hold
+        // termination signals while a job puts its file in place, and
+        // this one, waiting, holds them too: taken here, one would end
+        // the run with a job's temporary name left beside its output.
+        // Threads inherit the mask: held only once they are started.)
         crate::io::output::with_signals_held(|| {
             for h in handles {
                 let _ = h.join();

@@ -396,6 +396,47 @@ fn outputs_that_are_one_file_are_refused_before_any_job() {
     }
 }
 
+/// Two outputs that lead to one stream would mix their text: a FIFO
+/// (two links to it), lsgen's own standard output under two names. Both
+/// are refused before any job, as two names of one file are (they were
+/// written at once, their lines cut into each other; found by the review
+/// helper); a character device such as /dev/null takes any number.
+#[test]
+fn outputs_that_are_one_stream_are_refused_but_dev_null_is_shared() {
+    use std::os::unix::fs::symlink;
+    let sys = "productions:\nA -> AB\naxiom: A\n";
+    let d = dir_with(&[("a.ls", sys)]);
+    let st = std::process::Command::new("mkfifo")
+        .arg(d.path().join("pipe"))
+        .status()
+        .unwrap();
+    assert!(st.success());
+    for (link, to) in [
+        ("p-1", "pipe"),
+        ("p-2", "pipe"),
+        ("s-1", "/dev/stdout"),
+        ("s-2", "/dev/fd/1"),
+        ("n-1", "/dev/null"),
+        ("n-2", "/dev/null"),
+    ] {
+        symlink(to, d.path().join(link)).unwrap();
+    }
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["-o", "p-{seed}", "--seed", "1..2", "a.ls"],
+            "a.ls (seed 1) would write `p-1` and a.ls (seed 2) `p-2`, which are one file",
+        ),
+        // (Standard output is a pipe here, as `run` reads it.)
+        (
+            &["-o", "s-{seed}", "--seed", "1..2", "a.ls"],
+            "a.ls (seed 1) would write `s-1` and a.ls (seed 2) `s-2`, which are one file",
+        ),
+    ];
+    refused_at_j_1_and_2(d.path(), cases);
+    let r = lsgen_in(d.path(), &["-o", "n-{seed}", "--seed", "1..2", "a.ls"]);
+    r.ok();
+}
+
 /// Names that are not UTF-8 are names like any other: an `-o` template
 /// with such bytes expands its placeholders (it used to be taken as a plain
 /// name, and the batch refused), and stems keep their bytes (two stems

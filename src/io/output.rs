@@ -10,7 +10,7 @@ use std::fs::{self, File};
 use std::io::{self, Write};
 use std::mem::ManuallyDrop;
 use std::os::unix::ffi::OsStrExt;
-use std::os::unix::fs::{MetadataExt, OpenOptionsExt, PermissionsExt};
+use std::os::unix::fs::{FileTypeExt, MetadataExt, OpenOptionsExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU8, Ordering};
 
@@ -251,9 +251,13 @@ fn resolve(path: &Path, name: &str) -> Result<Target, Error> {
 /// The file `-o path` replaces, as batches tell their outputs apart: the
 /// (device, inode) of its directory and its name there, symbolic links
 /// followed as [`Output::file`] follows them (`a/../x` and `b/../x`, a
-/// linked directory, a name linked to another are one file). `None` for
-/// standard output, a stream, or a name that cannot be written (its job
-/// fails on its own). `dirs` remembers the last directory looked up.
+/// linked directory, a name linked to another are one file). A stream is
+/// the (device, inode) of what it writes to, and an empty name: two jobs
+/// writing to one FIFO, socket or pipe (two names of `/dev/stdout`), or to
+/// a file through lsgen's own descriptor, would mix their text; a
+/// character device (`/dev/null`) is `None`, as are standard output and a
+/// name that cannot be written (its job fails on its own). `dirs`
+/// remembers the last directory looked up.
 pub fn replaced_file(
     path: &Path,
     dirs: &mut Option<(PathBuf, Option<(u64, u64)>)>,
@@ -261,8 +265,14 @@ pub fn replaced_file(
     if path.as_os_str() == "-" {
         return None;
     }
-    let Ok(Target::File(p)) = resolve(path, "") else {
-        return None;
+    let p = match resolve(path, "") {
+        Ok(Target::File(p)) => p,
+        Ok(Target::Fd(_) | Target::Stream(_)) => {
+            let m = fs::metadata(path).ok()?;
+            return (!m.file_type().is_char_device())
+                .then(|| (m.dev(), m.ino(), std::ffi::OsString::new()));
+        }
+        Err(_) => return None,
     };
     let name = p.file_name()?.to_os_string();
     let dir = parent_dir(&p);
@@ -511,13 +521,17 @@ impl Output {
             .and_then(|_| file.sync_all())
             .map_err(|e| Error::io(&name, crate::diag::IoAction::Write, e))?;
         // Ctrl-C (or SIGTERM) while the file gets its name would leave a
-        // named temp file behind: hold such signals until it is in place.
-        let result = with_signals_held(|| Self::put_in_place(file, &dir, &path, &name));
-        // Make the rename durable (at a batch's end: DeferDirSync).
-        if result.is_ok() {
-            sync_dir_now_or_later(&dir);
-        }
-        result
+        // named temp file behind: hold such signals until it is in place,
+        // and its directory synced or noted for the batch's end.
+        with_signals_held(|| {
+            let _naming = NAMING.read().unwrap_or_else(|e| e.into_inner());
+            let result = Self::put_in_place(file, &dir, &path, &name);
+            // Make the rename durable (at a batch's end: DeferDirSync).
+            if result.is_ok() {
+                sync_dir_now_or_later(&dir);
+            }
+            result
+        })
     }
 
     fn put_in_place(file: File, dir: &Path, path: &Path, name: &str) -> Result<(), Error> {
@@ -742,12 +756,15 @@ fn copy_into_place(mut file: File, dir: &Path, path: &Path) -> io::Result<()> {
 }
 
 /// The signals that end a run from outside (SIGKILL aside).
+const TERMINATION: [libc::c_int; 4] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP, libc::SIGQUIT];
+
+/// [`TERMINATION`] as a set.
 fn termination_signals() -> libc::sigset_t {
     // SAFETY: sigemptyset/sigaddset only write the set we own.
     unsafe {
         let mut set: libc::sigset_t = std::mem::zeroed();
         libc::sigemptyset(&mut set);
-        for s in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP, libc::SIGQUIT] {
+        for s in TERMINATION {
             libc::sigaddset(&mut set, s);
         }
         set
@@ -766,6 +783,83 @@ pub(crate) fn with_signals_held<T>(f: impl FnOnce() -> T) -> T {
     let r = f();
     unsafe { libc::pthread_sigmask(libc::SIG_SETMASK, &old, std::ptr::null_mut()) };
     r
+}
+
+/// Held (shared) while a file gets its name and its directory is synced or
+/// noted; taken for good by a batch's signal thread
+/// ([`signals_to_a_thread_of_their_own`]) before it ends the run.
+static NAMING: std::sync::RwLock<()> = std::sync::RwLock::new(());
+
+/// From now on termination signals (Ctrl-C, SIGTERM, SIGHUP, SIGQUIT) are
+/// taken by a thread of their own, for a batch: this thread holds them,
+/// and so do the threads it starts after (they inherit its mask). The
+/// signal thread waits for one, lets a file that is getting its name
+/// finish (no other starts), syncs the directories noted so far
+/// ([`DeferDirSync`]) and ends the run by the signal, as it would have
+/// ended. A job's thread cannot hold the signals for itself alone: one
+/// sent to the process goes to any thread that does not hold it, whose
+/// default action ended the run there, between another job's two steps
+/// of naming its file (its temporary name was left behind), and before
+/// the directories were synced. Once per process; where no thread can be
+/// started, the signals are left as they were.
+#[cfg_attr(not(feature = "cli"), allow(dead_code))]
+pub(crate) fn signals_to_a_thread_of_their_own() {
+    static STARTED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    STARTED.get_or_init(|| {
+        // Not those the run was started with ignored (`nohup`, `&` in a
+        // script): held, they would reach the thread, not be dropped.
+        let mut set = termination_signals();
+        let mut any = false;
+        for s in TERMINATION {
+            // SAFETY: sigaction with no new action only reads the current
+            // one; sigdelset writes the set we own.
+            unsafe {
+                let mut now: libc::sigaction = std::mem::zeroed();
+                if libc::sigaction(s, std::ptr::null(), &mut now) == 0
+                    && now.sa_sigaction == libc::SIG_IGN
+                {
+                    libc::sigdelset(&mut set, s);
+                } else {
+                    any = true;
+                }
+            }
+        }
+        if !any {
+            return false;
+        }
+        let mut old: libc::sigset_t = unsafe { std::mem::zeroed() };
+        // SAFETY: changes this thread's signal mask only (restored below if
+        // no thread takes the signals).
+        unsafe { libc::pthread_sigmask(libc::SIG_BLOCK, &set, &mut old) };
+        let builder = std::thread::Builder::new()
+            .name("lsgen-signals".into())
+            .stack_size(64 << 10);
+        let waiter = crate::spawn::spawn(builder, move || {
+            let mut sig: libc::c_int = 0;
+            // SAFETY: sigwait reads the set (held by every thread) and
+            // writes `sig`.
+            while unsafe { libc::sigwait(&set, &mut sig) } != 0 {}
+            let _no_more_names = NAMING.write().unwrap_or_else(|e| e.into_inner());
+            let dirs = DEFERRED_DIRS.lock().ok().and_then(|mut d| d.take());
+            for dir in dirs.into_iter().flatten() {
+                sync_dir(&dir);
+            }
+            // SAFETY: the default action again, and the signal let
+            // through to this thread alone, which raises it: the run
+            // ends as the signal would have ended it.
+            unsafe {
+                libc::signal(sig, libc::SIG_DFL);
+                libc::pthread_sigmask(libc::SIG_UNBLOCK, &set, std::ptr::null_mut());
+                libc::raise(sig);
+            }
+            std::process::exit(128 + sig)
+        });
+        if waiter.is_err() {
+            // SAFETY: restores this thread's mask.
+            unsafe { libc::pthread_sigmask(libc::SIG_SETMASK, &old, std::ptr::null_mut()) };
+        }
+        waiter.is_ok()
+    });
 }
 
 /// Let termination signals reach only the other threads (the worker): the
