@@ -1342,6 +1342,23 @@ fn sigterm_in_a_batch_between_link_and_rename_leaves_no_name() {
     assert_eq!(fs::read_to_string(out(2)).unwrap(), OLD);
 }
 
+/// A directory with the doubling system and an empty `out` directory.
+fn tiny_batch_files() -> (tempfile::TempDir, PathBuf, PathBuf) {
+    let dir = tempdir();
+    let input = write(dir.path(), "in.ls", DOUBLING);
+    let out = dir.path().join("out");
+    fs::create_dir(&out).unwrap();
+    (dir, input, out)
+}
+
+/// `cmd` as 3000 tiny jobs on `j` threads, from `input` into `out`.
+fn tiny_batch<'c>(cmd: &'c mut Command, j: &str, input: &Path, out: &Path) -> &'c mut Command {
+    cmd.args(["-j", j, "-q", "--seed", "1..3000", "-n", "3"])
+        .arg(input)
+        .arg("-o")
+        .arg(out.join("{seed}.txt"))
+}
+
 /// SIGTERM or SIGINT at any moment of a batch on several threads leaves no
 /// temporary name beside the outputs, and ends the run by that signal:
 /// one thread of lsgen's own takes the signals and lets a file that is
@@ -1351,17 +1368,10 @@ fn sigterm_in_a_batch_between_link_and_rename_leaves_no_name() {
 /// such runs left a name; found by the review helper).
 #[test]
 fn a_signal_in_a_batch_on_threads_leaves_no_temp_name() {
-    let dir = tempdir();
-    let d = dir.path();
-    let input = write(d, "in.ls", DOUBLING);
-    let out = d.join("out");
-    fs::create_dir(&out).unwrap();
+    let (_dir, input, out) = tiny_batch_files();
     let batch = || {
         let mut c = lsgen();
-        c.args(["-j", "8", "-q", "--seed", "1..3000", "-n", "3"])
-            .arg(&input)
-            .arg("-o")
-            .arg(out.join("{seed}.txt"));
+        tiny_batch(&mut c, "8", &input, &out);
         c
     };
     // Every output exists: each job renames over one.
@@ -1396,19 +1406,9 @@ fn a_signal_in_a_batch_on_threads_leaves_no_temp_name() {
 /// ignored ends it.
 #[test]
 fn an_ignored_hangup_does_not_end_a_batch() {
-    let dir = tempdir();
-    let d = dir.path();
-    let input = write(d, "in.ls", DOUBLING);
-    let out = d.join("out");
-    fs::create_dir(&out).unwrap();
+    let (_dir, input, out) = tiny_batch_files();
     for (setup, ends) in [("trap '' HUP", false), ("true", true)] {
-        let child = spawn(
-            lsgen_under_sh(setup)
-                .args(["-j", "4", "-q", "--seed", "1..3000", "-n", "3"])
-                .arg(&input)
-                .arg("-o")
-                .arg(out.join("{seed}.txt")),
-        );
+        let child = spawn(tiny_batch(&mut lsgen_under_sh(setup), "4", &input, &out));
         thread::sleep(Duration::from_millis(150));
         let pid = child.id().to_string();
         let _ = Command::new("kill").args(["-HUP", &pid]).status();
