@@ -862,6 +862,27 @@ fn extreme_extents_are_errors_or_laid_out_within_size() {
         )));
         assert!(w <= 100 && h <= 100, "{input}: {w}x{h}");
     }
+    // A drawing without extent (a point, nothing drawn) is a square of
+    // --size with the point in its middle (it was 2 margins wide: 6 of
+    // 100 pixels).
+    for input in ["@o(1e-320)", "f(3)", "+", "&(90)!(0)F"] {
+        let png = ok(&turtle(&["-f", "png", "--size", "100"], input.as_bytes()));
+        assert_eq!(png_size(&png), (100, 100), "{input}");
+        let svg = text(ok(&turtle(
+            &["-f", "svg", "--size", "100"],
+            input.as_bytes(),
+        )));
+        assert_eq!(
+            svg_numbers(&svg, "viewBox"),
+            [0.0, 0.0, 100.0, 100.0],
+            "{input}"
+        );
+    }
+    let svg = text(ok(&turtle(
+        &["-f", "svg", "--size", "100"],
+        b"f(2)@o(1e-320)",
+    )));
+    assert!(svg.contains(r#"cx="50" cy="50""#), "{svg}");
     // A huge but finite drawing: small plain coordinates.
     let svg = text(ok(&turtle(&["-f", "svg"], b"F(1e308)+(90)F(1e307)")));
     let pts = svg_numbers(&svg, "points");

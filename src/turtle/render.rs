@@ -156,13 +156,24 @@ impl Layout {
         let (bw, bh) = (flat(max.0 - min.0), flat(max.1 - min.1));
         let inner = (size as f64 - 2.0 * margin).max(1.0);
         let big = bw.max(bh);
-        // A point, or an extent so small that fitting it would overflow
-        // (`@o(1e-320)`): a degenerate box, drawn at scale 1.
-        let scale = if big > 0.0 && big.is_finite() && (inner / big).is_finite() {
-            inner / big
-        } else {
-            1.0
-        };
+        if !(big > 0.0 && big.is_finite() && (inner / big).is_finite()) {
+            // Nothing drawn, a point, or an extent so small that fitting
+            // it would overflow (`@o(1e-320)`): drawn at scale 1 in the
+            // middle of a square of --size.
+            let half = f64::from(size) / 2.0;
+            return Layout {
+                proj: b.proj,
+                width: size,
+                height: size,
+                scale: 1.0,
+                unit,
+                // (The box's middle, halves first: no overflow.)
+                min_u: min.0 / 2.0 + max.0 / 2.0,
+                max_v: min.1 / 2.0 + max.1 / 2.0,
+                margin: half,
+            };
+        }
+        let scale = inner / big;
         // Never more than --size, whatever the rounding.
         let dim = |x: f64| ((x * scale + 2.0 * margin).ceil() as u32).clamp(1, size);
         Layout {
