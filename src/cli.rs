@@ -700,6 +700,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .jobs
         .map_or(cpus, |j| crate::derive::par::started(j as usize, cpus)) as u64;
     let workers = workers.min(total);
+    // Before any thread of the batch starts (the progress ticker too):
+    // they inherit the mask that leaves termination signals to a thread
+    // of their own.
+    crate::io::output::signals_to_a_thread_of_their_own();
     let display = crate::progress::wanted(args.progress, args.quiet, args.verbose, false)
         .then(|| crate::progress::Batch::start(total));
     let (failed, failures) = run_batch(total, workers as usize, |i| {
@@ -889,9 +893,9 @@ fn run_batch(
     let count = AtomicU64::new(0);
     let failed: Mutex<Vec<(u64, Error)>> = Mutex::new(Vec::new());
     // One sync per output directory, when this function returns (or when
-    // a signal ends the run: the signal thread syncs them first).
+    // a signal ends the run: the signal thread, started by the caller,
+    // syncs them first).
     let _dirs = crate::io::output::DeferDirSync::new();
-    crate::io::output::signals_to_a_thread_of_their_own();
     let work = || {
         // Job after job on this thread: each job takes the output buffer,
         // number cache and emptied generation files the last one left

@@ -1353,7 +1353,7 @@ fn tiny_batch_files() -> (tempfile::TempDir, PathBuf, PathBuf) {
 
 /// `cmd` as 3000 tiny jobs on `j` threads, from `input` into `out`.
 fn tiny_batch<'c>(cmd: &'c mut Command, j: &str, input: &Path, out: &Path) -> &'c mut Command {
-    cmd.args(["-j", j, "-q", "--seed", "1..3000", "-n", "3"])
+    cmd.args(["-j", j, "--seed", "1..3000", "-n", "3"])
         .arg(input)
         .arg("-o")
         .arg(out.join("{seed}.txt"))
@@ -1378,10 +1378,16 @@ fn a_signal_in_a_batch_on_threads_leaves_no_temp_name() {
     let r = run(&mut batch());
     assert_eq!(r.code(), Some(0), "stderr:\n{}", r.stderr);
     let mut signalled = 0;
-    for round in 0..10u64 {
-        let child = spawn(&mut batch());
-        thread::sleep(Duration::from_millis(80 + 45 * round));
-        let sig = if round % 2 == 0 { "-TERM" } else { "-INT" };
+    for round in 0..12u64 {
+        // (Every other round with the progress display, a thread of its
+        // own started before the jobs'.)
+        let mut c = batch();
+        if round % 2 == 1 {
+            c.arg("--progress");
+        }
+        let child = spawn(&mut c);
+        thread::sleep(Duration::from_millis(80 + 40 * round));
+        let sig = if round % 4 < 2 { "-TERM" } else { "-INT" };
         let pid = child.id().to_string();
         let _ = Command::new("kill").args([sig, &pid]).status();
         let r = finish(child, Duration::from_secs(60));
