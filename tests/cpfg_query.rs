@@ -780,9 +780,14 @@ fn what_stops_the_skip_after_a_cut() {
         let e = r.fails(1).to_string();
         assert!(e.contains(&format!("lsgen: error: {want}")), "{axiom}: {e}");
     }
-    // (What else the skipped part holds is skipped.)
+    // (What else the skipped part holds is skipped, also an `@` command
+    // or a `?` cut short by the end of the string.)
     let r = axiom_apart(dir.path(), &v, &l, "F[%F~l@RF?P(0,0)]?P(0,0)\n");
     assert_eq!(r.ok(), "F[%F~l@RF?P(0,0)]?P(0,1)\n");
+    for tail in ["?", "@G", "@T", "F@P", "@"] {
+        let r = axiom_apart(dir.path(), &v, &l, &format!("F?P(0,0)%{tail}\n"));
+        assert_eq!(r.ok(), format!("F?P(0,1)%{tail}\n"), "{tail}");
+    }
 }
 
 /// The turtle reads a string through a moving homomorphism and takes each

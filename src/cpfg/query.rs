@@ -525,6 +525,11 @@ fn walk(
             },
         }
     }
+    // (A string that ends in a skipped rest ends nothing the turtle
+    // reads: `%?` and `%@G` at its end are skipped.)
+    if skipping.is_some() {
+        return Ok(());
+    }
     if cursor.asking() {
         return Err(fault(QueryFault::NotAQuery(None)));
     }
