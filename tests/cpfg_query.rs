@@ -9,7 +9,7 @@
 mod common;
 
 use common::{lsgen, run, tempdir, write, ROOT};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// A `.l` file and its view file in a fresh directory; lsgen's output for
 /// `args` (then `--cpfg-view plant.v plant.l`).
@@ -766,11 +766,7 @@ fn a_query_rewritten_into_a_quaternion_query() {
 #[test]
 fn what_stops_the_skip_after_a_cut() {
     let dir = tempdir();
-    let v = write(
-        dir.path(),
-        "plant.v",
-        "angle factor: 8\ninterpretation past %: off\n",
-    );
+    let v = cut_off_view(dir.path());
     let l = write(dir.path(), "plant.l", system(1, "?P(0,0)", "A --> B"));
     for (axiom, want) in [
         ("F[%F$F?P(0,0)]?P(0,0)\n", "`$` (the end of a sub-L-system)"),
@@ -798,16 +794,21 @@ fn what_stops_the_skip_after_a_cut() {
 #[test]
 fn a_skipped_at_command_keeps_the_queries_in_step() {
     let dir = tempdir();
-    let v = write(
-        dir.path(),
-        "plant.v",
-        "angle factor: 8\ninterpretation past %: off\n",
-    );
+    let v = cut_off_view(dir.path());
     let l = "Lsystem: 1\nderivation length: 1\nAxiom: ?P(0,0)\nA --> B\n\
              homomorphism\nI --> F\nendlsystem\n";
     let l = write(dir.path(), "plant.l", l);
     let r = axiom_apart(dir.path(), &v, &l, "F[%@?P(0,0)]I?P(0,0)\n");
     assert_eq!(r.ok(), "F[%@?P(0,0)]F?P(0,2)\n");
+}
+
+/// A view file whose turtle skips the rest of a branch after `%`.
+fn cut_off_view(dir: &Path) -> PathBuf {
+    write(
+        dir,
+        "plant.v",
+        "angle factor: 8\ninterpretation past %: off\n",
+    )
 }
 
 /// lsgen `-n 0` on the `.l` file `l` with the view `v` and the axiom

@@ -509,7 +509,7 @@ fn walk(
         let p = &params[..n];
         // (What the file's own strings cannot hold, checked when it was
         // loaded, may still come from an axiom given apart, `--axiom`.)
-        match Follow::role(place, sym, n) {
+        match role(place, sym, n) {
             Err(u) => return Err(fault(QueryFault::NotFollowed(u.at_run()))),
             Ok(Role::At(f)) => w.at_module(f, p),
             Ok(Role::AtT(f)) => w.at_t(f, p).map_err(fault)?,
@@ -773,18 +773,7 @@ impl Cursor {
     }
 }
 
-/// What the query turtle makes of a module of a list, given its place:
-/// `@G`'s subfunctions `s c e t r` (generalized cylinders, `general.c`)
-/// set the spline's state, never the turtle's place; `@T`'s `i d s p f`
-/// change cpfg's movements (`crate::turtle::movements`), `x` a texture.
-/// One rule for the file's lists when it is loaded ([`check_list`]) and for
-/// the strings the turtle reads ([`fill`]).
-#[derive(Default)]
-struct Follow {
-    cursor: Cursor,
-}
-
-/// A module's part in the turtle's reading ([`Follow::next`]).
+/// A module's part in the turtle's reading ([`role`]).
 enum Role {
     /// Interpreted as a module of its own.
     Turtle,
@@ -856,47 +845,42 @@ impl Unfollowed {
     }
 }
 
-impl Follow {
-    /// The part of the module `sym` with `n` parameters, read next.
-    fn next(&mut self, sym: char, n: usize) -> Result<Role, Unfollowed> {
-        let place = self.cursor.next(sym, n);
-        Follow::role(place, sym, n)
-    }
-
-    /// The part of the module `sym` with `n` parameters at `place`.
-    fn role(place: Place, sym: char, n: usize) -> Result<Role, Unfollowed> {
-        match place {
-            Place::Function => match sym {
-                'o' | 'O' | 'c' | 'v' | 'M' => Ok(Role::At(sym)),
-                'G' | 'T' if n == 0 => Ok(Role::Part),
-                // (cpfg: `@G` or `@T` with a parameter reads no
-                // subfunction, and its turtle goes on from the `G` or `T`
-                // as a module of its own: `@G(x)` moves it.)
-                'G' => Err(Unfollowed::AtGParams),
-                'T' => Err(Unfollowed::AtTParams),
-                _ => Err(Unfollowed::At(sym)),
-            },
-            Place::Sub('G') if matches!(sym, 's' | 'c' | 'e' | 't' | 'r') => Ok(Role::Part),
-            Place::Sub('G') => Err(Unfollowed::AtG(sym)),
-            // (`@Tx` without a parameter: cpfg goes on from the `T`.)
-            Place::Sub('T')
-                if matches!(sym, 'i' | 'd' | 's' | 'p' | 'f') || (sym == 'x' && n > 0) =>
-            {
-                Ok(Role::AtT(sym))
-            }
-            Place::Sub('T') => Err(Unfollowed::AtT(sym)),
-            // (The function of the others is refused first.)
-            Place::Sub(f) => Err(Unfollowed::At(f)),
-            Place::Queried => Ok(Role::Queried),
-            Place::Own => match sym {
-                '~' => Err(Unfollowed::Surface),
-                's' if n == 2 || n == 3 => Err(Unfollowed::OldQuery),
-                '%' if n > 0 => Err(Unfollowed::CutWithParams),
-                '?' if n > 0 => Err(Unfollowed::SubLsystem),
-                '@' if n == 0 => Ok(Role::Part),
-                _ => Ok(Role::Turtle),
-            },
+/// What the query turtle makes of the module `sym` with `n` parameters at
+/// `place`: `@G`'s subfunctions `s c e t r` (generalized cylinders,
+/// `general.c`) set the spline's state, never the turtle's place; `@T`'s
+/// `i d s p f` change cpfg's movements (`crate::turtle::movements`), `x` a
+/// texture. One rule for the file's lists when it is loaded
+/// ([`check_list`]) and for the strings the turtle reads ([`fill`]).
+fn role(place: Place, sym: char, n: usize) -> Result<Role, Unfollowed> {
+    match place {
+        Place::Function => match sym {
+            'o' | 'O' | 'c' | 'v' | 'M' => Ok(Role::At(sym)),
+            'G' | 'T' if n == 0 => Ok(Role::Part),
+            // (cpfg: `@G` or `@T` with a parameter reads no
+            // subfunction, and its turtle goes on from the `G` or `T`
+            // as a module of its own: `@G(x)` moves it.)
+            'G' => Err(Unfollowed::AtGParams),
+            'T' => Err(Unfollowed::AtTParams),
+            _ => Err(Unfollowed::At(sym)),
+        },
+        Place::Sub('G') if matches!(sym, 's' | 'c' | 'e' | 't' | 'r') => Ok(Role::Part),
+        Place::Sub('G') => Err(Unfollowed::AtG(sym)),
+        // (`@Tx` without a parameter: cpfg goes on from the `T`.)
+        Place::Sub('T') if matches!(sym, 'i' | 'd' | 's' | 'p' | 'f') || (sym == 'x' && n > 0) => {
+            Ok(Role::AtT(sym))
         }
+        Place::Sub('T') => Err(Unfollowed::AtT(sym)),
+        // (The function of the others is refused first.)
+        Place::Sub(f) => Err(Unfollowed::At(f)),
+        Place::Queried => Ok(Role::Queried),
+        Place::Own => match sym {
+            '~' => Err(Unfollowed::Surface),
+            's' if n == 2 || n == 3 => Err(Unfollowed::OldQuery),
+            '%' if n > 0 => Err(Unfollowed::CutWithParams),
+            '?' if n > 0 => Err(Unfollowed::SubLsystem),
+            '@' if n == 0 => Ok(Role::Part),
+            _ => Ok(Role::Turtle),
+        },
     }
 }
 
@@ -907,12 +891,12 @@ type Item = (char, usize, Option<Span>);
 /// turtle does not follow, and why.
 fn check_list(list: impl Iterator<Item = Item>) -> Result<(), (Item, Refused)> {
     let not = |what: String| Refused::QueryNotFollowed(what);
-    let mut follow = Follow::default();
+    let mut cursor = Cursor::default();
     // The `@` of the command being read: errors in it are located there.
     let mut command = None;
     for m in list {
         let (sym, n, _) = m;
-        match follow.next(sym, n) {
+        match role(cursor.next(sym, n), sym, n) {
             Ok(Role::Part) if sym == '@' => command = Some(m),
             Ok(_) => {}
             Err(u) => {
@@ -935,9 +919,7 @@ fn check_list(list: impl Iterator<Item = Item>) -> Result<(), (Item, Refused)> {
         }
     }
     match command {
-        Some(a) if follow.cursor.in_command() => {
-            Err((a, not("`@` at the end of a successor".into())))
-        }
+        Some(a) if cursor.in_command() => Err((a, not("`@` at the end of a successor".into()))),
         _ => Ok(()),
     }
 }

@@ -804,8 +804,8 @@ static NAMING: std::sync::RwLock<()> = std::sync::RwLock::new(());
 /// started, the signals are left as they were.
 #[cfg_attr(not(feature = "cli"), allow(dead_code))]
 pub(crate) fn signals_to_a_thread_of_their_own() {
-    static STARTED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    STARTED.get_or_init(|| {
+    static STARTED: std::sync::Once = std::sync::Once::new();
+    STARTED.call_once(|| {
         // Not those the run was started with ignored (`nohup`, `&` in a
         // script): held, they would reach the thread, not be dropped.
         let mut set = termination_signals();
@@ -825,7 +825,7 @@ pub(crate) fn signals_to_a_thread_of_their_own() {
             }
         }
         if !any {
-            return false;
+            return;
         }
         let mut old: libc::sigset_t = unsafe { std::mem::zeroed() };
         // SAFETY: changes this thread's signal mask only (restored below if
@@ -858,7 +858,6 @@ pub(crate) fn signals_to_a_thread_of_their_own() {
             // SAFETY: restores this thread's mask.
             unsafe { libc::pthread_sigmask(libc::SIG_SETMASK, &old, std::ptr::null_mut()) };
         }
-        waiter.is_ok()
     });
 }
 
