@@ -588,8 +588,7 @@ impl LSystem {
                 ));
             }
         };
-        let loaded = crate::cpfg::load(&path, source, seed.is_some(), names, functions)?;
-        let system = compile_cpfg(&loaded, seed)?;
+        let (loaded, system) = crate::cpfg::load(&path, source, seed.is_some(), names, functions)?;
         Ok(LSystem {
             path,
             split: Split {
@@ -1001,28 +1000,14 @@ const SNIFF: usize = 1 << 16;
 /// Do a cpfg file's production weights count, derived with `seed`
 /// (`--seed`)? Only with a seed: without one cpfg never evaluates them.
 fn weights_count(c: &crate::cpfg::Loaded, seed: Option<u64>) -> bool {
-    seed.is_some()
-        || c.header
-            .settings
-            .iter()
-            .any(|s| matches!(s, crate::lang::ast::Setting::Seed(..)))
+    seed.is_some() || c.seeded
 }
 
-/// Compile a lowered cpfg file, to be derived with `seed` (`--seed`).
+/// Compile a loaded cpfg file again, to be derived with `seed` (`--seed`).
 /// Where its weights do not count they are left out, unevaluated, as cpfg
 /// leaves them: `A --> B : -1` is no error there.
 fn compile_cpfg(c: &crate::cpfg::Loaded, seed: Option<u64>) -> Result<System, Error> {
-    let mut header = c.header.clone();
-    if !weights_count(c, seed) {
-        for p in &mut header.productions {
-            p.prob = None;
-        }
-    }
-    let mut s = crate::rules::compile_dialect(header, Some(&c.text), Seeds::default(), true)
-        .map_err(|e| crate::cpfg::locate(&c.map, e))?;
-    s.source_map = Some(c.map.clone());
-    crate::cpfg::lower::attach(&c.run, &c.extra, &mut s);
-    Ok(s)
+    crate::cpfg::compile(c, seed.is_some())
 }
 
 /// Parse and compile the header of `split`.

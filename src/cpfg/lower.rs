@@ -18,13 +18,14 @@
 //! (globals, production locals) must then resolve in `Lowerer::expr`
 //! before the "undefined name is 0" rule.
 
-use super::ast::{self, Block, Expr, Module, Production, Section, Setting};
+use super::ast::{self, Block, Expr, ModRef, Module, Production, Section, Setting};
 use super::blocks;
 use super::run::CpfgRun;
 use crate::diag::{CompileError as Invalid, WarningKind};
 use crate::lang::ast as ls;
 use crate::lang::lexer::Span;
 use crate::lang::parse::{HeaderError, UserError};
+use crate::lang::sink::{HeadPart, HeaderSink, SectionKind, SectionStart, BATCH};
 use crate::rules::expr::{Code, Scope, STEP_SLOT};
 use std::collections::HashMap;
 
@@ -34,9 +35,10 @@ fn err<T>(span: Span, kind: impl Into<HeaderError>) -> R<T> {
     Err(UserError::new(span, kind))
 }
 
-/// A lowered `.l` file.
+/// A lowered `.l` file (its header went to the sink).
 pub struct Lowered {
-    pub header: ls::Header,
+    /// The file has `seed:` (cpfg's stochastic mode).
+    pub seeded: bool,
     /// The axiom as module text (parameters evaluated, in full precision;
     /// `0` in place of those worked out after `Start:`, [`CpfgRun::axiom`]).
     pub axiom: String,
@@ -194,6 +196,15 @@ fn formal_name(name: &str) -> String {
 }
 
 struct Lowerer<'w> {
+    /// The preprocessed text the tree was parsed from (its successors'
+    /// symbols, [`ast::Successor`]).
+    text: &'w str,
+    /// What the header goes to, production by production.
+    sink: &'w mut dyn HeaderSink,
+    /// The weights of `productions` count though the file has no `seed:`
+    /// (`--seed` stands for it); else, without `seed:`, they are left out
+    /// as cpfg leaves them, unevaluated at run time.
+    weights: bool,
     /// The file's `derivation length:` (cpfg's `Z`), once read.
     z: Option<f64>,
     /// `Q` and `Z` are cpfg's built-in variables (the step, the
@@ -426,7 +437,7 @@ impl Lowerer<'_> {
         Ok(v as i64)
     }
 
-    fn module(&mut self, m: &Module, formals: &HashMap<String, ()>) -> R<ls::Module> {
+    fn module(&mut self, m: ModRef, formals: &HashMap<String, ()>) -> R<ls::Module> {
         Ok(ls::Module {
             sym: m.sym,
             params: m
@@ -595,9 +606,10 @@ impl Lowerer<'_> {
         Code::compile(&e, &scope).map_err(|x| UserError::new(x.span, x.kind))
     }
 
-    fn production(&mut self, p: &Production, section: &'static str) -> R<ls::Production> {
+    /// Lower `p` into the sink.
+    fn production(&mut self, p: &Production, section: &'static str) -> R<()> {
         let mut formals = HashMap::new();
-        let left = match &p.left {
+        let mut left = match &p.left {
             Some(l) => self.formals(l, &mut formals)?,
             None => Vec::new(),
         };
@@ -680,15 +692,49 @@ impl Lowerer<'_> {
             // (`names` holds `step` too.)
             nslots: names.len() - 1,
         });
-        let cond = match &p.cond {
+        let mut cond = match &p.cond {
             Some(c) => Some(Box::new(self.expr(c, &formals)?)),
             None => None,
         };
-        let succ = p
-            .succ
-            .iter()
-            .map(|m| self.module(m, &formals))
-            .collect::<R<Vec<_>>>()?;
+        let bracket = p.left.iter().flatten().find(|m| matches!(m.sym, '[' | ']'));
+        if let Some(m) = bracket {
+            // cpfg's `LconDiff` passes over the string's brackets (`]`
+            // skips a branch, `[` is stepped over) and compares the pattern
+            // with other modules only: a bracket in a left context matches
+            // nothing, so the production never applies (its contexts fail
+            // before its pre-condition block or condition would run). Kept
+            // for its errors, with a false condition and no blocks (the
+            // warning comes after the production's others, below).
+            left.retain(|m| !matches!(m.sym, '[' | ']'));
+            cond = Some(Box::new(ls::Expr::Num(0.0, m.span)));
+            let x = self.extra[self.section].last_mut().expect("pushed above");
+            x.pre = None;
+            x.post = None;
+        }
+        // The head, then the successor in batches: a successor line of
+        // millions of modules never exists whole in the shared tree.
+        let parts = [
+            (HeadPart::Left, left),
+            (HeadPart::Pred, vec![pred.pop().expect("one module")]),
+            (HeadPart::Rest, pred_rest),
+            (HeadPart::Right, right),
+        ];
+        for (part, modules) in parts {
+            for m in modules {
+                self.sink.head_module(part, m);
+            }
+        }
+        self.sink.head_end(cond, p.span);
+        let mut batch = Vec::with_capacity(p.succ.len().min(BATCH));
+        for m in p.succ.modules(self.text) {
+            batch.push(self.module(m, &formals)?);
+            if batch.len() == BATCH {
+                self.sink.successor(&mut batch);
+            }
+        }
+        if !batch.is_empty() {
+            self.sink.successor(&mut batch);
+        }
         let prob = match &p.prob {
             None => None,
             // cpfg's stochastic choice (src/cpfg/random.rs).
@@ -707,38 +753,23 @@ impl Lowerer<'_> {
             }
         };
         self.locals.clear();
-        let (mut left, mut cond) = (left, cond);
-        if let Some(m) = p.left.iter().flatten().find(|m| matches!(m.sym, '[' | ']')) {
-            // cpfg's `LconDiff` passes over the string's brackets (`]`
-            // skips a branch, `[` is stepped over) and compares the pattern
-            // with other modules only: a bracket in a left context matches
-            // nothing, so the production never applies (its contexts fail
-            // before its pre-condition block or condition would run). Kept
-            // for its errors, with a false condition and no blocks.
+        if let Some(m) = bracket {
             (self.warn)(m.span, WarningKind::LeftContextBracket);
-            left.retain(|m| !matches!(m.sym, '[' | ']'));
-            cond = Some(Box::new(ls::Expr::Num(0.0, m.span)));
-            let x = self.extra[self.section].last_mut().expect("pushed above");
-            x.pre = None;
-            x.post = None;
         }
-        Ok(ls::Production {
-            left,
-            pred: pred.pop().expect("one module"),
-            pred_rest,
-            right,
-            cond,
-            succ,
-            prob,
-            span: p.span,
-        })
+        // Without `seed:` (or `--seed`) cpfg never evaluates the weights:
+        // `A --> B : -1` is no error there.
+        let counts = self.seeded || self.weights || !section.is_empty();
+        self.sink.end(prob.filter(|_| counts), p.span);
+        Ok(())
     }
 
-    fn section(
-        &mut self,
-        s: &Section,
-        name: &'static str,
-    ) -> R<(ls::Section, Vec<ls::Production>)> {
+    /// Lower the section `s` into the sink, its productions dropped as
+    /// they are lowered.
+    fn section(&mut self, mut s: Section, kind: SectionKind) -> R<()> {
+        let name = match kind {
+            SectionKind::Decomposition => "decomposition ",
+            _ => "homomorphism ",
+        };
         let mut settings = Vec::new();
         if let Some((e, span)) = &s.depth {
             // `(int) Eval(...)` (lsys_input.y's ProdDepth): truncated; 0 or
@@ -775,26 +806,31 @@ impl Lowerer<'_> {
                 ));
             }
         }
-        let prods = s
-            .productions
-            .iter()
-            .map(|p| self.production(p, name))
-            .collect::<R<Vec<_>>>()?;
-        Ok((
-            ls::Section {
-                span: s.span,
-                // cpfg warns unless told `no warnings`.
-                warnings: s.warnings.unwrap_or(true),
-                settings,
-                productions: Vec::new(),
-            },
-            prods,
-        ))
+        self.sink.section(SectionStart {
+            kind,
+            span: s.span,
+            // cpfg warns unless told `no warnings`.
+            warnings: s.warnings.unwrap_or(true),
+            settings,
+        });
+        for p in std::mem::take(&mut s.productions) {
+            self.production(&p, name)?;
+        }
+        Ok(())
     }
 }
 
-/// Lower `ls`; `warn` receives each warning with its span.
-pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)) -> R<Lowered> {
+/// Lower `lsys`, parsed from `text`, into `sink` (the shared tree's
+/// header in file order, productions dropped as they are lowered);
+/// `weights`: `--seed` is given, so production weights count without
+/// `seed:`; `warn` receives each warning with its span.
+pub(crate) fn lower(
+    mut lsys: ast::Lsystem,
+    text: &str,
+    weights: bool,
+    sink: &mut dyn HeaderSink,
+    warn: &mut dyn FnMut(Span, WarningKind),
+) -> R<Lowered> {
     // cpfg's parser defines `Q` and `Z` in the global symbol table at the
     // `derivation length:` line (lsys_input.y, Dlength), after evaluating
     // its value; a name it does not find is made a variable (0, with a
@@ -849,22 +885,26 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
         .start
         .as_ref()
         .map_or([false; 2], |(b, _)| assigned_in(b));
-    let blocks = [&lsys.start, &lsys.start_each, &lsys.end_each, &lsys.end]
-        .into_iter()
-        .flatten()
-        .map(|(b, _)| b);
-    let sections = [&lsys.decomposition, &lsys.homomorphism]
-        .into_iter()
-        .flatten()
-        .flat_map(|s| &s.productions);
-    let prods = lsys.productions.iter().chain(sections);
     // (A production's formal `Z` counts too: then `Z` is a variable that
     // holds the length, which reads the same.)
-    let z_assigned = builtin[1]
-        && blocks
+    let z_assigned = builtin[1] && {
+        let blocks = [&lsys.start, &lsys.start_each, &lsys.end_each, &lsys.end]
+            .into_iter()
+            .flatten()
+            .map(|(b, _)| b);
+        let sections = [&lsys.decomposition, &lsys.homomorphism]
+            .into_iter()
+            .flatten()
+            .flat_map(|s| &s.productions);
+        let prods = lsys.productions.iter().chain(sections);
+        blocks
             .chain(prods.flat_map(|p| [&p.pre, &p.post]))
-            .any(|b| assigned_in(b)[1]);
+            .any(|b| assigned_in(b)[1])
+    };
     let mut lw = Lowerer {
+        text,
+        sink,
+        weights,
         z: None,
         builtin,
         z_global: None,
@@ -879,7 +919,7 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
         locals: HashMap::new(),
         variables: 0,
         arrays: HashMap::new(),
-        strings: lsys.strings.clone(),
+        strings: std::mem::take(&mut lsys.strings),
         extra: Default::default(),
         section: 0,
     };
@@ -910,7 +950,8 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
     let mut inits = Vec::new();
     let mut elements = 0u64;
     let mut blocks_seen = 0;
-    let mut header = ls::Header::default();
+    // The shared tree's settings.
+    let mut settings = Vec::new();
     // (ignore, symbols, span) of the last `ignore:`/`consider:`.
     let mut filter = None;
     for s in &lsys.settings {
@@ -965,12 +1006,8 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
                     f64::from(v as u16) + 65536.0
                 };
                 lw.seeded = true;
-                header
-                    .settings
-                    .retain(|s| !matches!(s, ls::Setting::Seed(..)));
-                header
-                    .settings
-                    .push(ls::Setting::Seed(ls::Expr::Num(v, e.span()), *span));
+                settings.retain(|s| !matches!(s, ls::Setting::Seed(..)));
+                settings.push(ls::Setting::Seed(ls::Expr::Num(v, e.span()), *span));
             }
             Setting::DerivationLength(e, span) => {
                 // `(int) Eval(...)`: truncated; below 0 cpfg derives no
@@ -981,10 +1018,8 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
                 // first, never reaches.
                 let n = lw.c_int(e, "the derivation length")?;
                 lw.z.get_or_insert(n as f64);
-                header
-                    .settings
-                    .retain(|s| !matches!(s, ls::Setting::DerivationLength(..)));
-                header.settings.push(ls::Setting::DerivationLength(
+                settings.retain(|s| !matches!(s, ls::Setting::DerivationLength(..)));
+                settings.push(ls::Setting::DerivationLength(
                     ls::Expr::Num(n.max(0) as f64, e.span()),
                     *span,
                 ));
@@ -997,9 +1032,7 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
     if lw.z.is_none() {
         // cpfg derives 0 steps without `derivation length:`.
         let at = (lsys.span.0, lsys.span.0);
-        header
-            .settings
-            .push(ls::Setting::DerivationLength(ls::Expr::Num(0.0, at), at));
+        settings.push(ls::Setting::DerivationLength(ls::Expr::Num(0.0, at), at));
     }
     if let Some((ignore, syms, span)) = filter {
         let mods = syms
@@ -1010,7 +1043,7 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
                 span: s,
             })
             .collect();
-        header.settings.push(if ignore {
+        settings.push(if ignore {
             ls::Setting::Ignore(mods, span)
         } else {
             ls::Setting::Consider(mods, span)
@@ -1137,26 +1170,29 @@ pub(crate) fn lower(lsys: &ast::Lsystem, warn: &mut dyn FnMut(Span, WarningKind)
         start.extend(std::mem::take(&mut run.start).0.into_vec());
         run.start = blocks::Block(start.into());
     }
-    header.productions = lsys
-        .productions
-        .iter()
-        .map(|p| lw.production(p, ""))
-        .collect::<R<Vec<_>>>()?;
-    if let Some(d) = &lsys.decomposition {
-        lw.section = 1;
-        let (mut s, prods) = lw.section(d, "decomposition ")?;
-        s.productions = prods;
-        header.decomposition = Some(s);
+    // The header in the order `rules::compile_dialect` hands a whole one
+    // over.
+    lw.sink.settings(settings);
+    lw.sink.section(SectionStart {
+        kind: SectionKind::Group(0),
+        span: (0, 0),
+        warnings: false,
+        settings: Vec::new(),
+    });
+    for p in std::mem::take(&mut lsys.productions) {
+        lw.production(&p, "")?;
     }
-    if let Some(h) = &lsys.homomorphism {
+    if let Some(d) = lsys.decomposition.take() {
+        lw.section = 1;
+        lw.section(d, SectionKind::Decomposition)?;
+    }
+    if let Some(h) = lsys.homomorphism.take() {
         lw.section = 2;
-        let (s, prods) = lw.section(h, "homomorphism ")?;
-        header.homomorphism = prods;
-        header.hom = Some(s);
+        lw.section(h, SectionKind::Homomorphism)?;
     }
     run.assigns_q = lw.assigns_q;
     Ok(Lowered {
-        header,
+        seeded: lw.seeded,
         axiom,
         run,
         extra: lw.extra,
@@ -1168,11 +1204,19 @@ mod tests {
     use super::*;
     use crate::cpfg::parse::parse;
 
-    fn lowered(src: &str) -> (R<Lowered>, Vec<String>) {
+    /// `src` lowered into the shared tree, as derived with `--seed`.
+    fn lowered(src: &str) -> (R<(Lowered, ls::Header)>, Vec<String>) {
+        lowered_with(src, true)
+    }
+
+    fn lowered_with(src: &str, weights: bool) -> (R<(Lowered, ls::Header)>, Vec<String>) {
         let mut warnings = Vec::new();
-        let ls = parse(src).unwrap();
-        let r = lower(&ls, &mut |_, m| warnings.push(m.to_string()));
-        (r, warnings)
+        let tree = parse(src).unwrap();
+        let mut sink = crate::lang::sink::Collect::default();
+        let r = lower(tree, src, weights, &mut sink, &mut |_, m| {
+            warnings.push(m.to_string())
+        });
+        (r.map(|l| (l, sink.header)), warnings)
     }
 
     #[test]
@@ -1180,12 +1224,12 @@ mod tests {
         let (r, w) = lowered(
             "Lsystem: 1\nderivation length: 3\nAxiom: A(Z, Q, 0.1, nothing)\nA(x) --> A(x + Q + Z)\nendlsystem\n",
         );
-        let l = r.unwrap();
+        let (l, h) = r.unwrap();
         // 0.1 stored as a float: 0.10000000149011612.
         assert_eq!(l.axiom, "A(3,0,0.10000000149011612,0)");
         assert_eq!(w.len(), 1);
         assert!(w[0].contains("`nothing` is not defined"));
-        let succ = &l.header.productions[0].succ[0].params[0];
+        let succ = &h.productions[0].succ[0].params[0];
         let text = format!("{succ:?}");
         assert!(
             text.contains("\"step\"") && text.contains("Num(3.0"),
@@ -1202,7 +1246,7 @@ mod tests {
             "Lsystem: 1\nderivation length: 4\nEndEach: {Z = Z * 2; Q = 1;}\nAxiom: A\n\
              A --> B(Z, Q)\nendlsystem\n",
         );
-        let l = r.unwrap();
+        let (l, h) = r.unwrap();
         assert!(w.is_empty(), "{w:?}");
         assert!(l.run.assigns_q);
         let start = &l.run.start.0;
@@ -1215,7 +1259,7 @@ mod tests {
             &l.run.end_each.0[1],
             blocks::Stmt::Assign(blocks::Var::Step, _)
         ));
-        let text = format!("{:?}", l.header.productions[0].succ[0].params);
+        let text = format!("{:?}", h.productions[0].succ[0].params);
         assert!(
             text.contains("\\u{1}g") && !text.contains("Num(4.0"),
             "{text}"
@@ -1225,10 +1269,10 @@ mod tests {
             "Lsystem: 1\nderivation length: 4\nEndEach: {x = Z + Q;}\nAxiom: A\n\
              A --> B(Z, Q)\nendlsystem\n",
         );
-        let l = r.unwrap();
+        let (l, h) = r.unwrap();
         assert!(!l.run.assigns_q);
         assert_eq!(l.run.start.0.len(), 0);
-        let text = format!("{:?}", l.header.productions[0].succ[0].params);
+        let text = format!("{:?}", h.productions[0].succ[0].params);
         assert!(text.contains("Num(4.0"), "{text}");
     }
 
@@ -1247,7 +1291,10 @@ mod tests {
                 "Lsystem: 1\nderivation length: 1\nStart: {{n = 0;}}\nAxiom: A\n\
                  decomposition\nmaximum depth: 0\n{prod}\nendlsystem\n"
             );
-            let l = crate::cpfg::load(
+            let (r, _) = lowered(&src);
+            let (_, h) = r.unwrap();
+            assert!(h.decomposition.is_some(), "{prod}: lowered");
+            let (_, s) = crate::cpfg::load(
                 "t.l",
                 &src,
                 false,
@@ -1255,11 +1302,6 @@ mod tests {
                 (&Default::default(), true),
             )
             .unwrap();
-            let seeds = crate::rules::Seeds::default();
-            let mut s = crate::rules::compile_dialect(l.header.clone(), Some(&l.text), seeds, true)
-                .unwrap();
-            assert!(s.decomposition.is_some(), "{prod}: compiled");
-            attach(&l.run, &l.extra, &mut s);
             assert_eq!(s.decomposition.is_some(), kept, "{prod}");
         }
     }
@@ -1267,27 +1309,31 @@ mod tests {
     #[test]
     fn refusals_not_yet() {
         let (r, _) = lowered("Lsystem: 1\nAxiom: AB\nAB --> C\nendlsystem\n");
-        assert_eq!(r.unwrap().header.productions[0].pred_rest.len(), 1);
+        assert_eq!(r.unwrap().1.productions[0].pred_rest.len(), 1);
         // cpfg matches one in the decomposition and the homomorphism too.
         for section in ["decomposition", "homomorphism"] {
             let (r, _) = lowered(&format!(
                 "Lsystem: 1\nAxiom: AB\n{section}\nAB --> C\nendlsystem\n"
             ));
-            let h = r.unwrap().header;
+            let h = r.unwrap().1;
             let prods = match &h.decomposition {
                 Some(d) => &d.productions,
                 None => &h.homomorphism,
             };
             assert_eq!(prods[0].pred_rest.len(), 1, "{section}");
         }
-        // Weights: kept with `seed:`; without it kept too (ignored at run
-        // time unless `--seed` stands for `seed:`), with a warning.
-        let (r, w) = lowered("Lsystem: 1\nseed: 2\nAxiom: A\nA --> B : 0.5\nendlsystem\n");
-        assert!(r.unwrap().header.productions[0].prob.is_some());
-        assert!(w.is_empty(), "{w:?}");
-        let (r, w) = lowered("Lsystem: 1\nAxiom: A\nA --> B : 0.5\nendlsystem\n");
-        assert!(r.unwrap().header.productions[0].prob.is_some());
-        assert!(w[0].contains("ignored"));
+        // Weights: kept with `seed:`; without it kept with `--seed`, else
+        // left out (cpfg never evaluates them), with a warning either way.
+        for weights in [false, true] {
+            let src = "Lsystem: 1\nseed: 2\nAxiom: A\nA --> B : 0.5\nendlsystem\n";
+            let (r, w) = lowered_with(src, weights);
+            assert!(r.unwrap().1.productions[0].prob.is_some());
+            assert!(w.is_empty(), "{w:?}");
+            let src = "Lsystem: 1\nAxiom: A\nA --> B : 0.5\nendlsystem\n";
+            let (r, w) = lowered_with(src, weights);
+            assert_eq!(r.unwrap().1.productions[0].prob.is_some(), weights);
+            assert!(w[0].contains("ignored"));
+        }
     }
 }
 
@@ -1370,9 +1416,9 @@ mod soup {
             x ^= x >> 7;
             x ^= x << 17;
             if let Ok(ls) = parse(&s) {
-                if let Ok(l) = super::lower(&ls, &mut |_, _| {}) {
-                    let seeds = crate::rules::Seeds::default();
-                    let _ = crate::rules::compile_dialect(l.header, Some(&s), seeds, true);
+                let mut c = crate::rules::Compiler::cpfg(Some(&s));
+                if super::lower(ls, &s, false, &mut c, &mut |_, _| {}).is_ok() {
+                    let _ = c.finish();
                 }
             }
         }

@@ -41,8 +41,8 @@ pub mod random;
 pub mod run;
 
 use crate::diag::{Error, ErrorKind, ParseError};
-use crate::lang::ast::Header;
 use crate::lang::parse::UserError;
+use crate::rules::{Compiler, System};
 use preprocess::SourceMap;
 use std::path::Path;
 use std::sync::Arc;
@@ -106,12 +106,14 @@ pub fn sniff(name: &str, head: &[u8], complete: bool) -> Option<bool> {
     }
 }
 
-/// A `.l` file read, preprocessed, parsed and lowered.
+/// A `.l` file read, preprocessed, parsed and lowered: what its compiled
+/// systems need beside the compiled rules ([`load`], [`compile`]).
 pub struct Loaded {
     /// The preprocessed text (the spans' text).
     pub text: String,
     pub map: Arc<SourceMap>,
-    pub header: Header,
+    /// The file has `seed:` (cpfg's stochastic mode: its weights count).
+    pub seeded: bool,
     /// The axiom as module text.
     pub axiom: String,
     /// Header blocks and the productions' blocks and slots (issue 12),
@@ -132,21 +134,25 @@ pub fn locate(map: &SourceMap, e: UserError) -> Error {
     Error::at(map.location(e.span.0), ErrorKind::from(e.kind))
 }
 
-/// Preprocess, parse and lower `source`, the text of the file `name`
-/// (includes are read relative to it); warnings are reported
+/// Preprocess, parse, lower and compile `source`, the text of the file
+/// `name` (includes are read relative to it); warnings are reported
 /// (`crate::diag::warn`).
 /// `seed_option`: it is derived with `--seed`, which makes its weights
 /// count (no warning that they are ignored); `names`: how the warnings
 /// name the options; `functions`: what `func` reads (a function set's
 /// names are macros); `includes`: `#include` reads files (else it is an
 /// error, and no file beside `name` is looked at for a hint).
+///
+/// The rules are compiled as the lowering hands them over: no whole
+/// syntax tree of the shared language is made, and none is kept. Only the
+/// preprocessed text is, to compile again ([`compile`]).
 pub fn load(
     name: &str,
     source: &str,
     seed_option: bool,
     names: crate::diag::OptionNames,
     (functions, includes): (&Arc<func::Functions>, bool),
-) -> Result<Loaded, Error> {
+) -> Result<(Loaded, System), Error> {
     let read: preprocess::Loader = &preprocess::read_file;
     let out = preprocess::preprocess_defined(
         Path::new(name),
@@ -180,7 +186,7 @@ pub fn load(
         }
         Err(query::CheckError::ViewFile(e)) => return Err(e),
     };
-    let lowered = lower::lower(&tree, &mut |span, warning| {
+    let mut warn = |span: crate::lang::lexer::Span, warning| {
         if seed_option
             && matches!(
                 warning,
@@ -190,21 +196,60 @@ pub fn load(
             return;
         }
         crate::diag::warn(map.location(span.0), &warning.with_option_names(names))
-    })
-    .map_err(|e| locate(&map, e))?;
+    };
+    let (lowered, system) =
+        lower_and_compile(tree, &text, seed_option, &mut warn).map_err(|e| locate(&map, e))?;
     let mut run = lowered.run;
     run.queries = queries.map(Arc::new);
     if !functions.is_empty() || !functions.no_curves() {
         run.functions = Some(functions.clone());
     }
-    Ok(Loaded {
+    let loaded = Loaded {
         text,
         map: Arc::new(map),
-        header: lowered.header,
+        seeded: lowered.seeded,
         axiom: lowered.axiom,
         run,
         extra: lowered.extra,
-    })
+    };
+    let system = loaded.attach(system);
+    Ok((loaded, system))
+}
+
+/// Compile a loaded file again (its first compiled system was derived,
+/// or its weights count now and did not then): parsed and lowered again
+/// from its preprocessed text, saying nothing (its warnings were said
+/// when it was loaded). `seed_option`: as for [`load`].
+pub fn compile(l: &Loaded, seed_option: bool) -> Result<System, Error> {
+    // (The text parsed once with these function files: `func` and the
+    // curve functions are not refused again.)
+    let tree = parse::parse_with(&l.text, None, None).map_err(|e| locate(&l.map, e))?;
+    let (_, system) = lower_and_compile(tree, &l.text, seed_option, &mut |_, _| {})
+        .map_err(|e| locate(&l.map, e))?;
+    Ok(l.attach(system))
+}
+
+/// Lower `tree`, parsed from `text`, into the shared compiler, production
+/// by production: the lowering's error first, else the compiler's.
+fn lower_and_compile(
+    tree: ast::Lsystem,
+    text: &str,
+    seed_option: bool,
+    warn: &mut dyn FnMut(crate::lang::lexer::Span, crate::diag::WarningKind),
+) -> Result<(lower::Lowered, System), UserError> {
+    let mut compiler = Compiler::cpfg(Some(text));
+    let lowered = lower::lower(tree, text, seed_option, &mut compiler, warn)?;
+    Ok((lowered, compiler.finish()?))
+}
+
+impl Loaded {
+    /// Give a system compiled from this file what the shared rules cannot
+    /// hold ([`lower::attach`]).
+    fn attach(&self, mut s: System) -> System {
+        s.source_map = Some(self.map.clone());
+        lower::attach(&self.run, &self.extra, &mut s);
+        s
+    }
 }
 
 /// An unbalanced axiom, located in the original files (the axiom reader

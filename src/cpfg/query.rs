@@ -44,7 +44,7 @@
 //! module that a `?` or an `@` reads (cpfg reads it from the string, past
 //! the homomorphism).
 
-use super::ast::{AxiomPiece, Expr, Lsystem, Module, Production};
+use super::ast::{AxiomPiece, Expr, Lsystem, ModRef, Production};
 use crate::diag::{Error, Refused, RuntimeError};
 use crate::lang::lexer::Span;
 use crate::rules::{codec, Alphabet};
@@ -614,7 +614,7 @@ pub(crate) fn check(
         let at = text.get(s..e).and_then(|t| t.find(c)).map_or(s, |i| s + i);
         (at, at + c.len_utf8())
     };
-    let Some(first) = first_query(tree, in_axiom('?')) else {
+    let Some(first) = first_query(tree, text, in_axiom('?')) else {
         return Ok(None);
     };
     let Some(view) = view else {
@@ -631,17 +631,17 @@ pub(crate) fn check(
         .iter()
         .flat_map(|h| &h.productions)
         .collect();
-    if let Some((at, why)) = hom.iter().find_map(|p| homomorphism_refused(p)) {
+    if let Some((at, why)) = hom.iter().find_map(|p| homomorphism_refused(p, text)) {
         return Err(CheckError::At(at, Refused::QueryWithHomomorphism(why)));
     }
-    let through = hom.iter().any(|p| homomorphism_moves(p));
+    let through = hom.iter().any(|p| homomorphism_moves(p, text));
     if through {
         // cpfg reads the module after a `?` or an `@` from the string,
         // past the homomorphism; the image has it rewritten. And cpfg's
         // homomorphism reads its contexts in the string as it is being
         // filled: a query module in a left context is filled already,
         // where the image was made from the string before the fill.
-        let (queried, read) = read_past(tree);
+        let (queried, read) = read_past(tree, text);
         for p in &hom {
             if let Some(m) = p.pred.iter().find(|m| read.contains(&m.sym)) {
                 let why = format!("a predecessor `{}`, which a `?` or an `@` reads", m.sym);
@@ -679,15 +679,14 @@ pub(crate) fn check(
         .chain(tree.decomposition.iter().map(|s| (&s.productions, true)))
         .chain(tree.homomorphism.iter().map(|s| (&s.productions, through)));
     for (p, successor) in sections.flat_map(|(ps, succ)| ps.iter().map(move |p| (p, succ))) {
-        let succ = successor.then_some(&p.succ[..]);
-        let lists = [
-            p.left.as_deref(),
-            Some(&p.pred[..]),
-            p.right.as_deref(),
-            succ,
-        ];
+        let lists = [p.left.as_deref(), Some(&p.pred[..]), p.right.as_deref()];
         for list in lists.into_iter().flatten() {
             let list = list.iter().map(|m| (m.sym, m.params.len(), Some(m.span)));
+            check_list(list).map_err(|(m, r)| CheckError::At(at(m), r))?;
+        }
+        if successor {
+            let list = p.succ.modules(text);
+            let list = list.map(|m| (m.sym, m.params.len(), Some(m.span)));
             check_list(list).map_err(|(m, r)| CheckError::At(at(m), r))?;
         }
     }
@@ -979,14 +978,14 @@ fn draws(e: &Expr) -> Option<Span> {
 /// ~`); its successor must not hold a `?` (each query of the image is
 /// then its string's) nor a `%` or `$` outside its own branches, and its
 /// brackets must balance.
-fn homomorphism_refused(p: &Production) -> Option<(Span, String)> {
+fn homomorphism_refused(p: &Production, text: &str) -> Option<(Span, String)> {
     if !p.pre.is_empty() || !p.post.is_empty() {
         return Some((p.span, "a block".into()));
     }
     if let Some(e) = &p.prob {
         return Some((e.span(), "a probability".into()));
     }
-    let params = p.succ.iter().flat_map(|m| &m.params);
+    let params = p.succ.modules(text).flat_map(|m| m.params);
     if let Some(at) = p.cond.iter().chain(params).find_map(draws) {
         return Some((at, "a random draw".into()));
     }
@@ -995,7 +994,7 @@ fn homomorphism_refused(p: &Production) -> Option<(Span, String)> {
         return Some((m.span, format!("a predecessor with `{}`", m.sym)));
     }
     let mut depth = 0usize;
-    for m in &p.succ {
+    for m in p.succ.modules(text) {
         match m.sym {
             '?' => return Some((m.span, "a `?` in its successor".into())),
             '[' => depth += 1,
@@ -1017,18 +1016,20 @@ fn homomorphism_refused(p: &Production) -> Option<(Span, String)> {
 /// [`homomorphism_refused`]) move cpfg's turtle? Its predecessor, which it
 /// replaces, or its successor outside its own branches (a `]` gives the
 /// whole turtle back) has a module that does.
-fn homomorphism_moves(p: &Production) -> bool {
+fn homomorphism_moves(p: &Production, text: &str) -> bool {
     // (`@T` changes cpfg's movements, whose sums a `]` gives back by a
     // difference, not exactly: in a branch too.)
-    let at_t = p
-        .succ
-        .windows(2)
-        .any(|w| w[0].sym == '@' && w[1].sym == 'T');
+    let mut after_at = false;
+    let at_t = p.succ.modules(text).any(|m| {
+        let t = after_at && m.sym == 'T';
+        after_at = m.sym == '@';
+        t
+    });
     if at_t {
         return true;
     }
     let mut depth = 0usize;
-    let succ = p.succ.iter().any(|m| {
+    let succ = p.succ.modules(text).any(|m| {
         match m.sym {
             '[' => depth += 1,
             ']' => depth = depth.saturating_sub(1),
@@ -1042,7 +1043,7 @@ fn homomorphism_moves(p: &Production) -> bool {
 /// The symbols the file's strings have after a `?` (the query modules),
 /// and those after a `?`, an `@` or an `@G`: cpfg's turtle reads them
 /// from the string itself.
-fn read_past(tree: &Lsystem) -> (Vec<char>, Vec<char>) {
+fn read_past(tree: &Lsystem, text: &str) -> (Vec<char>, Vec<char>) {
     let (mut queried, mut read) = (Vec::new(), Vec::new());
     let mut list = |l: &mut dyn Iterator<Item = (char, usize)>| {
         let mut cursor = Cursor::default();
@@ -1071,35 +1072,31 @@ fn read_past(tree: &Lsystem) -> (Vec<char>, Vec<char>) {
         .chain(tree.decomposition.iter().map(|s| &s.productions))
         .chain(tree.homomorphism.iter().map(|s| &s.productions));
     for p in sections.flatten() {
-        let lists = [
-            p.left.as_deref(),
-            Some(&p.pred[..]),
-            p.right.as_deref(),
-            Some(&p.succ[..]),
-        ];
+        let lists = [p.left.as_deref(), Some(&p.pred[..]), p.right.as_deref()];
         for l in lists.into_iter().flatten() {
             list(&mut l.iter().map(|m| (m.sym, m.params.len())));
         }
+        list(&mut p.succ.modules(text).map(|m| (m.sym, m.params.len())));
     }
     (queried, read)
 }
 
 /// The first `?` of the file (axiom, predecessors, contexts, successors).
-fn first_query(tree: &Lsystem, in_axiom: Span) -> Option<Span> {
+fn first_query(tree: &Lsystem, text: &str, in_axiom: Span) -> Option<Span> {
     let mut found: Option<Span> = None;
-    let mut see = |m: &Module| {
+    let mut see = |m: ModRef| {
         if m.sym == '?' && found.is_none_or(|f| m.span.0 < f.0) {
             found = Some(m.span);
         }
     };
     for piece in &tree.axiom {
         match piece {
-            AxiomPiece::Symbols(s) if s.contains('?') => see(&Module {
+            AxiomPiece::Symbols(s) if s.contains('?') => see(ModRef {
                 sym: '?',
-                params: Vec::new(),
+                params: &[],
                 span: in_axiom,
             }),
-            AxiomPiece::Module(m) => see(m),
+            AxiomPiece::Module(m) => see(m.into()),
             _ => {}
         }
     }
@@ -1107,14 +1104,15 @@ fn first_query(tree: &Lsystem, in_axiom: Span) -> Option<Span> {
         .chain(tree.decomposition.iter().map(|s| &s.productions))
         .chain(tree.homomorphism.iter().map(|s| &s.productions));
     for p in sections.flatten() {
-        let all = p
+        let head = p
             .left
             .iter()
             .flatten()
             .chain(&p.pred)
-            .chain(p.right.iter().flatten())
-            .chain(&p.succ);
-        all.for_each(&mut see);
+            .chain(p.right.iter().flatten());
+        head.map(ModRef::from)
+            .chain(p.succ.modules(text))
+            .for_each(&mut see);
     }
     found
 }

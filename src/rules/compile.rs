@@ -353,6 +353,14 @@ impl<'a> Compiler<'a> {
         }
     }
 
+    /// A compiler for a header lowered from a cpfg `.l` file
+    /// ([`compile_dialect`]'s `cpfg`), handed over as the lowering goes.
+    pub fn cpfg(src: Option<&'a str>) -> Compiler<'a> {
+        let mut c = Compiler::new(src, Seeds::default());
+        c.cpfg = true;
+        c
+    }
+
     fn in_section(&self, kind: SectionKind) -> bool {
         self.section == kind
     }
