@@ -217,12 +217,13 @@ pub struct Production {
     pub right: Option<Vec<Module>>,
     /// The pre-condition block (runs before the condition is tested).
     pub pre: Block,
-    /// None: always true (also `*`).
-    pub cond: Option<Expr>,
+    /// None: always true (also `*`). (Boxed, as `prob`: most productions
+    /// have neither.)
+    pub cond: Option<Box<Expr>>,
     /// The post-condition block (runs when the production is applied).
     pub post: Block,
     pub succ: Successor,
-    pub prob: Option<Expr>,
+    pub prob: Option<Box<Expr>>,
     /// The whole production.
     pub span: Span,
 }
@@ -262,7 +263,7 @@ pub struct Section {
     pub warnings: Option<bool>,
     pub depth: Option<(Expr, Span)>,
     pub seed: Option<(Expr, Span)>,
-    pub productions: Vec<Production>,
+    pub productions: Vec<Box<Production>>,
 }
 
 /// One `Lsystem: ... endlsystem` block.
@@ -277,9 +278,9 @@ pub struct Lsystem {
     pub axiom: Vec<AxiomPiece>,
     pub axiom_span: Span,
     pub axiom_brackets: AxiomBrackets,
-    pub productions: Vec<Production>,
-    pub decomposition: Option<Section>,
-    pub homomorphism: Option<Section>,
+    pub productions: Vec<Box<Production>>,
+    pub decomposition: Option<Box<Section>>,
+    pub homomorphism: Option<Box<Section>>,
     /// Where each string literal of the file starts, in order: cpfg keeps
     /// every string in a global table as the parser meets it (control.c's
     /// `GlobalStringIndex`), and a string's value is its number there.

@@ -1184,11 +1184,11 @@ pub(crate) fn lower(
     }
     if let Some(d) = lsys.decomposition.take() {
         lw.section = 1;
-        lw.section(d, SectionKind::Decomposition)?;
+        lw.section(*d, SectionKind::Decomposition)?;
     }
     if let Some(h) = lsys.homomorphism.take() {
         lw.section = 2;
-        lw.section(h, SectionKind::Homomorphism)?;
+        lw.section(*h, SectionKind::Homomorphism)?;
     }
     run.assigns_q = lw.assigns_q;
     Ok(Lowered {

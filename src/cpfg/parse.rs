@@ -68,7 +68,7 @@ pub fn parse_with(
         .parse(&mut checked)
         .map_err(|e| respaced(text, convert(e, text, text.len())))?;
     tree.strings = checked.strings;
-    Ok(tree)
+    Ok(*tree)
 }
 
 /// An error on a line that starts with a keyword spaced otherwise than
@@ -321,7 +321,7 @@ mod tests {
         let p = &ls.productions[0];
         assert_eq!(p.pre.len(), 1);
         assert_eq!(p.post.len(), 1);
-        assert!(matches!(p.cond, Some(Expr::Binary(BinOp::Gt, ..))));
+        assert!(matches!(p.cond.as_deref(), Some(Expr::Binary(BinOp::Gt, ..))));
     }
 
     #[test]

@@ -630,6 +630,7 @@ pub(crate) fn check(
         .homomorphism
         .iter()
         .flat_map(|h| &h.productions)
+        .map(|p| &**p)
         .collect();
     if let Some((at, why)) = hom.iter().find_map(|p| homomorphism_refused(p, text)) {
         return Err(CheckError::At(at, Refused::QueryWithHomomorphism(why)));
@@ -986,7 +987,7 @@ fn homomorphism_refused(p: &Production, text: &str) -> Option<(Span, String)> {
         return Some((e.span(), "a probability".into()));
     }
     let params = p.succ.modules(text).flat_map(|m| m.params);
-    if let Some(at) = p.cond.iter().chain(params).find_map(draws) {
+    if let Some(at) = p.cond.as_deref().into_iter().chain(params).find_map(draws) {
         return Some((at, "a random draw".into()));
     }
     let read = |c| matches!(c, '[' | ']' | '?' | '@' | '%' | '$' | '~');
