@@ -321,7 +321,10 @@ mod tests {
         let p = &ls.productions[0];
         assert_eq!(p.pre.len(), 1);
         assert_eq!(p.post.len(), 1);
-        assert!(matches!(p.cond.as_deref(), Some(Expr::Binary(BinOp::Gt, ..))));
+        assert!(matches!(
+            p.cond.as_deref(),
+            Some(Expr::Binary(BinOp::Gt, ..))
+        ));
     }
 
     #[test]
