@@ -1200,3 +1200,43 @@ fn a_system_moves_between_threads_and_shows_itself() -> Result<(), Box<dyn Error
     );
     Ok(())
 }
+
+/// A `.l` system derived again is compiled again from its preprocessed
+/// text (the rules compiled at load went to the first derivation; nothing
+/// else is kept): the same string each time, its view file's queries
+/// still filled, and a seed that makes its weights count gives what
+/// `lsgen --seed` gives, whose run compiles once. Without a seed the
+/// first production always applies (cpfg ignores the weights) and the
+/// query is worked out by hand: F(1) from (0, 0) facing up, `+` a right
+/// turn of 90 degrees, each `?P` where the turtle stands.
+#[test]
+fn a_cpfg_system_derived_again_is_compiled_again() -> Result<(), Box<dyn Error>> {
+    let dir = tempfile::tempdir()?;
+    let view = dir.path().join("plant.v");
+    std::fs::write(&view, "angle increment: 90\n")?;
+    let src = "Lsystem: 1\nderivation length: 3\nAxiom: A\n\
+               A --> F(1)+?P(0,0)A : 1\nA --> F(2)-A : 3\nendlsystem\n";
+    let model = dir.path().join("plant.l");
+    std::fs::write(&model, src)?;
+    let mut ls = lsgen::LSystem::from_reader_with_view(src.as_bytes(), "plant.l", &view, &[])?;
+    let mut derive = |options: lsgen::Options| -> Result<Vec<u8>, Box<dyn Error>> {
+        let mut out = Vec::new();
+        ls.derive(&options, &mut out)?;
+        Ok(out)
+    };
+    let unseeded = b"F(1)+?P(0,1)F(1)+?P(-1,1)F(1)+?P(-1,0)A\n".to_vec();
+    assert_eq!(derive(lsgen::Options::new())?, unseeded);
+    assert_eq!(derive(lsgen::Options::new())?, unseeded);
+    let seeded = derive(lsgen::Options::new().seed(7))?;
+    assert_eq!(derive(lsgen::Options::new())?, unseeded);
+    let cli = std::process::Command::new(env!("CARGO_BIN_EXE_lsgen"))
+        .arg("--cpfg-view")
+        .arg(&view)
+        .args(["--seed", "7"])
+        .arg(&model)
+        .output()?;
+    assert!(cli.status.success(), "{cli:?}");
+    assert_eq!(seeded, cli.stdout);
+    assert_ne!(seeded, unseeded);
+    Ok(())
+}

@@ -94,66 +94,25 @@ pub struct Module {
     pub span: Span,
 }
 
-/// A successor as the grammar read it: each module with parameters
-/// whole, each run of modules without them as the place of its text
-/// (a successor line may be megabytes long; a module of the tree costs
-/// about 50 bytes, a symbol of the text one). Read its modules with
-/// [`Successor::modules`], given the text it was parsed from.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// A successor as the grammar read it: the place of its text (a successor
+/// line may be megabytes long; a module of the tree costs 50 bytes and
+/// more, a module of the text a few). Its modules are read again from the
+/// text when they are needed ([`Successor::modules`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Successor {
-    pieces: Vec<SuccPiece>,
+    /// From the first module's start to the last one's end.
+    span: Span,
     len: usize,
 }
 
-#[derive(Clone, Debug, PartialEq)]
-enum SuccPiece {
-    /// Modules without parameters: the text from `.0` to `.1` holds their
-    /// symbols, with only what cpfg's scanner skips between them (blanks,
-    /// a newline that a TAB continues).
-    Symbols(usize, usize),
-    Module(Module),
-}
-
-/// A module of a [`Successor`], borrowed.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ModRef<'a> {
-    pub sym: char,
-    pub params: &'a [Expr],
-    pub span: Span,
-}
-
-impl<'a> From<&'a Module> for ModRef<'a> {
-    fn from(m: &'a Module) -> ModRef<'a> {
-        ModRef {
-            sym: m.sym,
-            params: &m.params,
-            span: m.span,
-        }
-    }
-}
-
-/// What the scanner skips between two symbols of a successor
-/// (`lexer::Lexer::next_token`; a newline there is one a TAB continues:
-/// any other ends the line).
-fn skipped(c: char) -> bool {
-    matches!(c, ' ' | '\t' | '\r' | '\x0b' | '\x0c' | '\n')
-}
-
 impl Successor {
-    /// Append the next module, read by the grammar: one without parameters
-    /// joins the run before it (only skipped text lies between two
-    /// modules the scanner gave one after the other).
-    pub fn push(&mut self, m: Module) {
-        self.len += 1;
-        if m.params.is_empty() {
-            if let Some(SuccPiece::Symbols(_, end)) = self.pieces.last_mut() {
-                *end = m.span.1;
-                return;
-            }
-            self.pieces.push(SuccPiece::Symbols(m.span.0, m.span.1));
-        } else {
-            self.pieces.push(SuccPiece::Module(m));
+    /// Count the next module, read by the grammar (its tree is dropped).
+    pub fn push(&mut self, m: &Module) {
+        if self.len == 0 {
+            self.span.0 = m.span.0;
         }
+        self.span.1 = m.span.1;
+        self.len += 1;
     }
 
     /// How many modules.
@@ -165,45 +124,11 @@ impl Successor {
         self.len == 0
     }
 
-    /// The modules in order; `text` is what the successor was parsed from.
-    pub fn modules<'a>(&'a self, text: &'a str) -> Modules<'a> {
-        Modules {
-            pieces: self.pieces.iter(),
-            text,
-            run: None,
-        }
-    }
-}
-
-/// The modules of a [`Successor`] ([`Successor::modules`]).
-pub struct Modules<'a> {
-    pieces: std::slice::Iter<'a, SuccPiece>,
-    text: &'a str,
-    /// The run being read: its start, and its text's characters.
-    run: Option<(usize, std::str::CharIndices<'a>)>,
-}
-
-impl<'a> Iterator for Modules<'a> {
-    type Item = ModRef<'a>;
-
-    fn next(&mut self) -> Option<ModRef<'a>> {
-        loop {
-            if let Some((start, chars)) = &mut self.run {
-                if let Some((i, sym)) = chars.find(|&(_, c)| !skipped(c)) {
-                    let at = *start + i;
-                    let span = (at, at + sym.len_utf8());
-                    let params = &[];
-                    return Some(ModRef { sym, params, span });
-                }
-                self.run = None;
-            }
-            match self.pieces.next()? {
-                SuccPiece::Module(m) => return Some(ModRef::from(m)),
-                SuccPiece::Symbols(start, end) => {
-                    self.run = Some((*start, self.text[*start..*end].char_indices()));
-                }
-            }
-        }
+    /// The modules in order, parsed again from `text`, the text the
+    /// successor was parsed from: each is what the grammar read there
+    /// (an error only if `text` is another one).
+    pub fn modules<'a>(&self, text: &'a str) -> super::parse::SuccModules<'a> {
+        super::parse::SuccModules::new(text, self.span, self.len)
     }
 }
 

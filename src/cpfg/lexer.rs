@@ -445,6 +445,16 @@ impl<'a> Lexer<'a> {
         }
     }
 
+    /// A lexer that reads `src` from `pos`, where the grammar read a
+    /// successor's module or its `(` (symbols, no statement block open).
+    pub fn at_module(src: &'a str, pos: usize) -> Lexer<'a> {
+        Lexer {
+            pos,
+            after_eol: false,
+            ..Lexer::new(src)
+        }
+    }
+
     fn err(&self, at: usize, len: usize, kind: impl Into<HeaderError>) -> UserError {
         UserError::new((at, at + len), kind)
     }

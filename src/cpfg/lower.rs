@@ -18,7 +18,7 @@
 //! (globals, production locals) must then resolve in `Lowerer::expr`
 //! before the "undefined name is 0" rule.
 
-use super::ast::{self, Block, Expr, ModRef, Module, Production, Section, Setting};
+use super::ast::{self, Block, Expr, Module, Production, Section, Setting};
 use super::blocks;
 use super::run::CpfgRun;
 use crate::diag::{CompileError as Invalid, WarningKind};
@@ -437,7 +437,7 @@ impl Lowerer<'_> {
         Ok(v as i64)
     }
 
-    fn module(&mut self, m: ModRef, formals: &HashMap<String, ()>) -> R<ls::Module> {
+    fn module(&mut self, m: &Module, formals: &HashMap<String, ()>) -> R<ls::Module> {
         Ok(ls::Module {
             sym: m.sym,
             params: m
@@ -727,7 +727,7 @@ impl Lowerer<'_> {
         self.sink.head_end(cond, p.span);
         let mut batch = Vec::with_capacity(p.succ.len().min(BATCH));
         for m in p.succ.modules(self.text) {
-            batch.push(self.module(m, &formals)?);
+            batch.push(self.module(&m?, &formals)?);
             if batch.len() == BATCH {
                 self.sink.successor(&mut batch);
             }

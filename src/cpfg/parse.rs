@@ -71,6 +71,115 @@ pub fn parse_with(
     Ok(*tree)
 }
 
+/// The modules of a successor ([`ast::Successor::modules`]), read again
+/// where the grammar read them. In a successor that parsed, every
+/// character outside parentheses is a module's symbol or what the scanner
+/// skips (blanks, a newline that a TAB continues): symbols are read as
+/// characters, a module's parameters lexed again and each parsed as an
+/// expression of the grammar ([`grammar::ExprParser`]), with one token
+/// buffer for them all.
+pub struct SuccModules<'a> {
+    text: &'a str,
+    pos: usize,
+    /// Modules still to read.
+    left: usize,
+    /// The tokens of the parameter being read.
+    buf: Vec<Spanned<'a>>,
+}
+
+/// What the scanner skips between two modules of a successor
+/// (`Lexer::next_token`: a newline there is one a TAB continues, as any
+/// other ends the line).
+fn skipped(c: char) -> bool {
+    matches!(c, ' ' | '\t' | '\r' | '\x0b' | '\x0c' | '\n')
+}
+
+impl<'a> SuccModules<'a> {
+    pub(crate) fn new(text: &'a str, span: (usize, usize), len: usize) -> SuccModules<'a> {
+        SuccModules {
+            text,
+            pos: span.0,
+            left: len,
+            buf: Vec::new(),
+        }
+    }
+
+    /// The next character not skipped, and where it is.
+    fn next_char(&self, from: usize) -> Option<(usize, char)> {
+        let rest = self.text.get(from..)?;
+        let (i, c) = rest.char_indices().find(|&(_, c)| !skipped(c))?;
+        Some((from + i, c))
+    }
+
+    fn module(&mut self) -> Result<ast::Module, UserError> {
+        let end = self.text.len();
+        let Some((l, sym)) = self.next_char(self.pos) else {
+            return Err(UserError::new(
+                (self.pos, end),
+                Syntax::UnexpectedEof(Expected::Nothing),
+            ));
+        };
+        let r = l + sym.len_utf8();
+        self.pos = r;
+        let span = (l, r);
+        // (After the last module comes what the grammar read after the
+        // successor: not a `(`.)
+        let Some((open, '(')) = self.next_char(r) else {
+            let params = Vec::new();
+            return Ok(ast::Module { sym, params, span });
+        };
+        let mut lex = Lexer::at_module(self.text, open);
+        lex.next(); // the `(`
+        let mut params = Vec::new();
+        let mut depth = 1usize;
+        loop {
+            let t = match lex.next() {
+                Some(t) => t?,
+                None => {
+                    return Err(UserError::new(
+                        (l, end),
+                        Syntax::UnexpectedEof(Expected::Nothing),
+                    ))
+                }
+            };
+            match t.1 {
+                Tok::LParen => depth += 1,
+                Tok::Comma | Tok::RParen if depth == 1 => {
+                    let e = grammar::ExprParser::new()
+                        .parse(self.buf.drain(..))
+                        .map_err(|e| convert(e, self.text, end))?;
+                    params.push(e);
+                    if t.1 == Tok::RParen {
+                        self.pos = t.2;
+                        let span = (l, t.2);
+                        return Ok(ast::Module { sym, params, span });
+                    }
+                    continue;
+                }
+                Tok::RParen => depth -= 1,
+                _ => {}
+            }
+            self.buf.push(Ok(t));
+        }
+    }
+}
+
+impl Iterator for SuccModules<'_> {
+    type Item = Result<ast::Module, UserError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.left == 0 {
+            return None;
+        }
+        self.left -= 1;
+        let m = self.module();
+        if m.is_err() {
+            self.left = 0;
+        }
+        Some(m)
+    }
+}
+
 /// An error on a line that starts with a keyword spaced otherwise than
 /// cpfg's scanner reads it (`derivation /* c */ length: 3` is
 /// `derivation   length: 3` after the preprocessor, which cpfg reads as
@@ -286,6 +395,58 @@ fn convert(e: ParseError<usize, Tok<'_>, UserError>, text: &str, end: usize) -> 
 mod tests {
     use super::*;
     use crate::cpfg::ast::{BinOp, Expr, Setting, Stmt};
+
+    /// A successor is kept as the place of its text and read again: each
+    /// module as the grammar read it, across blanks, a TAB-continued line,
+    /// nested and comma-separated parentheses, strings and UTF-8, up to
+    /// the weight or the line's end.
+    #[test]
+    fn a_successor_is_read_again_as_the_grammar_read_it() {
+        let src =
+            "Lsystem: 1\nAxiom: A\nA --> B  C(1, f(2, 3))\n\tD(-x)\u{e9}[E(\"s\", (4))]- F : 0.5\n\
+                   B --> G(1,2)\nC --> *\nendlsystem\n";
+        let ls = parse(src).unwrap();
+        let read = |i: usize| {
+            let succ = &ls.productions[i].succ;
+            let all: Vec<_> = succ.modules(src).map(|m| m.unwrap()).collect();
+            assert_eq!(all.len(), succ.len());
+            all.into_iter()
+                .map(|m| (m.sym, m.params, &src[m.span.0..m.span.1]))
+                .collect::<Vec<_>>()
+        };
+        let brief = |v: Vec<(char, Vec<Expr>, &str)>| {
+            v.into_iter()
+                .map(|(c, p, t)| (c, p.len(), t.to_string()))
+                .collect::<Vec<_>>()
+        };
+        let first = read(0);
+        let expected = [
+            ('B', 0, "B"),
+            ('C', 2, "C(1, f(2, 3))"),
+            ('D', 1, "D(-x)"),
+            ('\u{e9}', 0, "\u{e9}"),
+            ('[', 0, "["),
+            ('E', 2, "E(\"s\", (4))"),
+            (']', 0, "]"),
+            ('-', 0, "-"),
+            ('F', 0, "F"),
+        ];
+        let expected: Vec<_> = expected
+            .iter()
+            .map(|&(c, n, t)| (c, n, t.to_string()))
+            .collect();
+        assert_eq!(brief(first.clone()), expected);
+        // The parameters are the grammar's expressions.
+        let f = &first[1].1[1];
+        assert!(
+            matches!(f, Expr::Call(name, args, _) if name == "f" && args.len() == 2),
+            "{f:?}"
+        );
+        assert!(matches!(&first[5].1[0], Expr::Str(s, _) if s == "s"));
+        let second = brief(read(1));
+        assert_eq!(second, [('G', 2, "G(1,2)".to_string())]);
+        assert!(read(2).is_empty());
+    }
 
     #[test]
     fn layout_and_productions() {

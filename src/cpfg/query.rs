@@ -44,7 +44,7 @@
 //! module that a `?` or an `@` reads (cpfg reads it from the string, past
 //! the homomorphism).
 
-use super::ast::{AxiomPiece, Expr, Lsystem, ModRef, Production};
+use super::ast::{AxiomPiece, Expr, Lsystem, Production};
 use crate::diag::{Error, Refused, RuntimeError};
 use crate::lang::lexer::Span;
 use crate::rules::{codec, Alphabet};
@@ -686,7 +686,9 @@ pub(crate) fn check(
             check_list(list).map_err(|(m, r)| CheckError::At(at(m), r))?;
         }
         if successor {
-            let list = p.succ.modules(text);
+            // (A module the text does not give again is the lowering's
+            // error.)
+            let list = p.succ.modules(text).map_while(Result::ok);
             let list = list.map(|m| (m.sym, m.params.len(), Some(m.span)));
             check_list(list).map_err(|(m, r)| CheckError::At(at(m), r))?;
         }
@@ -986,8 +988,9 @@ fn homomorphism_refused(p: &Production, text: &str) -> Option<(Span, String)> {
     if let Some(e) = &p.prob {
         return Some((e.span(), "a probability".into()));
     }
-    let params = p.succ.modules(text).flat_map(|m| m.params);
-    if let Some(at) = p.cond.as_deref().into_iter().chain(params).find_map(draws) {
+    let mut succ = p.succ.modules(text).map_while(Result::ok);
+    let in_succ = || succ.find_map(|m| m.params.iter().find_map(draws));
+    if let Some(at) = p.cond.as_deref().and_then(draws).or_else(in_succ) {
         return Some((at, "a random draw".into()));
     }
     let read = |c| matches!(c, '[' | ']' | '?' | '@' | '%' | '$' | '~');
@@ -995,7 +998,7 @@ fn homomorphism_refused(p: &Production, text: &str) -> Option<(Span, String)> {
         return Some((m.span, format!("a predecessor with `{}`", m.sym)));
     }
     let mut depth = 0usize;
-    for m in p.succ.modules(text) {
+    for m in p.succ.modules(text).map_while(Result::ok) {
         match m.sym {
             '?' => return Some((m.span, "a `?` in its successor".into())),
             '[' => depth += 1,
@@ -1021,7 +1024,7 @@ fn homomorphism_moves(p: &Production, text: &str) -> bool {
     // (`@T` changes cpfg's movements, whose sums a `]` gives back by a
     // difference, not exactly: in a branch too.)
     let mut after_at = false;
-    let at_t = p.succ.modules(text).any(|m| {
+    let at_t = p.succ.modules(text).map_while(Result::ok).any(|m| {
         let t = after_at && m.sym == 'T';
         after_at = m.sym == '@';
         t
@@ -1030,7 +1033,7 @@ fn homomorphism_moves(p: &Production, text: &str) -> bool {
         return true;
     }
     let mut depth = 0usize;
-    let succ = p.succ.modules(text).any(|m| {
+    let succ = p.succ.modules(text).map_while(Result::ok).any(|m| {
         match m.sym {
             '[' => depth += 1,
             ']' => depth = depth.saturating_sub(1),
@@ -1077,7 +1080,8 @@ fn read_past(tree: &Lsystem, text: &str) -> (Vec<char>, Vec<char>) {
         for l in lists.into_iter().flatten() {
             list(&mut l.iter().map(|m| (m.sym, m.params.len())));
         }
-        list(&mut p.succ.modules(text).map(|m| (m.sym, m.params.len())));
+        let succ = p.succ.modules(text).map_while(Result::ok);
+        list(&mut succ.map(|m| (m.sym, m.params.len())));
     }
     (queried, read)
 }
@@ -1085,19 +1089,15 @@ fn read_past(tree: &Lsystem, text: &str) -> (Vec<char>, Vec<char>) {
 /// The first `?` of the file (axiom, predecessors, contexts, successors).
 fn first_query(tree: &Lsystem, text: &str, in_axiom: Span) -> Option<Span> {
     let mut found: Option<Span> = None;
-    let mut see = |m: ModRef| {
-        if m.sym == '?' && found.is_none_or(|f| m.span.0 < f.0) {
-            found = Some(m.span);
+    let mut see = |sym: char, span: Span| {
+        if sym == '?' && found.is_none_or(|f| span.0 < f.0) {
+            found = Some(span);
         }
     };
     for piece in &tree.axiom {
         match piece {
-            AxiomPiece::Symbols(s) if s.contains('?') => see(ModRef {
-                sym: '?',
-                params: &[],
-                span: in_axiom,
-            }),
-            AxiomPiece::Module(m) => see(m.into()),
+            AxiomPiece::Symbols(s) if s.contains('?') => see('?', in_axiom),
+            AxiomPiece::Module(m) => see(m.sym, m.span),
             _ => {}
         }
     }
@@ -1111,9 +1111,9 @@ fn first_query(tree: &Lsystem, text: &str, in_axiom: Span) -> Option<Span> {
             .flatten()
             .chain(&p.pred)
             .chain(p.right.iter().flatten());
-        head.map(ModRef::from)
-            .chain(p.succ.modules(text))
-            .for_each(&mut see);
+        head.for_each(|m| see(m.sym, m.span));
+        let succ = p.succ.modules(text).map_while(Result::ok);
+        succ.for_each(|m| see(m.sym, m.span));
     }
     found
 }
