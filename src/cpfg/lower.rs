@@ -1,7 +1,9 @@
-//! From a cpfg syntax tree to the shared `.ls` syntax tree
-//! ([`crate::lang::ast::Header`]), which `rules::compile_dialect` compiles
-//! with cpfg's semantics: one set of rules, strategies and errors for both
-//! dialects.
+//! From a cpfg syntax tree to the shared `.ls` syntax tree's pieces
+//! ([`crate::lang::ast`]), handed in file order to a
+//! [`HeaderSink`] (the compiler, `rules::Compiler::cpfg`, which compiles
+//! them with cpfg's semantics, in the order `rules::compile_dialect`
+//! hands a whole header over): one set of rules, strategies and errors
+//! for both dialects, and no whole shared tree.
 //!
 //! Names are resolved here, as cpfg resolves them: a formal parameter, `Q`
 //! (the step), `Z` (the derivation length) once `derivation length:` has

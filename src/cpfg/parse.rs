@@ -76,7 +76,7 @@ pub fn parse_with(
 /// character outside parentheses is a module's symbol or what the scanner
 /// skips (blanks, a newline that a TAB continues): symbols are read as
 /// characters, a module's parameters lexed again and each parsed as an
-/// expression of the grammar ([`grammar::ExprParser`]), with one token
+/// expression of the grammar (`grammar::ExprParser`), with one token
 /// buffer for them all.
 pub struct SuccModules<'a> {
     text: &'a str,
