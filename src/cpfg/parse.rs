@@ -87,11 +87,10 @@ pub struct SuccModules<'a> {
     buf: Vec<Spanned<'a>>,
 }
 
-/// What the scanner skips between two modules of a successor
-/// (`Lexer::next_token`: a newline there is one a TAB continues, as any
-/// other ends the line).
-fn skipped(c: char) -> bool {
-    matches!(c, ' ' | '\t' | '\r' | '\x0b' | '\x0c' | '\n')
+/// Blanks the scanner skips between two modules (`Lexer::next_token`;
+/// also a newline that a TAB follows).
+fn blank(c: u8) -> bool {
+    matches!(c, b' ' | b'\t' | b'\r' | b'\x0b' | b'\x0c')
 }
 
 impl<'a> SuccModules<'a> {
@@ -104,11 +103,20 @@ impl<'a> SuccModules<'a> {
         }
     }
 
-    /// The next character not skipped, and where it is.
+    /// The next character the scanner does not skip, and where it is: on
+    /// this line or one a TAB continues (None at another line's start: a
+    /// successor's last module may end its line).
     fn next_char(&self, from: usize) -> Option<(usize, char)> {
-        let rest = self.text.get(from..)?;
-        let (i, c) = rest.char_indices().find(|&(_, c)| !skipped(c))?;
-        Some((from + i, c))
+        let bytes = self.text.as_bytes();
+        let mut i = from;
+        loop {
+            match bytes.get(i)? {
+                &c if blank(c) => i += 1,
+                b'\n' if bytes.get(i + 1) == Some(&b'\t') => i += 2,
+                b'\n' => return None,
+                _ => return Some((i, self.text[i..].chars().next()?)),
+            }
+        }
     }
 
     fn module(&mut self) -> Result<ast::Module, UserError> {
