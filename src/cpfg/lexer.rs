@@ -428,6 +428,12 @@ pub struct Lexer<'a> {
 
 pub use crate::lang::lexer::MAX_EXPR_TOKENS;
 
+/// The blanks the scanner skips between tokens (as a newline that a TAB
+/// follows: [`Lexer`]'s `next_token`).
+pub fn blank(c: u8) -> bool {
+    matches!(c, b' ' | b'\t' | b'\r' | b'\x0b' | b'\x0c')
+}
+
 /// Deepest nesting of `{ }` blocks (the tree walks recurse on it).
 pub const MAX_BLOCK_DEPTH: i64 = 256;
 
@@ -475,7 +481,7 @@ impl<'a> Lexer<'a> {
                 return Some(Ok((i, Tok::Eol, i)));
             };
             match c {
-                b' ' | b'\t' | b'\r' | b'\x0b' | b'\x0c' => {
+                c if blank(c) => {
                     self.pos += 1;
                     continue;
                 }

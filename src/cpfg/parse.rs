@@ -3,7 +3,7 @@
 //! LALRPOP grammar, and located parse errors.
 
 use super::ast;
-use super::lexer::{misspaced_keyword, Lexer, Spanned, Tok};
+use super::lexer::{blank, misspaced_keyword, Lexer, Spanned, Tok};
 use crate::diag::{Expected, ParseError as Syntax, Refused};
 use crate::lang::parse::{HeaderError, UserError};
 use lalrpop_util::{lalrpop_mod, ParseError};
@@ -85,12 +85,6 @@ pub struct SuccModules<'a> {
     left: usize,
     /// The tokens of the parameter being read.
     buf: Vec<Spanned<'a>>,
-}
-
-/// Blanks the scanner skips between two modules (`Lexer::next_token`;
-/// also a newline that a TAB follows).
-fn blank(c: u8) -> bool {
-    matches!(c, b' ' | b'\t' | b'\r' | b'\x0b' | b'\x0c')
 }
 
 impl<'a> SuccModules<'a> {
