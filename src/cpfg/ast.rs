@@ -130,6 +130,12 @@ impl Successor {
     pub fn modules<'a>(&self, text: &'a str) -> super::parse::SuccModules<'a> {
         super::parse::SuccModules::new(text, self.span, self.len)
     }
+
+    /// [`Successor::modules`] as (symbol, number of parameters, span): the
+    /// parameters are passed over, not parsed.
+    pub fn shapes<'a>(&self, text: &'a str) -> super::parse::Shapes<'a> {
+        super::parse::Shapes::new(text, self.span, self.len)
+    }
 }
 
 /// `lc < pred > rc : { pre } cond { post } --> succ : prob`

@@ -203,6 +203,8 @@ struct Lowerer<'w> {
     text: &'w str,
     /// What the header goes to, production by production.
     sink: &'w mut dyn HeaderSink,
+    /// The successor batch handed to the sink (one buffer for all).
+    batch: Vec<ls::Module>,
     /// The weights of `productions` count though the file has no `seed:`
     /// (`--seed` stands for it); else, without `seed:`, they are left out
     /// as cpfg leaves them, unevaluated at run time.
@@ -727,7 +729,7 @@ impl Lowerer<'_> {
             }
         }
         self.sink.head_end(cond, p.span);
-        let mut batch = Vec::with_capacity(p.succ.len().min(BATCH));
+        let mut batch = std::mem::take(&mut self.batch);
         for m in p.succ.modules(self.text) {
             batch.push(self.module(&m?, &formals)?);
             if batch.len() == BATCH {
@@ -737,6 +739,7 @@ impl Lowerer<'_> {
         if !batch.is_empty() {
             self.sink.successor(&mut batch);
         }
+        self.batch = batch;
         let prob = match &p.prob {
             None => None,
             // cpfg's stochastic choice (src/cpfg/random.rs).
@@ -906,6 +909,7 @@ pub(crate) fn lower(
     let mut lw = Lowerer {
         text,
         sink,
+        batch: Vec::new(),
         weights,
         z: None,
         builtin,

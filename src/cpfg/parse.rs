@@ -77,9 +77,11 @@ pub fn parse_with(
 /// skips (blanks, a newline that a TAB continues): symbols are read as
 /// characters, a module's parameters lexed again and each parsed as an
 /// expression of the grammar (`grammar::ExprParser`), with one token
-/// buffer for them all.
+/// buffer for them all; or, for [`Shapes`], only counted.
 pub struct SuccModules<'a> {
     text: &'a str,
+    /// Parse the parameters (else only count them).
+    parse: bool,
     pos: usize,
     /// Modules still to read.
     left: usize,
@@ -91,6 +93,7 @@ impl<'a> SuccModules<'a> {
     pub(crate) fn new(text: &'a str, span: (usize, usize), len: usize) -> SuccModules<'a> {
         SuccModules {
             text,
+            parse: true,
             pos: span.0,
             left: len,
             buf: Vec::new(),
@@ -113,7 +116,9 @@ impl<'a> SuccModules<'a> {
         }
     }
 
-    fn module(&mut self) -> Result<ast::Module, UserError> {
+    /// The next module (its parameters left out unless `parse`), and how
+    /// many parameters it has.
+    fn module(&mut self) -> Result<(ast::Module, usize), UserError> {
         let end = self.text.len();
         let Some((l, sym)) = self.next_char(self.pos) else {
             return Err(UserError::new(
@@ -128,11 +133,12 @@ impl<'a> SuccModules<'a> {
         // successor: not a `(`.)
         let Some((open, '(')) = self.next_char(r) else {
             let params = Vec::new();
-            return Ok(ast::Module { sym, params, span });
+            return Ok((ast::Module { sym, params, span }, 0));
         };
         let mut lex = Lexer::at_module(self.text, open);
         lex.next(); // the `(`
         let mut params = Vec::new();
+        let mut arity = 0;
         let mut depth = 1usize;
         loop {
             let t = match lex.next() {
@@ -147,29 +153,34 @@ impl<'a> SuccModules<'a> {
             match t.1 {
                 Tok::LParen => depth += 1,
                 Tok::Comma | Tok::RParen if depth == 1 => {
-                    let e = grammar::ExprParser::new()
-                        .parse(self.buf.drain(..))
-                        .map_err(|e| convert(e, self.text, end))?;
-                    params.push(e);
+                    arity += 1;
+                    if self.parse {
+                        let e = grammar::ExprParser::new()
+                            .parse(self.buf.drain(..))
+                            .map_err(|e| convert(e, self.text, end))?;
+                        params.push(e);
+                    }
                     if t.1 == Tok::RParen {
                         self.pos = t.2;
                         let span = (l, t.2);
-                        return Ok(ast::Module { sym, params, span });
+                        return Ok((ast::Module { sym, params, span }, arity));
                     }
                     continue;
                 }
                 Tok::RParen => depth -= 1,
                 _ => {}
             }
-            self.buf.push(Ok(t));
+            if self.parse {
+                self.buf.push(Ok(t));
+            }
         }
     }
 }
 
-impl Iterator for SuccModules<'_> {
-    type Item = Result<ast::Module, UserError>;
-
-    fn next(&mut self) -> Option<Self::Item> {
+impl SuccModules<'_> {
+    /// The next module and its number of parameters, None after the last
+    /// or an error.
+    fn read(&mut self) -> Option<Result<(ast::Module, usize), UserError>> {
         if self.left == 0 {
             return None;
         }
@@ -179,6 +190,34 @@ impl Iterator for SuccModules<'_> {
             self.left = 0;
         }
         Some(m)
+    }
+}
+
+impl Iterator for SuccModules<'_> {
+    type Item = Result<ast::Module, UserError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        Some(self.read()?.map(|(m, _)| m))
+    }
+}
+
+/// A successor's modules as symbol, number of parameters and span, their
+/// parameters lexed but not parsed ([`ast::Successor::shapes`]).
+pub struct Shapes<'a>(SuccModules<'a>);
+
+impl<'a> Shapes<'a> {
+    pub(crate) fn new(text: &'a str, span: (usize, usize), len: usize) -> Shapes<'a> {
+        let mut m = SuccModules::new(text, span, len);
+        m.parse = false;
+        Shapes(m)
+    }
+}
+
+impl Iterator for Shapes<'_> {
+    type Item = Result<(char, usize, (usize, usize)), UserError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        Some(self.0.read()?.map(|(m, n)| (m.sym, n, m.span)))
     }
 }
 
@@ -412,6 +451,13 @@ mod tests {
             let succ = &ls.productions[i].succ;
             let all: Vec<_> = succ.modules(src).map(|m| m.unwrap()).collect();
             assert_eq!(all.len(), succ.len());
+            // The shapes are the modules' symbols, arities and spans.
+            let shapes: Vec<_> = succ.shapes(src).map(|s| s.unwrap()).collect();
+            let of_modules: Vec<_> = all
+                .iter()
+                .map(|m| (m.sym, m.params.len(), m.span))
+                .collect();
+            assert_eq!(shapes, of_modules);
             all.into_iter()
                 .map(|m| (m.sym, m.params, &src[m.span.0..m.span.1]))
                 .collect::<Vec<_>>()

@@ -688,8 +688,8 @@ pub(crate) fn check(
         if successor {
             // (A module the text does not give again is the lowering's
             // error.)
-            let list = p.succ.modules(text).map_while(Result::ok);
-            let list = list.map(|m| (m.sym, m.params.len(), Some(m.span)));
+            let list = p.succ.shapes(text).map_while(Result::ok);
+            let list = list.map(|(sym, n, span)| (sym, n, Some(span)));
             check_list(list).map_err(|(m, r)| CheckError::At(at(m), r))?;
         }
     }
@@ -998,14 +998,14 @@ fn homomorphism_refused(p: &Production, text: &str) -> Option<(Span, String)> {
         return Some((m.span, format!("a predecessor with `{}`", m.sym)));
     }
     let mut depth = 0usize;
-    for m in p.succ.modules(text).map_while(Result::ok) {
-        match m.sym {
-            '?' => return Some((m.span, "a `?` in its successor".into())),
+    for (sym, _, span) in p.succ.shapes(text).map_while(Result::ok) {
+        match sym {
+            '?' => return Some((span, "a `?` in its successor".into())),
             '[' => depth += 1,
-            ']' if depth == 0 => return Some((m.span, "a `]` without its `[`".into())),
+            ']' if depth == 0 => return Some((span, "a `]` without its `[`".into())),
             ']' => depth -= 1,
             c @ ('%' | '$') if depth == 0 => {
-                return Some((m.span, format!("`{c}` outside a branch of its successor")))
+                return Some((span, format!("`{c}` outside a branch of its successor")))
             }
             _ => {}
         }
@@ -1024,17 +1024,17 @@ fn homomorphism_moves(p: &Production, text: &str) -> bool {
     // (`@T` changes cpfg's movements, whose sums a `]` gives back by a
     // difference, not exactly: in a branch too.)
     let mut after_at = false;
-    let at_t = p.succ.modules(text).map_while(Result::ok).any(|m| {
-        let t = after_at && m.sym == 'T';
-        after_at = m.sym == '@';
+    let at_t = p.succ.shapes(text).map_while(Result::ok).any(|(sym, ..)| {
+        let t = after_at && sym == 'T';
+        after_at = sym == '@';
         t
     });
     if at_t {
         return true;
     }
     let mut depth = 0usize;
-    let succ = p.succ.modules(text).map_while(Result::ok).any(|m| {
-        match m.sym {
+    let succ = p.succ.shapes(text).map_while(Result::ok).any(|(sym, ..)| {
+        match sym {
             '[' => depth += 1,
             ']' => depth = depth.saturating_sub(1),
             c => return depth == 0 && !still(c),
@@ -1080,8 +1080,8 @@ fn read_past(tree: &Lsystem, text: &str) -> (Vec<char>, Vec<char>) {
         for l in lists.into_iter().flatten() {
             list(&mut l.iter().map(|m| (m.sym, m.params.len())));
         }
-        let succ = p.succ.modules(text).map_while(Result::ok);
-        list(&mut succ.map(|m| (m.sym, m.params.len())));
+        let succ = p.succ.shapes(text).map_while(Result::ok);
+        list(&mut succ.map(|(sym, n, _)| (sym, n)));
     }
     (queried, read)
 }
@@ -1112,8 +1112,8 @@ fn first_query(tree: &Lsystem, text: &str, in_axiom: Span) -> Option<Span> {
             .chain(&p.pred)
             .chain(p.right.iter().flatten());
         head.for_each(|m| see(m.sym, m.span));
-        let succ = p.succ.modules(text).map_while(Result::ok);
-        succ.for_each(|m| see(m.sym, m.span));
+        let succ = p.succ.shapes(text).map_while(Result::ok);
+        succ.for_each(|(sym, _, span)| see(sym, span));
     }
     found
 }
