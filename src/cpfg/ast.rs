@@ -94,18 +94,20 @@ pub struct Module {
     pub span: Span,
 }
 
-/// A successor as the grammar read it: the place of its text (a successor
-/// line may be megabytes long; a module of the tree costs 50 bytes and
-/// more, a module of the text a few). Its modules are read again from the
-/// text when they are needed ([`Successor::modules`]).
+/// A run of modules as the grammar read it (a successor, a predecessor, a
+/// context): the place of its text. A successor line may be megabytes
+/// long, and a file may hold millions of productions; a module of the tree
+/// costs 50 bytes and more (a formal parameter a name of its own), a module
+/// of the text a few. Its modules are read again from the text when they
+/// are needed ([`Run::modules`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Successor {
+pub struct Run {
     /// From the first module's start to the last one's end.
     span: Span,
     len: usize,
 }
 
-impl Successor {
+impl Run {
     /// Count the next module, read by the grammar (its tree is dropped).
     pub fn push(&mut self, m: &Module) {
         if self.len == 0 {
@@ -124,14 +126,14 @@ impl Successor {
         self.len == 0
     }
 
-    /// The modules in order, parsed again from `text`, the text the
-    /// successor was parsed from: each is what the grammar read there
-    /// (an error only if `text` is another one).
-    pub fn modules<'a>(&self, text: &'a str) -> super::parse::SuccModules<'a> {
-        super::parse::SuccModules::new(text, self.span, self.len)
+    /// The modules in order, parsed again from `text`, the text the run
+    /// was parsed from: each is what the grammar read there (an error
+    /// only if `text` is another one).
+    pub fn modules<'a>(&self, text: &'a str) -> super::parse::RunModules<'a> {
+        super::parse::RunModules::new(text, self.span, self.len)
     }
 
-    /// [`Successor::modules`] as (symbol, number of parameters, span): the
+    /// [`Run::modules`] as (symbol, number of parameters, span): the
     /// parameters are passed over, not parsed.
     pub fn shapes<'a>(&self, text: &'a str) -> super::parse::Shapes<'a> {
         super::parse::Shapes::new(text, self.span, self.len)
@@ -142,10 +144,10 @@ impl Successor {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Production {
     /// None: no left context (also `*`).
-    pub left: Option<Vec<Module>>,
+    pub left: Option<Run>,
     /// The strict predecessor: one module or a run of them (`AB --> C`).
-    pub pred: Vec<Module>,
-    pub right: Option<Vec<Module>>,
+    pub pred: Run,
+    pub right: Option<Run>,
     /// The pre-condition block (runs before the condition is tested).
     pub pre: Block,
     /// None: always true (also `*`). (Boxed, as `prob`: most productions
@@ -153,10 +155,21 @@ pub struct Production {
     pub cond: Option<Box<Expr>>,
     /// The post-condition block (runs when the production is applied).
     pub post: Block,
-    pub succ: Successor,
+    pub succ: Run,
     pub prob: Option<Box<Expr>>,
     /// The whole production.
     pub span: Span,
+}
+
+impl Production {
+    /// The left context, the strict predecessor and the right context, in
+    /// the order of the text.
+    pub fn heads(&self) -> impl Iterator<Item = &Run> {
+        self.left
+            .iter()
+            .chain([&self.pred])
+            .chain(self.right.iter())
+    }
 }
 
 /// A setting before `Axiom:`.

@@ -199,7 +199,7 @@ fn formal_name(name: &str) -> String {
 
 struct Lowerer<'w> {
     /// The preprocessed text the tree was parsed from (its successors'
-    /// symbols, [`ast::Successor`]).
+    /// symbols, [`ast::Run`]).
     text: &'w str,
     /// What the header goes to, production by production.
     sink: &'w mut dyn HeaderSink,
@@ -612,14 +612,21 @@ impl Lowerer<'_> {
 
     /// Lower `p` into the sink.
     fn production(&mut self, p: &Production, section: &'static str) -> R<()> {
+        // The head's modules, read again from the text (a file of many
+        // productions keeps only their places).
+        let text = self.text;
+        let read = |r: &ast::Run| r.modules(text).collect::<R<Vec<Module>>>();
+        let p_left = p.left.as_ref().map(read).transpose()?;
+        let p_pred = read(&p.pred)?;
+        let p_right = p.right.as_ref().map(read).transpose()?;
         let mut formals = HashMap::new();
-        let mut left = match &p.left {
+        let mut left = match &p_left {
             Some(l) => self.formals(l, &mut formals)?,
             None => Vec::new(),
         };
-        let mut pred = self.formals(&p.pred, &mut formals)?;
+        let mut pred = self.formals(&p_pred, &mut formals)?;
         let pred_rest = pred.split_off(1);
-        if let Some(m) = p.right.as_ref().and_then(|r| r.last()) {
+        if let Some(m) = p_right.as_ref().and_then(|r| r.last()) {
             // cpfg's `RconDiff` skips the branch at `=` and then reads the
             // next pattern module without checking that there is one: a
             // segmentation fault wherever the match gets that far.
@@ -627,7 +634,7 @@ impl Lowerer<'_> {
                 return err(m.span, Invalid::RightContextEndsInSkip);
             }
         }
-        let mut right = match &p.right {
+        let mut right = match &p_right {
             Some(r) => self.formals(r, &mut formals)?,
             None => Vec::new(),
         };
@@ -637,7 +644,7 @@ impl Lowerer<'_> {
         // 0 until a block assigns them, kept between applications (cpfg's
         // per-production symbol table) — a local here.
         let mut skipped = Vec::new();
-        for m in p.right.iter().flatten().filter(|m| m.sym == '=') {
+        for m in p_right.iter().flatten().filter(|m| m.sym == '=') {
             for e in &m.params {
                 if let Expr::Var(name, _) = e {
                     formals.remove(name);
@@ -700,7 +707,7 @@ impl Lowerer<'_> {
             Some(c) => Some(Box::new(self.expr(c, &formals)?)),
             None => None,
         };
-        let bracket = p.left.iter().flatten().find(|m| matches!(m.sym, '[' | ']'));
+        let bracket = p_left.iter().flatten().find(|m| matches!(m.sym, '[' | ']'));
         if let Some(m) = bracket {
             // cpfg's `LconDiff` passes over the string's brackets (`]`
             // skips a branch, `[` is stepped over) and compares the pattern

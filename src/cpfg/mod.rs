@@ -4,8 +4,9 @@
 //! cpfg runs every `.l` file through (cpfg calls vlab's `vlabcpp`, a GNU
 //! `cccp`); the lexer ([`lexer`], logos) and the LALRPOP grammar
 //! (`grammar/cpfg.lalrpop`, [`parse`]) on its output, giving the syntax
-//! tree ([`ast`], statement blocks kept as data, successors as places in
-//! the text); the lowering ([`lower`]), which hands the shared `.ls`
+//! tree ([`ast`], statement blocks kept as data, the modules of
+//! predecessors, contexts and successors as places in the text); the
+//! lowering ([`lower`]), which hands the shared `.ls`
 //! syntax tree's pieces production by production to the shared compiler
 //! (`rules::Compiler::cpfg`: cpfg's semantics), derived by the shared
 //! engine. Every offset of

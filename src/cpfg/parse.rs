@@ -71,14 +71,15 @@ pub fn parse_with(
     Ok(*tree)
 }
 
-/// The modules of a successor ([`ast::Successor::modules`]), read again
-/// where the grammar read them. In a successor that parsed, every
+/// The modules of a run (a successor, a predecessor, a context:
+/// [`ast::Run::modules`]), read again where the grammar read them. In a
+/// run that parsed, every
 /// character outside parentheses is a module's symbol or what the scanner
 /// skips (blanks, a newline that a TAB continues): symbols are read as
 /// characters, a module's parameters lexed again and each parsed as an
 /// expression of the grammar (`grammar::ExprParser`), with one token
 /// buffer for them all; or, for [`Shapes`], only counted.
-pub struct SuccModules<'a> {
+pub struct RunModules<'a> {
     text: &'a str,
     /// Parse the parameters (else only count them).
     parse: bool,
@@ -89,9 +90,9 @@ pub struct SuccModules<'a> {
     buf: Vec<Spanned<'a>>,
 }
 
-impl<'a> SuccModules<'a> {
-    pub(crate) fn new(text: &'a str, span: (usize, usize), len: usize) -> SuccModules<'a> {
-        SuccModules {
+impl<'a> RunModules<'a> {
+    pub(crate) fn new(text: &'a str, span: (usize, usize), len: usize) -> RunModules<'a> {
+        RunModules {
             text,
             parse: true,
             pos: span.0,
@@ -130,7 +131,7 @@ impl<'a> SuccModules<'a> {
         self.pos = r;
         let span = (l, r);
         // (After the last module comes what the grammar read after the
-        // successor: not a `(`.)
+        // run: not a `(`.)
         let Some((open, '(')) = self.next_char(r) else {
             let params = Vec::new();
             return Ok((ast::Module { sym, params, span }, 0));
@@ -177,7 +178,7 @@ impl<'a> SuccModules<'a> {
     }
 }
 
-impl SuccModules<'_> {
+impl RunModules<'_> {
     /// The next module and its number of parameters, None after the last
     /// or an error.
     fn read(&mut self) -> Option<Result<(ast::Module, usize), UserError>> {
@@ -193,7 +194,7 @@ impl SuccModules<'_> {
     }
 }
 
-impl Iterator for SuccModules<'_> {
+impl Iterator for RunModules<'_> {
     type Item = Result<ast::Module, UserError>;
 
     fn next(&mut self) -> Option<Self::Item> {
@@ -201,13 +202,13 @@ impl Iterator for SuccModules<'_> {
     }
 }
 
-/// A successor's modules as symbol, number of parameters and span, their
-/// parameters lexed but not parsed ([`ast::Successor::shapes`]).
-pub struct Shapes<'a>(SuccModules<'a>);
+/// A run's modules as symbol, number of parameters and span, their
+/// parameters lexed but not parsed ([`ast::Run::shapes`]).
+pub struct Shapes<'a>(RunModules<'a>);
 
 impl<'a> Shapes<'a> {
     pub(crate) fn new(text: &'a str, span: (usize, usize), len: usize) -> Shapes<'a> {
-        let mut m = SuccModules::new(text, span, len);
+        let mut m = RunModules::new(text, span, len);
         m.parse = false;
         Shapes(m)
     }
@@ -494,6 +495,69 @@ mod tests {
         let second = brief(read(1));
         assert_eq!(second, [('G', 2, "G(1,2)".to_string())]);
         assert!(read(2).is_empty());
+    }
+
+    /// A production's head is kept as the places of its left context,
+    /// strict predecessor and right context, each read again as the
+    /// grammar read it: written without blanks, across blanks and a
+    /// TAB-continued line, with formal parameters, up to the `<`, `>`, `:`
+    /// or `-->` after it.
+    #[test]
+    fn a_head_is_read_again_as_the_grammar_read_it() {
+        let src = "Lsystem: 1\nAxiom: A\nA(x)B<C(y, z)\n\t\u{e9}>[D(w)]E : x > 1 --> F\n\
+                   * < G H > * --> I\nJ(k)-->K\nendlsystem\n";
+        let ls = parse(src).unwrap();
+        let read = |r: &ast::Run| {
+            let all: Vec<_> = r.modules(src).map(|m| m.unwrap()).collect();
+            assert_eq!(all.len(), r.len());
+            let shapes: Vec<_> = r.shapes(src).map(|s| s.unwrap()).collect();
+            let of_modules: Vec<_> = all
+                .iter()
+                .map(|m| (m.sym, m.params.len(), m.span))
+                .collect();
+            assert_eq!(shapes, of_modules);
+            all.iter()
+                .map(|m| {
+                    let names: Vec<_> = m
+                        .params
+                        .iter()
+                        .map(|e| match e {
+                            Expr::Var(n, _) => n.clone(),
+                            e => panic!("{e:?}"),
+                        })
+                        .collect();
+                    (m.sym, names, src[m.span.0..m.span.1].to_string())
+                })
+                .collect::<Vec<_>>()
+        };
+        let v = |c: char, names: &[&str], t: &str| {
+            let names = names.iter().map(|n| n.to_string()).collect::<Vec<_>>();
+            (c, names, t.to_string())
+        };
+        let p = &ls.productions[0];
+        let left = read(p.left.as_ref().unwrap());
+        assert_eq!(left, [v('A', &["x"], "A(x)"), v('B', &[], "B")]);
+        let pred = read(&p.pred);
+        assert_eq!(
+            pred,
+            [v('C', &["y", "z"], "C(y, z)"), v('\u{e9}', &[], "\u{e9}")]
+        );
+        let right = read(p.right.as_ref().unwrap());
+        let expected = [
+            v('[', &[], "["),
+            v('D', &["w"], "D(w)"),
+            v(']', &[], "]"),
+            v('E', &[], "E"),
+        ];
+        assert_eq!(right, expected);
+        assert_eq!(p.heads().count(), 3);
+        let p = &ls.productions[1];
+        assert!(p.left.is_none() && p.right.is_none());
+        assert_eq!(read(&p.pred), [v('G', &[], "G"), v('H', &[], "H")]);
+        assert_eq!(p.heads().count(), 1);
+        let p = &ls.productions[2];
+        assert_eq!(read(&p.pred), [v('J', &["k"], "J(k)")]);
+        assert_eq!(read(&p.succ), [v('K', &[], "K")]);
     }
 
     #[test]

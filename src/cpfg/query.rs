@@ -644,14 +644,18 @@ pub(crate) fn check(
         // where the image was made from the string before the fill.
         let (queried, read) = read_past(tree, text);
         for p in &hom {
-            if let Some(m) = p.pred.iter().find(|m| read.contains(&m.sym)) {
-                let why = format!("a predecessor `{}`, which a `?` or an `@` reads", m.sym);
-                return Err(CheckError::At(m.span, Refused::QueryWithHomomorphism(why)));
+            let mut pred = p.pred.shapes(text).map_while(Result::ok);
+            if let Some((sym, _, span)) = pred.find(|(sym, ..)| read.contains(sym)) {
+                let why = format!("a predecessor `{sym}`, which a `?` or an `@` reads");
+                return Err(CheckError::At(span, Refused::QueryWithHomomorphism(why)));
             }
-            let mut left = p.left.iter().flatten();
-            if let Some(m) = left.find(|m| queried.contains(&m.sym)) {
-                let why = format!("a left context `{}`, which a query fills", m.sym);
-                return Err(CheckError::At(m.span, Refused::QueryWithHomomorphism(why)));
+            let mut left = p
+                .left
+                .iter()
+                .flat_map(|l| l.shapes(text).map_while(Result::ok));
+            if let Some((sym, _, span)) = left.find(|(sym, ..)| queried.contains(sym)) {
+                let why = format!("a left context `{sym}`, which a query fills");
+                return Err(CheckError::At(span, Refused::QueryWithHomomorphism(why)));
             }
         }
     }
@@ -680,9 +684,9 @@ pub(crate) fn check(
         .chain(tree.decomposition.iter().map(|s| (&s.productions, true)))
         .chain(tree.homomorphism.iter().map(|s| (&s.productions, through)));
     for (p, successor) in sections.flat_map(|(ps, succ)| ps.iter().map(move |p| (p, succ))) {
-        let lists = [p.left.as_deref(), Some(&p.pred[..]), p.right.as_deref()];
-        for list in lists.into_iter().flatten() {
-            let list = list.iter().map(|m| (m.sym, m.params.len(), Some(m.span)));
+        for list in p.heads() {
+            let list = list.shapes(text).map_while(Result::ok);
+            let list = list.map(|(sym, n, span)| (sym, n, Some(span)));
             check_list(list).map_err(|(m, r)| CheckError::At(at(m), r))?;
         }
         if successor {
@@ -994,8 +998,9 @@ fn homomorphism_refused(p: &Production, text: &str) -> Option<(Span, String)> {
         return Some((at, "a random draw".into()));
     }
     let read = |c| matches!(c, '[' | ']' | '?' | '@' | '%' | '$' | '~');
-    if let Some(m) = p.pred.iter().find(|m| read(m.sym)) {
-        return Some((m.span, format!("a predecessor with `{}`", m.sym)));
+    let mut pred = p.pred.shapes(text).map_while(Result::ok);
+    if let Some((sym, _, span)) = pred.find(|&(sym, ..)| read(sym)) {
+        return Some((span, format!("a predecessor with `{sym}`")));
     }
     let mut depth = 0usize;
     for (sym, _, span) in p.succ.shapes(text).map_while(Result::ok) {
@@ -1041,7 +1046,11 @@ fn homomorphism_moves(p: &Production, text: &str) -> bool {
         }
         false
     });
-    succ || p.pred.iter().any(|m| !still(m.sym))
+    succ || p
+        .pred
+        .shapes(text)
+        .map_while(Result::ok)
+        .any(|(sym, ..)| !still(sym))
 }
 
 /// The symbols the file's strings have after a `?` (the query modules),
@@ -1076,9 +1085,9 @@ fn read_past(tree: &Lsystem, text: &str) -> (Vec<char>, Vec<char>) {
         .chain(tree.decomposition.iter().map(|s| &s.productions))
         .chain(tree.homomorphism.iter().map(|s| &s.productions));
     for p in sections.flatten() {
-        let lists = [p.left.as_deref(), Some(&p.pred[..]), p.right.as_deref()];
-        for l in lists.into_iter().flatten() {
-            list(&mut l.iter().map(|m| (m.sym, m.params.len())));
+        for l in p.heads() {
+            let l = l.shapes(text).map_while(Result::ok);
+            list(&mut l.map(|(sym, n, _)| (sym, n)));
         }
         let succ = p.succ.shapes(text).map_while(Result::ok);
         list(&mut succ.map(|(sym, n, _)| (sym, n)));
@@ -1105,13 +1114,10 @@ fn first_query(tree: &Lsystem, text: &str, in_axiom: Span) -> Option<Span> {
         .chain(tree.decomposition.iter().map(|s| &s.productions))
         .chain(tree.homomorphism.iter().map(|s| &s.productions));
     for p in sections.flatten() {
-        let head = p
-            .left
-            .iter()
-            .flatten()
-            .chain(&p.pred)
-            .chain(p.right.iter().flatten());
-        head.for_each(|m| see(m.sym, m.span));
+        for h in p.heads() {
+            let h = h.shapes(text).map_while(Result::ok);
+            h.for_each(|(sym, _, span)| see(sym, span));
+        }
         let succ = p.succ.shapes(text).map_while(Result::ok);
         succ.for_each(|(sym, _, span)| see(sym, span));
     }
