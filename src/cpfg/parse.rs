@@ -438,6 +438,20 @@ mod tests {
     use super::*;
     use crate::cpfg::ast::{BinOp, Expr, Setting, Stmt};
 
+    /// The modules of `run`, read again from `src`: as many as the grammar
+    /// counted, and their shapes the modules' symbols, arities and spans.
+    fn read_run(run: &ast::Run, src: &str) -> Vec<ast::Module> {
+        let all: Vec<_> = run.modules(src).map(|m| m.unwrap()).collect();
+        assert_eq!(all.len(), run.len());
+        let shapes: Vec<_> = run.shapes(src).map(|s| s.unwrap()).collect();
+        let of_modules: Vec<_> = all
+            .iter()
+            .map(|m| (m.sym, m.params.len(), m.span))
+            .collect();
+        assert_eq!(shapes, of_modules);
+        all
+    }
+
     /// A successor is kept as the place of its text and read again: each
     /// module as the grammar read it, across blanks, a TAB-continued line,
     /// nested and comma-separated parentheses, strings and UTF-8, up to
@@ -449,16 +463,7 @@ mod tests {
                    B --> G(1,2)\nC --> *\nendlsystem\n";
         let ls = parse(src).unwrap();
         let read = |i: usize| {
-            let succ = &ls.productions[i].succ;
-            let all: Vec<_> = succ.modules(src).map(|m| m.unwrap()).collect();
-            assert_eq!(all.len(), succ.len());
-            // The shapes are the modules' symbols, arities and spans.
-            let shapes: Vec<_> = succ.shapes(src).map(|s| s.unwrap()).collect();
-            let of_modules: Vec<_> = all
-                .iter()
-                .map(|m| (m.sym, m.params.len(), m.span))
-                .collect();
-            assert_eq!(shapes, of_modules);
+            let all = read_run(&ls.productions[i].succ, src);
             all.into_iter()
                 .map(|m| (m.sym, m.params, &src[m.span.0..m.span.1]))
                 .collect::<Vec<_>>()
@@ -508,14 +513,7 @@ mod tests {
                    * < G H > * --> I\nJ(k)-->K\nendlsystem\n";
         let ls = parse(src).unwrap();
         let read = |r: &ast::Run| {
-            let all: Vec<_> = r.modules(src).map(|m| m.unwrap()).collect();
-            assert_eq!(all.len(), r.len());
-            let shapes: Vec<_> = r.shapes(src).map(|s| s.unwrap()).collect();
-            let of_modules: Vec<_> = all
-                .iter()
-                .map(|m| (m.sym, m.params.len(), m.span))
-                .collect();
-            assert_eq!(shapes, of_modules);
+            let all = read_run(r, src);
             all.iter()
                 .map(|m| {
                     let names: Vec<_> = m
