@@ -85,6 +85,9 @@ pub enum Stmt {
 /// `{ stmt ... }`
 pub type Block = Vec<Stmt>;
 
+/// The block of a production without one.
+static NO_BLOCK: Block = Vec::new();
+
 /// A module as written: a symbol and its parameter expressions (formal
 /// parameters: [`Expr::Var`]).
 #[derive(Clone, Debug, PartialEq)]
@@ -148,13 +151,12 @@ pub struct Production {
     /// The strict predecessor: one module or a run of them (`AB --> C`).
     pub pred: Run,
     pub right: Option<Run>,
-    /// The pre-condition block (runs before the condition is tested).
-    pub pre: Block,
-    /// None: always true (also `*`). (Boxed, as `prob`: most productions
-    /// have neither.)
+    /// The pre-condition and post-condition blocks ([`Production::pre`],
+    /// [`Production::post`]), None where both are empty. (Boxed, as
+    /// `cond` and `prob`: most productions have none.)
+    pub blocks: Option<Box<[Block; 2]>>,
+    /// None: always true (also `*`).
     pub cond: Option<Box<Expr>>,
-    /// The post-condition block (runs when the production is applied).
-    pub post: Block,
     pub succ: Run,
     pub prob: Option<Box<Expr>>,
     /// The whole production.
@@ -162,6 +164,16 @@ pub struct Production {
 }
 
 impl Production {
+    /// The pre-condition block (runs before the condition is tested).
+    pub fn pre(&self) -> &Block {
+        self.blocks.as_ref().map_or(&NO_BLOCK, |b| &b[0])
+    }
+
+    /// The post-condition block (runs when the production is applied).
+    pub fn post(&self) -> &Block {
+        self.blocks.as_ref().map_or(&NO_BLOCK, |b| &b[1])
+    }
+
     /// The left context, the strict predecessor and the right context, in
     /// the order of the text.
     pub fn heads(&self) -> impl Iterator<Item = &Run> {

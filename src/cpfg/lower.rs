@@ -668,8 +668,8 @@ impl Lowerer<'_> {
         }
         names.insert("step".to_string(), STEP_SLOT);
         let mut assigned = Vec::new();
-        block_names(&p.pre, &mut assigned, true);
-        block_names(&p.post, &mut assigned, true);
+        block_names(p.pre(), &mut assigned, true);
+        block_names(p.post(), &mut assigned, true);
         self.locals.clear();
         for n in skipped {
             if !self.globals.contains_key(&n) {
@@ -691,11 +691,11 @@ impl Lowerer<'_> {
                 self.variables += 1;
             }
         }
-        let pre = (!p.pre.is_empty())
-            .then(|| self.block(&p.pre, &formals, &names))
+        let pre = (!p.pre().is_empty())
+            .then(|| self.block(p.pre(), &formals, &names))
             .transpose()?;
-        let post = (!p.post.is_empty())
-            .then(|| self.block(&p.post, &formals, &names))
+        let post = (!p.post().is_empty())
+            .then(|| self.block(p.post(), &formals, &names))
             .transpose()?;
         self.extra[self.section].push(ProdExtra {
             pre,
@@ -910,7 +910,7 @@ pub(crate) fn lower(
             .flat_map(|s| &s.productions);
         let prods = lsys.productions.iter().chain(sections);
         blocks
-            .chain(prods.flat_map(|p| [&p.pre, &p.post]))
+            .chain(prods.flat_map(|p| [p.pre(), p.post()]))
             .any(|b| assigned_in(b)[1])
     };
     let mut lw = Lowerer {

@@ -590,8 +590,8 @@ mod tests {
         );
         assert!(matches!(b[5], Stmt::Printf { stderr: true, .. }));
         let p = &ls.productions[0];
-        assert_eq!(p.pre.len(), 1);
-        assert_eq!(p.post.len(), 1);
+        assert_eq!(p.pre().len(), 1);
+        assert_eq!(p.post().len(), 1);
         assert!(matches!(
             p.cond.as_deref(),
             Some(Expr::Binary(BinOp::Gt, ..))

@@ -986,7 +986,7 @@ fn draws(e: &Expr) -> Option<Span> {
 /// then its string's) nor a `%` or `$` outside its own branches, and its
 /// brackets must balance.
 fn homomorphism_refused(p: &Production, text: &str) -> Option<(Span, String)> {
-    if !p.pre.is_empty() || !p.post.is_empty() {
+    if p.blocks.is_some() {
         return Some((p.span, "a block".into()));
     }
     if let Some(e) = &p.prob {
