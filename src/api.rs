@@ -995,7 +995,7 @@ impl LSystem {
 }
 
 /// Bytes looked at to tell a cpfg file from an `.ls` one.
-const SNIFF: usize = 1 << 16;
+pub(crate) const SNIFF: usize = 1 << 16;
 
 /// Do a cpfg file's production weights count, derived with `seed`
 /// (`--seed`)? Only with a seed: without one cpfg never evaluates them.

@@ -602,8 +602,8 @@ fn open_input(path: Option<&Path>) -> Result<Input, Error> {
 struct Job<'a> {
     file: Option<&'a Path>,
     seed: Option<u64>,
-    /// A batch's input files (its L-system files and `--axiom`), which no
-    /// job may write over: later jobs read them again.
+    /// A batch's input files ([`batch_inputs`]), which no job may write
+    /// over: later jobs read them again.
     inputs: &'a [(u64, u64)],
 }
 
@@ -614,6 +614,40 @@ fn file_ids<'p>(paths: impl Iterator<Item = &'p Path>) -> Vec<(u64, u64)> {
         .filter_map(|p| std::fs::metadata(p).ok().filter(|m| m.is_file()))
         .map(|m| (m.dev(), m.ino()))
         .collect()
+}
+
+/// `(device, inode)` of what a batch's jobs read again: its L-system
+/// files, `--axiom`, `--cpfg-view`, `--functions`, and the files a `.l`
+/// file includes (found by preprocessing it once here). An `#include` of
+/// a pipe or a device is a usage error, as a batch's standard input is:
+/// it could feed one job only.
+fn batch_inputs(
+    args: &Args,
+    files: &[Option<&Path>],
+    functions: &crate::cpfg::func::Functions,
+) -> Result<Vec<(u64, u64)>, Error> {
+    let given = files.iter().flatten().copied();
+    let options = args
+        .axiom
+        .iter()
+        .chain(&args.cpfg_view)
+        .chain(&args.functions);
+    let mut inputs = file_ids(given.chain(options.map(PathBuf::as_path)));
+    let dialect = args.dialect.unwrap_or_default();
+    // (A file that is not a regular one is read once, by its job.)
+    let regular = |p: &Path| std::fs::metadata(p).is_ok_and(|m| m.is_file());
+    for file in files.iter().flatten().copied().filter(|p| regular(p)) {
+        match crate::cpfg::included_files(file, dialect, functions) {
+            Ok(included) => inputs.extend(file_ids(included.iter().map(PathBuf::as_path))),
+            Err(include) => {
+                return Err(Error::new(crate::diag::UsageError::StreamIncludeInBatch {
+                    file: file.to_path_buf(),
+                    include,
+                }))
+            }
+        }
+    }
+    Ok(inputs)
 }
 
 /// `Output::file(path)`, unless `path` is one of a batch's `inputs` (a
@@ -689,7 +723,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         return run_one(args, job, template.as_ref(), &functions, None);
     }
     check_batch(args, &files, seeds, template.as_ref())?;
-    let inputs = file_ids(files.iter().flatten().copied().chain(args.axiom.as_deref()));
+    let inputs = batch_inputs(args, &files, &functions)?;
     let jobs = |i: u64| Job {
         file: files[(i / seeds) as usize],
         seed: args.seed.map(|s| s.first + i % seeds),

@@ -259,6 +259,141 @@ fn a_jobs_output_never_replaces_an_input_of_the_batch() {
     }
 }
 
+/// A `.l` file's `#include`s, and `--cpfg-view`, are read again by every
+/// job too: a job's output over one of them changed what the later jobs
+/// read, and the exit status and the outputs depended on `-j` (found by
+/// the review helper: exit 1 at `-j 1`, where job 2's output replaced
+/// `2.h`, and 0 at `-j 4`). That job fails at every `-j`; the included
+/// files and the other outputs stay.
+#[test]
+fn a_jobs_output_never_replaces_what_a_cpfg_file_includes() {
+    for j in ["1", "2", "4"] {
+        let d = dir_with(&[
+            (
+                "m.l",
+                "Lsystem: 1\n#include \"2.h\"\nAxiom: F(X,Y)\nendlsystem\n",
+            ),
+            ("2.h", "#include \"inc/3.h\"\n#define X 7\n"),
+            ("1.v", "angle factor: 8\n"),
+        ]);
+        std::fs::create_dir(d.path().join("inc")).unwrap();
+        common::write(d.path(), "inc/3.h", "#define Y 5\n");
+        let r = lsgen_in(
+            d.path(),
+            &["-j", j, "--seed", "1..4", "-o", "{seed}.h", "m.l"],
+        );
+        let err = r.fails(1);
+        assert!(
+            err.contains("2.h: error: cannot write: it is an input of this batch"),
+            "{err}"
+        );
+        assert!(err.contains("1 of 4 jobs failed"), "{err}");
+        assert_eq!(
+            read(d.path().join("2.h")),
+            "#include \"inc/3.h\"\n#define X 7\n"
+        );
+        for k in ["1", "3", "4"] {
+            assert_eq!(read(d.path().join(format!("{k}.h"))), "F(7,5)\n", "-j {j}");
+        }
+        // A nested include, and the view file.
+        let r = lsgen_in(
+            d.path(),
+            &["-j", j, "--seed", "2..3", "-o", "inc/{seed}.h", "m.l"],
+        );
+        assert!(r.fails(1).contains("inc/3.h: error: cannot write"));
+        assert_eq!(read(d.path().join("inc/3.h")), "#define Y 5\n");
+        assert_eq!(read(d.path().join("inc/2.h")), "F(7,5)\n");
+        let r = lsgen_in(
+            d.path(),
+            &[
+                "-j",
+                j,
+                "--cpfg-view",
+                "1.v",
+                "--seed",
+                "1..2",
+                "-o",
+                "{seed}.v",
+                "m.l",
+            ],
+        );
+        assert!(r.fails(1).contains("1.v: error: cannot write"));
+        assert_eq!(read(d.path().join("1.v")), "angle factor: 8\n");
+        assert_eq!(read(d.path().join("2.v")), "F(7,5)\n");
+    }
+}
+
+/// A `.l` file whose `#include` reads a pipe or a device gave the first
+/// job what it read and the others nothing: their strings differed from
+/// the single runs' with exit 0 (`#include "/dev/stdin"`), or the batch
+/// waited forever (a FIFO nobody writes again; found by the review
+/// helper). A usage error before any job, naming the file and what it
+/// includes; nothing is read from it.
+#[test]
+fn an_include_of_a_pipe_in_a_batch_is_refused_before_any_job() {
+    let d = dir_with(&[
+        (
+            "stdin.l",
+            "Lsystem: 1\n#include \"/dev/stdin\"\nAxiom: F(X)\nendlsystem\n",
+        ),
+        (
+            "fifo.l",
+            "Lsystem: 1\n#include \"h/f\"\nAxiom: F(X)\nendlsystem\n",
+        ),
+        ("b.ls", "productions:\nA -> AB\naxiom: A\n"),
+    ]);
+    std::fs::create_dir(d.path().join("h")).unwrap();
+    let made = std::process::Command::new("mkfifo")
+        .arg(d.path().join("h/f"))
+        .status()
+        .is_ok_and(|s| s.success());
+    if !made {
+        eprintln!("skipped: no mkfifo");
+        return;
+    }
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["--seed", "1..2", "-o", "{seed}", "fifo.l"],
+            "fifo.l includes h/f, which is not a regular file",
+        ),
+        (
+            &["-o", "{stem}", "fifo.l", "b.ls"],
+            "fifo.l includes h/f, which is not a regular file",
+        ),
+    ];
+    // (Without a timeout a FIFO read would hang the test.)
+    for (args, needle) in cases {
+        let r = run(lsgen()
+            .current_dir(d.path())
+            .env_remove("LSGEN_JOBS")
+            .args(["--max-length", "1k"])
+            .args(*args));
+        let err = r.fails(2);
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+    let mut child = lsgen()
+        .current_dir(d.path())
+        .args(["--seed", "1..4", "-o", "o{seed}", "stdin.l"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    {
+        use std::io::Write;
+        let mut stdin = child.stdin.take().unwrap();
+        stdin.write_all(b"#define X 7\n").unwrap();
+    }
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("stdin.l includes /dev/stdin, which is not a regular file"),
+        "{err}"
+    );
+    common::assert_listing(d.path(), &["b.ls", "fifo.l", "h", "stdin.l"]);
+}
+
 /// Each of `cases` (arguments, part of the message), run in `dir` at
 /// `-j 1` and `-j 2`, is a usage error that writes nothing there.
 fn refused_at_j_1_and_2(dir: &Path, cases: &[(&[&str], &str)]) {

@@ -62,6 +62,52 @@ pub enum Dialect {
     Cpfg,
 }
 
+/// The files the `#include`s of the `.l` file `path` read, in order, as
+/// the preprocessor finds them with `functions`' macros defined (as a run
+/// with these functions would), each read; or, at the first included file
+/// that is neither a regular file nor a directory (a pipe, a device,
+/// read once), its path, unread. A file that cannot be read, or a text
+/// that fails, ends the list there (its run reports the error). A batch
+/// reads a `.l` file again in every job: no job may write over what it
+/// includes, and nothing it includes may be a stream.
+/// `dialect`: the file's language ([`Dialect::Auto`]: told as a run tells
+/// it); an `.ls` file includes nothing.
+pub fn included_files(
+    path: &Path,
+    dialect: Dialect,
+    functions: &func::Functions,
+) -> Result<Vec<std::path::PathBuf>, std::path::PathBuf> {
+    use std::cell::RefCell;
+    let Ok(source) = preprocess::read_file(path) else {
+        return Ok(Vec::new());
+    };
+    let head = &source.as_bytes()[..source.len().min(crate::api::SNIFF)];
+    let name = path.display().to_string();
+    let cpfg = match dialect {
+        Dialect::Cpfg => true,
+        Dialect::Ls => false,
+        Dialect::Auto => sniff(&name, head, true) == Some(true),
+    };
+    if !cpfg {
+        return Ok(Vec::new());
+    }
+    let read = RefCell::new(Vec::new());
+    let stream = RefCell::new(None);
+    let loader = |p: &Path| {
+        if std::fs::metadata(p).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+            *stream.borrow_mut() = Some(p.to_path_buf());
+            return Err(std::io::Error::other("read once"));
+        }
+        read.borrow_mut().push(p.to_path_buf());
+        preprocess::read_file(p)
+    };
+    let _ = preprocess::preprocess_defined(path, &source, Some(&loader), functions.macros());
+    match stream.into_inner() {
+        Some(p) => Err(p),
+        None => Ok(read.into_inner()),
+    }
+}
+
 /// Is a file cpfg's: its name ends in `.l`, or its first statement (after
 /// blanks and comments) is `Lsystem:` or a `#` directive (`#` and a name,
 /// as `#define`; not an `.ls` file's `#!` line)? `head` is the start of

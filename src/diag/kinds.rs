@@ -1197,6 +1197,9 @@ pub enum UsageError {
     /// An L-system file that can be read once only, with several seeds:
     /// its name.
     StreamFileInBatch(PathBuf),
+    /// A `.l` file of a batch whose `#include` reads a file that can be
+    /// read once only (a pipe, a device).
+    StreamIncludeInBatch { file: PathBuf, include: PathBuf },
     /// A batch without an `-o` template.
     BatchNeedsTemplate,
     /// A seed range with an `-o` template without `{seed}`.
@@ -1294,6 +1297,12 @@ impl fmt::Display for UsageError {
                 f,
                 "`--axiom {}` is not a regular file (a pipe or a device is read once) and can feed one job only: a batch needs an axiom file",
                 name.display()
+            ),
+            StreamIncludeInBatch { file, include } => write!(
+                f,
+                "{} includes {}, which is not a regular file (a pipe or a device is read once) and can feed one job only: a batch (several files or seeds) needs included files",
+                file.display(),
+                include.display()
             ),
             StreamFileInBatch(name) => write!(
                 f,
