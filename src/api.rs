@@ -295,8 +295,9 @@ impl Options {
 
     /// Directory for the temporary files: generations, and cpfg `printf`
     /// text that [`LSystem::derive_with`] holds (default: `$TMPDIR`). A
-    /// derivation of one step or more first looks it up: one that is not
-    /// there or is no directory is an I/O error before the axiom is read,
+    /// derivation of one step or more, or with a homomorphism to apply
+    /// (also of no step), first looks it up: one that is not there or is
+    /// no directory is an I/O error before the axiom is read,
     /// so a streamed axiom can still be derived with another.
     pub fn tmpdir(mut self, dir: impl Into<PathBuf>) -> Self {
         self.tmpdir = Some(dir.into());

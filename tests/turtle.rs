@@ -209,6 +209,47 @@ fn view_settings_from_ls_and_options() {
     );
 }
 
+/// `--ls -` reads the view lines from standard input, as lsgen reads `-`,
+/// when the string comes from a file (it was a file named `-`: "cannot
+/// open"); with the string on standard input too, a usage error. A spool
+/// file that cannot be made names its directory, as lsgen's message does
+/// (both found by the review helper).
+#[test]
+fn view_lines_from_standard_input_and_the_spools_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = dir.path().join("s.txt");
+    std::fs::write(&s, "+F").unwrap();
+    let s = s.to_str().unwrap();
+    let header = b"view: angle = 90\nview: step = 2\naxiom: F\n";
+    let got = text(ok(&turtle(&["-f", "segments", "--ls", "-", s], header)));
+    same_segments(&got, "0 0 0 -2 0 0 1 0\n", "--ls -");
+    for args in [&["-f", "segments", "--ls", "-"][..], &["--ls", "-", "-"]] {
+        let r = turtle(args, b"+F");
+        assert_eq!(r.code(), Some(2), "{args:?}: {}", r.stderr);
+        assert!(
+            r.stderr
+                .contains("the module string and `--ls -` cannot both come from standard input"),
+            "{}",
+            r.stderr
+        );
+    }
+    let missing = dir.path().join("missing");
+    let r = run_with_stdin(
+        common::turtle()
+            .args(["-f", "svg"])
+            .env("TMPDIR", &missing)
+            .current_dir(ROOT),
+        b"F+F",
+    );
+    r.assert_no_crash();
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    let want = format!(
+        "lsgen-turtle: {}: error: cannot create a temporary file",
+        missing.display()
+    );
+    assert!(r.stderr.starts_with(&want), "{}", r.stderr);
+}
+
 /// A `view:` setting may hold comments and any blanks (the no-break
 /// space here) between its words, as lsgen's lexer reads it (lsgen
 /// 9b99c7d ended a setting at its first comment).

@@ -23,7 +23,7 @@ static ALLOC: lsgen::cli::ExitOnOom = lsgen::cli::ExitOnOom("lsgen-turtle");
 struct Args {
     /// The module string; standard input when absent or `-`
     file: Option<PathBuf>,
-    /// Read the view settings (`view: NAME = VALUE` lines) of this .ls file
+    /// Read the view settings (`view: NAME = VALUE` lines) of this .ls file (`-`: standard input)
     #[arg(long, value_name = "FILE")]
     ls: Option<PathBuf>,
     /// Read the view settings of this cpfg view file (.v): angle, widths, colours, tropism, view
@@ -111,7 +111,15 @@ fn number(s: &str) -> Result<f64, String> {
 
 fn options(a: Args) -> Result<Options, Error> {
     let mut v = View::default();
-    if let Some(ls) = &a.ls {
+    if a.ls.as_ref().is_some_and(|p| p.as_os_str() == "-") {
+        // `--ls -`: the view lines from standard input, as lsgen reads
+        // `-`; the string then comes from a file.
+        if a.file.as_ref().is_none_or(|f| f.as_os_str() == "-") {
+            return Err(Error::new(UsageError::ViewAndStringFromStdin));
+        }
+        lsgen::output::check_stdin_open()?;
+        view::read_ls("<stdin>", Box::new(std::io::stdin()), &mut v)?;
+    } else if let Some(ls) = &a.ls {
         let name = ls.display().to_string();
         // `--ls /dev/stdin` with standard input closed (`<&-`).
         lsgen::output::check_input_open(ls, &name)?;

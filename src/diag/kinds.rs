@@ -1232,6 +1232,8 @@ pub enum UsageError {
     BothFromStdin,
     /// `--strategy dfs` for a cpfg file.
     CpfgNotDepthFirst,
+    /// lsgen-turtle: `--ls -` with the string on standard input too.
+    ViewAndStringFromStdin,
     /// lsgen-turtle: `-f` with an unknown format (as given).
     UnknownFormat(String),
     /// lsgen-turtle: an output name whose extension names no format.
@@ -1358,6 +1360,9 @@ impl fmt::Display for UsageError {
                 "{} and {} have the same {{stem}} `{stem}`: their outputs would collide",
                 first.display(),
                 second.display()
+            ),
+            ViewAndStringFromStdin => f.write_str(
+                "the module string and `--ls -` cannot both come from standard input: give the string's file",
             ),
             BothFromStdin => {
                 f.write_str("the L-system and `--axiom -` cannot both come from standard input")

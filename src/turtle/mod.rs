@@ -319,9 +319,8 @@ pub fn run(o: &Options) -> Result<(), Error> {
                     Box::new(Again::new(f, seen))
                 }
                 Source::Stream => {
-                    let spool = tempfile::tempfile().map_err(|e| {
-                        Error::io("temporary file", crate::diag::IoAction::Create, e)
-                    })?;
+                    let spool = tempfile::tempfile()
+                        .map_err(|e| crate::derive::tempfile_error(&None, e))?;
                     let mut tee = Tee {
                         inner: first,
                         spool,
