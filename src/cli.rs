@@ -1021,6 +1021,9 @@ fn run_one(
     if file_is_stdin && axiom_is_stdin {
         return Err(Error::new(crate::diag::UsageError::BothFromStdin));
     }
+    if file_is_stdin || axiom_is_stdin {
+        crate::io::output::note_stdin_taken();
+    }
     let input = open_input(job.file)?;
     let dialect = args.dialect.unwrap_or_default();
     let mut ls = LSystem::load_dialect(

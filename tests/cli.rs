@@ -578,6 +578,42 @@ fn axiom_and_system_cannot_both_be_stdin() {
     }
 }
 
+/// A `.l` file's `#include "/dev/stdin"` where lsgen reads standard input
+/// itself took what `--axiom -` needed (the axiom was silently empty,
+/// exit 0), or read nothing after an L-system from standard input (found
+/// by the review helper). A located error at the `#include`; with the
+/// axiom from a file, the include reads standard input as before.
+#[test]
+fn an_include_of_standard_input_that_lsgen_reads_is_an_error() {
+    let sys = "Lsystem: 1\n#include \"/dev/stdin\"\nAxiom: F(X)\nendlsystem\n";
+    let d = dir_with(&[("inc.l", sys), ("ax", "G(2)")]);
+    let message = "error: cannot include `/dev/stdin`: it is standard input, which lsgen reads for the L-system or `--axiom -`";
+    let r = run_in(
+        d.path(),
+        &["-n", "0", "--axiom", "-", "inc.l"],
+        Some(b"#define X 7\n"),
+    );
+    let e = r.one_error();
+    assert!(
+        e.starts_with(&format!("lsgen: inc.l:2:10: {message}")),
+        "{e}"
+    );
+    let r = run_in(d.path(), &["-n", "0"], Some(sys.as_bytes()));
+    let e = r.one_error();
+    assert!(
+        e.starts_with(&format!("lsgen: <stdin>:2:10: {message}")),
+        "{e}"
+    );
+    let r = run_in(d.path(), &["-n", "0", "inc.l"], Some(b"#define X 7\n"));
+    assert_eq!(r.ok(), "F(7)\n");
+    let r = run_in(
+        d.path(),
+        &["-n", "0", "--axiom", "ax", "inc.l"],
+        Some(b"#define X 7\n"),
+    );
+    assert_eq!(r.ok(), "G(2)\n");
+}
+
 #[test]
 fn missing_axiom_file_fails() {
     let d = dir_with(&[("p.ls", DOUBLING)]);

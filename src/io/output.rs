@@ -12,7 +12,7 @@ use std::mem::ManuallyDrop;
 use std::os::unix::ffi::OsStrExt;
 use std::os::unix::fs::{FileTypeExt, MetadataExt, OpenOptionsExt, PermissionsExt};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 
 pub enum Output {
     /// File descriptor 1, written directly: whole blocks go to `write(2)`
@@ -119,6 +119,35 @@ pub fn note_closed_standard_fds() {
         }
     }
     CLOSED_AT_START.store(closed, Ordering::Relaxed);
+}
+
+/// lsgen reads its standard input itself (the L-system or `--axiom -`).
+static STDIN_TAKEN: AtomicBool = AtomicBool::new(false);
+
+/// Note that this run reads standard input itself ([`takes_stdin`]).
+#[cfg_attr(not(feature = "cli"), allow(dead_code))]
+pub(crate) fn note_stdin_taken() {
+    STDIN_TAKEN.store(true, Ordering::Relaxed);
+}
+
+/// Does opening `path` read the stream that this run reads as its
+/// standard input (the L-system or `--axiom -`: [`note_stdin_taken`])?
+/// `/dev/stdin`, a link to it, or the FIFO or device standard input is:
+/// what it read would be taken from the L-system or the axiom. (A
+/// regular file on standard input, opened again, reads from its start:
+/// no conflict.)
+pub(crate) fn takes_stdin(path: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    if !STDIN_TAKEN.load(Ordering::Relaxed) {
+        return false;
+    }
+    let Ok(m) = fs::metadata(path) else {
+        return false;
+    };
+    let Ok(s) = rustix::fs::fstat(std::io::stdin()) else {
+        return false;
+    };
+    !m.is_file() && m.dev() == s.st_dev as u64 && m.ino() == s.st_ino as u64
 }
 
 /// Standard file descriptor `fd` was closed when lsgen started.

@@ -138,6 +138,14 @@ pub fn read_file(path: &Path) -> io::Result<String> {
     if crate::io::output::leads_to_closed_fd(path) {
         return Err(io::Error::other("Bad file descriptor (closed at startup)"));
     }
+    // `#include "/dev/stdin"` where lsgen reads the L-system or the
+    // axiom from standard input: it would take what they need (or read
+    // nothing, after the L-system).
+    if crate::io::output::takes_stdin(path) {
+        return Err(io::Error::other(
+            "it is standard input, which lsgen reads for the L-system or `--axiom -`",
+        ));
+    }
     let f = std::fs::File::open(path)?;
     let mut buf = Vec::new();
     f.take(MAX_FILE_SIZE + 1).read_to_end(&mut buf)?;
