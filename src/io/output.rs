@@ -147,7 +147,7 @@ pub(crate) fn takes_stdin(path: &Path) -> bool {
     let Ok(s) = rustix::fs::fstat(std::io::stdin()) else {
         return false;
     };
-    !m.is_file() && m.dev() == s.st_dev as u64 && m.ino() == s.st_ino as u64
+    !m.is_file() && m.dev() == s.st_dev && m.ino() == s.st_ino
 }
 
 /// Standard file descriptor `fd` was closed when lsgen started.
