@@ -1906,3 +1906,42 @@ fn one_module_contexts_across_reader_windows() {
         );
     }
 }
+
+/// Two strings where a right-context walk jumped out of the look-ahead
+/// reader's buffer and came back into it before reading there: the next
+/// refill read around that buffer's start (a mark of the jump left set),
+/// so the walk went back thousands of bytes. `-j 1` gave the wrong string
+/// (`jump_back_ignore.ls`, `ignore: a1`, `a > ]]`) or crashed reading a
+/// module from inside a parameter (`jump_back_consider.ls`, `consider:`,
+/// a context naming a module never considered); the split runs, whose
+/// workers start with fresh readers, crashed elsewhere. Found by the
+/// review helper's differential campaign on strings of 10^5 to 10^7
+/// modules; both fail before the fix. Each agrees with the reference, at
+/// `-j 1` and split at `-j 2`.
+#[test]
+fn a_walk_that_jumps_and_comes_back_reads_on() {
+    for (file, seed) in [
+        ("jump_back_ignore.ls", None),
+        ("jump_back_consider.ls", Some(491_349)),
+    ] {
+        let path = format!("{}/tests/regressions/{file}", env!("CARGO_MANIFEST_DIR"));
+        let src = std::fs::read_to_string(path).unwrap();
+        match compare(&src, Some(1), seed, 50_000_000) {
+            Outcome::Same { error: false, .. } => {}
+            Outcome::Same { error: true, .. } => panic!("{file}: an error"),
+            Outcome::Skipped => panic!("{file}: too long for the reference"),
+            Outcome::Differ { expected, actual } => panic!(
+                "{file} differs:\nreference: {}\nlsgen:     {}",
+                clip(&expected),
+                clip(&actual)
+            ),
+        }
+        let one = lsgen_text(&src, Some(1), seed);
+        for split in [64, 4096] {
+            assert!(
+                one == lsgen_text_on(&src, Some(1), seed, (2, split)),
+                "{file}: -j 2 (split {split}) differs from -j 1"
+            );
+        }
+    }
+}

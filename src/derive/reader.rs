@@ -172,7 +172,11 @@ impl<'f> PosReader<'f> {
             std::mem::swap(&mut self.end, alt_end);
         }
         if covered {
+            // Back in a buffer read before: its bytes are where they are
+            // (a jump not yet read from must not make the next refill
+            // read around this buffer's start instead of going on).
             self.pos = (off - self.start) as usize;
+            self.jumped = false;
             return;
         }
         if self.buf.len() < JUMP_READ {
@@ -428,6 +432,43 @@ mod tests {
         w.seek(SeekFrom::End(0)).unwrap();
         w.write_all(b"FF").unwrap();
         assert_eq!(rd.next_module(al).unwrap(), None);
+    }
+
+    /// A jump not yet read from, then a seek back into the buffer the jump
+    /// left (the one before it): reading on from there goes on through the
+    /// file. The jump's mark stayed set, and the next refill read around
+    /// that buffer's start instead: the reader went back thousands of
+    /// bytes and read modules from inside parameters (a crash at every
+    /// `-j` and wrong strings at `-j 1` on long context-sensitive strings;
+    /// found by the review helper's differential campaign).
+    #[test]
+    fn a_seek_back_before_reading_a_jump_reads_on() {
+        const N: usize = 1 << 17;
+        let byte = |i: u64| b'A' + (i % 26) as u8;
+        let text: Vec<u8> = (0..N as u64).map(byte).collect();
+        let mut f = tempfile::tempfile().unwrap();
+        f.write_all(&text).unwrap();
+        let al = Alphabet::new(Filter::All);
+        let mut rd = PosReader::new(&f, 4096, false);
+        for i in 0..100u64 {
+            assert_eq!(rd.next_module(&al).unwrap().unwrap().0, u32::from(byte(i)));
+        }
+        // Out of the buffer, and back into it before reading there.
+        rd.seek(100_000);
+        rd.seek(10);
+        let mut at = 10u64;
+        while at < 60_000 {
+            assert_eq!(rd.offset(), at);
+            let (key, ..) = rd.next_module(&al).unwrap().unwrap();
+            assert_eq!(key, u32::from(byte(at)), "at {at}");
+            at += 1;
+        }
+        // And the jump itself still reads where it goes.
+        rd.seek(100_000);
+        assert_eq!(
+            rd.next_module(&al).unwrap().unwrap().0,
+            u32::from(byte(100_000))
+        );
     }
 
     /// After a jump (a seek outside the buffer) the reader reads a few
