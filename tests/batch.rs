@@ -160,6 +160,19 @@ fn batch_usage_errors() {
     common::assert_listing(d.path(), &["a.ls", "b.ls", "sub"]);
 }
 
+/// Make a FIFO at `path`; false (the test says it is skipped) where
+/// `mkfifo` cannot.
+fn mkfifo(path: &Path) -> bool {
+    let made = std::process::Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .is_ok_and(|s| s.success());
+    if !made {
+        eprintln!("skipped: no mkfifo");
+    }
+    made
+}
+
 /// Every job reads the `--axiom` file, and each seed the L-system file,
 /// again: a FIFO (a pipe, `<(...)`, `/dev/stdin`) would give the first job
 /// all of it and the others an empty axiom, silently (exit 0; found by the
@@ -171,12 +184,7 @@ fn a_pipe_read_by_several_jobs_is_refused_before_any_job() {
         ("a.ls", "productions:\nA -> AB\naxiom: A\n"),
         ("b.ls", "productions:\nA -> AB\naxiom: A\n"),
     ]);
-    let made = std::process::Command::new("mkfifo")
-        .arg(d.path().join("fifo"))
-        .status()
-        .is_ok_and(|s| s.success());
-    if !made {
-        eprintln!("skipped: no mkfifo");
+    if !mkfifo(&d.path().join("fifo")) {
         return;
     }
     let cases: &[(&[&str], &str)] = &[
@@ -220,16 +228,8 @@ fn a_jobs_output_never_replaces_an_input_of_the_batch() {
             ("x.ls", sys),
             ("ax", "AA"),
         ]);
-        let r = lsgen_in(
-            d.path(),
-            &["-j", j, "--seed", "1..3", "-o", "{seed}.ls", "2.ls"],
-        );
-        let err = r.fails(1);
-        assert!(
-            err.contains("2.ls: error: cannot write: it is an input of this batch"),
-            "{err}"
-        );
-        assert!(err.contains("1 of 3 jobs failed"), "{err}");
+        let args = ["-j", j, "--seed", "1..3", "-o", "{seed}.ls", "2.ls"];
+        input_not_replaced(d.path(), &args, "2.ls", "1 of 3");
         assert_eq!(read(d.path().join("2.ls")), sys);
         assert_eq!(read(d.path().join("1.ls")), "AB\n");
         assert_eq!(read(d.path().join("3.ls")), "AB\n");
@@ -259,6 +259,17 @@ fn a_jobs_output_never_replaces_an_input_of_the_batch() {
     }
 }
 
+/// `args` run in `dir`: the job whose output would be `name`, an input of
+/// the batch, fails without writing it (`failed`: "1 of 3"); the others
+/// finish.
+fn input_not_replaced(dir: &Path, args: &[&str], name: &str, failed: &str) {
+    let r = lsgen_in(dir, args);
+    let err = r.fails(1);
+    let refused = format!("{name}: error: cannot write: it is an input of this batch");
+    assert!(err.contains(&refused), "{err}");
+    assert!(err.contains(&format!("{failed} jobs failed")), "{err}");
+}
+
 /// A `.l` file's `#include`s, and `--cpfg-view`, are read again by every
 /// job too: a job's output over one of them changed what the later jobs
 /// read, and the exit status and the outputs depended on `-j` (found by
@@ -278,16 +289,8 @@ fn a_jobs_output_never_replaces_what_a_cpfg_file_includes() {
         ]);
         std::fs::create_dir(d.path().join("inc")).unwrap();
         common::write(d.path(), "inc/3.h", "#define Y 5\n");
-        let r = lsgen_in(
-            d.path(),
-            &["-j", j, "--seed", "1..4", "-o", "{seed}.h", "m.l"],
-        );
-        let err = r.fails(1);
-        assert!(
-            err.contains("2.h: error: cannot write: it is an input of this batch"),
-            "{err}"
-        );
-        assert!(err.contains("1 of 4 jobs failed"), "{err}");
+        let args = ["-j", j, "--seed", "1..4", "-o", "{seed}.h", "m.l"];
+        input_not_replaced(d.path(), &args, "2.h", "1 of 4");
         assert_eq!(
             read(d.path().join("2.h")),
             "#include \"inc/3.h\"\n#define X 7\n"
@@ -343,12 +346,7 @@ fn an_include_of_a_pipe_in_a_batch_is_refused_before_any_job() {
         ("b.ls", "productions:\nA -> AB\naxiom: A\n"),
     ]);
     std::fs::create_dir(d.path().join("h")).unwrap();
-    let made = std::process::Command::new("mkfifo")
-        .arg(d.path().join("h/f"))
-        .status()
-        .is_ok_and(|s| s.success());
-    if !made {
-        eprintln!("skipped: no mkfifo");
+    if !mkfifo(&d.path().join("h/f")) {
         return;
     }
     let cases: &[(&[&str], &str)] = &[

@@ -1889,21 +1889,27 @@ fn one_module_contexts_across_reader_windows() {
         "ignore: +\nproductions:\nb < a > c -> b[+c]\nc < a -> \na > d -> dd\nb > a -> c\nd < b -> a\nc > b -> [a]\na > a -> e\naxiom:\n{axiom}\n"
     );
     for steps in [1, 2] {
-        match compare(&src, Some(steps), None, 50_000_000) {
-            Outcome::Same { error: false, .. } => {}
-            Outcome::Same { error: true, .. } => panic!("{steps} steps: an error"),
-            Outcome::Skipped => panic!("{steps} steps: too long for the reference"),
-            Outcome::Differ { expected, actual } => panic!(
-                "{steps} steps differ:\nreference: {}\nlsgen:     {}",
-                clip(&expected),
-                clip(&actual)
-            ),
-        }
+        agrees_with_the_reference(&src, steps, None, &format!("{steps} steps"));
         let one = lsgen_text(&src, Some(steps), None);
         assert!(
             one == lsgen_text_on(&src, Some(steps), None, (2, 65_536)),
             "{steps} steps: -j 2 differs from -j 1"
         );
+    }
+}
+
+/// `src` derived `steps` steps with `seed` gives the reference's string,
+/// without an error (`what` names the case in the panic).
+fn agrees_with_the_reference(src: &str, steps: u64, seed: Option<u64>, what: &str) {
+    match compare(src, Some(steps), seed, 50_000_000) {
+        Outcome::Same { error: false, .. } => {}
+        Outcome::Same { error: true, .. } => panic!("{what}: an error"),
+        Outcome::Skipped => panic!("{what}: too long for the reference"),
+        Outcome::Differ { expected, actual } => panic!(
+            "{what} differs:\nreference: {}\nlsgen:     {}",
+            clip(&expected),
+            clip(&actual)
+        ),
     }
 }
 
@@ -1926,16 +1932,7 @@ fn a_walk_that_jumps_and_comes_back_reads_on() {
     ] {
         let path = format!("{}/tests/regressions/{file}", env!("CARGO_MANIFEST_DIR"));
         let src = std::fs::read_to_string(path).unwrap();
-        match compare(&src, Some(1), seed, 50_000_000) {
-            Outcome::Same { error: false, .. } => {}
-            Outcome::Same { error: true, .. } => panic!("{file}: an error"),
-            Outcome::Skipped => panic!("{file}: too long for the reference"),
-            Outcome::Differ { expected, actual } => panic!(
-                "{file} differs:\nreference: {}\nlsgen:     {}",
-                clip(&expected),
-                clip(&actual)
-            ),
-        }
+        agrees_with_the_reference(&src, 1, seed, file);
         let one = lsgen_text(&src, Some(1), seed);
         for split in [64, 4096] {
             assert!(
