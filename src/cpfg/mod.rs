@@ -70,6 +70,7 @@ pub enum Dialect {
 /// that fails, ends the list there (its run reports the error). A batch
 /// reads a `.l` file again in every job: no job may write over what it
 /// includes, and nothing it includes may be a stream.
+///
 /// `dialect`: the file's language ([`Dialect::Auto`]: told as a run tells
 /// it); an `.ls` file includes nothing.
 pub fn included_files(
