@@ -20,7 +20,7 @@ use lsgen::parse::{parse_expr, parse_header};
 use lsgen::random::{Draw, Random, RandomError};
 use rand_chacha::rand_core::{Rng as _, SeedableRng as _};
 use rand_chacha::ChaCha8Rng;
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 use std::collections::{HashMap, HashSet};
 
 /// A module of a string: a symbol and its parameter values.
@@ -162,6 +162,9 @@ pub struct System {
     pub seed: Option<u64>,
     consts: HashMap<String, f64>,
     axiom_text: String,
+    /// The bracket tables of the last long string asked about
+    /// ([`System::close_after`], [`System::open_of`]).
+    brackets: RefCell<Brackets>,
 }
 
 type R<T> = Result<T, String>;
@@ -654,6 +657,7 @@ impl System {
             seed,
             consts,
             axiom_text: axiom_text.to_string(),
+            brackets: RefCell::default(),
         })
     }
 
@@ -671,6 +675,8 @@ impl System {
         for k in 1..=steps {
             self.step.set(k as f64);
             rng.pass(k, 0);
+            // (A string at the address and of the length of one before.)
+            self.brackets.take();
             s = self.derive_step(&s, k, &mut rng)?;
             if s.len() > max_modules {
                 return Err(TOO_LONG.into());
@@ -681,6 +687,7 @@ impl System {
             let mut own = self.homomorphism_seed.map(Draws::new);
             let rng = own.as_mut().unwrap_or(&mut rng);
             rng.pass(steps, 1);
+            self.brackets.take();
             let mut out = Vec::new();
             for pos in 0..s.len() {
                 rng.module(pos);
@@ -743,7 +750,8 @@ impl System {
                     let applied = self.decompose(m, 0, rng, &mut out)?;
                     if !applied && m.key() == ('%', 0) {
                         out.pop(); // the cut: drop `%` and the rest of its branch
-                        pos = cut_end(s, pos);
+                                   // (To the `]` that ends its branch, kept.)
+                        pos = self.close_after(s, pos + 1).unwrap_or(s.len());
                         continue;
                     }
                 }
@@ -1025,17 +1033,9 @@ impl System {
                 let m = &s[i];
                 if m.is_close() {
                     // back to the `[` that opens this branch
-                    let mut depth = 1;
-                    while depth > 0 {
-                        if i == 0 {
-                            return false;
-                        }
-                        i -= 1;
-                        if s[i].is_close() {
-                            depth += 1;
-                        } else if s[i].is_open() {
-                            depth -= 1;
-                        }
+                    match self.open_of(s, i) {
+                        Some(o) => i = o,
+                        None => return false,
                     }
                     continue;
                 }
@@ -1069,7 +1069,7 @@ impl System {
                     return false;
                 };
                 if m.is_open() {
-                    i = after_branch(s, i);
+                    i = self.after_branch(s, i);
                 } else if m.is_close() {
                     return false;
                 } else if !self.seen(m) {
@@ -1092,70 +1092,138 @@ impl System {
                     if self.right_context(s, i + 1, rest, slots) {
                         return true;
                     }
-                    i = after_branch(s, i);
+                    i = self.after_branch(s, i);
                     // Passed-over modules do not separate two branches.
                     while i < s.len() && !self.seen(&s[i]) {
                         i += 1;
                     }
                 }
             }
-            RightItem::Close => {
-                let mut depth = 0;
-                loop {
-                    let Some(m) = s.get(i) else {
-                        return false;
-                    };
-                    i += 1;
-                    if m.is_open() {
-                        depth += 1;
-                    } else if m.is_close() {
-                        if depth == 0 {
-                            break;
-                        }
-                        depth -= 1;
-                    }
-                }
-                self.right_context(s, i, rest, slots)
+            RightItem::Close => match self.close_after(s, i) {
+                Some(j) => self.right_context(s, j + 1, rest, slots),
+                None => false,
+            },
+        }
+    }
+
+    /// The index of the first `]` at or after `i` that no `[` from `i` on
+    /// matches (the one that ends the branch `s[i]` is in; `s[i]` itself
+    /// if a `]`), or None.
+    fn close_after(&self, s: &[Module], i: usize) -> Option<usize> {
+        if s.len() < LONG {
+            return close_after(s, i);
+        }
+        let t = self.brackets_of(s);
+        t.close.get(i).copied().filter(|&j| j < s.len())
+    }
+
+    /// The index of the `[` that the `]` at `j` closes, or None.
+    fn open_of(&self, s: &[Module], j: usize) -> Option<usize> {
+        if s.len() < LONG {
+            return open_of(s, j);
+        }
+        let t = self.brackets_of(s);
+        t.open.get(j).copied().filter(|&o| o < s.len())
+    }
+
+    /// The tables of `s`, made once per string (each pass forgets them).
+    fn brackets_of(&self, s: &[Module]) -> std::cell::Ref<'_, Brackets> {
+        let key = (s.as_ptr() as usize, s.len());
+        if self.brackets.borrow().key != key {
+            *self.brackets.borrow_mut() = Brackets::of(s, key);
+        }
+        self.brackets.borrow()
+    }
+
+    /// The index just after the `]` that closes the `[` at `open`, or the
+    /// string's length.
+    fn after_branch(&self, s: &[Module], open: usize) -> usize {
+        self.close_after(s, open + 1).map_or(s.len(), |j| j + 1)
+    }
+}
+
+/// From this length on, [`System::close_after`] and [`System::open_of`]
+/// answer from tables made once per string, so that a `]` pattern, a cut
+/// or a left context in each module of a long branch does not scan the
+/// branch again each time; below it they scan.
+const LONG: usize = 256;
+
+/// A string's brackets: for each index, [`close_after`]'s answer; for
+/// each `]`, [`open_of`]'s (the string's length for none).
+#[derive(Default)]
+struct Brackets {
+    /// The string's address and length.
+    key: (usize, usize),
+    close: Vec<usize>,
+    open: Vec<usize>,
+}
+
+impl Brackets {
+    fn of(s: &[Module], key: (usize, usize)) -> Brackets {
+        let n = s.len();
+        // From the end, the `]`s no `[` has matched yet on a stack.
+        let mut close = vec![n; n];
+        let mut free: Vec<usize> = Vec::new();
+        for j in (0..n).rev() {
+            if s[j].is_close() {
+                close[j] = j;
+                free.push(j);
+                continue;
+            }
+            if s[j].is_open() {
+                free.pop();
+            }
+            close[j] = free.last().copied().unwrap_or(n);
+        }
+        let mut open = vec![n; n];
+        let mut stack: Vec<usize> = Vec::new();
+        for (j, m) in s.iter().enumerate() {
+            if m.is_open() {
+                stack.push(j);
+            } else if m.is_close() {
+                open[j] = stack.pop().unwrap_or(n);
+            }
+        }
+        Brackets { key, close, open }
+    }
+}
+
+/// [`System::close_after`], scanning.
+fn close_after(s: &[Module], mut i: usize) -> Option<usize> {
+    let mut depth = 0usize;
+    while let Some(m) = s.get(i) {
+        if m.is_open() {
+            depth += 1;
+        } else if m.is_close() {
+            if depth == 0 {
+                return Some(i);
+            }
+            depth -= 1;
+        }
+        i += 1;
+    }
+    None
+}
+
+/// [`System::open_of`], scanning.
+fn open_of(s: &[Module], mut j: usize) -> Option<usize> {
+    let mut depth = 1usize;
+    while j > 0 {
+        j -= 1;
+        if s[j].is_close() {
+            depth += 1;
+        } else if s[j].is_open() {
+            depth -= 1;
+            if depth == 0 {
+                return Some(j);
             }
         }
     }
+    None
 }
 
 /// The message of the error `derive` gives for too long a string.
 pub const TOO_LONG: &str = "the reference gives up: string too long";
-
-/// Where the cut by the `%` at `pos` ends: the closest unmatched `]` after
-/// it (kept), or the end of the string.
-fn cut_end(s: &[Module], pos: usize) -> usize {
-    let mut depth = 0usize;
-    for (j, m) in s.iter().enumerate().skip(pos + 1) {
-        if m.is_open() {
-            depth += 1;
-        } else if m.is_close() {
-            if depth == 0 {
-                return j;
-            }
-            depth -= 1;
-        }
-    }
-    s.len()
-}
-
-/// The index just after the `]` that closes the `[` at `open`.
-fn after_branch(s: &[Module], open: usize) -> usize {
-    let mut depth = 0;
-    for (j, m) in s.iter().enumerate().skip(open) {
-        if m.is_open() {
-            depth += 1;
-        } else if m.is_close() {
-            depth -= 1;
-            if depth == 0 {
-                return j + 1;
-            }
-        }
-    }
-    s.len()
-}
 
 /// The random scheme of README's "Randomness", written from its text
 /// (not from `src/derive/random.rs`): each draw is computed on its own,
