@@ -1425,14 +1425,43 @@ fn long_branches() {
         long: true,
         ..CS
     };
+    check_long("long_branches", cfg, 0x104B_0000, 40);
+}
+
+/// [`long_branches`] with the structural features (groups, decomposition,
+/// the cut, homomorphism depth) and a homomorphism with contexts.
+#[test]
+fn long_branches_structural() {
+    let cfg = Cfg {
+        params: true,
+        cond: true,
+        stochastic: true,
+        left: 2,
+        right: 3,
+        right_brackets: true,
+        filter: true,
+        hom: true,
+        context_share: 0.8,
+        max_steps: 1,
+        structural: true,
+        long: true,
+        ..CS
+    };
+    check_long("long_branches_structural", cfg, 0x104C_0000, 16);
+}
+
+/// Generate `count` long cases of `cfg` from seed `base` on and compare
+/// them (one step): lsgen `-j 1` with the reference, split `-j 2` with
+/// `-j 1`.
+fn check_long(name: &str, cfg: Cfg, base: u64, count: u64) {
     let scale: u64 = std::env::var("LSGEN_DIFF_SCALE")
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(1);
     let (mut checked, mut right, mut filtered, mut total) = (0, 0, 0, 0);
-    let count = 40 * scale.max(1);
+    let count = count * scale.max(1);
     for i in 0..count {
-        let mut case = gen_case(cfg, 0x104B_0000 + i);
+        let mut case = gen_case(cfg, base + i);
         case.steps = Some(1);
         let src = case.text();
         let (expected, stats) = derive_text_stats(&src, case.steps, case.seed, 2_000_000);
@@ -1447,7 +1476,7 @@ fn long_branches() {
         };
         assert!(
             agree,
-            "long case {i} differs from the reference; the system:\n{}\nreference: {}\nlsgen:     {}",
+            "{name}: case {i} differs from the reference; the system:\n{}\nreference: {}\nlsgen:     {}",
             src.split("axiom:").next().unwrap(),
             clip(&expected),
             clip(&one)
@@ -1464,7 +1493,7 @@ fn long_branches() {
         filtered += usize::from(stats.filtered > 0);
     }
     eprintln!(
-        "long_branches: {checked} of {count} cases, {right} with a bracketed right context, \
+        "{name}: {checked} of {count} cases, {right} with a bracketed right context, \
          {filtered} with a context through ignored modules, {total} bytes of output"
     );
     assert!(
