@@ -757,20 +757,57 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if failures == 0 {
         return Ok(());
     }
-    for (_, e) in &failed {
-        crate::diag::eprint(&format!("lsgen: {e}"));
-    }
-    if failures > failed.len() as u64 {
+    let shown = failed.len() as u64;
+    print_failures(failed);
+    if failures > shown {
         crate::diag::eprint(&format!(
             "lsgen: ... and {} more failed jobs, not shown (the first {} are)\n",
-            crate::diag::group_digits(failures - failed.len() as u64),
-            crate::diag::group_digits(failed.len() as u64)
+            crate::diag::group_digits(failures - shown),
+            crate::diag::group_digits(shown)
         ));
     }
     Err(Error::new(RuntimeError::JobsFailed {
         failed: failures,
         total,
     }))
+}
+
+/// A batch's failed jobs, in job order; jobs that failed with the same
+/// error (a mistake in the file, in every seed's job) print it once, with
+/// how many others did and the last of them.
+fn print_failures(failed: Vec<(u64, Error)>) {
+    // (The error as its first job gave it, how many more, the last one.)
+    let mut groups: Vec<(String, u64, String)> = Vec::new();
+    let mut by_text: std::collections::HashMap<String, usize> = Default::default();
+    for (_, mut e) in failed {
+        let label = e.take_job();
+        let text = e.to_string();
+        match by_text.get(&text) {
+            Some(&g) => {
+                groups[g].1 += 1;
+                groups[g].2 = label.unwrap_or_default();
+            }
+            None => {
+                by_text.insert(text, groups.len());
+                let first = match label {
+                    Some(l) => e.in_job(l).to_string(),
+                    None => e.to_string(),
+                };
+                groups.push((first, 0, String::new()));
+            }
+        }
+    }
+    for (first, more, last) in groups {
+        crate::diag::eprint(&format!("lsgen: {first}"));
+        match more {
+            0 => {}
+            1 => crate::diag::eprint(&format!("lsgen: the same error in job {last}\n")),
+            n => crate::diag::eprint(&format!(
+                "lsgen: the same error in {} more jobs, the last {last}\n",
+                crate::diag::group_digits(n)
+            )),
+        }
+    }
 }
 
 /// A batch's usage errors, found before any job runs.

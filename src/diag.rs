@@ -546,6 +546,12 @@ impl Error {
         self
     }
 
+    /// The job's label ([`Error::in_job`]), taken off: a batch compares
+    /// its jobs' errors without it.
+    pub fn take_job(&mut self) -> Option<String> {
+        self.0.job.take()
+    }
+
     /// The same error, naming the options it mentions by `names`: the
     /// derivation engine makes its errors with the library's names, and
     /// `LSystem::run` gives them the caller's.

@@ -933,3 +933,66 @@ fn a_batch_keeps_the_first_thousand_failures() {
     );
     assert_eq!(lines[1001], "lsgen: error: 1,500 of 1,500 jobs failed");
 }
+
+/// Jobs that fail with the same error (a mistake in the file, met by
+/// every seed's job) print it once, at the first of them, with how many
+/// others did and the last one; other errors print as before, in job
+/// order. It used to print the same error and source line once per seed.
+#[test]
+fn the_same_error_in_many_jobs_is_printed_once() {
+    let d = dir_with(&[
+        ("bad.ls", "productions:\nAB -> C\naxiom: A\n"),
+        ("div.ls", "productions:\nA(x) -> B(1/x)\naxiom: A(0)\n"),
+        ("ok.ls", "axiom: A\n"),
+    ]);
+    std::fs::create_dir(d.path().join("out")).unwrap();
+    for j in ["1", "2", "4"] {
+        let r = lsgen_in(
+            d.path(),
+            &[
+                "-j",
+                j,
+                "--seed",
+                "1..40",
+                "-o",
+                "out/{stem}-{seed}",
+                "bad.ls",
+                "ok.ls",
+                "div.ls",
+            ],
+        );
+        let err = r.fails(1);
+        assert_eq!(
+            err,
+            "lsgen: bad.ls:2:2: error: a predecessor is one module; use `<` and `>` for contexts [job bad.ls (seed 1)]\n\
+             AB -> C\n\
+             \x20^\n\
+             lsgen: the same error in 39 more jobs, the last bad.ls (seed 40)\n\
+             lsgen: div.ls:2:11: error: division by zero (in step 1) [job div.ls (seed 1)]\n\
+             A(x) -> B(1/x)\n\
+             \x20         ^\n\
+             lsgen: the same error in 39 more jobs, the last div.ls (seed 40)\n\
+             lsgen: error: 80 of 120 jobs failed\n",
+            "-j {j}"
+        );
+        let r = lsgen_in(
+            d.path(),
+            &[
+                "-j",
+                j,
+                "--seed",
+                "7..8",
+                "-o",
+                "out/{stem}-{seed}",
+                "bad.ls",
+            ],
+        );
+        assert!(
+            r.fails(1).contains(
+                "\nlsgen: the same error in job bad.ls (seed 8)\nlsgen: error: 2 of 2 jobs failed\n"
+            ),
+            "-j {j}: {}",
+            r.stderr
+        );
+    }
+}
