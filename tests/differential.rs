@@ -92,7 +92,7 @@ struct Cfg {
     /// or `group:` schedule, decomposition with a maximum depth,
     /// homomorphism depth and seed, the cut `%`, the built-in `step`.
     structural: bool,
-    /// A long axiom (about 40,000 modules) with branches longer than the
+    /// A long axiom (about 30,000 modules) with branches longer than the
     /// look-ahead reader's buffer, side by side and nested.
     long: bool,
 }
@@ -609,11 +609,9 @@ impl Builder<'_> {
         items.extend((0..depth).map(|_| AxItem::Close));
         items
     }
-}
 
-impl Builder<'_> {
     /// `len` modules or more into `out` at nesting `depth`, with branches
-    /// nested up to three deep: some short, some of 2,000 to 12,000
+    /// nested up to three deep: some short, some of 6,000 to 14,000
     /// modules (longer than the look-ahead reader's 64 KiB buffer once
     /// written with their parameters), often several side by side. Right
     /// contexts then skip or search such branches by jumping out of the
@@ -1485,7 +1483,7 @@ fn check_long(name: &str, cfg: Cfg, base: u64, count: u64) {
         let two = lsgen_text_on(&src, case.steps, case.seed, (2, 4096));
         assert!(
             one == two,
-            "long case {i}: -j 2 differs from -j 1 on\n{src}"
+            "{name}: case {i}: -j 2 differs from -j 1 on\n{src}"
         );
         checked += 1;
         total += one.as_ref().map_or(0, String::len);
@@ -1498,11 +1496,11 @@ fn check_long(name: &str, cfg: Cfg, base: u64, count: u64) {
     );
     assert!(
         checked as u64 == count,
-        "only {checked} of {count} long cases checked"
+        "{name}: only {checked} of {count} cases checked"
     );
     assert!(
         right * 4 >= checked && filtered * 2 >= checked,
-        "long_branches: features rarely exercised"
+        "{name}: features rarely exercised"
     );
 }
 
