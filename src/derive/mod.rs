@@ -1104,7 +1104,12 @@ fn frame_passes(
     let (hom_seed, fixed_points) = (tables.hom_seed, tables.fixed_points);
     let mut last_len = (0, 0);
     let mut emit = |d: &mut Deriver, gen: &File, k: u64| -> Result<(), Error> {
-        last_len = sink_of_frames.frame(k, &mut |w, name| {
+        // Writing a frame leaves the generators as they were: the cpfg
+        // dialect's choice draws once per module of every step pass, the
+        // plain copy below included, and the next steps must draw what
+        // `-n` draws.
+        let rng = d.rng.clone();
+        let written = sink_of_frames.frame(k, &mut |w, name| {
             let mut none = None;
             let mut out = sink(&mut none, tmp_name, w, name, limits, (false, false))?;
             if hom {
@@ -1146,7 +1151,9 @@ fn frame_passes(
                 r?;
                 out.finish()
             }
-        })?;
+        });
+        d.rng = rng;
+        last_len = written?;
         Ok(())
     };
     // Each generation's queries filled before the next step reads it; a
