@@ -1053,8 +1053,10 @@ fn run_one(
     functions: &Arc<crate::cpfg::func::Functions>,
     batch: Option<&mut Option<u64>>,
 ) -> Result<(), Error> {
-    let file_is_stdin = job.file.is_none_or(|p| p.as_os_str() == "-");
-    let axiom_is_stdin = args.axiom.as_ref().is_some_and(|p| p.as_os_str() == "-");
+    // (`-`, or a name of the stream standard input is: `/dev/stdin`.)
+    let stdin = |p: &Path| p.as_os_str() == "-" || crate::io::output::is_stdin_stream(p);
+    let file_is_stdin = job.file.is_none_or(stdin);
+    let axiom_is_stdin = args.axiom.as_deref().is_some_and(stdin);
     if file_is_stdin && axiom_is_stdin {
         return Err(Error::new(crate::diag::UsageError::BothFromStdin));
     }

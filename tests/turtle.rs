@@ -223,16 +223,41 @@ fn view_lines_from_standard_input_and_the_spools_directory() {
     let header = b"view: angle = 90\nview: step = 2\naxiom: F\n";
     let got = text(ok(&turtle(&["-f", "segments", "--ls", "-", s], header)));
     same_segments(&got, "0 0 0 -2 0 0 1 0\n", "--ls -");
-    for args in [&["-f", "segments", "--ls", "-"][..], &["--ls", "-", "-"]] {
+    // Also by the stream's names (an empty picture, exit 0, before: found
+    // by the hostile review of lsgen-turtle).
+    let v = dir.path().join("in.v");
+    std::fs::write(&v, "#include \"/dev/stdin\"\n").unwrap();
+    let v = v.to_str().unwrap();
+    for (args, option) in [
+        (&["-f", "segments", "--ls", "-"][..], "--ls"),
+        (&["--ls", "-", "-"], "--ls"),
+        (&["-f", "segments", "--ls", "/dev/stdin"], "--ls"),
+        (&["-f", "segments", "--ls", "-", "/dev/stdin"], "--ls"),
+        (
+            &["-f", "segments", "--cpfg-view", "/dev/stdin"],
+            "--cpfg-view",
+        ),
+        (&["-f", "segments", "--colormap", "/dev/fd/0"], "--colormap"),
+        (
+            &["-f", "segments", "--materials", "/dev/stdin", "-"],
+            "--materials",
+        ),
+    ] {
         let r = turtle(args, b"+F");
         assert_eq!(r.code(), Some(2), "{args:?}: {}", r.stderr);
-        assert!(
-            r.stderr
-                .contains("the module string and `--ls -` cannot both come from standard input"),
-            "{}",
-            r.stderr
+        let message = format!(
+            "lsgen-turtle: error: the module string and `{option}` cannot both come from standard input: give the string's file\n"
         );
+        assert_eq!(r.stderr, message, "{args:?}");
     }
+    let r = turtle(&["-f", "segments", "--cpfg-view", v], b"+F");
+    assert_eq!(r.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr
+            .contains("in.v:1:10: error: cannot include `/dev/stdin`: it is standard input"),
+        "{}",
+        r.stderr
+    );
     let missing = dir.path().join("missing");
     let r = run_with_stdin(
         common::turtle()

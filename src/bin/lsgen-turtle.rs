@@ -111,12 +111,26 @@ fn number(s: &str) -> Result<f64, String> {
 
 fn options(a: Args) -> Result<Options, Error> {
     let mut v = View::default();
+    // (`-`, or a name of the stream standard input is: `/dev/stdin`.)
+    let stdin = |p: &std::path::Path| p.as_os_str() == "-" || lsgen::output::is_stdin_stream(p);
+    if a.file.as_deref().is_none_or(stdin) {
+        // The string is read from standard input: no other input may be
+        // (a `.v` file's `#include "/dev/stdin"` is refused where it is).
+        lsgen::output::note_stdin_taken();
+        for (option, path) in [
+            ("--ls", &a.ls),
+            ("--cpfg-view", &a.cpfg_view),
+            ("--colormap", &a.colormap),
+            ("--materials", &a.materials),
+        ] {
+            if path.as_deref().is_some_and(stdin) {
+                return Err(Error::new(UsageError::ViewAndStringFromStdin(option)));
+            }
+        }
+    }
     if a.ls.as_ref().is_some_and(|p| p.as_os_str() == "-") {
         // `--ls -`: the view lines from standard input, as lsgen reads
         // `-`; the string then comes from a file.
-        if a.file.as_ref().is_none_or(|f| f.as_os_str() == "-") {
-            return Err(Error::new(UsageError::ViewAndStringFromStdin));
-        }
         lsgen::output::check_stdin_open()?;
         view::read_ls("<stdin>", Box::new(std::io::stdin()), &mut v)?;
     } else if let Some(ls) = &a.ls {

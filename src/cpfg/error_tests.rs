@@ -319,7 +319,7 @@ fn typed_messages_are_the_former_strings() {
             UsageError::SameStem { first: "a/x.ls".into(), second: "b/x.ls".into(), stem: "x".into() }.to_string(),
             "a/x.ls and b/x.ls have the same {stem} `x`: their outputs would collide",
         ),
-        (UsageError::BothFromStdin.to_string(), "the L-system and `--axiom -` cannot both come from standard input"),
+        (UsageError::BothFromStdin.to_string(), "the L-system and `--axiom` cannot both come from standard input"),
         (UsageError::CpfgNotDepthFirst.to_string(), "`--strategy dfs`: this cpfg (`.l`) file is derived step by step: it has what cpfg runs in string order (draws, blocks, queries, warnings) or what only that strategy derives (README, \"Coming from cpfg\")"),
         (UsageError::UnknownFormat("gif".into()).to_string(), "unknown format `gif` (svg, png, obj, segments)"),
         (UsageError::FormatFromName("p.gif".into()).to_string(), "cannot tell the format from `p.gif`: give -f svg|png|obj|segments"),

@@ -1228,12 +1228,14 @@ pub enum UsageError {
         second: PathBuf,
         stem: String,
     },
-    /// The L-system and `--axiom -` both on standard input.
+    /// The L-system and `--axiom` both on standard input (`-`,
+    /// `/dev/stdin`, or the pipe or device standard input is).
     BothFromStdin,
     /// `--strategy dfs` for a cpfg file.
     CpfgNotDepthFirst,
-    /// lsgen-turtle: `--ls -` with the string on standard input too.
-    ViewAndStringFromStdin,
+    /// lsgen-turtle: the option named (`--ls`, `--cpfg-view`, ...) reads
+    /// standard input, the string too.
+    ViewAndStringFromStdin(&'static str),
     /// lsgen-turtle: `-f` with an unknown format (as given).
     UnknownFormat(String),
     /// lsgen-turtle: an output name whose extension names no format.
@@ -1361,11 +1363,12 @@ impl fmt::Display for UsageError {
                 first.display(),
                 second.display()
             ),
-            ViewAndStringFromStdin => f.write_str(
-                "the module string and `--ls -` cannot both come from standard input: give the string's file",
+            ViewAndStringFromStdin(option) => write!(
+                f,
+                "the module string and `{option}` cannot both come from standard input: give the string's file",
             ),
             BothFromStdin => {
-                f.write_str("the L-system and `--axiom -` cannot both come from standard input")
+                f.write_str("the L-system and `--axiom` cannot both come from standard input")
             }
             CpfgNotDepthFirst => f.write_str(
                 "`--strategy dfs`: this cpfg (`.l`) file is derived step by step: it has what cpfg runs in string order (draws, blocks, queries, warnings) or what only that strategy derives (README, \"Coming from cpfg\")",

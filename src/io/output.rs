@@ -125,8 +125,7 @@ pub fn note_closed_standard_fds() {
 static STDIN_TAKEN: AtomicBool = AtomicBool::new(false);
 
 /// Note that this run reads standard input itself ([`takes_stdin`]).
-#[cfg_attr(not(feature = "cli"), allow(dead_code))]
-pub(crate) fn note_stdin_taken() {
+pub fn note_stdin_taken() {
     STDIN_TAKEN.store(true, Ordering::Relaxed);
 }
 
@@ -137,10 +136,15 @@ pub(crate) fn note_stdin_taken() {
 /// regular file on standard input, opened again, reads from its start:
 /// no conflict.)
 pub(crate) fn takes_stdin(path: &Path) -> bool {
+    STDIN_TAKEN.load(Ordering::Relaxed) && is_stdin_stream(path)
+}
+
+/// Is `path` the stream standard input is (`/dev/stdin`, `/dev/fd/0`, a
+/// link to them, the FIFO or device itself)? Two readers of it share its
+/// bytes. (A regular file on standard input opened by name reads from its
+/// start: not a stream.)
+pub fn is_stdin_stream(path: &Path) -> bool {
     use std::os::unix::fs::MetadataExt;
-    if !STDIN_TAKEN.load(Ordering::Relaxed) {
-        return false;
-    }
     let Ok(m) = fs::metadata(path) else {
         return false;
     };

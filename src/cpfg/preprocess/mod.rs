@@ -143,7 +143,7 @@ pub fn read_file(path: &Path) -> io::Result<String> {
     // nothing, after the L-system).
     if crate::io::output::takes_stdin(path) {
         return Err(io::Error::other(
-            "it is standard input, which lsgen reads for the L-system or `--axiom -`",
+            "it is standard input, which this run reads itself (the L-system, `--axiom` or the module string)",
         ));
     }
     let f = std::fs::File::open(path)?;
