@@ -1162,7 +1162,11 @@ fn run_one(
     let to_stdout = matches!(output, Some(Output::Stdout(_)));
     let display = (!batch
         && crate::progress::wanted(args.progress, args.quiet, args.verbose, to_stdout))
-    .then(|| crate::progress::Derivation::start(ls.steps(&options)));
+    .then(|| {
+        // The steps this run derives: up to the last frame with --frames.
+        let steps = args.frames.map_or_else(|| ls.steps(&options), |f| f.last());
+        crate::progress::Derivation::start(steps)
+    });
     let _installed = display
         .as_ref()
         .map(|d| crate::derive::meter::install(d.meter.clone()));
@@ -1175,7 +1179,9 @@ fn run_one(
             },
         ) = (&display, e)
         {
-            d.done.store(*k, std::sync::atomic::Ordering::Relaxed);
+            // (Counted from this run's first step: `--first-step`.)
+            let done = k.saturating_sub(args.first_step.saturating_sub(1));
+            d.done.store(done, std::sync::atomic::Ordering::Relaxed);
         }
         if !args.verbose {
             return;

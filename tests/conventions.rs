@@ -215,6 +215,13 @@ fn progress_is_shown_on_a_terminal_and_absent_on_a_pipe() {
     assert!(screen.contains("/12: "), "{screen:?}");
     assert!(screen.contains(" modules, "), "{screen:?}");
     assert!(screen.contains("modules/s"), "{screen:?}");
+    // Frames: steps up to the last frame (it showed the file's length).
+    let frames = format!(
+        "--frames 9..11 -o {}/f{{n}} examples/plant_d.ls",
+        dir.path().display()
+    );
+    let screen = on_a_terminal(&frames).unwrap();
+    assert!(screen.contains("/11: "), "{screen:?}");
     // Depth first, the final size known: a bar with an ETA.
     let screen = on_a_terminal(&format!("-n 24 -o {out} examples/dragon_curve.ls")).unwrap();
     assert!(screen.contains("steps 1..24 ["), "{screen:?}");
