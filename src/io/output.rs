@@ -124,7 +124,8 @@ pub fn note_closed_standard_fds() {
 /// lsgen reads its standard input itself (the L-system or `--axiom -`).
 static STDIN_TAKEN: AtomicBool = AtomicBool::new(false);
 
-/// Note that this run reads standard input itself ([`takes_stdin`]).
+/// Note that this run reads standard input itself: an `#include` of that
+/// stream (by any of its names: [`is_stdin_stream`]) is then refused.
 pub fn note_stdin_taken() {
     STDIN_TAKEN.store(true, Ordering::Relaxed);
 }
