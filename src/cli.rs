@@ -1053,10 +1053,9 @@ fn run_one(
     functions: &Arc<crate::cpfg::func::Functions>,
     batch: Option<&mut Option<u64>>,
 ) -> Result<(), Error> {
-    // (`-`, or a name of the stream standard input is: `/dev/stdin`.)
-    let stdin = |p: &Path| p.as_os_str() == "-" || crate::io::output::is_stdin_stream(p);
-    let file_is_stdin = job.file.is_none_or(stdin);
-    let axiom_is_stdin = args.axiom.as_deref().is_some_and(stdin);
+    use crate::io::output::reads_stdin;
+    let file_is_stdin = job.file.is_none_or(reads_stdin);
+    let axiom_is_stdin = args.axiom.as_deref().is_some_and(reads_stdin);
     if file_is_stdin && axiom_is_stdin {
         return Err(Error::new(crate::diag::UsageError::BothFromStdin));
     }

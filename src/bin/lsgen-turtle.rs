@@ -111,9 +111,8 @@ fn number(s: &str) -> Result<f64, String> {
 
 fn options(a: Args) -> Result<Options, Error> {
     let mut v = View::default();
-    // (`-`, or a name of the stream standard input is: `/dev/stdin`.)
-    let stdin = |p: &std::path::Path| p.as_os_str() == "-" || lsgen::output::is_stdin_stream(p);
-    if a.file.as_deref().is_none_or(stdin) {
+    use lsgen::output::reads_stdin;
+    if a.file.as_deref().is_none_or(reads_stdin) {
         // The string is read from standard input: no other input may be
         // (a `.v` file's `#include "/dev/stdin"` is refused where it is).
         lsgen::output::note_stdin_taken();
@@ -123,7 +122,7 @@ fn options(a: Args) -> Result<Options, Error> {
             ("--colormap", &a.colormap),
             ("--materials", &a.materials),
         ] {
-            if path.as_deref().is_some_and(stdin) {
+            if path.as_deref().is_some_and(reads_stdin) {
                 return Err(Error::new(UsageError::ViewAndStringFromStdin(option)));
             }
         }

@@ -121,7 +121,8 @@ pub fn note_closed_standard_fds() {
     CLOSED_AT_START.store(closed, Ordering::Relaxed);
 }
 
-/// lsgen reads its standard input itself (the L-system or `--axiom -`).
+/// This run reads its standard input itself (lsgen: the L-system or
+/// `--axiom`; lsgen-turtle: the module string).
 static STDIN_TAKEN: AtomicBool = AtomicBool::new(false);
 
 /// Note that this run reads standard input itself: an `#include` of that
@@ -131,7 +132,7 @@ pub fn note_stdin_taken() {
 }
 
 /// Does opening `path` read the stream that this run reads as its
-/// standard input (the L-system or `--axiom -`: [`note_stdin_taken`])?
+/// standard input ([`note_stdin_taken`])?
 /// `/dev/stdin`, a link to it, or the FIFO or device standard input is:
 /// what it read would be taken from the L-system or the axiom. (A
 /// regular file on standard input, opened again, reads from its start:
@@ -145,7 +146,6 @@ pub(crate) fn takes_stdin(path: &Path) -> bool {
 /// bytes. (A regular file on standard input opened by name reads from its
 /// start: not a stream.)
 pub fn is_stdin_stream(path: &Path) -> bool {
-    use std::os::unix::fs::MetadataExt;
     let Ok(m) = fs::metadata(path) else {
         return false;
     };
@@ -153,6 +153,12 @@ pub fn is_stdin_stream(path: &Path) -> bool {
         return false;
     };
     !m.is_file() && m.dev() == s.st_dev && m.ino() == s.st_ino
+}
+
+/// Does the input named `path` read standard input: `-`, or a name of
+/// its stream ([`is_stdin_stream`])?
+pub fn reads_stdin(path: &Path) -> bool {
+    path.as_os_str() == "-" || is_stdin_stream(path)
 }
 
 /// Standard file descriptor `fd` was closed when lsgen started.
